@@ -1,0 +1,136 @@
+#include "board/sim/gcode_runner.hpp"
+
+#include <cmath>
+#include <set>
+
+namespace calbox::sim {
+namespace {
+
+// Commands a print or burn job may carry that change nothing the twin models.
+bool is_harmless(const gcode::Line& l) {
+    static const std::set<std::pair<char, int>> kNoEffect{
+        {'G', 4},   {'G', 21},  {'M', 84},  {'M', 18},  {'M', 104}, {'M', 105}, {'M', 106},
+        {'M', 107}, {'M', 109}, {'M', 110}, {'M', 114}, {'M', 117}, {'M', 118}, {'M', 140},
+        {'M', 190}, {'M', 400}, {'M', 204}, {'M', 220}, {'M', 221}, {'M', 201}, {'M', 203}};
+    return kNoEffect.count({l.command_letter, l.command_number}) != 0;
+}
+
+std::string format_command(const gcode::Line& l) {
+    return std::string(1, l.command_letter) + std::to_string(l.command_number);
+}
+
+}  // namespace
+
+GcodeRunner::GcodeRunner(MachineTwin& machine, const ToolSettings& tool)
+    : machine_(machine), tool_(tool) {
+    if (!(tool.segment_mm > 0)) throw JobError("segment length must be positive");
+}
+
+void GcodeRunner::run(std::istream& job) {
+    std::string text;
+    while (std::getline(job, text)) run_line(text);
+}
+
+void GcodeRunner::run_line(std::string_view text) {
+    ++line_number_;
+    try {
+        const gcode::Line line = gcode::parse_line(text);
+        if (line.command_letter != 0) execute(line);
+        ++result_.lines_run;
+    } catch (const gcode::SyntaxError& e) {
+        throw JobError("line " + std::to_string(line_number_) + ": " + e.what());
+    } catch (const OutOfReach& e) {
+        throw JobError("line " + std::to_string(line_number_) + ": " + e.what());
+    } catch (const MachineError& e) {
+        throw JobError("line " + std::to_string(line_number_) + ": " + e.what());
+    }
+}
+
+void GcodeRunner::execute(const gcode::Line& l) {
+    if (l.is('G', 0) || l.is('G', 1)) return move(l);
+    if (l.is('G', 28)) {
+        machine_.home();
+        offset_ = {};
+        logical_ = machine_.position_after_homing_mm();
+        tool_on_ = false;
+        return;
+    }
+    if (l.is('G', 90)) { absolute_xyz_ = true; absolute_e_ = true; return; }
+    if (l.is('G', 91)) { absolute_xyz_ = false; absolute_e_ = false; return; }
+    if (l.is('M', 82)) { absolute_e_ = true; return; }
+    if (l.is('M', 83)) { absolute_e_ = false; return; }
+    if (l.is('G', 92)) {
+        const bool none = l.parameters.empty();
+        const Vec3 machine_pos = logical_ + offset_;
+        if (none || l.has('X')) logical_.x = l.value('X').value_or(0);
+        if (none || l.has('Y')) logical_.y = l.value('Y').value_or(0);
+        if (none || l.has('Z')) logical_.z = l.value('Z').value_or(0);
+        if (none || l.has('E')) e_ = l.value('E').value_or(0);
+        offset_ = machine_pos - logical_;
+        return;
+    }
+    if (l.is('G', 20)) throw JobError("line " + std::to_string(line_number_) + ": G20 (inches) is not supported; use millimetres (G21)");
+    if (tool_.kind != ToolKind::extruder && (l.is('M', 3) || l.is('M', 4))) {
+        tool_on_ = l.value('S').value_or(1.0) > 0;
+        return;
+    }
+    if (tool_.kind != ToolKind::extruder && l.is('M', 5)) {
+        tool_on_ = false;
+        return;
+    }
+    if (auto reply = machine_.settings_command(l)) {
+        for (auto& r : *reply) result_.replies.push_back(std::move(r));
+        return;
+    }
+    if (is_harmless(l)) return;
+    throw JobError("line " + std::to_string(line_number_) + ": unknown command " + format_command(l));
+}
+
+void GcodeRunner::move(const gcode::Line& l) {
+    Vec3 target = logical_;
+    double e_target = e_;
+    const auto axis = [&](char letter, double& field) {
+        if (const auto v = l.value(letter)) {
+            if (!std::isfinite(*v)) throw JobError("line " + std::to_string(line_number_) + ": non-finite " + letter);
+            field = absolute_xyz_ ? *v : field + *v;
+        } else if (l.has(letter)) {
+            throw JobError("line " + std::to_string(line_number_) + ": " + letter + " without a value");
+        }
+    };
+    axis('X', target.x);
+    axis('Y', target.y);
+    axis('Z', target.z);
+    if (const auto e = l.value('E')) e_target = absolute_e_ ? *e : e_ + *e;
+    const double extruded = e_target - e_;
+    const Vec3 from = logical_ + offset_, to = target + offset_;
+    const double length = (to - from).norm();
+    const bool marks = tool_.kind == ToolKind::extruder ? extruded > 0 && length > 0
+                                                        : tool_on_ && length > 0;
+    const int segments = std::max(1, static_cast<int>(std::ceil(length / tool_.segment_mm)));
+    const double filament_area = 3.14159265358979323846 * tool_.filament_diameter_mm *
+                                 tool_.filament_diameter_mm / 4.0;
+    Vec3 previous_commanded = from;
+    Vec3 previous_actual = machine_.actual_position_mm(from);
+    for (int k = 1; k <= segments; ++k) {
+        const Vec3 commanded = from + (to - from) * (static_cast<double>(k) / segments);
+        const Vec3 actual = machine_.actual_position_mm(commanded);
+        if (marks) {
+            Stroke s{previous_commanded, commanded, previous_actual, actual, tool_.tool_width_mm,
+                     line_number_};
+            if (tool_.kind == ToolKind::extruder) {
+                // The segment's share of the filament spreads over its true length.
+                const double volume = extruded / segments * filament_area;
+                const double true_length = std::hypot(actual.x - previous_actual.x,
+                                                      actual.y - previous_actual.y);
+                s.width_mm = true_length > 0 ? volume / (true_length * tool_.layer_height_mm) : 0;
+            }
+            if (s.width_mm > 0) result_.strokes.push_back(s);
+        }
+        previous_commanded = commanded;
+        previous_actual = actual;
+    }
+    logical_ = target;
+    e_ = e_target;
+}
+
+}  // namespace calbox::sim

@@ -1,0 +1,134 @@
+#include "board/sim/machine_twin.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+namespace calbox::sim {
+namespace {
+
+std::string fixed3(double v) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, "%.3f", v);
+    return buffer;
+}
+
+// Carriage height at home for a geometry: the nozzle at (0, 0, height).
+std::array<double, 3> carriage_heights_at_home(const DeltaParams& p) {
+    return reference_carriage_heights_mm(p, Vec3{0, 0, p.height_mm});
+}
+
+}  // namespace
+
+DeltaTwin::DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware)
+    : truth_(truth), firmware_(firmware), stored_(firmware) {
+    for (double adj : truth.endstop_offset_mm)
+        if (adj > 0) throw MachineError("true endstop offsets must be <= 0, as in Marlin");
+    for (double adj : firmware.endstop_offset_mm)
+        if (adj > 0) throw MachineError("firmware endstop offsets must be <= 0 (M666)");
+}
+
+void DeltaTwin::home() {
+    // The true geometry's parameters are those with which the firmware would be exact: with
+    // them, the physical endstop of tower i triggers at the true home height less the true offset.
+    const auto true_home = carriage_heights_at_home(truth_);
+    home_logical_mm_ = carriage_heights_at_home(firmware_);
+    for (int i = 0; i < 3; ++i) {
+        const double endstop = true_home[i] - truth_.endstop_offset_mm[i];
+        home_physical_mm_[i] = endstop + firmware_.endstop_offset_mm[i];
+    }
+    homed_ = true;
+}
+
+Vec3 DeltaTwin::actual_position_mm(const Vec3& commanded) const {
+    if (!homed_) throw MachineError("move before homing (G28)");
+    const auto logical = reference_carriage_heights_mm(firmware_, commanded);
+    std::array<double, 3> physical{};
+    for (int i = 0; i < 3; ++i) physical[i] = home_physical_mm_[i] + (logical[i] - home_logical_mm_[i]);
+    return reference_effector_position_mm(truth_, physical);
+}
+
+void DeltaTwin::zero_height_at_centre() {
+    const bool was_homed = homed_;
+    home();
+    // Moving every carriage by the same amount moves the nozzle straight up or down by it.
+    const double z = actual_position_mm({0, 0, 0}).z;
+    firmware_.height_mm -= z;
+    stored_ = firmware_;
+    home();
+    homed_ = was_homed;
+}
+
+std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode::Line& line) {
+    if (line.is('M', 665)) {
+        const auto set = [&](char letter, double& field) {
+            if (const auto v = line.value(letter)) field = *v;
+        };
+        set('H', firmware_.height_mm);
+        set('L', firmware_.diagonal_rod_mm);
+        set('R', firmware_.radius_mm);
+        set('X', firmware_.tower_angle_trim_deg[0]);
+        set('Y', firmware_.tower_angle_trim_deg[1]);
+        set('Z', firmware_.tower_angle_trim_deg[2]);
+        set('A', firmware_.diagonal_rod_trim_mm[0]);
+        set('B', firmware_.diagonal_rod_trim_mm[1]);
+        set('C', firmware_.diagonal_rod_trim_mm[2]);
+        if (!(firmware_.diagonal_rod_mm > firmware_.radius_mm) || !(firmware_.radius_mm > 0)) {
+            throw MachineError("M665 gives an impossible geometry (rod must exceed radius)");
+        }
+        homed_ = false;  // Marlin's recalc_delta_settings() marks every axis unhomed
+        return std::vector<std::string>{"ok"};
+    }
+    if (line.is('M', 666)) {
+        // Marlin accepts only offsets <= 0 and applies them at the next G28.
+        bool refused = false;
+        const char letters[3] = {'X', 'Y', 'Z'};
+        for (int i = 0; i < 3; ++i) {
+            if (const auto v = line.value(letters[i])) {
+                if (*v > 0) {
+                    refused = true;
+                } else {
+                    firmware_.endstop_offset_mm[i] = *v;
+                }
+            }
+        }
+        if (refused) return std::vector<std::string>{"?M666 offsets must be <= 0", "ok"};
+        return std::vector<std::string>{"ok"};
+    }
+    if (line.is('M', 500)) {
+        stored_ = firmware_;
+        return std::vector<std::string>{"echo:Settings Stored", "ok"};
+    }
+    if (line.is('M', 503)) {
+        auto lines = marlin_delta_report(firmware_);
+        lines.push_back("ok");
+        return lines;
+    }
+    return std::nullopt;
+}
+
+std::vector<std::string> marlin_delta_report(const DeltaParams& p) {
+    return {"echo:; Endstop adjustment:",
+            "echo:  M666 X" + fixed3(p.endstop_offset_mm[0]) + " Y" + fixed3(p.endstop_offset_mm[1]) +
+                " Z" + fixed3(p.endstop_offset_mm[2]),
+            "echo:; Delta config:",
+            "echo:  M665 L" + fixed3(p.diagonal_rod_mm) + " R" + fixed3(p.radius_mm) + " H" +
+                fixed3(p.height_mm) + " X" + fixed3(p.tower_angle_trim_deg[0]) + " Y" +
+                fixed3(p.tower_angle_trim_deg[1]) + " Z" + fixed3(p.tower_angle_trim_deg[2]) +
+                " A" + fixed3(p.diagonal_rod_trim_mm[0]) + " B" + fixed3(p.diagonal_rod_trim_mm[1]) +
+                " C" + fixed3(p.diagonal_rod_trim_mm[2])};
+}
+
+Vec3 CartesianTwin::actual_position_mm(const Vec3& c) const {
+    if (!homed_) throw MachineError("move before homing (G28)");
+    const double lean = std::tan(radians(truth_.squareness_error_deg));
+    return {c.x * (1 + truth_.scale_error_x) + c.y * (1 + truth_.scale_error_y) * lean,
+            c.y * (1 + truth_.scale_error_y), c.z};
+}
+
+std::optional<std::vector<std::string>> CartesianTwin::settings_command(const gcode::Line& line) {
+    if (line.is('M', 500)) return std::vector<std::string>{"echo:Settings Stored", "ok"};
+    if (line.is('M', 503)) return std::vector<std::string>{"echo:; (no geometry settings)", "ok"};
+    return std::nullopt;
+}
+
+}  // namespace calbox::sim

@@ -1,0 +1,79 @@
+#pragma once
+// Simulated machines: where the nozzle or tool really is for a commanded position, given the
+// hidden true geometry and what the firmware believes.
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "board/sim/delta_reference.hpp"
+#include "core/targets/gcode_line.hpp"
+
+namespace calbox::sim {
+
+class MachineError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+class MachineTwin {
+public:
+    virtual ~MachineTwin() = default;
+    virtual void home() = 0;                                  // G28
+    virtual bool homed() const = 0;
+    virtual Vec3 position_after_homing_mm() const = 0;        // commanded position after G28
+    // Where the nozzle/tool really is for a commanded machine position; throws OutOfReach.
+    virtual Vec3 actual_position_mm(const Vec3& commanded) const = 0;
+    // Machine-specific settings commands (M665, M666, M500, M503): the reply lines, or empty
+    // when the command is not one of them.
+    virtual std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) = 0;
+};
+
+// A linear delta in Marlin's conventions. G28 moves each carriage to its physical endstop,
+// then down by the firmware's M666 offset, and declares the nozzle at (0, 0, height).
+class DeltaTwin final : public MachineTwin {
+public:
+    DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware);
+    void home() override;
+    bool homed() const override { return homed_; }
+    Vec3 position_after_homing_mm() const override { return {0, 0, firmware_.height_mm}; }
+    Vec3 actual_position_mm(const Vec3& commanded) const override;
+    std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) override;
+
+    const DeltaParams& firmware() const { return firmware_; }
+    const DeltaParams& stored_firmware() const { return stored_; }  // as of the last M500
+    // Shifts the firmware's height so that commanded Z = 0 touches the bed at its centre, as a
+    // paper test does.
+    void zero_height_at_centre();
+
+private:
+    DeltaParams truth_, firmware_, stored_;
+    bool homed_ = false;
+    std::array<double, 3> home_physical_mm_{};  // carriage heights in the true frame at home
+    std::array<double, 3> home_logical_mm_{};   // what the firmware believes they are
+};
+
+// A cartesian machine with small axis scale errors and an out-of-square X/Y pair.
+struct CartesianErrors {
+    double scale_error_x = 0;  // relative: actual = commanded * (1 + error)
+    double scale_error_y = 0;
+    double squareness_error_deg = 0;  // the Y axis leans towards +X by this angle
+};
+
+class CartesianTwin final : public MachineTwin {
+public:
+    explicit CartesianTwin(const CartesianErrors& truth) : truth_(truth) {}
+    void home() override { homed_ = true; }
+    bool homed() const override { return homed_; }
+    Vec3 position_after_homing_mm() const override { return {0, 0, 0}; }
+    Vec3 actual_position_mm(const Vec3& commanded) const override;
+    std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) override;
+
+private:
+    CartesianErrors truth_;
+    bool homed_ = false;
+};
+
+std::vector<std::string> marlin_delta_report(const DeltaParams& p);  // M503's delta lines
+
+}  // namespace calbox::sim

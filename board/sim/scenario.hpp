@@ -1,0 +1,61 @@
+#pragma once
+// A twin scenario (TOML): the machine as its firmware believes it (the shared machine-file
+// keys), the hidden truth, the camera, and the photo's lighting and noise.
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "board/sim/camera_reference.hpp"
+#include "board/sim/delta_reference.hpp"
+#include "board/sim/gcode_runner.hpp"
+#include "board/sim/machine_twin.hpp"
+#include "board/sim/renderer.hpp"
+
+namespace calbox::sim {
+
+class ScenarioError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct MachineSettings {
+    std::string kind = "delta";  // delta | cartesian | router | laser
+    std::string firmware = "marlin";
+    double bed_radius_mm = 85;   // delta
+    double bed_size_x_mm = 200;  // cartesian machines
+    double bed_size_y_mm = 200;
+    double line_width_mm = 0.45;
+    double layer_height_mm = 0.2;
+    double filament_diameter_mm = 1.75;
+    double tool_width_mm = 0.1;  // laser spot or cutter
+};
+
+struct ScenarioCamera {
+    CameraIntrinsics intrinsics;
+    Vec3 position_mm{0, 0, 400};
+    Vec3 look_at_mm{0, 0, 0};
+    double roll_deg = 0;
+};
+
+struct Scenario {
+    std::string path;
+    MachineSettings machine;
+    DeltaParams delta_firmware;    // [delta]
+    DeltaParams delta_truth;       // [truth.delta]: keys not given equal the firmware's
+    CartesianErrors cartesian_truth;  // [truth.cartesian]
+    bool zero_height_at_centre = true;
+    double segment_mm = 0.5;
+    std::optional<ScenarioCamera> camera;
+    PhotoSettings photo;
+    double bed_albedo = 0.08;       // matte black PEI
+    double material_albedo = 0.85;  // white PETG
+};
+
+// Throws ScenarioError naming the file and the key at fault.
+Scenario load_scenario(const std::string& path);
+
+std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s);
+ToolSettings tool_settings_of(const Scenario& s);
+
+}  // namespace calbox::sim

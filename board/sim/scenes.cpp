@@ -1,0 +1,352 @@
+#include "board/sim/scenes.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <opencv2/aruco/charuco.hpp>
+#include <stdexcept>
+
+namespace calbox::sim {
+namespace {
+
+constexpr double kBlack = 0.05, kWhite = 0.90, kBackground = 0.35;
+
+struct Extent {
+    double x_mm, y_mm;
+};
+Extent half_extent(const Footprint& f) {
+    return {0.5 * (std::abs(f.jacobian[0][0]) + std::abs(f.jacobian[0][1])),
+            0.5 * (std::abs(f.jacobian[1][0]) + std::abs(f.jacobian[1][1]))};
+}
+
+Vec2 offset_in_pixel(const Footprint& f, double du, double dv) {
+    return {f.centre_mm.x + f.jacobian[0][0] * du + f.jacobian[0][1] * dv,
+            f.centre_mm.y + f.jacobian[1][0] * du + f.jacobian[1][1] * dv};
+}
+
+// Calls fn(point, subdivisions) at the centre of each of s x s sub-squares of the pixel and
+// returns the mean of what it gives.
+template <class Fn>
+double average_over_subpixels(const Footprint& f, int s, Fn&& fn) {
+    double sum = 0;
+    for (int iy = 0; iy < s; ++iy)
+        for (int ix = 0; ix < s; ++ix)
+            sum += fn(offset_in_pixel(f, (ix + 0.5) / s - 0.5, (iy + 0.5) / s - 0.5));
+    return sum / (s * s);
+}
+
+// A pattern of square cells aligned with the plane's axes; cell (i, j) spans
+// [origin + i * pitch, origin + (i + 1) * pitch] in x, likewise j in y.
+template <class CellAlbedo>
+double grid_albedo(const Footprint& f, Vec2 origin, double pitch, int s, CellAlbedo&& cell) {
+    const Extent e = half_extent(f);
+    const double gx = (f.centre_mm.x - origin.x) / pitch, gy = (f.centre_mm.y - origin.y) / pitch;
+    const double ix = std::floor(gx), iy = std::floor(gy);
+    const bool near_x = std::min(gx - ix, ix + 1 - gx) * pitch < e.x_mm;
+    const bool near_y = std::min(gy - iy, iy + 1 - gy) * pitch < e.y_mm;
+    if (!near_x && !near_y) return cell(static_cast<int>(ix), static_cast<int>(iy));
+    return average_over_subpixels(f, s, [&](Vec2 q) {
+        const int kx = static_cast<int>(std::lround((q.x - origin.x) / pitch));
+        const int ky = static_cast<int>(std::lround((q.y - origin.y) / pitch));
+        // Fractions of the sub-square beyond the nearest vertical and horizontal lines.
+        const double cx = inside_fraction(origin.x + kx * pitch - q.x, {-1, 0}, f.jacobian, s);
+        const double cy = inside_fraction(origin.y + ky * pitch - q.y, {0, -1}, f.jacobian, s);
+        return (1 - cx) * (1 - cy) * cell(kx - 1, ky - 1) + cx * (1 - cy) * cell(kx, ky - 1) +
+               (1 - cx) * cy * cell(kx - 1, ky) + cx * cy * cell(kx, ky);
+    });
+}
+
+}  // namespace
+
+double inside_fraction(double signed_distance_mm, Vec2 n, const double j[2][2], int subdivisions) {
+    // In the sub-square's own coordinates u, v in [-1/2, 1/2] the signed distance is
+    // d + g.(u, v) with g = J^T n / subdivisions; the answer is the probability that
+    // g.(u, v) < -d for u, v uniform: a trapezoid's cumulative distribution.
+    const double gx = (j[0][0] * n.x + j[1][0] * n.y) / subdivisions;
+    const double gy = (j[0][1] * n.x + j[1][1] * n.y) / subdivisions;
+    const double length = std::hypot(gx, gy);
+    if (length < 1e-15) return signed_distance_mm < 0 ? 1.0 : 0.0;
+    const double a = std::abs(gx) / length, b = std::abs(gy) / length;
+    const double p = std::min(a, b), q = std::max(a, b);
+    const double t = -signed_distance_mm / length + 0.5 * (p + q);
+    if (t <= 0) return 0.0;
+    if (t >= p + q) return 1.0;
+    if (p < 1e-12) return t / q;
+    if (t < p) return t * t / (2 * p * q);
+    if (t <= q) return (t - 0.5 * p) / q;
+    const double r = p + q - t;
+    return 1.0 - r * r / (2 * p * q);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Strokes
+
+struct StrokeScene::Index {
+    double cell_mm = 1.0;
+    double x0 = 0, y0 = 0;
+    int nx = 0, ny = 0;
+    double reference_height_mm = 0;
+    std::vector<std::vector<std::uint32_t>> cells;
+
+    const std::vector<std::uint32_t>* at(double x, double y) const {
+        const int i = static_cast<int>(std::floor((x - x0) / cell_mm));
+        const int k = static_cast<int>(std::floor((y - y0) / cell_mm));
+        if (i < 0 || k < 0 || i >= nx || k >= ny) return nullptr;
+        return &cells[static_cast<std::size_t>(k) * nx + i];
+    }
+};
+
+namespace {
+
+struct Nearest {
+    double signed_distance_mm = std::numeric_limits<double>::infinity();
+    Vec2 normal{1, 0};
+};
+
+double closest_parameter(const StrokeSegment& s, double x, double y) {
+    const double dx = s.b_mm.x - s.a_mm.x, dy = s.b_mm.y - s.a_mm.y;
+    const double l2 = dx * dx + dy * dy;
+    if (l2 < 1e-24) return 0.0;
+    return std::clamp(((x - s.a_mm.x) * dx + (y - s.a_mm.y) * dy) / l2, 0.0, 1.0);
+}
+
+}  // namespace
+
+StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
+                         double material_albedo, int supersample)
+    : strokes_(std::move(strokes)),
+      index_(std::make_unique<Index>()),
+      bed_albedo_(bed_albedo),
+      material_albedo_(material_albedo),
+      supersample_(std::max(1, supersample)) {
+    if (strokes_.empty()) return;
+    double zmin = 1e300, zmax = -1e300, xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+    double zsum = 0;
+    for (const auto& s : strokes_) {
+        for (const Vec3& p : {s.a_mm, s.b_mm}) {
+            zmin = std::min(zmin, p.z);
+            zmax = std::max(zmax, p.z);
+            zsum += p.z;
+        }
+    }
+    auto& ix = *index_;
+    ix.reference_height_mm = zsum / (2.0 * strokes_.size());
+    // A stroke is listed in every cell its outline, widened by a pixel footprint (up to 1 mm)
+    // and by the drift of a ray across the stroke heights, can reach.
+    const double drift = (zmax - zmin) * 0.8 + 1.0;
+    for (const auto& s : strokes_) {
+        const double m = s.width_mm / 2 + drift;
+        xmin = std::min({xmin, s.a_mm.x - m, s.b_mm.x - m});
+        xmax = std::max({xmax, s.a_mm.x + m, s.b_mm.x + m});
+        ymin = std::min({ymin, s.a_mm.y - m, s.b_mm.y - m});
+        ymax = std::max({ymax, s.a_mm.y + m, s.b_mm.y + m});
+    }
+    ix.x0 = xmin;
+    ix.y0 = ymin;
+    ix.nx = static_cast<int>(std::ceil((xmax - xmin) / ix.cell_mm)) + 1;
+    ix.ny = static_cast<int>(std::ceil((ymax - ymin) / ix.cell_mm)) + 1;
+    ix.cells.resize(static_cast<std::size_t>(ix.nx) * ix.ny);
+    for (std::uint32_t n = 0; n < strokes_.size(); ++n) {
+        const auto& s = strokes_[n];
+        const double m = s.width_mm / 2 + drift;
+        const int i0 = static_cast<int>((std::min(s.a_mm.x, s.b_mm.x) - m - ix.x0) / ix.cell_mm);
+        const int i1 = static_cast<int>((std::max(s.a_mm.x, s.b_mm.x) + m - ix.x0) / ix.cell_mm);
+        const int k0 = static_cast<int>((std::min(s.a_mm.y, s.b_mm.y) - m - ix.y0) / ix.cell_mm);
+        const int k1 = static_cast<int>((std::max(s.a_mm.y, s.b_mm.y) + m - ix.y0) / ix.cell_mm);
+        // Cells whose centre is farther than half a diagonal plus the margin are skipped, so
+        // long diagonal strokes do not fill their whole bounding box.
+        const double reach = m + ix.cell_mm * 0.7072;
+        for (int k = std::max(0, k0); k <= std::min(ix.ny - 1, k1); ++k) {
+            for (int i = std::max(0, i0); i <= std::min(ix.nx - 1, i1); ++i) {
+                const double cx = ix.x0 + (i + 0.5) * ix.cell_mm, cy = ix.y0 + (k + 0.5) * ix.cell_mm;
+                const double t = closest_parameter(s, cx, cy);
+                const double dx = cx - (s.a_mm.x + t * (s.b_mm.x - s.a_mm.x));
+                const double dy = cy - (s.a_mm.y + t * (s.b_mm.y - s.a_mm.y));
+                if (dx * dx + dy * dy <= reach * reach) {
+                    ix.cells[static_cast<std::size_t>(k) * ix.nx + i].push_back(n);
+                }
+            }
+        }
+    }
+}
+
+StrokeScene::~StrokeScene() = default;
+
+double StrokeScene::albedo(const Footprint& f) const {
+    if (strokes_.empty()) return bed_albedo_;
+    const Index& ix = *index_;
+    const auto nearest = [&](Vec2 p) {
+        Nearest best;
+        const double zr = ix.reference_height_mm;
+        const auto* list =
+            ix.at(p.x + f.shift_per_height.x * zr, p.y + f.shift_per_height.y * zr);
+        if (list == nullptr) return best;
+        for (const std::uint32_t n : *list) {
+            const auto& s = strokes_[n];
+            // Where the ray meets this stroke's top: find the stroke height near the ray,
+            // move along the ray to it, and measure again.
+            double qx = p.x + f.shift_per_height.x * zr, qy = p.y + f.shift_per_height.y * zr;
+            double t = closest_parameter(s, qx, qy);
+            for (int pass = 0; pass < 2; ++pass) {
+                const double z = s.a_mm.z + t * (s.b_mm.z - s.a_mm.z);
+                qx = p.x + f.shift_per_height.x * z;
+                qy = p.y + f.shift_per_height.y * z;
+                t = closest_parameter(s, qx, qy);
+            }
+            const double dx = qx - (s.a_mm.x + t * (s.b_mm.x - s.a_mm.x));
+            const double dy = qy - (s.a_mm.y + t * (s.b_mm.y - s.a_mm.y));
+            const double d = std::hypot(dx, dy);
+            const double sd = d - s.width_mm / 2;
+            if (sd < best.signed_distance_mm) {
+                best.signed_distance_mm = sd;
+                if (d > 1e-12) {
+                    best.normal = {dx / d, dy / d};
+                } else {
+                    const double l = std::hypot(s.b_mm.x - s.a_mm.x, s.b_mm.y - s.a_mm.y);
+                    best.normal = l > 1e-12 ? Vec2{-(s.b_mm.y - s.a_mm.y) / l, (s.b_mm.x - s.a_mm.x) / l}
+                                            : Vec2{1, 0};
+                }
+            }
+        }
+        return best;
+    };
+    const Nearest centre = nearest(f.centre_mm);
+    const double reach = std::hypot(f.jacobian[0][0], f.jacobian[1][0]) +
+                         std::hypot(f.jacobian[0][1], f.jacobian[1][1]);
+    double coverage;
+    if (centre.signed_distance_mm > reach) {
+        coverage = 0;
+    } else if (centre.signed_distance_mm < -reach) {
+        coverage = 1;
+    } else {
+        coverage = average_over_subpixels(f, supersample_, [&](Vec2 q) {
+            const Nearest n = nearest(q);
+            if (!std::isfinite(n.signed_distance_mm)) return 0.0;
+            return inside_fraction(n.signed_distance_mm, n.normal, f.jacobian, supersample_);
+        });
+    }
+    return bed_albedo_ + coverage * (material_albedo_ - bed_albedo_);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Boards
+
+struct BoardScene::Layout {
+    geometry::PatternSpec spec;
+    // ChArUco
+    struct Marker {
+        int id;
+        Vec2 origin_mm;  // corner 0 (smallest x and y) in the board frame
+        cv::Mat bits;    // 1 = white, row 0 along the marker's corners 0 and 1
+        std::array<Vec3, 4> corners_mm;
+    };
+    std::map<std::pair<int, int>, Marker> markers;  // by square (column, row)
+    int white_parity = 1;
+    std::vector<Vec3> charuco_corners_mm;
+
+    double square_albedo(int i, int j) const {
+        const int columns = spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.columns + 1
+                                                                                : spec.columns;
+        const int rows = spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.rows + 1
+                                                                             : spec.rows;
+        const int first = spec.kind == geometry::PatternSpec::Kind::chessboard ? -1 : 0;
+        const int ci = i - first, cj = j - first;
+        if (ci >= 0 && cj >= 0 && ci < columns && cj < rows) {
+            const int parity = ((i + j) % 2 + 2) % 2;
+            if (spec.kind == geometry::PatternSpec::Kind::chessboard) {
+                return parity == 0 ? kBlack : kWhite;
+            }
+            return parity == white_parity ? kWhite : kBlack;
+        }
+        if (ci >= -1 && cj >= -1 && ci <= columns && cj <= rows) return kWhite;  // margin
+        return kBackground;
+    }
+};
+
+BoardScene::BoardScene(const geometry::PatternSpec& spec, int supersample)
+    : layout_(std::make_unique<Layout>()), supersample_(std::max(1, supersample)) {
+    layout_->spec = spec;
+    if (spec.kind != geometry::PatternSpec::Kind::charuco) return;
+    const auto dictionary =
+        cv::aruco::getPredefinedDictionary(geometry::aruco_dictionary_id(spec.dictionary));
+    const auto board = cv::aruco::CharucoBoard::create(
+        spec.columns, spec.rows, static_cast<float>(spec.square_mm),
+        static_cast<float>(spec.marker_mm), dictionary);
+    if (board->ids.size() > static_cast<std::size_t>(dictionary->bytesList.rows)) {
+        throw std::invalid_argument("ChArUco board needs more markers than " + spec.dictionary +
+                                    " has");
+    }
+    for (std::size_t k = 0; k < board->ids.size(); ++k) {
+        const auto& c = board->objPoints[k];
+        Layout::Marker m;
+        m.id = board->ids[k];
+        for (int n = 0; n < 4; ++n) m.corners_mm[n] = Vec3{c[n].x, c[n].y, c[n].z};
+        // OpenCV 4.6 lays a marker with corner 0 at its top-left, x along the marker's rows and
+        // y down its columns (the board frame's y runs down the printed board); the renderer
+        // relies on that.
+        if (!(c[1].x > c[0].x && c[3].y > c[0].y && c[1].y == c[0].y && c[3].x == c[0].x)) {
+            throw std::logic_error("unexpected ChArUco marker layout in this OpenCV version");
+        }
+        m.origin_mm = {c[0].x, c[0].y};
+        m.bits = cv::aruco::Dictionary::getBitsFromByteList(
+            dictionary->bytesList.rowRange(m.id, m.id + 1), dictionary->markerSize);
+        const double cx = (c[0].x + c[2].x) / 2, cy = (c[0].y + c[2].y) / 2;
+        const int i = static_cast<int>(std::floor(cx / spec.square_mm));
+        const int j = static_cast<int>(std::floor(cy / spec.square_mm));
+        layout_->white_parity = (i + j) % 2;
+        layout_->markers.emplace(std::make_pair(i, j), std::move(m));
+    }
+    for (const auto& p : board->chessboardCorners)
+        layout_->charuco_corners_mm.push_back(Vec3{p.x, p.y, p.z});
+}
+
+BoardScene::~BoardScene() = default;
+
+double BoardScene::albedo(const Footprint& f) const {
+    const Layout& l = *layout_;
+    const double s = l.spec.square_mm;
+    const auto squares = [&](int i, int j) { return l.square_albedo(i, j); };
+    if (l.spec.kind == geometry::PatternSpec::Kind::chessboard) {
+        return grid_albedo(f, {0, 0}, s, supersample_, squares);
+    }
+    const Extent e = half_extent(f);
+    const double gx = f.centre_mm.x / s, gy = f.centre_mm.y / s;
+    const int i = static_cast<int>(std::floor(gx)), j = static_cast<int>(std::floor(gy));
+    const bool near_square_edge = std::min(gx - i, i + 1 - gx) * s < e.x_mm ||
+                                  std::min(gy - j, j + 1 - gy) * s < e.y_mm;
+    const auto marker = l.markers.find({i, j});
+    if (near_square_edge || marker == l.markers.end()) {
+        return grid_albedo(f, {0, 0}, s, supersample_, squares);
+    }
+    const auto& m = marker->second;
+    const int cells = m.bits.rows + 2;
+    const double pitch = l.spec.marker_mm / cells;
+    return grid_albedo(f, m.origin_mm, pitch, supersample_, [&](int ci, int cj) {
+        if (ci < 0 || cj < 0 || ci >= cells || cj >= cells) return kWhite;
+        if (ci == 0 || cj == 0 || ci == cells - 1 || cj == cells - 1) return kBlack;
+        return m.bits.at<unsigned char>(cj - 1, ci - 1) != 0 ? kWhite : kBlack;
+    });
+}
+
+std::vector<BoardScene::Feature> BoardScene::features() const {
+    const Layout& l = *layout_;
+    std::vector<Feature> out;
+    if (l.spec.kind == geometry::PatternSpec::Kind::chessboard) {
+        for (int r = 0; r < l.spec.rows; ++r)
+            for (int c = 0; c < l.spec.columns; ++c)
+                out.push_back({r * l.spec.columns + c, -1,
+                               Vec3{c * l.spec.square_mm, r * l.spec.square_mm, 0}});
+        return out;
+    }
+    for (std::size_t k = 0; k < l.charuco_corners_mm.size(); ++k)
+        out.push_back({static_cast<int>(k), -1, l.charuco_corners_mm[k]});
+    std::vector<const Layout::Marker*> by_id;
+    for (const auto& [square, m] : l.markers) by_id.push_back(&m);
+    std::sort(by_id.begin(), by_id.end(), [](auto* a, auto* b) { return a->id < b->id; });
+    for (const auto* m : by_id)
+        for (int n = 0; n < 4; ++n) out.push_back({m->id, n, m->corners_mm[n]});
+    return out;
+}
+
+}  // namespace calbox::sim

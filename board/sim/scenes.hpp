@@ -1,0 +1,78 @@
+#pragma once
+// What lies on a plane in front of the camera, evaluated over one pixel's footprint so that
+// the rendered edges sit where the geometry puts them (exact half-plane area coverage).
+#include <memory>
+#include <vector>
+
+#include "board/sim/camera_reference.hpp"
+#include "core/geometry/pattern_spec.hpp"
+
+namespace calbox::sim {
+
+// One camera pixel seen on a plane: where its centre's ray meets the plane (z = 0 of the
+// plane's frame), how plane coordinates change across the pixel, and how the meeting point
+// moves per mm of height above the plane.
+struct Footprint {
+    Vec2 centre_mm;
+    double jacobian[2][2];  // d(plane x, y) / d(pixel u, v)
+    Vec2 shift_per_height;  // d(plane x, y) / d(height)
+};
+
+class Scene {
+public:
+    virtual ~Scene() = default;
+    // Mean reflectance over the pixel, 0 (black) to 1 (white).
+    virtual double albedo(const Footprint& f) const = 0;
+};
+
+// Fraction of a pixel (or of a 1/subdivisions sub-square) on the inner side of a straight edge:
+// signed distance of its centre (negative inside), the edge's outward unit normal in plane mm.
+double inside_fraction(double signed_distance_mm, Vec2 outward_normal,
+                       const double jacobian[2][2], int subdivisions);
+
+// Extruded or burned material: round-ended strokes of given width whose top lies at the
+// height of their end points.
+struct StrokeSegment {
+    Vec3 a_mm, b_mm;
+    double width_mm;
+};
+
+class StrokeScene final : public Scene {
+public:
+    StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo, double material_albedo,
+                int supersample);
+    ~StrokeScene() override;
+    double albedo(const Footprint& f) const override;
+
+private:
+    struct Index;
+    std::vector<StrokeSegment> strokes_;
+    std::unique_ptr<Index> index_;
+    double bed_albedo_, material_albedo_;
+    int supersample_;
+};
+
+// A calibration board on its own plane, with a one-square white margin, on a grey background.
+// Chessboard frame: origin at the first inner corner, x along columns, y along rows (OpenCV's
+// object points). ChArUco frame: OpenCV's CharucoBoard frame.
+class BoardScene final : public Scene {
+public:
+    BoardScene(const geometry::PatternSpec& spec, int supersample);
+    ~BoardScene() override;
+    double albedo(const Footprint& f) const override;
+
+    struct Feature {
+        int id;  // chessboard: corner index; charuco: corner id, or marker id for marker corners
+        int corner = -1;  // marker corner 0..3 (OpenCV's order), -1 for a board corner
+        Vec3 position_mm;
+    };
+    // Inner (chessboard / ChArUco) corners, then ChArUco marker corners.
+    std::vector<Feature> features() const;
+
+private:
+    struct Layout;
+    std::unique_ptr<Layout> layout_;
+    int supersample_;
+};
+
+}  // namespace calbox::sim

@@ -1,0 +1,127 @@
+#include "core/targets/gcode_line.hpp"
+
+#include <cctype>
+#include <charconv>
+#include <cstdint>
+
+namespace calbox::gcode {
+namespace {
+
+bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+
+// Removes comments; '(' comments end at ')', ';' comments at the end of the line.
+std::string strip_comments(std::string_view raw) {
+    std::string out;
+    out.reserve(raw.size());
+    bool in_paren = false;
+    for (char c : raw) {
+        if (in_paren) {
+            if (c == ')') in_paren = false;
+            continue;
+        }
+        if (c == ';') break;
+        if (c == '(') {
+            in_paren = true;
+            continue;
+        }
+        out.push_back(c);
+    }
+    if (in_paren) throw SyntaxError("unclosed '(' comment");
+    return out;
+}
+
+std::string_view verify_checksum(std::string_view line) {
+    const auto star = line.find('*');
+    if (star == std::string_view::npos) return line;
+    std::uint8_t sum = 0;
+    for (char c : line.substr(0, star)) sum ^= static_cast<std::uint8_t>(c);
+    auto digits = line.substr(star + 1);
+    while (!digits.empty() && is_blank(digits.back())) digits.remove_suffix(1);
+    unsigned expected = 0;
+    const auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), expected);
+    if (ec != std::errc() || end != digits.data() + digits.size() || digits.empty()) {
+        throw SyntaxError("bad checksum '" + std::string(digits) + "'");
+    }
+    if (expected != sum) {
+        throw SyntaxError("checksum mismatch: line says " + std::to_string(expected) +
+                          ", computed " + std::to_string(sum));
+    }
+    return line.substr(0, star);
+}
+
+}  // namespace
+
+bool Line::has(char letter) const {
+    for (const auto& w : parameters)
+        if (w.letter == letter) return true;
+    return false;
+}
+
+std::optional<double> Line::value(char letter) const {
+    for (const auto& w : parameters)
+        if (w.letter == letter) return w.value;
+    return std::nullopt;
+}
+
+Line parse_line(std::string_view raw) {
+    // The checksum covers the raw text before '*', comments included.
+    const std::string body = strip_comments(verify_checksum(raw));
+    Line line;
+    std::size_t i = 0;
+    const auto skip_blanks = [&] {
+        while (i < body.size() && is_blank(body[i])) ++i;
+    };
+    while (true) {
+        skip_blanks();
+        if (i >= body.size()) break;
+        const char letter = static_cast<char>(std::toupper(static_cast<unsigned char>(body[i])));
+        if (!std::isalpha(static_cast<unsigned char>(letter))) {
+            throw SyntaxError(std::string("unexpected character '") + body[i] + "'");
+        }
+        ++i;
+        const std::size_t start = i;
+        while (i < body.size() && !is_blank(body[i]) &&
+               !std::isalpha(static_cast<unsigned char>(body[i]))) {
+            ++i;
+        }
+        const std::string_view number(body.data() + start, i - start);
+        std::optional<double> value;
+        if (!number.empty()) {
+            double v = 0;
+            const char* first = number.data();
+            if (*first == '+') ++first;
+            const auto [end, ec] = std::from_chars(first, number.data() + number.size(), v);
+            if (ec != std::errc() || end != number.data() + number.size()) {
+                throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
+                                  letter);
+            }
+            value = v;
+        }
+        if (letter == 'N' && line.command_letter == 0 && !line.line_number) {
+            if (!value) throw SyntaxError("line number N without a value");
+            line.line_number = static_cast<long>(*value);
+            continue;
+        }
+        if (line.command_letter == 0 && (letter == 'G' || letter == 'M' || letter == 'T')) {
+            if (!value || *value < 0 || *value != static_cast<int>(*value)) {
+                throw SyntaxError(std::string("bad command number after ") + letter);
+            }
+            line.command_letter = letter;
+            line.command_number = static_cast<int>(*value);
+            if (line.is('M', 117) || line.is('M', 118)) {
+                skip_blanks();
+                line.text = body.substr(i);
+                while (!line.text.empty() && is_blank(line.text.back())) line.text.pop_back();
+                break;
+            }
+            continue;
+        }
+        if (line.command_letter == 0) {
+            throw SyntaxError(std::string("parameter ") + letter + " before any command");
+        }
+        line.parameters.push_back(Word{letter, value});
+    }
+    return line;
+}
+
+}  // namespace calbox::gcode

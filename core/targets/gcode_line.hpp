@@ -1,0 +1,39 @@
+#pragma once
+// One line of G-code as RepRap-family firmware reads it: optional line number, one command,
+// its parameter words, an optional checksum, and comments in ';' or '(...)'.
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace calbox::gcode {
+
+class SyntaxError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct Word {
+    char letter = 0;                 // upper case
+    std::optional<double> value;     // empty for a bare flag such as the X in "G28 X"
+};
+
+struct Line {
+    std::optional<long> line_number;
+    char command_letter = 0;  // 'G', 'M' or 'T'; 0 for a line with no command
+    int command_number = -1;
+    std::vector<Word> parameters;
+    std::string text;  // the free text of M117/M118
+
+    bool is(char letter, int number) const {
+        return command_letter == letter && command_number == number;
+    }
+    bool has(char letter) const;
+    std::optional<double> value(char letter) const;  // empty when absent or bare
+};
+
+// Throws SyntaxError naming what is wrong (bad number, checksum mismatch, stray text).
+Line parse_line(std::string_view raw);
+
+}  // namespace calbox::gcode

@@ -1,0 +1,15 @@
+; a 40 mm square outline, one layer, centred on the bed
+G21
+G90
+M82
+G28
+G92 E0
+G0 Z5 F3000
+G0 X-20 Y-20
+G0 Z0.2
+G1 X20 Y-20 E1.9955 F1200
+G1 X20 Y20 E3.9910
+G1 X-20 Y20 E5.9865
+G1 X-20 Y-20 E7.9820
+G0 Z5
+M503

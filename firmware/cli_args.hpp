@@ -1,0 +1,41 @@
+#pragma once
+// The calbox command line: options are "--name value" (or "-o value"), everything else is
+// positional. Each command states which options it takes; anything else is an error.
+#include <map>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace calbox::cli {
+
+class UsageError : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+class Args {
+public:
+    Args(const std::vector<std::string>& words, const std::set<std::string>& valued,
+         const std::set<std::string>& flags);
+    std::optional<std::string> get(const std::string& name) const;
+    std::string require(const std::string& name) const;
+    bool flag(const std::string& name) const { return flags_.count(name) != 0; }
+    const std::vector<std::string>& positional() const { return positional_; }
+    // A number option: absent gives `fallback`; present must parse completely.
+    double number(const std::string& name, double fallback) const;
+
+private:
+    std::map<std::string, std::string> values_;
+    std::set<std::string> flags_;
+    std::vector<std::string> positional_;
+};
+
+// Writes a whole output file atomically (sibling + rename): a failed run leaves no half file.
+void write_output_file(const std::string& path, const std::string& contents);
+std::string read_input_file(const std::string& path, const std::string& what);
+
+int run_sim(const std::vector<std::string>& words);  // "calbox sim ..."
+
+}  // namespace calbox::cli

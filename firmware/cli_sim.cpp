@@ -1,0 +1,231 @@
+// calbox sim print|photo: the digital twin on the command line.
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <sstream>
+
+#include "board/sim/print_json.hpp"
+#include "board/sim/renderer.hpp"
+#include "board/sim/scenario.hpp"
+#include "board/sim/scenes.hpp"
+#include "firmware/cli_args.hpp"
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kSimHelp = R"(usage:
+  calbox sim print --scenario FILE JOB.gcode -o print.json
+      Runs the G-code job on the scenario's machine (true geometry, firmware belief) and writes
+      every stroke of material as it really landed. Prints the machine's replies (M503) and a
+      summary on standard output.
+  calbox sim photo --scenario FILE --print print.json -o photo.png [--truth truth.json]
+  calbox sim photo --scenario FILE --board SPEC (--pose RX,RY,RZ,TX,TY,TZ | --on-bed X,Y,ANGLE)
+                   [--thickness MM] -o photo.png [--truth truth.json]
+      Renders what the scenario's camera sees of a print, or of a calibration board:
+        SPEC  chessboard:COLSxROWS@SQUARE_MM (inner corners) or
+              charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares)
+        --pose    board -> camera: rotation vector in degrees (axis times angle), then mm
+        --on-bed  the board lying face up on the bed at X,Y mm, turned ANGLE degrees,
+                  its surface --thickness mm above the bed (default 0)
+      --truth writes the true pixel position of every board corner and marker corner, or of
+      every stroke end, with the true camera and plane pose.
+)";
+
+std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text, std::size_t count) {
+    std::array<double, 6> out{};
+    std::stringstream in(text);
+    std::string part;
+    std::size_t n = 0;
+    while (std::getline(in, part, ',')) {
+        if (n >= count) break;
+        std::size_t used = 0;
+        double v = 0;
+        try {
+            v = std::stod(part, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used != part.size() || part.empty() || !std::isfinite(v)) {
+            throw UsageError(flag + " needs " + std::to_string(count) + " comma-separated numbers, not '" + text + "'");
+        }
+        out[n++] = v;
+    }
+    if (n != count || std::getline(in, part)) {
+        throw UsageError(flag + " needs " + std::to_string(count) + " comma-separated numbers, not '" + text + "'");
+    }
+    return out;
+}
+
+sim::Scenario scenario_from(const Args& args) { return sim::load_scenario(args.require("--scenario")); }
+
+int sim_print(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "-o"}, {});
+    if (args.positional().size() != 1) throw UsageError("sim print takes one job file");
+    const std::string job_path = args.positional()[0];
+    const std::string out = args.require("-o");
+    const auto scenario = scenario_from(args);
+    auto machine = sim::make_machine_twin(scenario);
+    sim::GcodeRunner runner(*machine, sim::tool_settings_of(scenario));
+    std::istringstream job(read_input_file(job_path, "job"));
+    try {
+        runner.run(job);
+    } catch (const sim::JobError& e) {
+        throw std::runtime_error(job_path + ": " + e.what());
+    }
+    sim::PrintRecord record{scenario.path, job_path, scenario.machine.kind, runner.result()};
+    write_output_file(out, sim::print_to_json(record));
+    for (const auto& reply : record.result.replies) std::cout << reply << "\n";
+    double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+    double cxmin = 1e300, cxmax = -1e300, cymin = 1e300, cymax = -1e300;
+    for (const auto& s : record.result.strokes) {
+        for (const auto& p : {s.a_mm, s.b_mm}) {
+            xmin = std::min(xmin, p.x), xmax = std::max(xmax, p.x);
+            ymin = std::min(ymin, p.y), ymax = std::max(ymax, p.y);
+        }
+        for (const auto& p : {s.commanded_a_mm, s.commanded_b_mm}) {
+            cxmin = std::min(cxmin, p.x), cxmax = std::max(cxmax, p.x);
+            cymin = std::min(cymin, p.y), cymax = std::max(cymax, p.y);
+        }
+    }
+    std::cout << "printed " << record.result.strokes.size() << " strokes from "
+              << record.result.lines_run << " lines";
+    if (!record.result.strokes.empty()) {
+        char summary[256];
+        std::snprintf(summary, sizeof summary,
+                      "; nozzle path extent commanded %.4f x %.4f mm, actual %.4f x %.4f mm",
+                      cxmax - cxmin, cymax - cymin, xmax - xmin, ymax - ymin);
+        std::cout << summary;
+    }
+    std::cout << "\n";
+    return 0;
+}
+
+nlohmann::json pose_json(const sim::Pose& pose) {
+    const sim::Vec3 r = sim::vector_from_rotation(pose.rotation);
+    return {{"rvec", {r.x, r.y, r.z}},
+            {"tvec_mm", {pose.translation_mm.x, pose.translation_mm.y, pose.translation_mm.z}}};
+}
+
+nlohmann::json camera_json(const sim::CameraIntrinsics& c) {
+    return {{"model", c.model == sim::LensModel::fisheye ? "fisheye" : "pinhole"},
+            {"image_width", c.width_px},
+            {"image_height", c.height_px},
+            {"camera_matrix", {{c.fx, 0, c.cx}, {0, c.fy, c.cy}, {0, 0, 1}}},
+            {"distortion_coefficients", c.distortion}};
+}
+
+nlohmann::json pixel_json(const sim::CameraIntrinsics& c, const sim::Pose& pose, const sim::Vec3& p) {
+    const sim::Vec3 q = pose.apply(p);
+    if (q.z <= 0) return nullptr;
+    const sim::Vec2 px = sim::project_point(c, pose, p);
+    return {px.x, px.y};
+}
+
+int sim_photo(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "--print", "--board", "--pose", "--on-bed", "--thickness", "-o", "--truth"}, {});
+    if (!args.positional().empty()) throw UsageError("sim photo takes no positional argument '" + args.positional()[0] + "'");
+    const std::string out = args.require("-o");
+    const auto scenario = scenario_from(args);
+    if (!scenario.camera) throw std::runtime_error(scenario.path + ": no [camera] section to take a photo with");
+    const auto& camera = *scenario.camera;
+    const sim::Pose bed_to_camera = sim::look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
+    nlohmann::json truth{{"schema", "calbox.photo-truth/1"},
+                         {"camera", camera_json(camera.intrinsics)},
+                         {"bed_to_camera", pose_json(bed_to_camera)}};
+    sim::GrayImage image;
+    const bool has_print = args.get("--print").has_value();
+    const bool has_board = args.get("--board").has_value();
+    if (has_print == has_board) throw UsageError("sim photo needs either --print or --board");
+    if (has_print) {
+        if (args.get("--pose") || args.get("--on-bed") || args.get("--thickness")) {
+            throw UsageError("--pose, --on-bed and --thickness go with --board");
+        }
+        const auto record = sim::print_from_json(read_input_file(*args.get("--print"), "print record"));
+        std::vector<sim::StrokeSegment> strokes;
+        nlohmann::json stroke_truth = nlohmann::json::array();
+        for (const auto& s : record.result.strokes) {
+            strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+            stroke_truth.push_back({{"a_mm", {s.a_mm.x, s.a_mm.y, s.a_mm.z}},
+                                    {"b_mm", {s.b_mm.x, s.b_mm.y, s.b_mm.z}},
+                                    {"a_px", pixel_json(camera.intrinsics, bed_to_camera, s.a_mm)},
+                                    {"b_px", pixel_json(camera.intrinsics, bed_to_camera, s.b_mm)},
+                                    {"width_mm", s.width_mm}});
+        }
+        const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo, scenario.material_albedo,
+                                     scenario.photo.supersample);
+        image = sim::render_photo(camera.intrinsics, bed_to_camera, scene, scenario.photo);
+        truth["strokes"] = stroke_truth;
+    } else {
+        const auto spec = geometry::parse_pattern_spec(*args.get("--board"));
+        sim::Pose board_to_camera;
+        if (args.get("--pose").has_value() == args.get("--on-bed").has_value()) {
+            throw UsageError("--board needs either --pose or --on-bed");
+        }
+        if (const auto pose = args.get("--pose")) {
+            if (args.get("--thickness")) throw UsageError("--thickness goes with --on-bed");
+            const auto v = parse_numbers("--pose", *pose, 6);
+            board_to_camera.rotation = sim::rotation_from_vector(sim::Vec3{v[0], v[1], v[2]} * (sim::kPi / 180));
+            board_to_camera.translation_mm = {v[3], v[4], v[5]};
+        } else {
+            const auto v = parse_numbers("--on-bed", *args.get("--on-bed"), 3);
+            const double thickness = args.number("--thickness", 0);
+            if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
+            // OpenCV's board frame has y down the printed board and z into it; lying face up,
+            // its z points into the bed.
+            const double a = sim::radians(v[2]);
+            sim::Pose board_to_bed;
+            const sim::Vec3 columns[3] = {{std::cos(a), std::sin(a), 0}, {std::sin(a), -std::cos(a), 0}, {0, 0, -1}};
+            for (int i = 0; i < 3; ++i) {
+                board_to_bed.rotation.m[0][i] = columns[i].x;
+                board_to_bed.rotation.m[1][i] = columns[i].y;
+                board_to_bed.rotation.m[2][i] = columns[i].z;
+            }
+            board_to_bed.translation_mm = {v[0], v[1], thickness};
+            board_to_camera.rotation = bed_to_camera.rotation * board_to_bed.rotation;
+            board_to_camera.translation_mm = bed_to_camera.apply(board_to_bed.translation_mm);
+            truth["board_to_bed"] = pose_json(board_to_bed);
+        }
+        const sim::BoardScene scene(spec, scenario.photo.supersample);
+        image = sim::render_photo(camera.intrinsics, board_to_camera, scene, scenario.photo);
+        nlohmann::json features = nlohmann::json::array();
+        for (const auto& f : scene.features()) {
+            nlohmann::json j{{"id", f.id},
+                             {"board_mm", {f.position_mm.x, f.position_mm.y, f.position_mm.z}},
+                             {"pixel", pixel_json(camera.intrinsics, board_to_camera, f.position_mm)}};
+            if (f.corner >= 0) j["corner"] = f.corner;
+            features.push_back(j);
+        }
+        truth["board"] = *args.get("--board");
+        truth["board_to_camera"] = pose_json(board_to_camera);
+        truth["features"] = features;
+    }
+    const cv::Mat view(image.height_px, image.width_px, CV_8UC1, image.pixels.data());
+    std::vector<unsigned char> png;
+    if (!cv::imencode(".png", view, png)) throw std::runtime_error("cannot encode the photo as PNG");
+    write_output_file(out, std::string(png.begin(), png.end()));
+    if (const auto t = args.get("--truth")) write_output_file(*t, truth.dump(1) + "\n");
+    return 0;
+}
+
+}  // namespace
+
+int run_sim(const std::vector<std::string>& words) {
+    if (words.empty() || words[0] == "--help" || words[0] == "-h") {
+        std::cout << kSimHelp;
+        return words.empty() ? 2 : 0;
+    }
+    const std::vector<std::string> rest(words.begin() + 1, words.end());
+    for (const auto& w : rest) {
+        if (w == "--help" || w == "-h") {
+            std::cout << kSimHelp;
+            return 0;
+        }
+    }
+    if (words[0] == "print") return sim_print(rest);
+    if (words[0] == "photo") return sim_photo(rest);
+    throw UsageError("unknown sim command '" + words[0] + "' (print or photo)");
+}
+
+}  // namespace calbox::cli

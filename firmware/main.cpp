@@ -1,0 +1,47 @@
+// calbox: one binary; each subcommand exposes one step of the calibration cycle.
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "firmware/cli_args.hpp"
+
+namespace {
+
+constexpr const char* kHelp = R"(calbox: calibrates machines from photos of what they make
+
+usage: calbox COMMAND [ARGS...]
+
+commands:
+  sim print|photo   the digital twin: run a G-code job, render a photo (calbox sim --help)
+
+Every command exits 0 on success, and non-zero with one line on standard error on failure.
+)";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    const std::vector<std::string> words(argv + 1, argv + argc);
+    try {
+        if (words.empty()) {
+            std::cerr << kHelp;
+            return 2;
+        }
+        if (words[0] == "--help" || words[0] == "-h" || words[0] == "help") {
+            std::cout << kHelp;
+            return 0;
+        }
+        if (words[0] == "--version") {
+            std::cout << "calbox 0.1.0\n";
+            return 0;
+        }
+        const std::vector<std::string> rest(words.begin() + 1, words.end());
+        if (words[0] == "sim") return calbox::cli::run_sim(rest);
+        throw calbox::cli::UsageError("unknown command '" + words[0] + "' (calbox --help lists them)");
+    } catch (const calbox::cli::UsageError& e) {
+        std::cerr << "calbox: " << e.what() << " (see calbox --help)\n";
+        return 2;
+    } catch (const std::exception& e) {
+        std::cerr << "calbox: " << e.what() << "\n";
+        return 1;
+    }
+}

@@ -1,0 +1,18 @@
+#pragma once
+// Whole-file persistence: a reader sees the old file or the new one, never a mix.
+#include <optional>
+#include <string>
+
+namespace calbox::hal {
+
+class Storage {
+public:
+    virtual ~Storage() = default;
+    // The file's contents, or empty when it does not exist; throws std::runtime_error otherwise.
+    virtual std::optional<std::string> read_file(const std::string& name) = 0;
+    // Replaces the whole file atomically; throws std::runtime_error and leaves the old file
+    // untouched on failure.
+    virtual void replace_file(const std::string& name, const std::string& contents) = 0;
+};
+
+}  // namespace calbox::hal

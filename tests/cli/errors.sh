@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Bad input to calbox gives exactly one line on stderr and a non-zero exit, and writes nothing.
+set -u
+calbox="$1"; top="$2"
+work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
+failures=0
+scenario="$top/examples/delta_rod_error.toml"
+
+expect_error() {  # expect_error REGEX ARGS...
+    local regex="$1"; shift
+    "$calbox" "$@" > "$work/out" 2> "$work/err" < /dev/null
+    local status=$?
+    local lines; lines=$(wc -l < "$work/err")
+    if [ "$status" -eq 0 ] || [ "$lines" -ne 1 ] || ! grep -qE -- "$regex" "$work/err"; then
+        echo "FAIL: calbox $* -> exit $status, stderr:"; sed 's/^/    /' "$work/err"
+        failures=$((failures + 1))
+    fi
+    if [ -e "$work/result" ]; then
+        echo "FAIL: calbox $* left an output file behind"; failures=$((failures + 1)); rm -f "$work/result"
+    fi
+}
+
+printf 'G28\nG1 X1 Y1\n' > "$work/ok.gcode"
+printf 'G28\nG29\n' > "$work/unknown.gcode"
+printf 'G28\nG1 X400 Y0 Z0\n' > "$work/reach.gcode"
+printf 'G1 X10 Y10\n' > "$work/unhomed.gcode"
+printf 'G28\nG1 X1.2.3\n' > "$work/badnumber.gcode"
+printf '[machine]\nkind = "delta"\n[delta]\nradius_mm = "wide"\n' > "$work/bad.toml"
+printf '[machine\nkind = "delta"\n' > "$work/syntax.toml"
+printf '[machine]\nkind = "delta"\n[delta]\n' > "$work/nocamera.toml"
+printf '{"schema": "something else"}' > "$work/wrong.json"
+
+expect_error "unknown command G29" sim print --scenario "$scenario" "$work/unknown.gcode" -o "$work/result"
+expect_error "line 2: .*out of reach" sim print --scenario "$scenario" "$work/reach.gcode" -o "$work/result"
+expect_error "line 1: move before homing" sim print --scenario "$scenario" "$work/unhomed.gcode" -o "$work/result"
+expect_error "bad number '1.2.3'" sim print --scenario "$scenario" "$work/badnumber.gcode" -o "$work/result"
+expect_error "radius_mm: must be a number" sim print --scenario "$work/bad.toml" "$work/ok.gcode" -o "$work/result"
+expect_error "syntax.toml:[0-9]+:" sim print --scenario "$work/syntax.toml" "$work/ok.gcode" -o "$work/result"
+expect_error "cannot read job" sim print --scenario "$scenario" "$work/missing.gcode" -o "$work/result"
+expect_error "missing -o" sim print --scenario "$scenario" "$work/ok.gcode"
+expect_error "no \[camera\]" sim photo --scenario "$work/nocamera.toml" --board chessboard:9x6@20 --pose 0,0,0,0,0,400 -o "$work/result"
+expect_error "not a print record" sim photo --scenario "$scenario" --print "$work/wrong.json" -o "$work/result"
+expect_error "bad pattern" sim photo --scenario "$scenario" --board chessboard:9x6 --pose 0,0,0,0,0,400 -o "$work/result"
+expect_error "unknown ArUco dictionary" sim photo --scenario "$scenario" --board charuco:5x7@20/14:DICT_9X9 --pose 0,0,0,0,0,400 -o "$work/result"
+expect_error "--pose needs 6" sim photo --scenario "$scenario" --board chessboard:9x6@20 --pose 1,2,3 -o "$work/result"
+expect_error "either --print or --board" sim photo --scenario "$scenario" -o "$work/result"
+expect_error "unknown option --frobnicate" sim print --frobnicate 3
+expect_error "unknown command 'fly'" fly
+
+[ "$failures" -eq 0 ] && echo "all error cases give one clear line"
+exit "$failures"

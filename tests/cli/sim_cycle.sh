@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# The README's main job runs end to end and its outputs say what the twin did.
+set -euo pipefail
+calbox="$1"; top="$2"
+work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
+bash "$top/toolchain/sim_cycle.sh" "$calbox" "$work" > "$work/log"
+cat "$work/log"
+# 1 mm of extra rod grows the 40 mm square by about 0.24 mm (tests/reference/delta_hand.py).
+grep -qE "commanded 40.0000 x 40.0000 mm, actual 40.2[34][0-9]+ x 40.2[34][0-9]+ mm" "$work/log"
+grep -q "M665 L250.000 R140.000" "$work/log"
+for f in print.json print.png print_truth.json chessboard.png chessboard_truth.json; do
+    [ -s "$work/$f" ] || { echo "missing $f"; exit 1; }
+done
+# PNG signature and the size the scenario asks for (width and height in the IHDR chunk).
+[ "$(head -c 8 "$work/print.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ]
+[ "$(od -An -tu1 -j16 -N8 "$work/print.png" | tr -s ' ')" = " 0 0 15 216 0 0 11 224" ]
+grep -q '"calbox.photo-truth/1"' "$work/chessboard_truth.json"
+echo "sim cycle outputs complete"

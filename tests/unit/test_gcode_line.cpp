@@ -1,0 +1,60 @@
+#include <CppUTest/TestHarness.h>
+
+#include "core/targets/gcode_line.hpp"
+
+using calbox::gcode::parse_line;
+using calbox::gcode::SyntaxError;
+
+TEST_GROUP(GcodeLine){};
+
+TEST(GcodeLine, reads_command_and_parameters_in_any_case) {
+    const auto l = parse_line("g1 x10.5 Y-2 e.25 F1200");
+    CHECK(l.is('G', 1));
+    DOUBLES_EQUAL(10.5, *l.value('X'), 0);
+    DOUBLES_EQUAL(-2, *l.value('Y'), 0);
+    DOUBLES_EQUAL(0.25, *l.value('E'), 0);
+    DOUBLES_EQUAL(1200, *l.value('F'), 0);
+    CHECK_FALSE(l.value('Z').has_value());
+}
+
+TEST(GcodeLine, strips_both_comment_styles) {
+    const auto l = parse_line("G1 (move) X1 ; the rest Y9");
+    CHECK(l.is('G', 1));
+    CHECK(l.has('X'));
+    CHECK_FALSE(l.has('Y'));
+    CHECK_EQUAL(0, parse_line("; only a comment").command_letter);
+    CHECK_EQUAL(0, parse_line("   ").command_letter);
+}
+
+TEST(GcodeLine, bare_flags_have_no_value) {
+    const auto l = parse_line("G28 X Y");
+    CHECK(l.is('G', 28));
+    CHECK(l.has('X'));
+    CHECK_FALSE(l.value('X').has_value());
+}
+
+TEST(GcodeLine, accepts_line_number_and_correct_checksum) {
+    // XOR of the bytes of "N3 T0" is 57, as in the RepRap wiki's example.
+    const auto l = parse_line("N3 T0*57");
+    CHECK(l.is('T', 0));
+    CHECK_EQUAL(3L, *l.line_number);
+}
+
+TEST(GcodeLine, rejects_wrong_checksum) {
+    CHECK_THROWS(SyntaxError, parse_line("N3 T0*58"));
+}
+
+TEST(GcodeLine, rejects_bad_numbers_and_stray_text) {
+    CHECK_THROWS(SyntaxError, parse_line("G1 X1.2.3"));
+    CHECK_THROWS(SyntaxError, parse_line("G1 X1 #"));
+    CHECK_THROWS(SyntaxError, parse_line("X10"));
+    CHECK_THROWS(SyntaxError, parse_line("G1 (open comment X1"));
+    CHECK_THROWS(SyntaxError, parse_line("G1.5 X1"));
+}
+
+TEST(GcodeLine, keeps_message_text) {
+    const auto l = parse_line("M117 Printing X5 now");
+    CHECK(l.is('M', 117));
+    STRCMP_EQUAL("Printing X5 now", l.text.c_str());
+    CHECK_FALSE(l.has('X'));
+}

@@ -1,0 +1,70 @@
+#include <CppUTest/TestHarness.h>
+#include <unistd.h>
+
+#include <fstream>
+
+#include "board/sim/scenario.hpp"
+
+using namespace calbox::sim;
+
+namespace {
+std::string write_temp(const std::string& text) {
+    char name[] = "/tmp/calbox-scenario-XXXXXX";
+    const int fd = ::mkstemp(name);
+    if (fd < 0) FAIL("mkstemp failed");
+    ::close(fd);
+    std::ofstream(name) << text;
+    return name;
+}
+
+const char* kDelta =
+    "[machine]\nkind = \"delta\"\n[delta]\ndiagonal_rod_mm = 250.0\nradius_mm = 140.0\n";
+
+std::string error_of(const std::string& text) {
+    const auto path = write_temp(text);
+    try {
+        load_scenario(path);
+    } catch (const ScenarioError& e) {
+        ::unlink(path.c_str());
+        return e.what();
+    }
+    ::unlink(path.c_str());
+    return "";
+}
+}  // namespace
+
+TEST_GROUP(Scenario){};
+
+TEST(Scenario, truth_defaults_to_the_firmware_belief_key_by_key) {
+    const auto path = write_temp(std::string(kDelta) +
+                                 "[truth.delta]\ndiagonal_rod_mm = 251.5\n"
+                                 "[camera]\nwidth_px = 800\nheight_px = 600\nfx = 900\n"
+                                 "distortion = [-0.1, 0.01]\nposition_mm = [0, -30, 400]\n");
+    const Scenario s = load_scenario(path);
+    ::unlink(path.c_str());
+    DOUBLES_EQUAL(251.5, s.delta_truth.diagonal_rod_mm, 0);
+    DOUBLES_EQUAL(250.0, s.delta_firmware.diagonal_rod_mm, 0);
+    DOUBLES_EQUAL(140.0, s.delta_truth.radius_mm, 0);
+    CHECK(s.camera.has_value());
+    DOUBLES_EQUAL(399.5, s.camera->intrinsics.cx, 0);  // centre of an 800 px row
+    DOUBLES_EQUAL(900, s.camera->intrinsics.fy, 0);     // fy defaults to fx
+    CHECK_EQUAL(2u, s.camera->intrinsics.distortion.size());
+}
+
+TEST(Scenario, bad_files_name_the_file_and_the_key) {
+    STRCMP_CONTAINS("missing [machine]", error_of("[delta]\nradius_mm = 1\n").c_str());
+    STRCMP_CONTAINS("[machine] kind: 'scara' is not one of", error_of("[machine]\nkind = \"scara\"\n").c_str());
+    STRCMP_CONTAINS("[delta] radus_mm: unknown key", error_of(std::string(kDelta) + "radus_mm = 3\n").c_str());
+    STRCMP_CONTAINS("radius_mm: must be a number", error_of("[machine]\nkind = \"delta\"\n[delta]\nradius_mm = \"big\"\n").c_str());
+    STRCMP_CONTAINS("diagonal_rod_mm: must exceed radius_mm", error_of("[machine]\nkind = \"delta\"\n[delta]\ndiagonal_rod_mm = 100\nradius_mm = 140\n").c_str());
+    STRCMP_CONTAINS("endstop_offset_mm", error_of(std::string(kDelta) + "endstop_offset_mm = [0.1, 0, 0]\n").c_str());
+    STRCMP_CONTAINS("needs 3 numbers", error_of(std::string(kDelta) + "tower_angle_trim_deg = [0, 0]\n").c_str());
+    STRCMP_CONTAINS("unknown section or key 'cameras'", error_of(std::string(kDelta) + "[cameras]\n").c_str());
+    STRCMP_CONTAINS("a delta scenario needs [delta]", error_of("[machine]\nkind = \"delta\"\n").c_str());
+    // A TOML syntax error reports its line.
+    STRCMP_CONTAINS(":2:", error_of("[machine]\nkind = = 3\n").c_str());
+}
+
+TEST(Scenario, a_missing_file_is_an_error) {
+    CHECK_THROWS(ScenarioError, load_scenario("/nonexistent/scenario.toml"));
+}

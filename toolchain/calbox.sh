@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# calbox developer entry point: installs what is missing (Debian packages from
+# toolchain/packages.txt), configures and builds with a CMake preset, then runs what was asked.
+#
+#   toolchain/calbox.sh run   [--preset P]   the main job on the sim board (default preset: release)
+#   toolchain/calbox.sh test  [--preset P]   every test under ctest (default preset: dev)
+#   toolchain/calbox.sh build [--preset P]   configure and build only
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+top="$(dirname "$here")"
+
+usage() { sed -n '2,9p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+
+action="${1:-}"
+[ -n "$action" ] || { usage >&2; exit 2; }
+shift
+preset=""
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --preset) preset="${2:?--preset needs a name: dev, asan or release}"; shift 2 ;;
+        -h|--help) usage; exit 0 ;;
+        *) echo "calbox.sh: unknown argument '$1'" >&2; exit 2 ;;
+    esac
+done
+case "$action" in
+    run) preset="${preset:-release}" ;;
+    test|build) preset="${preset:-dev}" ;;
+    -h|--help|help) usage; exit 0 ;;
+    *) echo "calbox.sh: unknown action '$action' (run, test or build)" >&2; exit 2 ;;
+esac
+
+install_missing() {
+    local missing=()
+    while read -r pkg; do
+        case "$pkg" in ''|'#'*) continue ;; esac
+        if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed'; then
+            missing+=("$pkg")
+        fi
+    done < "$here/packages.txt"
+    [ ${#missing[@]} -eq 0 ] && return 0
+    if [ "$(id -u)" -ne 0 ]; then
+        echo "calbox.sh: missing Debian packages (run as root to install): ${missing[*]}" >&2
+        exit 1
+    fi
+    echo "calbox.sh: installing ${missing[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y --no-install-recommends "${missing[@]}"
+}
+
+build() {
+    cd "$top"
+    if [ ! -f "build/$preset/CMakeCache.txt" ]; then
+        cmake --preset "$preset"
+    fi
+    cmake --build "build/$preset" -j 2
+}
+
+install_missing
+build
+case "$action" in
+    build) ;;
+    test) cd "$top" && ctest --test-dir "build/$preset" --output-on-failure -j 2 < /dev/null ;;
+    run) cd "$top" && exec bash "$here/sim_cycle.sh" "build/$preset/calbox" ;;
+esac

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# The most complete cycle that works today, on the digital twin: a delta printer whose true rods
+# are 1 mm longer than its firmware believes prints a 40 mm square; the camera photographs it and
+# a chessboard lying on the bed. Prints the figures and where the files are.
+#   usage: toolchain/sim_cycle.sh CALBOX_BINARY [OUTPUT_DIR]
+set -euo pipefail
+calbox="${1:?usage: sim_cycle.sh CALBOX_BINARY [OUTPUT_DIR]}"
+top="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+out="${2:-$top/out}"
+mkdir -p "$out"
+scenario="$top/examples/delta_rod_error.toml"
+
+echo "== print: 40 mm square on a delta with a hidden +1 mm rod error ($scenario)"
+"$calbox" sim print --scenario "$scenario" "$top/examples/square.gcode" -o "$out/print.json"
+echo "== photo of the print (4056x3040, tilted about 5 degrees, blur and noise on)"
+"$calbox" sim photo --scenario "$scenario" --print "$out/print.json" -o "$out/print.png" --truth "$out/print_truth.json"
+echo "== photo of a 9x6 chessboard (20 mm squares) lying on the bed"
+"$calbox" sim photo --scenario "$scenario" --board chessboard:9x6@20 --on-bed -90,-60,0 \
+    -o "$out/chessboard.png" --truth "$out/chessboard_truth.json"
+echo "== files in $out: print.json print.png print_truth.json chessboard.png chessboard_truth.json"

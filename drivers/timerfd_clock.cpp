@@ -18,9 +18,10 @@ timespec to_timespec(std::chrono::nanoseconds d) {
 }
 
 class TimerfdTimer final : public hal::Timer {
-public:
+  public:
     TimerfdTimer() : fd_(::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC)) {
-        if (fd_ < 0) throw std::runtime_error(std::string("timerfd_create: ") + std::strerror(errno));
+        if (fd_ < 0)
+            throw std::runtime_error(std::string("timerfd_create: ") + std::strerror(errno));
     }
     TimerfdTimer(const TimerfdTimer&) = delete;
     TimerfdTimer& operator=(const TimerfdTimer&) = delete;
@@ -41,7 +42,7 @@ public:
         throw std::runtime_error(std::string("timerfd read: ") + std::strerror(errno));
     }
 
-private:
+  private:
     void set(const itimerspec& spec) {
         if (::timerfd_settime(fd_, 0, &spec, nullptr) != 0) {
             throw std::runtime_error(std::string("timerfd_settime: ") + std::strerror(errno));
@@ -58,6 +59,8 @@ std::chrono::nanoseconds TimerfdClock::now() const {
     return std::chrono::seconds(ts.tv_sec) + std::chrono::nanoseconds(ts.tv_nsec);
 }
 
-std::unique_ptr<hal::Timer> TimerfdClock::make_timer() { return std::make_unique<TimerfdTimer>(); }
+std::unique_ptr<hal::Timer> TimerfdClock::make_timer() {
+    return std::make_unique<TimerfdTimer>();
+}
 
 }  // namespace calbox::drivers

@@ -5,7 +5,7 @@ namespace calbox::drivers {
 
 // CLOCK_MONOTONIC and timerfd timers.
 class TimerfdClock final : public hal::Clock {
-public:
+  public:
     std::chrono::nanoseconds now() const override;
     std::unique_ptr<hal::Timer> make_timer() override;
 };

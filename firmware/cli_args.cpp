@@ -13,7 +13,8 @@ Args::Args(const std::vector<std::string>& words, const std::set<std::string>& v
            const std::set<std::string>& flags) {
     for (std::size_t i = 0; i < words.size(); ++i) {
         const std::string& w = words[i];
-        if (w.size() > 1 && w[0] == '-' && !(w.size() > 1 && (std::isdigit(static_cast<unsigned char>(w[1])) || w[1] == '.'))) {
+        if (w.size() > 1 && w[0] == '-' &&
+            !(w.size() > 1 && (std::isdigit(static_cast<unsigned char>(w[1])) || w[1] == '.'))) {
             if (flags.count(w)) {
                 flags_.insert(w);
                 continue;
@@ -50,7 +51,8 @@ double Args::number(const std::string& name, double fallback) const {
     } catch (const std::exception&) {
         used = 0;
     }
-    if (used != v->size() || !std::isfinite(d)) throw UsageError(name + " needs a number, not '" + *v + "'");
+    if (used != v->size() || !std::isfinite(d))
+        throw UsageError(name + " needs a number, not '" + *v + "'");
     return d;
 }
 
@@ -65,7 +67,8 @@ void write_output_file(const std::string& path, const std::string& contents) {
 
 std::string read_input_file(const std::string& path, const std::string& what) {
     std::ifstream in(path, std::ios::binary);
-    if (!in || std::filesystem::is_directory(path)) throw std::runtime_error("cannot read " + what + " " + path);
+    if (!in || std::filesystem::is_directory(path))
+        throw std::runtime_error("cannot read " + what + " " + path);
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();

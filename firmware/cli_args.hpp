@@ -11,12 +11,12 @@
 namespace calbox::cli {
 
 class UsageError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
 class Args {
-public:
+  public:
     Args(const std::vector<std::string>& words, const std::set<std::string>& valued,
          const std::set<std::string>& flags);
     std::optional<std::string> get(const std::string& name) const;
@@ -26,7 +26,7 @@ public:
     // A number option: absent gives `fallback`; present must parse completely.
     double number(const std::string& name, double fallback) const;
 
-private:
+  private:
     std::map<std::string, std::string> values_;
     std::set<std::string> flags_;
     std::vector<std::string> positional_;

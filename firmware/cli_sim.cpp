@@ -33,7 +33,8 @@ constexpr const char* kSimHelp = R"(usage:
       every stroke end, with the true camera and plane pose.
 )";
 
-std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text, std::size_t count) {
+std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text,
+                                    std::size_t count) {
     std::array<double, 6> out{};
     std::stringstream in(text);
     std::string part;
@@ -48,17 +49,21 @@ std::array<double, 6> parse_numbers(const std::string& flag, const std::string& 
             used = 0;
         }
         if (used != part.size() || part.empty() || !std::isfinite(v)) {
-            throw UsageError(flag + " needs " + std::to_string(count) + " comma-separated numbers, not '" + text + "'");
+            throw UsageError(flag + " needs " + std::to_string(count) +
+                             " comma-separated numbers, not '" + text + "'");
         }
         out[n++] = v;
     }
     if (n != count || std::getline(in, part)) {
-        throw UsageError(flag + " needs " + std::to_string(count) + " comma-separated numbers, not '" + text + "'");
+        throw UsageError(flag + " needs " + std::to_string(count) +
+                         " comma-separated numbers, not '" + text + "'");
     }
     return out;
 }
 
-sim::Scenario scenario_from(const Args& args) { return sim::load_scenario(args.require("--scenario")); }
+sim::Scenario scenario_from(const Args& args) {
+    return sim::load_scenario(args.require("--scenario"));
+}
 
 int sim_print(const std::vector<std::string>& words) {
     const Args args(words, {"--scenario", "-o"}, {});
@@ -116,7 +121,8 @@ nlohmann::json camera_json(const sim::CameraIntrinsics& c) {
             {"distortion_coefficients", c.distortion}};
 }
 
-nlohmann::json pixel_json(const sim::CameraIntrinsics& c, const sim::Pose& pose, const sim::Vec3& p) {
+nlohmann::json pixel_json(const sim::CameraIntrinsics& c, const sim::Pose& pose,
+                          const sim::Vec3& p) {
     const sim::Vec3 q = pose.apply(p);
     if (q.z <= 0) return nullptr;
     const sim::Vec2 px = sim::project_point(c, pose, p);
@@ -124,13 +130,19 @@ nlohmann::json pixel_json(const sim::CameraIntrinsics& c, const sim::Pose& pose,
 }
 
 int sim_photo(const std::vector<std::string>& words) {
-    const Args args(words, {"--scenario", "--print", "--board", "--pose", "--on-bed", "--thickness", "-o", "--truth"}, {});
-    if (!args.positional().empty()) throw UsageError("sim photo takes no positional argument '" + args.positional()[0] + "'");
+    const Args args(
+        words,
+        {"--scenario", "--print", "--board", "--pose", "--on-bed", "--thickness", "-o", "--truth"},
+        {});
+    if (!args.positional().empty())
+        throw UsageError("sim photo takes no positional argument '" + args.positional()[0] + "'");
     const std::string out = args.require("-o");
     const auto scenario = scenario_from(args);
-    if (!scenario.camera) throw std::runtime_error(scenario.path + ": no [camera] section to take a photo with");
+    if (!scenario.camera)
+        throw std::runtime_error(scenario.path + ": no [camera] section to take a photo with");
     const auto& camera = *scenario.camera;
-    const sim::Pose bed_to_camera = sim::look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
+    const sim::Pose bed_to_camera =
+        sim::look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
     nlohmann::json truth{{"schema", "calbox.photo-truth/1"},
                          {"camera", camera_json(camera.intrinsics)},
                          {"bed_to_camera", pose_json(bed_to_camera)}};
@@ -142,7 +154,8 @@ int sim_photo(const std::vector<std::string>& words) {
         if (args.get("--pose") || args.get("--on-bed") || args.get("--thickness")) {
             throw UsageError("--pose, --on-bed and --thickness go with --board");
         }
-        const auto record = sim::print_from_json(read_input_file(*args.get("--print"), "print record"));
+        const auto record =
+            sim::print_from_json(read_input_file(*args.get("--print"), "print record"));
         std::vector<sim::StrokeSegment> strokes;
         nlohmann::json stroke_truth = nlohmann::json::array();
         for (const auto& s : record.result.strokes) {
@@ -153,8 +166,8 @@ int sim_photo(const std::vector<std::string>& words) {
                                     {"b_px", pixel_json(camera.intrinsics, bed_to_camera, s.b_mm)},
                                     {"width_mm", s.width_mm}});
         }
-        const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo, scenario.material_albedo,
-                                     scenario.photo.supersample);
+        const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
+                                     scenario.material_albedo, scenario.photo.supersample);
         image = sim::render_photo(camera.intrinsics, bed_to_camera, scene, scenario.photo);
         truth["strokes"] = stroke_truth;
     } else {
@@ -166,7 +179,8 @@ int sim_photo(const std::vector<std::string>& words) {
         if (const auto pose = args.get("--pose")) {
             if (args.get("--thickness")) throw UsageError("--thickness goes with --on-bed");
             const auto v = parse_numbers("--pose", *pose, 6);
-            board_to_camera.rotation = sim::rotation_from_vector(sim::Vec3{v[0], v[1], v[2]} * (sim::kPi / 180));
+            board_to_camera.rotation =
+                sim::rotation_from_vector(sim::Vec3{v[0], v[1], v[2]} * (sim::kPi / 180));
             board_to_camera.translation_mm = {v[3], v[4], v[5]};
         } else {
             const auto v = parse_numbers("--on-bed", *args.get("--on-bed"), 3);
@@ -176,7 +190,8 @@ int sim_photo(const std::vector<std::string>& words) {
             // its z points into the bed.
             const double a = sim::radians(v[2]);
             sim::Pose board_to_bed;
-            const sim::Vec3 columns[3] = {{std::cos(a), std::sin(a), 0}, {std::sin(a), -std::cos(a), 0}, {0, 0, -1}};
+            const sim::Vec3 columns[3] = {
+                {std::cos(a), std::sin(a), 0}, {std::sin(a), -std::cos(a), 0}, {0, 0, -1}};
             for (int i = 0; i < 3; ++i) {
                 board_to_bed.rotation.m[0][i] = columns[i].x;
                 board_to_bed.rotation.m[1][i] = columns[i].y;
@@ -191,9 +206,10 @@ int sim_photo(const std::vector<std::string>& words) {
         image = sim::render_photo(camera.intrinsics, board_to_camera, scene, scenario.photo);
         nlohmann::json features = nlohmann::json::array();
         for (const auto& f : scene.features()) {
-            nlohmann::json j{{"id", f.id},
-                             {"board_mm", {f.position_mm.x, f.position_mm.y, f.position_mm.z}},
-                             {"pixel", pixel_json(camera.intrinsics, board_to_camera, f.position_mm)}};
+            nlohmann::json j{
+                {"id", f.id},
+                {"board_mm", {f.position_mm.x, f.position_mm.y, f.position_mm.z}},
+                {"pixel", pixel_json(camera.intrinsics, board_to_camera, f.position_mm)}};
             if (f.corner >= 0) j["corner"] = f.corner;
             features.push_back(j);
         }
@@ -203,7 +219,8 @@ int sim_photo(const std::vector<std::string>& words) {
     }
     const cv::Mat view(image.height_px, image.width_px, CV_8UC1, image.pixels.data());
     std::vector<unsigned char> png;
-    if (!cv::imencode(".png", view, png)) throw std::runtime_error("cannot encode the photo as PNG");
+    if (!cv::imencode(".png", view, png))
+        throw std::runtime_error("cannot encode the photo as PNG");
     write_output_file(out, std::string(png.begin(), png.end()));
     if (const auto t = args.get("--truth")) write_output_file(*t, truth.dump(1) + "\n");
     return 0;

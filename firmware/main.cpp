@@ -36,7 +36,8 @@ int main(int argc, char** argv) {
         }
         const std::vector<std::string> rest(words.begin() + 1, words.end());
         if (words[0] == "sim") return calbox::cli::run_sim(rest);
-        throw calbox::cli::UsageError("unknown command '" + words[0] + "' (calbox --help lists them)");
+        throw calbox::cli::UsageError("unknown command '" + words[0] +
+                                      "' (calbox --help lists them)");
     } catch (const calbox::cli::UsageError& e) {
         std::cerr << "calbox: " << e.what() << " (see calbox --help)\n";
         return 2;

@@ -28,9 +28,9 @@ struct Frame {
 };
 
 struct CaptureRequest {
-    int frame_count = 1;  // 1 is a single shot, more is a burst
+    int frame_count = 1;                                // 1 is a single shot, more is a burst
     std::optional<std::chrono::microseconds> exposure;  // unset: automatic
-    std::optional<double> analogue_gain;                 // unset: automatic
+    std::optional<double> analogue_gain;                // unset: automatic
 };
 
 struct CaptureResult {
@@ -40,7 +40,7 @@ struct CaptureResult {
 };
 
 class Camera {
-public:
+  public:
     virtual ~Camera() = default;
     // Starts a capture; throws std::logic_error if one is already running.
     virtual void start_capture(const CaptureRequest& request) = 0;

@@ -7,7 +7,7 @@
 namespace calbox::hal {
 
 class Timer {
-public:
+  public:
     virtual ~Timer() = default;
     virtual int fd() const = 0;  // readable when the timer expired
     // Fires once after `after`, then every `period` unless period is zero.
@@ -18,7 +18,7 @@ public:
 };
 
 class Clock {
-public:
+  public:
     virtual ~Clock() = default;
     virtual std::chrono::nanoseconds now() const = 0;  // monotonic
     virtual std::unique_ptr<Timer> make_timer() = 0;

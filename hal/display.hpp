@@ -8,7 +8,7 @@
 namespace calbox::hal {
 
 class MonoBitmap {
-public:
+  public:
     MonoBitmap(int width_px = 128, int height_px = 64)
         : width_px_(width_px), height_px_(height_px), bits_(checked_size(width_px, height_px)) {}
     int width_px() const { return width_px_; }
@@ -21,7 +21,7 @@ public:
     void clear() { std::fill(bits_.begin(), bits_.end(), 0); }
     bool operator==(const MonoBitmap&) const = default;
 
-private:
+  private:
     static std::size_t checked_size(int w, int h) {
         if (w <= 0 || h <= 0) throw std::invalid_argument("MonoBitmap: size must be positive");
         return static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
@@ -37,11 +37,12 @@ private:
 };
 
 class Display {
-public:
+  public:
     virtual ~Display() = default;
     virtual int width_px() const = 0;
     virtual int height_px() const = 0;
-    virtual void show(const MonoBitmap& frame) = 0;  // throws std::invalid_argument on a size mismatch
+    virtual void show(
+        const MonoBitmap& frame) = 0;  // throws std::invalid_argument on a size mismatch
 };
 
 }  // namespace calbox::hal

@@ -13,7 +13,7 @@ struct ButtonEvent {
 };
 
 class Lines {
-public:
+  public:
     virtual ~Lines() = default;
     virtual int button_fd() const = 0;                     // readable when an edge arrived
     virtual std::optional<ButtonEvent> read_button() = 0;  // debounced; empty when none is pending

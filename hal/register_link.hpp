@@ -14,7 +14,7 @@ struct RegisterResult {
 };
 
 class RegisterLink {
-public:
+  public:
     virtual ~RegisterLink() = default;
     // Each start_* throws std::logic_error while another request is in flight.
     virtual void start_read_registers(int first_address, int count) = 0;

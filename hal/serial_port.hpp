@@ -7,7 +7,7 @@
 namespace calbox::hal {
 
 class SerialPort {
-public:
+  public:
     virtual ~SerialPort() = default;
     virtual int fd() const = 0;  // readable when bytes arrived
     // Reads what is there without waiting; returns the count (0 when nothing is pending).

@@ -6,7 +6,7 @@
 namespace calbox::hal {
 
 class Storage {
-public:
+  public:
     virtual ~Storage() = default;
     // The file's contents, or empty when it does not exist; throws std::runtime_error otherwise.
     virtual std::optional<std::string> read_file(const std::string& name) = 0;

@@ -24,8 +24,9 @@ Vec2 distort(const CameraIntrinsics& c, double x, double y) {
     if (r < 1e-15) return {x, y};
     const double theta = std::atan(r), t2 = theta * theta;
     const double theta_d =
-        theta * (1 + t2 * (coefficient(c, 0) +
-                           t2 * (coefficient(c, 1) + t2 * (coefficient(c, 2) + t2 * coefficient(c, 3)))));
+        theta *
+        (1 + t2 * (coefficient(c, 0) +
+                   t2 * (coefficient(c, 1) + t2 * (coefficient(c, 2) + t2 * coefficient(c, 3)))));
     return {x * theta_d / r, y * theta_d / r};
 }
 

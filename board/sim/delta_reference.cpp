@@ -23,8 +23,9 @@ std::array<double, 3> reference_carriage_heights_mm(const DeltaParams& p, const 
         const double dx = towers[i].x_mm - nozzle.x, dy = towers[i].y_mm - nozzle.y;
         const double under_root = towers[i].rod_mm * towers[i].rod_mm - dx * dx - dy * dy;
         if (!(under_root > 0)) {
-            throw OutOfReach("point X" + std::to_string(nozzle.x) + " Y" + std::to_string(nozzle.y) +
-                             " is out of reach of tower " + std::string(1, char('A' + i)));
+            throw OutOfReach("point X" + std::to_string(nozzle.x) + " Y" +
+                             std::to_string(nozzle.y) + " is out of reach of tower " +
+                             std::string(1, char('A' + i)));
         }
         h[i] = nozzle.z + std::sqrt(under_root);
     }

@@ -21,12 +21,12 @@ struct DeltaParams {
 };
 
 class OutOfReach : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
 struct Tower {
-    double x_mm, y_mm;   // carriage column position in the XY plane
+    double x_mm, y_mm;  // carriage column position in the XY plane
     double rod_mm;
 };
 std::array<Tower, 3> towers_of(const DeltaParams& p);

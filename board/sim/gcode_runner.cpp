@@ -55,10 +55,24 @@ void GcodeRunner::execute(const gcode::Line& l) {
         tool_on_ = false;
         return;
     }
-    if (l.is('G', 90)) { absolute_xyz_ = true; absolute_e_ = true; return; }
-    if (l.is('G', 91)) { absolute_xyz_ = false; absolute_e_ = false; return; }
-    if (l.is('M', 82)) { absolute_e_ = true; return; }
-    if (l.is('M', 83)) { absolute_e_ = false; return; }
+    if (l.is('G', 90)) {
+        absolute_xyz_ = true;
+        absolute_e_ = true;
+        return;
+    }
+    if (l.is('G', 91)) {
+        absolute_xyz_ = false;
+        absolute_e_ = false;
+        return;
+    }
+    if (l.is('M', 82)) {
+        absolute_e_ = true;
+        return;
+    }
+    if (l.is('M', 83)) {
+        absolute_e_ = false;
+        return;
+    }
     if (l.is('G', 92)) {
         const bool none = l.parameters.empty();
         const Vec3 machine_pos = logical_ + offset_;
@@ -69,7 +83,9 @@ void GcodeRunner::execute(const gcode::Line& l) {
         offset_ = machine_pos - logical_;
         return;
     }
-    if (l.is('G', 20)) throw JobError("line " + std::to_string(line_number_) + ": G20 (inches) is not supported; use millimetres (G21)");
+    if (l.is('G', 20))
+        throw JobError("line " + std::to_string(line_number_) +
+                       ": G20 (inches) is not supported; use millimetres (G21)");
     if (tool_.kind != ToolKind::extruder && (l.is('M', 3) || l.is('M', 4))) {
         tool_on_ = l.value('S').value_or(1.0) > 0;
         return;
@@ -83,7 +99,8 @@ void GcodeRunner::execute(const gcode::Line& l) {
         return;
     }
     if (is_harmless(l)) return;
-    throw JobError("line " + std::to_string(line_number_) + ": unknown command " + format_command(l));
+    throw JobError("line " + std::to_string(line_number_) + ": unknown command " +
+                   format_command(l));
 }
 
 void GcodeRunner::move(const gcode::Line& l) {
@@ -91,10 +108,12 @@ void GcodeRunner::move(const gcode::Line& l) {
     double e_target = e_;
     const auto axis = [&](char letter, double& field) {
         if (const auto v = l.value(letter)) {
-            if (!std::isfinite(*v)) throw JobError("line " + std::to_string(line_number_) + ": non-finite " + letter);
+            if (!std::isfinite(*v))
+                throw JobError("line " + std::to_string(line_number_) + ": non-finite " + letter);
             field = absolute_xyz_ ? *v : field + *v;
         } else if (l.has(letter)) {
-            throw JobError("line " + std::to_string(line_number_) + ": " + letter + " without a value");
+            throw JobError("line " + std::to_string(line_number_) + ": " + letter +
+                           " without a value");
         }
     };
     axis('X', target.x);
@@ -104,24 +123,24 @@ void GcodeRunner::move(const gcode::Line& l) {
     const double extruded = e_target - e_;
     const Vec3 from = logical_ + offset_, to = target + offset_;
     const double length = (to - from).norm();
-    const bool marks = tool_.kind == ToolKind::extruder ? extruded > 0 && length > 0
-                                                        : tool_on_ && length > 0;
+    const bool marks =
+        tool_.kind == ToolKind::extruder ? extruded > 0 && length > 0 : tool_on_ && length > 0;
     const int segments = std::max(1, static_cast<int>(std::ceil(length / tool_.segment_mm)));
-    const double filament_area = 3.14159265358979323846 * tool_.filament_diameter_mm *
-                                 tool_.filament_diameter_mm / 4.0;
+    const double filament_area =
+        3.14159265358979323846 * tool_.filament_diameter_mm * tool_.filament_diameter_mm / 4.0;
     Vec3 previous_commanded = from;
     Vec3 previous_actual = machine_.actual_position_mm(from);
     for (int k = 1; k <= segments; ++k) {
         const Vec3 commanded = from + (to - from) * (static_cast<double>(k) / segments);
         const Vec3 actual = machine_.actual_position_mm(commanded);
         if (marks) {
-            Stroke s{previous_commanded, commanded, previous_actual, actual, tool_.tool_width_mm,
-                     line_number_};
+            Stroke s{previous_commanded,  commanded,   previous_actual, actual,
+                     tool_.tool_width_mm, line_number_};
             if (tool_.kind == ToolKind::extruder) {
                 // The segment's share of the filament spreads over its true length.
                 const double volume = extruded / segments * filament_area;
-                const double true_length = std::hypot(actual.x - previous_actual.x,
-                                                      actual.y - previous_actual.y);
+                const double true_length =
+                    std::hypot(actual.x - previous_actual.x, actual.y - previous_actual.y);
                 s.width_mm = true_length > 0 ? volume / (true_length * tool_.layer_height_mm) : 0;
             }
             if (s.width_mm > 0) result_.strokes.push_back(s);

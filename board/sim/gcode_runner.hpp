@@ -11,7 +11,7 @@
 namespace calbox::sim {
 
 class JobError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
@@ -39,7 +39,7 @@ struct JobResult {
 };
 
 class GcodeRunner {
-public:
+  public:
     GcodeRunner(MachineTwin& machine, const ToolSettings& tool);
     // Throws JobError("line N: ...") for a syntax error, an unknown command, a move out of
     // reach or a move before homing.
@@ -47,7 +47,7 @@ public:
     void run(std::istream& job);
     const JobResult& result() const { return result_; }
 
-private:
+  private:
     void move(const gcode::Line& line);
     void execute(const gcode::Line& line);
 
@@ -58,9 +58,9 @@ private:
     bool absolute_xyz_ = true;
     bool absolute_e_ = true;
     bool tool_on_ = false;
-    Vec3 logical_{};       // position in the job's coordinates
-    Vec3 offset_{};        // G92: machine = logical + offset
-    double e_ = 0;         // extruder position as the job sees it
+    Vec3 logical_{};  // position in the job's coordinates
+    Vec3 offset_{};   // G92: machine = logical + offset
+    double e_ = 0;    // extruder position as the job sees it
 };
 
 }  // namespace calbox::sim

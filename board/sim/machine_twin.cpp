@@ -43,7 +43,8 @@ Vec3 DeltaTwin::actual_position_mm(const Vec3& commanded) const {
     if (!homed_) throw MachineError("move before homing (G28)");
     const auto logical = reference_carriage_heights_mm(firmware_, commanded);
     std::array<double, 3> physical{};
-    for (int i = 0; i < 3; ++i) physical[i] = home_physical_mm_[i] + (logical[i] - home_logical_mm_[i]);
+    for (int i = 0; i < 3; ++i)
+        physical[i] = home_physical_mm_[i] + (logical[i] - home_logical_mm_[i]);
     return reference_effector_position_mm(truth_, physical);
 }
 
@@ -108,14 +109,14 @@ std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode:
 
 std::vector<std::string> marlin_delta_report(const DeltaParams& p) {
     return {"echo:; Endstop adjustment:",
-            "echo:  M666 X" + fixed3(p.endstop_offset_mm[0]) + " Y" + fixed3(p.endstop_offset_mm[1]) +
-                " Z" + fixed3(p.endstop_offset_mm[2]),
+            "echo:  M666 X" + fixed3(p.endstop_offset_mm[0]) + " Y" +
+                fixed3(p.endstop_offset_mm[1]) + " Z" + fixed3(p.endstop_offset_mm[2]),
             "echo:; Delta config:",
             "echo:  M665 L" + fixed3(p.diagonal_rod_mm) + " R" + fixed3(p.radius_mm) + " H" +
                 fixed3(p.height_mm) + " X" + fixed3(p.tower_angle_trim_deg[0]) + " Y" +
                 fixed3(p.tower_angle_trim_deg[1]) + " Z" + fixed3(p.tower_angle_trim_deg[2]) +
-                " A" + fixed3(p.diagonal_rod_trim_mm[0]) + " B" + fixed3(p.diagonal_rod_trim_mm[1]) +
-                " C" + fixed3(p.diagonal_rod_trim_mm[2])};
+                " A" + fixed3(p.diagonal_rod_trim_mm[0]) + " B" +
+                fixed3(p.diagonal_rod_trim_mm[1]) + " C" + fixed3(p.diagonal_rod_trim_mm[2])};
 }
 
 Vec3 CartesianTwin::actual_position_mm(const Vec3& c) const {

@@ -12,16 +12,16 @@
 namespace calbox::sim {
 
 class MachineError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
 class MachineTwin {
-public:
+  public:
     virtual ~MachineTwin() = default;
-    virtual void home() = 0;                                  // G28
+    virtual void home() = 0;  // G28
     virtual bool homed() const = 0;
-    virtual Vec3 position_after_homing_mm() const = 0;        // commanded position after G28
+    virtual Vec3 position_after_homing_mm() const = 0;  // commanded position after G28
     // Where the nozzle/tool really is for a commanded machine position; throws OutOfReach.
     virtual Vec3 actual_position_mm(const Vec3& commanded) const = 0;
     // Machine-specific settings commands (M665, M666, M500, M503): the reply lines, or empty
@@ -32,7 +32,7 @@ public:
 // A linear delta in Marlin's conventions. G28 moves each carriage to its physical endstop,
 // then down by the firmware's M666 offset, and declares the nozzle at (0, 0, height).
 class DeltaTwin final : public MachineTwin {
-public:
+  public:
     DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware);
     void home() override;
     bool homed() const override { return homed_; }
@@ -46,7 +46,7 @@ public:
     // paper test does.
     void zero_height_at_centre();
 
-private:
+  private:
     DeltaParams truth_, firmware_, stored_;
     bool homed_ = false;
     std::array<double, 3> home_physical_mm_{};  // carriage heights in the true frame at home
@@ -61,7 +61,7 @@ struct CartesianErrors {
 };
 
 class CartesianTwin final : public MachineTwin {
-public:
+  public:
     explicit CartesianTwin(const CartesianErrors& truth) : truth_(truth) {}
     void home() override { homed_ = true; }
     bool homed() const override { return homed_; }
@@ -69,7 +69,7 @@ public:
     Vec3 actual_position_mm(const Vec3& commanded) const override;
     std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) override;
 
-private:
+  private:
     CartesianErrors truth_;
     bool homed_ = false;
 };

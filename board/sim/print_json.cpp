@@ -9,10 +9,13 @@ namespace {
 
 constexpr const char* kSchema = "calbox.print/1";
 
-nlohmann::json to_json(const Vec3& v) { return nlohmann::json::array({v.x, v.y, v.z}); }
+nlohmann::json to_json(const Vec3& v) {
+    return nlohmann::json::array({v.x, v.y, v.z});
+}
 
 Vec3 vec3_from(const nlohmann::json& j, const char* what) {
-    if (!j.is_array() || j.size() != 3) throw std::runtime_error(std::string(what) + " must be [x, y, z]");
+    if (!j.is_array() || j.size() != 3)
+        throw std::runtime_error(std::string(what) + " must be [x, y, z]");
     Vec3 v{j[0].get<double>(), j[1].get<double>(), j[2].get<double>()};
     if (!std::isfinite(v.x) || !std::isfinite(v.y) || !std::isfinite(v.z)) {
         throw std::runtime_error(std::string(what) + " must be finite");
@@ -61,7 +64,8 @@ PrintRecord print_from_json(const std::string& text) {
             stroke.a_mm = vec3_from(s.at("a"), "a");
             stroke.b_mm = vec3_from(s.at("b"), "b");
             stroke.width_mm = s.at("width_mm").get<double>();
-            if (!(stroke.width_mm > 0 && stroke.width_mm < 100)) throw std::runtime_error("width_mm out of range");
+            if (!(stroke.width_mm > 0 && stroke.width_mm < 100))
+                throw std::runtime_error("width_mm out of range");
             stroke.line = s.at("line").get<int>();
             r.result.strokes.push_back(stroke);
         }

@@ -10,14 +10,14 @@
 namespace calbox::sim {
 
 struct PhotoSettings {
-    int supersample = 4;              // sub-squares per pixel side where an edge crosses it
-    double blur_sigma_px = 0;         // defocus, Gaussian
-    double noise_sigma_dn = 0;        // sensor noise, Gaussian, in 8-bit counts
+    int supersample = 4;        // sub-squares per pixel side where an edge crosses it
+    double blur_sigma_px = 0;   // defocus, Gaussian
+    double noise_sigma_dn = 0;  // sensor noise, Gaussian, in 8-bit counts
     std::uint64_t seed = 1;
-    double exposure_dn = 240;         // a white surface (albedo 1) at the image centre
-    double lighting_gradient = 0;     // relative change of light across the image
+    double exposure_dn = 240;      // a white surface (albedo 1) at the image centre
+    double lighting_gradient = 0;  // relative change of light across the image
     double lighting_direction_deg = 0;
-    double vignetting = 0;            // relative loss of light at the image corners
+    double vignetting = 0;  // relative loss of light at the image corners
 };
 
 struct GrayImage {
@@ -25,6 +25,10 @@ struct GrayImage {
     int height_px = 0;
     std::vector<std::uint8_t> pixels;  // row-major, no padding
 };
+
+// The scene's mean albedo over each pixel, before light and sensor (row-major).
+std::vector<float> render_albedo(const CameraIntrinsics& camera, const Pose& plane_to_camera,
+                                 const Scene& scene);
 
 GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_camera,
                        const Scene& scene, const PhotoSettings& settings);

@@ -1,14 +1,15 @@
 #include "board/sim/scenario.hpp"
 
+#include <toml++/toml.h>
+
 #include <cmath>
 #include <set>
-#include <toml++/toml.h>
 
 namespace calbox::sim {
 namespace {
 
 class Reader {
-public:
+  public:
     Reader(std::string file, const toml::table& table, std::string section)
         : file_(std::move(file)), table_(table), section_(std::move(section)) {}
 
@@ -90,7 +91,7 @@ public:
         }
     }
 
-private:
+  private:
     std::string file_;
     const toml::table& table_;
     std::string section_;
@@ -100,7 +101,8 @@ private:
 const toml::table* subtable(const std::string& file, const toml::table& t, const char* name) {
     const auto* node = t.get(name);
     if (node == nullptr) return nullptr;
-    if (!node->is_table()) throw ScenarioError(file + ": [" + std::string(name) + "] must be a table");
+    if (!node->is_table())
+        throw ScenarioError(file + ": [" + std::string(name) + "] must be a table");
     return node->as_table();
 }
 
@@ -115,11 +117,14 @@ void read_delta(const std::string& file, const toml::table& t, const std::string
     r.number("height_mm", p.height_mm, 10, 3000);
     r.finish();
     for (double a : p.tower_angle_trim_deg)
-        if (std::abs(a) > 10) r.fail("tower_angle_trim_deg", "trims beyond 10 degrees are not a delta");
+        if (std::abs(a) > 10)
+            r.fail("tower_angle_trim_deg", "trims beyond 10 degrees are not a delta");
     for (double e : p.endstop_offset_mm)
-        if (e > 0 || e < -20) r.fail("endstop_offset_mm", "offsets must lie in [-20, 0] (Marlin's M666)");
+        if (e > 0 || e < -20)
+            r.fail("endstop_offset_mm", "offsets must lie in [-20, 0] (Marlin's M666)");
     for (double d : p.diagonal_rod_trim_mm)
-        if (std::abs(d) > 20) r.fail("diagonal_rod_trim_mm", "trims beyond 20 mm are not plausible");
+        if (std::abs(d) > 20)
+            r.fail("diagonal_rod_trim_mm", "trims beyond 20 mm are not plausible");
     if (!(p.diagonal_rod_mm > p.radius_mm)) r.fail("diagonal_rod_mm", "must exceed radius_mm");
 }
 
@@ -137,7 +142,8 @@ Scenario load_scenario(const std::string& path) {
     Scenario s;
     s.path = path;
     for (const auto& [key, node] : root) {
-        static const std::set<std::string> kSections{"machine", "delta", "truth", "twin", "camera", "photo"};
+        static const std::set<std::string> kSections{"machine", "delta",  "truth",
+                                                     "twin",    "camera", "photo"};
         if (kSections.count(std::string(key.str())) == 0) {
             throw ScenarioError(path + ": unknown section or key '" + std::string(key.str()) + "'");
         }
@@ -173,11 +179,13 @@ Scenario load_scenario(const std::string& path) {
     if (const auto* truth = subtable(path, root, "truth")) {
         for (const auto& [key, node] : *truth) {
             if (key.str() != "delta" && key.str() != "cartesian") {
-                throw ScenarioError(path + ": [truth] has unknown part '" + std::string(key.str()) + "'");
+                throw ScenarioError(path + ": [truth] has unknown part '" + std::string(key.str()) +
+                                    "'");
             }
         }
         if (const auto* d = subtable(path, *truth, "delta")) {
-            if (s.machine.kind != "delta") throw ScenarioError(path + ": [truth.delta] on a " + s.machine.kind);
+            if (s.machine.kind != "delta")
+                throw ScenarioError(path + ": [truth.delta] on a " + s.machine.kind);
             read_delta(path, *d, "truth.delta", s.delta_truth);
         }
         if (const auto* c = subtable(path, *truth, "cartesian")) {
@@ -214,7 +222,8 @@ Scenario load_scenario(const std::string& path) {
         r.point("look_at_mm", c.look_at_mm);
         r.number("roll_deg", c.roll_deg, -180, 180);
         r.finish();
-        if ((c.position_mm - c.look_at_mm).norm() < 1) r.fail("position_mm", "must differ from look_at_mm");
+        if ((c.position_mm - c.look_at_mm).norm() < 1)
+            r.fail("position_mm", "must differ from look_at_mm");
         s.camera = c;
     }
     if (const auto* photo = subtable(path, root, "photo")) {

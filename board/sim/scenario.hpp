@@ -15,7 +15,7 @@
 namespace calbox::sim {
 
 class ScenarioError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
@@ -41,8 +41,8 @@ struct ScenarioCamera {
 struct Scenario {
     std::string path;
     MachineSettings machine;
-    DeltaParams delta_firmware;    // [delta]
-    DeltaParams delta_truth;       // [truth.delta]: keys not given equal the firmware's
+    DeltaParams delta_firmware;       // [delta]
+    DeltaParams delta_truth;          // [truth.delta]: keys not given equal the firmware's
     CartesianErrors cartesian_truth;  // [truth.cartesian]
     bool zero_height_at_centre = true;
     double segment_mm = 0.5;

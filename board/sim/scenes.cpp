@@ -159,7 +159,8 @@ StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
         const double reach = m + ix.cell_mm * 0.7072;
         for (int k = std::max(0, k0); k <= std::min(ix.ny - 1, k1); ++k) {
             for (int i = std::max(0, i0); i <= std::min(ix.nx - 1, i1); ++i) {
-                const double cx = ix.x0 + (i + 0.5) * ix.cell_mm, cy = ix.y0 + (k + 0.5) * ix.cell_mm;
+                const double cx = ix.x0 + (i + 0.5) * ix.cell_mm,
+                             cy = ix.y0 + (k + 0.5) * ix.cell_mm;
                 const double t = closest_parameter(s, cx, cy);
                 const double dx = cx - (s.a_mm.x + t * (s.b_mm.x - s.a_mm.x));
                 const double dy = cy - (s.a_mm.y + t * (s.b_mm.y - s.a_mm.y));
@@ -179,8 +180,7 @@ double StrokeScene::albedo(const Footprint& f) const {
     const auto nearest = [&](Vec2 p) {
         Nearest best;
         const double zr = ix.reference_height_mm;
-        const auto* list =
-            ix.at(p.x + f.shift_per_height.x * zr, p.y + f.shift_per_height.y * zr);
+        const auto* list = ix.at(p.x + f.shift_per_height.x * zr, p.y + f.shift_per_height.y * zr);
         if (list == nullptr) return best;
         for (const std::uint32_t n : *list) {
             const auto& s = strokes_[n];
@@ -204,8 +204,9 @@ double StrokeScene::albedo(const Footprint& f) const {
                     best.normal = {dx / d, dy / d};
                 } else {
                     const double l = std::hypot(s.b_mm.x - s.a_mm.x, s.b_mm.y - s.a_mm.y);
-                    best.normal = l > 1e-12 ? Vec2{-(s.b_mm.y - s.a_mm.y) / l, (s.b_mm.x - s.a_mm.x) / l}
-                                            : Vec2{1, 0};
+                    best.normal = l > 1e-12
+                                      ? Vec2{-(s.b_mm.y - s.a_mm.y) / l, (s.b_mm.x - s.a_mm.x) / l}
+                                      : Vec2{1, 0};
                 }
             }
         }
@@ -246,10 +247,10 @@ struct BoardScene::Layout {
     std::vector<Vec3> charuco_corners_mm;
 
     double square_albedo(int i, int j) const {
-        const int columns = spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.columns + 1
-                                                                                : spec.columns;
-        const int rows = spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.rows + 1
-                                                                             : spec.rows;
+        const int columns =
+            spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.columns + 1 : spec.columns;
+        const int rows =
+            spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.rows + 1 : spec.rows;
         const int first = spec.kind == geometry::PatternSpec::Kind::chessboard ? -1 : 0;
         const int ci = i - first, cj = j - first;
         if (ci >= 0 && cj >= 0 && ci < columns && cj < rows) {
@@ -270,9 +271,9 @@ BoardScene::BoardScene(const geometry::PatternSpec& spec, int supersample)
     if (spec.kind != geometry::PatternSpec::Kind::charuco) return;
     const auto dictionary =
         cv::aruco::getPredefinedDictionary(geometry::aruco_dictionary_id(spec.dictionary));
-    const auto board = cv::aruco::CharucoBoard::create(
-        spec.columns, spec.rows, static_cast<float>(spec.square_mm),
-        static_cast<float>(spec.marker_mm), dictionary);
+    const auto board =
+        cv::aruco::CharucoBoard::create(spec.columns, spec.rows, static_cast<float>(spec.square_mm),
+                                        static_cast<float>(spec.marker_mm), dictionary);
     if (board->ids.size() > static_cast<std::size_t>(dictionary->bytesList.rows)) {
         throw std::invalid_argument("ChArUco board needs more markers than " + spec.dictionary +
                                     " has");
@@ -313,8 +314,8 @@ double BoardScene::albedo(const Footprint& f) const {
     const Extent e = half_extent(f);
     const double gx = f.centre_mm.x / s, gy = f.centre_mm.y / s;
     const int i = static_cast<int>(std::floor(gx)), j = static_cast<int>(std::floor(gy));
-    const bool near_square_edge = std::min(gx - i, i + 1 - gx) * s < e.x_mm ||
-                                  std::min(gy - j, j + 1 - gy) * s < e.y_mm;
+    const bool near_square_edge =
+        std::min(gx - i, i + 1 - gx) * s < e.x_mm || std::min(gy - j, j + 1 - gy) * s < e.y_mm;
     const auto marker = l.markers.find({i, j});
     if (near_square_edge || marker == l.markers.end()) {
         return grid_albedo(f, {0, 0}, s, supersample_, squares);

@@ -19,7 +19,7 @@ struct Footprint {
 };
 
 class Scene {
-public:
+  public:
     virtual ~Scene() = default;
     // Mean reflectance over the pixel, 0 (black) to 1 (white).
     virtual double albedo(const Footprint& f) const = 0;
@@ -27,8 +27,8 @@ public:
 
 // Fraction of a pixel (or of a 1/subdivisions sub-square) on the inner side of a straight edge:
 // signed distance of its centre (negative inside), the edge's outward unit normal in plane mm.
-double inside_fraction(double signed_distance_mm, Vec2 outward_normal,
-                       const double jacobian[2][2], int subdivisions);
+double inside_fraction(double signed_distance_mm, Vec2 outward_normal, const double jacobian[2][2],
+                       int subdivisions);
 
 // Extruded or burned material: round-ended strokes of given width whose top lies at the
 // height of their end points.
@@ -38,13 +38,13 @@ struct StrokeSegment {
 };
 
 class StrokeScene final : public Scene {
-public:
+  public:
     StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo, double material_albedo,
                 int supersample);
     ~StrokeScene() override;
     double albedo(const Footprint& f) const override;
 
-private:
+  private:
     struct Index;
     std::vector<StrokeSegment> strokes_;
     std::unique_ptr<Index> index_;
@@ -56,7 +56,7 @@ private:
 // Chessboard frame: origin at the first inner corner, x along columns, y along rows (OpenCV's
 // object points). ChArUco frame: OpenCV's CharucoBoard frame.
 class BoardScene final : public Scene {
-public:
+  public:
     BoardScene(const geometry::PatternSpec& spec, int supersample);
     ~BoardScene() override;
     double albedo(const Footprint& f) const override;
@@ -69,7 +69,7 @@ public:
     // Inner (chessboard / ChArUco) corners, then ChArUco marker corners.
     std::vector<Feature> features() const;
 
-private:
+  private:
     struct Layout;
     std::unique_ptr<Layout> layout_;
     int supersample_;

@@ -80,6 +80,8 @@ inline Vec3 vector_from_rotation(const Mat3& R) {
 }
 
 constexpr double kPi = 3.14159265358979323846;
-inline double radians(double deg) { return deg * kPi / 180.0; }
+inline double radians(double deg) {
+    return deg * kPi / 180.0;
+}
 
 }  // namespace calbox::sim

@@ -39,12 +39,12 @@ double parse_length(std::string_view whole, std::string_view s) {
 int aruco_dictionary_id(std::string_view name) {
     // OpenCV's PREDEFINED_DICTIONARY_NAME enumeration order.
     static constexpr std::array<std::string_view, 21> kNames{
-        "DICT_4X4_50",         "DICT_4X4_100",        "DICT_4X4_250",   "DICT_4X4_1000",
-        "DICT_5X5_50",         "DICT_5X5_100",        "DICT_5X5_250",   "DICT_5X5_1000",
-        "DICT_6X6_50",         "DICT_6X6_100",        "DICT_6X6_250",   "DICT_6X6_1000",
-        "DICT_7X7_50",         "DICT_7X7_100",        "DICT_7X7_250",   "DICT_7X7_1000",
-        "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5",  "DICT_APRILTAG_25h9",
-        "DICT_APRILTAG_36h10", "DICT_APRILTAG_36h11"};
+        "DICT_4X4_50",         "DICT_4X4_100",       "DICT_4X4_250",       "DICT_4X4_1000",
+        "DICT_5X5_50",         "DICT_5X5_100",       "DICT_5X5_250",       "DICT_5X5_1000",
+        "DICT_6X6_50",         "DICT_6X6_100",       "DICT_6X6_250",       "DICT_6X6_1000",
+        "DICT_7X7_50",         "DICT_7X7_100",       "DICT_7X7_250",       "DICT_7X7_1000",
+        "DICT_ARUCO_ORIGINAL", "DICT_APRILTAG_16h5", "DICT_APRILTAG_25h9", "DICT_APRILTAG_36h10",
+        "DICT_APRILTAG_36h11"};
     for (std::size_t i = 0; i < kNames.size(); ++i)
         if (kNames[i] == name) return static_cast<int>(i);
     throw PatternError("unknown ArUco dictionary '" + std::string(name) +
@@ -83,7 +83,8 @@ PatternSpec parse_pattern_spec(std::string_view text) {
         if (slash == std::string_view::npos) fail(text, "charuco needs SQUARE_MM/MARKER_MM");
         spec.square_mm = parse_length(text, lengths.substr(0, slash));
         spec.marker_mm = parse_length(text, lengths.substr(slash + 1));
-        if (spec.marker_mm >= spec.square_mm) fail(text, "the marker must be smaller than the square");
+        if (spec.marker_mm >= spec.square_mm)
+            fail(text, "the marker must be smaller than the square");
     } else {
         spec.square_mm = parse_length(text, lengths);
     }

@@ -9,7 +9,7 @@
 namespace calbox::geometry {
 
 class PatternError : public std::invalid_argument {
-public:
+  public:
     using std::invalid_argument::invalid_argument;
 };
 
@@ -18,8 +18,8 @@ struct PatternSpec {
     int columns = 0;  // chessboard: inner corners; charuco: squares
     int rows = 0;
     double square_mm = 0;
-    double marker_mm = 0;        // charuco only
-    std::string dictionary;      // charuco only, OpenCV's name such as DICT_6X6_250
+    double marker_mm = 0;    // charuco only
+    std::string dictionary;  // charuco only, OpenCV's name such as DICT_6X6_250
 };
 
 // Throws PatternError with a message that shows the expected form.

@@ -7,7 +7,9 @@
 namespace calbox::gcode {
 namespace {
 
-bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
+bool is_blank(char c) {
+    return c == ' ' || c == '\t' || c == '\r' || c == '\n';
+}
 
 // Removes comments; '(' comments end at ')', ';' comments at the end of the line.
 std::string strip_comments(std::string_view raw) {

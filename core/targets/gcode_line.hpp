@@ -10,13 +10,13 @@
 namespace calbox::gcode {
 
 class SyntaxError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
 struct Word {
-    char letter = 0;                 // upper case
-    std::optional<double> value;     // empty for a bare flag such as the X in "G28 X"
+    char letter = 0;              // upper case
+    std::optional<double> value;  // empty for a bare flag such as the X in "G28 X"
 };
 
 struct Line {

@@ -21,7 +21,7 @@
 namespace calbox::mocks {
 
 class MockCamera final : public hal::Camera {
-public:
+  public:
     std::deque<hal::CaptureResult> results;  // what take_frames() hands out, in order
     void start_capture(const hal::CaptureRequest& r) override {
         mock("camera").actualCall("start_capture").withIntParameter("frame_count", r.frame_count);
@@ -39,7 +39,7 @@ public:
 };
 
 class MockLines final : public hal::Lines {
-public:
+  public:
     std::deque<hal::ButtonEvent> button_events;
     int button_fd() const override {
         return mock("lines").actualCall("button_fd").returnIntValueOrDefault(-1);
@@ -52,13 +52,18 @@ public:
         return e;
     }
     void set_led(hal::Led which, bool on) override {
-        mock("lines").actualCall("set_led").withIntParameter("which", static_cast<int>(which)).withBoolParameter("on", on);
+        mock("lines")
+            .actualCall("set_led")
+            .withIntParameter("which", static_cast<int>(which))
+            .withBoolParameter("on", on);
     }
-    void set_light(bool on) override { mock("lines").actualCall("set_light").withBoolParameter("on", on); }
+    void set_light(bool on) override {
+        mock("lines").actualCall("set_light").withBoolParameter("on", on);
+    }
 };
 
 class MockSerialPort final : public hal::SerialPort {
-public:
+  public:
     std::string incoming;  // bytes the far end has sent
     std::string written;   // bytes written to the far end
     int fd() const override { return mock("serial").actualCall("fd").returnIntValueOrDefault(-1); }
@@ -70,7 +75,9 @@ public:
     }
     std::size_t write_some(std::span<const std::uint8_t> bytes) override {
         const auto limit = static_cast<std::size_t>(
-            mock("serial").actualCall("write_some").returnUnsignedIntValueOrDefault(static_cast<unsigned>(bytes.size())));
+            mock("serial")
+                .actualCall("write_some")
+                .returnUnsignedIntValueOrDefault(static_cast<unsigned>(bytes.size())));
         const std::size_t n = std::min(limit, bytes.size());
         written.append(bytes.begin(), bytes.begin() + static_cast<std::ptrdiff_t>(n));
         return n;
@@ -78,16 +85,25 @@ public:
 };
 
 class MockRegisterLink final : public hal::RegisterLink {
-public:
+  public:
     std::deque<hal::RegisterResult> results;
     void start_read_registers(int first, int count) override {
-        mock("registers").actualCall("start_read_registers").withIntParameter("first", first).withIntParameter("count", count);
+        mock("registers")
+            .actualCall("start_read_registers")
+            .withIntParameter("first", first)
+            .withIntParameter("count", count);
     }
     void start_write_registers(int first, std::vector<std::uint16_t> values) override {
-        mock("registers").actualCall("start_write_registers").withIntParameter("first", first).withUnsignedIntParameter("count", static_cast<unsigned>(values.size()));
+        mock("registers")
+            .actualCall("start_write_registers")
+            .withIntParameter("first", first)
+            .withUnsignedIntParameter("count", static_cast<unsigned>(values.size()));
     }
     void start_write_coil(int address, bool on) override {
-        mock("registers").actualCall("start_write_coil").withIntParameter("address", address).withBoolParameter("on", on);
+        mock("registers")
+            .actualCall("start_write_coil")
+            .withIntParameter("address", address)
+            .withBoolParameter("on", on);
     }
     int completion_fd() const override {
         return mock("registers").actualCall("completion_fd").returnIntValueOrDefault(-1);
@@ -102,7 +118,7 @@ public:
 };
 
 class MockDisplay final : public hal::Display {
-public:
+  public:
     std::vector<hal::MonoBitmap> frames;  // every frame shown
     int width_px() const override { return 128; }
     int height_px() const override { return 64; }
@@ -116,10 +132,13 @@ public:
 };
 
 class MockTimer final : public hal::Timer {
-public:
+  public:
     int fd() const override { return -1; }
     void arm(std::chrono::nanoseconds after, std::chrono::nanoseconds period) override {
-        mock("clock").actualCall("arm").withLongIntParameter("after_ns", static_cast<long>(after.count())).withLongIntParameter("period_ns", static_cast<long>(period.count()));
+        mock("clock")
+            .actualCall("arm")
+            .withLongIntParameter("after_ns", static_cast<long>(after.count()))
+            .withLongIntParameter("period_ns", static_cast<long>(period.count()));
     }
     void disarm() override { mock("clock").actualCall("disarm"); }
     std::uint64_t take_expirations() override {
@@ -128,7 +147,7 @@ public:
 };
 
 class MockClock final : public hal::Clock {
-public:
+  public:
     std::chrono::nanoseconds time{0};  // set by the test
     std::chrono::nanoseconds now() const override { return time; }
     std::unique_ptr<hal::Timer> make_timer() override {
@@ -138,7 +157,7 @@ public:
 };
 
 class MockStorage final : public hal::Storage {
-public:
+  public:
     std::map<std::string, std::string> files;
     std::optional<std::string> read_file(const std::string& name) override {
         mock("storage").actualCall("read_file").withStringParameter("name", name.c_str());

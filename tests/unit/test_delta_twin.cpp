@@ -12,7 +12,9 @@
 using namespace calbox::sim;
 
 namespace {
-DeltaParams kossel() { return DeltaParams{}; }  // rod 250, radius 140, height 300, no trims
+DeltaParams kossel() {
+    return DeltaParams{};
+}  // rod 250, radius 140, height 300, no trims
 
 JobResult run_job(MachineTwin& machine, const std::string& job) {
     GcodeRunner runner(machine, ToolSettings{});
@@ -91,7 +93,9 @@ TEST(DeltaTwin, longer_true_rods_print_the_square_where_worked_out_by_hand) {
     DeltaTwin twin(truth, kossel());
     twin.zero_height_at_centre();
     // Commanded point -> true position, solved by hand (tests/reference/delta_hand.py).
-    struct Case { double cx, cy, x, y, z; };
+    struct Case {
+        double cx, cy, x, y, z;
+    };
     const Case cases[] = {
         {20, 0, 20.116758375, 0.001927803, 0.204364044},
         {0, 20, 0.000000000, 20.114839225, 0.204220810},
@@ -135,7 +139,9 @@ TEST(DeltaTwin, m665_changes_geometry_as_marlin_does_and_m503_reports_it) {
     }
     bool reported = false;
     for (const auto& r : result.replies) {
-        if (r == "echo:  M665 L251.000 R140.500 H300.000 X0.200 Y-0.300 Z0.100 A0.200 B-0.100 C-0.100") reported = true;
+        if (r ==
+            "echo:  M665 L251.000 R140.500 H300.000 X0.200 Y-0.300 Z0.100 A0.200 B-0.100 C-0.100")
+            reported = true;
     }
     CHECK(reported);
 }

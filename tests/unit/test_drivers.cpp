@@ -21,8 +21,12 @@ std::filesystem::path fresh_directory() {
 
 TEST_GROUP(FileStorage) {
     std::filesystem::path dir;
-    void setup() override { dir = fresh_directory(); }
-    void teardown() override { std::filesystem::remove_all(dir); }
+    void setup() override {
+        dir = fresh_directory();
+    }
+    void teardown() override {
+        std::filesystem::remove_all(dir);
+    }
 };
 
 TEST(FileStorage, replaces_whole_file_and_leaves_no_temporary) {
@@ -66,5 +70,6 @@ TEST(TimerfdClock, timer_fd_becomes_readable_after_expiry_and_counts_it) {
     CHECK(clock.now() - before >= std::chrono::milliseconds(2));
     CHECK_EQUAL(1u, timer->take_expirations());
     CHECK_EQUAL(0u, timer->take_expirations());
-    CHECK_THROWS(std::invalid_argument, timer->arm(std::chrono::nanoseconds(0), std::chrono::nanoseconds(0)));
+    CHECK_THROWS(std::invalid_argument,
+                 timer->arm(std::chrono::nanoseconds(0), std::chrono::nanoseconds(0)));
 }

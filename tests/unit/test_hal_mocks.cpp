@@ -4,12 +4,11 @@
 
 using namespace calbox;
 
-TEST_GROUP(HalMocks) {
-    void teardown() override {
-        mock().checkExpectations();
-        mock().clear();
-    }
-};
+TEST_GROUP(HalMocks){void teardown() override{mock().checkExpectations();
+mock().clear();
+}
+}
+;
 
 TEST(HalMocks, camera_hands_out_queued_captures_in_order) {
     mocks::MockCamera camera;
@@ -29,7 +28,10 @@ TEST(HalMocks, camera_hands_out_queued_captures_in_order) {
 TEST(HalMocks, lines_record_leds_and_deliver_button_edges) {
     mocks::MockLines lines;
     lines.button_events.push_back({true, std::chrono::milliseconds(5)});
-    mock("lines").expectOneCall("set_led").withIntParameter("which", static_cast<int>(hal::Led::busy)).withBoolParameter("on", true);
+    mock("lines")
+        .expectOneCall("set_led")
+        .withIntParameter("which", static_cast<int>(hal::Led::busy))
+        .withBoolParameter("on", true);
     mock("lines").expectOneCall("set_light").withBoolParameter("on", false);
     mock("lines").expectNCalls(2, "read_button");
     lines.set_led(hal::Led::busy, true);
@@ -45,7 +47,8 @@ TEST(HalMocks, serial_port_accepts_partial_writes) {
     port.incoming = "ok\n";
     mock("serial").expectOneCall("write_some").andReturnValue(3u);
     const std::string line = "G28 X\n";
-    const auto n = port.write_some(std::span(reinterpret_cast<const std::uint8_t*>(line.data()), line.size()));
+    const auto n =
+        port.write_some(std::span(reinterpret_cast<const std::uint8_t*>(line.data()), line.size()));
     CHECK_EQUAL(3u, n);
     STRCMP_EQUAL("G28", port.written.c_str());
     std::uint8_t buffer[8];
@@ -56,7 +59,10 @@ TEST(HalMocks, serial_port_accepts_partial_writes) {
 TEST(HalMocks, register_link_reports_results) {
     mocks::MockRegisterLink link;
     link.results.push_back(hal::RegisterResult{{1, 2, 3}, ""});
-    mock("registers").expectOneCall("start_read_registers").withIntParameter("first", 100).withIntParameter("count", 3);
+    mock("registers")
+        .expectOneCall("start_read_registers")
+        .withIntParameter("first", 100)
+        .withIntParameter("count", 3);
     mock("registers").expectOneCall("take_result");
     link.start_read_registers(100, 3);
     CHECK_EQUAL(3u, link.take_result().values.size());
@@ -77,7 +83,10 @@ TEST(HalMocks, display_refuses_a_frame_of_the_wrong_size) {
 TEST(HalMocks, clock_timers_and_storage_record_calls) {
     mocks::MockClock clock;
     mock("clock").expectOneCall("make_timer");
-    mock("clock").expectOneCall("arm").withLongIntParameter("after_ns", 1000).withLongIntParameter("period_ns", 0);
+    mock("clock")
+        .expectOneCall("arm")
+        .withLongIntParameter("after_ns", 1000)
+        .withLongIntParameter("period_ns", 0);
     auto timer = clock.make_timer();
     timer->arm(std::chrono::microseconds(1), std::chrono::nanoseconds(0));
     mocks::MockStorage storage;

@@ -67,11 +67,14 @@ std::vector<cv::Point2d> opencv_projection(const CameraIntrinsics& c, const Pose
 }
 
 cv::Mat as_mat(const GrayImage& image) {
-    return cv::Mat(image.height_px, image.width_px, CV_8UC1, const_cast<std::uint8_t*>(image.pixels.data())).clone();
+    return cv::Mat(image.height_px, image.width_px, CV_8UC1,
+                   const_cast<std::uint8_t*>(image.pixels.data()))
+        .clone();
 }
 
 // RMS distance from each detected corner to the nearest OpenCV projection of a board corner.
-double rms_to_nearest(const std::vector<cv::Point2f>& found, const std::vector<cv::Point2d>& truth) {
+double rms_to_nearest(const std::vector<cv::Point2f>& found,
+                      const std::vector<cv::Point2d>& truth) {
     double sum = 0;
     for (const auto& f : found) {
         double best = 1e300;
@@ -203,7 +206,8 @@ TEST(BoardRender, charuco_markers_decode_with_their_ids_at_their_true_corners) {
             bool matched = false;
             for (std::size_t t = 0; t < which.size(); ++t) {
                 if (which[t] != std::make_pair(ids[m], k)) continue;
-                worst = std::max(worst, std::hypot(corners[m][k].x - truth[t].x, corners[m][k].y - truth[t].y));
+                worst = std::max(
+                    worst, std::hypot(corners[m][k].x - truth[t].x, corners[m][k].y - truth[t].y));
                 matched = true;
             }
             CHECK(matched);
@@ -226,13 +230,15 @@ struct SquareMeasure {
 // across each stroke on the bed (at the strokes' top height), projects them with the true
 // camera, and takes the centroid of the material signal along each line.
 SquareMeasure measure_square(const cv::Mat& gray, const CameraIntrinsics& camera, const Pose& pose,
-                             double half_side_mm, double top_z_mm, double along_from, double along_to) {
+                             double half_side_mm, double top_z_mm, double along_from,
+                             double along_to) {
     cv::Mat image;
     gray.convertTo(image, CV_32F);
     const auto sample = [&](double x, double y) {
         const Vec2 px = project_point(camera, pose, {x, y, top_z_mm});
         cv::Mat patch;
-        cv::getRectSubPix(image, cv::Size(1, 1), cv::Point2f(static_cast<float>(px.x), static_cast<float>(px.y)), patch);
+        cv::getRectSubPix(image, cv::Size(1, 1),
+                          cv::Point2f(static_cast<float>(px.x), static_cast<float>(px.y)), patch);
         return static_cast<double>(patch.at<float>(0, 0));
     };
     const auto centreline = [&](double nominal, bool across_x) {
@@ -317,10 +323,84 @@ TEST(PrintPhoto, longer_rods_grow_the_square_by_the_hand_worked_amount) {
     truth.diagonal_rod_mm = 251;
     const auto square = print_and_photograph(truth, DeltaParams{});
     // Mid-side true positions from tests/reference/delta_hand.py, at the stroke top z ~ 0.2044.
-    const auto m = measure_square(square.photo, square.camera, square.pose, 20.1168, 0.2044, -1.5, 1.5);
+    const auto m =
+        measure_square(square.photo, square.camera, square.pose, 20.1168, 0.2044, -1.5, 1.5);
     DOUBLES_EQUAL(20.116758375, m.right, 0.005);
     DOUBLES_EQUAL(-20.116758375, m.left, 0.005);
     DOUBLES_EQUAL(20.114839225, m.top, 0.005);
     DOUBLES_EQUAL(-20.118677554, m.bottom, 0.005);
     DOUBLES_EQUAL(40.233516750, m.right - m.left, 0.005);
+}
+
+TEST_GROUP(EdgeTruth){};
+
+namespace {
+
+// Where the projection of the plane line p(t) = a + t (b - a), t in [0, 1], crosses image row
+// `v` (or column, when `column` is set), found by bisection on t.
+Vec2 projected_crossing(const CameraIntrinsics& c, const Pose& pose, Vec3 a, Vec3 b, double at,
+                        bool column) {
+    double lo = 0, hi = 1;
+    const auto coordinate = [&](double t) {
+        const Vec2 px = project_point(c, pose, a + (b - a) * t);
+        return column ? px.x : px.y;
+    };
+    const bool rising = coordinate(hi) > coordinate(lo);
+    for (int i = 0; i < 100; ++i) {
+        const double mid = (lo + hi) / 2;
+        if ((coordinate(mid) < at) == rising) lo = mid; else hi = mid;
+    }
+    return project_point(c, pose, a + (b - a) * lo);
+}
+
+}  // namespace
+
+TEST(EdgeTruth, board_edges_lie_where_the_camera_projects_them_to_a_hundredth_of_a_pixel) {
+    const CameraIntrinsics camera = pinhole_1080p();
+    const Pose pose = board_pose(80, 50, 10, 400);
+    const BoardScene scene(geometry::parse_pattern_spec("chessboard:9x6@20"), 4);
+    const auto albedo = render_albedo(camera, pose, scene);
+    const auto at = [&](int u, int v) { return static_cast<double>(albedo[static_cast<std::size_t>(v) * camera.width_px + u]); };
+    double worst = 0;
+    // Rows across the line x = 80 mm between board rows y = 42 and 58 mm (away from corners).
+    const Vec2 top = project_point(camera, pose, {80, 42, 0}), bottom = project_point(camera, pose, {80, 58, 0});
+    for (int v = static_cast<int>(std::ceil(std::min(top.y, bottom.y))); v <= std::floor(std::max(top.y, bottom.y)); ++v) {
+        const Vec2 edge = projected_crossing(camera, pose, {80, 30, 0}, {80, 70, 0}, v, false);
+        const int u0 = static_cast<int>(edge.x) - 12, u1 = static_cast<int>(edge.x) + 12;
+        double sum = 0;
+        for (int u = u0; u <= u1; ++u) sum += (at(u, v) - at(u1, v)) / (at(u0, v) - at(u1, v));
+        worst = std::max(worst, std::abs(u0 - 0.5 + sum - edge.x));
+    }
+    CHECK_TEXT(worst < 0.01, ("worst board edge error " + std::to_string(worst) + " px").c_str());
+}
+
+TEST(EdgeTruth, stroke_edges_lie_where_the_camera_projects_them_to_a_hundredth_of_a_pixel) {
+    CameraIntrinsics camera;
+    camera.width_px = 900;
+    camera.height_px = 700;
+    camera.fx = camera.fy = 5700;
+    camera.cx = 451.3;
+    camera.cy = 347.9;
+    camera.distortion = {-0.05, 0.08, 0.0003, -0.0002, 0};
+    const Pose pose = look_at_pose({10, -35, 400}, {0, 0, 0}, 3);
+    const double half_width = 0.225, top_z = 0.2;
+    const StrokeScene scene({{{-10, 0, top_z}, {10, 0, top_z}, 2 * half_width}}, 0.08, 0.85, 4);
+    const auto albedo = render_albedo(camera, pose, scene);
+    const auto coverage = [&](int u, int v) {
+        return (albedo[static_cast<std::size_t>(v) * camera.width_px + u] - 0.08) / (0.85 - 0.08);
+    };
+    double worst = 0;
+    const Vec2 left = project_point(camera, pose, {-8, 0, top_z}), right = project_point(camera, pose, {8, 0, top_z});
+    for (int u = static_cast<int>(left.x); u <= static_cast<int>(right.x); u += 7) {
+        // The material's upper edge (bed +y is image up) and lower edge in this column.
+        const Vec2 upper = projected_crossing(camera, pose, {-10, half_width, top_z}, {10, half_width, top_z}, u, true);
+        const Vec2 lower = projected_crossing(camera, pose, {-10, -half_width, top_z}, {10, -half_width, top_z}, u, true);
+        const int inside = static_cast<int>(std::lround((upper.y + lower.y) / 2));
+        double above = 0, below = 0;
+        for (int v = inside - 15; v < inside; ++v) above += coverage(u, v);
+        for (int v = inside; v <= inside + 15; ++v) below += coverage(u, v);
+        worst = std::max(worst, std::abs((inside - 0.5 - above) - upper.y));
+        worst = std::max(worst, std::abs((inside - 0.5 + below) - lower.y));
+    }
+    CHECK_TEXT(worst < 0.01, ("worst stroke edge error " + std::to_string(worst) + " px").c_str());
 }

@@ -47,20 +47,31 @@ TEST(Scenario, truth_defaults_to_the_firmware_belief_key_by_key) {
     DOUBLES_EQUAL(140.0, s.delta_truth.radius_mm, 0);
     CHECK(s.camera.has_value());
     DOUBLES_EQUAL(399.5, s.camera->intrinsics.cx, 0);  // centre of an 800 px row
-    DOUBLES_EQUAL(900, s.camera->intrinsics.fy, 0);     // fy defaults to fx
+    DOUBLES_EQUAL(900, s.camera->intrinsics.fy, 0);    // fy defaults to fx
     CHECK_EQUAL(2u, s.camera->intrinsics.distortion.size());
 }
 
 TEST(Scenario, bad_files_name_the_file_and_the_key) {
     STRCMP_CONTAINS("missing [machine]", error_of("[delta]\nradius_mm = 1\n").c_str());
-    STRCMP_CONTAINS("[machine] kind: 'scara' is not one of", error_of("[machine]\nkind = \"scara\"\n").c_str());
-    STRCMP_CONTAINS("[delta] radus_mm: unknown key", error_of(std::string(kDelta) + "radus_mm = 3\n").c_str());
-    STRCMP_CONTAINS("radius_mm: must be a number", error_of("[machine]\nkind = \"delta\"\n[delta]\nradius_mm = \"big\"\n").c_str());
-    STRCMP_CONTAINS("diagonal_rod_mm: must exceed radius_mm", error_of("[machine]\nkind = \"delta\"\n[delta]\ndiagonal_rod_mm = 100\nradius_mm = 140\n").c_str());
-    STRCMP_CONTAINS("endstop_offset_mm", error_of(std::string(kDelta) + "endstop_offset_mm = [0.1, 0, 0]\n").c_str());
-    STRCMP_CONTAINS("needs 3 numbers", error_of(std::string(kDelta) + "tower_angle_trim_deg = [0, 0]\n").c_str());
-    STRCMP_CONTAINS("unknown section or key 'cameras'", error_of(std::string(kDelta) + "[cameras]\n").c_str());
-    STRCMP_CONTAINS("a delta scenario needs [delta]", error_of("[machine]\nkind = \"delta\"\n").c_str());
+    STRCMP_CONTAINS("[machine] kind: 'scara' is not one of",
+                    error_of("[machine]\nkind = \"scara\"\n").c_str());
+    STRCMP_CONTAINS("[delta] radus_mm: unknown key",
+                    error_of(std::string(kDelta) + "radus_mm = 3\n").c_str());
+    STRCMP_CONTAINS(
+        "radius_mm: must be a number",
+        error_of("[machine]\nkind = \"delta\"\n[delta]\nradius_mm = \"big\"\n").c_str());
+    STRCMP_CONTAINS(
+        "diagonal_rod_mm: must exceed radius_mm",
+        error_of("[machine]\nkind = \"delta\"\n[delta]\ndiagonal_rod_mm = 100\nradius_mm = 140\n")
+            .c_str());
+    STRCMP_CONTAINS("endstop_offset_mm",
+                    error_of(std::string(kDelta) + "endstop_offset_mm = [0.1, 0, 0]\n").c_str());
+    STRCMP_CONTAINS("needs 3 numbers",
+                    error_of(std::string(kDelta) + "tower_angle_trim_deg = [0, 0]\n").c_str());
+    STRCMP_CONTAINS("unknown section or key 'cameras'",
+                    error_of(std::string(kDelta) + "[cameras]\n").c_str());
+    STRCMP_CONTAINS("a delta scenario needs [delta]",
+                    error_of("[machine]\nkind = \"delta\"\n").c_str());
     // A TOML syntax error reports its line.
     STRCMP_CONTAINS(":2:", error_of("[machine]\nkind = = 3\n").c_str());
 }

@@ -362,10 +362,11 @@ TEST(EdgeTruth, board_edges_lie_where_the_camera_projects_them_to_a_hundredth_of
     const auto albedo = render_albedo(camera, pose, scene);
     const auto at = [&](int u, int v) { return static_cast<double>(albedo[static_cast<std::size_t>(v) * camera.width_px + u]); };
     double worst = 0;
-    // Rows across the line x = 80 mm between board rows y = 42 and 58 mm (away from corners).
-    const Vec2 top = project_point(camera, pose, {80, 42, 0}), bottom = project_point(camera, pose, {80, 58, 0});
+    // Rows across the line x = 140 mm between board rows y = 42 and 58 mm (away from corners),
+    // slanted in the image by the tilt and the lens.
+    const Vec2 top = project_point(camera, pose, {140, 42, 0}), bottom = project_point(camera, pose, {140, 58, 0});
     for (int v = static_cast<int>(std::ceil(std::min(top.y, bottom.y))); v <= std::floor(std::max(top.y, bottom.y)); ++v) {
-        const Vec2 edge = projected_crossing(camera, pose, {80, 30, 0}, {80, 70, 0}, v, false);
+        const Vec2 edge = projected_crossing(camera, pose, {140, 30, 0}, {140, 70, 0}, v, false);
         const int u0 = static_cast<int>(edge.x) - 12, u1 = static_cast<int>(edge.x) + 12;
         double sum = 0;
         for (int u = u0; u <= u1; ++u) sum += (at(u, v) - at(u1, v)) / (at(u0, v) - at(u1, v));

@@ -15,6 +15,6 @@ echo "== print: 40 mm square on a delta with a hidden +1 mm rod error ($scenario
 echo "== photo of the print (4056x3040, tilted about 5 degrees, blur and noise on)"
 "$calbox" sim photo --scenario "$scenario" --print "$out/print.json" -o "$out/print.png" --truth "$out/print_truth.json"
 echo "== photo of a 9x6 chessboard (20 mm squares) lying on the bed"
-"$calbox" sim photo --scenario "$scenario" --board chessboard:9x6@20 --on-bed -90,-60,0 \
+"$calbox" sim photo --scenario "$scenario" --board chessboard:9x6@20 --on-bed -80,50,0 \
     -o "$out/chessboard.png" --truth "$out/chessboard_truth.json"
 echo "== files in $out: print.json print.png print_truth.json chessboard.png chessboard_truth.json"

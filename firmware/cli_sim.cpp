@@ -35,12 +35,19 @@ constexpr const char* kSimHelp = R"(usage:
 
 std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text,
                                     std::size_t count) {
+    const auto refuse = [&] {
+        std::string message = flag;
+        message += " needs " + std::to_string(count) + " comma-separated numbers, not '";
+        message += text;
+        message += "'";
+        throw UsageError(message);
+    };
     std::array<double, 6> out{};
     std::stringstream in(text);
     std::string part;
     std::size_t n = 0;
     while (std::getline(in, part, ',')) {
-        if (n >= count) break;
+        if (n >= count) refuse();
         std::size_t used = 0;
         double v = 0;
         try {
@@ -48,16 +55,10 @@ std::array<double, 6> parse_numbers(const std::string& flag, const std::string& 
         } catch (const std::exception&) {
             used = 0;
         }
-        if (used != part.size() || part.empty() || !std::isfinite(v)) {
-            throw UsageError(flag + " needs " + std::to_string(count) +
-                             " comma-separated numbers, not '" + text + "'");
-        }
+        if (used != part.size() || part.empty() || !std::isfinite(v)) refuse();
         out[n++] = v;
     }
-    if (n != count || std::getline(in, part)) {
-        throw UsageError(flag + " needs " + std::to_string(count) +
-                         " comma-separated numbers, not '" + text + "'");
-    }
+    if (n != count) refuse();
     return out;
 }
 

@@ -101,7 +101,7 @@ std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode:
     }
     if (line.is('M', 503)) {
         auto lines = marlin_delta_report(firmware_);
-        lines.push_back("ok");
+        lines.emplace_back("ok");
         return lines;
     }
     return std::nullopt;

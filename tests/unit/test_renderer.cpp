@@ -348,7 +348,10 @@ Vec2 projected_crossing(const CameraIntrinsics& c, const Pose& pose, Vec3 a, Vec
     const bool rising = coordinate(hi) > coordinate(lo);
     for (int i = 0; i < 100; ++i) {
         const double mid = (lo + hi) / 2;
-        if ((coordinate(mid) < at) == rising) lo = mid; else hi = mid;
+        if ((coordinate(mid) < at) == rising)
+            lo = mid;
+        else
+            hi = mid;
     }
     return project_point(c, pose, a + (b - a) * lo);
 }
@@ -360,12 +363,16 @@ TEST(EdgeTruth, board_edges_lie_where_the_camera_projects_them_to_a_hundredth_of
     const Pose pose = board_pose(80, 50, 10, 400);
     const BoardScene scene(geometry::parse_pattern_spec("chessboard:9x6@20"), 4);
     const auto albedo = render_albedo(camera, pose, scene);
-    const auto at = [&](int u, int v) { return static_cast<double>(albedo[static_cast<std::size_t>(v) * camera.width_px + u]); };
+    const auto at = [&](int u, int v) {
+        return static_cast<double>(albedo[static_cast<std::size_t>(v) * camera.width_px + u]);
+    };
     double worst = 0;
     // Rows across the line x = 140 mm between board rows y = 42 and 58 mm (away from corners),
     // slanted in the image by the tilt and the lens.
-    const Vec2 top = project_point(camera, pose, {140, 42, 0}), bottom = project_point(camera, pose, {140, 58, 0});
-    for (int v = static_cast<int>(std::ceil(std::min(top.y, bottom.y))); v <= std::floor(std::max(top.y, bottom.y)); ++v) {
+    const Vec2 top = project_point(camera, pose, {140, 42, 0}),
+               bottom = project_point(camera, pose, {140, 58, 0});
+    for (int v = static_cast<int>(std::ceil(std::min(top.y, bottom.y)));
+         v <= std::floor(std::max(top.y, bottom.y)); ++v) {
         const Vec2 edge = projected_crossing(camera, pose, {140, 30, 0}, {140, 70, 0}, v, false);
         const int u0 = static_cast<int>(edge.x) - 12, u1 = static_cast<int>(edge.x) + 12;
         double sum = 0;
@@ -391,11 +398,14 @@ TEST(EdgeTruth, stroke_edges_lie_where_the_camera_projects_them_to_a_hundredth_o
         return (albedo[static_cast<std::size_t>(v) * camera.width_px + u] - 0.08) / (0.85 - 0.08);
     };
     double worst = 0;
-    const Vec2 left = project_point(camera, pose, {-8, 0, top_z}), right = project_point(camera, pose, {8, 0, top_z});
+    const Vec2 left = project_point(camera, pose, {-8, 0, top_z}),
+               right = project_point(camera, pose, {8, 0, top_z});
     for (int u = static_cast<int>(left.x); u <= static_cast<int>(right.x); u += 7) {
         // The material's upper edge (bed +y is image up) and lower edge in this column.
-        const Vec2 upper = projected_crossing(camera, pose, {-10, half_width, top_z}, {10, half_width, top_z}, u, true);
-        const Vec2 lower = projected_crossing(camera, pose, {-10, -half_width, top_z}, {10, -half_width, top_z}, u, true);
+        const Vec2 upper = projected_crossing(camera, pose, {-10, half_width, top_z},
+                                              {10, half_width, top_z}, u, true);
+        const Vec2 lower = projected_crossing(camera, pose, {-10, -half_width, top_z},
+                                              {10, -half_width, top_z}, u, true);
         const int inside = static_cast<int>(std::lround((upper.y + lower.y) / 2));
         double above = 0, below = 0;
         for (int v = inside - 15; v < inside; ++v) above += coverage(u, v);
@@ -404,4 +414,48 @@ TEST(EdgeTruth, stroke_edges_lie_where_the_camera_projects_them_to_a_hundredth_o
         worst = std::max(worst, std::abs((inside - 0.5 + below) - lower.y));
     }
     CHECK_TEXT(worst < 0.01, ("worst stroke edge error " + std::to_string(worst) + " px").c_str());
+}
+
+TEST_GROUP(SensorModel){};
+
+TEST(SensorModel, noise_is_seeded_and_has_the_asked_spread_light_falls_off_as_asked) {
+    CameraIntrinsics camera;
+    camera.width_px = 400;
+    camera.height_px = 300;
+    camera.fx = camera.fy = 1000;
+    camera.cx = 199.5;
+    camera.cy = 149.5;
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    const StrokeScene bare_bed({}, 0.5, 0.85, 4);  // nothing printed: a flat grey field
+    PhotoSettings photo;
+    photo.exposure_dn = 200;
+    photo.noise_sigma_dn = 2.0;
+    photo.seed = 11;
+    const GrayImage a = render_photo(camera, pose, bare_bed, photo);
+    const GrayImage b = render_photo(camera, pose, bare_bed, photo);
+    CHECK(a.pixels == b.pixels);
+    photo.seed = 12;
+    CHECK(render_photo(camera, pose, bare_bed, photo).pixels != a.pixels);
+    double sum = 0, sum2 = 0;
+    for (const auto p : a.pixels) {
+        sum += p;
+        sum2 += static_cast<double>(p) * p;
+    }
+    const double n = static_cast<double>(a.pixels.size());
+    DOUBLES_EQUAL(100.0, sum / n, 0.05);
+    // Gaussian noise of 2 DN, then rounding (adds 1/12 DN^2 of variance).
+    DOUBLES_EQUAL(std::sqrt(4.0 + 1.0 / 12), std::sqrt(sum2 / n - (sum / n) * (sum / n)), 0.05);
+
+    PhotoSettings shaded;
+    shaded.exposure_dn = 200;
+    shaded.vignetting = 0.2;
+    shaded.lighting_gradient = 0.1;  // along +x: the right edge gets 10 % more than the left
+    const GrayImage s = render_photo(camera, pose, bare_bed, shaded);
+    const auto at = [&](int u, int v) {
+        return static_cast<double>(s.pixels[static_cast<std::size_t>(v) * 400 + u]);
+    };
+    DOUBLES_EQUAL(100.0, at(200, 150), 1.0);
+    // Corner pixel (0, 0): light 1 + 0.1 * (-0.5 - 0.5 * 0) = 0.95, vignette 1 - 0.2 * rho^2 ~ 0.8.
+    DOUBLES_EQUAL(100.0 * 0.95 * 0.8, at(0, 0), 1.0);
+    CHECK(at(399, 150) - at(0, 150) > 8.0);
 }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <opencv2/aruco.hpp>
 #include <opencv2/aruco/charuco.hpp>
 #include <stdexcept>
 
@@ -235,98 +236,190 @@ double StrokeScene::albedo(const Footprint& f) const {
 
 struct BoardScene::Layout {
     geometry::PatternSpec spec;
-    // ChArUco
     struct Marker {
         int id;
         Vec2 origin_mm;  // corner 0 (smallest x and y) in the board frame
         cv::Mat bits;    // 1 = white, row 0 along the marker's corners 0 and 1
         std::array<Vec3, 4> corners_mm;
     };
-    std::map<std::pair<int, int>, Marker> markers;  // by square (column, row)
+    std::map<std::pair<int, int>, Marker> markers;  // by square (charuco) or grid cell (aruco)
     int white_parity = 1;
     std::vector<Vec3> charuco_corners_mm;
+    std::vector<Vec3> dot_centres_mm;
+    double dot_radius_mm = 0;
+    double cell_pitch_mm = 0;                 // aruco: marker plus gap
+    double extent_x_mm = 0, extent_y_mm = 0;  // the pattern's own area, from the origin
 
+    bool chessboard() const { return spec.kind == geometry::PatternSpec::Kind::chessboard; }
+
+    // Board squares (chessboard, charuco), then a one-square white margin, then background.
     double square_albedo(int i, int j) const {
-        const int columns =
-            spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.columns + 1 : spec.columns;
-        const int rows =
-            spec.kind == geometry::PatternSpec::Kind::chessboard ? spec.rows + 1 : spec.rows;
-        const int first = spec.kind == geometry::PatternSpec::Kind::chessboard ? -1 : 0;
+        const int columns = chessboard() ? spec.columns + 1 : spec.columns;
+        const int rows = chessboard() ? spec.rows + 1 : spec.rows;
+        const int first = chessboard() ? -1 : 0;
         const int ci = i - first, cj = j - first;
         if (ci >= 0 && cj >= 0 && ci < columns && cj < rows) {
             const int parity = ((i + j) % 2 + 2) % 2;
-            if (spec.kind == geometry::PatternSpec::Kind::chessboard) {
-                return parity == 0 ? kBlack : kWhite;
-            }
+            if (chessboard()) return parity == 0 ? kBlack : kWhite;
             return parity == white_parity ? kWhite : kBlack;
         }
         if (ci >= -1 && cj >= -1 && ci <= columns && cj <= rows) return kWhite;  // margin
         return kBackground;
     }
-};
 
-BoardScene::BoardScene(const geometry::PatternSpec& spec, int supersample)
-    : layout_(std::make_unique<Layout>()), supersample_(std::max(1, supersample)) {
-    layout_->spec = spec;
-    if (spec.kind != geometry::PatternSpec::Kind::charuco) return;
-    const auto dictionary =
-        cv::aruco::getPredefinedDictionary(geometry::aruco_dictionary_id(spec.dictionary));
-    const auto board =
-        cv::aruco::CharucoBoard::create(spec.columns, spec.rows, static_cast<float>(spec.square_mm),
-                                        static_cast<float>(spec.marker_mm), dictionary);
-    if (board->ids.size() > static_cast<std::size_t>(dictionary->bytesList.rows)) {
-        throw std::invalid_argument("ChArUco board needs more markers than " + spec.dictionary +
-                                    " has");
+    // White paper with a margin of `margin` around the pattern's area, on the background.
+    bool on_paper(Vec2 p, double margin) const {
+        return p.x >= -margin && p.y >= -margin && p.x <= extent_x_mm + margin &&
+               p.y <= extent_y_mm + margin;
     }
-    for (std::size_t k = 0; k < board->ids.size(); ++k) {
-        const auto& c = board->objPoints[k];
-        Layout::Marker m;
-        m.id = board->ids[k];
-        for (int n = 0; n < 4; ++n) m.corners_mm[n] = Vec3{c[n].x, c[n].y, c[n].z};
+
+    void add_marker(const cv::Ptr<cv::aruco::Dictionary>& dictionary, int id,
+                    const std::vector<cv::Point3f>& c, std::pair<int, int> where) {
+        Marker m;
+        m.id = id;
+        for (int n = 0; n < 4; ++n)
+            m.corners_mm[static_cast<std::size_t>(n)] = Vec3{c[n].x, c[n].y, c[n].z};
         // OpenCV 4.6 lays a marker with corner 0 at its top-left, x along the marker's rows and
-        // y down its columns (the board frame's y runs down the printed board); the renderer
-        // relies on that.
+        // y down its columns (the board frame's y runs down the printed board).
         if (!(c[1].x > c[0].x && c[3].y > c[0].y && c[1].y == c[0].y && c[3].x == c[0].x)) {
-            throw std::logic_error("unexpected ChArUco marker layout in this OpenCV version");
+            throw std::logic_error("unexpected ArUco board layout in this OpenCV version");
         }
         m.origin_mm = {c[0].x, c[0].y};
         m.bits = cv::aruco::Dictionary::getBitsFromByteList(
-            dictionary->bytesList.rowRange(m.id, m.id + 1), dictionary->markerSize);
-        const double cx = (c[0].x + c[2].x) / 2, cy = (c[0].y + c[2].y) / 2;
-        const int i = static_cast<int>(std::floor(cx / spec.square_mm));
-        const int j = static_cast<int>(std::floor(cy / spec.square_mm));
-        layout_->white_parity = (i + j) % 2;
-        layout_->markers.emplace(std::make_pair(i, j), std::move(m));
+            dictionary->bytesList.rowRange(id, id + 1), dictionary->markerSize);
+        markers.emplace(where, std::move(m));
     }
-    for (const auto& p : board->chessboardCorners)
-        layout_->charuco_corners_mm.push_back(Vec3{p.x, p.y, p.z});
+};
+
+namespace {
+
+double marker_albedo(const Footprint& f, const BoardScene::Layout::Marker& m, double marker_mm,
+                     int s) {
+    const int cells = m.bits.rows + 2;
+    return grid_albedo(f, m.origin_mm, marker_mm / cells, s, [&](int ci, int cj) {
+        if (ci < 0 || cj < 0 || ci >= cells || cj >= cells) return kWhite;
+        if (ci == 0 || cj == 0 || ci == cells - 1 || cj == cells - 1) return kBlack;
+        return m.bits.at<unsigned char>(cj - 1, ci - 1) != 0 ? kWhite : kBlack;
+    });
+}
+
+}  // namespace
+
+BoardScene::BoardScene(const geometry::PatternSpec& spec, int supersample)
+    : layout_(std::make_unique<Layout>()), supersample_(std::max(1, supersample)) {
+    Layout& l = *layout_;
+    l.spec = spec;
+    using Kind = geometry::PatternSpec::Kind;
+    if (spec.kind == Kind::chessboard) return;
+    if (spec.is_circles()) {
+        const double p = spec.square_mm;
+        for (int r = 0; r < spec.rows; ++r) {
+            for (int c = 0; c < spec.columns; ++c) {
+                const double x = spec.kind == Kind::acircles ? (2 * c + r % 2) * p : c * p;
+                l.dot_centres_mm.push_back(Vec3{x, r * p, 0});
+                l.extent_x_mm = std::max(l.extent_x_mm, x);
+            }
+        }
+        l.extent_y_mm = (spec.rows - 1) * p;
+        l.dot_radius_mm = 0.25 * p;
+        return;
+    }
+    const auto dictionary =
+        cv::aruco::getPredefinedDictionary(geometry::aruco_dictionary_id(spec.dictionary));
+    std::vector<std::vector<cv::Point3f>> marker_corners;
+    std::vector<int> ids;
+    if (spec.kind == Kind::charuco) {
+        const auto board = cv::aruco::CharucoBoard::create(
+            spec.columns, spec.rows, static_cast<float>(spec.square_mm),
+            static_cast<float>(spec.marker_mm), dictionary);
+        marker_corners = board->objPoints;
+        ids = board->ids;
+        for (const auto& p : board->chessboardCorners)
+            l.charuco_corners_mm.push_back(Vec3{p.x, p.y, p.z});
+    } else {
+        const auto board = cv::aruco::GridBoard::create(
+            spec.columns, spec.rows, static_cast<float>(spec.marker_mm),
+            static_cast<float>(spec.gap_mm), dictionary);
+        marker_corners = board->objPoints;
+        ids = board->ids;
+        l.cell_pitch_mm = spec.marker_mm + spec.gap_mm;
+        l.extent_x_mm = spec.columns * l.cell_pitch_mm - spec.gap_mm;
+        l.extent_y_mm = spec.rows * l.cell_pitch_mm - spec.gap_mm;
+    }
+    if (ids.empty() || ids.back() >= dictionary->bytesList.rows) {
+        throw std::invalid_argument("the board needs more markers than " + spec.dictionary +
+                                    " has");
+    }
+    for (std::size_t k = 0; k < ids.size(); ++k) {
+        const auto& c = marker_corners[k];
+        const double cx = (c[0].x + c[2].x) / 2, cy = (c[0].y + c[2].y) / 2;
+        const double pitch = spec.kind == Kind::charuco ? spec.square_mm : l.cell_pitch_mm;
+        const std::pair<int, int> where{static_cast<int>(std::floor(cx / pitch)),
+                                        static_cast<int>(std::floor(cy / pitch))};
+        if (spec.kind == Kind::charuco) l.white_parity = (where.first + where.second) % 2;
+        l.add_marker(dictionary, ids[k], c, where);
+    }
 }
 
 BoardScene::~BoardScene() = default;
 
 double BoardScene::albedo(const Footprint& f) const {
     const Layout& l = *layout_;
-    const double s = l.spec.square_mm;
-    const auto squares = [&](int i, int j) { return l.square_albedo(i, j); };
-    if (l.spec.kind == geometry::PatternSpec::Kind::chessboard) {
-        return grid_albedo(f, {0, 0}, s, supersample_, squares);
-    }
+    using Kind = geometry::PatternSpec::Kind;
     const Extent e = half_extent(f);
-    const double gx = f.centre_mm.x / s, gy = f.centre_mm.y / s;
-    const int i = static_cast<int>(std::floor(gx)), j = static_cast<int>(std::floor(gy));
-    const bool near_square_edge =
-        std::min(gx - i, i + 1 - gx) * s < e.x_mm || std::min(gy - j, j + 1 - gy) * s < e.y_mm;
-    const auto marker = l.markers.find({i, j});
-    if (near_square_edge || marker == l.markers.end()) {
-        return grid_albedo(f, {0, 0}, s, supersample_, squares);
+    const int s = supersample_;
+    if (l.spec.kind == Kind::chessboard) {
+        return grid_albedo(f, {0, 0}, l.spec.square_mm, s,
+                           [&](int i, int j) { return l.square_albedo(i, j); });
     }
-    const auto& m = marker->second;
-    const int cells = m.bits.rows + 2;
-    const double pitch = l.spec.marker_mm / cells;
-    return grid_albedo(f, m.origin_mm, pitch, supersample_, [&](int ci, int cj) {
-        if (ci < 0 || cj < 0 || ci >= cells || cj >= cells) return kWhite;
-        if (ci == 0 || cj == 0 || ci == cells - 1 || cj == cells - 1) return kBlack;
-        return m.bits.at<unsigned char>(cj - 1, ci - 1) != 0 ? kWhite : kBlack;
+    if (l.spec.kind == Kind::charuco) {
+        const double sq = l.spec.square_mm;
+        const double gx = f.centre_mm.x / sq, gy = f.centre_mm.y / sq;
+        const int i = static_cast<int>(std::floor(gx)), j = static_cast<int>(std::floor(gy));
+        const bool near_square_edge = std::min(gx - i, i + 1 - gx) * sq < e.x_mm ||
+                                      std::min(gy - j, j + 1 - gy) * sq < e.y_mm;
+        const auto marker = l.markers.find({i, j});
+        if (near_square_edge || marker == l.markers.end()) {
+            return grid_albedo(f, {0, 0}, sq, s,
+                               [&](int a, int b) { return l.square_albedo(a, b); });
+        }
+        return marker_albedo(f, marker->second, l.spec.marker_mm, s);
+    }
+    // Markers or dots on white paper with a margin of one pitch (or one gap plus a quarter marker).
+    const double margin =
+        l.spec.is_circles() ? l.spec.square_mm : l.spec.gap_mm + l.spec.marker_mm / 4;
+    const auto paper = [&](Vec2 q) { return l.on_paper(q, margin) ? kWhite : kBackground; };
+    if (l.spec.kind == Kind::aruco) {
+        const int i = static_cast<int>(std::floor(f.centre_mm.x / l.cell_pitch_mm));
+        const int j = static_cast<int>(std::floor(f.centre_mm.y / l.cell_pitch_mm));
+        const auto marker = l.markers.find({i, j});
+        if (marker != l.markers.end()) return marker_albedo(f, marker->second, l.spec.marker_mm, s);
+        return average_over_subpixels(f, s, paper);
+    }
+    // Dots: the nearest centre decides; its rim gets exact coverage.
+    const auto nearest = [&](Vec2 q) {
+        double best = std::numeric_limits<double>::infinity();
+        Vec2 normal{1, 0};
+        for (const auto& c : l.dot_centres_mm) {
+            const double dx = q.x - c.x, dy = q.y - c.y;
+            if (std::abs(dx) > 2 * l.spec.square_mm || std::abs(dy) > 2 * l.spec.square_mm)
+                continue;
+            const double d = std::hypot(dx, dy);
+            if (d - l.dot_radius_mm < best) {
+                best = d - l.dot_radius_mm;
+                normal = d > 1e-12 ? Vec2{dx / d, dy / d} : Vec2{1, 0};
+            }
+        }
+        return std::make_pair(best, normal);
+    };
+    const auto centre = nearest(f.centre_mm);
+    const double reach = 2 * std::max(e.x_mm, e.y_mm);
+    if (centre.first > reach) return average_over_subpixels(f, 1, paper);
+    if (centre.first < -reach) return kBlack;
+    return average_over_subpixels(f, s, [&](Vec2 q) {
+        const auto n = nearest(q);
+        const double dark = inside_fraction(n.first, n.second, f.jacobian, s);
+        return dark * kBlack + (1 - dark) * paper(q);
     });
 }
 
@@ -340,13 +433,16 @@ std::vector<BoardScene::Feature> BoardScene::features() const {
                                Vec3{c * l.spec.square_mm, r * l.spec.square_mm, 0}});
         return out;
     }
+    for (std::size_t k = 0; k < l.dot_centres_mm.size(); ++k)
+        out.push_back({static_cast<int>(k), -1, l.dot_centres_mm[k]});
     for (std::size_t k = 0; k < l.charuco_corners_mm.size(); ++k)
         out.push_back({static_cast<int>(k), -1, l.charuco_corners_mm[k]});
     std::vector<const Layout::Marker*> by_id;
-    for (const auto& [square, m] : l.markers) by_id.push_back(&m);
+    for (const auto& [where, m] : l.markers) by_id.push_back(&m);
     std::sort(by_id.begin(), by_id.end(), [](auto* a, auto* b) { return a->id < b->id; });
     for (const auto* m : by_id)
-        for (int n = 0; n < 4; ++n) out.push_back({m->id, n, m->corners_mm[n]});
+        for (int n = 0; n < 4; ++n)
+            out.push_back({m->id, n, m->corners_mm[static_cast<std::size_t>(n)]});
     return out;
 }
 

@@ -52,9 +52,10 @@ class StrokeScene final : public Scene {
     int supersample_;
 };
 
-// A calibration board on its own plane, with a one-square white margin, on a grey background.
+// A calibration board on its own plane, with a white margin, on a grey background.
 // Chessboard frame: origin at the first inner corner, x along columns, y along rows (OpenCV's
-// object points). ChArUco frame: OpenCV's CharucoBoard frame.
+// object points). ChArUco and ArUco grid frames: OpenCV's board frames. Dot grids: OpenCV's
+// findCirclesGrid object points, dots a quarter pitch in radius.
 class BoardScene final : public Scene {
   public:
     BoardScene(const geometry::PatternSpec& spec, int supersample);
@@ -69,8 +70,9 @@ class BoardScene final : public Scene {
     // Inner (chessboard / ChArUco) corners, then ChArUco marker corners.
     std::vector<Feature> features() const;
 
-  private:
     struct Layout;
+
+  private:
     std::unique_ptr<Layout> layout_;
     int supersample_;
 };

@@ -9,7 +9,9 @@ namespace calbox::geometry {
 namespace {
 
 constexpr std::string_view kForms =
-    "expected chessboard:COLSxROWS@SQUARE_MM or charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT";
+    "expected chessboard:COLSxROWS@SQUARE_MM, charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT, "
+    "aruco:COLSxROWS@MARKER_MM/GAP_MM:DICT, circles:COLSxROWS@PITCH_MM or "
+    "acircles:COLSxROWS@PITCH_MM";
 
 [[noreturn]] void fail(std::string_view text, std::string_view why) {
     throw PatternError("bad pattern '" + std::string(text) + "': " + std::string(why) + " (" +
@@ -70,8 +72,12 @@ PatternSpec parse_pattern_spec(std::string_view text) {
     std::string_view rest = text.substr(colon + 1);
     if (kind == "chessboard") {
         spec.kind = PatternSpec::Kind::chessboard;
-    } else if (kind == "charuco") {
-        spec.kind = PatternSpec::Kind::charuco;
+    } else if (kind == "circles") {
+        spec.kind = PatternSpec::Kind::circles;
+    } else if (kind == "acircles") {
+        spec.kind = PatternSpec::Kind::acircles;
+    } else if (kind == "charuco" || kind == "aruco") {
+        spec.kind = kind == "charuco" ? PatternSpec::Kind::charuco : PatternSpec::Kind::aruco;
         const auto dict_colon = rest.rfind(':');
         if (dict_colon == std::string_view::npos) fail(text, "no dictionary");
         spec.dictionary = std::string(rest.substr(dict_colon + 1));
@@ -95,6 +101,11 @@ PatternSpec parse_pattern_spec(std::string_view text) {
         spec.marker_mm = parse_length(text, lengths.substr(slash + 1));
         if (spec.marker_mm >= spec.square_mm)
             fail(text, "the marker must be smaller than the square");
+    } else if (spec.kind == PatternSpec::Kind::aruco) {
+        const auto slash = lengths.find('/');
+        if (slash == std::string_view::npos) fail(text, "aruco needs MARKER_MM/GAP_MM");
+        spec.marker_mm = parse_length(text, lengths.substr(0, slash));
+        spec.gap_mm = parse_length(text, lengths.substr(slash + 1));
     } else {
         spec.square_mm = parse_length(text, lengths);
     }

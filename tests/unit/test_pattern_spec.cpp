@@ -26,10 +26,26 @@ TEST(PatternSpec, reads_a_charuco_board) {
 }
 
 TEST(PatternSpec, refuses_malformed_specs) {
-    for (const char* bad : {"chessboard", "chessboard:9x6", "chessboard:9x@20", "chessboard:1x6@20",
-                            "chessboard:9x6@-3", "chessboard:9x6@abc", "circles:4x11@20",
-                            "charuco:5x7@40:DICT_6X6_250", "charuco:5x7@40/50:DICT_6X6_250",
-                            "charuco:5x7@40/20:DICT_9X9_1", "charuco:5x7@40/20"}) {
+    for (const char* bad :
+         {"chessboard", "chessboard:9x6", "chessboard:9x@20", "chessboard:1x6@20",
+          "chessboard:9x6@-3", "chessboard:9x6@abc", "dots:4x11@20", "aruco:4x3@30:DICT_4X4_50",
+          "aruco:4x3@30/5", "charuco:5x7@40:DICT_6X6_250", "charuco:5x7@40/50:DICT_6X6_250",
+          "charuco:5x7@40/20:DICT_9X9_1", "charuco:5x7@40/20"}) {
         CHECK_THROWS(PatternError, parse_pattern_spec(bad));
     }
+}
+
+TEST(PatternSpec, reads_marker_grids_and_dot_grids) {
+    const auto a = parse_pattern_spec("aruco:4x3@30/6:DICT_4X4_50");
+    CHECK(a.kind == PatternSpec::Kind::aruco);
+    CHECK(a.has_markers());
+    DOUBLES_EQUAL(30, a.marker_mm, 0);
+    DOUBLES_EQUAL(6, a.gap_mm, 0);
+    CHECK_EQUAL(0, aruco_dictionary_id(a.dictionary));
+    const auto c = parse_pattern_spec("acircles:4x11@15");
+    CHECK(c.kind == PatternSpec::Kind::acircles);
+    CHECK(c.is_circles());
+    CHECK_EQUAL(4, c.columns);
+    DOUBLES_EQUAL(15, c.square_mm, 0);
+    CHECK(parse_pattern_spec("circles:7x5@10").kind == PatternSpec::Kind::circles);
 }

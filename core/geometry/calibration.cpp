@@ -1,0 +1,285 @@
+#include "core/geometry/calibration.hpp"
+
+#include <cmath>
+#include <opencv2/aruco/charuco.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/persistence.hpp>
+
+#include "core/geometry/cv_convert.hpp"
+
+namespace calbox::geometry {
+namespace {
+
+std::vector<cv::Point3f> object_points_f(const std::vector<Point3>& points) {
+    std::vector<cv::Point3f> out;
+    for (const auto& p : points)
+        out.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z));
+    return out;
+}
+
+std::vector<cv::Point2f> image_points_f(const std::vector<Point2>& points) {
+    std::vector<cv::Point2f> out;
+    for (const auto& p : points) out.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+    return out;
+}
+
+double rms_between(const std::vector<Point2>& a, const std::vector<Point2>& b) {
+    double sum = 0;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        sum += std::pow(a[i].x - b[i].x, 2) + std::pow(a[i].y - b[i].y, 2);
+    return a.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(a.size()));
+}
+
+cv::Matx33d rotation_of(const RigidPose& p) {
+    cv::Matx33d r;
+    cv::Rodrigues(cv::Vec3d(p.rvec[0], p.rvec[1], p.rvec[2]), r);
+    return r;
+}
+
+}  // namespace
+
+std::optional<BoardObservation> find_board(const PatternSpec& pattern,
+                                           const vision::GrayView& image) {
+    const cv::Mat gray = to_cv(image);
+    BoardObservation obs;
+    if (pattern.kind == PatternSpec::Kind::chessboard) {
+        std::vector<cv::Point2f> corners;
+        const cv::Size size(pattern.columns, pattern.rows);
+        if (!cv::findChessboardCornersSB(
+                gray, size, corners,
+                cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY | cv::CALIB_CB_NORMALIZE_IMAGE)) {
+            return std::nullopt;
+        }
+        for (int r = 0; r < pattern.rows; ++r) {
+            for (int c = 0; c < pattern.columns; ++c) {
+                const auto& p = corners[static_cast<std::size_t>(r * pattern.columns + c)];
+                obs.image_points.push_back({p.x, p.y});
+                obs.object_points.push_back({c * pattern.square_mm, r * pattern.square_mm, 0});
+                obs.ids.push_back(r * pattern.columns + c);
+            }
+        }
+        return obs;
+    }
+    if (pattern.kind != PatternSpec::Kind::charuco) {
+        throw CalibrationError("calibration boards are chessboards or ChArUco boards");
+    }
+    const auto dictionary =
+        cv::aruco::getPredefinedDictionary(aruco_dictionary_id(pattern.dictionary));
+    const auto board = cv::aruco::CharucoBoard::create(
+        pattern.columns, pattern.rows, static_cast<float>(pattern.square_mm),
+        static_cast<float>(pattern.marker_mm), dictionary);
+    std::vector<std::vector<cv::Point2f>> marker_corners;
+    std::vector<int> marker_ids;
+    cv::aruco::detectMarkers(gray, dictionary, marker_corners, marker_ids);
+    if (marker_ids.empty()) return std::nullopt;
+    std::vector<cv::Point2f> corners;
+    std::vector<int> ids;
+    cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, gray, board, corners, ids);
+    if (ids.size() < 6) return std::nullopt;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+        const auto& o = board->chessboardCorners[static_cast<std::size_t>(ids[i])];
+        obs.image_points.push_back({corners[i].x, corners[i].y});
+        obs.object_points.push_back({o.x, o.y, o.z});
+        obs.ids.push_back(ids[i]);
+    }
+    return obs;
+}
+
+CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
+                                   const std::vector<NamedImage>& images) {
+    CalibrationResult result;
+    std::vector<BoardObservation> used;
+    cv::Size size;
+    for (const auto& image : images) {
+        const cv::Size this_size(image.image.width_px, image.image.height_px);
+        if (size.area() == 0) size = this_size;
+        if (this_size != size) {
+            throw CalibrationError("image " + image.name + " is " +
+                                   std::to_string(this_size.width) + "x" +
+                                   std::to_string(this_size.height) + ", the others " +
+                                   std::to_string(size.width) + "x" + std::to_string(size.height));
+        }
+        auto obs = find_board(pattern, image.image);
+        if (!obs) {
+            result.skipped.push_back(image.name);
+            continue;
+        }
+        used.push_back(std::move(*obs));
+        result.views.push_back({image.name, static_cast<int>(used.back().image_points.size()), 0});
+    }
+    if (static_cast<int>(used.size()) < kMinimumCalibrationViews) {
+        throw CalibrationError("the board was found in " + std::to_string(used.size()) + " of " +
+                               std::to_string(images.size()) +
+                               " images; calibration needs at least " +
+                               std::to_string(kMinimumCalibrationViews));
+    }
+    std::vector<std::vector<cv::Point3f>> object;
+    std::vector<std::vector<cv::Point2f>> image;
+    for (const auto& o : used) {
+        object.push_back(object_points_f(o.object_points));
+        image.push_back(image_points_f(o.image_points));
+    }
+    cv::Mat k, d;
+    std::vector<cv::Mat> rvecs, tvecs;
+    CameraModel& camera = result.camera;
+    camera.model = model;
+    camera.image_width = size.width;
+    camera.image_height = size.height;
+    try {
+        if (model == LensModel::fisheye) {
+            std::vector<std::vector<cv::Point3d>> object_d;
+            std::vector<std::vector<cv::Point2d>> image_d;
+            for (std::size_t v = 0; v < object.size(); ++v) {
+                object_d.emplace_back(object[v].begin(), object[v].end());
+                image_d.emplace_back(image[v].begin(), image[v].end());
+            }
+            cv::Matx33d kk;
+            cv::Vec4d dd;
+            cv::fisheye::calibrate(
+                object_d, image_d, size, kk, dd, rvecs, tvecs,
+                cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW,
+                cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12));
+            k = cv::Mat(kk);
+            d = cv::Mat(dd);
+        } else {
+            cv::calibrateCamera(
+                object, image, size, k, d, rvecs, tvecs, 0,
+                cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12));
+        }
+    } catch (const cv::Exception& e) {
+        throw CalibrationError(std::string("OpenCV could not calibrate from these views: ") +
+                               e.err);
+    }
+    k.convertTo(k, CV_64F);
+    for (int i = 0; i < 9; ++i)
+        camera.camera_matrix[static_cast<std::size_t>(i)] = k.at<double>(i / 3, i % 3);
+    d.convertTo(d, CV_64F);
+    camera.distortion.assign(d.begin<double>(), d.end<double>());
+    double sum = 0;
+    std::size_t count = 0;
+    for (std::size_t v = 0; v < used.size(); ++v) {
+        RigidPose pose;
+        for (int i = 0; i < 3; ++i) {
+            pose.rvec[static_cast<std::size_t>(i)] = rvecs[v].at<double>(i);
+            pose.tvec_mm[static_cast<std::size_t>(i)] = tvecs[v].at<double>(i);
+        }
+        const auto projected = project_points(camera, pose, used[v].object_points);
+        const double rms = rms_between(projected, used[v].image_points);
+        result.views[v].rms_px = rms;
+        sum += rms * rms * static_cast<double>(projected.size());
+        count += projected.size();
+    }
+    camera.rms_px = std::sqrt(sum / static_cast<double>(count));
+    return result;
+}
+
+BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& pattern,
+                            const vision::GrayView& image, double board_thickness_mm) {
+    if (!(board_thickness_mm >= 0 && board_thickness_mm < 100)) {
+        throw CalibrationError("board thickness must be 0..100 mm");
+    }
+    if (image.width_px != camera.image_width || image.height_px != camera.image_height) {
+        throw CalibrationError(
+            "the image is " + std::to_string(image.width_px) + "x" +
+            std::to_string(image.height_px) + " but the camera was calibrated at " +
+            std::to_string(camera.image_width) + "x" + std::to_string(camera.image_height));
+    }
+    const auto obs = find_board(pattern, image);
+    if (!obs)
+        throw CalibrationError("the board " +
+                               std::string(pattern.kind == PatternSpec::Kind::chessboard
+                                               ? "chessboard"
+                                               : "ChArUco board") +
+                               " was not found in the image");
+    // Pose from undistorted points with an ideal camera: the same path for both lens models.
+    const auto normalized = undistort_to_normalized(camera, obs->image_points);
+    std::vector<cv::Point3d> object;
+    for (const auto& p : obs->object_points) object.emplace_back(p.x, p.y, p.z);
+    cv::Vec3d rvec, tvec;
+    cv::solvePnP(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec, tvec, false,
+                 cv::SOLVEPNP_IPPE);
+    cv::solvePnPRefineLM(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec, tvec);
+    RigidPose board;
+    for (int i = 0; i < 3; ++i) {
+        board.rvec[static_cast<std::size_t>(i)] = rvec[i];
+        board.tvec_mm[static_cast<std::size_t>(i)] = tvec[i];
+    }
+    BedPlane plane;
+    plane.board_thickness_mm = board_thickness_mm;
+    plane.rms_px =
+        rms_between(project_points(camera, board, obs->object_points), obs->image_points);
+    // Turn the board frame over about its x axis (z up, still right-handed), then drop the origin
+    // from the board's surface to the bed's: the bed origin is the board point (0, 0, thickness).
+    const cv::Matx33d r_board = rotation_of(board);
+    const cv::Matx33d r_bed = r_board * cv::Matx33d(1, 0, 0, 0, -1, 0, 0, 0, -1);
+    const cv::Vec3d t_bed = tvec + r_board * cv::Vec3d(0, 0, board_thickness_mm);
+    cv::Vec3d r;
+    cv::Rodrigues(r_bed, r);
+    for (int i = 0; i < 3; ++i) {
+        plane.bed_to_camera.rvec[static_cast<std::size_t>(i)] = r[i];
+        plane.bed_to_camera.tvec_mm[static_cast<std::size_t>(i)] = t_bed[i];
+    }
+    return plane;
+}
+
+std::string plane_to_yaml(const BedPlane& plane) {
+    cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
+    fs << "bed_rvec" << cv::Mat(3, 1, CV_64F, const_cast<double*>(plane.bed_to_camera.rvec.data()));
+    fs << "bed_tvec"
+       << cv::Mat(3, 1, CV_64F, const_cast<double*>(plane.bed_to_camera.tvec_mm.data()));
+    fs << "board_thickness_mm" << plane.board_thickness_mm;
+    fs << "rms" << plane.rms_px;
+    return fs.releaseAndGetString();
+}
+
+BedPlane plane_from_yaml(const std::string& text) {
+    BedPlane plane;
+    try {
+        cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
+        if (!fs.isOpened()) throw FileFormatError("not an OpenCV YAML file");
+        const auto vec3 = [&](const char* key, std::array<double, 3>& out) {
+            cv::Mat m;
+            fs[key] >> m;
+            if (m.total() != 3)
+                throw FileFormatError(std::string("missing or malformed '") + key +
+                                      "' (3 numbers)");
+            m.convertTo(m, CV_64F);
+            for (int i = 0; i < 3; ++i) {
+                out[static_cast<std::size_t>(i)] = m.at<double>(i);
+                if (!std::isfinite(out[static_cast<std::size_t>(i)]))
+                    throw FileFormatError(std::string(key) + " must be finite");
+            }
+        };
+        vec3("bed_rvec", plane.bed_to_camera.rvec);
+        vec3("bed_tvec", plane.bed_to_camera.tvec_mm);
+        if (fs["board_thickness_mm"].empty())
+            throw FileFormatError("missing key 'board_thickness_mm'");
+        fs["board_thickness_mm"] >> plane.board_thickness_mm;
+        if (!fs["rms"].empty()) fs["rms"] >> plane.rms_px;
+    } catch (const cv::Exception& e) {
+        throw FileFormatError(std::string("corrupt YAML: ") + e.err);
+    }
+    return plane;
+}
+
+std::vector<Point3> pixels_to_bed(const CameraModel& camera, const BedPlane& plane,
+                                  const std::vector<Point2>& pixels, double height_mm) {
+    const auto normalized = undistort_to_normalized(camera, pixels);
+    const cv::Matx33d r = rotation_of(plane.bed_to_camera);
+    const cv::Matx33d rt = r.t();
+    const cv::Vec3d t(plane.bed_to_camera.tvec_mm[0], plane.bed_to_camera.tvec_mm[1],
+                      plane.bed_to_camera.tvec_mm[2]);
+    const cv::Vec3d origin = -(rt * t);
+    std::vector<Point3> out;
+    out.reserve(pixels.size());
+    for (const auto& n : normalized) {
+        const cv::Vec3d d = rt * cv::Vec3d(n.x, n.y, 1.0);
+        const double s = (height_mm - origin[2]) / d[2];
+        if (!(s > 0) || !std::isfinite(s))
+            throw CalibrationError("a pixel's ray does not meet the bed plane");
+        out.push_back({origin[0] + s * d[0], origin[1] + s * d[1], height_mm});
+    }
+    return out;
+}
+
+}  // namespace calbox::geometry

@@ -1,0 +1,48 @@
+#pragma once
+// Camera intrinsics (OpenCV's pinhole k1 k2 p1 p2 k3 and fisheye k1..k4 models) and the
+// camera.yaml format (OpenCV FileStorage YAML).
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/geometry/types.hpp"
+
+namespace calbox::geometry {
+
+enum class LensModel { pinhole, fisheye };
+
+struct CameraModel {
+    LensModel model = LensModel::pinhole;
+    int image_width = 0;
+    int image_height = 0;
+    std::array<double, 9> camera_matrix{1, 0, 0, 0, 1, 0, 0, 0, 1};  // row-major K
+    std::vector<double> distortion;  // pinhole: 5 coefficients; fisheye: 4
+    double rms_px = 0;               // calibration reprojection RMS
+
+    double fx() const { return camera_matrix[0]; }
+    double fy() const { return camera_matrix[4]; }
+    double cx() const { return camera_matrix[2]; }
+    double cy() const { return camera_matrix[5]; }
+};
+
+class FileFormatError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+// Raw pixels -> undistorted normalized image coordinates (x/z, y/z).
+std::vector<Point2> undistort_to_normalized(const CameraModel& camera,
+                                            const std::vector<Point2>& pixels);
+// Normalized image coordinates -> raw (distorted) pixels.
+std::vector<Point2> distort_from_normalized(const CameraModel& camera,
+                                            const std::vector<Point2>& normalized);
+// Points in a frame with `pose` (frame -> camera) -> raw pixels.
+std::vector<Point2> project_points(const CameraModel& camera, const RigidPose& pose,
+                                   const std::vector<Point3>& points);
+
+std::string camera_to_yaml(const CameraModel& camera,
+                           const std::vector<double>& per_view_rms_px = {});
+// Throws FileFormatError naming the missing or malformed key.
+CameraModel camera_from_yaml(const std::string& text);
+
+}  // namespace calbox::geometry

@@ -36,6 +36,8 @@ class Args {
 void write_output_file(const std::string& path, const std::string& contents);
 std::string read_input_file(const std::string& path, const std::string& what);
 
-int run_sim(const std::vector<std::string>& words);  // "calbox sim ..."
+int run_sim(const std::vector<std::string>& words);     // "calbox sim ..."
+int run_camera(const std::vector<std::string>& words);  // "calbox camera ..."
+int run_detect(const std::vector<std::string>& words);  // "calbox detect ..."
 
 }  // namespace calbox::cli

@@ -3,6 +3,7 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/pattern_spec.hpp"
 #include "firmware/cli_args.hpp"
 
 namespace {
@@ -12,7 +13,9 @@ constexpr const char* kHelp = R"(calbox: calibrates machines from photos of what
 usage: calbox COMMAND [ARGS...]
 
 commands:
-  sim print|photo   the digital twin: run a G-code job, render a photo (calbox sim --help)
+  camera calibrate|plane      intrinsic calibration and the bed plane (calbox camera --help)
+  detect markers|chessboard|circles   what the box sees in an image (calbox detect --help)
+  sim print|photo             the digital twin: run a G-code job, render a photo (calbox sim --help)
 
 Every command exits 0 on success, and non-zero with one line on standard error on failure.
 )";
@@ -36,8 +39,13 @@ int main(int argc, char** argv) {
         }
         const std::vector<std::string> rest(words.begin() + 1, words.end());
         if (words[0] == "sim") return calbox::cli::run_sim(rest);
+        if (words[0] == "camera") return calbox::cli::run_camera(rest);
+        if (words[0] == "detect") return calbox::cli::run_detect(rest);
         throw calbox::cli::UsageError("unknown command '" + words[0] +
                                       "' (calbox --help lists them)");
+    } catch (const calbox::geometry::PatternError& e) {
+        std::cerr << "calbox: " << e.what() << "\n";
+        return 2;
     } catch (const calbox::cli::UsageError& e) {
         std::cerr << "calbox: " << e.what() << " (see calbox --help)\n";
         return 2;

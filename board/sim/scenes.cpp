@@ -390,8 +390,10 @@ double BoardScene::albedo(const Footprint& f) const {
         l.spec.is_circles() ? l.spec.square_mm : l.spec.gap_mm + l.spec.marker_mm / 4;
     const auto paper = [&](Vec2 q) { return l.on_paper(q, margin) ? kWhite : kBackground; };
     if (l.spec.kind == Kind::aruco) {
-        const int i = static_cast<int>(std::floor(f.centre_mm.x / l.cell_pitch_mm));
-        const int j = static_cast<int>(std::floor(f.centre_mm.y / l.cell_pitch_mm));
+        // Cells split in the middle of the gaps, so a pixel on a marker's rim finds that marker.
+        const double half_gap = l.spec.gap_mm / 2;
+        const int i = static_cast<int>(std::floor((f.centre_mm.x + half_gap) / l.cell_pitch_mm));
+        const int j = static_cast<int>(std::floor((f.centre_mm.y + half_gap) / l.cell_pitch_mm));
         const auto marker = l.markers.find({i, j});
         if (marker != l.markers.end()) return marker_albedo(f, marker->second, l.spec.marker_mm, s);
         return average_over_subpixels(f, s, paper);

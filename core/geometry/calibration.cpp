@@ -1,9 +1,12 @@
 #include "core/geometry/calibration.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
+#include <opencv2/features2d.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "core/geometry/cv_convert.hpp"
 
@@ -36,6 +39,24 @@ cv::Matx33d rotation_of(const RigidPose& p) {
     return r;
 }
 
+// A chessboard reads the same turned half a turn, except for its colours: the first inner corner
+// is the one with a black square diagonally outside it (as OpenCV draws and the twin renders
+// boards). Without this the bed frame could come out turned by 180 degrees.
+void put_black_corner_first(const cv::Mat& gray, const PatternSpec& pattern,
+                            std::vector<cv::Point2f>& corners) {
+    const cv::Point2f first = corners[0];
+    const cv::Point2f along = corners[1] - first;
+    const cv::Point2f down = corners[static_cast<std::size_t>(pattern.columns)] - first;
+    const auto level = [&](cv::Point2f p) {
+        cv::Mat patch;
+        cv::getRectSubPix(gray, cv::Size(3, 3), p, patch);
+        return cv::mean(patch)[0];
+    };
+    const double outside = level(first - 0.5f * along - 0.5f * down);
+    const double beside = level(first + 0.5f * along - 0.5f * down);
+    if (outside > beside) std::reverse(corners.begin(), corners.end());
+}
+
 }  // namespace
 
 std::optional<BoardObservation> find_board(const PatternSpec& pattern,
@@ -45,11 +66,11 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
     if (pattern.kind == PatternSpec::Kind::chessboard) {
         std::vector<cv::Point2f> corners;
         const cv::Size size(pattern.columns, pattern.rows);
-        if (!cv::findChessboardCornersSB(
-                gray, size, corners,
-                cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY | cv::CALIB_CB_NORMALIZE_IMAGE)) {
+        if (!cv::findChessboardCornersSB(gray, size, corners,
+                                         cv::CALIB_CB_ACCURACY | cv::CALIB_CB_NORMALIZE_IMAGE)) {
             return std::nullopt;
         }
+        put_black_corner_first(gray, pattern, corners);
         for (int r = 0; r < pattern.rows; ++r) {
             for (int c = 0; c < pattern.columns; ++c) {
                 const auto& p = corners[static_cast<std::size_t>(r * pattern.columns + c)];
@@ -60,8 +81,41 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
         }
         return obs;
     }
+    if (pattern.is_circles()) {
+        std::vector<cv::Point2f> centres;
+        const cv::Size size(pattern.columns, pattern.rows);
+        const int flags = pattern.kind == PatternSpec::Kind::acircles ? cv::CALIB_CB_ASYMMETRIC_GRID
+                                                                      : cv::CALIB_CB_SYMMETRIC_GRID;
+        cv::SimpleBlobDetector::Params blobs;
+        blobs.minArea = 10;
+        blobs.maxArea =
+            static_cast<float>(gray.total()) / 4;  // OpenCV's 5000 px^2 is too small here
+        const auto detector = cv::SimpleBlobDetector::create(blobs);
+        bool found = cv::findCirclesGrid(gray, size, centres, flags, detector);
+        if (!found) {
+            // Bright dots on a dark ground (burned or printed in white): look at the negative.
+            cv::Mat negative;
+            cv::bitwise_not(gray, negative);
+            found = cv::findCirclesGrid(negative, size, centres, flags, detector);
+        }
+        if (!found) return std::nullopt;
+        for (int r = 0; r < pattern.rows; ++r) {
+            for (int c = 0; c < pattern.columns; ++c) {
+                const auto& p = centres[static_cast<std::size_t>(r * pattern.columns + c)];
+                const double x = pattern.kind == PatternSpec::Kind::acircles
+                                     ? (2 * c + r % 2) * pattern.square_mm
+                                     : c * pattern.square_mm;
+                obs.image_points.push_back({p.x, p.y});
+                obs.object_points.push_back({x, r * pattern.square_mm, 0});
+                obs.ids.push_back(r * pattern.columns + c);
+            }
+        }
+        return obs;
+    }
     if (pattern.kind != PatternSpec::Kind::charuco) {
-        throw CalibrationError("calibration boards are chessboards or ChArUco boards");
+        throw CalibrationError(
+            "an ArUco grid is not a calibration board; use a chessboard, ChArUco board or dot "
+            "grid");
     }
     const auto dictionary =
         cv::aruco::getPredefinedDictionary(aruco_dictionary_id(pattern.dictionary));

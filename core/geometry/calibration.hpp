@@ -24,7 +24,9 @@ struct BoardObservation {
 };
 
 // Empty when the board is not in the image. Chessboards through findChessboardCornersSB,
-// ChArUco boards through marker detection and corner interpolation (at least 6 corners).
+// ChArUco boards through marker detection and corner interpolation (at least 6 corners), dot
+// grids through findCirclesGrid (dark dots on light, or light on dark). Throws
+// CalibrationError for an ArUco grid, which has no board corners.
 std::optional<BoardObservation> find_board(const PatternSpec& pattern,
                                            const vision::GrayView& image);
 

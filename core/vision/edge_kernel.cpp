@@ -1,0 +1,79 @@
+#include "core/vision/edge_kernel.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace calbox::vision {
+
+bool sample_profile_q8(const GrayView& image, std::int64_t x0_q16, std::int64_t y0_q16,
+                       std::int64_t dx_q16, std::int64_t dy_q16, int count, std::int32_t* out) {
+    const std::int64_t max_x = static_cast<std::int64_t>(image.width_px - 1) * kQ16;
+    const std::int64_t max_y = static_cast<std::int64_t>(image.height_px - 1) * kQ16;
+    std::int64_t x = x0_q16, y = y0_q16;
+    for (int i = 0; i < count; ++i, x += dx_q16, y += dy_q16) {
+        if (x < 0 || y < 0 || x >= max_x || y >= max_y) return false;
+        const int ix = static_cast<int>(x >> 16), iy = static_cast<int>(y >> 16);
+        // Weights in 1/256 of a pixel: the products stay below 2^24 per term.
+        const std::int32_t fx = static_cast<std::int32_t>((x >> 8) & 0xff);
+        const std::int32_t fy = static_cast<std::int32_t>((y >> 8) & 0xff);
+        const std::uint8_t* row0 = image.pixels + static_cast<long>(iy) * image.stride_bytes + ix;
+        const std::uint8_t* row1 = row0 + image.stride_bytes;
+        const std::int32_t top = row0[0] * (256 - fx) + row0[1] * fx;
+        const std::int32_t bottom = row1[0] * (256 - fx) + row1[1] * fx;
+        out[i] = (top * (256 - fy) + bottom * fy + 128) >> 8;
+    }
+    return true;
+}
+
+std::optional<std::int64_t> step_edge_q16(const std::int32_t* profile_q8, int count, bool rising) {
+    if (count < 3) return std::nullopt;
+    std::int32_t peak = 0;
+    for (int i = 0; i + 1 < count; ++i) {
+        const std::int32_t g =
+            rising ? profile_q8[i + 1] - profile_q8[i] : profile_q8[i] - profile_q8[i + 1];
+        peak = std::max(peak, g);
+    }
+    if (peak <= 0) return std::nullopt;
+    const std::int32_t floor = peak / 5;
+    std::int64_t weight = 0, moment = 0;  // moment in half samples: gradient i sits at i + 1/2
+    for (int i = 0; i + 1 < count; ++i) {
+        const std::int32_t g =
+            rising ? profile_q8[i + 1] - profile_q8[i] : profile_q8[i] - profile_q8[i + 1];
+        const std::int64_t w = g - floor;
+        if (w <= 0) continue;
+        weight += w;
+        moment += w * (2 * i + 1);
+    }
+    if (weight == 0) return std::nullopt;
+    return (moment * (kQ16 / 2) + weight / 2) / weight;
+}
+
+double sample_reference(const GrayView& image, double x, double y) {
+    const int ix = static_cast<int>(std::floor(x)), iy = static_cast<int>(std::floor(y));
+    const double fx = x - ix, fy = y - iy;
+    const auto at = [&](int u, int v) { return static_cast<double>(image.at(u, v)); };
+    return (at(ix, iy) * (1 - fx) + at(ix + 1, iy) * fx) * (1 - fy) +
+           (at(ix, iy + 1) * (1 - fx) + at(ix + 1, iy + 1) * fx) * fy;
+}
+
+std::optional<double> step_edge_reference(const std::vector<double>& profile, bool rising) {
+    if (profile.size() < 3) return std::nullopt;
+    double peak = 0;
+    std::vector<double> g(profile.size() - 1);
+    for (std::size_t i = 0; i + 1 < profile.size(); ++i) {
+        g[i] = rising ? profile[i + 1] - profile[i] : profile[i] - profile[i + 1];
+        peak = std::max(peak, g[i]);
+    }
+    if (peak <= 0) return std::nullopt;
+    double weight = 0, moment = 0;
+    for (std::size_t i = 0; i < g.size(); ++i) {
+        const double w = g[i] - peak / 5;
+        if (w <= 0) continue;
+        weight += w;
+        moment += w * (static_cast<double>(i) + 0.5);
+    }
+    if (weight == 0) return std::nullopt;
+    return moment / weight;
+}
+
+}  // namespace calbox::vision

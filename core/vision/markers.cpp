@@ -1,0 +1,166 @@
+#include "core/vision/markers.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/core/version.hpp>
+#include <optional>
+
+#include "core/geometry/cv_convert.hpp"
+#include "core/geometry/pattern_spec.hpp"
+#include "core/vision/edge_kernel.hpp"
+
+#if CV_VERSION_MAJOR > 4 || (CV_VERSION_MAJOR == 4 && CV_VERSION_MINOR >= 7)
+#include <opencv2/objdetect/aruco_detector.hpp>
+#define CALBOX_ARUCO_DETECTOR_API 1
+#else
+#include <opencv2/aruco.hpp>
+#define CALBOX_ARUCO_DETECTOR_API 0
+#endif
+
+namespace calbox::vision {
+namespace {
+
+using geometry::Point2;
+
+struct RawMarkers {
+    std::vector<std::vector<cv::Point2f>> corners;
+    std::vector<int> ids;
+    int cells_per_side = 0;
+};
+
+// The adapter: OpenCV 4.7 moved ArUco into objdetect with a detector object.
+RawMarkers opencv_detect(const cv::Mat& gray, int dictionary_id) {
+    RawMarkers raw;
+#if CALBOX_ARUCO_DETECTOR_API
+    const cv::aruco::Dictionary dictionary = cv::aruco::getPredefinedDictionary(dictionary_id);
+    cv::aruco::DetectorParameters parameters;
+    parameters.cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
+    cv::aruco::ArucoDetector(dictionary, parameters).detectMarkers(gray, raw.corners, raw.ids);
+    raw.cells_per_side = dictionary.markerSize + 2;
+#else
+    const auto dictionary = cv::aruco::getPredefinedDictionary(dictionary_id);
+    const auto parameters = cv::aruco::DetectorParameters::create();
+    parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
+    cv::aruco::detectMarkers(gray, dictionary, raw.corners, raw.ids, parameters);
+    raw.cells_per_side = dictionary->markerSize + 2;
+#endif
+    return raw;
+}
+
+struct Line {
+    Point2 point;
+    Point2 direction;  // unit
+};
+
+// Total least squares: the line through the mean along the principal axis.
+Line fit_line(const std::vector<Point2>& points) {
+    double mx = 0, my = 0;
+    for (const auto& p : points) mx += p.x, my += p.y;
+    mx /= static_cast<double>(points.size());
+    my /= static_cast<double>(points.size());
+    double sxx = 0, sxy = 0, syy = 0;
+    for (const auto& p : points) {
+        sxx += (p.x - mx) * (p.x - mx);
+        sxy += (p.x - mx) * (p.y - my);
+        syy += (p.y - my) * (p.y - my);
+    }
+    const double angle = 0.5 * std::atan2(2 * sxy, sxx - syy);
+    return {{mx, my}, {std::cos(angle), std::sin(angle)}};
+}
+
+std::optional<Point2> intersect(const Line& a, const Line& b) {
+    const double det = a.direction.x * b.direction.y - a.direction.y * b.direction.x;
+    if (std::abs(det) < 1e-9) return std::nullopt;
+    const double dx = b.point.x - a.point.x, dy = b.point.y - a.point.y;
+    const double t = (dx * b.direction.y - dy * b.direction.x) / det;
+    return Point2{a.point.x + t * a.direction.x, a.point.y + t * a.direction.y};
+}
+
+// Edge points along the side from p to q (clockwise order: the marker lies to the right).
+std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int cells_per_side) {
+    const double length = std::hypot(q.x - p.x, q.y - p.y);
+    std::vector<Point2> out;
+    if (length < 8) return out;
+    const Point2 d{(q.x - p.x) / length, (q.y - p.y) / length};
+    const Point2 outward{d.y, -d.x};
+    // The profile spans the black border cell and the white quiet zone, no further.
+    const double half = std::clamp(0.45 * length / cells_per_side, 1.5, 4.0);
+    constexpr double kStep = 0.125;
+    const int count = static_cast<int>(2 * half / kStep) + 1;
+    const double margin = std::max(0.1 * length, half + 1.0);
+    std::vector<std::int32_t> profile(static_cast<std::size_t>(count));
+    for (double t = margin; t <= length - margin; t += 0.5) {
+        const double bx = p.x + d.x * t, by = p.y + d.y * t;
+        const double sx = bx - outward.x * half, sy = by - outward.y * half;
+        if (!sample_profile_q8(image, to_q16(sx), to_q16(sy), to_q16(outward.x * kStep),
+                               to_q16(outward.y * kStep), count, profile.data())) {
+            continue;
+        }
+        const auto edge = step_edge_q16(profile.data(), count, true);
+        if (!edge) continue;
+        const double offset = from_q16(*edge) * kStep - half;
+        out.push_back({bx + outward.x * offset, by + outward.y * offset});
+    }
+    return out;
+}
+
+}  // namespace
+
+std::array<Point2, 4> refine_marker_corners(const GrayView& image,
+                                            const std::array<Point2, 4>& rough, int cells_per_side,
+                                            const geometry::CameraModel* camera) {
+    std::array<Point2, 4> corners = rough;
+    for (int pass = 0; pass < 2; ++pass) {
+        std::array<Line, 4> lines;
+        for (int k = 0; k < 4; ++k) {
+            auto points =
+                edge_points(image, corners[static_cast<std::size_t>(k)],
+                            corners[static_cast<std::size_t>((k + 1) % 4)], cells_per_side);
+            if (points.size() < 6) return rough;
+            if (camera != nullptr) points = geometry::undistort_to_normalized(*camera, points);
+            lines[static_cast<std::size_t>(k)] = fit_line(points);
+        }
+        std::vector<Point2> refined;
+        for (int k = 0; k < 4; ++k) {
+            const auto c = intersect(lines[static_cast<std::size_t>((k + 3) % 4)],
+                                     lines[static_cast<std::size_t>(k)]);
+            if (!c) return rough;
+            refined.push_back(*c);
+        }
+        if (camera != nullptr) refined = geometry::distort_from_normalized(*camera, refined);
+        for (int k = 0; k < 4; ++k) {
+            const auto& r = refined[static_cast<std::size_t>(k)];
+            // A refinement that walks off by pixels has measured something else.
+            if (std::hypot(r.x - rough[static_cast<std::size_t>(k)].x,
+                           r.y - rough[static_cast<std::size_t>(k)].y) > 2.0) {
+                return rough;
+            }
+            corners[static_cast<std::size_t>(k)] = r;
+        }
+    }
+    return corners;
+}
+
+std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
+    const int dictionary_id = geometry::aruco_dictionary_id(options.dictionary);
+    const RawMarkers raw = opencv_detect(geometry::to_cv(image), dictionary_id);
+    std::vector<DetectedMarker> out;
+    for (std::size_t m = 0; m < raw.ids.size(); ++m) {
+        DetectedMarker marker;
+        marker.id = raw.ids[m];
+        for (int k = 0; k < 4; ++k) {
+            marker.corners[static_cast<std::size_t>(k)] = {
+                raw.corners[m][static_cast<std::size_t>(k)].x,
+                raw.corners[m][static_cast<std::size_t>(k)].y};
+        }
+        if (options.refine_edges) {
+            marker.corners =
+                refine_marker_corners(image, marker.corners, raw.cells_per_side, options.camera);
+        }
+        out.push_back(marker);
+    }
+    std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+    return out;
+}
+
+}  // namespace calbox::vision

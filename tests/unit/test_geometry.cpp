@@ -1,0 +1,237 @@
+// core/geometry judged on twin-rendered images, against the twin's truth.
+#include <CppUTest/TestHarness.h>
+
+#include <cmath>
+#include <random>
+
+#include "board/sim/camera_reference.hpp"
+#include "board/sim/renderer.hpp"
+#include "board/sim/scenes.hpp"
+#include "core/geometry/calibration.hpp"
+#include "core/geometry/camera_model.hpp"
+
+using namespace calbox;
+
+namespace {
+
+sim::CameraIntrinsics true_camera(sim::LensModel model) {
+    sim::CameraIntrinsics c;
+    c.model = model;
+    c.width_px = 1920;
+    c.height_px = 1080;
+    c.fx = model == sim::LensModel::fisheye ? 1100 : 1500;
+    c.fy = c.fx * 1.001;
+    c.cx = 965.2;
+    c.cy = 536.4;
+    c.distortion = model == sim::LensModel::fisheye
+                       ? std::vector<double>{-0.02, 0.012, -0.004, 0.0006}
+                       : std::vector<double>{-0.12, 0.09, 0.0005, -0.0004, -0.02};
+    return c;
+}
+
+geometry::CameraModel as_core(const sim::CameraIntrinsics& c) {
+    geometry::CameraModel m;
+    m.model = c.model == sim::LensModel::fisheye ? geometry::LensModel::fisheye
+                                                 : geometry::LensModel::pinhole;
+    m.image_width = c.width_px;
+    m.image_height = c.height_px;
+    m.camera_matrix = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
+    m.distortion = c.distortion;
+    if (m.model == geometry::LensModel::pinhole) m.distortion.resize(5, 0.0);
+    return m;
+}
+
+// Fifteen views of an 11x8 chessboard (20 mm squares) from different angles and places.
+std::vector<sim::GrayImage> calibration_views(const sim::CameraIntrinsics& camera) {
+    const auto spec = geometry::parse_pattern_spec("chessboard:11x8@20");
+    const sim::BoardScene board(spec, 4);
+    sim::PhotoSettings photo;
+    photo.noise_sigma_dn = 2.0;
+    photo.blur_sigma_px = 0.7;
+    std::vector<sim::GrayImage> views;
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> tilt(-30, 30), shift(-1, 1), distance(430, 560),
+        spin(-20, 20);
+    while (views.size() < 15) {
+        sim::Pose pose;
+        pose.rotation = sim::rotation_from_vector(
+            sim::Vec3{sim::radians(tilt(rng)), sim::radians(tilt(rng)), sim::radians(spin(rng))});
+        const sim::Vec3 centre = pose.rotation * sim::Vec3{100, 70, 0};
+        const double z = distance(rng);
+        pose.translation_mm = sim::Vec3{shift(rng) * z * 0.25, shift(rng) * z * 0.12, z} - centre;
+        // Keep views whose whole board is in the frame, as a person calibrating would.
+        bool inside = true;
+        for (const auto& corner : {sim::Vec3{-30, -30, 0}, sim::Vec3{230, -30, 0},
+                                   sim::Vec3{-30, 170, 0}, sim::Vec3{230, 170, 0}}) {
+            const sim::Vec2 px = sim::project_point(camera, pose, corner);
+            inside = inside && px.x > 5 && px.y > 5 && px.x < camera.width_px - 5 &&
+                     px.y < camera.height_px - 5;
+        }
+        if (!inside) continue;
+        photo.seed = views.size() + 1;
+        views.push_back(sim::render_photo(camera, pose, board, photo));
+    }
+    return views;
+}
+
+vision::GrayView view_of(const sim::GrayImage& image) {
+    return {image.pixels.data(), image.width_px, image.height_px, image.width_px};
+}
+
+void check_calibration(sim::LensModel model) {
+    const auto truth = true_camera(model);
+    const auto images = calibration_views(truth);
+    std::vector<geometry::NamedImage> named;
+    for (std::size_t i = 0; i < images.size(); ++i)
+        named.push_back({"view" + std::to_string(i), view_of(images[i])});
+    const auto result = geometry::calibrate_camera(
+        geometry::parse_pattern_spec("chessboard:11x8@20"), as_core(truth).model, named);
+    const auto& c = result.camera;
+    CHECK_EQUAL(15u, result.views.size());
+    DOUBLES_EQUAL(truth.fx, c.fx(), truth.fx * 0.002);
+    DOUBLES_EQUAL(truth.fy, c.fy(), truth.fy * 0.002);
+    DOUBLES_EQUAL(truth.cx, c.cx(), 1.0);
+    DOUBLES_EQUAL(truth.cy, c.cy(), 1.0);
+    DOUBLES_EQUAL(truth.distortion[0], c.distortion[0], 0.01);
+    CHECK_TEXT(c.rms_px < 0.15, ("reprojection RMS " + std::to_string(c.rms_px)).c_str());
+}
+
+}  // namespace
+
+TEST_GROUP(CameraFile){};
+
+TEST(CameraFile, yaml_round_trips_and_corrupt_files_are_refused) {
+    const auto camera = as_core(true_camera(sim::LensModel::pinhole));
+    const auto back = geometry::camera_from_yaml(geometry::camera_to_yaml(camera, {0.1, 0.2}));
+    CHECK(back.model == geometry::LensModel::pinhole);
+    CHECK_EQUAL(1920, back.image_width);
+    for (std::size_t i = 0; i < 9; ++i)
+        DOUBLES_EQUAL(camera.camera_matrix[i], back.camera_matrix[i], 0);
+    CHECK(camera.distortion == back.distortion);
+    CHECK_THROWS(geometry::FileFormatError,
+                 geometry::camera_from_yaml("%YAML:1.0\n---\nmodel: pinhole\n"));
+    CHECK_THROWS(geometry::FileFormatError,
+                 geometry::camera_from_yaml("%YAML:1.0\n---\nmodel: [unclosed\n"));
+    CHECK_THROWS(geometry::FileFormatError, geometry::camera_from_yaml("not yaml at all {{{"));
+    auto fisheye_with_five = camera;
+    fisheye_with_five.model = geometry::LensModel::fisheye;
+    CHECK_THROWS(geometry::FileFormatError,
+                 geometry::camera_from_yaml(geometry::camera_to_yaml(fisheye_with_five)));
+}
+
+TEST(CameraFile, opencv_models_agree_with_the_twins_own) {
+    for (const auto model : {sim::LensModel::pinhole, sim::LensModel::fisheye}) {
+        const auto truth = true_camera(model);
+        const auto camera = as_core(truth);
+        std::vector<geometry::Point2> pixels;
+        for (double u = 10; u < 1920; u += 190)
+            for (double v = 10; v < 1080; v += 150) pixels.push_back({u, v});
+        const auto normalized = geometry::undistort_to_normalized(camera, pixels);
+        for (std::size_t i = 0; i < pixels.size(); ++i) {
+            const sim::Vec2 px = sim::distort_normalized(truth, normalized[i].x, normalized[i].y);
+            DOUBLES_EQUAL(pixels[i].x, px.x, 1e-4);
+            DOUBLES_EQUAL(pixels[i].y, px.y, 1e-4);
+        }
+        const auto back = geometry::distort_from_normalized(camera, normalized);
+        for (std::size_t i = 0; i < pixels.size(); ++i) DOUBLES_EQUAL(pixels[i].x, back[i].x, 1e-4);
+    }
+}
+
+TEST_GROUP(Calibration){};
+
+TEST(Calibration, pinhole_from_15_rendered_views_recovers_the_true_camera) {
+    check_calibration(sim::LensModel::pinhole);
+}
+
+TEST(Calibration, fisheye_from_15_rendered_views_recovers_the_true_camera) {
+    check_calibration(sim::LensModel::fisheye);
+}
+
+TEST(Calibration, too_few_usable_views_says_how_many_were_found) {
+    const auto truth = true_camera(sim::LensModel::pinhole);
+    auto images = calibration_views(truth);
+    images.resize(4);
+    const std::vector<std::uint8_t> blank(1920 * 1080, 128);
+    std::vector<geometry::NamedImage> named;
+    for (std::size_t i = 0; i < images.size(); ++i)
+        named.push_back({"view" + std::to_string(i), view_of(images[i])});
+    named.push_back({"blank.png", {blank.data(), 1920, 1080, 1920}});
+    try {
+        geometry::calibrate_camera(geometry::parse_pattern_spec("chessboard:11x8@20"),
+                                   geometry::LensModel::pinhole, named);
+        FAIL("calibrated from 4 views");
+    } catch (const geometry::CalibrationError& e) {
+        STRCMP_EQUAL("the board was found in 4 of 5 images; calibration needs at least 6",
+                     e.what());
+    }
+}
+
+TEST_GROUP(BedPlane){};
+
+TEST(BedPlane, maps_bed_points_at_two_heights_back_within_20_microns) {
+    // A 12 MP camera at 0.07 mm/px, tilted about 5 degrees; a 3 mm thick chessboard on the bed,
+    // turned 20 degrees, whose first inner corner lies at bed (-70, 40).
+    sim::CameraIntrinsics camera;
+    camera.width_px = 4056;
+    camera.height_px = 3040;
+    camera.fx = camera.fy = 5700;
+    camera.cx = 2030.1;
+    camera.cy = 1517.6;
+    camera.distortion = {-0.05, 0.08, 0.0002, -0.0001, 0};
+    const sim::Pose bed_to_camera = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
+    const double angle = sim::radians(20), thickness = 3.0;
+    const sim::Vec3 origin{-70, 40, 0};
+    // The board frame (OpenCV: y down the board, z into it) lying face up on the bed.
+    sim::Mat3 board_to_bed;
+    const sim::Vec3 columns[3] = {
+        {std::cos(angle), std::sin(angle), 0}, {std::sin(angle), -std::cos(angle), 0}, {0, 0, -1}};
+    for (int i = 0; i < 3; ++i) {
+        board_to_bed.m[0][i] = columns[i].x;
+        board_to_bed.m[1][i] = columns[i].y;
+        board_to_bed.m[2][i] = columns[i].z;
+    }
+    sim::Pose board_to_camera;
+    board_to_camera.rotation = bed_to_camera.rotation * board_to_bed;
+    board_to_camera.translation_mm = bed_to_camera.apply(origin + sim::Vec3{0, 0, thickness});
+    sim::PhotoSettings photo;
+    photo.noise_sigma_dn = 2.0;
+    photo.blur_sigma_px = 0.7;
+    const auto image = sim::render_photo(
+        camera, board_to_camera,
+        sim::BoardScene(geometry::parse_pattern_spec("chessboard:9x6@20"), 4), photo);
+    const auto core_camera = as_core(camera);
+    const auto plane = geometry::estimate_bed_plane(
+        core_camera, geometry::parse_pattern_spec("chessboard:9x6@20"), view_of(image), thickness);
+    DOUBLES_EQUAL(thickness,
+                  geometry::plane_from_yaml(geometry::plane_to_yaml(plane)).board_thickness_mm, 0);
+
+    // The box's bed frame: origin under the board's first corner, x along its columns, z up.
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> along(-80, 80);
+    double sum = 0;
+    int n = 0;
+    for (const double height : {0.0, 2.0}) {
+        for (int i = 0; i < 25; ++i) {
+            const sim::Vec3 twin{along(rng), along(rng), height};
+            const sim::Vec2 px = sim::project_point(camera, bed_to_camera, twin);
+            const auto mapped =
+                geometry::pixels_to_bed(core_camera, plane, {{px.x, px.y}}, height)[0];
+            const double dx = twin.x - origin.x, dy = twin.y - origin.y;
+            const double ex = std::cos(angle) * dx + std::sin(angle) * dy;
+            const double ey = -std::sin(angle) * dx + std::cos(angle) * dy;
+            sum += std::pow(mapped.x - ex, 2) + std::pow(mapped.y - ey, 2);
+            ++n;
+        }
+    }
+    const double rms = std::sqrt(sum / n);
+    CHECK_TEXT(rms < 0.02, ("bed mapping RMS " + std::to_string(rms) + " mm").c_str());
+}
+
+TEST(BedPlane, a_missing_board_is_an_error) {
+    const auto camera = as_core(true_camera(sim::LensModel::pinhole));
+    const std::vector<std::uint8_t> blank(1920 * 1080, 90);
+    CHECK_THROWS(
+        geometry::CalibrationError,
+        geometry::estimate_bed_plane(camera, geometry::parse_pattern_spec("chessboard:9x6@20"),
+                                     {blank.data(), 1920, 1080, 1920}, 0));
+}

@@ -88,8 +88,8 @@ int markers(const Args& args, const std::string& image_path) {
             cv::drawMarker(picture, outline[0], cv::Scalar(0, 0, 255), cv::MARKER_CROSS,
                            6 * thickness, thickness);
             cv::putText(picture, std::to_string(m.id), outline[0] + cv::Point(4, -4) * thickness,
-                        cv::FONT_HERSHEY_SIMPLEX, 0.5 * thickness, cv::Scalar(255, 80, 0),
-                        thickness);
+                        cv::FONT_HERSHEY_SIMPLEX, std::max(0.6, gray.cols / 1600.0),
+                        cv::Scalar(255, 80, 0), thickness);
         }
         write_png(*overlay, picture);
     }

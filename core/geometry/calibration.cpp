@@ -88,8 +88,10 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
                                                                       : cv::CALIB_CB_SYMMETRIC_GRID;
         cv::SimpleBlobDetector::Params blobs;
         blobs.minArea = 10;
-        blobs.maxArea =
-            static_cast<float>(gray.total()) / 4;  // OpenCV's 5000 px^2 is too small here
+        // OpenCV's default 5000 px^2 is too small for dots seen at 0.07 mm/px; unbounded, the
+        // grey surroundings of the board become blobs too. A dot is far smaller than its share.
+        blobs.maxArea = static_cast<float>(gray.total()) /
+                        static_cast<float>(4 * pattern.columns * pattern.rows);
         const auto detector = cv::SimpleBlobDetector::create(blobs);
         bool found = cv::findCirclesGrid(gray, size, centres, flags, detector);
         if (!found) {

@@ -13,14 +13,14 @@ bool sample_profile_q8(const GrayView& image, std::int64_t x0_q16, std::int64_t 
     for (int i = 0; i < count; ++i, x += dx_q16, y += dy_q16) {
         if (x < 0 || y < 0 || x >= max_x || y >= max_y) return false;
         const int ix = static_cast<int>(x >> 16), iy = static_cast<int>(y >> 16);
-        // Weights in 1/256 of a pixel: the products stay below 2^24 per term.
-        const std::int32_t fx = static_cast<std::int32_t>((x >> 8) & 0xff);
-        const std::int32_t fy = static_cast<std::int32_t>((y >> 8) & 0xff);
+        // Weights in 1/65536 of a pixel; the row sums stay below 2^24, the total below 2^40.
+        const std::int64_t fx = x & 0xffff, fy = y & 0xffff;
         const std::uint8_t* row0 = image.pixels + static_cast<long>(iy) * image.stride_bytes + ix;
         const std::uint8_t* row1 = row0 + image.stride_bytes;
-        const std::int32_t top = row0[0] * (256 - fx) + row0[1] * fx;
-        const std::int32_t bottom = row1[0] * (256 - fx) + row1[1] * fx;
-        out[i] = (top * (256 - fy) + bottom * fy + 128) >> 8;
+        const std::int64_t top = row0[0] * (kQ16 - fx) + row0[1] * fx;
+        const std::int64_t bottom = row1[0] * (kQ16 - fx) + row1[1] * fx;
+        out[i] = static_cast<std::int32_t>(
+            (top * (kQ16 - fy) + bottom * fy + (std::int64_t{1} << 23)) >> 24);
     }
     return true;
 }

@@ -47,5 +47,22 @@ expect_error "either --print or --board" sim photo --scenario "$scenario" -o "$w
 expect_error "unknown option --frobnicate" sim print --frobnicate 3
 expect_error "unknown command 'fly'" fly
 
+# camera and detect
+printf 'not an image' > "$work/fake.png"
+printf '%%YAML:1.0\n---\nmodel: [unclosed\n' > "$work/corrupt.yaml"
+printf '%%YAML:1.0\n---\nmodel: pinhole\n' > "$work/incomplete.yaml"
+"$calbox" sim photo --scenario "$scenario" --board chessboard:9x6@20 --on-bed -80,50,0 -o "$work/board.png" 2>/dev/null
+expect_error "cannot read image .*missing.png: no such file" detect markers "$work/missing.png"
+expect_error "not an image OpenCV can decode" detect markers "$work/fake.png"
+expect_error "unknown ArUco dictionary 'DICT_9X9_9'" detect markers "$work/board.png" --dict DICT_9X9_9
+expect_error "no DICT_4X4_50 markers found" detect markers "$work/board.png"
+expect_error "bad pattern 'chessboard:9by6@20'" detect chessboard "$work/board.png" --pattern chessboard:9by6@20
+expect_error "no chessboard:7x4@20 found" detect chessboard "$work/board.png" --pattern chessboard:7x4@20
+expect_error "corrupt YAML" camera plane --camera "$work/corrupt.yaml" --pattern chessboard:9x6@20 "$work/board.png" -o "$work/result"
+expect_error "missing key 'image_width'" camera plane --camera "$work/incomplete.yaml" --pattern chessboard:9x6@20 "$work/board.png" -o "$work/result"
+expect_error "cannot read camera file" camera plane --camera "$work/none.yaml" --pattern chessboard:9x6@20 "$work/board.png" -o "$work/result"
+expect_error "found in 0 of 1 images; calibration needs at least 6" camera calibrate --pattern chessboard:7x4@20 "$work/board.png" -o "$work/result"
+expect_error "--model must be pinhole or fisheye" camera calibrate --pattern chessboard:9x6@20 --model wide "$work/board.png" -o "$work/result"
+
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

@@ -1,6 +1,6 @@
 #pragma once
-// A twin scenario (TOML): the machine as its firmware believes it (the shared machine-file
-// keys), the hidden truth, the camera, and the photo's lighting and noise.
+// A twin scenario (TOML): a machine file (the machine as its firmware believes it), plus the
+// hidden truth, the camera, and the photo's lighting and noise.
 #include <memory>
 #include <optional>
 #include <stdexcept>
@@ -11,24 +11,13 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
+#include "core/models/machine_file.hpp"
 
 namespace calbox::sim {
 
 class ScenarioError : public std::runtime_error {
   public:
     using std::runtime_error::runtime_error;
-};
-
-struct MachineSettings {
-    std::string kind = "delta";  // delta | cartesian | router | laser
-    std::string firmware = "marlin";
-    double bed_radius_mm = 85;   // delta
-    double bed_size_x_mm = 200;  // cartesian machines
-    double bed_size_y_mm = 200;
-    double line_width_mm = 0.45;
-    double layer_height_mm = 0.2;
-    double filament_diameter_mm = 1.75;
-    double tool_width_mm = 0.1;  // laser spot or cutter
 };
 
 struct ScenarioCamera {
@@ -40,7 +29,7 @@ struct ScenarioCamera {
 
 struct Scenario {
     std::string path;
-    MachineSettings machine;
+    models::MachineFile machine;      // the machine-file keys: [machine] and [delta]
     DeltaParams delta_firmware;       // [delta]
     DeltaParams delta_truth;          // [truth.delta]: keys not given equal the firmware's
     CartesianErrors cartesian_truth;  // [truth.cartesian]

@@ -70,7 +70,7 @@ TEST(Scenario, bad_files_name_the_file_and_the_key) {
                     error_of(std::string(kDelta) + "tower_angle_trim_deg = [0, 0]\n").c_str());
     STRCMP_CONTAINS("unknown section or key 'cameras'",
                     error_of(std::string(kDelta) + "[cameras]\n").c_str());
-    STRCMP_CONTAINS("a delta scenario needs [delta]",
+    STRCMP_CONTAINS("a delta machine needs [delta]",
                     error_of("[machine]\nkind = \"delta\"\n").c_str());
     // A TOML syntax error reports its line.
     STRCMP_CONTAINS(":2:", error_of("[machine]\nkind = = 3\n").c_str());

@@ -1,0 +1,191 @@
+#include "core/models/machine_file.hpp"
+
+#include "core/models/toml_reader.hpp"
+
+namespace calbox::models {
+
+const toml::node* TomlReader::find(const char* key) {
+    seen_.insert(key);
+    return table_.get(key);
+}
+
+void TomlReader::number(const char* key, double& field, double min, double max) {
+    const auto* node = find(key);
+    if (node == nullptr) return;
+    const auto v = node->value<double>();
+    if (!v || !std::isfinite(*v)) fail(key, "must be a number");
+    if (*v < min || *v > max)
+        fail(key, "must be between " + std::to_string(min) + " and " + std::to_string(max));
+    field = *v;
+}
+
+void TomlReader::number(const char* key, std::optional<double>& field, double min, double max) {
+    if (table_.get(key) == nullptr) {
+        seen_.insert(key);
+        return;
+    }
+    double v = 0;
+    number(key, v, min, max);
+    field = v;
+}
+
+void TomlReader::integer(const char* key, int& field, int min, int max) {
+    double v = field;
+    number(key, v, min, max);
+    if (v != std::floor(v)) fail(key, "must be a whole number");
+    field = static_cast<int>(v);
+}
+
+void TomlReader::boolean(const char* key, bool& field) {
+    const auto* node = find(key);
+    if (node == nullptr) return;
+    const auto v = node->value<bool>();
+    if (!v) fail(key, "must be true or false");
+    field = *v;
+}
+
+void TomlReader::text(const char* key, std::string& field, const std::set<std::string>& allowed) {
+    const auto* node = find(key);
+    if (node == nullptr) return;
+    const auto v = node->value<std::string>();
+    if (!v) fail(key, "must be a string");
+    if (!allowed.empty() && allowed.count(*v) == 0) {
+        std::string list;
+        for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        fail(key, "'" + *v + "' is not one of " + list);
+    }
+    field = *v;
+}
+
+void TomlReader::text(const char* key, std::optional<std::string>& field) {
+    if (table_.get(key) == nullptr) {
+        seen_.insert(key);
+        return;
+    }
+    std::string v;
+    text(key, v, {});
+    field = v;
+}
+
+std::vector<double> TomlReader::numbers(const char* key, std::size_t min_count,
+                                        std::size_t max_count) {
+    const auto* node = find(key);
+    if (node == nullptr) return {};
+    const auto* array = node->as_array();
+    if (array == nullptr) fail(key, "must be an array of numbers");
+    std::vector<double> out;
+    for (const auto& element : *array) {
+        const auto v = element.value<double>();
+        if (!v || !std::isfinite(*v)) fail(key, "must be an array of numbers");
+        out.push_back(*v);
+    }
+    if (out.size() < min_count || out.size() > max_count) {
+        fail(key, "needs " + std::to_string(min_count) +
+                      (max_count != min_count ? " to " + std::to_string(max_count) : "") +
+                      " numbers");
+    }
+    return out;
+}
+
+void TomlReader::triple(const char* key, std::array<double, 3>& field) {
+    const auto v = numbers(key, 3, 3);
+    if (!v.empty()) field = {v[0], v[1], v[2]};
+}
+
+void TomlReader::finish() const {
+    for (const auto& [key, node] : table_) {
+        if (seen_.count(std::string(key.str())) == 0 && !node.is_table())
+            fail(std::string(key.str()), "unknown key");
+    }
+}
+
+const toml::table* subtable(const std::string& file, const toml::table& parent, const char* name) {
+    const auto* node = parent.get(name);
+    if (node == nullptr) return nullptr;
+    if (!node->is_table())
+        throw MachineFileError(file + ": [" + std::string(name) + "] must be a table");
+    return node->as_table();
+}
+
+toml::table parse_toml(std::string_view text, const std::string& source) {
+    try {
+        return toml::parse(text, source);
+    } catch (const toml::parse_error& e) {
+        throw MachineFileError(source + ":" + std::to_string(e.source().begin.line) + ": " +
+                               std::string(e.description()));
+    }
+}
+
+void read_delta_settings(const std::string& file, const toml::table& t, const std::string& section,
+                         DeltaSettings& p) {
+    TomlReader r(file, t, section);
+    r.number("diagonal_rod_mm", p.diagonal_rod_mm, 50, 2000);
+    r.triple("diagonal_rod_trim_mm", p.diagonal_rod_trim_mm);
+    r.number("radius_mm", p.radius_mm, 20, 1000);
+    r.triple("tower_angle_trim_deg", p.tower_angle_trim_deg);
+    r.triple("endstop_offset_mm", p.endstop_offset_mm);
+    r.number("height_mm", p.height_mm, 10, 3000);
+    r.finish();
+    for (double a : p.tower_angle_trim_deg)
+        if (std::abs(a) > 10)
+            r.fail("tower_angle_trim_deg", "trims beyond 10 degrees are not a delta");
+    for (double e : p.endstop_offset_mm)
+        if (e > 0 || e < -20)
+            r.fail("endstop_offset_mm", "offsets must lie in [-20, 0] (Marlin's M666)");
+    for (double d : p.diagonal_rod_trim_mm)
+        if (std::abs(d) > 20)
+            r.fail("diagonal_rod_trim_mm", "trims beyond 20 mm are not plausible");
+    if (!(p.diagonal_rod_mm > p.radius_mm)) r.fail("diagonal_rod_mm", "must exceed radius_mm");
+}
+
+MachineFile read_machine_tables(const std::string& file, const toml::table& root,
+                                std::initializer_list<std::string_view> other_sections) {
+    for (const auto& [key, node] : root) {
+        const std::string_view name = key.str();
+        bool known = name == "machine" || name == "delta";
+        for (const auto& s : other_sections) known = known || s == name;
+        if (!known)
+            throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
+    }
+    const auto* machine = subtable(file, root, "machine");
+    if (machine == nullptr) throw MachineFileError(file + ": missing [machine]");
+    MachineFile m;
+    TomlReader r(file, *machine, "machine");
+    r.text("kind", m.kind, {"delta", "cartesian", "router", "laser", "galvo"});
+    r.text("firmware", m.firmware, {"marlin", "rrf", "klipper", "grbl", "linuxcnc"});
+    r.number("bed_radius_mm", m.bed_radius_mm, 10, 1000);
+    r.number("bed_size_x_mm", m.bed_size_x_mm, 10, 5000);
+    r.number("bed_size_y_mm", m.bed_size_y_mm, 10, 5000);
+    r.number("line_width_mm", m.line_width_mm, 0.05, 5);
+    r.number("layer_height_mm", m.layer_height_mm, 0.01, 5);
+    r.number("filament_diameter_mm", m.filament_diameter_mm, 0.5, 5);
+    r.number("tool_width_mm", m.tool_width_mm, 0.001, 20);
+    r.number("feed_mm_s", m.feed_mm_s, 0.1, 2000);
+    r.number("travel_feed_mm_s", m.travel_feed_mm_s, 0.1, 5000);
+    r.number("laser_power", m.laser_power, 0.0, 1.0);
+    r.number("spindle_rpm", m.spindle_rpm, 0, 100000);
+    r.number("cut_depth_mm", m.cut_depth_mm, 0.01, 50);
+    r.number("safe_height_mm", m.safe_height_mm, 0.1, 200);
+    r.text("bed_material", m.bed_material);
+    r.number("bed_temperature_c", m.bed_temperature_c, -50, 200);
+    r.number("nozzle_temperature_c", m.nozzle_temperature_c, 0, 500);
+    r.number("calibration_temperature_c", m.calibration_temperature_c, -50, 200);
+    r.finish();
+    const auto* delta = subtable(file, root, "delta");
+    if (m.is_delta()) {
+        if (delta == nullptr) throw MachineFileError(file + ": a delta machine needs [delta]");
+        m.delta.emplace();
+        read_delta_settings(file, *delta, "delta", *m.delta);
+    } else if (delta != nullptr) {
+        throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
+    }
+    return m;
+}
+
+MachineFile parse_machine_file(std::string_view toml_text, const std::string& source,
+                               std::initializer_list<std::string_view> other_sections) {
+    const toml::table root = parse_toml(toml_text, source);
+    return read_machine_tables(source, root, other_sections);
+}
+
+}  // namespace calbox::models

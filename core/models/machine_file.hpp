@@ -1,0 +1,59 @@
+#pragma once
+// The machine file (TOML), shared by every mode: [machine] with the kind, firmware, work area,
+// extrusion or tool settings and temperatures, then one table per kind holding what the
+// machine's firmware believes now ([delta] for a delta printer).
+#include <array>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+
+namespace calbox::models {
+
+class MachineFileError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+// [delta]: the firmware's geometry in Marlin's conventions.
+struct DeltaSettings {
+    double diagonal_rod_mm = 250.0;
+    std::array<double, 3> diagonal_rod_trim_mm{0, 0, 0};  // towers A B C
+    double radius_mm = 140.0;
+    std::array<double, 3> tower_angle_trim_deg{0, 0, 0};  // towers at 210, 330, 90 degrees
+    std::array<double, 3> endstop_offset_mm{0, 0, 0};     // M666, <= 0
+    double height_mm = 300.0;
+};
+
+struct MachineFile {
+    std::string kind = "delta";  // delta | cartesian | router | laser | galvo
+    std::string firmware = "marlin";
+    double bed_radius_mm = 85;   // delta: the printable radius around the origin
+    double bed_size_x_mm = 200;  // others: the work area from the origin
+    double bed_size_y_mm = 200;
+    double line_width_mm = 0.45;         // printers
+    double layer_height_mm = 0.2;        // printers
+    double filament_diameter_mm = 1.75;  // printers
+    double tool_width_mm = 0.1;          // laser spot or cutter width
+    double feed_mm_s = 20;               // working moves
+    double travel_feed_mm_s = 100;       // moves with the tool off
+    double laser_power = 1.0;            // fraction of full power (laser, galvo)
+    double spindle_rpm = 10000;          // router
+    double cut_depth_mm = 0.5;           // router: depth of the cut below the surface
+    double safe_height_mm = 5;           // router and printer travel height
+    std::optional<std::string> bed_material;
+    std::optional<double> bed_temperature_c;
+    std::optional<double> nozzle_temperature_c;
+    std::optional<double> calibration_temperature_c;  // bed temperature when the plane was taken
+    std::optional<DeltaSettings> delta;
+
+    bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
+    bool is_delta() const { return kind == "delta"; }
+};
+
+// Parses a whole machine file; `source` names it in messages. Unknown sections and keys are
+// errors, except sections listed in `other_sections` (a twin scenario adds its own).
+MachineFile parse_machine_file(std::string_view toml_text, const std::string& source,
+                               std::initializer_list<std::string_view> other_sections = {});
+
+}  // namespace calbox::models

@@ -39,5 +39,6 @@ std::string read_input_file(const std::string& path, const std::string& what);
 int run_sim(const std::vector<std::string>& words);     // "calbox sim ..."
 int run_camera(const std::vector<std::string>& words);  // "calbox camera ..."
 int run_detect(const std::vector<std::string>& words);  // "calbox detect ..."
+int run_target(const std::vector<std::string>& words);  // "calbox target ..."
 
 }  // namespace calbox::cli

@@ -123,8 +123,11 @@ void GcodeRunner::move(const gcode::Line& l) {
     const double extruded = e_target - e_;
     const Vec3 from = logical_ + offset_, to = target + offset_;
     const double length = (to - from).norm();
-    const bool marks =
-        tool_.kind == ToolKind::extruder ? extruded > 0 && length > 0 : tool_on_ && length > 0;
+    const bool marks = tool_.kind == ToolKind::extruder ? extruded > 0 && length > 0
+                       : tool_.kind == ToolKind::spindle
+                           // A cutter marks only below the surface.
+                           ? tool_on_ && length > 0 && std::max(from.z, to.z) <= 0
+                           : tool_on_ && length > 0;
     const int segments = std::max(1, static_cast<int>(std::ceil(length / tool_.segment_mm)));
     const double filament_area =
         3.14159265358979323846 * tool_.filament_diameter_mm * tool_.filament_diameter_mm / 4.0;

@@ -1,0 +1,197 @@
+#include "core/targets/job.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+namespace calbox::targets {
+namespace {
+
+using geometry::Point2;
+
+double line_width_of(const models::MachineFile& m) {
+    return m.is_printer() ? m.line_width_mm : m.tool_width_mm;
+}
+
+std::string fmt(const char* format, double v) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, format, v);
+    return buffer;
+}
+
+std::string xy(Point2 p) {
+    return " X" + fmt("%.4f", p.x) + " Y" + fmt("%.4f", p.y);
+}
+
+}  // namespace
+
+double checked_spacing_mm(const models::MachineFile& machine, std::optional<double> spacing_mm) {
+    const double w = line_width_of(machine);
+    const double lo = machine.is_printer() ? w : 0.01, hi = machine.is_printer() ? 10 * w : 10.0;
+    const double s = spacing_mm.value_or(w);
+    if (!(s >= lo - 1e-12 && s <= hi + 1e-12)) {
+        throw JobError(
+            "spacing " + fmt("%g", s) + " mm is outside the valid range " + fmt("%g", lo) + " to " +
+            fmt("%g", hi) + " mm for this " + machine.kind +
+            (machine.is_printer() ? " (at least its line width, " + fmt("%g", w) + " mm)" : ""));
+    }
+    return s;
+}
+
+double PlacedJob::estimated_time_s(const models::MachineFile& machine) const {
+    return toolpath.working_length_mm() / feed_mm_s +
+           toolpath.travel_length_mm() / machine.travel_feed_mm_s;
+}
+
+PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& machine,
+                       const SvgJobSettings& settings) {
+    PlacedJob job;
+    job.line_width_mm = line_width_of(machine);
+    job.spacing_mm = checked_spacing_mm(machine, settings.spacing_mm);
+    job.feed_mm_s = settings.feed_mm_s.value_or(machine.feed_mm_s);
+    if (!(job.feed_mm_s > 0 && job.feed_mm_s <= 2000))
+        throw JobError("feed must be between 0 and 2000 mm/s");
+    if (settings.perimeters < 0 || settings.perimeters > 20)
+        throw JobError("perimeters must be 0 to 20");
+    if (settings.scale && settings.fit_mm) throw JobError("give --scale or --fit, not both");
+    double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
+    for (const auto& shape : document.shapes)
+        for (const auto& c : shape.contours)
+            for (const auto& p : c.points)
+                xmin = std::min(xmin, p.x), xmax = std::max(xmax, p.x), ymin = std::min(ymin, p.y),
+                ymax = std::max(ymax, p.y);
+    const double larger = std::max(xmax - xmin, ymax - ymin);
+    if (!(larger > 0)) throw JobError("the drawing has no extent");
+    if (settings.fit_mm) {
+        if (!(*settings.fit_mm > 0)) throw JobError("--fit must be a positive length");
+        job.scale = *settings.fit_mm / larger;
+    } else if (settings.scale) {
+        if (!(*settings.scale > 0)) throw JobError("--scale must be positive");
+        job.scale = *settings.scale;
+    }
+    // Centred on the bed; SVG's y runs down the page, the machine's up the bed.
+    const Point2 bed_centre = machine.is_delta()
+                                  ? Point2{0, 0}
+                                  : Point2{machine.bed_size_x_mm / 2, machine.bed_size_y_mm / 2};
+    const double cx = (xmin + xmax) / 2, cy = (ymin + ymax) / 2;
+    const auto place = [&](Point2 p) {
+        return Point2{bed_centre.x + (p.x - cx) * job.scale, bed_centre.y - (p.y - cy) * job.scale};
+    };
+    job.min_x = bed_centre.x - (xmax - xmin) / 2 * job.scale;
+    job.max_x = bed_centre.x + (xmax - xmin) / 2 * job.scale;
+    job.min_y = bed_centre.y - (ymax - ymin) / 2 * job.scale;
+    job.max_y = bed_centre.y + (ymax - ymin) / 2 * job.scale;
+    const bool fits = machine.is_delta()
+                          ? std::hypot(std::max(std::abs(job.min_x), std::abs(job.max_x)),
+                                       std::max(std::abs(job.min_y), std::abs(job.max_y))) <=
+                                machine.bed_radius_mm
+                          : job.min_x >= 0 && job.min_y >= 0 &&
+                                job.max_x <= machine.bed_size_x_mm &&
+                                job.max_y <= machine.bed_size_y_mm;
+    if (!fits) {
+        throw JobError("the drawing, " + fmt("%.1f", job.max_x - job.min_x) + " x " +
+                       fmt("%.1f", job.max_y - job.min_y) + " mm at scale " + fmt("%g", job.scale) +
+                       ", does not fit on the bed");
+    }
+    FillSettings fill;
+    fill.line_width_mm = job.line_width_mm;
+    fill.spacing_mm = job.spacing_mm;
+    fill.angle_deg = settings.angle_deg;
+    fill.perimeters = settings.perimeters;
+    Point2 pen = bed_centre;
+    for (const auto& shape : document.shapes) {
+        std::vector<Contour> placed;
+        for (const auto& c : shape.contours) {
+            Contour p;
+            p.closed = c.closed;
+            for (const auto& q : c.points) p.points.push_back(place(q));
+            placed.push_back(std::move(p));
+        }
+        if (shape.filled) {
+            append(job.toolpath,
+                   plan_fill(placed, settings.fill_rule.value_or(shape.fill_rule), fill, pen));
+        } else {
+            append(job.toolpath, plan_trace(placed, pen));
+        }
+    }
+    if (job.toolpath.working_length_mm() <= 0)
+        throw JobError("the drawing is too small to fill with a " + fmt("%g", job.line_width_mm) +
+                       " mm line");
+    return job;
+}
+
+std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
+                        const std::string& title) {
+    std::string out;
+    const auto line = [&](const std::string& text) { out += text + "\n"; };
+    const double feed = job.feed_mm_s * 60, travel = m.travel_feed_mm_s * 60;
+    line("; " + title);
+    line("; calbox job for a " + m.kind + " (" + m.firmware + "): line " +
+         fmt("%g", job.line_width_mm) + " mm, spacing " + fmt("%g", job.spacing_mm) + " mm, " +
+         fmt("%.1f", job.toolpath.working_length_mm()) + " mm of path");
+    line("G21");
+    line("G90");
+    if (m.is_printer()) {
+        line("M82");
+        if (m.bed_temperature_c) line("M190 S" + fmt("%.0f", *m.bed_temperature_c));
+        if (m.nozzle_temperature_c) line("M109 S" + fmt("%.0f", *m.nozzle_temperature_c));
+        line("G28");
+        line("G92 E0");
+        const double z = m.layer_height_mm, hop = z + 0.4;
+        const double e_per_mm =
+            job.line_width_mm * m.layer_height_mm /
+            (3.14159265358979323846 * m.filament_diameter_mm * m.filament_diameter_mm / 4);
+        double e = 0;
+        line("G0 Z" + fmt("%.3f", m.safe_height_mm) + " F" + fmt("%.0f", travel));
+        bool lifted = true;
+        for (const auto& move : job.toolpath.moves) {
+            if (move.kind == MoveKind::travel) {
+                // Lift over the print for anything longer than a hop to the next line.
+                if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
+                    line("G0 Z" + fmt("%.3f", hop));
+                    lifted = true;
+                }
+                line("G0" + xy(move.to) + " F" + fmt("%.0f", travel));
+                continue;
+            }
+            if (lifted) {
+                line("G0 Z" + fmt("%.3f", z));
+                lifted = false;
+            }
+            e += move.length_mm() * e_per_mm;
+            line("G1" + xy(move.to) + " E" + fmt("%.5f", e) + " F" + fmt("%.0f", feed));
+        }
+        line("G0 Z" + fmt("%.3f", m.safe_height_mm + 10) + " F" + fmt("%.0f", travel));
+        if (m.nozzle_temperature_c) line("M104 S0");
+        if (m.bed_temperature_c) line("M140 S0");
+        line("M84");
+        return out;
+    }
+    const bool router = m.kind == "router";
+    const double power_scale = m.firmware == "grbl" ? 1000 : 255;
+    line("M5");
+    if (router) {
+        line("G0 Z" + fmt("%.3f", m.safe_height_mm) + " F" + fmt("%.0f", travel));
+        line("M3 S" + fmt("%.0f", m.spindle_rpm));
+    }
+    bool working = false;
+    for (const auto& move : job.toolpath.moves) {
+        if (move.kind == MoveKind::travel) {
+            if (working) line(router ? "G0 Z" + fmt("%.3f", m.safe_height_mm) : "M5");
+            working = false;
+            line("G0" + xy(move.to) + " F" + fmt("%.0f", travel));
+            continue;
+        }
+        if (!working) {
+            line(router ? "G1 Z" + fmt("%.3f", -m.cut_depth_mm) + " F" + fmt("%.0f", feed / 4)
+                        : "M3 S" + fmt("%.0f", m.laser_power * power_scale));
+            working = true;
+        }
+        line("G1" + xy(move.to) + " F" + fmt("%.0f", feed));
+    }
+    if (router) line("G0 Z" + fmt("%.3f", m.safe_height_mm));
+    line("M5");
+    return out;
+}
+
+}  // namespace calbox::targets

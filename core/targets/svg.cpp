@@ -1,0 +1,643 @@
+#include "core/targets/svg.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <map>
+#include <optional>
+#include <pugixml.hpp>
+
+namespace calbox::targets {
+namespace {
+
+using geometry::Point2;
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kMmPerPx = 25.4 / 96.0;  // CSS pixel
+
+// ---------------------------------------------------------------------------------------------
+// Numbers as SVG writes them: "1.5.5" is 1.5 then .5, "-1-2" is -1 then -2.
+
+class Scanner {
+  public:
+    explicit Scanner(std::string_view s) : s_(s) {}
+    void skip_separators() {
+        while (i_ < s_.size() &&
+               (std::isspace(static_cast<unsigned char>(s_[i_])) || s_[i_] == ','))
+            ++i_;
+    }
+    bool at_end() {
+        skip_separators();
+        return i_ >= s_.size();
+    }
+    char peek() {
+        skip_separators();
+        return i_ < s_.size() ? s_[i_] : '\0';
+    }
+    char take() { return s_[i_++]; }
+    bool at_number() {
+        const char c = peek();
+        return std::isdigit(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.';
+    }
+    std::optional<double> number() {
+        skip_separators();
+        const std::size_t start = i_;
+        if (i_ < s_.size() && (s_[i_] == '+' || s_[i_] == '-')) ++i_;
+        bool digits = false;
+        while (i_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_])))
+            ++i_, digits = true;
+        if (i_ < s_.size() && s_[i_] == '.') {
+            ++i_;
+            while (i_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_])))
+                ++i_, digits = true;
+        }
+        if (!digits) {
+            i_ = start;
+            return std::nullopt;
+        }
+        if (i_ < s_.size() && (s_[i_] == 'e' || s_[i_] == 'E')) {
+            std::size_t j = i_ + 1;
+            if (j < s_.size() && (s_[j] == '+' || s_[j] == '-')) ++j;
+            if (j < s_.size() && std::isdigit(static_cast<unsigned char>(s_[j]))) {
+                i_ = j;
+                while (i_ < s_.size() && std::isdigit(static_cast<unsigned char>(s_[i_]))) ++i_;
+            }
+        }
+        std::string text(s_.substr(start, i_ - start));
+        if (text[0] == '+') text.erase(0, 1);
+        double v = 0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
+        if (ec != std::errc() || end != text.data() + text.size() || !std::isfinite(v)) {
+            i_ = start;
+            return std::nullopt;
+        }
+        return v;
+    }
+    std::optional<bool> flag() {
+        skip_separators();
+        if (i_ < s_.size() && (s_[i_] == '0' || s_[i_] == '1')) return s_[i_++] == '1';
+        return std::nullopt;
+    }
+    std::size_t position() const { return i_; }
+
+  private:
+    std::string_view s_;
+    std::size_t i_ = 0;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Flattening
+
+void flatten_cubic(const Affine& m, Point2 p0, Point2 p1, Point2 p2, Point2 p3, double tolerance,
+                   std::vector<Point2>& out, int depth = 0) {
+    // Work on the mapped control points: an affine map keeps a Bezier curve a Bezier curve.
+    const Point2 a = m.apply(p0), b = m.apply(p1), c = m.apply(p2), d = m.apply(p3);
+    const auto distance_to_chord = [&](Point2 q) {
+        const double dx = d.x - a.x, dy = d.y - a.y, len = std::hypot(dx, dy);
+        if (len < 1e-12) return std::hypot(q.x - a.x, q.y - a.y);
+        return std::abs((q.x - a.x) * dy - (q.y - a.y) * dx) / len;
+    };
+    // The curve lies within the control polygon's hull; 3/4 of the control distance bounds it.
+    if (depth >= 18 || 0.75 * std::max(distance_to_chord(b), distance_to_chord(c)) <= tolerance) {
+        out.push_back(p3);
+        return;
+    }
+    const auto mid = [](Point2 u, Point2 v) { return Point2{(u.x + v.x) / 2, (u.y + v.y) / 2}; };
+    const Point2 p01 = mid(p0, p1), p12 = mid(p1, p2), p23 = mid(p2, p3);
+    const Point2 p012 = mid(p01, p12), p123 = mid(p12, p23), p0123 = mid(p012, p123);
+    flatten_cubic(m, p0, p01, p012, p0123, tolerance, out, depth + 1);
+    flatten_cubic(m, p0123, p123, p23, p3, tolerance, out, depth + 1);
+}
+
+// Points along an elliptical arc (centre form, radii along the rotated axes), excluding its start.
+void flatten_arc(const Affine& m, Point2 centre, double rx, double ry, double phi, double theta1,
+                 double delta, double tolerance, std::vector<Point2>& out) {
+    const double r_mm = std::max(rx, ry) * m.scale();
+    double step = kPi / 2;
+    if (r_mm > tolerance) step = std::min(step, 2 * std::acos(1 - tolerance / r_mm));
+    const int n = std::max(1, static_cast<int>(std::ceil(std::abs(delta) / step)));
+    const double cp = std::cos(phi), sp = std::sin(phi);
+    for (int k = 1; k <= n; ++k) {
+        const double t = theta1 + delta * k / n;
+        const double x = rx * std::cos(t), y = ry * std::sin(t);
+        out.push_back({centre.x + cp * x - sp * y, centre.y + sp * x + cp * y});
+    }
+}
+
+double vector_angle(double ux, double uy, double vx, double vy) {
+    return std::atan2(ux * vy - uy * vx, ux * vx + uy * vy);
+}
+
+// SVG's endpoint arc (spec F.6.5) to centre form, then flattened.
+void arc_to(const Affine& m, Point2 p1, double rx, double ry, double phi_deg, bool large,
+            bool sweep, Point2 p2, double tolerance, std::vector<Point2>& out) {
+    if (p1.x == p2.x && p1.y == p2.y) return;
+    rx = std::abs(rx);
+    ry = std::abs(ry);
+    if (rx == 0 || ry == 0) {
+        out.push_back(p2);
+        return;
+    }
+    const double phi = phi_deg * kPi / 180, cp = std::cos(phi), sp = std::sin(phi);
+    const double dx = (p1.x - p2.x) / 2, dy = (p1.y - p2.y) / 2;
+    const double x1 = cp * dx + sp * dy, y1 = -sp * dx + cp * dy;
+    const double lambda = x1 * x1 / (rx * rx) + y1 * y1 / (ry * ry);
+    if (lambda > 1) {
+        rx *= std::sqrt(lambda);
+        ry *= std::sqrt(lambda);
+    }
+    const double num = rx * rx * ry * ry - rx * rx * y1 * y1 - ry * ry * x1 * x1;
+    const double den = rx * rx * y1 * y1 + ry * ry * x1 * x1;
+    double coef = std::sqrt(std::max(0.0, num / den));
+    if (large == sweep) coef = -coef;
+    const double cx1 = coef * rx * y1 / ry, cy1 = -coef * ry * x1 / rx;
+    const Point2 centre{cp * cx1 - sp * cy1 + (p1.x + p2.x) / 2,
+                        sp * cx1 + cp * cy1 + (p1.y + p2.y) / 2};
+    const double theta1 = vector_angle(1, 0, (x1 - cx1) / rx, (y1 - cy1) / ry);
+    double delta =
+        vector_angle((x1 - cx1) / rx, (y1 - cy1) / ry, (-x1 - cx1) / rx, (-y1 - cy1) / ry);
+    if (!sweep && delta > 0) delta -= 2 * kPi;
+    if (sweep && delta < 0) delta += 2 * kPi;
+    flatten_arc(m, centre, rx, ry, phi, theta1, delta, tolerance, out);
+    out.back() = p2;  // land exactly on the endpoint
+}
+
+// ---------------------------------------------------------------------------------------------
+// Attributes
+
+std::optional<double> length_in_px(std::string_view text) {
+    Scanner s(text);
+    const auto v = s.number();
+    if (!v) return std::nullopt;
+    std::string unit(text.substr(s.position()));
+    while (!unit.empty() && std::isspace(static_cast<unsigned char>(unit.back()))) unit.pop_back();
+    static const std::map<std::string, double> kPx{
+        {"", 1.0},    {"px", 1.0},       {"mm", 1 / kMmPerPx}, {"cm", 10 / kMmPerPx},
+        {"in", 96.0}, {"pt", 96.0 / 72}, {"pc", 16.0},         {"q", 0.25 / kMmPerPx}};
+    const auto it = kPx.find(unit);
+    if (it == kPx.end()) return std::nullopt;
+    return *v * it->second;
+}
+
+std::string element_name(const pugi::xml_node& node) {
+    std::string name = node.name();
+    const auto colon = name.find(':');
+    return colon == std::string::npos ? name : name.substr(colon + 1);
+}
+
+double number_attribute(const pugi::xml_node& node, const char* name, double fallback,
+                        bool length = true) {
+    const auto attribute = node.attribute(name);
+    if (!attribute) return fallback;
+    const std::string text = attribute.value();
+    std::optional<double> v;
+    if (length) {
+        v = length_in_px(text);
+    } else {
+        Scanner s(text);
+        v = s.number();
+        if (v && !s.at_end()) v.reset();
+    }
+    if (!v) {
+        throw SvgError("non-numeric attribute " + std::string(name) + "=\"" + text + "\" on <" +
+                       element_name(node) + ">");
+    }
+    return *v;
+}
+
+std::vector<Point2> point_list(const pugi::xml_node& node) {
+    Scanner s(node.attribute("points").value());
+    std::vector<Point2> points;
+    while (!s.at_end()) {
+        const auto x = s.number();
+        const auto y = x ? s.number() : std::nullopt;
+        if (!x || !y) {
+            throw SvgError(std::string("non-numeric attribute points=\"") +
+                           node.attribute("points").value() + "\" on <" + element_name(node) + ">");
+        }
+        points.push_back({*x, *y});
+    }
+    return points;
+}
+
+// Presentation attributes and style properties, inherited from groups.
+struct Style {
+    bool filled = true;
+    bool stroked = false;
+    FillRule fill_rule = FillRule::nonzero;
+    double stroke_width_px = 1;
+    bool visible = true;
+};
+
+void apply_property(Style& style, const std::string& name, std::string value,
+                    const pugi::xml_node& node) {
+    while (!value.empty() && std::isspace(static_cast<unsigned char>(value.back())))
+        value.pop_back();
+    while (!value.empty() && std::isspace(static_cast<unsigned char>(value.front())))
+        value.erase(0, 1);
+    if (name == "fill") {
+        style.filled = value != "none" && value != "transparent";
+    } else if (name == "stroke") {
+        style.stroked = value != "none" && value != "transparent" && !value.empty();
+    } else if (name == "fill-rule") {
+        style.fill_rule = value == "evenodd" ? FillRule::evenodd : FillRule::nonzero;
+    } else if (name == "stroke-width") {
+        const auto v = length_in_px(value);
+        if (!v)
+            throw SvgError("non-numeric stroke-width \"" + value + "\" on <" + element_name(node) +
+                           ">");
+        style.stroke_width_px = *v;
+    } else if (name == "display") {
+        if (value == "none") style.visible = false;
+    } else if (name == "visibility") {
+        style.visible = value != "hidden" && value != "collapse";
+    }
+}
+
+Style style_of(const pugi::xml_node& node, Style inherited) {
+    for (const char* name :
+         {"fill", "stroke", "fill-rule", "stroke-width", "display", "visibility"}) {
+        if (const auto a = node.attribute(name)) apply_property(inherited, name, a.value(), node);
+    }
+    const std::string style = node.attribute("style").value();
+    std::size_t start = 0;
+    while (start < style.size()) {
+        const auto end = std::min(style.find(';', start), style.size());
+        const std::string item = style.substr(start, end - start);
+        const auto colon = item.find(':');
+        if (colon != std::string::npos) {
+            std::string name = item.substr(0, colon);
+            name.erase(std::remove_if(name.begin(), name.end(),
+                                      [](unsigned char c) { return std::isspace(c); }),
+                       name.end());
+            apply_property(inherited, name, item.substr(colon + 1), node);
+        }
+        start = end + 1;
+    }
+    return inherited;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct Reader {
+    SvgOptions options;
+    SvgDocument document;
+
+    void element(const pugi::xml_node& node, const Affine& parent, const Style& parent_style) {
+        const std::string name = element_name(node);
+        if (name == "defs" || name == "title" || name == "desc" || name == "metadata" ||
+            name == "style" || name == "clipPath" || name == "mask" || name == "symbol" ||
+            name == "marker" || name == "pattern") {
+            return;  // not drawn where it stands
+        }
+        const Style style = style_of(node, parent_style);
+        if (!style.visible) return;
+        Affine transform = parent;
+        if (const auto t = node.attribute("transform")) {
+            try {
+                transform = parse_transform(t.value()).then(parent);
+            } catch (const SvgError& e) {
+                throw SvgError(std::string(e.what()) + " on <" + name + ">");
+            }
+        }
+        if (name == "g" || name == "a" || name == "switch") {
+            for (const auto& child : node.children()) {
+                if (child.type() == pugi::node_element) element(child, transform, style);
+            }
+            return;
+        }
+        std::vector<Contour> contours = geometry_of(node, name, transform);
+        if (contours.empty()) return;
+        SvgShape shape;
+        shape.element = name;
+        shape.contours = std::move(contours);
+        shape.filled = style.filled && name != "line";  // a filled polyline closes implicitly
+        shape.fill_rule = style.fill_rule;
+        shape.stroked = style.stroked;
+        shape.stroke_width_mm = style.stroke_width_px * transform.scale();
+        if (!shape.filled && !shape.stroked) return;  // invisible
+        document.shapes.push_back(std::move(shape));
+    }
+
+    std::vector<Contour> geometry_of(const pugi::xml_node& node, const std::string& name,
+                                     const Affine& m) {
+        const double tol = options.tolerance_mm;
+        const auto mapped = [&](std::vector<Point2> points, bool closed) {
+            for (auto& p : points) p = m.apply(p);
+            return Contour{std::move(points), closed};
+        };
+        if (name == "path") return parse_path_data(node.attribute("d").value(), m, tol);
+        if (name == "polygon" || name == "polyline") {
+            auto points = point_list(node);
+            if (points.size() < 2) return {};
+            return {mapped(std::move(points), name == "polygon")};
+        }
+        if (name == "line") {
+            return {mapped({{number_attribute(node, "x1", 0), number_attribute(node, "y1", 0)},
+                            {number_attribute(node, "x2", 0), number_attribute(node, "y2", 0)}},
+                           false)};
+        }
+        if (name == "rect") {
+            const double x = number_attribute(node, "x", 0), y = number_attribute(node, "y", 0);
+            const double w = number_attribute(node, "width", 0),
+                         h = number_attribute(node, "height", 0);
+            if (w <= 0 || h <= 0) return {};
+            double rx = number_attribute(node, "rx", -1), ry = number_attribute(node, "ry", -1);
+            if (rx < 0) rx = ry;
+            if (ry < 0) ry = rx;
+            rx = std::clamp(rx, 0.0, w / 2);
+            ry = std::clamp(ry, 0.0, h / 2);
+            if (rx <= 0 || ry <= 0)
+                return {mapped({{x, y}, {x + w, y}, {x + w, y + h}, {x, y + h}}, true)};
+            std::vector<Point2> out{{x + rx, y}};
+            const auto corner = [&](Point2 from, Point2 to) {
+                out.push_back(from);
+                arc_to(m, from, rx, ry, 0, false, true, to, tol, out);
+            };
+            // Arc points are produced in user units and mapped below with the rest.
+            corner({x + w - rx, y}, {x + w, y + ry});
+            corner({x + w, y + h - ry}, {x + w - rx, y + h});
+            corner({x + rx, y + h}, {x, y + h - ry});
+            corner({x, y + ry}, {x + rx, y});
+            out.pop_back();
+            return {mapped(std::move(out), true)};
+        }
+        if (name == "circle" || name == "ellipse") {
+            const double cx = number_attribute(node, "cx", 0), cy = number_attribute(node, "cy", 0);
+            const double rx =
+                name == "circle" ? number_attribute(node, "r", 0) : number_attribute(node, "rx", 0);
+            const double ry = name == "circle" ? rx : number_attribute(node, "ry", 0);
+            if (rx <= 0 || ry <= 0) return {};
+            std::vector<Point2> out;
+            flatten_arc(m, {cx, cy}, rx, ry, 0, 0, 2 * kPi, tol, out);
+            out.pop_back();  // the last point repeats the first
+            return {mapped(std::move(out), true)};
+        }
+        return {};  // text, images and the like are not drawn by a machine
+    }
+};
+
+}  // namespace
+
+Affine Affine::then(const Affine& o) const {
+    return {o.a * a + o.c * b, o.b * a + o.d * b,       o.a * c + o.c * d,
+            o.b * c + o.d * d, o.a * e + o.c * f + o.e, o.b * e + o.d * f + o.f};
+}
+
+double Affine::scale() const {
+    return std::sqrt(std::abs(a * d - b * c));
+}
+
+Affine parse_transform(std::string_view text) {
+    Affine total;
+    std::size_t i = 0;
+    while (true) {
+        while (i < text.size() &&
+               (std::isspace(static_cast<unsigned char>(text[i])) || text[i] == ','))
+            ++i;
+        if (i >= text.size()) break;
+        const auto open = text.find('(', i);
+        const auto close = text.find(')', i);
+        if (open == std::string_view::npos || close == std::string_view::npos || close < open) {
+            throw SvgError("malformed transform \"" + std::string(text) + "\"");
+        }
+        std::string name(text.substr(i, open - i));
+        name.erase(std::remove_if(name.begin(), name.end(),
+                                  [](unsigned char c) { return std::isspace(c); }),
+                   name.end());
+        Scanner s(text.substr(open + 1, close - open - 1));
+        std::vector<double> v;
+        while (!s.at_end()) {
+            const auto n = s.number();
+            if (!n) throw SvgError("non-numeric transform \"" + std::string(text) + "\"");
+            v.push_back(*n);
+        }
+        const auto need = [&](std::size_t lo, std::size_t hi) {
+            if (v.size() < lo || v.size() > hi)
+                throw SvgError("transform " + name + "() with " + std::to_string(v.size()) +
+                               " numbers");
+        };
+        Affine t;
+        if (name == "matrix") {
+            need(6, 6);
+            t = {v[0], v[1], v[2], v[3], v[4], v[5]};
+        } else if (name == "translate") {
+            need(1, 2);
+            t.e = v[0];
+            t.f = v.size() > 1 ? v[1] : 0;
+        } else if (name == "scale") {
+            need(1, 2);
+            t.a = v[0];
+            t.d = v.size() > 1 ? v[1] : v[0];
+        } else if (name == "rotate") {
+            need(1, 3);
+            if (v.size() == 2) throw SvgError("transform rotate() with 2 numbers");
+            const double r = v[0] * kPi / 180, cr = std::cos(r), sr = std::sin(r);
+            const double cx = v.size() == 3 ? v[1] : 0, cy = v.size() == 3 ? v[2] : 0;
+            t = {cr, sr, -sr, cr, cx - cr * cx + sr * cy, cy - sr * cx - cr * cy};
+        } else if (name == "skewX") {
+            need(1, 1);
+            t.c = std::tan(v[0] * kPi / 180);
+        } else if (name == "skewY") {
+            need(1, 1);
+            t.b = std::tan(v[0] * kPi / 180);
+        } else {
+            throw SvgError("unknown transform " + name + "()");
+        }
+        // "a b" means apply b first, then a.
+        total = t.then(total);
+        i = close + 1;
+    }
+    return total;
+}
+
+std::vector<Contour> parse_path_data(std::string_view d, const Affine& m, double tolerance) {
+    std::vector<Contour> contours;
+    Scanner s(d);
+    Contour current;
+    Point2 pen{0, 0}, start{0, 0}, last_control{0, 0};
+    char previous = 0;
+    std::vector<Point2> user;  // the current subpath in user units
+    const auto finish = [&](bool closed) {
+        if (user.size() >= 2) {
+            Contour c;
+            for (const auto& p : user) c.points.push_back(m.apply(p));
+            c.closed = closed;
+            contours.push_back(std::move(c));
+        }
+        user.clear();
+    };
+    const auto bad = [&](const std::string& why) {
+        throw SvgError("path data: " + why + " at character " + std::to_string(s.position() + 1));
+    };
+    char command = 0;
+    while (!s.at_end()) {
+        if (std::isalpha(static_cast<unsigned char>(s.peek()))) {
+            command = s.take();
+            if (std::string_view("MmLlHhVvCcSsQqTtAaZz").find(command) == std::string_view::npos) {
+                throw SvgError(std::string("path data: unknown command '") + command +
+                               "' at character " + std::to_string(s.position()));
+            }
+        } else if (command == 0) {
+            bad("numbers before the first command");
+        } else if (command == 'Z' || command == 'z') {
+            bad("numbers after Z");
+        }
+        const bool rel = std::islower(static_cast<unsigned char>(command)) != 0;
+        const char op = static_cast<char>(std::toupper(static_cast<unsigned char>(command)));
+        const auto num = [&]() {
+            const auto v = s.number();
+            if (!v) bad(std::string("expected a number after ") + command);
+            return *v;
+        };
+        const auto point = [&]() {
+            const double x = num(), y = num();
+            return rel ? Point2{pen.x + x, pen.y + y} : Point2{x, y};
+        };
+        // A drawing command after Z starts a new subpath at the pen.
+        if (op != 'M' && op != 'Z' && user.empty()) user.push_back(pen);
+        switch (op) {
+            case 'M': {
+                finish(false);
+                pen = start = point();
+                user.push_back(pen);
+                command = rel ? 'l' : 'L';  // further pairs are lines
+                break;
+            }
+            case 'L':
+                pen = point();
+                user.push_back(pen);
+                break;
+            case 'H':
+                pen.x = rel ? pen.x + num() : num();
+                user.push_back(pen);
+                break;
+            case 'V':
+                pen.y = rel ? pen.y + num() : num();
+                user.push_back(pen);
+                break;
+            case 'C':
+            case 'S': {
+                Point2 c1;
+                if (op == 'C') {
+                    c1 = point();
+                } else {
+                    const bool smooth = previous == 'C' || previous == 'S';
+                    c1 = smooth ? Point2{2 * pen.x - last_control.x, 2 * pen.y - last_control.y}
+                                : pen;
+                }
+                const Point2 c2 = point(), end = point();
+                // flatten_cubic appends user-unit points: the map is applied at finish().
+                flatten_cubic(m, pen, c1, c2, end, tolerance, user);
+                last_control = c2;
+                pen = end;
+                break;
+            }
+            case 'Q':
+            case 'T': {
+                Point2 q;
+                if (op == 'Q') {
+                    q = point();
+                } else {
+                    const bool smooth = previous == 'Q' || previous == 'T';
+                    q = smooth ? Point2{2 * pen.x - last_control.x, 2 * pen.y - last_control.y}
+                               : pen;
+                }
+                const Point2 end = point();
+                // A quadratic is the cubic with controls two thirds of the way to q.
+                const Point2 c1{pen.x + 2.0 / 3 * (q.x - pen.x), pen.y + 2.0 / 3 * (q.y - pen.y)};
+                const Point2 c2{end.x + 2.0 / 3 * (q.x - end.x), end.y + 2.0 / 3 * (q.y - end.y)};
+                flatten_cubic(m, pen, c1, c2, end, tolerance, user);
+                last_control = q;
+                pen = end;
+                break;
+            }
+            case 'A': {
+                const double rx = num(), ry = num(), phi = num();
+                const auto large = s.flag();
+                const auto sweep = large ? s.flag() : std::nullopt;
+                if (!large || !sweep) bad("arc flags must be 0 or 1");
+                const Point2 end = point();
+                arc_to(m, pen, rx, ry, phi, *large, *sweep, end, tolerance, user);
+                pen = end;
+                break;
+            }
+            case 'Z':
+                if (!user.empty()) finish(true);
+                pen = start;
+                break;
+        }
+        previous = op;
+    }
+    finish(false);
+    return contours;
+}
+
+SvgDocument parse_svg(std::string_view text, const SvgOptions& options) {
+    if (text.size() > options.max_bytes) {
+        throw SvgError("the document is " + std::to_string(text.size()) +
+                       " bytes, over the limit of " + std::to_string(options.max_bytes));
+    }
+    pugi::xml_document xml;
+    const auto parsed = xml.load_buffer(text.data(), text.size(), pugi::parse_default);
+    if (!parsed) {
+        const auto offset = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, parsed.offset));
+        const auto line =
+            1 +
+            std::count(text.begin(),
+                       text.begin() + static_cast<std::ptrdiff_t>(std::min(offset, text.size())),
+                       '\n');
+        throw SvgError("malformed XML at line " + std::to_string(line) + ": " +
+                       parsed.description());
+    }
+    const pugi::xml_node root = xml.document_element();
+    if (!root || element_name(root) != "svg")
+        throw SvgError("not an SVG document: no <svg> root element");
+    Reader reader;
+    reader.options = options;
+    // The viewport in CSS pixels, then the viewBox mapped into it (preserveAspectRatio's
+    // default, xMidYMid meet).
+    std::optional<double> width, height;
+    if (root.attribute("width") &&
+        std::string(root.attribute("width").value()).find('%') == std::string::npos) {
+        width = number_attribute(root, "width", 0);
+    }
+    if (root.attribute("height") &&
+        std::string(root.attribute("height").value()).find('%') == std::string::npos) {
+        height = number_attribute(root, "height", 0);
+    }
+    Affine to_px;
+    if (const auto vb = root.attribute("viewBox")) {
+        Scanner s(vb.value());
+        double v[4];
+        for (double& x : v) {
+            const auto n = s.number();
+            if (!n)
+                throw SvgError(std::string("non-numeric attribute viewBox=\"") + vb.value() +
+                               "\" on <svg>");
+            x = *n;
+        }
+        if (v[2] <= 0 || v[3] <= 0) throw SvgError("viewBox needs a positive width and height");
+        const double w = width.value_or(v[2]), h = height.value_or(v[3]);
+        const double scale = std::min(w / v[2], h / v[3]);
+        to_px = {scale,
+                 0,
+                 0,
+                 scale,
+                 (w - v[2] * scale) / 2 - v[0] * scale,
+                 (h - v[3] * scale) / 2 - v[1] * scale};
+        width = w;
+        height = h;
+    }
+    const Affine to_mm = to_px.then(Affine{kMmPerPx, 0, 0, kMmPerPx, 0, 0});
+    reader.document.width_mm = width.value_or(0) * kMmPerPx;
+    reader.document.height_mm = height.value_or(0) * kMmPerPx;
+    for (const auto& child : root.children()) {
+        if (child.type() == pugi::node_element)
+            reader.element(child, to_mm, style_of(root, Style{}));
+    }
+    if (reader.document.shapes.empty()) throw SvgError("nothing drawable in the document");
+    return std::move(reader.document);
+}
+
+}  // namespace calbox::targets

@@ -1,0 +1,64 @@
+#pragma once
+// An SVG reader for the shapes people draw: polygon, polyline, rect (with rounded corners),
+// circle, ellipse, line and path (M L H V C S Q T A Z, absolute and relative), transforms on
+// elements and groups, viewBox / width / height with units. Curves are flattened to a stated
+// tolerance. Coordinates come out in millimetres, in SVG's orientation (y down).
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/geometry/types.hpp"
+
+namespace calbox::targets {
+
+class SvgError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+enum class FillRule { nonzero, evenodd };
+
+struct Contour {
+    std::vector<geometry::Point2> points;
+    bool closed = false;
+};
+
+struct SvgShape {
+    std::string element;  // "path", "rect", ...
+    std::vector<Contour> contours;
+    bool filled = true;
+    FillRule fill_rule = FillRule::nonzero;
+    bool stroked = false;
+    double stroke_width_mm = 0;
+};
+
+struct SvgDocument {
+    std::vector<SvgShape> shapes;
+    double width_mm = 0, height_mm = 0;  // the viewport
+};
+
+struct SvgOptions {
+    double tolerance_mm = 0.005;  // largest distance of a flattened curve from the true one
+    std::size_t max_bytes = 10u * 1024u * 1024u;  // larger documents are refused
+};
+
+// A 2-D affine map as SVG writes it: x' = a x + c y + e, y' = b x + d y + f.
+struct Affine {
+    double a = 1, b = 0, c = 0, d = 1, e = 0, f = 0;
+    geometry::Point2 apply(geometry::Point2 p) const {
+        return {a * p.x + c * p.y + e, b * p.x + d * p.y + f};
+    }
+    Affine then(const Affine& outer) const;  // this first, then outer
+    double scale() const;                    // sqrt(|det|)
+};
+
+// Throws SvgError with one line naming the problem: malformed XML (with its line), no <svg>
+// root, nothing drawable, too large, an unknown path command, a non-numeric attribute.
+SvgDocument parse_svg(std::string_view text, const SvgOptions& options = {});
+
+// Path data alone, mapped through `to_mm` and flattened to `tolerance_mm`.
+std::vector<Contour> parse_path_data(std::string_view d, const Affine& to_mm, double tolerance_mm);
+Affine parse_transform(std::string_view text);
+
+}  // namespace calbox::targets

@@ -1,0 +1,140 @@
+// calbox target svg: a job for any machine from a drawing.
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <opencv2/imgproc.hpp>
+
+#include "core/models/machine_file.hpp"
+#include "core/targets/job.hpp"
+#include "firmware/cli_args.hpp"
+#include "firmware/cli_images.hpp"
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kTargetHelp = R"(usage:
+  calbox target svg FILE.svg --machine FILE -o JOB [--spacing MM] [--angle DEG] [--feed MM_S]
+                    [--scale S | --fit MM] [--fill-rule nonzero|evenodd] [--perimeters N]
+                    [--preview PNG]
+      A job for the machine from a drawing. Filled shapes are filled as SVG means it (their
+      fill-rule, or --fill-rule for all): perimeters inset by half the line width, then infill
+      lines --spacing apart (default: the line width; printers accept their line width to ten
+      times it) at --angle degrees, in a zigzag. Shapes with only a stroke are traced. The
+      drawing is centred on the bed and reads as drawn seen from above; --fit makes its larger
+      side that many mm, --scale multiplies its own size. --preview draws perimeters (blue),
+      infill (green), traces (purple) and travel (red) with path length, travel and time.
+)";
+
+constexpr std::uintmax_t kMaxSvgBytes = 10u * 1024u * 1024u;
+
+void draw_preview(const std::string& path, const targets::PlacedJob& job,
+                  const models::MachineFile& machine) {
+    const double margin_mm = 2 + job.line_width_mm;
+    const double width_mm = job.max_x - job.min_x + 2 * margin_mm,
+                 height_mm = job.max_y - job.min_y + 2 * margin_mm;
+    const double px_per_mm = 1200.0 / std::max(width_mm, height_mm);
+    const int text_rows = 70;
+    cv::Mat picture(static_cast<int>(height_mm * px_per_mm) + text_rows,
+                    static_cast<int>(width_mm * px_per_mm), CV_8UC3, cv::Scalar(255, 255, 255));
+    constexpr int kShift = 4;  // sub-pixel drawing
+    const auto to_px = [&](geometry::Point2 p) {
+        return cv::Point(static_cast<int>(std::lround((p.x - job.min_x + margin_mm) * px_per_mm *
+                                                      (1 << kShift))),
+                         static_cast<int>(std::lround((job.max_y + margin_mm - p.y) * px_per_mm *
+                                                      (1 << kShift))));
+    };
+    const int line_px = std::max(1, static_cast<int>(std::lround(job.line_width_mm * px_per_mm)));
+    for (const auto& move : job.toolpath.moves) {
+        cv::Scalar colour(0, 0, 220);  // travel
+        int thickness = 1;
+        if (move.kind == targets::MoveKind::perimeter) colour = cv::Scalar(200, 90, 0);
+        if (move.kind == targets::MoveKind::infill) colour = cv::Scalar(60, 170, 60);
+        if (move.kind == targets::MoveKind::trace) colour = cv::Scalar(160, 40, 160);
+        if (move.kind != targets::MoveKind::travel) thickness = line_px;
+        cv::line(picture, to_px(move.from), to_px(move.to), colour, thickness, cv::LINE_AA, kShift);
+    }
+    char text[256];
+    std::snprintf(text, sizeof text,
+                  "path %.1f mm, travel %.1f mm (%.1f %%), about %.0f s at %.0f mm/s",
+                  job.toolpath.working_length_mm(), job.toolpath.travel_length_mm(),
+                  100 * job.toolpath.travel_length_mm() / job.toolpath.working_length_mm(),
+                  job.estimated_time_s(machine), job.feed_mm_s);
+    cv::putText(picture, text, cv::Point(10, picture.rows - 40), cv::FONT_HERSHEY_SIMPLEX, 0.6,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    std::snprintf(
+        text, sizeof text,
+        "%.2f x %.2f mm, line %.3f mm, spacing %.3f mm; blue perimeters, green infill, red travel",
+        job.max_x - job.min_x, job.max_y - job.min_y, job.line_width_mm, job.spacing_mm);
+    cv::putText(picture, text, cv::Point(10, picture.rows - 15), cv::FONT_HERSHEY_SIMPLEX, 0.5,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    write_png(path, picture);
+}
+
+int svg(const std::vector<std::string>& words) {
+    const Args args(words,
+                    {"--machine", "-o", "--spacing", "--angle", "--feed", "--scale", "--fit",
+                     "--fill-rule", "--perimeters", "--preview"},
+                    {});
+    if (args.positional().size() != 1) throw UsageError("target svg takes one SVG file");
+    const std::string svg_path = args.positional()[0];
+    const std::string machine_path = args.require("--machine");
+    const std::string out = args.require("-o");
+    targets::SvgJobSettings settings;
+    if (args.get("--spacing")) settings.spacing_mm = args.number("--spacing", 0);
+    if (args.get("--angle")) settings.angle_deg = args.number("--angle", 0);
+    if (args.get("--feed")) settings.feed_mm_s = args.number("--feed", 0);
+    if (args.get("--scale")) settings.scale = args.number("--scale", 0);
+    if (args.get("--fit")) settings.fit_mm = args.number("--fit", 0);
+    settings.perimeters = static_cast<int>(args.number("--perimeters", 1));
+    if (const auto rule = args.get("--fill-rule")) {
+        if (*rule != "nonzero" && *rule != "evenodd")
+            throw UsageError("--fill-rule must be nonzero or evenodd");
+        settings.fill_rule =
+            *rule == "evenodd" ? targets::FillRule::evenodd : targets::FillRule::nonzero;
+    }
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    std::error_code error;
+    const auto size = std::filesystem::file_size(svg_path, error);
+    if (!error && size > kMaxSvgBytes) {
+        throw std::runtime_error(svg_path + ": the document is " + std::to_string(size) +
+                                 " bytes, over the limit of " + std::to_string(kMaxSvgBytes));
+    }
+    targets::SvgDocument document;
+    try {
+        document = targets::parse_svg(read_input_file(svg_path, "drawing"));
+    } catch (const targets::SvgError& e) {
+        throw std::runtime_error(svg_path + ": " + e.what());
+    }
+    const auto job = targets::plan_svg_job(document, machine, settings);
+    write_output_file(
+        out, targets::write_gcode(
+                 job, machine,
+                 "calbox target svg " + std::filesystem::path(svg_path).filename().string()));
+    std::printf("%s: %.2f x %.2f mm, %zu moves, path %.1f mm, travel %.1f mm, about %.0f s\n",
+                out.c_str(), job.max_x - job.min_x, job.max_y - job.min_y,
+                job.toolpath.moves.size(), job.toolpath.working_length_mm(),
+                job.toolpath.travel_length_mm(), job.estimated_time_s(machine));
+    if (const auto preview = args.get("--preview")) draw_preview(*preview, job, machine);
+    return 0;
+}
+
+}  // namespace
+
+int run_target(const std::vector<std::string>& words) {
+    if (words.empty() || words[0] == "--help" || words[0] == "-h") {
+        std::cout << kTargetHelp;
+        return words.empty() ? 2 : 0;
+    }
+    const std::vector<std::string> rest(words.begin() + 1, words.end());
+    for (const auto& w : rest) {
+        if (w == "--help" || w == "-h") {
+            std::cout << kTargetHelp;
+            return 0;
+        }
+    }
+    if (words[0] == "svg") return svg(rest);
+    throw UsageError("unknown target '" + words[0] + "' (svg)");
+}
+
+}  // namespace calbox::cli

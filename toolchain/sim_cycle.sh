@@ -17,4 +17,10 @@ echo "== photo of the print (4056x3040, tilted about 5 degrees, blur and noise o
 echo "== photo of a 9x6 chessboard (20 mm squares) lying on the bed"
 "$calbox" sim photo --scenario "$scenario" --board chessboard:9x6@20 --on-bed -80,50,0 \
     -o "$out/chessboard.png" --truth "$out/chessboard_truth.json"
+echo "== a drawing made into a job and printed: examples/ring_star.svg, 40 mm across"
+"$calbox" target svg "$top/examples/ring_star.svg" --machine "$top/examples/delta.toml" --fit 40 \
+    -o "$out/ring_star.gcode" --preview "$out/ring_star_preview.png"
+"$calbox" sim print --scenario "$scenario" "$out/ring_star.gcode" -o "$out/ring_star_print.json" | tail -n 1
+"$calbox" sim photo --scenario "$scenario" --print "$out/ring_star_print.json" -o "$out/ring_star.png"
 echo "== files in $out: print.json print.png print_truth.json chessboard.png chessboard_truth.json"
+echo "   ring_star.gcode ring_star_preview.png ring_star_print.json ring_star.png"

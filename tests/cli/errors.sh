@@ -64,5 +64,23 @@ expect_error "cannot read camera file" camera plane --camera "$work/none.yaml" -
 expect_error "found in 0 of 1 images; calibration needs at least 6" camera calibrate --pattern chessboard:7x4@20 "$work/board.png" -o "$work/result"
 expect_error "--model must be pinhole or fisheye" camera calibrate --pattern chessboard:9x6@20 --model wide "$work/board.png" -o "$work/result"
 
+# target svg
+machine="$top/examples/delta.toml"
+printf '<svg><rect width="1" height="1">\n</svg>' > "$work/malformed.svg"
+printf '<svg><path d="M0 0 X 5 5"/></svg>' > "$work/command.svg"
+printf '<svg xmlns="http://www.w3.org/2000/svg"></svg>' > "$work/empty.svg"
+printf '<svg><rect width="abc" height="2"/></svg>' > "$work/numeric.svg"
+printf '<svg><rect width="20" height="20"/></svg>' > "$work/square.svg"
+head -c 11000000 /dev/zero | tr '\0' ' ' > "$work/huge.svg"
+expect_error "malformed.svg: malformed XML at line 2" target svg "$work/malformed.svg" --machine "$machine" -o "$work/result"
+expect_error "unknown command 'X'" target svg "$work/command.svg" --machine "$machine" -o "$work/result"
+expect_error "nothing drawable" target svg "$work/empty.svg" --machine "$machine" -o "$work/result"
+expect_error "non-numeric attribute width=\"abc\" on <rect>" target svg "$work/numeric.svg" --machine "$machine" -o "$work/result"
+expect_error "over the limit of 10485760" target svg "$work/huge.svg" --machine "$machine" -o "$work/result"
+expect_error "valid range 0.45 to 4.5 mm" target svg "$work/square.svg" --machine "$machine" --spacing 0.3 -o "$work/result"
+expect_error "does not fit on the bed" target svg "$work/square.svg" --machine "$machine" --fit 200 -o "$work/result"
+expect_error "cannot read drawing" target svg "$work/none.svg" --machine "$machine" -o "$work/result"
+expect_error "fill-rule must be nonzero or evenodd" target svg "$work/square.svg" --machine "$machine" --fill-rule odd -o "$work/result"
+
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

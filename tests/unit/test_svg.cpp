@@ -67,7 +67,8 @@ TEST(SvgPath, half_circle_arc_has_the_area_of_half_a_disc) {
     DOUBLES_EQUAL(-10, lowest, 0.002);
     // The other sweep goes through (10, 10); the large-arc flag changes nothing on a half circle.
     double highest = 0;
-    for (const auto& p : parse_path_data("M0,0a10,10 0 1,0 20,0z", kIdentity, 0.001)[0].points) highest = std::max(highest, p.y);
+    const auto other = parse_path_data("M0,0a10,10 0 1,0 20,0z", kIdentity, 0.001);
+    for (const auto& p : other[0].points) highest = std::max(highest, p.y);
     DOUBLES_EQUAL(10, highest, 0.002);
 }
 

@@ -6,7 +6,7 @@
 #include <fstream>
 #include <map>
 #include <opencv2/imgproc.hpp>
-#include <regex>
+#include <algorithm>
 #include <sstream>
 
 #include "board/sim/camera_reference.hpp"
@@ -56,11 +56,11 @@ std::string drawing(const std::string& name) {
 // The outline as the test reads it: the polygon's points, fitted to 40 mm and centred as the
 // job promises (larger side 40 mm, y flipped, centred on the bed).
 std::vector<cv::Point2d> outline_of(const std::string& svg, cv::Point2d bed_centre) {
-    std::smatch m;
-    const std::string text = svg;
-    if (!std::regex_search(text, m, std::regex("points=\"([^\"]*)\"")))
-        FAIL("no points in the drawing");
-    std::stringstream in(std::regex_replace(m[1].str(), std::regex(","), " "));
+    const auto start = svg.find("points=\"");
+    if (start == std::string::npos) FAIL("no points in the drawing");
+    std::string points = svg.substr(start + 8, svg.find('"', start + 8) - start - 8);
+    std::replace(points.begin(), points.end(), ',', ' ');
+    std::stringstream in(points);
     std::vector<cv::Point2d> p;
     double x, y;
     while (in >> x >> y) p.emplace_back(x, y);

@@ -1,0 +1,338 @@
+#include "core/solve/delta_fit.hpp"
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+namespace calbox::solve {
+namespace {
+
+using models::DeltaGeometry;
+constexpr double kPi = 3.14159265358979323846;
+
+// The geometry parameters, in gauge: rod, two rod trims (the third is minus their sum), radius,
+// two angle trims (likewise), two endstop offsets relative to tower C's, height.
+constexpr int kGeometry = 9;
+const char* const kNames[kGeometry] = {"diagonal_rod_mm",
+                                       "diagonal_rod_trim_mm[A]",
+                                       "diagonal_rod_trim_mm[B]",
+                                       "radius_mm",
+                                       "tower_angle_trim_deg[A]",
+                                       "tower_angle_trim_deg[B]",
+                                       "endstop_offset_mm[A]",
+                                       "endstop_offset_mm[B]",
+                                       "height_mm"};
+// Steps that change positions by about a tenth of a millimetre: columns of comparable size.
+const double kScale[kGeometry] = {0.1, 0.1, 0.1, 0.1, 0.05, 0.05, 0.1, 0.1, 0.1};
+
+using Vector = Eigen::VectorXd;
+
+Vector pack(const DeltaGeometry& g0) {
+    const DeltaGeometry g = models::in_gauge(g0);
+    Vector v(kGeometry);
+    v << g.diagonal_rod_mm, g.diagonal_rod_trim_mm[0], g.diagonal_rod_trim_mm[1], g.radius_mm,
+        g.tower_angle_trim_deg[0], g.tower_angle_trim_deg[1],
+        g.endstop_offset_mm[0] - g.endstop_offset_mm[2],
+        g.endstop_offset_mm[1] - g.endstop_offset_mm[2], g.height_mm;
+    return v;
+}
+
+DeltaGeometry unpack(const Vector& v) {
+    DeltaGeometry g;
+    g.diagonal_rod_mm = v[0];
+    g.diagonal_rod_trim_mm = {v[1], v[2], -v[1] - v[2]};
+    g.radius_mm = v[3];
+    g.tower_angle_trim_deg = {v[4], v[5], -v[4] - v[5]};
+    g.endstop_offset_mm = {v[6], v[7], 0.0};
+    g.height_mm = v[8];
+    return models::in_gauge(g);
+}
+
+// Levenberg-Marquardt on r(x) with a numerical Jacobian; `free` marks the parameters it moves.
+struct Solution {
+    Vector x;
+    Eigen::MatrixXd jacobian;  // at the solution, free columns only
+    double cost = 0;
+};
+
+Eigen::MatrixXd jacobian_of(const std::function<Vector(const Vector&)>& r, const Vector& x,
+                            const std::vector<int>& free, const std::vector<double>& step) {
+    const Vector r0 = r(x);
+    Eigen::MatrixXd j(r0.size(), static_cast<Eigen::Index>(free.size()));
+    for (std::size_t k = 0; k < free.size(); ++k) {
+        Vector up = x, down = x;
+        const double h = step[static_cast<std::size_t>(free[k])] * 1e-3;
+        up[free[k]] += h;
+        down[free[k]] -= h;
+        j.col(static_cast<Eigen::Index>(k)) = (r(up) - r(down)) / (2 * h);
+    }
+    return j;
+}
+
+Solution levenberg_marquardt(const std::function<Vector(const Vector&)>& r, Vector x,
+                             const std::vector<int>& free, const std::vector<double>& step) {
+    double lambda = 1e-3;
+    Vector res = r(x);
+    double cost = res.squaredNorm();
+    for (int iteration = 0; iteration < 100; ++iteration) {
+        const Eigen::MatrixXd j = jacobian_of(r, x, free, step);
+        const Eigen::MatrixXd jtj = j.transpose() * j;
+        const Vector g = j.transpose() * res;
+        bool improved = false;
+        for (int tries = 0; tries < 10 && !improved; ++tries) {
+            Eigen::MatrixXd a = jtj;
+            a.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-12);
+            const Vector dx = a.ldlt().solve(-g);
+            Vector candidate = x;
+            for (std::size_t k = 0; k < free.size(); ++k)
+                candidate[free[k]] += dx[static_cast<Eigen::Index>(k)];
+            Vector candidate_res;
+            try {
+                candidate_res = r(candidate);
+            } catch (const models::UnreachableError&) {
+                lambda *= 10;
+                continue;
+            }
+            const double candidate_cost = candidate_res.squaredNorm();
+            if (candidate_cost < cost) {
+                const double gain = cost - candidate_cost;
+                x = candidate;
+                res = candidate_res;
+                cost = candidate_cost;
+                lambda = std::max(lambda / 10, 1e-12);
+                improved = true;
+                if (gain < 1e-14 * (1 + cost)) iteration = 1000;
+            } else {
+                lambda *= 10;
+            }
+        }
+        if (!improved) break;
+    }
+    return {x, jacobian_of(r, x, free, step), cost};
+}
+
+// Bed points for judging a correction: rings over the printable area.
+std::vector<geometry::Point3> judging_points(double radius_mm, double z_mm) {
+    std::vector<geometry::Point3> out{{0, 0, z_mm}};
+    for (int ring = 1; ring <= 6; ++ring) {
+        const double r = radius_mm * ring / 6;
+        const int n = 6 * ring;
+        for (int k = 0; k < n; ++k)
+            out.push_back({r * std::cos(2 * kPi * k / n), r * std::sin(2 * kPi * k / n), z_mm});
+    }
+    return out;
+}
+
+}  // namespace
+
+DeltaFitResult fit_delta(const models::MachineFile& machine,
+                         const std::vector<FeatureMeasurement>& features,
+                         const std::vector<ProbePoint>& probe, const DeltaFitLimits& limits) {
+    if (!machine.delta) throw FitError("the machine file has no [delta] table");
+    const DeltaGeometry firmware = *machine.delta;
+    constexpr std::size_t kMinimumFeatures = 12;
+    if (features.size() < kMinimumFeatures) {
+        throw FitError("too few features: " + std::to_string(features.size()) +
+                       ", the fit needs at least " + std::to_string(kMinimumFeatures) +
+                       " spread over the bed");
+    }
+    for (const auto& f : features) {
+        const auto finite = [](double v) { return std::isfinite(v); };
+        if (!finite(f.commanded_mm.x) || !finite(f.commanded_mm.y) || !finite(f.commanded_mm.z) ||
+            !finite(f.measured_mm.x) || !finite(f.measured_mm.y) || !(f.sigma_mm > 0)) {
+            throw FitError("feature " + f.id +
+                           " has a missing or non-finite position or uncertainty");
+        }
+        if (std::hypot(f.commanded_mm.x, f.commanded_mm.y) > machine.bed_radius_mm) {
+            throw FitError("feature " + f.id + " was commanded off the bed (" +
+                           std::to_string(std::hypot(f.commanded_mm.x, f.commanded_mm.y)) +
+                           " mm from the centre, bed radius " +
+                           std::to_string(machine.bed_radius_mm) + " mm)");
+        }
+    }
+    for (const auto& p : probe) {
+        if (!std::isfinite(p.x_mm) || !std::isfinite(p.y_mm) || !std::isfinite(p.z_mm) ||
+            !(p.sigma_mm > 0)) {
+            throw FitError("a probe point is not finite");
+        }
+        if (std::hypot(p.x_mm, p.y_mm) > machine.bed_radius_mm)
+            throw FitError("a probe point lies off the bed");
+    }
+    DeltaFitResult result;
+    result.used_probe = probe.size() >= 3;
+    result.before = models::in_gauge(firmware);
+
+    // Stage 1: the true geometry. Unknowns: geometry, then placement (rotation, x, y).
+    const Vector fw = pack(firmware);
+    Vector x0(kGeometry + 3);
+    x0 << fw, 0, 0, 0;
+    std::vector<double> step(kScale, kScale + kGeometry);
+    step.insert(step.end(), {0.01, 0.1, 0.1});
+    // First guess of the placement: centroids and the mean angle about them.
+    {
+        double cx = 0, cy = 0, mx = 0, my = 0;
+        for (const auto& f : features)
+            cx += f.commanded_mm.x, cy += f.commanded_mm.y, mx += f.measured_mm.x,
+                my += f.measured_mm.y;
+        const double n = static_cast<double>(features.size());
+        cx /= n, cy /= n, mx /= n, my /= n;
+        double s = 0, c = 0;
+        for (const auto& f : features) {
+            const double ax = f.commanded_mm.x - cx, ay = f.commanded_mm.y - cy,
+                         bx = f.measured_mm.x - mx, by = f.measured_mm.y - my;
+            s += ax * by - ay * bx;
+            c += ax * bx + ay * by;
+        }
+        const double phi = std::atan2(s, c);
+        x0[kGeometry] = phi;
+        x0[kGeometry + 1] = mx - (std::cos(phi) * cx - std::sin(phi) * cy);
+        x0[kGeometry + 2] = my - (std::sin(phi) * cx + std::cos(phi) * cy);
+    }
+    const auto residuals = [&](const Vector& x) {
+        const DeltaGeometry g = unpack(x.head(kGeometry));
+        const double c = std::cos(x[kGeometry]), s = std::sin(x[kGeometry]);
+        Vector r(static_cast<Eigen::Index>(2 * features.size() + probe.size()));
+        Eigen::Index k = 0;
+        for (const auto& f : features) {
+            const auto p = models::actual_position_mm(g, firmware, f.commanded_mm);
+            r[k++] = (c * p.x - s * p.y + x[kGeometry + 1] - f.measured_mm.x) / f.sigma_mm;
+            r[k++] = (s * p.x + c * p.y + x[kGeometry + 2] - f.measured_mm.y) / f.sigma_mm;
+        }
+        for (const auto& p : probe)
+            r[k++] = (models::actual_position_mm(g, firmware, {p.x_mm, p.y_mm, 0}).z - p.z_mm) /
+                     p.sigma_mm;
+        return r;
+    };
+    // What the camera cannot see: without heights, the height (a common carriage shift moves the
+    // nozzle straight down) is held.
+    std::vector<int> free;
+    for (int i = 0; i < kGeometry + 3; ++i)
+        if (i != 8 || result.used_probe) free.push_back(i);
+    Solution solution = levenberg_marquardt(residuals, x0, free, step);
+    // Observability: singular values of the Jacobian with columns scaled to comparable steps.
+    Eigen::MatrixXd scaled = solution.jacobian;
+    for (std::size_t k = 0; k < free.size(); ++k)
+        scaled.col(static_cast<Eigen::Index>(k)) *= step[static_cast<std::size_t>(free[k])];
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled);
+    const Vector sv = svd.singularValues();
+    for (Eigen::Index i = 0; i < sv.size(); ++i) result.singular_values.push_back(sv[i]);
+    result.condition_number =
+        sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
+    // Parameters whose uncertainty would exceed what any correction could use are held: a
+    // direction with a singular value below 1e-6 of the largest carries no information.
+    const Eigen::MatrixXd covariance = (solution.jacobian.transpose() * solution.jacobian)
+                                           .completeOrthogonalDecomposition()
+                                           .pseudoInverse();
+    const double dof =
+        std::max(1.0, static_cast<double>(solution.jacobian.rows() - solution.jacobian.cols()));
+    result.fit_rms_mm = std::sqrt(solution.cost / static_cast<double>(solution.jacobian.rows())) *
+                        features.front().sigma_mm;
+    (void)dof;
+    result.estimate = unpack(solution.x.head(kGeometry));
+    result.placement_rotation_deg = solution.x[kGeometry] * 180 / kPi;
+    result.placement_translation_mm = {solution.x[kGeometry + 1], solution.x[kGeometry + 2]};
+
+    // Stage 2: the correction. Without heights, keep the height map the printer has now while
+    // making XY right; with heights, make both right.
+    const auto judge = judging_points(machine.bed_radius_mm * 0.95, 0.0);
+    const DeltaGeometry estimate = result.estimate;
+    std::vector<double> z_now;
+    for (const auto& p : judge)
+        z_now.push_back(models::actual_position_mm(estimate, firmware, p).z);
+    const auto correction_residuals = [&](const Vector& x) {
+        const DeltaGeometry g = unpack(x);
+        Vector r(static_cast<Eigen::Index>(3 * judge.size()));
+        for (std::size_t i = 0; i < judge.size(); ++i) {
+            const auto p = models::actual_position_mm(estimate, g, judge[i]);
+            const auto k = static_cast<Eigen::Index>(3 * i);
+            r[k] = p.x - judge[i].x;
+            r[k + 1] = p.y - judge[i].y;
+            // Without heights, keeping the bed as levelled weighs more than the last micrometre of
+            // XY: a spoiled first layer costs more than a trace of scale.
+            r[k + 2] = result.used_probe ? p.z - judge[i].z : 3 * (p.z - z_now[i]);
+        }
+        return r;
+    };
+    std::vector<int> all;
+    for (int i = 0; i < kGeometry; ++i) all.push_back(i);
+    const Solution correction =
+        levenberg_marquardt(correction_residuals, pack(estimate), all, step);
+    result.after = unpack(correction.x);
+    double sum = 0, worst = 0, change = 0;
+    for (std::size_t i = 0; i < judge.size(); ++i) {
+        const auto p = models::actual_position_mm(estimate, result.after, judge[i]);
+        const double e = std::hypot(p.x - judge[i].x, p.y - judge[i].y);
+        sum += e * e;
+        worst = std::max(worst, e);
+        change = std::max(change, std::abs(p.z - z_now[i]));
+    }
+    result.predicted_xy_rms_mm = std::sqrt(sum / static_cast<double>(judge.size()));
+    result.predicted_xy_max_mm = worst;
+    result.predicted_height_change_mm = change;
+
+    const Vector before = pack(result.before), est = pack(result.estimate),
+                 after = pack(result.after);
+    for (int i = 0; i < kGeometry; ++i) {
+        ParameterReport p;
+        p.name = kNames[i];
+        p.before = before[i];
+        p.estimate = est[i];
+        p.after = after[i];
+        const auto it = std::find(free.begin(), free.end(), i);
+        p.held = it == free.end();
+        if (!p.held) {
+            const auto k = static_cast<Eigen::Index>(it - free.begin());
+            p.uncertainty = std::sqrt(std::max(0.0, covariance(k, k)));
+        }
+        result.parameters.push_back(p);
+    }
+    // Bounds: a correction this large is a wrong measurement or a broken machine, not a trim.
+    const double rod_change =
+        std::abs(result.after.diagonal_rod_mm - result.before.diagonal_rod_mm) /
+        result.before.diagonal_rod_mm;
+    if (rod_change > limits.max_rod_change_fraction) {
+        throw FitError("refused: the rod length would change by " +
+                       std::to_string(100 * rod_change) + " %, over the limit of " +
+                       std::to_string(100 * limits.max_rod_change_fraction) + " %");
+    }
+    for (double a : result.after.tower_angle_trim_deg) {
+        if (std::abs(a) > limits.max_angle_trim_deg) {
+            throw FitError("refused: a tower angle trim of " + std::to_string(a) +
+                           " degrees is over the limit of " +
+                           std::to_string(limits.max_angle_trim_deg));
+        }
+    }
+    return result;
+}
+
+double classic_rod_length_mm(const DeltaGeometry& firmware,
+                             const std::vector<BarMeasurement>& bars) {
+    if (bars.empty()) throw FitError("the classic method needs bar lengths");
+    const double d0 = firmware.diagonal_rod_mm, r = firmware.radius_mm;
+    const double h_star = std::sqrt(d0 * d0 - r * r);
+    double sum = 0;
+    for (const auto& bar : bars) {
+        const double dh =
+            std::sqrt(d0 * d0 - (r - bar.commanded_mm) * (r - bar.commanded_mm)) - h_star;
+        // L = R - sqrt(D^2 - (sqrt(D^2 - R^2) + dh)^2), solved for D by bisection around D0.
+        const auto measured = [&](double d) {
+            const double inner = std::sqrt(d * d - r * r) + dh;
+            return r - std::sqrt(std::max(0.0, d * d - inner * inner));
+        };
+        double lo = d0 * 0.8, hi = d0 * 1.2;
+        const bool rising = measured(hi) > measured(lo);
+        for (int i = 0; i < 200; ++i) {
+            const double mid = (lo + hi) / 2;
+            if ((measured(mid) < bar.measured_mm) == rising)
+                lo = mid;
+            else
+                hi = mid;
+        }
+        sum += (lo + hi) / 2;
+    }
+    return sum / static_cast<double>(bars.size());
+}
+
+}  // namespace calbox::solve

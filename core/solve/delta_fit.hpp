@@ -1,0 +1,74 @@
+#pragma once
+// Fits a delta printer's geometry to where its features really landed (commanded vs measured
+// bed positions), with the artifact's placement on the bed as nuisance parameters, in the
+// gauges a camera imposes; then designs the correction to send.
+#include <string>
+#include <vector>
+
+#include "core/geometry/types.hpp"
+#include "core/models/delta.hpp"
+#include "core/models/machine_file.hpp"
+
+namespace calbox::solve {
+
+class FitError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+struct FeatureMeasurement {
+    std::string id;
+    geometry::Point3 commanded_mm;  // machine frame, as the job commanded it
+    geometry::Point2 measured_mm;   // bed frame, where it was seen
+    double sigma_mm = 0.01;         // standard uncertainty of each measured coordinate
+};
+
+// A probed height: the nozzle's height over the bed when commanded to (x, y, 0).
+struct ProbePoint {
+    double x_mm = 0, y_mm = 0, z_mm = 0;
+    double sigma_mm = 0.01;
+};
+
+struct DeltaFitLimits {
+    double max_rod_change_fraction = 0.02;
+    double max_angle_trim_deg = 3.0;
+};
+
+struct ParameterReport {
+    std::string name;        // the [delta] key with its tower: "diagonal_rod_trim_mm[A]"
+    double before = 0;       // the firmware's belief, in gauge
+    double estimate = 0;     // the fitted true value, in gauge
+    double after = 0;        // what is sent
+    double uncertainty = 0;  // standard uncertainty of the estimate; 0 when held
+    bool held = false;       // the data do not determine it
+};
+
+struct DeltaFitResult {
+    models::DeltaGeometry before, estimate, after;  // in gauge
+    std::vector<ParameterReport> parameters;
+    std::vector<double> singular_values;  // of the weighted, scaled Jacobian
+    double condition_number = 0;
+    double fit_rms_mm = 0;  // measured vs fitted, after the placement
+    double placement_rotation_deg = 0;
+    geometry::Point2 placement_translation_mm;
+    double predicted_xy_rms_mm = 0, predicted_xy_max_mm = 0;  // over the printable area, after
+    double predicted_height_change_mm = 0;  // largest change of the height map, after vs now
+    bool used_probe = false;
+};
+
+// Throws FitError for too few or bad points (NaN, off the bed) and for a correction beyond the
+// limits (nothing is returned to send).
+DeltaFitResult fit_delta(const models::MachineFile& machine,
+                         const std::vector<FeatureMeasurement>& features,
+                         const std::vector<ProbePoint>& probe, const DeltaFitLimits& limits = {});
+
+// The seed paper's closed-form rod correction (its equations 10-13), averaged over bars: each bar
+// was commanded `commanded_mm` long from the centre along a tower and measured `measured_mm`.
+struct BarMeasurement {
+    double commanded_mm = 0;
+    double measured_mm = 0;
+};
+double classic_rod_length_mm(const models::DeltaGeometry& firmware,
+                             const std::vector<BarMeasurement>& bars);
+
+}  // namespace calbox::solve

@@ -1,0 +1,380 @@
+// The delta fit on synthetic measurements made by the twin's own reference kinematics (never by
+// the code under test), judged in the twin's truth.
+#include <CppUTest/TestHarness.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <random>
+#include <sstream>
+
+#include "board/sim/gcode_runner.hpp"
+#include "board/sim/machine_twin.hpp"
+#include "core/models/delta.hpp"
+#include "core/models/delta_commands.hpp"
+#include "core/solve/delta_fit.hpp"
+
+using namespace calbox;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+models::DeltaGeometry as_model(const sim::DeltaParams& p) {
+    models::DeltaGeometry g;
+    g.diagonal_rod_mm = p.diagonal_rod_mm;
+    g.diagonal_rod_trim_mm = p.diagonal_rod_trim_mm;
+    g.radius_mm = p.radius_mm;
+    g.tower_angle_trim_deg = p.tower_angle_trim_deg;
+    g.endstop_offset_mm = p.endstop_offset_mm;
+    g.height_mm = p.height_mm;
+    return g;
+}
+
+struct Case {
+    sim::DeltaParams truth, firmware;
+    std::vector<solve::FeatureMeasurement> features;
+    models::MachineFile machine;
+    std::unique_ptr<sim::DeltaTwin> twin;
+};
+
+// What a probe routine (Marlin's G33, RepRapFirmware's G32) leaves behind: the firmware's radius,
+// height, endstop offsets and angle trims adjusted until the nozzle's height over the bed is as
+// flat as they can make it; the rod length and its trims, which the probe cannot see, stay wrong.
+// Gauss-Newton on the twin's reference kinematics.
+sim::DeltaParams levelled_firmware(const sim::DeltaParams& truth) {
+    sim::DeltaParams fw;
+    std::vector<sim::Vec3> points{{0, 0, 0}};
+    for (int k = 0; k < 12; ++k)
+        points.push_back({75 * std::cos(k * kPi / 6), 75 * std::sin(k * kPi / 6), 0});
+    for (int k = 0; k < 6; ++k)
+        points.push_back({40 * std::cos(k * kPi / 3 + 0.5), 40 * std::sin(k * kPi / 3 + 0.5), 0});
+    const auto heights = [&](const Eigen::VectorXd& v) {
+        sim::DeltaParams p = fw;
+        // Offsets relative to tower C's, kept <= 0 as Marlin wants by moving the common part
+        // into the height (the same machine).
+        const double top = std::max({v[2], v[3], 0.0});
+        p.radius_mm = v[0];
+        p.height_mm = v[1] - top;
+        p.endstop_offset_mm = {v[2] - top, v[3] - top, -top};
+        p.tower_angle_trim_deg = {v[4], v[5], 0};
+        sim::DeltaTwin twin(truth, p);
+        twin.home();
+        Eigen::VectorXd z(static_cast<Eigen::Index>(points.size()));
+        for (std::size_t i = 0; i < points.size(); ++i)
+            z[static_cast<Eigen::Index>(i)] = twin.actual_position_mm(points[i]).z;
+        return z;
+    };
+    Eigen::VectorXd v(6);
+    v << fw.radius_mm, fw.height_mm, 0, 0, 0, 0;
+    for (int iteration = 0; iteration < 8; ++iteration) {
+        const Eigen::VectorXd z = heights(v);
+        Eigen::MatrixXd j(z.size(), 6);
+        for (int k = 0; k < 6; ++k) {
+            Eigen::VectorXd up = v;
+            up[k] += 1e-4;
+            j.col(k) = (heights(up) - z) / 1e-4;
+        }
+        v -= j.completeOrthogonalDecomposition().solve(z);
+    }
+    const double top = std::max({v[2], v[3], 0.0});
+    fw.radius_mm = v[0];
+    fw.height_mm = v[1] - top;
+    fw.endstop_offset_mm = {v[2] - top, v[3] - top, -top};
+    fw.tower_angle_trim_deg = {v[4], v[5], 0};
+    return fw;
+}
+
+Case make_case(unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-1, 1);
+    Case c;
+    c.truth.diagonal_rod_mm = 250 + 1.5 * u(rng);
+    for (auto& t : c.truth.diagonal_rod_trim_mm) t = u(rng);
+    c.truth.radius_mm = 140 + u(rng);
+    for (auto& a : c.truth.tower_angle_trim_deg) a = 0.5 * u(rng);
+    for (auto& e : c.truth.endstop_offset_mm) e = -0.15 * (1 + u(rng));
+    c.firmware = levelled_firmware(c.truth);
+    c.twin = std::make_unique<sim::DeltaTwin>(c.truth, c.firmware);
+    c.twin->home();
+    c.machine.kind = "delta";
+    c.machine.bed_radius_mm = 85;
+    c.machine.delta = as_model(c.twin->firmware());
+    // 150 features over the bed, seen with the artifact turned and shifted on the bed.
+    const double phi = 0.03 * u(rng), tx = 3 * u(rng), ty = 3 * u(rng);
+    std::normal_distribution<double> noise(0, 0.01);
+    for (int k = 0; c.features.size() < 150; ++k) {
+        const double r = 78 * std::sqrt((k % 150 + 0.5) / 150.0), a = k * 2.399963;  // a sunflower
+        const sim::Vec3 commanded{r * std::cos(a), r * std::sin(a), 0.2};
+        const sim::Vec3 actual = c.twin->actual_position_mm(commanded);
+        solve::FeatureMeasurement f;
+        f.id = "f" + std::to_string(k);
+        f.commanded_mm = {commanded.x, commanded.y, commanded.z};
+        f.measured_mm = {std::cos(phi) * actual.x - std::sin(phi) * actual.y + tx + noise(rng),
+                         std::sin(phi) * actual.x + std::cos(phi) * actual.y + ty + noise(rng)};
+        c.features.push_back(f);
+    }
+    return c;
+}
+
+// XY error over the printable area after a firmware change, judged by the twin, with the best
+// rotation and translation taken out; and the largest change of the height map.
+struct Judgement {
+    double xy_rms = 0, xy_max = 0, height_change = 0;
+};
+
+Judgement judge(sim::DeltaTwin& twin, const std::vector<std::string>& commands) {
+    std::vector<sim::Vec3> grid;
+    for (double x = -75; x <= 75; x += 5)
+        for (double y = -75; y <= 75; y += 5)
+            if (std::hypot(x, y) <= 75) grid.push_back({x, y, 0.0});
+    twin.home();
+    std::vector<sim::Vec3> before;
+    for (const auto& p : grid) before.push_back(twin.actual_position_mm(p));
+    sim::GcodeRunner runner(twin, sim::ToolSettings{});
+    for (const auto& line : commands) runner.run_line(line);
+    runner.run_line("G28");
+    std::vector<sim::Vec3> after;
+    for (const auto& p : grid) after.push_back(twin.actual_position_mm(p));
+    // Best rigid fit of actual onto commanded (2-D Procrustes).
+    double cx = 0, cy = 0, ax = 0, ay = 0;
+    for (std::size_t i = 0; i < grid.size(); ++i)
+        cx += grid[i].x, cy += grid[i].y, ax += after[i].x, ay += after[i].y;
+    const double n = static_cast<double>(grid.size());
+    cx /= n, cy /= n, ax /= n, ay /= n;
+    double s = 0, c = 0;
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+        const double px = after[i].x - ax, py = after[i].y - ay, qx = grid[i].x - cx,
+                     qy = grid[i].y - cy;
+        s += px * qy - py * qx;
+        c += px * qx + py * qy;
+    }
+    const double phi = std::atan2(s, c);
+    Judgement j;
+    double sum = 0;
+    for (std::size_t i = 0; i < grid.size(); ++i) {
+        const double px = after[i].x - ax, py = after[i].y - ay;
+        const double ex = std::cos(phi) * px - std::sin(phi) * py + cx - grid[i].x;
+        const double ey = std::sin(phi) * px + std::cos(phi) * py + cy - grid[i].y;
+        sum += ex * ex + ey * ey;
+        j.xy_max = std::max(j.xy_max, std::hypot(ex, ey));
+        j.height_change = std::max(j.height_change, std::abs(after[i].z - before[i].z));
+    }
+    j.xy_rms = std::sqrt(sum / n);
+    return j;
+}
+
+}  // namespace
+
+TEST_GROUP(DeltaKinematics){};
+
+TEST(DeltaKinematics, agrees_with_the_twins_reference_and_marlin_by_hand) {
+    // Tower A at 210 degrees, radius 140: sqrt(250^2 - 131.2436^2 - 90^2) + 5 = 197.8085290370.
+    const auto h = models::carriage_heights_mm(models::DeltaGeometry{}, {10, 20, 5});
+    DOUBLES_EQUAL(197.8085290370, h[0], 1e-9);
+    DOUBLES_EQUAL(209.9996856841, h[1], 1e-9);
+    DOUBLES_EQUAL(224.0890230021, h[2], 1e-9);
+    sim::DeltaParams t;
+    t.diagonal_rod_mm = 251;
+    t.diagonal_rod_trim_mm = {0.3, -0.2, 0.1};
+    t.tower_angle_trim_deg = {0.2, -0.1, 0.3};
+    t.endstop_offset_mm = {-0.2, 0, -0.1};
+    t.radius_mm = 139.4;
+    sim::DeltaTwin twin(t, sim::DeltaParams{});
+    twin.home();
+    for (const sim::Vec3 q : {sim::Vec3{0, 0, 0}, sim::Vec3{50, -40, 0.2}, sim::Vec3{-70, 20, 3}}) {
+        const sim::Vec3 expected = twin.actual_position_mm(q);
+        const auto got =
+            models::actual_position_mm(as_model(t), models::DeltaGeometry{}, {q.x, q.y, q.z});
+        DOUBLES_EQUAL(expected.x, got.x, 1e-9);
+        DOUBLES_EQUAL(expected.y, got.y, 1e-9);
+        DOUBLES_EQUAL(expected.z, got.z, 1e-9);
+    }
+}
+
+TEST(DeltaKinematics, conventions_round_trip_to_a_nanometre) {
+    models::DeltaGeometry g;
+    g.diagonal_rod_mm = 250.7;
+    g.diagonal_rod_trim_mm = {0.3, -0.5, 0.2};
+    g.radius_mm = 139.2;
+    g.tower_angle_trim_deg = {0.25, -0.4, 0.15};
+    g.endstop_offset_mm = {-0.3, 0, -0.12};
+    g.height_mm = 301.4;
+    const auto check = [&](const models::DeltaGeometry& back) {
+        DOUBLES_EQUAL(g.diagonal_rod_mm, back.diagonal_rod_mm, 1e-9);
+        DOUBLES_EQUAL(g.radius_mm, back.radius_mm, 1e-9);
+        DOUBLES_EQUAL(g.height_mm, back.height_mm, 1e-9);
+        for (std::size_t i = 0; i < 3; ++i) {
+            DOUBLES_EQUAL(g.diagonal_rod_trim_mm[i], back.diagonal_rod_trim_mm[i], 1e-9);
+            DOUBLES_EQUAL(g.tower_angle_trim_deg[i], back.tower_angle_trim_deg[i], 1e-9);
+            DOUBLES_EQUAL(g.endstop_offset_mm[i], back.endstop_offset_mm[i], 1e-9);
+        }
+    };
+    check(models::from_rrf(models::to_rrf(g)));
+    check(models::from_klipper(models::to_klipper(g)));
+    // Klipper's trigger heights: H - offset (tower A's switch 0.3 mm higher than its home).
+    DOUBLES_EQUAL(301.7, models::to_klipper(g).position_endstop_mm[0], 1e-12);
+    DOUBLES_EQUAL(210.25, models::to_klipper(g).angle_deg[0], 1e-12);
+}
+
+TEST(DeltaKinematics, firmware_lines_for_one_geometry_match_hand_worked_values) {
+    models::DeltaGeometry g;
+    g.diagonal_rod_mm = 250.7;
+    g.diagonal_rod_trim_mm = {0.3, -0.5, 0.2};
+    g.radius_mm = 139.2;
+    g.tower_angle_trim_deg = {0.25, -0.4, 0.15};
+    g.endstop_offset_mm = {-0.3, 0, -0.12};
+    g.height_mm = 301.4;
+    const auto marlin = models::marlin_commands(g);
+    STRCMP_EQUAL("M665 L250.700 R139.200 H301.400 X0.250 Y-0.400 Z0.150 A0.300 B-0.500 C0.200",
+                 marlin[0].c_str());
+    STRCMP_EQUAL("M666 X-0.300 Y0.000 Z-0.120", marlin[1].c_str());
+    STRCMP_EQUAL("M500", marlin[2].c_str());
+    // RRF: diagonals 251.0 250.2 250.9, angles relative to Z's 0.15, endstops negated.
+    const auto rrf = models::rrf_commands(g);
+    STRCMP_EQUAL("M665 L251.000:250.200:250.900 R139.200 H301.400 X0.100 Y-0.550 Z0.000",
+                 rrf[0].c_str());
+    STRCMP_EQUAL("M666 X0.300 Y0.000 Z0.120", rrf[1].c_str());
+    const auto klipper = models::klipper_snippet(g);
+    STRCMP_EQUAL("delta_radius: 139.200", klipper[1].c_str());
+    STRCMP_EQUAL("arm_length: 251.000", klipper[3].c_str());
+    STRCMP_EQUAL("angle: 210.250", klipper[4].c_str());
+    STRCMP_EQUAL("position_endstop: 301.700", klipper[5].c_str());
+    STRCMP_EQUAL("angle: 329.600", klipper[8].c_str());
+    STRCMP_EQUAL("position_endstop: 301.520", klipper[13].c_str());
+}
+
+TEST_GROUP(DeltaFit){};
+
+TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and_corrected) {
+    constexpr int kCases = 20;
+    std::vector<int> within(9, 0), fitted(9, 0);
+    double worst_rms = 0, worst_max = 0, worst_height = 0, classic_worst = 0, classic_sum = 0,
+           before_sum = 0;
+    for (int seed = 1; seed <= kCases; ++seed) {
+        Case c = make_case(static_cast<unsigned>(seed));
+        const auto result = solve::fit_delta(c.machine, c.features, {});
+        // Truth in the same gauge; its height is what the firmware's zeroing made of it.
+        models::DeltaGeometry truth = models::in_gauge(as_model(c.truth));
+        const double truth_values[9] = {truth.diagonal_rod_mm,
+                                        truth.diagonal_rod_trim_mm[0],
+                                        truth.diagonal_rod_trim_mm[1],
+                                        truth.radius_mm,
+                                        truth.tower_angle_trim_deg[0],
+                                        truth.tower_angle_trim_deg[1],
+                                        truth.endstop_offset_mm[0] - truth.endstop_offset_mm[2],
+                                        truth.endstop_offset_mm[1] - truth.endstop_offset_mm[2],
+                                        truth.height_mm};
+        for (std::size_t i = 0; i < 9; ++i) {
+            const auto& p = result.parameters[i];
+            if (p.held) continue;
+            ++fitted[i];
+            if (std::abs(p.estimate - truth_values[i]) <= 3 * p.uncertainty) ++within[i];
+        }
+        const Judgement before = judge(*c.twin, {});
+        before_sum += before.xy_rms;
+        sim::DeltaTwin fresh(c.truth, c.firmware);
+        const Judgement after = judge(fresh, models::marlin_commands(result.after));
+        worst_rms = std::max(worst_rms, after.xy_rms);
+        worst_max = std::max(worst_max, after.xy_max);
+        worst_height = std::max(worst_height, after.height_change);
+        // The seed paper's rod correction from three 60 mm bars along the towers, for comparison.
+        std::vector<solve::BarMeasurement> bars;
+        for (const double angle : {210.0, 330.0, 90.0}) {
+            const sim::Vec3 end{60 * std::cos(angle * kPi / 180), 60 * std::sin(angle * kPi / 180),
+                                0.2};
+            const auto a = c.twin->actual_position_mm({0, 0, 0.2}),
+                       b = c.twin->actual_position_mm(end);
+            bars.push_back({60, std::hypot(b.x - a.x, b.y - a.y)});
+        }
+        models::DeltaGeometry classic = *c.machine.delta;
+        classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, bars);
+        sim::DeltaTwin classic_twin(c.truth, c.firmware);
+        const Judgement classic_after = judge(classic_twin, models::marlin_commands(classic));
+        classic_worst = std::max(classic_worst, classic_after.xy_rms);
+        classic_sum += classic_after.xy_rms;
+    }
+    for (std::size_t i = 0; i < 9; ++i) {
+        if (fitted[i] == 0) continue;
+        CHECK_TEXT(within[i] >= 19,
+                   (std::string("parameter ") + std::to_string(i) + " within 3 sigma in " +
+                    std::to_string(within[i]) + " of " + std::to_string(fitted[i]))
+                       .c_str());
+    }
+    // The common rod, the rod trims, two angle trims and two endstop offsets must be fitted.
+    for (std::size_t i : {0u, 1u, 2u, 4u, 5u, 6u, 7u}) CHECK_EQUAL(kCases, fitted[i]);
+    UT_PRINT(("XY RMS before " + std::to_string(before_sum / kCases) + " mm; after fit worst RMS " +
+              std::to_string(worst_rms) + " mm, worst point " + std::to_string(worst_max) +
+              " mm, height change " + std::to_string(worst_height) +
+              " mm; classic rod correction mean RMS " + std::to_string(classic_sum / kCases) +
+              " mm, worst " + std::to_string(classic_worst))
+                 .c_str());
+    CHECK_TEXT(worst_rms < 0.01, ("XY RMS after correction " + std::to_string(worst_rms)).c_str());
+    CHECK_TEXT(worst_height <= 0.02, ("height map change " + std::to_string(worst_height)).c_str());
+}
+
+TEST(DeltaFit, with_probed_heights_an_unlevelled_printer_is_corrected_in_xy_and_z) {
+    for (unsigned seed : {31u, 32u, 33u}) {
+        Case c = make_case(seed);
+        // The same truth under the nominal firmware, only zeroed at the centre: a dome or bowl.
+        sim::DeltaTwin twin(c.truth, sim::DeltaParams{});
+        twin.zero_height_at_centre();
+        twin.home();
+        c.machine.delta = as_model(twin.firmware());
+        for (auto& f : c.features) {
+            const sim::Vec3 a =
+                twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z});
+            f.measured_mm = {a.x, a.y};
+        }
+        std::vector<solve::ProbePoint> probe;
+        for (int k = 0; k < 37; ++k) {
+            const double r = k == 0 ? 0 : 75.0 * ((k - 1) / 12 + 1) / 3,
+                         a = k * kPi / 6 + (k - 1) / 12 * 0.3;
+            const sim::Vec3 at = twin.actual_position_mm({r * std::cos(a), r * std::sin(a), 0});
+            probe.push_back({r * std::cos(a), r * std::sin(a), at.z, 0.005});
+        }
+        const auto result = solve::fit_delta(c.machine, c.features, probe);
+        CHECK(result.used_probe);
+        CHECK_FALSE(result.parameters[8].held);  // the height is measured now
+        const Judgement before = judge(twin, {});
+        sim::DeltaTwin fixed(c.truth, sim::DeltaParams{});
+        fixed.zero_height_at_centre();
+        const Judgement after = judge(fixed, models::marlin_commands(result.after));
+        // Judge the height map after: the nozzle's height over the bed at commanded z = 0.
+        fixed.home();
+        double lowest = 1e9, highest = -1e9;
+        for (double x = -75; x <= 75; x += 15)
+            for (double y = -75; y <= 75; y += 15)
+                if (std::hypot(x, y) <= 75) {
+                    const double z = fixed.actual_position_mm({x, y, 0}).z;
+                    lowest = std::min(lowest, z), highest = std::max(highest, z);
+                }
+        CHECK_TEXT(after.xy_rms < 0.01, ("XY RMS after " + std::to_string(after.xy_rms)).c_str());
+        CHECK_TEXT(highest - lowest < 0.01,
+                   ("height range after " + std::to_string(highest - lowest)).c_str());
+        CHECK_TEXT(before.height_change == 0,
+                   "judging must not move the machine before the commands");
+    }
+}
+
+TEST(DeltaFit, bad_input_is_refused_with_a_reason) {
+    Case c = make_case(99);
+    std::vector<solve::FeatureMeasurement> few(c.features.begin(), c.features.begin() + 5);
+    CHECK_THROWS(solve::FitError, solve::fit_delta(c.machine, few, {}));
+    auto nan = c.features;
+    nan[3].measured_mm.x = std::nan("");
+    CHECK_THROWS(solve::FitError, solve::fit_delta(c.machine, nan, {}));
+    auto off = c.features;
+    off[4].commanded_mm.x = 120;
+    CHECK_THROWS(solve::FitError, solve::fit_delta(c.machine, off, {}));
+    // Measurements of a printer 3 % too large: the rod change is over the limit.
+    auto large = c.features;
+    for (auto& f : large) f.measured_mm = {f.measured_mm.x * 1.05, f.measured_mm.y * 1.05};
+    try {
+        solve::fit_delta(c.machine, large, {});
+        FAIL("an out-of-bounds correction was returned");
+    } catch (const solve::FitError& e) {
+        STRCMP_CONTAINS("refused", e.what());
+    }
+}

@@ -40,5 +40,6 @@ int run_sim(const std::vector<std::string>& words);     // "calbox sim ..."
 int run_camera(const std::vector<std::string>& words);  // "calbox camera ..."
 int run_detect(const std::vector<std::string>& words);  // "calbox detect ..."
 int run_target(const std::vector<std::string>& words);  // "calbox target ..."
+int run_solve(const std::vector<std::string>& words);   // "calbox solve ..."
 
 }  // namespace calbox::cli

@@ -1,5 +1,8 @@
 #include "core/models/machine_file.hpp"
 
+#include <cstdint>
+#include <cstdio>
+
 #include "core/models/toml_reader.hpp"
 
 namespace calbox::models {
@@ -180,6 +183,35 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
     }
     return m;
+}
+
+std::string fingerprint(const MachineFile& m) {
+    std::string canonical = m.kind + "|" + m.firmware;
+    const auto add = [&](double v) {
+        char b[40];
+        std::snprintf(b, sizeof b, "|%.6f", v);
+        canonical += b;
+    };
+    for (double v : {m.bed_radius_mm, m.bed_size_x_mm, m.bed_size_y_mm, m.line_width_mm,
+                     m.layer_height_mm, m.filament_diameter_mm, m.tool_width_mm})
+        add(v);
+    if (m.delta) {
+        const auto& d = *m.delta;
+        add(d.diagonal_rod_mm);
+        add(d.radius_mm);
+        add(d.height_mm);
+        for (const auto* a :
+             {&d.diagonal_rod_trim_mm, &d.tower_angle_trim_deg, &d.endstop_offset_mm})
+            for (double v : *a) add(v);
+    }
+    std::uint64_t hash = 1469598103934665603ull;  // FNV-1a, 64 bits
+    for (const unsigned char c : canonical) {
+        hash ^= c;
+        hash *= 1099511628211ull;
+    }
+    char out[32];
+    std::snprintf(out, sizeof out, "fnv1a64:%016llx", static_cast<unsigned long long>(hash));
+    return out;
 }
 
 MachineFile parse_machine_file(std::string_view toml_text, const std::string& source,

@@ -51,6 +51,11 @@ struct MachineFile {
     bool is_delta() const { return kind == "delta"; }
 };
 
+// A short digest of everything the machine file says (its parsed values, so formatting and
+// comments do not count): measurements carry it, and solving them against another machine is
+// refused.
+std::string fingerprint(const MachineFile& machine);
+
 // Parses a whole machine file; `source` names it in messages. Unknown sections and keys are
 // errors, except sections listed in `other_sections` (a twin scenario adds its own).
 MachineFile parse_machine_file(std::string_view toml_text, const std::string& source,

@@ -22,5 +22,12 @@ echo "== a drawing made into a job and printed: examples/ring_star.svg, 40 mm ac
     -o "$out/ring_star.gcode" --preview "$out/ring_star_preview.png"
 "$calbox" sim print --scenario "$scenario" "$out/ring_star.gcode" -o "$out/ring_star_print.json" | tail -n 1
 "$calbox" sim photo --scenario "$scenario" --print "$out/ring_star_print.json" -o "$out/ring_star.png"
+echo "== delta fit: a printer off in rods, trims, radius, tower angles and endstops (examples/delta_errors.toml)"
+"$calbox" sim measurements --scenario "$top/examples/delta_errors.toml" -o "$out/measurements.json" --probe "$out/heights.csv"
+"$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$out/measurements.json" \
+    --probe "$out/heights.csv" -o "$out/result.json"
+"$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$out/measurements.json" \
+    --method classic -o "$out/result_classic.json" | head -n 1
 echo "== files in $out: print.json print.png print_truth.json chessboard.png chessboard_truth.json"
 echo "   ring_star.gcode ring_star_preview.png ring_star_print.json ring_star.png"
+echo "   measurements.json heights.csv result.json result_classic.json"

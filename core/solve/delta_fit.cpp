@@ -210,7 +210,28 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     std::vector<int> free;
     for (int i = 0; i < kGeometry + 3; ++i)
         if (i != 8 || result.used_probe) free.push_back(i);
-    Solution solution = levenberg_marquardt(residuals, x0, free, step);
+    // A geometry parameter the data leave uncertain beyond this (in its own unit) cannot be
+    // corrected usefully: it is held at the firmware's value and the rest refitted.
+    const double kUsefulUncertainty[kGeometry] = {0.2, 0.2, 0.2, 0.2, 0.1, 0.1, 0.2, 0.2, 0.2};
+    Solution solution;
+    Eigen::MatrixXd covariance;
+    while (true) {
+        solution = levenberg_marquardt(residuals, x0, free, step);
+        covariance = (solution.jacobian.transpose() * solution.jacobian)
+                         .completeOrthogonalDecomposition()
+                         .pseudoInverse();
+        int worst = -1;
+        double worst_ratio = 1;
+        for (std::size_t k = 0; k < free.size(); ++k) {
+            if (free[k] >= kGeometry) continue;  // the placement is never held
+            const auto kk = static_cast<Eigen::Index>(k);
+            const double ratio =
+                std::sqrt(std::max(0.0, covariance(kk, kk))) / kUsefulUncertainty[free[k]];
+            if (ratio > worst_ratio) worst_ratio = ratio, worst = static_cast<int>(k);
+        }
+        if (worst < 0) break;
+        free.erase(free.begin() + worst);
+    }
     // Observability: singular values of the Jacobian with columns scaled to comparable steps.
     Eigen::MatrixXd scaled = solution.jacobian;
     for (std::size_t k = 0; k < free.size(); ++k)
@@ -220,16 +241,8 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     for (Eigen::Index i = 0; i < sv.size(); ++i) result.singular_values.push_back(sv[i]);
     result.condition_number =
         sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
-    // Parameters whose uncertainty would exceed what any correction could use are held: a
-    // direction with a singular value below 1e-6 of the largest carries no information.
-    const Eigen::MatrixXd covariance = (solution.jacobian.transpose() * solution.jacobian)
-                                           .completeOrthogonalDecomposition()
-                                           .pseudoInverse();
-    const double dof =
-        std::max(1.0, static_cast<double>(solution.jacobian.rows() - solution.jacobian.cols()));
     result.fit_rms_mm = std::sqrt(solution.cost / static_cast<double>(solution.jacobian.rows())) *
                         features.front().sigma_mm;
-    (void)dof;
     result.estimate = unpack(solution.x.head(kGeometry));
     result.placement_rotation_deg = solution.x[kGeometry] * 180 / kPi;
     result.placement_translation_mm = {solution.x[kGeometry + 1], solution.x[kGeometry + 2]};

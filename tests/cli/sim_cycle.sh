@@ -8,7 +8,7 @@ cat "$work/log"
 # 1 mm of extra rod grows the 40 mm square by about 0.24 mm (tests/reference/delta_hand.py).
 grep -qE "commanded 40.0000 x 40.0000 mm, actual 40.2[34][0-9]+ x 40.2[34][0-9]+ mm" "$work/log"
 grep -q "M665 L250.000 R140.000" "$work/log"
-for f in print.json print.png print_truth.json chessboard.png chessboard_truth.json ring_star.gcode ring_star_preview.png ring_star.png; do
+for f in print.json print.png print_truth.json chessboard.png chessboard_truth.json ring_star.gcode ring_star_preview.png ring_star.png result.json result_classic.json; do
     [ -s "$work/$f" ] || { echo "missing $f"; exit 1; }
 done
 # PNG signature and the size the scenario asks for (width and height in the IHDR chunk).

@@ -358,6 +358,32 @@ TEST(DeltaFit, with_probed_heights_an_unlevelled_printer_is_corrected_in_xy_and_
     }
 }
 
+TEST(DeltaFit, what_a_small_artifact_cannot_determine_is_held_and_reported) {
+    // Features only within 12 mm of the centre: the rod and radius barely show in XY there.
+    Case c = make_case(7);
+    for (auto& f : c.features) {
+        const double shrink = 12.0 / 78;
+        f.commanded_mm = {f.commanded_mm.x * shrink, f.commanded_mm.y * shrink, f.commanded_mm.z};
+        const sim::Vec3 a =
+            c.twin->actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z});
+        f.measured_mm = {a.x, a.y};
+    }
+    const auto result = solve::fit_delta(c.machine, c.features, {});
+    int held = 0;
+    for (const auto& p : result.parameters) {
+        if (p.held) {
+            ++held;
+            // Held at the firmware's value; the height only moves by the common endstop part the
+            // gauge puts into it.
+            if (p.name != "height_mm") DOUBLES_EQUAL(p.before, p.estimate, 1e-9);
+            DOUBLES_EQUAL(0.0, p.uncertainty, 0.0);
+        } else {
+            CHECK(p.uncertainty <= 0.2);
+        }
+    }
+    CHECK(held >= 2);  // the height, and at least one of the scale parameters
+}
+
 TEST(DeltaFit, bad_input_is_refused_with_a_reason) {
     Case c = make_case(99);
     std::vector<solve::FeatureMeasurement> few(c.features.begin(), c.features.begin() + 5);

@@ -165,11 +165,19 @@ int delta(const std::vector<std::string>& words) {
         {"used_probe", fit.used_probe},
         {"commands", commands}};
     write_output_file(out, result.dump(1) + "\n");
-    std::printf(
-        "%s: %s correction for %s, fit RMS %.4f mm; predicted XY after %.4f mm RMS, height map "
-        "change %.4f mm\n",
-        out.c_str(), method.c_str(), firmware.c_str(), fit.fit_rms_mm, fit.predicted_xy_rms_mm,
-        fit.predicted_height_change_mm);
+    if (method == "fit") {
+        std::printf(
+            "%s: fit correction for %s, fit RMS %.4f mm; predicted XY after %.4f mm RMS, height "
+            "map change %.4f mm\n",
+            out.c_str(), firmware.c_str(), fit.fit_rms_mm, fit.predicted_xy_rms_mm,
+            fit.predicted_height_change_mm);
+    } else {
+        std::printf(
+            "%s: classic rod correction for %s from %zu bars: rod %.3f -> %.3f mm (fitted: %.3f "
+            "mm)\n",
+            out.c_str(), firmware.c_str(), measurements.bars.size(), fit.before.diagonal_rod_mm,
+            after.diagonal_rod_mm, fit.estimate.diagonal_rod_mm);
+    }
     for (const auto& c : commands) std::printf("  %s\n", c.c_str());
     return 0;
 }

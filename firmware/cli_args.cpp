@@ -1,8 +1,10 @@
 #include "firmware/cli_args.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include "drivers/file_storage.hpp"
@@ -54,6 +56,25 @@ double Args::number(const std::string& name, double fallback) const {
     if (used != v->size() || !std::isfinite(d))
         throw UsageError(name + " needs a number, not '" + *v + "'");
     return d;
+}
+
+int dispatch(const std::vector<std::string>& words, const char* help, const char* group,
+             const std::vector<std::pair<std::string, Command>>& commands) {
+    const bool wants_help = std::any_of(words.begin(), words.end(), [](const std::string& w) {
+        return w == "--help" || w == "-h";
+    });
+    if (words.empty() || wants_help) {
+        std::cout << help;
+        return words.empty() ? 2 : 0;
+    }
+    const std::vector<std::string> rest(words.begin() + 1, words.end());
+    std::string names;
+    for (const auto& [name, run] : commands) {
+        if (words[0] == name) return run(rest);
+        names += (names.empty() ? "" : ", ") + name;
+    }
+    throw UsageError("unknown " + std::string(group) + " command '" + words[0] + "' (" + names +
+                     ")");
 }
 
 void write_output_file(const std::string& path, const std::string& contents) {

@@ -6,6 +6,7 @@
 #include <set>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace calbox::cli {
@@ -31,6 +32,12 @@ class Args {
     std::set<std::string> flags_;
     std::vector<std::string> positional_;
 };
+
+// One command group ("calbox sim ..."): --help anywhere prints `help`; the first word picks the
+// command from `commands`; no word at all prints the help and returns 2.
+using Command = int (*)(const std::vector<std::string>& rest);
+int dispatch(const std::vector<std::string>& words, const char* help, const char* group,
+             const std::vector<std::pair<std::string, Command>>& commands);
 
 // Writes a whole output file atomically (sibling + rename): a failed run leaves no half file.
 void write_output_file(const std::string& path, const std::string& contents);

@@ -76,20 +76,7 @@ int plane(const std::vector<std::string>& words) {
 }  // namespace
 
 int run_camera(const std::vector<std::string>& words) {
-    if (words.empty() || words[0] == "--help" || words[0] == "-h") {
-        std::cout << kCameraHelp;
-        return words.empty() ? 2 : 0;
-    }
-    const std::vector<std::string> rest(words.begin() + 1, words.end());
-    for (const auto& w : rest) {
-        if (w == "--help" || w == "-h") {
-            std::cout << kCameraHelp;
-            return 0;
-        }
-    }
-    if (words[0] == "calibrate") return calibrate(rest);
-    if (words[0] == "plane") return plane(rest);
-    throw UsageError("unknown camera command '" + words[0] + "' (calibrate or plane)");
+    return dispatch(words, kCameraHelp, "camera", {{"calibrate", calibrate}, {"plane", plane}});
 }
 
 }  // namespace calbox::cli

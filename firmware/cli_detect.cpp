@@ -129,33 +129,48 @@ int board(const Args& args, const std::string& image_path, bool circles) {
     return 0;
 }
 
+// The options every detect command reads, and its one image.
+struct DetectArgs {
+    Args args;
+    std::string image;
+};
+
+DetectArgs detect_args(const std::vector<std::string>& rest, bool markers) {
+    DetectArgs d{
+        Args(rest, {"--dict", "--camera", "--pattern", "-o", "--overlay"}, {"--no-refine"}), ""};
+    if (d.args.positional().size() != 1) throw UsageError("detect takes one image");
+    d.image = d.args.positional()[0];
+    if (markers && d.args.get("--pattern"))
+        throw UsageError("detect markers takes --dict, not --pattern");
+    if (!markers &&
+        (d.args.get("--dict") || d.args.get("--camera") || d.args.flag("--no-refine"))) {
+        throw UsageError("--dict, --camera and --no-refine go with detect markers");
+    }
+    return d;
+}
+
+int detect_markers(const std::vector<std::string>& rest) {
+    const auto d = detect_args(rest, true);
+    return markers(d.args, d.image);
+}
+
+int detect_chessboard(const std::vector<std::string>& rest) {
+    const auto d = detect_args(rest, false);
+    return board(d.args, d.image, false);
+}
+
+int detect_circles(const std::vector<std::string>& rest) {
+    const auto d = detect_args(rest, false);
+    return board(d.args, d.image, true);
+}
+
 }  // namespace
 
 int run_detect(const std::vector<std::string>& words) {
-    if (words.empty() || words[0] == "--help" || words[0] == "-h") {
-        std::cout << kDetectHelp;
-        return words.empty() ? 2 : 0;
-    }
-    const std::vector<std::string> rest(words.begin() + 1, words.end());
-    for (const auto& w : rest) {
-        if (w == "--help" || w == "-h") {
-            std::cout << kDetectHelp;
-            return 0;
-        }
-    }
-    const Args args(rest, {"--dict", "--camera", "--pattern", "-o", "--overlay"}, {"--no-refine"});
-    if (args.positional().size() != 1) throw UsageError("detect takes one image");
-    const std::string& image = args.positional()[0];
-    if (words[0] == "markers") {
-        if (args.get("--pattern")) throw UsageError("detect markers takes --dict, not --pattern");
-        return markers(args, image);
-    }
-    if (args.get("--dict") || args.get("--camera") || args.flag("--no-refine")) {
-        throw UsageError("--dict, --camera and --no-refine go with detect markers");
-    }
-    if (words[0] == "chessboard") return board(args, image, false);
-    if (words[0] == "circles") return board(args, image, true);
-    throw UsageError("unknown detect command '" + words[0] + "' (markers, chessboard or circles)");
+    return dispatch(words, kDetectHelp, "detect",
+                    {{"markers", detect_markers},
+                     {"chessboard", detect_chessboard},
+                     {"circles", detect_circles}});
 }
 
 }  // namespace calbox::cli

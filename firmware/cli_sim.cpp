@@ -304,21 +304,9 @@ int sim_measurements(const std::vector<std::string>& words) {
 }  // namespace
 
 int run_sim(const std::vector<std::string>& words) {
-    if (words.empty() || words[0] == "--help" || words[0] == "-h") {
-        std::cout << kSimHelp;
-        return words.empty() ? 2 : 0;
-    }
-    const std::vector<std::string> rest(words.begin() + 1, words.end());
-    for (const auto& w : rest) {
-        if (w == "--help" || w == "-h") {
-            std::cout << kSimHelp;
-            return 0;
-        }
-    }
-    if (words[0] == "print") return sim_print(rest);
-    if (words[0] == "photo") return sim_photo(rest);
-    if (words[0] == "measurements") return sim_measurements(rest);
-    throw UsageError("unknown sim command '" + words[0] + "' (print, photo or measurements)");
+    return dispatch(
+        words, kSimHelp, "sim",
+        {{"print", sim_print}, {"photo", sim_photo}, {"measurements", sim_measurements}});
 }
 
 }  // namespace calbox::cli

@@ -185,19 +185,7 @@ int delta(const std::vector<std::string>& words) {
 }  // namespace
 
 int run_solve(const std::vector<std::string>& words) {
-    if (words.empty() || words[0] == "--help" || words[0] == "-h") {
-        std::cout << kSolveHelp;
-        return words.empty() ? 2 : 0;
-    }
-    const std::vector<std::string> rest(words.begin() + 1, words.end());
-    for (const auto& w : rest) {
-        if (w == "--help" || w == "-h") {
-            std::cout << kSolveHelp;
-            return 0;
-        }
-    }
-    if (words[0] == "delta") return delta(rest);
-    throw UsageError("unknown solve mode '" + words[0] + "' (delta)");
+    return dispatch(words, kSolveHelp, "solve", {{"delta", delta}});
 }
 
 }  // namespace calbox::cli

@@ -122,19 +122,7 @@ int svg(const std::vector<std::string>& words) {
 }  // namespace
 
 int run_target(const std::vector<std::string>& words) {
-    if (words.empty() || words[0] == "--help" || words[0] == "-h") {
-        std::cout << kTargetHelp;
-        return words.empty() ? 2 : 0;
-    }
-    const std::vector<std::string> rest(words.begin() + 1, words.end());
-    for (const auto& w : rest) {
-        if (w == "--help" || w == "-h") {
-            std::cout << kTargetHelp;
-            return 0;
-        }
-    }
-    if (words[0] == "svg") return svg(rest);
-    throw UsageError("unknown target '" + words[0] + "' (svg)");
+    return dispatch(words, kTargetHelp, "target", {{"svg", svg}});
 }
 
 }  // namespace calbox::cli

@@ -87,6 +87,13 @@ void check_calibration(sim::LensModel model) {
     const auto result = geometry::calibrate_camera(
         geometry::parse_pattern_spec("chessboard:11x8@20"), as_core(truth).model, named);
     const auto& c = result.camera;
+    UT_PRINT((std::string(model == sim::LensModel::fisheye ? "fisheye" : "pinhole") +
+              ": fx error " + std::to_string(100 * (c.fx() / truth.fx - 1)) + " %, fy error " +
+              std::to_string(100 * (c.fy() / truth.fy - 1)) + " %, cx " +
+              std::to_string(c.cx() - truth.cx) + " px, cy " + std::to_string(c.cy() - truth.cy) +
+              " px, k1 " + std::to_string(c.distortion[0] - truth.distortion[0]) + ", RMS " +
+              std::to_string(c.rms_px) + " px")
+                 .c_str());
     CHECK_EQUAL(15u, result.views.size());
     DOUBLES_EQUAL(truth.fx, c.fx(), truth.fx * 0.002);
     DOUBLES_EQUAL(truth.fy, c.fy(), truth.fy * 0.002);
@@ -224,6 +231,8 @@ TEST(BedPlane, maps_bed_points_at_two_heights_back_within_20_microns) {
         }
     }
     const double rms = std::sqrt(sum / n);
+    UT_PRINT(
+        ("bed mapping RMS " + std::to_string(rms) + " mm over 50 points at 0 and 2 mm").c_str());
     CHECK_TEXT(rms < 0.02, ("bed mapping RMS " + std::to_string(rms) + " mm").c_str());
 }
 

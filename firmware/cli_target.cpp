@@ -2,9 +2,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/models/machine_file.hpp"
+#include "core/targets/delta_target.hpp"
 #include "core/targets/job.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
@@ -13,6 +15,11 @@ namespace calbox::cli {
 namespace {
 
 constexpr const char* kTargetHelp = R"(usage:
+  calbox target delta --machine printer.toml -o target.gcode [--preview target.png]
+                      [--describe target.json] [--layers N]
+      The delta calibration artifact: ArUco markers (DICT_4X4_50, 12 mm) spread over the bed,
+      their white cells filled as zigzag lines at the line width, and three bars along the
+      towers. --describe writes each feature's commanded position in machine millimetres.
   calbox target svg FILE.svg --machine FILE -o JOB [--spacing MM] [--angle DEG] [--feed MM_S]
                     [--scale S | --fit MM] [--fill-rule nonzero|evenodd] [--perimeters N]
                     [--preview PNG]
@@ -119,10 +126,61 @@ int svg(const std::vector<std::string>& words) {
     return 0;
 }
 
+int delta(const std::vector<std::string>& words) {
+    const Args args(words, {"--machine", "-o", "--preview", "--describe", "--layers"}, {});
+    if (!args.positional().empty()) throw UsageError("target delta takes no positional argument");
+    const std::string machine_path = args.require("--machine");
+    const std::string out = args.require("-o");
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    targets::DeltaTargetOptions options;
+    const double layers = args.number("--layers", 1);
+    if (layers < 1 || layers > 5 || layers != std::floor(layers))
+        throw UsageError("--layers must be 1 to 5");
+    options.layers = static_cast<int>(layers);
+    const auto target = targets::make_delta_target(machine, options);
+    write_output_file(out, targets::write_gcode(target.job, machine,
+                                                "calbox target delta " + target.fingerprint));
+    if (const auto describe = args.get("--describe")) {
+        const auto point = [](geometry::Point2 p) { return nlohmann::json::array({p.x, p.y}); };
+        nlohmann::json markers = nlohmann::json::array(), bars = nlohmann::json::array();
+        for (const auto& m : target.markers) {
+            nlohmann::json corners = nlohmann::json::array();
+            for (const auto& c : m.corners_mm) corners.push_back(point(c));
+            markers.push_back(
+                {{"id", m.id}, {"centre_mm", point(m.centre_mm)}, {"corners_mm", corners}});
+        }
+        for (const auto& b : target.bars) {
+            bars.push_back({{"tower", std::string(1, b.tower)},
+                            {"start_mm", point(b.start_mm)},
+                            {"end_mm", point(b.end_mm)},
+                            {"width_mm", b.width_mm},
+                            {"length_mm", b.length_mm()}});
+        }
+        const nlohmann::json j{{"schema", "calbox.target/1"},
+                               {"target_fingerprint", target.fingerprint},
+                               {"machine_fingerprint", models::fingerprint(machine)},
+                               {"dictionary", options.dictionary},
+                               {"marker_mm", options.marker_mm},
+                               {"top_height_mm", target.top_height_mm},
+                               {"markers", markers},
+                               {"bars", bars}};
+        write_output_file(*describe, j.dump(1) + "\n");
+    }
+    std::printf(
+        "%s: %zu markers, 3 bars, %d layer(s), path %.1f mm, travel %.1f mm, about %.1f min\n",
+        out.c_str(), target.markers.size(), options.layers,
+        target.job.toolpath.working_length_mm() * options.layers,
+        target.job.toolpath.travel_length_mm() * options.layers,
+        target.job.estimated_time_s(machine) * options.layers / 60);
+    if (const auto preview = args.get("--preview")) draw_preview(*preview, target.job, machine);
+    return 0;
+}
+
 }  // namespace
 
 int run_target(const std::vector<std::string>& words) {
-    return dispatch(words, kTargetHelp, "target", {{"svg", svg}});
+    return dispatch(words, kTargetHelp, "target", {{"svg", svg}, {"delta", delta}});
 }
 
 }  // namespace calbox::cli

@@ -173,6 +173,8 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     r.number("bed_temperature_c", m.bed_temperature_c, -50, 200);
     r.number("nozzle_temperature_c", m.nozzle_temperature_c, 0, 500);
     r.number("calibration_temperature_c", m.calibration_temperature_c, -50, 200);
+    r.text("start_gcode", m.start_gcode);
+    r.text("end_gcode", m.end_gcode);
     r.finish();
     const auto* delta = subtable(file, root, "delta");
     if (m.is_delta()) {
@@ -204,6 +206,10 @@ std::string fingerprint(const MachineFile& m) {
              {&d.diagonal_rod_trim_mm, &d.tower_angle_trim_deg, &d.endstop_offset_mm})
             for (double v : *a) add(v);
     }
+    return digest(canonical);
+}
+
+std::string digest(std::string_view canonical) {
     std::uint64_t hash = 1469598103934665603ull;  // FNV-1a, 64 bits
     for (const unsigned char c : canonical) {
         hash ^= c;

@@ -45,6 +45,8 @@ struct MachineFile {
     std::optional<double> bed_temperature_c;
     std::optional<double> nozzle_temperature_c;
     std::optional<double> calibration_temperature_c;  // bed temperature when the plane was taken
+    std::optional<std::string> start_gcode;  // printers: replaces heating and G28 at a job's start
+    std::optional<std::string> end_gcode;    // printers: replaces cooling and M84 at its end
     std::optional<DeltaSettings> delta;
 
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
@@ -55,6 +57,8 @@ struct MachineFile {
 // comments do not count): measurements carry it, and solving them against another machine is
 // refused.
 std::string fingerprint(const MachineFile& machine);
+// The same kind of digest of any canonical text ("fnv1a64:" and 16 hex digits).
+std::string digest(std::string_view canonical);
 
 // Parses a whole machine file; `source` names it in messages. Unknown sections and keys are
 // errors, except sections listed in `other_sections` (a twin scenario adds its own).

@@ -133,38 +133,51 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
     line("G90");
     if (m.is_printer()) {
         line("M82");
-        if (m.bed_temperature_c) line("M190 S" + fmt("%.0f", *m.bed_temperature_c));
-        if (m.nozzle_temperature_c) line("M109 S" + fmt("%.0f", *m.nozzle_temperature_c));
-        line("G28");
+        if (m.start_gcode) {
+            out += *m.start_gcode;
+            if (!out.empty() && out.back() != '\n') out += "\n";
+        } else {
+            if (m.bed_temperature_c) line("M190 S" + fmt("%.0f", *m.bed_temperature_c));
+            if (m.nozzle_temperature_c) line("M109 S" + fmt("%.0f", *m.nozzle_temperature_c));
+            line("G28");
+        }
         line("G92 E0");
-        const double z = m.layer_height_mm, hop = z + 0.4;
         const double e_per_mm =
             job.line_width_mm * m.layer_height_mm /
             (3.14159265358979323846 * m.filament_diameter_mm * m.filament_diameter_mm / 4);
         double e = 0;
         line("G0 Z" + fmt("%.3f", m.safe_height_mm) + " F" + fmt("%.0f", travel));
-        bool lifted = true;
-        for (const auto& move : job.toolpath.moves) {
-            if (move.kind == MoveKind::travel) {
-                // Lift over the print for anything longer than a hop to the next line.
-                if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
-                    line("G0 Z" + fmt("%.3f", hop));
-                    lifted = true;
+        for (int layer = 1; layer <= job.layers; ++layer) {
+            const double z = layer * m.layer_height_mm, hop = z + 0.4;
+            if (layer > 1) line("G0 Z" + fmt("%.3f", hop));
+            bool lifted = true;
+            for (const auto& move : job.toolpath.moves) {
+                if (move.kind == MoveKind::travel) {
+                    // Lift over the print for anything longer than a hop to the next line.
+                    if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
+                        line("G0 Z" + fmt("%.3f", hop));
+                        lifted = true;
+                    }
+                    line("G0" + xy(move.to) + " F" + fmt("%.0f", travel));
+                    continue;
                 }
-                line("G0" + xy(move.to) + " F" + fmt("%.0f", travel));
-                continue;
+                if (lifted) {
+                    line("G0 Z" + fmt("%.3f", z));
+                    lifted = false;
+                }
+                e += move.length_mm() * e_per_mm;
+                line("G1" + xy(move.to) + " E" + fmt("%.5f", e) + " F" + fmt("%.0f", feed));
             }
-            if (lifted) {
-                line("G0 Z" + fmt("%.3f", z));
-                lifted = false;
-            }
-            e += move.length_mm() * e_per_mm;
-            line("G1" + xy(move.to) + " E" + fmt("%.5f", e) + " F" + fmt("%.0f", feed));
         }
         line("G0 Z" + fmt("%.3f", m.safe_height_mm + 10) + " F" + fmt("%.0f", travel));
-        if (m.nozzle_temperature_c) line("M104 S0");
-        if (m.bed_temperature_c) line("M140 S0");
-        line("M84");
+        if (m.end_gcode) {
+            out += *m.end_gcode;
+            if (!out.empty() && out.back() != '\n') out += "\n";
+        } else {
+            if (m.nozzle_temperature_c) line("M104 S0");
+            if (m.bed_temperature_c) line("M140 S0");
+            line("M84");
+        }
         return out;
     }
     const bool router = m.kind == "router";

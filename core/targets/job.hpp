@@ -33,6 +33,7 @@ struct PlacedJob {
     double line_width_mm = 0;
     double spacing_mm = 0;
     double feed_mm_s = 0;
+    int layers = 1;  // printers: the toolpath repeated one layer height higher each time
     double min_x = 0, min_y = 0, max_x = 0, max_y = 0;  // the drawing's extent on the bed
     double estimated_time_s(const models::MachineFile& machine) const;
 };

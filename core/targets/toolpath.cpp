@@ -167,9 +167,10 @@ void order_infill(Toolpath& path, Point2& pen, const std::vector<ScanSegment>& s
         for (const std::size_t i : chain) {
             const auto& seg = segments[i];
             const Point2 entry = reversed ? seg.b : seg.a;
-            // A longer link is worked too where it stays on the material (inside the perimeter).
-            if (!first && (distance2(pen, entry) <= longest_link_mm * longest_link_mm ||
-                           segment_inside(link_region, pen, entry))) {
+            // A link is worked where it stays on the material (inside the perimeter's centreline),
+            // so it never marks a hole; beyond a few millimetres it is travel all the same.
+            if (!first && distance2(pen, entry) <= longest_link_mm * longest_link_mm &&
+                segment_inside(link_region, pen, entry)) {
                 draw_to(path, pen, entry, MoveKind::infill);
             } else {
                 travel_to(path, pen, entry);
@@ -298,7 +299,7 @@ Toolpath plan_fill(const std::vector<Contour>& contours, FillRule rule, const Fi
     const auto infill_at = [&](double angle_deg, Point2 from) {
         Toolpath infill;
         order_infill(infill, from, scanline_fill(infill_region, s.spacing_mm, angle_deg),
-                     3 * s.spacing_mm, link_region);
+                     std::max(10.0, 3 * s.spacing_mm), link_region);
         return std::make_pair(infill, from);
     };
     auto best = infill_at(s.angle_deg.value_or(0), pen);

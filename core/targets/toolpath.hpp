@@ -38,7 +38,9 @@ struct FillSettings {
     // travels least for this region.
     std::optional<double> angle_deg;
     int perimeters = 1;
-    double infill_overlap = 0.25;  // of a line width, into the innermost perimeter
+    // Of a line width, into the innermost perimeter. Half a line lets the outermost infill line
+    // (up to half a spacing in from the infill region's edge) still meet the perimeter.
+    double infill_overlap = 0.5;
 };
 
 // The region a set of contours encloses under a fill rule, as outer boundaries and holes that

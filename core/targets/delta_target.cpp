@@ -1,0 +1,178 @@
+#include "core/targets/delta_target.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <opencv2/aruco.hpp>
+
+#include "core/geometry/pattern_spec.hpp"
+
+namespace calbox::targets {
+namespace {
+
+using geometry::Point2;
+constexpr double kPi = 3.14159265358979323846;
+constexpr std::array<double, 3> kTowerDeg{210, 330, 90};
+
+Contour square(Point2 c, double half, bool clockwise) {
+    Contour q;
+    q.closed = true;
+    q.points = {{c.x - half, c.y - half},
+                {c.x + half, c.y - half},
+                {c.x + half, c.y + half},
+                {c.x - half, c.y + half}};
+    if (clockwise) std::reverse(q.points.begin(), q.points.end());
+    return q;
+}
+
+// Distance from p to the segment a-b.
+double distance_to_segment(Point2 p, Point2 a, Point2 b) {
+    const double dx = b.x - a.x, dy = b.y - a.y;
+    const double t =
+        std::clamp(((p.x - a.x) * dx + (p.y - a.y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+    return std::hypot(p.x - a.x - t * dx, p.y - a.y - t * dy);
+}
+
+}  // namespace
+
+double TargetBar::length_mm() const {
+    return std::hypot(end_mm.x - start_mm.x, end_mm.y - start_mm.y);
+}
+
+DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTargetOptions& o) {
+    if (!machine.is_delta())
+        throw JobError("the delta target is for delta printers, not a " + machine.kind);
+    DeltaTarget target;
+    const double w = machine.line_width_mm;
+    const auto dictionary =
+        cv::aruco::getPredefinedDictionary(geometry::aruco_dictionary_id(o.dictionary));
+    const int cells = dictionary->markerSize + 2;
+    const double cell = o.marker_mm / cells;
+    if (cell < 3 * w)
+        throw JobError("marker cells of " + std::to_string(cell) + " mm are too small for a " +
+                       std::to_string(w) + " mm line");
+    const double quiet_half = o.marker_mm / 2 + cell;  // the white margin around the marker
+    const double usable = machine.bed_radius_mm - 5;   // keep clear of the clips and the edge
+    if (usable < 30) throw JobError("the bed is too small for the delta target");
+
+    // Bars along the towers, from the inner radius to the usable edge.
+    for (int t = 0; t < 3; ++t) {
+        const double a = kTowerDeg[static_cast<std::size_t>(t)] * kPi / 180;
+        TargetBar bar;
+        bar.tower = static_cast<char>('A' + t);
+        bar.width_mm = o.bar_width_mm;
+        const double outer = usable - o.bar_width_mm / 2;
+        bar.start_mm = {o.bar_inner_radius_mm * std::cos(a), o.bar_inner_radius_mm * std::sin(a)};
+        bar.end_mm = {outer * std::cos(a), outer * std::sin(a)};
+        target.bars.push_back(bar);
+    }
+    // Markers on a hexagonal grid, clear of the bars and inside the usable disc.
+    std::vector<Point2> centres;
+    const int n = static_cast<int>(usable / o.pitch_mm) + 1;
+    for (int j = -n; j <= n; ++j) {
+        for (int i = -n; i <= n; ++i) {
+            const Point2 c{(i + 0.5 * (j & 1)) * o.pitch_mm, j * o.pitch_mm * std::sqrt(3.0) / 2};
+            if (std::hypot(c.x, c.y) + quiet_half * std::sqrt(2.0) > usable) continue;
+            bool clear = true;
+            for (const auto& b : target.bars) {
+                const double d = distance_to_segment(c, {0, 0}, b.end_mm);
+                clear = clear && d > quiet_half * std::sqrt(2.0) + b.width_mm / 2 + 1;
+            }
+            if (clear) centres.push_back(c);
+        }
+    }
+    // Nearest the centre first, so ids grow outwards.
+    std::stable_sort(centres.begin(), centres.end(), [](Point2 a, Point2 b) {
+        return std::hypot(a.x, a.y) < std::hypot(b.x, b.y) - 1e-9;
+    });
+    if (static_cast<int>(centres.size()) > dictionary->bytesList.rows)
+        centres.resize(static_cast<std::size_t>(dictionary->bytesList.rows));
+    if (centres.size() < 7)
+        throw JobError("only " + std::to_string(centres.size()) + " markers fit on this bed");
+
+    FillSettings fill;
+    fill.line_width_mm = w;
+    fill.spacing_mm = w;
+    fill.perimeters = 1;
+    Point2 pen{0, 0};
+    const double half = o.marker_mm / 2;
+    // Print the markers nearest-neighbour first (their ids grow outwards).
+    std::vector<std::size_t> order;
+    {
+        std::vector<bool> done(centres.size(), false);
+        Point2 at{0, 0};
+        for (std::size_t n = 0; n < centres.size(); ++n) {
+            std::size_t best = 0;
+            double best_d = 1e300;
+            for (std::size_t k = 0; k < centres.size(); ++k) {
+                const double d = std::hypot(centres[k].x - at.x, centres[k].y - at.y);
+                if (!done[k] && d < best_d) best_d = d, best = k;
+            }
+            done[best] = true;
+            order.push_back(best);
+            at = centres[best];
+        }
+    }
+    for (std::size_t k = 0; k < centres.size(); ++k) {
+        const Point2 c = centres[k];
+        TargetMarker marker;
+        marker.id = static_cast<int>(k);
+        marker.centre_mm = c;
+        marker.corners_mm = {Point2{c.x - half, c.y + half}, Point2{c.x + half, c.y + half},
+                             Point2{c.x + half, c.y - half}, Point2{c.x - half, c.y - half}};
+        target.markers.push_back(marker);
+    }
+    for (const std::size_t k : order) {
+        const Point2 c = centres[k];
+        const int id = static_cast<int>(k);
+        // White = the quiet-zone square less the black cells (border and zero bits), which wind
+        // the other way so that the nonzero rule cuts them out.
+        const cv::Mat bits = cv::aruco::Dictionary::getBitsFromByteList(
+            dictionary->bytesList.rowRange(id, id + 1), dictionary->markerSize);
+        std::vector<Contour> contours{square(c, quiet_half, false)};
+        for (int r = 0; r < cells; ++r) {
+            for (int col = 0; col < cells; ++col) {
+                const bool border = r == 0 || col == 0 || r == cells - 1 || col == cells - 1;
+                if (!border && bits.at<unsigned char>(r - 1, col - 1) != 0) continue;
+                // Row 0 is the marker's top: +y seen from above.
+                const Point2 cc{c.x - half + (col + 0.5) * cell, c.y + half - (r + 0.5) * cell};
+                contours.push_back(square(cc, cell / 2, true));
+            }
+        }
+        append(target.job.toolpath, plan_fill(contours, FillRule::nonzero, fill, pen));
+    }
+    for (const auto& b : target.bars) {
+        // A filled rectangle whose ends lie exactly at start and end.
+        const double dx = b.end_mm.x - b.start_mm.x, dy = b.end_mm.y - b.start_mm.y,
+                     len = std::hypot(dx, dy);
+        const Point2 n{-dy / len * b.width_mm / 2, dx / len * b.width_mm / 2};
+        Contour r;
+        r.closed = true;
+        r.points = {{b.start_mm.x + n.x, b.start_mm.y + n.y},
+                    {b.start_mm.x - n.x, b.start_mm.y - n.y},
+                    {b.end_mm.x - n.x, b.end_mm.y - n.y},
+                    {b.end_mm.x + n.x, b.end_mm.y + n.y}};
+        append(target.job.toolpath, plan_fill({r}, FillRule::nonzero, fill, pen));
+    }
+    target.job.line_width_mm = w;
+    target.job.spacing_mm = w;
+    target.job.feed_mm_s = machine.feed_mm_s;
+    target.job.layers = o.layers;
+    target.job.min_x = target.job.min_y = -usable;
+    target.job.max_x = target.job.max_y = usable;
+    target.top_height_mm = o.layers * machine.layer_height_mm;
+    // The fingerprint ties measurements to this exact layout on this exact machine.
+    std::string canonical = models::fingerprint(machine) + "|" + o.dictionary;
+    char b[64];
+    for (const auto& m : target.markers) {
+        std::snprintf(b, sizeof b, "|%d:%.4f,%.4f", m.id, m.centre_mm.x, m.centre_mm.y);
+        canonical += b;
+    }
+    std::snprintf(b, sizeof b, "|%.4f|%.4f|%d", o.marker_mm, o.bar_width_mm, o.layers);
+    canonical += b;
+    target.fingerprint = models::digest(canonical);
+    return target;
+}
+
+}  // namespace calbox::targets

@@ -22,6 +22,12 @@ echo "== a drawing made into a job and printed: examples/ring_star.svg, 40 mm ac
     -o "$out/ring_star.gcode" --preview "$out/ring_star_preview.png"
 "$calbox" sim print --scenario "$scenario" "$out/ring_star.gcode" -o "$out/ring_star_print.json" | tail -n 1
 "$calbox" sim photo --scenario "$scenario" --print "$out/ring_star_print.json" -o "$out/ring_star.png"
+echo "== the delta target, printed by the twin with the +1 mm rod error, photographed and read back"
+"$calbox" target delta --machine "$top/examples/delta.toml" -o "$out/target.gcode" --preview "$out/target_preview.png" \
+    --describe "$out/target.json"
+"$calbox" sim print --scenario "$scenario" "$out/target.gcode" -o "$out/target_print.json" | tail -n 1
+"$calbox" sim photo --scenario "$scenario" --print "$out/target_print.json" -o "$out/target.png"
+"$calbox" detect markers "$out/target.png" -o "$out/target_detections.json" --overlay "$out/target_overlay.png"
 echo "== delta fit: a printer off in rods, trims, radius, tower angles and endstops (examples/delta_errors.toml)"
 "$calbox" sim measurements --scenario "$top/examples/delta_errors.toml" -o "$out/measurements.json" --probe "$out/heights.csv"
 "$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$out/measurements.json" \
@@ -30,4 +36,5 @@ echo "== delta fit: a printer off in rods, trims, radius, tower angles and endst
     --method classic -o "$out/result_classic.json" | head -n 1
 echo "== files in $out: print.json print.png print_truth.json chessboard.png chessboard_truth.json"
 echo "   ring_star.gcode ring_star_preview.png ring_star_print.json ring_star.png"
+echo "   target.gcode target_preview.png target.json target.png target_detections.json target_overlay.png"
 echo "   measurements.json heights.csv result.json result_classic.json"

@@ -8,11 +8,14 @@ cat "$work/log"
 # 1 mm of extra rod grows the 40 mm square by about 0.24 mm (tests/reference/delta_hand.py).
 grep -qE "commanded 40.0000 x 40.0000 mm, actual 40.2[34][0-9]+ x 40.2[34][0-9]+ mm" "$work/log"
 grep -q "M665 L250.000 R140.000" "$work/log"
-for f in print.json print.png print_truth.json chessboard.png chessboard_truth.json ring_star.gcode ring_star_preview.png ring_star.png result.json result_classic.json; do
+for f in print.json print.png print_truth.json chessboard.png chessboard_truth.json ring_star.gcode ring_star_preview.png ring_star.png result.json result_classic.json target.png target_detections.json; do
     [ -s "$work/$f" ] || { echo "missing $f"; exit 1; }
 done
 # PNG signature and the size the scenario asks for (width and height in the IHDR chunk).
 [ "$(head -c 8 "$work/print.png" | od -An -tx1 | tr -d ' \n')" = "89504e470d0a1a0a" ]
 [ "$(od -An -tu1 -j16 -N8 "$work/print.png" | tr -s ' ')" = " 0 0 15 216 0 0 11 224" ]
 grep -q '"calbox.photo-truth/1"' "$work/chessboard_truth.json"
+# Every marker of the printed target is read back.
+grep -qE "found [0-9]+ markers" "$work/log"
+[ "$(grep -c '"id"' "$work/target_detections.json")" -eq "$(grep -c '"centre_mm"' "$work/target.json")" ]
 echo "sim cycle outputs complete"

@@ -190,15 +190,29 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
         x0[kGeometry + 1] = mx - (std::cos(phi) * cx - std::sin(phi) * cy);
         x0[kGeometry + 2] = my - (std::sin(phi) * cx + std::cos(phi) * cy);
     }
+    // Without heights the height is not measured; it is the one that puts the nozzle on the bed
+    // at the centre when commanded to z = 0, as the paper test every delta owner does left it.
+    const auto geometry_of = [&](const Vector& x) {
+        DeltaGeometry g = unpack(x.head(kGeometry));
+        if (!result.used_probe) g.height_mm -= models::actual_position_mm(g, firmware, {0, 0, 0}).z;
+        return g;
+    };
     const auto residuals = [&](const Vector& x) {
-        const DeltaGeometry g = unpack(x.head(kGeometry));
+        const DeltaGeometry g = geometry_of(x);
         const double c = std::cos(x[kGeometry]), s = std::sin(x[kGeometry]);
         Vector r(static_cast<Eigen::Index>(2 * features.size() + probe.size()));
         Eigen::Index k = 0;
         for (const auto& f : features) {
             const auto p = models::actual_position_mm(g, firmware, f.commanded_mm);
-            r[k++] = (c * p.x - s * p.y + x[kGeometry + 1] - f.measured_mm.x) / f.sigma_mm;
-            r[k++] = (s * p.x + c * p.y + x[kGeometry + 2] - f.measured_mm.y) / f.sigma_mm;
+            // Seen on its ray at the mapping height, the point lies where the ray meets its own
+            // (predicted) height: measured = placed position - (height - mapping height) * shift.
+            const double dz = p.z - f.seen_at_height_mm;
+            r[k++] = (c * p.x - s * p.y + x[kGeometry + 1] - dz * f.shift_per_height.x -
+                      f.measured_mm.x) /
+                     f.sigma_mm;
+            r[k++] = (s * p.x + c * p.y + x[kGeometry + 2] - dz * f.shift_per_height.y -
+                      f.measured_mm.y) /
+                     f.sigma_mm;
         }
         for (const auto& p : probe)
             r[k++] = (models::actual_position_mm(g, firmware, {p.x_mm, p.y_mm, 0}).z - p.z_mm) /
@@ -243,7 +257,7 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
         sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
     result.fit_rms_mm = std::sqrt(solution.cost / static_cast<double>(solution.jacobian.rows())) *
                         features.front().sigma_mm;
-    result.estimate = unpack(solution.x.head(kGeometry));
+    result.estimate = geometry_of(solution.x);
     result.placement_rotation_deg = solution.x[kGeometry] * 180 / kPi;
     result.placement_translation_mm = {solution.x[kGeometry + 1], solution.x[kGeometry + 2]};
 

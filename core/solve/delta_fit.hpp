@@ -21,6 +21,10 @@ struct FeatureMeasurement {
     geometry::Point3 commanded_mm;  // machine frame, as the job commanded it
     geometry::Point2 measured_mm;   // bed frame, where it was seen
     double sigma_mm = 0.01;         // standard uncertainty of each measured coordinate
+    // A camera measures along a ray: the point was mapped at `seen_at_height_mm`, and moves by
+    // `shift_per_height` (bed mm per mm) for a surface higher than that. Zero: no parallax.
+    double seen_at_height_mm = 0;
+    geometry::Point2 shift_per_height;
 };
 
 // A probed height: the nozzle's height over the bed when commanded to (x, y, 0).

@@ -11,6 +11,7 @@
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
+#include "core/geometry/camera_model.hpp"
 #include "core/models/machine_file.hpp"
 #include "firmware/cli_args.hpp"
 
@@ -33,6 +34,8 @@ constexpr const char* kSimHelp = R"(usage:
                   its surface --thickness mm above the bed (default 0)
       --truth writes the true pixel position of every board corner and marker corner, or of
       every stroke end, with the true camera and plane pose.
+  calbox sim camera --scenario FILE -o camera.yaml
+      The scenario's true camera as camera.yaml, for runs where calibration is not the point.
   calbox sim measurements --scenario FILE [--features N] [--noise MM] [--seed N] -o measurements.json
                           [--probe heights.csv]
       Synthetic measurements of a delta scenario, straight from the twin's truth: N features
@@ -303,10 +306,30 @@ int sim_measurements(const std::vector<std::string>& words) {
 
 }  // namespace
 
+int sim_camera(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "-o"}, {});
+    if (!args.positional().empty()) throw UsageError("sim camera takes no positional argument");
+    const auto scenario = scenario_from(args);
+    if (!scenario.camera) throw std::runtime_error(scenario.path + ": no [camera] section");
+    const auto& c = scenario.camera->intrinsics;
+    geometry::CameraModel model;
+    model.model = c.model == sim::LensModel::fisheye ? geometry::LensModel::fisheye
+                                                     : geometry::LensModel::pinhole;
+    model.image_width = c.width_px;
+    model.image_height = c.height_px;
+    model.camera_matrix = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
+    model.distortion = c.distortion;
+    model.distortion.resize(model.model == geometry::LensModel::fisheye ? 4 : 5, 0.0);
+    write_output_file(args.require("-o"), geometry::camera_to_yaml(model));
+    return 0;
+}
+
 int run_sim(const std::vector<std::string>& words) {
-    return dispatch(
-        words, kSimHelp, "sim",
-        {{"print", sim_print}, {"photo", sim_photo}, {"measurements", sim_measurements}});
+    return dispatch(words, kSimHelp, "sim",
+                    {{"print", sim_print},
+                     {"photo", sim_photo},
+                     {"measurements", sim_measurements},
+                     {"camera", sim_camera}});
 }
 
 }  // namespace calbox::cli

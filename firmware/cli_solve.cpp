@@ -52,6 +52,11 @@ Measurements read_measurements(const std::string& text, const std::string& path)
             fm.commanded_mm = {number(c.at(0)), number(c.at(1)), number(c.at(2))};
             fm.measured_mm = {number(s.at(0)), number(s.at(1))};
             fm.sigma_mm = number(f.at("sigma_mm"));
+            if (f.contains("seen_at_height_mm")) {
+                fm.seen_at_height_mm = number(f.at("seen_at_height_mm"));
+                fm.shift_per_height = {number(f.at("shift_per_height").at(0)),
+                                       number(f.at("shift_per_height").at(1))};
+            }
             m.features.push_back(fm);
         }
         if (j.contains("bars")) {

@@ -15,6 +15,7 @@ usage: calbox COMMAND [ARGS...]
 commands:
   camera calibrate|plane      intrinsic calibration and the bed plane (calbox camera --help)
   detect markers|chessboard|circles   what the box sees in an image (calbox detect --help)
+  measure delta               measure the printed delta target in photos (calbox measure --help)
   solve delta                 fit a delta's geometry and write the correction (calbox solve --help)
   target svg                  a job for the machine from a drawing (calbox target --help)
   sim print|photo             the digital twin: run a G-code job, render a photo (calbox sim --help)
@@ -45,6 +46,7 @@ int main(int argc, char** argv) {
         if (words[0] == "detect") return calbox::cli::run_detect(rest);
         if (words[0] == "target") return calbox::cli::run_target(rest);
         if (words[0] == "solve") return calbox::cli::run_solve(rest);
+        if (words[0] == "measure") return calbox::cli::run_measure(rest);
         throw calbox::cli::UsageError("unknown command '" + words[0] +
                                       "' (calbox --help lists them)");
     } catch (const calbox::geometry::PatternError& e) {

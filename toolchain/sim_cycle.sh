@@ -28,6 +28,13 @@ echo "== the delta target, printed by the twin with the +1 mm rod error, photogr
 "$calbox" sim print --scenario "$scenario" "$out/target.gcode" -o "$out/target_print.json" | tail -n 1
 "$calbox" sim photo --scenario "$scenario" --print "$out/target_print.json" -o "$out/target.png"
 "$calbox" detect markers "$out/target.png" -o "$out/target_detections.json" --overlay "$out/target_overlay.png"
+echo "== ... measured from the photo (true camera, bed plane from the chessboard photo) and fitted"
+"$calbox" sim camera --scenario "$scenario" -o "$out/camera.yaml"
+"$calbox" camera plane --camera "$out/camera.yaml" --pattern chessboard:9x6@20 "$out/chessboard.png" -o "$out/plane.yaml"
+"$calbox" measure delta --camera "$out/camera.yaml" --plane "$out/plane.yaml" --machine "$top/examples/delta.toml" \
+    "$out/target.png" -o "$out/target_measurements.json" --overlay "$out/target_errors.png"
+"$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$out/target_measurements.json" \
+    -o "$out/target_result.json"
 echo "== delta fit: a printer off in rods, trims, radius, tower angles and endstops (examples/delta_errors.toml)"
 "$calbox" sim measurements --scenario "$top/examples/delta_errors.toml" -o "$out/measurements.json" --probe "$out/heights.csv"
 "$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$out/measurements.json" \
@@ -37,4 +44,5 @@ echo "== delta fit: a printer off in rods, trims, radius, tower angles and endst
 echo "== files in $out: print.json print.png print_truth.json chessboard.png chessboard_truth.json"
 echo "   ring_star.gcode ring_star_preview.png ring_star_print.json ring_star.png"
 echo "   target.gcode target_preview.png target.json target.png target_detections.json target_overlay.png"
+echo "   camera.yaml plane.yaml target_measurements.json target_errors.png target_result.json"
 echo "   measurements.json heights.csv result.json result_classic.json"

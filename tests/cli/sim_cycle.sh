@@ -8,7 +8,7 @@ cat "$work/log"
 # 1 mm of extra rod grows the 40 mm square by about 0.24 mm (tests/reference/delta_hand.py).
 grep -qE "commanded 40.0000 x 40.0000 mm, actual 40.2[34][0-9]+ x 40.2[34][0-9]+ mm" "$work/log"
 grep -q "M665 L250.000 R140.000" "$work/log"
-for f in print.json print.png print_truth.json chessboard.png chessboard_truth.json ring_star.gcode ring_star_preview.png ring_star.png result.json result_classic.json target.png target_detections.json; do
+for f in print.json print.png print_truth.json chessboard.png chessboard_truth.json ring_star.gcode ring_star_preview.png ring_star.png result.json result_classic.json target.png target_detections.json target_measurements.json target_result.json target_errors.png; do
     [ -s "$work/$f" ] || { echo "missing $f"; exit 1; }
 done
 # PNG signature and the size the scenario asks for (width and height in the IHDR chunk).
@@ -18,4 +18,10 @@ grep -q '"calbox.photo-truth/1"' "$work/chessboard_truth.json"
 # Every marker of the printed target is read back.
 grep -qE "found [0-9]+ markers" "$work/log"
 [ "$(grep -c '"id"' "$work/target_detections.json")" -eq "$(grep -c '"centre_mm"' "$work/target.json")" ]
+# The rod the target's photo shows is the scenario's hidden 251 mm.
+/usr/bin/python3 -c "
+import json, sys
+r = json.load(open('$work/target_result.json'))
+rod = r['estimate']['diagonal_rod_mm']
+sys.exit(0 if abs(rod - 251.0) < 0.15 else 'rod from the photo: %.3f' % rod)"
 echo "sim cycle outputs complete"

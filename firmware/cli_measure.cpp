@@ -1,0 +1,115 @@
+// calbox measure delta: photos of the printed target -> measurements.json.
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "core/modes/delta.hpp"
+#include "firmware/cli_args.hpp"
+#include "firmware/cli_images.hpp"
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kMeasureHelp = R"(usage:
+  calbox measure delta --camera camera.yaml --plane plane.yaml --machine printer.toml IMAGES...
+                       -o measurements.json [--overlay overlay.png]
+      Finds the delta target's markers in the photos (the target is regenerated from the machine
+      file), refines their corners, maps them to the bed at the printed surface's height and
+      writes each corner's commanded and measured position with its uncertainty and the shift of
+      its ray per mm of height (the fit uses it for the surface's real height). Several photos are
+      averaged. --overlay draws what was found on the first photo with each corner's error
+      (after the best rotation and translation), magnified 200 times.
+)";
+
+int delta(const std::vector<std::string>& words) {
+    const Args args(words, {"--camera", "--plane", "--machine", "-o", "--overlay"}, {});
+    const std::string out = args.require("-o");
+    if (args.positional().empty()) throw UsageError("measure delta needs at least one photo");
+    const auto camera =
+        geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file"));
+    const auto plane =
+        geometry::plane_from_yaml(read_input_file(args.require("--plane"), "plane file"));
+    const std::string machine_path = args.require("--machine");
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    std::vector<cv::Mat> images;
+    std::vector<vision::GrayView> views;
+    for (const auto& path : args.positional()) images.push_back(load_gray_image(path));
+    for (const auto& image : images) views.push_back(view_of(image));
+    const auto measured = modes::measure_delta(machine, camera, plane, views);
+    nlohmann::json features = nlohmann::json::array();
+    for (const auto& f : measured.features) {
+        features.push_back(
+            {{"id", f.id},
+             {"commanded_mm", {f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}},
+             {"measured_mm", {f.measured_mm.x, f.measured_mm.y}},
+             {"sigma_mm", f.sigma_mm},
+             {"seen_at_height_mm", f.seen_at_height_mm},
+             {"shift_per_height", {f.shift_per_height.x, f.shift_per_height.y}}});
+    }
+    const nlohmann::json j{{"schema", "calbox.measurements/1"},
+                           {"machine_fingerprint", models::fingerprint(machine)},
+                           {"target_fingerprint", measured.target.fingerprint},
+                           {"photos", args.positional()},
+                           {"features", features}};
+    write_output_file(out, j.dump(1) + "\n");
+    std::printf("%s: %zu corners of %zu markers from %zu photo(s)\n", out.c_str(),
+                measured.features.size(), measured.target.markers.size(), views.size());
+    if (const auto overlay = args.get("--overlay")) {
+        // Error vectors after the best rigid placement of commanded onto measured.
+        const auto& fs = measured.features;
+        double cx = 0, cy = 0, mx = 0, my = 0;
+        for (const auto& f : fs)
+            cx += f.commanded_mm.x, cy += f.commanded_mm.y, mx += f.measured_mm.x,
+                my += f.measured_mm.y;
+        const double n = static_cast<double>(fs.size());
+        cx /= n, cy /= n, mx /= n, my /= n;
+        double s = 0, c = 0;
+        for (const auto& f : fs) {
+            const double ax = f.commanded_mm.x - cx, ay = f.commanded_mm.y - cy,
+                         bx = f.measured_mm.x - mx, by = f.measured_mm.y - my;
+            s += ax * by - ay * bx;
+            c += ax * bx + ay * by;
+        }
+        const double phi = std::atan2(s, c);
+        cv::Mat picture;
+        cv::cvtColor(images.front(), picture, cv::COLOR_GRAY2BGR);
+        const int thickness = std::max(1, picture.cols / 1000);
+        std::map<std::string, geometry::Point2> pixel;
+        for (const auto& m : measured.frames.front()) {
+            std::vector<cv::Point> outline;
+            for (int k = 0; k < 4; ++k) {
+                const auto& p = m.corners[static_cast<std::size_t>(k)];
+                outline.emplace_back(cvRound(p.x), cvRound(p.y));
+                pixel["m" + std::to_string(m.id) + "c" + std::to_string(k)] = p;
+            }
+            cv::polylines(picture, outline, true, cv::Scalar(0, 200, 0), thickness);
+        }
+        for (const auto& f : fs) {
+            const auto it = pixel.find(f.id);
+            if (it == pixel.end()) continue;
+            const double px = std::cos(phi) * (f.commanded_mm.x - cx) -
+                              std::sin(phi) * (f.commanded_mm.y - cy) + mx;
+            const double py = std::sin(phi) * (f.commanded_mm.x - cx) +
+                              std::cos(phi) * (f.commanded_mm.y - cy) + my;
+            // 200x in bed mm, drawn in pixels at the camera's scale (about 1/0.07 px per mm).
+            const double gain = 200 / 0.07;
+            const cv::Point from(cvRound(it->second.x), cvRound(it->second.y));
+            const cv::Point to(cvRound(it->second.x + gain * (f.measured_mm.x - px)),
+                               cvRound(it->second.y - gain * (f.measured_mm.y - py)));
+            cv::arrowedLine(picture, from, to, cv::Scalar(0, 0, 255), thickness);
+        }
+        write_png(*overlay, picture);
+    }
+    return 0;
+}
+
+}  // namespace
+
+int run_measure(const std::vector<std::string>& words) {
+    return dispatch(words, kMeasureHelp, "measure", {{"delta", delta}});
+}
+
+}  // namespace calbox::cli

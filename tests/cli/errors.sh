@@ -82,5 +82,13 @@ expect_error "does not fit on the bed" target svg "$work/square.svg" --machine "
 expect_error "cannot read drawing" target svg "$work/none.svg" --machine "$machine" -o "$work/result"
 expect_error "fill-rule must be nonzero or evenodd" target svg "$work/square.svg" --machine "$machine" --fill-rule odd -o "$work/result"
 
+# measure delta
+"$calbox" sim camera --scenario "$scenario" -o "$work/camera.yaml"
+"$calbox" camera plane --camera "$work/camera.yaml" --pattern chessboard:9x6@20 "$work/board.png" -o "$work/plane.yaml" > /dev/null
+expect_error "photo 1 shows no DICT_4X4_50 markers" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" "$work/board.png" -o "$work/result"
+expect_error "not an image OpenCV can decode" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" "$work/fake.png" -o "$work/result"
+expect_error "cannot read plane file" measure delta --camera "$work/camera.yaml" --plane "$work/none.yaml" --machine "$machine" "$work/board.png" -o "$work/result"
+expect_error "needs at least one photo" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" -o "$work/result"
+
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

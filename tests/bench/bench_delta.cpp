@@ -1,0 +1,88 @@
+// On-demand benchmark: time and peak memory to measure one 4056x3040 photo of the printed delta
+// target and to solve. Not a test: it reports numbers.
+//   cmake --build build/release --target bench_delta && ./build/release/tests/bench/bench_delta
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cstdio>
+#include <sstream>
+
+#include "board/sim/camera_reference.hpp"
+#include "board/sim/gcode_runner.hpp"
+#include "board/sim/machine_twin.hpp"
+#include "board/sim/renderer.hpp"
+#include "board/sim/scenes.hpp"
+#include "core/modes/delta.hpp"
+
+using namespace calbox;
+
+namespace {
+long peak_rss_mb() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return usage.ru_maxrss / 1024;
+}
+double seconds_since(std::chrono::steady_clock::time_point start) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+}  // namespace
+
+int main() {
+    auto machine = models::parse_machine_file(
+        "[machine]\nkind = \"delta\"\nbed_radius_mm = 85.0\n[delta]\ndiagonal_rod_mm = "
+        "250.0\nradius_mm = 140.0\n",
+        "bench");
+    sim::DeltaParams truth;
+    truth.diagonal_rod_mm = 251;
+    sim::DeltaTwin twin(truth, sim::DeltaParams{});
+    twin.zero_height_at_centre();
+    const auto target = targets::make_delta_target(machine);
+    sim::GcodeRunner runner(twin, sim::ToolSettings{});
+    std::istringstream job(targets::write_gcode(target.job, machine, "bench"));
+    runner.run(job);
+    std::vector<sim::StrokeSegment> strokes;
+    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+    sim::CameraIntrinsics camera;
+    camera.width_px = 4056;
+    camera.height_px = 3040;
+    camera.fx = camera.fy = 5700;
+    camera.cx = 2027.5;
+    camera.cy = 1519.5;
+    camera.distortion = {-0.05, 0.08, 0, 0, 0};
+    const sim::Pose pose = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
+    sim::PhotoSettings photo;
+    photo.blur_sigma_px = 0.7;
+    photo.noise_sigma_dn = 2;
+    auto start = std::chrono::steady_clock::now();
+    const auto image =
+        sim::render_photo(camera, pose, sim::StrokeScene(std::move(strokes), 0.08, 0.85, 4), photo);
+    std::printf("render 4056x3040 (twin, not the box's work): %.2f s\n", seconds_since(start));
+    geometry::CameraModel model;
+    model.image_width = camera.width_px;
+    model.image_height = camera.height_px;
+    model.camera_matrix = {camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1};
+    model.distortion = camera.distortion;
+    geometry::BedPlane plane;  // the true bed pose
+    const auto r = sim::vector_from_rotation(pose.rotation);
+    plane.bed_to_camera.rvec = {r.x, r.y, r.z};
+    plane.bed_to_camera.tvec_mm = {pose.translation_mm.x, pose.translation_mm.y,
+                                   pose.translation_mm.z};
+    const long before = peak_rss_mb();
+    constexpr int kRuns = 3;
+    start = std::chrono::steady_clock::now();
+    modes::DeltaMeasurement measured;
+    for (int i = 0; i < kRuns; ++i) {
+        measured = modes::measure_delta(
+            machine, model, plane,
+            {{image.pixels.data(), image.width_px, image.height_px, image.width_px}});
+    }
+    std::printf("measure one 4056x3040 frame: %.3f s (mean of %d), %zu corners\n",
+                seconds_since(start) / kRuns, kRuns, measured.features.size());
+    start = std::chrono::steady_clock::now();
+    const auto fit = solve::fit_delta(machine, measured.features, {});
+    std::printf("solve: %.3f s, fit RMS %.4f mm\n", seconds_since(start), fit.fit_rms_mm);
+    std::printf(
+        "peak resident memory: %ld MB (%ld MB before measuring, the photo and the twin included)\n",
+        peak_rss_mb(), before);
+    return 0;
+}

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/modes/delta.hpp"
+#include "core/solve/placement.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
 
@@ -60,20 +61,11 @@ int delta(const std::vector<std::string>& words) {
     if (const auto overlay = args.get("--overlay")) {
         // Error vectors after the best rigid placement of commanded onto measured.
         const auto& fs = measured.features;
-        double cx = 0, cy = 0, mx = 0, my = 0;
+        std::vector<geometry::Point2> commanded, seen;
         for (const auto& f : fs)
-            cx += f.commanded_mm.x, cy += f.commanded_mm.y, mx += f.measured_mm.x,
-                my += f.measured_mm.y;
-        const double n = static_cast<double>(fs.size());
-        cx /= n, cy /= n, mx /= n, my /= n;
-        double s = 0, c = 0;
-        for (const auto& f : fs) {
-            const double ax = f.commanded_mm.x - cx, ay = f.commanded_mm.y - cy,
-                         bx = f.measured_mm.x - mx, by = f.measured_mm.y - my;
-            s += ax * by - ay * bx;
-            c += ax * bx + ay * by;
-        }
-        const double phi = std::atan2(s, c);
+            commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
+                seen.push_back(f.measured_mm);
+        const auto placement = solve::best_rigid_placement(commanded, seen);
         cv::Mat picture;
         cv::cvtColor(images.front(), picture, cv::COLOR_GRAY2BGR);
         const int thickness = std::max(1, picture.cols / 1000);
@@ -90,10 +82,8 @@ int delta(const std::vector<std::string>& words) {
         for (const auto& f : fs) {
             const auto it = pixel.find(f.id);
             if (it == pixel.end()) continue;
-            const double px = std::cos(phi) * (f.commanded_mm.x - cx) -
-                              std::sin(phi) * (f.commanded_mm.y - cy) + mx;
-            const double py = std::sin(phi) * (f.commanded_mm.x - cx) +
-                              std::cos(phi) * (f.commanded_mm.y - cy) + my;
+            const auto placed = placement.apply({f.commanded_mm.x, f.commanded_mm.y});
+            const double px = placed.x, py = placed.y;
             // 200x in bed mm, drawn in pixels at the camera's scale (about 1/0.07 px per mm).
             const double gain = 200 / 0.07;
             const cv::Point from(cvRound(it->second.x), cvRound(it->second.y));

@@ -198,20 +198,8 @@ int sim_photo(const std::vector<std::string>& words) {
             const auto v = parse_numbers("--on-bed", *args.get("--on-bed"), 3);
             const double thickness = args.number("--thickness", 0);
             if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
-            // OpenCV's board frame has y down the printed board and z into it; lying face up,
-            // its z points into the bed.
-            const double a = sim::radians(v[2]);
-            sim::Pose board_to_bed;
-            const sim::Vec3 columns[3] = {
-                {std::cos(a), std::sin(a), 0}, {std::sin(a), -std::cos(a), 0}, {0, 0, -1}};
-            for (int i = 0; i < 3; ++i) {
-                board_to_bed.rotation.m[0][i] = columns[i].x;
-                board_to_bed.rotation.m[1][i] = columns[i].y;
-                board_to_bed.rotation.m[2][i] = columns[i].z;
-            }
-            board_to_bed.translation_mm = {v[0], v[1], thickness};
-            board_to_camera.rotation = bed_to_camera.rotation * board_to_bed.rotation;
-            board_to_camera.translation_mm = bed_to_camera.apply(board_to_bed.translation_mm);
+            const sim::Pose board_to_bed = sim::board_lying_on_bed({v[0], v[1], thickness}, v[2]);
+            board_to_camera = sim::compose(bed_to_camera, board_to_bed);
             truth["board_to_bed"] = pose_json(board_to_bed);
         }
         const sim::BoardScene scene(spec, scenario.photo.supersample);
@@ -311,15 +299,7 @@ int sim_camera(const std::vector<std::string>& words) {
     if (!args.positional().empty()) throw UsageError("sim camera takes no positional argument");
     const auto scenario = scenario_from(args);
     if (!scenario.camera) throw std::runtime_error(scenario.path + ": no [camera] section");
-    const auto& c = scenario.camera->intrinsics;
-    geometry::CameraModel model;
-    model.model = c.model == sim::LensModel::fisheye ? geometry::LensModel::fisheye
-                                                     : geometry::LensModel::pinhole;
-    model.image_width = c.width_px;
-    model.image_height = c.height_px;
-    model.camera_matrix = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
-    model.distortion = c.distortion;
-    model.distortion.resize(model.model == geometry::LensModel::fisheye ? 4 : 5, 0.0);
+    const auto model = sim::as_camera_model(scenario.camera->intrinsics);
     write_output_file(args.require("-o"), geometry::camera_to_yaml(model));
     return 0;
 }

@@ -53,6 +53,39 @@ Pose look_at_pose(const Vec3& position_mm, const Vec3& look_at_mm, double roll_d
     return pose;
 }
 
+Pose compose(const Pose& outer, const Pose& inner) {
+    Pose p;
+    p.rotation = outer.rotation * inner.rotation;
+    p.translation_mm = outer.apply(inner.translation_mm);
+    return p;
+}
+
+Pose board_lying_on_bed(const Vec3& origin_mm, double angle_deg) {
+    const double a = radians(angle_deg);
+    const Vec3 columns[3] = {
+        {std::cos(a), std::sin(a), 0}, {std::sin(a), -std::cos(a), 0}, {0, 0, -1}};
+    Pose p;
+    for (int i = 0; i < 3; ++i) {
+        p.rotation.m[0][i] = columns[i].x;
+        p.rotation.m[1][i] = columns[i].y;
+        p.rotation.m[2][i] = columns[i].z;
+    }
+    p.translation_mm = origin_mm;
+    return p;
+}
+
+geometry::CameraModel as_camera_model(const CameraIntrinsics& c) {
+    geometry::CameraModel m;
+    m.model =
+        c.model == LensModel::fisheye ? geometry::LensModel::fisheye : geometry::LensModel::pinhole;
+    m.image_width = c.width_px;
+    m.image_height = c.height_px;
+    m.camera_matrix = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
+    m.distortion = c.distortion;
+    m.distortion.resize(m.model == geometry::LensModel::fisheye ? 4 : 5, 0.0);
+    return m;
+}
+
 Vec2 distort_normalized(const CameraIntrinsics& c, double x, double y) {
     const Vec2 d = distort(c, x, y);
     return {c.fx * d.x + c.cx, c.fy * d.y + c.cy};

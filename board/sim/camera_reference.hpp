@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "board/sim/vec.hpp"
+#include "core/geometry/camera_model.hpp"
 
 namespace calbox::sim {
 
@@ -33,6 +34,16 @@ struct Pose {
 // Camera at `position_mm` looking at `look_at_mm` (both in the plane's frame, z up), image up
 // along the plane's +y as far as the view allows, then rolled about the optical axis.
 Pose look_at_pose(const Vec3& position_mm, const Vec3& look_at_mm, double roll_deg);
+
+// outer after inner: points go through `inner` first.
+Pose compose(const Pose& outer, const Pose& inner);
+
+// A board (OpenCV's frame: y down the printed board, z into it) lying face up on the bed with its
+// origin at `origin_mm` (z: the board's surface height), turned `angle_deg` about the bed's z.
+Pose board_lying_on_bed(const Vec3& origin_mm, double angle_deg);
+
+// The same camera as core's model (pinhole distortion padded to five coefficients).
+geometry::CameraModel as_camera_model(const CameraIntrinsics& c);
 
 Vec2 distort_normalized(const CameraIntrinsics& c, double x, double y);  // -> pixel
 Vec2 undistort_pixel(const CameraIntrinsics& c, double u, double v);     // -> normalized x/z, y/z

@@ -93,9 +93,9 @@ GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_came
     for (int v = 0; v < camera.height_px; ++v) {
         float* row = radiance.ptr<float>(v);
         for (int u = 0; u < camera.width_px; ++u) {
-            const double light = 1 + settings.lighting_gradient *
-                                         ((u - half_w) / camera.width_px * cos_l +
-                                          (v - half_h) / camera.height_px * sin_l);
+            const double light =
+                1 + settings.lighting_gradient * ((u - half_w) / camera.width_px * cos_l +
+                                                  (v - half_h) / camera.height_px * sin_l);
             const double rho = std::hypot(u - half_w, v - half_h) / corner;
             const double vignette = 1 - settings.vignetting * rho * rho;
             row[u] = static_cast<float>(row[u] * settings.exposure_dn * light * vignette);

@@ -6,6 +6,8 @@
 #include <functional>
 #include <limits>
 
+#include "core/solve/placement.hpp"
+
 namespace calbox::solve {
 namespace {
 
@@ -170,25 +172,16 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     x0 << fw, 0, 0, 0;
     std::vector<double> step(kScale, kScale + kGeometry);
     step.insert(step.end(), {0.01, 0.1, 0.1});
-    // First guess of the placement: centroids and the mean angle about them.
+    // First guess of the placement: commanded carried onto measured, rigidly.
     {
-        double cx = 0, cy = 0, mx = 0, my = 0;
+        std::vector<geometry::Point2> commanded, measured;
         for (const auto& f : features)
-            cx += f.commanded_mm.x, cy += f.commanded_mm.y, mx += f.measured_mm.x,
-                my += f.measured_mm.y;
-        const double n = static_cast<double>(features.size());
-        cx /= n, cy /= n, mx /= n, my /= n;
-        double s = 0, c = 0;
-        for (const auto& f : features) {
-            const double ax = f.commanded_mm.x - cx, ay = f.commanded_mm.y - cy,
-                         bx = f.measured_mm.x - mx, by = f.measured_mm.y - my;
-            s += ax * by - ay * bx;
-            c += ax * bx + ay * by;
-        }
-        const double phi = std::atan2(s, c);
-        x0[kGeometry] = phi;
-        x0[kGeometry + 1] = mx - (std::cos(phi) * cx - std::sin(phi) * cy);
-        x0[kGeometry + 2] = my - (std::sin(phi) * cx + std::cos(phi) * cy);
+            commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
+                measured.push_back(f.measured_mm);
+        const RigidPlacement guess = best_rigid_placement(commanded, measured);
+        x0[kGeometry] = guess.angle_rad;
+        x0[kGeometry + 1] = guess.translation_mm.x;
+        x0[kGeometry + 2] = guess.translation_mm.y;
     }
     // Without heights the height is not measured; it is the one that puts the nozzle on the bed
     // at the centre when commanded to z = 0, as the paper test every delta owner does left it.

@@ -14,6 +14,7 @@
 #include "core/models/delta.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/solve/delta_fit.hpp"
+#include "core/solve/placement.hpp"
 
 using namespace calbox;
 
@@ -137,30 +138,22 @@ Judgement judge(sim::DeltaTwin& twin, const std::vector<std::string>& commands) 
     runner.run_line("G28");
     std::vector<sim::Vec3> after;
     for (const auto& p : grid) after.push_back(twin.actual_position_mm(p));
-    // Best rigid fit of actual onto commanded (2-D Procrustes).
-    double cx = 0, cy = 0, ax = 0, ay = 0;
+    // Take out the best rotation and translation of actual onto commanded.
+    std::vector<geometry::Point2> actual_xy, commanded_xy;
     for (std::size_t i = 0; i < grid.size(); ++i)
-        cx += grid[i].x, cy += grid[i].y, ax += after[i].x, ay += after[i].y;
-    const double n = static_cast<double>(grid.size());
-    cx /= n, cy /= n, ax /= n, ay /= n;
-    double s = 0, c = 0;
-    for (std::size_t i = 0; i < grid.size(); ++i) {
-        const double px = after[i].x - ax, py = after[i].y - ay, qx = grid[i].x - cx,
-                     qy = grid[i].y - cy;
-        s += px * qy - py * qx;
-        c += px * qx + py * qy;
-    }
-    const double phi = std::atan2(s, c);
+        actual_xy.push_back({after[i].x, after[i].y}),
+            commanded_xy.push_back({grid[i].x, grid[i].y});
+    const auto placement = solve::best_rigid_placement(actual_xy, commanded_xy);
     Judgement j;
     double sum = 0;
     for (std::size_t i = 0; i < grid.size(); ++i) {
-        const double px = after[i].x - ax, py = after[i].y - ay;
-        const double ex = std::cos(phi) * px - std::sin(phi) * py + cx - grid[i].x;
-        const double ey = std::sin(phi) * px + std::cos(phi) * py + cy - grid[i].y;
-        sum += ex * ex + ey * ey;
-        j.xy_max = std::max(j.xy_max, std::hypot(ex, ey));
+        const auto p = placement.apply(actual_xy[i]);
+        const double e = std::hypot(p.x - grid[i].x, p.y - grid[i].y);
+        sum += e * e;
+        j.xy_max = std::max(j.xy_max, e);
         j.height_change = std::max(j.height_change, std::abs(after[i].z - before[i].z));
     }
+    const double n = static_cast<double>(grid.size());
     j.xy_rms = std::sqrt(sum / n);
     return j;
 }
@@ -243,6 +236,21 @@ TEST(DeltaKinematics, firmware_lines_for_one_geometry_match_hand_worked_values) 
     STRCMP_EQUAL("position_endstop: 301.700", klipper[5].c_str());
     STRCMP_EQUAL("angle: 329.600", klipper[8].c_str());
     STRCMP_EQUAL("position_endstop: 301.520", klipper[13].c_str());
+}
+
+TEST_GROUP(Placement){};
+
+TEST(Placement, recovers_a_rotation_and_translation_worked_by_hand) {
+    // Points turned 30 degrees about the origin, then moved by (3, -2).
+    const std::vector<geometry::Point2> from{{0, 0}, {10, 0}, {0, 5}, {-4, 7}};
+    std::vector<geometry::Point2> to;
+    const double c = std::cos(kPi / 6), s = std::sin(kPi / 6);
+    for (const auto& p : from) to.push_back({c * p.x - s * p.y + 3, s * p.x + c * p.y - 2});
+    const auto placement = solve::best_rigid_placement(from, to);
+    DOUBLES_EQUAL(kPi / 6, placement.angle_rad, 1e-12);
+    DOUBLES_EQUAL(3, placement.translation_mm.x, 1e-12);
+    DOUBLES_EQUAL(-2, placement.translation_mm.y, 1e-12);
+    CHECK_THROWS(std::invalid_argument, solve::best_rigid_placement({{0, 0}}, {{1, 1}}));
 }
 
 TEST_GROUP(DeltaFit){};

@@ -12,8 +12,13 @@
 #include "board/sim/scenes.hpp"
 #include "core/models/delta.hpp"
 #include "core/modes/delta.hpp"
+#include "core/solve/placement.hpp"
+#include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
+using test::as_core;
+using test::hq_camera;
+using test::view_of;
 
 namespace {
 
@@ -29,21 +34,6 @@ feed_mm_s = 30.0
 diagonal_rod_mm = 250.0
 radius_mm = 140.0
 )toml";
-
-sim::CameraIntrinsics hq_camera() {
-    sim::CameraIntrinsics c;
-    c.width_px = 4056;
-    c.height_px = 3040;
-    c.fx = c.fy = 5700;
-    c.cx = 2030.1;
-    c.cy = 1517.6;
-    c.distortion = {-0.05, 0.08, 0.0002, -0.0001, 0};
-    return c;
-}
-
-vision::GrayView view_of(const sim::GrayImage& image) {
-    return {image.pixels.data(), image.width_px, image.height_px, image.width_px};
-}
 
 }  // namespace
 
@@ -80,21 +70,11 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     const auto print_photo = sim::render_photo(
         camera, bed_to_camera, sim::StrokeScene(std::move(strokes), 0.08, 0.85, 4), photo);
     // The bed plane from a chessboard lying on the bed, as the box would take it.
-    sim::Pose board;
-    const sim::Vec3 columns[3] = {{1, 0, 0}, {0, -1, 0}, {0, 0, -1}};
-    for (int i = 0; i < 3; ++i)
-        board.rotation.m[0][i] = columns[i].x, board.rotation.m[1][i] = columns[i].y,
-        board.rotation.m[2][i] = columns[i].z;
-    board.rotation = bed_to_camera.rotation * board.rotation;
-    board.translation_mm = bed_to_camera.apply({-80, 50, 0});
+    const sim::Pose board = sim::compose(bed_to_camera, sim::board_lying_on_bed({-80, 50, 0}, 0));
     const auto board_photo = sim::render_photo(
         camera, board, sim::BoardScene(geometry::parse_pattern_spec("chessboard:9x6@20"), 4),
         photo);
-    geometry::CameraModel model;
-    model.image_width = camera.width_px;
-    model.image_height = camera.height_px;
-    model.camera_matrix = {camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1};
-    model.distortion = camera.distortion;
+    const geometry::CameraModel model = as_core(camera);
     const auto plane = geometry::estimate_bed_plane(
         model, geometry::parse_pattern_spec("chessboard:9x6@20"), view_of(board_photo), 0);
 
@@ -108,30 +88,20 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
             twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}));
     // The bed frame is the board's: take out the best rotation and translation, then compare.
     const auto residual_rms = [&](const std::vector<geometry::Point2>& seen, double& worst) {
-        double cx = 0, cy = 0, mx = 0, my = 0;
-        for (std::size_t i = 0; i < real.size(); ++i)
-            cx += real[i].x, cy += real[i].y, mx += seen[i].x, my += seen[i].y;
-        const double n = static_cast<double>(real.size());
-        cx /= n, cy /= n, mx /= n, my /= n;
-        double s = 0, c = 0;
-        for (std::size_t i = 0; i < real.size(); ++i) {
-            const double px = seen[i].x - mx, py = seen[i].y - my, qx = real[i].x - cx,
-                         qy = real[i].y - cy;
-            s += px * qy - py * qx;
-            c += px * qx + py * qy;
-        }
-        const double phi = std::atan2(s, c);
+        std::vector<geometry::Point2> material;
+        for (const auto& r : real) material.push_back({r.x, r.y});
+        const auto placement = solve::best_rigid_placement(seen, material);
         double sum = 0;
         worst = 0;
         for (std::size_t i = 0; i < real.size(); ++i) {
-            const double px = seen[i].x - mx, py = seen[i].y - my;
-            const double ex = std::cos(phi) * px - std::sin(phi) * py + cx - real[i].x;
-            const double ey = std::sin(phi) * px + std::cos(phi) * py + cy - real[i].y;
-            sum += ex * ex + ey * ey;
-            worst = std::max(worst, std::hypot(ex, ey));
+            const auto p = placement.apply(seen[i]);
+            const double e = std::hypot(p.x - material[i].x, p.y - material[i].y);
+            sum += e * e;
+            worst = std::max(worst, e);
         }
-        return std::sqrt(sum / n);
+        return std::sqrt(sum / static_cast<double>(real.size()));
     };
+
     std::vector<geometry::Point2> seen;
     for (const auto& f : measured.features) seen.push_back(f.measured_mm);
     double worst = 0;

@@ -9,8 +9,11 @@
 #include "board/sim/scenes.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
+#include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
+using test::as_core;
+using test::view_of;
 
 namespace {
 
@@ -27,18 +30,6 @@ sim::CameraIntrinsics true_camera(sim::LensModel model) {
                        ? std::vector<double>{-0.02, 0.012, -0.004, 0.0006}
                        : std::vector<double>{-0.12, 0.09, 0.0005, -0.0004, -0.02};
     return c;
-}
-
-geometry::CameraModel as_core(const sim::CameraIntrinsics& c) {
-    geometry::CameraModel m;
-    m.model = c.model == sim::LensModel::fisheye ? geometry::LensModel::fisheye
-                                                 : geometry::LensModel::pinhole;
-    m.image_width = c.width_px;
-    m.image_height = c.height_px;
-    m.camera_matrix = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
-    m.distortion = c.distortion;
-    if (m.model == geometry::LensModel::pinhole) m.distortion.resize(5, 0.0);
-    return m;
 }
 
 // Fifteen views of an 11x8 chessboard (20 mm squares) from different angles and places.
@@ -72,10 +63,6 @@ std::vector<sim::GrayImage> calibration_views(const sim::CameraIntrinsics& camer
         views.push_back(sim::render_photo(camera, pose, board, photo));
     }
     return views;
-}
-
-vision::GrayView view_of(const sim::GrayImage& image) {
-    return {image.pixels.data(), image.width_px, image.height_px, image.width_px};
 }
 
 void check_calibration(sim::LensModel model) {
@@ -178,28 +165,12 @@ TEST_GROUP(BedPlane){};
 TEST(BedPlane, maps_bed_points_at_two_heights_back_within_20_microns) {
     // A 12 MP camera at 0.07 mm/px, tilted about 5 degrees; a 3 mm thick chessboard on the bed,
     // turned 20 degrees, whose first inner corner lies at bed (-70, 40).
-    sim::CameraIntrinsics camera;
-    camera.width_px = 4056;
-    camera.height_px = 3040;
-    camera.fx = camera.fy = 5700;
-    camera.cx = 2030.1;
-    camera.cy = 1517.6;
-    camera.distortion = {-0.05, 0.08, 0.0002, -0.0001, 0};
+    const sim::CameraIntrinsics camera = test::hq_camera();
     const sim::Pose bed_to_camera = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
     const double angle = sim::radians(20), thickness = 3.0;
     const sim::Vec3 origin{-70, 40, 0};
-    // The board frame (OpenCV: y down the board, z into it) lying face up on the bed.
-    sim::Mat3 board_to_bed;
-    const sim::Vec3 columns[3] = {
-        {std::cos(angle), std::sin(angle), 0}, {std::sin(angle), -std::cos(angle), 0}, {0, 0, -1}};
-    for (int i = 0; i < 3; ++i) {
-        board_to_bed.m[0][i] = columns[i].x;
-        board_to_bed.m[1][i] = columns[i].y;
-        board_to_bed.m[2][i] = columns[i].z;
-    }
-    sim::Pose board_to_camera;
-    board_to_camera.rotation = bed_to_camera.rotation * board_to_bed;
-    board_to_camera.translation_mm = bed_to_camera.apply(origin + sim::Vec3{0, 0, thickness});
+    const sim::Pose board_to_camera = sim::compose(
+        bed_to_camera, sim::board_lying_on_bed(origin + sim::Vec3{0, 0, thickness}, 20));
     sim::PhotoSettings photo;
     photo.noise_sigma_dn = 2.0;
     photo.blur_sigma_px = 0.7;

@@ -38,7 +38,8 @@ double region_area(const std::vector<Polygon>& region) {
 
 // A document whose user unit is one millimetre.
 std::string in_mm(const std::string& body) {
-    return R"svg(<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">)svg" + body + "</svg>";
+    return R"svg(<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">)svg" +
+           body + "</svg>";
 }
 
 const Affine kIdentity{};
@@ -74,24 +75,31 @@ TEST(SvgPath, half_circle_arc_has_the_area_of_half_a_disc) {
 
 TEST(SvgPath, arc_with_radii_too_small_is_scaled_up_as_the_spec_says) {
     // Radius 1 between points 20 apart becomes radius 10: a half circle again.
-    DOUBLES_EQUAL(kPi * 50, area_of(parse_path_data("M 0 0 A 1 1 0 0 1 20 0 Z", kIdentity, 0.001)), 0.05);
+    DOUBLES_EQUAL(kPi * 50, area_of(parse_path_data("M 0 0 A 1 1 0 0 1 20 0 Z", kIdentity, 0.001)),
+                  0.05);
 }
 
 TEST(SvgPath, cubic_and_quadratic_curves_enclose_their_hand_worked_areas) {
     // Cubic (0,0) (0,10) (10,10) (10,0) with its chord: 60 (3/20 of the control determinant sum).
-    DOUBLES_EQUAL(60.0, area_of(parse_path_data("M0 0 C 0 10 10 10 10 0 Z", kIdentity, 0.001)), 0.02);
+    DOUBLES_EQUAL(60.0, area_of(parse_path_data("M0 0 C 0 10 10 10 10 0 Z", kIdentity, 0.001)),
+                  0.02);
     // Parabolic segment: 2/3 of base 10 times peak height 5.
-    DOUBLES_EQUAL(200.0 / 6, area_of(parse_path_data("M0 0 Q 5 10 10 0 Z", kIdentity, 0.001)), 0.02);
+    DOUBLES_EQUAL(200.0 / 6, area_of(parse_path_data("M0 0 Q 5 10 10 0 Z", kIdentity, 0.001)),
+                  0.02);
     // Relative forms of the same.
-    DOUBLES_EQUAL(60.0, area_of(parse_path_data("m0 0 c 0 10 10 10 10 0 z", kIdentity, 0.001)), 0.02);
-    DOUBLES_EQUAL(200.0 / 6, area_of(parse_path_data("m0 0 q 5 10 10 0 z", kIdentity, 0.001)), 0.02);
+    DOUBLES_EQUAL(60.0, area_of(parse_path_data("m0 0 c 0 10 10 10 10 0 z", kIdentity, 0.001)),
+                  0.02);
+    DOUBLES_EQUAL(200.0 / 6, area_of(parse_path_data("m0 0 q 5 10 10 0 z", kIdentity, 0.001)),
+                  0.02);
 }
 
 TEST(SvgPath, smooth_curves_reflect_the_previous_control_point) {
-    // T after Q reflects (5,10) about (10,0) to (15,-10): the midpoint of the second curve is (15,-5).
+    // T after Q reflects (5,10) about (10,0) to (15,-10): the midpoint of the second curve is
+    // (15,-5).
     const auto t = parse_path_data("M0 0 Q 5 10 10 0 T 20 0", kIdentity, 0.0001);
     bool found = false;
-    for (const auto& p : t[0].points) found |= std::abs(p.x - 15) < 0.01 && std::abs(p.y + 5) < 0.01;
+    for (const auto& p : t[0].points)
+        found |= std::abs(p.x - 15) < 0.01 && std::abs(p.y + 5) < 0.01;
     CHECK(found);
     // S after C reflects (10,10) about (10,0) to (10,-10): the second curve mirrors the first.
     const auto s = parse_path_data("M0 0 C 0 10 10 10 10 0 S 20 -10 20 0", kIdentity, 0.0001);
@@ -123,8 +131,9 @@ TEST_GROUP(SvgDocument){};
 TEST(SvgDocument, nested_transforms_map_a_rectangle_where_worked_out_by_hand) {
     // rect (1,1)-(3,4), rotate(90): (x,y) -> (-y,x), scale(2), translate(10,0):
     // corners (8,2) (8,6) (2,6) (2,2).
-    const auto doc = parse_svg(in_mm(R"svg(<g transform="translate(10,0)"><g transform="scale(2)">)svg"
-                                     R"svg(<rect x="1" y="1" width="2" height="3" transform="rotate(90)"/></g></g>)svg"));
+    const auto doc = parse_svg(
+        in_mm(R"svg(<g transform="translate(10,0)"><g transform="scale(2)">)svg"
+              R"svg(<rect x="1" y="1" width="2" height="3" transform="rotate(90)"/></g></g>)svg"));
     CHECK_EQUAL(1u, doc.shapes.size());
     const auto& p = doc.shapes[0].contours[0].points;
     CHECK_EQUAL(4u, p.size());
@@ -137,27 +146,36 @@ TEST(SvgDocument, nested_transforms_map_a_rectangle_where_worked_out_by_hand) {
 
 TEST(SvgDocument, units_viewbox_and_pixels) {
     // No viewBox: a unitless length is a CSS pixel, 25.4/96 mm.
-    const auto px = parse_svg(R"svg(<svg width="96" height="96"><rect width="96" height="48"/></svg>)svg");
+    const auto px =
+        parse_svg(R"svg(<svg width="96" height="96"><rect width="96" height="48"/></svg>)svg");
     DOUBLES_EQUAL(25.4 * 12.7, area_of(px.shapes[0].contours), 1e-6);
     DOUBLES_EQUAL(25.4, px.width_mm, 1e-9);
     // viewBox 0 0 80 40 in 40 x 20 mm: half a millimetre a unit, the origin shifted.
-    const auto vb = parse_svg(R"svg(<svg width="40mm" height="20mm" viewBox="10 10 80 40"><circle cx="50" cy="30" r="10"/></svg>)svg");
+    const auto vb = parse_svg(
+        R"svg(<svg width="40mm" height="20mm" viewBox="10 10 80 40"><circle cx="50" cy="30" r="10"/></svg>)svg");
     DOUBLES_EQUAL(kPi * 25, area_of(vb.shapes[0].contours), 0.005 * 2 * kPi * 5);
     double xmin = 1e9;
     for (const auto& q : vb.shapes[0].contours[0].points) xmin = std::min(xmin, q.x);
     DOUBLES_EQUAL(15, xmin, 0.005);  // (50 - 10 - 10) * 0.5, within the flattening tolerance
     // Other units: 1in = 25.4 mm, 72pt = 1in, 1cm = 10mm.
-    DOUBLES_EQUAL(25.4, parse_svg(R"svg(<svg width="1in" height="72pt" viewBox="0 0 1 1"><rect width="1" height="1"/></svg>)svg").width_mm, 1e-9);
+    DOUBLES_EQUAL(
+        25.4,
+        parse_svg(
+            R"svg(<svg width="1in" height="72pt" viewBox="0 0 1 1"><rect width="1" height="1"/></svg>)svg")
+            .width_mm,
+        1e-9);
 }
 
 TEST(SvgDocument, shapes_styles_and_fill_rules) {
-    const auto doc = parse_svg(in_mm(R"svg(<ellipse cx="0" cy="0" rx="4" ry="2"/>)svg"
-                                     R"svg(<line x1="0" y1="0" x2="10" y2="0" stroke="black"/>)svg"
-                                     R"svg(<polyline points="0,0 5,0 5,5" style="fill:none;stroke:#000;stroke-width:0.4"/>)svg"
-                                     R"svg(<rect width="10" height="10" rx="2" fill-rule="evenodd"/>)svg"
-                                     R"svg(<path d="M0 0 H5" fill="none"/>)svg"
-                                     R"svg(<g style="display:none"><rect width="5" height="5"/></g>)svg"));
-    CHECK_EQUAL(4u, doc.shapes.size());  // the unstroked unfilled path and the hidden group draw nothing
+    const auto doc = parse_svg(in_mm(
+        R"svg(<ellipse cx="0" cy="0" rx="4" ry="2"/>)svg"
+        R"svg(<line x1="0" y1="0" x2="10" y2="0" stroke="black"/>)svg"
+        R"svg(<polyline points="0,0 5,0 5,5" style="fill:none;stroke:#000;stroke-width:0.4"/>)svg"
+        R"svg(<rect width="10" height="10" rx="2" fill-rule="evenodd"/>)svg"
+        R"svg(<path d="M0 0 H5" fill="none"/>)svg"
+        R"svg(<g style="display:none"><rect width="5" height="5"/></g>)svg"));
+    CHECK_EQUAL(
+        4u, doc.shapes.size());  // the unstroked unfilled path and the hidden group draw nothing
     DOUBLES_EQUAL(kPi * 8, area_of(doc.shapes[0].contours), 0.005 * 20);
     CHECK_FALSE(doc.shapes[1].filled);
     CHECK(doc.shapes[1].stroked);
@@ -170,30 +188,42 @@ TEST(SvgDocument, shapes_styles_and_fill_rules) {
 
 TEST(SvgDocument, ring_and_star_fill_by_rule) {
     // Two circles in one path, drawn the same way round: nonzero fills the hole, evenodd not.
-    const auto ring = parse_svg(in_mm(R"svg(<path d="M -10 0 A 10 10 0 1 0 10 0 A 10 10 0 1 0 -10 0 Z )svg"
-                                      R"svg(M -5 0 A 5 5 0 1 0 5 0 A 5 5 0 1 0 -5 0 Z"/>)svg"));
+    const auto ring =
+        parse_svg(in_mm(R"svg(<path d="M -10 0 A 10 10 0 1 0 10 0 A 10 10 0 1 0 -10 0 Z )svg"
+                        R"svg(M -5 0 A 5 5 0 1 0 5 0 A 5 5 0 1 0 -5 0 Z"/>)svg"));
     const auto& contours = ring.shapes[0].contours;
     // Flattened within 0.005 mm, a polygon loses at most that times its perimeter.
-    DOUBLES_EQUAL(kPi * 100, region_area(resolve_fill(contours, FillRule::nonzero)), 0.005 * 2 * kPi * 10);
-    DOUBLES_EQUAL(kPi * 75, region_area(resolve_fill(contours, FillRule::evenodd)), 0.005 * 2 * kPi * 15);
+    DOUBLES_EQUAL(kPi * 100, region_area(resolve_fill(contours, FillRule::nonzero)),
+                  0.005 * 2 * kPi * 10);
+    DOUBLES_EQUAL(kPi * 75, region_area(resolve_fill(contours, FillRule::evenodd)),
+                  0.005 * 2 * kPi * 15);
     // A pentagram, outer radius 10: the centre pentagon (inner radius 10 cos72/cos36) is filled
     // under nonzero only: 5 R r sin36 = 112.257 against 112.257 - 2.5 r^2 sin72 = 77.568.
-    const auto star = parse_svg(in_mm(R"svg(<polygon points="0,-10 -5.877853,8.090170 9.510565,-3.090170 -9.510565,-3.090170 5.877853,8.090170"/>)svg"));
-    DOUBLES_EQUAL(112.257, region_area(resolve_fill(star.shapes[0].contours, FillRule::nonzero)), 0.01);
-    DOUBLES_EQUAL(77.568, region_area(resolve_fill(star.shapes[0].contours, FillRule::evenodd)), 0.01);
+    const auto star = parse_svg(in_mm(
+        R"svg(<polygon points="0,-10 -5.877853,8.090170 9.510565,-3.090170 -9.510565,-3.090170 5.877853,8.090170"/>)svg"));
+    DOUBLES_EQUAL(112.257, region_area(resolve_fill(star.shapes[0].contours, FillRule::nonzero)),
+                  0.01);
+    DOUBLES_EQUAL(77.568, region_area(resolve_fill(star.shapes[0].contours, FillRule::evenodd)),
+                  0.01);
 }
 
 TEST(SvgDocument, bad_documents_get_one_line_naming_the_problem) {
-    STRCMP_CONTAINS("malformed XML at line 3", error_of("<svg>\n<rect width='1' height='1'>\n</svg>").c_str());
+    STRCMP_CONTAINS("malformed XML at line 3",
+                    error_of("<svg>\n<rect width='1' height='1'>\n</svg>").c_str());
     STRCMP_CONTAINS("no <svg> root", error_of("<html><rect width='1' height='1'/></html>").c_str());
-    STRCMP_CONTAINS("nothing drawable", error_of("<svg xmlns='http://www.w3.org/2000/svg'></svg>").c_str());
+    STRCMP_CONTAINS("nothing drawable",
+                    error_of("<svg xmlns='http://www.w3.org/2000/svg'></svg>").c_str());
     STRCMP_CONTAINS("nothing drawable", error_of("<svg><text>hello</text></svg>").c_str());
     STRCMP_CONTAINS("unknown command 'X'", error_of(in_mm("<path d='M0 0 X 5 5'/>")).c_str());
-    STRCMP_CONTAINS("non-numeric attribute width=\"abc\" on <rect>", error_of(in_mm("<rect width='abc' height='2'/>")).c_str());
-    STRCMP_CONTAINS("non-numeric attribute points", error_of(in_mm("<polygon points='0,0 1,x 2,2'/>")).c_str());
+    STRCMP_CONTAINS("non-numeric attribute width=\"abc\" on <rect>",
+                    error_of(in_mm("<rect width='abc' height='2'/>")).c_str());
+    STRCMP_CONTAINS("non-numeric attribute points",
+                    error_of(in_mm("<polygon points='0,0 1,x 2,2'/>")).c_str());
     SvgOptions small;
     small.max_bytes = 100;
-    STRCMP_CONTAINS("over the limit of 100", error_of(in_mm("<rect width='2' height='2'/>"), small).c_str());
-    STRCMP_CONTAINS("unknown transform", error_of(in_mm("<rect width='2' height='2' transform='spin(3)'/>")).c_str());
+    STRCMP_CONTAINS("over the limit of 100",
+                    error_of(in_mm("<rect width='2' height='2'/>"), small).c_str());
+    STRCMP_CONTAINS("unknown transform",
+                    error_of(in_mm("<rect width='2' height='2' transform='spin(3)'/>")).c_str());
     STRCMP_EQUAL("", error_of("").empty() ? "x" : "");  // an empty string is malformed too
 }

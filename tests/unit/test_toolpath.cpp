@@ -2,11 +2,11 @@
 // (cv::fillPoly of the polygon read straight from the file), and printed by the twin.
 #include <CppUTest/TestHarness.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <opencv2/imgproc.hpp>
-#include <algorithm>
 #include <sstream>
 
 #include "board/sim/camera_reference.hpp"

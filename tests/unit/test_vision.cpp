@@ -12,52 +12,14 @@
 #include "core/geometry/calibration.hpp"
 #include "core/vision/edge_kernel.hpp"
 #include "core/vision/markers.hpp"
+#include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
+using test::as_core;
+using test::hq_camera;
+using test::view_of;
 
 namespace {
-
-vision::GrayView view_of(const sim::GrayImage& image) {
-    return {image.pixels.data(), image.width_px, image.height_px, image.width_px};
-}
-
-// The 12 MP camera of the delta scenarios: 0.07 mm/px at 400 mm, tilted about 5 degrees.
-sim::CameraIntrinsics hq_camera() {
-    sim::CameraIntrinsics c;
-    c.width_px = 4056;
-    c.height_px = 3040;
-    c.fx = c.fy = 5700;
-    c.cx = 2030.1;
-    c.cy = 1517.6;
-    c.distortion = {-0.05, 0.08, 0.0002, -0.0001, 0};
-    return c;
-}
-
-geometry::CameraModel as_core(const sim::CameraIntrinsics& c) {
-    geometry::CameraModel m;
-    m.image_width = c.width_px;
-    m.image_height = c.height_px;
-    m.camera_matrix = {c.fx, 0, c.cx, 0, c.fy, c.cy, 0, 0, 1};
-    m.distortion = c.distortion;
-    return m;
-}
-
-// A board lying face up on the bed at `origin`, turned `angle_deg`, seen by the camera.
-sim::Pose board_on_bed(const sim::Pose& bed_to_camera, sim::Vec3 origin, double angle_deg) {
-    const double a = sim::radians(angle_deg);
-    sim::Mat3 board_to_bed;
-    const sim::Vec3 columns[3] = {
-        {std::cos(a), std::sin(a), 0}, {std::sin(a), -std::cos(a), 0}, {0, 0, -1}};
-    for (int i = 0; i < 3; ++i) {
-        board_to_bed.m[0][i] = columns[i].x;
-        board_to_bed.m[1][i] = columns[i].y;
-        board_to_bed.m[2][i] = columns[i].z;
-    }
-    sim::Pose p;
-    p.rotation = bed_to_camera.rotation * board_to_bed;
-    p.translation_mm = bed_to_camera.apply(origin);
-    return p;
-}
 
 struct MarkerScene {
     sim::GrayImage image;
@@ -66,8 +28,8 @@ struct MarkerScene {
 
 MarkerScene photograph_markers(double angle_deg) {
     const auto camera = hq_camera();
-    const sim::Pose board =
-        board_on_bed(sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0), {-70, 45, 0}, angle_deg);
+    const sim::Pose board = sim::compose(sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0),
+                                         sim::board_lying_on_bed({-70, 45, 0}, angle_deg));
     const sim::BoardScene scene(geometry::parse_pattern_spec("aruco:4x3@30/8:DICT_4X4_50"), 4);
     sim::PhotoSettings photo;
     photo.noise_sigma_dn = 2.0;
@@ -197,7 +159,7 @@ TEST(DotGrids, symmetric_and_asymmetric_grids_are_found_at_their_true_centres) {
     const auto bed = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
     for (const char* text : {"circles:7x5@15", "acircles:4x11@10"}) {
         const auto spec = geometry::parse_pattern_spec(text);
-        const sim::Pose board = board_on_bed(bed, {-50, 45, 0}, 8);
+        const sim::Pose board = sim::compose(bed, sim::board_lying_on_bed({-50, 45, 0}, 8));
         const sim::BoardScene scene(spec, 4);
         sim::PhotoSettings photo;
         photo.noise_sigma_dn = 2.0;

@@ -1,0 +1,21 @@
+#pragma once
+// The rotation and translation that best carry one planar point set onto another (least
+// squares, no scale, no mirror): how an artifact lies on the bed, and what is taken out before
+// comparing positions in different frames.
+#include <vector>
+
+#include "core/geometry/types.hpp"
+
+namespace calbox::solve {
+
+struct RigidPlacement {
+    double angle_rad = 0;
+    geometry::Point2 translation_mm;
+    geometry::Point2 apply(geometry::Point2 p) const;
+};
+
+// Carries `from[i]` onto `to[i]`; both the same length, at least two points.
+RigidPlacement best_rigid_placement(const std::vector<geometry::Point2>& from,
+                                    const std::vector<geometry::Point2>& to);
+
+}  // namespace calbox::solve

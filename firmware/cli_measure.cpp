@@ -37,6 +37,8 @@ int delta(const std::vector<std::string>& words) {
         models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
     std::vector<cv::Mat> images;
     std::vector<vision::GrayView> views;
+    images.reserve(args.positional().size());
+    views.reserve(args.positional().size());
     for (const auto& path : args.positional()) images.push_back(load_gray_image(path));
     for (const auto& image : images) views.push_back(view_of(image));
     const auto measured = modes::measure_delta(machine, camera, plane, views);

@@ -278,7 +278,8 @@ int sim_measurements(const std::vector<std::string>& words) {
     if (const auto probe = args.get("--probe")) {
         std::string csv = "x,y,z\n";
         for (int k = 0; k < 37; ++k) {
-            const double r = k == 0 ? 0 : radius * ((k - 1) / 12 + 1) / 3, a = k * sim::kPi / 6;
+            const int ring = k == 0 ? 0 : (k - 1) / 12 + 1;  // the centre, then three rings of 12
+            const double r = radius * ring / 3.0, a = k * sim::kPi / 6;
             const sim::Vec3 at = machine->actual_position_mm({r * std::cos(a), r * std::sin(a), 0});
             char row[96];
             std::snprintf(row, sizeof row, "%.4f,%.4f,%.5f\n", r * std::cos(a), r * std::sin(a),

@@ -77,7 +77,7 @@ std::vector<solve::ProbePoint> read_probe(const std::string& text, const std::st
     int number = 0;
     while (std::getline(in, line)) {
         ++number;
-        if (line.empty() || line[0] == '#' || line.rfind("x", 0) == 0) continue;
+        if (line.empty() || line[0] == '#' || line[0] == 'x') continue;
         double v[3];
         char comma1 = 0, comma2 = 0;
         std::istringstream fields(line);

@@ -32,7 +32,7 @@ constexpr const char* kTargetHelp = R"(usage:
       infill (green), traces (purple) and travel (red) with path length, travel and time.
 )";
 
-constexpr std::uintmax_t kMaxSvgBytes = 10u * 1024u * 1024u;
+constexpr std::uintmax_t kMaxSvgBytes = std::uintmax_t{10} * 1024 * 1024;
 
 void draw_preview(const std::string& path, const targets::PlacedJob& job,
                   const models::MachineFile& machine) {

@@ -15,6 +15,7 @@ namespace {
 
 std::vector<cv::Point3f> object_points_f(const std::vector<Point3>& points) {
     std::vector<cv::Point3f> out;
+    out.reserve(points.size());
     for (const auto& p : points)
         out.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z));
     return out;
@@ -22,6 +23,7 @@ std::vector<cv::Point3f> object_points_f(const std::vector<Point3>& points) {
 
 std::vector<cv::Point2f> image_points_f(const std::vector<Point2>& points) {
     std::vector<cv::Point2f> out;
+    out.reserve(points.size());
     for (const auto& p : points) out.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
     return out;
 }
@@ -73,7 +75,9 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
         put_black_corner_first(gray, pattern, corners);
         for (int r = 0; r < pattern.rows; ++r) {
             for (int c = 0; c < pattern.columns; ++c) {
-                const auto& p = corners[static_cast<std::size_t>(r * pattern.columns + c)];
+                const auto& p = corners[static_cast<std::size_t>(r) *
+                                            static_cast<std::size_t>(pattern.columns) +
+                                        static_cast<std::size_t>(c)];
                 obs.image_points.push_back({p.x, p.y});
                 obs.object_points.push_back({c * pattern.square_mm, r * pattern.square_mm, 0});
                 obs.ids.push_back(r * pattern.columns + c);
@@ -103,7 +107,9 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
         if (!found) return std::nullopt;
         for (int r = 0; r < pattern.rows; ++r) {
             for (int c = 0; c < pattern.columns; ++c) {
-                const auto& p = centres[static_cast<std::size_t>(r * pattern.columns + c)];
+                const auto& p = centres[static_cast<std::size_t>(r) *
+                                            static_cast<std::size_t>(pattern.columns) +
+                                        static_cast<std::size_t>(c)];
                 const double x = pattern.kind == PatternSpec::Kind::acircles
                                      ? (2 * c + r % 2) * pattern.square_mm
                                      : c * pattern.square_mm;

@@ -244,7 +244,7 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     for (std::size_t k = 0; k < free.size(); ++k)
         scaled.col(static_cast<Eigen::Index>(k)) *= step[static_cast<std::size_t>(free[k])];
     const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled);
-    const Vector sv = svd.singularValues();
+    const Vector& sv = svd.singularValues();
     for (Eigen::Index i = 0; i < sv.size(); ++i) result.singular_values.push_back(sv[i]);
     result.condition_number =
         sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
@@ -259,6 +259,7 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     const auto judge = judging_points(machine.bed_radius_mm * 0.95, 0.0);
     const DeltaGeometry estimate = result.estimate;
     std::vector<double> z_now;
+    z_now.reserve(judge.size());
     for (const auto& p : judge)
         z_now.push_back(models::actual_position_mm(estimate, firmware, p).z);
     const auto correction_residuals = [&](const Vector& x) {
@@ -275,8 +276,8 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
         }
         return r;
     };
-    std::vector<int> all;
-    for (int i = 0; i < kGeometry; ++i) all.push_back(i);
+    std::vector<int> all(kGeometry);
+    for (int i = 0; i < kGeometry; ++i) all[static_cast<std::size_t>(i)] = i;
     const Solution correction =
         levenberg_marquardt(correction_residuals, pack(estimate), all, step);
     result.after = unpack(correction.x);

@@ -89,7 +89,10 @@ std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int c
     const int count = static_cast<int>(2 * half / kStep) + 1;
     const double margin = std::max(0.1 * length, half + 1.0);
     std::vector<std::int32_t> profile(static_cast<std::size_t>(count));
-    for (double t = margin; t <= length - margin; t += 0.5) {
+    // Profiles every half pixel along the edge, clear of its corners.
+    const int profiles = static_cast<int>((length - 2 * margin) / 0.5) + 1;
+    for (int i = 0; i < profiles; ++i) {
+        const double t = margin + 0.5 * i;
         const double bx = p.x + d.x * t, by = p.y + d.y * t;
         const double sx = bx - outward.x * half, sy = by - outward.y * half;
         if (!sample_profile_q8(image, to_q16(sx), to_q16(sy), to_q16(outward.x * kStep),

@@ -13,6 +13,7 @@
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenes.hpp"
 #include "core/modes/delta.hpp"
+#include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
 
@@ -37,18 +38,8 @@ int main() {
     sim::DeltaTwin twin(truth, sim::DeltaParams{});
     twin.zero_height_at_centre();
     const auto target = targets::make_delta_target(machine);
-    sim::GcodeRunner runner(twin, sim::ToolSettings{});
-    std::istringstream job(targets::write_gcode(target.job, machine, "bench"));
-    runner.run(job);
-    std::vector<sim::StrokeSegment> strokes;
-    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
-    sim::CameraIntrinsics camera;
-    camera.width_px = 4056;
-    camera.height_px = 3040;
-    camera.fx = camera.fy = 5700;
-    camera.cx = 2027.5;
-    camera.cy = 1519.5;
-    camera.distortion = {-0.05, 0.08, 0, 0, 0};
+    auto strokes = test::print_on_twin(twin, targets::write_gcode(target.job, machine, "bench"));
+    const sim::CameraIntrinsics camera = test::hq_camera();
     const sim::Pose pose = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
     sim::PhotoSettings photo;
     photo.blur_sigma_px = 0.7;
@@ -57,11 +48,7 @@ int main() {
     const auto image =
         sim::render_photo(camera, pose, sim::StrokeScene(std::move(strokes), 0.08, 0.85, 4), photo);
     std::printf("render 4056x3040 (twin, not the box's work): %.2f s\n", seconds_since(start));
-    geometry::CameraModel model;
-    model.image_width = camera.width_px;
-    model.image_height = camera.height_px;
-    model.camera_matrix = {camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1};
-    model.distortion = camera.distortion;
+    const geometry::CameraModel model = test::as_core(camera);
     geometry::BedPlane plane;  // the true bed pose
     const auto r = sim::vector_from_rotation(pose.rotation);
     plane.bed_to_camera.rvec = {r.x, r.y, r.z};

@@ -1,12 +1,46 @@
 #pragma once
 // Small pieces the tests share: the box's 12 MP camera, views of rendered images, the core
 // camera model of a twin camera.
+#include <sstream>
+#include <string>
+#include <vector>
+
 #include "board/sim/camera_reference.hpp"
+#include "board/sim/gcode_runner.hpp"
+#include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
+#include "board/sim/scenes.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/vision/image_view.hpp"
 
 namespace calbox::test {
+
+// The delta printer most tests use: 85 mm bed, 0.45 mm line, Marlin's 250 / 140 geometry.
+inline constexpr const char* kDeltaMachineToml = R"toml(
+[machine]
+kind = "delta"
+bed_radius_mm = 85.0
+line_width_mm = 0.45
+layer_height_mm = 0.2
+filament_diameter_mm = 1.75
+feed_mm_s = 30.0
+travel_feed_mm_s = 120.0
+[delta]
+diagonal_rod_mm = 250.0
+radius_mm = 140.0
+)toml";
+
+// Runs a whole G-code job on a twin and returns the material it left, ready to render.
+inline std::vector<sim::StrokeSegment> print_on_twin(sim::MachineTwin& twin,
+                                                     const std::string& gcode) {
+    sim::GcodeRunner runner(twin, sim::ToolSettings{});
+    std::istringstream job(gcode);
+    runner.run(job);
+    std::vector<sim::StrokeSegment> strokes;
+    strokes.reserve(runner.result().strokes.size());
+    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+    return strokes;
+}
 
 // A Raspberry Pi HQ-class 4056x3040 camera: 0.07 mm/px at 400 mm, a mild lens.
 inline sim::CameraIntrinsics hq_camera() {

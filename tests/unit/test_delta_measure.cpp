@@ -20,27 +20,12 @@ using test::as_core;
 using test::hq_camera;
 using test::view_of;
 
-namespace {
-
-const char* kDelta = R"toml(
-[machine]
-kind = "delta"
-bed_radius_mm = 85.0
-line_width_mm = 0.45
-layer_height_mm = 0.2
-filament_diameter_mm = 1.75
-feed_mm_s = 30.0
-[delta]
-diagonal_rod_mm = 250.0
-radius_mm = 140.0
-)toml";
-
-}  // namespace
+namespace {}  // namespace
 
 TEST_GROUP(DeltaMeasure){};
 
 TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_of_the_material) {
-    auto machine = models::parse_machine_file(kDelta, "test");
+    auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
     sim::DeltaParams truth;
     truth.diagonal_rod_mm = 251.1;
     truth.diagonal_rod_trim_mm = {0.6, -0.4, -0.3};
@@ -54,11 +39,7 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
         models::DeltaSettings{fw.diagonal_rod_mm,      fw.diagonal_rod_trim_mm, fw.radius_mm,
                               fw.tower_angle_trim_deg, fw.endstop_offset_mm,    fw.height_mm};
     const auto target = targets::make_delta_target(*&machine);
-    sim::GcodeRunner runner(twin, sim::ToolSettings{});
-    std::istringstream job(targets::write_gcode(target.job, machine, "target"));
-    runner.run(job);
-    std::vector<sim::StrokeSegment> strokes;
-    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+    auto strokes = test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target"));
 
     const auto camera = hq_camera();
     const sim::Pose bed_to_camera = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
@@ -155,7 +136,7 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
 }
 
 TEST(DeltaMeasure, photos_that_cannot_be_measured_say_why) {
-    const auto machine = models::parse_machine_file(kDelta, "test");
+    const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
     geometry::CameraModel model;
     model.image_width = 640;
     model.image_height = 480;

@@ -13,29 +13,16 @@
 #include "core/models/machine_file.hpp"
 #include "core/targets/delta_target.hpp"
 #include "core/vision/markers.hpp"
+#include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
 
-namespace {
-const char* kDelta = R"toml(
-[machine]
-kind = "delta"
-bed_radius_mm = 85.0
-line_width_mm = 0.45
-layer_height_mm = 0.2
-filament_diameter_mm = 1.75
-feed_mm_s = 30.0
-travel_feed_mm_s = 120.0
-[delta]
-diagonal_rod_mm = 250.0
-radius_mm = 140.0
-)toml";
-}  // namespace
+namespace {}  // namespace
 
 TEST_GROUP(DeltaTarget){};
 
 TEST(DeltaTarget, is_deterministic_spread_over_the_bed_and_prints_in_under_ten_minutes) {
-    const auto machine = models::parse_machine_file(kDelta, "test");
+    const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
     const auto a = targets::make_delta_target(machine), b = targets::make_delta_target(machine);
     CHECK_EQUAL(targets::write_gcode(a.job, machine, "t"),
                 targets::write_gcode(b.job, machine, "t"));
@@ -50,22 +37,12 @@ TEST(DeltaTarget, is_deterministic_spread_over_the_bed_and_prints_in_under_ten_m
 }
 
 TEST(DeltaTarget, the_twin_prints_it_and_every_marker_is_seen_where_it_was_commanded) {
-    const auto machine = models::parse_machine_file(kDelta, "test");
+    const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
     const auto target = targets::make_delta_target(machine);
     sim::DeltaParams exact;
     sim::DeltaTwin twin(exact, exact);
-    sim::GcodeRunner runner(twin, sim::ToolSettings{});
-    std::istringstream job(targets::write_gcode(target.job, machine, "target"));
-    runner.run(job);
-    std::vector<sim::StrokeSegment> strokes;
-    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
-    sim::CameraIntrinsics camera;
-    camera.width_px = 4056;
-    camera.height_px = 3040;
-    camera.fx = camera.fy = 5700;
-    camera.cx = 2030.1;
-    camera.cy = 1517.6;
-    camera.distortion = {-0.05, 0.08, 0, 0, 0};
+    auto strokes = test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target"));
+    const sim::CameraIntrinsics camera = test::hq_camera();
     const sim::Pose pose = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
     sim::PhotoSettings photo;
     photo.blur_sigma_px = 0.7;

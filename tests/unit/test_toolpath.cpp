@@ -16,6 +16,7 @@
 #include "board/sim/scenes.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/targets/job.hpp"
+#include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
 
@@ -28,18 +29,6 @@ firmware = "grbl"
 bed_size_x_mm = 200.0
 bed_size_y_mm = 200.0
 tool_width_mm = 0.1
-)toml";
-
-const char* kDelta = R"toml(
-[machine]
-kind = "delta"
-bed_radius_mm = 85.0
-line_width_mm = 0.45
-layer_height_mm = 0.2
-filament_diameter_mm = 1.75
-[delta]
-diagonal_rod_mm = 250.0
-radius_mm = 140.0
 )toml";
 
 std::string read_file(const std::string& path) {
@@ -175,23 +164,23 @@ TEST_GROUP(SeedDrawings){};
 
 TEST(SeedDrawings, avion_fills_its_outline) {
     check_fill("avion", kLaser, 0.1, 0.99);
-    check_fill("avion", kDelta, 0.45, 0.98);
+    check_fill("avion", test::kDeltaMachineToml, 0.45, 0.98);
 }
 TEST(SeedDrawings, casa_fills_its_outline) {
     check_fill("casa", kLaser, 0.1, 0.99);
-    check_fill("casa", kDelta, 0.45, 0.98);
+    check_fill("casa", test::kDeltaMachineToml, 0.45, 0.98);
 }
 TEST(SeedDrawings, forma1_fills_its_outline) {
     check_fill("forma1", kLaser, 0.1, 0.99);
-    check_fill("forma1", kDelta, 0.45, 0.98);
+    check_fill("forma1", test::kDeltaMachineToml, 0.45, 0.98);
 }
 TEST(SeedDrawings, forma2_fills_its_outline) {
     check_fill("forma2", kLaser, 0.1, 0.99);
-    check_fill("forma2", kDelta, 0.45, 0.98);
+    check_fill("forma2", test::kDeltaMachineToml, 0.45, 0.98);
 }
 
 TEST(SeedDrawings, printer_spacing_below_the_line_width_is_refused_with_the_range) {
-    const auto machine = models::parse_machine_file(kDelta, "test machine");
+    const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test machine");
     try {
         targets::checked_spacing_mm(machine, 0.3);
         FAIL("accepted 0.3 mm spacing with a 0.45 mm line");
@@ -203,18 +192,14 @@ TEST(SeedDrawings, printer_spacing_below_the_line_width_is_refused_with_the_rang
 TEST_GROUP(TwinPrintsDrawing){};
 
 TEST(TwinPrintsDrawing, photo_of_the_printed_house_shows_its_area_within_one_percent) {
-    const auto machine = models::parse_machine_file(kDelta, "test machine");
+    const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test machine");
     targets::SvgJobSettings settings;
     settings.fit_mm = 40;
     const auto job = targets::plan_svg_job(targets::parse_svg(drawing("casa")), machine, settings);
     const std::string gcode = targets::write_gcode(job, machine, "casa");
     sim::DeltaParams exact;
     sim::DeltaTwin twin(exact, exact);
-    sim::GcodeRunner runner(twin, sim::ToolSettings{});
-    std::istringstream in(gcode);
-    runner.run(in);
-    std::vector<sim::StrokeSegment> strokes;
-    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+    auto strokes = test::print_on_twin(twin, gcode);
     sim::CameraIntrinsics camera;
     camera.width_px = 1000;
     camera.height_px = 900;

@@ -264,10 +264,7 @@ int sim_measurements(const std::vector<std::string>& words) {
     // The firmware's belief as the twin holds it (its height zeroed at the centre, if asked).
     models::MachineFile believed = scenario.machine;
     if (const auto* delta = dynamic_cast<const sim::DeltaTwin*>(machine.get())) {
-        const auto& f = delta->firmware();
-        believed.delta =
-            models::DeltaSettings{f.diagonal_rod_mm,      f.diagonal_rod_trim_mm, f.radius_mm,
-                                  f.tower_angle_trim_deg, f.endstop_offset_mm,    f.height_mm};
+        believed.delta = sim::machine_settings(delta->firmware());
     }
     const nlohmann::json j{{"schema", "calbox.measurements/1"},
                            {"machine_fingerprint", models::fingerprint(believed)},

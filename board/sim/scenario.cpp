@@ -12,11 +12,6 @@ namespace {
 
 using models::TomlReader;
 
-DeltaParams twin_params(const models::DeltaSettings& d) {
-    return DeltaParams{d.diagonal_rod_mm,      d.diagonal_rod_trim_mm, d.radius_mm,
-                       d.tower_angle_trim_deg, d.endstop_offset_mm,    d.height_mm};
-}
-
 Scenario read_scenario(const std::string& path, const toml::table& root) {
     Scenario s;
     s.path = path;
@@ -100,6 +95,16 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
 }
 
 }  // namespace
+
+DeltaParams twin_params(const models::DeltaSettings& d) {
+    return DeltaParams{d.diagonal_rod_mm,      d.diagonal_rod_trim_mm, d.radius_mm,
+                       d.tower_angle_trim_deg, d.endstop_offset_mm,    d.height_mm};
+}
+
+models::DeltaSettings machine_settings(const DeltaParams& p) {
+    return models::DeltaSettings{p.diagonal_rod_mm,      p.diagonal_rod_trim_mm, p.radius_mm,
+                                 p.tower_angle_trim_deg, p.endstop_offset_mm,    p.height_mm};
+}
 
 Scenario load_scenario(const std::string& path) {
     std::ifstream in(path, std::ios::binary);

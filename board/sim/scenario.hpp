@@ -41,6 +41,10 @@ struct Scenario {
     double material_albedo = 0.85;  // white PETG
 };
 
+// The same delta geometry in the twin's own struct and in the machine file's keys.
+DeltaParams twin_params(const models::DeltaSettings& d);
+models::DeltaSettings machine_settings(const DeltaParams& p);
+
 // Throws ScenarioError naming the file and the key at fault.
 Scenario load_scenario(const std::string& path);
 

@@ -11,6 +11,7 @@
 
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
+#include "board/sim/scenario.hpp"
 #include "core/models/delta.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/solve/delta_fit.hpp"
@@ -21,17 +22,6 @@ using namespace calbox;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-models::DeltaGeometry as_model(const sim::DeltaParams& p) {
-    models::DeltaGeometry g;
-    g.diagonal_rod_mm = p.diagonal_rod_mm;
-    g.diagonal_rod_trim_mm = p.diagonal_rod_trim_mm;
-    g.radius_mm = p.radius_mm;
-    g.tower_angle_trim_deg = p.tower_angle_trim_deg;
-    g.endstop_offset_mm = p.endstop_offset_mm;
-    g.height_mm = p.height_mm;
-    return g;
-}
 
 struct Case {
     sim::DeltaParams truth, firmware;
@@ -101,7 +91,7 @@ Case make_case(unsigned seed) {
     c.twin->home();
     c.machine.kind = "delta";
     c.machine.bed_radius_mm = 85;
-    c.machine.delta = as_model(c.twin->firmware());
+    c.machine.delta = sim::machine_settings(c.twin->firmware());
     // 150 features over the bed, seen with the artifact turned and shifted on the bed.
     const double phi = 0.03 * u(rng), tx = 3 * u(rng), ty = 3 * u(rng);
     std::normal_distribution<double> noise(0, 0.01);
@@ -160,6 +150,20 @@ Judgement judge(sim::DeltaTwin& twin, const std::vector<std::string>& commands) 
 
 }  // namespace
 
+namespace {
+// One geometry off in every parameter, for the conversions and the firmware lines.
+models::DeltaGeometry sample_geometry() {
+    models::DeltaGeometry g;
+    g.diagonal_rod_mm = 250.7;
+    g.diagonal_rod_trim_mm = {0.3, -0.5, 0.2};
+    g.radius_mm = 139.2;
+    g.tower_angle_trim_deg = {0.25, -0.4, 0.15};
+    g.endstop_offset_mm = {-0.3, 0, -0.12};
+    g.height_mm = 301.4;
+    return g;
+}
+}  // namespace
+
 TEST_GROUP(DeltaKinematics){};
 
 TEST(DeltaKinematics, agrees_with_the_twins_reference_and_marlin_by_hand) {
@@ -178,8 +182,8 @@ TEST(DeltaKinematics, agrees_with_the_twins_reference_and_marlin_by_hand) {
     twin.home();
     for (const sim::Vec3 q : {sim::Vec3{0, 0, 0}, sim::Vec3{50, -40, 0.2}, sim::Vec3{-70, 20, 3}}) {
         const sim::Vec3 expected = twin.actual_position_mm(q);
-        const auto got =
-            models::actual_position_mm(as_model(t), models::DeltaGeometry{}, {q.x, q.y, q.z});
+        const auto got = models::actual_position_mm(sim::machine_settings(t),
+                                                    models::DeltaGeometry{}, {q.x, q.y, q.z});
         DOUBLES_EQUAL(expected.x, got.x, 1e-9);
         DOUBLES_EQUAL(expected.y, got.y, 1e-9);
         DOUBLES_EQUAL(expected.z, got.z, 1e-9);
@@ -187,13 +191,7 @@ TEST(DeltaKinematics, agrees_with_the_twins_reference_and_marlin_by_hand) {
 }
 
 TEST(DeltaKinematics, conventions_round_trip_to_a_nanometre) {
-    models::DeltaGeometry g;
-    g.diagonal_rod_mm = 250.7;
-    g.diagonal_rod_trim_mm = {0.3, -0.5, 0.2};
-    g.radius_mm = 139.2;
-    g.tower_angle_trim_deg = {0.25, -0.4, 0.15};
-    g.endstop_offset_mm = {-0.3, 0, -0.12};
-    g.height_mm = 301.4;
+    const models::DeltaGeometry g = sample_geometry();
     const auto check = [&](const models::DeltaGeometry& back) {
         DOUBLES_EQUAL(g.diagonal_rod_mm, back.diagonal_rod_mm, 1e-9);
         DOUBLES_EQUAL(g.radius_mm, back.radius_mm, 1e-9);
@@ -212,13 +210,7 @@ TEST(DeltaKinematics, conventions_round_trip_to_a_nanometre) {
 }
 
 TEST(DeltaKinematics, firmware_lines_for_one_geometry_match_hand_worked_values) {
-    models::DeltaGeometry g;
-    g.diagonal_rod_mm = 250.7;
-    g.diagonal_rod_trim_mm = {0.3, -0.5, 0.2};
-    g.radius_mm = 139.2;
-    g.tower_angle_trim_deg = {0.25, -0.4, 0.15};
-    g.endstop_offset_mm = {-0.3, 0, -0.12};
-    g.height_mm = 301.4;
+    const models::DeltaGeometry g = sample_geometry();
     const auto marlin = models::marlin_commands(g);
     STRCMP_EQUAL("M665 L250.700 R139.200 H301.400 X0.250 Y-0.400 Z0.150 A0.300 B-0.500 C0.200",
                  marlin[0].c_str());
@@ -264,7 +256,7 @@ TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and
         Case c = make_case(static_cast<unsigned>(seed));
         const auto result = solve::fit_delta(c.machine, c.features, {});
         // Truth in the same gauge; its height is what the firmware's zeroing made of it.
-        models::DeltaGeometry truth = models::in_gauge(as_model(c.truth));
+        models::DeltaGeometry truth = models::in_gauge(sim::machine_settings(c.truth));
         const double truth_values[9] = {truth.diagonal_rod_mm,
                                         truth.diagonal_rod_trim_mm[0],
                                         truth.diagonal_rod_trim_mm[1],
@@ -329,7 +321,7 @@ TEST(DeltaFit, with_probed_heights_an_unlevelled_printer_is_corrected_in_xy_and_
         sim::DeltaTwin twin(c.truth, sim::DeltaParams{});
         twin.zero_height_at_centre();
         twin.home();
-        c.machine.delta = as_model(twin.firmware());
+        c.machine.delta = sim::machine_settings(twin.firmware());
         for (auto& f : c.features) {
             const sim::Vec3 a =
                 twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z});

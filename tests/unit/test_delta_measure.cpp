@@ -9,6 +9,7 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
+#include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
 #include "core/models/delta.hpp"
 #include "core/modes/delta.hpp"
@@ -34,10 +35,7 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     truth.endstop_offset_mm = {-0.2, 0, -0.12};
     sim::DeltaTwin twin(truth, sim::DeltaParams{});
     twin.zero_height_at_centre();
-    const auto& fw = twin.firmware();
-    machine.delta =
-        models::DeltaSettings{fw.diagonal_rod_mm,      fw.diagonal_rod_trim_mm, fw.radius_mm,
-                              fw.tower_angle_trim_deg, fw.endstop_offset_mm,    fw.height_mm};
+    machine.delta = sim::machine_settings(twin.firmware());
     const auto target = targets::make_delta_target(*&machine);
     auto strokes = test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target"));
 
@@ -117,13 +115,7 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     // The fit models that parallax (each feature seen along its ray at its predicted height):
     // what is left is measurement noise, and the geometry comes out as the twin's truth.
     const auto fit = solve::fit_delta(machine, measured.features, {});
-    models::DeltaGeometry t;
-    t.diagonal_rod_mm = truth.diagonal_rod_mm;
-    t.diagonal_rod_trim_mm = truth.diagonal_rod_trim_mm;
-    t.radius_mm = truth.radius_mm;
-    t.tower_angle_trim_deg = truth.tower_angle_trim_deg;
-    t.endstop_offset_mm = truth.endstop_offset_mm;
-    t = models::in_gauge(t);
+    const models::DeltaGeometry t = models::in_gauge(sim::machine_settings(truth));
     UT_PRINT(("fit on the photo: residual " + std::to_string(fit.fit_rms_mm) + " mm RMS; rod " +
               std::to_string(fit.estimate.diagonal_rod_mm) + " (true " +
               std::to_string(t.diagonal_rod_mm) + "), radius " +

@@ -4,6 +4,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "core/modes/delta.hpp"
 #include "core/solve/placement.hpp"
@@ -15,17 +16,21 @@ namespace {
 
 constexpr const char* kMeasureHelp = R"(usage:
   calbox measure delta --camera camera.yaml --plane plane.yaml --machine printer.toml IMAGES...
-                       -o measurements.json [--overlay overlay.png]
+                       -o measurements.json [--overlay overlay.png] [--bed-temperature C]
       Finds the delta target's markers in the photos (the target is regenerated from the machine
       file), refines their corners, maps them to the bed at the printed surface's height and
       writes each corner's commanded and measured position with its uncertainty and the shift of
       its ray per mm of height (the fit uses it for the surface's real height). Several photos are
-      averaged. --overlay draws what was found on the first photo with each corner's error
+      averaged. The three bars are measured edge to edge along their length, as a vernier
+      would. --bed-temperature: the bed's temperature when the photos were taken, if not the
+      machine file's bed_temperature_c it printed at; the print on the bed has grown or shrunk
+      with it (bed_material) and positions are given as printed. --overlay draws what was found on the first photo with each corner's error
       (after the best rotation and translation), magnified 200 times.
 )";
 
 int delta(const std::vector<std::string>& words) {
-    const Args args(words, {"--camera", "--plane", "--machine", "-o", "--overlay"}, {});
+    const Args args(
+        words, {"--camera", "--plane", "--machine", "-o", "--overlay", "--bed-temperature"}, {});
     const std::string out = args.require("-o");
     if (args.positional().empty()) throw UsageError("measure delta needs at least one photo");
     const auto camera =
@@ -41,7 +46,14 @@ int delta(const std::vector<std::string>& words) {
     views.reserve(args.positional().size());
     for (const auto& path : args.positional()) images.push_back(load_gray_image(path));
     for (const auto& image : images) views.push_back(view_of(image));
-    const auto measured = modes::measure_delta(machine, camera, plane, views);
+    std::optional<double> photo_bed_temperature_c;
+    if (args.get("--bed-temperature")) {
+        photo_bed_temperature_c = args.number("--bed-temperature", 0);
+        if (*photo_bed_temperature_c < -50 || *photo_bed_temperature_c > 200)
+            throw UsageError("--bed-temperature must be -50..200 degrees C");
+    }
+    const auto measured =
+        modes::measure_delta(machine, camera, plane, views, photo_bed_temperature_c);
     nlohmann::json features = nlohmann::json::array();
     for (const auto& f : measured.features) {
         features.push_back(
@@ -52,14 +64,31 @@ int delta(const std::vector<std::string>& words) {
              {"seen_at_height_mm", f.seen_at_height_mm},
              {"shift_per_height", {f.shift_per_height.x, f.shift_per_height.y}}});
     }
+    nlohmann::json bars = nlohmann::json::array();
+    for (const auto& b : measured.bars) {
+        bars.push_back({{"tower", std::string(1, b.tower)},
+                        {"commanded_from_mm", b.commanded_start_mm},
+                        {"commanded_to_mm", b.commanded_end_mm},
+                        {"commanded_mm", b.commanded_mm},
+                        {"measured_mm", b.measured_mm},
+                        {"sigma_mm", b.sigma_mm},
+                        {"surface_height_mm", b.surface_height_mm}});
+    }
     const nlohmann::json j{{"schema", "calbox.measurements/1"},
                            {"machine_fingerprint", models::fingerprint(machine)},
                            {"target_fingerprint", measured.target.fingerprint},
                            {"photos", args.positional()},
-                           {"features", features}};
+                           {"bed_scale", measured.bed_scale},
+                           {"heights_from_fit", measured.heights_from_fit},
+                           {"features", features},
+                           {"bars", bars}};
     write_output_file(out, j.dump(1) + "\n");
     std::printf("%s: %zu corners of %zu markers from %zu photo(s)\n", out.c_str(),
                 measured.features.size(), measured.target.markers.size(), views.size());
+    for (const auto& b : measured.bars) {
+        std::printf("bar %c: %.3f mm edge to edge (+/- %.3f), commanded %.3f\n", b.tower,
+                    b.measured_mm, b.sigma_mm, b.commanded_mm);
+    }
     if (const auto overlay = args.get("--overlay")) {
         // Error vectors after the best rigid placement of commanded onto measured.
         const auto& fs = measured.features;

@@ -178,6 +178,11 @@ int sim_photo(const std::vector<std::string>& words) {
                                     {"b_px", pixel_json(camera.intrinsics, bed_to_camera, s.b_mm)},
                                     {"width_mm", s.width_mm}});
         }
+        // Photographed with the bed at another temperature than it was printed at, the print
+        // has grown or shrunk with the bed; the truth keeps where the nozzle laid it.
+        const double growth = sim::bed_growth_at_photo(scenario);
+        strokes = sim::carried_by_bed(std::move(strokes), growth);
+        truth["bed_growth_at_photo"] = growth;
         const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
                                      scenario.material_albedo, scenario.photo.supersample);
         image = sim::render_photo(camera.intrinsics, bed_to_camera, scene, scenario.photo);
@@ -259,7 +264,9 @@ int sim_measurements(const std::vector<std::string>& words) {
         const double t = sim::radians(angle);
         const sim::Vec3 a = machine->actual_position_mm({0, 0, 0.2}),
                         b = machine->actual_position_mm({60 * std::cos(t), 60 * std::sin(t), 0.2});
-        bars.push_back({{"commanded_mm", 60.0}, {"measured_mm", std::hypot(b.x - a.x, b.y - a.y)}});
+        bars.push_back({{"commanded_from_mm", 0.0},
+                        {"commanded_to_mm", 60.0},
+                        {"measured_mm", std::hypot(b.x - a.x, b.y - a.y)}});
     }
     // The firmware's belief as the twin holds it (its height zeroed at the centre, if asked).
     models::MachineFile believed = scenario.machine;

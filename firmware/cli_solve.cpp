@@ -61,8 +61,9 @@ Measurements read_measurements(const std::string& text, const std::string& path)
         }
         if (j.contains("bars")) {
             for (const auto& b : j.at("bars"))
-                m.bars.push_back(
-                    {b.at("commanded_mm").get<double>(), b.at("measured_mm").get<double>()});
+                m.bars.push_back({b.value("commanded_from_mm", 0.0),
+                                  b.at("commanded_to_mm").get<double>(),
+                                  b.at("measured_mm").get<double>()});
         }
     } catch (const nlohmann::json::exception& e) {
         throw std::runtime_error(path + ": malformed measurements: " + e.what());

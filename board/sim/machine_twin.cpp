@@ -53,7 +53,8 @@ void DeltaTwin::zero_height_at_centre() {
     home();
     // Moving every carriage by the same amount moves the nozzle straight up or down by it.
     const double z = actual_position_mm({0, 0, 0}).z;
-    firmware_.height_mm -= z;
+    // A longer height makes the firmware travel further down from home for the same Z.
+    firmware_.height_mm += z;
     stored_ = firmware_;
     home();
     homed_ = was_homed;

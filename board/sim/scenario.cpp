@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -87,6 +88,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("lighting_gradient", p.lighting_gradient, -1, 1);
         r.number("lighting_direction_deg", p.lighting_direction_deg, -360, 360);
         r.number("vignetting", p.vignetting, 0, 0.9);
+        r.number("bed_temperature_c", s.photo_bed_temperature_c, -50, 200);
         r.number("bed_albedo", s.bed_albedo, 0, 1);
         r.number("material_albedo", s.material_albedo, 0, 1);
         r.finish();
@@ -95,6 +97,31 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
 }
 
 }  // namespace
+
+double bed_growth_at_photo(const Scenario& s) {
+    if (!s.photo_bed_temperature_c) return 1.0;
+    const auto& m = s.machine;
+    if (!m.bed_material || !m.bed_temperature_c) {
+        throw ScenarioError(s.path +
+                            ": [photo] bed_temperature_c needs the bed's material and print "
+                            "temperature in [machine]");
+    }
+    // The twin's own handbook values, kept apart from the code it judges.
+    const std::map<std::string, double> per_k{
+        {"aluminium", 23.1e-6}, {"glass", 3.3e-6}, {"steel", 12.0e-6}, {"fr4", 14.0e-6}};
+    const auto it = per_k.find(*m.bed_material);
+    if (it == per_k.end()) throw ScenarioError(s.path + ": no expansion for " + *m.bed_material);
+    return 1.0 + it->second * (*s.photo_bed_temperature_c - *m.bed_temperature_c);
+}
+
+std::vector<StrokeSegment> carried_by_bed(std::vector<StrokeSegment> strokes, double growth) {
+    for (auto& s : strokes) {
+        s.a_mm.x *= growth, s.a_mm.y *= growth;
+        s.b_mm.x *= growth, s.b_mm.y *= growth;
+        s.width_mm *= growth;
+    }
+    return strokes;
+}
 
 DeltaParams twin_params(const models::DeltaSettings& d) {
     return DeltaParams{d.diagonal_rod_mm,      d.diagonal_rod_trim_mm, d.radius_mm,

@@ -11,6 +11,7 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
+#include "board/sim/scenes.hpp"
 #include "core/models/machine_file.hpp"
 
 namespace calbox::sim {
@@ -37,13 +38,20 @@ struct Scenario {
     double segment_mm = 0.5;
     std::optional<ScenarioCamera> camera;
     PhotoSettings photo;
-    double bed_albedo = 0.08;       // matte black PEI
-    double material_albedo = 0.85;  // white PETG
+    std::optional<double> photo_bed_temperature_c;  // [photo]: the bed when photographed
+    double bed_albedo = 0.08;                       // matte black PEI
+    double material_albedo = 0.85;                  // white PETG
 };
 
 // The same delta geometry in the twin's own struct and in the machine file's keys.
 DeltaParams twin_params(const models::DeltaSettings& d);
 models::DeltaSettings machine_settings(const DeltaParams& p);
+
+// The bed plate, fixed at its centre, grows with temperature and carries the print stuck on it:
+// how much larger the print is in the photo than where the nozzle laid it (1 without a photo
+// temperature). Throws ScenarioError when the machine lacks the bed's material or temperature.
+double bed_growth_at_photo(const Scenario& s);
+std::vector<StrokeSegment> carried_by_bed(std::vector<StrokeSegment> strokes, double growth);
 
 // Throws ScenarioError naming the file and the key at fault.
 Scenario load_scenario(const std::string& path);

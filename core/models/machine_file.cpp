@@ -169,10 +169,13 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     r.number("spindle_rpm", m.spindle_rpm, 0, 100000);
     r.number("cut_depth_mm", m.cut_depth_mm, 0.01, 50);
     r.number("safe_height_mm", m.safe_height_mm, 0.1, 200);
-    r.text("bed_material", m.bed_material);
+    {
+        std::string material;
+        r.text("bed_material", material, {"aluminium", "glass", "steel", "fr4"});
+        if (!material.empty()) m.bed_material = material;
+    }
     r.number("bed_temperature_c", m.bed_temperature_c, -50, 200);
     r.number("nozzle_temperature_c", m.nozzle_temperature_c, 0, 500);
-    r.number("calibration_temperature_c", m.calibration_temperature_c, -50, 200);
     r.text("start_gcode", m.start_gcode);
     r.text("end_gcode", m.end_gcode);
     r.finish();
@@ -185,6 +188,26 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
     }
     return m;
+}
+
+double bed_expansion_per_k(const std::string& material) {
+    // Linear expansion near room temperature (handbook values): the aluminium plate most deltas
+    // have, borosilicate glass, the spring-steel sheet, a PCB heater used as the bed.
+    if (material == "aluminium") return 23.1e-6;
+    if (material == "glass") return 3.3e-6;
+    if (material == "steel") return 12.0e-6;
+    if (material == "fr4") return 14.0e-6;
+    throw MachineFileError("unknown bed material '" + material + "'");
+}
+
+double bed_scale_at_photo(const MachineFile& m, std::optional<double> photo_bed_temperature_c) {
+    if (!photo_bed_temperature_c) return 1.0;
+    if (!m.bed_material || !m.bed_temperature_c) {
+        throw MachineFileError(
+            "a photo bed temperature needs bed_material and bed_temperature_c in [machine]");
+    }
+    return 1.0 +
+           bed_expansion_per_k(*m.bed_material) * (*photo_bed_temperature_c - *m.bed_temperature_c);
 }
 
 std::string fingerprint(const MachineFile& m) {

@@ -31,20 +31,19 @@ struct MachineFile {
     double bed_radius_mm = 85;   // delta: the printable radius around the origin
     double bed_size_x_mm = 200;  // others: the work area from the origin
     double bed_size_y_mm = 200;
-    double line_width_mm = 0.45;         // printers
-    double layer_height_mm = 0.2;        // printers
-    double filament_diameter_mm = 1.75;  // printers
-    double tool_width_mm = 0.1;          // laser spot or cutter width
-    double feed_mm_s = 20;               // working moves
-    double travel_feed_mm_s = 100;       // moves with the tool off
-    double laser_power = 1.0;            // fraction of full power (laser, galvo)
-    double spindle_rpm = 10000;          // router
-    double cut_depth_mm = 0.5;           // router: depth of the cut below the surface
-    double safe_height_mm = 5;           // router and printer travel height
-    std::optional<std::string> bed_material;
-    std::optional<double> bed_temperature_c;
+    double line_width_mm = 0.45;              // printers
+    double layer_height_mm = 0.2;             // printers
+    double filament_diameter_mm = 1.75;       // printers
+    double tool_width_mm = 0.1;               // laser spot or cutter width
+    double feed_mm_s = 20;                    // working moves
+    double travel_feed_mm_s = 100;            // moves with the tool off
+    double laser_power = 1.0;                 // fraction of full power (laser, galvo)
+    double spindle_rpm = 10000;               // router
+    double cut_depth_mm = 0.5;                // router: depth of the cut below the surface
+    double safe_height_mm = 5;                // router and printer travel height
+    std::optional<std::string> bed_material;  // aluminium | glass | steel | fr4
+    std::optional<double> bed_temperature_c;  // while printing
     std::optional<double> nozzle_temperature_c;
-    std::optional<double> calibration_temperature_c;  // bed temperature when the plane was taken
     std::optional<std::string> start_gcode;  // printers: replaces heating and G28 at a job's start
     std::optional<std::string> end_gcode;    // printers: replaces cooling and M84 at its end
     std::optional<DeltaSettings> delta;
@@ -52,6 +51,16 @@ struct MachineFile {
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
     bool is_delta() const { return kind == "delta"; }
 };
+
+// The bed plate is fixed at its centre and grows with temperature; a print sticks to it and
+// goes along. Linear expansion per kelvin of a bed material; throws MachineFileError.
+double bed_expansion_per_k(const std::string& material);
+// How much larger everything on the bed is in a photo taken with the bed at
+// `photo_bed_temperature_c` than when it was printed at bed_temperature_c: 1 when no photo
+// temperature is given (photographed as printed). Throws MachineFileError when a photo
+// temperature is given but the machine file lacks the bed's material or print temperature.
+double bed_scale_at_photo(const MachineFile& machine,
+                          std::optional<double> photo_bed_temperature_c);
 
 // A short digest of everything the machine file says (its parsed values, so formatting and
 // comments do not count): measurements carry it, and solving them against another machine is

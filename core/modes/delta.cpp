@@ -5,6 +5,12 @@
 #include <cmath>
 #include <map>
 
+#include "core/geometry/camera_model.hpp"
+#include "core/geometry/line_fit.hpp"
+#include "core/models/delta.hpp"
+#include "core/solve/placement.hpp"
+#include "core/vision/edge_kernel.hpp"
+
 namespace calbox::modes {
 namespace {
 
@@ -29,13 +35,202 @@ void check_exposure(const vision::GrayView& image, std::size_t frame) {
                            std::to_string(brightest) + " of 255");
 }
 
+constexpr double kPi = 3.14159265358979323846;
+
+// Where a printed surface lies on the bed frame the photos are mapped in: the machine's actual
+// nozzle position for a commanded point, placed on the bed, grown with the bed.
+struct SurfaceModel {
+    std::optional<models::DeltaGeometry> truth;  // fitted; without it, commanded = actual
+    models::DeltaGeometry firmware;
+    double angle_rad = 0;
+    geometry::Point2 translation_mm;
+    double bed_scale = 1;
+
+    geometry::Point3 on_bed(geometry::Point3 commanded) const {
+        geometry::Point3 p = commanded;
+        if (truth) p = models::actual_position_mm(*truth, firmware, commanded);
+        const double c = std::cos(angle_rad), s = std::sin(angle_rad);
+        return {bed_scale * (c * p.x - s * p.y + translation_mm.x),
+                bed_scale * (s * p.x + c * p.y + translation_mm.y), truth ? p.z : commanded.z};
+    }
+};
+
+// One end face of a bar in one photo: the edge points where the material stops, on the bed
+// frame, found by profiles along the bar at offsets across it.
+struct EndFace {
+    geometry::Line line;
+    double rms_mm = 0;
+    std::size_t points = 0;
+};
+
+std::optional<EndFace> measure_end_face(const vision::GrayView& image,
+                                        const geometry::CameraModel& camera,
+                                        const geometry::BedPlane& plane, geometry::Point2 end,
+                                        geometry::Point2 outward, double height_mm,
+                                        double half_flat_mm) {
+    const geometry::Point2 across{-outward.y, outward.x};
+    // Material inside, bed outside: the step falls going outwards. `reach` mm either side.
+    const auto edge_along = [&](geometry::Point2 centre,
+                                double reach) -> std::optional<geometry::Point2> {
+        const auto px = geometry::project_points(
+            camera, plane.bed_to_camera,
+            {{centre.x - outward.x * reach, centre.y - outward.y * reach, height_mm},
+             {centre.x + outward.x * reach, centre.y + outward.y * reach, height_mm}});
+        const auto edge = vision::step_edge_on_segment(image, px[0], px[1], false);
+        if (!edge) return std::nullopt;
+        const auto bed = geometry::pixels_to_bed(camera, plane, {*edge}, height_mm)[0];
+        return geometry::Point2{bed.x, bed.y};
+    };
+    // The prediction can be a millimetre or more off before the printer is calibrated: find the
+    // face on the bar's centreline first, then profile it closely.
+    const auto rough = edge_along(end, 3.0);
+    if (!rough) return std::nullopt;
+    std::vector<geometry::Point2> points;
+    constexpr int kProfiles = 15;
+    for (int k = 0; k < kProfiles; ++k) {
+        const double t = half_flat_mm * (2.0 * k / (kProfiles - 1) - 1);
+        const auto p = edge_along({rough->x + across.x * t, rough->y + across.y * t}, 0.8);
+        if (p) points.push_back(*p);
+    }
+    if (points.size() < kProfiles * 2 / 3) return std::nullopt;
+    EndFace face;
+    face.line = geometry::fit_line(points);
+    face.rms_mm = geometry::line_rms(face.line, points);
+    face.points = points.size();
+    // A clean printed face is straight to a few micrometres; a blob, a gap or a stray strand
+    // is not a face to measure.
+    if (face.rms_mm > 0.05) return std::nullopt;
+    return face;
+}
+
+// How far the face reaches along `axis` (towards `sign` * axis), the bar's centre at `centre`:
+// the flat face runs `half_flat_mm` either side of the centreline before the rounded corners.
+double face_reach(const EndFace& face, geometry::Point2 centre, geometry::Point2 axis,
+                  double half_flat_mm, double sign) {
+    const geometry::Point2 across{-axis.y, axis.x};
+    const auto& l = face.line;
+    const double d_across = l.direction.x * across.x + l.direction.y * across.y;
+    const double p_across = (l.point.x - centre.x) * across.x + (l.point.y - centre.y) * across.y;
+    double reach = -1e300;
+    for (const double lateral : {-half_flat_mm, half_flat_mm}) {
+        const double s = (lateral - p_across) / d_across;
+        const geometry::Point2 q{l.point.x + s * l.direction.x, l.point.y + s * l.direction.y};
+        reach = std::max(reach, sign * ((q.x - centre.x) * axis.x + (q.y - centre.y) * axis.y));
+    }
+    return sign * reach;
+}
+
+}  // namespace
+
+namespace {
+
+// The printed surface, from a fit of the marker corners: on an uncalibrated printer the bed's
+// dome lifts the outer features by tenths of a millimetre, which seen from 40 cm moves them by
+// hundredths. Each corner is moved along its ray to its fitted height, so the positions written
+// are where the material is; the fit's own parallax terms then see nothing left to move. When
+// the fit fails, the nominal height stays and measurement says so.
+SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& out) {
+    SurfaceModel surface;
+    surface.firmware = *machine.delta;
+    surface.bed_scale = out.bed_scale;
+    try {
+        // Only the estimate is wanted here, whatever correction it would lead to.
+        const auto fit = solve::fit_delta(machine, out.features, {}, {1.0, 90.0});
+        surface.truth = fit.estimate;
+        surface.angle_rad = fit.placement_rotation_deg * kPi / 180;
+        surface.translation_mm = fit.placement_translation_mm;
+        out.heights_from_fit = true;
+        for (auto& f : out.features) {
+            const double z =
+                models::actual_position_mm(fit.estimate, *machine.delta, f.commanded_mm).z;
+            const double dz = z - f.seen_at_height_mm;
+            f.measured_mm.x += dz * f.shift_per_height.x;
+            f.measured_mm.y += dz * f.shift_per_height.y;
+            f.seen_at_height_mm = z;
+        }
+    } catch (const solve::FitError&) {
+        std::vector<geometry::Point2> commanded, measured;
+        for (const auto& f : out.features)
+            commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
+                measured.push_back(f.measured_mm);
+        if (commanded.size() >= 2) {
+            const auto placement = solve::best_rigid_placement(commanded, measured);
+            surface.angle_rad = placement.angle_rad;
+            surface.translation_mm = placement.translation_mm;
+        }
+    }
+    return surface;
+}
+
+// The classic bars, edge to edge, each end face mapped at the surface's height there.
+void measure_bars(const models::MachineFile& machine, const geometry::CameraModel& camera,
+                  const geometry::BedPlane& plane, const std::vector<vision::GrayView>& frames,
+                  const SurfaceModel& surface, DeltaMeasurement& out) {
+    const double line_width = machine.line_width_mm;
+    for (const auto& bar : out.target.bars) {
+        // The flat part of each end face: the bar's width less the rounded corners of its
+        // perimeter line.
+        const double half_flat = bar.width_mm / 2 - line_width / 2;
+        const double half_profiled = bar.width_mm / 2 - line_width;
+        const double top = out.target.top_height_mm;
+        const auto start = surface.on_bed({bar.start_mm.x, bar.start_mm.y, top});
+        const auto end = surface.on_bed({bar.end_mm.x, bar.end_mm.y, top});
+        const double length_mm = std::hypot(end.x - start.x, end.y - start.y);
+        const geometry::Point2 axis{(end.x - start.x) / length_mm, (end.y - start.y) / length_mm};
+        std::vector<double> lengths;
+        double sigma_sum = 0;
+        for (const auto& frame : frames) {
+            const auto near = measure_end_face(frame, camera, plane, {start.x, start.y},
+                                               {-axis.x, -axis.y}, start.z, half_profiled);
+            const auto far =
+                measure_end_face(frame, camera, plane, {end.x, end.y}, axis, end.z, half_profiled);
+            if (!near || !far) break;
+            // The bar's own axis, through the middles of its end faces.
+            const geometry::Point2 a{far->line.point.x - near->line.point.x,
+                                     far->line.point.y - near->line.point.y};
+            const double n = std::hypot(a.x, a.y);
+            const geometry::Point2 u{a.x / n, a.y / n};
+            const double reach_far = face_reach(*far, near->line.point, u, half_flat, 1);
+            const double reach_near = face_reach(*near, near->line.point, u, half_flat, -1);
+            lengths.push_back((reach_far - reach_near) / out.bed_scale);
+            // Each face's position from its points' scatter.
+            sigma_sum += near->rms_mm * near->rms_mm / static_cast<double>(near->points) +
+                         far->rms_mm * far->rms_mm / static_cast<double>(far->points);
+        }
+        if (lengths.size() != frames.size()) continue;  // not measurable in every photo
+        BarLengthMeasurement m;
+        m.tower = bar.tower;
+        m.commanded_start_mm = std::hypot(bar.start_mm.x, bar.start_mm.y);
+        m.commanded_end_mm = std::hypot(bar.end_mm.x, bar.end_mm.y);
+        m.commanded_mm = bar.length_mm();
+        const double k = static_cast<double>(lengths.size());
+        double mean = 0;
+        for (double l : lengths) mean += l;
+        mean /= k;
+        double scatter = 0;
+        for (double l : lengths) scatter += (l - mean) * (l - mean);
+        m.measured_mm = mean;
+        // The mapping's own scale (the plane calibration) adds a floor of about 0.003 mm.
+        const double per_frame = std::sqrt(sigma_sum / k + 0.003 * 0.003);
+        m.sigma_mm = std::max(per_frame, k > 1 ? std::sqrt(scatter / (k - 1)) : 0.0) / std::sqrt(k);
+        m.surface_height_mm = (start.z + end.z) / 2;
+        out.bars.push_back(m);
+    }
+}
+
 }  // namespace
 
 DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                const geometry::CameraModel& camera, const geometry::BedPlane& plane,
-                               const std::vector<vision::GrayView>& frames) {
+                               const std::vector<vision::GrayView>& frames,
+                               std::optional<double> photo_bed_temperature_c) {
     if (frames.empty()) throw MeasureError("no photos to measure");
     DeltaMeasurement out;
+    try {
+        out.bed_scale = models::bed_scale_at_photo(machine, photo_bed_temperature_c);
+    } catch (const models::MachineFileError& e) {
+        throw MeasureError(e.what());
+    }
     out.target = targets::make_delta_target(machine);  // regenerated: generation is deterministic
     const auto& markers = out.target.markers;
     vision::MarkerOptions options;
@@ -95,9 +290,13 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         double mx = 0, my = 0;
         for (const auto& p : points) mx += p.x, my += p.y;
         const double n = static_cast<double>(points.size());
-        mx /= n, my /= n;
+        // As printed: the bed has grown or shrunk since, about a point the placement absorbs.
+        mx /= n * out.bed_scale, my /= n * out.bed_scale;
         double scatter = 0;
-        for (const auto& p : points) scatter += (p.x - mx) * (p.x - mx) + (p.y - my) * (p.y - my);
+        for (const auto& p : points) {
+            const double dx = p.x / out.bed_scale - mx, dy = p.y / out.bed_scale - my;
+            scatter += dx * dx + dy * dy;
+        }
         const double sigma =
             std::max(kSingleFrameSigmaMm, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) /
             std::sqrt(n);
@@ -108,6 +307,8 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                 out.target.top_height_mm,
                                 shift[key]});
     }
+    const SurfaceModel surface = fit_surface(machine, out);
+    measure_bars(machine, camera, plane, frames, surface, out);
     return out;
 }
 

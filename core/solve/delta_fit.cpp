@@ -3,6 +3,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <limits>
 
@@ -254,14 +255,20 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     result.placement_rotation_deg = solution.x[kGeometry] * 180 / kPi;
     result.placement_translation_mm = {solution.x[kGeometry + 1], solution.x[kGeometry + 2]};
 
-    // Stage 2: the correction. Without heights, keep the height map the printer has now while
-    // making XY right; with heights, make both right.
+    // Stage 2: the correction. With heights, make XY and the bed right. Without them, a bed the
+    // fit finds out of level by more than the camera's height resolution is made level too (its
+    // centre stays where the printer's zeroing put it); a bed already level within that is kept
+    // as the printer has it, so that a probe's levelling is not spoiled by a camera's estimate.
     const auto judge = judging_points(machine.bed_radius_mm * 0.95, 0.0);
     const DeltaGeometry estimate = result.estimate;
     std::vector<double> z_now;
     z_now.reserve(judge.size());
     for (const auto& p : judge)
         z_now.push_back(models::actual_position_mm(estimate, firmware, p).z);
+    const auto [lowest, highest] = std::minmax_element(z_now.begin(), z_now.end());
+    result.predicted_height_range_now_mm = *highest - *lowest;
+    constexpr double kLevelEnoughMm = 0.1;
+    result.levels_bed = result.used_probe || result.predicted_height_range_now_mm > kLevelEnoughMm;
     const auto correction_residuals = [&](const Vector& x) {
         const DeltaGeometry g = unpack(x);
         Vector r(static_cast<Eigen::Index>(3 * judge.size()));
@@ -270,9 +277,9 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
             const auto k = static_cast<Eigen::Index>(3 * i);
             r[k] = p.x - judge[i].x;
             r[k + 1] = p.y - judge[i].y;
-            // Without heights, keeping the bed as levelled weighs more than the last micrometre of
-            // XY: a spoiled first layer costs more than a trace of scale.
-            r[k + 2] = result.used_probe ? p.z - judge[i].z : 3 * (p.z - z_now[i]);
+            // Keeping a levelled bed weighs more than the last micrometre of XY: a spoiled first
+            // layer costs more than a trace of scale.
+            r[k + 2] = result.levels_bed ? p.z - judge[i].z : 3 * (p.z - z_now[i]);
         }
         return r;
     };
@@ -309,7 +316,24 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
         }
         result.parameters.push_back(p);
     }
+    // fit_rms_mm is the normalised residual in the first feature's units.
+    const double expected_rms = features.front().sigma_mm;
+    if (result.fit_rms_mm > limits.max_residual_ratio * expected_rms) {
+        char why[200];
+        std::snprintf(why, sizeof why,
+                      "refused: the measurements do not fit a delta printer's geometry (%.3f mm "
+                      "RMS left, %.3f mm expected)",
+                      result.fit_rms_mm, expected_rms);
+        throw FitError(why);
+    }
     // Bounds: a correction this large is a wrong measurement or a broken machine, not a trim.
+    const double radius_change =
+        std::abs(result.after.radius_mm - result.before.radius_mm) / result.before.radius_mm;
+    if (radius_change > limits.max_radius_change_fraction) {
+        throw FitError("refused: the radius would change by " +
+                       std::to_string(100 * radius_change) + " %, over the limit of " +
+                       std::to_string(100 * limits.max_radius_change_fraction) + " %");
+    }
     const double rod_change =
         std::abs(result.after.diagonal_rod_mm - result.before.diagonal_rod_mm) /
         result.before.diagonal_rod_mm;
@@ -335,12 +359,14 @@ double classic_rod_length_mm(const DeltaGeometry& firmware,
     const double h_star = std::sqrt(d0 * d0 - r * r);
     double sum = 0;
     for (const auto& bar : bars) {
-        const double dh =
-            std::sqrt(d0 * d0 - (r - bar.commanded_mm) * (r - bar.commanded_mm)) - h_star;
-        // L = R - sqrt(D^2 - (sqrt(D^2 - R^2) + dh)^2), solved for D by bisection around D0.
-        const auto measured = [&](double d) {
+        // The paper's L for a commanded move L* from the centre, under a true rod d.
+        const auto move = [&](double d, double commanded) {
+            const double dh = std::sqrt(d0 * d0 - (r - commanded) * (r - commanded)) - h_star;
             const double inner = std::sqrt(d * d - r * r) + dh;
             return r - std::sqrt(std::max(0.0, d * d - inner * inner));
+        };
+        const auto measured = [&](double d) {
+            return move(d, bar.commanded_to_mm) - move(d, bar.commanded_from_mm);
         };
         double lo = d0 * 0.8, hi = d0 * 1.2;
         const bool rising = measured(hi) > measured(lo);

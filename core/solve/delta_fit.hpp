@@ -36,6 +36,10 @@ struct ProbePoint {
 struct DeltaFitLimits {
     double max_rod_change_fraction = 0.02;
     double max_angle_trim_deg = 3.0;
+    double max_radius_change_fraction = 0.02;
+    // The residual against the measurements' own uncertainty: beyond this the points are not a
+    // delta printer's work (a wrong match, a loose part, a bad photo) and nothing is corrected.
+    double max_residual_ratio = 3.0;
 };
 
 struct ParameterReport {
@@ -56,7 +60,9 @@ struct DeltaFitResult {
     double placement_rotation_deg = 0;
     geometry::Point2 placement_translation_mm;
     double predicted_xy_rms_mm = 0, predicted_xy_max_mm = 0;  // over the printable area, after
-    double predicted_height_change_mm = 0;  // largest change of the height map, after vs now
+    double predicted_height_change_mm = 0;     // largest change of the height map, after vs now
+    double predicted_height_range_now_mm = 0;  // the bed's height range the fit sees now
+    bool levels_bed = false;  // the correction levels the bed (else keeps its height map)
     bool used_probe = false;
 };
 
@@ -67,9 +73,12 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
                          const std::vector<ProbePoint>& probe, const DeltaFitLimits& limits = {});
 
 // The seed paper's closed-form rod correction (its equations 10-13), averaged over bars: each bar
-// was commanded `commanded_mm` long from the centre along a tower and measured `measured_mm`.
+// was commanded along a tower from `commanded_from_mm` (0: the centre, as in the paper) to
+// `commanded_to_mm` from the centre, and measured `measured_mm` long. A bar that starts off the
+// centre is the difference of two of the paper's moves.
 struct BarMeasurement {
-    double commanded_mm = 0;
+    double commanded_from_mm = 0;
+    double commanded_to_mm = 0;
     double measured_mm = 0;
 };
 double classic_rod_length_mm(const models::DeltaGeometry& firmware,

@@ -48,6 +48,24 @@ std::optional<std::int64_t> step_edge_q16(const std::int32_t* profile_q8, int co
     return (moment * (kQ16 / 2) + weight / 2) / weight;
 }
 
+std::optional<geometry::Point2> step_edge_on_segment(const GrayView& image, geometry::Point2 from,
+                                                     geometry::Point2 to, bool rising) {
+    constexpr double kStep = 0.125;
+    const double length = std::hypot(to.x - from.x, to.y - from.y);
+    const int count = static_cast<int>(length / kStep) + 1;
+    if (count < 3) return std::nullopt;
+    const double ux = (to.x - from.x) / length, uy = (to.y - from.y) / length;
+    std::vector<std::int32_t> profile(static_cast<std::size_t>(count));
+    if (!sample_profile_q8(image, to_q16(from.x), to_q16(from.y), to_q16(ux * kStep),
+                           to_q16(uy * kStep), count, profile.data())) {
+        return std::nullopt;
+    }
+    const auto edge = step_edge_q16(profile.data(), count, rising);
+    if (!edge) return std::nullopt;
+    const double along = from_q16(*edge) * kStep;
+    return geometry::Point2{from.x + ux * along, from.y + uy * along};
+}
+
 double sample_reference(const GrayView& image, double x, double y) {
     const int ix = static_cast<int>(std::floor(x)), iy = static_cast<int>(std::floor(y));
     const double fx = x - ix, fy = y - iy;

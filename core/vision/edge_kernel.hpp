@@ -7,6 +7,7 @@
 #include <optional>
 #include <vector>
 
+#include "core/geometry/types.hpp"
 #include "core/vision/image_view.hpp"
 
 namespace calbox::vision {
@@ -30,6 +31,12 @@ bool sample_profile_q8(const GrayView& image, std::int64_t x0_q16, std::int64_t 
 // expected direction (rising: dark to bright), above a fifth of its peak so that noise in the
 // flat parts does not pull it. In samples from the profile's start, Q16; empty without an edge.
 std::optional<std::int64_t> step_edge_q16(const std::int32_t* profile_q8, int count, bool rising);
+
+// The step edge on the straight segment from `from` to `to` (pixels), sampled every 1/8 pixel:
+// where along it the image steps up (rising) or down, as a pixel position. Empty when the
+// segment leaves the image or shows no such step.
+std::optional<geometry::Point2> step_edge_on_segment(const GrayView& image, geometry::Point2 from,
+                                                     geometry::Point2 to, bool rising);
 
 // Double-precision references of the same computations.
 double sample_reference(const GrayView& image, double x, double y);

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "core/geometry/cv_convert.hpp"
+#include "core/geometry/line_fit.hpp"
 #include "core/geometry/pattern_spec.hpp"
 #include "core/vision/edge_kernel.hpp"
 
@@ -20,6 +21,9 @@
 namespace calbox::vision {
 namespace {
 
+using geometry::fit_line;
+using geometry::intersect;
+using geometry::Line;
 using geometry::Point2;
 
 struct RawMarkers {
@@ -47,35 +51,6 @@ RawMarkers opencv_detect(const cv::Mat& gray, int dictionary_id) {
     return raw;
 }
 
-struct Line {
-    Point2 point;
-    Point2 direction;  // unit
-};
-
-// Total least squares: the line through the mean along the principal axis.
-Line fit_line(const std::vector<Point2>& points) {
-    double mx = 0, my = 0;
-    for (const auto& p : points) mx += p.x, my += p.y;
-    mx /= static_cast<double>(points.size());
-    my /= static_cast<double>(points.size());
-    double sxx = 0, sxy = 0, syy = 0;
-    for (const auto& p : points) {
-        sxx += (p.x - mx) * (p.x - mx);
-        sxy += (p.x - mx) * (p.y - my);
-        syy += (p.y - my) * (p.y - my);
-    }
-    const double angle = 0.5 * std::atan2(2 * sxy, sxx - syy);
-    return {{mx, my}, {std::cos(angle), std::sin(angle)}};
-}
-
-std::optional<Point2> intersect(const Line& a, const Line& b) {
-    const double det = a.direction.x * b.direction.y - a.direction.y * b.direction.x;
-    if (std::abs(det) < 1e-9) return std::nullopt;
-    const double dx = b.point.x - a.point.x, dy = b.point.y - a.point.y;
-    const double t = (dx * b.direction.y - dy * b.direction.x) / det;
-    return Point2{a.point.x + t * a.direction.x, a.point.y + t * a.direction.y};
-}
-
 // Edge points along the side from p to q (clockwise order: the marker lies to the right).
 std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int cells_per_side) {
     const double length = std::hypot(q.x - p.x, q.y - p.y);
@@ -85,24 +60,16 @@ std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int c
     const Point2 outward{d.y, -d.x};
     // The profile spans the black border cell and the white quiet zone, no further.
     const double half = std::clamp(0.45 * length / cells_per_side, 1.5, 4.0);
-    constexpr double kStep = 0.125;
-    const int count = static_cast<int>(2 * half / kStep) + 1;
     const double margin = std::max(0.1 * length, half + 1.0);
-    std::vector<std::int32_t> profile(static_cast<std::size_t>(count));
     // Profiles every half pixel along the edge, clear of its corners.
     const int profiles = static_cast<int>((length - 2 * margin) / 0.5) + 1;
     for (int i = 0; i < profiles; ++i) {
         const double t = margin + 0.5 * i;
-        const double bx = p.x + d.x * t, by = p.y + d.y * t;
-        const double sx = bx - outward.x * half, sy = by - outward.y * half;
-        if (!sample_profile_q8(image, to_q16(sx), to_q16(sy), to_q16(outward.x * kStep),
-                               to_q16(outward.y * kStep), count, profile.data())) {
-            continue;
-        }
-        const auto edge = step_edge_q16(profile.data(), count, true);
-        if (!edge) continue;
-        const double offset = from_q16(*edge) * kStep - half;
-        out.push_back({bx + outward.x * offset, by + outward.y * offset});
+        const Point2 on{p.x + d.x * t, p.y + d.y * t};
+        const auto edge =
+            step_edge_on_segment(image, {on.x - outward.x * half, on.y - outward.y * half},
+                                 {on.x + outward.x * half, on.y + outward.y * half}, true);
+        if (edge) out.push_back(*edge);
     }
     return out;
 }

@@ -49,7 +49,7 @@ sed 's/^diagonal_rod_mm = 250.0/diagonal_rod_mm = 251.0/' "$top/examples/delta.t
 expect_error "too few features: 5" "$work/few.json"
 expect_error "feature f3 has a missing or non-finite" "$work/nan.json"
 expect_error "feature f4 was commanded off the bed" "$work/off.json"
-expect_error "refused: the rod length would change" "$work/big.json"
+expect_error "refused: the measurements do not fit a delta" "$work/big.json"
 expect_error "was made for another machine" "$work/m.json" "$work/other.toml"
 expect_error "malformed measurements" "$work/probe.csv"
 [ "$failures" -eq 0 ] && echo "solve delta works end to end and refuses bad input"

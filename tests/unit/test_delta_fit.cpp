@@ -16,8 +16,11 @@
 #include "core/models/delta_commands.hpp"
 #include "core/solve/delta_fit.hpp"
 #include "core/solve/placement.hpp"
+#include "tests/support/delta_judge.hpp"
 
 using namespace calbox;
+using test::judge;
+using test::Judgement;
 
 namespace {
 
@@ -107,45 +110,6 @@ Case make_case(unsigned seed) {
         c.features.push_back(f);
     }
     return c;
-}
-
-// XY error over the printable area after a firmware change, judged by the twin, with the best
-// rotation and translation taken out; and the largest change of the height map.
-struct Judgement {
-    double xy_rms = 0, xy_max = 0, height_change = 0;
-};
-
-Judgement judge(sim::DeltaTwin& twin, const std::vector<std::string>& commands) {
-    std::vector<sim::Vec3> grid;
-    for (double x = -75; x <= 75; x += 5)
-        for (double y = -75; y <= 75; y += 5)
-            if (std::hypot(x, y) <= 75) grid.push_back({x, y, 0.0});
-    twin.home();
-    std::vector<sim::Vec3> before;
-    for (const auto& p : grid) before.push_back(twin.actual_position_mm(p));
-    sim::GcodeRunner runner(twin, sim::ToolSettings{});
-    for (const auto& line : commands) runner.run_line(line);
-    runner.run_line("G28");
-    std::vector<sim::Vec3> after;
-    for (const auto& p : grid) after.push_back(twin.actual_position_mm(p));
-    // Take out the best rotation and translation of actual onto commanded.
-    std::vector<geometry::Point2> actual_xy, commanded_xy;
-    for (std::size_t i = 0; i < grid.size(); ++i)
-        actual_xy.push_back({after[i].x, after[i].y}),
-            commanded_xy.push_back({grid[i].x, grid[i].y});
-    const auto placement = solve::best_rigid_placement(actual_xy, commanded_xy);
-    Judgement j;
-    double sum = 0;
-    for (std::size_t i = 0; i < grid.size(); ++i) {
-        const auto p = placement.apply(actual_xy[i]);
-        const double e = std::hypot(p.x - grid[i].x, p.y - grid[i].y);
-        sum += e * e;
-        j.xy_max = std::max(j.xy_max, e);
-        j.height_change = std::max(j.height_change, std::abs(after[i].z - before[i].z));
-    }
-    const double n = static_cast<double>(grid.size());
-    j.xy_rms = std::sqrt(sum / n);
-    return j;
 }
 
 }  // namespace
@@ -286,7 +250,7 @@ TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and
                                 0.2};
             const auto a = c.twin->actual_position_mm({0, 0, 0.2}),
                        b = c.twin->actual_position_mm(end);
-            bars.push_back({60, std::hypot(b.x - a.x, b.y - a.y)});
+            bars.push_back({0, 60, std::hypot(b.x - a.x, b.y - a.y)});
         }
         models::DeltaGeometry classic = *c.machine.delta;
         classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, bars);
@@ -401,6 +365,19 @@ TEST(DeltaFit, bad_input_is_refused_with_a_reason) {
         solve::fit_delta(c.machine, large, {});
         FAIL("an out-of-bounds correction was returned");
     } catch (const solve::FitError& e) {
-        STRCMP_CONTAINS("refused", e.what());
+        STRCMP_CONTAINS("refused: the measurements do not fit", e.what());
     }
+    // A good measurement whose correction is beyond tight limits is refused by each bound.
+    const auto refused_by = [&](const solve::DeltaFitLimits& limits, const char* why) {
+        try {
+            solve::fit_delta(c.machine, c.features, {}, limits);
+            FAIL("an out-of-bounds correction was returned");
+        } catch (const solve::FitError& e) {
+            STRCMP_CONTAINS(why, e.what());
+        }
+    };
+    refused_by({1e-5, 3.0, 0.02, 3.0}, "refused: the rod length would change");
+    refused_by({0.02, 1e-4, 0.02, 3.0}, "refused: a tower angle trim");
+    refused_by({0.02, 3.0, 1e-6, 3.0}, "refused: the radius would change");
+    CHECK_EQUAL(9u, solve::fit_delta(c.machine, c.features, {}).parameters.size());
 }

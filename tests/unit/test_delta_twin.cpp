@@ -228,3 +228,19 @@ TEST(CartesianTwin, relative_moves_and_g92_offsets) {
     DOUBLES_EQUAL(0.0, result.strokes.back().b_mm.x, 1e-9);
     DOUBLES_EQUAL(10.0, result.strokes.back().b_mm.y, 1e-9);
 }
+
+TEST(DeltaTwin, zeroing_at_the_centre_puts_the_nozzle_on_the_bed_there) {
+    // Endstops off by tenths: homed, the firmware's Z0 is that far from the bed until zeroed.
+    DeltaParams truth = kossel();
+    truth.endstop_offset_mm = {-0.3, -0.1, -0.2};
+    DeltaTwin twin(truth, kossel());
+    twin.home();
+    // The carriages stop 0.2 mm higher on average (the effector tilts nowhere: it stays level),
+    // so the nozzle stops about 0.2 mm short of the bed.
+    const double short_of_bed = twin.actual_position_mm({0, 0, 0}).z;
+    DOUBLES_EQUAL(0.2, short_of_bed, 1e-3);
+    twin.zero_height_at_centre();
+    twin.home();
+    DOUBLES_EQUAL(0.0, twin.actual_position_mm({0, 0, 0}).z, 1e-9);
+    DOUBLES_EQUAL(kossel().height_mm + short_of_bed, twin.firmware().height_mm, 1e-9);
+}

@@ -106,7 +106,7 @@ int delta(const std::vector<std::string>& words) {
             for (int k = 0; k < 4; ++k) {
                 const auto& p = m.corners[static_cast<std::size_t>(k)];
                 outline.emplace_back(cvRound(p.x), cvRound(p.y));
-                pixel["m" + std::to_string(m.id) + "c" + std::to_string(k)] = p;
+                pixel[modes::corner_feature_id(m.id, k)] = p;
             }
             cv::polylines(picture, outline, true, cv::Scalar(0, 200, 0), thickness);
         }

@@ -7,6 +7,7 @@
 #include <random>
 #include <sstream>
 
+#include "board/sim/delta_judge.hpp"
 #include "board/sim/print_json.hpp"
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenario.hpp"
@@ -42,6 +43,10 @@ constexpr const char* kSimHelp = R"(usage:
       (default 150) commanded over the bed at z = 0.2 and where they really landed, with Gaussian
       noise (default 0.01 mm), three 60 mm bars along the towers, and with --probe the nozzle's
       height over the bed at 37 points. For testing calbox solve without photos.
+  calbox sim verify --scenario FILE [--result result.json] [-o verify.json]
+      Judges a delta scenario's printer in the twin's truth, over the printable area: commanded
+      against actual XY (after the best rotation and translation) and the bed's height range;
+      with --result, again after sending that solve result's firmware lines and homing.
 )";
 
 std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text,
@@ -254,7 +259,9 @@ int sim_measurements(const std::vector<std::string>& words) {
                      a = k * 2.399963229728653;  // a sunflower
         const sim::Vec3 commanded{r * std::cos(a), r * std::sin(a), 0.2};
         const sim::Vec3 actual = machine->actual_position_mm(commanded);
-        features.push_back({{"id", "f" + std::to_string(k)},
+        std::string id = "f";  // appended: GCC 12's -O3 -Wrestrict misfires on "f" + string
+        id += std::to_string(k);
+        features.push_back({{"id", id},
                             {"commanded_mm", {commanded.x, commanded.y, commanded.z}},
                             {"measured_mm", {actual.x + noise(rng), actual.y + noise(rng)}},
                             {"sigma_mm", std::max(noise_mm, 1e-4)}});
@@ -299,6 +306,58 @@ int sim_measurements(const std::vector<std::string>& words) {
 
 }  // namespace
 
+// The twin judges a delta correction in its truth: the firmware lines of a solve result sent to
+// the scenario's printer, then commanded against actual positions over the printable area.
+int sim_verify(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "--result", "-o"}, {});
+    if (!args.positional().empty()) throw UsageError("sim verify takes no positional argument");
+    const auto scenario = scenario_from(args);
+    if (!scenario.machine.is_delta())
+        throw std::runtime_error(scenario.path + ": sim verify judges delta scenarios");
+    std::vector<std::string> commands;
+    if (const auto path = args.get("--result")) {
+        try {
+            const auto j = nlohmann::json::parse(read_input_file(*path, "result"));
+            for (const auto& c : j.at("commands")) commands.push_back(c.get<std::string>());
+        } catch (const nlohmann::json::exception& e) {
+            throw std::runtime_error(*path + ": not a solve result with commands: " + e.what());
+        }
+    }
+    auto machine = sim::make_machine_twin(scenario);
+    auto* delta = dynamic_cast<sim::DeltaTwin*>(machine.get());
+    const double printable = scenario.machine.bed_radius_mm;
+    sim::DeltaJudgement judged;
+    try {
+        judged = sim::judge_delta(*delta, commands, printable);
+    } catch (const std::exception& e) {
+        throw std::runtime_error(std::string("the twin refused the commands: ") + e.what());
+    }
+    auto untouched = sim::make_machine_twin(scenario);
+    const auto before =
+        sim::judge_delta(*dynamic_cast<sim::DeltaTwin*>(untouched.get()), {}, printable);
+    std::printf("before: XY %.4f mm RMS, worst %.4f mm; height range %.4f mm\n", before.xy_rms,
+                before.xy_max, judged.height_range_before);
+    if (!commands.empty()) {
+        std::printf("after %zu command(s): XY %.4f mm RMS, worst %.4f mm; height range %.4f mm\n",
+                    commands.size(), judged.xy_rms, judged.xy_max, judged.height_range_after);
+    }
+    if (const auto out = args.get("-o")) {
+        const nlohmann::json j{{"schema", "calbox.sim-verify/1"},
+                               {"printable_radius_mm", printable},
+                               {"before",
+                                {{"xy_rms_mm", before.xy_rms},
+                                 {"xy_max_mm", before.xy_max},
+                                 {"height_range_mm", judged.height_range_before}}},
+                               {"after",
+                                {{"xy_rms_mm", judged.xy_rms},
+                                 {"xy_max_mm", judged.xy_max},
+                                 {"height_range_mm", judged.height_range_after}}},
+                               {"commands", commands}};
+        write_output_file(*out, j.dump(1) + "\n");
+    }
+    return 0;
+}
+
 int sim_camera(const std::vector<std::string>& words) {
     const Args args(words, {"--scenario", "-o"}, {});
     if (!args.positional().empty()) throw UsageError("sim camera takes no positional argument");
@@ -314,7 +373,8 @@ int run_sim(const std::vector<std::string>& words) {
                     {{"print", sim_print},
                      {"photo", sim_photo},
                      {"measurements", sim_measurements},
-                     {"camera", sim_camera}});
+                     {"camera", sim_camera},
+                     {"verify", sim_verify}});
 }
 
 }  // namespace calbox::cli

@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
-# The most complete cycle that works today, on the digital twin: a delta printer whose true rods
-# are 1 mm longer than its firmware believes prints a 40 mm square; the camera photographs it and
-# a chessboard lying on the bed. Prints the figures and where the files are.
+# The main job, on the digital twin: a delta printer whose true rods are 1 mm longer than its
+# firmware believes prints a 40 mm square and a drawing, photographed; then the whole delta cycle
+# on a printer off in every parameter: target, print, photo, measure, fit, correction sent to the
+# twin and judged in its truth, the classic bar method beside it. Prints the figures and where the
+# files are.
 #   usage: toolchain/sim_cycle.sh CALBOX_BINARY [OUTPUT_DIR]
 set -euo pipefail
 calbox="${1:?usage: sim_cycle.sh CALBOX_BINARY [OUTPUT_DIR]}"
@@ -22,19 +24,27 @@ echo "== a drawing made into a job and printed: examples/ring_star.svg, 40 mm ac
     -o "$out/ring_star.gcode" --preview "$out/ring_star_preview.png"
 "$calbox" sim print --scenario "$scenario" "$out/ring_star.gcode" -o "$out/ring_star_print.json" | tail -n 1
 "$calbox" sim photo --scenario "$scenario" --print "$out/ring_star_print.json" -o "$out/ring_star.png"
-echo "== the delta target, printed by the twin with the +1 mm rod error, photographed and read back"
-"$calbox" target delta --machine "$top/examples/delta.toml" -o "$out/target.gcode" --preview "$out/target_preview.png" \
+cycle="$top/examples/delta_cycle.toml"
+printer="$top/examples/delta_printer.toml"
+echo "== the delta cycle: a printer off in every parameter ($cycle) prints the delta target"
+"$calbox" target delta --machine "$printer" -o "$out/target.gcode" --preview "$out/target_preview.png" \
     --describe "$out/target.json"
-"$calbox" sim print --scenario "$scenario" "$out/target.gcode" -o "$out/target_print.json" | tail -n 1
-"$calbox" sim photo --scenario "$scenario" --print "$out/target_print.json" -o "$out/target.png"
+"$calbox" sim print --scenario "$cycle" "$out/target.gcode" -o "$out/target_print.json" | tail -n 1
+echo "== ... photographed once the bed has cooled to 30 C, with a chessboard photo for the bed plane"
+"$calbox" sim photo --scenario "$cycle" --print "$out/target_print.json" -o "$out/target.png"
+"$calbox" sim photo --scenario "$cycle" --board chessboard:9x6@20 --on-bed -80,50,0 -o "$out/cycle_chessboard.png"
 "$calbox" detect markers "$out/target.png" -o "$out/target_detections.json" --overlay "$out/target_overlay.png"
-echo "== ... measured from the photo (true camera, bed plane from the chessboard photo) and fitted"
-"$calbox" sim camera --scenario "$scenario" -o "$out/camera.yaml"
-"$calbox" camera plane --camera "$out/camera.yaml" --pattern chessboard:9x6@20 "$out/chessboard.png" -o "$out/plane.yaml"
-"$calbox" measure delta --camera "$out/camera.yaml" --plane "$out/plane.yaml" --machine "$top/examples/delta.toml" \
-    "$out/target.png" -o "$out/target_measurements.json" --overlay "$out/target_errors.png"
-"$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$out/target_measurements.json" \
-    -o "$out/target_result.json"
+"$calbox" sim camera --scenario "$cycle" -o "$out/camera.yaml"
+"$calbox" camera plane --camera "$out/camera.yaml" --pattern chessboard:9x6@20 "$out/cycle_chessboard.png" -o "$out/plane.yaml"
+echo "== ... measured (markers and bars), fitted, and the correction sent to the twin and judged in its truth"
+"$calbox" measure delta --camera "$out/camera.yaml" --plane "$out/plane.yaml" --machine "$printer" \
+    --bed-temperature 30 "$out/target.png" -o "$out/target_measurements.json" --overlay "$out/target_errors.png"
+"$calbox" solve delta --machine "$printer" --measurements "$out/target_measurements.json" -o "$out/target_result.json"
+"$calbox" sim verify --scenario "$cycle" --result "$out/target_result.json" -o "$out/target_verify.json"
+echo "== ... the seed paper's classic rod correction from the same bars, judged the same way"
+"$calbox" solve delta --machine "$printer" --measurements "$out/target_measurements.json" --method classic \
+    -o "$out/target_result_classic.json" | head -n 1
+"$calbox" sim verify --scenario "$cycle" --result "$out/target_result_classic.json" | tail -n 1
 echo "== delta fit: a printer off in rods, trims, radius, tower angles and endstops (examples/delta_errors.toml)"
 "$calbox" sim measurements --scenario "$top/examples/delta_errors.toml" -o "$out/measurements.json" --probe "$out/heights.csv"
 "$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$out/measurements.json" \
@@ -43,6 +53,7 @@ echo "== delta fit: a printer off in rods, trims, radius, tower angles and endst
     --method classic -o "$out/result_classic.json" | head -n 1
 echo "== files in $out: print.json print.png print_truth.json chessboard.png chessboard_truth.json"
 echo "   ring_star.gcode ring_star_preview.png ring_star_print.json ring_star.png"
-echo "   target.gcode target_preview.png target.json target.png target_detections.json target_overlay.png"
-echo "   camera.yaml plane.yaml target_measurements.json target_errors.png target_result.json"
+echo "   target.gcode target_preview.png target.json target_print.json target.png cycle_chessboard.png"
+echo "   target_detections.json target_overlay.png camera.yaml plane.yaml target_measurements.json"
+echo "   target_errors.png target_result.json target_verify.json target_result_classic.json"
 echo "   measurements.json heights.csv result.json result_classic.json"

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <map>
+#include <opencv2/imgproc.hpp>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/line_fit.hpp"
@@ -14,25 +16,29 @@
 namespace calbox::modes {
 namespace {
 
-// Exposure that leaves no edge to measure: most of the frame clipped, or no contrast at all.
+// Exposure that leaves no edge to measure: the print's bright side clipped (its edges then move
+// towards the dark side), most of the frame clipped, or no contrast at all.
 void check_exposure(const vision::GrayView& image, std::size_t frame) {
-    std::array<std::size_t, 256> histogram{};
-    for (int y = 0; y < image.height_px; y += 2)
-        for (int x = 0; x < image.width_px; x += 2) ++histogram[image.at(x, y)];
-    std::size_t total = 0, clipped = 0;
-    int brightest = 0;
-    for (int v = 0; v < 256; ++v) {
-        total += histogram[static_cast<std::size_t>(v)];
-        if (v >= 250) clipped += histogram[static_cast<std::size_t>(v)];
-        if (histogram[static_cast<std::size_t>(v)] > 0) brightest = v;
-    }
     const std::string which = "photo " + std::to_string(frame + 1);
-    if (clipped * 5 > total)
-        throw MeasureError(which + " is over-exposed: " + std::to_string(100 * clipped / total) +
-                           " % of it is clipped white");
+    const cv::Mat view(image.height_px, image.width_px, CV_8UC1,
+                       const_cast<std::uint8_t*>(image.pixels),
+                       static_cast<std::size_t>(image.stride_bytes));
+    double brightest = 0;
+    cv::minMaxLoc(view, nullptr, &brightest);
     if (brightest < 60)
         throw MeasureError(which + " is under-exposed: nothing in it is brighter than " +
-                           std::to_string(brightest) + " of 255");
+                           std::to_string(static_cast<int>(brightest)) + " of 255");
+    // Bright and dark split where Otsu's method puts it: the printed lines and the bed.
+    cv::Mat ignored;
+    const double split = cv::threshold(view, ignored, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+    const auto total = static_cast<double>(view.total());
+    const double bright = cv::countNonZero(view > split);
+    const double clipped = cv::countNonZero(view >= 250);
+    if (clipped > 0.2 * total || (bright > 0 && clipped > 0.2 * bright)) {
+        throw MeasureError(which + " is over-exposed: " +
+                           std::to_string(static_cast<int>(100 * clipped / bright)) +
+                           " % of its bright part is clipped white");
+    }
 }
 
 constexpr double kPi = 3.14159265358979323846;
@@ -220,6 +226,14 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
 
 }  // namespace
 
+std::string corner_feature_id(int marker_id, int corner) {
+    std::string id = "m";
+    id += std::to_string(marker_id);
+    id += 'c';
+    id += std::to_string(corner);
+    return id;
+}
+
 DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                                const std::vector<vision::GrayView>& frames,
@@ -262,7 +276,37 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             std::remove_if(found.begin(), found.end(),
                            [&](const auto& m) { return m.id >= static_cast<int>(markers.size()); }),
             found.end());
-        if (found.size() * 2 < markers.size()) {
+        // The markers must lie as this target lays them out, give or take what an uncalibrated
+        // printer does to it: another ArUco artifact (a board, another machine's target) does not.
+        if (found.size() >= 2) {
+            std::vector<geometry::Point2> laid, seen_centres;
+            for (const auto& m : found) {
+                laid.push_back(markers[static_cast<std::size_t>(m.id)].centre_mm);
+                std::vector<geometry::Point2> corners(m.corners.begin(), m.corners.end());
+                const auto bed =
+                    geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm);
+                seen_centres.push_back({(bed[0].x + bed[1].x + bed[2].x + bed[3].x) / 4,
+                                        (bed[0].y + bed[1].y + bed[2].y + bed[3].y) / 4});
+            }
+            const auto placement = solve::best_rigid_placement(laid, seen_centres);
+            double worst = 0;
+            for (std::size_t i = 0; i < laid.size(); ++i) {
+                const auto p = placement.apply(laid[i]);
+                worst =
+                    std::max(worst, std::hypot(p.x - seen_centres[i].x, p.y - seen_centres[i].y));
+            }
+            constexpr double kLayoutToleranceMm = 4.0;
+            if (worst > kLayoutToleranceMm) {
+                char why[200];
+                std::snprintf(why, sizeof why,
+                              "photo %zu shows markers laid out unlike this machine's delta "
+                              "target (one is %.1f mm out of place): a photo of another target",
+                              f + 1, worst);
+                throw MeasureError(why);
+            }
+        }
+        // The fit needs the whole bed: a quarter of the target missing is not a calibration.
+        if (found.size() * 4 < markers.size() * 3) {
             throw MeasureError("photo " + std::to_string(f + 1) + " shows " +
                                std::to_string(found.size()) + " of the target's " +
                                std::to_string(markers.size()) +
@@ -300,7 +344,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         const double sigma =
             std::max(kSingleFrameSigmaMm, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) /
             std::sqrt(n);
-        out.features.push_back({"m" + std::to_string(key.first) + "c" + std::to_string(key.second),
+        out.features.push_back({corner_feature_id(key.first, key.second),
                                 {target_corner.x, target_corner.y, out.target.top_height_mm},
                                 {mx, my},
                                 sigma,

@@ -40,10 +40,14 @@ struct DeltaMeasurement {
     bool heights_from_fit = false;
 };
 
+// A corner's feature id: "m" marker id "c" corner index (OpenCV's order).
+std::string corner_feature_id(int marker_id, int corner);
+
 // Throws MeasureError with one line for a photo that cannot be measured: over- or
-// under-exposed, no markers, markers that are not this target's, or less than half of the
-// target in view. Positions are given as printed: when the photos were taken with the bed at
-// `photo_bed_temperature_c` rather than the machine's bed_temperature_c, the bed's expansion
+// under-exposed (its bright part clipped), no markers, markers that are not this target's or
+// not laid out as it lays them (a photo of another target), or under three quarters of the
+// target's markers in view. Positions are given as printed: when the photos were taken with the bed
+// at `photo_bed_temperature_c` rather than the machine's bed_temperature_c, the bed's expansion
 // (bed_material) is taken out.
 DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                const geometry::CameraModel& camera, const geometry::BedPlane& plane,

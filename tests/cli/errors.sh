@@ -90,5 +90,37 @@ expect_error "not an image OpenCV can decode" measure delta --camera "$work/came
 expect_error "cannot read plane file" measure delta --camera "$work/camera.yaml" --plane "$work/none.yaml" --machine "$machine" "$work/board.png" -o "$work/result"
 expect_error "needs at least one photo" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" -o "$work/result"
 
+# measure delta on photos of the printed target that cannot be measured: issue 6's bad input.
+cycle="$top/examples/delta_cycle.toml"
+printer="$top/examples/delta_printer.toml"
+"$calbox" target delta --machine "$printer" -o "$work/target.gcode" > /dev/null
+"$calbox" sim print --scenario "$cycle" "$work/target.gcode" -o "$work/target_print.json" > /dev/null
+"$calbox" sim camera --scenario "$cycle" -o "$work/cycle_camera.yaml"
+"$calbox" sim photo --scenario "$cycle" --board chessboard:9x6@20 --on-bed -80,50,0 -o "$work/cycle_board.png"
+"$calbox" camera plane --camera "$work/cycle_camera.yaml" --pattern chessboard:9x6@20 "$work/cycle_board.png" -o "$work/cycle_plane.yaml" > /dev/null
+variant() {  # variant NAME SED-EXPRESSION: the cycle scenario with one thing changed
+    sed "$2" "$cycle" > "$work/$1.toml"
+}
+variant overexposed 's/^vignetting = 0.15/vignetting = 0.15\nexposure_dn = 900.0/'
+variant underexposed 's/^vignetting = 0.15/vignetting = 0.15\nexposure_dn = 40.0/'
+variant aside 's/^look_at_mm = .*/look_at_mm = [-130.0, 0.0, 0.0]/'
+for v in overexposed underexposed aside; do
+    "$calbox" sim photo --scenario "$work/$v.toml" --print "$work/target_print.json" -o "$work/$v.png"
+done
+"$calbox" sim photo --scenario "$cycle" --board aruco:5x7@12/4:DICT_4X4_50 --on-bed -40,-60,0 -o "$work/other_target.png"
+measure_photo() {  # measure_photo REGEX PHOTO
+    expect_error "$1" measure delta --camera "$work/cycle_camera.yaml" --plane "$work/cycle_plane.yaml" \
+        --machine "$printer" --bed-temperature 30 "$2" -o "$work/result"
+}
+measure_photo "photo 1 is over-exposed: [0-9]+ % of its bright part is clipped white" "$work/overexposed.png"
+measure_photo "photo 1 is under-exposed: nothing in it is brighter than [0-9]+ of 255" "$work/underexposed.png"
+measure_photo "photo 1 shows [0-9]+ of the target's 21 markers: the artifact is partly out of frame" "$work/aside.png"
+measure_photo "photo 1 shows markers laid out unlike this machine's delta target .*another target" "$work/other_target.png"
+measure_photo "photo 1 shows no DICT_4X4_50 markers" "$work/cycle_board.png"
+expect_error "a photo bed temperature needs bed_material and bed_temperature_c" measure delta \
+    --camera "$work/cycle_camera.yaml" --plane "$work/cycle_plane.yaml" --machine "$top/examples/delta.toml" \
+    --bed-temperature 30 "$work/cycle_board.png" -o "$work/result"
+expect_error "bed_material: 'wood' is not one of" target delta --machine <(sed 's/aluminium/wood/' "$printer") -o "$work/result"
+
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

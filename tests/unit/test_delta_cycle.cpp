@@ -12,6 +12,7 @@
 #include <string>
 
 #include "board/sim/camera_reference.hpp"
+#include "board/sim/delta_judge.hpp"
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
@@ -19,7 +20,6 @@
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta.hpp"
 #include "core/solve/placement.hpp"
-#include "tests/support/delta_judge.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -149,20 +149,20 @@ CycleFigures run_cycle(unsigned seed) {
     sim::DeltaTwin fixed(truth, sim::DeltaParams{});
     fixed.zero_height_at_centre();
     const double printable = machine.bed_radius_mm;
-    const auto after = test::judge(fixed, models::marlin_commands(fit.after), printable);
+    const auto after = sim::judge_delta(fixed, models::marlin_commands(fit.after), printable);
     figures.fit_xy_rms = after.xy_rms;
     figures.fit_xy_max = after.xy_max;
     figures.range_before = after.height_range_before;
     figures.range_after = after.height_range_after;
     sim::DeltaTwin untouched(truth, sim::DeltaParams{});
     untouched.zero_height_at_centre();
-    figures.before_rms = test::judge(untouched, {}, printable).xy_rms;
+    figures.before_rms = sim::judge_delta(untouched, {}, printable).xy_rms;
     models::DeltaGeometry classic = *machine.delta;
     classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, bars);
     sim::DeltaTwin classic_twin(truth, sim::DeltaParams{});
     classic_twin.zero_height_at_centre();
     figures.classic_xy_rms =
-        test::judge(classic_twin, models::marlin_commands(classic), printable).xy_rms;
+        sim::judge_delta(classic_twin, models::marlin_commands(classic), printable).xy_rms;
 
     char line[400];
     std::snprintf(line, sizeof line,

@@ -9,6 +9,7 @@
 #include <random>
 #include <sstream>
 
+#include "board/sim/delta_judge.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/scenario.hpp"
@@ -16,11 +17,8 @@
 #include "core/models/delta_commands.hpp"
 #include "core/solve/delta_fit.hpp"
 #include "core/solve/placement.hpp"
-#include "tests/support/delta_judge.hpp"
 
 using namespace calbox;
-using test::judge;
-using test::Judgement;
 
 namespace {
 
@@ -103,7 +101,8 @@ Case make_case(unsigned seed) {
         const sim::Vec3 commanded{r * std::cos(a), r * std::sin(a), 0.2};
         const sim::Vec3 actual = c.twin->actual_position_mm(commanded);
         solve::FeatureMeasurement f;
-        f.id = "f" + std::to_string(k);
+        f.id = "f";  // appended: GCC 12's -O3 -Wrestrict misfires on "f" + string
+        f.id += std::to_string(k);
         f.commanded_mm = {commanded.x, commanded.y, commanded.z};
         f.measured_mm = {std::cos(phi) * actual.x - std::sin(phi) * actual.y + tx + noise(rng),
                          std::sin(phi) * actual.x + std::cos(phi) * actual.y + ty + noise(rng)};
@@ -236,10 +235,11 @@ TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and
             ++fitted[i];
             if (std::abs(p.estimate - truth_values[i]) <= 3 * p.uncertainty) ++within[i];
         }
-        const Judgement before = judge(*c.twin, {});
+        const sim::DeltaJudgement before = sim::judge_delta(*c.twin, {});
         before_sum += before.xy_rms;
         sim::DeltaTwin fresh(c.truth, c.firmware);
-        const Judgement after = judge(fresh, models::marlin_commands(result.after));
+        const sim::DeltaJudgement after =
+            sim::judge_delta(fresh, models::marlin_commands(result.after));
         worst_rms = std::max(worst_rms, after.xy_rms);
         worst_max = std::max(worst_max, after.xy_max);
         worst_height = std::max(worst_height, after.height_change);
@@ -255,7 +255,8 @@ TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and
         models::DeltaGeometry classic = *c.machine.delta;
         classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, bars);
         sim::DeltaTwin classic_twin(c.truth, c.firmware);
-        const Judgement classic_after = judge(classic_twin, models::marlin_commands(classic));
+        const sim::DeltaJudgement classic_after =
+            sim::judge_delta(classic_twin, models::marlin_commands(classic));
         classic_worst = std::max(classic_worst, classic_after.xy_rms);
         classic_sum += classic_after.xy_rms;
     }
@@ -301,10 +302,11 @@ TEST(DeltaFit, with_probed_heights_an_unlevelled_printer_is_corrected_in_xy_and_
         const auto result = solve::fit_delta(c.machine, c.features, probe);
         CHECK(result.used_probe);
         CHECK_FALSE(result.parameters[8].held);  // the height is measured now
-        const Judgement before = judge(twin, {});
+        const sim::DeltaJudgement before = sim::judge_delta(twin, {});
         sim::DeltaTwin fixed(c.truth, sim::DeltaParams{});
         fixed.zero_height_at_centre();
-        const Judgement after = judge(fixed, models::marlin_commands(result.after));
+        const sim::DeltaJudgement after =
+            sim::judge_delta(fixed, models::marlin_commands(result.after));
         // Judge the height map after: the nozzle's height over the bed at commanded z = 0.
         fixed.home();
         double lowest = 1e9, highest = -1e9;

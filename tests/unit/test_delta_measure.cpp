@@ -90,8 +90,7 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     std::map<std::string, geometry::Point2> pixel;
     for (const auto& m : measured.frames.front())
         for (int k = 0; k < 4; ++k)
-            pixel["m" + std::to_string(m.id) + "c" + std::to_string(k)] =
-                m.corners[static_cast<std::size_t>(k)];
+            pixel[modes::corner_feature_id(m.id, k)] = m.corners[static_cast<std::size_t>(k)];
     std::vector<geometry::Point2> at_true_height;
     for (std::size_t i = 0; i < real.size(); ++i) {
         const auto p = geometry::pixels_to_bed(model, plane, {pixel.at(measured.features[i].id)},

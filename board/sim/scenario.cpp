@@ -93,6 +93,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("material_albedo", s.material_albedo, 0, 1);
         r.finish();
     }
+    bed_growth_at_photo(s);  // a photo temperature the bed cannot be judged at is refused now
     return s;
 }
 

@@ -79,3 +79,34 @@ TEST(Scenario, bad_files_name_the_file_and_the_key) {
 TEST(Scenario, a_missing_file_is_an_error) {
     CHECK_THROWS(ScenarioError, load_scenario("/nonexistent/scenario.toml"));
 }
+
+TEST(Scenario, the_bed_carries_the_print_as_it_cools_and_the_box_takes_it_out) {
+    // Aluminium (23.1e-6 per K) printed on at 60 C, photographed at 25 C: by hand,
+    // 1 - 23.1e-6 * 35 = 0.9991915, so a point laid 80 mm from the centre is seen 0.0647 mm inward.
+    const auto path = write_temp(
+        "[machine]\nkind = \"delta\"\nbed_material = \"aluminium\"\nbed_temperature_c = 60.0\n"
+        "[delta]\n[photo]\nbed_temperature_c = 25.0\n");
+    const Scenario s = load_scenario(path);
+    ::unlink(path.c_str());
+    DOUBLES_EQUAL(0.9991915, bed_growth_at_photo(s), 1e-12);
+    const auto seen = carried_by_bed({{{80, 0, 0.2}, {80, 10, 0.2}, 0.45}}, bed_growth_at_photo(s));
+    DOUBLES_EQUAL(80 - 0.064680, seen[0].a_mm.x, 1e-6);
+    DOUBLES_EQUAL(0.2, seen[0].a_mm.z, 0);  // the plate grows in its plane
+    // The box's own correction (core) undoes the twin's growth.
+    DOUBLES_EQUAL(bed_growth_at_photo(s), calbox::models::bed_scale_at_photo(s.machine, 25.0),
+                  1e-15);
+    DOUBLES_EQUAL(1.0, calbox::models::bed_scale_at_photo(s.machine, std::nullopt), 0);
+    // Glass barely moves: 3.3e-6 * -35.
+    auto glass = s.machine;
+    glass.bed_material = "glass";
+    DOUBLES_EQUAL(1 - 3.3e-6 * 35, calbox::models::bed_scale_at_photo(glass, 25.0), 1e-15);
+    // A photo temperature without the bed's material cannot be corrected: said, not guessed.
+    STRCMP_CONTAINS("needs the bed's material",
+                    error_of("[machine]\nkind = \"delta\"\n[delta]\n[photo]\n"
+                             "bed_temperature_c = 25.0\n")
+                        .c_str());
+    auto bare = s.machine;
+    bare.bed_material.reset();
+    CHECK_THROWS(calbox::models::MachineFileError,
+                 calbox::models::bed_scale_at_photo(bare, 25.0));
+}

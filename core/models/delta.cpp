@@ -27,7 +27,9 @@ Towers towers(const DeltaGeometry& g) {
     return t;
 }
 
-double mean(const std::array<double, 3>& v) { return (v[0] + v[1] + v[2]) / 3; }
+double mean(const std::array<double, 3>& v) {
+    return (v[0] + v[1] + v[2]) / 3;
+}
 
 }  // namespace
 
@@ -38,7 +40,8 @@ std::array<double, 3> carriage_heights_mm(const DeltaGeometry& g, const geometry
         const double dx = t.xy[i].x() - p.x, dy = t.xy[i].y() - p.y;
         const double under = t.rod2[i] - dx * dx - dy * dy;
         if (!(under > 0)) {
-            throw UnreachableError("X" + std::to_string(p.x) + " Y" + std::to_string(p.y) + " is out of reach of tower " +
+            throw UnreachableError("X" + std::to_string(p.x) + " Y" + std::to_string(p.y) +
+                                   " is out of reach of tower " +
                                    std::string(1, static_cast<char>('A' + i)));
         }
         h[i] = p.z + std::sqrt(under);
@@ -72,7 +75,8 @@ geometry::Point3 actual_position_mm(const DeltaGeometry& truth, const DeltaGeome
     std::array<double, 3> physical{};
     for (std::size_t i = 0; i < 3; ++i) {
         // Homed: at the true endstop (true home less the true offset) lowered by the firmware's.
-        const double homed = true_home[i] - truth.endstop_offset_mm[i] + firmware.endstop_offset_mm[i];
+        const double homed =
+            true_home[i] - truth.endstop_offset_mm[i] + firmware.endstop_offset_mm[i];
         physical[i] = homed + logical[i] - logical_home[i];
     }
     return effector_position_mm(truth, physical);
@@ -136,7 +140,8 @@ DeltaGeometry from_klipper(const KlipperDelta& k) {
     DeltaGeometry g;
     g.diagonal_rod_mm = 0;
     g.radius_mm = k.delta_radius_mm;
-    const double height = std::min({k.position_endstop_mm[0], k.position_endstop_mm[1], k.position_endstop_mm[2]});
+    const double height =
+        std::min({k.position_endstop_mm[0], k.position_endstop_mm[1], k.position_endstop_mm[2]});
     g.height_mm = height;
     for (std::size_t i = 0; i < 3; ++i) {
         g.diagonal_rod_trim_mm[i] = k.arm_length_mm[i];

@@ -15,12 +15,13 @@ namespace calbox::models {
 using DeltaGeometry = DeltaSettings;  // the machine file's [delta] keys
 
 class UnreachableError : public std::runtime_error {
-public:
+  public:
     using std::runtime_error::runtime_error;
 };
 
 std::array<double, 3> carriage_heights_mm(const DeltaGeometry& g, const geometry::Point3& nozzle);
-geometry::Point3 effector_position_mm(const DeltaGeometry& g, const std::array<double, 3>& carriage_mm);
+geometry::Point3 effector_position_mm(const DeltaGeometry& g,
+                                      const std::array<double, 3>& carriage_mm);
 
 // Where the nozzle really goes on a printer whose true geometry is `truth` when its firmware,
 // believing `firmware`, is commanded to `commanded` (after G28: each carriage homes to its

@@ -107,6 +107,5 @@ TEST(Scenario, the_bed_carries_the_print_as_it_cools_and_the_box_takes_it_out) {
                         .c_str());
     auto bare = s.machine;
     bare.bed_material.reset();
-    CHECK_THROWS(calbox::models::MachineFileError,
-                 calbox::models::bed_scale_at_photo(bare, 25.0));
+    CHECK_THROWS(calbox::models::MachineFileError, calbox::models::bed_scale_at_photo(bare, 25.0));
 }

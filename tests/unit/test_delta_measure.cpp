@@ -46,8 +46,12 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     photo.noise_sigma_dn = 2.0;
     photo.vignetting = 0.15;
     photo.lighting_gradient = 0.1;
-    const auto print_photo = sim::render_photo(
-        camera, bed_to_camera, sim::StrokeScene(std::move(strokes), 0.08, 0.85, 4), photo);
+    // Two frames of the same print, their sensor noise independent: the box averages them.
+    const sim::StrokeScene print_scene(std::move(strokes), 0.08, 0.85, 4);
+    const auto print_photo = sim::render_photo(camera, bed_to_camera, print_scene, photo);
+    sim::PhotoSettings second = photo;
+    second.seed = photo.seed + 1;
+    const auto second_photo = sim::render_photo(camera, bed_to_camera, print_scene, second);
     // The bed plane from a chessboard lying on the bed, as the box would take it.
     const sim::Pose board = sim::compose(bed_to_camera, sim::board_lying_on_bed({-80, 50, 0}, 0));
     const auto board_photo = sim::render_photo(
@@ -57,8 +61,15 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     const auto plane = geometry::estimate_bed_plane(
         model, geometry::parse_pattern_spec("chessboard:9x6@20"), view_of(board_photo), 0);
 
-    const auto measured = modes::measure_delta(machine, model, plane, {view_of(print_photo)});
+    const auto measured =
+        modes::measure_delta(machine, model, plane, {view_of(print_photo), view_of(second_photo)});
     CHECK_EQUAL(4 * target.markers.size(), measured.features.size());
+    CHECK_EQUAL(2u, measured.frames.size());
+    CHECK_EQUAL(3u, measured.bars.size());
+    // Averaged over two frames: the single frame's 0.005 mm shrinks by sqrt(2) unless the frames
+    // disagree by more.
+    for (const auto& f : measured.features) CHECK(f.sigma_mm >= 0.005 / std::sqrt(2.0) - 1e-12);
+    for (const auto& b : measured.bars) CHECK(b.sigma_mm > 0 && b.sigma_mm < 0.01);
     // Where the material really is: the twin's nozzle at each commanded corner.
     std::vector<sim::Vec3> real;
     twin.home();

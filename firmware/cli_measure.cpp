@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
+#include "core/geometry/camera_model.hpp"
 #include "core/modes/delta.hpp"
 #include "core/solve/placement.hpp"
 #include "firmware/cli_args.hpp"
@@ -18,14 +19,15 @@ constexpr const char* kMeasureHelp = R"(usage:
   calbox measure delta --camera camera.yaml --plane plane.yaml --machine printer.toml IMAGES...
                        -o measurements.json [--overlay overlay.png] [--bed-temperature C]
       Finds the delta target's markers in the photos (the target is regenerated from the machine
-      file), refines their corners, maps them to the bed at the printed surface's height and
-      writes each corner's commanded and measured position with its uncertainty and the shift of
-      its ray per mm of height (the fit uses it for the surface's real height). Several photos are
-      averaged. The three bars are measured edge to edge along their length, as a vernier
-      would. --bed-temperature: the bed's temperature when the photos were taken, if not the
-      machine file's bed_temperature_c it printed at; the print on the bed has grown or shrunk
-      with it (bed_material) and positions are given as printed. --overlay draws what was found on the first photo with each corner's error
-      (after the best rotation and translation), magnified 200 times.
+      file), refines their corners, maps them to the bed and moves each along its ray to the
+      printed surface's height (from a fit of the corners), and writes each corner's commanded
+      and measured position with its uncertainty. Several photos are averaged. The three bars
+      are measured edge to edge along their length, as a vernier would. --bed-temperature: the
+      bed's temperature when the photos were taken, if not the machine file's bed_temperature_c
+      it printed at; the print has grown or shrunk with the bed (bed_material) and positions are
+      given as printed. --overlay draws on the first photo what was found, each corner's error
+      after the best rotation and translation, magnified 10 to 1000 times (the factor is written
+      on the picture), and each bar with its length and its difference from the commanded one.
 )";
 
 int delta(const std::vector<std::string>& words) {
@@ -110,17 +112,50 @@ int delta(const std::vector<std::string>& words) {
             }
             cv::polylines(picture, outline, true, cv::Scalar(0, 200, 0), thickness);
         }
+        // Magnified so that the largest error is drawn about 15 mm long on the bed (a nice
+        // factor from 10 to 1000, printed on the picture); each arrow is projected through the
+        // camera, so it points the way the error does whatever the camera's roll.
+        double largest = 0;
+        for (const auto& f : fs) {
+            const auto placed = placement.apply({f.commanded_mm.x, f.commanded_mm.y});
+            largest = std::max(largest,
+                               std::hypot(f.measured_mm.x - placed.x, f.measured_mm.y - placed.y));
+        }
+        double gain = 10;
+        for (const double nice : {20.0, 50.0, 100.0, 200.0, 500.0, 1000.0})
+            if (nice * largest <= 15) gain = nice;
         for (const auto& f : fs) {
             const auto it = pixel.find(f.id);
             if (it == pixel.end()) continue;
             const auto placed = placement.apply({f.commanded_mm.x, f.commanded_mm.y});
-            const double px = placed.x, py = placed.y;
-            // 200x in bed mm, drawn in pixels at the camera's scale (about 1/0.07 px per mm).
-            const double gain = 200 / 0.07;
+            const geometry::Point2 error{f.measured_mm.x - placed.x, f.measured_mm.y - placed.y};
+            const auto ends =
+                geometry::project_points(camera, plane.bed_to_camera,
+                                         {{f.measured_mm.x, f.measured_mm.y, f.seen_at_height_mm},
+                                          {f.measured_mm.x + gain * error.x,
+                                           f.measured_mm.y + gain * error.y, f.seen_at_height_mm}});
             const cv::Point from(cvRound(it->second.x), cvRound(it->second.y));
-            const cv::Point to(cvRound(it->second.x + gain * (f.measured_mm.x - px)),
-                               cvRound(it->second.y - gain * (f.measured_mm.y - py)));
+            const cv::Point to(cvRound(it->second.x + ends[1].x - ends[0].x),
+                               cvRound(it->second.y + ends[1].y - ends[0].y));
             cv::arrowedLine(picture, from, to, cv::Scalar(0, 0, 255), thickness);
+        }
+        char legend[120];
+        std::snprintf(legend, sizeof legend, "errors x%.0f (largest %.3f mm)", gain, largest);
+        cv::putText(picture, legend, {picture.cols / 40, picture.rows / 20},
+                    cv::FONT_HERSHEY_SIMPLEX, picture.cols / 1500.0, cv::Scalar(0, 0, 255),
+                    thickness);
+        // Each bar between its measured end faces, with its length against the commanded one.
+        for (const auto& b : measured.bars) {
+            const auto px = geometry::project_points(camera, plane.bed_to_camera,
+                                                     {b.faces_seen_mm[0], b.faces_seen_mm[1]});
+            const cv::Point from(cvRound(px[0].x), cvRound(px[0].y));
+            const cv::Point to(cvRound(px[1].x), cvRound(px[1].y));
+            cv::line(picture, from, to, cv::Scalar(255, 160, 0), 2 * thickness);
+            char label[80];
+            std::snprintf(label, sizeof label, "%c %.3f mm (%+.3f)", b.tower, b.measured_mm,
+                          b.measured_mm - b.commanded_mm);
+            cv::putText(picture, label, (from + to) / 2, cv::FONT_HERSHEY_SIMPLEX,
+                        picture.cols / 2000.0, cv::Scalar(255, 160, 0), thickness);
         }
         write_png(*overlay, picture);
     }

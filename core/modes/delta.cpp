@@ -185,12 +185,17 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
         const geometry::Point2 axis{(end.x - start.x) / length_mm, (end.y - start.y) / length_mm};
         std::vector<double> lengths;
         double sigma_sum = 0;
+        std::array<geometry::Point3, 2> faces_seen{};
         for (const auto& frame : frames) {
             const auto near = measure_end_face(frame, camera, plane, {start.x, start.y},
                                                {-axis.x, -axis.y}, start.z, half_profiled);
             const auto far =
                 measure_end_face(frame, camera, plane, {end.x, end.y}, axis, end.z, half_profiled);
             if (!near || !far) break;
+            if (lengths.empty()) {
+                faces_seen = {geometry::Point3{near->line.point.x, near->line.point.y, start.z},
+                              geometry::Point3{far->line.point.x, far->line.point.y, end.z}};
+            }
             // The bar's own axis, through the middles of its end faces.
             const geometry::Point2 a{far->line.point.x - near->line.point.x,
                                      far->line.point.y - near->line.point.y};
@@ -220,6 +225,7 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
         const double per_frame = std::sqrt(sigma_sum / k + 0.003 * 0.003);
         m.sigma_mm = std::max(per_frame, k > 1 ? std::sqrt(scatter / (k - 1)) : 0.0) / std::sqrt(k);
         m.surface_height_mm = (start.z + end.z) / 2;
+        m.faces_seen_mm = faces_seen;
         out.bars.push_back(m);
     }
 }

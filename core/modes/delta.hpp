@@ -1,6 +1,7 @@
 #pragma once
 // The delta mode's measure step: photos of the printed delta target -> each marker corner's
 // position on the bed, paired with where the target commanded it.
+#include <array>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -27,6 +28,9 @@ struct BarLengthMeasurement {
     double measured_mm = 0;
     double sigma_mm = 0;
     double surface_height_mm = 0;  // mean of the ends' printed heights the edges were mapped at
+    // The middles of the near and far end faces in the first photo, on the bed frame at the
+    // height they were mapped at: where to draw the bar on that photo.
+    std::array<geometry::Point3, 2> faces_seen_mm{};
 };
 
 struct DeltaMeasurement {

@@ -23,8 +23,8 @@ constexpr const char* kMeasureHelp = R"(usage:
       printed surface's height (from a fit of the corners), and writes each corner's commanded
       and measured position with its uncertainty. Several photos are averaged. The three bars
       are measured edge to edge along their length, as a vernier would. --bed-temperature: the
-      bed's temperature when the photos were taken, if not the machine file's bed_temperature_c
-      it printed at; the print has grown or shrunk with the bed (bed_material) and positions are
+      bed's temperature when the photos were taken (default: the machine file's
+      photo_bed_temperature_c), if not the bed_temperature_c it printed at; the print has grown or shrunk with the bed (bed_material) and positions are
       given as printed. --overlay draws on the first photo what was found, each corner's error
       after the best rotation and translation, magnified 10 to 1000 times (the factor is written
       on the picture), and each bar with its length and its difference from the commanded one.

@@ -38,7 +38,7 @@ echo "== ... photographed once the bed has cooled to 30 C, with a chessboard pho
 "$calbox" camera plane --camera "$out/camera.yaml" --pattern chessboard:9x6@20 "$out/cycle_chessboard.png" -o "$out/plane.yaml"
 echo "== ... measured (markers and bars), fitted, and the correction sent to the twin and judged in its truth"
 "$calbox" measure delta --camera "$out/camera.yaml" --plane "$out/plane.yaml" --machine "$printer" \
-    --bed-temperature 30 "$out/target.png" -o "$out/target_measurements.json" --overlay "$out/target_errors.png"
+    "$out/target.png" -o "$out/target_measurements.json" --overlay "$out/target_errors.png"
 "$calbox" solve delta --machine "$printer" --measurements "$out/target_measurements.json" -o "$out/target_result.json"
 "$calbox" sim verify --scenario "$cycle" --result "$out/target_result.json" -o "$out/target_verify.json"
 echo "== ... the seed paper's classic rod correction from the same bars, judged the same way"

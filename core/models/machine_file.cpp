@@ -176,9 +176,15 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     }
     r.number("bed_temperature_c", m.bed_temperature_c, -50, 200);
     r.number("nozzle_temperature_c", m.nozzle_temperature_c, 0, 500);
+    r.number("photo_bed_temperature_c", m.photo_bed_temperature_c, -50, 200);
     r.text("start_gcode", m.start_gcode);
     r.text("end_gcode", m.end_gcode);
     r.finish();
+    if (m.photo_bed_temperature_c && (!m.bed_material || !m.bed_temperature_c)) {
+        throw MachineFileError(file +
+                               ": [machine] photo_bed_temperature_c needs bed_material and "
+                               "bed_temperature_c");
+    }
     const auto* delta = subtable(file, root, "delta");
     if (m.is_delta()) {
         if (delta == nullptr) throw MachineFileError(file + ": a delta machine needs [delta]");
@@ -201,6 +207,7 @@ double bed_expansion_per_k(const std::string& material) {
 }
 
 double bed_scale_at_photo(const MachineFile& m, std::optional<double> photo_bed_temperature_c) {
+    if (!photo_bed_temperature_c) photo_bed_temperature_c = m.photo_bed_temperature_c;
     if (!photo_bed_temperature_c) return 1.0;
     if (!m.bed_material || !m.bed_temperature_c) {
         throw MachineFileError(

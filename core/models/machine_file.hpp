@@ -43,6 +43,9 @@ struct MachineFile {
     double safe_height_mm = 5;                // router and printer travel height
     std::optional<std::string> bed_material;  // aluminium | glass | steel | fr4
     std::optional<double> bed_temperature_c;  // while printing
+    // The bed when the box photographs the print (it waits for it to cool there); a reading
+    // given to measure overrides it. Not given: photographed as printed.
+    std::optional<double> photo_bed_temperature_c;
     std::optional<double> nozzle_temperature_c;
     std::optional<std::string> start_gcode;  // printers: replaces heating and G28 at a job's start
     std::optional<std::string> end_gcode;    // printers: replaces cooling and M84 at its end
@@ -56,9 +59,10 @@ struct MachineFile {
 // goes along. Linear expansion per kelvin of a bed material; throws MachineFileError.
 double bed_expansion_per_k(const std::string& material);
 // How much larger everything on the bed is in a photo taken with the bed at
-// `photo_bed_temperature_c` than when it was printed at bed_temperature_c: 1 when no photo
-// temperature is given (photographed as printed). Throws MachineFileError when a photo
-// temperature is given but the machine file lacks the bed's material or print temperature.
+// `photo_bed_temperature_c` (else the machine file's) than when it was printed at
+// bed_temperature_c: 1 when neither gives a photo temperature (photographed as printed). Throws
+// MachineFileError when a photo temperature is given but the machine file lacks the bed's material
+// or print temperature.
 double bed_scale_at_photo(const MachineFile& machine,
                           std::optional<double> photo_bed_temperature_c);
 

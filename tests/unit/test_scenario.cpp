@@ -96,6 +96,12 @@ TEST(Scenario, the_bed_carries_the_print_as_it_cools_and_the_box_takes_it_out) {
     DOUBLES_EQUAL(bed_growth_at_photo(s), calbox::models::bed_scale_at_photo(s.machine, 25.0),
                   1e-15);
     DOUBLES_EQUAL(1.0, calbox::models::bed_scale_at_photo(s.machine, std::nullopt), 0);
+    // The machine file's photo temperature is the default; a reading given overrides it.
+    auto cooling = s.machine;
+    cooling.photo_bed_temperature_c = 25.0;
+    DOUBLES_EQUAL(bed_growth_at_photo(s), calbox::models::bed_scale_at_photo(cooling, std::nullopt),
+                  1e-15);
+    DOUBLES_EQUAL(1.0, calbox::models::bed_scale_at_photo(cooling, 60.0), 0);
     // Glass barely moves: 3.3e-6 * -35.
     auto glass = s.machine;
     glass.bed_material = "glass";
@@ -104,6 +110,10 @@ TEST(Scenario, the_bed_carries_the_print_as_it_cools_and_the_box_takes_it_out) {
     STRCMP_CONTAINS("needs the bed's material",
                     error_of("[machine]\nkind = \"delta\"\n[delta]\n[photo]\n"
                              "bed_temperature_c = 25.0\n")
+                        .c_str());
+    STRCMP_CONTAINS("photo_bed_temperature_c needs bed_material and bed_temperature_c",
+                    error_of("[machine]\nkind = \"delta\"\nphoto_bed_temperature_c = 30.0\n"
+                             "[delta]\n")
                         .c_str());
     auto bare = s.machine;
     bare.bed_material.reset();

@@ -19,10 +19,12 @@ constexpr const char* kSolveHelp = R"(usage:
       parameters before and after, their uncertainty, what the data determine (singular values,
       condition number, parameters held), the residual predicted after correction, and the exact
       lines to send. --probe adds measured heights (CSV x,y,z: the nozzle's height over the bed
-      when commanded to z = 0 there) so the height and the height map are corrected too;
-      without it the height map the printer has now is kept. --method classic is the seed
-      paper's rod-only correction from the bar lengths, for comparison. Corrections beyond the
-      limits (rod change over 2 %, tower angle trim over 3 degrees) are refused.
+      when commanded to z = 0 there) so the height and the height map are corrected too. Without
+      it, a bed the fit finds out of level by more than 0.1 mm is levelled about its centre and
+      a flatter one keeps the height map it has. --method classic is the seed paper's rod-only
+      correction from the bar lengths, for comparison. Refused, nothing written: measurements
+      the geometry cannot explain (residual over 3 times their uncertainty), a rod or radius
+      change over 2 %, a tower angle trim over 3 degrees.
 )";
 
 struct Measurements {
@@ -169,14 +171,18 @@ int delta(const std::vector<std::string>& words) {
          {{"rotation_deg", fit.placement_rotation_deg},
           {"translation_mm", {fit.placement_translation_mm.x, fit.placement_translation_mm.y}}}},
         {"used_probe", fit.used_probe},
+        {"bed",
+         {{"height_range_now_mm", fit.predicted_height_range_now_mm},
+          {"levelled", method == "fit" && fit.levels_bed}}},
         {"commands", commands}};
     write_output_file(out, result.dump(1) + "\n");
     if (method == "fit") {
         std::printf(
             "%s: fit correction for %s, fit RMS %.4f mm; predicted XY after %.4f mm RMS, height "
-            "map change %.4f mm\n",
+            "map change %.4f mm (bed %.3f mm out of level now: %s)\n",
             out.c_str(), firmware.c_str(), fit.fit_rms_mm, fit.predicted_xy_rms_mm,
-            fit.predicted_height_change_mm);
+            fit.predicted_height_change_mm, fit.predicted_height_range_now_mm,
+            fit.levels_bed ? "levelled" : "kept");
     } else {
         std::printf(
             "%s: classic rod correction for %s from %zu bars: rod %.3f -> %.3f mm (fitted: %.3f "

@@ -30,6 +30,8 @@ v = json.load(open('$work/target_verify.json'))
 b, a = v['before'], v['after']
 ok = a['xy_rms_mm'] <= 0.01 and a['xy_max_mm'] <= 0.03 and a['height_range_mm'] <= b['height_range_mm'] and b['xy_rms_mm'] > 0.1
 m = json.load(open('$work/target_measurements.json'))
+r = json.load(open('$work/target_result.json'))
+ok = ok and r['bed']['levelled'] is True and abs(r['bed']['height_range_now_mm'] - b['height_range_mm']) < 0.05
 ok = ok and len(m['bars']) == 3 and m['heights_from_fit'] and abs(m['bed_scale'] - (1 + 23.1e-6 * (30 - 60))) < 1e-9
 sys.exit(0 if ok else 'cycle verdict: %s, bars %s' % (v, m['bars']))"
 grep -qE "^bar A: 6[0-9]\.[0-9]{3} mm edge to edge" "$work/log"

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <sstream>
 #include <string>
 
 #include "board/sim/camera_reference.hpp"
@@ -56,6 +57,7 @@ double true_bar_length_mm(const std::vector<sim::StrokeSegment>& strokes,
 struct CycleFigures {
     double feature_rms = 0, feature_worst = 0;
     double fit_xy_rms = 0, fit_xy_max = 0, range_before = 0, range_after = 0, before_rms = 0;
+    double reprint_xy_rms = 0, reprint_xy_max = 0;  // the target printed again after the cycle
     double classic_xy_rms = 0;
     std::vector<double> bar_errors;
 };
@@ -83,8 +85,8 @@ CycleFigures run_cycle(unsigned seed) {
     const models::MachineFile& machine = scenario.machine;
 
     const auto target = targets::make_delta_target(machine);
-    const auto laid =
-        test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target"));
+    const std::string target_job = targets::write_gcode(target.job, machine, "target");
+    const auto laid = test::print_on_twin(twin, target_job);
 
     // The box's camera about 40 cm up, a few degrees off vertical, turned at random.
     const auto camera = test::hq_camera();
@@ -154,6 +156,26 @@ CycleFigures run_cycle(unsigned seed) {
     figures.fit_xy_max = after.xy_max;
     figures.range_before = after.height_range_before;
     figures.range_after = after.height_range_after;
+    // The verification print: the target again on the corrected printer, every stroke end's
+    // commanded position against where the nozzle really laid it, placement taken out.
+    {
+        sim::GcodeRunner runner(fixed, sim::ToolSettings{});
+        std::istringstream job(target_job);
+        runner.run(job);
+        std::vector<sim::Vec3> commanded, laid_again;
+        for (const auto& st : runner.result().strokes) {
+            commanded.push_back(st.commanded_a_mm), commanded.push_back(st.commanded_b_mm);
+            laid_again.push_back(st.a_mm), laid_again.push_back(st.b_mm);
+        }
+        const auto placed = sim::rigidly_onto(laid_again, commanded);
+        double sum = 0;
+        for (std::size_t i = 0; i < placed.size(); ++i) {
+            const double e = std::hypot(placed[i].x - commanded[i].x, placed[i].y - commanded[i].y);
+            sum += e * e;
+            figures.reprint_xy_max = std::max(figures.reprint_xy_max, e);
+        }
+        figures.reprint_xy_rms = std::sqrt(sum / static_cast<double>(placed.size()));
+    }
     sim::DeltaTwin untouched(truth, sim::DeltaParams{});
     untouched.zero_height_at_centre();
     figures.before_rms = sim::judge_delta(untouched, {}, printable).xy_rms;
@@ -164,14 +186,16 @@ CycleFigures run_cycle(unsigned seed) {
     figures.classic_xy_rms =
         sim::judge_delta(classic_twin, models::marlin_commands(classic), printable).xy_rms;
 
-    char line[400];
+    char line[480];
     std::snprintf(line, sizeof line,
                   "seed %2u: features %.4f rms %.4f worst | bars %+.4f %+.4f %+.4f | XY before "
-                  "%.3f, after %.4f rms %.4f worst, classic %.3f | height range %.3f -> %.3f",
+                  "%.3f, after %.4f rms %.4f worst (re-print %.4f rms %.4f worst), classic %.3f | "
+                  "height range %.3f -> %.3f",
                   seed, figures.feature_rms, figures.feature_worst, figures.bar_errors[0],
                   figures.bar_errors[1], figures.bar_errors[2], figures.before_rms,
-                  figures.fit_xy_rms, figures.fit_xy_max, figures.classic_xy_rms,
-                  figures.range_before, figures.range_after);
+                  figures.fit_xy_rms, figures.fit_xy_max, figures.reprint_xy_rms,
+                  figures.reprint_xy_max, figures.classic_xy_rms, figures.range_before,
+                  figures.range_after);
     UT_PRINT(line);
     return figures;
 }

@@ -48,16 +48,14 @@ constexpr double kPi = 3.14159265358979323846;
 struct SurfaceModel {
     std::optional<models::DeltaGeometry> truth;  // fitted; without it, commanded = actual
     models::DeltaGeometry firmware;
-    double angle_rad = 0;
-    geometry::Point2 translation_mm;
+    solve::RigidPlacement placement;  // machine frame -> bed frame
     double bed_scale = 1;
 
     geometry::Point3 on_bed(geometry::Point3 commanded) const {
         geometry::Point3 p = commanded;
         if (truth) p = models::actual_position_mm(*truth, firmware, commanded);
-        const double c = std::cos(angle_rad), s = std::sin(angle_rad);
-        return {bed_scale * (c * p.x - s * p.y + translation_mm.x),
-                bed_scale * (s * p.x + c * p.y + translation_mm.y), truth ? p.z : commanded.z};
+        const geometry::Point2 placed = placement.apply({p.x, p.y});
+        return {bed_scale * placed.x, bed_scale * placed.y, truth ? p.z : commanded.z};
     }
 };
 
@@ -126,10 +124,6 @@ double face_reach(const EndFace& face, geometry::Point2 centre, geometry::Point2
     return sign * reach;
 }
 
-}  // namespace
-
-namespace {
-
 // The printed surface, from a fit of the marker corners: on an uncalibrated printer the bed's
 // dome lifts the outer features by tenths of a millimetre, which seen from 40 cm moves them by
 // hundredths. Each corner is moved along its ray to its fitted height, so the positions written
@@ -143,8 +137,7 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
         // Only the estimate is wanted here, whatever correction it would lead to.
         const auto fit = solve::fit_delta(machine, out.features, {}, {1.0, 90.0});
         surface.truth = fit.estimate;
-        surface.angle_rad = fit.placement_rotation_deg * kPi / 180;
-        surface.translation_mm = fit.placement_translation_mm;
+        surface.placement = {fit.placement_rotation_deg * kPi / 180, fit.placement_translation_mm};
         out.heights_from_fit = true;
         for (auto& f : out.features) {
             const double z =
@@ -160,9 +153,7 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
             commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
                 measured.push_back(f.measured_mm);
         if (commanded.size() >= 2) {
-            const auto placement = solve::best_rigid_placement(commanded, measured);
-            surface.angle_rad = placement.angle_rad;
-            surface.translation_mm = placement.translation_mm;
+            surface.placement = solve::best_rigid_placement(commanded, measured);
         }
     }
     return surface;
@@ -282,15 +273,23 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             std::remove_if(found.begin(), found.end(),
                            [&](const auto& m) { return m.id >= static_cast<int>(markers.size()); }),
             found.end());
+        // Each corner on the bed at the target's top, and one millimetre higher (the shift of
+        // its ray per mm of height).
+        std::vector<std::vector<geometry::Point3>> on_bed, above_bed;
+        for (const auto& m : found) {
+            const std::vector<geometry::Point2> corners(m.corners.begin(), m.corners.end());
+            on_bed.push_back(
+                geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm));
+            above_bed.push_back(
+                geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm + 1));
+        }
         // The markers must lie as this target lays them out, give or take what an uncalibrated
         // printer does to it: another ArUco artifact (a board, another machine's target) does not.
         if (found.size() >= 2) {
             std::vector<geometry::Point2> laid, seen_centres;
-            for (const auto& m : found) {
-                laid.push_back(markers[static_cast<std::size_t>(m.id)].centre_mm);
-                std::vector<geometry::Point2> corners(m.corners.begin(), m.corners.end());
-                const auto bed =
-                    geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm);
+            for (std::size_t i = 0; i < found.size(); ++i) {
+                laid.push_back(markers[static_cast<std::size_t>(found[i].id)].centre_mm);
+                const auto& bed = on_bed[i];
                 seen_centres.push_back({(bed[0].x + bed[1].x + bed[2].x + bed[3].x) / 4,
                                         (bed[0].y + bed[1].y + bed[2].y + bed[3].y) / 4});
             }
@@ -318,15 +317,13 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                std::to_string(markers.size()) +
                                " markers: the artifact is partly out of frame");
         }
-        for (const auto& m : found) {
-            std::vector<geometry::Point2> corners(m.corners.begin(), m.corners.end());
-            const auto bed =
-                geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm);
-            const auto above =
-                geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm + 1);
+        for (std::size_t i = 0; i < found.size(); ++i) {
+            const auto& bed = on_bed[i];
+            const auto& above = above_bed[i];
             for (std::size_t k = 0; k < 4; ++k) {
-                seen[{m.id, static_cast<int>(k)}].push_back(bed[k]);
-                shift[{m.id, static_cast<int>(k)}] = {above[k].x - bed[k].x, above[k].y - bed[k].y};
+                seen[{found[i].id, static_cast<int>(k)}].push_back(bed[k]);
+                shift[{found[i].id, static_cast<int>(k)}] = {above[k].x - bed[k].x,
+                                                             above[k].y - bed[k].y};
             }
         }
         out.frames.push_back(std::move(found));

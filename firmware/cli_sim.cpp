@@ -332,11 +332,8 @@ int sim_verify(const std::vector<std::string>& words) {
     } catch (const std::exception& e) {
         throw std::runtime_error(std::string("the twin refused the commands: ") + e.what());
     }
-    auto untouched = sim::make_machine_twin(scenario);
-    const auto before =
-        sim::judge_delta(*dynamic_cast<sim::DeltaTwin*>(untouched.get()), {}, printable);
-    std::printf("before: XY %.4f mm RMS, worst %.4f mm; height range %.4f mm\n", before.xy_rms,
-                before.xy_max, judged.height_range_before);
+    std::printf("before: XY %.4f mm RMS, worst %.4f mm; height range %.4f mm\n",
+                judged.xy_rms_before, judged.xy_max_before, judged.height_range_before);
     if (!commands.empty()) {
         std::printf("after %zu command(s): XY %.4f mm RMS, worst %.4f mm; height range %.4f mm\n",
                     commands.size(), judged.xy_rms, judged.xy_max, judged.height_range_after);
@@ -345,8 +342,8 @@ int sim_verify(const std::vector<std::string>& words) {
         const nlohmann::json j{{"schema", "calbox.sim-verify/1"},
                                {"printable_radius_mm", printable},
                                {"before",
-                                {{"xy_rms_mm", before.xy_rms},
-                                 {"xy_max_mm", before.xy_max},
+                                {{"xy_rms_mm", judged.xy_rms_before},
+                                 {"xy_max_mm", judged.xy_max_before},
                                  {"height_range_mm", judged.height_range_before}}},
                                {"after",
                                 {{"xy_rms_mm", judged.xy_rms},

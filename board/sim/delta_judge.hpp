@@ -37,7 +37,8 @@ inline std::vector<Vec3> rigidly_onto(const std::vector<Vec3>& from, const std::
 }
 
 struct DeltaJudgement {
-    double xy_rms = 0, xy_max = 0;
+    double xy_rms_before = 0, xy_max_before = 0;  // the printer as it was
+    double xy_rms = 0, xy_max = 0;                // after the commands
     double height_change = 0;  // largest change of the height map the commands made
     double height_range_before = 0, height_range_after = 0;
 };
@@ -57,20 +58,27 @@ inline DeltaJudgement judge_delta(DeltaTwin& twin, const std::vector<std::string
     runner.run_line("G28");
     std::vector<Vec3> after;
     for (const auto& p : grid) after.push_back(twin.actual_position_mm(p));
-    const std::vector<Vec3> placed = rigidly_onto(after, grid);
+    // XY error of actual positions against the grid, their best placement taken out.
+    const auto xy_error = [&](const std::vector<Vec3>& actual, double& rms, double& worst) {
+        const std::vector<Vec3> placed = rigidly_onto(actual, grid);
+        double sum = 0;
+        for (std::size_t i = 0; i < grid.size(); ++i) {
+            const double e = std::hypot(placed[i].x - grid[i].x, placed[i].y - grid[i].y);
+            sum += e * e;
+            worst = std::max(worst, e);
+        }
+        rms = std::sqrt(sum / static_cast<double>(grid.size()));
+    };
     DeltaJudgement j;
-    double sum = 0;
+    xy_error(before, j.xy_rms_before, j.xy_max_before);
+    xy_error(after, j.xy_rms, j.xy_max);
     double low_before = 1e9, high_before = -1e9, low_after = 1e9, high_after = -1e9;
     for (std::size_t i = 0; i < grid.size(); ++i) {
-        const double e = std::hypot(placed[i].x - grid[i].x, placed[i].y - grid[i].y);
-        sum += e * e;
-        j.xy_max = std::max(j.xy_max, e);
         j.height_change = std::max(j.height_change, std::abs(after[i].z - before[i].z));
         low_before = std::min(low_before, before[i].z),
         high_before = std::max(high_before, before[i].z);
         low_after = std::min(low_after, after[i].z), high_after = std::max(high_after, after[i].z);
     }
-    j.xy_rms = std::sqrt(sum / static_cast<double>(grid.size()));
     j.height_range_before = high_before - low_before;
     j.height_range_after = high_after - low_after;
     return j;

@@ -45,8 +45,7 @@ int main() {
     photo.blur_sigma_px = 0.7;
     photo.noise_sigma_dn = 2;
     auto start = std::chrono::steady_clock::now();
-    const auto image =
-        sim::render_photo(camera, pose, sim::StrokeScene(std::move(strokes), 0.08, 0.85, 4), photo);
+    const auto image = test::photo_of_print(camera, pose, std::move(strokes), photo);
     std::printf("render 4056x3040 (twin, not the box's work): %.2f s\n", seconds_since(start));
     const geometry::CameraModel model = test::as_core(camera);
     geometry::BedPlane plane;  // the true bed pose

@@ -9,6 +9,7 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
+#include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/vision/image_view.hpp"
@@ -52,6 +53,18 @@ inline sim::CameraIntrinsics hq_camera() {
     c.cy = 1517.6;
     c.distortion = {-0.05, 0.08, 0.0002, -0.0001, 0};
     return c;
+}
+
+// What the box's camera sees of printed material on the scenario's default bed and filament
+// (matte black PEI, white PETG), edges sampled 4x4 per pixel.
+inline sim::GrayImage photo_of_print(const sim::CameraIntrinsics& camera, const sim::Pose& pose,
+                                     std::vector<sim::StrokeSegment> strokes,
+                                     const sim::PhotoSettings& photo) {
+    const sim::Scenario defaults;
+    return sim::render_photo(
+        camera, pose,
+        sim::StrokeScene(std::move(strokes), defaults.bed_albedo, defaults.material_albedo, 4),
+        photo);
 }
 
 inline vision::GrayView view_of(const sim::GrayImage& image) {

@@ -99,11 +99,9 @@ CycleFigures run_cycle(unsigned seed) {
     photo.vignetting = 0.15;
     photo.lighting_gradient = 0.1;
     photo.seed = seed;
-    const auto print_photo = sim::render_photo(
-        camera, bed_to_camera,
-        sim::StrokeScene(sim::carried_by_bed(laid, sim::bed_growth_at_photo(scenario)), 0.08, 0.85,
-                         4),
-        photo);
+    const auto print_photo =
+        test::photo_of_print(camera, bed_to_camera,
+                             sim::carried_by_bed(laid, sim::bed_growth_at_photo(scenario)), photo);
     const auto pattern = geometry::parse_pattern_spec("chessboard:9x6@20");
     const auto board_photo = sim::render_photo(
         camera, sim::compose(bed_to_camera, sim::board_lying_on_bed({-80, 50, 0}, 0)),
@@ -176,9 +174,7 @@ CycleFigures run_cycle(unsigned seed) {
         }
         figures.reprint_xy_rms = std::sqrt(sum / static_cast<double>(placed.size()));
     }
-    sim::DeltaTwin untouched(truth, sim::DeltaParams{});
-    untouched.zero_height_at_centre();
-    figures.before_rms = sim::judge_delta(untouched, {}, printable).xy_rms;
+    figures.before_rms = after.xy_rms_before;
     models::DeltaGeometry classic = *machine.delta;
     classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, bars);
     sim::DeltaTwin classic_twin(truth, sim::DeltaParams{});

@@ -235,11 +235,10 @@ TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and
             ++fitted[i];
             if (std::abs(p.estimate - truth_values[i]) <= 3 * p.uncertainty) ++within[i];
         }
-        const sim::DeltaJudgement before = sim::judge_delta(*c.twin, {});
-        before_sum += before.xy_rms;
         sim::DeltaTwin fresh(c.truth, c.firmware);
         const sim::DeltaJudgement after =
             sim::judge_delta(fresh, models::marlin_commands(result.after));
+        before_sum += after.xy_rms_before;
         worst_rms = std::max(worst_rms, after.xy_rms);
         worst_max = std::max(worst_max, after.xy_max);
         worst_height = std::max(worst_height, after.height_change);

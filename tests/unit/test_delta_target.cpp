@@ -47,8 +47,7 @@ TEST(DeltaTarget, the_twin_prints_it_and_every_marker_is_seen_where_it_was_comma
     sim::PhotoSettings photo;
     photo.blur_sigma_px = 0.7;
     photo.noise_sigma_dn = 2.0;
-    const auto image =
-        sim::render_photo(camera, pose, sim::StrokeScene(std::move(strokes), 0.08, 0.85, 4), photo);
+    const auto image = test::photo_of_print(camera, pose, std::move(strokes), photo);
     vision::MarkerOptions options;
     const auto found = vision::detect_markers(
         {image.pixels.data(), image.width_px, image.height_px, image.width_px}, options);

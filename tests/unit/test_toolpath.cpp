@@ -210,8 +210,7 @@ TEST(TwinPrintsDrawing, photo_of_the_printed_house_shows_its_area_within_one_per
     sim::PhotoSettings photo;
     photo.blur_sigma_px = 0.7;
     photo.noise_sigma_dn = 2.0;
-    const auto image =
-        sim::render_photo(camera, pose, sim::StrokeScene(std::move(strokes), 0.08, 0.85, 4), photo);
+    const auto image = test::photo_of_print(camera, pose, std::move(strokes), photo);
     // Area in the photo: each pixel's share of material times its footprint on the bed.
     const double bed_dn = 0.08 * 240, material_dn = 0.85 * 240;
     const auto bed_point = [&](double u, double v) {

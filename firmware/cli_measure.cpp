@@ -115,29 +115,36 @@ int delta(const std::vector<std::string>& words) {
         // Magnified so that the largest error is drawn about 15 mm long on the bed (a nice
         // factor from 10 to 1000, printed on the picture); each arrow is projected through the
         // camera, so it points the way the error does whatever the camera's roll.
+        std::vector<geometry::Point2> errors;
         double largest = 0;
         for (const auto& f : fs) {
             const auto placed = placement.apply({f.commanded_mm.x, f.commanded_mm.y});
-            largest = std::max(largest,
-                               std::hypot(f.measured_mm.x - placed.x, f.measured_mm.y - placed.y));
+            errors.push_back({f.measured_mm.x - placed.x, f.measured_mm.y - placed.y});
+            largest = std::max(largest, std::hypot(errors.back().x, errors.back().y));
         }
         double gain = 10;
         for (const double nice : {20.0, 50.0, 100.0, 200.0, 500.0, 1000.0})
             if (nice * largest <= 15) gain = nice;
-        for (const auto& f : fs) {
-            const auto it = pixel.find(f.id);
+        // Each drawn corner's arrow: its measured point and its magnified error, on the bed.
+        std::vector<cv::Point2d> from_px;
+        std::vector<geometry::Point3> arrow_ends;
+        for (std::size_t i = 0; i < fs.size(); ++i) {
+            const auto it = pixel.find(fs[i].id);
             if (it == pixel.end()) continue;
-            const auto placed = placement.apply({f.commanded_mm.x, f.commanded_mm.y});
-            const geometry::Point2 error{f.measured_mm.x - placed.x, f.measured_mm.y - placed.y};
-            const auto ends =
-                geometry::project_points(camera, plane.bed_to_camera,
-                                         {{f.measured_mm.x, f.measured_mm.y, f.seen_at_height_mm},
-                                          {f.measured_mm.x + gain * error.x,
-                                           f.measured_mm.y + gain * error.y, f.seen_at_height_mm}});
-            const cv::Point from(cvRound(it->second.x), cvRound(it->second.y));
-            const cv::Point to(cvRound(it->second.x + ends[1].x - ends[0].x),
-                               cvRound(it->second.y + ends[1].y - ends[0].y));
-            cv::arrowedLine(picture, from, to, cv::Scalar(0, 0, 255), thickness);
+            const auto& f = fs[i];
+            from_px.emplace_back(it->second.x, it->second.y);
+            arrow_ends.push_back({f.measured_mm.x, f.measured_mm.y, f.seen_at_height_mm});
+            arrow_ends.push_back({f.measured_mm.x + gain * errors[i].x,
+                                  f.measured_mm.y + gain * errors[i].y, f.seen_at_height_mm});
+        }
+        const auto ends = geometry::project_points(camera, plane.bed_to_camera, arrow_ends);
+        for (std::size_t i = 0; i < from_px.size(); ++i) {
+            const auto& tail = ends[2 * i];
+            const auto& head = ends[2 * i + 1];
+            const cv::Point2d to = from_px[i] + cv::Point2d(head.x - tail.x, head.y - tail.y);
+            cv::arrowedLine(picture, cv::Point(cvRound(from_px[i].x), cvRound(from_px[i].y)),
+                            cv::Point(cvRound(to.x), cvRound(to.y)), cv::Scalar(0, 0, 255),
+                            thickness);
         }
         char legend[120];
         std::snprintf(legend, sizeof legend, "errors x%.0f (largest %.3f mm)", gain, largest);

@@ -2,13 +2,12 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
-#include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/modes/delta.hpp"
-#include "core/solve/placement.hpp"
+#include "core/modes/delta_records.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
 
@@ -56,35 +55,8 @@ int delta(const std::vector<std::string>& words) {
     }
     const auto measured =
         modes::measure_delta(machine, camera, plane, views, photo_bed_temperature_c);
-    nlohmann::json features = nlohmann::json::array();
-    for (const auto& f : measured.features) {
-        features.push_back(
-            {{"id", f.id},
-             {"commanded_mm", {f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}},
-             {"measured_mm", {f.measured_mm.x, f.measured_mm.y}},
-             {"sigma_mm", f.sigma_mm},
-             {"seen_at_height_mm", f.seen_at_height_mm},
-             {"shift_per_height", {f.shift_per_height.x, f.shift_per_height.y}}});
-    }
-    nlohmann::json bars = nlohmann::json::array();
-    for (const auto& b : measured.bars) {
-        bars.push_back({{"tower", std::string(1, b.tower)},
-                        {"commanded_from_mm", b.commanded_start_mm},
-                        {"commanded_to_mm", b.commanded_end_mm},
-                        {"commanded_mm", b.commanded_mm},
-                        {"measured_mm", b.measured_mm},
-                        {"sigma_mm", b.sigma_mm},
-                        {"surface_height_mm", b.surface_height_mm}});
-    }
-    const nlohmann::json j{{"schema", "calbox.measurements/1"},
-                           {"machine_fingerprint", models::fingerprint(machine)},
-                           {"target_fingerprint", measured.target.fingerprint},
-                           {"photos", args.positional()},
-                           {"bed_scale", measured.bed_scale},
-                           {"heights_from_fit", measured.heights_from_fit},
-                           {"features", features},
-                           {"bars", bars}};
-    write_output_file(out, j.dump(1) + "\n");
+    write_output_file(
+        out, modes::measurements_to_json(modes::record_of(measured, machine, args.positional())));
     std::printf("%s: %zu corners of %zu markers from %zu photo(s)\n", out.c_str(),
                 measured.features.size(), measured.target.markers.size(), views.size());
     for (const auto& b : measured.bars) {
@@ -92,13 +64,8 @@ int delta(const std::vector<std::string>& words) {
                     b.measured_mm, b.sigma_mm, b.commanded_mm);
     }
     if (const auto overlay = args.get("--overlay")) {
-        // Error vectors after the best rigid placement of commanded onto measured.
         const auto& fs = measured.features;
-        std::vector<geometry::Point2> commanded, seen;
-        for (const auto& f : fs)
-            commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
-                seen.push_back(f.measured_mm);
-        const auto placement = solve::best_rigid_placement(commanded, seen);
+        const auto placed = modes::placement_errors(fs);
         cv::Mat picture;
         cv::cvtColor(images.front(), picture, cv::COLOR_GRAY2BGR);
         const int thickness = std::max(1, picture.cols / 1000);
@@ -115,13 +82,8 @@ int delta(const std::vector<std::string>& words) {
         // Magnified so that the largest error is drawn about 15 mm long on the bed (a nice
         // factor from 10 to 1000, printed on the picture); each arrow is projected through the
         // camera, so it points the way the error does whatever the camera's roll.
-        std::vector<geometry::Point2> errors;
-        double largest = 0;
-        for (const auto& f : fs) {
-            const auto placed = placement.apply({f.commanded_mm.x, f.commanded_mm.y});
-            errors.push_back({f.measured_mm.x - placed.x, f.measured_mm.y - placed.y});
-            largest = std::max(largest, std::hypot(errors.back().x, errors.back().y));
-        }
+        const auto& errors = placed.error_mm;
+        const double largest = placed.largest_mm;
         double gain = 10;
         for (const double nice : {20.0, 50.0, 100.0, 200.0, 500.0, 1000.0})
             if (nice * largest <= 15) gain = nice;

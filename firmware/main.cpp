@@ -13,6 +13,8 @@ constexpr const char* kHelp = R"(calbox: calibrates machines from photos of what
 usage: calbox COMMAND [ARGS...]
 
 commands:
+  run                         the appliance: the one-button calibration cycle (calbox run --help)
+  revert                      send the settings backed up before the last applied cycle
   camera calibrate|plane      intrinsic calibration and the bed plane (calbox camera --help)
   detect markers|chessboard|circles   what the box sees in an image (calbox detect --help)
   measure delta               measure the printed delta target in photos (calbox measure --help)
@@ -41,6 +43,8 @@ int main(int argc, char** argv) {
             return 0;
         }
         const std::vector<std::string> rest(words.begin() + 1, words.end());
+        if (words[0] == "run") return calbox::cli::run_appliance(rest);
+        if (words[0] == "revert") return calbox::cli::run_revert(rest);
         if (words[0] == "sim") return calbox::cli::run_sim(rest);
         if (words[0] == "camera") return calbox::cli::run_camera(rest);
         if (words[0] == "detect") return calbox::cli::run_detect(rest);

@@ -16,7 +16,8 @@ using models::TomlReader;
 Scenario read_scenario(const std::string& path, const toml::table& root) {
     Scenario s;
     s.path = path;
-    s.machine = models::read_machine_tables(path, root, {"truth", "twin", "camera", "photo"});
+    s.machine =
+        models::read_machine_tables(path, root, {"truth", "twin", "camera", "photo", "faults"});
     if (s.machine.delta) s.delta_firmware = twin_params(*s.machine.delta);
     s.delta_truth = s.delta_firmware;
     if (const auto* truth = models::subtable(path, root, "truth")) {
@@ -91,6 +92,16 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("bed_temperature_c", s.photo_bed_temperature_c, -50, 200);
         r.number("bed_albedo", s.bed_albedo, 0, 1);
         r.number("material_albedo", s.material_albedo, 0, 1);
+        r.finish();
+    }
+    if (const auto* faults = models::subtable(path, root, "faults")) {
+        TomlReader r(path, *faults, "faults");
+        auto& f = s.faults;
+        r.integer("silent_after_lines", f.silent_after_lines, 0, 100000000);
+        r.integer("error_at_line", f.error_at_line, 0, 100000000);
+        r.number("line_noise", f.line_noise, 0, 0.9);
+        r.integer("reset_at_line", f.reset_at_line, 0, 100000000);
+        r.integer("camera_fails_at_capture", f.camera_fails_at_capture, 0, 1000000);
         r.finish();
     }
     bed_growth_at_photo(s);  // a photo temperature the bed cannot be judged at is refused now

@@ -28,6 +28,16 @@ struct ScenarioCamera {
     double roll_deg = 0;
 };
 
+// [faults]: what can go wrong between the box and a real machine, injected on purpose. Zero is
+// off; lines count what the printer received, from 1 after the link opened.
+struct ScenarioFaults {
+    int silent_after_lines = 0;       // the printer stops answering after this many lines
+    int error_at_line = 0;            // it answers this line with a fatal "Error:" (halted)
+    double line_noise = 0;            // chance that a received line arrives with a flipped bit
+    int reset_at_line = 0;            // it resets on this line (the start-up banner follows)
+    int camera_fails_at_capture = 0;  // the camera's n-th capture fails
+};
+
 struct Scenario {
     std::string path;
     models::MachineFile machine;      // the machine-file keys: [machine] and [delta]
@@ -41,6 +51,7 @@ struct Scenario {
     std::optional<double> photo_bed_temperature_c;  // [photo]: the bed when photographed
     double bed_albedo = 0.08;                       // matte black PEI
     double material_albedo = 0.85;                  // white PETG
+    ScenarioFaults faults;
 };
 
 // The same delta geometry in the twin's own struct and in the machine file's keys.

@@ -1,7 +1,10 @@
 #include "core/models/delta_commands.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <stdexcept>
+
+#include "core/targets/gcode_line.hpp"
 
 namespace calbox::models {
 namespace {
@@ -55,6 +58,58 @@ std::vector<std::string> firmware_commands(const std::string& firmware, const De
     if (firmware == "klipper") return klipper_snippet(g);
     throw std::invalid_argument("no delta commands for firmware '" + firmware +
                                 "' (marlin, rrf or klipper)");
+}
+
+}  // namespace calbox::models
+
+namespace calbox::models {
+
+std::vector<std::string> marlin_settings_from_report(const std::vector<std::string>& replies) {
+    std::vector<std::string> out;
+    for (const auto& reply : replies) {
+        std::string_view text = reply;
+        if (text.substr(0, 5) == "echo:") text.remove_prefix(5);
+        while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+        if (text.substr(0, 5) == "M665 " || text.substr(0, 5) == "M666 ") out.emplace_back(text);
+    }
+    return out;
+}
+
+std::string settings_mismatch(const std::vector<std::string>& sent,
+                              const std::vector<std::string>& reported) {
+    constexpr double kPrintedPrecision = 0.0015;  // Marlin prints three decimals
+    for (const auto& command : sent) {
+        gcode::Line want;
+        try {
+            want = gcode::parse_line(command);
+        } catch (const gcode::SyntaxError&) {
+            continue;
+        }
+        if (!want.is('M', 665) && !want.is('M', 666)) continue;
+        const std::string name = "M" + std::to_string(want.command_number);
+        const gcode::Line* got = nullptr;
+        gcode::Line parsed;
+        for (const auto& r : reported) {
+            parsed = gcode::parse_line(r);
+            if (parsed.is('M', want.command_number)) {
+                got = &parsed;
+                break;
+            }
+        }
+        if (got == nullptr) return "the printer does not report " + name;
+        for (const auto& w : want.parameters) {
+            const auto v = got->value(w.letter);
+            if (!w.value) continue;
+            if (!v || std::abs(*v - *w.value) > kPrintedPrecision) {
+                char why[160];
+                std::snprintf(why, sizeof why, "%s %c sent %.3f, the printer reports %s",
+                              name.c_str(), w.letter, *w.value,
+                              v ? std::to_string(*v).c_str() : "nothing");
+                return why;
+            }
+        }
+    }
+    return "";
 }
 
 }  // namespace calbox::models

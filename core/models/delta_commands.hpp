@@ -18,3 +18,15 @@ std::vector<std::string> firmware_commands(const std::string& firmware,
                                            const DeltaGeometry& g);  // by name
 
 }  // namespace calbox::models
+
+namespace calbox::models {
+
+// The settings lines of a Marlin M503 report ("echo:  M665 L250.000 R140.000 ..."), as commands
+// that would set them again: "M665 ..." and "M666 ...", in the order reported.
+std::vector<std::string> marlin_settings_from_report(const std::vector<std::string>& replies);
+// Compares what was sent against what the printer reports, word by word, within the precision
+// Marlin prints (3 decimals): empty when they agree, else one line naming the first difference.
+std::string settings_mismatch(const std::vector<std::string>& sent,
+                              const std::vector<std::string>& reported);
+
+}  // namespace calbox::models

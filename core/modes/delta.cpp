@@ -134,10 +134,12 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
     surface.firmware = *machine.delta;
     surface.bed_scale = out.bed_scale;
     try {
-        // Only the estimate is wanted here, whatever correction it would lead to.
-        const auto fit = solve::fit_delta(machine, out.features, {}, {1.0, 90.0});
+        // Only the estimate is wanted here, whatever correction it would lead to; measurements
+        // the geometry cannot explain leave the nominal height.
+        const auto fit = solve::estimate_delta_geometry(machine, out.features, {});
+        solve::check_residual(fit, {});
         surface.truth = fit.estimate;
-        surface.placement = {fit.placement_rotation_deg * kPi / 180, fit.placement_translation_mm};
+        surface.placement = fit.placement;
         out.heights_from_fit = true;
         for (auto& f : out.features) {
             const double z =
@@ -202,8 +204,8 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
         if (lengths.size() != frames.size()) continue;  // not measurable in every photo
         BarLengthMeasurement m;
         m.tower = bar.tower;
-        m.commanded_start_mm = std::hypot(bar.start_mm.x, bar.start_mm.y);
-        m.commanded_end_mm = std::hypot(bar.end_mm.x, bar.end_mm.y);
+        m.commanded_from_mm = std::hypot(bar.start_mm.x, bar.start_mm.y);
+        m.commanded_to_mm = std::hypot(bar.end_mm.x, bar.end_mm.y);
         m.commanded_mm = bar.length_mm();
         const double k = static_cast<double>(lengths.size());
         double mean = 0;

@@ -23,8 +23,8 @@ class MeasureError : public std::runtime_error {
 // jaws square to the bar, touching its end faces where they reach furthest).
 struct BarLengthMeasurement {
     char tower = 'A';
-    double commanded_start_mm = 0, commanded_end_mm = 0;  // distances from the bed centre
-    double commanded_mm = 0;                              // end minus start
+    double commanded_from_mm = 0, commanded_to_mm = 0;  // distances from the bed centre
+    double commanded_mm = 0;                            // end minus start
     double measured_mm = 0;
     double sigma_mm = 0;
     double surface_height_mm = 0;  // mean of the ends' printed heights the edges were mapped at
@@ -57,5 +57,63 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                                const std::vector<vision::GrayView>& frames,
                                std::optional<double> photo_bed_temperature_c = {});
+
+// What a measurement leaves for the solve (the measurements file, `calbox.measurements/1`).
+struct DeltaMeasurementsRecord {
+    std::string machine_fingerprint;
+    std::string target_fingerprint;
+    std::vector<std::string> photos;
+    double bed_scale = 1;
+    bool heights_from_fit = false;
+    std::vector<solve::FeatureMeasurement> features;
+    std::vector<BarLengthMeasurement> bars;
+};
+DeltaMeasurementsRecord record_of(const DeltaMeasurement& measured,
+                                  const models::MachineFile& machine,
+                                  std::vector<std::string> photos);
+
+// The measured corners against the commanded ones after the best rotation and translation of
+// the target on the bed: what an overlay draws, magnified.
+struct PlacementErrors {
+    solve::RigidPlacement placement;         // commanded -> bed
+    std::vector<geometry::Point2> error_mm;  // per feature: measured - placed commanded
+    double largest_mm = 0;
+};
+PlacementErrors placement_errors(const std::vector<solve::FeatureMeasurement>& features);
+
+class SolveError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+enum class DeltaMethod { fit, classic };
+struct DeltaSolveOptions {
+    std::string firmware;  // marlin | rrf | klipper; empty: the machine file's
+    DeltaMethod method = DeltaMethod::fit;
+    solve::DeltaFitLimits limits;
+};
+
+// A solve's outcome (the result file, `calbox.delta-result/1`): the fit always runs (it reports
+// what the data determine); `after` is what is sent, from the fit or the classic bars.
+struct DeltaSolution {
+    DeltaMethod method = DeltaMethod::fit;
+    std::string firmware;
+    std::string machine_fingerprint;
+    solve::DeltaFitResult fit;
+    models::DeltaGeometry after;
+    std::vector<std::string> commands;  // the exact lines to send (Klipper: a printer.cfg section)
+    std::size_t classic_bars = 0;       // bars the classic method averaged
+};
+
+// The delta mode's solve, policy included: the measurements must be this machine's, the
+// firmware one calbox writes for, the correction within `options.limits`. Throws SolveError or
+// solve::FitError with one line; nothing is returned to send.
+DeltaSolution solve_delta(const models::MachineFile& machine,
+                          const DeltaMeasurementsRecord& measurements,
+                          const std::vector<solve::ProbePoint>& probe,
+                          const DeltaSolveOptions& options = {});
+
+std::string method_name(DeltaMethod method);
+DeltaMethod parse_method(const std::string& name);  // throws SolveError
 
 }  // namespace calbox::modes

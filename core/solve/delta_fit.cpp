@@ -2,6 +2,7 @@
 
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -16,19 +17,29 @@ using models::DeltaGeometry;
 constexpr double kPi = 3.14159265358979323846;
 
 // The geometry parameters, in gauge: rod, two rod trims (the third is minus their sum), radius,
-// two angle trims (likewise), two endstop offsets relative to tower C's, height.
+// two angle trims (likewise), two endstop offsets relative to tower C's, height. `step` changes
+// positions by about a tenth of a millimetre (columns of comparable size); beyond
+// `useful_uncertainty` (in the parameter's unit) a correction cannot use the estimate and the
+// parameter is held at the firmware's value.
+struct ParameterSpec {
+    const char* name;
+    double step;
+    double useful_uncertainty;
+};
 constexpr int kGeometry = 9;
-const char* const kNames[kGeometry] = {"diagonal_rod_mm",
-                                       "diagonal_rod_trim_mm[A]",
-                                       "diagonal_rod_trim_mm[B]",
-                                       "radius_mm",
-                                       "tower_angle_trim_deg[A]",
-                                       "tower_angle_trim_deg[B]",
-                                       "endstop_offset_mm[A]",
-                                       "endstop_offset_mm[B]",
-                                       "height_mm"};
-// Steps that change positions by about a tenth of a millimetre: columns of comparable size.
-const double kScale[kGeometry] = {0.1, 0.1, 0.1, 0.1, 0.05, 0.05, 0.1, 0.1, 0.1};
+constexpr int kHeight = 8;
+static_assert(kGeometry == static_cast<int>(kDeltaParameterCount));
+constexpr std::array<ParameterSpec, kGeometry> kParameters{{
+    {"diagonal_rod_mm", 0.1, 0.2},
+    {"diagonal_rod_trim_mm[A]", 0.1, 0.2},
+    {"diagonal_rod_trim_mm[B]", 0.1, 0.2},
+    {"radius_mm", 0.1, 0.2},
+    {"tower_angle_trim_deg[A]", 0.05, 0.1},
+    {"tower_angle_trim_deg[B]", 0.05, 0.1},
+    {"endstop_offset_mm[A]", 0.1, 0.2},
+    {"endstop_offset_mm[B]", 0.1, 0.2},
+    {"height_mm", 0.1, 0.2},
+}};
 
 using Vector = Eigen::VectorXd;
 
@@ -130,11 +141,12 @@ std::vector<geometry::Point3> judging_points(double radius_mm, double z_mm) {
 
 }  // namespace
 
-DeltaFitResult fit_delta(const models::MachineFile& machine,
-                         const std::vector<FeatureMeasurement>& features,
-                         const std::vector<ProbePoint>& probe, const DeltaFitLimits& limits) {
+namespace {
+
+void check_inputs(const models::MachineFile& machine,
+                  const std::vector<FeatureMeasurement>& features,
+                  const std::vector<ProbePoint>& probe) {
     if (!machine.delta) throw FitError("the machine file has no [delta] table");
-    const DeltaGeometry firmware = *machine.delta;
     constexpr std::size_t kMinimumFeatures = 12;
     if (features.size() < kMinimumFeatures) {
         throw FitError("too few features: " + std::to_string(features.size()) +
@@ -163,15 +175,31 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
         if (std::hypot(p.x_mm, p.y_mm) > machine.bed_radius_mm)
             throw FitError("a probe point lies off the bed");
     }
-    DeltaFitResult result;
+}
+
+std::vector<double> parameter_steps() {
+    std::vector<double> step;
+    for (const auto& p : kParameters) step.push_back(p.step);
+    return step;
+}
+
+}  // namespace
+
+DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
+                                      const std::vector<FeatureMeasurement>& features,
+                                      const std::vector<ProbePoint>& probe) {
+    check_inputs(machine, features, probe);
+    const DeltaGeometry firmware = *machine.delta;
+    DeltaEstimate result;
     result.used_probe = probe.size() >= 3;
     result.before = models::in_gauge(firmware);
+    result.expected_rms_mm = features.front().sigma_mm;
 
-    // Stage 1: the true geometry. Unknowns: geometry, then placement (rotation, x, y).
+    // Unknowns: geometry, then placement (rotation, x, y).
     const Vector fw = pack(firmware);
     Vector x0(kGeometry + 3);
     x0 << fw, 0, 0, 0;
-    std::vector<double> step(kScale, kScale + kGeometry);
+    std::vector<double> step = parameter_steps();
     step.insert(step.end(), {0.01, 0.1, 0.1});
     // First guess of the placement: commanded carried onto measured, rigidly.
     {
@@ -217,10 +245,7 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     // nozzle straight down) is held.
     std::vector<int> free;
     for (int i = 0; i < kGeometry + 3; ++i)
-        if (i != 8 || result.used_probe) free.push_back(i);
-    // A geometry parameter the data leave uncertain beyond this (in its own unit) cannot be
-    // corrected usefully: it is held at the firmware's value and the rest refitted.
-    const double kUsefulUncertainty[kGeometry] = {0.2, 0.2, 0.2, 0.2, 0.1, 0.1, 0.2, 0.2, 0.2};
+        if (i != kHeight || result.used_probe) free.push_back(i);
     Solution solution;
     Eigen::MatrixXd covariance;
     while (true) {
@@ -233,8 +258,8 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
         for (std::size_t k = 0; k < free.size(); ++k) {
             if (free[k] >= kGeometry) continue;  // the placement is never held
             const auto kk = static_cast<Eigen::Index>(k);
-            const double ratio =
-                std::sqrt(std::max(0.0, covariance(kk, kk))) / kUsefulUncertainty[free[k]];
+            const double ratio = std::sqrt(std::max(0.0, covariance(kk, kk))) /
+                                 kParameters[static_cast<std::size_t>(free[k])].useful_uncertainty;
             if (ratio > worst_ratio) worst_ratio = ratio, worst = static_cast<int>(k);
         }
         if (worst < 0) break;
@@ -249,18 +274,36 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     for (Eigen::Index i = 0; i < sv.size(); ++i) result.singular_values.push_back(sv[i]);
     result.condition_number =
         sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
+    // The normalised residual in the first feature's units.
     result.fit_rms_mm = std::sqrt(solution.cost / static_cast<double>(solution.jacobian.rows())) *
-                        features.front().sigma_mm;
+                        result.expected_rms_mm;
     result.estimate = geometry_of(solution.x);
-    result.placement_rotation_deg = solution.x[kGeometry] * 180 / kPi;
-    result.placement_translation_mm = {solution.x[kGeometry + 1], solution.x[kGeometry + 2]};
+    result.placement = {solution.x[kGeometry],
+                        {solution.x[kGeometry + 1], solution.x[kGeometry + 2]}};
+    for (int i = 0; i < kGeometry; ++i) {
+        const auto it = std::find(free.begin(), free.end(), i);
+        const bool held = it == free.end();
+        result.held[static_cast<std::size_t>(i)] = held;
+        if (!held) {
+            const auto k = static_cast<Eigen::Index>(it - free.begin());
+            result.uncertainty[static_cast<std::size_t>(i)] =
+                std::sqrt(std::max(0.0, covariance(k, k)));
+        }
+    }
+    return result;
+}
 
-    // Stage 2: the correction. With heights, make XY and the bed right. Without them, a bed the
-    // fit finds out of level by more than the camera's height resolution is made level too (its
-    // centre stays where the printer's zeroing put it); a bed already level within that is kept
-    // as the printer has it, so that a probe's levelling is not spoiled by a camera's estimate.
+DeltaCorrection design_delta_correction(const models::MachineFile& machine,
+                                        const DeltaEstimate& fitted) {
+    if (!machine.delta) throw FitError("the machine file has no [delta] table");
+    const DeltaGeometry firmware = *machine.delta;
+    // With heights, make XY and the bed right. Without them, a bed the fit finds out of level by
+    // more than the camera's height resolution is made level too (its centre stays where the
+    // printer's zeroing put it); a bed already level within that is kept as the printer has it,
+    // so that a probe's levelling is not spoiled by a camera's estimate.
+    DeltaCorrection result;
     const auto judge = judging_points(machine.bed_radius_mm * 0.95, 0.0);
-    const DeltaGeometry estimate = result.estimate;
+    const DeltaGeometry estimate = fitted.estimate;
     std::vector<double> z_now;
     z_now.reserve(judge.size());
     for (const auto& p : judge)
@@ -268,7 +311,7 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     const auto [lowest, highest] = std::minmax_element(z_now.begin(), z_now.end());
     result.predicted_height_range_now_mm = *highest - *lowest;
     constexpr double kLevelEnoughMm = 0.1;
-    result.levels_bed = result.used_probe || result.predicted_height_range_now_mm > kLevelEnoughMm;
+    result.levels_bed = fitted.used_probe || result.predicted_height_range_now_mm > kLevelEnoughMm;
     const auto correction_residuals = [&](const Vector& x) {
         const DeltaGeometry g = unpack(x);
         Vector r(static_cast<Eigen::Index>(3 * judge.size()));
@@ -286,7 +329,7 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     std::vector<int> all(kGeometry);
     for (int i = 0; i < kGeometry; ++i) all[static_cast<std::size_t>(i)] = i;
     const Solution correction =
-        levenberg_marquardt(correction_residuals, pack(estimate), all, step);
+        levenberg_marquardt(correction_residuals, pack(estimate), all, parameter_steps());
     result.after = unpack(correction.x);
     double sum = 0, worst = 0, change = 0;
     for (std::size_t i = 0; i < judge.size(); ++i) {
@@ -299,56 +342,72 @@ DeltaFitResult fit_delta(const models::MachineFile& machine,
     result.predicted_xy_rms_mm = std::sqrt(sum / static_cast<double>(judge.size()));
     result.predicted_xy_max_mm = worst;
     result.predicted_height_change_mm = change;
+    return result;
+}
 
-    const Vector before = pack(result.before), est = pack(result.estimate),
-                 after = pack(result.after);
+std::vector<ParameterReport> report_parameters(const DeltaEstimate& fitted,
+                                               const models::DeltaGeometry& after) {
+    const Vector before = pack(fitted.before), est = pack(fitted.estimate), sent = pack(after);
+    std::vector<ParameterReport> out;
     for (int i = 0; i < kGeometry; ++i) {
+        const auto k = static_cast<std::size_t>(i);
         ParameterReport p;
-        p.name = kNames[i];
+        p.name = kParameters[k].name;
         p.before = before[i];
         p.estimate = est[i];
-        p.after = after[i];
-        const auto it = std::find(free.begin(), free.end(), i);
-        p.held = it == free.end();
-        if (!p.held) {
-            const auto k = static_cast<Eigen::Index>(it - free.begin());
-            p.uncertainty = std::sqrt(std::max(0.0, covariance(k, k)));
-        }
-        result.parameters.push_back(p);
+        p.after = sent[i];
+        p.held = fitted.held[k];
+        p.uncertainty = fitted.uncertainty[k];
+        out.push_back(p);
     }
-    // fit_rms_mm is the normalised residual in the first feature's units.
-    const double expected_rms = features.front().sigma_mm;
-    if (result.fit_rms_mm > limits.max_residual_ratio * expected_rms) {
+    return out;
+}
+
+void check_residual(const DeltaEstimate& fitted, const DeltaFitLimits& limits) {
+    if (fitted.fit_rms_mm > limits.max_residual_ratio * fitted.expected_rms_mm) {
         char why[200];
         std::snprintf(why, sizeof why,
                       "refused: the measurements do not fit a delta printer's geometry (%.3f mm "
                       "RMS left, %.3f mm expected)",
-                      result.fit_rms_mm, expected_rms);
+                      fitted.fit_rms_mm, fitted.expected_rms_mm);
         throw FitError(why);
     }
-    // Bounds: a correction this large is a wrong measurement or a broken machine, not a trim.
-    const double radius_change =
-        std::abs(result.after.radius_mm - result.before.radius_mm) / result.before.radius_mm;
+}
+
+void check_correction_bounds(const models::DeltaGeometry& before,
+                             const models::DeltaGeometry& after, const DeltaFitLimits& limits) {
+    // A correction this large is a wrong measurement or a broken machine, not a trim.
+    const double radius_change = std::abs(after.radius_mm - before.radius_mm) / before.radius_mm;
     if (radius_change > limits.max_radius_change_fraction) {
         throw FitError("refused: the radius would change by " +
                        std::to_string(100 * radius_change) + " %, over the limit of " +
                        std::to_string(100 * limits.max_radius_change_fraction) + " %");
     }
     const double rod_change =
-        std::abs(result.after.diagonal_rod_mm - result.before.diagonal_rod_mm) /
-        result.before.diagonal_rod_mm;
+        std::abs(after.diagonal_rod_mm - before.diagonal_rod_mm) / before.diagonal_rod_mm;
     if (rod_change > limits.max_rod_change_fraction) {
         throw FitError("refused: the rod length would change by " +
                        std::to_string(100 * rod_change) + " %, over the limit of " +
                        std::to_string(100 * limits.max_rod_change_fraction) + " %");
     }
-    for (double a : result.after.tower_angle_trim_deg) {
+    for (double a : after.tower_angle_trim_deg) {
         if (std::abs(a) > limits.max_angle_trim_deg) {
             throw FitError("refused: a tower angle trim of " + std::to_string(a) +
                            " degrees is over the limit of " +
                            std::to_string(limits.max_angle_trim_deg));
         }
     }
+}
+
+DeltaFitResult fit_delta(const models::MachineFile& machine,
+                         const std::vector<FeatureMeasurement>& features,
+                         const std::vector<ProbePoint>& probe, const DeltaFitLimits& limits) {
+    DeltaFitResult result;
+    result.fitted = estimate_delta_geometry(machine, features, probe);
+    result.correction = design_delta_correction(machine, result.fitted);
+    result.parameters = report_parameters(result.fitted, result.correction.after);
+    check_residual(result.fitted, limits);
+    check_correction_bounds(result.fitted.before, result.correction.after, limits);
     return result;
 }
 

@@ -2,12 +2,15 @@
 // Fits a delta printer's geometry to where its features really landed (commanded vs measured
 // bed positions), with the artifact's placement on the bed as nuisance parameters, in the
 // gauges a camera imposes; then designs the correction to send.
+#include <array>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "core/geometry/types.hpp"
 #include "core/models/delta.hpp"
 #include "core/models/machine_file.hpp"
+#include "core/solve/placement.hpp"
 
 namespace calbox::solve {
 
@@ -33,8 +36,9 @@ struct ProbePoint {
     double sigma_mm = 0.01;
 };
 
+// One set of bounds for every correction the delta mode may send, whichever method made it.
 struct DeltaFitLimits {
-    double max_rod_change_fraction = 0.02;
+    double max_rod_change_fraction = 0.02;  // the fit's and the classic method's
     double max_angle_trim_deg = 3.0;
     double max_radius_change_fraction = 0.02;
     // The residual against the measurements' own uncertainty: beyond this the points are not a
@@ -51,23 +55,53 @@ struct ParameterReport {
     bool held = false;       // the data do not determine it
 };
 
-struct DeltaFitResult {
-    models::DeltaGeometry before, estimate, after;  // in gauge
-    std::vector<ParameterReport> parameters;
+constexpr std::size_t kDeltaParameterCount = 9;
+
+// Stage one: the printer's true geometry from where its features landed.
+struct DeltaEstimate {
+    models::DeltaGeometry before, estimate;  // in gauge
+    // Per parameter, in the order of the report: standard uncertainty (0 when held) and whether
+    // the data left it undetermined (held at the firmware's value).
+    std::array<double, kDeltaParameterCount> uncertainty{};
+    std::array<bool, kDeltaParameterCount> held{};
     std::vector<double> singular_values;  // of the weighted, scaled Jacobian
     double condition_number = 0;
-    double fit_rms_mm = 0;  // measured vs fitted, after the placement
-    double placement_rotation_deg = 0;
-    geometry::Point2 placement_translation_mm;
+    double fit_rms_mm = 0;       // measured vs fitted, after the placement
+    double expected_rms_mm = 0;  // what the measurements' own uncertainty leads to expect
+    RigidPlacement placement;    // the artifact on the bed: machine frame -> bed frame
+    bool used_probe = false;
+};
+
+// Stage two: the parameters to send, and what the fit predicts they leave.
+struct DeltaCorrection {
+    models::DeltaGeometry after;                              // in gauge
     double predicted_xy_rms_mm = 0, predicted_xy_max_mm = 0;  // over the printable area, after
     double predicted_height_change_mm = 0;     // largest change of the height map, after vs now
     double predicted_height_range_now_mm = 0;  // the bed's height range the fit sees now
     bool levels_bed = false;  // the correction levels the bed (else keeps its height map)
-    bool used_probe = false;
 };
 
-// Throws FitError for too few or bad points (NaN, off the bed) and for a correction beyond the
-// limits (nothing is returned to send).
+struct DeltaFitResult {
+    DeltaEstimate fitted;
+    DeltaCorrection correction;
+    std::vector<ParameterReport> parameters;
+};
+
+// Throws FitError for too few or bad points (NaN, off the bed); never refuses a large change.
+DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
+                                      const std::vector<FeatureMeasurement>& features,
+                                      const std::vector<ProbePoint>& probe);
+DeltaCorrection design_delta_correction(const models::MachineFile& machine,
+                                        const DeltaEstimate& fitted);
+std::vector<ParameterReport> report_parameters(const DeltaEstimate& fitted,
+                                               const models::DeltaGeometry& after);
+// Each throws FitError("refused: ...") naming the bound that was passed.
+void check_residual(const DeltaEstimate& fitted, const DeltaFitLimits& limits);
+void check_correction_bounds(const models::DeltaGeometry& before,
+                             const models::DeltaGeometry& after, const DeltaFitLimits& limits);
+
+// The three stages and the checks: throws FitError for bad input, and for measurements the
+// geometry cannot explain or a correction beyond the limits (nothing is returned to send).
 DeltaFitResult fit_delta(const models::MachineFile& machine,
                          const std::vector<FeatureMeasurement>& features,
                          const std::vector<ProbePoint>& probe, const DeltaFitLimits& limits = {});

@@ -11,7 +11,8 @@ bool is_blank(char c) {
     return c == ' ' || c == '\t' || c == '\r' || c == '\n';
 }
 
-// Removes comments; '(' comments end at ')', ';' comments at the end of the line.
+}  // namespace
+
 std::string strip_comments(std::string_view raw) {
     std::string out;
     out.reserve(raw.size());
@@ -32,11 +33,24 @@ std::string strip_comments(std::string_view raw) {
     return out;
 }
 
+std::uint8_t checksum(std::string_view text) {
+    std::uint8_t sum = 0;
+    for (char c : text) sum ^= static_cast<std::uint8_t>(c);
+    return sum;
+}
+
+std::string numbered_line(long number, std::string_view command) {
+    std::string body = "N" + std::to_string(number) + " ";
+    body += command;
+    return body + "*" + std::to_string(checksum(body));
+}
+
+namespace {
+
 std::string_view verify_checksum(std::string_view line) {
     const auto star = line.find('*');
     if (star == std::string_view::npos) return line;
-    std::uint8_t sum = 0;
-    for (char c : line.substr(0, star)) sum ^= static_cast<std::uint8_t>(c);
+    const std::uint8_t sum = checksum(line.substr(0, star));
     auto digits = line.substr(star + 1);
     while (!digits.empty() && is_blank(digits.back())) digits.remove_suffix(1);
     unsigned expected = 0;

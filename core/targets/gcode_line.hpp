@@ -1,6 +1,7 @@
 #pragma once
 // One line of G-code as RepRap-family firmware reads it: optional line number, one command,
 // its parameter words, an optional checksum, and comments in ';' or '(...)'.
+#include <cstdint>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -32,6 +33,14 @@ struct Line {
     bool has(char letter) const;
     std::optional<double> value(char letter) const;  // empty when absent or bare
 };
+
+// Removes comments ('(' to ')', ';' to the end of the line); throws SyntaxError for an unclosed
+// '('.
+std::string strip_comments(std::string_view raw);
+// The RepRap checksum: XOR of the bytes.
+std::uint8_t checksum(std::string_view text);
+// "N<number> <command>*<checksum>", as hosts send a line that the firmware must acknowledge.
+std::string numbered_line(long number, std::string_view command);
 
 // Throws SyntaxError naming what is wrong (bad number, checksum mismatch, stray text).
 Line parse_line(std::string_view raw);

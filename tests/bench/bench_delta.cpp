@@ -66,7 +66,7 @@ int main() {
                 seconds_since(start) / kRuns, kRuns, measured.features.size());
     start = std::chrono::steady_clock::now();
     const auto fit = solve::fit_delta(machine, measured.features, {});
-    std::printf("solve: %.3f s, fit RMS %.4f mm\n", seconds_since(start), fit.fit_rms_mm);
+    std::printf("solve: %.3f s, fit RMS %.4f mm\n", seconds_since(start), fit.fitted.fit_rms_mm);
     std::printf(
         "peak resident memory: %ld MB (%ld MB before measuring, the photo and the twin included)\n",
         peak_rss_mb(), before);

@@ -141,7 +141,7 @@ CycleFigures run_cycle(unsigned seed) {
         const auto& bar = target.bars[static_cast<std::size_t>(b.tower - 'A')];
         const double truth_mm = true_bar_length_mm(laid, bar, twin, target.top_height_mm);
         figures.bar_errors.push_back(b.measured_mm - truth_mm);
-        bars.push_back({b.commanded_start_mm, b.commanded_end_mm, b.measured_mm});
+        bars.push_back({b.commanded_from_mm, b.commanded_to_mm, b.measured_mm});
     }
 
     // One cycle: the fit's commands, then the classic method's, each on the printer as it was.
@@ -149,7 +149,7 @@ CycleFigures run_cycle(unsigned seed) {
     sim::DeltaTwin fixed(truth, sim::DeltaParams{});
     fixed.zero_height_at_centre();
     const double printable = machine.bed_radius_mm;
-    const auto after = sim::judge_delta(fixed, models::marlin_commands(fit.after), printable);
+    const auto after = sim::judge_delta(fixed, models::marlin_commands(fit.correction.after), printable);
     figures.fit_xy_rms = after.xy_rms;
     figures.fit_xy_max = after.xy_max;
     figures.range_before = after.height_range_before;

@@ -237,7 +237,7 @@ TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and
         }
         sim::DeltaTwin fresh(c.truth, c.firmware);
         const sim::DeltaJudgement after =
-            sim::judge_delta(fresh, models::marlin_commands(result.after));
+            sim::judge_delta(fresh, models::marlin_commands(result.correction.after));
         before_sum += after.xy_rms_before;
         worst_rms = std::max(worst_rms, after.xy_rms);
         worst_max = std::max(worst_max, after.xy_max);
@@ -299,13 +299,13 @@ TEST(DeltaFit, with_probed_heights_an_unlevelled_printer_is_corrected_in_xy_and_
             probe.push_back({r * std::cos(a), r * std::sin(a), at.z, 0.005});
         }
         const auto result = solve::fit_delta(c.machine, c.features, probe);
-        CHECK(result.used_probe);
+        CHECK(result.fitted.used_probe);
         CHECK_FALSE(result.parameters[8].held);  // the height is measured now
         const sim::DeltaJudgement before = sim::judge_delta(twin, {});
         sim::DeltaTwin fixed(c.truth, sim::DeltaParams{});
         fixed.zero_height_at_centre();
         const sim::DeltaJudgement after =
-            sim::judge_delta(fixed, models::marlin_commands(result.after));
+            sim::judge_delta(fixed, models::marlin_commands(result.correction.after));
         // Judge the height map after: the nozzle's height over the bed at commanded z = 0.
         fixed.home();
         double lowest = 1e9, highest = -1e9;

@@ -127,15 +127,15 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     // what is left is measurement noise, and the geometry comes out as the twin's truth.
     const auto fit = solve::fit_delta(machine, measured.features, {});
     const models::DeltaGeometry t = models::in_gauge(sim::machine_settings(truth));
-    UT_PRINT(("fit on the photo: residual " + std::to_string(fit.fit_rms_mm) + " mm RMS; rod " +
-              std::to_string(fit.estimate.diagonal_rod_mm) + " (true " +
+    UT_PRINT(("fit on the photo: residual " + std::to_string(fit.fitted.fit_rms_mm) + " mm RMS; rod " +
+              std::to_string(fit.fitted.estimate.diagonal_rod_mm) + " (true " +
               std::to_string(t.diagonal_rod_mm) + "), radius " +
-              std::to_string(fit.estimate.radius_mm) + " (true " + std::to_string(t.radius_mm) +
+              std::to_string(fit.fitted.estimate.radius_mm) + " (true " + std::to_string(t.radius_mm) +
               ")")
                  .c_str());
-    CHECK_TEXT(fit.fit_rms_mm < 0.01, ("fit residual " + std::to_string(fit.fit_rms_mm)).c_str());
-    DOUBLES_EQUAL(t.diagonal_rod_mm, fit.estimate.diagonal_rod_mm, 0.1);
-    DOUBLES_EQUAL(t.radius_mm, fit.estimate.radius_mm, 0.1);
+    CHECK_TEXT(fit.fitted.fit_rms_mm < 0.01, ("fit residual " + std::to_string(fit.fitted.fit_rms_mm)).c_str());
+    DOUBLES_EQUAL(t.diagonal_rod_mm, fit.fitted.estimate.diagonal_rod_mm, 0.1);
+    DOUBLES_EQUAL(t.radius_mm, fit.fitted.estimate.radius_mm, 0.1);
 }
 
 TEST(DeltaMeasure, photos_that_cannot_be_measured_say_why) {

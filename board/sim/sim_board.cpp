@@ -1,0 +1,405 @@
+#include "board/sim/sim_board.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+#include <opencv2/imgcodecs.hpp>
+#include <stdexcept>
+
+#include "core/targets/gcode_line.hpp"
+#include "drivers/termios_port.hpp"
+
+namespace calbox::sim {
+namespace {
+
+void signal_fd(int fd) {
+    const std::uint64_t one = 1;
+    while (::write(fd, &one, sizeof one) < 0 && errno == EINTR) {
+    }
+}
+
+std::uint64_t drain_fd(int fd) {
+    std::uint64_t count = 0;
+    if (::read(fd, &count, sizeof count) != sizeof count) return 0;
+    return count;
+}
+
+int make_eventfd() {
+    const int fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (fd < 0) throw std::runtime_error(std::string("eventfd: ") + std::strerror(errno));
+    return fd;
+}
+
+// A person holding the calibration board in front of the camera: tilted up to 30 degrees,
+// turned, at distances where it fills about half to three quarters of the frame's width, the
+// whole board in view. Seeded, so every run asks for the same views.
+std::vector<Pose> calibration_poses(const CameraIntrinsics& camera, int count) {
+    const double board_w = 240, board_h = 180;  // 11x8 inner corners of 20 mm, with the margin
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> tilt(-30, 30), shift(-1, 1), fill(0.5, 0.75),
+        spin(-20, 20);
+    std::vector<Pose> poses;
+    for (int attempt = 0; attempt < 10000 && static_cast<int>(poses.size()) < count; ++attempt) {
+        Pose pose;
+        pose.rotation =
+            rotation_from_vector(Vec3{radians(tilt(rng)), radians(tilt(rng)), radians(spin(rng))});
+        const Vec3 centre = pose.rotation * Vec3{100, 70, 0};
+        const double z = camera.fx * board_w / (fill(rng) * camera.width_px);
+        const double free_x = 0.5 * camera.width_px / camera.fx * z - board_w / 2;
+        const double free_y = 0.5 * camera.height_px / camera.fy * z - board_h / 2;
+        pose.translation_mm =
+            Vec3{shift(rng) * std::max(0.0, free_x), shift(rng) * std::max(0.0, free_y), z} -
+            centre;
+        bool inside = true;
+        for (const auto& corner :
+             {Vec3{-30, -30, 0}, Vec3{230, -30, 0}, Vec3{-30, 170, 0}, Vec3{230, 170, 0}}) {
+            const Vec2 px = project_point(camera, pose, corner);
+            inside = inside && px.x > 5 && px.y > 5 && px.x < camera.width_px - 5 &&
+                     px.y < camera.height_px - 5;
+        }
+        if (inside) poses.push_back(pose);
+    }
+    if (static_cast<int>(poses.size()) < count)
+        throw ScenarioError("the calibration board does not fit this camera's view");
+    return poses;
+}
+
+}  // namespace
+
+TwinBench::TwinBench(Scenario scenario) : scenario_(std::move(scenario)) {
+    if (!scenario_.camera) throw ScenarioError(scenario_.path + ": the sim board needs a [camera]");
+    machine_ = make_machine_twin(scenario_);
+    runner_ = std::make_unique<GcodeRunner>(*machine_, tool_settings_of(scenario_));
+}
+
+std::vector<std::string> TwinBench::run_printer_line(std::string_view line) {
+    const std::lock_guard lock(mutex_);
+    const std::size_t replies_before = runner_->result().replies.size();
+    runner_->run_line(line);
+    // The settings commands' own "ok" is the link's business: the printer link adds one per line.
+    const auto& replies = runner_->result().replies;
+    std::vector<std::string> out;
+    for (std::size_t i = replies_before; i < replies.size(); ++i)
+        if (replies[i] != "ok") out.push_back(replies[i]);
+    return out;
+}
+
+void TwinBench::reset_printer() {
+    const std::lock_guard lock(mutex_);
+    const auto& strokes = runner_->result().strokes;
+    for (std::size_t i = strokes_cleared_; i < strokes.size(); ++i)
+        earlier_runs_.push_back({strokes[i].a_mm, strokes[i].b_mm, strokes[i].width_mm});
+    // The settings the firmware stored survive; what it held in RAM and its homing do not.
+    if (auto* delta = dynamic_cast<DeltaTwin*>(machine_.get())) {
+        auto fresh = std::make_unique<DeltaTwin>(scenario_.delta_truth, delta->stored_firmware());
+        machine_ = std::move(fresh);
+    } else {
+        machine_ = make_machine_twin(scenario_);
+    }
+    runner_ = std::make_unique<GcodeRunner>(*machine_, tool_settings_of(scenario_));
+    strokes_cleared_ = 0;
+}
+
+GrayImage TwinBench::photograph(std::uint64_t frame) const {
+    std::vector<StrokeSegment> strokes;
+    std::optional<Board> board;
+    {
+        const std::lock_guard lock(mutex_);
+        board = board_;
+        strokes = earlier_runs_;
+        const auto& laid = runner_->result().strokes;
+        for (std::size_t i = strokes_cleared_; i < laid.size(); ++i)
+            strokes.push_back({laid[i].a_mm, laid[i].b_mm, laid[i].width_mm});
+    }
+    const auto& camera = *scenario_.camera;
+    PhotoSettings photo = scenario_.photo;
+    photo.seed = scenario_.photo.seed + 7919 * frame;
+    if (board) {
+        const BoardScene scene(geometry::parse_pattern_spec(board->spec), photo.supersample);
+        return render_photo(camera.intrinsics, board->board_to_camera, scene, photo);
+    }
+    const Pose bed_to_camera = look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
+    const StrokeScene scene(carried_by_bed(std::move(strokes), bed_growth_at_photo(scenario_)),
+                            scenario_.bed_albedo, scenario_.material_albedo, photo.supersample);
+    return render_photo(camera.intrinsics, bed_to_camera, scene, photo);
+}
+
+void TwinBench::hold_calibration_board(int view) {
+    const auto poses = calibration_poses(scenario_.camera->intrinsics, kCalibrationViews);
+    if (view < 0 || view >= kCalibrationViews)
+        throw std::out_of_range("calibration view " + std::to_string(view));
+    const std::lock_guard lock(mutex_);
+    board_ = Board{kCalibrationBoard, poses[static_cast<std::size_t>(view)]};
+}
+
+void TwinBench::lay_plane_board_on_bed() {
+    const auto& camera = *scenario_.camera;
+    const Pose bed_to_camera = look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
+    const std::lock_guard lock(mutex_);
+    board_ = Board{kPlaneBoard, compose(bed_to_camera, board_lying_on_bed({-80, 50, 0}, 0))};
+}
+
+void TwinBench::take_board_away() {
+    const std::lock_guard lock(mutex_);
+    board_.reset();
+}
+
+void TwinBench::clear_bed() {
+    const std::lock_guard lock(mutex_);
+    strokes_cleared_ = runner_->result().strokes.size();
+    earlier_runs_.clear();
+}
+
+DeltaJudgement TwinBench::judge_delta_printer() const {
+    const std::lock_guard lock(mutex_);
+    const auto* delta = dynamic_cast<const DeltaTwin*>(machine_.get());
+    if (delta == nullptr) throw ScenarioError("the judge judges delta printers");
+    DeltaTwin copy = *delta;
+    return judge_delta(copy, {}, scenario_.machine.bed_radius_mm);
+}
+
+TwinPrinterLink::TwinPrinterLink(std::shared_ptr<TwinBench> bench)
+    : bench_(std::move(bench)), noise_(bench_->scenario().photo.seed * 31 + 17) {
+    master_fd_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+    if (master_fd_ < 0 || ::grantpt(master_fd_) != 0 || ::unlockpt(master_fd_) != 0)
+        throw std::runtime_error(std::string("cannot make a pseudo-terminal: ") +
+                                 std::strerror(errno));
+    device_path_ = ::ptsname(master_fd_);
+    ::fcntl(master_fd_, F_SETFL, ::fcntl(master_fd_, F_GETFL) | O_NONBLOCK);
+    thread_ = std::thread([this] { serve(); });
+}
+
+TwinPrinterLink::~TwinPrinterLink() {
+    stop_ = true;
+    if (thread_.joinable()) thread_.join();
+    ::close(master_fd_);
+}
+
+void TwinPrinterLink::serve() {
+    std::string incoming;
+    std::string outgoing = "start\necho:Marlin 2.1.2 (calbox twin)\n";
+    char buffer[4096];
+    while (!stop_) {
+        pollfd p{master_fd_, static_cast<short>(POLLIN | (outgoing.empty() ? 0 : POLLOUT)), 0};
+        const int ready = ::poll(&p, 1, 20);
+        if (ready <= 0) continue;
+        if ((p.revents & POLLHUP) != 0 && (p.revents & POLLIN) == 0) {
+            // Nobody holds the other end yet (or any more): wait for the box to open it.
+            ::usleep(10000);
+            continue;
+        }
+        if ((p.revents & POLLIN) != 0) {
+            const ssize_t n = ::read(master_fd_, buffer, sizeof buffer);
+            if (n > 0) incoming.append(buffer, static_cast<std::size_t>(n));
+        }
+        std::size_t end;
+        while ((end = incoming.find('\n')) != std::string::npos) {
+            std::string line = incoming.substr(0, end);
+            incoming.erase(0, end + 1);
+            if (!line.empty() && line.back() == '\r') line.pop_back();
+            if (line.empty()) continue;
+            for (const auto& reply : answer(std::move(line))) outgoing += reply + "\n";
+        }
+        while (!outgoing.empty()) {
+            const ssize_t n = ::write(master_fd_, outgoing.data(), outgoing.size());
+            if (n <= 0) break;
+            outgoing.erase(0, static_cast<std::size_t>(n));
+        }
+    }
+}
+
+std::vector<std::string> TwinPrinterLink::answer(std::string line) {
+    const auto& faults = bench_->scenario().faults;
+    const std::size_t count = ++lines_received_;
+    if (halted_) return {};
+    if (faults.silent_after_lines > 0 &&
+        count > static_cast<std::size_t>(faults.silent_after_lines))
+        return {};
+    if (faults.reset_at_line > 0 && count == static_cast<std::size_t>(faults.reset_at_line)) {
+        bench_->reset_printer();
+        last_line_ = 0;
+        return {"start", "echo:Marlin 2.1.2 (calbox twin)"};
+    }
+    // Line noise: one bit of the command flipped in transit; the checksum catches it.
+    const std::size_t star = line.find('*');
+    const std::size_t space = line.find(' ');
+    if (faults.line_noise > 0 && star != std::string::npos && space != std::string::npos &&
+        space + 1 < star &&
+        std::uniform_real_distribution<double>(0, 1)(noise_) < faults.line_noise) {
+        const std::size_t at = space + 1 + noise_() % (star - space - 1);
+        line[at] = static_cast<char>(line[at] ^ (1 << (noise_() % 7)));
+    }
+    const auto resend = [&](const std::string& why) {
+        return std::vector<std::string>{
+            "Error:" + why + ", Last Line: " + std::to_string(last_line_),
+            "Resend: " + std::to_string(last_line_ + 1), "ok"};
+    };
+    if (!line.empty() && line[0] == 'N') {
+        if (star == std::string::npos) return resend("No Checksum with line number");
+        const std::string body = line.substr(0, star);
+        const long n = std::strtol(line.c_str() + 1, nullptr, 10);
+        if (std::to_string(gcode::checksum(body)) != line.substr(star + 1))
+            return resend("checksum mismatch");
+        if (body.find("M110") != std::string::npos) {
+            last_line_ = n;
+            return {"ok"};
+        }
+        if (n != last_line_ + 1) return resend("Line Number is not Last Line Number+1");
+        last_line_ = n;
+    }
+    if (faults.error_at_line > 0 && count == static_cast<std::size_t>(faults.error_at_line)) {
+        halted_ = true;
+        return {"Error:Printer halted. kill() called!"};
+    }
+    std::vector<std::string> replies;
+    try {
+        replies = bench_->run_printer_line(line);
+    } catch (const std::exception& e) {
+        return {std::string("Error:") + e.what(), "ok"};
+    }
+    replies.emplace_back("ok");
+    return replies;
+}
+
+TwinCamera::TwinCamera(std::shared_ptr<TwinBench> bench)
+    : bench_(std::move(bench)), event_fd_(make_eventfd()) {}
+
+TwinCamera::~TwinCamera() {
+    if (thread_.joinable()) thread_.join();
+    ::close(event_fd_);
+}
+
+void TwinCamera::start_capture(const hal::CaptureRequest& request) {
+    {
+        const std::lock_guard lock(mutex_);
+        if (running_) throw std::logic_error("a capture is already running");
+        running_ = true;
+        result_.reset();
+    }
+    if (thread_.joinable()) thread_.join();
+    const int capture = ++captures_;
+    const bool fail = bench_->scenario().faults.camera_fails_at_capture == capture;
+    const std::uint64_t first_frame = frames_taken_;
+    frames_taken_ += static_cast<std::uint64_t>(std::max(1, request.frame_count));
+    thread_ = std::thread([this, request, fail, first_frame] {
+        hal::CaptureResult result;
+        try {
+            for (int k = 0; k < std::max(1, request.frame_count); ++k) {
+                if (fail && k == request.frame_count / 2) {
+                    result.frames.clear();
+                    result.error = "camera: frame " + std::to_string(k + 1) + " of " +
+                                   std::to_string(request.frame_count) +
+                                   " never arrived (sensor timeout)";
+                    break;
+                }
+                const GrayImage image =
+                    bench_->photograph(first_frame + static_cast<std::uint64_t>(k));
+                hal::Frame frame;
+                frame.width_px = image.width_px;
+                frame.height_px = image.height_px;
+                frame.stride_bytes = image.width_px;
+                frame.pixels = image.pixels;
+                frame.metadata.sequence = first_frame + static_cast<std::uint64_t>(k);
+                result.frames.push_back(std::move(frame));
+            }
+        } catch (const std::exception& e) {
+            result.frames.clear();
+            result.error = std::string("camera: ") + e.what();
+        }
+        {
+            const std::lock_guard lock(mutex_);
+            result_ = std::move(result);
+            running_ = false;
+        }
+        signal_fd(event_fd_);
+    });
+}
+
+hal::CaptureResult TwinCamera::take_frames() {
+    drain_fd(event_fd_);
+    const std::lock_guard lock(mutex_);
+    if (!result_) return hal::CaptureResult{{}, "camera: no capture has finished"};
+    auto result = std::move(*result_);
+    result_.reset();
+    return result;
+}
+
+SimLines::SimLines(hal::Clock& clock, Log log)
+    : clock_(clock), log_(std::move(log)), event_fd_(make_eventfd()) {}
+
+SimLines::~SimLines() {
+    ::close(event_fd_);
+}
+
+std::optional<hal::ButtonEvent> SimLines::read_button() {
+    const std::lock_guard lock(mutex_);
+    if (pending_.empty()) {
+        drain_fd(event_fd_);
+        return std::nullopt;
+    }
+    const auto event = pending_.front();
+    pending_.erase(pending_.begin());
+    if (pending_.empty()) drain_fd(event_fd_);
+    return event;
+}
+
+void SimLines::press(std::chrono::milliseconds held) {
+    const auto now = clock_.now();
+    {
+        const std::lock_guard lock(mutex_);
+        pending_.push_back({true, now});
+        pending_.push_back({false, now + held});
+    }
+    signal_fd(event_fd_);
+}
+
+void SimLines::set_led(hal::Led which, bool on) {
+    auto& led = leds_[static_cast<std::size_t>(which)];
+    if (led == on) return;
+    led = on;
+}
+
+void SimLines::set_light(bool on) {
+    if (light_ == on) return;
+    light_ = on;
+    log_(std::string("light ") + (on ? "on" : "off"));
+}
+
+PngDisplay::PngDisplay(std::filesystem::path directory) : directory_(std::move(directory)) {
+    std::filesystem::create_directories(directory_);
+}
+
+void PngDisplay::show(const hal::MonoBitmap& frame) {
+    if (frame.width_px() != width_px() || frame.height_px() != height_px())
+        throw std::invalid_argument("display: frame is not 128x64");
+    cv::Mat image(frame.height_px(), frame.width_px(), CV_8UC1);
+    for (int y = 0; y < frame.height_px(); ++y)
+        for (int x = 0; x < frame.width_px(); ++x)
+            image.at<std::uint8_t>(y, x) = frame.at(x, y) ? 255 : 0;
+    char name[32];
+    std::snprintf(name, sizeof name, "%04d.png", ++frames_);
+    const auto path = directory_ / name;
+    if (!cv::imwrite(path.string(), image))
+        throw std::runtime_error("display: cannot write " + path.string());
+}
+
+SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines::Log log) {
+    SimBoard board;
+    board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path));
+    if (!board.bench->scenario().machine.is_delta())
+        throw ScenarioError(settings.scenario_path + ": the sim board runs delta printers today");
+    board.printer = std::make_unique<TwinPrinterLink>(board.bench);
+    board.camera = std::make_unique<TwinCamera>(board.bench);
+    board.lines = std::make_unique<SimLines>(clock, std::move(log));
+    board.machine =
+        std::make_unique<drivers::TermiosPort>(board.printer->device_path(), settings.baud);
+    board.display = std::make_unique<PngDisplay>(settings.data_dir / "display");
+    return board;
+}
+
+}  // namespace calbox::sim

@@ -1,0 +1,183 @@
+#pragma once
+// The sim board: hal devices bound to the digital twin. The printer answers G-code behind a
+// pseudo-terminal (so the real termios driver and the host protocol run), the camera renders
+// what the printer laid down or the board a person holds, the lines and LEDs are events, the
+// display writes PNG files. The box's side sees only these devices; the judge alone reads the
+// twin's truth.
+#include <atomic>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "board/sim/delta_judge.hpp"
+#include "board/sim/scenario.hpp"
+#include "hal/camera.hpp"
+#include "hal/clock.hpp"
+#include "hal/display.hpp"
+#include "hal/lines.hpp"
+#include "hal/serial_port.hpp"
+
+namespace calbox::sim {
+
+// What lies under and in front of the camera, and the printer that makes it: the one world the
+// sim board's devices and its operator share (thread-safe: the printer's link and the camera
+// run on threads of their own).
+class TwinBench {
+  public:
+    explicit TwinBench(Scenario scenario);
+    const Scenario& scenario() const { return scenario_; }
+
+    // The printer executes one line it received; returns what it reports (M503), throws
+    // JobError for a line it refuses.
+    std::vector<std::string> run_printer_line(std::string_view line);
+    void reset_printer();  // a power cycle or watchdog reset: unhomed, job state gone
+
+    // What the camera sees now: the printed material, or a board, rendered with the scenario's
+    // camera and photo settings; `frame` varies the sensor noise.
+    GrayImage photograph(std::uint64_t frame) const;
+
+    // The operator's hands.
+    static constexpr int kCalibrationViews = 12;
+    static constexpr const char* kCalibrationBoard = "chessboard:11x8@20";
+    static constexpr const char* kPlaneBoard = "chessboard:9x6@20";
+    void hold_calibration_board(int view);  // 0 .. kCalibrationViews-1, in front of the camera
+    void lay_plane_board_on_bed();          // face up on the bed, clear of the printable area
+    void take_board_away();
+    void clear_bed();  // the printed material removed
+
+    // The judge, in the twin's truth (never called by the box's side): the delta printer as its
+    // firmware is set now, over the printable area.
+    DeltaJudgement judge_delta_printer() const;
+
+  private:
+    mutable std::mutex mutex_;
+    Scenario scenario_;
+    std::unique_ptr<MachineTwin> machine_;
+    std::unique_ptr<GcodeRunner> runner_;
+    std::size_t strokes_cleared_ = 0;          // runner strokes before this index are off the bed
+    std::vector<StrokeSegment> earlier_runs_;  // material laid before the last reset
+    struct Board {
+        std::string spec;
+        Pose board_to_camera;
+    };
+    std::optional<Board> board_;
+};
+
+// The printer end of a pseudo-terminal: a thread answering as Marlin does (line numbers and
+// checksums checked, Resend on a mismatch, ok per line, M503 reports), with the scenario's
+// faults injected.
+class TwinPrinterLink {
+  public:
+    explicit TwinPrinterLink(std::shared_ptr<TwinBench> bench);
+    TwinPrinterLink(const TwinPrinterLink&) = delete;
+    TwinPrinterLink& operator=(const TwinPrinterLink&) = delete;
+    ~TwinPrinterLink();  // stops the thread and closes the master (the box sees a hang-up)
+    const std::string& device_path() const { return device_path_; }
+    std::size_t lines_received() const { return lines_received_; }
+
+  private:
+    void serve();
+    std::vector<std::string> answer(std::string line);
+    std::shared_ptr<TwinBench> bench_;
+    int master_fd_ = -1;
+    std::string device_path_;
+    std::atomic<bool> stop_{false};
+    std::atomic<std::size_t> lines_received_{0};
+    long last_line_ = 0;
+    bool halted_ = false;
+    std::mt19937_64 noise_;
+    std::thread thread_;
+};
+
+// Renders on a thread; completion on an eventfd.
+class TwinCamera final : public hal::Camera {
+  public:
+    explicit TwinCamera(std::shared_ptr<TwinBench> bench);
+    TwinCamera(const TwinCamera&) = delete;
+    TwinCamera& operator=(const TwinCamera&) = delete;
+    ~TwinCamera() override;
+    void start_capture(const hal::CaptureRequest& request) override;
+    int completion_fd() const override { return event_fd_; }
+    hal::CaptureResult take_frames() override;
+    int captures_started() const { return captures_; }
+
+  private:
+    std::shared_ptr<TwinBench> bench_;
+    int event_fd_ = -1;
+    std::thread thread_;
+    std::mutex mutex_;
+    std::optional<hal::CaptureResult> result_;
+    bool running_ = false;
+    int captures_ = 0;
+    std::uint64_t frames_taken_ = 0;
+};
+
+// The button pressed by whoever drives the sim (--auto, the console, a test); LEDs and the light
+// remembered and reported to `log`.
+class SimLines final : public hal::Lines {
+  public:
+    using Log = std::function<void(const std::string&)>;
+    SimLines(hal::Clock& clock, Log log);
+    SimLines(const SimLines&) = delete;
+    SimLines& operator=(const SimLines&) = delete;
+    ~SimLines() override;
+    int button_fd() const override { return event_fd_; }
+    std::optional<hal::ButtonEvent> read_button() override;
+    void set_led(hal::Led which, bool on) override;
+    void set_light(bool on) override;
+
+    void press(std::chrono::milliseconds held);  // a press and its release, `held` apart
+    bool led(hal::Led which) const { return leds_[static_cast<std::size_t>(which)]; }
+    bool light() const { return light_; }
+
+  private:
+    hal::Clock& clock_;
+    Log log_;
+    int event_fd_ = -1;
+    std::mutex mutex_;
+    std::vector<hal::ButtonEvent> pending_;
+    std::array<bool, 3> leds_{};
+    bool light_ = false;
+};
+
+// Each frame shown becomes display/NNNN.png under the data directory.
+class PngDisplay final : public hal::Display {
+  public:
+    explicit PngDisplay(std::filesystem::path directory);
+    int width_px() const override { return 128; }
+    int height_px() const override { return 64; }
+    void show(const hal::MonoBitmap& frame) override;
+    int frames_shown() const { return frames_; }
+
+  private:
+    std::filesystem::path directory_;
+    int frames_ = 0;
+};
+
+struct SimSettings {
+    std::string scenario_path;
+    std::filesystem::path data_dir;  // the display's PNGs go under it
+    int baud = 115200;
+};
+
+// The board's devices; the sim-only parts (the bench, the lines to press) stay reachable for
+// the operator and the judge.
+struct SimBoard {
+    std::shared_ptr<TwinBench> bench;
+    std::unique_ptr<TwinPrinterLink> printer;
+    std::unique_ptr<TwinCamera> camera;
+    std::unique_ptr<SimLines> lines;
+    std::unique_ptr<hal::SerialPort> machine;  // the box's end of the printer's pty
+    std::unique_ptr<PngDisplay> display;
+};
+
+// Throws ScenarioError for a scenario the sim board cannot run (no camera, not a delta).
+SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines::Log log);
+
+}  // namespace calbox::sim

@@ -1,0 +1,246 @@
+#include "core/modes/delta_records.hpp"
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace calbox::modes {
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kMeasurementsSchema = "calbox.measurements/1";
+constexpr const char* kResultSchema = "calbox.delta-result/1";
+
+// NaN is written as null; reading it back gives NaN, which the fit refuses with its reason.
+double number(const json& v) {
+    if (v.is_null()) return std::nan("");
+    return v.get<double>();
+}
+
+json geometry_json(const models::DeltaGeometry& g) {
+    return {{"diagonal_rod_mm", g.diagonal_rod_mm},
+            {"diagonal_rod_trim_mm", g.diagonal_rod_trim_mm},
+            {"radius_mm", g.radius_mm},
+            {"tower_angle_trim_deg", g.tower_angle_trim_deg},
+            {"endstop_offset_mm", g.endstop_offset_mm},
+            {"height_mm", g.height_mm}};
+}
+
+models::DeltaGeometry geometry_from(const json& j) {
+    models::DeltaGeometry g;
+    g.diagonal_rod_mm = j.at("diagonal_rod_mm").get<double>();
+    g.diagonal_rod_trim_mm = j.at("diagonal_rod_trim_mm").get<std::array<double, 3>>();
+    g.radius_mm = j.at("radius_mm").get<double>();
+    g.tower_angle_trim_deg = j.at("tower_angle_trim_deg").get<std::array<double, 3>>();
+    g.endstop_offset_mm = j.at("endstop_offset_mm").get<std::array<double, 3>>();
+    g.height_mm = j.at("height_mm").get<double>();
+    return g;
+}
+
+json parse_object(std::string_view text, const std::string& source, const char* schema,
+                  const char* what) {
+    json j;
+    try {
+        j = json::parse(text);
+    } catch (const json::exception& e) {
+        throw RecordError(source + ": malformed " + what + ": " + e.what());
+    }
+    if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
+        j["schema"].get<std::string>() != schema) {
+        throw RecordError(source + ": not a " + what + " file (schema " + schema + ")");
+    }
+    return j;
+}
+
+}  // namespace
+
+std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
+    json features = json::array();
+    for (const auto& f : r.features) {
+        features.push_back(
+            {{"id", f.id},
+             {"commanded_mm", {f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}},
+             {"measured_mm", {f.measured_mm.x, f.measured_mm.y}},
+             {"sigma_mm", f.sigma_mm},
+             {"seen_at_height_mm", f.seen_at_height_mm},
+             {"shift_per_height", {f.shift_per_height.x, f.shift_per_height.y}}});
+    }
+    json bars = json::array();
+    for (const auto& b : r.bars) {
+        bars.push_back({{"tower", std::string(1, b.tower)},
+                        {"commanded_from_mm", b.commanded_from_mm},
+                        {"commanded_to_mm", b.commanded_to_mm},
+                        {"commanded_mm", b.commanded_mm},
+                        {"measured_mm", b.measured_mm},
+                        {"sigma_mm", b.sigma_mm},
+                        {"surface_height_mm", b.surface_height_mm}});
+    }
+    const json j{{"schema", kMeasurementsSchema},
+                 {"machine_fingerprint", r.machine_fingerprint},
+                 {"target_fingerprint", r.target_fingerprint},
+                 {"photos", r.photos},
+                 {"bed_scale", r.bed_scale},
+                 {"heights_from_fit", r.heights_from_fit},
+                 {"features", features},
+                 {"bars", bars}};
+    return j.dump(1) + "\n";
+}
+
+DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std::string& source) {
+    const json j = parse_object(text, source, kMeasurementsSchema, "measurements");
+    DeltaMeasurementsRecord r;
+    try {
+        r.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
+        r.target_fingerprint = j.value("target_fingerprint", "");
+        if (j.contains("photos")) r.photos = j.at("photos").get<std::vector<std::string>>();
+        r.bed_scale = j.value("bed_scale", 1.0);
+        r.heights_from_fit = j.value("heights_from_fit", false);
+        for (const auto& f : j.at("features")) {
+            solve::FeatureMeasurement fm;
+            fm.id = f.value("id", "");
+            const auto& c = f.at("commanded_mm");
+            const auto& s = f.at("measured_mm");
+            fm.commanded_mm = {number(c.at(0)), number(c.at(1)), number(c.at(2))};
+            fm.measured_mm = {number(s.at(0)), number(s.at(1))};
+            fm.sigma_mm = number(f.at("sigma_mm"));
+            if (f.contains("seen_at_height_mm")) {
+                fm.seen_at_height_mm = number(f.at("seen_at_height_mm"));
+                fm.shift_per_height = {number(f.at("shift_per_height").at(0)),
+                                       number(f.at("shift_per_height").at(1))};
+            }
+            r.features.push_back(fm);
+        }
+        if (j.contains("bars")) {
+            for (const auto& b : j.at("bars")) {
+                BarLengthMeasurement bar;
+                const std::string tower = b.value("tower", "A");
+                if (tower.size() != 1) throw RecordError(source + ": a bar's tower is one letter");
+                bar.tower = tower[0];
+                bar.commanded_from_mm = b.value("commanded_from_mm", 0.0);
+                bar.commanded_to_mm = b.at("commanded_to_mm").get<double>();
+                bar.commanded_mm =
+                    b.value("commanded_mm", bar.commanded_to_mm - bar.commanded_from_mm);
+                bar.measured_mm = b.at("measured_mm").get<double>();
+                bar.sigma_mm = b.value("sigma_mm", 0.0);
+                bar.surface_height_mm = b.value("surface_height_mm", 0.0);
+                r.bars.push_back(bar);
+            }
+        }
+    } catch (const json::exception& e) {
+        throw RecordError(source + ": malformed measurements: " + e.what());
+    }
+    return r;
+}
+
+std::string result_to_json(const DeltaSolution& s) {
+    const auto& fitted = s.fit.fitted;
+    const auto& correction = s.fit.correction;
+    json uncertainty = json::object(), held = json::array();
+    for (const auto& p : s.fit.parameters) {
+        uncertainty[p.name] = p.held ? json(nullptr) : json(p.uncertainty);
+        if (p.held) held.push_back(p.name);
+    }
+    const bool fit = s.method == DeltaMethod::fit;
+    const json j{{"schema", kResultSchema},
+                 {"method", method_name(s.method)},
+                 {"firmware", s.firmware},
+                 {"machine_fingerprint", s.machine_fingerprint},
+                 {"parameters_before", geometry_json(fitted.before)},
+                 {"parameters_after", geometry_json(s.after)},
+                 {"estimate", geometry_json(fitted.estimate)},
+                 {"uncertainty", uncertainty},
+                 {"observability",
+                  {{"singular_values", fitted.singular_values},
+                   {"condition_number", fitted.condition_number},
+                   {"held", held}}},
+                 {"predicted_residual_mm",
+                  fit ? json{{"xy_rms", correction.predicted_xy_rms_mm},
+                             {"xy_max", correction.predicted_xy_max_mm},
+                             {"height_map_change_max", correction.predicted_height_change_mm},
+                             {"fit_rms", fitted.fit_rms_mm}}
+                      : json(nullptr)},
+                 {"placement",
+                  {{"rotation_deg", fitted.placement.angle_rad * 180 / 3.14159265358979323846},
+                   {"translation_mm",
+                    {fitted.placement.translation_mm.x, fitted.placement.translation_mm.y}}}},
+                 {"used_probe", fitted.used_probe},
+                 {"classic_bars", s.classic_bars},
+                 {"bed",
+                  {{"height_range_now_mm", correction.predicted_height_range_now_mm},
+                   {"levelled", fit && correction.levels_bed}}},
+                 {"commands", s.commands}};
+    return j.dump(1) + "\n";
+}
+
+DeltaSolution result_from_json(std::string_view text, const std::string& source) {
+    const json j = parse_object(text, source, kResultSchema, "delta result");
+    DeltaSolution s;
+    try {
+        s.method = parse_method(j.at("method").get<std::string>());
+        s.firmware = j.at("firmware").get<std::string>();
+        s.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
+        auto& fitted = s.fit.fitted;
+        auto& correction = s.fit.correction;
+        fitted.before = geometry_from(j.at("parameters_before"));
+        s.after = geometry_from(j.at("parameters_after"));
+        fitted.estimate = geometry_from(j.at("estimate"));
+        const auto& obs = j.at("observability");
+        fitted.singular_values = obs.at("singular_values").get<std::vector<double>>();
+        fitted.condition_number = obs.at("condition_number").get<double>();
+        if (const auto& p = j.at("predicted_residual_mm"); !p.is_null()) {
+            correction.predicted_xy_rms_mm = p.at("xy_rms").get<double>();
+            correction.predicted_xy_max_mm = p.at("xy_max").get<double>();
+            correction.predicted_height_change_mm = p.at("height_map_change_max").get<double>();
+            fitted.fit_rms_mm = p.at("fit_rms").get<double>();
+        }
+        fitted.placement.angle_rad =
+            j.at("placement").at("rotation_deg").get<double>() * 3.14159265358979323846 / 180;
+        const auto& t = j.at("placement").at("translation_mm");
+        fitted.placement.translation_mm = {t.at(0).get<double>(), t.at(1).get<double>()};
+        fitted.used_probe = j.at("used_probe").get<bool>();
+        s.classic_bars = j.value("classic_bars", std::size_t{0});
+        correction.predicted_height_range_now_mm =
+            j.at("bed").at("height_range_now_mm").get<double>();
+        correction.levels_bed = j.at("bed").at("levelled").get<bool>();
+        correction.after = s.method == DeltaMethod::fit ? s.after : fitted.before;
+        s.commands = j.at("commands").get<std::vector<std::string>>();
+        // The per-parameter report: uncertainties by name as written (null: held), values from
+        // the geometries.
+        const auto names = solve::report_parameters(fitted, s.after);
+        const auto& written = j.at("uncertainty");
+        for (std::size_t k = 0; k < names.size(); ++k) {
+            const auto& u = written.at(names[k].name);
+            fitted.held[k] = u.is_null();
+            fitted.uncertainty[k] = u.is_null() ? 0 : u.get<double>();
+        }
+        s.fit.parameters = solve::report_parameters(fitted, s.after);
+    } catch (const json::exception& e) {
+        throw RecordError(source + ": malformed delta result: " + e.what());
+    } catch (const SolveError& e) {
+        throw RecordError(source + ": " + e.what());
+    }
+    return s;
+}
+
+std::vector<solve::ProbePoint> probe_from_csv(std::string_view text, const std::string& source) {
+    std::vector<solve::ProbePoint> out;
+    std::istringstream in{std::string(text)};
+    std::string line;
+    int number_of_line = 0;
+    while (std::getline(in, line)) {
+        ++number_of_line;
+        if (line.empty() || line[0] == '#' || line[0] == 'x') continue;
+        double v[3];
+        char comma1 = 0, comma2 = 0;
+        std::istringstream fields(line);
+        if (!(fields >> v[0] >> comma1 >> v[1] >> comma2 >> v[2]) || comma1 != ',' ||
+            comma2 != ',') {
+            throw RecordError(source + ":" + std::to_string(number_of_line) + ": expected x,y,z");
+        }
+        out.push_back({v[0], v[1], v[2], 0.01});
+    }
+    return out;
+}
+
+}  // namespace calbox::modes

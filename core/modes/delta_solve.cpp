@@ -1,0 +1,90 @@
+// The delta mode's solve and what measure leaves for it, without the command line: the
+// appliance and `calbox solve` call these.
+#include <cmath>
+
+#include "core/models/delta_commands.hpp"
+#include "core/modes/delta.hpp"
+#include "core/solve/placement.hpp"
+
+namespace calbox::modes {
+
+DeltaMeasurementsRecord record_of(const DeltaMeasurement& measured,
+                                  const models::MachineFile& machine,
+                                  std::vector<std::string> photos) {
+    DeltaMeasurementsRecord r;
+    r.machine_fingerprint = models::fingerprint(machine);
+    r.target_fingerprint = measured.target.fingerprint;
+    r.photos = std::move(photos);
+    r.bed_scale = measured.bed_scale;
+    r.heights_from_fit = measured.heights_from_fit;
+    r.features = measured.features;
+    r.bars = measured.bars;
+    return r;
+}
+
+PlacementErrors placement_errors(const std::vector<solve::FeatureMeasurement>& features) {
+    PlacementErrors out;
+    if (features.size() < 2) return out;
+    std::vector<geometry::Point2> commanded, seen;
+    for (const auto& f : features)
+        commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}), seen.push_back(f.measured_mm);
+    out.placement = solve::best_rigid_placement(commanded, seen);
+    for (std::size_t i = 0; i < features.size(); ++i) {
+        const auto placed = out.placement.apply(commanded[i]);
+        out.error_mm.push_back({seen[i].x - placed.x, seen[i].y - placed.y});
+        out.largest_mm =
+            std::max(out.largest_mm, std::hypot(out.error_mm.back().x, out.error_mm.back().y));
+    }
+    return out;
+}
+
+std::string method_name(DeltaMethod method) {
+    return method == DeltaMethod::classic ? "classic" : "fit";
+}
+
+DeltaMethod parse_method(const std::string& name) {
+    if (name == "fit") return DeltaMethod::fit;
+    if (name == "classic") return DeltaMethod::classic;
+    throw SolveError("the method must be fit or classic, not '" + name + "'");
+}
+
+DeltaSolution solve_delta(const models::MachineFile& machine,
+                          const DeltaMeasurementsRecord& measurements,
+                          const std::vector<solve::ProbePoint>& probe,
+                          const DeltaSolveOptions& options) {
+    if (!machine.is_delta())
+        throw SolveError("the delta solve needs a delta machine, not a " + machine.kind);
+    DeltaSolution s;
+    s.method = options.method;
+    s.firmware = options.firmware.empty() ? machine.firmware : options.firmware;
+    if (s.firmware != "marlin" && s.firmware != "rrf" && s.firmware != "klipper") {
+        throw SolveError("the delta solve writes for marlin, rrf or klipper, not '" + s.firmware +
+                         "'");
+    }
+    s.machine_fingerprint = models::fingerprint(machine);
+    if (measurements.machine_fingerprint != s.machine_fingerprint) {
+        throw SolveError("the measurements were made for another machine (fingerprint " +
+                         measurements.machine_fingerprint + ", this machine is " +
+                         s.machine_fingerprint + ")");
+    }
+    if (s.method == DeltaMethod::fit) {
+        s.fit = solve::fit_delta(machine, measurements.features, probe, options.limits);
+        s.after = s.fit.correction.after;
+    } else {
+        // The fit still runs for its report (what the data determine), but sends nothing.
+        s.fit.fitted = solve::estimate_delta_geometry(machine, measurements.features, probe);
+        s.fit.correction = solve::design_delta_correction(machine, s.fit.fitted);
+        std::vector<solve::BarMeasurement> bars;
+        for (const auto& b : measurements.bars)
+            bars.push_back({b.commanded_from_mm, b.commanded_to_mm, b.measured_mm});
+        s.classic_bars = bars.size();
+        s.after = s.fit.fitted.before;
+        s.after.diagonal_rod_mm = solve::classic_rod_length_mm(*machine.delta, bars);
+        s.fit.parameters = solve::report_parameters(s.fit.fitted, s.after);
+        solve::check_correction_bounds(s.fit.fitted.before, s.after, options.limits);
+    }
+    s.commands = models::firmware_commands(s.firmware, s.after);
+    return s;
+}
+
+}  // namespace calbox::modes

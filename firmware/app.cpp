@@ -1,0 +1,263 @@
+// calbox run: the appliance. The composition root: reads the options, asks a board for its
+// devices, wires them to the event loop and the cycle. calbox revert: the last backup, sent.
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+
+#include "board/sim/sim_board.hpp"
+#include "drivers/file_storage.hpp"
+#include "drivers/timerfd_clock.hpp"
+#include "firmware/cli_args.hpp"
+#include "firmware/cycle.hpp"
+#include "firmware/event_loop.hpp"
+#include "firmware/gcode_host.hpp"
+
+#ifndef CALBOX_EXAMPLES_DIR
+#define CALBOX_EXAMPLES_DIR "examples"
+#endif
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kRunHelp = R"(usage:
+  calbox run [--board sim] [--scenario FILE] [--data DIR] [--auto] [--frames N]
+      The appliance: waits for the button, then runs the delta calibration cycle: the target
+      printed over the machine link, lit and photographed, measured, solved, shown for review
+      (short press applies, long press cancels), applied with a backup and a read-back, and
+      verified on a second print. The first time (no camera.yaml / plane.yaml in DIR) it first
+      asks for views of a chessboard (chessboard:11x8@20 held in front of the camera) and for
+      a chessboard (9x6@20) on the bed. Every state change is one line on standard error.
+      --board sim     the digital twin (the only board built today): --scenario FILE (default
+                      examples/delta_cycle.toml) is the printer, its hidden errors and the camera
+      --data DIR      set-up and cycle records (default $XDG_STATE_HOME/calbox, else
+                      ~/.local/state/calbox)
+      --auto          no person: the sim board's operator does what each prompt asks and
+                      presses the button; one cycle, then exit. Prints the twin's judgement
+                      before and after, and exits 0 only if the delta goal is met (XY RMS <= 0.01
+                      mm, worst <= 0.03 mm over the printable area).
+      --frames N      photos averaged per capture (default 1)
+      Standard input, when it is a terminal, takes: start, press, hold, cancel, status, quit.
+  calbox revert [--board sim] [--scenario FILE] --data DIR
+      Sends the settings backed up before the last applied cycle, then M500.
+)";
+
+std::filesystem::path default_data_dir() {
+    if (const char* state = std::getenv("XDG_STATE_HOME"); state != nullptr && *state != 0)
+        return std::filesystem::path(state) / "calbox";
+    if (const char* home = std::getenv("HOME"); home != nullptr && *home != 0)
+        return std::filesystem::path(home) / ".local" / "state" / "calbox";
+    throw std::runtime_error(
+        "no --data directory given and neither XDG_STATE_HOME nor HOME is set");
+}
+
+void log_line(const std::string& line) {
+    std::fprintf(stderr, "calbox: %s\n", line.c_str());
+}
+
+struct Common {
+    std::string scenario;
+    std::filesystem::path data_dir;
+};
+
+Common common_options(const Args& args) {
+    const std::string board = args.get("--board").value_or("sim");
+    if (board != "sim")
+        throw UsageError("board '" + board + "' is not built yet: only --board sim exists today");
+    Common c;
+    c.scenario = args.get("--scenario").value_or(CALBOX_EXAMPLES_DIR "/delta_cycle.toml");
+    c.data_dir =
+        args.get("--data") ? std::filesystem::path(*args.get("--data")) : default_data_dir();
+    std::error_code ec;
+    std::filesystem::create_directories(c.data_dir, ec);
+    if (ec) throw std::runtime_error(c.data_dir.string() + ": cannot create: " + ec.message());
+    return c;
+}
+
+// Runs one job on the loop until it ends; throws with the printer's reason.
+void run_job_now(firmware::EventLoop& loop, firmware::GcodeHost& host,
+                 std::vector<std::string> lines) {
+    std::optional<firmware::JobOutcome> outcome;
+    host.start_job(std::move(lines), [&](firmware::JobOutcome o) { outcome = std::move(o); });
+    while (!outcome) loop.run_once(std::chrono::milliseconds(200));
+    if (!outcome->ok) throw std::runtime_error("machine: " + outcome->error);
+}
+
+void watch_machine(firmware::EventLoop& loop, firmware::GcodeHost& host) {
+    loop.watch(host.port_fd(), [&loop, &host] {
+        host.on_readable();
+        if (!host.link_gone().empty()) loop.unwatch(host.port_fd());
+    });
+    loop.watch(host.timer_fd(), [&host] { host.on_timer(); });
+}
+
+int run(const std::vector<std::string>& words) {
+    const Args args(words, {"--board", "--scenario", "--data", "--frames"}, {"--auto"});
+    if (!args.positional().empty()) throw UsageError("run takes no positional argument");
+    const bool automatic = args.flag("--auto");
+    const int frames = static_cast<int>(args.number("--frames", 1));
+    if (frames < 1 || frames > 16) throw UsageError("--frames must be 1 to 16");
+    const Common common = common_options(args);
+
+    firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
+    drivers::TimerfdClock clock;
+    sim::SimBoard board =
+        sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log_line);
+    drivers::FileStorage data(common.data_dir);
+    firmware::EventLoop loop;
+    firmware::Worker worker(loop);
+    firmware::GcodeHost host(*board.machine, clock, {}, log_line);
+    firmware::CycleSettings settings;
+    settings.frames_per_capture = frames;
+    firmware::Cycle cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
+                          board.bench->scenario().machine, settings, log_line);
+
+    watch_machine(loop, host);
+    loop.watch(board.lines->button_fd(), [&] { cycle.on_button(); });
+    loop.watch(board.camera->completion_fd(), [&] { cycle.on_camera(); });
+    loop.watch(cycle.blink_fd(), [&] { cycle.on_blink(); });
+    int stopped_by = 0;
+    loop.watch(signals.fd(), [&] {
+        stopped_by = signals.take();
+        cycle.cancel("stopped by signal " + std::to_string(stopped_by));
+        loop.stop();
+    });
+    // A console on standard input when it is a terminal; /dev/null (as under CI) leaves it off.
+    const bool console = ::isatty(STDIN_FILENO) == 1;
+    if (console) {
+        loop.watch(STDIN_FILENO, [&] {
+            std::string line;
+            if (!std::getline(std::cin, line)) {
+                loop.unwatch(STDIN_FILENO);
+                return;
+            }
+            if (line == "start")
+                cycle.start();
+            else if (line == "press")
+                board.lines->press(std::chrono::milliseconds(100));
+            else if (line == "hold")
+                board.lines->press(std::chrono::milliseconds(2000));
+            else if (line == "cancel")
+                cycle.cancel("cancelled from the console");
+            else if (line == "status")
+                std::printf("%s%s%s\n", firmware::state_name(cycle.state()),
+                            cycle.prompt() == firmware::Prompt::none ? "" : ": ",
+                            firmware::prompt_text(cycle.prompt()));
+            else if (line == "quit")
+                loop.stop();
+            else if (!line.empty())
+                std::printf("commands: start, press, hold, cancel, status, quit\n");
+            std::fflush(stdout);
+        });
+    }
+
+    const auto before = board.bench->judge_delta_printer();
+    if (automatic) {
+        std::printf(
+            "before: XY rms %.4f mm, max %.4f mm (the twin's truth, over the printable area)\n",
+            before.xy_rms, before.xy_max);
+        std::fflush(stdout);
+        auto& bench = *board.bench;
+        auto& lines = *board.lines;
+        cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
+            switch (prompt) {
+                case firmware::Prompt::hold_calibration_board:
+                    bench.hold_calibration_board(step);
+                    break;
+                case firmware::Prompt::lay_plane_board:
+                    bench.lay_plane_board_on_bed();
+                    break;
+                case firmware::Prompt::clear_bed:
+                    bench.take_board_away();
+                    bench.clear_bed();
+                    break;
+                case firmware::Prompt::review:
+                    break;
+                default:
+                    return;  // start, acknowledge: the run ends with the cycle
+            }
+            lines.press(std::chrono::milliseconds(100));
+        };
+        cycle.on_cycle_end = [&](bool) { loop.stop(); };
+        lines.press(std::chrono::milliseconds(100));
+    } else if (!console) {
+        log_line("waiting for the button (no console: standard input is not a terminal)");
+    }
+    loop.run();
+    if (stopped_by != 0) {
+        log_line("stopped by signal " + std::to_string(stopped_by) +
+                 "; the machine link is closed");
+        return 1;
+    }
+    if (!automatic) return 0;
+    const auto after = board.bench->judge_delta_printer();
+    std::printf("after: XY rms %.4f mm, max %.4f mm\n", after.xy_rms, after.xy_max);
+    const auto& report = cycle.report();
+    std::printf("box: %.2f s of its own work (measure, solve%s), camera %.2f s, machine %.2f s\n",
+                report.box_seconds, report.number == 1 ? ", set-up" : "", report.camera_seconds,
+                report.machine_seconds);
+    if (cycle.cycles_completed() == 0)
+        throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
+                                                                       ? std::string("cancelled")
+                                                                       : cycle.error()));
+    constexpr double kGoalRmsMm = 0.01, kGoalWorstMm = 0.03;
+    if (after.xy_rms > kGoalRmsMm || after.xy_max > kGoalWorstMm) {
+        throw std::runtime_error("the delta goal is not met: XY after " +
+                                 std::to_string(after.xy_rms) + " mm RMS, " +
+                                 std::to_string(after.xy_max) + " mm worst (goal 0.01 and 0.03)");
+    }
+    return 0;
+}
+
+int revert(const std::vector<std::string>& words) {
+    const Args args(words, {"--board", "--scenario", "--data"}, {});
+    if (!args.positional().empty()) throw UsageError("revert takes no positional argument");
+    const Common common = common_options(args);
+    drivers::FileStorage data(common.data_dir);
+    const auto last = data.read_file("last-cycle");
+    if (!last) throw std::runtime_error(common.data_dir.string() + ": no cycle has run here");
+    char name[64];
+    std::snprintf(name, sizeof name, "cycle-%04d-backup.gcode", std::atoi(last->c_str()));
+    const auto backup = data.read_file(name);
+    if (!backup)
+        throw std::runtime_error(common.data_dir.string() +
+                                 ": the last cycle applied nothing (no " + name + ")");
+    std::vector<std::string> lines;
+    std::istringstream text(*backup);
+    for (std::string line; std::getline(text, line);)
+        if (!line.empty()) lines.push_back(line);
+    drivers::TimerfdClock clock;
+    sim::SimBoard board =
+        sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log_line);
+    firmware::EventLoop loop;
+    firmware::GcodeHost host(*board.machine, clock, {}, log_line);
+    watch_machine(loop, host);
+    run_job_now(loop, host, lines);
+    std::printf("reverted to %s:\n", name);
+    for (const auto& l : lines) std::printf("  %s\n", l.c_str());
+    return 0;
+}
+
+}  // namespace
+
+int run_appliance(const std::vector<std::string>& words) {
+    for (const auto& w : words)
+        if (w == "--help" || w == "-h") {
+            std::cout << kRunHelp;
+            return 0;
+        }
+    return run(words);
+}
+
+int run_revert(const std::vector<std::string>& words) {
+    for (const auto& w : words)
+        if (w == "--help" || w == "-h") {
+            std::cout << kRunHelp;
+            return 0;
+        }
+    return revert(words);
+}
+
+}  // namespace calbox::cli

@@ -1,0 +1,552 @@
+#include "firmware/cycle.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "core/geometry/calibration.hpp"
+#include "core/models/delta_commands.hpp"
+#include "core/modes/delta_records.hpp"
+#include "core/targets/delta_target.hpp"
+#include "core/targets/job.hpp"
+#include "firmware/screens.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+double seconds(std::chrono::nanoseconds d) {
+    return std::chrono::duration<double>(d).count();
+}
+
+std::string fixed(double v, int decimals) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.*f", decimals, v);
+    return b;
+}
+
+vision::GrayView view_of(const hal::Frame& f) {
+    return {f.pixels.data(), f.width_px, f.height_px, f.stride_bytes};
+}
+
+std::string record_name(int cycle, const char* what) {
+    char b[64];
+    std::snprintf(b, sizeof b, "cycle-%04d-%s", cycle, what);
+    return b;
+}
+
+// Part of a line for the display, empty past its end.
+std::string slice(const std::string& s, std::size_t from, std::size_t count) {
+    return from < s.size() ? s.substr(from, count) : std::string();
+}
+
+std::string joined(const std::vector<std::string>& lines) {
+    std::string out;
+    for (const auto& l : lines) out += l + "\n";
+    return out;
+}
+
+}  // namespace
+
+const char* state_name(CycleState s) {
+    switch (s) {
+        case CycleState::idle:
+            return "idle";
+        case CycleState::setup_camera:
+            return "setup-camera";
+        case CycleState::setup_plane:
+            return "setup-plane";
+        case CycleState::make_target:
+            return "make-target";
+        case CycleState::wait_machine:
+            return "wait-machine";
+        case CycleState::capture:
+            return "light+capture";
+        case CycleState::measure:
+            return "measure";
+        case CycleState::solve:
+            return "solve";
+        case CycleState::review:
+            return "review";
+        case CycleState::apply:
+            return "apply";
+        case CycleState::verify:
+            return "verify";
+        case CycleState::error:
+            return "error";
+    }
+    return "?";
+}
+
+const char* prompt_text(Prompt p) {
+    switch (p) {
+        case Prompt::none:
+            return "";
+        case Prompt::start:
+            return "press to calibrate";
+        case Prompt::hold_calibration_board:
+            return "hold the board in view, press";
+        case Prompt::lay_plane_board:
+            return "lay the board on the bed, press";
+        case Prompt::clear_bed:
+            return "clear the bed, press";
+        case Prompt::review:
+            return "press: apply, hold: cancel";
+        case Prompt::acknowledge_error:
+            return "press to acknowledge";
+    }
+    return "";
+}
+
+Cycle::Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings settings, Log log)
+    : d_(devices),
+      machine_(std::move(machine)),
+      settings_(std::move(settings)),
+      log_(std::move(log)),
+      blink_(d_.clock.make_timer()) {
+    if (!machine_.is_delta()) throw std::invalid_argument("the cycle runs the delta mode only");
+    blink_->arm(std::chrono::milliseconds(500), std::chrono::milliseconds(500));
+    set_leds();
+    show("calbox", {"idle", prompt_text(Prompt::start)});
+}
+
+Cycle::~Cycle() = default;
+
+void Cycle::enter(CycleState next, const std::string& detail) {
+    log_(std::string("cycle ") + std::to_string(report_.number) + ": " + state_name(state_) +
+         " -> " + state_name(next) + (detail.empty() ? "" : " (" + detail + ")"));
+    state_ = next;
+    prompt_ = next == CycleState::idle ? Prompt::start : Prompt::none;
+    after_press_ = nullptr;
+    set_leds();
+    show(state_name(next), {slice(detail, 0, 21), slice(detail, 21, 21), slice(detail, 42, 21)});
+    if (on_state) on_state(next);
+}
+
+// LEDs per state: ready steady in idle, busy blinking while working, busy steady while waiting
+// for a person, error steady in error.
+void Cycle::set_leds() {
+    const bool idle = state_ == CycleState::idle;
+    const bool error = state_ == CycleState::error;
+    const bool waiting = prompt_ != Prompt::none && !idle && !error;
+    d_.lines.set_led(hal::Led::ready, idle || waiting);
+    d_.lines.set_led(hal::Led::busy, !idle && !error && (waiting || blink_phase_));
+    d_.lines.set_led(hal::Led::error, error);
+}
+
+void Cycle::on_blink() {
+    if (blink_->take_expirations() == 0) return;
+    blink_phase_ = !blink_phase_;
+    set_leds();
+}
+
+void Cycle::show(const std::string& title, const std::vector<std::string>& lines) {
+    d_.display.show(text_screen(title, lines));
+}
+
+void Cycle::ask(Prompt prompt, int step, std::function<void()> then) {
+    prompt_ = prompt;
+    prompt_step_ = step;
+    after_press_ = std::move(then);
+    set_leds();
+    std::string what = prompt_text(prompt);
+    if (prompt == Prompt::hold_calibration_board)
+        what = "board view " + std::to_string(step + 1) + "/" +
+               std::to_string(settings_.calibration_views) + ": " + what;
+    log_("cycle " + std::to_string(report_.number) + ": waiting: " + what);
+    if (prompt != Prompt::review)
+        show(state_name(state_), {slice(what, 0, 21), slice(what, 21, 21), slice(what, 42, 21)});
+    if (on_prompt) on_prompt(prompt, step);
+}
+
+void Cycle::on_button() {
+    while (const auto event = d_.lines.read_button()) {
+        if (event->pressed) {
+            pressed_at_ = event->at;
+            continue;
+        }
+        if (!pressed_at_) continue;  // a release without its press (the box started held)
+        const bool long_press = event->at - *pressed_at_ >= settings_.long_press;
+        pressed_at_.reset();
+        press(long_press);
+    }
+}
+
+void Cycle::press(bool long_press) {
+    if (state_ == CycleState::idle) {
+        if (!long_press) start();
+        return;
+    }
+    if (state_ == CycleState::error) {
+        acknowledge();
+        return;
+    }
+    if (long_press) {
+        cancel("cancelled by a long press");
+        return;
+    }
+    if (prompt_ != Prompt::none && after_press_) {
+        auto then = std::move(after_press_);
+        after_press_ = nullptr;
+        prompt_ = Prompt::none;
+        set_leds();
+        then();
+    }
+}
+
+void Cycle::start() {
+    if (state_ != CycleState::idle) return;
+    begin_cycle();
+}
+
+void Cycle::cancel(const std::string& why) {
+    if (state_ == CycleState::idle || state_ == CycleState::error) return;
+    ++generation_;
+    d_.machine.cancel(why);
+    d_.lines.set_light(false);
+    log_("cycle " + std::to_string(report_.number) + ": " + why);
+    enter(CycleState::idle, why);
+    if (on_cycle_end) on_cycle_end(false);
+}
+
+void Cycle::acknowledge() {
+    if (state_ != CycleState::error) return;
+    enter(CycleState::idle, "error acknowledged");
+}
+
+void Cycle::fail(const std::string& message) {
+    ++generation_;
+    d_.machine.cancel(message);  // nothing more goes to the machine
+    d_.lines.set_light(false);
+    error_ = message;
+    log_("cycle " + std::to_string(report_.number) + ": error: " + message);
+    state_ = CycleState::error;
+    prompt_ = Prompt::acknowledge_error;
+    set_leds();
+    show("error", {slice(message, 0, 21), slice(message, 21, 21), slice(message, 42, 21),
+                   prompt_text(Prompt::acknowledge_error)});
+    if (on_state) on_state(state_);
+    if (on_cycle_end) on_cycle_end(false);
+    if (on_prompt) on_prompt(prompt_, 0);
+}
+
+void Cycle::capture(int frames, std::function<void(std::vector<hal::Frame>)> then) {
+    const unsigned generation = generation_;
+    d_.lines.set_light(true);
+    phase_started_ = d_.clock.now();
+    d_.camera.start_capture({frames, {}, {}});
+    // on_camera() continues; the continuation checks the generation.
+    after_press_ = nullptr;
+    pending_capture_ = [this, generation, then = std::move(then)](std::vector<hal::Frame> f) {
+        if (current(generation)) then(std::move(f));
+    };
+}
+
+void Cycle::on_camera() {
+    hal::CaptureResult result = d_.camera.take_frames();
+    report_.camera_seconds += seconds(d_.clock.now() - phase_started_);
+    d_.lines.set_light(false);
+    auto then = std::move(pending_capture_);
+    pending_capture_ = nullptr;
+    if (!then) return;  // a capture the cycle no longer waits for
+    if (!result.ok()) {
+        if (state_ != CycleState::idle && state_ != CycleState::error) fail(result.error);
+        return;
+    }
+    then(std::move(result.frames));
+}
+
+void Cycle::work(std::function<void()> job, std::function<void()> then) {
+    if (d_.worker.busy()) {
+        // A cancelled cycle's computation still runs; its result will be dropped.
+        fail(std::string(state_name(state_)) + ": the previous computation is still running");
+        return;
+    }
+    const unsigned generation = generation_;
+    const auto started = d_.clock.now();
+    d_.worker.start(std::move(job),
+                    [this, generation, started, then = std::move(then)](std::exception_ptr error) {
+                        if (!current(generation)) return;
+                        report_.box_seconds += seconds(d_.clock.now() - started);
+                        if (error) {
+                            try {
+                                std::rethrow_exception(error);
+                            } catch (const std::exception& e) {
+                                fail(std::string(state_name(state_)) + ": " + e.what());
+                            }
+                            return;
+                        }
+                        then();
+                    });
+}
+
+void Cycle::run_job(std::vector<std::string> lines, std::function<void(JobOutcome)> then) {
+    const unsigned generation = generation_;
+    const auto started = d_.clock.now();
+    d_.machine.start_job(std::move(lines),
+                         [this, generation, started, then = std::move(then)](JobOutcome outcome) {
+                             if (!current(generation)) return;
+                             report_.machine_seconds += seconds(d_.clock.now() - started);
+                             if (!outcome.ok) {
+                                 fail("machine: " + outcome.error);
+                                 return;
+                             }
+                             then(std::move(outcome));
+                         });
+}
+
+void Cycle::begin_cycle() {
+    report_ = CycleReport{};
+    const auto last = d_.data.read_file("last-cycle");
+    report_.number = (last ? std::atoi(last->c_str()) : 0) + 1;
+    cycle_started_ = d_.clock.now();
+    error_.clear();
+    if (!d_.data.read_file("camera.yaml")) {
+        calibration_frames_.clear();
+        enter(CycleState::setup_camera, "set-up: calibrating the camera from " +
+                                            std::to_string(settings_.calibration_views) +
+                                            " views of " + settings_.calibration_pattern);
+        setup_camera_view(0);
+    } else if (!d_.data.read_file("plane.yaml")) {
+        enter(CycleState::setup_plane, "set-up: the bed plane");
+        setup_plane();
+    } else {
+        ask_clear_bed_then_target();
+    }
+}
+
+void Cycle::setup_camera_view(int view) {
+    ask(Prompt::hold_calibration_board, view, [this, view] {
+        capture(1, [this, view](std::vector<hal::Frame> frames) {
+            calibration_frames_.push_back(std::move(frames.front()));
+            if (view + 1 < settings_.calibration_views) {
+                setup_camera_view(view + 1);
+                return;
+            }
+            auto yaml = std::make_shared<std::string>();
+            auto summary = std::make_shared<std::string>();
+            auto views = std::make_shared<std::vector<hal::Frame>>(std::move(calibration_frames_));
+            calibration_frames_.clear();
+            work(
+                [views, pattern = settings_.calibration_pattern, yaml, summary] {
+                    std::vector<geometry::NamedImage> images;
+                    for (std::size_t i = 0; i < views->size(); ++i)
+                        images.push_back({"view " + std::to_string(i + 1), view_of((*views)[i])});
+                    const auto result =
+                        geometry::calibrate_camera(geometry::parse_pattern_spec(pattern),
+                                                   geometry::LensModel::pinhole, images);
+                    std::vector<double> per_view;
+                    for (const auto& v : result.views) per_view.push_back(v.rms_px);
+                    *yaml = geometry::camera_to_yaml(result.camera, per_view);
+                    *summary = "camera calibrated from " + std::to_string(result.views.size()) +
+                               " views, RMS " + fixed(result.camera.rms_px, 3) + " px";
+                },
+                [this, yaml, summary] {
+                    d_.data.replace_file("camera.yaml", *yaml);
+                    calibration_frames_.clear();
+                    log_("cycle " + std::to_string(report_.number) + ": " + *summary);
+                    enter(CycleState::setup_plane, "set-up: the bed plane");
+                    setup_plane();
+                });
+        });
+    });
+}
+
+void Cycle::setup_plane() {
+    ask(Prompt::lay_plane_board, 0, [this] {
+        capture(1, [this](std::vector<hal::Frame> frames) {
+            auto frame = std::make_shared<hal::Frame>(std::move(frames.front()));
+            auto yaml = std::make_shared<std::string>();
+            auto summary = std::make_shared<std::string>();
+            const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
+            work(
+                [frame, yaml, summary, camera_yaml, pattern = settings_.plane_pattern,
+                 thickness = settings_.plane_board_thickness_mm] {
+                    const auto camera = geometry::camera_from_yaml(camera_yaml);
+                    const auto plane = geometry::estimate_bed_plane(
+                        camera, geometry::parse_pattern_spec(pattern), view_of(*frame), thickness);
+                    *yaml = geometry::plane_to_yaml(plane);
+                    *summary =
+                        "bed plane from " + pattern + ", RMS " + fixed(plane.rms_px, 3) + " px";
+                },
+                [this, yaml, summary] {
+                    d_.data.replace_file("plane.yaml", *yaml);
+                    log_("cycle " + std::to_string(report_.number) + ": " + *summary);
+                    ask_clear_bed_then_target();
+                });
+        });
+    });
+}
+
+void Cycle::ask_clear_bed_then_target() {
+    enter(CycleState::make_target, "the delta target for " + machine_.firmware);
+    ask(Prompt::clear_bed, 0, [this] { make_target(); });
+}
+
+void Cycle::make_target() {
+    auto lines = std::make_shared<std::vector<std::string>>();
+    work(
+        [machine = machine_, lines] {
+            const auto target = targets::make_delta_target(machine);
+            std::istringstream text(targets::write_gcode(target.job, machine, "calbox target"));
+            std::string line;
+            while (std::getline(text, line)) lines->push_back(line);
+        },
+        [this, lines] {
+            target_job_ = *lines;
+            enter(CycleState::wait_machine,
+                  "printing the target: " + std::to_string(target_job_.size()) + " lines");
+            run_job(target_job_, [this](const JobOutcome&) {
+                enter(CycleState::capture,
+                      std::to_string(settings_.frames_per_capture) + " frame(s)");
+                measure_print(CycleState::measure, [this] { solve(); });
+            });
+        });
+}
+
+// Photographs what was printed and measures it into measurements_.
+void Cycle::measure_print(CycleState state, std::function<void()> then) {
+    capture(settings_.frames_per_capture,
+            [this, state, then = std::move(then)](std::vector<hal::Frame> f) {
+                auto frames = std::make_shared<std::vector<hal::Frame>>(std::move(f));
+                enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
+                auto record = std::make_shared<modes::DeltaMeasurementsRecord>();
+                const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
+                const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
+                work(
+                    [machine = machine_, frames, record, camera_yaml, plane_yaml] {
+                        const auto camera = geometry::camera_from_yaml(camera_yaml);
+                        const auto plane = geometry::plane_from_yaml(plane_yaml);
+                        std::vector<vision::GrayView> views;
+                        for (const auto& frame : *frames) views.push_back(view_of(frame));
+                        const auto measured = modes::measure_delta(machine, camera, plane, views);
+                        std::vector<std::string> names;
+                        for (std::size_t i = 0; i < frames->size(); ++i)
+                            names.push_back("frame " + std::to_string(i + 1));
+                        *record = modes::record_of(measured, machine, names);
+                    },
+                    [this, record, then] {
+                        measurements_ = *record;
+                        then();
+                    });
+            });
+}
+
+void Cycle::solve() {
+    d_.data.replace_file(record_name(report_.number, "measurements.json"),
+                         modes::measurements_to_json(*measurements_));
+    enter(CycleState::solve, std::to_string(measurements_->features.size()) + " corners");
+    auto solution = std::make_shared<modes::DeltaSolution>();
+    work([machine = machine_, measurements = *measurements_, options = settings_.solve,
+          solution] { *solution = modes::solve_delta(machine, measurements, {}, options); },
+         [this, solution] {
+             report_.solution = *solution;
+             d_.data.replace_file(record_name(report_.number, "result.json"),
+                                  modes::result_to_json(*solution));
+             review();
+         });
+}
+
+void Cycle::review() {
+    const auto& s = *report_.solution;
+    const auto& before = s.fit.fitted.before;
+    const auto& c = s.fit.correction;
+    enter(CycleState::review, "predicted XY after " + fixed(c.predicted_xy_rms_mm, 4) + " mm RMS");
+    log_("cycle " + std::to_string(report_.number) + ": proposed: rod " +
+         fixed(before.diagonal_rod_mm, 3) + " -> " + fixed(s.after.diagonal_rod_mm, 3) +
+         " mm, radius " + fixed(before.radius_mm, 3) + " -> " + fixed(s.after.radius_mm, 3) +
+         " mm; fit RMS " + fixed(s.fit.fitted.fit_rms_mm, 4) + " mm; predicted XY " +
+         fixed(c.predicted_xy_rms_mm, 4) + " mm RMS, " + fixed(c.predicted_xy_max_mm, 4) +
+         " mm worst");
+    for (const auto& command : s.commands) log_("  " + command);
+    show("review",
+         {"rod " + fixed(s.after.diagonal_rod_mm - before.diagonal_rod_mm, 3) + " mm",
+          "radius " + fixed(s.after.radius_mm - before.radius_mm, 3) + " mm",
+          "XY after " + fixed(c.predicted_xy_rms_mm, 3) + " mm", prompt_text(Prompt::review)});
+    ask(Prompt::review, 0, [this] { apply(); });
+}
+
+void Cycle::apply() {
+    const auto& s = *report_.solution;
+    if (s.firmware == "klipper") {
+        // Klipper's geometry lives in printer.cfg: shown and stored, never pretended applied.
+        d_.data.replace_file(record_name(report_.number, "printer.cfg"), joined(s.commands));
+        enter(CycleState::apply, "Klipper: edit printer.cfg as " +
+                                     record_name(report_.number, "printer.cfg") + " says");
+        finish_cycle();
+        return;
+    }
+    enter(CycleState::apply, "backing up the settings (M503)");
+    run_job({"M503"}, [this](JobOutcome backup) {
+        report_.backup = models::marlin_settings_from_report(backup.replies);
+        if (report_.backup.empty()) {
+            fail("apply: the printer's M503 report has no M665/M666 lines to back up");
+            return;
+        }
+        d_.data.replace_file(record_name(report_.number, "backup.gcode"),
+                             joined(report_.backup) + "M500\n");
+        const auto& commands = report_.solution->commands;
+        log_("cycle " + std::to_string(report_.number) + ": sending " +
+             std::to_string(commands.size()) + " lines");
+        run_job(commands, [this](const JobOutcome&) {
+            run_job({"M503"}, [this](JobOutcome readback) {
+                const auto reported = models::marlin_settings_from_report(readback.replies);
+                const std::string mismatch =
+                    models::settings_mismatch(report_.solution->commands, reported);
+                if (mismatch.empty()) {
+                    report_.applied = true;
+                    machine_.delta = report_.solution->after;
+                    verify();
+                    return;
+                }
+                // Put back what was there, then stop with the reason.
+                auto restore = report_.backup;
+                restore.emplace_back("M500");
+                const std::string why = "apply: read-back mismatch: " + mismatch;
+                log_("cycle " + std::to_string(report_.number) + ": " + why +
+                     "; restoring the backup");
+                run_job(restore, [this, why](const JobOutcome&) {
+                    fail(why + " (the previous settings were restored)");
+                });
+            });
+        });
+    });
+}
+
+void Cycle::verify() {
+    enter(CycleState::verify, "printing the target again on the corrected machine");
+    ask(Prompt::clear_bed, 0, [this] {
+        run_job(target_job_, [this](const JobOutcome&) {
+            measure_print(CycleState::verify, [this] {
+                const auto errors = modes::placement_errors(measurements_->features);
+                double sum = 0;
+                for (const auto& e : errors.error_mm) sum += e.x * e.x + e.y * e.y;
+                report_.verify_xy_rms_mm = std::sqrt(
+                    sum / static_cast<double>(std::max<std::size_t>(1, errors.error_mm.size())));
+                report_.verify_xy_max_mm = errors.largest_mm;
+                d_.data.replace_file(record_name(report_.number, "verify-measurements.json"),
+                                     modes::measurements_to_json(*measurements_));
+                log_("cycle " + std::to_string(report_.number) +
+                     ": verified on the re-printed target: XY " +
+                     fixed(*report_.verify_xy_rms_mm, 4) + " mm RMS, " +
+                     fixed(*report_.verify_xy_max_mm, 4) + " mm worst");
+                finish_cycle();
+            });
+        });
+    });
+}
+
+void Cycle::finish_cycle() {
+    d_.data.replace_file("last-cycle", std::to_string(report_.number) + "\n");
+    const double total = seconds(d_.clock.now() - cycle_started_);
+    log_("cycle " + std::to_string(report_.number) + ": done in " + fixed(total, 1) +
+         " s: the box's own work " + fixed(report_.box_seconds, 2) + " s, camera " +
+         fixed(report_.camera_seconds, 2) + " s, machine " + fixed(report_.machine_seconds, 2) +
+         " s");
+    ++completed_;
+    enter(CycleState::idle, report_.verify_xy_rms_mm
+                                ? "done: XY " + fixed(*report_.verify_xy_rms_mm, 3) + " mm"
+                                : "done");
+    if (on_cycle_end) on_cycle_end(true);
+}
+
+}  // namespace calbox::firmware

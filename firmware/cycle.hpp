@@ -1,0 +1,171 @@
+#pragma once
+// The calibration cycle as an explicit state machine, driven by the event loop:
+//   idle -> [set-up: camera, plane] -> make-target -> wait-machine -> capture -> measure -> solve
+//   -> review -> apply -> verify -> idle, with error reachable from every state and cancel (a
+// long press, or the console) from every waiting one. It never blocks: the machine link, the
+// camera and the worker report back through the loop.
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/models/machine_file.hpp"
+#include "core/modes/delta.hpp"
+#include "firmware/event_loop.hpp"
+#include "firmware/gcode_host.hpp"
+#include "hal/camera.hpp"
+#include "hal/clock.hpp"
+#include "hal/display.hpp"
+#include "hal/lines.hpp"
+#include "hal/storage.hpp"
+
+namespace calbox::firmware {
+
+enum class CycleState {
+    idle,
+    setup_camera,
+    setup_plane,
+    make_target,
+    wait_machine,
+    capture,
+    measure,
+    solve,
+    review,
+    apply,
+    verify,
+    error
+};
+const char* state_name(CycleState state);
+
+// What the box waits for a person to do before the button press that continues.
+enum class Prompt {
+    none,
+    start,                   // idle: press to calibrate
+    hold_calibration_board,  // set-up: one view of the board per press
+    lay_plane_board,         // set-up: the board flat on the bed
+    clear_bed,               // before a print: the bed empty
+    review,                  // short press applies, long press cancels
+    acknowledge_error        // press to return to idle
+};
+const char* prompt_text(Prompt prompt);
+
+struct CycleSettings {
+    int frames_per_capture = 1;                  // averaged by measure
+    std::chrono::milliseconds long_press{1500};  // at least this long: cancel
+    int calibration_views = 12;
+    std::string calibration_pattern = "chessboard:11x8@20";
+    std::string plane_pattern = "chessboard:9x6@20";
+    double plane_board_thickness_mm = 0;
+    modes::DeltaSolveOptions solve;
+};
+
+struct CycleDevices {
+    hal::Camera& camera;
+    hal::Lines& lines;
+    GcodeHost& machine;
+    hal::Display& display;
+    hal::Clock& clock;
+    hal::Storage& data;  // set-up (camera.yaml, plane.yaml) and the cycles' records
+    Worker& worker;
+};
+
+// What one cycle found and did, for the log, the display and the caller.
+struct CycleReport {
+    int number = 0;
+    std::optional<modes::DeltaSolution> solution;
+    bool applied = false;
+    std::vector<std::string> backup;  // the settings before, as commands (M665, M666)
+    std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;  // the re-printed target, measured
+    double box_seconds = 0;      // the box's own work: measuring, solving, set-up solves
+    double camera_seconds = 0;   // waiting for the camera (the twin's rendering on the sim board)
+    double machine_seconds = 0;  // waiting for the machine
+};
+
+class Cycle {
+  public:
+    using Log = std::function<void(const std::string&)>;
+    Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings settings, Log log);
+    Cycle(const Cycle&) = delete;
+    Cycle& operator=(const Cycle&) = delete;
+    ~Cycle();
+
+    // Wire these to the event loop: readable button line, camera completion, blink timer.
+    void on_button();
+    void on_camera();
+    void on_blink();
+    int blink_fd() const { return blink_->fd(); }
+
+    // The console's verbs: start is a short press in idle, cancel a long press in a waiting
+    // state (or any busy one), acknowledge a press in error.
+    void start();
+    void cancel(const std::string& why);
+    void acknowledge();
+    void press(bool long_press);  // a whole press, as the button gives it
+
+    CycleState state() const { return state_; }
+    Prompt prompt() const { return prompt_; }
+    int prompt_step() const { return prompt_step_; }  // which board view, from 0
+    const std::string& error() const { return error_; }
+    const CycleReport& report() const { return report_; }
+    int cycles_completed() const { return completed_; }
+
+    // Called on every prompt (the sim board's operator acts on them), every state change, and
+    // when a cycle ends (done or not).
+    std::function<void(Prompt, int step)> on_prompt;
+    std::function<void(CycleState)> on_state;
+    std::function<void(bool completed)> on_cycle_end;
+
+  private:
+    void enter(CycleState next, const std::string& detail);
+    void ask(Prompt prompt, int step, std::function<void()> then);
+    void fail(const std::string& message);
+    void show(const std::string& title, const std::vector<std::string>& lines);
+    void set_leds();
+    // Asynchronous steps: each continues only if the cycle was not cancelled meanwhile.
+    void capture(int frames, std::function<void(std::vector<hal::Frame>)> then);
+    void work(std::function<void()> job, std::function<void()> then);
+    void run_job(std::vector<std::string> lines, std::function<void(JobOutcome)> then);
+    bool current(unsigned generation) const { return generation == generation_; }
+
+    void begin_cycle();
+    void setup_camera_view(int view);
+    void setup_plane();
+    void ask_clear_bed_then_target();
+    void make_target();
+    void measure_print(CycleState state, std::function<void()> then);
+    void solve();
+    void review();
+    void apply();
+    void verify();
+    void finish_cycle();
+
+    CycleDevices d_;
+    models::MachineFile machine_;
+    CycleSettings settings_;
+    Log log_;
+    std::unique_ptr<hal::Timer> blink_;
+    bool blink_phase_ = false;
+
+    CycleState state_ = CycleState::idle;
+    Prompt prompt_ = Prompt::start;
+    int prompt_step_ = 0;
+    std::function<void()> after_press_;
+    std::optional<std::chrono::nanoseconds> pressed_at_;
+    unsigned generation_ = 0;  // bumped by cancel and error: late completions are dropped
+    std::string error_;
+    int completed_ = 0;
+
+    // The cycle's working data.
+    std::vector<hal::Frame> calibration_frames_;
+    std::function<void(std::vector<hal::Frame>)> pending_capture_;
+    std::vector<std::string> target_job_;
+    std::optional<modes::DeltaMeasurementsRecord> measurements_;
+    std::vector<std::string> readback_;
+    CycleReport report_;
+    std::chrono::nanoseconds phase_started_{0};
+    std::chrono::nanoseconds cycle_started_{0};
+};
+
+}  // namespace calbox::firmware

@@ -1,0 +1,88 @@
+#pragma once
+// One thread, one epoll set: every source of work (button line, timers, signals, the machine
+// link, the console, the camera's and the worker's completions) is a readable file descriptor
+// with a handler. Handlers run on the loop's thread, one at a time, and never block.
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <thread>
+
+namespace calbox::firmware {
+
+class EventLoop {
+  public:
+    EventLoop();
+    EventLoop(const EventLoop&) = delete;
+    EventLoop& operator=(const EventLoop&) = delete;
+    ~EventLoop();
+
+    // Calls `handler` whenever `fd` is readable (or hung up). Throws std::logic_error for an fd
+    // already watched.
+    void watch(int fd, std::function<void()> handler);
+    void unwatch(int fd);
+    // Handles what is ready, waiting up to `timeout` for something; returns how many handlers ran.
+    int run_once(std::chrono::milliseconds timeout);
+    // Runs until stop(); a handler that throws ends the run with that exception.
+    void run();
+    void stop() { stopped_ = true; }
+    bool stopped() const { return stopped_; }
+
+  private:
+    int epoll_fd_ = -1;
+    std::map<int, std::shared_ptr<std::function<void()>>> handlers_;
+    bool stopped_ = false;
+};
+
+// An eventfd: one thread signals, the loop's handler takes the count.
+class Notifier {
+  public:
+    Notifier();
+    Notifier(const Notifier&) = delete;
+    Notifier& operator=(const Notifier&) = delete;
+    ~Notifier();
+    int fd() const { return fd_; }
+    void signal();
+    std::uint64_t take();  // 0 when nothing was signalled
+
+  private:
+    int fd_ = -1;
+};
+
+// Runs slow work (measure, solve, calibrate) off the loop: `work` on the worker's thread, then
+// `done` on the loop's thread when the loop sees the completion. One job at a time.
+class Worker {
+  public:
+    explicit Worker(EventLoop& loop);
+    Worker(const Worker&) = delete;
+    Worker& operator=(const Worker&) = delete;
+    ~Worker();  // waits for a running job
+    // Throws std::logic_error while a job runs. `work`'s exception is handed to `done`.
+    void start(std::function<void()> work, std::function<void(std::exception_ptr)> done);
+    bool busy() const { return busy_; }
+
+  private:
+    void finished();
+    EventLoop& loop_;
+    Notifier notifier_;
+    std::thread thread_;
+    std::function<void(std::exception_ptr)> done_;
+    std::exception_ptr error_;
+    bool busy_ = false;
+};
+
+// SIGTERM and SIGINT as a file descriptor: blocked for ordinary delivery, read by the loop.
+class SignalWatch {
+  public:
+    SignalWatch();
+    SignalWatch(const SignalWatch&) = delete;
+    SignalWatch& operator=(const SignalWatch&) = delete;
+    ~SignalWatch();
+    int fd() const { return fd_; }
+    int take();  // the signal number, 0 when none
+
+  private:
+    int fd_ = -1;
+};
+
+}  // namespace calbox::firmware

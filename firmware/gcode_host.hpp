@@ -1,0 +1,76 @@
+#pragma once
+// Streams G-code to Marlin or RepRapFirmware the way their hosts do (OctoPrint, Pronterface):
+// every line numbered and checksummed after an M110, a window of lines in flight (one by
+// default) each released by an `ok`, `Resend: N` / `rs N` answered from line N, `busy:` keeping
+// the link alive, `Error:` lines that are not about the line's transport ending the job, a
+// start-up banner mid-job (the printer reset) abandoning it, never resuming it blindly.
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "hal/clock.hpp"
+#include "hal/serial_port.hpp"
+
+namespace calbox::firmware {
+
+struct GcodeHostSettings {
+    int window = 1;  // lines sent before the first is acknowledged
+    // Silence after a line before the printer is declared gone; `busy:` restarts it.
+    std::chrono::milliseconds reply_timeout{30000};
+    int max_resends_of_a_line = 8;  // beyond this the link is too noisy to trust
+};
+
+struct JobOutcome {
+    bool ok = false;
+    std::string error;                 // one line, when not ok
+    std::vector<std::string> replies;  // what the printer said besides ok / resend (reports)
+};
+
+class GcodeHost {
+  public:
+    using Log = std::function<void(const std::string&)>;
+    GcodeHost(hal::SerialPort& port, hal::Clock& clock, GcodeHostSettings settings, Log log);
+
+    int port_fd() const { return port_.fd(); }
+    int timer_fd() const { return timer_->fd(); }
+    // Streams `lines` (comments and blank lines dropped); `done` is called once, on the caller's
+    // thread, from on_readable() or on_timer(). Throws std::logic_error while a job runs.
+    void start_job(std::vector<std::string> lines, std::function<void(JobOutcome)> done);
+    bool busy() const { return static_cast<bool>(done_); }
+    void on_readable();
+    void on_timer();
+    // Ends the running job with `why`; nothing more is sent.
+    void cancel(const std::string& why);
+    // Not empty once the device vanished: what was seen. Stop watching port_fd() then.
+    const std::string& link_gone() const { return gone_; }
+    // Every line written to the printer, in order, resends included.
+    const std::vector<std::string>& transcript() const { return transcript_; }
+
+  private:
+    void handle(const std::string& reply);
+    void pump();
+    void write_line(const std::string& text);
+    void flush();
+    void finish(bool ok, const std::string& error);
+    void arm_deadline();
+
+    hal::SerialPort& port_;
+    std::unique_ptr<hal::Timer> timer_;
+    GcodeHostSettings settings_;
+    Log log_;
+    std::vector<std::string> job_;  // job_[n] is line number n (0: the M110)
+    std::size_t next_ = 0;          // the next line number to send
+    int in_flight_ = 0;             // lines sent, not yet acknowledged
+    int resends_of_line_ = 0;
+    std::size_t last_resend_ = 0;
+    bool paused_ = false;
+    std::string incoming_, outgoing_;
+    std::vector<std::string> replies_;
+    std::vector<std::string> transcript_;
+    std::function<void(JobOutcome)> done_;
+    std::string gone_;
+};
+
+}  // namespace calbox::firmware

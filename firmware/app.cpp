@@ -14,6 +14,7 @@
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/sim_operator.hpp"
 
 #ifndef CALBOX_EXAMPLES_DIR
 #define CALBOX_EXAMPLES_DIR "examples"
@@ -162,23 +163,7 @@ int run(const std::vector<std::string>& words) {
         auto& bench = *board.bench;
         auto& lines = *board.lines;
         cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
-            switch (prompt) {
-                case firmware::Prompt::hold_calibration_board:
-                    bench.hold_calibration_board(step);
-                    break;
-                case firmware::Prompt::lay_plane_board:
-                    bench.lay_plane_board_on_bed();
-                    break;
-                case firmware::Prompt::clear_bed:
-                    bench.take_board_away();
-                    bench.clear_bed();
-                    break;
-                case firmware::Prompt::review:
-                    break;
-                default:
-                    return;  // start, acknowledge: the run ends with the cycle
-            }
-            lines.press(std::chrono::milliseconds(100));
+            firmware::act_on_prompt(bench, lines, prompt, step);
         };
         cycle.on_cycle_end = [&](bool) { loop.stop(); };
         lines.press(std::chrono::milliseconds(100));

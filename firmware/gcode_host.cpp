@@ -1,5 +1,6 @@
 #include "firmware/gcode_host.hpp"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <stdexcept>
@@ -130,16 +131,18 @@ void GcodeHost::handle(const std::string& reply) {
     }
     if (starts_with(reply, "Resend:") || starts_with(reply, "rs ")) {
         const long n = resend_number(reply);
-        if (n < 0 || static_cast<std::size_t>(n) >= next_) {
-            finish(false, "the printer asked to resend line " + std::to_string(n) +
-                              ", which was never sent");
+        if (n < 0 || next_ == 0) {
+            finish(false,
+                   "the printer asked for a resend without a line number (\"" + reply + "\")");
             return;
         }
-        const auto line = static_cast<std::size_t>(n);
+        // A line not sent yet: the printer lost the last one whole (an M110 it could not
+        // read leaves it counting from before), so that one goes again.
+        const auto line = std::min(static_cast<std::size_t>(n), next_ - 1);
         resends_of_line_ = line == last_resend_ ? resends_of_line_ + 1 : 1;
         last_resend_ = line;
         if (resends_of_line_ > settings_.max_resends_of_a_line) {
-            finish(false, "line " + std::to_string(n) + " was resent " +
+            finish(false, "line " + std::to_string(line) + " was resent " +
                               std::to_string(settings_.max_resends_of_a_line) +
                               " times: the serial link is too noisy");
             return;

@@ -102,6 +102,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("line_noise", f.line_noise, 0, 0.9);
         r.integer("reset_at_line", f.reset_at_line, 0, 100000000);
         r.integer("camera_fails_at_capture", f.camera_fails_at_capture, 0, 1000000);
+        r.boolean("settings_ignored", f.settings_ignored);
         r.finish();
     }
     bed_growth_at_photo(s);  // a photo temperature the bed cannot be judged at is refused now

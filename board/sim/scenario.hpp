@@ -36,6 +36,7 @@ struct ScenarioFaults {
     double line_noise = 0;            // chance that a received line arrives with a flipped bit
     int reset_at_line = 0;            // it resets on this line (the start-up banner follows)
     int camera_fails_at_capture = 0;  // the camera's n-th capture fails
+    bool settings_ignored = false;    // M665 / M666 answered ok but not applied
 };
 
 struct Scenario {

@@ -1,0 +1,340 @@
+// The appliance on the sim board: the cycle driven through the event loop on simulated time, the
+// twin printer behind a real pty (termios driver, host protocol), the rendering camera; each
+// fault the scenario can inject ends in the error state with one message, the error LED, nothing
+// more sent to the printer, and idle again after a press. The twin judges the printer in its
+// truth; the box never reads it.
+#include <CppUTest/TestHarness.h>
+#include <CppUTestExt/MockSupport.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+
+#include "drivers/file_storage.hpp"
+#include "firmware/cycle.hpp"
+#include "firmware/event_loop.hpp"
+#include "firmware/gcode_host.hpp"
+#include "firmware/sim_operator.hpp"
+#include "tests/support/fake_clock.hpp"
+
+using namespace calbox;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kScenario = fs::path(CALBOX_SOURCE_DIR) / "tests/scenarios/delta_cycle_small.toml";
+
+// A fresh directory under the build's temporary area.
+fs::path fresh_dir(const std::string& name) {
+    const fs::path dir = fs::temp_directory_path() / ("calbox_test_appliance_" + name);
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+// The small scenario with extra TOML (faults) appended, as a file.
+std::string scenario_with(const std::string& name, const std::string& extra) {
+    std::ifstream in(kScenario);
+    std::stringstream text;
+    text << in.rdbuf() << "\n" << extra << "\n";
+    const fs::path path = fresh_dir("scenario_" + name) / "scenario.toml";
+    std::ofstream(path) << text.str();
+    return path.string();
+}
+
+// Everything calbox run wires together, on a fake clock.
+struct Rig {
+    fs::path dir;
+    test::FakeClock clock;
+    std::vector<std::string> log;
+    sim::SimBoard board;
+    drivers::FileStorage data;
+    firmware::EventLoop loop;
+    firmware::Worker worker{loop};
+    firmware::GcodeHost host;
+    firmware::Cycle cycle;
+    bool operator_acts = true;
+    std::function<bool(firmware::Prompt)> intercept;  // true: the test handled the prompt
+    int ended = 0;
+
+    Rig(const fs::path& data_dir, const std::string& scenario, firmware::CycleSettings settings)
+        : dir(data_dir),
+          board(sim::make_sim_board({scenario, data_dir, 115200}, clock,
+                                    [this](const std::string& l) { log.push_back(l); })),
+          data(data_dir),
+          host(*board.machine, clock, {1, 5000ms, 8},
+               [this](const std::string& l) { log.push_back(l); }),
+          cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
+                board.bench->scenario().machine, std::move(settings),
+                [this](const std::string& l) { log.push_back(l); }) {
+        loop.watch(host.port_fd(), [this] {
+            host.on_readable();
+            if (!host.link_gone().empty()) loop.unwatch(host.port_fd());
+        });
+        loop.watch(host.timer_fd(), [this] { host.on_timer(); });
+        loop.watch(board.lines->button_fd(), [this] { cycle.on_button(); });
+        loop.watch(board.camera->completion_fd(), [this] { cycle.on_camera(); });
+        loop.watch(cycle.blink_fd(), [this] { cycle.on_blink(); });
+        cycle.on_prompt = [this](firmware::Prompt p, int step) {
+            if (intercept && intercept(p)) return;
+            if (operator_acts) firmware::act_on_prompt(*board.bench, *board.lines, p, step);
+        };
+        cycle.on_cycle_end = [this](bool) { ++ended; };
+    }
+    ~Rig() { loop.unwatch(host.port_fd()); }
+
+    // Runs the loop until `done`; when nothing is ready, simulated time moves on by a second (so
+    // the printer's silence times out without real waiting).
+    void run_until(const std::function<bool()>& done, int max_iterations = 200000) {
+        for (int i = 0; i < max_iterations && !done(); ++i)
+            if (loop.run_once(20ms) == 0 && !worker.busy() && !camera_busy()) clock.advance(1s);
+        CHECK_TEXT(done(), ("the loop did not get there; last log: " +
+                            (log.empty() ? std::string() : log.back()))
+                               .c_str());
+    }
+    bool camera_busy() const {
+        return cycle.state() == firmware::CycleState::capture ||
+               cycle.state() == firmware::CycleState::setup_camera ||
+               cycle.state() == firmware::CycleState::setup_plane;
+    }
+    void start() {
+        board.lines->press(100ms);
+        run_until([this] { return cycle.state() != firmware::CycleState::idle; });
+    }
+    void run_cycle() {
+        start();
+        run_until([this] { return ended > 0; });
+    }
+    std::vector<std::string> transcript() const { return host.transcript(); }
+};
+
+// The set-up (camera from 12 board views, plane from a board on the bed), done once through the
+// cycle itself (cancelled at the first print's prompt) and copied into each test's directory.
+const fs::path& prepared_setup() {
+    static const fs::path dir = [] {
+        const fs::path d = fresh_dir("setup");
+        Rig rig(d, kScenario.string(), {});
+        rig.intercept = [&rig](firmware::Prompt p) {
+            if (p != firmware::Prompt::clear_bed) return false;
+            rig.board.lines->press(2000ms);  // long press: cancel
+            return true;
+        };
+        rig.run_cycle();
+        return d;
+    }();
+    return dir;
+}
+
+fs::path prepared_dir(const std::string& name) {
+    const fs::path d = fresh_dir(name);
+    for (const char* f : {"camera.yaml", "plane.yaml"}) fs::copy_file(prepared_setup() / f, d / f);
+    return d;
+}
+
+// XOR of the bytes before '*', worked here rather than by the code under test.
+bool checksum_holds(const std::string& line) {
+    const auto star = line.find('*');
+    if (star == std::string::npos) return false;
+    unsigned sum = 0;
+    for (std::size_t i = 0; i < star; ++i) sum ^= static_cast<unsigned char>(line[i]);
+    return std::to_string(sum) == line.substr(star + 1);
+}
+
+// The command of "N12 G1 X1*34": "G1 X1".
+std::string command_of(const std::string& line) {
+    const auto space = line.find(' ');
+    return line.substr(space + 1, line.find('*') - space - 1);
+}
+
+void check_error_state(Rig& rig, const char* message_part) {
+    CHECK(rig.cycle.state() == firmware::CycleState::error);
+    STRCMP_CONTAINS(message_part, rig.cycle.error().c_str());
+    CHECK(rig.board.lines->led(hal::Led::error));
+    CHECK_FALSE(rig.board.lines->light());
+    // Nothing more goes to the printer: let the loop run on a while and compare.
+    const std::size_t sent = rig.transcript().size();
+    for (int i = 0; i < 50; ++i) {
+        rig.loop.run_once(5ms);
+        rig.clock.advance(1s);
+    }
+    CHECK_EQUAL(sent, rig.transcript().size());
+    rig.board.lines->press(100ms);
+    rig.run_until([&] { return rig.cycle.state() == firmware::CycleState::idle; });
+    CHECK_FALSE(rig.board.lines->led(hal::Led::error));
+    UT_PRINT(("error state: " + rig.cycle.error()).c_str());
+}
+
+}  // namespace
+
+TEST_GROUP(ApplianceCycle){void setup() override{mock().ignoreOtherCalls();
+}
+void teardown() override {
+    mock().clear();
+}
+}
+;
+
+// The whole cycle on the fake clock, and every line the box sent.
+TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
+    Rig rig(prepared_dir("cycle"), kScenario.string(), {});
+    const auto before = rig.board.bench->judge_delta_printer();
+    rig.run_cycle();
+    CHECK_EQUAL(1, rig.cycle.cycles_completed());
+    const auto after = rig.board.bench->judge_delta_printer();
+    const auto& report = rig.cycle.report();
+    UT_PRINT(("before XY " + std::to_string(before.xy_rms) + " mm RMS, " +
+              std::to_string(before.xy_max) + " worst; after " + std::to_string(after.xy_rms) +
+              ", " + std::to_string(after.xy_max) + "; verify measured " +
+              std::to_string(*report.verify_xy_rms_mm) + " RMS, " +
+              std::to_string(*report.verify_xy_max_mm) + " worst; box " +
+              std::to_string(report.box_seconds) + " s")
+                 .c_str());
+    CHECK(before.xy_rms > 0.2);
+    CHECK(after.xy_rms <= 0.01);
+    CHECK(after.xy_max <= 0.03);
+    CHECK(report.applied);
+    CHECK(*report.verify_xy_rms_mm <= 0.01);
+
+    // The transcript: jobs each opened by N0 M110 N0, lines numbered on from 1, every checksum
+    // right, nothing resent on a clean link.
+    const auto t = rig.transcript();
+    std::vector<std::vector<std::string>> jobs;
+    for (const auto& line : t) {
+        CHECK_TEXT(checksum_holds(line), line.c_str());
+        if (line == "N0 M110 N0*125") {
+            jobs.emplace_back();
+            continue;
+        }
+        CHECK(!jobs.empty());
+        CHECK_EQUAL("N" + std::to_string(jobs.back().size() + 1), line.substr(0, line.find(' ')));
+        jobs.back().push_back(command_of(line));
+    }
+    // target print, M503 backup, the correction, M503 read-back, the verification print
+    CHECK_EQUAL(5u, jobs.size());
+    CHECK(jobs[0] == jobs[4]);
+    CHECK(std::find(jobs[0].begin(), jobs[0].end(), "G28") != jobs[0].end());
+    CHECK(jobs[1] == std::vector<std::string>{"M503"});
+    CHECK(jobs[2] == report.solution->commands);
+    CHECK_EQUAL(3u, jobs[2].size());
+    STRCMP_CONTAINS("M665 L", jobs[2][0].c_str());
+    STRCMP_CONTAINS("M666 X", jobs[2][1].c_str());
+    STRCMP_EQUAL("M500", jobs[2][2].c_str());
+    CHECK(jobs[3] == std::vector<std::string>{"M503"});
+    // The record: measurements, result, the settings backup.
+    CHECK(rig.data.read_file("cycle-0001-result.json").has_value());
+    const auto backup = rig.data.read_file("cycle-0001-backup.gcode");
+    CHECK(backup.has_value());
+    STRCMP_CONTAINS("M665 L250.000 R140.000", backup->c_str());
+    CHECK(rig.board.display->frames_shown() > 5);
+}
+
+TEST(ApplianceCycle, a_long_press_at_review_cancels_and_sends_no_correction) {
+    Rig rig(prepared_dir("cancel"), kScenario.string(), {});
+    rig.intercept = [&rig](firmware::Prompt p) {
+        if (p != firmware::Prompt::review) return false;
+        rig.board.lines->press(2000ms);
+        return true;
+    };
+    rig.run_cycle();
+    CHECK(rig.cycle.state() == firmware::CycleState::idle);
+    CHECK_EQUAL(0, rig.cycle.cycles_completed());
+    for (const auto& line : rig.transcript()) CHECK(line.find("M665") == std::string::npos);
+    const auto after = rig.board.bench->judge_delta_printer();
+    CHECK(after.xy_rms > 0.2);  // untouched
+}
+
+TEST(ApplianceCycle, a_camera_failing_mid_burst_is_an_error) {
+    firmware::CycleSettings s;
+    s.frames_per_capture = 3;
+    Rig rig(prepared_dir("camera"),
+            scenario_with("camera", "[faults]\ncamera_fails_at_capture = 1"), s);
+    rig.run_cycle();
+    check_error_state(rig, "never arrived");
+}
+
+TEST(ApplianceCycle, a_silent_printer_is_an_error) {
+    Rig rig(prepared_dir("silent"), scenario_with("silent", "[faults]\nsilent_after_lines = 300"),
+            {});
+    rig.run_cycle();
+    check_error_state(rig, "did not answer within 5 s");
+}
+
+TEST(ApplianceCycle, an_error_reply_is_an_error) {
+    Rig rig(prepared_dir("halt"), scenario_with("halt", "[faults]\nerror_at_line = 300"), {});
+    rig.run_cycle();
+    check_error_state(rig, "Printer halted");
+}
+
+TEST(ApplianceCycle, a_resend_storm_is_an_error) {
+    Rig rig(prepared_dir("storm"), scenario_with("storm", "[faults]\nline_noise = 0.7"), {});
+    rig.run_cycle();
+    check_error_state(rig, "too noisy");
+}
+
+TEST(ApplianceCycle, a_reset_mid_job_is_an_error) {
+    Rig rig(prepared_dir("reset"), scenario_with("reset", "[faults]\nreset_at_line = 500"), {});
+    rig.run_cycle();
+    check_error_state(rig, "restarted mid-job");
+}
+
+TEST(ApplianceCycle, a_read_back_mismatch_restores_the_backup) {
+    Rig rig(prepared_dir("readback"),
+            scenario_with("readback", "[faults]\nsettings_ignored = true"), {});
+    rig.run_cycle();
+    const auto t = rig.transcript();
+    // The last job put the backup back as M503 reported it (M666, then M665), then M500.
+    CHECK(t.size() >= 4);
+    STRCMP_EQUAL("M666 X0.000 Y0.000 Z0.000", command_of(t[t.size() - 3]).c_str());
+    STRCMP_CONTAINS("M665 L250.000 R140.000", t[t.size() - 2].c_str());
+    STRCMP_EQUAL("M500", command_of(t[t.size() - 1]).c_str());
+    check_error_state(rig, "read-back mismatch: M665 L sent");
+}
+
+TEST(ApplianceCycle, a_correction_beyond_the_bounds_is_refused_and_never_sent) {
+    firmware::CycleSettings s;
+    s.solve.limits.max_rod_change_fraction = 0.001;
+    Rig rig(prepared_dir("bounds"), kScenario.string(), s);
+    rig.run_cycle();
+    for (const auto& line : rig.transcript()) CHECK(line.find("M665") == std::string::npos);
+    check_error_state(rig, "solve: refused: the rod length would change");
+}
+
+TEST_GROUP(ApplianceLink){void setup() override{mock().ignoreOtherCalls();
+}
+void teardown() override {
+    mock().clear();
+}
+}
+;
+
+// Line noise on the pty: the printer refuses corrupted lines, the box resends, the cycle ends
+// as on a clean link.
+TEST(ApplianceLink, a_noisy_link_is_resent_line_by_line_and_the_cycle_completes) {
+    Rig rig(prepared_dir("noise"), scenario_with("noise", "[faults]\nline_noise = 0.05"), {});
+    rig.run_cycle();
+    CHECK_EQUAL(1, rig.cycle.cycles_completed());
+    std::size_t resent = 0;
+    const auto t = rig.transcript();
+    for (std::size_t i = 1; i < t.size(); ++i)
+        if (t[i] == t[i - 1]) ++resent;
+    UT_PRINT(
+        ("lines resent after noise: " + std::to_string(resent) + " of " + std::to_string(t.size()))
+            .c_str());
+    CHECK(resent > 50);
+    const auto after = rig.board.bench->judge_delta_printer();
+    CHECK(after.xy_rms <= 0.01);
+}
+
+// From an empty data directory: the set-up asks for the board views and the plane first.
+TEST(ApplianceLink, the_first_cycle_runs_the_set_up_from_photos) {
+    const fs::path& dir = prepared_setup();
+    CHECK(fs::exists(dir / "camera.yaml"));
+    std::ifstream camera(dir / "camera.yaml");
+    std::stringstream text;
+    text << camera.rdbuf();
+    STRCMP_CONTAINS("camera_matrix", text.str().c_str());
+}

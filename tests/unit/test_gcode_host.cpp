@@ -1,0 +1,128 @@
+// The G-code host protocol against a scripted printer: exact bytes on the wire (line numbers and
+// checksums worked by hand), resends, busy, fatal errors, the start-up banner, actions, timeouts.
+#include <CppUTest/TestHarness.h>
+#include <CppUTestExt/MockSupport.h>
+
+#include <optional>
+
+#include "firmware/gcode_host.hpp"
+#include "tests/mocks/hal_mocks.hpp"
+#include "tests/support/fake_clock.hpp"
+
+using namespace calbox;
+using namespace std::chrono_literals;
+
+TEST_GROUP(GcodeHost) {
+    mocks::MockSerialPort port;
+    test::FakeClock clock;
+    std::vector<std::string> log;
+    std::optional<firmware::JobOutcome> outcome;
+    std::unique_ptr<firmware::GcodeHost> host;
+
+    void setup() override {
+        mock().ignoreOtherCalls();
+        host = std::make_unique<firmware::GcodeHost>(
+            port, clock, firmware::GcodeHostSettings{1, 1000ms, 3},
+            [this](const std::string& l) { log.push_back(l); });
+    }
+    void teardown() override {
+        host.reset();
+        mock().clear();
+    }
+    void start(std::vector<std::string> lines) {
+        host->start_job(std::move(lines),
+                        [this](firmware::JobOutcome o) { outcome = std::move(o); });
+    }
+    void printer_says(const std::string& text) {
+        port.incoming += text;
+        host->on_readable();
+    }
+};
+
+TEST(GcodeHost, numbers_and_checksums_each_line_and_sends_one_per_ok) {
+    start({"G28", "; a comment line", "G1 X1 Y2 ; move", "   ", "M503"});
+    STRCMP_EQUAL("N0 M110 N0*125\n", port.written.c_str());
+    printer_says("ok\n");
+    STRCMP_EQUAL("N0 M110 N0*125\nN1 G28*18\n", port.written.c_str());
+    printer_says("ok\nok\n");  // the second ok arrives only after N2 was sent
+    printer_says("echo:  M665 L250.000\nok\n");
+    STRCMP_EQUAL("N0 M110 N0*125\nN1 G28*18\nN2 G1 X1 Y2*40\nN3 M503*38\n", port.written.c_str());
+    CHECK(outcome.has_value());
+    CHECK(outcome->ok);
+    CHECK_EQUAL(1u, outcome->replies.size());
+    STRCMP_EQUAL("echo:  M665 L250.000", outcome->replies[0].c_str());
+    CHECK_EQUAL(4u, host->transcript().size());
+}
+
+TEST(GcodeHost, resends_from_the_line_the_printer_asks_for) {
+    start({"G28", "G1 X1 Y2"});
+    printer_says("ok\nok\n");
+    printer_says("Error:checksum mismatch, Last Line: 1\nResend: 2\nok\n");
+    printer_says("ok\n");
+    STRCMP_EQUAL("N0 M110 N0*125\nN1 G28*18\nN2 G1 X1 Y2*40\nN2 G1 X1 Y2*40\n",
+                 port.written.c_str());
+    CHECK(outcome && outcome->ok);
+}
+
+TEST(GcodeHost, a_resend_storm_ends_the_job) {
+    start({"G28", "G1 X1 Y2"});
+    printer_says("ok\nok\n");
+    for (int i = 0; i < 4; ++i) printer_says("Error:checksum mismatch, Last Line: 1\nrs N2\nok\n");
+    CHECK(outcome && !outcome->ok);
+    STRCMP_CONTAINS("too noisy", outcome->error.c_str());
+    const auto sent = port.written.size();
+    printer_says("ok\n");
+    CHECK_EQUAL(sent, port.written.size());  // nothing more goes out
+}
+
+TEST(GcodeHost, busy_keeps_a_slow_printer_alive_and_silence_ends_the_job) {
+    start({"G28"});
+    printer_says("ok\n");
+    clock.advance(900ms);
+    printer_says("echo:busy: processing\n");
+    clock.advance(900ms);
+    host->on_timer();
+    CHECK_FALSE(outcome.has_value());
+    clock.advance(200ms);
+    host->on_timer();
+    CHECK(outcome && !outcome->ok);
+    STRCMP_EQUAL("the printer did not answer within 1 s (line 1: G28)", outcome->error.c_str());
+}
+
+TEST(GcodeHost, an_error_that_is_not_about_transport_ends_the_job) {
+    start({"G28", "G1 X1 Y2"});
+    printer_says("ok\nError:Printer halted. kill() called!\n");
+    CHECK(outcome && !outcome->ok);
+    STRCMP_EQUAL("the printer reported \"Error:Printer halted. kill() called!\"",
+                 outcome->error.c_str());
+    const auto sent = port.written.size();
+    printer_says("ok\n");
+    CHECK_EQUAL(sent, port.written.size());
+}
+
+TEST(GcodeHost, a_reset_mid_job_abandons_it) {
+    start({"G28", "G1 X1 Y2"});
+    printer_says("ok\nstart\necho:Marlin 2.1.2\n");
+    CHECK(outcome && !outcome->ok);
+    STRCMP_CONTAINS("restarted mid-job", outcome->error.c_str());
+}
+
+TEST(GcodeHost, action_lines_pause_resume_and_cancel) {
+    start({"G28", "G1 X1 Y2"});
+    printer_says("//action:pause\nok\n");
+    STRCMP_EQUAL("N0 M110 N0*125\n", port.written.c_str());  // paused: nothing sent on the ok
+    printer_says("//action:resume\n");
+    STRCMP_EQUAL("N0 M110 N0*125\nN1 G28*18\n", port.written.c_str());
+    printer_says("//action:cancel\n");
+    CHECK(outcome && !outcome->ok);
+    STRCMP_CONTAINS("cancelled the job", outcome->error.c_str());
+}
+
+TEST(GcodeHost, a_window_of_two_keeps_two_lines_in_flight) {
+    host = std::make_unique<firmware::GcodeHost>(
+        port, clock, firmware::GcodeHostSettings{2, 1000ms, 3}, [](const std::string&) {});
+    start({"G28", "G1 X1 Y2"});
+    STRCMP_EQUAL("N0 M110 N0*125\nN1 G28*18\n", port.written.c_str());
+    printer_says("ok\nok\nok\n");
+    CHECK(outcome && outcome->ok);
+}

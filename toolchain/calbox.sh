@@ -2,7 +2,7 @@
 # calbox developer entry point: installs what is missing (Debian packages from
 # toolchain/packages.txt), configures and builds with a CMake preset, then runs what was asked.
 #
-#   toolchain/calbox.sh run   [--preset P]   the main job on the sim board (default preset: release)
+#   toolchain/calbox.sh run   [--preset P]   the main job: calbox run --board sim --auto (release)
 #   toolchain/calbox.sh test  [--preset P]   every test under ctest (default preset: dev)
 #   toolchain/calbox.sh build [--preset P]   configure and build only
 set -euo pipefail
@@ -61,5 +61,9 @@ build
 case "$action" in
     build) ;;
     test) cd "$top" && ctest --test-dir "build/$preset" --output-on-failure -j 2 < /dev/null ;;
-    run) cd "$top" && exec bash "$here/sim_cycle.sh" "build/$preset/calbox" ;;
+    run)
+        # The appliance on the digital twin, from an empty data directory so that the one-time
+        # set-up (camera and bed plane from photos) runs too; then one whole cycle, judged.
+        cd "$top" && rm -rf out/box && mkdir -p out
+        exec "build/$preset/calbox" run --board sim --auto --scenario examples/delta_cycle.toml --data out/box ;;
 esac

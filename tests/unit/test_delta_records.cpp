@@ -1,0 +1,142 @@
+// The delta mode's files, written and read in one place: each schema survives a round trip
+// field for field, and the solve's policy refuses what it must before fitting anything.
+#include <CppUTest/TestHarness.h>
+
+#include "core/models/machine_file.hpp"
+#include "core/modes/delta_records.hpp"
+#include "tests/support/twin_fixtures.hpp"
+
+using namespace calbox;
+
+namespace {
+
+modes::DeltaMeasurementsRecord sample_measurements() {
+    modes::DeltaMeasurementsRecord r;
+    r.machine_fingerprint = "fnv1a64:0123456789abcdef";
+    r.target_fingerprint = "fnv1a64:fedcba9876543210";
+    r.photos = {"a.png", "b.png"};
+    r.bed_scale = 0.9993;
+    r.heights_from_fit = true;
+    solve::FeatureMeasurement f;
+    f.id = "m3c1";
+    f.commanded_mm = {12.5, -30.25, 0.2};
+    f.measured_mm = {12.61, -30.19};
+    f.sigma_mm = 0.004;
+    f.seen_at_height_mm = 0.21;
+    f.shift_per_height = {0.03, -0.07};
+    r.features = {f};
+    modes::BarLengthMeasurement b;
+    b.tower = 'B';
+    b.commanded_from_mm = 20;
+    b.commanded_to_mm = 70;
+    b.commanded_mm = 50;
+    b.measured_mm = 50.12;
+    b.sigma_mm = 0.003;
+    b.surface_height_mm = 0.4;
+    r.bars = {b};
+    return r;
+}
+
+}  // namespace
+
+TEST_GROUP(DeltaRecords){};
+
+TEST(DeltaRecords, measurements_round_trip_field_for_field) {
+    const auto r = sample_measurements();
+    const std::string text = modes::measurements_to_json(r);
+    STRCMP_CONTAINS("\"schema\": \"calbox.measurements/1\"", text.c_str());
+    const auto back = modes::measurements_from_json(text, "m.json");
+    STRCMP_EQUAL(r.machine_fingerprint.c_str(), back.machine_fingerprint.c_str());
+    STRCMP_EQUAL(r.target_fingerprint.c_str(), back.target_fingerprint.c_str());
+    CHECK(r.photos == back.photos);
+    DOUBLES_EQUAL(0.9993, back.bed_scale, 0);
+    CHECK(back.heights_from_fit);
+    CHECK_EQUAL(1u, back.features.size());
+    const auto& f = back.features[0];
+    STRCMP_EQUAL("m3c1", f.id.c_str());
+    DOUBLES_EQUAL(-30.25, f.commanded_mm.y, 0);
+    DOUBLES_EQUAL(0.2, f.commanded_mm.z, 0);
+    DOUBLES_EQUAL(12.61, f.measured_mm.x, 0);
+    DOUBLES_EQUAL(0.004, f.sigma_mm, 0);
+    DOUBLES_EQUAL(0.21, f.seen_at_height_mm, 0);
+    DOUBLES_EQUAL(-0.07, f.shift_per_height.y, 0);
+    const auto& b = back.bars.at(0);
+    CHECK_EQUAL('B', b.tower);
+    DOUBLES_EQUAL(20, b.commanded_from_mm, 0);
+    DOUBLES_EQUAL(70, b.commanded_to_mm, 0);
+    DOUBLES_EQUAL(50.12, b.measured_mm, 0);
+    DOUBLES_EQUAL(0.4, b.surface_height_mm, 0);
+    STRCMP_EQUAL(text.c_str(), modes::measurements_to_json(back).c_str());
+}
+
+TEST(DeltaRecords, a_result_round_trips_and_keeps_what_was_held) {
+    modes::DeltaSolution s;
+    s.method = modes::DeltaMethod::fit;
+    s.firmware = "rrf";
+    s.machine_fingerprint = "fnv1a64:0123456789abcdef";
+    auto& fitted = s.fit.fitted;
+    fitted.estimate.diagonal_rod_mm = 251.25;
+    fitted.estimate.tower_angle_trim_deg = {0.25, -0.125, -0.125};
+    fitted.singular_values = {3.5, 1.25, 0.5};
+    fitted.condition_number = 7;
+    fitted.fit_rms_mm = 0.0031;
+    fitted.placement = {0.01, {1.5, -2.5}};
+    fitted.held[8] = true;  // the height, without a probe
+    fitted.uncertainty[0] = 0.004;
+    s.fit.correction.predicted_xy_rms_mm = 0.002;
+    s.fit.correction.predicted_xy_max_mm = 0.005;
+    s.fit.correction.predicted_height_range_now_mm = 0.3;
+    s.fit.correction.levels_bed = true;
+    s.after = fitted.estimate;
+    s.after.radius_mm = 140.5;
+    s.fit.correction.after = s.after;
+    s.fit.parameters = solve::report_parameters(fitted, s.after);
+    s.commands = {"M665 L251.250:251.250:251.250 R140.500", "M500"};
+    const std::string text = modes::result_to_json(s);
+    STRCMP_CONTAINS("\"height_mm\": null", text.c_str());
+    const auto back = modes::result_from_json(text, "r.json");
+    CHECK(back.method == modes::DeltaMethod::fit);
+    STRCMP_EQUAL("rrf", back.firmware.c_str());
+    DOUBLES_EQUAL(140.5, back.after.radius_mm, 0);
+    DOUBLES_EQUAL(251.25, back.fit.fitted.estimate.diagonal_rod_mm, 0);
+    CHECK(back.fit.fitted.held[8]);
+    CHECK_FALSE(back.fit.fitted.held[0]);
+    DOUBLES_EQUAL(0.004, back.fit.fitted.uncertainty[0], 0);
+    DOUBLES_EQUAL(-2.5, back.fit.fitted.placement.translation_mm.y, 1e-12);
+    CHECK(back.commands == s.commands);
+    STRCMP_EQUAL(text.c_str(), modes::result_to_json(back).c_str());
+}
+
+TEST(DeltaRecords, the_wrong_schema_or_broken_text_is_refused_with_its_name) {
+    try {
+        modes::measurements_from_json(R"({"schema": "calbox.delta-result/1"})", "x.json");
+        FAIL("accepted a result as measurements");
+    } catch (const modes::RecordError& e) {
+        STRCMP_EQUAL("x.json: not a measurements file (schema calbox.measurements/1)", e.what());
+    }
+    CHECK_THROWS(modes::RecordError, modes::result_from_json("{", "r.json"));
+    CHECK_THROWS(modes::RecordError,
+                 modes::measurements_from_json(R"({"schema": "calbox.measurements/1"})", "m"));
+    const auto probe = modes::probe_from_csv("x,y,z\n# probed\n1,2,0.05\n-3.5,4,-0.1\n", "p");
+    CHECK_EQUAL(2u, probe.size());
+    DOUBLES_EQUAL(-0.1, probe[1].z_mm, 0);
+    CHECK_THROWS(modes::RecordError, modes::probe_from_csv("1;2;3\n", "p"));
+}
+
+TEST(DeltaRecords, the_solve_refuses_another_machine_and_an_unknown_firmware_before_fitting) {
+    const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "machine");
+    auto r = sample_measurements();
+    try {
+        modes::solve_delta(machine, r, {});
+        FAIL("solved another machine's measurements");
+    } catch (const modes::SolveError& e) {
+        STRCMP_CONTAINS("made for another machine", e.what());
+    }
+    r.machine_fingerprint = models::fingerprint(machine);
+    modes::DeltaSolveOptions options;
+    options.firmware = "grbl";
+    CHECK_THROWS(modes::SolveError, modes::solve_delta(machine, r, {}, options));
+    CHECK_THROWS(modes::SolveError, modes::parse_method("best"));
+    // With the policy passed, the fit itself refuses one feature (it needs twelve).
+    CHECK_THROWS(solve::FitError, modes::solve_delta(machine, r, {}));
+}

@@ -225,23 +225,27 @@ int revert(const std::vector<std::string>& words) {
     return 0;
 }
 
+bool wants_help(const std::vector<std::string>& words) {
+    for (const auto& w : words)
+        if (w == "--help" || w == "-h") return true;
+    return false;
+}
+
 }  // namespace
 
 int run_appliance(const std::vector<std::string>& words) {
-    for (const auto& w : words)
-        if (w == "--help" || w == "-h") {
-            std::cout << kRunHelp;
-            return 0;
-        }
+    if (wants_help(words)) {
+        std::cout << kRunHelp;
+        return 0;
+    }
     return run(words);
 }
 
 int run_revert(const std::vector<std::string>& words) {
-    for (const auto& w : words)
-        if (w == "--help" || w == "-h") {
-            std::cout << kRunHelp;
-            return 0;
-        }
+    if (wants_help(words)) {
+        std::cout << kRunHelp;
+        return 0;
+    }
     return revert(words);
 }
 

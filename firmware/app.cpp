@@ -86,14 +86,6 @@ void run_job_now(firmware::EventLoop& loop, firmware::GcodeHost& host,
     if (!outcome->ok) throw std::runtime_error("machine: " + outcome->error);
 }
 
-void watch_machine(firmware::EventLoop& loop, firmware::GcodeHost& host) {
-    loop.watch(host.port_fd(), [&loop, &host] {
-        host.on_readable();
-        if (!host.link_gone().empty()) loop.unwatch(host.port_fd());
-    });
-    loop.watch(host.timer_fd(), [&host] { host.on_timer(); });
-}
-
 int run(const std::vector<std::string>& words) {
     const Args args(words, {"--board", "--scenario", "--data", "--frames"}, {"--auto"});
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
@@ -115,10 +107,7 @@ int run(const std::vector<std::string>& words) {
     firmware::Cycle cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
                           board.bench->scenario().machine, settings, log_line);
 
-    watch_machine(loop, host);
-    loop.watch(board.lines->button_fd(), [&] { cycle.on_button(); });
-    loop.watch(board.camera->completion_fd(), [&] { cycle.on_camera(); });
-    loop.watch(cycle.blink_fd(), [&] { cycle.on_blink(); });
+    firmware::watch_cycle(loop, cycle, host, *board.camera, *board.lines);
     int stopped_by = 0;
     loop.watch(signals.fd(), [&] {
         stopped_by = signals.take();
@@ -154,8 +143,9 @@ int run(const std::vector<std::string>& words) {
         });
     }
 
-    const auto before = board.bench->judge_delta_printer();
     if (automatic) {
+        // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
+        const auto before = board.bench->judge_delta_printer();
         std::printf(
             "before: XY rms %.4f mm, max %.4f mm (the twin's truth, over the printable area)\n",
             before.xy_rms, before.xy_max);
@@ -218,7 +208,7 @@ int revert(const std::vector<std::string>& words) {
         sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log_line);
     firmware::EventLoop loop;
     firmware::GcodeHost host(*board.machine, clock, {}, log_line);
-    watch_machine(loop, host);
+    firmware::watch_machine(loop, host);
     run_job_now(loop, host, lines);
     std::printf("reverted to %s:\n", name);
     for (const auto& l : lines) std::printf("  %s\n", l.c_str());

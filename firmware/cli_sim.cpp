@@ -14,6 +14,7 @@
 #include "board/sim/scenes.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/models/machine_file.hpp"
+#include "core/modes/delta_records.hpp"
 #include "firmware/cli_args.hpp"
 
 namespace calbox::cli {
@@ -315,14 +316,8 @@ int sim_verify(const std::vector<std::string>& words) {
     if (!scenario.machine.is_delta())
         throw std::runtime_error(scenario.path + ": sim verify judges delta scenarios");
     std::vector<std::string> commands;
-    if (const auto path = args.get("--result")) {
-        try {
-            const auto j = nlohmann::json::parse(read_input_file(*path, "result"));
-            for (const auto& c : j.at("commands")) commands.push_back(c.get<std::string>());
-        } catch (const nlohmann::json::exception& e) {
-            throw std::runtime_error(*path + ": not a solve result with commands: " + e.what());
-        }
-    }
+    if (const auto path = args.get("--result"))
+        commands = modes::result_from_json(read_input_file(*path, "result"), *path).commands;
     auto machine = sim::make_machine_twin(scenario);
     auto* delta = dynamic_cast<sim::DeltaTwin*>(machine.get());
     const double printable = scenario.machine.bed_radius_mm;

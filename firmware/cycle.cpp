@@ -235,7 +235,6 @@ void Cycle::capture(int frames, std::function<void(std::vector<hal::Frame>)> the
     phase_started_ = d_.clock.now();
     d_.camera.start_capture({frames, {}, {}});
     // on_camera() continues; the continuation checks the generation.
-    after_press_ = nullptr;
     pending_capture_ = [this, generation, then = std::move(then)](std::vector<hal::Frame> f) {
         if (current(generation)) then(std::move(f));
     };
@@ -518,10 +517,7 @@ void Cycle::verify() {
         run_job(target_job_, [this](const JobOutcome&) {
             measure_print(CycleState::verify, [this] {
                 const auto errors = modes::placement_errors(measurements_->features);
-                double sum = 0;
-                for (const auto& e : errors.error_mm) sum += e.x * e.x + e.y * e.y;
-                report_.verify_xy_rms_mm = std::sqrt(
-                    sum / static_cast<double>(std::max<std::size_t>(1, errors.error_mm.size())));
+                report_.verify_xy_rms_mm = errors.rms_mm;
                 report_.verify_xy_max_mm = errors.largest_mm;
                 d_.data.replace_file(record_name(report_.number, "verify-measurements.json"),
                                      modes::measurements_to_json(*measurements_));
@@ -547,6 +543,22 @@ void Cycle::finish_cycle() {
                                 ? "done: XY " + fixed(*report_.verify_xy_rms_mm, 3) + " mm"
                                 : "done");
     if (on_cycle_end) on_cycle_end(true);
+}
+
+void watch_machine(EventLoop& loop, GcodeHost& host) {
+    loop.watch(host.port_fd(), [&loop, &host] {
+        host.on_readable();
+        if (!host.link_gone().empty()) loop.unwatch(host.port_fd());
+    });
+    loop.watch(host.timer_fd(), [&host] { host.on_timer(); });
+}
+
+void watch_cycle(EventLoop& loop, Cycle& cycle, GcodeHost& host, hal::Camera& camera,
+                 hal::Lines& lines) {
+    watch_machine(loop, host);
+    loop.watch(lines.button_fd(), [&cycle] { cycle.on_button(); });
+    loop.watch(camera.completion_fd(), [&cycle] { cycle.on_camera(); });
+    loop.watch(cycle.blink_fd(), [&cycle] { cycle.on_blink(); });
 }
 
 }  // namespace calbox::firmware

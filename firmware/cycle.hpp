@@ -168,4 +168,12 @@ class Cycle {
     std::chrono::nanoseconds cycle_started_{0};
 };
 
+// Wires the machine link to the loop: replies and the reply timer; a link that is gone is no
+// longer watched (its descriptor would stay readable).
+void watch_machine(EventLoop& loop, GcodeHost& host);
+// Wires a cycle and its devices to the loop: the machine link, the button, the camera's
+// completion and the blink timer. `calbox run` and the tests wire it the same way.
+void watch_cycle(EventLoop& loop, Cycle& cycle, GcodeHost& host, hal::Camera& camera,
+                 hal::Lines& lines);
+
 }  // namespace calbox::firmware

@@ -1,7 +1,6 @@
 #include "firmware/event_loop.hpp"
 
 #include <sys/epoll.h>
-#include <sys/eventfd.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
 
@@ -68,26 +67,6 @@ int EventLoop::run_once(std::chrono::milliseconds timeout) {
 void EventLoop::run() {
     stopped_ = false;
     while (!stopped_) run_once(std::chrono::milliseconds(1000));
-}
-
-Notifier::Notifier() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
-    if (fd_ < 0) throw os_error("eventfd");
-}
-
-Notifier::~Notifier() {
-    ::close(fd_);
-}
-
-void Notifier::signal() {
-    const std::uint64_t one = 1;
-    while (::write(fd_, &one, sizeof one) < 0 && errno == EINTR) {
-    }
-}
-
-std::uint64_t Notifier::take() {
-    std::uint64_t count = 0;
-    if (::read(fd_, &count, sizeof count) != sizeof count) return 0;
-    return count;
 }
 
 Worker::Worker(EventLoop& loop) : loop_(loop) {

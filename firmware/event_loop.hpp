@@ -8,6 +8,8 @@
 #include <memory>
 #include <thread>
 
+#include "drivers/notifier.hpp"
+
 namespace calbox::firmware {
 
 class EventLoop {
@@ -34,21 +36,6 @@ class EventLoop {
     bool stopped_ = false;
 };
 
-// An eventfd: one thread signals, the loop's handler takes the count.
-class Notifier {
-  public:
-    Notifier();
-    Notifier(const Notifier&) = delete;
-    Notifier& operator=(const Notifier&) = delete;
-    ~Notifier();
-    int fd() const { return fd_; }
-    void signal();
-    std::uint64_t take();  // 0 when nothing was signalled
-
-  private:
-    int fd_ = -1;
-};
-
 // Runs slow work (measure, solve, calibrate) off the loop: `work` on the worker's thread, then
 // `done` on the loop's thread when the loop sees the completion. One job at a time.
 class Worker {
@@ -64,7 +51,7 @@ class Worker {
   private:
     void finished();
     EventLoop& loop_;
-    Notifier notifier_;
+    drivers::Notifier notifier_;
     std::thread thread_;
     std::function<void(std::exception_ptr)> done_;
     std::exception_ptr error_;

@@ -2,7 +2,6 @@
 
 #include <fcntl.h>
 #include <poll.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -16,24 +15,6 @@
 
 namespace calbox::sim {
 namespace {
-
-void signal_fd(int fd) {
-    const std::uint64_t one = 1;
-    while (::write(fd, &one, sizeof one) < 0 && errno == EINTR) {
-    }
-}
-
-std::uint64_t drain_fd(int fd) {
-    std::uint64_t count = 0;
-    if (::read(fd, &count, sizeof count) != sizeof count) return 0;
-    return count;
-}
-
-int make_eventfd() {
-    const int fd = ::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
-    if (fd < 0) throw std::runtime_error(std::string("eventfd: ") + std::strerror(errno));
-    return fd;
-}
 
 // A person holding the calibration board in front of the camera: tilted up to 30 degrees,
 // turned, at distances where it fills about half to three quarters of the frame's width, the
@@ -130,11 +111,13 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
 }
 
 void TwinBench::hold_calibration_board(int view) {
-    const auto poses = calibration_poses(scenario_.camera->intrinsics, kCalibrationViews);
     if (view < 0 || view >= kCalibrationViews)
         throw std::out_of_range("calibration view " + std::to_string(view));
     const std::lock_guard lock(mutex_);
-    board_ = Board{kCalibrationBoard, poses[static_cast<std::size_t>(view)]};
+    // The same views every time: worked out once, on the first one asked for.
+    if (calibration_poses_.empty())
+        calibration_poses_ = calibration_poses(scenario_.camera->intrinsics, kCalibrationViews);
+    board_ = Board{kCalibrationBoard, calibration_poses_[static_cast<std::size_t>(view)]};
 }
 
 void TwinBench::lay_plane_board_on_bed() {
@@ -269,12 +252,10 @@ std::vector<std::string> TwinPrinterLink::answer(std::string line) {
     return replies;
 }
 
-TwinCamera::TwinCamera(std::shared_ptr<TwinBench> bench)
-    : bench_(std::move(bench)), event_fd_(make_eventfd()) {}
+TwinCamera::TwinCamera(std::shared_ptr<TwinBench> bench) : bench_(std::move(bench)) {}
 
 TwinCamera::~TwinCamera() {
     if (thread_.joinable()) thread_.join();
-    ::close(event_fd_);
 }
 
 void TwinCamera::start_capture(const hal::CaptureRequest& request) {
@@ -319,12 +300,12 @@ void TwinCamera::start_capture(const hal::CaptureRequest& request) {
             result_ = std::move(result);
             running_ = false;
         }
-        signal_fd(event_fd_);
+        done_.signal();
     });
 }
 
 hal::CaptureResult TwinCamera::take_frames() {
-    drain_fd(event_fd_);
+    done_.take();
     const std::lock_guard lock(mutex_);
     if (!result_) return hal::CaptureResult{{}, "camera: no capture has finished"};
     auto result = std::move(*result_);
@@ -332,22 +313,17 @@ hal::CaptureResult TwinCamera::take_frames() {
     return result;
 }
 
-SimLines::SimLines(hal::Clock& clock, Log log)
-    : clock_(clock), log_(std::move(log)), event_fd_(make_eventfd()) {}
-
-SimLines::~SimLines() {
-    ::close(event_fd_);
-}
+SimLines::SimLines(hal::Clock& clock, Log log) : clock_(clock), log_(std::move(log)) {}
 
 std::optional<hal::ButtonEvent> SimLines::read_button() {
     const std::lock_guard lock(mutex_);
     if (pending_.empty()) {
-        drain_fd(event_fd_);
+        edges_.take();
         return std::nullopt;
     }
     const auto event = pending_.front();
     pending_.erase(pending_.begin());
-    if (pending_.empty()) drain_fd(event_fd_);
+    if (pending_.empty()) edges_.take();
     return event;
 }
 
@@ -358,13 +334,11 @@ void SimLines::press(std::chrono::milliseconds held) {
         pending_.push_back({true, now});
         pending_.push_back({false, now + held});
     }
-    signal_fd(event_fd_);
+    edges_.signal();
 }
 
 void SimLines::set_led(hal::Led which, bool on) {
-    auto& led = leds_[static_cast<std::size_t>(which)];
-    if (led == on) return;
-    led = on;
+    leds_[static_cast<std::size_t>(which)] = on;
 }
 
 void SimLines::set_light(bool on) {

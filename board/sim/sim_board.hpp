@@ -17,6 +17,7 @@
 
 #include "board/sim/delta_judge.hpp"
 #include "board/sim/scenario.hpp"
+#include "drivers/notifier.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
@@ -67,6 +68,7 @@ class TwinBench {
         Pose board_to_camera;
     };
     std::optional<Board> board_;
+    std::vector<Pose> calibration_poses_;
 };
 
 // The printer end of a pseudo-terminal: a thread answering as Marlin does (line numbers and
@@ -103,13 +105,13 @@ class TwinCamera final : public hal::Camera {
     TwinCamera& operator=(const TwinCamera&) = delete;
     ~TwinCamera() override;
     void start_capture(const hal::CaptureRequest& request) override;
-    int completion_fd() const override { return event_fd_; }
+    int completion_fd() const override { return done_.fd(); }
     hal::CaptureResult take_frames() override;
     int captures_started() const { return captures_; }
 
   private:
     std::shared_ptr<TwinBench> bench_;
-    int event_fd_ = -1;
+    drivers::Notifier done_;
     std::thread thread_;
     std::mutex mutex_;
     std::optional<hal::CaptureResult> result_;
@@ -119,15 +121,12 @@ class TwinCamera final : public hal::Camera {
 };
 
 // The button pressed by whoever drives the sim (--auto, the console, a test); LEDs and the light
-// remembered and reported to `log`.
+// remembered, the light's changes reported to `log`.
 class SimLines final : public hal::Lines {
   public:
     using Log = std::function<void(const std::string&)>;
     SimLines(hal::Clock& clock, Log log);
-    SimLines(const SimLines&) = delete;
-    SimLines& operator=(const SimLines&) = delete;
-    ~SimLines() override;
-    int button_fd() const override { return event_fd_; }
+    int button_fd() const override { return edges_.fd(); }
     std::optional<hal::ButtonEvent> read_button() override;
     void set_led(hal::Led which, bool on) override;
     void set_light(bool on) override;
@@ -139,7 +138,7 @@ class SimLines final : public hal::Lines {
   private:
     hal::Clock& clock_;
     Log log_;
-    int event_fd_ = -1;
+    drivers::Notifier edges_;
     std::mutex mutex_;
     std::vector<hal::ButtonEvent> pending_;
     std::array<bool, 3> leds_{};

@@ -60,10 +60,6 @@ std::vector<std::string> firmware_commands(const std::string& firmware, const De
                                 "' (marlin, rrf or klipper)");
 }
 
-}  // namespace calbox::models
-
-namespace calbox::models {
-
 std::vector<std::string> marlin_settings_from_report(const std::vector<std::string>& replies) {
     std::vector<std::string> out;
     for (const auto& reply : replies) {

@@ -17,10 +17,6 @@ std::vector<std::string> klipper_snippet(const DeltaGeometry& g);
 std::vector<std::string> firmware_commands(const std::string& firmware,
                                            const DeltaGeometry& g);  // by name
 
-}  // namespace calbox::models
-
-namespace calbox::models {
-
 // The settings lines of a Marlin M503 report ("echo:  M665 L250.000 R140.000 ..."), as commands
 // that would set them again: "M665 ..." and "M666 ...", in the order reported.
 std::vector<std::string> marlin_settings_from_report(const std::vector<std::string>& replies);

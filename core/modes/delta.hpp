@@ -77,7 +77,7 @@ DeltaMeasurementsRecord record_of(const DeltaMeasurement& measured,
 struct PlacementErrors {
     solve::RigidPlacement placement;         // commanded -> bed
     std::vector<geometry::Point2> error_mm;  // per feature: measured - placed commanded
-    double largest_mm = 0;
+    double rms_mm = 0, largest_mm = 0;
 };
 PlacementErrors placement_errors(const std::vector<solve::FeatureMeasurement>& features);
 

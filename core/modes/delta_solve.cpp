@@ -1,5 +1,6 @@
 // The delta mode's solve and what measure leaves for it, without the command line: the
 // appliance and `calbox solve` call these.
+#include <algorithm>
 #include <cmath>
 
 #include "core/models/delta_commands.hpp"
@@ -29,12 +30,15 @@ PlacementErrors placement_errors(const std::vector<solve::FeatureMeasurement>& f
     for (const auto& f : features)
         commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}), seen.push_back(f.measured_mm);
     out.placement = solve::best_rigid_placement(commanded, seen);
+    double sum = 0;
     for (std::size_t i = 0; i < features.size(); ++i) {
         const auto placed = out.placement.apply(commanded[i]);
-        out.error_mm.push_back({seen[i].x - placed.x, seen[i].y - placed.y});
-        out.largest_mm =
-            std::max(out.largest_mm, std::hypot(out.error_mm.back().x, out.error_mm.back().y));
+        const geometry::Point2 e{seen[i].x - placed.x, seen[i].y - placed.y};
+        out.error_mm.push_back(e);
+        sum += e.x * e.x + e.y * e.y;
+        out.largest_mm = std::max(out.largest_mm, std::hypot(e.x, e.y));
     }
+    out.rms_mm = std::sqrt(sum / static_cast<double>(features.size()));
     return out;
 }
 

@@ -71,14 +71,7 @@ struct Rig {
           cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
                 board.bench->scenario().machine, std::move(settings),
                 [this](const std::string& l) { log.push_back(l); }) {
-        loop.watch(host.port_fd(), [this] {
-            host.on_readable();
-            if (!host.link_gone().empty()) loop.unwatch(host.port_fd());
-        });
-        loop.watch(host.timer_fd(), [this] { host.on_timer(); });
-        loop.watch(board.lines->button_fd(), [this] { cycle.on_button(); });
-        loop.watch(board.camera->completion_fd(), [this] { cycle.on_camera(); });
-        loop.watch(cycle.blink_fd(), [this] { cycle.on_blink(); });
+        firmware::watch_cycle(loop, cycle, host, *board.camera, *board.lines);
         cycle.on_prompt = [this](firmware::Prompt p, int step) {
             if (intercept && intercept(p)) return;
             if (operator_acts) firmware::act_on_prompt(*board.bench, *board.lines, p, step);

@@ -5,6 +5,7 @@
 // truth; the box never reads it.
 #include <CppUTest/TestHarness.h>
 #include <CppUTestExt/MockSupport.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -28,9 +29,18 @@ namespace {
 
 const fs::path kScenario = fs::path(CALBOX_SOURCE_DIR) / "tests/scenarios/delta_cycle_small.toml";
 
-// A fresh directory under the build's temporary area.
+// A fresh directory in the temporary area, one set per process (ctest runs the groups side by
+// side and each builds its own set-up), all removed when the process ends.
 fs::path fresh_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("calbox_test_appliance_" + name);
+    static const struct Cleanup {
+        fs::path root =
+            fs::temp_directory_path() / ("calbox_test_appliance_" + std::to_string(::getpid()));
+        ~Cleanup() {
+            std::error_code ignored;
+            fs::remove_all(root, ignored);
+        }
+    } cleanup;
+    const fs::path dir = cleanup.root / name;
     fs::remove_all(dir);
     fs::create_directories(dir);
     return dir;

@@ -196,11 +196,16 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
               std::to_string(*report.verify_xy_max_mm) + " worst; box " +
               std::to_string(report.box_seconds) + " s")
                  .c_str());
-    CHECK(before.xy_rms > 0.2);
+    // The goal (XY RMS <= 0.01, worst <= 0.03), and the README's figures for this seeded
+    // scenario: 0.257 (0.539) before, 0.0032 (0.0066) after, the verification print 0.0023.
+    CHECK(before.xy_rms > 0.25 && before.xy_rms < 0.26);
     CHECK(after.xy_rms <= 0.01);
     CHECK(after.xy_max <= 0.03);
+    CHECK(after.xy_rms <= 0.004);
+    CHECK(after.xy_max <= 0.008);
     CHECK(report.applied);
     CHECK(*report.verify_xy_rms_mm <= 0.01);
+    CHECK(*report.verify_xy_rms_mm <= 0.003);
 
     // The transcript: jobs each opened by N0 M110 N0, lines numbered on from 1, every checksum
     // right, nothing resent on a clean link.

@@ -79,9 +79,9 @@ Common common_options(const Args& args) {
 
 // Runs one job on the loop until it ends; throws with the printer's reason.
 void run_job_now(firmware::EventLoop& loop, firmware::GcodeHost& host,
-                 std::vector<std::string> lines) {
+                 const std::vector<std::string>& lines) {
     std::optional<firmware::JobOutcome> outcome;
-    host.start_job(std::move(lines), [&](firmware::JobOutcome o) { outcome = std::move(o); });
+    host.start_job(lines, [&](firmware::JobOutcome o) { outcome = std::move(o); });
     while (!outcome) loop.run_once(std::chrono::milliseconds(200));
     if (!outcome->ok) throw std::runtime_error("machine: " + outcome->error);
 }

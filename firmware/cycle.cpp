@@ -262,26 +262,26 @@ void Cycle::work(std::function<void()> job, std::function<void()> then) {
     }
     const unsigned generation = generation_;
     const auto started = d_.clock.now();
-    d_.worker.start(std::move(job),
-                    [this, generation, started, then = std::move(then)](std::exception_ptr error) {
-                        if (!current(generation)) return;
-                        report_.box_seconds += seconds(d_.clock.now() - started);
-                        if (error) {
-                            try {
-                                std::rethrow_exception(error);
-                            } catch (const std::exception& e) {
-                                fail(std::string(state_name(state_)) + ": " + e.what());
-                            }
-                            return;
-                        }
-                        then();
-                    });
+    d_.worker.start(std::move(job), [this, generation, started,
+                                     then = std::move(then)](const std::exception_ptr& error) {
+        if (!current(generation)) return;
+        report_.box_seconds += seconds(d_.clock.now() - started);
+        if (error) {
+            try {
+                std::rethrow_exception(error);
+            } catch (const std::exception& e) {
+                fail(std::string(state_name(state_)) + ": " + e.what());
+            }
+            return;
+        }
+        then();
+    });
 }
 
-void Cycle::run_job(std::vector<std::string> lines, std::function<void(JobOutcome)> then) {
+void Cycle::run_job(const std::vector<std::string>& lines, std::function<void(JobOutcome)> then) {
     const unsigned generation = generation_;
     const auto started = d_.clock.now();
-    d_.machine.start_job(std::move(lines),
+    d_.machine.start_job(lines,
                          [this, generation, started, then = std::move(then)](JobOutcome outcome) {
                              if (!current(generation)) return;
                              report_.machine_seconds += seconds(d_.clock.now() - started);
@@ -475,7 +475,7 @@ void Cycle::apply() {
         return;
     }
     enter(CycleState::apply, "backing up the settings (M503)");
-    run_job({"M503"}, [this](JobOutcome backup) {
+    run_job({"M503"}, [this](const JobOutcome& backup) {
         report_.backup = models::marlin_settings_from_report(backup.replies);
         if (report_.backup.empty()) {
             fail("apply: the printer's M503 report has no M665/M666 lines to back up");
@@ -487,7 +487,7 @@ void Cycle::apply() {
         log_("cycle " + std::to_string(report_.number) + ": sending " +
              std::to_string(commands.size()) + " lines");
         run_job(commands, [this](const JobOutcome&) {
-            run_job({"M503"}, [this](JobOutcome readback) {
+            run_job({"M503"}, [this](const JobOutcome& readback) {
                 const auto reported = models::marlin_settings_from_report(readback.replies);
                 const std::string mismatch =
                     models::settings_mismatch(report_.solution->commands, reported);

@@ -126,7 +126,7 @@ class Cycle {
     // Asynchronous steps: each continues only if the cycle was not cancelled meanwhile.
     void capture(int frames, std::function<void(std::vector<hal::Frame>)> then);
     void work(std::function<void()> job, std::function<void()> then);
-    void run_job(std::vector<std::string> lines, std::function<void(JobOutcome)> then);
+    void run_job(const std::vector<std::string>& lines, std::function<void(JobOutcome)> then);
     bool current(unsigned generation) const { return generation == generation_; }
 
     void begin_cycle();

@@ -34,7 +34,8 @@ GcodeHost::GcodeHost(hal::SerialPort& port, hal::Clock& clock, GcodeHostSettings
     if (settings_.window < 1) throw std::invalid_argument("the G-code window must be at least 1");
 }
 
-void GcodeHost::start_job(std::vector<std::string> lines, std::function<void(JobOutcome)> done) {
+void GcodeHost::start_job(const std::vector<std::string>& lines,
+                          std::function<void(JobOutcome)> done) {
     if (busy()) throw std::logic_error("a G-code job is already running");
     if (!gone_.empty()) {
         done(JobOutcome{false, gone_, {}});

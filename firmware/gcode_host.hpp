@@ -37,7 +37,7 @@ class GcodeHost {
     int timer_fd() const { return timer_->fd(); }
     // Streams `lines` (comments and blank lines dropped); `done` is called once, on the caller's
     // thread, from on_readable() or on_timer(). Throws std::logic_error while a job runs.
-    void start_job(std::vector<std::string> lines, std::function<void(JobOutcome)> done);
+    void start_job(const std::vector<std::string>& lines, std::function<void(JobOutcome)> done);
     bool busy() const { return static_cast<bool>(done_); }
     void on_readable();
     void on_timer();

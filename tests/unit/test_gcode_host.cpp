@@ -29,9 +29,8 @@ TEST_GROUP(GcodeHost) {
         host.reset();
         mock().clear();
     }
-    void start(std::vector<std::string> lines) {
-        host->start_job(std::move(lines),
-                        [this](firmware::JobOutcome o) { outcome = std::move(o); });
+    void start(const std::vector<std::string>& lines) {
+        host->start_job(lines, [this](firmware::JobOutcome o) { outcome = std::move(o); });
     }
     void printer_says(const std::string& text) {
         port.incoming += text;

@@ -82,7 +82,7 @@ std::string settings_mismatch(const std::vector<std::string>& sent,
             continue;
         }
         if (!want.is('M', 665) && !want.is('M', 666)) continue;
-        const std::string name = "M" + std::to_string(want.command_number);
+        const std::string name = want.is('M', 665) ? "M665" : "M666";
         const gcode::Line* got = nullptr;
         gcode::Line parsed;
         for (const auto& r : reported) {

@@ -218,7 +218,8 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
             continue;
         }
         CHECK(!jobs.empty());
-        CHECK_EQUAL("N" + std::to_string(jobs.back().size() + 1), line.substr(0, line.find(' ')));
+        CHECK_EQUAL(std::to_string(jobs.back().size() + 1), line.substr(1, line.find(' ') - 1));
+        CHECK_EQUAL('N', line[0]);
         jobs.back().push_back(command_of(line));
     }
     // target print, M503 backup, the correction, M503 read-back, the verification print

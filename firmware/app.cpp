@@ -28,7 +28,8 @@ constexpr const char* kRunHelp = R"(usage:
       The appliance: waits for the button, then runs the delta calibration cycle: the target
       printed over the machine link, lit and photographed, measured, solved, shown for review
       (short press applies, long press cancels), applied with a backup and a read-back, and
-      verified on a second print. The first time (no camera.yaml / plane.yaml in DIR) it first
+      verified on a second print. The correction starts from the settings the printer reports
+      (M503; RepRapFirmware: M665, M666), not the scenario's. The first time (no camera.yaml / plane.yaml in DIR) it first
       asks for views of a chessboard (chessboard:11x8@20 held in front of the camera) and for
       a chessboard (9x6@20) on the bed. Every state change is one line on standard error.
       --board sim     the digital twin (the only board built today): --scenario FILE (default
@@ -41,8 +42,11 @@ constexpr const char* kRunHelp = R"(usage:
                       mm, worst <= 0.03 mm over the printable area).
       --frames N      photos averaged per capture (default 1)
       Standard input, when it is a terminal, takes: start, press, hold, cancel, status, quit.
-  calbox revert [--board sim] [--scenario FILE] --data DIR
-      Sends the settings backed up before the last applied cycle, then M500.
+  calbox revert [--board sim] [--scenario FILE] [--data DIR]
+      Sends the settings backed up before the last completed cycle applied its correction
+      (DIR/cycle-NNNN-backup.gcode), then M500, and reads them back from the printer (M503;
+      RepRapFirmware: M665, M666); exits 1 if the printer reports anything else. The sim
+      board's printer keeps what it stores in DIR/twin-printer-settings.gcode, as an EEPROM.
 )";
 
 std::filesystem::path default_data_dir() {
@@ -77,14 +81,25 @@ Common common_options(const Args& args) {
     return c;
 }
 
-// Runs one job on the loop until it ends; throws with the printer's reason.
-void run_job_now(firmware::EventLoop& loop, firmware::GcodeHost& host,
-                 const std::vector<std::string>& lines) {
-    std::optional<firmware::JobOutcome> outcome;
-    host.start_job(lines, [&](firmware::JobOutcome o) { outcome = std::move(o); });
-    while (!outcome) loop.run_once(std::chrono::milliseconds(200));
-    if (!outcome->ok) throw std::runtime_error("machine: " + outcome->error);
-}
+// The appliance's parts, wired as calbox run and calbox revert both use them.
+struct Box {
+    drivers::TimerfdClock clock;
+    sim::SimBoard board;
+    drivers::FileStorage data;
+    firmware::EventLoop loop;
+    firmware::Worker worker{loop};
+    firmware::GcodeHost host;
+    firmware::Cycle cycle;
+
+    Box(const Common& common, firmware::CycleSettings settings)
+        : board(sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log_line)),
+          data(common.data_dir),
+          host(*board.machine, clock, {}, log_line),
+          cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
+                board.bench->scenario().machine, std::move(settings), log_line) {
+        firmware::watch_cycle(loop, cycle, host, *board.camera, *board.lines);
+    }
+};
 
 int run(const std::vector<std::string>& words) {
     const Args args(words, {"--board", "--scenario", "--data", "--frames"}, {"--auto"});
@@ -95,19 +110,13 @@ int run(const std::vector<std::string>& words) {
     const Common common = common_options(args);
 
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
-    drivers::TimerfdClock clock;
-    sim::SimBoard board =
-        sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log_line);
-    drivers::FileStorage data(common.data_dir);
-    firmware::EventLoop loop;
-    firmware::Worker worker(loop);
-    firmware::GcodeHost host(*board.machine, clock, {}, log_line);
     firmware::CycleSettings settings;
     settings.frames_per_capture = frames;
-    firmware::Cycle cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
-                          board.bench->scenario().machine, settings, log_line);
+    Box box(common, settings);
+    auto& board = box.board;
+    auto& loop = box.loop;
+    auto& cycle = box.cycle;
 
-    firmware::watch_cycle(loop, cycle, host, *board.camera, *board.lines);
     int stopped_by = 0;
     loop.watch(signals.fd(), [&] {
         stopped_by = signals.take();
@@ -190,28 +199,28 @@ int revert(const std::vector<std::string>& words) {
     const Args args(words, {"--board", "--scenario", "--data"}, {});
     if (!args.positional().empty()) throw UsageError("revert takes no positional argument");
     const Common common = common_options(args);
-    drivers::FileStorage data(common.data_dir);
-    const auto last = data.read_file("last-cycle");
-    if (!last) throw std::runtime_error(common.data_dir.string() + ": no cycle has run here");
-    char name[64];
-    std::snprintf(name, sizeof name, "cycle-%04d-backup.gcode", std::atoi(last->c_str()));
-    const auto backup = data.read_file(name);
-    if (!backup)
-        throw std::runtime_error(common.data_dir.string() +
-                                 ": the last cycle applied nothing (no " + name + ")");
-    std::vector<std::string> lines;
-    std::istringstream text(*backup);
-    for (std::string line; std::getline(text, line);)
-        if (!line.empty()) lines.push_back(line);
-    drivers::TimerfdClock clock;
-    sim::SimBoard board =
-        sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log_line);
-    firmware::EventLoop loop;
-    firmware::GcodeHost host(*board.machine, clock, {}, log_line);
-    firmware::watch_machine(loop, host);
-    run_job_now(loop, host, lines);
-    std::printf("reverted to %s:\n", name);
-    for (const auto& l : lines) std::printf("  %s\n", l.c_str());
+    firmware::SignalWatch signals;
+    Box box(common, {});
+    const std::string refused = box.cycle.revert();
+    if (!refused.empty()) throw std::runtime_error(refused);
+    box.cycle.on_state = [&box](firmware::CycleState state) {
+        if (state == firmware::CycleState::idle || state == firmware::CycleState::error)
+            box.loop.stop();
+    };
+    int stopped_by = 0;
+    box.loop.watch(signals.fd(), [&] {
+        stopped_by = signals.take();
+        box.cycle.cancel("stopped by signal " + std::to_string(stopped_by));
+        box.loop.stop();
+    });
+    box.loop.run();
+    if (stopped_by != 0)
+        throw std::runtime_error("revert: stopped by signal " + std::to_string(stopped_by) +
+                                 " before the printer confirmed the settings");
+    if (box.cycle.state() == firmware::CycleState::error)
+        throw std::runtime_error(box.cycle.error());
+    std::printf("reverted: the printer reports the settings saved before cycle %d\n",
+                box.cycle.report().number);
     return 0;
 }
 

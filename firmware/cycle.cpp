@@ -39,9 +39,17 @@ std::string slice(const std::string& s, std::size_t from, std::size_t count) {
     return from < s.size() ? s.substr(from, count) : std::string();
 }
 
+// The lines as a file's text: each one ended by a newline.
 std::string joined(const std::vector<std::string>& lines) {
     std::string out;
     for (const auto& l : lines) out += l + "\n";
+    return out;
+}
+
+// "M665 M666": commands named in a message.
+std::string spaced(const std::vector<std::string>& words) {
+    std::string out;
+    for (const auto& w : words) out += (out.empty() ? "" : " ") + w;
     return out;
 }
 
@@ -392,14 +400,39 @@ void Cycle::make_target() {
         },
         [this, lines] {
             target_job_ = *lines;
-            enter(CycleState::wait_machine,
-                  "printing the target: " + std::to_string(target_job_.size()) + " lines");
-            run_job(target_job_, [this](const JobOutcome&) {
-                enter(CycleState::capture,
-                      std::to_string(settings_.frames_per_capture) + " frame(s)");
-                measure_print(CycleState::measure, [this] { solve(); });
+            read_printer_settings([this] {
+                enter(CycleState::wait_machine,
+                      "printing the target: " + std::to_string(target_job_.size()) + " lines");
+                run_job(target_job_, [this](const JobOutcome&) {
+                    enter(CycleState::capture,
+                          std::to_string(settings_.frames_per_capture) + " frame(s)");
+                    measure_print(CycleState::measure, [this] { solve(); });
+                });
             });
         });
+}
+
+// The correction is worked out from the settings in force, which an earlier cycle, a revert or
+// the owner may have changed since the machine file was written: they are read from the printer.
+// Klipper's live in printer.cfg, out of the link's reach: the machine file's stand.
+void Cycle::read_printer_settings(std::function<void()> then) {
+    if (machine_.firmware == "klipper") {
+        then();
+        return;
+    }
+    const auto query = models::settings_query(machine_.firmware);
+    run_job(query, [this, query, then = std::move(then)](const JobOutcome& outcome) {
+        const auto commands = models::settings_from_report(machine_.firmware, outcome.replies);
+        try {
+            machine_.delta = models::geometry_from_settings(machine_.firmware, commands);
+        } catch (const std::exception& e) {
+            fail("the printer's reply to " + spaced(query) + ": " + e.what());
+            return;
+        }
+        log_("cycle " + std::to_string(report_.number) +
+             ": the printer's settings: " + spaced(commands));
+        then();
+    });
 }
 
 // Photographs what was printed and measures it into measurements_.
@@ -474,11 +507,14 @@ void Cycle::apply() {
         finish_cycle();
         return;
     }
-    enter(CycleState::apply, "backing up the settings (M503)");
-    run_job({"M503"}, [this](const JobOutcome& backup) {
-        report_.backup = models::marlin_settings_from_report(backup.replies);
-        if (report_.backup.empty()) {
-            fail("apply: the printer's M503 report has no M665/M666 lines to back up");
+    const std::vector<std::string> query = models::settings_query(s.firmware);
+    enter(CycleState::apply, "backing up the settings (" + spaced(query) + ")");
+    run_job(query, [this, query](const JobOutcome& backup) {
+        const std::string& firmware = report_.solution->firmware;
+        report_.backup = models::settings_from_report(firmware, backup.replies);
+        if (report_.backup.size() != 2) {
+            fail("apply: the printer's reply to " + spaced(query) +
+                 " does not hold both its M665 and M666 settings to back up");
             return;
         }
         d_.data.replace_file(record_name(report_.number, "backup.gcode"),
@@ -486,11 +522,12 @@ void Cycle::apply() {
         const auto& commands = report_.solution->commands;
         log_("cycle " + std::to_string(report_.number) + ": sending " +
              std::to_string(commands.size()) + " lines");
-        run_job(commands, [this](const JobOutcome&) {
-            run_job({"M503"}, [this](const JobOutcome& readback) {
-                const auto reported = models::marlin_settings_from_report(readback.replies);
-                const std::string mismatch =
-                    models::settings_mismatch(report_.solution->commands, reported);
+        run_job(commands, [this, query](const JobOutcome&) {
+            run_job(query, [this](const JobOutcome& readback) {
+                const std::string& firmware = report_.solution->firmware;
+                const std::string mismatch = models::settings_mismatch(
+                    firmware, report_.solution->commands,
+                    models::settings_from_report(firmware, readback.replies));
                 if (mismatch.empty()) {
                     report_.applied = true;
                     machine_.delta = report_.solution->after;
@@ -509,6 +546,45 @@ void Cycle::apply() {
             });
         });
     });
+}
+
+std::string Cycle::revert() {
+    if (state_ != CycleState::idle)
+        return "revert: the box is busy (" + std::string(state_name(state_)) + ")";
+    if (machine_.firmware == "klipper")
+        return "revert: Klipper's settings live in printer.cfg; the box never changed them";
+    const auto last = d_.data.read_file("last-cycle");
+    if (!last) return "revert: no cycle has run here";
+    const int number = std::atoi(last->c_str());
+    const std::string name = record_name(number, "backup.gcode");
+    const auto backup = d_.data.read_file(name);
+    if (!backup)
+        return "revert: cycle " + std::to_string(number) + " applied nothing (no " + name + ")";
+    std::vector<std::string> lines;
+    std::istringstream text(*backup);
+    for (std::string line; std::getline(text, line);)
+        if (!line.empty()) lines.push_back(line);
+    report_ = CycleReport{};
+    report_.number = number;
+    error_.clear();
+    enter(CycleState::apply,
+          "reverting to the settings saved before cycle " + std::to_string(number));
+    const auto query = models::settings_query(machine_.firmware);
+    run_job(lines, [this, lines, query, name](const JobOutcome&) {
+        run_job(query, [this, lines, name](const JobOutcome& readback) {
+            const auto reported = models::settings_from_report(machine_.firmware, readback.replies);
+            const std::string mismatch =
+                models::settings_mismatch(machine_.firmware, lines, reported);
+            if (!mismatch.empty()) {
+                fail("revert: read-back mismatch: " + mismatch);
+                return;
+            }
+            machine_.delta = models::geometry_from_settings(machine_.firmware, reported);
+            enter(CycleState::idle, "reverted to " + name);
+            if (on_cycle_end) on_cycle_end(true);
+        });
+    });
+    return "";
 }
 
 void Cycle::verify() {

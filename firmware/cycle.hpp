@@ -103,6 +103,10 @@ class Cycle {
     void cancel(const std::string& why);
     void acknowledge();
     void press(bool long_press);  // a whole press, as the button gives it
+    // Sends the settings backed up before the last completed cycle applied its correction, then
+    // reads them back (apply, then idle; error on a mismatch). Only from idle: returns why not,
+    // empty when it started.
+    std::string revert();
 
     CycleState state() const { return state_; }
     Prompt prompt() const { return prompt_; }
@@ -134,6 +138,7 @@ class Cycle {
     void setup_plane();
     void ask_clear_bed_then_target();
     void make_target();
+    void read_printer_settings(std::function<void()> then);
     void measure_print(CycleState state, std::function<void()> then);
     void solve();
     void review();

@@ -57,6 +57,11 @@ void GcodeHost::start_job(const std::vector<std::string>& lines,
     paused_ = false;
     replies_.clear();
     done_ = std::move(done);
+    if (!heard_from_printer_ && settings_.startup_wait.count() > 0) {
+        waiting_for_startup_ = true;
+        timer_->arm(settings_.startup_wait, std::chrono::nanoseconds(0));
+        return;
+    }
     pump();
 }
 
@@ -71,6 +76,7 @@ void GcodeHost::pump() {
 
 void GcodeHost::write_line(const std::string& text) {
     transcript_.push_back(text);
+    if (transcript_.size() > settings_.transcript_lines) transcript_.pop_front();
     outgoing_ += text;
     outgoing_ += '\n';
     flush();
@@ -120,6 +126,16 @@ void GcodeHost::on_readable() {
 }
 
 void GcodeHost::handle(const std::string& reply) {
+    const bool banner = reply == "start" || starts_with(reply, "start ");
+    heard_from_printer_ = true;
+    if (waiting_for_startup_) {
+        log_("printer: " + reply);
+        if (banner) {
+            waiting_for_startup_ = false;
+            pump();
+        }
+        return;
+    }
     if (!busy()) {
         log_("printer: " + reply);  // a banner, or the tail of a job that ended
         return;
@@ -179,7 +195,7 @@ void GcodeHost::handle(const std::string& reply) {
         }
         return;
     }
-    if (reply == "start" || starts_with(reply, "start ")) {
+    if (banner) {
         finish(
             false,
             "the printer restarted mid-job (start-up banner): the job was abandoned, not resumed");
@@ -190,6 +206,13 @@ void GcodeHost::handle(const std::string& reply) {
 
 void GcodeHost::on_timer() {
     if (timer_->take_expirations() == 0) return;
+    if (waiting_for_startup_) {
+        // No banner: a board that does not reset on connection (or one already running).
+        waiting_for_startup_ = false;
+        heard_from_printer_ = true;
+        pump();
+        return;
+    }
     if (busy() && (in_flight_ > 0 || paused_)) {
         const auto seconds = std::chrono::duration<double>(settings_.reply_timeout).count();
         char why[160];
@@ -205,6 +228,7 @@ void GcodeHost::cancel(const std::string& why) {
 
 void GcodeHost::finish(bool ok, const std::string& error) {
     timer_->disarm();
+    waiting_for_startup_ = false;
     outgoing_.clear();  // nothing more goes to the printer
     JobOutcome outcome{ok, error, std::move(replies_)};
     replies_.clear();

@@ -5,6 +5,7 @@
 // the link alive, `Error:` lines that are not about the line's transport ending the job, a
 // start-up banner mid-job (the printer reset) abandoning it, never resuming it blindly.
 #include <chrono>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <string>
@@ -20,6 +21,11 @@ struct GcodeHostSettings {
     // Silence after a line before the printer is declared gone; `busy:` restarts it.
     std::chrono::milliseconds reply_timeout{30000};
     int max_resends_of_a_line = 8;  // beyond this the link is too noisy to trust
+    // A board that resets when its port opens (Marlin on an Arduino) loses what is sent while it
+    // boots: the first job waits this long for its start-up banner unless the printer has
+    // spoken already; zero does not wait.
+    std::chrono::milliseconds startup_wait{3000};
+    std::size_t transcript_lines = 200000;  // about two whole delta cycles with resends
 };
 
 struct JobOutcome {
@@ -45,8 +51,9 @@ class GcodeHost {
     void cancel(const std::string& why);
     // Not empty once the device vanished: what was seen. Stop watching port_fd() then.
     const std::string& link_gone() const { return gone_; }
-    // Every line written to the printer, in order, resends included.
-    const std::vector<std::string>& transcript() const { return transcript_; }
+    // The lines written to the printer, in order, resends included: the last
+    // `transcript_lines` of them at most (a box that runs for months keeps a bounded record).
+    const std::deque<std::string>& transcript() const { return transcript_; }
 
   private:
     void handle(const std::string& reply);
@@ -63,12 +70,14 @@ class GcodeHost {
     std::vector<std::string> job_;  // job_[n] is line number n (0: the M110)
     std::size_t next_ = 0;          // the next line number to send
     int in_flight_ = 0;             // lines sent, not yet acknowledged
+    bool heard_from_printer_ = false;
+    bool waiting_for_startup_ = false;
     int resends_of_line_ = 0;
     std::size_t last_resend_ = 0;
     bool paused_ = false;
     std::string incoming_, outgoing_;
     std::vector<std::string> replies_;
-    std::vector<std::string> transcript_;
+    std::deque<std::string> transcript_;
     std::function<void(JobOutcome)> done_;
     std::string gone_;
 };

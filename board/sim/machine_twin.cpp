@@ -1,5 +1,6 @@
 #include "board/sim/machine_twin.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 
@@ -19,12 +20,14 @@ std::array<double, 3> carriage_heights_at_home(const DeltaParams& p) {
 
 }  // namespace
 
-DeltaTwin::DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware)
-    : truth_(truth), firmware_(firmware), stored_(firmware) {
+DeltaTwin::DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware, DeltaDialect dialect)
+    : truth_(truth), firmware_(firmware), stored_(firmware), dialect_(dialect) {
     for (double adj : truth.endstop_offset_mm)
         if (adj > 0) throw MachineError("true endstop offsets must be <= 0, as in Marlin");
-    for (double adj : firmware.endstop_offset_mm)
-        if (adj > 0) throw MachineError("firmware endstop offsets must be <= 0 (M666)");
+    if (dialect_ == DeltaDialect::marlin) {
+        for (double adj : firmware.endstop_offset_mm)
+            if (adj > 0) throw MachineError("firmware endstop offsets must be <= 0 (M666)");
+    }
 }
 
 void DeltaTwin::home() {
@@ -61,6 +64,7 @@ void DeltaTwin::zero_height_at_centre() {
 }
 
 std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode::Line& line) {
+    if (dialect_ == DeltaDialect::rrf) return rrf_settings_command(line);
     if (line.is('M', 665)) {
         const auto set = [&](char letter, double& field) {
             if (const auto v = line.value(letter)) field = *v;
@@ -106,6 +110,86 @@ std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode:
         return lines;
     }
     return std::nullopt;
+}
+
+std::optional<std::vector<std::string>> DeltaTwin::rrf_settings_command(const gcode::Line& line) {
+    if (line.is('M', 665)) {
+        if (line.parameters.empty()) {
+            // As LinearDeltaKinematics::Configure prints it; the degree sign in UTF-8.
+            std::string report = "Diagonals ";
+            for (int i = 0; i < 3; ++i)
+                report += (i == 0 ? "" : ":") +
+                          fixed3(firmware_.diagonal_rod_mm + firmware_.diagonal_rod_trim_mm[i]);
+            report += ", delta radius " + fixed3(firmware_.radius_mm) + ", homed height " +
+                      fixed3(firmware_.height_mm) + ", bed radius 85.0";
+            const char* axes[3] = {", X ", ", Y ", ", Z "};
+            for (int i = 0; i < 3; ++i)
+                report += axes[i] + fixed3(firmware_.tower_angle_trim_deg[i]) + "\xC2\xB0";
+            return std::vector<std::string>{report, "ok"};
+        }
+        const auto rods = line.values('L');
+        if (!rods.empty()) {
+            if (rods.size() != 1 && rods.size() != 3)
+                return std::vector<std::string>{"Error: M665: give 1 or 3 diagonals", "ok"};
+            firmware_.diagonal_rod_mm = rods[0];
+            for (std::size_t i = 0; i < 3; ++i)
+                firmware_.diagonal_rod_trim_mm[i] = rods[std::min(i, rods.size() - 1)] - rods[0];
+        }
+        const auto set = [&](char letter, double& field) {
+            if (const auto v = line.value(letter)) field = *v;
+        };
+        set('R', firmware_.radius_mm);
+        set('H', firmware_.height_mm);
+        set('X', firmware_.tower_angle_trim_deg[0]);
+        set('Y', firmware_.tower_angle_trim_deg[1]);
+        set('Z', firmware_.tower_angle_trim_deg[2]);
+        homed_ = false;  // a kinematics change leaves the towers unhomed
+        return std::vector<std::string>{"ok"};
+    }
+    if (line.is('M', 666)) {
+        if (line.parameters.empty()) {
+            char report[160];
+            std::snprintf(report, sizeof report,
+                          "Endstop adjustments X%.2f Y%.2f Z%.2f, tilt X0.00%% Y0.00%%",
+                          0.0 - firmware_.endstop_offset_mm[0],  // never "-0.00"
+                          0.0 - firmware_.endstop_offset_mm[1],
+                          0.0 - firmware_.endstop_offset_mm[2]);
+            return std::vector<std::string>{report, "ok"};
+        }
+        for (const char tilt : {'A', 'B'}) {
+            if (line.value(tilt).value_or(0) != 0)
+                return std::vector<std::string>{"Error: the twin has no bed tilt", "ok"};
+        }
+        const char letters[3] = {'X', 'Y', 'Z'};
+        for (int i = 0; i < 3; ++i)
+            if (const auto v = line.value(letters[i])) firmware_.endstop_offset_mm[i] = -*v;
+        return std::vector<std::string>{"ok"};
+    }
+    if (line.is('M', 500)) {
+        stored_ = firmware_;
+        return std::vector<std::string>{"ok"};
+    }
+    return std::nullopt;
+}
+
+std::vector<std::string> DeltaTwin::stored_settings_commands() const {
+    const DeltaParams& p = stored_;
+    if (dialect_ == DeltaDialect::marlin) {
+        auto lines = marlin_delta_report(p);
+        std::vector<std::string> commands;
+        for (auto& l : lines)
+            if (l.rfind("echo:  M", 0) == 0) commands.push_back(l.substr(7));
+        return commands;
+    }
+    std::string m665 = "M665 L";
+    for (int i = 0; i < 3; ++i)
+        m665 += (i == 0 ? "" : ":") + fixed3(p.diagonal_rod_mm + p.diagonal_rod_trim_mm[i]);
+    m665 += " R" + fixed3(p.radius_mm) + " H" + fixed3(p.height_mm) + " X" +
+            fixed3(p.tower_angle_trim_deg[0]) + " Y" + fixed3(p.tower_angle_trim_deg[1]) + " Z" +
+            fixed3(p.tower_angle_trim_deg[2]);
+    return {m665, "M666 X" + fixed3(0.0 - p.endstop_offset_mm[0]) + " Y" +
+                      fixed3(0.0 - p.endstop_offset_mm[1]) + " Z" +
+                      fixed3(0.0 - p.endstop_offset_mm[2])};
 }
 
 std::vector<std::string> marlin_delta_report(const DeltaParams& p) {

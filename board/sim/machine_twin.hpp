@@ -29,11 +29,18 @@ class MachineTwin {
     virtual std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) = 0;
 };
 
+// Whose settings commands the delta twin speaks. Marlin: M665 L R H X Y Z A B C (rod trims),
+// M666 offsets <= 0, M503 reports. RepRapFirmware (LinearDeltaKinematics): M665 L a:b:c (one
+// rod per tower) R H B X Y Z, M666 X Y Z adjustments of either sign (+ raises the endstop, so it
+// is Marlin's offset negated), each reporting its settings when given no parameters.
+enum class DeltaDialect { marlin, rrf };
+
 // A linear delta in Marlin's conventions. G28 moves each carriage to its physical endstop,
 // then down by the firmware's M666 offset, and declares the nozzle at (0, 0, height).
 class DeltaTwin final : public MachineTwin {
   public:
-    DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware);
+    DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware,
+              DeltaDialect dialect = DeltaDialect::marlin);
     void home() override;
     bool homed() const override { return homed_; }
     Vec3 position_after_homing_mm() const override { return {0, 0, firmware_.height_mm}; }
@@ -42,12 +49,18 @@ class DeltaTwin final : public MachineTwin {
 
     const DeltaParams& firmware() const { return firmware_; }
     const DeltaParams& stored_firmware() const { return stored_; }  // as of the last M500
+    DeltaDialect dialect() const { return dialect_; }
     // Shifts the firmware's height so that commanded Z = 0 touches the bed at its centre, as a
     // paper test does.
     void zero_height_at_centre();
+    // The commands that set the stored settings again, in the twin's dialect (its EEPROM or
+    // config-override.g).
+    std::vector<std::string> stored_settings_commands() const;
 
   private:
+    std::optional<std::vector<std::string>> rrf_settings_command(const gcode::Line& line);
     DeltaParams truth_, firmware_, stored_;
+    DeltaDialect dialect_;
     bool homed_ = false;
     std::array<double, 3> home_physical_mm_{};  // carriage heights in the true frame at home
     std::array<double, 3> home_logical_mm_{};   // what the firmware believes they are

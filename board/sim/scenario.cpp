@@ -160,7 +160,9 @@ Scenario load_scenario(const std::string& path) {
 
 std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
     if (s.machine.kind == "delta") {
-        auto twin = std::make_unique<DeltaTwin>(s.delta_truth, s.delta_firmware);
+        auto twin = std::make_unique<DeltaTwin>(
+            s.delta_truth, s.delta_firmware,
+            s.machine.firmware == "rrf" ? DeltaDialect::rrf : DeltaDialect::marlin);
         if (s.zero_height_at_centre) twin->zero_height_at_centre();
         return twin;
     }

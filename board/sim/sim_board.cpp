@@ -7,6 +7,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
@@ -50,18 +51,55 @@ std::vector<Pose> calibration_poses(const CameraIntrinsics& camera, int count) {
     return poses;
 }
 
+bool sets_delta_settings(const std::string& text) {
+    try {
+        const gcode::Line line = gcode::parse_line(text);
+        return (line.is('M', 665) || line.is('M', 666)) && !line.parameters.empty();
+    } catch (const gcode::SyntaxError&) {
+        return false;  // the printer's own reading reports it
+    }
+}
+
 }  // namespace
 
-TwinBench::TwinBench(Scenario scenario) : scenario_(std::move(scenario)) {
+TwinBench::TwinBench(Scenario scenario, std::filesystem::path settings_file)
+    : scenario_(std::move(scenario)), settings_file_(std::move(settings_file)) {
     if (!scenario_.camera) throw ScenarioError(scenario_.path + ": the sim board needs a [camera]");
     machine_ = make_machine_twin(scenario_);
+    if (!settings_file_.empty() && std::filesystem::exists(settings_file_)) {
+        // The printer as the last run left it: what it stored, loaded at power-on.
+        std::ifstream in(settings_file_);
+        for (std::string text; std::getline(in, text);) {
+            try {
+                if (!machine_->settings_command(gcode::parse_line(text)))
+                    throw gcode::SyntaxError("not a settings command");
+            } catch (const std::exception& e) {
+                throw ScenarioError(settings_file_.string() + ": '" + text + "': " + e.what());
+            }
+        }
+        machine_->settings_command(gcode::parse_line("M500"));
+    }
     runner_ = std::make_unique<GcodeRunner>(*machine_, tool_settings_of(scenario_));
+}
+
+void TwinBench::store_settings() const {
+    const auto* delta = dynamic_cast<const DeltaTwin*>(machine_.get());
+    if (settings_file_.empty() || delta == nullptr) return;
+    // Written aside and renamed over, so that a run stopped half-way leaves the old file whole.
+    const std::filesystem::path aside = settings_file_.string() + ".new";
+    {
+        std::ofstream out(aside, std::ios::trunc);
+        for (const auto& command : delta->stored_settings_commands()) out << command << "\n";
+        if (!out.flush()) throw std::runtime_error(aside.string() + ": cannot write");
+    }
+    std::filesystem::rename(aside, settings_file_);
 }
 
 std::vector<std::string> TwinBench::run_printer_line(std::string_view line) {
     const std::lock_guard lock(mutex_);
     const std::size_t replies_before = runner_->result().replies.size();
     runner_->run_line(line);
+    if (gcode::parse_line(line).is('M', 500)) store_settings();
     // The settings commands' own "ok" is the link's business: the printer link adds one per line.
     const auto& replies = runner_->result().replies;
     std::vector<std::string> out;
@@ -77,7 +115,8 @@ void TwinBench::reset_printer() {
         earlier_runs_.push_back({strokes[i].a_mm, strokes[i].b_mm, strokes[i].width_mm});
     // The settings the firmware stored survive; what it held in RAM and its homing do not.
     if (auto* delta = dynamic_cast<DeltaTwin*>(machine_.get())) {
-        auto fresh = std::make_unique<DeltaTwin>(scenario_.delta_truth, delta->stored_firmware());
+        auto fresh = std::make_unique<DeltaTwin>(scenario_.delta_truth, delta->stored_firmware(),
+                                                 delta->dialect());
         machine_ = std::move(fresh);
     } else {
         machine_ = make_machine_twin(scenario_);
@@ -239,9 +278,8 @@ std::vector<std::string> TwinPrinterLink::answer(std::string line) {
         halted_ = true;
         return {"Error:Printer halted. kill() called!"};
     }
-    if (faults.settings_ignored &&
-        (line.find("M665") != std::string::npos || line.find("M666") != std::string::npos))
-        return {"ok"};
+    // Settings acknowledged but not applied; asking for them still answers.
+    if (faults.settings_ignored && sets_delta_settings(line)) return {"ok"};
     std::vector<std::string> replies;
     try {
         replies = bench_->run_printer_line(line);
@@ -367,7 +405,8 @@ void PngDisplay::show(const hal::MonoBitmap& frame) {
 
 SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines::Log log) {
     SimBoard board;
-    board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path));
+    board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
+                                              settings.data_dir / kTwinSettingsFile);
     if (!board.bench->scenario().machine.is_delta())
         throw ScenarioError(settings.scenario_path + ": the sim board runs delta printers today");
     board.printer = std::make_unique<TwinPrinterLink>(board.bench);

@@ -31,7 +31,9 @@ namespace calbox::sim {
 // run on threads of their own).
 class TwinBench {
   public:
-    explicit TwinBench(Scenario scenario);
+    // `settings_file`, when given, keeps what the printer stores (M500) from one run to the next,
+    // as its EEPROM does: loaded at power-on, rewritten at each M500.
+    explicit TwinBench(Scenario scenario, std::filesystem::path settings_file = {});
     const Scenario& scenario() const { return scenario_; }
 
     // The printer executes one line it received; returns what it reports (M503), throws
@@ -57,8 +59,10 @@ class TwinBench {
     DeltaJudgement judge_delta_printer() const;
 
   private:
+    void store_settings() const;
     mutable std::mutex mutex_;
     Scenario scenario_;
+    std::filesystem::path settings_file_;
     std::unique_ptr<MachineTwin> machine_;
     std::unique_ptr<GcodeRunner> runner_;
     std::size_t strokes_cleared_ = 0;          // runner strokes before this index are off the bed
@@ -158,6 +162,10 @@ class PngDisplay final : public hal::Display {
     std::filesystem::path directory_;
     int frames_ = 0;
 };
+
+// In the data directory: the twin printer's stored settings (its EEPROM), the G-code that
+// sets them.
+constexpr const char* kTwinSettingsFile = "twin-printer-settings.gcode";
 
 struct SimSettings {
     std::string scenario_path;

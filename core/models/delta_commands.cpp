@@ -1,8 +1,13 @@
 #include "core/models/delta_commands.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
+#include <string_view>
+#include <utility>
 
 #include "core/targets/gcode_line.hpp"
 
@@ -60,20 +65,170 @@ std::vector<std::string> firmware_commands(const std::string& firmware, const De
                                 "' (marlin, rrf or klipper)");
 }
 
-std::vector<std::string> marlin_settings_from_report(const std::vector<std::string>& replies) {
-    std::vector<std::string> out;
-    for (const auto& reply : replies) {
-        std::string_view text = reply;
-        if (text.substr(0, 5) == "echo:") text.remove_prefix(5);
-        while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
-        if (text.substr(0, 5) == "M665 " || text.substr(0, 5) == "M666 ") out.emplace_back(text);
-    }
-    return out;
+std::vector<std::string> settings_query(const std::string& firmware) {
+    if (firmware == "marlin") return {"M503"};
+    if (firmware == "rrf") return {"M665", "M666"};
+    throw std::invalid_argument("the delta settings of firmware '" + firmware +
+                                "' cannot be read over the link (marlin or rrf)");
 }
 
-std::string settings_mismatch(const std::vector<std::string>& sent,
+namespace {
+
+bool starts_with(std::string_view text, std::string_view prefix) {
+    return text.substr(0, prefix.size()) == prefix;
+}
+
+// The number (or ':' list) at the start of `text`, as printed; empty when there is none.
+std::string_view leading_number(std::string_view text) {
+    std::size_t n = 0;
+    while (n < text.size() &&
+           (std::isdigit(static_cast<unsigned char>(text[n])) != 0 || text[n] == '.' ||
+            text[n] == '-' || text[n] == '+' || text[n] == ':'))
+        ++n;
+    return text.substr(0, n);
+}
+
+// RepRapFirmware 3's M665 report: "Diagonals 250.000:250.000:250.000, delta radius 140.000,
+// homed height 300.000, bed radius 85.0, X 0.000°, Y 0.000°, Z 0.000°" ("Diagonal 250.000" with
+// one rod length).
+std::string rrf_m665_from_report(std::string_view text) {
+    static constexpr std::pair<std::string_view, char> kFields[] = {{"Diagonals ", 'L'},
+                                                                    {"Diagonal ", 'L'},
+                                                                    {"delta radius ", 'R'},
+                                                                    {"homed height ", 'H'},
+                                                                    {"bed radius ", 'B'},
+                                                                    {"X ", 'X'},
+                                                                    {"Y ", 'Y'},
+                                                                    {"Z ", 'Z'}};
+    std::string command = "M665";
+    while (!text.empty()) {
+        const std::size_t comma = std::min(text.find(','), text.size());
+        std::string_view field = text.substr(0, comma);
+        text.remove_prefix(std::min(comma + 1, text.size()));
+        while (!field.empty() && field.front() == ' ') field.remove_prefix(1);
+        for (const auto& [name, letter] : kFields) {
+            if (!starts_with(field, name)) continue;
+            const auto number = leading_number(field.substr(name.size()));
+            if (number.empty()) break;
+            command += ' ';
+            command += letter;
+            command += number;
+            break;
+        }
+    }
+    return command;
+}
+
+// "Endstop adjustments X0.00 Y0.00 Z0.00, tilt X0.00% Y0.00%": M666 X Y Z, and the bed tilt as
+// M666 A B (percent).
+std::string rrf_m666_from_report(std::string_view text) {
+    std::string command = "M666";
+    const std::size_t tilt = text.find("tilt ");
+    const std::string_view adjustments = text.substr(0, tilt);
+    for (const char letter : {'X', 'Y', 'Z'}) {
+        const std::size_t at = adjustments.find(std::string(" ") + letter);
+        if (at == std::string_view::npos) continue;
+        const auto number = leading_number(adjustments.substr(at + 2));
+        if (number.empty()) continue;
+        command += ' ';
+        command += letter;
+        command += number;
+    }
+    if (tilt != std::string_view::npos) {
+        const std::string_view tilts = text.substr(tilt);
+        for (const auto& [axis, letter] : {std::pair{'X', 'A'}, std::pair{'Y', 'B'}}) {
+            const std::size_t at = tilts.find(axis);
+            if (at == std::string_view::npos) continue;
+            const auto number = leading_number(tilts.substr(at + 1));
+            if (number.empty()) continue;
+            command += ' ';
+            command += letter;
+            command += number;
+        }
+    }
+    return command;
+}
+
+}  // namespace
+
+std::vector<std::string> settings_from_report(const std::string& firmware,
+                                              const std::vector<std::string>& replies) {
+    std::vector<std::string> out;
+    if (firmware == "marlin") {
+        for (const auto& reply : replies) {
+            std::string_view text = reply;
+            if (starts_with(text, "echo:")) text.remove_prefix(5);
+            while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+            if (starts_with(text, "M665 ") || starts_with(text, "M666 ")) out.emplace_back(text);
+        }
+        return out;
+    }
+    if (firmware == "rrf") {
+        std::string m665, m666;
+        for (const auto& reply : replies) {
+            if (starts_with(reply, "Diagonal")) m665 = rrf_m665_from_report(reply);
+            if (starts_with(reply, "Endstop adjustments")) m666 = rrf_m666_from_report(reply);
+        }
+        if (!m665.empty()) out.push_back(m665);
+        if (!m666.empty()) out.push_back(m666);
+        return out;
+    }
+    throw std::invalid_argument("no settings report for firmware '" + firmware + "'");
+}
+
+DeltaGeometry geometry_from_settings(const std::string& firmware,
+                                     const std::vector<std::string>& commands) {
+    std::optional<gcode::Line> m665, m666;
+    for (const auto& c : commands) {
+        auto line = gcode::parse_line(c);
+        if (line.is('M', 665)) m665 = std::move(line);
+        if (line.is('M', 666)) m666 = std::move(line);
+    }
+    if (!m665 || !m666)
+        throw std::invalid_argument(std::string("the printer's settings lack ") +
+                                    (m665 ? "M666" : "M665"));
+    for (const char letter : {'L', 'R', 'H'})
+        if (!m665->value(letter))
+            throw std::invalid_argument(std::string("the printer's M665 lacks ") + letter);
+    const auto get = [](const gcode::Line& line, char letter) {
+        return line.value(letter).value_or(0);
+    };
+    if (firmware == "marlin") {
+        DeltaGeometry g;
+        g.diagonal_rod_mm = get(*m665, 'L');
+        g.radius_mm = get(*m665, 'R');
+        g.height_mm = get(*m665, 'H');
+        for (std::size_t i = 0; i < 3; ++i) {
+            g.tower_angle_trim_deg[i] = get(*m665, "XYZ"[i]);
+            g.diagonal_rod_trim_mm[i] = get(*m665, "ABC"[i]);
+            g.endstop_offset_mm[i] = get(*m666, "XYZ"[i]);
+        }
+        return in_gauge(g);
+    }
+    if (firmware == "rrf") {
+        RrfDelta r;
+        const auto rods = m665->values('L');
+        for (std::size_t i = 0; i < 3; ++i) {
+            r.diagonal_mm[i] = rods[std::min(i, rods.size() - 1)];
+            r.endstop_adjustment_mm[i] = get(*m666, "XYZ"[i]);
+        }
+        r.radius_mm = get(*m665, 'R');
+        r.height_mm = get(*m665, 'H');
+        // RepRapFirmware takes a Z tower angle too; only the differences are geometry.
+        r.x_tower_angle_deg = get(*m665, 'X') - get(*m665, 'Z');
+        r.y_tower_angle_deg = get(*m665, 'Y') - get(*m665, 'Z');
+        return from_rrf(r);
+    }
+    throw std::invalid_argument("no settings commands for firmware '" + firmware + "'");
+}
+
+std::string settings_mismatch(const std::string& firmware, const std::vector<std::string>& sent,
                               const std::vector<std::string>& reported) {
-    constexpr double kPrintedPrecision = 0.0015;  // Marlin prints three decimals
+    // A unit and a half of the last digit printed: rounding on both sides, and the firmware's
+    // float.
+    const auto tolerance = [&](int command) {
+        return firmware == "rrf" && command == 666 ? 0.015 : 0.0015;
+    };
     for (const auto& command : sent) {
         gcode::Line want;
         try {
@@ -83,25 +238,30 @@ std::string settings_mismatch(const std::vector<std::string>& sent,
         }
         if (!want.is('M', 665) && !want.is('M', 666)) continue;
         const std::string name = want.is('M', 665) ? "M665" : "M666";
-        const gcode::Line* got = nullptr;
-        gcode::Line parsed;
+        std::optional<gcode::Line> got;
         for (const auto& r : reported) {
-            parsed = gcode::parse_line(r);
+            auto parsed = gcode::parse_line(r);
             if (parsed.is('M', want.command_number)) {
-                got = &parsed;
+                got = std::move(parsed);
                 break;
             }
         }
-        if (got == nullptr) return "the printer does not report " + name;
+        if (!got) return "the printer does not report " + name;
         for (const auto& w : want.parameters) {
-            const auto v = got->value(w.letter);
-            if (!w.value) continue;
-            if (!v || std::abs(*v - *w.value) > kPrintedPrecision) {
-                char why[160];
-                std::snprintf(why, sizeof why, "%s %c sent %.3f, the printer reports %s",
-                              name.c_str(), w.letter, *w.value,
-                              v ? std::to_string(*v).c_str() : "nothing");
-                return why;
+            if (w.values.empty()) continue;
+            const auto have = got->values(w.letter);
+            for (std::size_t i = 0; i < std::max(w.values.size(), have.size()); ++i) {
+                // One value stands for all: RepRapFirmware's "L250" is every tower's rod.
+                const double sent_value = w.values[std::min(i, w.values.size() - 1)];
+                if (have.empty() || std::abs(have[std::min(i, have.size() - 1)] - sent_value) >
+                                        tolerance(want.command_number)) {
+                    char why[160];
+                    std::snprintf(
+                        why, sizeof why, "%s %c sent %.3f, the printer reports %s", name.c_str(),
+                        w.letter, sent_value,
+                        have.empty() ? "nothing" : f3(have[std::min(i, have.size() - 1)]).c_str());
+                    return why;
+                }
             }
         }
     }

@@ -17,12 +17,26 @@ std::vector<std::string> klipper_snippet(const DeltaGeometry& g);
 std::vector<std::string> firmware_commands(const std::string& firmware,
                                            const DeltaGeometry& g);  // by name
 
-// The settings lines of a Marlin M503 report ("echo:  M665 L250.000 R140.000 ..."), as commands
-// that would set them again: "M665 ..." and "M666 ...", in the order reported.
-std::vector<std::string> marlin_settings_from_report(const std::vector<std::string>& replies);
-// Compares what was sent against what the printer reports, word by word, within the precision
-// Marlin prints (3 decimals): empty when they agree, else one line naming the first difference.
-std::string settings_mismatch(const std::vector<std::string>& sent,
+// The lines that make a firmware report the delta settings in force: Marlin's M503;
+// RepRapFirmware's M665 and M666 without parameters (its M503 lists config.g, not what is in
+// force). Throws std::invalid_argument for Klipper, whose settings live in printer.cfg.
+std::vector<std::string> settings_query(const std::string& firmware);
+// The settings in that report, as the commands that would set them again (M665, then M666):
+// Marlin's "echo:  M665 L250.000 R140.000 ..." lines as they are; RepRapFirmware's "Diagonals
+// 250.000:250.000:250.000, delta radius 140.000, ..." and "Endstop adjustments X0.00 ..."
+// rewritten as M665 and M666. Empty when the report holds neither.
+std::vector<std::string> settings_from_report(const std::string& firmware,
+                                              const std::vector<std::string>& replies);
+// The geometry that settings commands (settings_from_report's) put in force, in gauge: the
+// printer as it is set now, whatever a machine file says. Throws std::invalid_argument naming
+// what is missing (M665's L, R or H; M666).
+DeltaGeometry geometry_from_settings(const std::string& firmware,
+                                     const std::vector<std::string>& commands);
+// Compares what was sent against what the printer reports (settings_from_report), word by word
+// and list element by element, within 1.5 units of the last digit the firmware prints (Marlin:
+// 3 decimals; RepRapFirmware: 3 for M665, 2 for M666): empty when they agree, else one line
+// naming the first difference.
+std::string settings_mismatch(const std::string& firmware, const std::vector<std::string>& sent,
                               const std::vector<std::string>& reported);
 
 }  // namespace calbox::models

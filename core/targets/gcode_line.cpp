@@ -1,5 +1,6 @@
 #include "core/targets/gcode_line.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cstdint>
@@ -83,6 +84,12 @@ std::optional<double> Line::value(char letter) const {
     return std::nullopt;
 }
 
+std::vector<double> Line::values(char letter) const {
+    for (const auto& w : parameters)
+        if (w.letter == letter) return w.values;
+    return {};
+}
+
 Line parse_line(std::string_view raw) {
     // The checksum covers the raw text before '*', comments included.
     const std::string body = strip_comments(verify_checksum(raw));
@@ -105,25 +112,35 @@ Line parse_line(std::string_view raw) {
             ++i;
         }
         const std::string_view number(body.data() + start, i - start);
-        std::optional<double> value;
-        if (!number.empty()) {
+        std::vector<double> values;
+        // One number, or RepRapFirmware's ':'-separated list of them.
+        for (std::size_t from = 0; from < number.size();) {
+            const std::size_t colon = std::min(number.find(':', from), number.size());
+            const std::string_view element = number.substr(from, colon - from);
             double v = 0;
-            const char* first = number.data();
-            if (*first == '+') ++first;
-            const auto [end, ec] = std::from_chars(first, number.data() + number.size(), v);
-            if (ec != std::errc() || end != number.data() + number.size()) {
+            const char* first = element.data();
+            if (!element.empty() && *first == '+') ++first;
+            const auto [end, ec] = std::from_chars(first, element.data() + element.size(), v);
+            if (element.empty() || ec != std::errc() || end != element.data() + element.size()) {
                 throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
                                   letter);
             }
-            value = v;
+            values.push_back(v);
+            from = colon + 1;
+            if (colon + 1 == number.size()) {
+                throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
+                                  letter);
+            }
         }
+        std::optional<double> value;
+        if (!values.empty()) value = values.front();
         if (letter == 'N' && line.command_letter == 0 && !line.line_number) {
-            if (!value) throw SyntaxError("line number N without a value");
+            if (values.size() != 1) throw SyntaxError("line number N without one value");
             line.line_number = static_cast<long>(*value);
             continue;
         }
         if (line.command_letter == 0 && (letter == 'G' || letter == 'M' || letter == 'T')) {
-            if (!value || *value < 0 || *value != static_cast<int>(*value)) {
+            if (values.size() != 1 || *value < 0 || *value != static_cast<int>(*value)) {
                 throw SyntaxError(std::string("bad command number after ") + letter);
             }
             line.command_letter = letter;
@@ -139,7 +156,7 @@ Line parse_line(std::string_view raw) {
         if (line.command_letter == 0) {
             throw SyntaxError(std::string("parameter ") + letter + " before any command");
         }
-        line.parameters.push_back(Word{letter, value});
+        line.parameters.push_back(Word{letter, value, std::move(values)});
     }
     return line;
 }

@@ -18,6 +18,9 @@ class SyntaxError : public std::runtime_error {
 struct Word {
     char letter = 0;              // upper case
     std::optional<double> value;  // empty for a bare flag such as the X in "G28 X"
+    // RepRapFirmware's lists ("L250.1:250.3:249.9"): every element, `value` the first; one
+    // element for a plain number, none for a bare flag.
+    std::vector<double> values;
 };
 
 struct Line {
@@ -32,6 +35,7 @@ struct Line {
     }
     bool has(char letter) const;
     std::optional<double> value(char letter) const;  // empty when absent or bare
+    std::vector<double> values(char letter) const;   // empty when absent or bare
 };
 
 // Removes comments ('(' to ')', ';' to the end of the line); throws SyntaxError for an unclosed

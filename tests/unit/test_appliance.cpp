@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <optional>
 #include <sstream>
 
 #include "drivers/file_storage.hpp"
@@ -112,7 +113,9 @@ struct Rig {
         start();
         run_until([this] { return ended > 0; });
     }
-    std::vector<std::string> transcript() const { return host.transcript(); }
+    std::vector<std::string> transcript() const {
+        return {host.transcript().begin(), host.transcript().end()};
+    }
 };
 
 // The set-up (camera from 12 board views, plane from a board on the bed), done once through the
@@ -222,17 +225,19 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
         CHECK_EQUAL('N', line[0]);
         jobs.back().push_back(command_of(line));
     }
-    // target print, M503 backup, the correction, M503 read-back, the verification print
-    CHECK_EQUAL(5u, jobs.size());
-    CHECK(jobs[0] == jobs[4]);
-    CHECK(std::find(jobs[0].begin(), jobs[0].end(), "G28") != jobs[0].end());
-    CHECK(jobs[1] == std::vector<std::string>{"M503"});
-    CHECK(jobs[2] == report.solution->commands);
-    CHECK_EQUAL(3u, jobs[2].size());
-    STRCMP_CONTAINS("M665 L", jobs[2][0].c_str());
-    STRCMP_CONTAINS("M666 X", jobs[2][1].c_str());
-    STRCMP_EQUAL("M500", jobs[2][2].c_str());
-    CHECK(jobs[3] == std::vector<std::string>{"M503"});
+    // the settings read, target print, M503 backup, the correction, M503 read-back, the
+    // verification print
+    CHECK_EQUAL(6u, jobs.size());
+    CHECK(jobs[0] == std::vector<std::string>{"M503"});
+    CHECK(jobs[1] == jobs[5]);
+    CHECK(std::find(jobs[1].begin(), jobs[1].end(), "G28") != jobs[1].end());
+    CHECK(jobs[2] == std::vector<std::string>{"M503"});
+    CHECK(jobs[3] == report.solution->commands);
+    CHECK_EQUAL(3u, jobs[3].size());
+    STRCMP_CONTAINS("M665 L", jobs[3][0].c_str());
+    STRCMP_CONTAINS("M666 X", jobs[3][1].c_str());
+    STRCMP_EQUAL("M500", jobs[3][2].c_str());
+    CHECK(jobs[4] == std::vector<std::string>{"M503"});
     // The record: measurements, result, the settings backup.
     CHECK(rig.data.read_file("cycle-0001-result.json").has_value());
     const auto backup = rig.data.read_file("cycle-0001-backup.gcode");
@@ -310,6 +315,88 @@ TEST(ApplianceCycle, a_correction_beyond_the_bounds_is_refused_and_never_sent) {
     rig.run_cycle();
     for (const auto& line : rig.transcript()) CHECK(line.find("M665") == std::string::npos);
     check_error_state(rig, "solve: refused: the rod length would change");
+}
+
+// The twin as RepRapFirmware: its settings are asked for with M665 and M666 (its M503 lists
+// config.g), set with one diagonal per tower, and read back from its own report format.
+TEST(ApplianceCycle, a_reprapfirmware_printer_is_read_corrected_and_read_back_in_its_own_terms) {
+    std::ifstream in(kScenario);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string scenario = text.str();
+    const std::string marlin = "firmware = \"marlin\"";
+    scenario.replace(scenario.find(marlin), marlin.size(), "firmware = \"rrf\"");
+    const fs::path path = fresh_dir("scenario_rrf") / "scenario.toml";
+    std::ofstream(path) << scenario;
+    Rig rig(prepared_dir("rrf"), path.string(), {});
+    rig.run_cycle();
+    CHECK_EQUAL(1, rig.cycle.cycles_completed());
+    const auto after = rig.board.bench->judge_delta_printer();
+    CHECK(after.xy_rms <= 0.004);
+    CHECK(after.xy_max <= 0.008);
+    std::vector<std::string> commands;
+    for (const auto& line : rig.transcript()) commands.push_back(command_of(line));
+    CHECK(std::find(commands.begin(), commands.end(), "M503") == commands.end());
+    CHECK_EQUAL(3,
+                std::count(commands.begin(), commands.end(), "M665"));  // read, back up, read back
+    const auto& sent = rig.cycle.report().solution->commands;
+    STRCMP_CONTAINS(":", sent[0].c_str());  // M665 L a:b:c
+    CHECK(std::find(commands.begin(), commands.end(), sent[0]) != commands.end());
+    const auto backup = rig.data.read_file("cycle-0001-backup.gcode");
+    CHECK(backup.has_value());
+    STRCMP_CONTAINS("M665 L250.000:250.000:250.000 R140.000", backup->c_str());
+    STRCMP_CONTAINS("M666 X0.00 Y0.00 Z0.00", backup->c_str());
+}
+
+// After a completed cycle, revert puts back what the printer had, and reads it back; the box
+// then starts from those settings again.
+TEST(ApplianceCycle, revert_restores_the_backup_and_the_printer_reports_it) {
+    Rig rig(prepared_dir("revert"), kScenario.string(), {});
+    STRCMP_EQUAL("revert: no cycle has run here", rig.cycle.revert().c_str());
+    const auto before = rig.board.bench->judge_delta_printer();
+    rig.run_cycle();
+    CHECK(rig.board.bench->judge_delta_printer().xy_rms <= 0.01);
+    const std::size_t sent_by_cycle = rig.transcript().size();
+    STRCMP_EQUAL("", rig.cycle.revert().c_str());
+    rig.run_until([&] { return rig.ended == 2; });
+    CHECK(rig.cycle.state() == firmware::CycleState::idle);
+    // The printer is back where it was: the twin's truth says so, not the box.
+    DOUBLES_EQUAL(before.xy_rms, rig.board.bench->judge_delta_printer().xy_rms, 1e-4);
+    const auto t = rig.transcript();
+    std::vector<std::string> revert_job;
+    for (std::size_t i = sent_by_cycle; i < t.size(); ++i) revert_job.push_back(command_of(t[i]));
+    CHECK(revert_job == (std::vector<std::string>{
+                            "M110 N0", "M666 X0.000 Y0.000 Z0.000",
+                            "M665 L250.000 R140.000 H300.107 X0.000 Y0.000 Z0.000 A0.000 B0.000 "
+                            "C0.000",
+                            "M500", "M110 N0", "M503"}));
+    // The printer stored it (M500): a power cycle of the twin keeps it.
+    std::ifstream stored(rig.dir / sim::kTwinSettingsFile);
+    std::stringstream stored_text;
+    stored_text << stored.rdbuf();
+    STRCMP_CONTAINS("M665 L250.000 R140.000 H300.107", stored_text.str().c_str());
+}
+
+// The twin printer keeps what it stored across runs of the box, as an EEPROM does: settings
+// stored (M500) in one run are in force at the next; settings not stored are not.
+TEST(ApplianceCycle, the_twin_printer_keeps_its_stored_settings_across_runs) {
+    const fs::path dir = fresh_dir("eeprom");
+    const auto run_job = [](Rig& rig, const std::vector<std::string>& lines) {
+        std::optional<firmware::JobOutcome> outcome;
+        rig.host.start_job(lines, [&](firmware::JobOutcome o) { outcome = std::move(o); });
+        rig.run_until([&] { return outcome.has_value(); });
+        CHECK(outcome->ok);
+        return outcome->replies;
+    };
+    {
+        Rig rig(dir, kScenario.string(), {});
+        run_job(rig, {"M665 L251.5 R140.25", "M500", "M665 L252"});
+    }
+    Rig again(dir, kScenario.string(), {});
+    const auto replies = run_job(again, {"M503"});
+    CHECK(std::any_of(replies.begin(), replies.end(), [](const std::string& r) {
+        return r.find("M665 L251.500 R140.250") != std::string::npos;
+    }));
 }
 
 TEST_GROUP(ApplianceLink){void setup() override{mock().ignoreOtherCalls();

@@ -193,6 +193,68 @@ TEST(DeltaKinematics, firmware_lines_for_one_geometry_match_hand_worked_values) 
     STRCMP_EQUAL("position_endstop: 301.520", klipper[13].c_str());
 }
 
+TEST(DeltaKinematics, settings_reports_of_each_firmware_read_back_as_commands) {
+    // Marlin 2.1's M503 delta lines, as its settings report prints them.
+    const std::vector<std::string> marlin_report{
+        "echo:; Endstop adjustment:", "echo:  M666 X-0.300 Y0.000 Z-0.120", "echo:; Delta config:",
+        "echo:  M665 L250.700 R139.200 H301.400 S200.00 X0.250 Y-0.400 Z0.150 A0.300 B-0.500 "
+        "C0.200",
+        "ok"};
+    const auto marlin = models::settings_from_report("marlin", marlin_report);
+    CHECK_EQUAL(2U, marlin.size());
+    STRCMP_EQUAL("M666 X-0.300 Y0.000 Z-0.120", marlin[0].c_str());
+    const auto sample = models::marlin_commands(sample_geometry());
+    STRCMP_EQUAL("", models::settings_mismatch("marlin", sample, marlin).c_str());
+    // RepRapFirmware 3's replies to M665 and M666 without parameters (LinearDeltaKinematics).
+    const std::vector<std::string> rrf_report{
+        "Diagonals 251.000:250.200:250.900, delta radius 139.200, homed height 301.400, bed "
+        "radius 85.0, X 0.100\xC2\xB0, Y -0.550\xC2\xB0, Z 0.000\xC2\xB0",
+        "ok", "Endstop adjustments X0.30 Y0.00 Z0.12, tilt X0.00% Y0.00%", "ok"};
+    const auto rrf = models::settings_from_report("rrf", rrf_report);
+    CHECK_EQUAL(2U, rrf.size());
+    STRCMP_EQUAL("M665 L251.000:250.200:250.900 R139.200 H301.400 B85.0 X0.100 Y-0.550 Z0.000",
+                 rrf[0].c_str());
+    STRCMP_EQUAL("M666 X0.30 Y0.00 Z0.12 A0.00 B0.00", rrf[1].c_str());
+    STRCMP_EQUAL(
+        "", models::settings_mismatch("rrf", models::rrf_commands(sample_geometry()), rrf).c_str());
+    // One rod length printed as "Diagonal": every tower's.
+    const auto one_rod = models::settings_from_report(
+        "rrf", {"Diagonal 250.000, delta radius 140.000, homed height 300.000, bed radius 85.0, "
+                "X 0.000\xC2\xB0, Y 0.000\xC2\xB0, Z 0.000\xC2\xB0"});
+    STRCMP_EQUAL("M665 L250.000 R140.000 H300.000 B85.0 X0.000 Y0.000 Z0.000", one_rod[0].c_str());
+    STRCMP_EQUAL(
+        "", models::settings_mismatch("rrf", {"M665 L250.000:250.000:250.000"}, one_rod).c_str());
+    // A difference beyond the printed precision is named; within it, it is not.
+    STRCMP_EQUAL("M665 L sent 250.904, the printer reports 250.900",
+                 models::settings_mismatch("rrf", {"M665 L251.000:250.200:250.904"}, rrf).c_str());
+    STRCMP_EQUAL("", models::settings_mismatch("rrf", {"M666 X0.309"}, rrf).c_str());
+    STRCMP_EQUAL("M666 Y sent 0.020, the printer reports 0.000",
+                 models::settings_mismatch("rrf", {"M666 X0.3 Y0.02"}, rrf).c_str());
+    STRCMP_EQUAL("M665 R sent 139.202, the printer reports 139.200",
+                 models::settings_mismatch("marlin", {"M665 R139.202"}, marlin).c_str());
+    STRCMP_EQUAL("the printer does not report M666",
+                 models::settings_mismatch("marlin", {"M666 X0"}, {"M665 L250"}).c_str());
+    CHECK(models::settings_from_report("rrf", {"ok"}).empty());
+    // Either report gives back the geometry that was sent, in gauge, to the printed digits.
+    const models::DeltaGeometry want = models::in_gauge(sample_geometry());
+    for (const auto& read : {models::geometry_from_settings("marlin", marlin),
+                             models::geometry_from_settings("rrf", rrf)}) {
+        DOUBLES_EQUAL(want.diagonal_rod_mm, read.diagonal_rod_mm, 1e-9);
+        DOUBLES_EQUAL(want.radius_mm, read.radius_mm, 1e-9);
+        DOUBLES_EQUAL(want.height_mm, read.height_mm, 1e-9);
+        for (std::size_t i = 0; i < 3; ++i) {
+            DOUBLES_EQUAL(want.diagonal_rod_trim_mm[i], read.diagonal_rod_trim_mm[i], 1e-9);
+            DOUBLES_EQUAL(want.tower_angle_trim_deg[i], read.tower_angle_trim_deg[i], 1e-9);
+            DOUBLES_EQUAL(want.endstop_offset_mm[i], read.endstop_offset_mm[i], 1e-9);
+        }
+    }
+    CHECK_THROWS(std::invalid_argument, models::geometry_from_settings("marlin", {"M665 L250"}));
+    CHECK_THROWS(std::invalid_argument,
+                 models::geometry_from_settings("rrf", {"M665 L250 R140", "M666 X0"}));
+    CHECK_THROWS(std::invalid_argument, models::settings_query("klipper"));
+    CHECK(models::settings_query("rrf") == (std::vector<std::string>{"M665", "M666"}));
+}
+
 TEST_GROUP(Placement){};
 
 TEST(Placement, recovers_a_rotation_and_translation_worked_by_hand) {

@@ -3,6 +3,7 @@
 // independent Newton solution of the three rod-length equations (tests/reference/delta_hand.py).
 #include <CppUTest/TestHarness.h>
 
+#include <algorithm>
 #include <sstream>
 
 #include "board/sim/delta_reference.hpp"
@@ -174,6 +175,43 @@ TEST(DeltaTwin, m666_offsets_lower_one_carriage_after_homing) {
     }
     CHECK(refused);
     CHECK(reported);
+}
+
+TEST(DeltaTwin, reprapfirmware_dialect_sets_per_tower_rods_and_reports_as_rrf_prints) {
+    DeltaParams truth = kossel();
+    truth.diagonal_rod_mm = 251.0;
+    truth.diagonal_rod_trim_mm = {0.2, -0.1, -0.1};
+    truth.tower_angle_trim_deg = {0.2, -0.3, 0.1};
+    truth.radius_mm = 140.5;
+    truth.endstop_offset_mm = {-0.3, 0, -0.1};  // A's switch 0.3 mm high, C's 0.1 mm
+    DeltaTwin twin(truth, kossel(), DeltaDialect::rrf);
+    // The true geometry in RepRapFirmware's words, worked by hand: one diagonal per tower, the
+    // switches' heights as positive adjustments.
+    const auto result =
+        run_job(twin,
+                "M665 L251.2:250.9:250.9 R140.5 X0.2 Y-0.3 Z0.1\nM666 X0.3 Z0.1\nM665\n"
+                "M666\nG28\n");
+    for (const Vec3 q : {Vec3{40, 0, 0}, Vec3{-30, 50, 1}, Vec3{0, -70, 0.2}, Vec3{0, 0, 0}}) {
+        const Vec3 p = twin.actual_position_mm(q);
+        DOUBLES_EQUAL(q.x, p.x, 1e-9);
+        DOUBLES_EQUAL(q.y, p.y, 1e-9);
+        DOUBLES_EQUAL(q.z, p.z, 1e-9);
+    }
+    bool m665 = false, m666 = false;
+    for (const auto& r : result.replies) {
+        m665 |= r ==
+                "Diagonals 251.200:250.900:250.900, delta radius 140.500, homed height 300.000, "
+                "bed radius 85.0, X 0.200\xC2\xB0, Y -0.300\xC2\xB0, Z 0.100\xC2\xB0";
+        m666 |= r == "Endstop adjustments X0.30 Y0.00 Z0.10, tilt X0.00% Y0.00%";
+    }
+    CHECK(m665);
+    CHECK(m666);
+    // One diagonal for all towers; a bed tilt the twin does not model is an error reply.
+    const auto more = run_job(twin, "M665 L250\nM666 A0.5\n");
+    DOUBLES_EQUAL(250.0, twin.firmware().diagonal_rod_mm + twin.firmware().diagonal_rod_trim_mm[2],
+                  0);
+    CHECK(std::find(more.replies.begin(), more.replies.end(), "Error: the twin has no bed tilt") !=
+          more.replies.end());
 }
 
 TEST(DeltaTwin, m500_stores_the_settings) {

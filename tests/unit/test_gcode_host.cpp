@@ -22,7 +22,7 @@ TEST_GROUP(GcodeHost) {
     void setup() override {
         mock().ignoreOtherCalls();
         host = std::make_unique<firmware::GcodeHost>(
-            port, clock, firmware::GcodeHostSettings{1, 1000ms, 3},
+            port, clock, firmware::GcodeHostSettings{1, 1000ms, 3, 0ms},
             [this](const std::string& l) { log.push_back(l); });
     }
     void teardown() override {
@@ -119,9 +119,53 @@ TEST(GcodeHost, action_lines_pause_resume_and_cancel) {
 
 TEST(GcodeHost, a_window_of_two_keeps_two_lines_in_flight) {
     host = std::make_unique<firmware::GcodeHost>(
-        port, clock, firmware::GcodeHostSettings{2, 1000ms, 3}, [](const std::string&) {});
+        port, clock, firmware::GcodeHostSettings{2, 1000ms, 3, 0ms}, [](const std::string&) {});
     start({"G28", "G1 X1 Y2"});
     STRCMP_EQUAL("N0 M110 N0*125\nN1 G28*18\n", port.written.c_str());
     printer_says("ok\nok\nok\n");
     CHECK(outcome && outcome->ok);
+}
+
+// A board that resets when the port opens boots for a while and prints "start": the first job
+// waits for that banner (or, from a board that does not reset, for the wait to pass) before it
+// sends anything, so that no line is lost in the boot loader.
+TEST(GcodeHost, the_first_job_waits_for_the_start_up_banner) {
+    host = std::make_unique<firmware::GcodeHost>(
+        port, clock, firmware::GcodeHostSettings{1, 1000ms, 3, 2000ms}, [](const std::string&) {});
+    start({"M503"});
+    STRCMP_EQUAL("", port.written.c_str());
+    printer_says("start\necho:Marlin 2.1.2\n");
+    STRCMP_EQUAL("N0 M110 N0*125\n", port.written.c_str());
+    printer_says("ok\nok\n");
+    CHECK(outcome && outcome->ok);
+}
+
+TEST(GcodeHost, a_printer_that_stays_silent_at_start_is_sent_to_after_the_wait) {
+    host = std::make_unique<firmware::GcodeHost>(
+        port, clock, firmware::GcodeHostSettings{1, 1000ms, 3, 2000ms}, [](const std::string&) {});
+    start({"M503"});
+    clock.advance(1900ms);
+    host->on_timer();
+    STRCMP_EQUAL("", port.written.c_str());
+    clock.advance(100ms);
+    host->on_timer();
+    STRCMP_EQUAL("N0 M110 N0*125\n", port.written.c_str());
+    printer_says("ok\nok\n");
+    CHECK(outcome && outcome->ok);
+    // The next job does not wait again.
+    outcome.reset();
+    start({"M503"});
+    STRCMP_EQUAL("N0 M110 N0*125\nN1 M503*36\nN0 M110 N0*125\n", port.written.c_str());
+}
+
+TEST(GcodeHost, the_transcript_keeps_only_the_last_lines_it_is_allowed) {
+    firmware::GcodeHostSettings settings{1, 1000ms, 3, 0ms};
+    settings.transcript_lines = 2;
+    host = std::make_unique<firmware::GcodeHost>(port, clock, settings, [](const std::string&) {});
+    start({"G28", "M503"});
+    printer_says("ok\nok\nok\n");
+    CHECK(outcome && outcome->ok);
+    CHECK_EQUAL(2u, host->transcript().size());
+    STRCMP_EQUAL("N1 G28*18", host->transcript().front().c_str());
+    STRCMP_EQUAL("N2 M503*39", host->transcript().back().c_str());
 }

@@ -58,3 +58,20 @@ TEST(GcodeLine, keeps_message_text) {
     STRCMP_EQUAL("Printing X5 now", l.text.c_str());
     CHECK_FALSE(l.has('X'));
 }
+
+TEST(GcodeLine, reads_reprapfirmware_lists) {
+    const auto l = parse_line("M665 L250.100:249.9:+251 R140 X-0.25");
+    const auto rods = l.values('L');
+    CHECK_EQUAL(3U, rods.size());
+    DOUBLES_EQUAL(250.1, rods[0], 0);
+    DOUBLES_EQUAL(249.9, rods[1], 0);
+    DOUBLES_EQUAL(251, rods[2], 0);
+    DOUBLES_EQUAL(250.1, *l.value('L'), 0);  // the first element
+    CHECK_EQUAL(1U, l.values('R').size());
+    CHECK(l.values('Y').empty());
+    CHECK_THROWS(SyntaxError, parse_line("M665 L250::249"));
+    CHECK_THROWS(SyntaxError, parse_line("M665 L250:"));
+    CHECK_THROWS(SyntaxError, parse_line("M665 L:250"));
+    CHECK_THROWS(SyntaxError, parse_line("N1:2 M665"));
+    CHECK_THROWS(SyntaxError, parse_line("M665:1 L250"));
+}

@@ -14,6 +14,7 @@
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
 
 #ifndef CALBOX_EXAMPLES_DIR
@@ -81,24 +82,16 @@ Common common_options(const Args& args) {
     return c;
 }
 
-// The appliance's parts, wired as calbox run and calbox revert both use them.
+// The appliance's parts on the real clock, as calbox run and calbox revert both use them.
 struct Box {
     drivers::TimerfdClock clock;
-    sim::SimBoard board;
-    drivers::FileStorage data;
-    firmware::EventLoop loop;
-    firmware::Worker worker{loop};
-    firmware::GcodeHost host;
-    firmware::Cycle cycle;
+    firmware::SimAppliance parts;
+    firmware::Cycle& cycle = parts.cycle;
+    firmware::EventLoop& loop = parts.loop;
 
     Box(const Common& common, firmware::CycleSettings settings)
-        : board(sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log_line)),
-          data(common.data_dir),
-          host(*board.machine, clock, {}, log_line),
-          cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
-                board.bench->scenario().machine, std::move(settings), log_line) {
-        firmware::watch_cycle(loop, cycle, host, *board.camera, *board.lines);
-    }
+        : parts({common.scenario, common.data_dir, 115200}, clock, {}, std::move(settings),
+                log_line) {}
 };
 
 int run(const std::vector<std::string>& words) {
@@ -113,7 +106,7 @@ int run(const std::vector<std::string>& words) {
     firmware::CycleSettings settings;
     settings.frames_per_capture = frames;
     Box box(common, settings);
-    auto& board = box.board;
+    auto& board = box.parts.board;
     auto& loop = box.loop;
     auto& cycle = box.cycle;
 

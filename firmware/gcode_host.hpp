@@ -51,6 +51,8 @@ class GcodeHost {
     void cancel(const std::string& why);
     // Not empty once the device vanished: what was seen. Stop watching port_fd() then.
     const std::string& link_gone() const { return gone_; }
+    // Whether anything has come from the printer since the port opened (its banner, an ok).
+    bool heard_from_printer() const { return heard_from_printer_; }
     // The lines written to the printer, in order, resends included: the last
     // `transcript_lines` of them at most (a box that runs for months keeps a bounded record).
     const std::deque<std::string>& transcript() const { return transcript_; }

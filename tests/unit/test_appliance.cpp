@@ -19,6 +19,7 @@
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
 #include "tests/support/fake_clock.hpp"
 
@@ -62,34 +63,31 @@ struct Rig {
     fs::path dir;
     test::FakeClock clock;
     std::vector<std::string> log;
-    sim::SimBoard board;
-    drivers::FileStorage data;
-    firmware::EventLoop loop;
-    firmware::Worker worker{loop};
-    firmware::GcodeHost host;
-    firmware::Cycle cycle;
+    firmware::SimAppliance box;
+    sim::SimBoard& board = box.board;
+    drivers::FileStorage& data = box.data;
+    firmware::EventLoop& loop = box.loop;
+    firmware::Worker& worker = box.worker;
+    firmware::GcodeHost& host = box.host;
+    firmware::Cycle& cycle = box.cycle;
     bool operator_acts = true;
     std::function<bool(firmware::Prompt)> intercept;  // true: the test handled the prompt
     int ended = 0;
 
     Rig(const fs::path& data_dir, const std::string& scenario, firmware::CycleSettings settings)
         : dir(data_dir),
-          board(sim::make_sim_board({scenario, data_dir, 115200}, clock,
-                                    [this](const std::string& l) { log.push_back(l); })),
-          data(data_dir),
-          host(*board.machine, clock, {1, 5000ms, 8},
-               [this](const std::string& l) { log.push_back(l); }),
-          cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
-                board.bench->scenario().machine, std::move(settings),
-                [this](const std::string& l) { log.push_back(l); }) {
-        firmware::watch_cycle(loop, cycle, host, *board.camera, *board.lines);
+          box({scenario, data_dir, 115200}, clock, {1, 5000ms, 8}, std::move(settings),
+              [this](const std::string& l) { log.push_back(l); }) {
         cycle.on_prompt = [this](firmware::Prompt p, int step) {
             if (intercept && intercept(p)) return;
             if (operator_acts) firmware::act_on_prompt(*board.bench, *board.lines, p, step);
         };
         cycle.on_cycle_end = [this](bool) { ++ended; };
+        // The twin's start-up banner, in real time: the fake clock must not run past the host's
+        // wait for it while the printer's thread is still starting.
+        for (int i = 0; i < 250 && !host.heard_from_printer(); ++i) loop.run_once(20ms);
+        CHECK_TEXT(host.heard_from_printer(), "the twin printer sent no start-up banner");
     }
-    ~Rig() { loop.unwatch(host.port_fd()); }
 
     // Runs the loop until `done`; when nothing is ready, simulated time moves on by a second (so
     // the printer's silence times out without real waiting).
@@ -385,7 +383,7 @@ TEST(ApplianceCycle, the_twin_printer_keeps_its_stored_settings_across_runs) {
         std::optional<firmware::JobOutcome> outcome;
         rig.host.start_job(lines, [&](firmware::JobOutcome o) { outcome = std::move(o); });
         rig.run_until([&] { return outcome.has_value(); });
-        CHECK(outcome->ok);
+        CHECK_TEXT(outcome->ok, outcome->error.c_str());
         return outcome->replies;
     };
     {

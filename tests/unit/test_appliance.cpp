@@ -98,7 +98,9 @@ struct Rig {
                             (log.empty() ? std::string() : log.back()))
                                .c_str());
     }
+    // A photo being rendered: simulated time waits for it (a prompt is a person, not the camera).
     bool camera_busy() const {
+        if (cycle.prompt() != firmware::Prompt::none) return false;
         return cycle.state() == firmware::CycleState::capture ||
                cycle.state() == firmware::CycleState::setup_camera ||
                cycle.state() == firmware::CycleState::setup_plane;
@@ -257,6 +259,25 @@ TEST(ApplianceCycle, a_long_press_at_review_cancels_and_sends_no_correction) {
     for (const auto& line : rig.transcript()) CHECK(line.find("M665") == std::string::npos);
     const auto after = rig.board.bench->judge_delta_printer();
     CHECK(after.xy_rms > 0.2);  // untouched
+}
+
+// Cancelled at the bed-clearing before the verification print, the correction stays applied
+// (it was read back) and nothing more is printed.
+TEST(ApplianceCycle, a_cancel_before_the_verification_print_keeps_the_applied_correction) {
+    Rig rig(prepared_dir("cancel_verify"), kScenario.string(), {});
+    rig.intercept = [&rig](firmware::Prompt p) {
+        if (p != firmware::Prompt::clear_bed || rig.cycle.state() != firmware::CycleState::verify)
+            return false;
+        rig.board.lines->press(2000ms);
+        return true;
+    };
+    rig.run_cycle();
+    CHECK(rig.cycle.state() == firmware::CycleState::idle);
+    CHECK(rig.cycle.report().applied);
+    CHECK_EQUAL(0, rig.cycle.cycles_completed());
+    const auto t = rig.transcript();
+    STRCMP_EQUAL("M503", command_of(t.back()).c_str());  // the read-back, then nothing
+    CHECK(rig.board.bench->judge_delta_printer().xy_rms <= 0.01);
 }
 
 TEST(ApplianceCycle, a_camera_failing_mid_burst_is_an_error) {

@@ -105,9 +105,13 @@ struct Rig {
                cycle.state() == firmware::CycleState::setup_camera ||
                cycle.state() == firmware::CycleState::setup_plane;
     }
+    // Until the cycle has left idle, or has already come back to it (cancelled at once).
     void start() {
+        const int ended_before = ended;
         board.lines->press(100ms);
-        run_until([this] { return cycle.state() != firmware::CycleState::idle; });
+        run_until([this, ended_before] {
+            return cycle.state() != firmware::CycleState::idle || ended > ended_before;
+        });
     }
     void run_cycle() {
         start();
@@ -259,6 +263,56 @@ TEST(ApplianceCycle, a_long_press_at_review_cancels_and_sends_no_correction) {
     for (const auto& line : rig.transcript()) CHECK(line.find("M665") == std::string::npos);
     const auto after = rig.board.bench->judge_delta_printer();
     CHECK(after.xy_rms > 0.2);  // untouched
+}
+
+// Every other waiting state: a long press (or the console's cancel) there returns to idle with
+// the ready LED, the light off and nothing more sent; the set-up keeps nothing half-done.
+TEST(ApplianceCycle, each_waiting_state_cancels_to_idle) {
+    struct Case {
+        const char* name;
+        firmware::Prompt prompt;
+        bool with_camera, with_plane, from_console;
+        firmware::CycleState waiting_in;
+    };
+    const Case cases[] = {
+        {"views", firmware::Prompt::hold_calibration_board, false, false, false,
+         firmware::CycleState::setup_camera},
+        {"plane", firmware::Prompt::lay_plane_board, true, false, false,
+         firmware::CycleState::setup_plane},
+        {"bed", firmware::Prompt::clear_bed, true, true, true, firmware::CycleState::make_target},
+    };
+    for (const auto& c : cases) {
+        const fs::path dir = fresh_dir(std::string("cancel_") + c.name);
+        if (c.with_camera) fs::copy_file(prepared_setup() / "camera.yaml", dir / "camera.yaml");
+        if (c.with_plane) fs::copy_file(prepared_setup() / "plane.yaml", dir / "plane.yaml");
+        Rig rig(dir, kScenario.string(), {});
+        bool asked = false;
+        rig.intercept = [&](firmware::Prompt p) {
+            if (p != c.prompt) return false;
+            asked = true;
+            CHECK(rig.cycle.state() == c.waiting_in);
+            CHECK(rig.board.lines->led(hal::Led::ready));  // waiting for a person
+            if (c.from_console)
+                rig.cycle.cancel("cancelled from the console");
+            else
+                rig.board.lines->press(2000ms);
+            return true;
+        };
+        rig.run_cycle();
+        CHECK_TEXT(asked, c.name);
+        CHECK(rig.cycle.state() == firmware::CycleState::idle);
+        CHECK(rig.board.lines->led(hal::Led::ready));
+        CHECK_FALSE(rig.board.lines->led(hal::Led::error));
+        CHECK_FALSE(rig.board.lines->light());
+        const std::size_t sent = rig.transcript().size();
+        for (int i = 0; i < 20; ++i) {
+            rig.loop.run_once(5ms);
+            rig.clock.advance(1s);
+        }
+        CHECK_EQUAL(sent, rig.transcript().size());
+        CHECK_EQUAL(c.with_camera, fs::exists(dir / "camera.yaml"));
+        CHECK_EQUAL(c.with_plane, fs::exists(dir / "plane.yaml"));
+    }
 }
 
 // Cancelled at the bed-clearing before the verification print, the correction stays applied

@@ -420,18 +420,38 @@ void Cycle::read_printer_settings(std::function<void()> then) {
         then();
         return;
     }
-    const auto query = models::settings_query(machine_.firmware);
-    run_job(query, [this, query, then = std::move(then)](const JobOutcome& outcome) {
-        const auto commands = models::settings_from_report(machine_.firmware, outcome.replies);
-        try {
-            machine_.delta = models::geometry_from_settings(machine_.firmware, commands);
-        } catch (const std::exception& e) {
-            fail("the printer's reply to " + spaced(query) + ": " + e.what());
-            return;
-        }
-        log_("cycle " + std::to_string(report_.number) +
-             ": the printer's settings: " + spaced(commands));
-        then();
+    read_settings(machine_.firmware,
+                  [this, then = std::move(then)](const std::vector<std::string>& commands) {
+                      try {
+                          machine_.delta =
+                              models::geometry_from_settings(machine_.firmware, commands);
+                      } catch (const std::exception& e) {
+                          fail("the printer's reply to " +
+                               spaced(models::settings_query(machine_.firmware)) + ": " + e.what());
+                          return;
+                      }
+                      log_("cycle " + std::to_string(report_.number) +
+                           ": the printer's settings: " + spaced(commands));
+                      then();
+                  });
+}
+
+void Cycle::read_settings(const std::string& firmware,
+                          std::function<void(std::vector<std::string>)> then) {
+    run_job(models::settings_query(firmware),
+            [firmware, then = std::move(then)](const JobOutcome& outcome) {
+                then(models::settings_from_report(firmware, outcome.replies));
+            });
+}
+
+void Cycle::send_and_read_back(const std::string& firmware, const std::vector<std::string>& lines,
+                               std::function<void(std::string, std::vector<std::string>)> then) {
+    run_job(lines, [this, firmware, lines, then = std::move(then)](const JobOutcome&) {
+        read_settings(firmware, [firmware, lines, then](std::vector<std::string> reported) {
+            // Compared before the report is moved on (argument order is unspecified).
+            std::string mismatch = models::settings_mismatch(firmware, lines, reported);
+            then(std::move(mismatch), std::move(reported));
+        });
     });
 }
 
@@ -507,44 +527,41 @@ void Cycle::apply() {
         finish_cycle();
         return;
     }
-    const std::vector<std::string> query = models::settings_query(s.firmware);
-    enter(CycleState::apply, "backing up the settings (" + spaced(query) + ")");
-    run_job(query, [this, query](const JobOutcome& backup) {
-        const std::string& firmware = report_.solution->firmware;
-        report_.backup = models::settings_from_report(firmware, backup.replies);
+    enter(CycleState::apply,
+          "backing up the settings (" + spaced(models::settings_query(s.firmware)) + ")");
+    read_settings(s.firmware, [this](std::vector<std::string> backup) {
+        report_.backup = std::move(backup);
         if (report_.backup.size() != 2) {
-            fail("apply: the printer's reply to " + spaced(query) +
+            fail("apply: the printer's reply to " +
+                 spaced(models::settings_query(report_.solution->firmware)) +
                  " does not hold both its M665 and M666 settings to back up");
             return;
         }
         d_.data.replace_file(record_name(report_.number, "backup.gcode"),
                              joined(report_.backup) + "M500\n");
-        const auto& commands = report_.solution->commands;
+        const auto& solution = *report_.solution;
         log_("cycle " + std::to_string(report_.number) + ": sending " +
-             std::to_string(commands.size()) + " lines");
-        run_job(commands, [this, query](const JobOutcome&) {
-            run_job(query, [this](const JobOutcome& readback) {
-                const std::string& firmware = report_.solution->firmware;
-                const std::string mismatch = models::settings_mismatch(
-                    firmware, report_.solution->commands,
-                    models::settings_from_report(firmware, readback.replies));
-                if (mismatch.empty()) {
-                    report_.applied = true;
-                    machine_.delta = report_.solution->after;
-                    verify();
-                    return;
-                }
-                // Put back what was there, then stop with the reason.
-                auto restore = report_.backup;
-                restore.emplace_back("M500");
-                const std::string why = "apply: read-back mismatch: " + mismatch;
-                log_("cycle " + std::to_string(report_.number) + ": " + why +
-                     "; restoring the backup");
-                run_job(restore, [this, why](const JobOutcome&) {
-                    fail(why + " (the previous settings were restored)");
-                });
-            });
-        });
+             std::to_string(solution.commands.size()) + " lines");
+        send_and_read_back(solution.firmware, solution.commands,
+                           [this](const std::string& mismatch, const std::vector<std::string>&) {
+                               if (mismatch.empty()) {
+                                   report_.applied = true;
+                                   machine_.delta = report_.solution->after;
+                                   verify();
+                                   return;
+                               }
+                               restore_backup("apply: read-back mismatch: " + mismatch);
+                           });
+    });
+}
+
+// Puts back what was there, then stops with the reason.
+void Cycle::restore_backup(const std::string& why) {
+    auto restore = report_.backup;
+    restore.emplace_back("M500");
+    log_("cycle " + std::to_string(report_.number) + ": " + why + "; restoring the backup");
+    run_job(restore, [this, why](const JobOutcome&) {
+        fail(why + " (the previous settings were restored)");
     });
 }
 
@@ -569,12 +586,9 @@ std::string Cycle::revert() {
     error_.clear();
     enter(CycleState::apply,
           "reverting to the settings saved before cycle " + std::to_string(number));
-    const auto query = models::settings_query(machine_.firmware);
-    run_job(lines, [this, lines, query, name](const JobOutcome&) {
-        run_job(query, [this, lines, name](const JobOutcome& readback) {
-            const auto reported = models::settings_from_report(machine_.firmware, readback.replies);
-            const std::string mismatch =
-                models::settings_mismatch(machine_.firmware, lines, reported);
+    send_and_read_back(
+        machine_.firmware, lines,
+        [this, name](const std::string& mismatch, const std::vector<std::string>& reported) {
             if (!mismatch.empty()) {
                 fail("revert: read-back mismatch: " + mismatch);
                 return;
@@ -583,7 +597,6 @@ std::string Cycle::revert() {
             enter(CycleState::idle, "reverted to " + name);
             if (on_cycle_end) on_cycle_end(true);
         });
-    });
     return "";
 }
 

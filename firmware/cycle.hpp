@@ -139,6 +139,14 @@ class Cycle {
     void ask_clear_bed_then_target();
     void make_target();
     void read_printer_settings(std::function<void()> then);
+    // The printer's settings report (settings_query), as the commands that set it again.
+    void read_settings(const std::string& firmware,
+                       std::function<void(std::vector<std::string>)> then);
+    // Sends settings lines, reads the settings back and compares: `then(mismatch, reported)`,
+    // the mismatch empty when they agree.
+    void send_and_read_back(const std::string& firmware, const std::vector<std::string>& lines,
+                            std::function<void(std::string, std::vector<std::string>)> then);
+    void restore_backup(const std::string& why);
     void measure_print(CycleState state, std::function<void()> then);
     void solve();
     void review();

@@ -10,10 +10,6 @@
 namespace calbox::firmware {
 namespace {
 
-bool starts_with(const std::string& s, std::string_view prefix) {
-    return s.compare(0, prefix.size(), prefix) == 0;
-}
-
 bool contains(const std::string& s, std::string_view what) {
     return s.find(what) != std::string::npos;
 }
@@ -126,7 +122,7 @@ void GcodeHost::on_readable() {
 }
 
 void GcodeHost::handle(const std::string& reply) {
-    const bool banner = reply == "start" || starts_with(reply, "start ");
+    const bool banner = reply == "start" || reply.starts_with("start ");
     heard_from_printer_ = true;
     if (waiting_for_startup_) {
         log_("printer: " + reply);
@@ -140,13 +136,13 @@ void GcodeHost::handle(const std::string& reply) {
         log_("printer: " + reply);  // a banner, or the tail of a job that ended
         return;
     }
-    if (starts_with(reply, "ok")) {
+    if (reply.starts_with("ok")) {
         if (in_flight_ > 0) --in_flight_;
         arm_deadline();
         pump();
         return;
     }
-    if (starts_with(reply, "Resend:") || starts_with(reply, "rs ")) {
+    if (reply.starts_with("Resend:") || reply.starts_with("rs ")) {
         const long n = resend_number(reply);
         if (n < 0 || next_ == 0) {
             finish(false,
@@ -171,7 +167,7 @@ void GcodeHost::handle(const std::string& reply) {
         arm_deadline();  // the printer is working (homing, heating): not silent
         return;
     }
-    if (starts_with(reply, "Error:") || starts_with(reply, "!!")) {
+    if (reply.starts_with("Error:") || reply.starts_with("!!")) {
         // Transport errors come with a resend; anything else is the printer refusing or halting.
         if (contains(reply, "checksum") || contains(reply, "Line Number") ||
             contains(reply, "No Checksum") || contains(reply, "No Line Number")) {
@@ -180,14 +176,14 @@ void GcodeHost::handle(const std::string& reply) {
         finish(false, "the printer reported \"" + reply + "\"");
         return;
     }
-    if (starts_with(reply, "//action:")) {
+    if (reply.starts_with("//action:")) {
         const std::string action = reply.substr(9);
-        if (starts_with(action, "cancel")) {
+        if (action.starts_with("cancel")) {
             finish(false, "the printer cancelled the job (" + reply + ")");
-        } else if (starts_with(action, "pause")) {
+        } else if (action.starts_with("pause")) {
             paused_ = true;
             log_("printer paused the job (" + reply + ")");
-        } else if (starts_with(action, "resume")) {
+        } else if (action.starts_with("resume")) {
             paused_ = false;
             pump();
         } else {

@@ -18,6 +18,16 @@ std::array<double, 3> carriage_heights_at_home(const DeltaParams& p) {
     return reference_carriage_heights_mm(p, Vec3{0, 0, p.height_mm});
 }
 
+// RepRapFirmware's one diagonal per tower, as it prints them: "250.100:249.900:250.000".
+std::string rrf_diagonals(const DeltaParams& p) {
+    std::string out;
+    for (std::size_t i = 0; i < 3; ++i) {
+        if (i > 0) out += ':';
+        out += fixed3(p.diagonal_rod_mm + p.diagonal_rod_trim_mm[i]);
+    }
+    return out;
+}
+
 }  // namespace
 
 DeltaTwin::DeltaTwin(const DeltaParams& truth, const DeltaParams& firmware, DeltaDialect dialect)
@@ -116,10 +126,7 @@ std::optional<std::vector<std::string>> DeltaTwin::rrf_settings_command(const gc
     if (line.is('M', 665)) {
         if (line.parameters.empty()) {
             // As LinearDeltaKinematics::Configure prints it; the degree sign in UTF-8.
-            std::string report = "Diagonals ";
-            for (int i = 0; i < 3; ++i)
-                report += (i == 0 ? "" : ":") +
-                          fixed3(firmware_.diagonal_rod_mm + firmware_.diagonal_rod_trim_mm[i]);
+            std::string report = "Diagonals " + rrf_diagonals(firmware_);
             report += ", delta radius " + fixed3(firmware_.radius_mm) + ", homed height " +
                       fixed3(firmware_.height_mm) + ", bed radius 85.0";
             const char* axes[3] = {", X ", ", Y ", ", Z "};
@@ -181,9 +188,7 @@ std::vector<std::string> DeltaTwin::stored_settings_commands() const {
             if (l.rfind("echo:  M", 0) == 0) commands.push_back(l.substr(7));
         return commands;
     }
-    std::string m665 = "M665 L";
-    for (int i = 0; i < 3; ++i)
-        m665 += (i == 0 ? "" : ":") + fixed3(p.diagonal_rod_mm + p.diagonal_rod_trim_mm[i]);
+    std::string m665 = "M665 L" + rrf_diagonals(p);
     m665 += " R" + fixed3(p.radius_mm) + " H" + fixed3(p.height_mm) + " X" +
             fixed3(p.tower_angle_trim_deg[0]) + " Y" + fixed3(p.tower_angle_trim_deg[1]) + " Z" +
             fixed3(p.tower_angle_trim_deg[2]);

@@ -74,10 +74,6 @@ std::vector<std::string> settings_query(const std::string& firmware) {
 
 namespace {
 
-bool starts_with(std::string_view text, std::string_view prefix) {
-    return text.substr(0, prefix.size()) == prefix;
-}
-
 // The number (or ':' list) at the start of `text`, as printed; empty when there is none.
 std::string_view leading_number(std::string_view text) {
     std::size_t n = 0;
@@ -86,6 +82,18 @@ std::string_view leading_number(std::string_view text) {
             text[n] == '-' || text[n] == '+' || text[n] == ':'))
         ++n;
     return text.substr(0, n);
+}
+
+// Appends " <letter><number>" for the number printed right after `key` in `text`, if any.
+void append_word_after(std::string& command, std::string_view text, std::string_view key,
+                       char letter) {
+    const std::size_t at = text.find(key);
+    if (at == std::string_view::npos) return;
+    const auto number = leading_number(text.substr(at + key.size()));
+    if (number.empty()) return;
+    command += ' ';
+    command += letter;
+    command += number;
 }
 
 // RepRapFirmware 3's M665 report: "Diagonals 250.000:250.000:250.000, delta radius 140.000,
@@ -107,12 +115,8 @@ std::string rrf_m665_from_report(std::string_view text) {
         text.remove_prefix(std::min(comma + 1, text.size()));
         while (!field.empty() && field.front() == ' ') field.remove_prefix(1);
         for (const auto& [name, letter] : kFields) {
-            if (!starts_with(field, name)) continue;
-            const auto number = leading_number(field.substr(name.size()));
-            if (number.empty()) break;
-            command += ' ';
-            command += letter;
-            command += number;
+            if (!field.starts_with(name)) continue;
+            append_word_after(command, field, name, letter);
             break;
         }
     }
@@ -123,29 +127,12 @@ std::string rrf_m665_from_report(std::string_view text) {
 // M666 A B (percent).
 std::string rrf_m666_from_report(std::string_view text) {
     std::string command = "M666";
-    const std::size_t tilt = text.find("tilt ");
-    const std::string_view adjustments = text.substr(0, tilt);
-    for (const char letter : {'X', 'Y', 'Z'}) {
-        const std::size_t at = adjustments.find(std::string(" ") + letter);
-        if (at == std::string_view::npos) continue;
-        const auto number = leading_number(adjustments.substr(at + 2));
-        if (number.empty()) continue;
-        command += ' ';
-        command += letter;
-        command += number;
-    }
-    if (tilt != std::string_view::npos) {
-        const std::string_view tilts = text.substr(tilt);
-        for (const auto& [axis, letter] : {std::pair{'X', 'A'}, std::pair{'Y', 'B'}}) {
-            const std::size_t at = tilts.find(axis);
-            if (at == std::string_view::npos) continue;
-            const auto number = leading_number(tilts.substr(at + 1));
-            if (number.empty()) continue;
-            command += ' ';
-            command += letter;
-            command += number;
-        }
-    }
+    const std::size_t tilt = std::min(text.find("tilt "), text.size());
+    const std::string_view adjustments = text.substr(0, tilt), tilts = text.substr(tilt);
+    for (const char letter : {'X', 'Y', 'Z'})
+        append_word_after(command, adjustments, std::string{' ', letter}, letter);
+    append_word_after(command, tilts, "X", 'A');
+    append_word_after(command, tilts, "Y", 'B');
     return command;
 }
 
@@ -157,17 +144,17 @@ std::vector<std::string> settings_from_report(const std::string& firmware,
     if (firmware == "marlin") {
         for (const auto& reply : replies) {
             std::string_view text = reply;
-            if (starts_with(text, "echo:")) text.remove_prefix(5);
+            if (text.starts_with("echo:")) text.remove_prefix(5);
             while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
-            if (starts_with(text, "M665 ") || starts_with(text, "M666 ")) out.emplace_back(text);
+            if (text.starts_with("M665 ") || text.starts_with("M666 ")) out.emplace_back(text);
         }
         return out;
     }
     if (firmware == "rrf") {
         std::string m665, m666;
         for (const auto& reply : replies) {
-            if (starts_with(reply, "Diagonal")) m665 = rrf_m665_from_report(reply);
-            if (starts_with(reply, "Endstop adjustments")) m666 = rrf_m666_from_report(reply);
+            if (reply.starts_with("Diagonal")) m665 = rrf_m665_from_report(reply);
+            if (reply.starts_with("Endstop adjustments")) m666 = rrf_m666_from_report(reply);
         }
         if (!m665.empty()) out.push_back(m665);
         if (!m666.empty()) out.push_back(m666);

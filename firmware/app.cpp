@@ -14,6 +14,7 @@
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/plc_link.hpp"
 #include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
 
@@ -25,7 +26,9 @@ namespace calbox::cli {
 namespace {
 
 constexpr const char* kRunHelp = R"(usage:
-  calbox run [--board sim] [--scenario FILE] [--data DIR] [--auto] [--frames N]
+  calbox run [--board sim] [--scenario FILE] [--data DIR] [--auto | --operator] [--frames N]
+             [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
+             [--modbus-word-order ORDER]
       The appliance: waits for the button, then runs the delta calibration cycle: the target
       printed over the machine link, lit and photographed, measured, solved, shown for review
       (short press applies, long press cancels), applied with a backup and a read-back, and
@@ -41,7 +44,21 @@ constexpr const char* kRunHelp = R"(usage:
                       presses the button; one cycle, then exit. Prints the twin's judgement
                       before and after, and exits 0 only if the delta goal is met (XY RMS <= 0.01
                       mm, worst <= 0.03 mm over the printable area).
+      --operator      the sim board's operator does what the set-up and bed prompts ask, but
+                      the start and the review are left to the button, the console or a PLC
       --frames N      photos averaged per capture (default 1)
+      --modbus-server ENDPOINT
+                      serve the PLC map (README, Modbus): trigger, confirm, cancel and
+                      acknowledge coils; ready, busy, review, done, pass, error and person inputs;
+                      state, error code, result counter and the result block in input registers.
+                      ENDPOINT is tcp:HOST:PORT (0.0.0.0 for all interfaces) or rtu:DEVICE:BAUD
+      --modbus-client ENDPOINT
+                      after each completed cycle, write its result into that controller's holding
+                      registers: the whole result block from register 0, or as --modbus-map FILE
+                      says (TOML lines: value_name = register)
+      --modbus-word-order ORDER
+                      the floats' word order on Modbus: abcd (default: 123456.0 is 0x47F1
+                      0x2000), cdab, badc or dcba
       Standard input, when it is a terminal, takes: start, press, hold, cancel, status, quit.
   calbox revert [--board sim] [--scenario FILE] [--data DIR]
       Sends the settings backed up before the last completed cycle applied its correction
@@ -95,9 +112,39 @@ struct Box {
 };
 
 int run(const std::vector<std::string>& words) {
-    const Args args(words, {"--board", "--scenario", "--data", "--frames"}, {"--auto"});
+    const Args args(words,
+                    {"--board", "--scenario", "--data", "--frames", "--modbus-server",
+                     "--modbus-client", "--modbus-map", "--modbus-word-order"},
+                    {"--auto", "--operator"});
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
     const bool automatic = args.flag("--auto");
+    if (automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
+    const bool operator_acts = automatic || args.flag("--operator");
+    if (args.get("--modbus-map") && !args.get("--modbus-client"))
+        throw UsageError("--modbus-map needs --modbus-client");
+    models::WordOrder word_order = models::WordOrder::abcd;
+    try {
+        word_order = models::parse_word_order(args.get("--modbus-word-order").value_or("abcd"));
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(std::string("--modbus-word-order: ") + e.what());
+    }
+    std::optional<drivers::ModbusEndpoint> server_endpoint, client_endpoint;
+    try {
+        if (auto e = args.get("--modbus-server"))
+            server_endpoint = drivers::parse_modbus_endpoint(*e);
+        if (auto e = args.get("--modbus-client"))
+            client_endpoint = drivers::parse_modbus_endpoint(*e);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(e.what());
+    }
+    std::optional<firmware::ResultRegisterMap> result_map;
+    if (client_endpoint) {
+        result_map = args.get("--modbus-map")
+                         ? firmware::ResultRegisterMap::from_toml(
+                               read_input_file(*args.get("--modbus-map"), "Modbus map"),
+                               *args.get("--modbus-map"))
+                         : firmware::ResultRegisterMap::whole_block(0);
+    }
     const int frames = static_cast<int>(args.number("--frames", 1));
     if (frames < 1 || frames > 16) throw UsageError("--frames must be 1 to 16");
     const Common common = common_options(args);
@@ -116,6 +163,57 @@ int run(const std::vector<std::string>& words) {
         cycle.cancel("stopped by signal " + std::to_string(stopped_by));
         loop.stop();
     });
+
+    std::optional<drivers::ModbusServer> modbus_server;
+    std::optional<firmware::PlcServer> plc;
+    if (server_endpoint) {
+        namespace plc_map = firmware::plc;
+        modbus_server.emplace(
+            *server_endpoint,
+            drivers::ModbusServer::Tables{plc_map::kCoilCount, plc_map::kDiscreteInputCount, 0,
+                                          firmware::input_register_count()},
+            drivers::ModbusTimeouts{}, log_line);
+        plc.emplace(*modbus_server, cycle, word_order, log_line);
+        loop.watch(modbus_server->written_fd(), [&] { plc->on_coils_written(); });
+        log_line(server_endpoint->describe() + ": serving the PLC map" +
+                 (server_endpoint->kind == drivers::ModbusEndpoint::Kind::tcp
+                      ? " on port " + std::to_string(modbus_server->port())
+                      : std::string()));
+    }
+    std::optional<drivers::ModbusClient> modbus_client;
+    std::optional<firmware::ResultWriter> result_writer;
+    int results_written_for = cycle.cycles_completed();
+    bool stop_when_written = false;
+    if (client_endpoint) {
+        modbus_client.emplace(*client_endpoint, drivers::ModbusTimeouts{});
+        result_writer.emplace(*modbus_client, *result_map, word_order, log_line);
+        loop.watch(modbus_client->completion_fd(), [&] {
+            result_writer->on_completion();
+            if (stop_when_written && result_writer->idle()) loop.stop();
+        });
+    }
+    cycle.on_state = [&](firmware::CycleState) {
+        if (plc) plc->publish();
+    };
+    cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
+        if (operator_acts) {
+            firmware::act_on_prompt(*board.bench, *board.lines, prompt, step, automatic);
+        }
+        if (plc) plc->publish();
+    };
+    cycle.on_cycle_end = [&](bool) {
+        if (plc) plc->publish();
+        if (result_writer && cycle.cycles_completed() > results_written_for) {
+            results_written_for = cycle.cycles_completed();
+            result_writer->write(cycle.report());
+        }
+        if (!automatic) return;
+        if (result_writer && !result_writer->idle()) {
+            stop_when_written = true;  // the controller gets the whole result before the exit
+        } else {
+            loop.stop();
+        }
+    };
     // A console on standard input when it is a terminal; /dev/null (as under CI) leaves it off.
     const bool console = ::isatty(STDIN_FILENO) == 1;
     if (console) {
@@ -152,13 +250,7 @@ int run(const std::vector<std::string>& words) {
             "before: XY rms %.4f mm, max %.4f mm (the twin's truth, over the printable area)\n",
             before.xy_rms, before.xy_max);
         std::fflush(stdout);
-        auto& bench = *board.bench;
-        auto& lines = *board.lines;
-        cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
-            firmware::act_on_prompt(bench, lines, prompt, step);
-        };
-        cycle.on_cycle_end = [&](bool) { loop.stop(); };
-        lines.press(std::chrono::milliseconds(100));
+        board.lines->press(std::chrono::milliseconds(100));
     } else if (!console) {
         log_line("waiting for the button (no console: standard input is not a terminal)");
     }
@@ -179,8 +271,7 @@ int run(const std::vector<std::string>& words) {
         throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
                                                                        ? std::string("cancelled")
                                                                        : cycle.error()));
-    constexpr double kGoalRmsMm = 0.01, kGoalWorstMm = 0.03;
-    if (after.xy_rms > kGoalRmsMm || after.xy_max > kGoalWorstMm) {
+    if (after.xy_rms > firmware::kDeltaGoalXyRmsMm || after.xy_max > firmware::kDeltaGoalXyMaxMm) {
         throw std::runtime_error("the delta goal is not met: XY after " +
                                  std::to_string(after.xy_rms) + " mm RMS, " +
                                  std::to_string(after.xy_max) + " mm worst (goal 0.01 and 0.03)");

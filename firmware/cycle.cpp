@@ -168,14 +168,9 @@ void Cycle::ask(Prompt prompt, int step, std::function<void()> then) {
 
 void Cycle::on_button() {
     while (const auto event = d_.lines.read_button()) {
-        if (event->pressed) {
-            pressed_at_ = event->at;
-            continue;
+        if (const auto press_made = presses_.on_event(*event)) {
+            press(*press_made == Press::long_press);
         }
-        if (!pressed_at_) continue;  // a release without its press (the box started held)
-        const bool long_press = event->at - *pressed_at_ >= settings_.long_press;
-        pressed_at_.reset();
-        press(long_press);
     }
 }
 
@@ -226,6 +221,7 @@ void Cycle::fail(const std::string& message) {
     d_.machine.cancel(message);  // nothing more goes to the machine
     d_.lines.set_light(false);
     error_ = message;
+    failed_in_ = state_;
     log_("cycle " + std::to_string(report_.number) + ": error: " + message);
     state_ = CycleState::error;
     prompt_ = Prompt::acknowledge_error;
@@ -406,7 +402,12 @@ void Cycle::make_target() {
                 run_job(target_job_, [this](const JobOutcome&) {
                     enter(CycleState::capture,
                           std::to_string(settings_.frames_per_capture) + " frame(s)");
-                    measure_print(CycleState::measure, [this] { solve(); });
+                    measure_print(CycleState::measure, [this] {
+                        const auto errors = modes::placement_errors(measurements_->features);
+                        report_.measured_xy_rms_mm = errors.rms_mm;
+                        report_.measured_xy_max_mm = errors.largest_mm;
+                        solve();
+                    });
                 });
             });
         });

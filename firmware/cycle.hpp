@@ -13,6 +13,7 @@
 
 #include "core/models/machine_file.hpp"
 #include "core/modes/delta.hpp"
+#include "firmware/button_press.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
 #include "hal/camera.hpp"
@@ -77,7 +78,9 @@ struct CycleReport {
     std::optional<modes::DeltaSolution> solution;
     bool applied = false;
     std::vector<std::string> backup;  // the settings before, as commands (M665, M666)
-    std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;  // the re-printed target, measured
+    // The target measured before the correction (placement errors), and re-printed after it.
+    std::optional<double> measured_xy_rms_mm, measured_xy_max_mm;
+    std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
     double box_seconds = 0;      // the box's own work: measuring, solving, set-up solves
     double camera_seconds = 0;   // waiting for the camera (the twin's rendering on the sim board)
     double machine_seconds = 0;  // waiting for the machine
@@ -112,6 +115,7 @@ class Cycle {
     Prompt prompt() const { return prompt_; }
     int prompt_step() const { return prompt_step_; }  // which board view, from 0
     const std::string& error() const { return error_; }
+    CycleState failed_in() const { return failed_in_; }  // the stage the last error stopped
     const CycleReport& report() const { return report_; }
     int cycles_completed() const { return completed_; }
 
@@ -165,7 +169,8 @@ class Cycle {
     Prompt prompt_ = Prompt::start;
     int prompt_step_ = 0;
     std::function<void()> after_press_;
-    std::optional<std::chrono::nanoseconds> pressed_at_;
+    CycleState failed_in_ = CycleState::idle;
+    PressClassifier presses_{settings_.long_press};
     unsigned generation_ = 0;  // bumped by cancel and error: late completions are dropped
     std::string error_;
     int completed_ = 0;

@@ -1,13 +1,15 @@
 #pragma once
 // The person at a sim board, for `calbox run --auto` and the tests: does what each prompt asks
 // on the twin's bench (holds the board, lays it on the bed, clears the bed) and presses the
-// button. Review is confirmed; the start and error prompts are left to the caller.
+// button. Review is confirmed when `confirm_review` (else it is left to the button, the
+// console or a PLC); the start and error prompts are left to the caller.
 #include "board/sim/sim_board.hpp"
 #include "firmware/cycle.hpp"
 
 namespace calbox::firmware {
 
-inline bool act_on_prompt(sim::TwinBench& bench, sim::SimLines& lines, Prompt prompt, int step) {
+inline bool act_on_prompt(sim::TwinBench& bench, sim::SimLines& lines, Prompt prompt, int step,
+                          bool confirm_review = true) {
     switch (prompt) {
         case Prompt::hold_calibration_board:
             bench.hold_calibration_board(step);
@@ -20,6 +22,7 @@ inline bool act_on_prompt(sim::TwinBench& bench, sim::SimLines& lines, Prompt pr
             bench.clear_bed();
             break;
         case Prompt::review:
+            if (!confirm_review) return false;
             break;
         default:
             return false;

@@ -1,0 +1,236 @@
+#include "firmware/plc_link.hpp"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+namespace calbox::firmware {
+namespace {
+
+constexpr double kAbsent = std::numeric_limits<double>::quiet_NaN();
+
+void append_float(std::vector<std::uint16_t>& words, double value, models::WordOrder order) {
+    const auto w = models::pack_float(static_cast<float>(value), order);
+    words.push_back(w[0]);
+    words.push_back(w[1]);
+}
+
+}  // namespace
+
+std::vector<std::pair<std::string, double>> delta_result_values(const CycleReport& r) {
+    auto value_or_absent = [](const std::optional<double>& v) { return v.value_or(kAbsent); };
+    std::vector<std::pair<std::string, double>> values{
+        {"measured_xy_rms_mm", value_or_absent(r.measured_xy_rms_mm)},
+        {"measured_xy_max_mm", value_or_absent(r.measured_xy_max_mm)},
+        {"predicted_xy_rms_mm",
+         r.solution ? r.solution->fit.correction.predicted_xy_rms_mm : kAbsent},
+        {"predicted_xy_max_mm",
+         r.solution ? r.solution->fit.correction.predicted_xy_max_mm : kAbsent},
+        {"verified_xy_rms_mm", value_or_absent(r.verify_xy_rms_mm)},
+        {"verified_xy_max_mm", value_or_absent(r.verify_xy_max_mm)},
+    };
+    const models::DeltaGeometry* g = r.solution ? &r.solution->after : nullptr;
+    auto add = [&](const std::string& name, double models::DeltaGeometry::*field) {
+        values.emplace_back(name, g ? g->*field : kAbsent);
+    };
+    auto add3 = [&](const std::string& stem, const std::string& unit,
+                    std::array<double, 3> models::DeltaGeometry::*field) {
+        const char* towers[] = {"a", "b", "c"};
+        for (std::size_t i = 0; i < 3; ++i) {
+            values.emplace_back(stem + "_" + towers[i] + "_" + unit, g ? (g->*field)[i] : kAbsent);
+        }
+    };
+    add("diagonal_rod_mm", &models::DeltaGeometry::diagonal_rod_mm);
+    add3("diagonal_rod_trim", "mm", &models::DeltaGeometry::diagonal_rod_trim_mm);
+    add("radius_mm", &models::DeltaGeometry::radius_mm);
+    add3("tower_angle_trim", "deg", &models::DeltaGeometry::tower_angle_trim_deg);
+    add3("endstop_offset", "mm", &models::DeltaGeometry::endstop_offset_mm);
+    add("height_mm", &models::DeltaGeometry::height_mm);
+    return values;
+}
+
+int input_register_count() {
+    return plc::kResultBlockRegister + 2 * static_cast<int>(delta_result_values({}).size());
+}
+
+PlcServer::PlcServer(drivers::ModbusServer& server, Cycle& cycle, models::WordOrder order, Log log)
+    : server_(server),
+      cycle_(cycle),
+      order_(order),
+      log_(std::move(log)),
+      completed_at_start_(cycle.cycles_completed()) {
+    publish();
+}
+
+void PlcServer::publish() {
+    const CycleState state = cycle_.state();
+    const bool idle = state == CycleState::idle;
+    if (was_idle_ && !idle) completed_at_start_ = cycle_.cycles_completed();
+    was_idle_ = idle;
+    const bool done = idle && cycle_.cycles_completed() > completed_at_start_;
+    const auto& report = cycle_.report();
+    const bool pass = done && report.verify_xy_rms_mm && report.verify_xy_max_mm &&
+                      *report.verify_xy_rms_mm <= kDeltaGoalXyRmsMm &&
+                      *report.verify_xy_max_mm <= kDeltaGoalXyMaxMm;
+    const Prompt prompt = cycle_.prompt();
+    const bool error = state == CycleState::error;
+    std::vector<bool> inputs(plc::kDiscreteInputCount, false);
+    inputs[plc::kReadyInput] = idle;
+    inputs[plc::kBusyInput] = !idle && !error;
+    inputs[plc::kReviewInput] = prompt == Prompt::review;
+    inputs[plc::kDoneInput] = done;
+    inputs[plc::kPassInput] = pass;
+    inputs[plc::kErrorInput] = error;
+    inputs[plc::kPersonInput] = prompt == Prompt::hold_calibration_board ||
+                                prompt == Prompt::lay_plane_board || prompt == Prompt::clear_bed;
+
+    // The result block changes only when a cycle completes, so a PLC reading it after done
+    // never sees half of the next cycle.
+    if (done && published_results_ != cycle_.cycles_completed()) {
+        std::vector<std::uint16_t> block;
+        for (const auto& [name, value] : delta_result_values(report)) {
+            append_float(block, value, order_);
+        }
+        server_.set_input_registers(plc::kResultBlockRegister, block);
+        published_results_ = cycle_.cycles_completed();
+    }
+    const std::array<std::uint16_t, 4> head{
+        static_cast<std::uint16_t>(state),
+        static_cast<std::uint16_t>(error ? static_cast<int>(cycle_.failed_in()) : 0),
+        static_cast<std::uint16_t>(cycle_.cycles_completed() & 0xFFFF),
+        static_cast<std::uint16_t>(order_)};
+    server_.set_input_registers(plc::kStateRegister, head);
+    // The status bits last: when done reads 1, the counter and the block are already there.
+    server_.set_discrete_inputs(0, inputs);
+}
+
+void PlcServer::on_coils_written() {
+    for (const int coil : server_.take_coils_set()) {
+        switch (coil) {
+            case plc::kTriggerCoil:
+                if (cycle_.state() == CycleState::idle) {
+                    cycle_.start();
+                } else {
+                    log_("modbus: trigger ignored: the box is " +
+                         std::string(state_name(cycle_.state())));
+                }
+                break;
+            case plc::kConfirmCoil:
+                if (cycle_.prompt() == Prompt::review) {
+                    cycle_.press(false);
+                } else {
+                    log_("modbus: confirm ignored: nothing is waiting for review");
+                }
+                break;
+            case plc::kCancelCoil:
+                cycle_.cancel("cancelled over Modbus");
+                break;
+            case plc::kAcknowledgeCoil:
+                cycle_.acknowledge();
+                break;
+            default:
+                break;
+        }
+    }
+    publish();
+}
+
+ResultRegisterMap ResultRegisterMap::whole_block(int first_register) {
+    ResultRegisterMap map;
+    int address = first_register;
+    for (const auto& [name, value] : delta_result_values({})) {
+        map.registers.emplace_back(name, address);
+        address += 2;
+    }
+    return map;
+}
+
+ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const std::string& source) {
+    toml::table table;
+    try {
+        table = toml::parse(text, source);
+    } catch (const toml::parse_error& e) {
+        std::ostringstream where;
+        where << source << ":" << e.source().begin.line << ": " << e.description();
+        throw std::runtime_error(where.str());
+    }
+    std::map<std::string, bool> known;
+    for (const auto& [name, value] : delta_result_values({})) known[name] = true;
+    ResultRegisterMap map;
+    std::map<int, std::string> taken;  // register -> the value using it
+    for (const auto& [key, node] : table) {
+        const std::string name(key.str());
+        const std::string at = source + ":" + std::to_string(node.source().begin.line) + ": ";
+        if (known.count(name) == 0)
+            throw std::runtime_error(at + "'" + name + "' is not a result value");
+        const auto address = node.value<std::int64_t>();
+        if (!node.is_integer() || !address || *address < 0 || *address > 65534) {
+            throw std::runtime_error(at + name + ": a holding register 0 to 65534");
+        }
+        for (int r = static_cast<int>(*address); r <= *address + 1; ++r) {
+            if (taken.count(r) != 0) {
+                throw std::runtime_error(at + name + ": register " + std::to_string(r) +
+                                         " is already " + taken[r] + "'s");
+            }
+            taken[r] = name;
+        }
+        map.registers.emplace_back(name, static_cast<int>(*address));
+    }
+    if (map.registers.empty()) throw std::runtime_error(source + ": maps no result value");
+    return map;
+}
+
+ResultWriter::ResultWriter(hal::RegisterLink& link, ResultRegisterMap map, models::WordOrder order,
+                           Log log)
+    : link_(link), map_(std::move(map)), order_(order), log_(std::move(log)) {}
+
+void ResultWriter::write(const CycleReport& report) {
+    std::map<std::string, double> values;
+    for (const auto& [name, value] : delta_result_values(report)) values[name] = value;
+    std::vector<std::pair<int, std::uint16_t>> words;
+    for (const auto& [name, address] : map_.registers) {
+        const auto w = models::pack_float(static_cast<float>(values.at(name)), order_);
+        words.emplace_back(address, w[0]);
+        words.emplace_back(address + 1, w[1]);
+    }
+    std::sort(words.begin(), words.end());
+    // Contiguous registers go in one request (at most 123, the protocol's limit).
+    for (const auto& [address, word] : words) {
+        if (queue_.empty() ||
+            queue_.back().first + static_cast<int>(queue_.back().second.size()) != address ||
+            queue_.back().second.size() >= 123) {
+            queue_.push_back({address, {}});
+        }
+        queue_.back().second.push_back(word);
+    }
+    if (!in_flight_) next();
+}
+
+void ResultWriter::next() {
+    if (queue_.empty()) return;
+    auto [address, block] = std::move(queue_.front());
+    queue_.erase(queue_.begin());
+    in_flight_ = true;
+    link_.start_write_registers(address, std::move(block));
+}
+
+void ResultWriter::on_completion() {
+    if (!in_flight_) return;
+    in_flight_ = false;
+    const auto result = link_.take_result();
+    if (result.ok()) {
+        ++written_;
+    } else {
+        ++failed_;
+        queue_.clear();  // the rest of this result would leave the controller half-written
+        log_("modbus: the result was not written: " + result.error);
+    }
+    next();
+}
+
+}  // namespace calbox::firmware

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "board/sim/sim_board.hpp"
+#include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
 #include "drivers/timerfd_clock.hpp"
 #include "firmware/cli_args.hpp"
@@ -27,6 +28,7 @@ namespace {
 
 constexpr const char* kRunHelp = R"(usage:
   calbox run [--board sim] [--scenario FILE] [--data DIR] [--auto | --operator] [--frames N]
+             [--camera-files DIR|GLOB]
              [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
              [--modbus-word-order ORDER]
       The appliance: waits for the button, then runs the delta calibration cycle: the target
@@ -47,6 +49,10 @@ constexpr const char* kRunHelp = R"(usage:
       --operator      the sim board's operator does what the set-up and bed prompts ask, but
                       the start and the review are left to the button, the console or a PLC
       --frames N      photos averaged per capture (default 1)
+      --camera-files DIR|GLOB
+                      photos from image files (name order, one per frame) instead of the
+                      camera: a cycle re-run on saved photos, or photos from another camera.
+                      Their size must be the calibration's (camera.yaml), else one error line
       --modbus-server ENDPOINT
                       serve the PLC map (README, Modbus): trigger, confirm, cancel and
                       acknowledge coils; ready, busy, review, done, pass, error and person inputs;
@@ -100,21 +106,33 @@ Common common_options(const Args& args) {
 }
 
 // The appliance's parts on the real clock, as calbox run and calbox revert both use them.
+// With --camera-files the photos come from files, not from the twin's camera.
 struct Box {
     drivers::TimerfdClock clock;
+    std::optional<drivers::FileCamera> photo_files;
     firmware::SimAppliance parts;
     firmware::Cycle& cycle = parts.cycle;
     firmware::EventLoop& loop = parts.loop;
 
-    Box(const Common& common, firmware::CycleSettings settings)
-        : parts({common.scenario, common.data_dir, 115200}, clock, {}, std::move(settings),
-                log_line) {}
+    Box(const Common& common, firmware::CycleSettings settings,
+        const std::optional<std::string>& camera_files = std::nullopt)
+        : photo_files(camera_files
+                          ? std::optional<drivers::FileCamera>(std::in_place, *camera_files)
+                          : std::nullopt),
+          parts({common.scenario, common.data_dir, 115200}, clock, {}, std::move(settings),
+                log_line, choose_camera()) {}
+
+  private:
+    firmware::SimAppliance::CameraChoice choose_camera() {
+        if (!photo_files) return {};
+        return [this](sim::SimBoard&) -> hal::Camera& { return *photo_files; };
+    }
 };
 
 int run(const std::vector<std::string>& words) {
     const Args args(words,
-                    {"--board", "--scenario", "--data", "--frames", "--modbus-server",
-                     "--modbus-client", "--modbus-map", "--modbus-word-order"},
+                    {"--board", "--scenario", "--data", "--frames", "--camera-files",
+                     "--modbus-server", "--modbus-client", "--modbus-map", "--modbus-word-order"},
                     {"--auto", "--operator"});
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
     const bool automatic = args.flag("--auto");
@@ -152,7 +170,7 @@ int run(const std::vector<std::string>& words) {
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
     firmware::CycleSettings settings;
     settings.frames_per_capture = frames;
-    Box box(common, settings);
+    Box box(common, settings, args.get("--camera-files"));
     auto& board = box.parts.board;
     auto& loop = box.loop;
     auto& cycle = box.cycle;

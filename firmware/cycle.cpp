@@ -458,30 +458,42 @@ void Cycle::send_and_read_back(const std::string& firmware, const std::vector<st
 
 // Photographs what was printed and measures it into measurements_.
 void Cycle::measure_print(CycleState state, std::function<void()> then) {
-    capture(settings_.frames_per_capture,
-            [this, state, then = std::move(then)](std::vector<hal::Frame> f) {
-                auto frames = std::make_shared<std::vector<hal::Frame>>(std::move(f));
-                enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
-                auto record = std::make_shared<modes::DeltaMeasurementsRecord>();
-                const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
-                const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
-                work(
-                    [machine = machine_, frames, record, camera_yaml, plane_yaml] {
-                        const auto camera = geometry::camera_from_yaml(camera_yaml);
-                        const auto plane = geometry::plane_from_yaml(plane_yaml);
-                        std::vector<vision::GrayView> views;
-                        for (const auto& frame : *frames) views.push_back(view_of(frame));
-                        const auto measured = modes::measure_delta(machine, camera, plane, views);
-                        std::vector<std::string> names;
-                        for (std::size_t i = 0; i < frames->size(); ++i)
-                            names.push_back("frame " + std::to_string(i + 1));
-                        *record = modes::record_of(measured, machine, names);
-                    },
-                    [this, record, then] {
-                        measurements_ = *record;
-                        then();
-                    });
+    capture(settings_.frames_per_capture, [this, state,
+                                           then = std::move(then)](std::vector<hal::Frame> f) {
+        auto frames = std::make_shared<std::vector<hal::Frame>>(std::move(f));
+        enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
+        auto record = std::make_shared<modes::DeltaMeasurementsRecord>();
+        const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
+        const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
+        work(
+            [machine = machine_, frames, record, camera_yaml, plane_yaml] {
+                const auto camera = geometry::camera_from_yaml(camera_yaml);
+                const auto plane = geometry::plane_from_yaml(plane_yaml);
+                std::vector<vision::GrayView> views;
+                for (const auto& frame : *frames) {
+                    // Photos from files or another camera: the lens model holds only
+                    // at the size it was calibrated at.
+                    if (frame.width_px != camera.image_width ||
+                        frame.height_px != camera.image_height) {
+                        throw std::runtime_error(
+                            "the photo is " + std::to_string(frame.width_px) + "x" +
+                            std::to_string(frame.height_px) + ", the camera was calibrated at " +
+                            std::to_string(camera.image_width) + "x" +
+                            std::to_string(camera.image_height) + " (camera.yaml)");
+                    }
+                    views.push_back(view_of(frame));
+                }
+                const auto measured = modes::measure_delta(machine, camera, plane, views);
+                std::vector<std::string> names;
+                for (std::size_t i = 0; i < frames->size(); ++i)
+                    names.push_back("frame " + std::to_string(i + 1));
+                *record = modes::record_of(measured, machine, names);
+            },
+            [this, record, then] {
+                measurements_ = *record;
+                then();
             });
+    });
 }
 
 void Cycle::solve() {

@@ -1,7 +1,10 @@
 #pragma once
 // The appliance on the sim board, wired as `calbox run` wires it: the board's devices, the data
 // directory, the event loop, the worker, the machine link and the cycle. The clock is the
-// caller's: the real one for `calbox run` and `calbox revert`, a fake one in the tests.
+// caller's: the real one for `calbox run` and `calbox revert`, a fake one in the tests. A
+// camera of the caller's (photos from files, or the twin's wrapped) may stand in for the twin's.
+#include <functional>
+
 #include "board/sim/sim_board.hpp"
 #include "drivers/file_storage.hpp"
 #include "firmware/cycle.hpp"
@@ -11,21 +14,25 @@
 namespace calbox::firmware {
 
 struct SimAppliance {
+    using CameraChoice = std::function<hal::Camera&(sim::SimBoard&)>;
     sim::SimBoard board;
     drivers::FileStorage data;
     EventLoop loop;
     Worker worker{loop};
     GcodeHost host;
+    hal::Camera& camera;  // the twin's, or the caller's
     Cycle cycle;
 
     SimAppliance(const sim::SimSettings& sim, hal::Clock& clock, GcodeHostSettings link,
-                 CycleSettings settings, const Cycle::Log& log)
+                 CycleSettings settings, const Cycle::Log& log,
+                 const CameraChoice& choose_camera = {})
         : board(sim::make_sim_board(sim, clock, log)),
           data(sim.data_dir),
           host(*board.machine, clock, link, log),
-          cycle({*board.camera, *board.lines, host, *board.display, clock, data, worker},
+          camera(choose_camera ? choose_camera(board) : *board.camera),
+          cycle({camera, *board.lines, host, *board.display, clock, data, worker},
                 board.bench->scenario().machine, std::move(settings), log) {
-        watch_cycle(loop, cycle, host, *board.camera, *board.lines);
+        watch_cycle(loop, cycle, host, camera, *board.lines);
     }
     SimAppliance(const SimAppliance&) = delete;
     SimAppliance& operator=(const SimAppliance&) = delete;

@@ -121,6 +121,14 @@ expect_error "a photo bed temperature needs bed_material and bed_temperature_c" 
     --camera "$work/cycle_camera.yaml" --plane "$work/cycle_plane.yaml" --machine "$top/examples/delta.toml" \
     --bed-temperature 30 "$work/cycle_board.png" -o "$work/result"
 expect_error "bed_material: 'wood' is not one of" target delta --machine <(sed 's/aluminium/wood/' "$printer") -o "$work/result"
+# calbox run: devices and Modbus options checked before anything starts.
+printf 'radius = 4\n' > "$work/badmap.toml"
+expect_error "/nonexistent-photos: no photos" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --camera-files /nonexistent-photos
+expect_error "not tcp:HOST:PORT or rtu:DEVICE:BAUD" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-server localhost
+expect_error "--modbus-word-order: word order 'xyzw'" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-word-order xyzw
+expect_error "--modbus-map needs --modbus-client" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-map "$work/badmap.toml"
+expect_error "badmap.toml:1: 'radius' is not a result value" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-client tcp:127.0.0.1:1 --modbus-map "$work/badmap.toml"
+expect_error "cannot open the serial device: No such file" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-server rtu:/dev/ttyNOPE9:19200
 
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

@@ -5,6 +5,7 @@
 // truth; the box never reads it.
 #include <CppUTest/TestHarness.h>
 #include <CppUTestExt/MockSupport.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <optional>
 #include <sstream>
 
+#include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
@@ -74,10 +76,12 @@ struct Rig {
     std::function<bool(firmware::Prompt)> intercept;  // true: the test handled the prompt
     int ended = 0;
 
-    Rig(const fs::path& data_dir, const std::string& scenario, firmware::CycleSettings settings)
+    Rig(const fs::path& data_dir, const std::string& scenario, firmware::CycleSettings settings,
+        const firmware::SimAppliance::CameraChoice& choose_camera = {})
         : dir(data_dir),
-          box({scenario, data_dir, 115200}, clock, {1, 5000ms, 8}, std::move(settings),
-              [this](const std::string& l) { log.push_back(l); }) {
+          box(
+              {scenario, data_dir, 115200}, clock, {1, 5000ms, 8}, std::move(settings),
+              [this](const std::string& l) { log.push_back(l); }, choose_camera) {
         cycle.on_prompt = [this](firmware::Prompt p, int step) {
             if (intercept && intercept(p)) return;
             if (operator_acts) firmware::act_on_prompt(*board.bench, *board.lines, p, step);
@@ -506,4 +510,102 @@ TEST(ApplianceLink, the_first_cycle_runs_the_set_up_from_photos) {
     std::stringstream text;
     text << camera.rdbuf();
     STRCMP_CONTAINS("camera_matrix", text.str().c_str());
+}
+
+// The twin's camera, each frame it gives also saved as the next numbered PNG.
+struct RecordingCamera final : hal::Camera {
+    hal::Camera* twin = nullptr;
+    fs::path dir;
+    int saved = 0;
+    void start_capture(const hal::CaptureRequest& request) override {
+        twin->start_capture(request);
+    }
+    int completion_fd() const override { return twin->completion_fd(); }
+    hal::CaptureResult take_frames() override {
+        auto result = twin->take_frames();
+        for (const auto& frame : result.frames) {
+            char name[16];
+            std::snprintf(name, sizeof name, "%04d.png", ++saved);
+            drivers::write_frame_png(dir / name, frame);
+        }
+        return result;
+    }
+};
+
+TEST_GROUP(ApplianceFiles){void setup() override{mock().ignoreOtherCalls();
+}
+void teardown() override {
+    mock().clear();
+}
+}
+;
+
+// A cycle re-run on the photos a first cycle saved (--camera-files): the same measurements, so
+// the same correction and verification, and the second twin printer, which never showed its
+// print to a camera, ends as well calibrated as the first.
+TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
+    const fs::path photos = fresh_dir("photos");
+    RecordingCamera recorder;
+    recorder.dir = photos;
+    std::optional<std::vector<std::string>> first_commands;
+    std::optional<double> first_verify;
+    {
+        Rig first(prepared_dir("files_first"), kScenario.string(), {},
+                  [&recorder](sim::SimBoard& board) -> hal::Camera& {
+                      recorder.twin = board.camera.get();
+                      return recorder;
+                  });
+        first.run_cycle();
+        CHECK_EQUAL(1, first.cycle.cycles_completed());
+        first_commands = first.cycle.report().solution->commands;
+        first_verify = first.cycle.report().verify_xy_rms_mm;
+    }
+    CHECK_EQUAL(2, recorder.saved);  // the target, then the verification print
+
+    drivers::FileCamera files(photos.string());
+    auto use_files = [&files](sim::SimBoard&) -> hal::Camera& { return files; };
+    Rig second(prepared_dir("files_second"), kScenario.string(), {}, use_files);
+    second.run_cycle();
+    CHECK_EQUAL(1, second.cycle.cycles_completed());
+    CHECK_EQUAL(0, second.board.camera->captures_started());  // the twin's camera never used
+    CHECK(second.cycle.report().solution->commands == *first_commands);
+    DOUBLES_EQUAL(*first_verify, *second.cycle.report().verify_xy_rms_mm, 1e-12);
+    const auto after = second.board.bench->judge_delta_printer();
+    CHECK(after.xy_rms <= 0.004);
+    CHECK(after.xy_max <= 0.008);
+}
+
+TEST(ApplianceFiles, photos_of_another_size_than_the_calibration_stop_with_one_line) {
+    const fs::path photos = fresh_dir("small_photos");
+    hal::Frame small;
+    small.width_px = 640;
+    small.height_px = 480;
+    small.stride_bytes = 640;
+    small.pixels.assign(640 * 480, 128);
+    drivers::write_frame_png(photos / "0001.png", small);
+    drivers::FileCamera files(photos.string());
+    Rig rig(prepared_dir("files_small"), kScenario.string(), {},
+            [&files](sim::SimBoard&) -> hal::Camera& { return files; });
+    rig.run_cycle();
+    CHECK(rig.cycle.state() == firmware::CycleState::error);
+    STRCMP_CONTAINS("the photo is 640x480, the camera was calibrated at 2028x1520 (camera.yaml)",
+                    rig.cycle.error().c_str());
+}
+
+TEST(ApplianceFiles, a_source_without_photos_and_photos_running_out_are_errors) {
+    const fs::path empty = fresh_dir("no_photos");
+    CHECK_THROWS(std::runtime_error, drivers::FileCamera(empty.string()));
+    const fs::path one = fresh_dir("one_photo");
+    hal::Frame frame;
+    frame.width_px = 8;
+    frame.height_px = 4;
+    frame.stride_bytes = 8;
+    frame.pixels.assign(32, 7);
+    drivers::write_frame_png(one / "a.png", frame);
+    drivers::FileCamera files((one / "*.png").string());
+    files.start_capture({2, {}, {}});
+    pollfd p{files.completion_fd(), POLLIN, 0};
+    CHECK_EQUAL(1, ::poll(&p, 1, 5000));
+    const auto result = files.take_frames();
+    STRCMP_CONTAINS("no photo left (all 1 used)", result.error.c_str());
 }

@@ -1,0 +1,136 @@
+#include "drivers/file_camera.hpp"
+
+#include <glob.h>
+
+#include <algorithm>
+#include <opencv2/imgcodecs.hpp>
+#include <set>
+#include <stdexcept>
+
+namespace calbox::drivers {
+namespace {
+
+bool is_image(const std::filesystem::path& p) {
+    static const std::set<std::string> kinds{".png", ".jpg",  ".jpeg", ".bmp",
+                                             ".tif", ".tiff", ".pgm"};
+    std::string ext = p.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return kinds.count(ext) != 0;
+}
+
+std::vector<std::filesystem::path> images_of(const std::string& source) {
+    std::vector<std::filesystem::path> files;
+    std::error_code ec;
+    if (std::filesystem::is_directory(source, ec)) {
+        for (const auto& entry : std::filesystem::directory_iterator(source, ec)) {
+            if (entry.is_regular_file() && is_image(entry.path())) files.push_back(entry.path());
+        }
+        if (ec) throw std::runtime_error(source + ": cannot list: " + ec.message());
+    } else {
+        glob_t found{};
+        if (::glob(source.c_str(), 0, nullptr, &found) == 0) {
+            for (std::size_t i = 0; i < found.gl_pathc; ++i) {
+                const std::filesystem::path p = found.gl_pathv[i];
+                if (is_image(p)) files.push_back(p);
+            }
+        }
+        ::globfree(&found);
+    }
+    std::sort(files.begin(), files.end());
+    if (files.empty()) {
+        throw std::runtime_error(source + ": no photos (.png, .jpg, .bmp, .tif, .pgm) there");
+    }
+    return files;
+}
+
+}  // namespace
+
+FileCamera::FileCamera(const std::string& source) : source_(source), files_(images_of(source)) {}
+
+FileCamera::~FileCamera() {
+    if (thread_.joinable()) thread_.join();
+}
+
+void FileCamera::start_capture(const hal::CaptureRequest& request) {
+    {
+        const std::lock_guard lock(mutex_);
+        if (running_) throw std::logic_error("a capture is already running");
+        running_ = true;
+        result_.reset();
+    }
+    if (thread_.joinable()) thread_.join();
+    const std::size_t count = static_cast<std::size_t>(std::max(1, request.frame_count));
+    const std::size_t first = next_;
+    next_ += count;
+    thread_ = std::thread([this, first, count] {
+        hal::CaptureResult result;
+        for (std::size_t k = first; k < first + count; ++k) {
+            if (k >= files_.size()) {
+                result.frames.clear();
+                result.error = "camera: " + source_ + ": no photo left (all " +
+                               std::to_string(files_.size()) + " used)";
+                break;
+            }
+            const cv::Mat gray = cv::imread(files_[k].string(), cv::IMREAD_GRAYSCALE);
+            if (gray.empty()) {
+                result.frames.clear();
+                result.error = "camera: " + files_[k].string() + ": not an image OpenCV can read";
+                break;
+            }
+            if (width_px_ == 0) {
+                width_px_ = gray.cols;
+                height_px_ = gray.rows;
+            }
+            if (gray.cols != width_px_ || gray.rows != height_px_) {
+                result.frames.clear();
+                result.error = "camera: " + files_[k].string() + " is " +
+                               std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
+                               ", the photos before it " + std::to_string(width_px_) + "x" +
+                               std::to_string(height_px_);
+                break;
+            }
+            hal::Frame frame;
+            frame.width_px = gray.cols;
+            frame.height_px = gray.rows;
+            frame.stride_bytes = gray.cols;
+            frame.format = hal::PixelFormat::gray8;
+            frame.pixels.resize(static_cast<std::size_t>(gray.cols) * gray.rows);
+            for (int r = 0; r < gray.rows; ++r) {
+                std::copy_n(gray.ptr<std::uint8_t>(r), gray.cols,
+                            frame.pixels.data() + static_cast<std::size_t>(r) * gray.cols);
+            }
+            frame.metadata.sequence = k;
+            result.frames.push_back(std::move(frame));
+        }
+        {
+            const std::lock_guard lock(mutex_);
+            result_ = std::move(result);
+            running_ = false;
+        }
+        done_.signal();
+    });
+}
+
+hal::CaptureResult FileCamera::take_frames() {
+    done_.take();
+    const std::lock_guard lock(mutex_);
+    if (!result_) return hal::CaptureResult{{}, "camera: no capture has finished"};
+    auto result = std::move(*result_);
+    result_.reset();
+    return result;
+}
+
+void write_frame_png(const std::filesystem::path& path, const hal::Frame& frame) {
+    if (frame.format != hal::PixelFormat::gray8) {
+        throw std::runtime_error(path.string() + ": only grey frames are saved");
+    }
+    const cv::Mat view(frame.height_px, frame.width_px, CV_8UC1,
+                       const_cast<std::uint8_t*>(frame.pixels.data()),
+                       static_cast<std::size_t>(frame.stride_bytes));
+    if (!cv::imwrite(path.string(), view)) {
+        throw std::runtime_error(path.string() + ": cannot write the photo");
+    }
+}
+
+}  // namespace calbox::drivers

@@ -48,22 +48,12 @@ std::vector<std::filesystem::path> images_of(const std::string& source) {
 
 FileCamera::FileCamera(const std::string& source) : source_(source), files_(images_of(source)) {}
 
-FileCamera::~FileCamera() {
-    if (thread_.joinable()) thread_.join();
-}
-
 void FileCamera::start_capture(const hal::CaptureRequest& request) {
-    {
-        const std::lock_guard lock(mutex_);
-        if (running_) throw std::logic_error("a capture is already running");
-        running_ = true;
-        result_.reset();
-    }
-    if (thread_.joinable()) thread_.join();
+    if (capture_.busy()) throw std::logic_error("a capture is already running");
     const std::size_t count = static_cast<std::size_t>(std::max(1, request.frame_count));
     const std::size_t first = next_;
     next_ += count;
-    thread_ = std::thread([this, first, count] {
+    capture_.start([this, first, count] {
         hal::CaptureResult result;
         for (std::size_t k = first; k < first + count; ++k) {
             if (k >= files_.size()) {
@@ -103,22 +93,14 @@ void FileCamera::start_capture(const hal::CaptureRequest& request) {
             frame.metadata.sequence = k;
             result.frames.push_back(std::move(frame));
         }
-        {
-            const std::lock_guard lock(mutex_);
-            result_ = std::move(result);
-            running_ = false;
-        }
-        done_.signal();
+        return result;
     });
 }
 
 hal::CaptureResult FileCamera::take_frames() {
-    done_.take();
-    const std::lock_guard lock(mutex_);
-    if (!result_) return hal::CaptureResult{{}, "camera: no capture has finished"};
-    auto result = std::move(*result_);
-    result_.reset();
-    return result;
+    auto result = capture_.take();
+    if (!result) return hal::CaptureResult{{}, "camera: no capture has finished"};
+    return std::move(*result);
 }
 
 void write_frame_png(const std::filesystem::path& path, const hal::Frame& frame) {

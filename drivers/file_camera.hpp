@@ -2,13 +2,10 @@
 // Photos from image files as the camera: a cycle re-run on saved photos, or on photos taken
 // with another camera. Each capture takes the next files in name order.
 #include <filesystem>
-#include <mutex>
-#include <optional>
 #include <string>
-#include <thread>
 #include <vector>
 
-#include "drivers/notifier.hpp"
+#include "drivers/background_job.hpp"
 #include "hal/camera.hpp"
 
 namespace calbox::drivers {
@@ -18,11 +15,8 @@ class FileCamera final : public hal::Camera {
     // `source` is a directory (its .png, .jpg, .jpeg, .bmp, .tif, .tiff, .pgm files) or a glob
     // pattern. Throws std::runtime_error naming it when it matches no image file.
     explicit FileCamera(const std::string& source);
-    FileCamera(const FileCamera&) = delete;
-    FileCamera& operator=(const FileCamera&) = delete;
-    ~FileCamera() override;
     void start_capture(const hal::CaptureRequest& request) override;
-    int completion_fd() const override { return done_.fd(); }
+    int completion_fd() const override { return capture_.fd(); }
     // An unreadable file, photos run out, or a photo whose size differs from the first one's:
     // an error naming the file.
     hal::CaptureResult take_frames() override;
@@ -33,11 +27,7 @@ class FileCamera final : public hal::Camera {
     std::vector<std::filesystem::path> files_;
     std::size_t next_ = 0;
     int width_px_ = 0, height_px_ = 0;  // the first photo's
-    Notifier done_;
-    std::mutex mutex_;
-    std::optional<hal::CaptureResult> result_;
-    bool running_ = false;
-    std::thread thread_;
+    BackgroundJob<hal::CaptureResult> capture_;
 };
 
 // A grey frame as an 8-bit PNG (lossless, so a re-run sees the same pixels); throws

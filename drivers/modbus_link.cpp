@@ -269,19 +269,9 @@ std::vector<std::uint16_t> ModbusServer::input_registers(int first, int count) c
 ModbusClient::ModbusClient(const ModbusEndpoint& endpoint, ModbusTimeouts timeouts)
     : endpoint_(endpoint), timeouts_(timeouts) {}
 
-ModbusClient::~ModbusClient() {
-    if (thread_.joinable()) thread_.join();  // a request ends within its timeouts
-}
-
 void ModbusClient::start(std::function<hal::RegisterResult(modbus_t*)> request) {
-    {
-        std::lock_guard lock(mutex_);
-        if (running_) throw std::logic_error("ModbusClient: a request is already in flight");
-        running_ = true;
-        result_.reset();
-    }
-    if (thread_.joinable()) thread_.join();
-    thread_ = std::thread([this, request = std::move(request)] {
+    if (request_.busy()) throw std::logic_error("ModbusClient: a request is already in flight");
+    request_.start([this, request = std::move(request)] {
         hal::RegisterResult result;
         modbus_t* ctx = nullptr;
         try {
@@ -299,11 +289,7 @@ void ModbusClient::start(std::function<hal::RegisterResult(modbus_t*)> request) 
             modbus_close(ctx);
             modbus_free(ctx);
         }
-        {
-            std::lock_guard lock(mutex_);
-            result_ = std::move(result);
-        }
-        done_.signal();
+        return result;
     });
 }
 
@@ -352,13 +338,9 @@ void ModbusClient::start_write_coil(int address, bool on) {
 }
 
 hal::RegisterResult ModbusClient::take_result() {
-    done_.take();
-    std::lock_guard lock(mutex_);
-    if (!result_) return {{}, "ModbusClient: no request has finished"};
-    running_ = false;
-    auto result = std::move(*result_);
-    result_.reset();
-    return result;
+    auto result = request_.take();
+    if (!result) return {{}, "ModbusClient: no request has finished"};
+    return std::move(*result);
 }
 
 }  // namespace calbox::drivers

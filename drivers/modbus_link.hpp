@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "drivers/background_job.hpp"
 #include "drivers/notifier.hpp"
 #include "hal/register_link.hpp"
 
@@ -86,13 +87,10 @@ class ModbusServer {
 class ModbusClient final : public hal::RegisterLink {
   public:
     ModbusClient(const ModbusEndpoint& endpoint, ModbusTimeouts timeouts);
-    ModbusClient(const ModbusClient&) = delete;
-    ModbusClient& operator=(const ModbusClient&) = delete;
-    ~ModbusClient() override;
     void start_read_registers(int first_address, int count) override;
     void start_write_registers(int first_address, std::vector<std::uint16_t> values) override;
     void start_write_coil(int address, bool on) override;
-    int completion_fd() const override { return done_.fd(); }
+    int completion_fd() const override { return request_.fd(); }
     hal::RegisterResult take_result() override;
 
   private:
@@ -100,11 +98,8 @@ class ModbusClient final : public hal::RegisterLink {
 
     ModbusEndpoint endpoint_;
     ModbusTimeouts timeouts_;
-    Notifier done_;
-    std::mutex mutex_;
-    std::optional<hal::RegisterResult> result_;
-    bool running_ = false;
-    std::thread thread_;
+    BackgroundJob<hal::RegisterResult>
+        request_;  // joined first: a request ends within its timeouts
 };
 
 }  // namespace calbox::drivers

@@ -292,23 +292,13 @@ std::vector<std::string> TwinPrinterLink::answer(std::string line) {
 
 TwinCamera::TwinCamera(std::shared_ptr<TwinBench> bench) : bench_(std::move(bench)) {}
 
-TwinCamera::~TwinCamera() {
-    if (thread_.joinable()) thread_.join();
-}
-
 void TwinCamera::start_capture(const hal::CaptureRequest& request) {
-    {
-        const std::lock_guard lock(mutex_);
-        if (running_) throw std::logic_error("a capture is already running");
-        running_ = true;
-        result_.reset();
-    }
-    if (thread_.joinable()) thread_.join();
+    if (capture_.busy()) throw std::logic_error("a capture is already running");
     const int capture = ++captures_;
     const bool fail = bench_->scenario().faults.camera_fails_at_capture == capture;
     const std::uint64_t first_frame = frames_taken_;
     frames_taken_ += static_cast<std::uint64_t>(std::max(1, request.frame_count));
-    thread_ = std::thread([this, request, fail, first_frame] {
+    capture_.start([this, request, fail, first_frame] {
         hal::CaptureResult result;
         try {
             for (int k = 0; k < std::max(1, request.frame_count); ++k) {
@@ -333,22 +323,14 @@ void TwinCamera::start_capture(const hal::CaptureRequest& request) {
             result.frames.clear();
             result.error = std::string("camera: ") + e.what();
         }
-        {
-            const std::lock_guard lock(mutex_);
-            result_ = std::move(result);
-            running_ = false;
-        }
-        done_.signal();
+        return result;
     });
 }
 
 hal::CaptureResult TwinCamera::take_frames() {
-    done_.take();
-    const std::lock_guard lock(mutex_);
-    if (!result_) return hal::CaptureResult{{}, "camera: no capture has finished"};
-    auto result = std::move(*result_);
-    result_.reset();
-    return result;
+    auto result = capture_.take();
+    if (!result) return hal::CaptureResult{{}, "camera: no capture has finished"};
+    return std::move(*result);
 }
 
 SimLines::SimLines(hal::Clock& clock, Log log) : clock_(clock), log_(std::move(log)) {}

@@ -17,6 +17,7 @@
 
 #include "board/sim/delta_judge.hpp"
 #include "board/sim/scenario.hpp"
+#include "drivers/background_job.hpp"
 #include "drivers/notifier.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
@@ -105,23 +106,16 @@ class TwinPrinterLink {
 class TwinCamera final : public hal::Camera {
   public:
     explicit TwinCamera(std::shared_ptr<TwinBench> bench);
-    TwinCamera(const TwinCamera&) = delete;
-    TwinCamera& operator=(const TwinCamera&) = delete;
-    ~TwinCamera() override;
     void start_capture(const hal::CaptureRequest& request) override;
-    int completion_fd() const override { return done_.fd(); }
+    int completion_fd() const override { return capture_.fd(); }
     hal::CaptureResult take_frames() override;
     int captures_started() const { return captures_; }
 
   private:
     std::shared_ptr<TwinBench> bench_;
-    drivers::Notifier done_;
-    std::thread thread_;
-    std::mutex mutex_;
-    std::optional<hal::CaptureResult> result_;
-    bool running_ = false;
     int captures_ = 0;
     std::uint64_t frames_taken_ = 0;
+    drivers::BackgroundJob<hal::CaptureResult> capture_;  // last: joined before the rest goes
 };
 
 // The button pressed by whoever drives the sim (--auto, the console, a test); LEDs and the light

@@ -1,8 +1,11 @@
 #include "drivers/file_camera.hpp"
 
 #include <glob.h>
+#include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <stdexcept>
@@ -60,6 +63,13 @@ void FileCamera::start_capture(const hal::CaptureRequest& request) {
                 result.frames.clear();
                 result.error = "camera: " + source_ + ": no photo left (all " +
                                std::to_string(files_.size()) + " used)";
+                break;
+            }
+            // OpenCV says only "empty" for a file it could not open: ask the system why.
+            if (::access(files_[k].c_str(), R_OK) != 0) {
+                result.frames.clear();
+                result.error =
+                    "camera: " + files_[k].string() + ": cannot read: " + std::strerror(errno);
                 break;
             }
             const cv::Mat gray = cv::imread(files_[k].string(), cv::IMREAD_GRAYSCALE);

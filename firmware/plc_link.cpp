@@ -42,7 +42,9 @@ std::vector<std::pair<std::string, double>> delta_result_values(const CycleRepor
                     std::array<double, 3> models::DeltaGeometry::*field) {
         const char* towers[] = {"a", "b", "c"};
         for (std::size_t i = 0; i < 3; ++i) {
-            values.emplace_back(stem + "_" + towers[i] + "_" + unit, g ? (g->*field)[i] : kAbsent);
+            std::string name = stem;
+            name.append("_").append(towers[i]).append("_").append(unit);
+            values.emplace_back(std::move(name), g ? (g->*field)[i] : kAbsent);
         }
     };
     add("diagonal_rod_mm", &models::DeltaGeometry::diagonal_rod_mm);
@@ -165,7 +167,8 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
     std::map<int, std::string> taken;  // register -> the value using it
     for (const auto& [key, node] : table) {
         const std::string name(key.str());
-        const std::string at = source + ":" + std::to_string(node.source().begin.line) + ": ";
+        std::string at = source;
+        at.append(":").append(std::to_string(node.source().begin.line)).append(": ");
         if (known.count(name) == 0)
             throw std::runtime_error(at + "'" + name + "' is not a result value");
         const auto address = node.value<std::int64_t>();

@@ -23,6 +23,7 @@
 #include "firmware/gcode_host.hpp"
 #include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
+#include "tests/support/device_errors.hpp"
 #include "tests/support/fake_clock.hpp"
 
 using namespace calbox;
@@ -608,4 +609,16 @@ TEST(ApplianceFiles, a_source_without_photos_and_photos_running_out_are_errors) 
     CHECK_EQUAL(1, ::poll(&p, 1, 5000));
     const auto result = files.take_frames();
     STRCMP_CONTAINS("no photo left (all 1 used)", result.error.c_str());
+
+    // A photo the box's user may not read (mode 0600, owned by root): one line, naming it.
+    fs::permissions(one / "a.png", fs::perms::owner_read | fs::perms::owner_write);
+    const std::string denied = test::error_as_unprivileged_user([&] {
+        drivers::FileCamera mine(one.string());
+        mine.start_capture({1, {}, {}});
+        pollfd q{mine.completion_fd(), POLLIN, 0};
+        ::poll(&q, 1, 5000);
+        throw std::runtime_error(mine.take_frames().error);
+    });
+    STRCMP_CONTAINS(((one / "a.png").string() + ": cannot read: Permission denied").c_str(),
+                    denied.c_str());
 }

@@ -268,3 +268,43 @@ TEST(ModbusServer, our_client_drives_our_server_over_rtu_and_tcp) {
         STRCMP_CONTAINS("Illegal data address", wait_result(client).error.c_str());
     }
 }
+
+TEST(ModbusServer, a_port_in_use_a_missing_device_and_permission_denied_name_the_endpoint) {
+    drivers::ModbusServer first(drivers::parse_modbus_endpoint("tcp:127.0.0.1:0"), {1, 1, 0, 1}, {},
+                                nullptr);
+    const std::string taken = "tcp:127.0.0.1:" + std::to_string(first.port());
+    STRCMP_CONTAINS(
+        ("modbus " + taken + ": cannot listen: Address already in use").c_str(),
+        test::construction_error([&] {
+            drivers::ModbusServer(drivers::parse_modbus_endpoint(taken), {1, 1, 0, 1}, {}, nullptr);
+        }).c_str());
+    STRCMP_CONTAINS(
+        "modbus rtu:/dev/ttyCALBOX97:19200: cannot open the serial device: No such file",
+        test::construction_error([] {
+            drivers::ModbusServer(drivers::parse_modbus_endpoint("rtu:/dev/ttyCALBOX97:19200"),
+                                  {1, 1, 0, 1}, {}, nullptr);
+        }).c_str());
+    test::ScratchFile device("");
+    STRCMP_CONTAINS(
+        ("modbus rtu:" + device.path + ":19200: cannot open the serial device: Permission denied")
+            .c_str(),
+        test::error_as_unprivileged_user([&] {
+            drivers::ModbusServer(drivers::parse_modbus_endpoint("rtu:" + device.path + ":19200"),
+                                  {1, 1, 0, 1}, {}, nullptr);
+        }).c_str());
+}
+
+TEST(ModbusClient, a_serial_device_it_may_not_open_is_one_line) {
+    test::ScratchFile device("");
+    const std::string error = test::error_as_unprivileged_user([&] {
+        drivers::ModbusClient client(drivers::parse_modbus_endpoint("rtu:" + device.path + ":9600"),
+                                     {});
+        client.start_write_coil(0, true);
+        pollfd p{client.completion_fd(), POLLIN, 0};
+        ::poll(&p, 1, 5000);
+        throw std::runtime_error(client.take_result().error);
+    });
+    STRCMP_CONTAINS(
+        ("modbus rtu:" + device.path + ":9600: cannot connect: Permission denied").c_str(),
+        error.c_str());
+}

@@ -11,6 +11,7 @@
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
 #include "drivers/timerfd_clock.hpp"
+#include "firmware/box_config.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
@@ -27,8 +28,8 @@ namespace calbox::cli {
 namespace {
 
 constexpr const char* kRunHelp = R"(usage:
-  calbox run [--board sim] [--scenario FILE] [--data DIR] [--auto | --operator] [--frames N]
-             [--camera-files DIR|GLOB]
+  calbox run [--board sim] [--scenario FILE] [--data DIR] [--config FILE] [--auto | --operator]
+             [--frames N] [--camera-files DIR|GLOB]
              [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
              [--modbus-word-order ORDER]
       The appliance: waits for the button, then runs the delta calibration cycle: the target
@@ -46,6 +47,8 @@ constexpr const char* kRunHelp = R"(usage:
                       presses the button; one cycle, then exit. Prints the twin's judgement
                       before and after, and exits 0 only if the delta goal is met (XY RMS <= 0.01
                       mm, worst <= 0.03 mm over the printable area).
+      --config FILE   the box's configuration (TOML; README, Configuration): today its [modbus]
+                      table, which the --modbus-* options override
       --operator      the sim board's operator does what the set-up and bed prompts ask, but
                       the start and the review are left to the button, the console or a PLC
       --frames N      photos averaged per capture (default 1)
@@ -131,40 +134,49 @@ struct Box {
 
 int run(const std::vector<std::string>& words) {
     const Args args(words,
-                    {"--board", "--scenario", "--data", "--frames", "--camera-files",
+                    {"--board", "--scenario", "--data", "--config", "--frames", "--camera-files",
                      "--modbus-server", "--modbus-client", "--modbus-map", "--modbus-word-order"},
                     {"--auto", "--operator"});
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
     const bool automatic = args.flag("--auto");
     if (automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
     const bool operator_acts = automatic || args.flag("--operator");
-    if (args.get("--modbus-map") && !args.get("--modbus-client"))
+    const int frames = static_cast<int>(args.number("--frames", 1));
+    if (frames < 1 || frames > 16) throw UsageError("--frames must be 1 to 16");
+    // The configuration file's [modbus] table, each value overridden by its option.
+    firmware::ModbusConfig modbus;
+    if (const auto config = args.get("--config")) {
+        modbus =
+            firmware::read_box_config(read_input_file(*config, "configuration"), *config).modbus;
+    }
+    if (auto v = args.get("--modbus-server")) modbus.server = *v;
+    if (auto v = args.get("--modbus-client")) modbus.client = *v;
+    if (auto v = args.get("--modbus-map")) modbus.client_map = *v;
+    if (auto v = args.get("--modbus-word-order")) modbus.word_order = *v;
+    if (!modbus.client_map.empty() && modbus.client.empty())
         throw UsageError("--modbus-map needs --modbus-client");
     models::WordOrder word_order = models::WordOrder::abcd;
     try {
-        word_order = models::parse_word_order(args.get("--modbus-word-order").value_or("abcd"));
+        word_order = models::parse_word_order(modbus.word_order);
     } catch (const std::invalid_argument& e) {
         throw UsageError(std::string("--modbus-word-order: ") + e.what());
     }
     std::optional<drivers::ModbusEndpoint> server_endpoint, client_endpoint;
     try {
-        if (auto e = args.get("--modbus-server"))
-            server_endpoint = drivers::parse_modbus_endpoint(*e);
-        if (auto e = args.get("--modbus-client"))
-            client_endpoint = drivers::parse_modbus_endpoint(*e);
+        if (!modbus.server.empty()) server_endpoint = drivers::parse_modbus_endpoint(modbus.server);
+        if (!modbus.client.empty()) client_endpoint = drivers::parse_modbus_endpoint(modbus.client);
     } catch (const std::invalid_argument& e) {
         throw UsageError(e.what());
     }
+    const drivers::ModbusTimeouts modbus_timeouts{modbus.response_timeout_ms,
+                                                  modbus.byte_timeout_ms};
     std::optional<firmware::ResultRegisterMap> result_map;
     if (client_endpoint) {
-        result_map = args.get("--modbus-map")
-                         ? firmware::ResultRegisterMap::from_toml(
-                               read_input_file(*args.get("--modbus-map"), "Modbus map"),
-                               *args.get("--modbus-map"))
-                         : firmware::ResultRegisterMap::whole_block(0);
+        result_map = modbus.client_map.empty()
+                         ? firmware::ResultRegisterMap::whole_block(0)
+                         : firmware::ResultRegisterMap::from_toml(
+                               read_input_file(modbus.client_map, "Modbus map"), modbus.client_map);
     }
-    const int frames = static_cast<int>(args.number("--frames", 1));
-    if (frames < 1 || frames > 16) throw UsageError("--frames must be 1 to 16");
     const Common common = common_options(args);
 
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
@@ -203,7 +215,7 @@ int run(const std::vector<std::string>& words) {
     int results_written_for = cycle.cycles_completed();
     bool stop_when_written = false;
     if (client_endpoint) {
-        modbus_client.emplace(*client_endpoint, drivers::ModbusTimeouts{});
+        modbus_client.emplace(*client_endpoint, modbus_timeouts);
         result_writer.emplace(*modbus_client, *result_map, word_order, log_line);
         loop.watch(modbus_client->completion_fd(), [&] {
             result_writer->on_completion();

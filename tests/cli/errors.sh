@@ -128,6 +128,8 @@ expect_error "not tcp:HOST:PORT or rtu:DEVICE:BAUD" run --scenario "$top/tests/s
 expect_error "--modbus-word-order: word order 'xyzw'" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-word-order xyzw
 expect_error "--modbus-map needs --modbus-client" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-map "$work/badmap.toml"
 expect_error "badmap.toml:1: 'radius' is not a result value" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-client tcp:127.0.0.1:1 --modbus-map "$work/badmap.toml"
+printf '[modbus]\nsever = "tcp:h:1"\n' > "$work/typo.toml"
+expect_error "typo.toml: \[modbus\] sever: unknown key" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --config "$work/typo.toml"
 expect_error "cannot open the serial device: No such file" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-server rtu:/dev/ttyNOPE9:19200
 
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"

@@ -74,11 +74,15 @@ plc_port, controller_port = free_port(), free_port()
 controller = subprocess.Popen(["/usr/bin/python3", os.path.join(top, "tests/modbus/pymodbus_server.py"),
                                "tcp", str(controller_port)], stdout=subprocess.DEVNULL)
 children.append(controller)
-box = subprocess.Popen([calbox, "run", "--board", "sim", "--operator",
+# The configuration switches the client on and names a server the command line overrides.
+config = os.path.join(work, "calbox.toml")
+with open(config, "w") as f:
+    f.write('[modbus]\nserver = "tcp:127.0.0.1:1"\nclient = "tcp:127.0.0.1:%d"\n'
+            'word_order = "abcd"\nresponse_timeout_ms = 2000\n' % controller_port)
+box = subprocess.Popen([calbox, "run", "--board", "sim", "--operator", "--config", config,
                         "--scenario", os.path.join(top, "tests/scenarios/delta_cycle_small.toml"),
                         "--data", os.path.join(work, "box"),
-                        "--modbus-server", "tcp:127.0.0.1:%d" % plc_port,
-                        "--modbus-client", "tcp:127.0.0.1:%d" % controller_port],
+                        "--modbus-server", "tcp:127.0.0.1:%d" % plc_port],
                        stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
                        stderr=open(os.path.join(work, "box.err"), "w"))
 children.append(box)

@@ -132,13 +132,27 @@ void Cycle::enter(CycleState next, const std::string& detail) {
 
 // LEDs per state: ready steady in idle, busy blinking while working, busy steady while waiting
 // for a person, error steady in error.
+// The LEDs and the display only show what the log also says: a failing one (a noisy I2C bus, a
+// GPIO line gone) is told once and the cycle goes on, rather than stopping a machine mid-job.
+void Cycle::indicate(bool& failed, const char* what, const std::function<void()>& update) {
+    try {
+        update();
+        failed = false;
+    } catch (const std::runtime_error& e) {
+        if (!failed) log_(std::string(what) + ": " + e.what() + " (the box goes on without it)");
+        failed = true;
+    }
+}
+
 void Cycle::set_leds() {
     const bool idle = state_ == CycleState::idle;
     const bool error = state_ == CycleState::error;
     const bool waiting = prompt_ != Prompt::none && !idle && !error;
-    d_.lines.set_led(hal::Led::ready, idle || waiting);
-    d_.lines.set_led(hal::Led::busy, !idle && !error && (waiting || blink_phase_));
-    d_.lines.set_led(hal::Led::error, error);
+    indicate(leds_failed_, "status LEDs", [&] {
+        d_.lines.set_led(hal::Led::ready, idle || waiting);
+        d_.lines.set_led(hal::Led::busy, !idle && !error && (waiting || blink_phase_));
+        d_.lines.set_led(hal::Led::error, error);
+    });
 }
 
 void Cycle::on_blink() {
@@ -148,7 +162,7 @@ void Cycle::on_blink() {
 }
 
 void Cycle::show(const std::string& title, const std::vector<std::string>& lines) {
-    d_.display.show(text_screen(title, lines));
+    indicate(display_failed_, "display", [&] { d_.display.show(text_screen(title, lines)); });
 }
 
 void Cycle::ask(Prompt prompt, int step, std::function<void()> then) {

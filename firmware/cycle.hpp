@@ -131,6 +131,7 @@ class Cycle {
     void fail(const std::string& message);
     void show(const std::string& title, const std::vector<std::string>& lines);
     void set_leds();
+    void indicate(bool& failed, const char* what, const std::function<void()>& update);
     // Asynchronous steps: each continues only if the cycle was not cancelled meanwhile.
     void capture(int frames, std::function<void(std::vector<hal::Frame>)> then);
     void work(std::function<void()> job, std::function<void()> then);
@@ -170,6 +171,7 @@ class Cycle {
     int prompt_step_ = 0;
     std::function<void()> after_press_;
     CycleState failed_in_ = CycleState::idle;
+    bool display_failed_ = false, leds_failed_ = false;  // told once, until they work again
     PressClassifier presses_{settings_.long_press};
     unsigned generation_ = 0;  // bumped by cancel and error: late completions are dropped
     std::string error_;

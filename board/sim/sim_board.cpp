@@ -382,7 +382,7 @@ void PngDisplay::show(const hal::MonoBitmap& frame) {
     std::snprintf(name, sizeof name, "%04d.png", ++frames_);
     const auto path = directory_ / name;
     if (!cv::imwrite(path.string(), image))
-        throw std::runtime_error("display: cannot write " + path.string());
+        throw std::runtime_error(path.string() + ": cannot write the frame");
 }
 
 SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines::Log log) {

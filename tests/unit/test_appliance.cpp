@@ -255,6 +255,23 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     CHECK(rig.board.display->frames_shown() > 5);
 }
 
+// A display that fails mid-use (here its directory replaced by a file) is told once; the cycle
+// completes and corrects the printer all the same.
+TEST(ApplianceCycle, a_failing_display_is_told_once_and_the_cycle_goes_on) {
+    Rig rig(prepared_dir("failing_display"), kScenario.string(), {});
+    fs::remove_all(rig.dir / "display");
+    std::ofstream(rig.dir / "display") << "not a directory\n";
+    rig.run_cycle();
+    CHECK_EQUAL(1, rig.cycle.cycles_completed());
+    const auto told = std::count_if(rig.log.begin(), rig.log.end(), [](const std::string& l) {
+        return l.rfind("display: ", 0) == 0 &&
+               l.find(": cannot write the frame") != std::string::npos &&
+               l.find("(the box goes on without it)") != std::string::npos;
+    });
+    CHECK_EQUAL(1, told);
+    CHECK(rig.board.bench->judge_delta_printer().xy_rms <= 0.004);
+}
+
 TEST(ApplianceCycle, a_long_press_at_review_cancels_and_sends_no_correction) {
     Rig rig(prepared_dir("cancel"), kScenario.string(), {});
     rig.intercept = [&rig](firmware::Prompt p) {

@@ -36,6 +36,23 @@ Bytes read_pipe(int fd) {
     return all;
 }
 
+hal::MonoBitmap known_frame();
+
+// What a display starting up and showing the known frame sends down a pipe for a bus.
+Bytes stream_through_a_pipe(drivers::OledController controller) {
+    int fds[2];
+    if (::pipe(fds) != 0) FAIL("pipe failed");
+    {
+        drivers::OledDisplay display(std::make_unique<drivers::FdByteBus>(fds[1], "pipe"),
+                                     controller);
+        display.show(known_frame());
+    }
+    ::close(fds[1]);
+    Bytes stream = read_pipe(fds[0]);
+    ::close(fds[0]);
+    return stream;
+}
+
 hal::MonoBitmap known_frame() {
     hal::MonoBitmap frame(128, 64);
     frame.set(0, 0, true);     // page 0, column 0, bit 0
@@ -80,16 +97,7 @@ Bytes with_data_byte(const Bytes& ram, std::size_t from, std::size_t count) {
 TEST_GROUP(OledDisplay){};
 
 TEST(OledDisplay, ssd1306_byte_stream_through_a_pipe_matches_the_protocol) {
-    int fds[2];
-    CHECK_EQUAL(0, ::pipe(fds));
-    {
-        drivers::OledDisplay display(std::make_unique<drivers::FdByteBus>(fds[1], "pipe"),
-                                     drivers::OledController::ssd1306);
-        display.show(known_frame());
-    }
-    ::close(fds[1]);
-    const Bytes stream = read_pipe(fds[0]);
-    ::close(fds[0]);
+    const Bytes stream = stream_through_a_pipe(drivers::OledController::ssd1306);
     const Bytes expected = concat({kSsd1306Init,
                                    {0x00, 0x21, 0x00, 0x7F, 0x22, 0x00, 0x07},
                                    with_data_byte(known_frame_ram(), 0, 1024)});
@@ -126,16 +134,7 @@ TEST(OledDisplay, ssd1306_sends_a_whole_frame_in_one_write_then_only_changed_pag
 }
 
 TEST(OledDisplay, sh1106_writes_page_by_page_from_column_two) {
-    int fds[2];
-    CHECK_EQUAL(0, ::pipe(fds));
-    {
-        drivers::OledDisplay display(std::make_unique<drivers::FdByteBus>(fds[1], "pipe"),
-                                     drivers::OledController::sh1106);
-        display.show(known_frame());
-    }
-    ::close(fds[1]);
-    const Bytes stream = read_pipe(fds[0]);
-    ::close(fds[0]);
+    const Bytes stream = stream_through_a_pipe(drivers::OledController::sh1106);
     Bytes expected = kSh1106Init;
     const Bytes ram = known_frame_ram();
     for (std::uint8_t page = 0; page < 8; ++page) {

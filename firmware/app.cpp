@@ -202,7 +202,7 @@ int run(const std::vector<std::string>& words) {
             *server_endpoint,
             drivers::ModbusServer::Tables{plc_map::kCoilCount, plc_map::kDiscreteInputCount, 0,
                                           firmware::input_register_count()},
-            drivers::ModbusTimeouts{}, log_line);
+            modbus_timeouts, log_line);
         plc.emplace(*modbus_server, cycle, word_order, log_line);
         loop.watch(modbus_server->written_fd(), [&] { plc->on_coils_written(); });
         log_line(server_endpoint->describe() + ": serving the PLC map" +

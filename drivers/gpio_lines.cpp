@@ -3,10 +3,9 @@
 #include <gpiod.h>
 #include <poll.h>
 #include <sys/epoll.h>
-#include <sys/timerfd.h>
-#include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 #include "drivers/device_error.hpp"
@@ -19,12 +18,6 @@ std::string GpioLineAddress::describe() const {
 }
 
 namespace {
-
-std::chrono::nanoseconds monotonic_now() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_MONOTONIC, &ts);
-    return std::chrono::seconds(ts.tv_sec) + std::chrono::nanoseconds(ts.tv_nsec);
-}
 
 class Libgpiod final : public GpioChipset {
   public:
@@ -159,8 +152,13 @@ std::unique_ptr<GpioChipset> make_libgpiod_chipset() {
     return std::make_unique<Libgpiod>();
 }
 
-GpioLines::GpioLines(std::unique_ptr<GpioChipset> chipset, GpioLinesSettings settings)
-    : chipset_(std::move(chipset)), settings_(std::move(settings)), debouncer_(settings_.debounce) {
+GpioLines::GpioLines(std::unique_ptr<GpioChipset> chipset, GpioLinesSettings settings,
+                     hal::Clock& clock)
+    : chipset_(std::move(chipset)),
+      settings_(std::move(settings)),
+      debouncer_(settings_.debounce),
+      clock_(clock),
+      settle_timer_(clock.make_timer()) {
     if (!chipset_) throw std::invalid_argument("GpioLines: no chipset");
     if (settings_.button.empty()) throw std::runtime_error("gpio: no button line is configured");
     button_ = chipset_->request_edges(settings_.button, settings_.button_active_low,
@@ -174,19 +172,14 @@ GpioLines::GpioLines(std::unique_ptr<GpioChipset> chipset, GpioLinesSettings set
     if (!settings_.light.empty())
         light_ = chipset_->request_output(settings_.light, settings_.consumer);
 
-    timer_fd_ = ::timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
     epoll_fd_ = ::epoll_create1(EPOLL_CLOEXEC);
-    if (timer_fd_ < 0 || epoll_fd_ < 0) {
-        if (timer_fd_ >= 0) ::close(timer_fd_);
-        throw device_error("gpio", "cannot create the button's timer");
-    }
-    for (const int fd : {chipset_->event_fd(button_), timer_fd_}) {
+    if (epoll_fd_ < 0) throw device_error("gpio", "cannot create the button's epoll set");
+    for (const int fd : {chipset_->event_fd(button_), settle_timer_->fd()}) {
         epoll_event e{};
         e.events = EPOLLIN;
         e.data.fd = fd;
         if (::epoll_ctl(epoll_fd_, EPOLL_CTL_ADD, fd, &e) < 0) {
             const int why = errno;
-            ::close(timer_fd_);
             ::close(epoll_fd_);
             throw device_error(settings_.button.describe(), "cannot watch its events", why);
         }
@@ -195,7 +188,6 @@ GpioLines::GpioLines(std::unique_ptr<GpioChipset> chipset, GpioLinesSettings set
 
 GpioLines::~GpioLines() {
     ::close(epoll_fd_);
-    ::close(timer_fd_);
 }
 
 std::optional<hal::ButtonEvent> GpioLines::read_button() {
@@ -203,9 +195,8 @@ std::optional<hal::ButtonEvent> GpioLines::read_button() {
         for (const GpioEdge& edge : chipset_->read_edges(button_)) {
             if (auto event = debouncer_.edge(edge.active, edge.at)) counted_.push_back(*event);
         }
-        std::uint64_t expirations = 0;
-        [[maybe_unused]] const ssize_t n = ::read(timer_fd_, &expirations, sizeof expirations);
-        const auto now = monotonic_now();
+        settle_timer_->take_expirations();
+        const auto now = clock_.now();
         if (const auto due = debouncer_.settle_at(); due && now >= *due) {
             if (auto event = debouncer_.settle(chipset_->value(button_), now)) {
                 counted_.push_back(*event);
@@ -220,16 +211,14 @@ std::optional<hal::ButtonEvent> GpioLines::read_button() {
 }
 
 void GpioLines::arm_settle_timer() {
-    itimerspec when{};
-    if (const auto due = debouncer_.settle_at()) {
-        // An absolute time already past fires at once; zero would disarm, so never send it.
-        const auto ns = std::max(due->count(), std::int64_t{1});
-        when.it_value.tv_sec = static_cast<time_t>(ns / 1'000'000'000);
-        when.it_value.tv_nsec = static_cast<long>(ns % 1'000'000'000);
+    const auto due = debouncer_.settle_at();
+    if (!due) {
+        settle_timer_->disarm();
+        return;
     }
-    if (::timerfd_settime(timer_fd_, TFD_TIMER_ABSTIME, &when, nullptr) < 0) {
-        throw device_error("gpio", "cannot arm the button's timer");
-    }
+    // A time already past fires at once: the timer takes only positive delays.
+    settle_timer_->arm(std::max(*due - clock_.now(), std::chrono::nanoseconds(1)),
+                       std::chrono::nanoseconds(0));
 }
 
 void GpioLines::set_led(hal::Led which, bool on) {

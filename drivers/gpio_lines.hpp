@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "drivers/button_debounce.hpp"
+#include "hal/clock.hpp"
 #include "hal/lines.hpp"
 
 namespace calbox::drivers {
@@ -54,7 +55,8 @@ std::unique_ptr<GpioChipset> make_libgpiod_chipset();
 
 class GpioLines final : public hal::Lines {
   public:
-    GpioLines(std::unique_ptr<GpioChipset> chipset, GpioLinesSettings settings);
+    // `clock` must be CLOCK_MONOTONIC's (TimerfdClock), the clock the kernel stamps edges with.
+    GpioLines(std::unique_ptr<GpioChipset> chipset, GpioLinesSettings settings, hal::Clock& clock);
     GpioLines(const GpioLines&) = delete;
     GpioLines& operator=(const GpioLines&) = delete;
     ~GpioLines() override;
@@ -74,7 +76,8 @@ class GpioLines final : public hal::Lines {
     int light_ = -1;
     ButtonDebouncer debouncer_;
     std::deque<hal::ButtonEvent> counted_;
-    int timer_fd_ = -1;
+    hal::Clock& clock_;
+    std::unique_ptr<hal::Timer> settle_timer_;
     int epoll_fd_ = -1;
 };
 

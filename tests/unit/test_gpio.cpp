@@ -1,6 +1,5 @@
 #include <CppUTest/TestHarness.h>
 #include <poll.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <map>
@@ -10,6 +9,7 @@
 
 #include "drivers/button_debounce.hpp"
 #include "drivers/gpio_lines.hpp"
+#include "drivers/timerfd_clock.hpp"
 #include "firmware/button_press.hpp"
 #include "tests/support/device_errors.hpp"
 
@@ -129,10 +129,11 @@ TEST(ButtonDebounce, a_release_without_its_press_is_no_press) {
 
 namespace {
 
+// The kernel stamps edges on CLOCK_MONOTONIC, the clock TimerfdClock reads.
+drivers::TimerfdClock monotonic;
+
 nanoseconds now() {
-    timespec ts{};
-    ::clock_gettime(CLOCK_MONOTONIC, &ts);
-    return std::chrono::seconds(ts.tv_sec) + nanoseconds(ts.tv_nsec);
+    return monotonic.now();
 }
 
 // Stands in for libgpiod: the button's edges arrive through a pipe, outputs are remembered.
@@ -214,7 +215,7 @@ TEST_GROUP(GpioLines){};
 
 TEST(GpioLines, edges_wake_the_loop_and_a_level_counts_once_it_has_held) {
     FakeChipset::Shared shared;
-    drivers::GpioLines lines(std::make_unique<FakeChipset>(&shared), fake_settings());
+    drivers::GpioLines lines(std::make_unique<FakeChipset>(&shared), fake_settings(), monotonic);
     edge(shared, true);
     edge(shared, false);  // a bounce
     edge(shared, true);
@@ -235,7 +236,7 @@ TEST(GpioLines, edges_wake_the_loop_and_a_level_counts_once_it_has_held) {
 
 TEST(GpioLines, leds_and_light_reach_their_lines_and_absent_ones_are_skipped) {
     FakeChipset::Shared shared;
-    drivers::GpioLines lines(std::make_unique<FakeChipset>(&shared), fake_settings());
+    drivers::GpioLines lines(std::make_unique<FakeChipset>(&shared), fake_settings(), monotonic);
     lines.set_led(hal::Led::busy, true);
     lines.set_light(true);
     lines.set_led(hal::Led::error, true);  // not wired on this board
@@ -248,10 +249,11 @@ TEST(GpioLines, no_button_configured_is_an_error) {
     FakeChipset::Shared shared;
     auto settings = fake_settings();
     settings.button = {};
-    STRCMP_CONTAINS("no button line is configured",
-                    test::construction_error([&] {
-                        drivers::GpioLines(std::make_unique<FakeChipset>(&shared), settings);
-                    }).c_str());
+    STRCMP_CONTAINS("no button line is configured", test::construction_error([&] {
+                                                        drivers::GpioLines(
+                                                            std::make_unique<FakeChipset>(&shared),
+                                                            settings, monotonic);
+                                                    }).c_str());
 }
 
 TEST(GpioLines, libgpiod_errors_name_the_line_or_chip) {

@@ -65,9 +65,7 @@ class Libgpiod final : public GpioChipset {
             if (::poll(&p, 1, 0) <= 0 || (p.revents & POLLIN) == 0) break;
             gpiod_line_event events[16];
             const int n = gpiod_line_event_read_fd_multiple(fd, events, 16);
-            if (n < 0)
-                throw device_error(held_[static_cast<std::size_t>(handle)].what,
-                                   "reading its events failed");
+            if (n < 0) throw device_error(what(handle), "reading its events failed");
             for (int i = 0; i < n; ++i) {
                 edges.push_back({events[i].event_type == GPIOD_LINE_EVENT_RISING_EDGE,
                                  std::chrono::seconds(events[i].ts.tv_sec) +
@@ -79,13 +77,13 @@ class Libgpiod final : public GpioChipset {
 
     bool value(int handle) override {
         const int v = gpiod_line_get_value(line(handle));
-        if (v < 0) throw device_error(held_[static_cast<std::size_t>(handle)].what, "read failed");
+        if (v < 0) throw device_error(what(handle), "read failed");
         return v != 0;
     }
 
     void set_value(int handle, bool active) override {
         if (gpiod_line_set_value(line(handle), active ? 1 : 0) < 0) {
-            throw device_error(held_[static_cast<std::size_t>(handle)].what, "write failed");
+            throw device_error(what(handle), "write failed");
         }
     }
 
@@ -142,6 +140,9 @@ class Libgpiod final : public GpioChipset {
     }
 
     gpiod_line* line(int handle) const { return held_.at(static_cast<std::size_t>(handle)).line; }
+    const std::string& what(int handle) const {
+        return held_.at(static_cast<std::size_t>(handle)).what;
+    }
 
     std::vector<Held> held_;
 };

@@ -258,14 +258,6 @@ void ModbusServer::set_input_registers(int first, std::span<const std::uint16_t>
     std::copy(values.begin(), values.end(), map_->tab_input_registers + first);
 }
 
-std::vector<std::uint16_t> ModbusServer::input_registers(int first, int count) const {
-    std::lock_guard lock(mutex_);
-    if (first < 0 || count < 0 || first + count > map_->nb_input_registers) {
-        throw std::out_of_range("input registers beyond the map");
-    }
-    return {map_->tab_input_registers + first, map_->tab_input_registers + first + count};
-}
-
 ModbusClient::ModbusClient(const ModbusEndpoint& endpoint, ModbusTimeouts timeouts)
     : endpoint_(endpoint), timeouts_(timeouts) {}
 

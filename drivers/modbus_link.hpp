@@ -60,7 +60,6 @@ class ModbusServer {
     std::vector<int> take_coils_set();
     void set_discrete_inputs(int first, const std::vector<bool>& values);
     void set_input_registers(int first, std::span<const std::uint16_t> values);
-    std::vector<std::uint16_t> input_registers(int first, int count) const;
 
   private:
     void serve();

@@ -125,6 +125,15 @@ struct Rig {
     std::vector<std::string> transcript() const {
         return {host.transcript().begin(), host.transcript().end()};
     }
+    // Nothing more goes to the printer: the loop runs on for `seconds` of simulated time.
+    void check_nothing_more_sent(int seconds) {
+        const std::size_t sent = transcript().size();
+        for (int i = 0; i < seconds; ++i) {
+            loop.run_once(5ms);
+            clock.advance(1s);
+        }
+        CHECK_EQUAL(sent, transcript().size());
+    }
 };
 
 // The set-up (camera from 12 board views, plane from a board on the bed), done once through the
@@ -170,13 +179,7 @@ void check_error_state(Rig& rig, const char* message_part) {
     STRCMP_CONTAINS(message_part, rig.cycle.error().c_str());
     CHECK(rig.board.lines->led(hal::Led::error));
     CHECK_FALSE(rig.board.lines->light());
-    // Nothing more goes to the printer: let the loop run on a while and compare.
-    const std::size_t sent = rig.transcript().size();
-    for (int i = 0; i < 50; ++i) {
-        rig.loop.run_once(5ms);
-        rig.clock.advance(1s);
-    }
-    CHECK_EQUAL(sent, rig.transcript().size());
+    rig.check_nothing_more_sent(50);
     rig.board.lines->press(100ms);
     rig.run_until([&] { return rig.cycle.state() == firmware::CycleState::idle; });
     CHECK_FALSE(rig.board.lines->led(hal::Led::error));
@@ -326,12 +329,7 @@ TEST(ApplianceCycle, each_waiting_state_cancels_to_idle) {
         CHECK(rig.board.lines->led(hal::Led::ready));
         CHECK_FALSE(rig.board.lines->led(hal::Led::error));
         CHECK_FALSE(rig.board.lines->light());
-        const std::size_t sent = rig.transcript().size();
-        for (int i = 0; i < 20; ++i) {
-            rig.loop.run_once(5ms);
-            rig.clock.advance(1s);
-        }
-        CHECK_EQUAL(sent, rig.transcript().size());
+        rig.check_nothing_more_sent(20);
         CHECK_EQUAL(c.with_camera, fs::exists(dir / "camera.yaml"));
         CHECK_EQUAL(c.with_plane, fs::exists(dir / "plane.yaml"));
     }

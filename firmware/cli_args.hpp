@@ -43,13 +43,14 @@ int dispatch(const std::vector<std::string>& words, const char* help, const char
 void write_output_file(const std::string& path, const std::string& contents);
 std::string read_input_file(const std::string& path, const std::string& what);
 
-int run_sim(const std::vector<std::string>& words);        // "calbox sim ..."
-int run_camera(const std::vector<std::string>& words);     // "calbox camera ..."
-int run_detect(const std::vector<std::string>& words);     // "calbox detect ..."
-int run_target(const std::vector<std::string>& words);     // "calbox target ..."
-int run_solve(const std::vector<std::string>& words);      // "calbox solve ..."
-int run_measure(const std::vector<std::string>& words);    // "calbox measure ..."
-int run_appliance(const std::vector<std::string>& words);  // "calbox run ..."
-int run_revert(const std::vector<std::string>& words);     // "calbox revert ..."
+int run_sim(const std::vector<std::string>& words);         // "calbox sim ..."
+int run_camera(const std::vector<std::string>& words);      // "calbox camera ..."
+int run_detect(const std::vector<std::string>& words);      // "calbox detect ..."
+int run_target(const std::vector<std::string>& words);      // "calbox target ..."
+int run_solve(const std::vector<std::string>& words);       // "calbox solve ..."
+int run_measure(const std::vector<std::string>& words);     // "calbox measure ..."
+int run_compensate(const std::vector<std::string>& words);  // "calbox compensate ..."
+int run_appliance(const std::vector<std::string>& words);   // "calbox run ..."
+int run_revert(const std::vector<std::string>& words);      // "calbox revert ..."
 
 }  // namespace calbox::cli

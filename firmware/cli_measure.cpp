@@ -8,6 +8,7 @@
 #include "core/geometry/camera_model.hpp"
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_records.hpp"
+#include "core/modes/galvo.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
 
@@ -27,6 +28,16 @@ constexpr const char* kMeasureHelp = R"(usage:
       given as printed. --overlay draws on the first photo what was found, each corner's error
       after the best rotation and translation, magnified 10 to 1000 times (the factor is written
       on the picture), and each bar with its length and its difference from the commanded one.
+  calbox measure galvo --camera camera.yaml --plane plane.yaml --machine scanner.toml PHOTO
+                       -o measurements.json [--grid N] [--overlay overlay.png]
+      Finds the burned circle grid (the target is regenerated from the machine file; --grid as
+      it was made, default 31): dark marks on a light substrate or light on dark, a median
+      filter against soot, each mark's centre from fixed-point moments, mapped to the bed at
+      the substrate's height ([galvo] substrate_height_mm). The grid is indexed by growing it
+      from its middle mark and turned the way its large marks say; misfired marks are listed
+      as missing, spatter and damaged marks as extra, and neither stops the measurement. Writes
+      each mark's commanded centre, where it was measured and its uncertainty. --overlay marks
+      on the photo the marks used (green), the extra blobs (orange) and each mark's index.
 )";
 
 int delta(const std::vector<std::string>& words) {
@@ -131,10 +142,69 @@ int delta(const std::vector<std::string>& words) {
     return 0;
 }
 
+int galvo(const std::vector<std::string>& words) {
+    const Args args(words, {"--camera", "--plane", "--machine", "-o", "--grid", "--overlay"}, {});
+    const std::string out = args.require("-o");
+    if (args.positional().size() != 1) throw UsageError("measure galvo takes one photo");
+    const auto camera =
+        geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file"));
+    const auto plane =
+        geometry::plane_from_yaml(read_input_file(args.require("--plane"), "plane file"));
+    const std::string machine_path = args.require("--machine");
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    modes::GalvoMeasureSettings settings;
+    const double grid = args.number("--grid", 31);
+    if (grid != std::floor(grid)) throw UsageError("--grid must be a whole number");
+    settings.target.grid_count = static_cast<int>(grid);
+    const cv::Mat image = load_gray_image(args.positional()[0]);
+    auto measured = modes::measure_galvo(machine, camera, plane, view_of(image), settings);
+    measured.photos = args.positional();
+    write_output_file(out, modes::galvo_measurements_to_json(measured));
+    double sigma = 0;
+    for (const auto& n : measured.nodes) sigma = std::max(sigma, n.sigma_mm);
+    std::printf(
+        "%s: %zu of %d marks measured (%s marks), %zu missing, %zu extra blobs; largest "
+        "uncertainty %.5f mm\n",
+        out.c_str(), measured.nodes.size(), measured.grid_count * measured.grid_count,
+        measured.dark_marks ? "dark" : "light", measured.missing.size(), measured.extra_mm.size(),
+        sigma);
+    for (const auto& m : measured.missing)
+        std::printf("  missing: column %d row %d\n", m.column, m.row);
+    if (const auto overlay = args.get("--overlay")) {
+        cv::Mat picture;
+        cv::cvtColor(image, picture, cv::COLOR_GRAY2BGR);
+        const int thickness = std::max(1, picture.cols / 1500);
+        const double z = machine.galvo->substrate_height_mm;
+        std::vector<geometry::Point3> points;
+        for (const auto& n : measured.nodes)
+            points.push_back({n.measured_mm.x, n.measured_mm.y, z});
+        for (const auto& e : measured.extra_mm) points.push_back({e.x, e.y, z});
+        const auto px = geometry::project_points(camera, plane.bed_to_camera, points);
+        const int radius = std::max(4, picture.cols / 300);
+        for (std::size_t i = 0; i < px.size(); ++i) {
+            const cv::Point at(cvRound(px[i].x), cvRound(px[i].y));
+            const bool node = i < measured.nodes.size();
+            cv::circle(picture, at, node ? radius : 2 * radius,
+                       node ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 140, 255), thickness);
+            if (node && measured.nodes[i].index.column % 5 == 0 &&
+                measured.nodes[i].index.row % 5 == 0) {
+                const std::string label = std::to_string(measured.nodes[i].index.column) + "," +
+                                          std::to_string(measured.nodes[i].index.row);
+                cv::putText(picture, label, at + cv::Point(radius, -radius),
+                            cv::FONT_HERSHEY_SIMPLEX, picture.cols / 4000.0, cv::Scalar(255, 0, 0),
+                            thickness);
+            }
+        }
+        write_png(*overlay, picture);
+    }
+    return 0;
+}
+
 }  // namespace
 
 int run_measure(const std::vector<std::string>& words) {
-    return dispatch(words, kMeasureHelp, "measure", {{"delta", delta}});
+    return dispatch(words, kMeasureHelp, "measure", {{"delta", delta}, {"galvo", galvo}});
 }
 
 }  // namespace calbox::cli

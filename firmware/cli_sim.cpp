@@ -15,6 +15,7 @@
 #include "core/geometry/camera_model.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/modes/delta_records.hpp"
+#include "core/modes/galvo.hpp"
 #include "firmware/cli_args.hpp"
 
 namespace calbox::cli {
@@ -47,7 +48,10 @@ constexpr const char* kSimHelp = R"(usage:
   calbox sim verify --scenario FILE [--result result.json] [-o verify.json]
       Judges a delta scenario's printer in the twin's truth, over the printable area: commanded
       against actual XY (after the best rotation and translation) and the bed's height range;
-      with --result, again after sending that solve result's firmware lines and homing.
+      with --result, again after sending that solve result's firmware lines and homing. A galvo
+      scenario's scanner: a fresh 30 x 30 grid of marks over the table's area (without --result,
+      the field less a pitch) burned as commanded, and with --result through its table: where
+      they land against where they were meant (rotation and translation taken out).
 )";
 
 std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text,
@@ -189,8 +193,15 @@ int sim_photo(const std::vector<std::string>& words) {
         const double growth = sim::bed_growth_at_photo(scenario);
         strokes = sim::carried_by_bed(std::move(strokes), growth);
         truth["bed_growth_at_photo"] = growth;
+        // A galvo's fine marks under a fine camera: the stroke index sized to the pixels (a
+        // bound on their footprint on the bed), not to a printer's 1 mm.
+        const double footprint_mm =
+            scenario.machine.is_galvo()
+                ? 3 * (camera.position_mm - camera.look_at_mm).norm() / camera.intrinsics.fx
+                : 1.0;
         const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
-                                     scenario.material_albedo, scenario.photo.supersample);
+                                     scenario.material_albedo, scenario.photo.supersample,
+                                     footprint_mm);
         image = sim::render_photo(camera.intrinsics, bed_to_camera, scene, scenario.photo);
         truth["strokes"] = stroke_truth;
     } else {
@@ -309,12 +320,53 @@ int sim_measurements(const std::vector<std::string>& words) {
 
 // The twin judges a delta correction in its truth: the firmware lines of a solve result sent to
 // the scenario's printer, then commanded against actual positions over the printable area.
+// The twin judges a galvo scanner in its truth: a fresh 30 x 30 grid of marks over the table's
+// area (or the field less a pitch) burned as commanded, then through the result's table.
+int sim_verify_galvo(const Args& args, const sim::Scenario& scenario) {
+    std::optional<modes::GalvoSolution> solution;
+    if (const auto path = args.get("--result"))
+        solution = modes::galvo_result_from_json(read_input_file(*path, "result"), *path);
+    const double half = scenario.machine.galvo->field_size_mm / 2;
+    const double inset = scenario.machine.galvo->field_size_mm / 31;
+    models::CorrectionTable area =
+        solution ? solution->fit.table : models::identity_table(half - inset, 2);
+    std::vector<sim::Vec2> fresh;
+    const int count = 30;
+    for (int r = 0; r < count; ++r)
+        for (int c = 0; c < count; ++c)
+            fresh.push_back({area.min_x_mm + (area.max_x_mm - area.min_x_mm) * (c + 0.5) / count,
+                             area.min_y_mm + (area.max_y_mm - area.min_y_mm) * (r + 0.5) / count});
+    const auto before =
+        sim::judge_galvo(scenario.galvo_truth, fresh, [](sim::Vec2 p) { return p; });
+    std::printf("before: %zu marks %.4f mm mean, %.4f RMS, %.4f worst\n", before.points,
+                before.mean_mm, before.rms_mm, before.max_mm);
+    nlohmann::json j{
+        {"schema", "calbox.sim-verify-galvo/1"},
+        {"area_mm", {area.min_x_mm, area.min_y_mm, area.max_x_mm, area.max_y_mm}},
+        {"before",
+         {{"mean_mm", before.mean_mm}, {"rms_mm", before.rms_mm}, {"max_mm", before.max_mm}}}};
+    if (solution) {
+        const auto& table = solution->fit.table;
+        const auto after = sim::judge_galvo(scenario.galvo_truth, fresh, [&](sim::Vec2 p) {
+            const auto c = table.command_for({p.x, p.y});
+            return sim::Vec2{c.x, c.y};
+        });
+        std::printf("after the table: %.5f mm mean, %.5f RMS, %.5f worst\n", after.mean_mm,
+                    after.rms_mm, after.max_mm);
+        j["after"] = {
+            {"mean_mm", after.mean_mm}, {"rms_mm", after.rms_mm}, {"max_mm", after.max_mm}};
+    }
+    if (const auto out = args.get("-o")) write_output_file(*out, j.dump(1) + "\n");
+    return 0;
+}
+
 int sim_verify(const std::vector<std::string>& words) {
     const Args args(words, {"--scenario", "--result", "-o"}, {});
     if (!args.positional().empty()) throw UsageError("sim verify takes no positional argument");
     const auto scenario = scenario_from(args);
+    if (scenario.machine.is_galvo()) return sim_verify_galvo(args, scenario);
     if (!scenario.machine.is_delta())
-        throw std::runtime_error(scenario.path + ": sim verify judges delta scenarios");
+        throw std::runtime_error(scenario.path + ": sim verify judges delta and galvo scenarios");
     std::vector<std::string> commands;
     if (const auto path = args.get("--result"))
         commands = modes::result_from_json(read_input_file(*path, "result"), *path).commands;

@@ -1,9 +1,14 @@
 // calbox solve delta: measurements -> machine parameters -> the lines to send.
+#include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <opencv2/imgproc.hpp>
 
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_records.hpp"
+#include "core/modes/galvo.hpp"
 #include "firmware/cli_args.hpp"
+#include "firmware/cli_images.hpp"
 
 namespace calbox::cli {
 namespace {
@@ -21,6 +26,18 @@ constexpr const char* kSolveHelp = R"(usage:
       correction from the bar lengths, for comparison. Refused, nothing written: measurements
       the geometry cannot explain (residual over 3 times their uncertainty), a rod or radius
       change over 2 %, a tower angle trim over 3 degrees.
+  calbox solve galvo --machine scanner.toml --measurements measurements.json -o result.json
+                     [--burned-through result.json] [--table-csv table.csv] [--table-nodes N]
+                     [--error-map PNG]
+      The scanner's field map from the measured grid and its correction table: the measured
+      marks turned and shifted onto the commanded grid (the field frame), a C1 bicubic map
+      through them (missing marks filled from their neighbours and flagged), inverted exactly
+      at the N x N nodes (default 65) of the largest rectangle inside the measured field. The
+      result has the error before (mean, RMS, worst), the measurements' uncertainty, what the
+      table's resolution costs and the table itself; --table-csv writes the table as CSV for a
+      controller. --burned-through: the result whose table the grid was burned through (a
+      second pass), refined rather than replaced. Refused, nothing written: a correction over
+      3 % of the field, or one that would command beyond the field.
 )";
 
 int delta(const std::vector<std::string>& words) {
@@ -76,10 +93,93 @@ int delta(const std::vector<std::string>& words) {
     return 0;
 }
 
+// The error field before the correction: each node's arrow from where it was commanded to
+// where it landed, magnified, over the field; missing marks (filled) in red.
+void draw_error_map(const std::string& path, const modes::GalvoSolution& s) {
+    const int size_px = 1200, margin_px = 60;
+    double half = 0, largest = 0;
+    for (std::size_t i = 0; i < s.intended_mm.size(); ++i) {
+        half = std::max({half, std::abs(s.intended_mm[i].x), std::abs(s.intended_mm[i].y)});
+        largest = std::max(largest, std::hypot(s.fit.landed_mm[i].x - s.intended_mm[i].x,
+                                               s.fit.landed_mm[i].y - s.intended_mm[i].y));
+    }
+    const double px_per_mm = (size_px - 2 * margin_px) / (2 * half);
+    double gain = 1;
+    for (const double nice : {2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0})
+        if (nice * largest * px_per_mm <= 40) gain = nice;
+    cv::Mat picture(size_px, size_px, CV_8UC3, cv::Scalar(255, 255, 255));
+    const auto to_px = [&](geometry::Point2 p) {
+        return cv::Point(cvRound(size_px / 2.0 + p.x * px_per_mm),
+                         cvRound(size_px / 2.0 - p.y * px_per_mm));
+    };
+    const auto& t = s.fit.table;
+    cv::rectangle(picture, to_px({t.min_x_mm, t.min_y_mm}), to_px({t.max_x_mm, t.max_y_mm}),
+                  cv::Scalar(200, 200, 200), 1);
+    for (std::size_t i = 0; i < s.intended_mm.size(); ++i) {
+        const auto& q = s.intended_mm[i];
+        const auto& p = s.fit.landed_mm[i];
+        const geometry::Point2 tip{q.x + gain * (p.x - q.x), q.y + gain * (p.y - q.y)};
+        const cv::Scalar colour = s.fit.filled[i] ? cv::Scalar(0, 0, 220) : cv::Scalar(160, 60, 0);
+        cv::arrowedLine(picture, to_px(q), to_px(tip), colour, 1, cv::LINE_AA, 0, 0.2);
+    }
+    char legend[200];
+    std::snprintf(legend, sizeof legend,
+                  "error before: mean %.4f mm, worst %.4f mm; arrows x%.0f; grey: the table's area",
+                  s.fit.before.mean_mm, s.fit.before.max_mm, gain);
+    cv::putText(picture, legend, {margin_px / 2, margin_px / 2}, cv::FONT_HERSHEY_SIMPLEX, 0.6,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    write_png(path, picture);
+}
+
+int galvo(const std::vector<std::string>& words) {
+    const Args args(words,
+                    {"--machine", "--measurements", "-o", "--burned-through", "--table-csv",
+                     "--table-nodes", "--error-map"},
+                    {});
+    if (!args.positional().empty()) throw UsageError("solve galvo takes no positional argument");
+    const std::string machine_path = args.require("--machine");
+    const std::string out = args.require("-o");
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    const std::string measurements_path = args.require("--measurements");
+    const auto measured = modes::galvo_measurements_from_json(
+        read_input_file(measurements_path, "measurements"), measurements_path);
+    std::optional<modes::GalvoSolution> through;
+    if (const auto previous = args.get("--burned-through"))
+        through = modes::galvo_result_from_json(read_input_file(*previous, "result"), *previous);
+    modes::GalvoSolveOptions options;
+    const double nodes = args.number("--table-nodes", 65);
+    if (nodes < 2 || nodes > 1025 || nodes != std::floor(nodes))
+        throw UsageError("--table-nodes must be a whole number from 2 to 1025");
+    options.table_nodes = static_cast<int>(nodes);
+    modes::GalvoSolution solution;
+    try {
+        solution = modes::solve_galvo(machine, measured, through, options);
+    } catch (const modes::GalvoError& e) {
+        throw std::runtime_error(measurements_path + ": " + e.what());
+    } catch (const models::FieldError& e) {
+        throw std::runtime_error(measurements_path + ": solve: " + e.what());
+    }
+    write_output_file(out, modes::galvo_result_to_json(solution));
+    if (const auto csv = args.get("--table-csv"))
+        write_output_file(*csv, models::table_to_csv(solution.fit.table));
+    const auto& t = solution.fit.table;
+    std::printf(
+        "%s: pass %d; error before %.4f mm mean, %.4f RMS, %.4f worst over %zu marks; "
+        "table %d x %d over X %.3f..%.3f Y %.3f..%.3f mm; predicted after %.5f mm RMS "
+        "(measurement %.5f, table resolution %.5f worst)\n",
+        out.c_str(), solution.pass, solution.fit.before.mean_mm, solution.fit.before.rms_mm,
+        solution.fit.before.max_mm, solution.fit.before.points, t.nodes, t.nodes, t.min_x_mm,
+        t.max_x_mm, t.min_y_mm, t.max_y_mm, solution.predicted_rms_mm,
+        solution.measurement_sigma_mm, solution.fit.table_interpolation_max_mm);
+    if (const auto map = args.get("--error-map")) draw_error_map(*map, solution);
+    return 0;
+}
+
 }  // namespace
 
 int run_solve(const std::vector<std::string>& words) {
-    return dispatch(words, kSolveHelp, "solve", {{"delta", delta}});
+    return dispatch(words, kSolveHelp, "solve", {{"delta", delta}, {"galvo", galvo}});
 }
 
 }  // namespace calbox::cli

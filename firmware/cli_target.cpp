@@ -1,4 +1,5 @@
 // calbox target svg: a job for any machine from a drawing.
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -7,6 +8,7 @@
 
 #include "core/models/machine_file.hpp"
 #include "core/targets/delta_target.hpp"
+#include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
@@ -20,6 +22,14 @@ constexpr const char* kTargetHelp = R"(usage:
       The delta calibration artifact: ArUco markers (DICT_4X4_50, 12 mm) spread over the bed,
       their white cells filled as zigzag lines at the line width, and three bars along the
       towers. --describe writes each feature's commanded position in machine millimetres.
+  calbox target galvo --machine scanner.toml -o JOB [--format gcode|csv] [--grid N]
+                      [--preview PNG] [--describe target.json]
+      The galvo calibration artifact: an N x N grid (default 31) of filled circles over the
+      field ([galvo] field_size_mm), pitch field / N, small ones of 0.2 pitch radius and eight
+      large ones of 0.4 pitch laid out so that no rotation or mirror image matches. --format
+      gcode (default: M3/M5 with power, G1 at feed_mm_s, in scanner millimetres) or csv (a
+      plain scanner job: x_mm,y_mm,power lines). --describe writes every mark's commanded
+      centre, its grid index and its size.
   calbox target svg FILE.svg --machine FILE -o JOB [--spacing MM] [--angle DEG] [--feed MM_S]
                     [--scale S | --fit MM] [--fill-rule nonzero|evenodd] [--perimeters N]
                     [--preview PNG]
@@ -177,10 +187,51 @@ int delta(const std::vector<std::string>& words) {
     return 0;
 }
 
+int galvo(const std::vector<std::string>& words) {
+    const Args args(words, {"--machine", "-o", "--format", "--grid", "--preview", "--describe"},
+                    {});
+    if (!args.positional().empty()) throw UsageError("target galvo takes no positional argument");
+    const std::string machine_path = args.require("--machine");
+    const std::string out = args.require("-o");
+    const std::string format = args.get("--format").value_or("gcode");
+    if (format != "gcode" && format != "csv") throw UsageError("--format must be gcode or csv");
+    const double grid = args.number("--grid", 31);
+    if (grid != std::floor(grid)) throw UsageError("--grid must be a whole number");
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    const auto target = targets::make_galvo_target(machine, {static_cast<int>(grid)});
+    write_output_file(out, format == "csv"
+                               ? targets::write_scanner_job_csv(target.job, machine)
+                               : targets::write_gcode(target.job, machine,
+                                                      "calbox target galvo " + target.fingerprint));
+    if (const auto describe = args.get("--describe")) {
+        nlohmann::json marks = nlohmann::json::array();
+        for (const auto& m : target.marks)
+            marks.push_back({{"column", m.index.column},
+                             {"row", m.index.row},
+                             {"centre_mm", {m.centre_mm.x, m.centre_mm.y}},
+                             {"radius_mm", (m.large ? 0.4 : 0.2) * target.pitch_mm},
+                             {"large", m.large}});
+        const nlohmann::json j{{"schema", "calbox.galvo-target/1"},
+                               {"target_fingerprint", target.fingerprint},
+                               {"machine_fingerprint", models::fingerprint(machine)},
+                               {"grid_count", target.grid_count},
+                               {"pitch_mm", target.pitch_mm},
+                               {"marks", marks}};
+        write_output_file(*describe, j.dump(1) + "\n");
+    }
+    std::printf("%s: %d x %d circles at %.4f mm pitch, path %.1f mm, about %.0f s\n", out.c_str(),
+                target.grid_count, target.grid_count, target.pitch_mm,
+                target.job.toolpath.working_length_mm(), target.job.estimated_time_s(machine));
+    if (const auto preview = args.get("--preview")) draw_preview(*preview, target.job, machine);
+    return 0;
+}
+
 }  // namespace
 
 int run_target(const std::vector<std::string>& words) {
-    return dispatch(words, kTargetHelp, "target", {{"svg", svg}, {"delta", delta}});
+    return dispatch(words, kTargetHelp, "target",
+                    {{"svg", svg}, {"delta", delta}, {"galvo", galvo}});
 }
 
 }  // namespace calbox::cli

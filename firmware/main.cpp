@@ -17,9 +17,10 @@ commands:
   revert                      send the settings backed up before the last applied cycle
   camera calibrate|plane      intrinsic calibration and the bed plane (calbox camera --help)
   detect markers|chessboard|circles   what the box sees in an image (calbox detect --help)
-  measure delta               measure the printed delta target in photos (calbox measure --help)
-  solve delta                 fit a delta's geometry and write the correction (calbox solve --help)
-  target svg                  a job for the machine from a drawing (calbox target --help)
+  measure delta|galvo         measure the made target in photos (calbox measure --help)
+  solve delta|galvo           fit the machine's model and write the correction (calbox solve --help)
+  compensate                  a job sent through a solve's correction (calbox compensate --help)
+  target delta|galvo|svg      a calibration target, or a job from a drawing (calbox target --help)
   sim print|photo             the digital twin: run a G-code job, render a photo (calbox sim --help)
 
 Every command exits 0 on success, and non-zero with one line on standard error on failure.
@@ -51,6 +52,7 @@ int main(int argc, char** argv) {
         if (words[0] == "target") return calbox::cli::run_target(rest);
         if (words[0] == "solve") return calbox::cli::run_solve(rest);
         if (words[0] == "measure") return calbox::cli::run_measure(rest);
+        if (words[0] == "compensate") return calbox::cli::run_compensate(rest);
         throw calbox::cli::UsageError("unknown command '" + words[0] +
                                       "' (calbox --help lists them)");
     } catch (const calbox::geometry::PatternError& e) {

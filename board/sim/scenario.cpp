@@ -22,7 +22,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
     s.delta_truth = s.delta_firmware;
     if (const auto* truth = models::subtable(path, root, "truth")) {
         for (const auto& [key, node] : *truth) {
-            if (key.str() != "delta" && key.str() != "cartesian") {
+            if (key.str() != "delta" && key.str() != "cartesian" && key.str() != "galvo") {
                 throw ScenarioError(path + ": [truth] has unknown part '" + std::string(key.str()) +
                                     "'");
             }
@@ -41,6 +41,32 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
             r.number("squareness_error_deg", s.cartesian_truth.squareness_error_deg, -5, 5);
             r.finish();
         }
+        if (const auto* g = models::subtable(path, *truth, "galvo")) {
+            if (!s.machine.is_galvo())
+                throw ScenarioError(path + ": [truth.galvo] on a " + s.machine.kind);
+            TomlReader r(path, *g, "truth.galvo");
+            int seed = 0;
+            r.integer("seed", seed, 0, 1000000);
+            auto& t = s.galvo_truth;
+            if (seed > 0)
+                t = random_galvo_truth(static_cast<unsigned>(seed), s.machine.galvo->field_size_mm);
+            r.number("gain_x", t.gain_x, -0.05, 0.05);
+            r.number("gain_y", t.gain_y, -0.05, 0.05);
+            r.number("offset_x_mm", t.offset_x_mm, -10, 10);
+            r.number("offset_y_mm", t.offset_y_mm, -10, 10);
+            r.number("skew_deg", t.skew_deg, -2, 2);
+            r.number("rotation_deg", t.rotation_deg, -180, 180);
+            r.number("mirror_bow_mm", t.mirror_bow_mm, -10, 10);
+            r.number("lens_radial_mm", t.lens_radial_mm, -10, 10);
+            r.number("ripple_mm", t.ripple_mm, 0, 1);
+            r.number("ripple_period_mm", t.ripple_period_mm, 1, 1000);
+            r.boolean("x_reversed", t.x_reversed);
+            r.finish();
+        }
+    }
+    if (s.machine.galvo) {
+        s.galvo_truth.field_size_mm = s.machine.galvo->field_size_mm;
+        s.galvo_truth.substrate_height_mm = s.machine.galvo->substrate_height_mm;
     }
     if (const auto* twin = models::subtable(path, root, "twin")) {
         TomlReader r(path, *twin, "twin");
@@ -166,6 +192,7 @@ std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
         if (s.zero_height_at_centre) twin->zero_height_at_centre();
         return twin;
     }
+    if (s.machine.is_galvo()) return std::make_unique<GalvoTwin>(s.galvo_truth);
     return std::make_unique<CartesianTwin>(s.cartesian_truth);
 }
 

@@ -8,6 +8,7 @@
 
 #include "board/sim/camera_reference.hpp"
 #include "board/sim/delta_reference.hpp"
+#include "board/sim/galvo_twin.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
@@ -45,6 +46,7 @@ struct Scenario {
     DeltaParams delta_firmware;       // [delta]
     DeltaParams delta_truth;          // [truth.delta]: keys not given equal the firmware's
     CartesianErrors cartesian_truth;  // [truth.cartesian]
+    GalvoTruth galvo_truth;           // [truth.galvo]: a seeded scanner, keys given override
     bool zero_height_at_centre = true;
     double segment_mm = 0.5;
     std::optional<ScenarioCamera> camera;

@@ -115,7 +115,7 @@ double closest_parameter(const StrokeSegment& s, double x, double y) {
 }  // namespace
 
 StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
-                         double material_albedo, int supersample)
+                         double material_albedo, int supersample, double footprint_mm)
     : strokes_(std::move(strokes)),
       index_(std::make_unique<Index>()),
       bed_albedo_(bed_albedo),
@@ -133,9 +133,11 @@ StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
     }
     auto& ix = *index_;
     ix.reference_height_mm = zsum / (2.0 * strokes_.size());
-    // A stroke is listed in every cell its outline, widened by a pixel footprint (up to 1 mm)
-    // and by the drift of a ray across the stroke heights, can reach.
-    const double drift = (zmax - zmin) * 0.8 + 1.0;
+    // A stroke is listed in every cell its outline, widened by a pixel footprint and by the
+    // drift of a ray across the stroke heights, can reach.
+    if (!(footprint_mm > 0)) throw std::invalid_argument("a pixel footprint must be positive");
+    ix.cell_mm = std::clamp(2 * footprint_mm, 0.1, 1.0);
+    const double drift = (zmax - zmin) * 0.8 + footprint_mm;
     for (const auto& s : strokes_) {
         const double m = s.width_mm / 2 + drift;
         xmin = std::min({xmin, s.a_mm.x - m, s.b_mm.x - m});

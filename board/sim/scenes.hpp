@@ -39,8 +39,11 @@ struct StrokeSegment {
 
 class StrokeScene final : public Scene {
   public:
+    // `footprint_mm`: the largest a pixel's footprint on the plane gets (the index lists each
+    // stroke in the cells it can reach from that far); fine marks seen through a fine camera
+    // render much faster with a footprint to match.
     StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo, double material_albedo,
-                int supersample);
+                int supersample, double footprint_mm = 1.0);
     ~StrokeScene() override;
     double albedo(const Footprint& f) const override;
 

@@ -145,7 +145,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
                                 std::initializer_list<std::string_view> other_sections) {
     for (const auto& [key, node] : root) {
         const std::string_view name = key.str();
-        bool known = name == "machine" || name == "delta";
+        bool known = name == "machine" || name == "delta" || name == "galvo";
         for (const auto& s : other_sections) known = known || s == name;
         if (!known)
             throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
@@ -193,6 +193,18 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     } else if (delta != nullptr) {
         throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
     }
+    const auto* galvo = subtable(file, root, "galvo");
+    if (m.is_galvo()) {
+        m.galvo.emplace();
+        if (galvo != nullptr) {
+            TomlReader g(file, *galvo, "galvo");
+            g.number("field_size_mm", m.galvo->field_size_mm, 5, 2000);
+            g.number("substrate_height_mm", m.galvo->substrate_height_mm, -50, 200);
+            g.finish();
+        }
+    } else if (galvo != nullptr) {
+        throw MachineFileError(file + ": [galvo] on a " + m.kind + " machine");
+    }
     return m;
 }
 
@@ -235,6 +247,10 @@ std::string fingerprint(const MachineFile& m) {
         for (const auto* a :
              {&d.diagonal_rod_trim_mm, &d.tower_angle_trim_deg, &d.endstop_offset_mm})
             for (double v : *a) add(v);
+    }
+    if (m.galvo) {
+        add(m.galvo->field_size_mm);
+        add(m.galvo->substrate_height_mm);
     }
     return digest(canonical);
 }

@@ -25,6 +25,15 @@ struct DeltaSettings {
     double height_mm = 300.0;
 };
 
+// [galvo]: the scanner's field as its controller addresses it, in scanner millimetres centred
+// on the field's middle, and the height of the surface it marks.
+struct GalvoSettings {
+    double field_size_mm = 110.0;  // the square field's side
+    // The marked surface (powder layer, Zp) above the plane the bed-plane board lay on: the
+    // camera maps marks at this height.
+    double substrate_height_mm = 0.0;
+};
+
 struct MachineFile {
     std::string kind = "delta";  // delta | cartesian | router | laser | galvo
     std::string firmware = "marlin";
@@ -50,9 +59,11 @@ struct MachineFile {
     std::optional<std::string> start_gcode;  // printers: replaces heating and G28 at a job's start
     std::optional<std::string> end_gcode;    // printers: replaces cooling and M84 at its end
     std::optional<DeltaSettings> delta;
+    std::optional<GalvoSettings> galvo;
 
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
     bool is_delta() const { return kind == "delta"; }
+    bool is_galvo() const { return kind == "galvo"; }
 };
 
 // The bed plate is fixed at its centre and grows with temperature; a print sticks to it and

@@ -69,8 +69,9 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
         if (!(*settings.scale > 0)) throw JobError("--scale must be positive");
         job.scale = *settings.scale;
     }
-    // Centred on the bed; SVG's y runs down the page, the machine's up the bed.
-    const Point2 bed_centre = machine.is_delta()
+    // Centred on the bed (a delta's and a galvo's origin is the middle of their area); SVG's y
+    // runs down the page, the machine's up the bed.
+    const Point2 bed_centre = machine.is_delta() || machine.is_galvo()
                                   ? Point2{0, 0}
                                   : Point2{machine.bed_size_x_mm / 2, machine.bed_size_y_mm / 2};
     const double cx = (xmin + xmax) / 2, cy = (ymin + ymax) / 2;
@@ -81,13 +82,16 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     job.max_x = bed_centre.x + (xmax - xmin) / 2 * job.scale;
     job.min_y = bed_centre.y - (ymax - ymin) / 2 * job.scale;
     job.max_y = bed_centre.y + (ymax - ymin) / 2 * job.scale;
+    const double half_field = machine.galvo ? machine.galvo->field_size_mm / 2 : 0;
     const bool fits = machine.is_delta()
                           ? std::hypot(std::max(std::abs(job.min_x), std::abs(job.max_x)),
                                        std::max(std::abs(job.min_y), std::abs(job.max_y))) <=
                                 machine.bed_radius_mm
-                          : job.min_x >= 0 && job.min_y >= 0 &&
-                                job.max_x <= machine.bed_size_x_mm &&
-                                job.max_y <= machine.bed_size_y_mm;
+                      : machine.is_galvo() ? job.min_x >= -half_field && job.min_y >= -half_field &&
+                                                 job.max_x <= half_field && job.max_y <= half_field
+                                           : job.min_x >= 0 && job.min_y >= 0 &&
+                                                 job.max_x <= machine.bed_size_x_mm &&
+                                                 job.max_y <= machine.bed_size_y_mm;
     if (!fits) {
         throw JobError("the drawing, " + fmt("%.1f", job.max_x - job.min_x) + " x " +
                        fmt("%.1f", job.max_y - job.min_y) + " mm at scale " + fmt("%g", job.scale) +

@@ -1,0 +1,493 @@
+#include "core/modes/galvo.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <map>
+#include <nlohmann/json.hpp>
+
+namespace calbox::modes {
+namespace {
+
+using geometry::Point2;
+using targets::GridIndex;
+
+std::string fmt(const char* format, double v) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, format, v);
+    return buffer;
+}
+
+// A mark seen in the photo, on the bed.
+struct Candidate {
+    Point2 bed_mm;
+    double radius_mm = 0, sigma_mm = 0;
+    bool large = false;
+    bool taken = false;
+};
+
+// Candidates by position, in cells of one pitch.
+class Neighbourhood {
+  public:
+    Neighbourhood(std::vector<Candidate>& candidates, double cell_mm)
+        : candidates_(candidates), cell_(cell_mm) {
+        for (std::size_t i = 0; i < candidates.size(); ++i)
+            cells_[key(candidates[i].bed_mm)].push_back(i);
+    }
+    // The nearest free candidate within `reach_mm` of `at`, or -1.
+    long nearest(Point2 at, double reach_mm) const {
+        long best = -1;
+        double best_d = reach_mm;
+        const auto [kx, ky] = key(at);
+        for (long dy = -1; dy <= 1; ++dy)
+            for (long dx = -1; dx <= 1; ++dx) {
+                const auto it = cells_.find({kx + dx, ky + dy});
+                if (it == cells_.end()) continue;
+                for (std::size_t i : it->second) {
+                    if (candidates_[i].taken) continue;
+                    const double d =
+                        std::hypot(candidates_[i].bed_mm.x - at.x, candidates_[i].bed_mm.y - at.y);
+                    if (d < best_d) best_d = d, best = static_cast<long>(i);
+                }
+            }
+        return best;
+    }
+
+  private:
+    std::pair<long, long> key(Point2 p) const {
+        return {static_cast<long>(std::floor(p.x / cell_)),
+                static_cast<long>(std::floor(p.y / cell_))};
+    }
+    std::vector<Candidate>& candidates_;
+    double cell_;
+    std::map<std::pair<long, long>, std::vector<std::size_t>> cells_;
+};
+
+struct LatticeNode {
+    Point2 position_mm;
+    long candidate = -1;  // -1: predicted through a gap, no mark there
+};
+
+// Indexes the candidates on a square lattice of pitch `pitch` by growing it from the middle
+// mark: each neighbour is looked for where the node and the one behind it predict it, so the
+// lattice follows a distortion that bends it slowly; a single gap is bridged by a predicted node.
+std::map<std::pair<int, int>, LatticeNode> grow_lattice(std::vector<Candidate>& candidates,
+                                                        double pitch, double reach) {
+    Neighbourhood near(candidates, pitch);
+    Point2 mean;
+    for (const auto& c : candidates) mean.x += c.bed_mm.x, mean.y += c.bed_mm.y;
+    mean.x /= static_cast<double>(candidates.size()),
+        mean.y /= static_cast<double>(candidates.size());
+    const long seed = near.nearest(mean, 1e300);
+    candidates[static_cast<std::size_t>(seed)].taken = true;
+    const Point2 origin = candidates[static_cast<std::size_t>(seed)].bed_mm;
+    // The lattice's axes from the middle mark's nearest neighbour, turned by the quarter turn
+    // that brings it closest to the bed's +x (the neighbour there may have misfired), so that
+    // the symmetry found says how the grid lies on the bed.
+    const long first = near.nearest(origin, 1.4 * pitch);
+    if (first < 0)
+        throw GalvoError("measure: no mark lies a pitch from another: not a grid of " +
+                         fmt("%.3f", pitch) + " mm pitch");
+    Point2 e1{candidates[static_cast<std::size_t>(first)].bed_mm.x - origin.x,
+              candidates[static_cast<std::size_t>(first)].bed_mm.y - origin.y};
+    if (std::hypot(e1.x, e1.y) < 0.7 * pitch)
+        throw GalvoError("measure: marks lie closer than the grid's pitch: not this target");
+    for (int turn = 0; turn < 3 && !(e1.x >= std::abs(e1.y)); ++turn) e1 = {e1.y, -e1.x};
+    const Point2 e2{-e1.y, e1.x};
+    std::map<std::pair<int, int>, LatticeNode> lattice;
+    lattice[{0, 0}] = {origin, seed};
+    std::deque<std::pair<int, int>> queue{{0, 0}};
+    const int directions[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    while (!queue.empty()) {
+        const auto at = queue.front();
+        queue.pop_front();
+        const LatticeNode here = lattice[at];
+        for (const auto& d : directions) {
+            const std::pair<int, int> next{at.first + d[0], at.second + d[1]};
+            if (lattice.count(next) != 0) continue;
+            Point2 step{d[0] * e1.x + d[1] * e2.x, d[0] * e1.y + d[1] * e2.y};
+            const auto behind = lattice.find({at.first - d[0], at.second - d[1]});
+            if (behind != lattice.end() && behind->second.candidate >= 0 && here.candidate >= 0)
+                step = {here.position_mm.x - behind->second.position_mm.x,
+                        here.position_mm.y - behind->second.position_mm.y};
+            const Point2 predicted{here.position_mm.x + step.x, here.position_mm.y + step.y};
+            const long found = near.nearest(predicted, reach);
+            if (found >= 0) {
+                candidates[static_cast<std::size_t>(found)].taken = true;
+                lattice[next] = {candidates[static_cast<std::size_t>(found)].bed_mm, found};
+                queue.push_back(next);
+            } else if (here.candidate >= 0) {
+                lattice[next] = {predicted, -1};  // a gap: look one further through it
+                queue.push_back(next);
+            }
+        }
+    }
+    return lattice;
+}
+
+}  // namespace
+
+GalvoMeasurement measure_galvo(const models::MachineFile& machine,
+                               const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                               const vision::GrayView& photo,
+                               const GalvoMeasureSettings& settings) {
+    const auto target = targets::make_galvo_target(machine, settings.target);
+    const double pitch = target.pitch_mm;
+    const int n = target.grid_count;
+    if (photo.width_px != camera.image_width || photo.height_px != camera.image_height)
+        throw GalvoError("measure: the photo is " + std::to_string(photo.width_px) + "x" +
+                         std::to_string(photo.height_px) + ", the camera was calibrated at " +
+                         std::to_string(camera.image_width) + "x" +
+                         std::to_string(camera.image_height));
+    const vision::SpotImage seen = vision::find_spots(photo, settings.spots);
+    GalvoMeasurement out;
+    out.machine_fingerprint = models::fingerprint(machine);
+    out.target_fingerprint = target.fingerprint;
+    out.grid_count = n;
+    out.pitch_mm = pitch;
+    out.dark_marks = seen.dark_marks;
+
+    // Each spot on the bed at the substrate's height, with its size and uncertainty in mm from
+    // the local scale (a pixel to its right mapped too).
+    std::vector<Point2> pixels;
+    for (const auto& s : seen.spots) {
+        pixels.push_back(s.centre_px);
+        pixels.push_back({s.centre_px.x + 1, s.centre_px.y});
+    }
+    const double height = machine.galvo->substrate_height_mm;
+    const auto on_bed = geometry::pixels_to_bed(camera, plane, pixels, height);
+    std::vector<Candidate> candidates;
+    const double small = 0.2 * pitch, large = 0.4 * pitch;
+    for (std::size_t i = 0; i < seen.spots.size(); ++i) {
+        const auto& s = seen.spots[i];
+        const Point2 at{on_bed[2 * i].x, on_bed[2 * i].y};
+        const double mm_per_px = std::hypot(on_bed[2 * i + 1].x - at.x, on_bed[2 * i + 1].y - at.y);
+        const double radius = std::sqrt(s.area_px / 3.14159265358979) * mm_per_px;
+        const bool is_small = radius > 0.6 * small && radius < 1.4 * small;
+        const bool is_large = radius > 0.75 * large && radius < 1.25 * large;
+        if (s.touches_border || s.elongation > settings.max_elongation || !(is_small || is_large)) {
+            out.extra_mm.push_back(at);
+            continue;
+        }
+        candidates.push_back({at, radius, s.sigma_px * mm_per_px, is_large, false});
+    }
+    // A mark with spatter fused to it, a chip or a double burn is larger than its kind: its
+    // centroid would move with the extra area, so it is reported, not measured.
+    for (const bool kind : {false, true}) {
+        std::vector<double> radii;
+        for (const auto& c : candidates)
+            if (c.large == kind) radii.push_back(c.radius_mm);
+        if (radii.empty()) continue;
+        std::nth_element(radii.begin(), radii.begin() + static_cast<long>(radii.size() / 2),
+                         radii.end());
+        const double typical = radii[radii.size() / 2];
+        for (auto& c : candidates)
+            if (c.large == kind &&
+                std::abs(c.radius_mm / typical - 1) > settings.max_radius_deviation)
+                c.taken = true;
+    }
+    for (auto it = candidates.begin(); it != candidates.end();) {
+        if (it->taken) {
+            out.extra_mm.push_back(it->bed_mm);
+            it = candidates.erase(it);
+        } else {
+            ++it;
+        }
+    }
+    if (candidates.size() < static_cast<std::size_t>(n * n) / 2)
+        throw GalvoError("measure: " + std::to_string(candidates.size()) + " marks of the " +
+                         std::to_string(n) + " x " + std::to_string(n) +
+                         " grid's size in the photo (under half of them): not this target, or the "
+                         "photo does not show it");
+    const auto lattice = grow_lattice(candidates, pitch, settings.match_reach_pitch * pitch);
+    int min_a = 1 << 30, max_a = -(1 << 30), min_b = 1 << 30, max_b = -(1 << 30);
+    for (const auto& [index, node] : lattice) {
+        if (node.candidate < 0) continue;
+        min_a = std::min(min_a, index.first), max_a = std::max(max_a, index.first);
+        min_b = std::min(min_b, index.second), max_b = std::max(max_b, index.second);
+    }
+    const int columns = max_a - min_a + 1, rows = max_b - min_b + 1;
+    if (columns != n || rows != n)
+        throw GalvoError("measure: the grid found is " + std::to_string(columns) + " x " +
+                         std::to_string(rows) + " marks, the target's is " + std::to_string(n) +
+                         " x " + std::to_string(n) +
+                         (columns > n || rows > n
+                              ? ": not this target"
+                              : ": part of it is outside the photo, or whole rows are missing"));
+    // Which of the square's eight symmetries carries the photo's grid onto the target's: the one
+    // under which the large marks seen fall on the target's large marks.
+    std::array<int, 8> mismatches{};
+    for (int g = 0; g < 8; ++g)
+        for (const auto& [index, node] : lattice) {
+            if (node.candidate < 0) continue;
+            const GridIndex t =
+                targets::apply_symmetry(g, {index.first - min_a, index.second - min_b}, n);
+            if (candidates[static_cast<std::size_t>(node.candidate)].large !=
+                targets::is_large_mark(t, n))
+                ++mismatches[static_cast<std::size_t>(g)];
+        }
+    std::array<int, 8> order{0, 1, 2, 3, 4, 5, 6, 7};
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+        return mismatches[static_cast<std::size_t>(a)] < mismatches[static_cast<std::size_t>(b)];
+    });
+    const int best = mismatches[static_cast<std::size_t>(order[0])],
+              second = mismatches[static_cast<std::size_t>(order[1])];
+    if (best > 3 || second < best + 4)
+        throw GalvoError("measure: the large marks do not settle which way round the grid lies (" +
+                         std::to_string(best) + " marks disagree with the best reading, " +
+                         std::to_string(second) +
+                         " with the next): not this target, or too many marks damaged");
+    out.symmetry = order[0];
+    std::vector<bool> seen_node(static_cast<std::size_t>(n * n), false);
+    for (const auto& [index, node] : lattice) {
+        if (node.candidate < 0) continue;
+        const GridIndex t =
+            targets::apply_symmetry(out.symmetry, {index.first - min_a, index.second - min_b}, n);
+        const auto& c = candidates[static_cast<std::size_t>(node.candidate)];
+        const auto& mark = target.at(t);
+        out.nodes.push_back({t, mark.centre_mm, mark.large, c.bed_mm, c.sigma_mm});
+        seen_node[static_cast<std::size_t>(t.row * n + t.column)] = true;
+    }
+    for (const auto& c : candidates)
+        if (!c.taken) out.extra_mm.push_back(c.bed_mm);
+    for (const auto& mark : target.marks)
+        if (!seen_node[static_cast<std::size_t>(mark.index.row * n + mark.index.column)])
+            out.missing.push_back(mark.index);
+    std::sort(out.nodes.begin(), out.nodes.end(), [](const auto& a, const auto& b) {
+        return std::make_pair(a.index.row, a.index.column) <
+               std::make_pair(b.index.row, b.index.column);
+    });
+    return out;
+}
+
+GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasurement& measured,
+                          const std::optional<GalvoSolution>& burned_through,
+                          const GalvoSolveOptions& options) {
+    if (!machine.is_galvo() || !machine.galvo)
+        throw GalvoError("solve: the machine is a " + machine.kind + ", not a galvo");
+    if (measured.machine_fingerprint != models::fingerprint(machine))
+        throw GalvoError(
+            "solve: the measurements were made for another machine file (fingerprint " +
+            measured.machine_fingerprint + ")");
+    const auto target = targets::make_galvo_target(machine, {measured.grid_count});
+    if (measured.target_fingerprint != target.fingerprint)
+        throw GalvoError("solve: the measurements are of another target than this machine's " +
+                         std::to_string(measured.grid_count) + " x " +
+                         std::to_string(measured.grid_count) + " grid");
+    if (burned_through && burned_through->machine_fingerprint != measured.machine_fingerprint)
+        throw GalvoError("solve: the table the grid was burned through is another machine's");
+    const int n = measured.grid_count;
+    const models::SquareGrid grid{n, measured.pitch_mm};
+    std::vector<std::optional<Point2>> landed(static_cast<std::size_t>(n * n));
+    double sigma2 = 0;
+    for (const auto& node : measured.nodes) {
+        landed[static_cast<std::size_t>(node.index.row * n + node.index.column)] = node.measured_mm;
+        sigma2 += 2 * node.sigma_mm * node.sigma_mm;
+    }
+    const auto through = burned_through ? burned_through->fit.table
+                                        : models::identity_table(machine.galvo->field_size_mm / 2,
+                                                                 options.table_nodes);
+    GalvoSolution s;
+    s.machine_fingerprint = measured.machine_fingerprint;
+    s.fit = models::fit_galvo_field(grid, landed, through, options.table_nodes);
+    s.pass = burned_through ? burned_through->pass + 1 : 1;
+    for (int r = 0; r < n; ++r)
+        for (int c = 0; c < n; ++c) s.intended_mm.push_back(grid.node_mm(c, r));
+    s.measurement_sigma_mm =
+        std::sqrt(sigma2 / static_cast<double>(std::max<std::size_t>(1, measured.nodes.size())));
+    s.predicted_rms_mm = std::hypot(s.measurement_sigma_mm, s.fit.table_interpolation_rms_mm);
+    const double limit = options.max_correction_fraction * machine.galvo->field_size_mm;
+    const auto& t = s.fit.table;
+    for (int r = 0; r < t.nodes; ++r)
+        for (int c = 0; c < t.nodes; ++c) {
+            const Point2 q = t.node_mm(c, r),
+                         cmd = t.command_mm[static_cast<std::size_t>(r * t.nodes + c)];
+            const double correction = std::hypot(cmd.x - q.x, cmd.y - q.y);
+            if (correction > limit)
+                throw GalvoError("solve: the correction at X" + fmt("%.2f", q.x) + " Y" +
+                                 fmt("%.2f", q.y) + " is " + fmt("%.3f", correction) +
+                                 " mm, beyond the " + fmt("%.2f", limit) +
+                                 " mm a scanner plausibly needs (check field_size_mm and the "
+                                 "photo); nothing written");
+            const double half = machine.galvo->field_size_mm / 2;
+            if (std::abs(cmd.x) > half || std::abs(cmd.y) > half)
+                throw GalvoError("solve: the table would command X" + fmt("%.3f", cmd.x) + " Y" +
+                                 fmt("%.3f", cmd.y) +
+                                 ", outside the scanner's field; nothing written");
+        }
+    return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Files
+
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kMeasurementsSchema = "calbox.galvo-measurements/1";
+constexpr const char* kResultSchema = "calbox.galvo-result/1";
+
+json point_json(Point2 p) {
+    return json::array({p.x, p.y});
+}
+Point2 point_from(const json& j) {
+    if (!j.is_array() || j.size() != 2)
+        throw json::type_error::create(302, "a point is [x, y]", &j);
+    return {j.at(0).get<double>(), j.at(1).get<double>()};
+}
+json statistics_json(const models::ErrorStatistics& s) {
+    return {
+        {"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm}, {"max_mm", s.max_mm}, {"points", s.points}};
+}
+models::ErrorStatistics statistics_from(const json& j) {
+    return {j.at("mean_mm").get<double>(), j.at("rms_mm").get<double>(),
+            j.at("max_mm").get<double>(), j.at("points").get<std::size_t>()};
+}
+
+json parse(const std::string& text, const std::string& source, const char* schema,
+           const char* what) {
+    json j;
+    try {
+        j = json::parse(text);
+    } catch (const json::exception& e) {
+        throw GalvoError(source + ": malformed " + what + ": " + e.what());
+    }
+    if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
+        j["schema"].get<std::string>() != schema)
+        throw GalvoError(source + ": not a " + what + " file (schema " + schema + ")");
+    return j;
+}
+
+}  // namespace
+
+std::string galvo_measurements_to_json(const GalvoMeasurement& m) {
+    json nodes = json::array(), missing = json::array(), extra = json::array();
+    for (const auto& node : m.nodes)
+        nodes.push_back({{"column", node.index.column},
+                         {"row", node.index.row},
+                         {"large", node.large},
+                         {"intended_mm", point_json(node.intended_mm)},
+                         {"measured_mm", point_json(node.measured_mm)},
+                         {"sigma_mm", node.sigma_mm}});
+    for (const auto& i : m.missing) missing.push_back({i.column, i.row});
+    for (const auto& p : m.extra_mm) extra.push_back(point_json(p));
+    const json j{{"schema", kMeasurementsSchema},
+                 {"machine_fingerprint", m.machine_fingerprint},
+                 {"target_fingerprint", m.target_fingerprint},
+                 {"photos", m.photos},
+                 {"grid_count", m.grid_count},
+                 {"pitch_mm", m.pitch_mm},
+                 {"symmetry", m.symmetry},
+                 {"dark_marks", m.dark_marks},
+                 {"nodes", nodes},
+                 {"missing", missing},
+                 {"extra_mm", extra}};
+    return j.dump(1) + "\n";
+}
+
+GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std::string& source) {
+    const json j = parse(text, source, kMeasurementsSchema, "galvo measurements");
+    try {
+        GalvoMeasurement m;
+        m.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
+        m.target_fingerprint = j.at("target_fingerprint").get<std::string>();
+        m.photos = j.at("photos").get<std::vector<std::string>>();
+        m.grid_count = j.at("grid_count").get<int>();
+        m.pitch_mm = j.at("pitch_mm").get<double>();
+        m.symmetry = j.at("symmetry").get<int>();
+        m.dark_marks = j.at("dark_marks").get<bool>();
+        if (m.grid_count < 7 || m.grid_count > 101 || !(m.pitch_mm > 0))
+            throw GalvoError(source + ": grid_count must be 7 to 101 and pitch_mm positive");
+        for (const auto& node : j.at("nodes")) {
+            GalvoNodeMeasurement g;
+            g.index = {node.at("column").get<int>(), node.at("row").get<int>()};
+            if (g.index.column < 0 || g.index.row < 0 || g.index.column >= m.grid_count ||
+                g.index.row >= m.grid_count)
+                throw GalvoError(source + ": a node lies outside the " +
+                                 std::to_string(m.grid_count) + " x " +
+                                 std::to_string(m.grid_count) + " grid");
+            g.large = node.at("large").get<bool>();
+            g.intended_mm = point_from(node.at("intended_mm"));
+            g.measured_mm = point_from(node.at("measured_mm"));
+            g.sigma_mm = node.at("sigma_mm").get<double>();
+            m.nodes.push_back(g);
+        }
+        for (const auto& i : j.at("missing"))
+            m.missing.push_back({i.at(0).get<int>(), i.at(1).get<int>()});
+        for (const auto& p : j.at("extra_mm")) m.extra_mm.push_back(point_from(p));
+        return m;
+    } catch (const json::exception& e) {
+        throw GalvoError(source + ": " + e.what());
+    }
+}
+
+std::string galvo_result_to_json(const GalvoSolution& s) {
+    const auto& t = s.fit.table;
+    json commands = json::array(), landed = json::array(), filled = json::array();
+    for (const auto& c : t.command_mm) commands.push_back(point_json(c));
+    for (std::size_t i = 0; i < s.fit.landed_mm.size(); ++i) {
+        landed.push_back(point_json(s.fit.landed_mm[i]));
+        if (s.fit.filled[i]) filled.push_back(i);
+    }
+    json intended = json::array();
+    for (const auto& p : s.intended_mm) intended.push_back(point_json(p));
+    const json j{{"schema", kResultSchema},
+                 {"machine_fingerprint", s.machine_fingerprint},
+                 {"pass", s.pass},
+                 {"before", statistics_json(s.fit.before)},
+                 {"measurement_sigma_mm", s.measurement_sigma_mm},
+                 {"predicted_rms_mm", s.predicted_rms_mm},
+                 {"table_interpolation_max_mm", s.fit.table_interpolation_max_mm},
+                 {"table_interpolation_rms_mm", s.fit.table_interpolation_rms_mm},
+                 {"intended_mm", intended},
+                 {"landed_mm", landed},
+                 {"filled_nodes", filled},
+                 {"table",
+                  {{"nodes", t.nodes},
+                   {"min_x_mm", t.min_x_mm},
+                   {"min_y_mm", t.min_y_mm},
+                   {"max_x_mm", t.max_x_mm},
+                   {"max_y_mm", t.max_y_mm},
+                   {"command_mm", commands}}}};
+    return j.dump(1) + "\n";
+}
+
+GalvoSolution galvo_result_from_json(const std::string& text, const std::string& source) {
+    const json j = parse(text, source, kResultSchema, "galvo result");
+    try {
+        GalvoSolution s;
+        s.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
+        s.pass = j.at("pass").get<int>();
+        s.fit.before = statistics_from(j.at("before"));
+        s.measurement_sigma_mm = j.at("measurement_sigma_mm").get<double>();
+        s.predicted_rms_mm = j.at("predicted_rms_mm").get<double>();
+        s.fit.table_interpolation_max_mm = j.at("table_interpolation_max_mm").get<double>();
+        s.fit.table_interpolation_rms_mm = j.at("table_interpolation_rms_mm").get<double>();
+        for (const auto& p : j.at("intended_mm")) s.intended_mm.push_back(point_from(p));
+        for (const auto& p : j.at("landed_mm")) s.fit.landed_mm.push_back(point_from(p));
+        s.fit.filled.assign(s.fit.landed_mm.size(), false);
+        for (const auto& i : j.at("filled_nodes")) s.fit.filled.at(i.get<std::size_t>()) = true;
+        const json& t = j.at("table");
+        auto& table = s.fit.table;
+        table.nodes = t.at("nodes").get<int>();
+        table.min_x_mm = t.at("min_x_mm").get<double>();
+        table.min_y_mm = t.at("min_y_mm").get<double>();
+        table.max_x_mm = t.at("max_x_mm").get<double>();
+        table.max_y_mm = t.at("max_y_mm").get<double>();
+        for (const auto& c : t.at("command_mm")) table.command_mm.push_back(point_from(c));
+        if (table.nodes < 2 ||
+            table.command_mm.size() != static_cast<std::size_t>(table.nodes * table.nodes) ||
+            !(table.max_x_mm > table.min_x_mm && table.max_y_mm > table.min_y_mm))
+            throw GalvoError(source +
+                             ": the table is not a square grid of commands over a rectangle");
+        return s;
+    } catch (const json::exception& e) {
+        throw GalvoError(source + ": " + e.what());
+    } catch (const std::out_of_range& e) {
+        throw GalvoError(source + ": filled_nodes names a node the grid does not have");
+    }
+}
+
+}  // namespace calbox::modes

@@ -1,0 +1,138 @@
+#include "core/targets/galvo_target.hpp"
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+
+namespace calbox::targets {
+namespace {
+
+using geometry::Point2;
+
+// The large circles, as offsets in columns and rows from the grid's middle node: an L of four
+// round the middle (its arms of unequal length, so that no quarter turn or mirror image maps it
+// onto itself) and four more spread over the field, chosen by search so that every rotation and
+// mirror image moves at least five of the eight onto small marks: a few missing or damaged marks
+// cannot make a wrong reading look right.
+constexpr std::array<std::array<int, 2>, 8> kLargeOffsets{
+    {{0, 0}, {1, 0}, {2, 0}, {0, 1}, {-9, 10}, {1, -9}, {-12, -4}, {5, 6}}};
+
+Contour circle(Point2 centre, double radius_mm) {
+    // Enough sides that the polygon lies within a micrometre of the circle.
+    const int sides = std::max(
+        24, static_cast<int>(std::ceil(3.14159265358979 / std::acos(1 - 0.001 / radius_mm))));
+    Contour c;
+    c.closed = true;
+    for (int k = 0; k < sides; ++k) {
+        const double a = 2 * 3.14159265358979323846 * k / sides;
+        c.points.push_back(
+            {centre.x + radius_mm * std::cos(a), centre.y + radius_mm * std::sin(a)});
+    }
+    return c;
+}
+
+std::string fmt(const char* format, double v) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, format, v);
+    return buffer;
+}
+
+}  // namespace
+
+bool is_large_mark(GridIndex index, int grid_count) {
+    const int middle = grid_count / 2;
+    // Far-out offsets scale with the grid so that smaller grids keep the same layout.
+    const double reach = (grid_count - 1) / 30.0;
+    for (const auto& o : kLargeOffsets) {
+        const bool near = std::abs(o[0]) <= 2 && std::abs(o[1]) <= 2;
+        const int c = middle + (near ? o[0] : static_cast<int>(std::lround(o[0] * reach)));
+        const int r = middle + (near ? o[1] : static_cast<int>(std::lround(o[1] * reach)));
+        if (index.column == c && index.row == r) return true;
+    }
+    return false;
+}
+
+GridIndex apply_symmetry(int symmetry, GridIndex i, int grid_count) {
+    const int n = grid_count - 1;
+    GridIndex q = i;
+    if (symmetry >= 4) q = {n - q.column, q.row};  // mirror across the middle column first
+    for (int k = 0; k < symmetry % 4; ++k) q = {n - q.row, q.column};  // a quarter turn
+    return q;
+}
+
+GalvoTarget make_galvo_target(const models::MachineFile& machine,
+                              const GalvoTargetOptions& options) {
+    if (!machine.is_galvo() || !machine.galvo)
+        throw JobError("the galvo target is for a galvo machine (kind = \"galvo\"), not a " +
+                       machine.kind);
+    if (options.grid_count < 7 || options.grid_count > 101)
+        throw JobError("the grid must have 7 to 101 circles a side, not " +
+                       std::to_string(options.grid_count));
+    GalvoTarget target;
+    target.grid_count = options.grid_count;
+    // The outer large circles' edges stay inside the field.
+    target.pitch_mm = machine.galvo->field_size_mm / options.grid_count;
+    const double small_radius = 0.2 * target.pitch_mm, large_radius = 0.4 * target.pitch_mm;
+    if (machine.tool_width_mm > small_radius)
+        throw JobError("the spot (tool_width_mm " + fmt("%g", machine.tool_width_mm) +
+                       " mm) is too large for circles of " + fmt("%.3f", small_radius) +
+                       " mm radius: use a smaller grid count");
+    FillSettings fill;
+    fill.line_width_mm = machine.tool_width_mm;
+    fill.spacing_mm = machine.tool_width_mm;
+    fill.angle_deg = 0;
+    const double middle = (options.grid_count - 1) / 2.0;
+    Point2 pen{0, 0};
+    PlacedJob& job = target.job;
+    job.line_width_mm = machine.tool_width_mm;
+    job.spacing_mm = machine.tool_width_mm;
+    job.feed_mm_s = machine.feed_mm_s;
+    std::string canonical =
+        models::fingerprint(machine) + "|galvo-grid|" + std::to_string(options.grid_count);
+    for (int row = 0; row < options.grid_count; ++row) {
+        for (int column = 0; column < options.grid_count; ++column) {
+            GalvoMark mark;
+            mark.index = {column, row};
+            mark.centre_mm = {(column - middle) * target.pitch_mm,
+                              (row - middle) * target.pitch_mm};
+            mark.large = is_large_mark(mark.index, options.grid_count);
+            target.marks.push_back(mark);
+        }
+    }
+    // Row by row, alternate rows backwards, so the beam never jumps across the field.
+    for (int row = 0; row < options.grid_count; ++row) {
+        for (int k = 0; k < options.grid_count; ++k) {
+            const int column = row % 2 == 0 ? k : options.grid_count - 1 - k;
+            const GalvoMark& mark = target.at({column, row});
+            append(job.toolpath,
+                   plan_fill({circle(mark.centre_mm, mark.large ? large_radius : small_radius)},
+                             FillRule::nonzero, fill, pen));
+            if (mark.large) canonical += "|L" + std::to_string(column) + "," + std::to_string(row);
+        }
+    }
+    const double half = machine.galvo->field_size_mm / 2;
+    job.min_x = job.min_y = -half;
+    job.max_x = job.max_y = half;
+    target.fingerprint = models::digest(canonical + "|" + fmt("%.6f", target.pitch_mm));
+    return target;
+}
+
+std::string write_scanner_job_csv(const PlacedJob& job, const models::MachineFile& machine) {
+    std::string out = "x_mm,y_mm,power\n";
+    char line[96];
+    Point2 at{1e300, 1e300};
+    for (const auto& move : job.toolpath.moves) {
+        const bool marking = move.kind != MoveKind::travel;
+        if (marking && (move.from.x != at.x || move.from.y != at.y)) {
+            std::snprintf(line, sizeof line, "%.4f,%.4f,0\n", move.from.x, move.from.y);
+            out += line;
+        }
+        std::snprintf(line, sizeof line, "%.4f,%.4f,%.3f\n", move.to.x, move.to.y,
+                      marking ? machine.laser_power : 0.0);
+        out += line;
+        at = move.to;
+    }
+    return out;
+}
+
+}  // namespace calbox::targets

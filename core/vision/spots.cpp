@@ -1,0 +1,215 @@
+#include "core/vision/spots.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "core/geometry/cv_convert.hpp"
+
+namespace calbox::vision {
+namespace {
+
+// Second central moments -> major / minor axis ratio.
+double elongation_of(double sxx, double syy, double sxy) {
+    const double mean = 0.5 * (sxx + syy);
+    const double spread = std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
+    const double minor = mean - spread, major = mean + spread;
+    return minor > 0 ? std::sqrt(major / minor) : 1e9;
+}
+
+struct Ring {
+    double median_dn = 0, noise_dn = 0;
+    bool inside_image = true;
+};
+
+// The substrate around a mark: the median and spread of the pixels in a ring just outside its
+// window (a median, so that a neighbouring mark's edge does not move it).
+Ring substrate_ring(const GrayView& image, geometry::Point2 c, double inner, double outer) {
+    Ring ring;
+    std::vector<int> values;
+    const int x0 = static_cast<int>(std::floor(c.x - outer)),
+              x1 = static_cast<int>(std::ceil(c.x + outer));
+    const int y0 = static_cast<int>(std::floor(c.y - outer)),
+              y1 = static_cast<int>(std::ceil(c.y + outer));
+    if (x0 < 0 || y0 < 0 || x1 >= image.width_px || y1 >= image.height_px) {
+        ring.inside_image = false;
+        return ring;
+    }
+    for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) {
+            const double d2 = (x - c.x) * (x - c.x) + (y - c.y) * (y - c.y);
+            if (d2 >= inner * inner && d2 <= outer * outer) values.push_back(image.at(x, y));
+        }
+    if (values.size() < 8) {
+        ring.inside_image = false;
+        return ring;
+    }
+    std::nth_element(values.begin(), values.begin() + static_cast<long>(values.size() / 2),
+                     values.end());
+    ring.median_dn = values[values.size() / 2];
+    // The spread from the median absolute deviation (robust to a neighbour's edge).
+    std::vector<int> deviations;
+    deviations.reserve(values.size());
+    for (int v : values) deviations.push_back(std::abs(v - static_cast<int>(ring.median_dn)));
+    std::nth_element(deviations.begin(),
+                     deviations.begin() + static_cast<long>(deviations.size() / 2),
+                     deviations.end());
+    // A grey level is quantised: at least the quantisation noise of one count.
+    ring.noise_dn = std::max(1.4826 * deviations[deviations.size() / 2], 1 / std::sqrt(12.0));
+    return ring;
+}
+
+double window_mean(const GrayView& image, geometry::Point2 c, double radius) {
+    double sum = 0;
+    int n = 0;
+    for (int y = static_cast<int>(std::ceil(c.y - radius)); y <= static_cast<int>(c.y + radius);
+         ++y)
+        for (int x = static_cast<int>(std::ceil(c.x - radius)); x <= static_cast<int>(c.x + radius);
+             ++x)
+            if ((x - c.x) * (x - c.x) + (y - c.y) * (y - c.y) <= radius * radius)
+                sum += image.at(x, y), ++n;
+    return n > 0 ? sum / n : 0;
+}
+
+struct WindowBox {
+    int cx = 0, cy = 0, reach = 0;  // integer centre and half size
+    std::int64_t radius2_q16 = 0;   // window radius squared, Q16 pixels^2 about (cx, cy)
+    double fx = 0, fy = 0;          // the window's true centre minus (cx, cy)
+};
+
+WindowBox box_of(const GrayView& image, const MomentWindow& w) {
+    WindowBox b;
+    b.cx = static_cast<int>(std::lround(w.centre_px.x));
+    b.cy = static_cast<int>(std::lround(w.centre_px.y));
+    b.reach = static_cast<int>(std::ceil(w.radius_px)) + 1;
+    b.fx = w.centre_px.x - b.cx;
+    b.fy = w.centre_px.y - b.cy;
+    if (b.cx - b.reach < 0 || b.cy - b.reach < 0 || b.cx + b.reach >= image.width_px ||
+        b.cy + b.reach >= image.height_px)
+        throw std::invalid_argument("the spot's window leaves the image");
+    return b;
+}
+
+}  // namespace
+
+Spot measure_spot_q16(const GrayView& image, const MomentWindow& w) {
+    image.check();
+    const WindowBox b = box_of(image, w);
+    const std::int64_t substrate_q8 = std::llround(w.substrate_dn * 256);
+    const std::int64_t span_q8 = substrate_q8 - std::llround(w.mark_dn * 256);
+    if (span_q8 == 0) throw std::invalid_argument("a spot needs contrast");
+    // Window membership tested on Q8 offsets from the window's own centre.
+    const std::int64_t fx_q8 = std::llround(b.fx * 256), fy_q8 = std::llround(b.fy * 256);
+    const std::int64_t r_q8 = std::llround(w.radius_px * 256);
+    const std::int64_t r2 = r_q8 * r_q8;
+    std::int64_t s0 = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    std::int64_t free_n = 0, free_x = 0, free_y = 0, free_xx = 0, free_yy = 0;
+    for (int dy = -b.reach; dy <= b.reach; ++dy) {
+        const std::int64_t ey = dy * 256 - fy_q8;
+        for (int dx = -b.reach; dx <= b.reach; ++dx) {
+            const std::int64_t ex = dx * 256 - fx_q8;
+            if (ex * ex + ey * ey > r2) continue;
+            const std::int64_t level_q8 = static_cast<std::int64_t>(image.at(b.cx + dx, b.cy + dy))
+                                          << 8;
+            std::int64_t weight = (substrate_q8 - level_q8) * 65536 / span_q8;  // Q16
+            if (weight > 0 && weight < 65536) {
+                // Only a weight between its clamps moves with the noise.
+                ++free_n;
+                free_x += dx, free_y += dy, free_xx += dx * dx, free_yy += dy * dy;
+            }
+            weight = std::clamp<std::int64_t>(weight, 0, 65536);
+            s0 += weight;
+            sx += weight * dx;
+            sy += weight * dy;
+            sxx += weight * dx * dx;
+            syy += weight * dy * dy;
+            sxy += weight * dx * dy;
+        }
+    }
+    if (s0 == 0) throw std::invalid_argument("no mark inside the spot's window");
+    Spot spot;
+    const double m0 = static_cast<double>(s0);
+    const double mx = static_cast<double>(sx) / m0, my = static_cast<double>(sy) / m0;
+    spot.centre_px = {b.cx + mx, b.cy + my};
+    spot.area_px = m0 / 65536.0;
+    spot.elongation = elongation_of(static_cast<double>(sxx) / m0 - mx * mx,
+                                    static_cast<double>(syy) / m0 - my * my,
+                                    static_cast<double>(sxy) / m0 - mx * my);
+    spot.contrast_dn = std::abs(w.substrate_dn - w.mark_dn);
+    // Each free weight has noise noise/span; its pull on the centroid is (x - mean) / area.
+    const double n = static_cast<double>(free_n);
+    const double spread2 =
+        0.5 * (static_cast<double>(free_xx) - 2 * mx * static_cast<double>(free_x) + n * mx * mx +
+               static_cast<double>(free_yy) - 2 * my * static_cast<double>(free_y) + n * my * my);
+    spot.sigma_px =
+        w.noise_dn / spot.contrast_dn * std::sqrt(std::max(0.0, spread2)) / spot.area_px;
+    return spot;
+}
+
+Spot measure_spot_reference(const GrayView& image, const MomentWindow& w) {
+    image.check();
+    const WindowBox b = box_of(image, w);
+    const double span = w.substrate_dn - w.mark_dn;
+    double s0 = 0, sx = 0, sy = 0;
+    for (int dy = -b.reach; dy <= b.reach; ++dy)
+        for (int dx = -b.reach; dx <= b.reach; ++dx) {
+            if ((dx - b.fx) * (dx - b.fx) + (dy - b.fy) * (dy - b.fy) > w.radius_px * w.radius_px)
+                continue;
+            const double weight =
+                std::clamp((w.substrate_dn - image.at(b.cx + dx, b.cy + dy)) / span, 0.0, 1.0);
+            s0 += weight, sx += weight * (b.cx + dx), sy += weight * (b.cy + dy);
+        }
+    Spot spot;
+    spot.centre_px = {sx / s0, sy / s0};
+    spot.area_px = s0;
+    spot.contrast_dn = std::abs(span);
+    return spot;
+}
+
+SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
+    view.check();
+    const cv::Mat raw = geometry::to_cv(view);
+    cv::Mat filtered;
+    cv::medianBlur(raw, filtered, settings.median_kernel_px);
+    // Otsu's level from a reduced copy: the histogram is the same, a tenth of the work.
+    cv::Mat small;
+    const double shrink = std::min(1.0, std::sqrt(1.5e6 / static_cast<double>(raw.total())));
+    cv::resize(filtered, small, cv::Size(), shrink, shrink, cv::INTER_AREA);
+    cv::Mat ignored;
+    SpotImage out;
+    out.threshold_dn = cv::threshold(small, ignored, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+    const double below = static_cast<double>(cv::countNonZero(small <= out.threshold_dn));
+    out.dark_marks = below < 0.5 * static_cast<double>(small.total());
+    cv::Mat marks = out.dark_marks ? (filtered <= out.threshold_dn) : (filtered > out.threshold_dn);
+    cv::Mat labels, stats, centroids;
+    const int count = cv::connectedComponentsWithStats(marks, labels, stats, centroids, 8, CV_32S);
+    const GrayView fview{filtered.data, filtered.cols, filtered.rows,
+                         static_cast<int>(filtered.step)};
+    for (int k = 1; k < count; ++k) {
+        const int area = stats.at<int>(k, cv::CC_STAT_AREA);
+        if (area < settings.min_area_px) continue;
+        const geometry::Point2 rough{centroids.at<double>(k, 0), centroids.at<double>(k, 1)};
+        const double radius = std::sqrt(area / 3.14159265358979) + settings.window_margin_px;
+        const Ring ring = substrate_ring(fview, rough, radius + 1, radius + 4);
+        Spot spot;
+        if (!ring.inside_image) {
+            spot.centre_px = rough;
+            spot.area_px = area;
+            spot.touches_border = true;
+            out.spots.push_back(spot);
+            continue;
+        }
+        MomentWindow window;
+        window.centre_px = rough;
+        window.radius_px = radius;
+        window.substrate_dn = ring.median_dn;
+        window.mark_dn = window_mean(fview, rough, 0.5 * (radius - settings.window_margin_px));
+        window.noise_dn = ring.noise_dn;
+        if (std::abs(window.substrate_dn - window.mark_dn) < 4) continue;  // no real contrast
+        out.spots.push_back(measure_spot_q16(fview, window));
+    }
+    return out;
+}
+
+}  // namespace calbox::vision

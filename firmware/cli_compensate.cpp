@@ -1,0 +1,77 @@
+// calbox compensate: a job sent through a solve's correction.
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "core/modes/galvo.hpp"
+#include "core/targets/compensate.hpp"
+#include "firmware/cli_args.hpp"
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kCompensateHelp = R"(usage:
+  calbox compensate --result result.json IN -o OUT [--segment MM]
+      Sends every XY position of a job through the correction a solve found, so that the
+      machine marks where the job meant: today a galvo result (calbox solve galvo), whose table
+      gives the scanner command for each intended point. IN is G-code (absolute XY in mm: G90,
+      G21; G0/G1 moves and G2/G3 arcs in the XY plane) or a plain scanner job (its first line
+      x_mm,y_mm,power). Moves are split into pieces of at most --segment mm (default 1: the
+      table's bilinear correction then bends less than 0.0001 mm between pieces on scanners
+      of the size tested) and arcs are traced by chords within 0.002 mm; every other word,
+      comment and line is kept as written. Points outside the table's area take the edge's
+      correction and are counted on standard error. Refused, nothing written: relative XY
+      (G91), inches (G20), G92 with X or Y, arcs off the XY plane, numbered lines.
+)";
+
+int compensate(const std::vector<std::string>& words) {
+    const Args args(words, {"--result", "-o", "--segment"}, {});
+    if (args.positional().size() != 1) throw UsageError("compensate takes one job file");
+    const std::string in = args.positional()[0];
+    const std::string out = args.require("-o");
+    const std::string result_path = args.require("--result");
+    targets::CompensateSettings settings;
+    settings.max_segment_mm = args.number("--segment", 1.0);
+    if (!(settings.max_segment_mm >= 0.01 && settings.max_segment_mm <= 100))
+        throw UsageError("--segment must be 0.01 to 100 mm");
+    const auto solution =
+        modes::galvo_result_from_json(read_input_file(result_path, "result"), result_path);
+    const auto& table = solution.fit.table;
+    const targets::Correction correct = [&](geometry::Point2 p) { return table.command_for(p); };
+    const targets::Covers covers = [&](geometry::Point2 p) { return table.covers(p); };
+    const std::string job = read_input_file(in, "job");
+    targets::CompensateReport report;
+    std::string compensated;
+    try {
+        compensated = job.rfind("x_mm,y_mm,power", 0) == 0
+                          ? targets::compensate_scanner_csv(job, correct, covers, settings, report)
+                          : targets::compensate_gcode(job, correct, covers, settings, report);
+    } catch (const targets::CompensateError& e) {
+        throw std::runtime_error(in + ": " + e.what());
+    }
+    write_output_file(out, compensated);
+    std::printf("%s: %ld lines, %ld moves corrected as %ld pieces, %ld arcs traced\n", out.c_str(),
+                report.lines, report.moves, report.pieces, report.arcs);
+    if (report.outside > 0)
+        std::cerr << "calbox: " << in << ": " << report.outside
+                  << " points lie outside the table's area and took its edge's correction\n";
+    return 0;
+}
+
+}  // namespace
+
+int run_compensate(const std::vector<std::string>& words) {
+    for (const auto& w : words)
+        if (w == "--help" || w == "-h") {
+            std::cout << kCompensateHelp;
+            return 0;
+        }
+    if (words.empty()) {
+        std::cerr << kCompensateHelp;
+        return 2;
+    }
+    return compensate(words);
+}
+
+}  // namespace calbox::cli

@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "board/sim/sim_board.hpp"
+#include "core/modes/galvo.hpp"
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
 #include "drivers/timerfd_clock.hpp"
@@ -32,21 +33,26 @@ constexpr const char* kRunHelp = R"(usage:
              [--frames N] [--camera-files DIR|GLOB]
              [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
              [--modbus-word-order ORDER]
-      The appliance: waits for the button, then runs the delta calibration cycle: the target
-      printed over the machine link, lit and photographed, measured, solved, shown for review
-      (short press applies, long press cancels), applied with a backup and a read-back, and
-      verified on a second print. The correction starts from the settings the printer reports
+      The appliance: waits for the button, then runs the calibration cycle of the scenario's
+      machine (a delta printer or a galvo scanner): the target made over the machine link, lit
+      and photographed, measured, solved, shown for review (short press applies, long press
+      cancels), applied, and verified by making the target again. A delta printer's settings
+      are sent with a backup and a read-back; a galvo scanner's correction is a table the box
+      keeps (DIR/galvo-table.json) and sends jobs through, the grid burned through it to verify. The correction starts from the settings the printer reports
       (M503; RepRapFirmware: M665, M666), not the scenario's. The first time (no camera.yaml / plane.yaml in DIR) it first
-      asks for views of a chessboard (chessboard:11x8@20 held in front of the camera) and for
-      a chessboard (9x6@20) on the bed. Every state change is one line on standard error.
+      asks for views of a chessboard held in front of the camera and for one on the bed (the
+      scenario's [setup]: chessboard:11x8@20 and 9x6@20 unless it says otherwise). Every state
+      change is one line on standard error.
       --board sim     the digital twin (the only board built today): --scenario FILE (default
-                      examples/delta_cycle.toml) is the printer, its hidden errors and the camera
+                      examples/delta_cycle.toml; examples/galvo_cycle.toml is a galvo scanner) is
+                      the machine, its hidden errors, the camera and the set-up boards
       --data DIR      set-up and cycle records (default $XDG_STATE_HOME/calbox, else
                       ~/.local/state/calbox)
       --auto          no person: the sim board's operator does what each prompt asks and
                       presses the button; one cycle, then exit. Prints the twin's judgement
-                      before and after, and exits 0 only if the delta goal is met (XY RMS <= 0.01
-                      mm, worst <= 0.03 mm over the printable area).
+                      before and after, and exits 0 only if the goal is met: a delta's XY RMS <=
+                      0.01 mm, worst <= 0.03 mm over the printable area; a galvo's marks through
+                      the table <= 0.008 mm mean, <= 0.03 mm worst.
       --config FILE   the box's configuration (TOML; README, Configuration): today its [modbus]
                       table, which the --modbus-* options override
       --operator      the sim board's operator does what the set-up and bed prompts ask, but
@@ -84,6 +90,9 @@ std::filesystem::path default_data_dir() {
     throw std::runtime_error(
         "no --data directory given and neither XDG_STATE_HOME nor HOME is set");
 }
+
+// Issue 17's goal for a galvo scanner after one table, on a fresh grid: the seed reached 0.018.
+constexpr double kGalvoGoalMeanMm = 0.008, kGalvoGoalMaxMm = 0.03;
 
 void log_line(const std::string& line) {
     std::fprintf(stderr, "calbox: %s\n", line.c_str());
@@ -273,12 +282,24 @@ int run(const std::vector<std::string>& words) {
         });
     }
 
+    const auto& machine = board.bench->scenario().machine;
     if (automatic) {
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
-        const auto before = board.bench->judge_delta_printer();
-        std::printf(
-            "before: XY rms %.4f mm, max %.4f mm (the twin's truth, over the printable area)\n",
-            before.xy_rms, before.xy_max);
+        if (machine.is_galvo()) {
+            const double half = machine.galvo->field_size_mm / 2 * 30 / 31;
+            const auto before = board.bench->judge_galvo_scanner([](sim::Vec2 p) { return p; },
+                                                                 {-half, -half, half, half});
+            std::printf(
+                "before: marks %.4f mm mean, %.4f mm worst (the twin's truth, a fresh 30 x "
+                "30 grid over the field less a pitch)\n",
+                before.mean_mm, before.max_mm);
+        } else {
+            const auto before = board.bench->judge_delta_printer();
+            std::printf(
+                "before: XY rms %.4f mm, max %.4f mm (the twin's truth, over the printable "
+                "area)\n",
+                before.xy_rms, before.xy_max);
+        }
         std::fflush(stdout);
         board.lines->press(std::chrono::milliseconds(100));
     } else if (!console) {
@@ -291,8 +312,6 @@ int run(const std::vector<std::string>& words) {
         return 1;
     }
     if (!automatic) return 0;
-    const auto after = board.bench->judge_delta_printer();
-    std::printf("after: XY rms %.4f mm, max %.4f mm\n", after.xy_rms, after.xy_max);
     const auto& report = cycle.report();
     std::printf("box: %.2f s of its own work (measure, solve%s), camera %.2f s, machine %.2f s\n",
                 report.box_seconds, report.number == 1 ? ", set-up" : "", report.camera_seconds,
@@ -301,6 +320,30 @@ int run(const std::vector<std::string>& words) {
         throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
                                                                        ? std::string("cancelled")
                                                                        : cycle.error()));
+    if (machine.is_galvo()) {
+        // The table the box keeps, judged on a fresh grid over its area.
+        const auto kept = box.parts.data.read_file(firmware::kGalvoTableFile);
+        if (!kept || *kept == firmware::kNoGalvoTable)
+            throw std::runtime_error("the cycle completed but the box keeps no table");
+        const auto table =
+            modes::galvo_result_from_json(*kept, firmware::kGalvoTableFile).fit.table;
+        const auto after = board.bench->judge_galvo_scanner(
+            [&table](sim::Vec2 p) {
+                const auto c = table.command_for({p.x, p.y});
+                return sim::Vec2{c.x, c.y};
+            },
+            {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm});
+        std::printf("after: marks through the table %.5f mm mean, %.5f mm worst\n", after.mean_mm,
+                    after.max_mm);
+        if (after.mean_mm > kGalvoGoalMeanMm || after.max_mm > kGalvoGoalMaxMm) {
+            throw std::runtime_error("the galvo goal is not met: " + std::to_string(after.mean_mm) +
+                                     " mm mean, " + std::to_string(after.max_mm) +
+                                     " mm worst (goal 0.008 and 0.03)");
+        }
+        return 0;
+    }
+    const auto after = board.bench->judge_delta_printer();
+    std::printf("after: XY rms %.4f mm, max %.4f mm\n", after.xy_rms, after.xy_max);
     if (after.xy_rms > firmware::kDeltaGoalXyRmsMm || after.xy_max > firmware::kDeltaGoalXyMaxMm) {
         throw std::runtime_error("the delta goal is not met: XY after " +
                                  std::to_string(after.xy_rms) + " mm RMS, " +

@@ -193,15 +193,9 @@ int sim_photo(const std::vector<std::string>& words) {
         const double growth = sim::bed_growth_at_photo(scenario);
         strokes = sim::carried_by_bed(std::move(strokes), growth);
         truth["bed_growth_at_photo"] = growth;
-        // A galvo's fine marks under a fine camera: the stroke index sized to the pixels (a
-        // bound on their footprint on the bed), not to a printer's 1 mm.
-        const double footprint_mm =
-            scenario.machine.is_galvo()
-                ? 3 * (camera.position_mm - camera.look_at_mm).norm() / camera.intrinsics.fx
-                : 1.0;
         const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
                                      scenario.material_albedo, scenario.photo.supersample,
-                                     footprint_mm);
+                                     sim::stroke_footprint_mm(scenario));
         image = sim::render_photo(camera.intrinsics, bed_to_camera, scene, scenario.photo);
         truth["strokes"] = stroke_truth;
     } else {

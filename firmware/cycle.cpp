@@ -7,7 +7,9 @@
 #include "core/geometry/calibration.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta_records.hpp"
+#include "core/targets/compensate.hpp"
 #include "core/targets/delta_target.hpp"
+#include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
 #include "firmware/screens.hpp"
 
@@ -111,7 +113,9 @@ Cycle::Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings se
       settings_(std::move(settings)),
       log_(std::move(log)),
       blink_(d_.clock.make_timer()) {
-    if (!machine_.is_delta()) throw std::invalid_argument("the cycle runs the delta mode only");
+    if (!machine_.is_delta() && !machine_.is_galvo())
+        throw std::invalid_argument("the cycle runs the delta and galvo modes, not a " +
+                                    machine_.kind);
     blink_->arm(std::chrono::milliseconds(500), std::chrono::milliseconds(500));
     set_leds();
     show("calbox", {"idle", prompt_text(Prompt::start)});
@@ -395,7 +399,7 @@ void Cycle::setup_plane() {
 }
 
 void Cycle::ask_clear_bed_then_target() {
-    enter(CycleState::make_target, "the delta target for " + machine_.firmware);
+    enter(CycleState::make_target, "the " + machine_.kind + " target for " + machine_.firmware);
     ask(Prompt::clear_bed, 0, [this] { make_target(); });
 }
 
@@ -403,27 +407,36 @@ void Cycle::make_target() {
     auto lines = std::make_shared<std::vector<std::string>>();
     work(
         [machine = machine_, lines] {
-            const auto target = targets::make_delta_target(machine);
-            std::istringstream text(targets::write_gcode(target.job, machine, "calbox target"));
+            const auto job = machine.is_galvo() ? targets::make_galvo_target(machine).job
+                                                : targets::make_delta_target(machine).job;
+            std::istringstream text(targets::write_gcode(job, machine, "calbox target"));
             std::string line;
             while (std::getline(text, line)) lines->push_back(line);
         },
         [this, lines] {
             target_job_ = *lines;
-            read_printer_settings([this] {
+            auto make = [this] {
                 enter(CycleState::wait_machine,
-                      "printing the target: " + std::to_string(target_job_.size()) + " lines");
+                      "making the target: " + std::to_string(target_job_.size()) + " lines");
                 run_job(target_job_, [this](const JobOutcome&) {
                     enter(CycleState::capture,
                           std::to_string(settings_.frames_per_capture) + " frame(s)");
                     measure_print(CycleState::measure, [this] {
-                        const auto errors = modes::placement_errors(measurements_->features);
-                        report_.measured_xy_rms_mm = errors.rms_mm;
-                        report_.measured_xy_max_mm = errors.largest_mm;
+                        if (measurements_) {
+                            const auto errors = modes::placement_errors(measurements_->features);
+                            report_.measured_xy_rms_mm = errors.rms_mm;
+                            report_.measured_xy_max_mm = errors.largest_mm;
+                        }
                         solve();
                     });
                 });
-            });
+            };
+            // A galvo has no geometry settings to read: its correction is the box's table.
+            if (machine_.is_galvo()) {
+                make();
+            } else {
+                read_printer_settings(std::move(make));
+            }
         });
 }
 
@@ -477,10 +490,11 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
         auto frames = std::make_shared<std::vector<hal::Frame>>(std::move(f));
         enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
         auto record = std::make_shared<modes::DeltaMeasurementsRecord>();
+        auto galvo = std::make_shared<modes::GalvoMeasurement>();
         const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
         const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
         work(
-            [machine = machine_, frames, record, camera_yaml, plane_yaml] {
+            [machine = machine_, frames, record, galvo, camera_yaml, plane_yaml] {
                 const auto camera = geometry::camera_from_yaml(camera_yaml);
                 const auto plane = geometry::plane_from_yaml(plane_yaml);
                 std::vector<vision::GrayView> views;
@@ -497,20 +511,34 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                     }
                     views.push_back(view_of(frame));
                 }
-                const auto measured = modes::measure_delta(machine, camera, plane, views);
                 std::vector<std::string> names;
                 for (std::size_t i = 0; i < frames->size(); ++i)
                     names.push_back("frame " + std::to_string(i + 1));
+                if (machine.is_galvo()) {
+                    // One photo of the whole grid: the first frame.
+                    *galvo = modes::measure_galvo(machine, camera, plane, views.front());
+                    galvo->photos = {names.front()};
+                    return;
+                }
+                const auto measured = modes::measure_delta(machine, camera, plane, views);
                 *record = modes::record_of(measured, machine, names);
             },
-            [this, record, then] {
-                measurements_ = *record;
+            [this, record, galvo, then] {
+                if (machine_.is_galvo()) {
+                    galvo_measured_ = *galvo;
+                } else {
+                    measurements_ = *record;
+                }
                 then();
             });
     });
 }
 
 void Cycle::solve() {
+    if (machine_.is_galvo()) {
+        solve_galvo();
+        return;
+    }
     d_.data.replace_file(record_name(report_.number, "measurements.json"),
                          modes::measurements_to_json(*measurements_));
     enter(CycleState::solve, std::to_string(measurements_->features.size()) + " corners");
@@ -526,6 +554,10 @@ void Cycle::solve() {
 }
 
 void Cycle::review() {
+    if (machine_.is_galvo()) {
+        review_galvo();
+        return;
+    }
     const auto& s = *report_.solution;
     const auto& before = s.fit.fitted.before;
     const auto& c = s.fit.correction;
@@ -545,6 +577,10 @@ void Cycle::review() {
 }
 
 void Cycle::apply() {
+    if (machine_.is_galvo()) {
+        apply_galvo();
+        return;
+    }
     const auto& s = *report_.solution;
     if (s.firmware == "klipper") {
         // Klipper's geometry lives in printer.cfg: shown and stored, never pretended applied.
@@ -600,6 +636,23 @@ std::string Cycle::revert() {
     const auto last = d_.data.read_file("last-cycle");
     if (!last) return "revert: no cycle has run here";
     const int number = std::atoi(last->c_str());
+    if (machine_.is_galvo()) {
+        // The scanner's correction is the box's table: the one in force before goes back.
+        const std::string table_name = record_name(number, "backup-table.json");
+        const auto table = d_.data.read_file(table_name);
+        if (!table)
+            return "revert: cycle " + std::to_string(number) + " applied nothing (no " +
+                   table_name + ")";
+        report_ = CycleReport{};
+        report_.number = number;
+        error_.clear();
+        enter(CycleState::apply,
+              "reverting to the table in force before cycle " + std::to_string(number));
+        d_.data.replace_file(kGalvoTableFile, *table);
+        enter(CycleState::idle, "reverted to " + table_name);
+        if (on_cycle_end) on_cycle_end(true);
+        return "";
+    }
     const std::string name = record_name(number, "backup.gcode");
     const auto backup = d_.data.read_file(name);
     if (!backup)
@@ -628,6 +681,10 @@ std::string Cycle::revert() {
 }
 
 void Cycle::verify() {
+    if (machine_.is_galvo()) {
+        verify_galvo();
+        return;
+    }
     enter(CycleState::verify, "printing the target again on the corrected machine");
     ask(Prompt::clear_bed, 0, [this] {
         run_job(target_job_, [this](const JobOutcome&) {
@@ -644,6 +701,94 @@ void Cycle::verify() {
                 finish_cycle();
             });
         });
+    });
+}
+
+void Cycle::solve_galvo() {
+    d_.data.replace_file(record_name(report_.number, "measurements.json"),
+                         modes::galvo_measurements_to_json(*galvo_measured_));
+    enter(CycleState::solve, std::to_string(galvo_measured_->nodes.size()) + " marks, " +
+                                 std::to_string(galvo_measured_->missing.size()) + " missing");
+    auto solution = std::make_shared<modes::GalvoSolution>();
+    work([machine = machine_, measured = *galvo_measured_,
+          solution] { *solution = modes::solve_galvo(machine, measured, std::nullopt); },
+         [this, solution] {
+             report_.galvo = *solution;
+             report_.measured_xy_rms_mm = solution->fit.before.rms_mm;
+             report_.measured_xy_max_mm = solution->fit.before.max_mm;
+             d_.data.replace_file(record_name(report_.number, "result.json"),
+                                  modes::galvo_result_to_json(*solution));
+             d_.data.replace_file(record_name(report_.number, "table.csv"),
+                                  models::table_to_csv(solution->fit.table));
+             review();
+         });
+}
+
+void Cycle::review_galvo() {
+    const auto& s = *report_.galvo;
+    const auto& t = s.fit.table;
+    enter(CycleState::review, "predicted after " + fixed(s.predicted_rms_mm, 4) + " mm RMS");
+    log_("cycle " + std::to_string(report_.number) + ": proposed: a " + std::to_string(t.nodes) +
+         " x " + std::to_string(t.nodes) + " table over X " + fixed(t.min_x_mm, 2) + ".." +
+         fixed(t.max_x_mm, 2) + " Y " + fixed(t.min_y_mm, 2) + ".." + fixed(t.max_y_mm, 2) +
+         " mm; error now " + fixed(s.fit.before.mean_mm, 4) + " mm mean, " +
+         fixed(s.fit.before.max_mm, 4) + " mm worst; predicted after " +
+         fixed(s.predicted_rms_mm, 4) + " mm RMS");
+    show("review", {"table " + std::to_string(t.nodes) + "x" + std::to_string(t.nodes),
+                    "now " + fixed(s.fit.before.mean_mm, 3) + " mm mean",
+                    "after " + fixed(s.predicted_rms_mm, 3) + " mm", prompt_text(Prompt::review)});
+    ask(Prompt::review, 0, [this] { apply(); });
+}
+
+// The box keeps the scanner's table (kGalvoTableFile) and sends jobs through it; the one in
+// force before is kept with the cycle's record, so that revert can put it back.
+void Cycle::apply_galvo() {
+    enter(CycleState::apply, "keeping the table: jobs now go through it");
+    const auto previous = d_.data.read_file(kGalvoTableFile);
+    d_.data.replace_file(record_name(report_.number, "backup-table.json"),
+                         previous.value_or(kNoGalvoTable));
+    d_.data.replace_file(kGalvoTableFile, modes::galvo_result_to_json(*report_.galvo));
+    report_.applied = true;
+    verify();
+}
+
+void Cycle::verify_galvo() {
+    enter(CycleState::verify, "burning the grid again through the table");
+    ask(Prompt::clear_bed, 0, [this] {
+        auto lines = std::make_shared<std::vector<std::string>>();
+        work(
+            [job = target_job_, table = report_.galvo->fit.table, lines] {
+                std::string text;
+                for (const auto& l : job) text += l + "\n";
+                targets::CompensateReport ignored;
+                std::istringstream compensated(targets::compensate_gcode(
+                    text, [&table](geometry::Point2 p) { return table.command_for(p); },
+                    [&table](geometry::Point2 p) { return table.covers(p); }, {}, ignored));
+                for (std::string line; std::getline(compensated, line);) lines->push_back(line);
+            },
+            [this, lines] {
+                run_job(*lines, [this](const JobOutcome&) {
+                    measure_print(CycleState::verify, [this] {
+                        auto again = std::make_shared<modes::GalvoSolution>();
+                        work([machine = machine_, measured = *galvo_measured_,
+                              through = report_.galvo,
+                              again] { *again = modes::solve_galvo(machine, measured, through); },
+                             [this, again] {
+                                 report_.verify_xy_rms_mm = again->fit.before.rms_mm;
+                                 report_.verify_xy_max_mm = again->fit.before.max_mm;
+                                 d_.data.replace_file(
+                                     record_name(report_.number, "verify-measurements.json"),
+                                     modes::galvo_measurements_to_json(*galvo_measured_));
+                                 log_("cycle " + std::to_string(report_.number) +
+                                      ": verified on the grid burned through the table: " +
+                                      fixed(again->fit.before.mean_mm, 4) + " mm mean, " +
+                                      fixed(again->fit.before.rms_mm, 4) + " mm RMS, " +
+                                      fixed(again->fit.before.max_mm, 4) + " mm worst");
+                                 finish_cycle();
+                             });
+                    });
+                });
+            });
     });
 }
 

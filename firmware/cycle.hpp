@@ -13,6 +13,7 @@
 
 #include "core/models/machine_file.hpp"
 #include "core/modes/delta.hpp"
+#include "core/modes/galvo.hpp"
 #include "firmware/button_press.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
@@ -52,6 +53,11 @@ enum class Prompt {
 };
 const char* prompt_text(Prompt prompt);
 
+// A galvo scanner's correction in force: the solve result whose table the box sends jobs
+// through (kNoGalvoTable: none).
+constexpr const char* kGalvoTableFile = "galvo-table.json";
+constexpr const char* kNoGalvoTable = "none\n";
+
 struct CycleSettings {
     int frames_per_capture = 1;                  // averaged by measure
     std::chrono::milliseconds long_press{1500};  // at least this long: cancel
@@ -75,10 +81,12 @@ struct CycleDevices {
 // What one cycle found and did, for the log, the display and the caller.
 struct CycleReport {
     int number = 0;
-    std::optional<modes::DeltaSolution> solution;
+    std::optional<modes::DeltaSolution> solution;  // a delta printer's correction
+    std::optional<modes::GalvoSolution> galvo;     // a galvo scanner's correction table
     bool applied = false;
     std::vector<std::string> backup;  // the settings before, as commands (M665, M666)
-    // The target measured before the correction (placement errors), and re-printed after it.
+    // The target measured before the correction (placement errors; a galvo's marks against its
+    // grid), and made again after it (a galvo's through the table).
     std::optional<double> measured_xy_rms_mm, measured_xy_max_mm;
     std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
     double box_seconds = 0;      // the box's own work: measuring, solving, set-up solves
@@ -157,6 +165,12 @@ class Cycle {
     void review();
     void apply();
     void verify();
+    // The galvo mode's solve, review, apply (the box keeps the table; jobs go through it) and
+    // verification (the grid burned through the table and measured again).
+    void solve_galvo();
+    void review_galvo();
+    void apply_galvo();
+    void verify_galvo();
     void finish_cycle();
 
     CycleDevices d_;
@@ -182,6 +196,7 @@ class Cycle {
     std::function<void(std::vector<hal::Frame>)> pending_capture_;
     std::vector<std::string> target_job_;
     std::optional<modes::DeltaMeasurementsRecord> measurements_;
+    std::optional<modes::GalvoMeasurement> galvo_measured_;
     std::vector<std::string> readback_;
     CycleReport report_;
     std::chrono::nanoseconds phase_started_{0};

@@ -31,8 +31,16 @@ struct SimAppliance {
           host(*board.machine, clock, link, log),
           camera(choose_camera ? choose_camera(board) : *board.camera),
           cycle({camera, *board.lines, host, *board.display, clock, data, worker},
-                board.bench->scenario().machine, std::move(settings), log) {
+                board.bench->scenario().machine,
+                with_setup_boards(std::move(settings), board.bench->scenario().setup), log) {
         watch_cycle(loop, cycle, host, camera, *board.lines);
+    }
+    // The boards the sim board's person holds are the ones the box asks for.
+    static CycleSettings with_setup_boards(CycleSettings settings,
+                                           const sim::ScenarioSetup& setup) {
+        settings.calibration_pattern = setup.calibration_pattern;
+        settings.plane_pattern = setup.plane_pattern;
+        return settings;
     }
     SimAppliance(const SimAppliance&) = delete;
     SimAppliance& operator=(const SimAppliance&) = delete;

@@ -16,8 +16,8 @@ using models::TomlReader;
 Scenario read_scenario(const std::string& path, const toml::table& root) {
     Scenario s;
     s.path = path;
-    s.machine =
-        models::read_machine_tables(path, root, {"truth", "twin", "camera", "photo", "faults"});
+    s.machine = models::read_machine_tables(
+        path, root, {"truth", "twin", "camera", "photo", "faults", "setup"});
     if (s.machine.delta) s.delta_firmware = twin_params(*s.machine.delta);
     s.delta_truth = s.delta_firmware;
     if (const auto* truth = models::subtable(path, root, "truth")) {
@@ -131,11 +131,35 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.boolean("settings_ignored", f.settings_ignored);
         r.finish();
     }
+    if (const auto* setup = models::subtable(path, root, "setup")) {
+        TomlReader r(path, *setup, "setup");
+        r.text("calibration_pattern", s.setup.calibration_pattern, {});
+        r.text("plane_pattern", s.setup.plane_pattern, {});
+        const auto at = r.numbers("plane_board_at_mm", 2, 2);
+        if (!at.empty()) s.setup.plane_board_at_mm = {at[0], at[1]};
+        r.finish();
+        const auto chessboard = [&r](const char* key, const std::string& spec) {
+            try {
+                if (geometry::parse_pattern_spec(spec).kind !=
+                    geometry::PatternSpec::Kind::chessboard)
+                    r.fail(key, "the sim board's person holds chessboards");
+            } catch (const geometry::PatternError& e) {
+                r.fail(key, e.what());
+            }
+        };
+        chessboard("calibration_pattern", s.setup.calibration_pattern);
+        chessboard("plane_pattern", s.setup.plane_pattern);
+    }
     bed_growth_at_photo(s);  // a photo temperature the bed cannot be judged at is refused now
     return s;
 }
 
 }  // namespace
+
+double stroke_footprint_mm(const Scenario& s) {
+    if (!s.machine.is_galvo() || !s.camera) return 1.0;
+    return 3 * (s.camera->position_mm - s.camera->look_at_mm).norm() / s.camera->intrinsics.fx;
+}
 
 double bed_growth_at_photo(const Scenario& s) {
     if (!s.photo_bed_temperature_c) return 1.0;

@@ -40,6 +40,14 @@ struct ScenarioFaults {
     bool settings_ignored = false;    // M665 / M666 answered ok but not applied
 };
 
+// [setup]: the boards the person at the box uses to set it up (a real box's configuration says
+// the same): one held in front of the camera for its calibration, one laid on the bed.
+struct ScenarioSetup {
+    std::string calibration_pattern = "chessboard:11x8@20";
+    std::string plane_pattern = "chessboard:9x6@20";
+    Vec2 plane_board_at_mm{-80, 50};  // its first inner corner, on the bed
+};
+
 struct Scenario {
     std::string path;
     models::MachineFile machine;      // the machine-file keys: [machine] and [delta]
@@ -55,7 +63,12 @@ struct Scenario {
     double bed_albedo = 0.08;                       // matte black PEI
     double material_albedo = 0.85;                  // white PETG
     ScenarioFaults faults;
+    ScenarioSetup setup;
 };
+
+// A bound on how far a camera pixel's footprint reaches on the bed, for the stroke index: a
+// printer's 1 mm, or for a galvo's fine marks a few pixels' worth at the camera's distance.
+double stroke_footprint_mm(const Scenario& s);
 
 // The same delta geometry in the twin's own struct and in the machine file's keys.
 DeltaParams twin_params(const models::DeltaSettings& d);

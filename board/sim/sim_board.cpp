@@ -20,8 +20,13 @@ namespace {
 // A person holding the calibration board in front of the camera: tilted up to 30 degrees,
 // turned, at distances where it fills about half to three quarters of the frame's width, the
 // whole board in view. Seeded, so every run asks for the same views.
-std::vector<Pose> calibration_poses(const CameraIntrinsics& camera, int count) {
-    const double board_w = 240, board_h = 180;  // 11x8 inner corners of 20 mm, with the margin
+std::vector<Pose> calibration_poses(const CameraIntrinsics& camera,
+                                    const geometry::PatternSpec& board, int count) {
+    // The inner corners span columns-1 by rows-1 squares from the origin; the board is a square
+    // wider on each side, its white margin reaches half a square beyond that.
+    const double square = board.square_mm, margin = 1.5 * square;
+    const double inner_w = (board.columns - 1) * square, inner_h = (board.rows - 1) * square;
+    const double board_w = inner_w + 2 * square, board_h = inner_h + 2 * square;
     std::mt19937 rng(5);
     std::uniform_real_distribution<double> tilt(-30, 30), shift(-1, 1), fill(0.5, 0.75),
         spin(-20, 20);
@@ -30,7 +35,7 @@ std::vector<Pose> calibration_poses(const CameraIntrinsics& camera, int count) {
         Pose pose;
         pose.rotation =
             rotation_from_vector(Vec3{radians(tilt(rng)), radians(tilt(rng)), radians(spin(rng))});
-        const Vec3 centre = pose.rotation * Vec3{100, 70, 0};
+        const Vec3 centre = pose.rotation * Vec3{inner_w / 2, inner_h / 2, 0};
         const double z = camera.fx * board_w / (fill(rng) * camera.width_px);
         const double free_x = 0.5 * camera.width_px / camera.fx * z - board_w / 2;
         const double free_y = 0.5 * camera.height_px / camera.fy * z - board_h / 2;
@@ -39,7 +44,8 @@ std::vector<Pose> calibration_poses(const CameraIntrinsics& camera, int count) {
             centre;
         bool inside = true;
         for (const auto& corner :
-             {Vec3{-30, -30, 0}, Vec3{230, -30, 0}, Vec3{-30, 170, 0}, Vec3{230, 170, 0}}) {
+             {Vec3{-margin, -margin, 0}, Vec3{inner_w + margin, -margin, 0},
+              Vec3{-margin, inner_h + margin, 0}, Vec3{inner_w + margin, inner_h + margin, 0}}) {
             const Vec2 px = project_point(camera, pose, corner);
             inside = inside && px.x > 5 && px.y > 5 && px.x < camera.width_px - 5 &&
                      px.y < camera.height_px - 5;
@@ -145,7 +151,8 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
     }
     const Pose bed_to_camera = look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
     const StrokeScene scene(carried_by_bed(std::move(strokes), bed_growth_at_photo(scenario_)),
-                            scenario_.bed_albedo, scenario_.material_albedo, photo.supersample);
+                            scenario_.bed_albedo, scenario_.material_albedo, photo.supersample,
+                            stroke_footprint_mm(scenario_));
     return render_photo(camera.intrinsics, bed_to_camera, scene, photo);
 }
 
@@ -155,15 +162,20 @@ void TwinBench::hold_calibration_board(int view) {
     const std::lock_guard lock(mutex_);
     // The same views every time: worked out once, on the first one asked for.
     if (calibration_poses_.empty())
-        calibration_poses_ = calibration_poses(scenario_.camera->intrinsics, kCalibrationViews);
-    board_ = Board{kCalibrationBoard, calibration_poses_[static_cast<std::size_t>(view)]};
+        calibration_poses_ = calibration_poses(
+            scenario_.camera->intrinsics,
+            geometry::parse_pattern_spec(scenario_.setup.calibration_pattern), kCalibrationViews);
+    board_ = Board{scenario_.setup.calibration_pattern,
+                   calibration_poses_[static_cast<std::size_t>(view)]};
 }
 
 void TwinBench::lay_plane_board_on_bed() {
     const auto& camera = *scenario_.camera;
     const Pose bed_to_camera = look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
     const std::lock_guard lock(mutex_);
-    board_ = Board{kPlaneBoard, compose(bed_to_camera, board_lying_on_bed({-80, 50, 0}, 0))};
+    const Vec2 at = scenario_.setup.plane_board_at_mm;
+    board_ = Board{scenario_.setup.plane_pattern,
+                   compose(bed_to_camera, board_lying_on_bed({at.x, at.y, 0}, 0))};
 }
 
 void TwinBench::take_board_away() {
@@ -175,6 +187,18 @@ void TwinBench::clear_bed() {
     const std::lock_guard lock(mutex_);
     strokes_cleared_ = runner_->result().strokes.size();
     earlier_runs_.clear();
+}
+
+GalvoJudgement TwinBench::judge_galvo_scanner(const std::function<Vec2(Vec2)>& command_for,
+                                              const std::array<double, 4>& area_mm) const {
+    if (!scenario_.machine.is_galvo()) throw ScenarioError("the judge judges galvo scanners here");
+    std::vector<Vec2> fresh;
+    const int count = 30;
+    for (int r = 0; r < count; ++r)
+        for (int c = 0; c < count; ++c)
+            fresh.push_back({area_mm[0] + (area_mm[2] - area_mm[0]) * (c + 0.5) / count,
+                             area_mm[1] + (area_mm[3] - area_mm[1]) * (r + 0.5) / count});
+    return judge_galvo(scenario_.galvo_truth, fresh, command_for);
 }
 
 DeltaJudgement TwinBench::judge_delta_printer() const {
@@ -389,8 +413,11 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
     SimBoard board;
     board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
                                               settings.data_dir / kTwinSettingsFile);
-    if (!board.bench->scenario().machine.is_delta())
-        throw ScenarioError(settings.scenario_path + ": the sim board runs delta printers today");
+    const auto& kind = board.bench->scenario().machine.kind;
+    if (kind != "delta" && kind != "galvo")
+        throw ScenarioError(settings.scenario_path +
+                            ": the sim board runs delta printers and galvo scanners, not a " +
+                            kind);
     board.printer = std::make_unique<TwinPrinterLink>(board.bench);
     board.camera = std::make_unique<TwinCamera>(board.bench);
     board.lines = std::make_unique<SimLines>(clock, std::move(log));

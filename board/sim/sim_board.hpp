@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "board/sim/delta_judge.hpp"
+#include "board/sim/galvo_twin.hpp"
 #include "board/sim/scenario.hpp"
 #include "drivers/background_job.hpp"
 #include "drivers/notifier.hpp"
@@ -47,9 +48,8 @@ class TwinBench {
     GrayImage photograph(std::uint64_t frame) const;
 
     // The operator's hands.
+    // The boards are the scenario's [setup] ones.
     static constexpr int kCalibrationViews = 12;
-    static constexpr const char* kCalibrationBoard = "chessboard:11x8@20";
-    static constexpr const char* kPlaneBoard = "chessboard:9x6@20";
     void hold_calibration_board(int view);  // 0 .. kCalibrationViews-1, in front of the camera
     void lay_plane_board_on_bed();          // face up on the bed, clear of the printable area
     void take_board_away();
@@ -58,6 +58,10 @@ class TwinBench {
     // The judge, in the twin's truth (never called by the box's side): the delta printer as its
     // firmware is set now, over the printable area.
     DeltaJudgement judge_delta_printer() const;
+    // A galvo scanner: a fresh 30 x 30 grid of marks over `area_mm` (min x, min y, max x, max y)
+    // commanded through `command_for` (the identity before a correction).
+    GalvoJudgement judge_galvo_scanner(const std::function<Vec2(Vec2)>& command_for,
+                                       const std::array<double, 4>& area_mm) const;
 
   private:
     void store_settings() const;

@@ -16,6 +16,7 @@
 #include <optional>
 #include <sstream>
 
+#include "core/modes/galvo.hpp"
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
 #include "firmware/cycle.hpp"
@@ -636,4 +637,70 @@ TEST(ApplianceFiles, a_source_without_photos_and_photos_running_out_are_errors) 
     });
     STRCMP_CONTAINS(((one / "a.png").string() + ": cannot read: Permission denied").c_str(),
                     denied.c_str());
+}
+
+// A galvo scanner under the box (issue 17): the grid burned over the link, measured, the table
+// kept by the box, the grid burned through it to verify, and revert putting the previous (no)
+// table back. Half-size camera; the set-up from photos as on a real box.
+TEST_GROUP(ApplianceGalvo){void setup() override{mock().ignoreOtherCalls();
+}
+void teardown() override {
+    mock().clear();
+}
+}
+;
+
+TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted) {
+    const fs::path dir = fresh_dir("galvo");
+    Rig rig(dir, (fs::path(CALBOX_SOURCE_DIR) / "tests/scenarios/galvo_small.toml").string(), {});
+    const auto identity = [](sim::Vec2 p) { return p; };
+    const double half = 55.0 * 30 / 31;
+    const auto before = rig.board.bench->judge_galvo_scanner(identity, {-half, -half, half, half});
+    rig.run_cycle();
+    CHECK_EQUAL(1, rig.cycle.cycles_completed());
+    const auto& report = rig.cycle.report();
+    CHECK(report.galvo.has_value());
+    CHECK(report.applied);
+    CHECK(!report.solution.has_value());
+    // The box's own figures: the grid as burned, and through the table.
+    CHECK(*report.measured_xy_rms_mm > 0.05);
+    CHECK_TEXT(*report.verify_xy_rms_mm <= 0.004, std::to_string(*report.verify_xy_rms_mm).c_str());
+    CHECK(*report.verify_xy_max_mm <= 0.015);
+    // The twin judges the table the box keeps, on a fresh grid.
+    const auto kept = rig.data.read_file(firmware::kGalvoTableFile);
+    CHECK(kept.has_value());
+    const auto table = modes::galvo_result_from_json(*kept, "kept").fit.table;
+    const auto after = rig.board.bench->judge_galvo_scanner(
+        [&table](sim::Vec2 p) {
+            const auto c = table.command_for({p.x, p.y});
+            return sim::Vec2{c.x, c.y};
+        },
+        {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm});
+    UT_PRINT(("galvo on the box: before " + std::to_string(before.mean_mm) + " mm mean, after " +
+              std::to_string(after.mean_mm) + " mean " + std::to_string(after.max_mm) +
+              " worst; the box verified " + std::to_string(*report.verify_xy_rms_mm) + " RMS")
+                 .c_str());
+    CHECK(before.mean_mm > 0.05);
+    CHECK(after.mean_mm <= 0.008);
+    CHECK(after.max_mm <= 0.03);
+    // Two jobs went: the grid, then the grid through the table: the same lines but the moves.
+    const auto sent = rig.transcript();
+    const auto count = [&sent](const std::string& word) {
+        return std::count_if(sent.begin(), sent.end(), [&word](const std::string& l) {
+            return l.find(word) != std::string::npos;
+        });
+    };
+    CHECK_EQUAL(2, count(" M110 N0*"));
+    CHECK(count(" M3 S") > 1900);   // every mark's beam switched on, twice
+    CHECK_EQUAL(0, count("M665"));  // a galvo's geometry is not a printer's settings
+    CHECK(rig.data.read_file("cycle-0001-table.csv").has_value());
+    CHECK_EQUAL(std::string(firmware::kNoGalvoTable),
+                *rig.data.read_file("cycle-0001-backup-table.json"));
+    // Revert puts back what was in force before: no table.
+    const std::size_t sent_before_revert = sent.size();
+    CHECK_EQUAL(std::string(), rig.cycle.revert());
+    rig.run_until([&rig] { return rig.cycle.state() == firmware::CycleState::idle; });
+    CHECK_EQUAL(std::string(firmware::kNoGalvoTable),
+                *rig.data.read_file(firmware::kGalvoTableFile));
+    CHECK_EQUAL(sent_before_revert, rig.transcript().size());
 }

@@ -23,8 +23,9 @@ r2 = json.load(open('$work/result2.json'))
 b, a1, a2 = v1['before'], v1['after'], v2['after']
 print('before %.4f mean %.4f worst; after pass 1 %.5f mean %.5f worst; after pass 2 %.5f mean %.5f worst' % (
       b['mean_mm'], b['max_mm'], a1['mean_mm'], a1['max_mm'], a2['mean_mm'], a2['max_mm']))
-ok = b['mean_mm'] > 0.05 and a1['mean_mm'] <= 0.008 and a1['max_mm'] <= 0.03
-ok = ok and a2['mean_mm'] <= 0.008 and a2['max_mm'] <= 0.03 and r2['pass'] == 2
+# The issue's goal is 0.008 mean and 0.03 worst; the README claims 0.004 and 0.01 here.
+ok = b['mean_mm'] > 0.05 and a1['mean_mm'] <= 0.004 and a1['max_mm'] <= 0.01
+ok = ok and a2['mean_mm'] <= 0.004 and a2['max_mm'] <= 0.01 and r2['pass'] == 2
 # The second pass measures the grid already corrected: what it sees is under the goal too.
 ok = ok and r2['before']['mean_mm'] <= 0.008
 sys.exit(0 if ok else 'galvo verdict out of bounds')"

@@ -680,9 +680,10 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
               std::to_string(after.mean_mm) + " mean " + std::to_string(after.max_mm) +
               " worst; the box verified " + std::to_string(*report.verify_xy_rms_mm) + " RMS")
                  .c_str());
+    // The goal is 0.008 mean and 0.03 worst; the README claims 0.002 and 0.008.
     CHECK(before.mean_mm > 0.05);
-    CHECK(after.mean_mm <= 0.008);
-    CHECK(after.max_mm <= 0.03);
+    CHECK(after.mean_mm <= 0.002);
+    CHECK(after.max_mm <= 0.008);
     // Two jobs went: the grid, then the grid through the table: the same lines but the moves.
     const auto sent = rig.transcript();
     const auto count = [&sent](const std::string& word) {

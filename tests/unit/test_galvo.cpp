@@ -113,10 +113,12 @@ void run_scanners(unsigned first) {
     for (unsigned seed = first; seed < first + 5; ++seed) {
         const auto f = run_scanner(box, seed, seed % 3 != 0);
         CHECK_EQUAL(961u, f.measured.nodes.size());
-        CHECK_TEXT(f.after.mean_mm <= 0.008,
+        // The goal is 0.008 mean and 0.03 worst; the README claims 0.001 and 0.004.
+        CHECK_TEXT(f.after.mean_mm <= 0.001,
                    ("mean after " + std::to_string(f.after.mean_mm)).c_str());
-        CHECK_TEXT(f.after.max_mm <= 0.03,
+        CHECK_TEXT(f.after.max_mm <= 0.004,
                    ("worst after " + std::to_string(f.after.max_mm)).c_str());
+        CHECK(f.before.mean_mm >= 0.05);
         worst_mean = std::max(worst_mean, f.after.mean_mm);
         worst_max = std::max(worst_max, f.after.max_mm);
         before_sum += f.before.mean_mm;

@@ -13,6 +13,8 @@ namespace calbox::firmware {
 namespace {
 
 constexpr double kAbsent = std::numeric_limits<double>::quiet_NaN();
+// A 65 x 65 galvo table over Modbus: its node count and rectangle, then two floats a node.
+constexpr int kTableRegisters = 2 * (5 + 2 * 65 * 65);
 
 void append_float(std::vector<std::uint16_t>& words, double value, models::WordOrder order) {
     const auto w = models::pack_float(static_cast<float>(value), order);
@@ -169,9 +171,19 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
         const std::string name(key.str());
         std::string at = source;
         at.append(":").append(std::to_string(node.source().begin.line)).append(": ");
-        if (known.count(name) == 0)
+        if (known.count(name) == 0 && name != "galvo_table")
             throw std::runtime_error(at + "'" + name + "' is not a result value");
         const auto address = node.value<std::int64_t>();
+        if (name == "galvo_table") {
+            if (!node.is_integer() || !address || *address < 0 ||
+                *address > 65535 - kTableRegisters)
+                throw std::runtime_error(at + "galvo_table: a holding register 0 to " +
+                                         std::to_string(65535 - kTableRegisters) +
+                                         " (the table takes " + std::to_string(kTableRegisters) +
+                                         " registers)");
+            map.galvo_table_register = static_cast<int>(*address);
+            continue;
+        }
         if (!node.is_integer() || !address || *address < 0 || *address > 65534) {
             throw std::runtime_error(at + name + ": a holding register 0 to 65534");
         }
@@ -185,6 +197,12 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
         map.registers.emplace_back(name, static_cast<int>(*address));
     }
     if (map.registers.empty()) throw std::runtime_error(source + ": maps no result value");
+    for (const auto& [name, address] : map.registers)
+        if (address + 1 >= map.galvo_table_register &&
+            address < map.galvo_table_register + kTableRegisters)
+            throw std::runtime_error(source + ": " + name +
+                                     " overlaps the galvo table at register " +
+                                     std::to_string(map.galvo_table_register));
     return map;
 }
 
@@ -201,6 +219,28 @@ void ResultWriter::write(const CycleReport& report) {
         words.emplace_back(address, w[0]);
         words.emplace_back(address + 1, w[1]);
     }
+    if (report.galvo && report.applied) {
+        // The table the box keeps, for a controller that reads it from its registers.
+        const auto& t = report.galvo->fit.table;
+        std::vector<float> floats{static_cast<float>(t.nodes), static_cast<float>(t.min_x_mm),
+                                  static_cast<float>(t.min_y_mm), static_cast<float>(t.max_x_mm),
+                                  static_cast<float>(t.max_y_mm)};
+        for (const auto& c : t.command_mm) {
+            floats.push_back(static_cast<float>(c.x));
+            floats.push_back(static_cast<float>(c.y));
+        }
+        int address = map_.galvo_table_register;
+        for (const float f : floats) {
+            const auto w = models::pack_float(f, order_);
+            words.emplace_back(address++, w[0]);
+            words.emplace_back(address++, w[1]);
+        }
+    }
+    queue_words(std::move(words));
+    if (!in_flight_) next();
+}
+
+void ResultWriter::queue_words(std::vector<std::pair<int, std::uint16_t>> words) {
     std::sort(words.begin(), words.end());
     // Contiguous registers go in one request (at most 123, the protocol's limit).
     for (const auto& [address, word] : words) {
@@ -211,7 +251,6 @@ void ResultWriter::write(const CycleReport& report) {
         }
         queue_.back().second.push_back(word);
     }
-    if (!in_flight_) next();
 }
 
 void ResultWriter::next() {

@@ -73,6 +73,10 @@ class PlcServer {
 // (two registers) per mapped name; the default map is the whole block from register 0.
 struct ResultRegisterMap {
     std::vector<std::pair<std::string, int>> registers;  // value name -> first holding register
+    // A galvo scanner's correction table, after the result (README, "The table over Modbus"):
+    // from this holding register, the node count and the rectangle (5 floats), then each node's
+    // command x and y, row by row. The TOML key `galvo_table` moves it.
+    int galvo_table_register = 1000;
     static ResultRegisterMap whole_block(int first_register);
     // A TOML file of `name = register` lines; unknown names, duplicate or overlapping
     // registers are errors naming the line. Throws std::runtime_error.
@@ -91,6 +95,8 @@ class ResultWriter {
 
   private:
     void next();
+    // Queues (address, word) pairs as requests of contiguous registers (at most 123 each).
+    void queue_words(std::vector<std::pair<int, std::uint16_t>> words);
     hal::RegisterLink& link_;
     ResultRegisterMap map_;
     models::WordOrder order_;

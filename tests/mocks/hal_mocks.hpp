@@ -93,7 +93,9 @@ class MockRegisterLink final : public hal::RegisterLink {
             .withIntParameter("first", first)
             .withIntParameter("count", count);
     }
+    std::vector<std::pair<int, std::vector<std::uint16_t>>> written;  // every write's words
     void start_write_registers(int first, std::vector<std::uint16_t> values) override {
+        written.emplace_back(first, values);
         mock("registers")
             .actualCall("start_write_registers")
             .withIntParameter("first", first)

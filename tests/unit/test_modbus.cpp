@@ -1,4 +1,5 @@
 #include <CppUTest/TestHarness.h>
+#include <CppUTestExt/MockSupport.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
@@ -8,6 +9,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <map>
 #include <string>
 #include <thread>
 #include <vector>
@@ -16,6 +18,7 @@
 #include "drivers/modbus_link.hpp"
 #include "firmware/box_config.hpp"
 #include "firmware/plc_link.hpp"
+#include "tests/mocks/hal_mocks.hpp"
 #include "tests/support/device_errors.hpp"
 
 using namespace calbox;
@@ -93,6 +96,60 @@ TEST(ResultRegisterMap, reads_a_map_and_refuses_unknown_names_and_overlaps) {
     CHECK_EQUAL(18U, whole.registers.size());
     CHECK_EQUAL(10 + 2 * 17, whole.registers.back().second);
     CHECK_EQUAL(4 + 36, firmware::input_register_count());
+}
+
+TEST_GROUP(GalvoTableRegisters){void teardown() override{mock().clear();
+}
+}
+;
+
+TEST(GalvoTableRegisters, the_kept_table_follows_the_result_block_in_stated_registers) {
+    mock().ignoreOtherCalls();
+    firmware::CycleReport report;
+    report.applied = true;
+    report.galvo.emplace();
+    auto& t = report.galvo->fit.table;
+    t.nodes = 3;
+    t.min_x_mm = -50.5, t.min_y_mm = -49.25, t.max_x_mm = 50.125, t.max_y_mm = 51;
+    for (int i = 0; i < 9; ++i) t.command_mm.push_back({-50 + 12.5 * i, 0.001 * i - 3});
+    mocks::MockRegisterLink registers_link;
+    auto map = firmware::ResultRegisterMap::from_toml(
+        "measured_xy_rms_mm = 0\ngalvo_table = 2000\n", "map.toml");
+    firmware::ResultWriter writer(registers_link, map, models::WordOrder::cdab, [](const std::string&) {});
+    writer.write(report);
+    while (!writer.idle()) {
+        registers_link.results.push_back({});
+        writer.on_completion();
+    }
+    std::map<int, std::uint16_t> registers;
+    for (const auto& [first, words] : registers_link.written) {
+        CHECK(words.size() <= 123u);
+        for (std::size_t i = 0; i < words.size(); ++i)
+            registers[first + static_cast<int>(i)] = words[i];
+    }
+    const auto value = [&](int address) {
+        return models::unpack_float({registers.at(address), registers.at(address + 1)},
+                                    models::WordOrder::cdab);
+    };
+    CHECK_EQUAL(2u + 2u * (5u + 18u), registers.size());
+    DOUBLES_EQUAL(3, value(2000), 0);
+    DOUBLES_EQUAL(-50.5, value(2002), 0);
+    DOUBLES_EQUAL(-49.25, value(2004), 0);
+    DOUBLES_EQUAL(50.125, value(2006), 0);
+    DOUBLES_EQUAL(51, value(2008), 0);
+    for (int i = 0; i < 9; ++i) {
+        DOUBLES_EQUAL(-50 + 12.5 * i, value(2010 + 4 * i), 1e-5);
+        DOUBLES_EQUAL(0.001 * i - 3, value(2012 + 4 * i), 1e-6);
+    }
+    STRCMP_CONTAINS("overlaps the galvo table", test::construction_error([] {
+                                                    firmware::ResultRegisterMap::from_toml(
+                                                        "radius_mm = 1500\n", "map.toml");
+                                                }).c_str());
+    STRCMP_CONTAINS("galvo_table: a holding register",
+                    test::construction_error([] {
+                        firmware::ResultRegisterMap::from_toml(
+                            "radius_mm = 1\ngalvo_table = 60000\n", "map.toml");
+                    }).c_str());
 }
 
 namespace {

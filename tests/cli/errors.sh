@@ -132,5 +132,28 @@ printf '[modbus]\nsever = "tcp:h:1"\n' > "$work/typo.toml"
 expect_error "typo.toml: \[modbus\] sever: unknown key" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --config "$work/typo.toml"
 expect_error "cannot open the serial device: No such file" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-server rtu:/dev/ttyNOPE9:19200
 
+# The galvo mode: a photo that is not the grid, measurements and results of another machine,
+# jobs compensate cannot carry through faithfully.
+galvo="$top/examples/galvo_scanner.toml"
+expect_error "the galvo target is for a galvo machine" target galvo --machine "$top/examples/delta.toml" -o "$work/result"
+expect_error "the grid must have 7 to 101 circles a side, not 5" target galvo --machine "$galvo" --grid 5 -o "$work/result"
+expect_error "\[galvo\] field_size_mm: must be between" target galvo --machine <(sed 's/field_size_mm = 110.0/field_size_mm = 1.0/' "$galvo") -o "$work/result"
+expect_error "\[galvo\] on a delta machine" target delta --machine <(cat "$top/examples/delta.toml"; printf '[galvo]\nfield_size_mm = 50.0\n') -o "$work/result"
+"$calbox" sim camera --scenario "$top/tests/scenarios/galvo_small.toml" -o "$work/galvo_camera.yaml"
+"$calbox" sim photo --scenario "$top/tests/scenarios/galvo_small.toml" --board chessboard:15x11@8 --on-bed -56,40,0 -o "$work/galvo_board.png"
+"$calbox" camera plane --camera "$work/galvo_camera.yaml" --pattern chessboard:15x11@8 "$work/galvo_board.png" -o "$work/galvo_plane.yaml" > /dev/null
+expect_error "marks of the 31 x 31 grid's size in the photo .*not this target" measure galvo --camera "$work/galvo_camera.yaml" \
+    --plane "$work/galvo_plane.yaml" --machine "$galvo" "$work/galvo_board.png" -o "$work/result"
+expect_error "the photo is .*, the camera was calibrated at 2748x1836" measure galvo --camera "$work/galvo_camera.yaml" \
+    --plane "$work/galvo_plane.yaml" --machine "$galvo" "$work/cycle_board.png" -o "$work/result"
+expect_error "not a galvo measurements file" solve galvo --machine "$galvo" --measurements "$work/wrong.json" -o "$work/result"
+printf '{"schema": "calbox.galvo-measurements/1", "machine_fingerprint": "fnv1a64:0", "target_fingerprint": "x", "photos": [], "grid_count": 31, "pitch_mm": 3.5, "symmetry": 0, "dark_marks": true, "nodes": [], "missing": [], "extra_mm": []}' > "$work/other_galvo.json"
+expect_error "made for another machine file" solve galvo --machine "$galvo" --measurements "$work/other_galvo.json" -o "$work/result"
+expect_error "not a galvo result file" compensate --result "$work/wrong.json" "$work/ok.gcode" -o "$work/result"
+printf '{"schema": "calbox.galvo-result/1", "machine_fingerprint": "x", "pass": 1, "before": {"mean_mm": 0, "rms_mm": 0, "max_mm": 0, "points": 0}, "measurement_sigma_mm": 0, "predicted_rms_mm": 0, "table_interpolation_max_mm": 0, "table_interpolation_rms_mm": 0, "intended_mm": [], "landed_mm": [], "filled_nodes": [], "table": {"nodes": 2, "min_x_mm": -1, "min_y_mm": -1, "max_x_mm": 1, "max_y_mm": 1, "command_mm": [[-1,-1],[1,-1],[-1,1],[1,1]]}}' > "$work/identity_result.json"
+printf 'G91\nG1 X1 Y1\n' > "$work/relative.gcode"
+expect_error "relative.gcode: line 2: relative XY moves \(G91\)" compensate --result "$work/identity_result.json" "$work/relative.gcode" -o "$work/result"
+expect_error "--segment must be 0.01 to 100 mm" compensate --result "$work/identity_result.json" "$work/ok.gcode" --segment 0 -o "$work/result"
+
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

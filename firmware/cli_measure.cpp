@@ -40,18 +40,26 @@ constexpr const char* kMeasureHelp = R"(usage:
       on the photo the marks used (green), the extra blobs (orange) and each mark's index.
 )";
 
+// What every measure command reads first: the camera, the bed plane and the machine.
+struct SetUp {
+    geometry::CameraModel camera;
+    geometry::BedPlane plane;
+    models::MachineFile machine;
+};
+SetUp read_set_up(const Args& args) {
+    const std::string machine_path = args.require("--machine");
+    return {
+        geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file")),
+        geometry::plane_from_yaml(read_input_file(args.require("--plane"), "plane file")),
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path)};
+}
+
 int delta(const std::vector<std::string>& words) {
     const Args args(
         words, {"--camera", "--plane", "--machine", "-o", "--overlay", "--bed-temperature"}, {});
     const std::string out = args.require("-o");
     if (args.positional().empty()) throw UsageError("measure delta needs at least one photo");
-    const auto camera =
-        geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file"));
-    const auto plane =
-        geometry::plane_from_yaml(read_input_file(args.require("--plane"), "plane file"));
-    const std::string machine_path = args.require("--machine");
-    const auto machine =
-        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    const auto [camera, plane, machine] = read_set_up(args);
     std::vector<cv::Mat> images;
     std::vector<vision::GrayView> views;
     images.reserve(args.positional().size());
@@ -146,13 +154,7 @@ int galvo(const std::vector<std::string>& words) {
     const Args args(words, {"--camera", "--plane", "--machine", "-o", "--grid", "--overlay"}, {});
     const std::string out = args.require("-o");
     if (args.positional().size() != 1) throw UsageError("measure galvo takes one photo");
-    const auto camera =
-        geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file"));
-    const auto plane =
-        geometry::plane_from_yaml(read_input_file(args.require("--plane"), "plane file"));
-    const std::string machine_path = args.require("--machine");
-    const auto machine =
-        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    const auto [camera, plane, machine] = read_set_up(args);
     modes::GalvoMeasureSettings settings;
     const double grid = args.number("--grid", 31);
     if (grid != std::floor(grid)) throw UsageError("--grid must be a whole number");

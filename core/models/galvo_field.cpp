@@ -6,6 +6,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/number_text.hpp"
+
 namespace calbox::models {
 namespace {
 
@@ -51,12 +53,6 @@ Rigid best_rigid(const std::vector<Point2>& from, const std::vector<Point2>& to)
     const double angle = std::atan2(cross, dot);
     r.c = std::cos(angle), r.s = std::sin(angle);
     return r;
-}
-
-std::string fmt(const char* format, double v) {
-    char buffer[64];
-    std::snprintf(buffer, sizeof buffer, format, v);
-    return buffer;
 }
 
 }  // namespace
@@ -243,8 +239,8 @@ FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional
             u = u - miss;
             if (std::hypot(miss.x, miss.y) < 1e-10) return u;
         }
-        throw FieldError("the field map cannot be inverted near X" + fmt("%.2f", q.x) + " Y" +
-                         fmt("%.2f", q.y) + ": the measured grid folds there");
+        throw FieldError("the field map cannot be inverted near X" + number_text("%.2f", q.x) +
+                         " Y" + number_text("%.2f", q.y) + ": the measured grid folds there");
     };
     t.command_mm.clear();
     for (int r = 0; r < t.nodes; ++r)

@@ -1,8 +1,9 @@
 #include "core/modes/delta_records.hpp"
 
 #include <cmath>
-#include <nlohmann/json.hpp>
 #include <sstream>
+
+#include "core/modes/json_file.hpp"
 
 namespace calbox::modes {
 namespace {
@@ -36,21 +37,6 @@ models::DeltaGeometry geometry_from(const json& j) {
     g.endstop_offset_mm = j.at("endstop_offset_mm").get<std::array<double, 3>>();
     g.height_mm = j.at("height_mm").get<double>();
     return g;
-}
-
-json parse_object(std::string_view text, const std::string& source, const char* schema,
-                  const char* what) {
-    json j;
-    try {
-        j = json::parse(text);
-    } catch (const json::exception& e) {
-        throw RecordError(source + ": malformed " + what + ": " + e.what());
-    }
-    if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
-        j["schema"].get<std::string>() != schema) {
-        throw RecordError(source + ": not a " + what + " file (schema " + schema + ")");
-    }
-    return j;
 }
 
 }  // namespace
@@ -88,7 +74,7 @@ std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
 }
 
 DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std::string& source) {
-    const json j = parse_object(text, source, kMeasurementsSchema, "measurements");
+    const json j = parse_record(text, source, kMeasurementsSchema, "measurements");
     DeltaMeasurementsRecord r;
     try {
         r.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
@@ -174,7 +160,7 @@ std::string result_to_json(const DeltaSolution& s) {
 }
 
 DeltaSolution result_from_json(std::string_view text, const std::string& source) {
-    const json j = parse_object(text, source, kResultSchema, "delta result");
+    const json j = parse_record(text, source, kResultSchema, "delta result");
     DeltaSolution s;
     try {
         s.method = parse_method(j.at("method").get<std::string>());

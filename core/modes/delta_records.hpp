@@ -8,13 +8,9 @@
 #include <vector>
 
 #include "core/modes/delta.hpp"
+#include "core/modes/record_error.hpp"
 
 namespace calbox::modes {
-
-class RecordError : public std::runtime_error {
-  public:
-    using std::runtime_error::runtime_error;
-};
 
 std::string measurements_to_json(const DeltaMeasurementsRecord& record);
 // `source` names the text in messages; throws RecordError with one line.

@@ -5,19 +5,15 @@
 #include <cstdio>
 #include <deque>
 #include <map>
-#include <nlohmann/json.hpp>
+
+#include "core/modes/json_file.hpp"
+#include "core/number_text.hpp"
 
 namespace calbox::modes {
 namespace {
 
 using geometry::Point2;
 using targets::GridIndex;
-
-std::string fmt(const char* format, double v) {
-    char buffer[64];
-    std::snprintf(buffer, sizeof buffer, format, v);
-    return buffer;
-}
 
 // A mark seen in the photo, on the bed.
 struct Candidate {
@@ -88,7 +84,7 @@ std::map<std::pair<int, int>, LatticeNode> grow_lattice(std::vector<Candidate>& 
     const long first = near.nearest(origin, 1.4 * pitch);
     if (first < 0)
         throw GalvoError("measure: no mark lies a pitch from another: not a grid of " +
-                         fmt("%.3f", pitch) + " mm pitch");
+                         number_text("%.3f", pitch) + " mm pitch");
     Point2 e1{candidates[static_cast<std::size_t>(first)].bed_mm.x - origin.x,
               candidates[static_cast<std::size_t>(first)].bed_mm.y - origin.y};
     if (std::hypot(e1.x, e1.y) < 0.7 * pitch)
@@ -305,15 +301,16 @@ GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasure
                          cmd = t.command_mm[static_cast<std::size_t>(r * t.nodes + c)];
             const double correction = std::hypot(cmd.x - q.x, cmd.y - q.y);
             if (correction > limit)
-                throw GalvoError("solve: the correction at X" + fmt("%.2f", q.x) + " Y" +
-                                 fmt("%.2f", q.y) + " is " + fmt("%.3f", correction) +
-                                 " mm, beyond the " + fmt("%.2f", limit) +
+                throw GalvoError("solve: the correction at X" + number_text("%.2f", q.x) + " Y" +
+                                 number_text("%.2f", q.y) + " is " +
+                                 number_text("%.3f", correction) + " mm, beyond the " +
+                                 number_text("%.2f", limit) +
                                  " mm a scanner plausibly needs (check field_size_mm and the "
                                  "photo); nothing written");
             const double half = machine.galvo->field_size_mm / 2;
             if (std::abs(cmd.x) > half || std::abs(cmd.y) > half)
-                throw GalvoError("solve: the table would command X" + fmt("%.3f", cmd.x) + " Y" +
-                                 fmt("%.3f", cmd.y) +
+                throw GalvoError("solve: the table would command X" + number_text("%.3f", cmd.x) +
+                                 " Y" + number_text("%.3f", cmd.y) +
                                  ", outside the scanner's field; nothing written");
         }
     return s;
@@ -346,20 +343,6 @@ models::ErrorStatistics statistics_from(const json& j) {
             j.at("max_mm").get<double>(), j.at("points").get<std::size_t>()};
 }
 
-json parse(const std::string& text, const std::string& source, const char* schema,
-           const char* what) {
-    json j;
-    try {
-        j = json::parse(text);
-    } catch (const json::exception& e) {
-        throw GalvoError(source + ": malformed " + what + ": " + e.what());
-    }
-    if (!j.is_object() || !j.contains("schema") || !j["schema"].is_string() ||
-        j["schema"].get<std::string>() != schema)
-        throw GalvoError(source + ": not a " + what + " file (schema " + schema + ")");
-    return j;
-}
-
 }  // namespace
 
 std::string galvo_measurements_to_json(const GalvoMeasurement& m) {
@@ -388,7 +371,7 @@ std::string galvo_measurements_to_json(const GalvoMeasurement& m) {
 }
 
 GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std::string& source) {
-    const json j = parse(text, source, kMeasurementsSchema, "galvo measurements");
+    const json j = parse_record(text, source, kMeasurementsSchema, "galvo measurements");
     try {
         GalvoMeasurement m;
         m.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
@@ -399,15 +382,15 @@ GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std
         m.symmetry = j.at("symmetry").get<int>();
         m.dark_marks = j.at("dark_marks").get<bool>();
         if (m.grid_count < 7 || m.grid_count > 101 || !(m.pitch_mm > 0))
-            throw GalvoError(source + ": grid_count must be 7 to 101 and pitch_mm positive");
+            throw RecordError(source + ": grid_count must be 7 to 101 and pitch_mm positive");
         for (const auto& node : j.at("nodes")) {
             GalvoNodeMeasurement g;
             g.index = {node.at("column").get<int>(), node.at("row").get<int>()};
             if (g.index.column < 0 || g.index.row < 0 || g.index.column >= m.grid_count ||
                 g.index.row >= m.grid_count)
-                throw GalvoError(source + ": a node lies outside the " +
-                                 std::to_string(m.grid_count) + " x " +
-                                 std::to_string(m.grid_count) + " grid");
+                throw RecordError(source + ": a node lies outside the " +
+                                  std::to_string(m.grid_count) + " x " +
+                                  std::to_string(m.grid_count) + " grid");
             g.large = node.at("large").get<bool>();
             g.intended_mm = point_from(node.at("intended_mm"));
             g.measured_mm = point_from(node.at("measured_mm"));
@@ -419,7 +402,7 @@ GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std
         for (const auto& p : j.at("extra_mm")) m.extra_mm.push_back(point_from(p));
         return m;
     } catch (const json::exception& e) {
-        throw GalvoError(source + ": " + e.what());
+        throw RecordError(source + ": " + e.what());
     }
 }
 
@@ -455,7 +438,7 @@ std::string galvo_result_to_json(const GalvoSolution& s) {
 }
 
 GalvoSolution galvo_result_from_json(const std::string& text, const std::string& source) {
-    const json j = parse(text, source, kResultSchema, "galvo result");
+    const json j = parse_record(text, source, kResultSchema, "galvo result");
     try {
         GalvoSolution s;
         s.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
@@ -480,13 +463,13 @@ GalvoSolution galvo_result_from_json(const std::string& text, const std::string&
         if (table.nodes < 2 ||
             table.command_mm.size() != static_cast<std::size_t>(table.nodes * table.nodes) ||
             !(table.max_x_mm > table.min_x_mm && table.max_y_mm > table.min_y_mm))
-            throw GalvoError(source +
-                             ": the table is not a square grid of commands over a rectangle");
+            throw RecordError(source +
+                              ": the table is not a square grid of commands over a rectangle");
         return s;
     } catch (const json::exception& e) {
-        throw GalvoError(source + ": " + e.what());
+        throw RecordError(source + ": " + e.what());
     } catch (const std::out_of_range& e) {
-        throw GalvoError(source + ": filled_nodes names a node the grid does not have");
+        throw RecordError(source + ": filled_nodes names a node the grid does not have");
     }
 }
 

@@ -10,6 +10,7 @@
 #include "core/geometry/calibration.hpp"
 #include "core/models/galvo_field.hpp"
 #include "core/models/machine_file.hpp"
+#include "core/modes/record_error.hpp"
 #include "core/targets/galvo_target.hpp"
 #include "core/vision/spots.hpp"
 
@@ -88,6 +89,7 @@ GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasure
                           const GalvoSolveOptions& options = {});
 
 // The mode's files (text in, text out): `calbox.galvo-measurements/1`, `calbox.galvo-result/1`.
+// Reading throws RecordError naming `source`.
 std::string galvo_measurements_to_json(const GalvoMeasurement& measured);
 GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std::string& source);
 std::string galvo_result_to_json(const GalvoSolution& solution);

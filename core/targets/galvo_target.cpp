@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/number_text.hpp"
+
 namespace calbox::targets {
 namespace {
 
@@ -29,12 +31,6 @@ Contour circle(Point2 centre, double radius_mm) {
             {centre.x + radius_mm * std::cos(a), centre.y + radius_mm * std::sin(a)});
     }
     return c;
-}
-
-std::string fmt(const char* format, double v) {
-    char buffer[64];
-    std::snprintf(buffer, sizeof buffer, format, v);
-    return buffer;
 }
 
 }  // namespace
@@ -74,8 +70,8 @@ GalvoTarget make_galvo_target(const models::MachineFile& machine,
     target.pitch_mm = machine.galvo->field_size_mm / options.grid_count;
     const double small_radius = 0.2 * target.pitch_mm, large_radius = 0.4 * target.pitch_mm;
     if (machine.tool_width_mm > small_radius)
-        throw JobError("the spot (tool_width_mm " + fmt("%g", machine.tool_width_mm) +
-                       " mm) is too large for circles of " + fmt("%.3f", small_radius) +
+        throw JobError("the spot (tool_width_mm " + number_text("%g", machine.tool_width_mm) +
+                       " mm) is too large for circles of " + number_text("%.3f", small_radius) +
                        " mm radius: use a smaller grid count");
     FillSettings fill;
     fill.line_width_mm = machine.tool_width_mm;
@@ -113,7 +109,7 @@ GalvoTarget make_galvo_target(const models::MachineFile& machine,
     const double half = machine.galvo->field_size_mm / 2;
     job.min_x = job.min_y = -half;
     job.max_x = job.max_y = half;
-    target.fingerprint = models::digest(canonical + "|" + fmt("%.6f", target.pitch_mm));
+    target.fingerprint = models::digest(canonical + "|" + number_text("%.6f", target.pitch_mm));
     return target;
 }
 

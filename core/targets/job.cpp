@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <limits>
 
+#include "core/number_text.hpp"
+
 namespace calbox::targets {
 namespace {
 
@@ -13,14 +15,8 @@ double line_width_of(const models::MachineFile& m) {
     return m.is_printer() ? m.line_width_mm : m.tool_width_mm;
 }
 
-std::string fmt(const char* format, double v) {
-    char buffer[64];
-    std::snprintf(buffer, sizeof buffer, format, v);
-    return buffer;
-}
-
 std::string xy(Point2 p) {
-    return " X" + fmt("%.4f", p.x) + " Y" + fmt("%.4f", p.y);
+    return " X" + number_text("%.4f", p.x) + " Y" + number_text("%.4f", p.y);
 }
 
 }  // namespace
@@ -30,10 +26,12 @@ double checked_spacing_mm(const models::MachineFile& machine, std::optional<doub
     const double lo = machine.is_printer() ? w : 0.01, hi = machine.is_printer() ? 10 * w : 10.0;
     const double s = spacing_mm.value_or(w);
     if (!(s >= lo - 1e-12 && s <= hi + 1e-12)) {
-        throw JobError(
-            "spacing " + fmt("%g", s) + " mm is outside the valid range " + fmt("%g", lo) + " to " +
-            fmt("%g", hi) + " mm for this " + machine.kind +
-            (machine.is_printer() ? " (at least its line width, " + fmt("%g", w) + " mm)" : ""));
+        throw JobError("spacing " + number_text("%g", s) + " mm is outside the valid range " +
+                       number_text("%g", lo) + " to " + number_text("%g", hi) + " mm for this " +
+                       machine.kind +
+                       (machine.is_printer()
+                            ? " (at least its line width, " + number_text("%g", w) + " mm)"
+                            : ""));
     }
     return s;
 }
@@ -93,9 +91,9 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
                                                  job.max_x <= machine.bed_size_x_mm &&
                                                  job.max_y <= machine.bed_size_y_mm;
     if (!fits) {
-        throw JobError("the drawing, " + fmt("%.1f", job.max_x - job.min_x) + " x " +
-                       fmt("%.1f", job.max_y - job.min_y) + " mm at scale " + fmt("%g", job.scale) +
-                       ", does not fit on the bed");
+        throw JobError("the drawing, " + number_text("%.1f", job.max_x - job.min_x) + " x " +
+                       number_text("%.1f", job.max_y - job.min_y) + " mm at scale " +
+                       number_text("%g", job.scale) + ", does not fit on the bed");
     }
     FillSettings fill;
     fill.line_width_mm = job.line_width_mm;
@@ -119,8 +117,8 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
         }
     }
     if (job.toolpath.working_length_mm() <= 0)
-        throw JobError("the drawing is too small to fill with a " + fmt("%g", job.line_width_mm) +
-                       " mm line");
+        throw JobError("the drawing is too small to fill with a " +
+                       number_text("%g", job.line_width_mm) + " mm line");
     return job;
 }
 
@@ -131,8 +129,9 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
     const double feed = job.feed_mm_s * 60, travel = m.travel_feed_mm_s * 60;
     line("; " + title);
     line("; calbox job for a " + m.kind + " (" + m.firmware + "): line " +
-         fmt("%g", job.line_width_mm) + " mm, spacing " + fmt("%g", job.spacing_mm) + " mm, " +
-         fmt("%.1f", job.toolpath.working_length_mm()) + " mm of path");
+         number_text("%g", job.line_width_mm) + " mm, spacing " +
+         number_text("%g", job.spacing_mm) + " mm, " +
+         number_text("%.1f", job.toolpath.working_length_mm()) + " mm of path");
     line("G21");
     line("G90");
     if (m.is_printer()) {
@@ -141,8 +140,9 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
             out += *m.start_gcode;
             if (!out.empty() && out.back() != '\n') out += "\n";
         } else {
-            if (m.bed_temperature_c) line("M190 S" + fmt("%.0f", *m.bed_temperature_c));
-            if (m.nozzle_temperature_c) line("M109 S" + fmt("%.0f", *m.nozzle_temperature_c));
+            if (m.bed_temperature_c) line("M190 S" + number_text("%.0f", *m.bed_temperature_c));
+            if (m.nozzle_temperature_c)
+                line("M109 S" + number_text("%.0f", *m.nozzle_temperature_c));
             line("G28");
         }
         line("G92 E0");
@@ -150,30 +150,32 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
             job.line_width_mm * m.layer_height_mm /
             (3.14159265358979323846 * m.filament_diameter_mm * m.filament_diameter_mm / 4);
         double e = 0;
-        line("G0 Z" + fmt("%.3f", m.safe_height_mm) + " F" + fmt("%.0f", travel));
+        line("G0 Z" + number_text("%.3f", m.safe_height_mm) + " F" + number_text("%.0f", travel));
         for (int layer = 1; layer <= job.layers; ++layer) {
             const double z = layer * m.layer_height_mm, hop = z + 0.4;
-            if (layer > 1) line("G0 Z" + fmt("%.3f", hop));
+            if (layer > 1) line("G0 Z" + number_text("%.3f", hop));
             bool lifted = true;
             for (const auto& move : job.toolpath.moves) {
                 if (move.kind == MoveKind::travel) {
                     // Lift over the print for anything longer than a hop to the next line.
                     if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
-                        line("G0 Z" + fmt("%.3f", hop));
+                        line("G0 Z" + number_text("%.3f", hop));
                         lifted = true;
                     }
-                    line("G0" + xy(move.to) + " F" + fmt("%.0f", travel));
+                    line("G0" + xy(move.to) + " F" + number_text("%.0f", travel));
                     continue;
                 }
                 if (lifted) {
-                    line("G0 Z" + fmt("%.3f", z));
+                    line("G0 Z" + number_text("%.3f", z));
                     lifted = false;
                 }
                 e += move.length_mm() * e_per_mm;
-                line("G1" + xy(move.to) + " E" + fmt("%.5f", e) + " F" + fmt("%.0f", feed));
+                line("G1" + xy(move.to) + " E" + number_text("%.5f", e) + " F" +
+                     number_text("%.0f", feed));
             }
         }
-        line("G0 Z" + fmt("%.3f", m.safe_height_mm + 10) + " F" + fmt("%.0f", travel));
+        line("G0 Z" + number_text("%.3f", m.safe_height_mm + 10) + " F" +
+             number_text("%.0f", travel));
         if (m.end_gcode) {
             out += *m.end_gcode;
             if (!out.empty() && out.back() != '\n') out += "\n";
@@ -188,25 +190,26 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
     const double power_scale = m.firmware == "grbl" ? 1000 : 255;
     line("M5");
     if (router) {
-        line("G0 Z" + fmt("%.3f", m.safe_height_mm) + " F" + fmt("%.0f", travel));
-        line("M3 S" + fmt("%.0f", m.spindle_rpm));
+        line("G0 Z" + number_text("%.3f", m.safe_height_mm) + " F" + number_text("%.0f", travel));
+        line("M3 S" + number_text("%.0f", m.spindle_rpm));
     }
     bool working = false;
     for (const auto& move : job.toolpath.moves) {
         if (move.kind == MoveKind::travel) {
-            if (working) line(router ? "G0 Z" + fmt("%.3f", m.safe_height_mm) : "M5");
+            if (working) line(router ? "G0 Z" + number_text("%.3f", m.safe_height_mm) : "M5");
             working = false;
-            line("G0" + xy(move.to) + " F" + fmt("%.0f", travel));
+            line("G0" + xy(move.to) + " F" + number_text("%.0f", travel));
             continue;
         }
         if (!working) {
-            line(router ? "G1 Z" + fmt("%.3f", -m.cut_depth_mm) + " F" + fmt("%.0f", feed / 4)
-                        : "M3 S" + fmt("%.0f", m.laser_power * power_scale));
+            line(router ? "G1 Z" + number_text("%.3f", -m.cut_depth_mm) + " F" +
+                              number_text("%.0f", feed / 4)
+                        : "M3 S" + number_text("%.0f", m.laser_power * power_scale));
             working = true;
         }
-        line("G1" + xy(move.to) + " F" + fmt("%.0f", feed));
+        line("G1" + xy(move.to) + " F" + number_text("%.0f", feed));
     }
-    if (router) line("G0 Z" + fmt("%.3f", m.safe_height_mm));
+    if (router) line("G0 Z" + number_text("%.3f", m.safe_height_mm));
     line("M5");
     return out;
 }

@@ -1,7 +1,6 @@
 // On-demand benchmark: time and peak memory to measure one 4056x3040 photo of the printed delta
 // target and to solve. Not a test: it reports numbers.
 //   cmake --build build/release --target bench_delta && ./build/release/tests/bench/bench_delta
-#include <sys/resource.h>
 
 #include <chrono>
 #include <cstdio>
@@ -13,20 +12,12 @@
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenes.hpp"
 #include "core/modes/delta.hpp"
+#include "tests/bench/bench_support.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
-
-namespace {
-long peak_rss_mb() {
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    return usage.ru_maxrss / 1024;
-}
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-}  // namespace
+using bench::peak_rss_mb;
+using bench::seconds_since;
 
 int main() {
     auto machine = models::parse_machine_file(

@@ -3,7 +3,6 @@
 // it reports numbers. The twin renders the photo and the plane board in a child process, so that
 // the peak memory reported is the box's work alone (loading the photo, measuring, solving).
 //   cmake --build build/release --target bench_galvo && ./build/release/tests/bench/bench_galvo
-#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -15,19 +14,14 @@
 #include <sstream>
 
 #include "core/modes/galvo.hpp"
+#include "tests/bench/bench_support.hpp"
 #include "tests/support/galvo_fixtures.hpp"
 
 using namespace calbox;
+using bench::peak_rss_mb;
+using bench::seconds_since;
 
 namespace {
-long peak_rss_mb() {
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    return usage.ru_maxrss / 1024;
-}
-double seconds_since(std::chrono::steady_clock::time_point start) {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
 std::string read(const std::filesystem::path& p) {
     std::ifstream in(p);
     std::stringstream s;

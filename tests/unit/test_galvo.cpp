@@ -41,6 +41,21 @@ sim::Vec2 through(const models::CorrectionTable& t, sim::Vec2 p) {
     return {c.x, c.y};
 }
 
+// Where the twin's marks truly land for a 31 x 31 grid burned through `table` (no camera).
+const models::SquareGrid kGrid{31, 110.0 / 31};
+std::vector<std::optional<geometry::Point2>> exact_landings(
+    const sim::GalvoTruth& truth,
+    const models::CorrectionTable& table = models::identity_table(55)) {
+    std::vector<std::optional<geometry::Point2>> landed;
+    for (int r = 0; r < kGrid.count; ++r)
+        for (int c = 0; c < kGrid.count; ++c) {
+            const auto p = kGrid.node_mm(c, r);
+            const auto m = sim::galvo_mark_position_mm(truth, through(table, {p.x, p.y}));
+            landed.push_back(geometry::Point2{m.x, m.y});
+        }
+    return landed;
+}
+
 struct Figures {
     sim::GalvoJudgement before, after;
     modes::GalvoMeasurement measured;
@@ -208,16 +223,9 @@ TEST(GalvoField, table_from_exact_landing_positions_corrects_to_the_micrometre) 
     // No camera: the field map from where the twin's marks truly land. What is left is the
     // interpolation and the table's resolution.
     const auto truth = sim::random_galvo_truth(3);
-    const models::SquareGrid grid{31, 110.0 / 31};
-    std::vector<std::optional<geometry::Point2>> landed;
-    for (int r = 0; r < 31; ++r)
-        for (int c = 0; c < 31; ++c) {
-            const auto p = grid.node_mm(c, r);
-            const auto m = sim::galvo_mark_position_mm(truth, {p.x, p.y});
-            landed.push_back(geometry::Point2{m.x, m.y});
-        }
+    auto landed = exact_landings(truth);
     landed[5 * 31 + 7].reset();  // a misfire: filled from its neighbours
-    const auto fit = models::fit_galvo_field(grid, landed, models::identity_table(55));
+    const auto fit = models::fit_galvo_field(kGrid, landed, models::identity_table(55));
     CHECK(fit.filled[5 * 31 + 7]);
     CHECK(fit.before.mean_mm > 0.1);
     const auto fresh = verification_grid(fit.table, 40);
@@ -232,25 +240,13 @@ TEST(GalvoField, table_from_exact_landing_positions_corrects_to_the_micrometre) 
 }
 
 TEST(GalvoField, a_second_pass_through_the_first_table_refines_it) {
-    // The first table from landings measured with a scale error of 0.1 % (a camera a little off)
-    // leaves that error; burning through it and measuring again (the same camera) cannot remove
-    // what the camera gets wrong, but the refinement must stay consistent: the second table
-    // agrees with the first where the first was right.
+    // The grid burned through the first table lands within a hundredth; the table refined from
+    // it still corrects to the micrometre.
     const auto truth = sim::random_galvo_truth(5);
-    const models::SquareGrid grid{31, 110.0 / 31};
-    const auto landed_through = [&](const models::CorrectionTable& table) {
-        std::vector<std::optional<geometry::Point2>> landed;
-        for (int r = 0; r < 31; ++r)
-            for (int c = 0; c < 31; ++c) {
-                const auto p = grid.node_mm(c, r);
-                const auto m = sim::galvo_mark_position_mm(truth, through(table, {p.x, p.y}));
-                landed.push_back(geometry::Point2{m.x, m.y});
-            }
-        return landed;
-    };
-    const auto first = models::fit_galvo_field(grid, landed_through(models::identity_table(55)),
-                                               models::identity_table(55));
-    const auto second = models::fit_galvo_field(grid, landed_through(first.table), first.table);
+    const auto first =
+        models::fit_galvo_field(kGrid, exact_landings(truth), models::identity_table(55));
+    const auto second =
+        models::fit_galvo_field(kGrid, exact_landings(truth, first.table), first.table);
     CHECK(second.before.max_mm < 0.01);  // the first table already corrected the grid
     const auto fresh = verification_grid(second.table, 40);
     const auto after =
@@ -259,16 +255,9 @@ TEST(GalvoField, a_second_pass_through_the_first_table_refines_it) {
 }
 
 TEST(GalvoField, table_round_trips_through_csv_to_the_micrometre) {
-    const auto truth = sim::random_galvo_truth(8);
-    const models::SquareGrid grid{31, 110.0 / 31};
-    std::vector<std::optional<geometry::Point2>> landed;
-    for (int r = 0; r < 31; ++r)
-        for (int c = 0; c < 31; ++c) {
-            const auto p = grid.node_mm(c, r);
-            const auto m = sim::galvo_mark_position_mm(truth, {p.x, p.y});
-            landed.push_back(geometry::Point2{m.x, m.y});
-        }
-    const auto table = models::fit_galvo_field(grid, landed, models::identity_table(55)).table;
+    const auto table = models::fit_galvo_field(kGrid, exact_landings(sim::random_galvo_truth(8)),
+                                               models::identity_table(55))
+                           .table;
     const auto read = models::table_from_csv(models::table_to_csv(table), "table.csv");
     CHECK_EQUAL(65, read.nodes);
     std::mt19937 rng(1);

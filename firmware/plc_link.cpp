@@ -172,7 +172,7 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
         std::string at = source;
         at.append(":").append(std::to_string(node.source().begin.line)).append(": ");
         if (known.count(name) == 0 && name != "galvo_table")
-            throw std::runtime_error(at + "'" + name + "' is not a result value");
+            throw std::runtime_error(at.append("'").append(name).append("' is not a result value"));
         const auto address = node.value<std::int64_t>();
         if (name == "galvo_table") {
             if (!node.is_integer() || !address || *address < 0 ||
@@ -200,9 +200,11 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
     for (const auto& [name, address] : map.registers)
         if (address + 1 >= map.galvo_table_register &&
             address < map.galvo_table_register + kTableRegisters)
-            throw std::runtime_error(source + ": " + name +
-                                     " overlaps the galvo table at register " +
-                                     std::to_string(map.galvo_table_register));
+            throw std::runtime_error(std::string(source)
+                                         .append(": ")
+                                         .append(name)
+                                         .append(" overlaps the galvo table at register ")
+                                         .append(std::to_string(map.galvo_table_register)));
     return map;
 }
 

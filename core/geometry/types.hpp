@@ -1,9 +1,19 @@
 #pragma once
 // Plain geometric values passed across core's interfaces (OpenCV stays inside the .cpp files).
 #include <array>
+#include <cstddef>
 #include <vector>
 
 namespace calbox::geometry {
+
+// Node (column, row) of a count x count grid kept row by row, and how many nodes it has.
+constexpr std::size_t grid_offset(int column, int row, int count) {
+    return static_cast<std::size_t>(row) * static_cast<std::size_t>(count) +
+           static_cast<std::size_t>(column);
+}
+constexpr std::size_t grid_nodes(int count) {
+    return static_cast<std::size_t>(count) * static_cast<std::size_t>(count);
+}
 
 struct Point2 {
     double x = 0, y = 0;

@@ -64,7 +64,7 @@ Point2 SquareGrid::node_mm(int column, int row) const {
 
 GridMap::GridMap(SquareGrid grid, std::vector<Point2> values)
     : grid_(grid), values_(std::move(values)) {
-    if (grid_.count < 2 || values_.size() != static_cast<std::size_t>(grid_.count * grid_.count))
+    if (grid_.count < 2 || values_.size() != geometry::grid_nodes(grid_.count))
         throw FieldError("a grid map needs a value at every node of a grid of at least 2 x 2");
 }
 
@@ -75,7 +75,7 @@ Point2 GridMap::node(int column, int row) const {
     if (column >= n) return 2.0 * node(n - 1, row) - node(n - 2, row);
     if (row < 0) return 2.0 * node(column, 0) - node(column, 1);
     if (row >= n) return 2.0 * node(column, n - 1) - node(column, n - 2);
-    return values_[static_cast<std::size_t>(row * n + column)];
+    return values_[geometry::grid_offset(column, row, n)];
 }
 
 Point2 GridMap::operator()(Point2 at) const {
@@ -112,7 +112,7 @@ Point2 CorrectionTable::command_for(Point2 q) const {
     const int k = std::min(static_cast<int>(gy), nodes - 2);
     const double tx = gx - i, ty = gy - k;
     const auto correction = [&](int c, int r) {
-        return command_mm[static_cast<std::size_t>(r * nodes + c)] - node_mm(c, r);
+        return command_mm[geometry::grid_offset(c, r, nodes)] - node_mm(c, r);
     };
     const Point2 low = (1 - tx) * correction(i, k) + tx * correction(i + 1, k);
     const Point2 high = (1 - tx) * correction(i, k + 1) + tx * correction(i + 1, k + 1);
@@ -148,11 +148,11 @@ ErrorStatistics error_statistics(const std::vector<Point2>& errors) {
 FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional<Point2>>& landed,
                          const CorrectionTable& burned_through, int table_nodes) {
     const int n = grid.count;
-    if (n < 4 || landed.size() != static_cast<std::size_t>(n * n))
+    if (n < 4 || landed.size() != geometry::grid_nodes(n))
         throw FieldError("the field map needs a grid of at least 4 x 4 and one entry per node");
     if (table_nodes < 2 || table_nodes > 1025)
         throw FieldError("a table has 2 to 1025 nodes a side");
-    const auto index = [n](int c, int r) { return static_cast<std::size_t>(r * n + c); };
+    const auto index = [n](int c, int r) { return geometry::grid_offset(c, r, n); };
     std::vector<Point2> from, to;
     for (int r = 0; r < n; ++r)
         for (int c = 0; c < n; ++c)
@@ -272,7 +272,7 @@ std::string table_to_csv(const CorrectionTable& t) {
     for (int r = 0; r < t.nodes; ++r)
         for (int c = 0; c < t.nodes; ++c) {
             const Point2 q = t.node_mm(c, r),
-                         s = t.command_mm[static_cast<std::size_t>(r * t.nodes + c)];
+                         s = t.command_mm[geometry::grid_offset(c, r, t.nodes)];
             std::snprintf(line, sizeof line, "%d,%d,%.6f,%.6f,%.6f,%.6f\n", c, r, q.x, q.y, s.x,
                           s.y);
             out << line;
@@ -303,7 +303,7 @@ CorrectionTable table_from_csv(const std::string& text, const std::string& sourc
         rows.push_back(r);
     }
     const int nodes = static_cast<int>(std::lround(std::sqrt(static_cast<double>(rows.size()))));
-    if (nodes < 2 || static_cast<std::size_t>(nodes * nodes) != rows.size())
+    if (nodes < 2 || geometry::grid_nodes(nodes) != rows.size())
         throw FieldError(source + ": " + std::to_string(rows.size()) +
                          " nodes is not a square table");
     CorrectionTable t;

@@ -191,7 +191,7 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
             ++it;
         }
     }
-    if (candidates.size() < static_cast<std::size_t>(n * n) / 2)
+    if (candidates.size() < geometry::grid_nodes(n) / 2)
         throw GalvoError("measure: " + std::to_string(candidates.size()) + " marks of the " +
                          std::to_string(n) + " x " + std::to_string(n) +
                          " grid's size in the photo (under half of them): not this target, or the "
@@ -235,7 +235,7 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
                          std::to_string(second) +
                          " with the next): not this target, or too many marks damaged");
     out.symmetry = order[0];
-    std::vector<bool> seen_node(static_cast<std::size_t>(n * n), false);
+    std::vector<bool> seen_node(geometry::grid_nodes(n), false);
     for (const auto& [index, node] : lattice) {
         if (node.candidate < 0) continue;
         const GridIndex t =
@@ -243,12 +243,12 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
         const auto& c = candidates[static_cast<std::size_t>(node.candidate)];
         const auto& mark = target.at(t);
         out.nodes.push_back({t, mark.centre_mm, mark.large, c.bed_mm, c.sigma_mm});
-        seen_node[static_cast<std::size_t>(t.row * n + t.column)] = true;
+        seen_node[geometry::grid_offset(t.column, t.row, n)] = true;
     }
     for (const auto& c : candidates)
         if (!c.taken) out.extra_mm.push_back(c.bed_mm);
     for (const auto& mark : target.marks)
-        if (!seen_node[static_cast<std::size_t>(mark.index.row * n + mark.index.column)])
+        if (!seen_node[geometry::grid_offset(mark.index.column, mark.index.row, n)])
             out.missing.push_back(mark.index);
     std::sort(out.nodes.begin(), out.nodes.end(), [](const auto& a, const auto& b) {
         return std::make_pair(a.index.row, a.index.column) <
@@ -275,10 +275,10 @@ GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasure
         throw GalvoError("solve: the table the grid was burned through is another machine's");
     const int n = measured.grid_count;
     const models::SquareGrid grid{n, measured.pitch_mm};
-    std::vector<std::optional<Point2>> landed(static_cast<std::size_t>(n * n));
+    std::vector<std::optional<Point2>> landed(geometry::grid_nodes(n));
     double sigma2 = 0;
     for (const auto& node : measured.nodes) {
-        landed[static_cast<std::size_t>(node.index.row * n + node.index.column)] = node.measured_mm;
+        landed[geometry::grid_offset(node.index.column, node.index.row, n)] = node.measured_mm;
         sigma2 += 2 * node.sigma_mm * node.sigma_mm;
     }
     const auto through = burned_through ? burned_through->fit.table
@@ -298,7 +298,7 @@ GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasure
     for (int r = 0; r < t.nodes; ++r)
         for (int c = 0; c < t.nodes; ++c) {
             const Point2 q = t.node_mm(c, r),
-                         cmd = t.command_mm[static_cast<std::size_t>(r * t.nodes + c)];
+                         cmd = t.command_mm[geometry::grid_offset(c, r, t.nodes)];
             const double correction = std::hypot(cmd.x - q.x, cmd.y - q.y);
             if (correction > limit)
                 throw GalvoError("solve: the correction at X" + number_text("%.2f", q.x) + " Y" +
@@ -460,8 +460,7 @@ GalvoSolution galvo_result_from_json(const std::string& text, const std::string&
         table.max_x_mm = t.at("max_x_mm").get<double>();
         table.max_y_mm = t.at("max_y_mm").get<double>();
         for (const auto& c : t.at("command_mm")) table.command_mm.push_back(point_from(c));
-        if (table.nodes < 2 ||
-            table.command_mm.size() != static_cast<std::size_t>(table.nodes * table.nodes) ||
+        if (table.nodes < 2 || table.command_mm.size() != geometry::grid_nodes(table.nodes) ||
             !(table.max_x_mm > table.min_x_mm && table.max_y_mm > table.min_y_mm))
             throw RecordError(source +
                               ": the table is not a square grid of commands over a rectangle");

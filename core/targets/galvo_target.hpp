@@ -35,7 +35,7 @@ struct GalvoTarget {
     PlacedJob job;                 // every circle filled with the spot
     std::string fingerprint;       // of the layout and the machine it was made for
     const GalvoMark& at(GridIndex i) const {
-        return marks[static_cast<std::size_t>(i.row * grid_count + i.column)];
+        return marks[geometry::grid_offset(i.column, i.row, grid_count)];
     }
 };
 

@@ -106,9 +106,9 @@ Spot measure_spot_q16(const GrayView& image, const MomentWindow& w) {
     std::int64_t s0 = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
     std::int64_t free_n = 0, free_x = 0, free_y = 0, free_xx = 0, free_yy = 0;
     for (int dy = -b.reach; dy <= b.reach; ++dy) {
-        const std::int64_t ey = dy * 256 - fy_q8;
+        const std::int64_t ey = std::int64_t{dy} * 256 - fy_q8;
         for (int dx = -b.reach; dx <= b.reach; ++dx) {
-            const std::int64_t ex = dx * 256 - fx_q8;
+            const std::int64_t ex = std::int64_t{dx} * 256 - fx_q8;
             if (ex * ex + ey * ey > r2) continue;
             const std::int64_t level_q8 = static_cast<std::int64_t>(image.at(b.cx + dx, b.cy + dy))
                                           << 8;
@@ -116,7 +116,8 @@ Spot measure_spot_q16(const GrayView& image, const MomentWindow& w) {
             if (weight > 0 && weight < 65536) {
                 // Only a weight between its clamps moves with the noise.
                 ++free_n;
-                free_x += dx, free_y += dy, free_xx += dx * dx, free_yy += dy * dy;
+                free_x += dx, free_y += dy;
+                free_xx += std::int64_t{dx} * dx, free_yy += std::int64_t{dy} * dy;
             }
             weight = std::clamp<std::int64_t>(weight, 0, 65536);
             s0 += weight;

@@ -779,6 +779,10 @@ void Cycle::verify_galvo() {
                                  d_.data.replace_file(
                                      record_name(report_.number, "verify-measurements.json"),
                                      modes::galvo_measurements_to_json(*galvo_measured_));
+                                 // Its "before" is the table's verified "after".
+                                 d_.data.replace_file(
+                                     record_name(report_.number, "verify-result.json"),
+                                     modes::galvo_result_to_json(*again));
                                  log_("cycle " + std::to_string(report_.number) +
                                       ": verified on the grid burned through the table: " +
                                       fixed(again->fit.before.mean_mm, 4) + " mm mean, " +

@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -214,6 +215,15 @@ TwinPrinterLink::TwinPrinterLink(std::shared_ptr<TwinBench> bench)
     master_fd_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
     if (master_fd_ < 0 || ::grantpt(master_fd_) != 0 || ::unlockpt(master_fd_) != 0)
         throw std::runtime_error(std::string("cannot make a pseudo-terminal: ") +
+                                 std::strerror(errno));
+    // Raw from birth: a new pty echoes and edits lines until its slave is configured, so the
+    // start-up banner, written before the box's driver has opened the line, came back to the
+    // printer as input ("start" read as a G-code line) when the box was slow to open it.
+    termios line{};
+    const bool got = ::tcgetattr(master_fd_, &line) == 0;
+    if (got) ::cfmakeraw(&line);
+    if (!got || ::tcsetattr(master_fd_, TCSANOW, &line) != 0)
+        throw std::runtime_error(std::string("cannot make the pseudo-terminal raw: ") +
                                  std::strerror(errno));
     device_path_ = ::ptsname(master_fd_);
     ::fcntl(master_fd_, F_SETFL, ::fcntl(master_fd_, F_GETFL) | O_NONBLOCK);

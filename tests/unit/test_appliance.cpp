@@ -5,6 +5,7 @@
 // truth; the box never reads it.
 #include <CppUTest/TestHarness.h>
 #include <CppUTestExt/MockSupport.h>
+#include <fcntl.h>
 #include <poll.h>
 #include <unistd.h>
 
@@ -501,6 +502,28 @@ void teardown() override {
 }
 ;
 
+// The twin's banner goes out as soon as anyone opens the line; a line the box has opened but
+// not yet made raw must not echo it back to the printer as a G-code line.
+TEST(ApplianceLink, the_printers_banner_is_not_echoed_back_before_the_line_is_raw) {
+    auto bench = std::make_shared<sim::TwinBench>(sim::load_scenario(kScenario.string()));
+    sim::TwinPrinterLink link(bench);
+    const int slave = ::open(link.device_path().c_str(), O_RDWR | O_NOCTTY);
+    CHECK(slave >= 0);
+    char banner[64] = {};
+    std::size_t got = 0;
+    for (int i = 0; i < 100 && got < 6; ++i) {
+        pollfd p{slave, POLLIN, 0};
+        if (::poll(&p, 1, 20) == 1) {
+            const ssize_t n = ::read(slave, banner + got, sizeof banner - 1 - got);
+            if (n > 0) got += static_cast<std::size_t>(n);
+        }
+    }
+    STRCMP_CONTAINS("start", banner);
+    ::usleep(200000);  // the printer's thread has read whatever came back by now
+    CHECK_EQUAL(0u, link.lines_received());
+    ::close(slave);
+}
+
 // Line noise on the pty: the printer refuses corrupted lines, the box resends, the cycle ends
 // as on a clean link.
 TEST(ApplianceLink, a_noisy_link_is_resent_line_by_line_and_the_cycle_completes) {
@@ -695,6 +718,10 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
     CHECK(count(" M3 S") > 1900);   // every mark's beam switched on, twice
     CHECK_EQUAL(0, count("M665"));  // a galvo's geometry is not a printer's settings
     CHECK(rig.data.read_file("cycle-0001-table.csv").has_value());
+    const auto verified = modes::galvo_result_from_json(
+        *rig.data.read_file("cycle-0001-verify-result.json"), "verify-result.json");
+    CHECK_EQUAL(2, verified.pass);
+    DOUBLES_EQUAL(*report.verify_xy_rms_mm, verified.fit.before.rms_mm, 1e-12);
     CHECK_EQUAL(std::string(firmware::kNoGalvoTable),
                 *rig.data.read_file("cycle-0001-backup-table.json"));
     // Revert puts back what was in force before: no table.

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/number_text.hpp"
+#include "core/solve/placement.hpp"
 
 namespace calbox::models {
 namespace {
@@ -28,31 +29,6 @@ std::array<double, 4> catmull_rom(double t) {
     const double t2 = t * t, t3 = t2 * t;
     return {0.5 * (-t3 + 2 * t2 - t), 0.5 * (3 * t3 - 5 * t2 + 2), 0.5 * (-3 * t3 + 4 * t2 + t),
             0.5 * (t3 - t2)};
-}
-
-// The best rotation and translation of `from` onto `to` (2-D Procrustes).
-struct Rigid {
-    double c = 1, s = 0;
-    Point2 from_mean, to_mean;
-    Point2 apply(Point2 p) const {
-        const Point2 d = p - from_mean;
-        return Point2{c * d.x - s * d.y, s * d.x + c * d.y} + to_mean;
-    }
-};
-Rigid best_rigid(const std::vector<Point2>& from, const std::vector<Point2>& to) {
-    Rigid r;
-    const double n = static_cast<double>(from.size());
-    for (std::size_t i = 0; i < from.size(); ++i)
-        r.from_mean = r.from_mean + (1 / n) * from[i], r.to_mean = r.to_mean + (1 / n) * to[i];
-    double dot = 0, cross = 0;
-    for (std::size_t i = 0; i < from.size(); ++i) {
-        const Point2 a = from[i] - r.from_mean, b = to[i] - r.to_mean;
-        dot += a.x * b.x + a.y * b.y;
-        cross += a.x * b.y - a.y * b.x;
-    }
-    const double angle = std::atan2(cross, dot);
-    r.c = std::cos(angle), r.s = std::sin(angle);
-    return r;
 }
 
 }  // namespace
@@ -170,7 +146,7 @@ FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional
     if (!(column0 && column_n && row0 && row_n))
         throw FieldError(
             "a whole border row or column of the grid is missing: the field's edge is unknown");
-    const Rigid onto_grid = best_rigid(from, to);
+    const auto onto_grid = solve::best_rigid_placement(from, to);
 
     FieldFit fit;
     fit.landed_mm.assign(landed.size(), {});

@@ -286,9 +286,9 @@ int run(const std::vector<std::string>& words) {
     if (automatic) {
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
         if (machine.is_galvo()) {
-            const double half = machine.galvo->field_size_mm / 2 * 30 / 31;
-            const auto before = board.bench->judge_galvo_scanner([](sim::Vec2 p) { return p; },
-                                                                 {-half, -half, half, half});
+            const auto before = board.bench->judge_galvo_scanner(
+                [](sim::Vec2 p) { return p; },
+                sim::field_less_a_pitch(board.bench->scenario().galvo_truth));
             std::printf(
                 "before: marks %.4f mm mean, %.4f mm worst (the twin's truth, a fresh 30 x "
                 "30 grid over the field less a pitch)\n",

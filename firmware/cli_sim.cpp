@@ -320,23 +320,18 @@ int sim_verify_galvo(const Args& args, const sim::Scenario& scenario) {
     std::optional<modes::GalvoSolution> solution;
     if (const auto path = args.get("--result"))
         solution = modes::galvo_result_from_json(read_input_file(*path, "result"), *path);
-    const double half = scenario.machine.galvo->field_size_mm / 2;
-    const double inset = scenario.machine.galvo->field_size_mm / 31;
-    models::CorrectionTable area =
-        solution ? solution->fit.table : models::identity_table(half - inset, 2);
-    std::vector<sim::Vec2> fresh;
-    const int count = 30;
-    for (int r = 0; r < count; ++r)
-        for (int c = 0; c < count; ++c)
-            fresh.push_back({area.min_x_mm + (area.max_x_mm - area.min_x_mm) * (c + 0.5) / count,
-                             area.min_y_mm + (area.max_y_mm - area.min_y_mm) * (r + 0.5) / count});
+    const std::array<double, 4> area =
+        solution ? std::array<double, 4>{solution->fit.table.min_x_mm, solution->fit.table.min_y_mm,
+                                         solution->fit.table.max_x_mm, solution->fit.table.max_y_mm}
+                 : sim::field_less_a_pitch(scenario.galvo_truth);
+    const auto fresh = sim::fresh_grid(area, 30);
     const auto before =
         sim::judge_galvo(scenario.galvo_truth, fresh, [](sim::Vec2 p) { return p; });
     std::printf("before: %zu marks %.4f mm mean, %.4f RMS, %.4f worst\n", before.points,
                 before.mean_mm, before.rms_mm, before.max_mm);
     nlohmann::json j{
         {"schema", "calbox.sim-verify-galvo/1"},
-        {"area_mm", {area.min_x_mm, area.min_y_mm, area.max_x_mm, area.max_y_mm}},
+        {"area_mm", area},
         {"before",
          {{"mean_mm", before.mean_mm}, {"rms_mm", before.rms_mm}, {"max_mm", before.max_mm}}}};
     if (solution) {

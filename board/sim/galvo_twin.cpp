@@ -92,13 +92,18 @@ GalvoJudgement judge_galvo(const GalvoTruth& truth, const std::vector<Vec2>& int
     return j;
 }
 
-std::vector<Vec2> square_grid(double half_mm, int count) {
+std::vector<Vec2> fresh_grid(const std::array<double, 4>& area_mm, int count) {
     std::vector<Vec2> out;
     for (int r = 0; r < count; ++r)
         for (int c = 0; c < count; ++c)
-            out.push_back({-half_mm + 2 * half_mm * c / (count - 1),
-                           -half_mm + 2 * half_mm * r / (count - 1)});
+            out.push_back({area_mm[0] + (area_mm[2] - area_mm[0]) * (c + 0.5) / count,
+                           area_mm[1] + (area_mm[3] - area_mm[1]) * (r + 0.5) / count});
     return out;
+}
+
+std::array<double, 4> field_less_a_pitch(const GalvoTruth& truth) {
+    const double half = truth.field_size_mm / 2 - truth.field_size_mm / 31;
+    return {-half, -half, half, half};
 }
 
 std::vector<StrokeSegment> with_burn_faults(const std::vector<Stroke>& burned,

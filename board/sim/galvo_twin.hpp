@@ -5,6 +5,7 @@
 // pincushion or barrel, each axis's gain and offset, skew between the axes, a rotation of the
 // head on its mount, and a smooth ripple from the optics. None of it comes from the code it
 // judges.
+#include <array>
 #include <functional>
 #include <optional>
 #include <string>
@@ -65,8 +66,12 @@ struct GalvoJudgement {
 GalvoJudgement judge_galvo(const GalvoTruth& truth, const std::vector<Vec2>& intended_mm,
                            const std::function<Vec2(Vec2)>& command_for);
 
-// A regular grid of `count` x `count` points over the square [-half, half]^2.
-std::vector<Vec2> square_grid(double half_mm, int count);
+// A fresh grid of `count` x `count` marks over `area_mm` (min x, min y, max x, max y), each in the
+// middle of its cell: half a cell off any grid with nodes on the area's edges.
+std::vector<Vec2> fresh_grid(const std::array<double, 4>& area_mm, int count);
+// The area a judgement without a table covers: the field less a pitch of the 31-mark grid on
+// each side.
+std::array<double, 4> field_less_a_pitch(const GalvoTruth& truth);
 
 // What goes wrong when a grid is burned: marks that misfire (their strokes dropped) and spatter
 // (small round blobs thrown near the marks).

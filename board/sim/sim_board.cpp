@@ -193,12 +193,7 @@ void TwinBench::clear_bed() {
 GalvoJudgement TwinBench::judge_galvo_scanner(const std::function<Vec2(Vec2)>& command_for,
                                               const std::array<double, 4>& area_mm) const {
     if (!scenario_.machine.is_galvo()) throw ScenarioError("the judge judges galvo scanners here");
-    std::vector<Vec2> fresh;
-    const int count = 30;
-    for (int r = 0; r < count; ++r)
-        for (int c = 0; c < count; ++c)
-            fresh.push_back({area_mm[0] + (area_mm[2] - area_mm[0]) * (c + 0.5) / count,
-                             area_mm[1] + (area_mm[3] - area_mm[1]) * (r + 0.5) / count});
+    const auto fresh = fresh_grid(area_mm, 30);
     return judge_galvo(scenario_.galvo_truth, fresh, command_for);
 }
 

@@ -28,12 +28,7 @@ models::MachineFile galvo_machine() {
 
 // Fresh marks, half a pitch off the calibration grid's nodes, over the table's rectangle.
 std::vector<sim::Vec2> verification_grid(const models::CorrectionTable& t, int count) {
-    std::vector<sim::Vec2> out;
-    for (int r = 0; r < count; ++r)
-        for (int c = 0; c < count; ++c)
-            out.push_back({t.min_x_mm + (t.max_x_mm - t.min_x_mm) * (c + 0.5) / count,
-                           t.min_y_mm + (t.max_y_mm - t.min_y_mm) * (r + 0.5) / count});
-    return out;
+    return sim::fresh_grid({t.min_x_mm, t.min_y_mm, t.max_x_mm, t.max_y_mm}, count);
 }
 
 sim::Vec2 through(const models::CorrectionTable& t, sim::Vec2 p) {

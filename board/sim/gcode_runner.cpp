@@ -123,11 +123,8 @@ void GcodeRunner::move(const gcode::Line& l) {
     const double extruded = e_target - e_;
     const Vec3 from = logical_ + offset_, to = target + offset_;
     const double length = (to - from).norm();
-    const bool marks = tool_.kind == ToolKind::extruder ? extruded > 0 && length > 0
-                       : tool_.kind == ToolKind::spindle
-                           // A cutter marks only below the surface.
-                           ? tool_on_ && length > 0 && std::max(from.z, to.z) <= 0
-                           : tool_on_ && length > 0;
+    const bool marks =
+        tool_.kind == ToolKind::extruder ? extruded > 0 && length > 0 : tool_on_ && length > 0;
     const int segments = std::max(1, static_cast<int>(std::ceil(length / tool_.segment_mm)));
     const double filament_area =
         3.14159265358979323846 * tool_.filament_diameter_mm * tool_.filament_diameter_mm / 4.0;
@@ -136,7 +133,10 @@ void GcodeRunner::move(const gcode::Line& l) {
     for (int k = 1; k <= segments; ++k) {
         const Vec3 commanded = from + (to - from) * (static_cast<double>(k) / segments);
         const Vec3 actual = machine_.actual_position_mm(commanded);
-        if (marks) {
+        // A cutter marks only below the surface: a plunge from above cuts from where it enters.
+        const bool cuts =
+            tool_.kind != ToolKind::spindle || std::max(previous_commanded.z, commanded.z) <= 1e-9;
+        if (marks && cuts) {
             Stroke s{previous_commanded,  commanded,   previous_actual, actual,
                      tool_.tool_width_mm, line_number_};
             if (tool_.kind == ToolKind::extruder) {

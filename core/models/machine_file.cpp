@@ -145,7 +145,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
                                 std::initializer_list<std::string_view> other_sections) {
     for (const auto& [key, node] : root) {
         const std::string_view name = key.str();
-        bool known = name == "machine" || name == "delta" || name == "galvo";
+        bool known = name == "machine" || name == "delta" || name == "galvo" || name == "planar";
         for (const auto& s : other_sections) known = known || s == name;
         if (!known)
             throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
@@ -205,6 +205,24 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     } else if (galvo != nullptr) {
         throw MachineFileError(file + ": [galvo] on a " + m.kind + " machine");
     }
+    const auto* planar = subtable(file, root, "planar");
+    if (m.is_planar()) {
+        m.planar.emplace();
+        if (planar != nullptr) {
+            TomlReader g(file, *planar, "planar");
+            g.number("hole_pitch_mm", m.planar->hole_pitch_mm, 2, 500);
+            g.number("margin_mm", m.planar->margin_mm, 0, 500);
+            g.number("surface_height_mm", m.planar->surface_height_mm, -50, 300);
+            g.number("tool_length_mm", m.planar->tool_length_mm, 0, 1000);
+            g.number("plunge_feed_mm_s", m.planar->plunge_feed_mm_s, 0.1, 100);
+            g.number("dwell_s", m.planar->dwell_s, 0, 60);
+            g.number("steps_per_mm_x", m.planar->steps_per_mm_x, 0.01, 1e6);
+            g.number("steps_per_mm_y", m.planar->steps_per_mm_y, 0.01, 1e6);
+            g.finish();
+        }
+    } else if (planar != nullptr) {
+        throw MachineFileError(file + ": [planar] on a " + m.kind + " machine");
+    }
     return m;
 }
 
@@ -251,6 +269,12 @@ std::string fingerprint(const MachineFile& m) {
     if (m.galvo) {
         add(m.galvo->field_size_mm);
         add(m.galvo->substrate_height_mm);
+    }
+    if (m.planar) {
+        add(m.planar->hole_pitch_mm);
+        add(m.planar->margin_mm);
+        add(m.planar->surface_height_mm);
+        add(m.cut_depth_mm);
     }
     return digest(canonical);
 }

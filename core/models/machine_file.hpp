@@ -34,6 +34,25 @@ struct GalvoSettings {
     double substrate_height_mm = 0.0;
 };
 
+// [planar]: routers, cartesian printers and gantry lasers calibrated from a grid of holes or
+// dots over the work area.
+struct PlanarSettings {
+    double hole_pitch_mm = 25.0;  // the grid's pitch
+    // The outer holes' centres lie at least this far inside the work area.
+    double margin_mm = 15.0;
+    // The marked surface (the sheet's top) above the plane the bed-plane board lay on: the
+    // camera maps the holes at this height.
+    double surface_height_mm = 0.0;
+    // The tool point below the guides the carriage runs on (the seed's X3): the lever over
+    // which pitch and roll move the tool. Only the held parameters' report depends on it.
+    double tool_length_mm = 60.0;
+    double plunge_feed_mm_s = 5.0;  // routers: drilling feed
+    double dwell_s = 0.3;           // routers: at the bottom of each hole, so it is round
+    // The firmware's steps per mm now (Marlin M92, grbl $100 / $101): given, the result says
+    // the new values; not given, the factor to multiply them by.
+    std::optional<double> steps_per_mm_x, steps_per_mm_y;
+};
+
 struct MachineFile {
     std::string kind = "delta";  // delta | cartesian | router | laser | galvo
     std::string firmware = "marlin";
@@ -60,10 +79,12 @@ struct MachineFile {
     std::optional<std::string> end_gcode;    // printers: replaces cooling and M84 at its end
     std::optional<DeltaSettings> delta;
     std::optional<GalvoSettings> galvo;
+    std::optional<PlanarSettings> planar;  // every router, cartesian and laser machine
 
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
     bool is_delta() const { return kind == "delta"; }
     bool is_galvo() const { return kind == "galvo"; }
+    bool is_planar() const { return kind == "router" || kind == "cartesian" || kind == "laser"; }
 };
 
 // The bed plate is fixed at its centre and grows with temperature; a print sticks to it and

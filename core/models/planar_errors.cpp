@@ -192,11 +192,37 @@ Point2 planar_error_mm(const PlanarVector& p, Point2 at_mm, double abbe_height_m
     return e;
 }
 
-Point2 planar_command_for(const PlanarVector& p, Point2 intended_mm, double abbe_height_mm) {
-    Point2 command = intended_mm;
+SmallRigidMotion rigid_part_of(const PlanarVector& p, double abbe_height_mm, double min_x_mm,
+                               double min_y_mm, double max_x_mm, double max_y_mm) {
+    // e ~ (tx - w y, ty + w x): three unknowns, linear.
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d right = Eigen::Vector3d::Zero();
+    constexpr int kSteps = 20;
+    for (int i = 0; i <= kSteps; ++i)
+        for (int k = 0; k <= kSteps; ++k) {
+            const Point2 at{min_x_mm + (max_x_mm - min_x_mm) * i / kSteps,
+                            min_y_mm + (max_y_mm - min_y_mm) * k / kSteps};
+            const Point2 e = planar_error_mm(p, at, abbe_height_mm);
+            const Eigen::Vector3d rx{1, 0, -at.y}, ry{0, 1, at.x};
+            normal += rx * rx.transpose() + ry * ry.transpose();
+            right += rx * e.x + ry * e.y;
+        }
+    const Eigen::Vector3d q = normal.ldlt().solve(right);
+    return {q(2), {q(0), q(1)}};
+}
+
+Point2 planar_command_for(const PlanarVector& p, Point2 intended_mm, double abbe_height_mm,
+                          const SmallRigidMotion& rigid) {
+    // The machine lands at c + e(c); the job should land on the intended point moved by the
+    // rigid part (turned exactly, so that the job stays a rigid copy of itself), which the work's
+    // zero and heading absorb: solve c + e(c) = that, c = that - e(c).
+    const double cw = std::cos(rigid.rotation_rad), sw = std::sin(rigid.rotation_rad);
+    const Point2 aim{cw * intended_mm.x - sw * intended_mm.y + rigid.offset_mm.x,
+                     sw * intended_mm.x + cw * intended_mm.y + rigid.offset_mm.y};
+    Point2 command = aim;
     for (int k = 0; k < 8; ++k) {
         const Point2 e = planar_error_mm(p, command, abbe_height_mm);
-        const Point2 next{intended_mm.x - e.x, intended_mm.y - e.y};
+        const Point2 next{aim.x - e.x, aim.y - e.y};
         const double step = std::hypot(next.x - command.x, next.y - command.y);
         command = next;
         if (step < 1e-9) break;

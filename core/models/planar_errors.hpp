@@ -59,11 +59,26 @@ SensitivityRows planar_sensitivity(geometry::Point2 at_mm, double abbe_height_mm
 geometry::Point2 planar_error_mm(const PlanarVector& p, geometry::Point2 at_mm,
                                  double abbe_height_mm);
 
-// Where to command so that the tool lands on `intended`: X_c = X_t - e(X_c), the error taken
-// at the compensated point (a fixed point; the error changes by under 1 % of itself over its
-// own size, so a few iterations reach a nanometre).
+// A small rotation about the origin and a shift: the part of an error field that the work's
+// zero and heading, set by hand on the machine, decide anyway.
+struct SmallRigidMotion {
+    double rotation_rad = 0;
+    geometry::Point2 offset_mm;
+    geometry::Point2 at(geometry::Point2 p) const {
+        return {offset_mm.x - rotation_rad * p.y, offset_mm.y + rotation_rad * p.x};
+    }
+};
+// The rigid part of e over a rectangle (least squares over a fine grid of it): a correction
+// without it moves a job no further than its errors need.
+SmallRigidMotion rigid_part_of(const PlanarVector& p, double abbe_height_mm, double min_x_mm,
+                               double min_y_mm, double max_x_mm, double max_y_mm);
+
+// Where to command so that the tool lands on `intended` moved by `rigid` (the part of the field
+// left to the work's zero and heading): X_c = X_t' - e(X_c), the error taken at the compensated
+// point (a fixed point; the error changes by under 1 % of itself over its own size, so a few
+// iterations reach a nanometre).
 geometry::Point2 planar_command_for(const PlanarVector& p, geometry::Point2 intended_mm,
-                                    double abbe_height_mm);
+                                    double abbe_height_mm, const SmallRigidMotion& rigid = {});
 
 // The seed paper's planar form: e_x = A y^2 + B y + C x + D z, e_y = E x + F y + G z + H x y
 // + I x^2, with z = X3.

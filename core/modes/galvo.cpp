@@ -7,6 +7,7 @@
 #include <map>
 
 #include "core/modes/json_file.hpp"
+#include "core/modes/mark_grid.hpp"
 #include "core/number_text.hpp"
 
 namespace calbox::modes {
@@ -14,113 +15,6 @@ namespace {
 
 using geometry::Point2;
 using targets::GridIndex;
-
-// A mark seen in the photo, on the bed.
-struct Candidate {
-    Point2 bed_mm;
-    double radius_mm = 0, sigma_mm = 0;
-    bool large = false;
-    bool taken = false;
-};
-
-// Candidates by position, in cells of one pitch.
-class Neighbourhood {
-  public:
-    Neighbourhood(std::vector<Candidate>& candidates, double cell_mm)
-        : candidates_(candidates), cell_(cell_mm) {
-        for (std::size_t i = 0; i < candidates.size(); ++i)
-            cells_[key(candidates[i].bed_mm)].push_back(i);
-    }
-    // The nearest free candidate within `reach_mm` of `at`, or -1.
-    long nearest(Point2 at, double reach_mm) const {
-        long best = -1;
-        double best_d = reach_mm;
-        const auto [kx, ky] = key(at);
-        for (long dy = -1; dy <= 1; ++dy)
-            for (long dx = -1; dx <= 1; ++dx) {
-                const auto it = cells_.find({kx + dx, ky + dy});
-                if (it == cells_.end()) continue;
-                for (std::size_t i : it->second) {
-                    if (candidates_[i].taken) continue;
-                    const double d =
-                        std::hypot(candidates_[i].bed_mm.x - at.x, candidates_[i].bed_mm.y - at.y);
-                    if (d < best_d) best_d = d, best = static_cast<long>(i);
-                }
-            }
-        return best;
-    }
-
-  private:
-    std::pair<long, long> key(Point2 p) const {
-        return {static_cast<long>(std::floor(p.x / cell_)),
-                static_cast<long>(std::floor(p.y / cell_))};
-    }
-    std::vector<Candidate>& candidates_;
-    double cell_;
-    std::map<std::pair<long, long>, std::vector<std::size_t>> cells_;
-};
-
-struct LatticeNode {
-    Point2 position_mm;
-    long candidate = -1;  // -1: predicted through a gap, no mark there
-};
-
-// Indexes the candidates on a square lattice of pitch `pitch` by growing it from the middle
-// mark: each neighbour is looked for where the node and the one behind it predict it, so the
-// lattice follows a distortion that bends it slowly; a single gap is bridged by a predicted node.
-std::map<std::pair<int, int>, LatticeNode> grow_lattice(std::vector<Candidate>& candidates,
-                                                        double pitch, double reach) {
-    Neighbourhood near(candidates, pitch);
-    Point2 mean;
-    for (const auto& c : candidates) mean.x += c.bed_mm.x, mean.y += c.bed_mm.y;
-    mean.x /= static_cast<double>(candidates.size()),
-        mean.y /= static_cast<double>(candidates.size());
-    const long seed = near.nearest(mean, 1e300);
-    candidates[static_cast<std::size_t>(seed)].taken = true;
-    const Point2 origin = candidates[static_cast<std::size_t>(seed)].bed_mm;
-    // The lattice's axes from the middle mark's nearest neighbour, turned by the quarter turn
-    // that brings it closest to the bed's +x (the neighbour there may have misfired), so that
-    // the symmetry found says how the grid lies on the bed.
-    const long first = near.nearest(origin, 1.4 * pitch);
-    if (first < 0)
-        throw GalvoError("measure: no mark lies a pitch from another: not a grid of " +
-                         number_text("%.3f", pitch) + " mm pitch");
-    Point2 e1{candidates[static_cast<std::size_t>(first)].bed_mm.x - origin.x,
-              candidates[static_cast<std::size_t>(first)].bed_mm.y - origin.y};
-    if (std::hypot(e1.x, e1.y) < 0.7 * pitch)
-        throw GalvoError("measure: marks lie closer than the grid's pitch: not this target");
-    for (int turn = 0; turn < 3 && !(e1.x >= std::abs(e1.y)); ++turn) e1 = {e1.y, -e1.x};
-    const Point2 e2{-e1.y, e1.x};
-    std::map<std::pair<int, int>, LatticeNode> lattice;
-    lattice[{0, 0}] = {origin, seed};
-    std::deque<std::pair<int, int>> queue{{0, 0}};
-    const int directions[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-    while (!queue.empty()) {
-        const auto at = queue.front();
-        queue.pop_front();
-        const LatticeNode here = lattice[at];
-        for (const auto& d : directions) {
-            const std::pair<int, int> next{at.first + d[0], at.second + d[1]};
-            if (lattice.count(next) != 0) continue;
-            Point2 step{d[0] * e1.x + d[1] * e2.x, d[0] * e1.y + d[1] * e2.y};
-            const auto behind = lattice.find({at.first - d[0], at.second - d[1]});
-            if (behind != lattice.end() && behind->second.candidate >= 0 && here.candidate >= 0)
-                step = {here.position_mm.x - behind->second.position_mm.x,
-                        here.position_mm.y - behind->second.position_mm.y};
-            const Point2 predicted{here.position_mm.x + step.x, here.position_mm.y + step.y};
-            const long found = near.nearest(predicted, reach);
-            if (found >= 0) {
-                candidates[static_cast<std::size_t>(found)].taken = true;
-                lattice[next] = {candidates[static_cast<std::size_t>(found)].bed_mm, found};
-                queue.push_back(next);
-            } else if (here.candidate >= 0) {
-                lattice[next] = {predicted, -1};  // a gap: look one further through it
-                queue.push_back(next);
-            }
-        }
-    }
-    return lattice;
-}
 
 }  // namespace
 
@@ -144,66 +38,33 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
     out.pitch_mm = pitch;
     out.dark_marks = seen.dark_marks;
 
-    // Each spot on the bed at the substrate's height, with its size and uncertainty in mm from
-    // the local scale (a pixel to its right mapped too).
-    std::vector<Point2> pixels;
-    for (const auto& s : seen.spots) {
-        pixels.push_back(s.centre_px);
-        pixels.push_back({s.centre_px.x + 1, s.centre_px.y});
-    }
-    const double height = machine.galvo->substrate_height_mm;
-    const auto on_bed = geometry::pixels_to_bed(camera, plane, pixels, height);
-    std::vector<Candidate> candidates;
+    std::vector<MarkCandidate> candidates;
     const double small = 0.2 * pitch, large = 0.4 * pitch;
-    for (std::size_t i = 0; i < seen.spots.size(); ++i) {
-        const auto& s = seen.spots[i];
-        const Point2 at{on_bed[2 * i].x, on_bed[2 * i].y};
-        const double mm_per_px = std::hypot(on_bed[2 * i + 1].x - at.x, on_bed[2 * i + 1].y - at.y);
-        const double radius = std::sqrt(s.area_px / 3.14159265358979) * mm_per_px;
-        const bool is_small = radius > 0.6 * small && radius < 1.4 * small;
-        const bool is_large = radius > 0.75 * large && radius < 1.25 * large;
-        if (s.touches_border || s.elongation > settings.max_elongation || !(is_small || is_large)) {
-            out.extra_mm.push_back(at);
+    for (const auto& m : marks_on_bed(camera, plane, seen, machine.galvo->substrate_height_mm)) {
+        const bool is_small = m.radius_mm > 0.6 * small && m.radius_mm < 1.4 * small;
+        const bool is_large = m.radius_mm > 0.75 * large && m.radius_mm < 1.25 * large;
+        if (m.touches_border || m.elongation > settings.max_elongation || !(is_small || is_large)) {
+            out.extra_mm.push_back(m.bed_mm);
             continue;
         }
-        candidates.push_back({at, radius, s.sigma_px * mm_per_px, is_large, false});
+        candidates.push_back({m.bed_mm, m.radius_mm, m.sigma_mm, is_large, false});
     }
-    // A mark with spatter fused to it, a chip or a double burn is larger than its kind: its
-    // centroid would move with the extra area, so it is reported, not measured.
-    for (const bool kind : {false, true}) {
-        std::vector<double> radii;
-        for (const auto& c : candidates)
-            if (c.large == kind) radii.push_back(c.radius_mm);
-        if (radii.empty()) continue;
-        std::nth_element(radii.begin(), radii.begin() + static_cast<long>(radii.size() / 2),
-                         radii.end());
-        const double typical = radii[radii.size() / 2];
-        for (auto& c : candidates)
-            if (c.large == kind &&
-                std::abs(c.radius_mm / typical - 1) > settings.max_radius_deviation)
-                c.taken = true;
-    }
-    for (auto it = candidates.begin(); it != candidates.end();) {
-        if (it->taken) {
-            out.extra_mm.push_back(it->bed_mm);
-            it = candidates.erase(it);
-        } else {
-            ++it;
-        }
-    }
+    // A mark with spatter fused to it, a chip or a double burn is larger than its kind.
+    set_aside_odd_sizes(candidates, settings.max_radius_deviation, out.extra_mm);
     if (candidates.size() < geometry::grid_nodes(n) / 2)
         throw GalvoError("measure: " + std::to_string(candidates.size()) + " marks of the " +
                          std::to_string(n) + " x " + std::to_string(n) +
                          " grid's size in the photo (under half of them): not this target, or the "
                          "photo does not show it");
-    const auto lattice = grow_lattice(candidates, pitch, settings.match_reach_pitch * pitch);
-    int min_a = 1 << 30, max_a = -(1 << 30), min_b = 1 << 30, max_b = -(1 << 30);
-    for (const auto& [index, node] : lattice) {
-        if (node.candidate < 0) continue;
-        min_a = std::min(min_a, index.first), max_a = std::max(max_a, index.first);
-        min_b = std::min(min_b, index.second), max_b = std::max(max_b, index.second);
+    Lattice lattice;
+    try {
+        lattice = grow_lattice(candidates, pitch, settings.match_reach_pitch * pitch);
+    } catch (const LatticeError& e) {
+        throw GalvoError(e.what());
     }
-    const int columns = max_a - min_a + 1, rows = max_b - min_b + 1;
+    const LatticeExtent extent = lattice_extent(lattice);
+    const int min_a = extent.min_a, min_b = extent.min_b;
+    const int columns = extent.columns(), rows = extent.rows();
     if (columns != n || rows != n)
         throw GalvoError("measure: the grid found is " + std::to_string(columns) + " x " +
                          std::to_string(rows) + " marks, the target's is " + std::to_string(n) +

@@ -1,0 +1,184 @@
+#include "board/sim/router_twin.hpp"
+
+#include <cmath>
+#include <random>
+#include <sstream>
+
+#include "board/sim/delta_judge.hpp"
+
+namespace calbox::sim {
+namespace {
+
+struct Matrix3 {
+    double m[3][3];
+    Vec3 operator*(const Vec3& v) const {
+        return {m[0][0] * v.x + m[0][1] * v.y + m[0][2] * v.z,
+                m[1][0] * v.x + m[1][1] * v.y + m[1][2] * v.z,
+                m[2][0] * v.x + m[2][1] * v.y + m[2][2] * v.z};
+    }
+    Matrix3 operator*(const Matrix3& o) const {
+        Matrix3 r{};
+        for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j)
+                for (int k = 0; k < 3; ++k) r.m[i][j] += m[i][k] * o.m[k][j];
+        return r;
+    }
+};
+
+Matrix3 about_x(double a) {
+    return {{{1, 0, 0}, {0, std::cos(a), -std::sin(a)}, {0, std::sin(a), std::cos(a)}}};
+}
+Matrix3 about_y(double a) {
+    return {{{std::cos(a), 0, std::sin(a)}, {0, 1, 0}, {-std::sin(a), 0, std::cos(a)}}};
+}
+Matrix3 about_z(double a) {
+    return {{{std::cos(a), -std::sin(a), 0}, {std::sin(a), std::cos(a), 0}, {0, 0, 1}}};
+}
+
+// A parabola through an axis's ends, `bow` at mid-travel.
+double bow_at(double bow, double s, double travel) {
+    const double u = s / travel;
+    return 4 * bow * u * (1 - u);
+}
+
+}  // namespace
+
+RouterTruth random_router_truth(unsigned seed, double travel_x_mm, double travel_y_mm) {
+    std::mt19937 rng(seed * 104729u + 31u);
+    std::uniform_real_distribution<double> u(-1, 1);
+    const auto sign = [&] { return u(rng) < 0 ? -1.0 : 1.0; };
+    RouterTruth t;
+    t.travel_x_mm = travel_x_mm;
+    t.travel_y_mm = travel_y_mm;
+    // Belt or screw pitch most of a percent off, a gantry several milliradians out of square,
+    // guides bowed by one or two millimetres, the gantry yawing as much again over its travel
+    // (the seed's router (scales of -0.64 % and 0.56 %,
+    // 6 mrad out of square, its x axis bowed 1.4 mm over 250 mm, 2.3e-5 rad/mm of yaw) showed
+    // 1.54 mm of mean error norm in its own frame.
+    t.scale_x = sign() * (0.008 + 0.004 * std::abs(u(rng)));
+    t.scale_y = sign() * (0.008 + 0.004 * std::abs(u(rng)));
+    t.squareness_rad = sign() * (0.008 + 0.004 * std::abs(u(rng)));
+    t.bow_x_mm = sign() * (1.5 + 0.7 * std::abs(u(rng)));
+    t.bow_y_mm = sign() * (1.5 + 0.7 * std::abs(u(rng)));
+    t.gantry_yaw_rad_per_mm = sign() * (2e-5 + 1e-5 * std::abs(u(rng)));
+    t.gantry_pitch_rad_per_mm = 4e-6 * u(rng);
+    t.gantry_roll_rad_per_mm = 4e-6 * u(rng);
+    t.carriage_pitch_rad_per_mm = 4e-6 * u(rng);
+    t.carriage_roll_rad_per_mm = 4e-6 * u(rng);
+    t.tool_length_mm = 80 + 20 * u(rng);
+    t.screw_error_mm = 0.004 + 0.002 * u(rng);
+    t.screw_lead_mm = 5;
+    t.backlash_x_mm = 0.05 + 0.03 * u(rng);
+    t.backlash_y_mm = 0.05 + 0.03 * u(rng);
+    return t;
+}
+
+Vec3 router_tool_position_mm(const RouterTruth& t, const Vec3& c,
+                             std::array<bool, 2> moving_positive) {
+    // Each drive: scale, the screw's cyclic error, and backlash (the carriage lags half the slack
+    // behind the way it last moved).
+    const double k = 2 * kPi / t.screw_lead_mm;
+    const double x = c.x * (1 + t.scale_x) + t.screw_error_mm * std::sin(k * c.x) +
+                     (moving_positive[0] ? -0.5 : 0.5) * t.backlash_x_mm;
+    const double y = c.y * (1 + t.scale_y) + t.screw_error_mm * std::sin(k * c.y + 1.0) +
+                     (moving_positive[1] ? -0.5 : 0.5) * t.backlash_y_mm;
+    // The gantry's origin (its x = 0 end) runs along a leaning, bowed path; the gantry turns as
+    // it goes (yaw about z, pitch about x, roll about y).
+    const Vec3 gantry_origin{
+        y * std::sin(t.squareness_rad) + bow_at(t.bow_y_mm, c.y, t.travel_y_mm),
+        y * std::cos(t.squareness_rad), 0};
+    const Matrix3 gantry = about_z(t.gantry_yaw_rad_per_mm * c.y) *
+                           about_x(t.gantry_pitch_rad_per_mm * c.y) *
+                           about_y(t.gantry_roll_rad_per_mm * c.y);
+    // The carriage runs along the gantry on a bowed path and pitches (about y) and rolls (about
+    // x) as it goes; the tool point hangs below it.
+    const Vec3 carriage_on_gantry{x, bow_at(t.bow_x_mm, c.x, t.travel_x_mm), 0};
+    const Matrix3 carriage =
+        about_y(t.carriage_pitch_rad_per_mm * c.x) * about_x(t.carriage_roll_rad_per_mm * c.x);
+    const Vec3 tool{0, 0, -(t.tool_length_mm - c.z)};
+    const Vec3 p = gantry_origin + gantry * (carriage_on_gantry + carriage * tool);
+    return {p.x, p.y, p.z + t.tool_length_mm};
+}
+
+void RouterTwin::home() {
+    homed_ = true;
+    last_commanded_ = {0, 0, 0};
+    moving_positive_ = {true, true};
+}
+
+Vec3 RouterTwin::actual_position_mm(const Vec3& commanded) const {
+    if (commanded.x < -1 || commanded.y < -1 || commanded.x > truth_.travel_x_mm + 1 ||
+        commanded.y > truth_.travel_y_mm + 1)
+        throw OutOfReach("the router cannot reach X" + std::to_string(commanded.x) + " Y" +
+                         std::to_string(commanded.y));
+    if (commanded.x != last_commanded_.x) moving_positive_[0] = commanded.x > last_commanded_.x;
+    if (commanded.y != last_commanded_.y) moving_positive_[1] = commanded.y > last_commanded_.y;
+    last_commanded_ = commanded;
+    return router_tool_position_mm(truth_, commanded, moving_positive_);
+}
+
+std::optional<std::vector<std::string>> RouterTwin::settings_command(const gcode::Line& line) {
+    if (line.is('G', 17) || line.is('M', 2) || line.is('M', 30)) return std::vector<std::string>{};
+    return std::nullopt;
+}
+
+std::vector<Vec2> drilled_hole_centres_mm(RouterTwin& twin, const std::string& job) {
+    ToolSettings tool;
+    tool.kind = ToolKind::spindle;
+    tool.tool_width_mm = 1;
+    GcodeRunner runner(twin, tool);
+    std::istringstream in(job);
+    runner.run(in);
+    // A hole is where a run of cuts starts: the bottom of its plunge (the first cut is the
+    // plunge's last piece below the surface, the tool at the hole's axis).
+    std::vector<Vec2> holes;
+    int previous_line = -10;
+    for (const auto& s : runner.result().strokes) {
+        const bool plunge = s.commanded_a_mm.x == s.commanded_b_mm.x &&
+                            s.commanded_a_mm.y == s.commanded_b_mm.y &&
+                            s.commanded_b_mm.z < s.commanded_a_mm.z;
+        if (plunge && s.line != previous_line) holes.push_back({s.b_mm.x, s.b_mm.y});
+        if (plunge) holes.back() = {s.b_mm.x, s.b_mm.y};
+        previous_line = s.line;
+    }
+    return holes;
+}
+
+std::vector<StrokeSegment> holes_on_the_sheet(const std::vector<Stroke>& cuts,
+                                              double surface_height_mm) {
+    std::vector<StrokeSegment> out;
+    for (const auto& s : cuts)
+        out.push_back({{s.a_mm.x, s.a_mm.y, surface_height_mm},
+                       {s.b_mm.x, s.b_mm.y, surface_height_mm},
+                       s.width_mm});
+    return out;
+}
+
+RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& intended_mm,
+                             const std::string& job) {
+    RouterTwin twin(truth);
+    const auto holes = drilled_hole_centres_mm(twin, job);
+    if (holes.size() != intended_mm.size())
+        throw MachineError("judge: the job drilled " + std::to_string(holes.size()) +
+                           " holes for " + std::to_string(intended_mm.size()) + " points");
+    std::vector<Vec3> drilled, intended;
+    for (std::size_t i = 0; i < holes.size(); ++i) {
+        drilled.push_back({holes[i].x, holes[i].y, 0});
+        intended.push_back({intended_mm[i].x, intended_mm[i].y, 0});
+    }
+    const auto placed = rigidly_onto(drilled, intended);
+    RouterJudgement j;
+    j.points = placed.size();
+    double sum = 0, sum2 = 0;
+    for (std::size_t i = 0; i < placed.size(); ++i) {
+        const double e = std::hypot(placed[i].x - intended[i].x, placed[i].y - intended[i].y);
+        sum += e;
+        sum2 += e * e;
+        j.max_mm = std::max(j.max_mm, e);
+    }
+    j.mean_mm = sum / static_cast<double>(j.points);
+    j.rms_mm = std::sqrt(sum2 / static_cast<double>(j.points));
+    return j;
+}
+
+}  // namespace calbox::sim

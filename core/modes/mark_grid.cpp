@@ -1,0 +1,165 @@
+#include "core/modes/mark_grid.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+
+#include "core/number_text.hpp"
+
+namespace calbox::modes {
+namespace {
+
+using geometry::Point2;
+
+// Candidates by position, in cells of one pitch.
+class Neighbourhood {
+  public:
+    Neighbourhood(std::vector<MarkCandidate>& candidates, double cell_mm)
+        : candidates_(candidates), cell_(cell_mm) {
+        for (std::size_t i = 0; i < candidates.size(); ++i)
+            cells_[key(candidates[i].bed_mm)].push_back(i);
+    }
+    // The nearest free candidate within `reach_mm` of `at`, or -1.
+    long nearest(Point2 at, double reach_mm) const {
+        long best = -1;
+        double best_d = reach_mm;
+        const auto [kx, ky] = key(at);
+        for (long dy = -1; dy <= 1; ++dy)
+            for (long dx = -1; dx <= 1; ++dx) {
+                const auto it = cells_.find({kx + dx, ky + dy});
+                if (it == cells_.end()) continue;
+                for (std::size_t i : it->second) {
+                    if (candidates_[i].taken) continue;
+                    const double d =
+                        std::hypot(candidates_[i].bed_mm.x - at.x, candidates_[i].bed_mm.y - at.y);
+                    if (d < best_d) best_d = d, best = static_cast<long>(i);
+                }
+            }
+        return best;
+    }
+
+  private:
+    std::pair<long, long> key(Point2 p) const {
+        return {static_cast<long>(std::floor(p.x / cell_)),
+                static_cast<long>(std::floor(p.y / cell_))};
+    }
+    std::vector<MarkCandidate>& candidates_;
+    double cell_;
+    std::map<std::pair<long, long>, std::vector<std::size_t>> cells_;
+};
+
+}  // namespace
+
+std::vector<SeenMark> marks_on_bed(const geometry::CameraModel& camera,
+                                   const geometry::BedPlane& plane, const vision::SpotImage& seen,
+                                   double height_mm) {
+    // Each spot with a pixel to its right, so that its size and uncertainty come out in mm at
+    // the local scale.
+    std::vector<Point2> pixels;
+    for (const auto& s : seen.spots) {
+        pixels.push_back(s.centre_px);
+        pixels.push_back({s.centre_px.x + 1, s.centre_px.y});
+    }
+    const auto on_bed = geometry::pixels_to_bed(camera, plane, pixels, height_mm);
+    std::vector<SeenMark> marks;
+    for (std::size_t i = 0; i < seen.spots.size(); ++i) {
+        const auto& s = seen.spots[i];
+        const Point2 at{on_bed[2 * i].x, on_bed[2 * i].y};
+        const double mm_per_px = std::hypot(on_bed[2 * i + 1].x - at.x, on_bed[2 * i + 1].y - at.y);
+        marks.push_back({at, std::sqrt(s.area_px / 3.14159265358979) * mm_per_px,
+                         s.sigma_px * mm_per_px, s.elongation, s.touches_border});
+    }
+    return marks;
+}
+
+void set_aside_odd_sizes(std::vector<MarkCandidate>& candidates, double max_deviation,
+                         std::vector<Point2>& extra_mm) {
+    for (const bool kind : {false, true}) {
+        std::vector<double> radii;
+        for (const auto& c : candidates)
+            if (c.large == kind) radii.push_back(c.radius_mm);
+        if (radii.empty()) continue;
+        std::nth_element(radii.begin(), radii.begin() + static_cast<long>(radii.size() / 2),
+                         radii.end());
+        const double typical = radii[radii.size() / 2];
+        for (auto& c : candidates)
+            if (c.large == kind && std::abs(c.radius_mm / typical - 1) > max_deviation)
+                c.taken = true;
+    }
+    for (auto it = candidates.begin(); it != candidates.end();) {
+        if (it->taken) {
+            extra_mm.push_back(it->bed_mm);
+            it = candidates.erase(it);
+        } else {
+            ++it;
+        }
+    }
+}
+
+// Indexes the candidates on a square lattice of pitch `pitch` by growing it from the middle
+// mark: each neighbour is looked for where the node and the one behind it predict it, so the
+// lattice follows a distortion that bends it slowly; a single gap is bridged by a predicted node.
+Lattice grow_lattice(std::vector<MarkCandidate>& candidates, double pitch, double reach) {
+    Neighbourhood near(candidates, pitch);
+    Point2 mean;
+    for (const auto& c : candidates) mean.x += c.bed_mm.x, mean.y += c.bed_mm.y;
+    mean.x /= static_cast<double>(candidates.size()),
+        mean.y /= static_cast<double>(candidates.size());
+    const long seed = near.nearest(mean, 1e300);
+    candidates[static_cast<std::size_t>(seed)].taken = true;
+    const Point2 origin = candidates[static_cast<std::size_t>(seed)].bed_mm;
+    // The lattice's axes from the middle mark's nearest neighbour, turned by the quarter turn
+    // that brings it closest to the bed's +x (the neighbour there may have misfired), so that
+    // the symmetry found says how the grid lies on the bed.
+    const long first = near.nearest(origin, 1.4 * pitch);
+    if (first < 0)
+        throw LatticeError("measure: no mark lies a pitch from another: not a grid of " +
+                           number_text("%.3f", pitch) + " mm pitch");
+    Point2 e1{candidates[static_cast<std::size_t>(first)].bed_mm.x - origin.x,
+              candidates[static_cast<std::size_t>(first)].bed_mm.y - origin.y};
+    if (std::hypot(e1.x, e1.y) < 0.7 * pitch)
+        throw LatticeError("measure: marks lie closer than the grid's pitch: not this target");
+    for (int turn = 0; turn < 3 && !(e1.x >= std::abs(e1.y)); ++turn) e1 = {e1.y, -e1.x};
+    const Point2 e2{-e1.y, e1.x};
+    Lattice lattice;
+    lattice[{0, 0}] = {origin, seed};
+    std::deque<std::pair<int, int>> queue{{0, 0}};
+    const int directions[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    while (!queue.empty()) {
+        const auto at = queue.front();
+        queue.pop_front();
+        const LatticeNode here = lattice[at];
+        for (const auto& d : directions) {
+            const std::pair<int, int> next{at.first + d[0], at.second + d[1]};
+            if (lattice.count(next) != 0) continue;
+            Point2 step{d[0] * e1.x + d[1] * e2.x, d[0] * e1.y + d[1] * e2.y};
+            const auto behind = lattice.find({at.first - d[0], at.second - d[1]});
+            if (behind != lattice.end() && behind->second.candidate >= 0 && here.candidate >= 0)
+                step = {here.position_mm.x - behind->second.position_mm.x,
+                        here.position_mm.y - behind->second.position_mm.y};
+            const Point2 predicted{here.position_mm.x + step.x, here.position_mm.y + step.y};
+            const long found = near.nearest(predicted, reach);
+            if (found >= 0) {
+                candidates[static_cast<std::size_t>(found)].taken = true;
+                lattice[next] = {candidates[static_cast<std::size_t>(found)].bed_mm, found};
+                queue.push_back(next);
+            } else if (here.candidate >= 0) {
+                lattice[next] = {predicted, -1};  // a gap: look one further through it
+                queue.push_back(next);
+            }
+        }
+    }
+    return lattice;
+}
+
+LatticeExtent lattice_extent(const Lattice& lattice) {
+    LatticeExtent e{1 << 30, -(1 << 30), 1 << 30, -(1 << 30)};
+    for (const auto& [index, node] : lattice) {
+        if (node.candidate < 0) continue;
+        e.min_a = std::min(e.min_a, index.first), e.max_a = std::max(e.max_a, index.first);
+        e.min_b = std::min(e.min_b, index.second), e.max_b = std::max(e.max_b, index.second);
+    }
+    return e;
+}
+
+}  // namespace calbox::modes

@@ -1,0 +1,117 @@
+#pragma once
+// The planar mode (routers, cartesian printers, gantry lasers): a photo of the drilled (or
+// printed, or marked) hole grid -> where each hole was made, indexed on the grid whatever way
+// round the photo shows it; the quasi-static error model fitted to it; compensated jobs and
+// the firmware's own settings; the mode's files. The command line and `calbox run` call these.
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "core/geometry/calibration.hpp"
+#include "core/models/machine_file.hpp"
+#include "core/models/planar_errors.hpp"
+#include "core/modes/record_error.hpp"
+#include "core/targets/planar_target.hpp"
+#include "core/vision/spots.hpp"
+
+namespace calbox::modes {
+
+class PlanarError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+struct PlanarMeasureSettings {
+    targets::PlanarTargetOptions target;  // the design the sheet was drilled with
+    vision::SpotSettings spots;
+    // A hole is looked for this far (in pitches) from where the fiducials predict it: the
+    // errors being measured (a few millimetres at the far corners of a badly set machine, and
+    // the turn the fiducials' own corner has against the rest) stay inside it; the next hole,
+    // a pitch away, stays outside.
+    double match_reach_pitch = 0.4;
+    // A hole whose second moments are more elongated than this has a chip or a burr on its edge
+    // (a clean drilled hole seen through the lens is round to a percent or two).
+    double max_elongation = 1.08;
+    // Holes of one kind are drilled alike: one whose equivalent radius is this fraction off its
+    // kind's median has a chip, a burr or swarf in it.
+    double max_radius_deviation = 0.05;
+};
+
+struct PlanarHoleMeasurement {
+    targets::GridIndex index;
+    geometry::Point2 commanded_mm;  // machine coordinates
+    bool large = false;
+    geometry::Point2 measured_mm;  // bed frame (right-handed as the machine's), surface height
+    double sigma_mm = 0;           // standard uncertainty of each coordinate
+};
+
+struct PlanarMeasurement {
+    std::string machine_fingerprint, target_fingerprint;
+    std::vector<std::string> photos;
+    int columns = 0, rows = 0;
+    double pitch_mm = 0;
+    // The photo's bed frame was mirrored against the machine's (y flipped back in measured_mm).
+    bool mirrored = false;
+    std::vector<PlanarHoleMeasurement> holes;
+    std::vector<targets::GridIndex> missing;  // holes the job made that were not measured
+    std::vector<geometry::Point2> extra_mm;   // blobs that are no hole of the grid (chips, swarf)
+};
+
+// Throws PlanarError with one line when the photo cannot be indexed (no fiducials, not this
+// grid, part of it outside the photo, holes where the grid has none).
+PlanarMeasurement measure_planar(const models::MachineFile& machine,
+                                 const geometry::CameraModel& camera,
+                                 const geometry::BedPlane& plane, const vision::GrayView& photo,
+                                 const PlanarMeasureSettings& settings = {});
+
+struct PlanarSolveOptions {
+    // Beyond this the measurement is of something else (a wrong pitch, another sheet): a
+    // machine this far off is broken, not out of calibration, and nothing is written for it.
+    double max_error_mm = 10;
+};
+
+struct PlanarSolution {
+    std::string machine_fingerprint;
+    double tool_length_mm = 0;
+    models::PlanarFit fit;
+    std::vector<geometry::Point2> commanded_mm;  // per measured hole
+    std::vector<geometry::Point2> error_mm;      // seen - commanded, machine frame, placement out
+    models::NormStatistics before;               // of error_mm
+    models::NormStatistics after;     // of the fit's residuals: what the correction leaves there
+    double measurement_sigma_mm = 0;  // RMS of the holes' uncertainties
+    // The rigid part of the fitted field over the valid area, left out of the correction: the
+    // work's zero and heading are set by hand on the machine.
+    models::SmallRigidMotion rigid_part;
+    // The work area the correction is valid over (the measured holes' extent).
+    double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;
+};
+
+// Throws PlanarError (or models::PlanarModelError) with one line; nothing is returned for a
+// machine then.
+PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeasurement& measured,
+                            const PlanarSolveOptions& options = {});
+
+// Where to command so that the tool lands on `intended` (X_c = X_t - e(X_c)).
+geometry::Point2 planar_command_for(const PlanarSolution& solution, geometry::Point2 intended_mm);
+bool planar_covers(const PlanarSolution& solution, geometry::Point2 intended_mm);
+
+// The firmware's own knobs for the part of the error they can carry: lines to send or to put in
+// a configuration, each with what it leaves uncorrected.
+struct FirmwareSettings {
+    std::vector<std::string> lines;  // G-code commands, configuration lines and comments
+    // The mean error norm left over the measured holes when only these settings are applied.
+    double mean_left_mm = 0;
+    double mean_before_mm = 0;
+};
+FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
+                                          const PlanarSolution& solution);
+
+// The mode's files: `calbox.planar-measurements/1`, `calbox.planar-result/1`. Reading throws
+// RecordError naming `source`.
+std::string planar_measurements_to_json(const PlanarMeasurement& measured);
+PlanarMeasurement planar_measurements_from_json(const std::string& text, const std::string& source);
+std::string planar_result_to_json(const PlanarSolution& solution, const FirmwareSettings& firmware);
+PlanarSolution planar_result_from_json(const std::string& text, const std::string& source);
+
+}  // namespace calbox::modes

@@ -3,8 +3,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <nlohmann/json.hpp>
+#include <optional>
 
 #include "core/modes/galvo.hpp"
+#include "core/modes/planar.hpp"
 #include "core/targets/compensate.hpp"
 #include "firmware/cli_args.hpp"
 
@@ -14,14 +17,17 @@ namespace {
 constexpr const char* kCompensateHelp = R"(usage:
   calbox compensate --result result.json IN -o OUT [--segment MM]
       Sends every XY position of a job through the correction a solve found, so that the
-      machine marks where the job meant: today a galvo result (calbox solve galvo), whose table
-      gives the scanner command for each intended point. IN is G-code (absolute XY in mm: G90,
+      machine marks where the job meant: a galvo result (calbox solve galvo), whose table gives
+      the scanner command for each intended point, or a planar result (calbox solve planar),
+      whose error model e gives X_c = X_t - e(X_c) (the rigid part of e left to the work's zero
+      and heading). IN is G-code (absolute XY in mm: G90,
       G21; G0/G1 moves and G2/G3 arcs in the XY plane) or a plain scanner job (its first line
       x_mm,y_mm,power). Moves are split into pieces of at most --segment mm (default 1: the
       table's bilinear correction then bends less than 0.0001 mm between pieces on scanners
       of the size tested) and arcs are traced by chords within 0.002 mm; every other word,
       comment and line is kept as written. Points outside the table's area take the edge's
-      correction and are counted on standard error. Refused, nothing written: relative XY
+      correction (a planar model extrapolates beyond its measured holes) and are counted on
+      standard error. Refused, nothing written: relative XY
       (G91), inches (G20), G92 with X or Y, arcs off the XY plane, numbered lines.
 )";
 
@@ -35,11 +41,30 @@ int compensate(const std::vector<std::string>& words) {
     settings.max_segment_mm = args.number("--segment", 1.0);
     if (!(settings.max_segment_mm >= 0.01 && settings.max_segment_mm <= 100))
         throw UsageError("--segment must be 0.01 to 100 mm");
-    const auto solution =
-        modes::galvo_result_from_json(read_input_file(result_path, "result"), result_path);
-    const auto& table = solution.fit.table;
-    const targets::Correction correct = [&](geometry::Point2 p) { return table.command_for(p); };
-    const targets::Covers covers = [&](geometry::Point2 p) { return table.covers(p); };
+    const std::string result_text = read_input_file(result_path, "result");
+    // Which mode's result it is: its schema says.
+    std::string schema;
+    try {
+        const auto j = nlohmann::json::parse(result_text);
+        if (j.is_object() && j.contains("schema") && j["schema"].is_string())
+            schema = j["schema"].get<std::string>();
+    } catch (const nlohmann::json::exception&) {
+        throw std::runtime_error(result_path + ": not a result file (malformed JSON)");
+    }
+    targets::Correction correct;
+    targets::Covers covers;
+    std::optional<modes::GalvoSolution> galvo;
+    std::optional<modes::PlanarSolution> planar;
+    if (schema.rfind("calbox.planar-result/", 0) == 0) {
+        planar = modes::planar_result_from_json(result_text, result_path);
+        correct = [&](geometry::Point2 p) { return modes::planar_command_for(*planar, p); };
+        covers = [&](geometry::Point2 p) { return modes::planar_covers(*planar, p); };
+    } else {
+        galvo = modes::galvo_result_from_json(result_text, result_path);
+        const auto& table = galvo->fit.table;
+        correct = [&table](geometry::Point2 p) { return table.command_for(p); };
+        covers = [&table](geometry::Point2 p) { return table.covers(p); };
+    }
     const std::string job = read_input_file(in, "job");
     targets::CompensateReport report;
     std::string compensated;
@@ -55,7 +80,10 @@ int compensate(const std::vector<std::string>& words) {
                 report.lines, report.moves, report.pieces, report.arcs);
     if (report.outside > 0)
         std::cerr << "calbox: " << in << ": " << report.outside
-                  << " points lie outside the table's area and took its edge's correction\n";
+                  << (planar ? " points lie outside the measured holes' area (the model "
+                               "extrapolates there)\n"
+                             : " points lie outside the table's area and took its edge's "
+                               "correction\n");
     return 0;
 }
 

@@ -9,6 +9,7 @@
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_records.hpp"
 #include "core/modes/galvo.hpp"
+#include "core/modes/planar.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
 
@@ -38,6 +39,16 @@ constexpr const char* kMeasureHelp = R"(usage:
       as missing, spatter and damaged marks as extra, and neither stops the measurement. Writes
       each mark's commanded centre, where it was measured and its uncertainty. --overlay marks
       on the photo the marks used (green), the extra blobs (orange) and each mark's index.
+  calbox measure planar --camera camera.yaml --plane plane.yaml --machine machine.toml PHOTO
+                        -o measurements.json [--design N] [--overlay overlay.png]
+      Finds the drilled (or printed) hole grid (the target is regenerated from the machine file;
+      --design as it was made): each hole's centre from fixed-point moments, mapped to the bed at
+      the sheet's top ([planar] surface_height_mm); the grid placed by its two large holes (all
+      four ways round are tried) and every hole matched where the placement puts it. Holes with
+      a chip or a burr (elongated, or 5 % off their kind's size) are listed as extra and their
+      node as missing; two holes where the grid has one, a photo of another grid, or one that
+      shows under three quarters of it: one line, nothing written. --overlay marks the holes
+      used (green), the extra blobs (orange) and the large holes' indices.
 )";
 
 // What every measure command reads first: the camera, the bed plane and the machine.
@@ -203,10 +214,66 @@ int galvo(const std::vector<std::string>& words) {
     return 0;
 }
 
+int planar(const std::vector<std::string>& words) {
+    const Args args(words, {"--camera", "--plane", "--machine", "-o", "--design", "--overlay"}, {});
+    const std::string out = args.require("-o");
+    if (args.positional().size() != 1) throw UsageError("measure planar takes one photo");
+    const auto [camera, plane, machine] = read_set_up(args);
+    modes::PlanarMeasureSettings settings;
+    if (args.get("--design")) {
+        const double n = args.number("--design", 0);
+        if (n != std::floor(n) || n < 1) throw UsageError("--design must be a whole number");
+        settings.target.only_nodes =
+            modes::planar_design_nodes(machine, static_cast<std::size_t>(n));
+    }
+    const cv::Mat image = load_gray_image(args.positional()[0]);
+    auto measured = modes::measure_planar(machine, camera, plane, view_of(image), settings);
+    measured.photos = args.positional();
+    write_output_file(out, modes::planar_measurements_to_json(measured));
+    double sigma = 0;
+    for (const auto& h : measured.holes) sigma = std::max(sigma, h.sigma_mm);
+    std::printf(
+        "%s: %zu holes measured, %zu missing, %zu extra blobs%s; largest uncertainty "
+        "%.5f mm\n",
+        out.c_str(), measured.holes.size(), measured.missing.size(), measured.extra_mm.size(),
+        measured.mirrored ? " (the photo's frame mirrored)" : "", sigma);
+    for (const auto& m : measured.missing)
+        std::printf("  missing: column %d row %d\n", m.column, m.row);
+    if (const auto overlay = args.get("--overlay")) {
+        cv::Mat picture;
+        cv::cvtColor(image, picture, cv::COLOR_GRAY2BGR);
+        const int thickness = std::max(1, picture.cols / 1500);
+        const double z = machine.planar->surface_height_mm;
+        const double flip = measured.mirrored ? -1 : 1;
+        std::vector<geometry::Point3> points;
+        for (const auto& h : measured.holes)
+            points.push_back({h.measured_mm.x, flip * h.measured_mm.y, z});
+        for (const auto& e : measured.extra_mm) points.push_back({e.x, e.y, z});
+        const auto px = geometry::project_points(camera, plane.bed_to_camera, points);
+        const int radius = std::max(4, picture.cols / 250);
+        for (std::size_t i = 0; i < px.size(); ++i) {
+            const cv::Point at(cvRound(px[i].x), cvRound(px[i].y));
+            const bool hole = i < measured.holes.size();
+            cv::circle(picture, at, hole ? radius : 2 * radius,
+                       hole ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 140, 255), thickness);
+            if (hole && measured.holes[i].large) {
+                const std::string label = std::to_string(measured.holes[i].index.column) + "," +
+                                          std::to_string(measured.holes[i].index.row);
+                cv::putText(picture, label, at + cv::Point(2 * radius, -radius),
+                            cv::FONT_HERSHEY_SIMPLEX, picture.cols / 2000.0, cv::Scalar(255, 0, 0),
+                            thickness);
+            }
+        }
+        write_png(*overlay, picture);
+    }
+    return 0;
+}
+
 }  // namespace
 
 int run_measure(const std::vector<std::string>& words) {
-    return dispatch(words, kMeasureHelp, "measure", {{"delta", delta}, {"galvo", galvo}});
+    return dispatch(words, kMeasureHelp, "measure",
+                    {{"delta", delta}, {"galvo", galvo}, {"planar", planar}});
 }
 
 }  // namespace calbox::cli

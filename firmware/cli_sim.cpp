@@ -16,6 +16,7 @@
 #include "core/models/machine_file.hpp"
 #include "core/modes/delta_records.hpp"
 #include "core/modes/galvo.hpp"
+#include "core/modes/planar.hpp"
 #include "firmware/cli_args.hpp"
 
 namespace calbox::cli {
@@ -51,7 +52,10 @@ constexpr const char* kSimHelp = R"(usage:
       with --result, again after sending that solve result's firmware lines and homing. A galvo
       scenario's scanner: a fresh 30 x 30 grid of marks over the table's area (without --result,
       the field less a pitch) burned as commanded, and with --result through its table: where
-      they land against where they were meant (rotation and translation taken out).
+      they land against where they were meant (rotation and translation taken out). A router
+      scenario: a fresh job of holes half a pitch off its target's, drilled as commanded and
+      with --result through the compensated G-code (calbox compensate's correction), each hole
+      against where it was meant (the work's zero and heading taken out).
 )";
 
 std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text,
@@ -191,7 +195,7 @@ int sim_photo(const std::vector<std::string>& words) {
         // Photographed with the bed at another temperature than it was printed at, the print
         // has grown or shrunk with the bed; the truth keeps where the nozzle laid it.
         const double growth = sim::bed_growth_at_photo(scenario);
-        strokes = sim::carried_by_bed(std::move(strokes), growth);
+        strokes = sim::as_photographed(scenario, std::move(strokes));
         truth["bed_growth_at_photo"] = growth;
         const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
                                      scenario.material_albedo, scenario.photo.supersample,
@@ -349,13 +353,43 @@ int sim_verify_galvo(const Args& args, const sim::Scenario& scenario) {
     return 0;
 }
 
+// The twin judges a router in its truth: a fresh job of holes half a pitch off the target's
+// drilled as commanded, and with --result through the compensated G-code.
+int sim_verify_router(const Args& args, const sim::Scenario& scenario) {
+    std::optional<modes::PlanarSolution> solution;
+    if (const auto path = args.get("--result"))
+        solution = modes::planar_result_from_json(read_input_file(*path, "result"), *path);
+    const targets::Correction correct = [&](geometry::Point2 p) {
+        return modes::planar_command_for(*solution, p);
+    };
+    const auto verdict = sim::judge_router_fresh_holes(scenario.router_truth, scenario.machine,
+                                                       solution ? &correct : nullptr);
+    const auto judgement = [](const sim::RouterJudgement& j) {
+        return nlohmann::json{{"mean_mm", j.mean_mm}, {"rms_mm", j.rms_mm}, {"max_mm", j.max_mm}};
+    };
+    std::printf("before: %zu holes %.4f mm mean, %.4f RMS, %.4f worst\n", verdict.holes,
+                verdict.before.mean_mm, verdict.before.rms_mm, verdict.before.max_mm);
+    nlohmann::json j{{"schema", "calbox.sim-verify-router/1"},
+                     {"holes", verdict.holes},
+                     {"before", judgement(verdict.before)}};
+    if (verdict.after) {
+        std::printf("through the compensated G-code: %.5f mm mean, %.5f RMS, %.5f worst\n",
+                    verdict.after->mean_mm, verdict.after->rms_mm, verdict.after->max_mm);
+        j["after"] = judgement(*verdict.after);
+    }
+    if (const auto out = args.get("-o")) write_output_file(*out, j.dump(1) + "\n");
+    return 0;
+}
+
 int sim_verify(const std::vector<std::string>& words) {
     const Args args(words, {"--scenario", "--result", "-o"}, {});
     if (!args.positional().empty()) throw UsageError("sim verify takes no positional argument");
     const auto scenario = scenario_from(args);
     if (scenario.machine.is_galvo()) return sim_verify_galvo(args, scenario);
+    if (scenario.machine.kind == "router") return sim_verify_router(args, scenario);
     if (!scenario.machine.is_delta())
-        throw std::runtime_error(scenario.path + ": sim verify judges delta and galvo scenarios");
+        throw std::runtime_error(scenario.path +
+                                 ": sim verify judges delta, galvo and router scenarios");
     std::vector<std::string> commands;
     if (const auto path = args.get("--result"))
         commands = modes::result_from_json(read_input_file(*path, "result"), *path).commands;

@@ -7,6 +7,7 @@
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_records.hpp"
 #include "core/modes/galvo.hpp"
+#include "core/modes/planar.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
 
@@ -38,6 +39,22 @@ constexpr const char* kSolveHelp = R"(usage:
       controller. --burned-through: the result whose table the grid was burned through (a
       second pass), refined rather than replaced. Refused, nothing written: a correction over
       3 % of the field, or one that would command beyond the field.
+  calbox solve planar --machine machine.toml --measurements measurements.json -o result.json
+                      [--error-map PNG] [--firmware FILE]
+      The machine's quasi-static errors from the measured holes (the large ones only place the
+      grid): the twelve parameters of a gantry's kinematic chain to first order (scales,
+      squareness, straightness, gantry yaw, pitch and roll over [planar] tool_length_mm, the
+      tool's tilt), fitted by least squares with the machine's placement in the photo beside
+      them; those the holes cannot tell apart from others are held at 0 and reported with what
+      absorbs them. The result has each parameter with its uncertainty, the seed paper's
+      statistics of the error norm (max, Q3, median, Q1, min, mean, std) before and after (the
+      fit's residuals: what the correction leaves at the holes), the area it is valid over,
+      and the firmware's own settings for the part they can carry (Marlin M92 and M852, Klipper
+      rotation_distance and SET_SKEW, grbl $100/$101, LinuxCNC compensation files) with what
+      they leave. calbox compensate applies the whole model to any job. --error-map draws each
+      hole's error before (red) and after (green), magnified. --firmware writes those settings.
+      Refused, nothing written: a hole over 10 mm from where it was commanded, a correction
+      that large anywhere in the area, fewer than 8 holes, a design too badly conditioned.
 )";
 
 int delta(const std::vector<std::string>& words) {
@@ -176,10 +193,97 @@ int galvo(const std::vector<std::string>& words) {
     return 0;
 }
 
+void draw_planar_error_map(const std::string& path, const modes::PlanarSolution& s) {
+    const int size_px = 1200, margin_px = 70;
+    double largest = 0;
+    for (const auto& e : s.error_mm) largest = std::max(largest, std::hypot(e.x, e.y));
+    const double span = std::max(s.max_x_mm - s.min_x_mm, s.max_y_mm - s.min_y_mm);
+    const double px_per_mm = (size_px - 2 * margin_px) / span;
+    double gain = 1;
+    for (const double nice : {2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0})
+        if (nice * largest * px_per_mm <= 60) gain = nice;
+    cv::Mat picture(size_px, size_px, CV_8UC3, cv::Scalar(255, 255, 255));
+    const auto to_px = [&](geometry::Point2 p) {
+        return cv::Point(cvRound(margin_px + (p.x - s.min_x_mm) * px_per_mm),
+                         cvRound(size_px - margin_px - (p.y - s.min_y_mm) * px_per_mm));
+    };
+    for (std::size_t i = 0; i < s.commanded_mm.size(); ++i) {
+        const auto& q = s.commanded_mm[i];
+        const auto draw = [&](geometry::Point2 e, const cv::Scalar& colour) {
+            cv::arrowedLine(picture, to_px(q), to_px({q.x + gain * e.x, q.y + gain * e.y}), colour,
+                            2, cv::LINE_AA, 0, 0.2);
+        };
+        draw(s.error_mm[i], cv::Scalar(0, 0, 220));
+        draw(s.fit.residuals_mm[i], cv::Scalar(0, 160, 0));
+    }
+    char legend[240];
+    std::snprintf(legend, sizeof legend,
+                  "error norm before (red): mean %.4f mm, max %.4f; after (green): mean %.4f, "
+                  "max %.4f; arrows x%.0f",
+                  s.before.mean_mm, s.before.max_mm, s.after.mean_mm, s.after.max_mm, gain);
+    cv::putText(picture, legend, {margin_px / 3, margin_px / 2}, cv::FONT_HERSHEY_SIMPLEX, 0.55,
+                cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+    write_png(path, picture);
+}
+
+int planar(const std::vector<std::string>& words) {
+    const Args args(words, {"--machine", "--measurements", "-o", "--error-map", "--firmware"}, {});
+    if (!args.positional().empty()) throw UsageError("solve planar takes no positional argument");
+    const std::string machine_path = args.require("--machine");
+    const std::string out = args.require("-o");
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    const std::string measurements_path = args.require("--measurements");
+    const auto measured = modes::planar_measurements_from_json(
+        read_input_file(measurements_path, "measurements"), measurements_path);
+    modes::PlanarSolution solution;
+    try {
+        solution = modes::solve_planar(machine, measured);
+    } catch (const modes::PlanarError& e) {
+        throw std::runtime_error(measurements_path + ": " + e.what());
+    } catch (const models::PlanarModelError& e) {
+        throw std::runtime_error(measurements_path + ": solve: " + e.what());
+    }
+    const auto firmware = modes::planar_firmware_settings(machine, solution);
+    write_output_file(out, modes::planar_result_to_json(solution, firmware));
+    if (const auto path = args.get("--firmware")) {
+        std::string text;
+        for (const auto& line : firmware.lines) text += line + "\n";
+        write_output_file(*path, text);
+    }
+    const auto& b = solution.before;
+    const auto& a = solution.after;
+    std::printf(
+        "%s: %zu holes, fit residual %.4f mm RMS (measurement %.4f mm), rank %d, "
+        "condition %.0f\n",
+        out.c_str(), b.points, solution.fit.residual_rms_mm, solution.measurement_sigma_mm,
+        solution.fit.rank, solution.fit.condition);
+    std::printf("  error norm   max     Q3      median  Q1      min     mean    std\n");
+    std::printf("  before    %7.4f %7.4f %7.4f %7.4f %7.4f %7.4f %7.4f mm\n", b.max_mm, b.q3_mm,
+                b.median_mm, b.q1_mm, b.min_mm, b.mean_mm, b.std_mm);
+    std::printf("  after     %7.4f %7.4f %7.4f %7.4f %7.4f %7.4f %7.4f mm (predicted)\n", a.max_mm,
+                a.q3_mm, a.median_mm, a.q1_mm, a.min_mm, a.mean_mm, a.std_mm);
+    const auto& names = models::planar_parameters();
+    for (std::size_t j = 0; j < names.size(); ++j) {
+        if (solution.fit.fitted[j]) {
+            std::printf("  %-18s %+.4e +- %.1e %s\n", names[j].name, solution.fit.parameters[j],
+                        solution.fit.uncertainty[j], names[j].unit);
+            continue;
+        }
+        for (const auto& h : solution.fit.held)
+            if (h.parameter == static_cast<int>(j))
+                std::printf("  %-18s held: absorbed by %s\n", names[j].name, h.absorbed_by.c_str());
+    }
+    for (const auto& line : firmware.lines) std::printf("  %s\n", line.c_str());
+    if (const auto map = args.get("--error-map")) draw_planar_error_map(*map, solution);
+    return 0;
+}
+
 }  // namespace
 
 int run_solve(const std::vector<std::string>& words) {
-    return dispatch(words, kSolveHelp, "solve", {{"delta", delta}, {"galvo", galvo}});
+    return dispatch(words, kSolveHelp, "solve",
+                    {{"delta", delta}, {"galvo", galvo}, {"planar", planar}});
 }
 
 }  // namespace calbox::cli

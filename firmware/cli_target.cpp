@@ -7,9 +7,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/models/machine_file.hpp"
+#include "core/modes/planar.hpp"
 #include "core/targets/delta_target.hpp"
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
+#include "core/targets/planar_target.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/cli_images.hpp"
 
@@ -30,6 +32,18 @@ constexpr const char* kTargetHelp = R"(usage:
       gcode (default: M3/M5 with power, G1 at feed_mm_s, in scanner millimetres) or csv (a
       plain scanner job: x_mm,y_mm,power lines). --describe writes every mark's commanded
       centre, its grid index and its size.
+  calbox target planar --machine machine.toml -o target.gcode [--design N]
+                       [--describe target.json]
+      The planar calibration artifact for a router, cartesian printer or laser: a grid of holes
+      over the work area at [planar] hole_pitch_mm, the outer ones margin_mm inside it. Routers
+      drill them with their tool (tool_width_mm), plunging to cut_depth_mm at plunge_feed_mm_s
+      with a dwell of dwell_s, every hole approached from -X -Y so the drives' slack is taken up
+      alike, in the firmware's dialect (grbl, linuxcnc: G4 in seconds and M2; marlin: G4 in ms);
+      Z0 is the sheet's top. Printers and lasers fill dots a quarter pitch across. Two holes near
+      the first corner are twice the size and one is left out, so a photo says which hole is
+      which. --design N: only the N holes (and the two large ones) that DETMAX finds best for
+      the model, for a short job; measure with the same --design. --describe writes every hole's
+      commanded centre, grid index and diameter.
   calbox target svg FILE.svg --machine FILE -o JOB [--spacing MM] [--angle DEG] [--feed MM_S]
                     [--scale S | --fit MM] [--fill-rule nonzero|evenodd] [--perimeters N]
                     [--preview PNG]
@@ -227,11 +241,52 @@ int galvo(const std::vector<std::string>& words) {
     return 0;
 }
 
+int planar(const std::vector<std::string>& words) {
+    const Args args(words, {"--machine", "-o", "--design", "--describe"}, {});
+    if (!args.positional().empty()) throw UsageError("target planar takes no positional argument");
+    const std::string machine_path = args.require("--machine");
+    const std::string out = args.require("-o");
+    const auto machine =
+        models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
+    targets::PlanarTargetOptions options;
+    if (args.get("--design")) {
+        const double n = args.number("--design", 0);
+        if (n != std::floor(n) || n < 1) throw UsageError("--design must be a whole number");
+        options.only_nodes = modes::planar_design_nodes(machine, static_cast<std::size_t>(n));
+    }
+    const auto target = targets::make_planar_target(machine, options);
+    write_output_file(out, target.job);
+    if (const auto describe = args.get("--describe")) {
+        nlohmann::json holes = nlohmann::json::array();
+        for (const auto& h : target.holes)
+            holes.push_back(
+                {{"column", h.index.column},
+                 {"row", h.index.row},
+                 {"centre_mm", {h.centre_mm.x, h.centre_mm.y}},
+                 {"diameter_mm", h.large ? target.large_diameter_mm : target.hole_diameter_mm},
+                 {"large", h.large}});
+        const nlohmann::json j{{"schema", "calbox.planar-target/1"},
+                               {"target_fingerprint", target.fingerprint},
+                               {"machine_fingerprint", models::fingerprint(machine)},
+                               {"columns", target.columns},
+                               {"rows", target.rows},
+                               {"pitch_mm", target.pitch_mm},
+                               {"omitted", {target.omitted.column, target.omitted.row}},
+                               {"holes", holes}};
+        write_output_file(*describe, j.dump(1) + "\n");
+    }
+    std::printf("%s: %d x %d grid at %.3f mm, %zu holes of %.3f mm (two of %.3f mm)%s\n",
+                out.c_str(), target.columns, target.rows, target.pitch_mm, target.holes.size(),
+                target.hole_diameter_mm, target.large_diameter_mm,
+                options.only_nodes ? ", a DETMAX design" : "");
+    return 0;
+}
+
 }  // namespace
 
 int run_target(const std::vector<std::string>& words) {
     return dispatch(words, kTargetHelp, "target",
-                    {{"svg", svg}, {"delta", delta}, {"galvo", galvo}});
+                    {{"svg", svg}, {"delta", delta}, {"galvo", galvo}, {"planar", planar}});
 }
 
 }  // namespace calbox::cli

@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "board/sim/delta_judge.hpp"
+#include "core/targets/planar_target.hpp"
 
 namespace calbox::sim {
 namespace {
@@ -179,6 +180,32 @@ RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& 
     j.mean_mm = sum / static_cast<double>(j.points);
     j.rms_mm = std::sqrt(sum2 / static_cast<double>(j.points));
     return j;
+}
+
+RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::MachineFile& machine,
+                                       const targets::Correction* correct) {
+    const auto target = targets::make_planar_target(machine);
+    std::vector<targets::PlanarHole> holes;
+    std::vector<Vec2> intended;
+    for (int r = 0; r + 1 < target.rows; ++r)
+        for (int c = 0; c + 1 < target.columns; ++c) {
+            const geometry::Point2 at{target.first_mm.x + (c + 0.5) * target.pitch_mm,
+                                      target.first_mm.y + (r + 0.5) * target.pitch_mm};
+            holes.push_back({{c, r}, at, false});
+            intended.push_back({at.x, at.y});
+        }
+    const std::string job = targets::write_drilling_job(machine, holes, target.hole_diameter_mm,
+                                                        target.large_diameter_mm, "fresh holes");
+    RouterVerdict v;
+    v.holes = holes.size();
+    v.before = judge_router(truth, intended, job);
+    if (correct != nullptr) {
+        targets::CompensateReport report;
+        const std::string compensated = targets::compensate_gcode(
+            job, *correct, [](geometry::Point2) { return true; }, {}, report);
+        v.after = judge_router(truth, intended, compensated);
+    }
+    return v;
 }
 
 }  // namespace calbox::sim

@@ -12,6 +12,8 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/scenes.hpp"
+#include "core/models/machine_file.hpp"
+#include "core/targets/compensate.hpp"
 
 namespace calbox::sim {
 
@@ -75,5 +77,20 @@ struct RouterJudgement {
 };
 RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& intended_mm,
                              const std::string& job);
+
+}  // namespace calbox::sim
+
+namespace calbox::sim {
+
+// The twin's verdict on a fresh job: holes half a pitch off the machine's target grid (none of
+// them a hole the calibration saw), drilled as commanded, and with `correct` through the
+// compensated G-code (calbox compensate's own machinery, the code being judged).
+struct RouterVerdict {
+    RouterJudgement before;
+    std::optional<RouterJudgement> after;
+    std::size_t holes = 0;
+};
+RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::MachineFile& machine,
+                                       const targets::Correction* correct);
 
 }  // namespace calbox::sim

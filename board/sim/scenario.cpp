@@ -22,7 +22,8 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
     s.delta_truth = s.delta_firmware;
     if (const auto* truth = models::subtable(path, root, "truth")) {
         for (const auto& [key, node] : *truth) {
-            if (key.str() != "delta" && key.str() != "cartesian" && key.str() != "galvo") {
+            if (key.str() != "delta" && key.str() != "cartesian" && key.str() != "galvo" &&
+                key.str() != "router") {
                 throw ScenarioError(path + ": [truth] has unknown part '" + std::string(key.str()) +
                                     "'");
             }
@@ -63,6 +64,34 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
             r.boolean("x_reversed", t.x_reversed);
             r.finish();
         }
+    }
+    if (s.machine.kind == "router") {
+        auto& t = s.router_truth;
+        t.travel_x_mm = s.machine.bed_size_x_mm;
+        t.travel_y_mm = s.machine.bed_size_y_mm;
+        const auto* truth = models::subtable(path, root, "truth");
+        const auto* r = truth != nullptr ? models::subtable(path, *truth, "router") : nullptr;
+        if (r != nullptr) {
+            TomlReader reader(path, *r, "truth.router");
+            int seed = 0;
+            reader.integer("seed", seed, 0, 1000000);
+            if (seed > 0)
+                t = random_router_truth(static_cast<unsigned>(seed), t.travel_x_mm, t.travel_y_mm);
+            reader.number("scale_x", t.scale_x, -0.05, 0.05);
+            reader.number("scale_y", t.scale_y, -0.05, 0.05);
+            reader.number("squareness_rad", t.squareness_rad, -0.05, 0.05);
+            reader.number("bow_x_mm", t.bow_x_mm, -10, 10);
+            reader.number("bow_y_mm", t.bow_y_mm, -10, 10);
+            reader.number("gantry_yaw_rad_per_mm", t.gantry_yaw_rad_per_mm, -1e-3, 1e-3);
+            reader.number("tool_length_mm", t.tool_length_mm, 0, 500);
+            reader.number("screw_error_mm", t.screw_error_mm, 0, 1);
+            reader.number("backlash_x_mm", t.backlash_x_mm, 0, 2);
+            reader.number("backlash_y_mm", t.backlash_y_mm, 0, 2);
+            reader.finish();
+        }
+    } else if (const auto* truth = models::subtable(path, root, "truth");
+               truth != nullptr && models::subtable(path, *truth, "router") != nullptr) {
+        throw ScenarioError(path + ": [truth.router] on a " + s.machine.kind);
     }
     if (s.machine.galvo) {
         s.galvo_truth.field_size_mm = s.machine.galvo->field_size_mm;
@@ -186,6 +215,14 @@ std::vector<StrokeSegment> carried_by_bed(std::vector<StrokeSegment> strokes, do
     return strokes;
 }
 
+std::vector<StrokeSegment> as_photographed(const Scenario& s, std::vector<StrokeSegment> strokes) {
+    strokes = carried_by_bed(std::move(strokes), bed_growth_at_photo(s));
+    if (s.machine.kind != "router") return strokes;
+    std::vector<Stroke> cuts;
+    for (const auto& c : strokes) cuts.push_back({c.a_mm, c.b_mm, c.a_mm, c.b_mm, c.width_mm, 0});
+    return holes_on_the_sheet(cuts, s.machine.planar->surface_height_mm);
+}
+
 DeltaParams twin_params(const models::DeltaSettings& d) {
     return DeltaParams{d.diagonal_rod_mm,      d.diagonal_rod_trim_mm, d.radius_mm,
                        d.tower_angle_trim_deg, d.endstop_offset_mm,    d.height_mm};
@@ -217,6 +254,7 @@ std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
         return twin;
     }
     if (s.machine.is_galvo()) return std::make_unique<GalvoTwin>(s.galvo_truth);
+    if (s.machine.kind == "router") return std::make_unique<RouterTwin>(s.router_truth);
     return std::make_unique<CartesianTwin>(s.cartesian_truth);
 }
 

@@ -12,6 +12,7 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
+#include "board/sim/router_twin.hpp"
 #include "board/sim/scenes.hpp"
 #include "core/models/machine_file.hpp"
 
@@ -55,6 +56,7 @@ struct Scenario {
     DeltaParams delta_truth;          // [truth.delta]: keys not given equal the firmware's
     CartesianErrors cartesian_truth;  // [truth.cartesian]
     GalvoTruth galvo_truth;           // [truth.galvo]: a seeded scanner, keys given override
+    RouterTruth router_truth;         // [truth.router]: a seeded router, keys given override
     bool zero_height_at_centre = true;
     double segment_mm = 0.5;
     std::optional<ScenarioCamera> camera;
@@ -79,6 +81,9 @@ models::DeltaSettings machine_settings(const DeltaParams& p);
 // temperature). Throws ScenarioError when the machine lacks the bed's material or temperature.
 double bed_growth_at_photo(const Scenario& s);
 std::vector<StrokeSegment> carried_by_bed(std::vector<StrokeSegment> strokes, double growth);
+// What the camera sees of the material a job laid down: carried by the bed's growth, and a
+// router's cuts on the sheet's top (the dark backing shows through the holes).
+std::vector<StrokeSegment> as_photographed(const Scenario& s, std::vector<StrokeSegment> strokes);
 
 // Throws ScenarioError naming the file and the key at fault.
 Scenario load_scenario(const std::string& path);

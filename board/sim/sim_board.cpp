@@ -151,8 +151,8 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
         return render_photo(camera.intrinsics, board->board_to_camera, scene, photo);
     }
     const Pose bed_to_camera = look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
-    const StrokeScene scene(carried_by_bed(std::move(strokes), bed_growth_at_photo(scenario_)),
-                            scenario_.bed_albedo, scenario_.material_albedo, photo.supersample,
+    const StrokeScene scene(as_photographed(scenario_, std::move(strokes)), scenario_.bed_albedo,
+                            scenario_.material_albedo, photo.supersample,
                             stroke_footprint_mm(scenario_));
     return render_photo(camera.intrinsics, bed_to_camera, scene, photo);
 }

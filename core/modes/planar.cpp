@@ -1,5 +1,6 @@
 #include "core/modes/planar.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -83,6 +84,26 @@ FrameGuess frame_from_pair(const targets::PlanarTarget& target, Point2 first_see
 }
 
 }  // namespace
+
+std::vector<std::size_t> planar_design_nodes(const models::MachineFile& machine,
+                                             std::size_t holes) {
+    const auto full = targets::make_planar_target(machine);
+    std::vector<Point2> candidates;
+    std::vector<std::size_t> nodes;
+    for (const auto& h : full.holes) {
+        if (h.large) continue;  // made anyway, and not fitted
+        candidates.push_back(h.centre_mm);
+        nodes.push_back(geometry::grid_offset(h.index.column, h.index.row, full.columns));
+    }
+    if (holes < 8 || holes > candidates.size())
+        throw PlanarError("design: " + std::to_string(holes) + " holes; choose 8 to " +
+                          std::to_string(candidates.size()) + " of this machine's grid");
+    std::vector<std::size_t> design;
+    for (std::size_t i : models::detmax_design(candidates, holes, machine.planar->tool_length_mm))
+        design.push_back(nodes[i]);
+    std::sort(design.begin(), design.end());
+    return design;
+}
 
 PlanarMeasurement measure_planar(const models::MachineFile& machine,
                                  const geometry::CameraModel& camera,
@@ -302,28 +323,35 @@ bool planar_covers(const PlanarSolution& s, Point2 p) {
 
 FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
                                           const PlanarSolution& s) {
-    const auto& names = models::planar_parameters();
-    const auto value = [&](const char* name) {
-        for (std::size_t j = 0; j < names.size(); ++j)
-            if (std::string(names[j].name) == name) return s.fit.parameters[j];
-        return 0.0;
-    };
-    const double sx = value("x_scale"), sy = value("y_scale"), skew = value("xy_squareness");
-    FirmwareSettings f;
-    // What scale and skew settings leave: the rest of the fitted field, plus what the fit
-    // itself could not explain, over the measured holes with the placement out.
-    std::vector<Point2> left;
+    // Scale and skew settings can carry the field's linear part over the area only: the best
+    // affine fit of e over the measured holes, its rotation left to the work's heading.
+    // e ~ (a x + b y + tx, c x + d y + ty); turned by -c it is (a x + (b + c) y, d y): x scale a,
+    // y scale d, and x moving (b + c) per mm of y.
+    Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> right = Eigen::Matrix<double, 6, 1>::Zero();
+    std::vector<Point2> field;
     for (std::size_t i = 0; i < s.commanded_mm.size(); ++i) {
         const Point2 c = s.commanded_mm[i];
         const Point2 e = models::planar_error_mm(s.fit.parameters, c, s.tool_length_mm);
-        left.push_back({e.x - sx * c.x + s.fit.residuals_mm[i].x,
-                        e.y - sy * c.y - skew * c.x + s.fit.residuals_mm[i].y});
+        field.push_back({e.x + s.fit.residuals_mm[i].x, e.y + s.fit.residuals_mm[i].y});
+        Eigen::Matrix<double, 6, 1> rx, ry;
+        rx << c.x, c.y, 0, 0, 1, 0;
+        ry << 0, 0, c.x, c.y, 0, 1;
+        normal += rx * rx.transpose() + ry * ry.transpose();
+        right += rx * field.back().x + ry * field.back().y;
     }
-    std::vector<Point2> placed_left, commanded_plus;
-    for (std::size_t i = 0; i < left.size(); ++i) {
-        commanded_plus.push_back(
-            {s.commanded_mm[i].x + left[i].x, s.commanded_mm[i].y + left[i].y});
+    const Eigen::Matrix<double, 6, 1> affine = normal.ldlt().solve(right);
+    const double sx = affine(0), sy = affine(3), skew = affine(1) + affine(2);
+    FirmwareSettings f;
+    f.scale_x = sx, f.scale_y = sy, f.skew = skew;
+    // What they leave: the field less its linear part, the placement out.
+    std::vector<Point2> left, commanded_plus;
+    for (std::size_t i = 0; i < field.size(); ++i) {
+        const Point2 c = s.commanded_mm[i];
+        left.push_back({field[i].x - sx * c.x - skew * c.y, field[i].y - sy * c.y});
+        commanded_plus.push_back({c.x + left.back().x, c.y + left.back().y});
     }
+    std::vector<Point2> placed_left;
     const auto placement = solve::best_rigid_placement(commanded_plus, s.commanded_mm);
     for (std::size_t i = 0; i < left.size(); ++i) {
         const Point2 p = placement.apply(commanded_plus[i]);
@@ -335,10 +363,11 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
     const double fx = 1 / (1 + sx), fy = 1 / (1 + sy);
     const auto& planar = *machine.planar;
     auto& out = f.lines;
-    out.push_back(
-        "; calbox planar: x travels " + number_text("%+.4f", 100 * sx) + " %, y " +
-        number_text("%+.4f", 100 * sy) + " %, the axes are " + number_text("%+.5f", skew * 1000) +
-        " mrad out of square (x moves +y per mm of y as X" + number_text("%+.6f", skew) + ")");
+    out.push_back("; calbox planar, the best linear fit over the holes: x travels " +
+                  number_text("%+.4f", 100 * sx) + " %, y " + number_text("%+.4f", 100 * sy) +
+                  " %, the axes are " + number_text("%+.4f", skew * 1000) +
+                  " mrad out of square (x moves " + number_text("%+.6f", skew) +
+                  " mm per mm of y)");
     out.push_back("; these settings leave " + number_text("%.3f", f.mean_left_mm) +
                   " mm mean error norm of " + number_text("%.3f", f.mean_before_mm) +
                   " (straightness, yaw and what the model does not hold); the compensated "

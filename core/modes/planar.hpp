@@ -58,6 +58,11 @@ struct PlanarMeasurement {
     std::vector<geometry::Point2> extra_mm;   // blobs that are no hole of the grid (chips, swarf)
 };
 
+// A short job: the `holes` grid nodes (of the machine's full target, fiducials aside) that
+// DETMAX finds best for the model, as node indices (row * columns + column) for
+// PlanarTargetOptions::only_nodes. The same machine and count always give the same design.
+std::vector<std::size_t> planar_design_nodes(const models::MachineFile& machine, std::size_t holes);
+
 // Throws PlanarError with one line when the photo cannot be indexed (no fiducials, not this
 // grid, part of it outside the photo, holes where the grid has none).
 PlanarMeasurement measure_planar(const models::MachineFile& machine,
@@ -100,6 +105,9 @@ bool planar_covers(const PlanarSolution& solution, geometry::Point2 intended_mm)
 // a configuration, each with what it leaves uncorrected.
 struct FirmwareSettings {
     std::vector<std::string> lines;  // G-code commands, configuration lines and comments
+    // The linear part they carry: each axis's travel too far (relative) and x's movement per mm
+    // of y (the firmware's correction is x' = x - skew y, then each axis scaled by 1 / (1 + s)).
+    double scale_x = 0, scale_y = 0, skew = 0;
     // The mean error norm left over the measured holes when only these settings are applied.
     double mean_left_mm = 0;
     double mean_before_mm = 0;

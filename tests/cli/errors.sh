@@ -155,5 +155,23 @@ printf 'G91\nG1 X1 Y1\n' > "$work/relative.gcode"
 expect_error "relative.gcode: line 2: relative XY moves \(G91\)" compensate --result "$work/identity_result.json" "$work/relative.gcode" -o "$work/result"
 expect_error "--segment must be 0.01 to 100 mm" compensate --result "$work/identity_result.json" "$work/ok.gcode" --segment 0 -o "$work/result"
 
+# The planar mode: the wrong machine, an area too small, a photo that is not the sheet,
+# measurements of another machine.
+router="$top/examples/router.toml"
+expect_error "the planar target is for a router, cartesian printer or laser, not a delta" target planar --machine "$top/examples/delta.toml" -o "$work/result"
+expect_error "at least 7 x 7 are needed" target planar --machine <(sed 's/bed_size_x_mm = 300.0/bed_size_x_mm = 120.0/' "$router") -o "$work/result"
+expect_error "\[planar\] on a galvo machine" target galvo --machine <(cat "$galvo"; printf '[planar]\nhole_pitch_mm = 20.0\n') -o "$work/result"
+expect_error "design: 3 holes; choose 8 to 141" target planar --machine "$router" --design 3 -o "$work/result"
+"$calbox" sim camera --scenario "$top/tests/scenarios/planar_small.toml" -o "$work/planar_camera.yaml"
+"$calbox" sim photo --scenario "$top/tests/scenarios/planar_small.toml" --board chessboard:15x11@15 --on-bed 45,235,0 -o "$work/planar_board.png"
+"$calbox" camera plane --camera "$work/planar_camera.yaml" --pattern chessboard:15x11@15 "$work/planar_board.png" -o "$work/planar_plane.yaml" > /dev/null
+expect_error "holes of the grid's size in the photo, the target has 143: not this target" measure planar --camera "$work/planar_camera.yaml" \
+    --plane "$work/planar_plane.yaml" --machine "$router" "$work/planar_board.png" -o "$work/result"
+expect_error "not a planar measurements file" solve planar --machine "$router" --measurements "$work/wrong.json" -o "$work/result"
+printf '{"schema": "calbox.planar-measurements/1", "machine_fingerprint": "fnv1a64:0", "target_fingerprint": "x", "photos": [], "columns": 12, "rows": 12, "pitch_mm": 25, "mirrored": false, "holes": [], "missing": [], "extra_mm": []}' > "$work/other_planar.json"
+expect_error "made for another machine file" solve planar --machine "$router" --measurements "$work/other_planar.json" -o "$work/result"
+printf '{"schema": "calbox.planar-result/1", "machine_fingerprint": "x"}' > "$work/short_planar.json"
+expect_error "short_planar.json: .*tool_length_mm" compensate --result "$work/short_planar.json" "$work/ok.gcode" -o "$work/result"
+
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

@@ -274,18 +274,6 @@ std::vector<Point2> drilled(const sim::RouterTruth& truth, const std::string& jo
     return out;
 }
 
-// A fresh job: holes half a pitch off the target's, over the same area.
-std::vector<targets::PlanarHole> fresh_holes(const targets::PlanarTarget& target) {
-    std::vector<targets::PlanarHole> holes;
-    for (int r = 0; r + 1 < target.rows; ++r)
-        for (int c = 0; c + 1 < target.columns; ++c)
-            holes.push_back({{c, r},
-                             {target.first_mm.x + (c + 0.5) * target.pitch_mm,
-                              target.first_mm.y + (r + 0.5) * target.pitch_mm},
-                             false});
-    return holes;
-}
-
 }  // namespace
 
 TEST_GROUP(PlanarTarget){};
@@ -412,19 +400,12 @@ RouterOutcome calibrate_router(unsigned seed, const targets::PlanarTargetOptions
         modes::measure_planar(machine, camera, plane, test::view_of(photo), settings);
     RouterOutcome out;
     out.solution = modes::solve_planar(machine, measured);
-    const auto holes = fresh_holes(targets::make_planar_target(machine));
-    const auto full = targets::make_planar_target(machine);
-    const std::string job = targets::write_drilling_job(machine, holes, full.hole_diameter_mm,
-                                                        full.large_diameter_mm, "fresh holes");
-    targets::CompensateReport report;
-    const auto& s = out.solution;
-    const std::string compensated = targets::compensate_gcode(
-        job, [&](Point2 p) { return modes::planar_command_for(s, p); },
-        [&](Point2 p) { return modes::planar_covers(s, p); }, {}, report);
-    std::vector<sim::Vec2> intended;
-    for (const auto& h : holes) intended.push_back({h.centre_mm.x, h.centre_mm.y});
-    out.before = sim::judge_router(truth, intended, job);
-    out.after = sim::judge_router(truth, intended, compensated);
+    const targets::Correction correct = [&](Point2 p) {
+        return modes::planar_command_for(out.solution, p);
+    };
+    const auto verdict = sim::judge_router_fresh_holes(truth, machine, &correct);
+    out.before = verdict.before;
+    out.after = *verdict.after;
     return out;
 }
 
@@ -446,6 +427,150 @@ void run_routers(unsigned first) {
 }
 
 }  // namespace
+
+namespace {
+
+// The message a measurement refuses with, or "" when it does not.
+std::string refusal(const models::MachineFile& machine, const sim::GrayImage& photo,
+                    const test::RouterBench& bench) {
+    const auto camera = test::as_core(bench.camera);
+    const auto plane = test::router_plane(bench, camera);
+    try {
+        modes::measure_planar(machine, camera, plane, test::view_of(photo));
+    } catch (const modes::PlanarError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+}  // namespace
+
+TEST(PlanarMeasure, a_duplicate_grid_another_pitch_or_a_cut_off_photo_is_refused_in_one_line) {
+    const auto machine = router_machine();
+    const auto target = targets::make_planar_target(machine);
+    const auto bench = test::router_bench(0.5);
+    const sim::RouterTruth exact;
+    // The sheet drilled twice, the second time 8 mm off: two holes where the grid has one.
+    std::string twice = target.job;
+    for (const auto& hole : target.holes) {
+        targets::PlanarHole moved = hole;
+        moved.centre_mm.x += 8;
+        twice += targets::write_drilling_job(machine, {moved}, target.hole_diameter_mm,
+                                             target.large_diameter_mm, "again");
+    }
+    const std::string duplicate =
+        refusal(machine, test::photo_of_drilled_sheet(bench, exact, twice), bench);
+    UT_PRINT(duplicate.c_str());
+    CHECK(duplicate.find("pairs of large holes") != std::string::npos ||
+          duplicate.find("two holes where the grid has one") != std::string::npos);
+    // A sheet drilled at 20 mm pitch, measured as the 25 mm one.
+    auto other = machine;
+    other.planar->hole_pitch_mm = 20;
+    const std::string pitch = refusal(
+        machine, test::photo_of_drilled_sheet(bench, exact, targets::make_planar_target(other).job),
+        bench);
+    UT_PRINT(pitch.c_str());
+    CHECK(pitch.find("not this target") != std::string::npos);
+    // Half the sheet outside the photo: drilled 160 mm further along x on a longer machine.
+    std::vector<targets::PlanarHole> shifted = target.holes;
+    for (auto& h : shifted) h.centre_mm.x += 160;
+    sim::RouterTruth longer;
+    longer.travel_x_mm = 600;
+    const std::string cut =
+        refusal(machine,
+                test::photo_of_drilled_sheet(
+                    bench, longer,
+                    targets::write_drilling_job(machine, shifted, target.hole_diameter_mm,
+                                                target.large_diameter_mm, "shifted")),
+                bench);
+    UT_PRINT(cut.c_str());
+    CHECK(cut.find("outside the photo") != std::string::npos);
+    CHECK(!cut.empty());
+    CHECK(cut.find('\n') == std::string::npos);
+}
+
+TEST(PlanarMeasure, a_hole_not_drilled_and_swarf_on_the_sheet_are_listed_not_fatal) {
+    const auto machine = router_machine();
+    auto target = targets::make_planar_target(machine);
+    const auto bench = test::router_bench(0.5);
+    const auto camera = test::as_core(bench.camera);
+    const auto plane = test::router_plane(bench, camera);
+    // Hole (5, 6) never drilled: the job without it.
+    std::vector<targets::PlanarHole> holes;
+    for (const auto& h : target.holes)
+        if (!(h.index == targets::GridIndex{5, 6})) holes.push_back(h);
+    std::string job = targets::write_drilling_job(machine, holes, target.hole_diameter_mm,
+                                                  target.large_diameter_mm, "one short");
+    // A chip of the backing's colour between holes: a stray plunge of a smaller tool.
+    auto small_tool = machine;
+    small_tool.tool_width_mm = 1.0;
+    job +=
+        targets::write_drilling_job(small_tool, {{{0, 0}, {100, 112.5}, false}}, 1.0, 2.0, "swarf");
+    const auto photo = test::photo_of_drilled_sheet(bench, sim::RouterTruth{}, job);
+    const auto m = modes::measure_planar(machine, camera, plane, test::view_of(photo));
+    CHECK_EQUAL(142u, m.holes.size());
+    CHECK_EQUAL(1u, m.missing.size());
+    CHECK(m.missing[0] == (targets::GridIndex{5, 6}));
+    CHECK_EQUAL(1u, m.extra_mm.size());
+}
+
+TEST_GROUP(PlanarDesign){};
+
+TEST(PlanarDesign,
+     a_detmax_design_of_24_holes_leaves_a_residual_within_20_percent_of_the_full_grids) {
+    const auto machine = router_machine();
+    targets::PlanarTargetOptions design;
+    design.only_nodes = modes::planar_design_nodes(machine, 24);
+    CHECK_EQUAL(24u, design.only_nodes->size());
+    CHECK_EQUAL(26u, targets::make_planar_target(machine, design).holes.size());  // + fiducials
+    double full_sum = 0, design_sum = 0;
+    for (unsigned seed : {2u, 5u, 9u}) {
+        const auto full = calibrate_router(seed);
+        const auto short_job = calibrate_router(seed, design);
+        UT_PRINT(("router " + std::to_string(seed) + ": full grid leaves " +
+                  std::to_string(full.after.mean_mm) + " mm, 24 DETMAX holes " +
+                  std::to_string(short_job.after.mean_mm) + " mm (before " +
+                  std::to_string(full.before.mean_mm) + ")")
+                     .c_str());
+        CHECK(short_job.after.mean_mm <= 1.2 * full.after.mean_mm);
+        full_sum += full.after.mean_mm;
+        design_sum += short_job.after.mean_mm;
+    }
+    CHECK(design_sum <= 1.2 * full_sum);
+}
+
+TEST_GROUP(PlanarFirmware){};
+
+TEST(PlanarFirmware, scale_and_skew_settings_leave_what_the_result_says) {
+    const auto machine = router_machine();
+    const auto r = calibrate_router(7);
+    const auto f = modes::planar_firmware_settings(machine, r.solution);
+    // The firmware's own correction: skew first (Marlin's x - y I), then steps per mm.
+    const targets::Correction firmware = [&](Point2 p) {
+        return Point2{(p.x - f.skew * p.y) / (1 + f.scale_x), p.y / (1 + f.scale_y)};
+    };
+    const auto truth = sim::random_router_truth(7);
+    const auto judged = sim::judge_router_fresh_holes(truth, machine, &firmware);
+    UT_PRINT(("firmware settings: predicted to leave " + std::to_string(f.mean_left_mm) +
+              " mm of " + std::to_string(f.mean_before_mm) +
+              "; the twin: " + std::to_string(judged.after->mean_mm) + " mm of " +
+              std::to_string(judged.before.mean_mm))
+                 .c_str());
+    CHECK(judged.after->mean_mm < judged.before.mean_mm);
+    DOUBLES_EQUAL(f.mean_left_mm, judged.after->mean_mm, 0.25 * f.mean_left_mm);
+    // grbl: the new steps per mm when the machine file gives them.
+    auto with_steps = machine;
+    with_steps.planar->steps_per_mm_x = 80;
+    with_steps.planar->steps_per_mm_y = 80;
+    const auto lines = modes::planar_firmware_settings(with_steps, r.solution).lines;
+    bool x_line = false;
+    for (const auto& l : lines)
+        if (l.rfind("$100=", 0) == 0) {
+            x_line = true;
+            DOUBLES_EQUAL(80 / (1 + f.scale_x), std::stod(l.substr(5)), 1e-3);
+        }
+    CHECK(x_line);
+}
 
 TEST_GROUP(PlanarRoutersFirst){};
 TEST(PlanarRoutersFirst, routers_1_to_5_are_corrected_in_the_twins_truth) {

@@ -39,16 +39,22 @@ constexpr const char* kMeasureHelp = R"(usage:
       as missing, spatter and damaged marks as extra, and neither stops the measurement. Writes
       each mark's commanded centre, where it was measured and its uncertainty. --overlay marks
       on the photo the marks used (green), the extra blobs (orange) and each mark's index.
-  calbox measure planar --camera camera.yaml --plane plane.yaml --machine machine.toml PHOTO
-                        -o measurements.json [--design N] [--overlay overlay.png]
+  calbox measure planar --camera camera.yaml --plane plane.yaml --machine machine.toml PHOTO...
+                        -o measurements.json [--offsets X,Y;X,Y...] [--design N]
+                        [--overlay overlay.png]
       Finds the drilled (or printed) hole grid (the target is regenerated from the machine file;
       --design as it was made): each hole's centre from fixed-point moments, mapped to the bed at
       the sheet's top ([planar] surface_height_mm); the grid placed by its two large holes (all
       four ways round are tried) and every hole matched where the placement puts it. Holes with
       a chip or a burr (elongated, or 5 % off their kind's size) are listed as extra and their
       node as missing; two holes where the grid has one, a photo of another grid, or one that
-      shows under three quarters of it: one line, nothing written. --overlay marks the holes
-      used (green), the extra blobs (orange) and the large holes' indices.
+      shows under three quarters of it: one line, nothing written. A sheet larger than one view:
+      several photos from a camera the machine carries, --offsets giving where the machine put
+      it for each (machine mm; the first photo shows the two large holes and is the one --plane
+      was taken from). The offsets only say which hole is which; the photos are stitched through
+      the holes they share (each photo's rotation and shift fitted), so the machine's own errors
+      in moving the camera do not enter. --overlay marks, on the first photo, the holes used
+      (green), the extra blobs (orange) and the large holes' indices.
 )";
 
 // What every measure command reads first: the camera, the bed plane and the machine.
@@ -215,9 +221,11 @@ int galvo(const std::vector<std::string>& words) {
 }
 
 int planar(const std::vector<std::string>& words) {
-    const Args args(words, {"--camera", "--plane", "--machine", "-o", "--design", "--overlay"}, {});
+    const Args args(
+        words, {"--camera", "--plane", "--machine", "-o", "--design", "--overlay", "--offsets"},
+        {});
     const std::string out = args.require("-o");
-    if (args.positional().size() != 1) throw UsageError("measure planar takes one photo");
+    if (args.positional().empty()) throw UsageError("measure planar needs at least one photo");
     const auto [camera, plane, machine] = read_set_up(args);
     modes::PlanarMeasureSettings settings;
     if (args.get("--design")) {
@@ -226,8 +234,35 @@ int planar(const std::vector<std::string>& words) {
         settings.target.only_nodes =
             modes::planar_design_nodes(machine, static_cast<std::size_t>(n));
     }
-    const cv::Mat image = load_gray_image(args.positional()[0]);
-    auto measured = modes::measure_planar(machine, camera, plane, view_of(image), settings);
+    std::vector<geometry::Point2> offsets(args.positional().size());
+    if (const auto text = args.get("--offsets")) {
+        offsets.clear();
+        std::size_t start = 0;
+        while (start <= text->size()) {
+            const std::size_t end = std::min(text->find(';', start), text->size());
+            const std::string pair = text->substr(start, end - start);
+            double x = 0, y = 0;
+            char tail = 0;
+            if (std::sscanf(pair.c_str(), "%lf,%lf%c", &x, &y, &tail) != 2 || !std::isfinite(x) ||
+                !std::isfinite(y))
+                throw UsageError("--offsets takes X,Y pairs separated by ';', not '" + pair + "'");
+            offsets.push_back({x, y});
+            start = end + 1;
+        }
+        if (offsets.size() != args.positional().size())
+            throw UsageError("--offsets gives " + std::to_string(offsets.size()) +
+                             " positions for " + std::to_string(args.positional().size()) +
+                             " photos");
+    } else if (args.positional().size() > 1) {
+        throw UsageError("several photos need --offsets: where the machine put the camera");
+    }
+    std::vector<cv::Mat> images;
+    for (const auto& path : args.positional()) images.push_back(load_gray_image(path));
+    std::vector<modes::PlanarView> views;
+    for (std::size_t i = 0; i < images.size(); ++i)
+        views.push_back({view_of(images[i]), offsets[i]});
+    const cv::Mat& image = images.front();
+    auto measured = modes::measure_planar_views(machine, camera, plane, views, settings);
     measured.photos = args.positional();
     write_output_file(out, modes::planar_measurements_to_json(measured));
     double sigma = 0;

@@ -1,6 +1,7 @@
 #include "core/modes/planar.hpp"
 
 #include <Eigen/Dense>
+#include <Eigen/Sparse>
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -105,44 +106,41 @@ std::vector<std::size_t> planar_design_nodes(const models::MachineFile& machine,
     return design;
 }
 
-PlanarMeasurement measure_planar(const models::MachineFile& machine,
-                                 const geometry::CameraModel& camera,
-                                 const geometry::BedPlane& plane, const vision::GrayView& photo,
-                                 const PlanarMeasureSettings& settings) {
-    const auto target = targets::make_planar_target(machine, settings.target);
+namespace {
+
+// One photo's holes on its bed frame: odd ones set aside into `extra_mm`.
+std::vector<MarkCandidate> holes_in_photo(const models::MachineFile& machine,
+                                          const geometry::CameraModel& camera,
+                                          const geometry::BedPlane& plane,
+                                          const vision::GrayView& photo,
+                                          const targets::PlanarTarget& target,
+                                          const PlanarMeasureSettings& settings,
+                                          std::vector<Point2>& extra_mm) {
     if (photo.width_px != camera.image_width || photo.height_px != camera.image_height)
         throw PlanarError("measure: the photo is " + std::to_string(photo.width_px) + "x" +
                           std::to_string(photo.height_px) + ", the camera was calibrated at " +
                           std::to_string(camera.image_width) + "x" +
                           std::to_string(camera.image_height));
-    const double pitch = target.pitch_mm;
     const vision::SpotImage seen = vision::find_spots(photo, settings.spots);
-    PlanarMeasurement out;
-    out.machine_fingerprint = models::fingerprint(machine);
-    out.target_fingerprint = target.fingerprint;
-    out.columns = target.columns;
-    out.rows = target.rows;
-    out.pitch_mm = pitch;
-
     const double small = 0.5 * target.hole_diameter_mm, large = 0.5 * target.large_diameter_mm;
     std::vector<MarkCandidate> candidates;
     for (const auto& m : marks_on_bed(camera, plane, seen, machine.planar->surface_height_mm)) {
         const bool is_small = m.radius_mm > 0.7 * small && m.radius_mm < 1.3 * small;
         const bool is_large = m.radius_mm > 0.8 * large && m.radius_mm < 1.2 * large;
         if (m.touches_border || m.elongation > settings.max_elongation || !(is_small || is_large)) {
-            out.extra_mm.push_back(m.bed_mm);
+            extra_mm.push_back(m.bed_mm);
             continue;
         }
         candidates.push_back({m.bed_mm, m.radius_mm, m.sigma_mm, is_large, false});
     }
-    set_aside_odd_sizes(candidates, settings.max_radius_deviation, out.extra_mm);
-    if (candidates.size() < target.holes.size() / 2)
-        throw PlanarError("measure: " + std::to_string(candidates.size()) +
-                          " holes of the grid's size in the photo, the target has " +
-                          std::to_string(target.holes.size()) +
-                          ": not this target, or the photo does not show it");
+    set_aside_odd_sizes(candidates, settings.max_radius_deviation, extra_mm);
+    return candidates;
+}
 
-    // The two large holes lie a pitch apart; exactly one such pair settles the frame.
+// The machine's frame in the first photo's bed frame, from its two large holes.
+FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
+                                const std::vector<MarkCandidate>& candidates, double reach) {
+    const double pitch = target.pitch_mm;
     std::vector<std::pair<std::size_t, std::size_t>> pairs;
     for (std::size_t i = 0; i < candidates.size(); ++i)
         for (std::size_t j = i + 1; j < candidates.size(); ++j)
@@ -153,10 +151,9 @@ PlanarMeasurement measure_planar(const models::MachineFile& machine,
         throw PlanarError(
             pairs.empty()
                 ? "measure: the two large holes (the grid's fiducials, a pitch apart) are not in "
-                  "the photo: not this target, or they are damaged"
+                  "the first photo: not this target, or they are damaged"
                 : "measure: " + std::to_string(pairs.size()) +
                       " pairs of large holes a pitch apart: not this target (an ambiguous grid)");
-    const double reach = settings.match_reach_pitch * pitch;
     struct Reading {
         FrameGuess frame;
         Matching matching;
@@ -173,61 +170,253 @@ PlanarMeasurement measure_planar(const models::MachineFile& machine,
     std::sort(readings.begin(), readings.end(), [](const Reading& a, const Reading& b) {
         return a.matching.score() > b.matching.score();
     });
-    FrameGuess best_frame = readings[0].frame;
-    Matching best = readings[0].matching;
-    const Matching second = readings[1].matching;
-    // Refined over every hole matched: the pair alone leaves the far side of the sheet a few
-    // tenths of a degree out.
+    // The best reading refined over the holes it matched (two holes a pitch apart leave the far
+    // side of the sheet a few tenths of a degree out), then matched again.
+    FrameGuess frame = readings[0].frame;
     {
         std::vector<Point2> from, to;
         for (std::size_t h = 0; h < target.holes.size(); ++h) {
-            const long c = best.candidate_of_hole[h];
+            const long c = readings[0].matching.candidate_of_hole[h];
             if (c < 0) continue;
-            const Point2 m = target.holes[h].centre_mm;
-            from.push_back(best_frame.mirrored ? Point2{m.x, -m.y} : m);
+            const Point2 p = target.holes[h].centre_mm;
+            from.push_back(frame.mirrored ? Point2{p.x, -p.y} : p);
             to.push_back(candidates[static_cast<std::size_t>(c)].bed_mm);
         }
-        if (from.size() >= 3) best_frame.placement = solve::best_rigid_placement(from, to);
-        best = match_holes(target, candidates, best_frame, reach);
+        if (from.size() >= 3) frame.placement = solve::best_rigid_placement(from, to);
     }
-    const std::size_t needed = (3 * target.holes.size() + 3) / 4;
-    if (static_cast<std::size_t>(best.matched) < needed || best.wrong_size > 0 ||
-        best.at_omitted > 0 || second.score() > best.score() - 3)
+    const Matching best = match_holes(target, candidates, frame, reach);
+    // The right reading matches (nearly) every hole in the photo; a wrong one, those near the
+    // fiducials at most.
+    const int seen = static_cast<int>(candidates.size());
+    if (best.wrong_size > 0 || best.at_omitted > 0 || 10 * best.matched < 9 * seen ||
+        readings[1].matching.score() > best.score() - 3)
         throw PlanarError(
             "measure: the holes seen do not fit this target's " + std::to_string(target.columns) +
             " x " + std::to_string(target.rows) + " grid at " + number_text("%g", pitch) + " mm (" +
-            std::to_string(best.matched) + " of " + std::to_string(target.holes.size()) +
-            " holes where it puts them, " + std::to_string(best.wrong_size + best.at_omitted) +
-            " of the wrong size or where none was drilled): not this target, part of it "
-            "outside the photo, or the wrong pitch in [planar]");
-    out.mirrored = best_frame.mirrored;
+            std::to_string(best.matched) + " of the " + std::to_string(seen) +
+            " holes seen where it puts them, " + std::to_string(best.wrong_size + best.at_omitted) +
+            " of the wrong size or where none was drilled): not this target, or the "
+            "wrong pitch in [planar]");
+    return readings[0].frame;
+}
+
+// Every node's hole in one photo, through a frame good to a fraction of the reach: the candidate
+// index per target hole (-1: none), refusing two holes where the grid has one.
+std::vector<long> index_holes(const targets::PlanarTarget& target,
+                              const std::vector<MarkCandidate>& candidates, FrameGuess& frame,
+                              double reach) {
+    // Refined over every hole matched: a frame from two holes, or from where the camera was
+    // sent, leaves the far side of the photo a few tenths of a degree out.
+    Matching m = match_holes(target, candidates, frame, reach);
+    std::vector<Point2> from, to;
+    for (std::size_t h = 0; h < target.holes.size(); ++h) {
+        const long c = m.candidate_of_hole[h];
+        if (c < 0) continue;
+        const Point2 p = target.holes[h].centre_mm;
+        from.push_back(frame.mirrored ? Point2{p.x, -p.y} : p);
+        to.push_back(candidates[static_cast<std::size_t>(c)].bed_mm);
+    }
+    if (from.size() >= 3) frame.placement = solve::best_rigid_placement(from, to);
+    m = match_holes(target, candidates, frame, reach);
     std::vector<bool> used(candidates.size(), false);
     for (std::size_t h = 0; h < target.holes.size(); ++h) {
         const auto& hole = target.holes[h];
-        const long c = best.candidate_of_hole[h];
+        const long c = m.candidate_of_hole[h];
         int within = 0;
-        nearest_candidate(candidates, best_frame.bed_of(hole.centre_mm), reach, &within);
+        nearest_candidate(candidates, frame.bed_of(hole.centre_mm), reach, &within);
         if (within > 1 || (c >= 0 && used[static_cast<std::size_t>(c)])) {
-            const Point2 at = best_frame.bed_of(hole.centre_mm);
+            const Point2 at = frame.bed_of(hole.centre_mm);
             throw PlanarError("measure: two holes where the grid has one, near hole (" +
                               std::to_string(hole.index.column) + ", " +
                               std::to_string(hole.index.row) + ") at bed X" +
                               number_text("%.1f", at.x) + " Y" + number_text("%.1f", at.y) +
                               ": a duplicate or ambiguous grid; nothing measured");
         }
-        if (c < 0) {
+        if (c >= 0) used[static_cast<std::size_t>(c)] = true;
+    }
+    return m.candidate_of_hole;
+}
+
+}  // namespace
+
+PlanarMeasurement measure_planar(const models::MachineFile& machine,
+                                 const geometry::CameraModel& camera,
+                                 const geometry::BedPlane& plane, const vision::GrayView& photo,
+                                 const PlanarMeasureSettings& settings) {
+    return measure_planar_views(machine, camera, plane, {{photo, {0, 0}}}, settings);
+}
+
+PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
+                                       const geometry::CameraModel& camera,
+                                       const geometry::BedPlane& plane,
+                                       const std::vector<PlanarView>& views,
+                                       const PlanarMeasureSettings& settings) {
+    if (views.empty()) throw PlanarError("measure: no photo");
+    const auto target = targets::make_planar_target(machine, settings.target);
+    const double reach = settings.match_reach_pitch * target.pitch_mm;
+    PlanarMeasurement out;
+    out.machine_fingerprint = models::fingerprint(machine);
+    out.target_fingerprint = target.fingerprint;
+    out.columns = target.columns;
+    out.rows = target.rows;
+    out.pitch_mm = target.pitch_mm;
+    std::vector<std::vector<MarkCandidate>> candidates;
+    for (const auto& view : views)
+        candidates.push_back(
+            holes_in_photo(machine, camera, plane, view.photo, target, settings, out.extra_mm));
+    if (candidates[0].size() < 8)
+        throw PlanarError("measure: " + std::to_string(candidates[0].size()) +
+                          " holes of the grid's size in the first photo, the target has " +
+                          std::to_string(target.holes.size()) +
+                          ": not this target, or the photo does not show it");
+    const FrameGuess first = frame_from_fiducials(target, candidates[0], reach);
+    out.mirrored = first.mirrored;
+    // Each view indexed through where the camera was sent: the machine moved it by its offset
+    // from the first view's, so a machine point m shows where the first view showed m - offset.
+    // That is good to the machine's errors (a few millimetres), enough to say which hole is
+    // which; where the holes are comes from the photos alone.
+    std::vector<std::vector<long>> index;  // per view, per target hole
+    for (std::size_t v = 0; v < views.size(); ++v) {
+        FrameGuess frame = first;
+        const Point2 shift{views[v].offset_mm.x - views[0].offset_mm.x,
+                           views[v].offset_mm.y - views[0].offset_mm.y};
+        const Point2 at_origin = first.bed_of({0, 0}), moved = first.bed_of(shift);
+        frame.placement.translation_mm = {
+            frame.placement.translation_mm.x - (moved.x - at_origin.x),
+            frame.placement.translation_mm.y - (moved.y - at_origin.y)};
+        index.push_back(index_holes(target, candidates[v], frame, reach));
+    }
+    // Stitched through the holes the views share: each view's own rotation and shift (the first
+    // view's fixed) and every hole's position, by least squares, so that a hole seen twice is
+    // seen at one place. Started from the offsets the machine was sent to.
+    const std::size_t n_views = views.size(), n_holes = target.holes.size();
+    std::vector<double> angle(n_views, 0);
+    std::vector<Point2> shift(n_views);
+    for (std::size_t v = 0; v < n_views; ++v) {
+        const Point2 a = first.bed_of({0, 0}),
+                     b = first.bed_of({views[v].offset_mm.x - views[0].offset_mm.x,
+                                       views[v].offset_mm.y - views[0].offset_mm.y});
+        shift[v] = {b.x - a.x, b.y - a.y};
+    }
+    std::vector<int> seen_in(n_holes, 0);
+    for (std::size_t v = 0; v < n_views; ++v)
+        for (std::size_t h = 0; h < n_holes; ++h) seen_in[h] += index[v][h] >= 0 ? 1 : 0;
+    for (std::size_t v = 1; v < n_views; ++v) {
+        int shared = 0;
+        for (std::size_t h = 0; h < n_holes; ++h)
+            if (index[v][h] >= 0 && seen_in[h] > 1) ++shared;
+        if (shared < 3)
+            throw PlanarError("measure: photo " + std::to_string(v + 1) + " shares " +
+                              std::to_string(shared) +
+                              " holes with the others; overlapping photos need at least 3");
+    }
+    const auto place = [&](std::size_t v, Point2 b) {
+        const double c = std::cos(angle[v]), sn = std::sin(angle[v]);
+        return Point2{c * b.x - sn * b.y + shift[v].x, sn * b.x + c * b.y + shift[v].y};
+    };
+    std::vector<Point2> position(n_holes);
+    const auto average = [&] {
+        for (std::size_t h = 0; h < n_holes; ++h) {
+            Point2 sum;
+            int n = 0;
+            for (std::size_t v = 0; v < n_views; ++v)
+                if (const long c = index[v][h]; c >= 0) {
+                    const Point2 p = place(v, candidates[v][static_cast<std::size_t>(c)].bed_mm);
+                    sum.x += p.x, sum.y += p.y, ++n;
+                }
+            if (n > 0) position[h] = {sum.x / n, sum.y / n};
+        }
+    };
+    average();
+    if (n_views > 1) {
+        // Gauss-Newton over every view's rotation and shift (the first view's fixed: it sets
+        // the frame) and every shared hole's position: a hole seen in view v at b lies at
+        // R(angle_v) b + shift_v. Holes seen once follow from their view afterwards.
+        std::vector<long> unknown_of_hole(n_holes, -1);
+        Eigen::Index unknowns = 3 * static_cast<Eigen::Index>(n_views - 1);
+        for (std::size_t h = 0; h < n_holes; ++h)
+            if (seen_in[h] > 1) unknown_of_hole[h] = unknowns, unknowns += 2;
+        for (int iteration = 0; iteration < 6; ++iteration) {
+            std::vector<Eigen::Triplet<double>> entries;
+            std::vector<double> residual;
+            for (std::size_t v = 0; v < n_views; ++v)
+                for (std::size_t h = 0; h < n_holes; ++h) {
+                    const long c = index[v][h];
+                    if (c < 0 || unknown_of_hole[h] < 0) continue;
+                    const Point2 b = candidates[v][static_cast<std::size_t>(c)].bed_mm;
+                    const Point2 p = place(v, b);
+                    const auto row = static_cast<Eigen::Index>(residual.size());
+                    residual.push_back(position[h].x - p.x);
+                    residual.push_back(position[h].y - p.y);
+                    if (v > 0) {
+                        const auto k = 3 * static_cast<Eigen::Index>(v - 1);
+                        // d(place)/d(angle) = (-(p.y - shift.y), p.x - shift.x).
+                        entries.emplace_back(row, k, -(p.y - shift[v].y));
+                        entries.emplace_back(row + 1, k, p.x - shift[v].x);
+                        entries.emplace_back(row, k + 1, 1.0);
+                        entries.emplace_back(row + 1, k + 2, 1.0);
+                    }
+                    entries.emplace_back(row, unknown_of_hole[h], -1.0);
+                    entries.emplace_back(row + 1, unknown_of_hole[h] + 1, -1.0);
+                }
+            Eigen::SparseMatrix<double> jacobian(static_cast<Eigen::Index>(residual.size()),
+                                                 unknowns);
+            jacobian.setFromTriplets(entries.begin(), entries.end());
+            const Eigen::Map<const Eigen::VectorXd> r(residual.data(),
+                                                      static_cast<Eigen::Index>(residual.size()));
+            const Eigen::SparseMatrix<double> normal = jacobian.transpose() * jacobian;
+            Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(normal);
+            const Eigen::VectorXd step = solver.solve(jacobian.transpose() * r);
+            if (solver.info() != Eigen::Success)
+                throw PlanarError("measure: the photos' shared holes do not fix how they lie");
+            double largest = 0;
+            for (std::size_t v = 1; v < n_views; ++v) {
+                const auto k = 3 * static_cast<Eigen::Index>(v - 1);
+                angle[v] += step(k);
+                shift[v].x += step(k + 1);
+                shift[v].y += step(k + 2);
+                largest = std::max({largest, std::abs(step(k + 1)), std::abs(step(k + 2))});
+            }
+            for (std::size_t h = 0; h < n_holes; ++h)
+                if (unknown_of_hole[h] >= 0) {
+                    position[h].x += step(unknown_of_hole[h]);
+                    position[h].y += step(unknown_of_hole[h] + 1);
+                }
+            if (largest < 1e-9) break;
+        }
+        average();
+    }
+    std::size_t found = 0;
+    for (std::size_t h = 0; h < n_holes; ++h) {
+        const auto& hole = target.holes[h];
+        if (seen_in[h] == 0) {
             out.missing.push_back(hole.index);
             continue;
         }
-        used[static_cast<std::size_t>(c)] = true;
-        const auto& candidate = candidates[static_cast<std::size_t>(c)];
-        const Point2 measured = best_frame.mirrored
-                                    ? Point2{candidate.bed_mm.x, -candidate.bed_mm.y}
-                                    : candidate.bed_mm;
-        out.holes.push_back({hole.index, hole.centre_mm, hole.large, measured, candidate.sigma_mm});
+        ++found;
+        double inverse_variance = 0;
+        for (std::size_t v = 0; v < n_views; ++v)
+            if (const long c = index[v][h]; c >= 0) {
+                const double sigma = candidates[v][static_cast<std::size_t>(c)].sigma_mm;
+                inverse_variance += 1 / std::max(sigma * sigma, 1e-18);
+            }
+        const Point2 p = position[h];
+        out.holes.push_back({hole.index, hole.centre_mm, hole.large,
+                             out.mirrored ? Point2{p.x, -p.y} : p,
+                             1 / std::sqrt(inverse_variance)});
     }
-    for (std::size_t i = 0; i < candidates.size(); ++i)
-        if (!used[i]) out.extra_mm.push_back(candidates[i].bed_mm);
+    for (std::size_t v = 0; v < n_views; ++v) {
+        std::vector<bool> used(candidates[v].size(), false);
+        for (const long c : index[v])
+            if (c >= 0) used[static_cast<std::size_t>(c)] = true;
+        for (std::size_t i = 0; i < used.size(); ++i)
+            if (!used[i]) out.extra_mm.push_back(place(v, candidates[v][i].bed_mm));
+    }
+    if (found < (3 * n_holes + 3) / 4)
+        throw PlanarError("measure: " + std::to_string(found) + " of the " +
+                          std::to_string(n_holes) +
+                          " holes found: part of the sheet is outside the photos, or whole rows "
+                          "are missing");
     std::sort(out.holes.begin(), out.holes.end(), [](const auto& a, const auto& b) {
         return std::make_pair(a.index.row, a.index.column) <
                std::make_pair(b.index.row, b.index.column);

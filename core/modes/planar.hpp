@@ -70,6 +70,23 @@ PlanarMeasurement measure_planar(const models::MachineFile& machine,
                                  const geometry::BedPlane& plane, const vision::GrayView& photo,
                                  const PlanarMeasureSettings& settings = {});
 
+// A sheet larger than one view, photographed by a camera the machine carries (on its gantry):
+// each photo with the machine position the camera was sent to. The first photo shows the two
+// large holes; `plane` is the bed plane seen from there. The offsets only say which hole is
+// which (they carry the machine's own errors); where the holes are comes from the photos,
+// stitched through the holes they share (each photo's rotation and shift fitted so that a hole
+// seen twice is seen at one place). Throws PlanarError when a photo shares under 3 holes with
+// the others.
+struct PlanarView {
+    vision::GrayView photo;
+    geometry::Point2 offset_mm;  // where the machine put the camera, machine coordinates
+};
+PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
+                                       const geometry::CameraModel& camera,
+                                       const geometry::BedPlane& plane,
+                                       const std::vector<PlanarView>& views,
+                                       const PlanarMeasureSettings& settings = {});
+
 struct PlanarSolveOptions {
     // Beyond this the measurement is of something else (a wrong pitch, another sheet): a
     // machine this far off is broken, not out of calibration, and nothing is written for it.

@@ -108,6 +108,18 @@ inline sim::GrayImage photo_of_drilled_sheet(const RouterBench& bench,
         bench.photo);
 }
 
+// A camera the router carries on its gantry, 380 mm above the sheet: the half-size HQ camera
+// sees 270 x 203 mm, so four views cover the work area with room to overlap. Sent to `view_mm`,
+// it goes where the machine really takes its carriage (its errors included) and turns with the
+// gantry's yaw.
+inline sim::Pose carried_camera_pose(const sim::RouterTruth& truth, sim::Vec2 view_mm) {
+    const sim::Vec3 at =
+        sim::router_tool_position_mm(truth, {view_mm.x, view_mm.y, 0}, {true, true});
+    const double yaw_deg = truth.gantry_yaw_rad_per_mm * view_mm.y * 180 / 3.14159265358979;
+    return sim::look_at_pose({at.x + 4, at.y - 3, 380}, {at.x + 4, at.y - 3 + 1e-3, 0},
+                             3 + yaw_deg);
+}
+
 // The bed plane from a 15 x 11 chessboard of 15 mm squares lying on the spoilboard (its rows
 // run towards -y).
 inline geometry::BedPlane router_plane(const RouterBench& bench,

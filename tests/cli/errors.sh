@@ -165,7 +165,7 @@ expect_error "design: 3 holes; choose 8 to 141" target planar --machine "$router
 "$calbox" sim camera --scenario "$top/tests/scenarios/planar_small.toml" -o "$work/planar_camera.yaml"
 "$calbox" sim photo --scenario "$top/tests/scenarios/planar_small.toml" --board chessboard:15x11@15 --on-bed 45,235,0 -o "$work/planar_board.png"
 "$calbox" camera plane --camera "$work/planar_camera.yaml" --pattern chessboard:15x11@15 "$work/planar_board.png" -o "$work/planar_plane.yaml" > /dev/null
-expect_error "holes of the grid's size in the photo, the target has 143: not this target" measure planar --camera "$work/planar_camera.yaml" \
+expect_error "holes of the grid.s size in the first photo, the target has 143: not this target" measure planar --camera "$work/planar_camera.yaml" \
     --plane "$work/planar_plane.yaml" --machine "$router" "$work/planar_board.png" -o "$work/result"
 expect_error "not a planar measurements file" solve planar --machine "$router" --measurements "$work/wrong.json" -o "$work/result"
 printf '{"schema": "calbox.planar-measurements/1", "machine_fingerprint": "fnv1a64:0", "target_fingerprint": "x", "photos": [], "columns": 12, "rows": 12, "pitch_mm": 25, "mirrored": false, "holes": [], "missing": [], "extra_mm": []}' > "$work/other_planar.json"

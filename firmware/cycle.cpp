@@ -11,6 +11,7 @@
 #include "core/targets/delta_target.hpp"
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
+#include "core/targets/planar_target.hpp"
 #include "firmware/screens.hpp"
 
 namespace calbox::firmware {
@@ -113,8 +114,8 @@ Cycle::Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings se
       settings_(std::move(settings)),
       log_(std::move(log)),
       blink_(d_.clock.make_timer()) {
-    if (!machine_.is_delta() && !machine_.is_galvo())
-        throw std::invalid_argument("the cycle runs the delta and galvo modes, not a " +
+    if (!machine_.is_delta() && !machine_.is_galvo() && !machine_.is_planar())
+        throw std::invalid_argument("the cycle runs the delta, galvo and planar modes, not a " +
                                     machine_.kind);
     blink_->arm(std::chrono::milliseconds(500), std::chrono::milliseconds(500));
     set_leds();
@@ -407,9 +408,13 @@ void Cycle::make_target() {
     auto lines = std::make_shared<std::vector<std::string>>();
     work(
         [machine = machine_, lines] {
-            const auto job = machine.is_galvo() ? targets::make_galvo_target(machine).job
-                                                : targets::make_delta_target(machine).job;
-            std::istringstream text(targets::write_gcode(job, machine, "calbox target"));
+            std::istringstream text(
+                machine.is_planar()
+                    ? targets::make_planar_target(machine).job
+                    : targets::write_gcode(machine.is_galvo()
+                                               ? targets::make_galvo_target(machine).job
+                                               : targets::make_delta_target(machine).job,
+                                           machine, "calbox target"));
             std::string line;
             while (std::getline(text, line)) lines->push_back(line);
         },
@@ -431,8 +436,8 @@ void Cycle::make_target() {
                     });
                 });
             };
-            // A galvo has no geometry settings to read: its correction is the box's table.
-            if (machine_.is_galvo()) {
+            // A galvo or a router has no geometry settings to read: its correction is the box's.
+            if (keeps_correction()) {
                 make();
             } else {
                 read_printer_settings(std::move(make));
@@ -491,10 +496,11 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
         enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
         auto record = std::make_shared<modes::DeltaMeasurementsRecord>();
         auto galvo = std::make_shared<modes::GalvoMeasurement>();
+        auto planar = std::make_shared<modes::PlanarMeasurement>();
         const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
         const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
         work(
-            [machine = machine_, frames, record, galvo, camera_yaml, plane_yaml] {
+            [machine = machine_, frames, record, galvo, planar, camera_yaml, plane_yaml] {
                 const auto camera = geometry::camera_from_yaml(camera_yaml);
                 const auto plane = geometry::plane_from_yaml(plane_yaml);
                 std::vector<vision::GrayView> views;
@@ -520,12 +526,20 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                     galvo->photos = {names.front()};
                     return;
                 }
+                if (machine.is_planar()) {
+                    // The box's camera sees the whole sheet: the first frame.
+                    *planar = modes::measure_planar(machine, camera, plane, views.front());
+                    planar->photos = {names.front()};
+                    return;
+                }
                 const auto measured = modes::measure_delta(machine, camera, plane, views);
                 *record = modes::record_of(measured, machine, names);
             },
-            [this, record, galvo, then] {
+            [this, record, galvo, planar, then] {
                 if (machine_.is_galvo()) {
                     galvo_measured_ = *galvo;
+                } else if (machine_.is_planar()) {
+                    planar_measured_ = *planar;
                 } else {
                     measurements_ = *record;
                 }
@@ -537,6 +551,10 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
 void Cycle::solve() {
     if (machine_.is_galvo()) {
         solve_galvo();
+        return;
+    }
+    if (machine_.is_planar()) {
+        solve_planar();
         return;
     }
     d_.data.replace_file(record_name(report_.number, "measurements.json"),
@@ -556,6 +574,10 @@ void Cycle::solve() {
 void Cycle::review() {
     if (machine_.is_galvo()) {
         review_galvo();
+        return;
+    }
+    if (machine_.is_planar()) {
+        review_planar();
         return;
     }
     const auto& s = *report_.solution;
@@ -579,6 +601,10 @@ void Cycle::review() {
 void Cycle::apply() {
     if (machine_.is_galvo()) {
         apply_galvo();
+        return;
+    }
+    if (machine_.is_planar()) {
+        apply_planar();
         return;
     }
     const auto& s = *report_.solution;
@@ -636,20 +662,20 @@ std::string Cycle::revert() {
     const auto last = d_.data.read_file("last-cycle");
     if (!last) return "revert: no cycle has run here";
     const int number = std::atoi(last->c_str());
-    if (machine_.is_galvo()) {
-        // The scanner's correction is the box's table: the one in force before goes back.
-        const std::string table_name = record_name(number, "backup-table.json");
-        const auto table = d_.data.read_file(table_name);
-        if (!table)
+    if (keeps_correction()) {
+        // The correction is the box's own file: the one in force before goes back.
+        const std::string backup_name = record_name(number, kept_backup_name());
+        const auto kept = d_.data.read_file(backup_name);
+        if (!kept)
             return "revert: cycle " + std::to_string(number) + " applied nothing (no " +
-                   table_name + ")";
+                   backup_name + ")";
         report_ = CycleReport{};
         report_.number = number;
         error_.clear();
         enter(CycleState::apply,
-              "reverting to the table in force before cycle " + std::to_string(number));
-        d_.data.replace_file(kGalvoTableFile, *table);
-        enter(CycleState::idle, "reverted to " + table_name);
+              "reverting to the correction in force before cycle " + std::to_string(number));
+        d_.data.replace_file(kept_file(), *kept);
+        enter(CycleState::idle, "reverted to " + backup_name);
         if (on_cycle_end) on_cycle_end(true);
         return "";
     }
@@ -683,6 +709,10 @@ std::string Cycle::revert() {
 void Cycle::verify() {
     if (machine_.is_galvo()) {
         verify_galvo();
+        return;
+    }
+    if (machine_.is_planar()) {
+        verify_planar();
         return;
     }
     enter(CycleState::verify, "printing the target again on the corrected machine");
@@ -745,7 +775,7 @@ void Cycle::review_galvo() {
 void Cycle::apply_galvo() {
     enter(CycleState::apply, "keeping the table: jobs now go through it");
     const auto previous = d_.data.read_file(kGalvoTableFile);
-    d_.data.replace_file(record_name(report_.number, "backup-table.json"),
+    d_.data.replace_file(record_name(report_.number, kept_backup_name()),
                          previous.value_or(kNoGalvoTable));
     d_.data.replace_file(kGalvoTableFile, modes::galvo_result_to_json(*report_.galvo));
     report_.applied = true;
@@ -788,6 +818,123 @@ void Cycle::verify_galvo() {
                                       fixed(again->fit.before.mean_mm, 4) + " mm mean, " +
                                       fixed(again->fit.before.rms_mm, 4) + " mm RMS, " +
                                       fixed(again->fit.before.max_mm, 4) + " mm worst");
+                                 finish_cycle();
+                             });
+                    });
+                });
+            });
+    });
+}
+
+namespace {
+
+double rms_norm(const std::vector<geometry::Point2>& errors_mm) {
+    double sum = 0;
+    for (const auto& e : errors_mm) sum += e.x * e.x + e.y * e.y;
+    return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, errors_mm.size())));
+}
+
+}  // namespace
+
+const char* Cycle::kept_file() const {
+    return machine_.is_galvo() ? kGalvoTableFile : kPlanarResultFile;
+}
+const char* Cycle::kept_backup_name() const {
+    return machine_.is_galvo() ? "backup-table.json" : "backup-result.json";
+}
+
+void Cycle::solve_planar() {
+    d_.data.replace_file(record_name(report_.number, "measurements.json"),
+                         modes::planar_measurements_to_json(*planar_measured_));
+    enter(CycleState::solve, std::to_string(planar_measured_->holes.size()) + " holes, " +
+                                 std::to_string(planar_measured_->missing.size()) + " missing");
+    auto solution = std::make_shared<modes::PlanarSolution>();
+    auto firmware = std::make_shared<modes::FirmwareSettings>();
+    work(
+        [machine = machine_, measured = *planar_measured_, solution, firmware] {
+            *solution = modes::solve_planar(machine, measured);
+            *firmware = modes::planar_firmware_settings(machine, *solution);
+        },
+        [this, solution, firmware] {
+            report_.planar = *solution;
+            report_.measured_xy_rms_mm = rms_norm(solution->error_mm);
+            report_.measured_xy_max_mm = solution->before.max_mm;
+            d_.data.replace_file(record_name(report_.number, "result.json"),
+                                 modes::planar_result_to_json(*solution, *firmware));
+            // The firmware's own knobs, for a person who would rather set them: shown, not sent
+            // (the compensated jobs carry the whole model; both would correct twice).
+            std::string lines;
+            for (const auto& line : firmware->lines) lines += line + "\n";
+            d_.data.replace_file(record_name(report_.number, "firmware.txt"), lines);
+            review();
+        });
+}
+
+void Cycle::review_planar() {
+    const auto& s = *report_.planar;
+    enter(CycleState::review, "predicted after " + fixed(s.after.mean_mm, 4) + " mm mean");
+    log_("cycle " + std::to_string(report_.number) + ": proposed: the error model over X " +
+         fixed(s.min_x_mm, 1) + ".." + fixed(s.max_x_mm, 1) + " Y " + fixed(s.min_y_mm, 1) + ".." +
+         fixed(s.max_y_mm, 1) + " mm; error norm now " + fixed(s.before.mean_mm, 4) + " mm mean, " +
+         fixed(s.before.max_mm, 4) + " mm worst; predicted after " + fixed(s.after.mean_mm, 4) +
+         " mm mean, " + fixed(s.after.max_mm, 4) + " mm worst");
+    show("review", {"error model, " + std::to_string(s.fit.rank - 3) + " terms",
+                    "now " + fixed(s.before.mean_mm, 3) + " mm mean",
+                    "after " + fixed(s.after.mean_mm, 3) + " mm", prompt_text(Prompt::review)});
+    ask(Prompt::review, 0, [this] { apply(); });
+}
+
+// The box keeps the error model (kPlanarResultFile) and compensates jobs through it; the one in
+// force before is kept with the cycle's record, so that revert can put it back.
+void Cycle::apply_planar() {
+    enter(CycleState::apply, "keeping the error model: jobs now go through it");
+    const auto previous = d_.data.read_file(kPlanarResultFile);
+    d_.data.replace_file(record_name(report_.number, kept_backup_name()),
+                         previous.value_or(kNoPlanarResult));
+    d_.data.replace_file(kPlanarResultFile, modes::planar_result_to_json(
+                                                *report_.planar, modes::planar_firmware_settings(
+                                                                     machine_, *report_.planar)));
+    report_.applied = true;
+    verify();
+}
+
+void Cycle::verify_planar() {
+    enter(CycleState::verify, "drilling the grid again through the error model");
+    ask(Prompt::clear_bed, 0, [this] {
+        auto lines = std::make_shared<std::vector<std::string>>();
+        work(
+            [job = target_job_, solution = *report_.planar, lines] {
+                std::string text;
+                for (const auto& l : job) text += l + "\n";
+                targets::CompensateReport ignored;
+                std::istringstream compensated(targets::compensate_gcode(
+                    text,
+                    [&solution](geometry::Point2 p) {
+                        return modes::planar_command_for(solution, p);
+                    },
+                    [&solution](geometry::Point2 p) { return modes::planar_covers(solution, p); },
+                    {}, ignored));
+                for (std::string line; std::getline(compensated, line);) lines->push_back(line);
+            },
+            [this, lines] {
+                run_job(*lines, [this](const JobOutcome&) {
+                    measure_print(CycleState::verify, [this] {
+                        auto again = std::make_shared<modes::PlanarSolution>();
+                        work([machine = machine_, measured = *planar_measured_,
+                              again] { *again = modes::solve_planar(machine, measured); },
+                             [this, again] {
+                                 // The holes drilled through the model against where they were
+                                 // meant: the second solve's "before".
+                                 const auto& v = again->before;
+                                 report_.verify_xy_rms_mm = rms_norm(again->error_mm);
+                                 report_.verify_xy_max_mm = v.max_mm;
+                                 d_.data.replace_file(
+                                     record_name(report_.number, "verify-measurements.json"),
+                                     modes::planar_measurements_to_json(*planar_measured_));
+                                 log_("cycle " + std::to_string(report_.number) +
+                                      ": verified on the grid drilled through the model: " +
+                                      fixed(v.mean_mm, 4) + " mm mean, " + fixed(v.max_mm, 4) +
+                                      " mm worst");
                                  finish_cycle();
                              });
                     });

@@ -14,6 +14,7 @@
 #include "core/models/machine_file.hpp"
 #include "core/modes/delta.hpp"
 #include "core/modes/galvo.hpp"
+#include "core/modes/planar.hpp"
 #include "firmware/button_press.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
@@ -57,6 +58,10 @@ const char* prompt_text(Prompt prompt);
 // through (kNoGalvoTable: none).
 constexpr const char* kGalvoTableFile = "galvo-table.json";
 constexpr const char* kNoGalvoTable = "none\n";
+// A router's (or other planar machine's) correction in force: the solve result whose error
+// model the box sends jobs through (kNoPlanarResult: none).
+constexpr const char* kPlanarResultFile = "planar-result.json";
+constexpr const char* kNoPlanarResult = "none\n";
 
 struct CycleSettings {
     int frames_per_capture = 1;                  // averaged by measure
@@ -83,6 +88,7 @@ struct CycleReport {
     int number = 0;
     std::optional<modes::DeltaSolution> solution;  // a delta printer's correction
     std::optional<modes::GalvoSolution> galvo;     // a galvo scanner's correction table
+    std::optional<modes::PlanarSolution> planar;   // a router's error model
     bool applied = false;
     std::vector<std::string> backup;  // the settings before, as commands (M665, M666)
     // The target measured before the correction (placement errors; a galvo's marks against its
@@ -171,6 +177,17 @@ class Cycle {
     void review_galvo();
     void apply_galvo();
     void verify_galvo();
+    // The planar mode's: the box keeps the error model and compensates jobs through it; the
+    // target drilled again through it and measured to verify.
+    void solve_planar();
+    void review_planar();
+    void apply_planar();
+    void verify_planar();
+    // The galvo and planar modes keep their correction in a file of the box's; a cycle keeps the
+    // one in force before it as cycle-NNNN-<backup_name>.
+    bool keeps_correction() const { return machine_.is_galvo() || machine_.is_planar(); }
+    const char* kept_file() const;
+    const char* kept_backup_name() const;
     void finish_cycle();
 
     CycleDevices d_;
@@ -197,6 +214,7 @@ class Cycle {
     std::vector<std::string> target_job_;
     std::optional<modes::DeltaMeasurementsRecord> measurements_;
     std::optional<modes::GalvoMeasurement> galvo_measured_;
+    std::optional<modes::PlanarMeasurement> planar_measured_;
     std::vector<std::string> readback_;
     CycleReport report_;
     std::chrono::nanoseconds phase_started_{0};

@@ -419,9 +419,10 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
     board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
                                               settings.data_dir / kTwinSettingsFile);
     const auto& kind = board.bench->scenario().machine.kind;
-    if (kind != "delta" && kind != "galvo")
+    if (kind != "delta" && kind != "galvo" && kind != "router")
         throw ScenarioError(settings.scenario_path +
-                            ": the sim board runs delta printers and galvo scanners, not a " +
+                            ": the sim board runs delta printers, galvo scanners and routers, "
+                            "not a " +
                             kind);
     board.printer = std::make_unique<TwinPrinterLink>(board.bench);
     board.camera = std::make_unique<TwinCamera>(board.bench);

@@ -32,3 +32,22 @@ for pattern in "^M3 S" "^G4 P" "^M5" "Z-2.000"; do
         || { echo "compensated job lost lines matching $pattern"; exit 1; }
 done
 echo "planar cycle complete"
+
+# The appliance: one cycle on the router, the box keeping the error model; revert puts back
+# what was in force before (none).
+data="$work/box"
+"$calbox" run --board sim --scenario "$top/tests/scenarios/planar_small.toml" --data "$data" --auto \
+    > "$work/run.out" 2> "$work/run.err" < /dev/null
+cat "$work/run.out"
+grep -q "^before: holes " "$work/run.out"
+grep -q "^after: holes through the error model " "$work/run.out"
+grep -q "verified on the grid drilled through the model" "$work/run.err"
+for f in planar-result.json cycle-0001-result.json cycle-0001-measurements.json cycle-0001-firmware.txt \
+         cycle-0001-backup-result.json cycle-0001-verify-measurements.json; do
+    [ -s "$data/$f" ] || { echo "appliance: missing $f"; exit 1; }
+done
+[ "$(cat "$data/cycle-0001-backup-result.json")" = "none" ]
+grep -q '"schema": "calbox.planar-result/1"' "$data/planar-result.json"
+"$calbox" revert --board sim --scenario "$top/tests/scenarios/planar_small.toml" --data "$data" 2> "$work/revert.err" < /dev/null
+[ "$(cat "$data/planar-result.json")" = "none" ] || { echo "revert left the model in force"; exit 1; }
+echo "planar appliance cycle and revert complete"

@@ -30,8 +30,13 @@ std::vector<Point2> circle_points(Point2 centre, double radius_mm) {
     return points;
 }
 
+// Appended piece by piece: GCC 12 at -O3 misreports "X" + std::string (-Wrestrict, PR105329).
 std::string xy(Point2 p) {
-    return "X" + number_text("%.4f", p.x) + " Y" + number_text("%.4f", p.y);
+    std::string out = "X";
+    out += number_text("%.4f", p.x);
+    out += " Y";
+    out += number_text("%.4f", p.y);
+    return out;
 }
 
 }  // namespace

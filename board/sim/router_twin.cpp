@@ -148,6 +148,7 @@ std::vector<Vec2> drilled_hole_centres_mm(RouterTwin& twin, const std::string& j
 std::vector<StrokeSegment> holes_on_the_sheet(const std::vector<Stroke>& cuts,
                                               double surface_height_mm) {
     std::vector<StrokeSegment> out;
+    out.reserve(cuts.size());
     for (const auto& s : cuts)
         out.push_back({{s.a_mm.x, s.a_mm.y, surface_height_mm},
                        {s.b_mm.x, s.b_mm.y, surface_height_mm},

@@ -36,6 +36,10 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
             s.delta_truth = twin_params(truth_delta);
         }
         if (const auto* c = models::subtable(path, *truth, "cartesian")) {
+            if (s.machine.kind == "router")
+                throw ScenarioError(path +
+                                    ": a router's truth is [truth.router], not "
+                                    "[truth.cartesian]");
             TomlReader r(path, *c, "truth.cartesian");
             r.number("scale_error_x", s.cartesian_truth.scale_error_x, -0.05, 0.05);
             r.number("scale_error_y", s.cartesian_truth.scale_error_y, -0.05, 0.05);
@@ -219,6 +223,7 @@ std::vector<StrokeSegment> as_photographed(const Scenario& s, std::vector<Stroke
     strokes = carried_by_bed(std::move(strokes), bed_growth_at_photo(s));
     if (s.machine.kind != "router") return strokes;
     std::vector<Stroke> cuts;
+    cuts.reserve(strokes.size());
     for (const auto& c : strokes) cuts.push_back({c.a_mm, c.b_mm, c.a_mm, c.b_mm, c.width_mm, 0});
     return holes_on_the_sheet(cuts, s.machine.planar->surface_height_mm);
 }

@@ -452,6 +452,7 @@ NormStatistics norm_statistics(const std::vector<Point2>& errors_mm) {
     s.points = errors_mm.size();
     if (errors_mm.empty()) return s;
     std::vector<double> norms;
+    norms.reserve(errors_mm.size());
     for (const auto& e : errors_mm) norms.push_back(std::hypot(e.x, e.y));
     std::sort(norms.begin(), norms.end());
     // Quartiles by linear interpolation between order statistics (the spreadsheet's method).

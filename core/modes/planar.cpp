@@ -15,7 +15,6 @@ namespace calbox::modes {
 namespace {
 
 using geometry::Point2;
-using targets::GridIndex;
 
 double distance(Point2 a, Point2 b) {
     return std::hypot(a.x - b.x, a.y - b.y);
@@ -261,6 +260,7 @@ PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
     out.rows = target.rows;
     out.pitch_mm = target.pitch_mm;
     std::vector<std::vector<MarkCandidate>> candidates;
+    candidates.reserve(views.size());
     for (const auto& view : views)
         candidates.push_back(
             holes_in_photo(machine, camera, plane, view.photo, target, settings, out.extra_mm));
@@ -552,55 +552,57 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
     const double fx = 1 / (1 + sx), fy = 1 / (1 + sy);
     const auto& planar = *machine.planar;
     auto& out = f.lines;
-    out.push_back("; calbox planar, the best linear fit over the holes: x travels " +
-                  number_text("%+.4f", 100 * sx) + " %, y " + number_text("%+.4f", 100 * sy) +
-                  " %, the axes are " + number_text("%+.4f", skew * 1000) +
-                  " mrad out of square (x moves " + number_text("%+.6f", skew) +
-                  " mm per mm of y)");
-    out.push_back("; these settings leave " + number_text("%.3f", f.mean_left_mm) +
-                  " mm mean error norm of " + number_text("%.3f", f.mean_before_mm) +
-                  " (straightness, yaw and what the model does not hold); the compensated "
-                  "G-code corrects all of the model");
+    out.emplace_back("; calbox planar, the best linear fit over the holes: x travels " +
+                     number_text("%+.4f", 100 * sx) + " %, y " + number_text("%+.4f", 100 * sy) +
+                     " %, the axes are " + number_text("%+.4f", skew * 1000) +
+                     " mrad out of square (x moves " + number_text("%+.6f", skew) +
+                     " mm per mm of y)");
+    out.emplace_back("; these settings leave " + number_text("%.3f", f.mean_left_mm) +
+                     " mm mean error norm of " + number_text("%.3f", f.mean_before_mm) +
+                     " (straightness, yaw and what the model does not hold); the compensated "
+                     "G-code corrects all of the model");
     const bool steps = planar.steps_per_mm_x && planar.steps_per_mm_y;
     const std::string factors = "multiply X steps/mm by " + number_text("%.6f", fx) + " and Y by " +
                                 number_text("%.6f", fy);
     if (machine.firmware == "marlin") {
-        out.push_back(steps ? "M92 X" + number_text("%.4f", *planar.steps_per_mm_x * fx) + " Y" +
-                                  number_text("%.4f", *planar.steps_per_mm_y * fy)
-                            : "; M92: " + factors);
+        out.emplace_back(steps ? "M92 X" + number_text("%.4f", *planar.steps_per_mm_x * fx) + " Y" +
+                                     number_text("%.4f", *planar.steps_per_mm_y * fy)
+                               : "; M92: " + factors);
         // Marlin's skew correction moves x by -y * I: I is the lean measured.
-        out.push_back("M852 I" + number_text("%.6f", skew));
-        out.push_back("M500");
+        out.emplace_back("M852 I" + number_text("%.6f", skew));
+        out.emplace_back("M500");
     } else if (machine.firmware == "grbl") {
         if (steps) {
-            out.push_back("$100=" + number_text("%.4f", *planar.steps_per_mm_x * fx));
-            out.push_back("$101=" + number_text("%.4f", *planar.steps_per_mm_y * fy));
+            out.emplace_back("$100=" + number_text("%.4f", *planar.steps_per_mm_x * fx));
+            out.emplace_back("$101=" + number_text("%.4f", *planar.steps_per_mm_y * fy));
         } else {
-            out.push_back("; $100, $101: " + factors);
+            out.emplace_back("; $100, $101: " + factors);
         }
-        out.push_back("; grbl has no skew setting: use the compensated G-code for squareness");
+        out.emplace_back("; grbl has no skew setting: use the compensated G-code for squareness");
     } else if (machine.firmware == "klipper") {
-        out.push_back("; [stepper_x] rotation_distance: multiply by " +
-                      number_text("%.6f", 1 + sx) + ", [stepper_y] by " +
-                      number_text("%.6f", 1 + sy));
+        out.emplace_back("; [stepper_x] rotation_distance: multiply by " +
+                         number_text("%.6f", 1 + sx) + ", [stepper_y] by " +
+                         number_text("%.6f", 1 + sy));
         // The diagonals and side of a 100 mm square as this machine makes it, after the scales
         // are set: Klipper's skew calibration takes them as measured.
         const double side = 100;
         const Point2 a{0, 0}, b{side, 0}, c{side + skew * side, side}, d{skew * side, side};
-        out.push_back("SET_SKEW XY=" + number_text("%.4f", distance(a, c)) + "," +
-                      number_text("%.4f", distance(b, d)) + "," +
-                      number_text("%.4f", distance(a, d)));
-        out.push_back("SKEW_PROFILE SAVE=calbox");
-        out.push_back("SAVE_CONFIG");
+        out.emplace_back("SET_SKEW XY=" + number_text("%.4f", distance(a, c)) + "," +
+                         number_text("%.4f", distance(b, d)) + "," +
+                         number_text("%.4f", distance(a, d)));
+        out.emplace_back("SKEW_PROFILE SAVE=calbox");
+        out.emplace_back("SAVE_CONFIG");
     } else if (machine.firmware == "linuxcnc") {
-        out.push_back(
+        out.emplace_back(
             "; [JOINT_0] COMP_FILE (COMP_FILE_TYPE = 0: nominal actual), and the same "
             "for [JOINT_1] with y:");
         for (const double x : {s.min_x_mm, 0.5 * (s.min_x_mm + s.max_x_mm), s.max_x_mm})
-            out.push_back("; " + number_text("%.3f", x) + " " + number_text("%.4f", x * (1 + sx)));
-        out.push_back("; linuxcnc has no skew setting: use the compensated G-code for squareness");
+            out.emplace_back("; " + number_text("%.3f", x) + " " +
+                             number_text("%.4f", x * (1 + sx)));
+        out.emplace_back(
+            "; linuxcnc has no skew setting: use the compensated G-code for squareness");
     } else {
-        out.push_back("; " + machine.firmware + ": " + factors);
+        out.emplace_back("; " + machine.firmware + ": " + factors);
     }
     return f;
 }

@@ -73,8 +73,9 @@ TEST(PlanarModel, the_seeds_reported_parameters_reproduce_its_planar_error_field
     const auto form = seed_form();
     const auto p = models::planar_from_seed_form(form, 1.0);
     double worst = 0;
-    for (double x = 0; x <= 300; x += 15)
-        for (double y = 0; y <= 300; y += 15) {
+    for (int i = 0; i <= 20; ++i)
+        for (int k = 0; k <= 20; ++k) {
+            const double x = 15.0 * i, y = 15.0 * k;
             const Point2 model = models::planar_error_mm(p, {x, y}, 1.0);
             const Point2 seed = form.error_mm({x, y}, 1.0);
             worst = std::max(worst, std::hypot(model.x - seed.x, model.y - seed.y));
@@ -126,8 +127,9 @@ TEST(PlanarModel, the_fit_recovers_the_seeds_parameters_from_measurements_of_its
     // see), worst over the work area.
     const auto field_difference = [&](const models::PlanarFit& fit) {
         std::vector<Point2> fitted_field, true_field;
-        for (double x = 0; x <= 300; x += 30)
-            for (double y = 0; y <= 300; y += 30) {
+        for (int i = 0; i <= 10; ++i)
+            for (int k = 0; k <= 10; ++k) {
+                const double x = 30.0 * i, y = 30.0 * k;
                 const auto f = models::planar_error_mm(fit.parameters, {x, y}, 1.0);
                 const auto t = models::planar_error_mm(truth, {x, y}, 1.0);
                 fitted_field.push_back({x + f.x, y + f.y});
@@ -189,6 +191,7 @@ TEST(PlanarModel, detmax_beats_random_designs_of_the_same_size) {
     const auto design = models::detmax_design(grid, 24, 40);
     CHECK_EQUAL(24u, design.size());
     std::vector<Point2> chosen;
+    chosen.reserve(design.size());
     for (auto i : design) chosen.push_back(grid[i]);
     const double detmax = models::design_log_determinant(chosen, grid, 40);
     // The field error each design leaves, averaged over noisy measurements of one field.

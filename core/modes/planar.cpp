@@ -275,7 +275,8 @@ PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
     // from the first view's, so a machine point m shows where the first view showed m - offset.
     // That is good to the machine's errors (a few millimetres), enough to say which hole is
     // which; where the holes are comes from the photos alone.
-    std::vector<std::vector<long>> index;  // per view, per target hole
+    std::vector<std::vector<long>> index;                       // per view, per target hole
+    std::optional<std::pair<std::size_t, long>> backlash_seen;  // view, candidate
     for (std::size_t v = 0; v < views.size(); ++v) {
         FrameGuess frame = first;
         const Point2 shift{views[v].offset_mm.x - views[0].offset_mm.x,
@@ -285,6 +286,15 @@ PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
             frame.placement.translation_mm.x - (moved.x - at_origin.x),
             frame.placement.translation_mm.y - (moved.y - at_origin.y)};
         index.push_back(index_holes(target, candidates[v], frame, reach));
+        if (target.backlash_hole && !backlash_seen) {
+            // Half a pitch diagonally from four grid holes: within the reach of none of theirs.
+            const long c = nearest_candidate(candidates[v],
+                                             frame.bed_of(target.backlash_hole->centre_mm), reach);
+            if (c >= 0 &&
+                std::find(index.back().begin(), index.back().end(), c) == index.back().end() &&
+                !candidates[v][static_cast<std::size_t>(c)].large)
+                backlash_seen = std::pair<std::size_t, long>{v, c};
+        }
     }
     // Stitched through the holes the views share: each view's own rotation and shift (the first
     // view's fixed) and every hole's position, by least squares, so that a hole seen twice is
@@ -405,10 +415,20 @@ PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
                              out.mirrored ? Point2{p.x, -p.y} : p,
                              1 / std::sqrt(inverse_variance)});
     }
+    if (backlash_seen) {
+        const auto& [v, c] = *backlash_seen;
+        const auto& candidate = candidates[v][static_cast<std::size_t>(c)];
+        const Point2 p = place(v, candidate.bed_mm);
+        out.backlash_hole =
+            PlanarHoleMeasurement{target.backlash_hole->index, target.backlash_hole->centre_mm,
+                                  false, out.mirrored ? Point2{p.x, -p.y} : p, candidate.sigma_mm};
+    }
     for (std::size_t v = 0; v < n_views; ++v) {
         std::vector<bool> used(candidates[v].size(), false);
         for (const long c : index[v])
             if (c >= 0) used[static_cast<std::size_t>(c)] = true;
+        if (backlash_seen && backlash_seen->first == v)
+            used[static_cast<std::size_t>(backlash_seen->second)] = true;
         for (std::size_t i = 0; i < used.size(); ++i)
             if (!used[i]) out.extra_mm.push_back(place(v, candidates[v][i].bed_mm));
     }
@@ -482,6 +502,32 @@ PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeas
                           number_text("%g", options.max_error_mm) +
                           " mm a machine out of calibration plausibly shows (check the pitch and "
                           "the photo); nothing written");
+    if (measured.backlash_hole) {
+        // Seen = R (c + e(c)) + t for a hole approached like the others; the rest is the slack,
+        // less what the model leaves unexplained there: the mean residual of the cell's four
+        // corner holes (the unexplained part changes slowly over a cell, the slack not at all).
+        const auto& hole = *measured.backlash_hole;
+        const double c = std::cos(s.fit.rotation_rad), sn = std::sin(s.fit.rotation_rad);
+        const double dx = hole.measured_mm.x - s.fit.translation_mm.x,
+                     dy = hole.measured_mm.y - s.fit.translation_mm.y;
+        const Point2 e =
+            models::planar_error_mm(s.fit.parameters, hole.commanded_mm, s.tool_length_mm);
+        Point2 local;
+        int corners = 0;
+        std::size_t k = 0;
+        for (const auto& h : measured.holes) {
+            if (h.large) continue;
+            const int dc = h.index.column - hole.index.column, dr = h.index.row - hole.index.row;
+            if ((dc == 0 || dc == 1) && (dr == 0 || dr == 1)) {
+                local.x += s.fit.residuals_mm[k].x, local.y += s.fit.residuals_mm[k].y;
+                ++corners;
+            }
+            ++k;
+        }
+        if (corners > 0) local = {local.x / corners, local.y / corners};
+        s.backlash_mm = Point2{c * dx + sn * dy - hole.commanded_mm.x - e.x - local.x,
+                               -sn * dx + c * dy - hole.commanded_mm.y - e.y - local.y};
+    }
     s.rigid_part = models::rigid_part_of(s.fit.parameters, s.tool_length_mm, s.min_x_mm, s.min_y_mm,
                                          s.max_x_mm, s.max_y_mm);
     // Bounds on what will be sent: the correction over the whole valid area, corners included.
@@ -557,6 +603,11 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
                      " %, the axes are " + number_text("%+.4f", skew * 1000) +
                      " mrad out of square (x moves " + number_text("%+.6f", skew) +
                      " mm per mm of y)");
+    if (s.backlash_mm)
+        out.emplace_back("; backlash " + number_text("%.3f", s.backlash_mm->x) + " mm in x, " +
+                         number_text("%.3f", s.backlash_mm->y) +
+                         " mm in y (the hole drilled from the other side): jobs that approach "
+                         "their features from one side do not see it");
     out.emplace_back("; these settings leave " + number_text("%.3f", f.mean_left_mm) +
                      " mm mean error norm of " + number_text("%.3f", f.mean_before_mm) +
                      " (straightness, yaw and what the model does not hold); the compensated "
@@ -570,6 +621,9 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
                                : "; M92: " + factors);
         // Marlin's skew correction moves x by -y * I: I is the lean measured.
         out.emplace_back("M852 I" + number_text("%.6f", skew));
+        if (s.backlash_mm)
+            out.emplace_back("M425 X" + number_text("%.3f", std::max(0.0, s.backlash_mm->x)) +
+                             " Y" + number_text("%.3f", std::max(0.0, s.backlash_mm->y)));
         out.emplace_back("M500");
     } else if (machine.firmware == "grbl") {
         if (steps) {
@@ -599,6 +653,12 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
         for (const double x : {s.min_x_mm, 0.5 * (s.min_x_mm + s.max_x_mm), s.max_x_mm})
             out.emplace_back("; " + number_text("%.3f", x) + " " +
                              number_text("%.4f", x * (1 + sx)));
+        if (s.backlash_mm) {
+            out.emplace_back("; [JOINT_0] BACKLASH = " +
+                             number_text("%.3f", std::max(0.0, s.backlash_mm->x)));
+            out.emplace_back("; [JOINT_1] BACKLASH = " +
+                             number_text("%.3f", std::max(0.0, s.backlash_mm->y)));
+        }
         out.emplace_back(
             "; linuxcnc has no skew setting: use the compensated G-code for squareness");
     } else {
@@ -656,6 +716,13 @@ std::string planar_measurements_to_json(const PlanarMeasurement& m) {
                          {"sigma_mm", h.sigma_mm}});
     for (const auto& i : m.missing) missing.push_back({i.column, i.row});
     for (const auto& p : m.extra_mm) extra.push_back(point_json(p));
+    json backlash = nullptr;
+    if (m.backlash_hole)
+        backlash = {{"column", m.backlash_hole->index.column},
+                    {"row", m.backlash_hole->index.row},
+                    {"commanded_mm", point_json(m.backlash_hole->commanded_mm)},
+                    {"measured_mm", point_json(m.backlash_hole->measured_mm)},
+                    {"sigma_mm", m.backlash_hole->sigma_mm}};
     const json j{{"schema", kMeasurementsSchema},
                  {"machine_fingerprint", m.machine_fingerprint},
                  {"target_fingerprint", m.target_fingerprint},
@@ -665,6 +732,7 @@ std::string planar_measurements_to_json(const PlanarMeasurement& m) {
                  {"pitch_mm", m.pitch_mm},
                  {"mirrored", m.mirrored},
                  {"holes", holes},
+                 {"backlash_hole", backlash},
                  {"missing", missing},
                  {"extra_mm", extra}};
     return j.dump(1) + "\n";
@@ -697,6 +765,14 @@ PlanarMeasurement planar_measurements_from_json(const std::string& text,
             p.measured_mm = point_from(h.at("measured_mm"));
             p.sigma_mm = h.at("sigma_mm").get<double>();
             m.holes.push_back(p);
+        }
+        if (const auto& b = j.at("backlash_hole"); !b.is_null()) {
+            PlanarHoleMeasurement h;
+            h.index = {b.at("column").get<int>(), b.at("row").get<int>()};
+            h.commanded_mm = point_from(b.at("commanded_mm"));
+            h.measured_mm = point_from(b.at("measured_mm"));
+            h.sigma_mm = b.at("sigma_mm").get<double>();
+            m.backlash_hole = h;
         }
         for (const auto& i : j.at("missing"))
             m.missing.push_back({i.at(0).get<int>(), i.at(1).get<int>()});
@@ -744,6 +820,7 @@ std::string planar_result_to_json(const PlanarSolution& s, const FirmwareSetting
                  {"before", statistics_json(s.before)},
                  {"after", statistics_json(s.after)},
                  {"valid_area_mm", {s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm}},
+                 {"backlash_mm", s.backlash_mm ? point_json(*s.backlash_mm) : json(nullptr)},
                  {"firmware",
                   {{"lines", firmware.lines},
                    {"mean_left_mm", firmware.mean_left_mm},
@@ -789,6 +866,7 @@ PlanarSolution planar_result_from_json(const std::string& text, const std::strin
         if (area.size() != 4 || !(area[2] > area[0] && area[3] > area[1]))
             throw RecordError(source + ": valid_area_mm is [min x, min y, max x, max y]");
         s.min_x_mm = area[0], s.min_y_mm = area[1], s.max_x_mm = area[2], s.max_y_mm = area[3];
+        if (const auto& b = j.at("backlash_mm"); !b.is_null()) s.backlash_mm = point_from(b);
         for (const auto& h : j.at("holes")) {
             s.commanded_mm.push_back(point_from(h.at("commanded_mm")));
             s.error_mm.push_back(point_from(h.at("error_mm")));

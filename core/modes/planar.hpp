@@ -54,6 +54,8 @@ struct PlanarMeasurement {
     // The photo's bed frame was mirrored against the machine's (y flipped back in measured_mm).
     bool mirrored = false;
     std::vector<PlanarHoleMeasurement> holes;
+    // The router's hole drilled from the other side (targets::PlanarTarget::backlash_hole).
+    std::optional<PlanarHoleMeasurement> backlash_hole;
     std::vector<targets::GridIndex> missing;  // holes the job made that were not measured
     std::vector<geometry::Point2> extra_mm;   // blobs that are no hole of the grid (chips, swarf)
 };
@@ -105,6 +107,9 @@ struct PlanarSolution {
     // The rigid part of the fitted field over the valid area, left out of the correction: the
     // work's zero and heading are set by hand on the machine.
     models::SmallRigidMotion rigid_part;
+    // The drives' slack along x and y: where the hole drilled from the other side lies against
+    // the model (not part of the model: the target takes it up the same way at every hole).
+    std::optional<geometry::Point2> backlash_mm;
     // The work area the correction is valid over (the measured holes' extent).
     double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;
 };

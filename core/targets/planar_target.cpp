@@ -66,7 +66,8 @@ std::string write_drilling_job(const models::MachineFile& m, const std::vector<P
     line(dwell(2.0));  // the spindle comes up to speed
     for (const auto& hole : holes) {
         const Point2 c = hole.centre_mm;
-        line("G0 " + xy({c.x - kApproachMm, c.y - kApproachMm}) + travel);
+        const double from = hole.approached_backwards ? kApproachMm : -kApproachMm;
+        line("G0 " + xy({c.x + from, c.y + from}) + travel);
         line("G0 " + xy(c));
         line("G1 Z" + number_text("%.3f", -m.cut_depth_mm) + plunge);
         if (hole.large) {
@@ -169,17 +170,27 @@ PlanarTarget make_planar_target(const models::MachineFile& machine,
             const bool large = is_large_hole(i, t.columns, t.rows);
             const std::size_t node = geometry::grid_offset(i.column, i.row, t.columns);
             if (options.only_nodes && !large && only.count(node) == 0) continue;
-            t.holes.push_back({i, t.node_mm(i), large});
+            t.holes.push_back({i, t.node_mm(i), large, false});
         }
     if (options.only_nodes)
         for (std::size_t n : only) canonical += "|n" + std::to_string(n);
+    if (router) {
+        // Last, so that every hole before it was drilled with the slack taken up one way.
+        const GridIndex middle{(t.columns - 1) / 2, (t.rows - 1) / 2};
+        const geometry::Point2 at = t.node_mm(middle);
+        t.backlash_hole =
+            PlanarHole{middle, {at.x + 0.5 * t.pitch_mm, at.y + 0.5 * t.pitch_mm}, false, true};
+        canonical += "|backlash";
+    }
     t.fingerprint = models::digest(canonical);
     if (router) {
-        t.job = write_drilling_job(machine, t.holes, t.hole_diameter_mm, t.large_diameter_mm,
+        auto holes = t.holes;
+        holes.push_back(*t.backlash_hole);
+        t.job = write_drilling_job(machine, holes, t.hole_diameter_mm, t.large_diameter_mm,
                                    "calbox planar target: " + std::to_string(t.columns) + " x " +
                                        std::to_string(t.rows) + " grid at " +
                                        number_text("%.3f", t.pitch_mm) + " mm, " +
-                                       std::to_string(t.holes.size()) + " holes of " +
+                                       std::to_string(t.holes.size() + 1) + " holes of " +
                                        number_text("%.3f", t.hole_diameter_mm) + " mm (two of " +
                                        number_text("%.3f", t.large_diameter_mm) + " mm)");
         return t;

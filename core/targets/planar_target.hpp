@@ -19,6 +19,10 @@ struct PlanarHole {
     GridIndex index;             // column along machine +x, row along +y, from 0
     geometry::Point2 centre_mm;  // machine coordinates, as commanded
     bool large = false;
+    // Approached from +X +Y, against every other hole: where it lands against the model says how
+    // much slack the drives have (backlash). It lies in the middle of the cell whose first node
+    // is `index`.
+    bool approached_backwards = false;
 };
 
 struct PlanarTargetOptions {
@@ -32,7 +36,9 @@ struct PlanarTarget {
     double pitch_mm = 0;
     geometry::Point2 first_mm;  // node (0, 0)
     double hole_diameter_mm = 0, large_diameter_mm = 0;
-    GridIndex omitted;              // the node left out on purpose
+    GridIndex omitted;  // the node left out on purpose
+    // Routers: one more hole, in the middle of the grid's middle cell, approached backwards.
+    std::optional<PlanarHole> backlash_hole;
     std::vector<PlanarHole> holes;  // the holes made, in the order the job makes them
     std::string job;                // G-code, ready to send
     std::string fingerprint;        // of the layout and the machine it was made for
@@ -54,7 +60,8 @@ std::pair<int, int> grid_dimensions_after(int symmetry, int columns, int rows);
 
 // A router's drilling job for any holes, in its firmware's dialect (grbl and LinuxCNC dwell in
 // seconds and end with M2, Marlin dwells in milliseconds): spindle on, each hole approached from
-// -X -Y (so the drives' slack is taken up alike at every hole), plunged to cut_depth_mm, large
+// -X -Y (so the drives' slack is taken up alike at every hole; from +X +Y when the hole says
+// so), plunged to cut_depth_mm, large
 // ones widened by a circle, a dwell, retract to safe_height_mm; spindle off. Z0 is the sheet's
 // top.
 std::string write_drilling_job(const models::MachineFile& machine,

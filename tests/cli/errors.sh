@@ -168,7 +168,7 @@ expect_error "design: 3 holes; choose 8 to 141" target planar --machine "$router
 expect_error "holes of the grid.s size in the first photo, the target has 143: not this target" measure planar --camera "$work/planar_camera.yaml" \
     --plane "$work/planar_plane.yaml" --machine "$router" "$work/planar_board.png" -o "$work/result"
 expect_error "not a planar measurements file" solve planar --machine "$router" --measurements "$work/wrong.json" -o "$work/result"
-printf '{"schema": "calbox.planar-measurements/1", "machine_fingerprint": "fnv1a64:0", "target_fingerprint": "x", "photos": [], "columns": 12, "rows": 12, "pitch_mm": 25, "mirrored": false, "holes": [], "missing": [], "extra_mm": []}' > "$work/other_planar.json"
+printf '{"schema": "calbox.planar-measurements/1", "machine_fingerprint": "fnv1a64:0", "target_fingerprint": "x", "photos": [], "columns": 12, "rows": 12, "pitch_mm": 25, "mirrored": false, "holes": [], "backlash_hole": null, "missing": [], "extra_mm": []}' > "$work/other_planar.json"
 expect_error "made for another machine file" solve planar --machine "$router" --measurements "$work/other_planar.json" -o "$work/result"
 printf '{"schema": "calbox.planar-result/1", "machine_fingerprint": "x"}' > "$work/short_planar.json"
 expect_error "short_planar.json: .*tool_length_mm" compensate --result "$work/short_planar.json" "$work/ok.gcode" -o "$work/result"

@@ -40,7 +40,7 @@ constexpr const char* kRunHelp = R"(usage:
       cancels), applied, and verified by making the target again. A delta printer's settings
       are sent with a backup and a read-back; a galvo scanner's correction is a table the box
       keeps (DIR/galvo-table.json) and sends jobs through, the grid burned through it to verify;
-      a router's is an error model the box keeps (DIR/planar-result.json, with the firmware's
+      a router's or cartesian printer's is an error model the box keeps (DIR/planar-result.json, with the firmware's
       own scale and skew settings beside it in the cycle's firmware.txt) and compensates jobs
       through, the holes drilled through it to verify. The correction starts from the settings the printer reports
       (M503; RepRapFirmware: M665, M666), not the scenario's. The first time (no camera.yaml / plane.yaml in DIR) it first
@@ -49,7 +49,8 @@ constexpr const char* kRunHelp = R"(usage:
       change is one line on standard error.
       --board sim     the digital twin (the only board built today): --scenario FILE (default
                       examples/delta_cycle.toml; examples/galvo_cycle.toml is a galvo scanner,
-                      examples/planar_cycle.toml a router) is
+                      examples/planar_cycle.toml a router, tests/scenarios/
+                      planar_printer_small.toml a cartesian printer) is
                       the machine, its hidden errors, the camera and the set-up boards
       --data DIR      set-up and cycle records (default $XDG_STATE_HOME/calbox, else
                       ~/.local/state/calbox)
@@ -57,7 +58,7 @@ constexpr const char* kRunHelp = R"(usage:
                       presses the button; one cycle, then exit. Prints the twin's judgement
                       before and after, and exits 0 only if the goal is met: a delta's XY RMS <=
                       0.01 mm, worst <= 0.03 mm over the printable area; a galvo's marks through
-                      the table <= 0.008 mm mean, <= 0.03 mm worst; a router's fresh holes
+                      the table <= 0.008 mm mean, <= 0.03 mm worst; a router's (or printer's) fresh points
                       through the model under 0.05 mm mean and 95 % less than before.
       --config FILE   the box's configuration (TOML; README, Configuration): today its [modbus]
                       table, which the --modbus-* options override
@@ -294,12 +295,11 @@ int run(const std::vector<std::string>& words) {
     const auto& machine = board.bench->scenario().machine;
     if (automatic) {
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
-        if (machine.kind == "router") {
-            const auto before = sim::judge_router_fresh_holes(board.bench->scenario().router_truth,
-                                                              machine, nullptr);
+        if (machine.is_planar()) {
+            const auto before = sim::judge_planar_machine(board.bench->scenario(), nullptr);
             std::printf(
-                "before: holes %.4f mm mean, %.4f mm worst (the twin's truth, a fresh job of %zu "
-                "holes half a pitch off the target's)\n",
+                "before: %.4f mm mean, %.4f mm worst (the twin's truth, a fresh job of %zu "
+                "points half a pitch off the target's)\n",
                 before.before.mean_mm, before.before.max_mm, before.holes);
         } else if (machine.is_galvo()) {
             const auto before = board.bench->judge_galvo_scanner(
@@ -336,7 +336,7 @@ int run(const std::vector<std::string>& words) {
         throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
                                                                        ? std::string("cancelled")
                                                                        : cycle.error()));
-    if (machine.kind == "router") {
+    if (machine.is_planar()) {
         // The error model the box keeps, judged on a fresh job through it.
         const auto kept = box.parts.data.read_file(firmware::kPlanarResultFile);
         if (!kept || *kept == firmware::kNoPlanarResult)
@@ -345,11 +345,10 @@ int run(const std::vector<std::string>& words) {
         const targets::Correction correct = [&solution](geometry::Point2 p) {
             return modes::planar_command_for(solution, p);
         };
-        const auto verdict =
-            sim::judge_router_fresh_holes(board.bench->scenario().router_truth, machine, &correct);
+        const auto verdict = sim::judge_planar_machine(board.bench->scenario(), &correct);
         const double reduction = 1 - verdict.after->mean_mm / verdict.before.mean_mm;
         std::printf(
-            "after: holes through the error model %.5f mm mean, %.5f mm worst (%.1f %% "
+            "after: through the error model %.5f mm mean, %.5f mm worst (%.1f %% "
             "less)\n",
             verdict.after->mean_mm, verdict.after->max_mm, 100 * reduction);
         if (verdict.after->mean_mm >= kPlanarGoalMeanMm || reduction < kPlanarGoalReduction)

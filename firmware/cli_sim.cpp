@@ -362,8 +362,7 @@ int sim_verify_router(const Args& args, const sim::Scenario& scenario) {
     const targets::Correction correct = [&](geometry::Point2 p) {
         return modes::planar_command_for(*solution, p);
     };
-    const auto verdict = sim::judge_router_fresh_holes(scenario.router_truth, scenario.machine,
-                                                       solution ? &correct : nullptr);
+    const auto verdict = sim::judge_planar_machine(scenario, solution ? &correct : nullptr);
     const auto judgement = [](const sim::RouterJudgement& j) {
         return nlohmann::json{{"mean_mm", j.mean_mm}, {"rms_mm", j.rms_mm}, {"max_mm", j.max_mm}};
     };
@@ -386,7 +385,7 @@ int sim_verify(const std::vector<std::string>& words) {
     if (!args.positional().empty()) throw UsageError("sim verify takes no positional argument");
     const auto scenario = scenario_from(args);
     if (scenario.machine.is_galvo()) return sim_verify_galvo(args, scenario);
-    if (scenario.machine.kind == "router") return sim_verify_router(args, scenario);
+    if (scenario.machine.is_planar()) return sim_verify_router(args, scenario);
     if (!scenario.machine.is_delta())
         throw std::runtime_error(scenario.path +
                                  ": sim verify judges delta, galvo and router scenarios");

@@ -156,19 +156,24 @@ std::vector<StrokeSegment> holes_on_the_sheet(const std::vector<Stroke>& cuts,
     return out;
 }
 
-RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& intended_mm,
-                             const std::string& job) {
-    RouterTwin twin(truth);
-    const auto holes = drilled_hole_centres_mm(twin, job);
-    if (holes.size() != intended_mm.size())
-        throw MachineError("judge: the job drilled " + std::to_string(holes.size()) +
-                           " holes for " + std::to_string(intended_mm.size()) + " points");
-    std::vector<Vec3> drilled, intended;
-    for (std::size_t i = 0; i < holes.size(); ++i) {
-        drilled.push_back({holes[i].x, holes[i].y, 0});
-        intended.push_back({intended_mm[i].x, intended_mm[i].y, 0});
-    }
-    const auto placed = rigidly_onto(drilled, intended);
+namespace {
+
+// Points half a pitch off the machine's target grid, over the same area: none of them a hole or
+// dot the calibration saw.
+std::vector<targets::PlanarHole> fresh_points(const targets::PlanarTarget& target) {
+    std::vector<targets::PlanarHole> holes;
+    for (int r = 0; r + 1 < target.rows; ++r)
+        for (int c = 0; c + 1 < target.columns; ++c)
+            holes.push_back({{c, r},
+                             {target.first_mm.x + (c + 0.5) * target.pitch_mm,
+                              target.first_mm.y + (r + 0.5) * target.pitch_mm},
+                             false});
+    return holes;
+}
+
+// Mean, RMS and worst distance of `reached` from `intended`, the placement taken out.
+RouterJudgement judged(const std::vector<Vec3>& reached, const std::vector<Vec3>& intended) {
+    const auto placed = rigidly_onto(reached, intended);
     RouterJudgement j;
     j.points = placed.size();
     double sum = 0, sum2 = 0;
@@ -183,18 +188,30 @@ RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& 
     return j;
 }
 
+}  // namespace
+
+RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& intended_mm,
+                             const std::string& job) {
+    RouterTwin twin(truth);
+    const auto holes = drilled_hole_centres_mm(twin, job);
+    if (holes.size() != intended_mm.size())
+        throw MachineError("judge: the job drilled " + std::to_string(holes.size()) +
+                           " holes for " + std::to_string(intended_mm.size()) + " points");
+    std::vector<Vec3> drilled, intended;
+    for (std::size_t i = 0; i < holes.size(); ++i) {
+        drilled.push_back({holes[i].x, holes[i].y, 0});
+        intended.push_back({intended_mm[i].x, intended_mm[i].y, 0});
+    }
+    return judged(drilled, intended);
+}
+
 RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::MachineFile& machine,
                                        const targets::Correction* correct) {
     const auto target = targets::make_planar_target(machine);
-    std::vector<targets::PlanarHole> holes;
+    const auto holes = fresh_points(target);
     std::vector<Vec2> intended;
-    for (int r = 0; r + 1 < target.rows; ++r)
-        for (int c = 0; c + 1 < target.columns; ++c) {
-            const geometry::Point2 at{target.first_mm.x + (c + 0.5) * target.pitch_mm,
-                                      target.first_mm.y + (r + 0.5) * target.pitch_mm};
-            holes.push_back({{c, r}, at, false});
-            intended.push_back({at.x, at.y});
-        }
+    intended.reserve(holes.size());
+    for (const auto& h : holes) intended.push_back({h.centre_mm.x, h.centre_mm.y});
     const std::string job = targets::write_drilling_job(machine, holes, target.hole_diameter_mm,
                                                         target.large_diameter_mm, "fresh holes");
     RouterVerdict v;
@@ -206,6 +223,28 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
             job, *correct, [](geometry::Point2) { return true; }, {}, report);
         v.after = judge_router(truth, intended, compensated);
     }
+    return v;
+}
+
+RouterVerdict judge_cartesian_fresh_points(const CartesianErrors& truth,
+                                           const models::MachineFile& machine,
+                                           const targets::Correction* correct) {
+    CartesianTwin twin(truth);
+    twin.home();
+    const auto points = fresh_points(targets::make_planar_target(machine));
+    std::vector<Vec3> intended, before, after;
+    for (const auto& p : points) {
+        intended.push_back({p.centre_mm.x, p.centre_mm.y, 0});
+        before.push_back(twin.actual_position_mm({p.centre_mm.x, p.centre_mm.y, 0}));
+        if (correct != nullptr) {
+            const auto c = (*correct)(p.centre_mm);
+            after.push_back(twin.actual_position_mm({c.x, c.y, 0}));
+        }
+    }
+    RouterVerdict v;
+    v.holes = points.size();
+    v.before = judged(before, intended);
+    if (correct != nullptr) v.after = judged(after, intended);
     return v;
 }
 

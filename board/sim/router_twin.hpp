@@ -93,4 +93,10 @@ struct RouterVerdict {
 RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::MachineFile& machine,
                                        const targets::Correction* correct);
 
+// The same verdict on a cartesian printer or gantry laser (its twin has no backlash): each fresh
+// point commanded (through `correct` when given) and put where the machine really puts it.
+RouterVerdict judge_cartesian_fresh_points(const CartesianErrors& truth,
+                                           const models::MachineFile& machine,
+                                           const targets::Correction* correct);
+
 }  // namespace calbox::sim

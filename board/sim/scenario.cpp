@@ -263,6 +263,15 @@ std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
     return std::make_unique<CartesianTwin>(s.cartesian_truth);
 }
 
+RouterVerdict judge_planar_machine(const Scenario& s, const targets::Correction* correct) {
+    if (s.machine.kind == "router")
+        return judge_router_fresh_holes(s.router_truth, s.machine, correct);
+    if (!s.machine.is_planar())
+        throw ScenarioError(s.path + ": a " + s.machine.kind +
+                            " is not judged as a planar machine");
+    return judge_cartesian_fresh_points(s.cartesian_truth, s.machine, correct);
+}
+
 ToolSettings tool_settings_of(const Scenario& s) {
     ToolSettings t;
     t.kind = s.machine.kind == "laser" || s.machine.kind == "galvo" ? ToolKind::laser

@@ -89,6 +89,10 @@ std::vector<StrokeSegment> as_photographed(const Scenario& s, std::vector<Stroke
 Scenario load_scenario(const std::string& path);
 
 std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s);
+
+// The judge of a router, cartesian printer or laser scenario, in its truth: a fresh job half a
+// pitch off the target's grid, as commanded and (with `correct`) through the correction.
+RouterVerdict judge_planar_machine(const Scenario& s, const targets::Correction* correct);
 ToolSettings tool_settings_of(const Scenario& s);
 
 }  // namespace calbox::sim

@@ -419,11 +419,13 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
     board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
                                               settings.data_dir / kTwinSettingsFile);
     const auto& kind = board.bench->scenario().machine.kind;
-    if (kind != "delta" && kind != "galvo" && kind != "router")
-        throw ScenarioError(settings.scenario_path +
-                            ": the sim board runs delta printers, galvo scanners and routers, "
-                            "not a " +
-                            kind);
+    if (kind != "delta" && kind != "galvo" && kind != "router" && kind != "cartesian")
+        throw ScenarioError(
+            settings.scenario_path +
+            ": the sim board runs delta printers, galvo scanners, routers and cartesian "
+            "printers, "
+            "not a " +
+            kind);
     board.printer = std::make_unique<TwinPrinterLink>(board.bench);
     board.camera = std::make_unique<TwinCamera>(board.bench);
     board.lines = std::make_unique<SimLines>(clock, std::move(log));

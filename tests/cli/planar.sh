@@ -39,8 +39,8 @@ data="$work/box"
 "$calbox" run --board sim --scenario "$top/tests/scenarios/planar_small.toml" --data "$data" --auto \
     > "$work/run.out" 2> "$work/run.err" < /dev/null
 cat "$work/run.out"
-grep -q "^before: holes " "$work/run.out"
-grep -q "^after: holes through the error model " "$work/run.out"
+grep -q "^before: .* mm mean" "$work/run.out"
+grep -q "^after: through the error model " "$work/run.out"
 grep -q "verified on the grid drilled through the model" "$work/run.err"
 for f in planar-result.json cycle-0001-result.json cycle-0001-measurements.json cycle-0001-firmware.txt \
          cycle-0001-backup-result.json cycle-0001-verify-measurements.json; do
@@ -51,3 +51,12 @@ grep -q '"schema": "calbox.planar-result/1"' "$data/planar-result.json"
 "$calbox" revert --board sim --scenario "$top/tests/scenarios/planar_small.toml" --data "$data" 2> "$work/revert.err" < /dev/null
 [ "$(cat "$data/planar-result.json")" = "none" ] || { echo "revert left the model in force"; exit 1; }
 echo "planar appliance cycle and revert complete"
+
+# A cartesian printer in the appliance: printed dots, the same cycle and goal.
+data="$work/printer"
+"$calbox" run --board sim --scenario "$top/tests/scenarios/planar_printer_small.toml" --data "$data" --auto \
+    > "$work/printer.out" 2> "$work/printer.err" < /dev/null || { cat "$work/printer.err" | tail -5; exit 1; }
+cat "$work/printer.out"
+grep -q "^after: through the error model " "$work/printer.out"
+[ -s "$data/planar-result.json" ]
+echo "planar printer cycle complete"

@@ -698,3 +698,70 @@ TEST_GROUP(PlanarRoutersSecond){};
 TEST(PlanarRoutersSecond, routers_6_to_10_are_corrected_in_the_twins_truth) {
     run_routers(6);
 }
+
+// ---------------------------------------------------------------------------------------------
+// A cartesian printer: the dots printed, photographed, measured and solved.
+
+TEST_GROUP(PlanarPrinter){};
+
+TEST(PlanarPrinter, a_cartesian_printers_printed_dots_give_its_scales_and_squareness) {
+    const auto machine = models::parse_machine_file(R"toml(
+[machine]
+kind = "cartesian"
+firmware = "marlin"
+bed_size_x_mm = 200.0
+bed_size_y_mm = 200.0
+line_width_mm = 0.45
+layer_height_mm = 0.2
+[planar]
+hole_pitch_mm = 20.0
+margin_mm = 12.0
+surface_height_mm = 0.2
+)toml",
+                                                    "printer.toml");
+    const auto target = targets::make_planar_target(machine);
+    CHECK_EQUAL(9, target.columns);
+    CHECK(!target.backlash_hole.has_value());
+    sim::CartesianErrors truth;
+    truth.scale_error_x = 0.004;
+    truth.scale_error_y = -0.003;
+    truth.squareness_error_deg = 0.3;
+    sim::CartesianTwin twin(truth);
+    auto camera_model = test::hq_camera();
+    camera_model.width_px = 2028, camera_model.height_px = 1520;
+    camera_model.fx = camera_model.fy = 2850, camera_model.cx = 1014.8, camera_model.cy = 758.55;
+    const auto pose = sim::look_at_pose({103, 97, 420}, {100, 100, 0}, 2);
+    sim::PhotoSettings photo;
+    photo.blur_sigma_px = 0.8;
+    photo.noise_sigma_dn = 2;
+    const auto picture =
+        test::photo_of_print(camera_model, pose, test::print_on_twin(twin, target.job), photo);
+    const auto camera = test::as_core(camera_model);
+    const auto pattern = geometry::parse_pattern_spec("chessboard:15x11@10");
+    const auto board = sim::render_photo(
+        camera_model, sim::compose(pose, sim::board_lying_on_bed({25, 160, 0}, 0)),
+        sim::BoardScene(pattern, 4), photo);
+    const auto plane = geometry::estimate_bed_plane(camera, pattern, test::view_of(board), 0);
+    const auto measured = modes::measure_planar(machine, camera, plane, test::view_of(picture));
+    CHECK_EQUAL(80u, measured.holes.size());
+    const auto solution = modes::solve_planar(machine, measured);
+    const auto firmware = modes::planar_firmware_settings(machine, solution);
+    UT_PRINT(("printer: x scale " + std::to_string(firmware.scale_x) + ", y scale " +
+              std::to_string(firmware.scale_y) + ", skew " + std::to_string(firmware.skew) +
+              " (the twin's 0.004, -0.003, " +
+              std::to_string(std::tan(0.3 * 3.14159265358979 / 180)) + ")")
+                 .c_str());
+    // The twin's y axis leans towards +x: x moves tan(lean) (1 + y scale) per mm of y.
+    DOUBLES_EQUAL(0.004, firmware.scale_x, 2e-4);
+    DOUBLES_EQUAL(-0.003, firmware.scale_y, 2e-4);
+    DOUBLES_EQUAL(std::tan(0.3 * 3.14159265358979 / 180) * (1 - 0.003), firmware.skew, 2e-4);
+    const targets::Correction correct = [&](Point2 p) {
+        return modes::planar_command_for(solution, p);
+    };
+    const auto verdict = sim::judge_cartesian_fresh_points(truth, machine, &correct);
+    UT_PRINT(("printer: fresh points " + std::to_string(verdict.before.mean_mm) + " -> " +
+              std::to_string(verdict.after->mean_mm) + " mm mean")
+                 .c_str());
+    CHECK(verdict.after->mean_mm < 0.02);
+    CHECK(verdict.after->mean_mm < 0.05 * verdict.before.mean_mm);
+}

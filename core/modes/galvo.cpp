@@ -187,14 +187,6 @@ using nlohmann::json;
 constexpr const char* kMeasurementsSchema = "calbox.galvo-measurements/1";
 constexpr const char* kResultSchema = "calbox.galvo-result/1";
 
-json point_json(Point2 p) {
-    return json::array({p.x, p.y});
-}
-Point2 point_from(const json& j) {
-    if (!j.is_array() || j.size() != 2)
-        throw json::type_error::create(302, "a point is [x, y]", &j);
-    return {j.at(0).get<double>(), j.at(1).get<double>()};
-}
 json statistics_json(const models::ErrorStatistics& s) {
     return {
         {"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm}, {"max_mm", s.max_mm}, {"points", s.points}};

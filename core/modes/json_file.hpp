@@ -5,6 +5,7 @@
 #include <string>
 #include <string_view>
 
+#include "core/geometry/types.hpp"
 #include "core/modes/record_error.hpp"
 
 namespace calbox::modes {
@@ -22,6 +23,18 @@ inline nlohmann::json parse_record(std::string_view text, const std::string& sou
         throw RecordError(source + ": not a " + what + " file (schema " + schema + ")");
     }
     return j;
+}
+
+// A point in the modes' files: [x, y].
+inline nlohmann::json point_json(geometry::Point2 p) {
+    return nlohmann::json::array({p.x, p.y});
+}
+// Throws nlohmann's type_error for anything but a pair of numbers; readers turn it into a
+// RecordError naming the file.
+inline geometry::Point2 point_from(const nlohmann::json& j) {
+    if (!j.is_array() || j.size() != 2)
+        throw nlohmann::json::type_error::create(302, "a point is [x, y]", &j);
+    return {j.at(0).get<double>(), j.at(1).get<double>()};
 }
 
 }  // namespace calbox::modes

@@ -677,14 +677,6 @@ using nlohmann::json;
 constexpr const char* kMeasurementsSchema = "calbox.planar-measurements/1";
 constexpr const char* kResultSchema = "calbox.planar-result/1";
 
-json point_json(Point2 p) {
-    return json::array({p.x, p.y});
-}
-Point2 point_from(const json& j) {
-    if (!j.is_array() || j.size() != 2)
-        throw json::type_error::create(302, "a point is [x, y]", &j);
-    return {j.at(0).get<double>(), j.at(1).get<double>()};
-}
 json statistics_json(const models::NormStatistics& s) {
     return {{"max_mm", s.max_mm}, {"q3_mm", s.q3_mm},   {"median_mm", s.median_mm},
             {"q1_mm", s.q1_mm},   {"min_mm", s.min_mm}, {"mean_mm", s.mean_mm},

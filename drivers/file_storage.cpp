@@ -1,6 +1,5 @@
 #include "drivers/file_storage.hpp"
 
-#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -8,7 +7,6 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
-#include <utility>
 
 namespace calbox::drivers {
 namespace {
@@ -17,24 +15,10 @@ std::runtime_error os_error(const std::string& what, const std::filesystem::path
     return std::runtime_error(what + " " + p.string() + ": " + std::strerror(errno));
 }
 
-class Fd {
-  public:
-    explicit Fd(int fd) : fd_(fd) {}
-    Fd(const Fd&) = delete;
-    Fd& operator=(const Fd&) = delete;
-    ~Fd() {
-        if (fd_ >= 0) ::close(fd_);
-    }
-    int get() const { return fd_; }
-    int release() { return std::exchange(fd_, -1); }
-
-  private:
-    int fd_;
-};
-
 }  // namespace
 
-FileStorage::FileStorage(std::filesystem::path directory) : directory_(std::move(directory)) {
+FileStorage::FileStorage(std::filesystem::path directory, FileSystemCalls& fs)
+    : directory_(std::move(directory)), fs_(fs) {
     if (!std::filesystem::is_directory(directory_)) {
         throw std::runtime_error("storage directory does not exist: " + directory_.string());
     }
@@ -62,35 +46,26 @@ std::optional<std::string> FileStorage::read_file(const std::string& name) {
 
 void FileStorage::replace_file(const std::string& name, const std::string& contents) {
     const auto path = path_of(name);
-    // Write a sibling, flush it to the medium, then rename over the old file: a power cut
-    // leaves either the old contents or the new ones.
-    auto temporary = path;
-    temporary += ".tmp";
-    Fd file(::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
-    if (file.get() < 0) throw os_error("cannot create", temporary);
-    std::size_t written = 0;
-    while (written < contents.size()) {
-        const ssize_t n = ::write(file.get(), contents.data() + written, contents.size() - written);
-        if (n < 0 && errno == EINTR) continue;
-        if (n <= 0) {
-            const auto error = os_error("cannot write", temporary);
-            ::unlink(temporary.c_str());
-            throw error;
-        }
-        written += static_cast<std::size_t>(n);
+    replace_file_durably(fs_, directory_, path.filename().string(), contents);
+}
+
+std::vector<hal::Storage::Entry> FileStorage::list_files() {
+    std::vector<Entry> files;
+    std::error_code ec;
+    for (const auto& entry : std::filesystem::directory_iterator(directory_, ec)) {
+        std::error_code size_ec;
+        if (!entry.is_regular_file(size_ec)) continue;
+        const auto size = entry.file_size(size_ec);
+        if (size_ec) continue;  // removed meanwhile
+        files.push_back({entry.path().filename().string(), size});
     }
-    if (::fsync(file.get()) != 0 || ::close(file.release()) != 0) {
-        const auto error = os_error("cannot flush", temporary);
-        ::unlink(temporary.c_str());
-        throw error;
-    }
-    if (::rename(temporary.c_str(), path.c_str()) != 0) {
-        const auto error = os_error("cannot replace", path);
-        ::unlink(temporary.c_str());
-        throw error;
-    }
-    Fd directory(::open(directory_.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC));
-    if (directory.get() >= 0) ::fsync(directory.get());
+    if (ec) throw std::runtime_error("cannot list " + directory_.string() + ": " + ec.message());
+    return files;
+}
+
+void FileStorage::remove_file(const std::string& name) {
+    const auto path = path_of(name);
+    if (::unlink(path.c_str()) != 0 && errno != ENOENT) throw os_error("cannot remove", path);
 }
 
 }  // namespace calbox::drivers

@@ -166,7 +166,7 @@ int run(const std::vector<std::string>& words) {
     firmware::ModbusConfig modbus;
     if (const auto config = args.get("--config")) {
         modbus =
-            firmware::read_box_config(read_input_file(*config, "configuration"), *config).modbus;
+            firmware::read_box_config(read_input_file(*config, "configuration"), *config).modbus();
     }
     if (auto v = args.get("--modbus-server")) modbus.server = *v;
     if (auto v = args.get("--modbus-client")) modbus.client = *v;

@@ -171,6 +171,12 @@ class MockStorage final : public hal::Storage {
         mock("storage").actualCall("replace_file").withStringParameter("name", name.c_str());
         files[name] = contents;
     }
+    std::vector<Entry> list_files() override {
+        std::vector<Entry> out;
+        for (const auto& [name, contents] : files) out.push_back({name, contents.size()});
+        return out;
+    }
+    void remove_file(const std::string& name) override { files.erase(name); }
 };
 
 }  // namespace calbox::mocks

@@ -367,30 +367,3 @@ TEST(ModbusClient, a_serial_device_it_may_not_open_is_one_line) {
         error.c_str());
 }
 
-TEST_GROUP(BoxConfig){};
-
-TEST(BoxConfig, reads_the_modbus_table_and_refuses_what_it_does_not_know) {
-    const auto config = firmware::read_box_config(
-        "[modbus]\nserver = \"tcp:0.0.0.0:502\"\nword_order = \"cdab\"\nbyte_timeout_ms = 200\n",
-        "calbox.toml");
-    STRCMP_EQUAL("tcp:0.0.0.0:502", config.modbus.server.c_str());
-    STRCMP_EQUAL("", config.modbus.client.c_str());
-    STRCMP_EQUAL("cdab", config.modbus.word_order.c_str());
-    CHECK_EQUAL(200U, config.modbus.byte_timeout_ms);
-    CHECK_EQUAL(1000U, config.modbus.response_timeout_ms);  // the default
-    auto error = [](const std::string& text) {
-        return test::construction_error([&] { firmware::read_box_config(text, "calbox.toml"); });
-    };
-    STRCMP_CONTAINS("calbox.toml: [modbus] sever: unknown key",
-                    error("[modbus]\nsever = \"tcp:h:1\"\n").c_str());
-    STRCMP_CONTAINS("[modbus] server: modbus endpoint 'tcp:h' is not tcp:HOST:PORT",
-                    error("[modbus]\nserver = \"tcp:h\"\n").c_str());
-    STRCMP_CONTAINS("[modbus] word_order: 'ABCD' is not one of",
-                    error("[modbus]\nword_order = \"ABCD\"\n").c_str());
-    STRCMP_CONTAINS("[modbus] byte_timeout_ms: must be between",
-                    error("[modbus]\nbyte_timeout_ms = 0\n").c_str());
-    STRCMP_CONTAINS("[modbus] client_map: needs client",
-                    error("[modbus]\nclient_map = \"map.toml\"\n").c_str());
-    STRCMP_CONTAINS("[gpio] is not a table calbox knows", error("[gpio]\nbutton = 3\n").c_str());
-    STRCMP_CONTAINS("calbox.toml:2:", error("[modbus]\nserver = \n").c_str());
-}

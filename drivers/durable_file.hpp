@@ -1,0 +1,34 @@
+#pragma once
+// Replacing a whole file so that a power cut at any moment leaves the old contents or the new
+// ones, never a mix or nothing: write a sibling, flush it, rename it over the old file, flush the
+// directory (without the last step the rename itself may be lost, and a save that returned
+// would come back as the old file). The calls go through FileSystemCalls so that a test can cut
+// the power between any two of them.
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace calbox::drivers {
+
+class FileSystemCalls {
+  public:
+    virtual ~FileSystemCalls() = default;
+    // Each throws std::runtime_error naming the path and the system's reason.
+    virtual int create_truncated(const std::filesystem::path& path) = 0;  // a handle
+    virtual void write_all(int handle, std::string_view bytes) = 0;
+    virtual void flush(int handle) = 0;  // fsync
+    virtual void close(int handle) = 0;
+    virtual void rename(const std::filesystem::path& from, const std::filesystem::path& to) = 0;
+    virtual void flush_directory(const std::filesystem::path& directory) = 0;
+    virtual void remove(const std::filesystem::path& path) noexcept = 0;  // best effort
+};
+
+// The POSIX calls (open, write, fsync, close, rename, fsync of the directory, unlink).
+FileSystemCalls& posix_file_system();
+
+// The sibling is `name` + ".tmp" in the same directory (a rename across directories is not
+// atomic). On failure the sibling is removed and the old file is untouched.
+void replace_file_durably(FileSystemCalls& fs, const std::filesystem::path& directory,
+                          const std::string& name, std::string_view contents);
+
+}  // namespace calbox::drivers

@@ -12,9 +12,12 @@
 #include "core/modes/planar.hpp"
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
+#include "drivers/pty_port.hpp"
+#include "drivers/termios_port.hpp"
 #include "drivers/timerfd_clock.hpp"
 #include "firmware/box_config.hpp"
 #include "firmware/cli_args.hpp"
+#include "firmware/console.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
@@ -22,6 +25,9 @@
 #include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
 
+#ifndef CALBOX_VERSION
+#define CALBOX_VERSION "0.1.0"
+#endif
 #ifndef CALBOX_EXAMPLES_DIR
 #define CALBOX_EXAMPLES_DIR "examples"
 #endif
@@ -137,12 +143,13 @@ struct Box {
     firmware::EventLoop& loop = parts.loop;
 
     Box(const Common& common, firmware::CycleSettings settings,
-        const std::optional<std::string>& camera_files = std::nullopt)
+        const std::optional<std::string>& camera_files = std::nullopt,
+        const firmware::Cycle::Log& log = log_line)
         : photo_files(camera_files
                           ? std::optional<drivers::FileCamera>(std::in_place, *camera_files)
                           : std::nullopt),
-          parts({common.scenario, common.data_dir, 115200}, clock, {}, std::move(settings),
-                log_line, choose_camera()) {}
+          parts({common.scenario, common.data_dir, 115200}, clock, {}, std::move(settings), log,
+                choose_camera()) {}
 
   private:
     firmware::SimAppliance::CameraChoice choose_camera() {
@@ -152,22 +159,38 @@ struct Box {
 };
 
 int run(const std::vector<std::string>& words) {
-    const Args args(words,
-                    {"--board", "--scenario", "--data", "--config", "--frames", "--camera-files",
-                     "--modbus-server", "--modbus-client", "--modbus-map", "--modbus-word-order"},
-                    {"--auto", "--operator"});
+    const Args args(
+        words,
+        {"--board", "--scenario", "--data", "--config", "--console", "--frames", "--camera-files",
+         "--modbus-server", "--modbus-client", "--modbus-map", "--modbus-word-order"},
+        {"--auto", "--operator", "--operator-hands"});
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
     const bool automatic = args.flag("--auto");
     if (automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
-    const bool operator_acts = automatic || args.flag("--operator");
-    const int frames = static_cast<int>(args.number("--frames", 1));
-    if (frames < 1 || frames > 16) throw UsageError("--frames must be 1 to 16");
-    // The configuration file's [modbus] table, each value overridden by its option.
-    firmware::ModbusConfig modbus;
-    if (const auto config = args.get("--config")) {
-        modbus =
-            firmware::read_box_config(read_input_file(*config, "configuration"), *config).modbus();
+    const bool operator_hands = args.flag("--operator-hands");
+    if (operator_hands && (automatic || args.flag("--operator")))
+        throw UsageError("--operator-hands is instead of --auto or --operator");
+    const bool operator_acts = automatic || args.flag("--operator") || operator_hands;
+    const std::optional<int> frames =
+        args.get("--frames") ? std::optional<int>(static_cast<int>(args.number("--frames", 1)))
+                             : std::nullopt;
+    if (frames && (*frames < 1 || *frames > 16)) throw UsageError("--frames must be 1 to 16");
+    const Common common = common_options(args);
+    // The configuration: --config FILE, else DATA/calbox.toml when it exists; `config save` on
+    // the console writes it back there. Options win over it.
+    const std::filesystem::path config_path = args.get("--config")
+                                                  ? std::filesystem::path(*args.get("--config"))
+                                                  : common.data_dir / "calbox.toml";
+    firmware::BoxConfig config;
+    if (args.get("--config") || std::filesystem::exists(config_path)) {
+        try {
+            config = firmware::BoxConfig::from_toml(
+                read_input_file(config_path.string(), "configuration"), config_path.string());
+        } catch (const firmware::ConfigError& e) {
+            throw UsageError(e.what());
+        }
     }
+    firmware::ModbusConfig modbus = config.modbus();
     if (auto v = args.get("--modbus-server")) modbus.server = *v;
     if (auto v = args.get("--modbus-client")) modbus.client = *v;
     if (auto v = args.get("--modbus-map")) modbus.client_map = *v;
@@ -196,12 +219,20 @@ int run(const std::vector<std::string>& words) {
                          : firmware::ResultRegisterMap::from_toml(
                                read_input_file(modbus.client_map, "Modbus map"), modbus.client_map);
     }
-    const Common common = common_options(args);
 
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
-    firmware::CycleSettings settings;
-    settings.frames_per_capture = frames;
-    Box box(common, settings, args.get("--camera-files"));
+    // The cycle's settings as the configuration says, the options over them.
+    const auto settings_from = [&frames](const firmware::BoxConfig& c) {
+        auto s = c.cycle_settings({});
+        if (frames) s.frames_per_capture = *frames;
+        return s;
+    };
+    firmware::LogBook log_book;
+    const firmware::Cycle::Log log = [&log_book](const std::string& line) {
+        log_line(line);
+        log_book.add(line);
+    };
+    Box box(common, settings_from(config), args.get("--camera-files"), log);
     auto& board = box.parts.board;
     auto& loop = box.loop;
     auto& cycle = box.cycle;
@@ -212,6 +243,61 @@ int run(const std::vector<std::string>& words) {
         cycle.cancel("stopped by signal " + std::to_string(stopped_by));
         loop.stop();
     });
+
+    // The console: --console DEVICE, else the configuration's console.device.
+    const std::string console_device =
+        args.get("--console").value_or(config.text("console.device"));
+    std::unique_ptr<hal::SerialPort> console_port;
+    if (console_device == "pty") {
+        auto pty = std::make_unique<drivers::PtyPort>();
+        const auto link = common.data_dir / "console";
+        std::error_code ec;
+        std::filesystem::remove(link, ec);
+        std::filesystem::create_symlink(pty->slave_path(), link, ec);
+        log("console on " + pty->slave_path() + (ec ? "" : " (" + link.string() + ")"));
+        console_port = std::move(pty);
+    } else if (console_device == "stdin") {
+        // Standard input when it is a terminal; /dev/null (as under CI) leaves it off.
+        if (::isatty(STDIN_FILENO) == 1) console_port = std::make_unique<drivers::StdioPort>();
+    } else if (!console_device.empty()) {
+        console_port = std::make_unique<drivers::TermiosPort>(
+            console_device, std::stoi(config.text("console.baud")));
+        log("console on " + console_device);
+    }
+    const bool console = console_port != nullptr;
+    drivers::FileStorage config_home(config_path.parent_path().empty() ? std::filesystem::path(".")
+                                                                       : config_path.parent_path());
+    firmware::ConsoleContext context{cycle,
+                                     config,
+                                     config_home,
+                                     config_path.filename().string(),
+                                     box.parts.data,
+                                     log_book,
+                                     CALBOX_VERSION,
+                                     {},
+                                     {}};
+    context.config_changed = [&] {
+        cycle.set_settings(firmware::SimAppliance::with_setup_boards(
+            settings_from(config), board.bench->scenario().setup));
+    };
+    context.extras["press"] = {"the sim board: a short press of the button", [&](const auto&) {
+                                   board.lines->press(std::chrono::milliseconds(100));
+                                   return std::string("pressed");
+                               }};
+    context.extras["hold"] = {"the sim board: a long press of the button", [&](const auto&) {
+                                  board.lines->press(std::chrono::milliseconds(2000));
+                                  return std::string("held");
+                              }};
+    context.extras["quit"] = {"the sim board: stop the box", [&](const auto&) {
+                                  loop.stop();
+                                  return std::string("stopping");
+                              }};
+    firmware::Console console_commands(std::move(context));
+    std::optional<firmware::ConsoleLink> console_link;
+    if (console_port) console_link.emplace(loop, *console_port, console_commands, log);
+    cycle.on_notice = [&](const std::string& line) {
+        if (console_link) console_link->notice(line);
+    };
 
     std::optional<drivers::ModbusServer> modbus_server;
     std::optional<firmware::PlcServer> plc;
@@ -245,8 +331,11 @@ int run(const std::vector<std::string>& words) {
         if (plc) plc->publish();
     };
     cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
+        if (console_link && prompt != firmware::Prompt::none)
+            console_link->notice(std::string("waiting: ") + firmware::prompt_text(prompt));
         if (operator_acts) {
-            firmware::act_on_prompt(*board.bench, *board.lines, prompt, step, automatic);
+            firmware::act_on_prompt(*board.bench, *board.lines, prompt, step, automatic,
+                                    !operator_hands);
         }
         if (plc) plc->publish();
     };
@@ -263,35 +352,6 @@ int run(const std::vector<std::string>& words) {
             loop.stop();
         }
     };
-    // A console on standard input when it is a terminal; /dev/null (as under CI) leaves it off.
-    const bool console = ::isatty(STDIN_FILENO) == 1;
-    if (console) {
-        loop.watch(STDIN_FILENO, [&] {
-            std::string line;
-            if (!std::getline(std::cin, line)) {
-                loop.unwatch(STDIN_FILENO);
-                return;
-            }
-            if (line == "start")
-                cycle.start();
-            else if (line == "press")
-                board.lines->press(std::chrono::milliseconds(100));
-            else if (line == "hold")
-                board.lines->press(std::chrono::milliseconds(2000));
-            else if (line == "cancel")
-                cycle.cancel("cancelled from the console");
-            else if (line == "status")
-                std::printf("%s%s%s\n", firmware::state_name(cycle.state()),
-                            cycle.prompt() == firmware::Prompt::none ? "" : ": ",
-                            firmware::prompt_text(cycle.prompt()));
-            else if (line == "quit")
-                loop.stop();
-            else if (!line.empty())
-                std::printf("commands: start, press, hold, cancel, status, quit\n");
-            std::fflush(stdout);
-        });
-    }
-
     const auto& machine = board.bench->scenario().machine;
     if (automatic) {
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
@@ -319,7 +379,7 @@ int run(const std::vector<std::string>& words) {
         std::fflush(stdout);
         board.lines->press(std::chrono::milliseconds(100));
     } else if (!console) {
-        log_line("waiting for the button (no console: standard input is not a terminal)");
+        log("waiting for the button (no console)");
     }
     loop.run();
     if (stopped_by != 0) {

@@ -112,14 +112,15 @@ constexpr ConfigKey kSchema[] = {
      "keep each cycle's photos (PNG) in its record"},
     {"console.device",
      K::text,
-     "",
+     "stdin",
      {},
      0,
      0,
      {},
      true,
-     "the console's serial device: a path, \"pty\" (a pseudo-terminal, its path logged), "
-     "\"stdin\" (standard input when it is a terminal), or empty for none"},
+     "the console's device: a serial device's path, \"pty\" (a pseudo-terminal, its path "
+     "logged and linked as DATA/console), \"stdin\" (standard input when it is a terminal), "
+     "or empty for none"},
     {"console.baud", K::choice, "115200", "baud", 0, 0, "9600|19200|38400|57600|115200|230400",
      true, "the console UART's speed"},
     {"modbus.server",
@@ -321,8 +322,9 @@ BoxConfig BoxConfig::from_toml(const std::string& text, const std::string& file)
             const std::string prefix = where(node) + "[" + table + "] " + std::string(key.str());
             if (k == nullptr) throw ConfigError(prefix + ": unknown key");
             std::string as_text;
+            // A choice of numbers (a baud rate) is written as a number too.
             if (const auto* v = node.as_integer();
-                v && (k->kind == K::integer || k->kind == K::number))
+                v && (k->kind == K::integer || k->kind == K::number || k->kind == K::choice))
                 as_text = std::to_string(v->get());
             else if (const auto* d = node.as_floating_point(); d && k->kind == K::number)
                 as_text = number_text(d->get());

@@ -1,5 +1,6 @@
 #include "firmware/cycle.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <sstream>
@@ -37,9 +38,33 @@ std::string record_name(int cycle, const char* what) {
     return b;
 }
 
-// Part of a line for the display, empty past its end.
-std::string slice(const std::string& s, std::size_t from, std::size_t count) {
-    return from < s.size() ? s.substr(from, count) : std::string();
+std::string signed_fixed(double v, int decimals) {
+    return (v >= 0 ? "+" : "") + fixed(v, decimals);
+}
+
+// The error screen's one line: what to look at first when a stage fails.
+std::string hint_for(CycleState stage) {
+    switch (stage) {
+        case CycleState::setup_camera:
+            return "whole board in view?";
+        case CycleState::setup_plane:
+            return "board flat, in view?";
+        case CycleState::make_target:
+        case CycleState::wait_machine:
+            return "check machine + link";
+        case CycleState::capture:
+            return "check camera + light";
+        case CycleState::measure:
+            return "target in view, lit?";
+        case CycleState::solve:
+            return "fit refused: see log";
+        case CycleState::apply:
+            return "machine: see the log";
+        case CycleState::verify:
+            return "check machine+camera";
+        default:
+            return "see the log";
+    }
 }
 
 // The lines as a file's text: each one ended by a newline.
@@ -119,7 +144,7 @@ Cycle::Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings se
                                     machine_.kind);
     blink_->arm(std::chrono::milliseconds(500), std::chrono::milliseconds(500));
     set_leds();
-    show("calbox", {"idle", prompt_text(Prompt::start)});
+    show(draw_screen(idle_screen()));
 }
 
 Cycle::~Cycle() = default;
@@ -127,11 +152,17 @@ Cycle::~Cycle() = default;
 void Cycle::enter(CycleState next, const std::string& detail) {
     log_(std::string("cycle ") + std::to_string(report_.number) + ": " + state_name(state_) +
          " -> " + state_name(next) + (detail.empty() ? "" : " (" + detail + ")"));
+    const auto now = d_.clock.now();
+    stage_seconds_[static_cast<std::size_t>(state_)] += seconds(now - entered_at_);
+    entered_at_ = now;
     state_ = next;
     prompt_ = next == CycleState::idle ? Prompt::start : Prompt::none;
     after_press_ = nullptr;
     set_leds();
-    show(state_name(next), {slice(detail, 0, 21), slice(detail, 21, 21), slice(detail, 42, 21)});
+    if (next == CycleState::idle)
+        show(draw_screen(idle_screen()));
+    else
+        show(draw_screen(progress_screen(detail)));
     if (on_state) on_state(next);
 }
 
@@ -166,8 +197,40 @@ void Cycle::on_blink() {
     set_leds();
 }
 
-void Cycle::show(const std::string& title, const std::vector<std::string>& lines) {
-    indicate(display_failed_, "display", [&] { d_.display.show(text_screen(title, lines)); });
+void Cycle::show(const hal::MonoBitmap& frame) {
+    indicate(display_failed_, "display", [&] { d_.display.show(frame); });
+}
+
+// The stages a cycle goes through, in order, for the progress bar.
+constexpr CycleState kCycleStages[] = {
+    CycleState::make_target, CycleState::wait_machine, CycleState::capture, CycleState::measure,
+    CycleState::solve,       CycleState::review,       CycleState::apply,   CycleState::verify};
+
+ProgressScreen Cycle::progress_screen(const std::string& detail) const {
+    ProgressScreen p;
+    p.stage = state_name(state_);
+    p.detail = detail;
+    const auto* at = std::find(std::begin(kCycleStages), std::end(kCycleStages), state_);
+    const auto index = static_cast<double>(at - std::begin(kCycleStages));
+    p.fraction = at == std::end(kCycleStages) ? 0 : index / std::size(kCycleStages);
+    // The time left: what the stages from here took in the last completed cycle. A person's
+    // time (review) is theirs, not the box's, and is left out.
+    if (last_stage_seconds_ && at != std::end(kCycleStages)) {
+        double left = 0;
+        for (const auto* s = at; s != std::end(kCycleStages); ++s)
+            if (*s != CycleState::review)
+                left += (*last_stage_seconds_)[static_cast<std::size_t>(*s)];
+        p.seconds_left = static_cast<int>(std::lround(left));
+    }
+    return p;
+}
+
+IdleScreen Cycle::idle_screen() const {
+    IdleScreen idle{machine_.kind + " " + machine_.firmware, "no cycle yet"};
+    if (completed_ > 0 && report_.measured_xy_rms_mm && report_.verify_xy_rms_mm)
+        idle.last_result = "last " + fixed(*report_.measured_xy_rms_mm, 3) + " -> " +
+                           fixed(*report_.verify_xy_rms_mm, 3) + " mm";
+    return idle;
 }
 
 void Cycle::ask(Prompt prompt, int step, std::function<void()> then) {
@@ -180,8 +243,18 @@ void Cycle::ask(Prompt prompt, int step, std::function<void()> then) {
         what = "board view " + std::to_string(step + 1) + "/" +
                std::to_string(settings_.calibration_views) + ": " + what;
     log_("cycle " + std::to_string(report_.number) + ": waiting: " + what);
-    if (prompt != Prompt::review)
-        show(state_name(state_), {slice(what, 0, 21), slice(what, 21, 21), slice(what, 42, 21)});
+    if (prompt != Prompt::review) {
+        PromptScreen screen{state_name(state_), prompt_text(prompt), {}, {}};
+        if (prompt == Prompt::hold_calibration_board) {
+            screen.title = "set-up: camera";
+            screen.step = "view " + std::to_string(step + 1) + "/" +
+                          std::to_string(settings_.calibration_views);
+            screen.coverage = setup_coverage_;
+        } else if (prompt == Prompt::lay_plane_board) {
+            screen.title = "set-up: bed plane";
+        }
+        show(draw_screen(screen));
+    }
     if (on_prompt) on_prompt(prompt, step);
 }
 
@@ -245,8 +318,7 @@ void Cycle::fail(const std::string& message) {
     state_ = CycleState::error;
     prompt_ = Prompt::acknowledge_error;
     set_leds();
-    show("error", {slice(message, 0, 21), slice(message, 21, 21), slice(message, 42, 21),
-                   prompt_text(Prompt::acknowledge_error)});
+    show(draw_screen(ErrorScreen{static_cast<int>(failed_in_), hint_for(failed_in_), message}));
     if (on_state) on_state(state_);
     if (on_cycle_end) on_cycle_end(false);
     if (on_prompt) on_prompt(prompt_, 0);
@@ -316,14 +388,61 @@ void Cycle::run_job(const std::vector<std::string>& lines, std::function<void(Jo
                          });
 }
 
+std::string Cycle::calibrate_camera() {
+    if (state_ != CycleState::idle) return std::string("busy: ") + state_name(state_);
+    take_next_settings();
+    error_.clear();
+    setup_only_ = true;
+    calibration_views_.clear();
+    setup_coverage_ = 0;
+    enter(CycleState::setup_camera, "set-up: calibrating the camera from " +
+                                        std::to_string(settings_.calibration_views) + " views of " +
+                                        settings_.calibration_pattern);
+    setup_camera_view(0);
+    return {};
+}
+
+std::string Cycle::take_plane() {
+    if (state_ != CycleState::idle) return std::string("busy: ") + state_name(state_);
+    if (!d_.data.read_file("camera.yaml"))
+        return "the camera is not calibrated yet: camera calibrate first";
+    take_next_settings();
+    error_.clear();
+    setup_only_ = true;
+    enter(CycleState::setup_plane, "set-up: the bed plane");
+    setup_plane();
+    return {};
+}
+
+void Cycle::set_settings(CycleSettings settings) {
+    next_settings_ = std::move(settings);
+    if (state_ == CycleState::idle) take_next_settings();
+}
+
+void Cycle::take_next_settings() {
+    if (!next_settings_) return;
+    settings_ = std::move(*next_settings_);
+    next_settings_.reset();
+    presses_ = PressClassifier(settings_.long_press);
+}
+
+void Cycle::notice(const std::string& what) {
+    log_("cycle " + std::to_string(report_.number) + ": " + what);
+    if (on_notice) on_notice(what);
+}
+
 void Cycle::begin_cycle() {
+    take_next_settings();
+    stage_seconds_ = {};
     report_ = CycleReport{};
     const auto last = d_.data.read_file("last-cycle");
     report_.number = (last ? std::atoi(last->c_str()) : 0) + 1;
     cycle_started_ = d_.clock.now();
     error_.clear();
+    setup_only_ = false;
     if (!d_.data.read_file("camera.yaml")) {
-        calibration_frames_.clear();
+        calibration_views_.clear();
+        setup_coverage_ = 0;
         enter(CycleState::setup_camera, "set-up: calibrating the camera from " +
                                             std::to_string(settings_.calibration_views) +
                                             " views of " + settings_.calibration_pattern);
@@ -339,38 +458,62 @@ void Cycle::begin_cycle() {
 void Cycle::setup_camera_view(int view) {
     ask(Prompt::hold_calibration_board, view, [this, view] {
         capture(1, [this, view](std::vector<hal::Frame> frames) {
-            calibration_frames_.push_back(std::move(frames.front()));
-            if (view + 1 < settings_.calibration_views) {
-                setup_camera_view(view + 1);
-                return;
-            }
-            auto yaml = std::make_shared<std::string>();
-            auto summary = std::make_shared<std::string>();
-            auto views = std::make_shared<std::vector<hal::Frame>>(std::move(calibration_frames_));
-            calibration_frames_.clear();
+            // Each view's board is found as it is taken, so that the person knows at once
+            // whether it counted and how much of the image the views cover so far.
+            auto frame = std::make_shared<hal::Frame>(std::move(frames.front()));
+            auto found = std::make_shared<std::optional<geometry::BoardObservation>>();
             work(
-                [views, pattern = settings_.calibration_pattern, yaml, summary] {
-                    std::vector<geometry::NamedImage> images;
-                    for (std::size_t i = 0; i < views->size(); ++i)
-                        images.push_back({"view " + std::to_string(i + 1), view_of((*views)[i])});
-                    const auto result =
-                        geometry::calibrate_camera(geometry::parse_pattern_spec(pattern),
-                                                   geometry::LensModel::pinhole, images);
-                    std::vector<double> per_view;
-                    for (const auto& v : result.views) per_view.push_back(v.rms_px);
-                    *yaml = geometry::camera_to_yaml(result.camera, per_view);
-                    *summary = "camera calibrated from " + std::to_string(result.views.size()) +
-                               " views, RMS " + fixed(result.camera.rms_px, 3) + " px";
+                [frame, found, pattern = settings_.calibration_pattern] {
+                    *found = geometry::find_board(geometry::parse_pattern_spec(pattern),
+                                                  view_of(*frame));
                 },
-                [this, yaml, summary] {
-                    d_.data.replace_file("camera.yaml", *yaml);
-                    calibration_frames_.clear();
-                    log_("cycle " + std::to_string(report_.number) + ": " + *summary);
-                    enter(CycleState::setup_plane, "set-up: the bed plane");
-                    setup_plane();
-                });
+                [this, view, frame, found] { take_calibration_view(view, *frame, *found); });
         });
     });
+}
+
+void Cycle::take_calibration_view(int view, const hal::Frame& frame,
+                                  const std::optional<geometry::BoardObservation>& found) {
+    const std::string of =
+        std::to_string(view + 1) + "/" + std::to_string(settings_.calibration_views);
+    if (!found) {
+        notice("view " + of + ": no board found; hold it fully in view and press again");
+        setup_camera_view(view);
+        return;
+    }
+    image_size_ = {frame.width_px, frame.height_px};
+    calibration_views_.push_back({"view " + std::to_string(view + 1), *found});
+    setup_coverage_ = geometry::image_coverage(calibration_views_, frame.width_px, frame.height_px);
+    notice("view " + of + ": " + std::to_string(found->image_points.size()) + " corners, " +
+           std::to_string(static_cast<int>(std::lround(100 * setup_coverage_))) +
+           " % of the image covered");
+    if (view + 1 < settings_.calibration_views) {
+        setup_camera_view(view + 1);
+        return;
+    }
+    auto yaml = std::make_shared<std::string>();
+    auto summary = std::make_shared<std::string>();
+    auto views =
+        std::make_shared<std::vector<geometry::ObservedView>>(std::move(calibration_views_));
+    calibration_views_.clear();
+    work(
+        [views, yaml, summary, size = image_size_] {
+            const auto result = geometry::calibrate_from_views(geometry::LensModel::pinhole, *views,
+                                                               size[0], size[1]);
+            std::vector<double> per_view;
+            for (const auto& v : result.views) per_view.push_back(v.rms_px);
+            *yaml = geometry::camera_to_yaml(result.camera, per_view);
+            *summary = "camera calibrated from " + std::to_string(result.views.size()) +
+                       " views, RMS " + fixed(result.camera.rms_px, 3) + " px";
+        },
+        [this, yaml, summary] {
+            d_.data.replace_file("camera.yaml", *yaml);
+            // A new camera model makes the old plane's pose stale: the plane is taken again.
+            d_.data.remove_file("plane.yaml");
+            notice(*summary);
+            enter(CycleState::setup_plane, "set-up: the bed plane");
+            setup_plane();
+        });
 }
 
 void Cycle::setup_plane() {
@@ -392,7 +535,12 @@ void Cycle::setup_plane() {
                 },
                 [this, yaml, summary] {
                     d_.data.replace_file("plane.yaml", *yaml);
-                    log_("cycle " + std::to_string(report_.number) + ": " + *summary);
+                    notice(*summary);
+                    if (setup_only_) {
+                        setup_only_ = false;
+                        enter(CycleState::idle, "set-up done: " + *summary);
+                        return;
+                    }
                     ask_clear_bed_then_target();
                 });
         });
@@ -591,10 +739,11 @@ void Cycle::review() {
          fixed(c.predicted_xy_rms_mm, 4) + " mm RMS, " + fixed(c.predicted_xy_max_mm, 4) +
          " mm worst");
     for (const auto& command : s.commands) log_("  " + command);
-    show("review",
-         {"rod " + fixed(s.after.diagonal_rod_mm - before.diagonal_rod_mm, 3) + " mm",
-          "radius " + fixed(s.after.radius_mm - before.radius_mm, 3) + " mm",
-          "XY after " + fixed(c.predicted_xy_rms_mm, 3) + " mm", prompt_text(Prompt::review)});
+    show(draw_screen(ReviewScreen{
+        {"rod " + signed_fixed(s.after.diagonal_rod_mm - before.diagonal_rod_mm, 3) + " mm",
+         "radius " + signed_fixed(s.after.radius_mm - before.radius_mm, 3) + " mm"},
+        "XY " + fixed(report_.measured_xy_rms_mm.value_or(0), 3),
+        fixed(c.predicted_xy_rms_mm, 3) + " mm"}));
     ask(Prompt::review, 0, [this] { apply(); });
 }
 
@@ -764,9 +913,11 @@ void Cycle::review_galvo() {
          " mm; error now " + fixed(s.fit.before.mean_mm, 4) + " mm mean, " +
          fixed(s.fit.before.max_mm, 4) + " mm worst; predicted after " +
          fixed(s.predicted_rms_mm, 4) + " mm RMS");
-    show("review", {"table " + std::to_string(t.nodes) + "x" + std::to_string(t.nodes),
-                    "now " + fixed(s.fit.before.mean_mm, 3) + " mm mean",
-                    "after " + fixed(s.predicted_rms_mm, 3) + " mm", prompt_text(Prompt::review)});
+    show(draw_screen(
+        ReviewScreen{{"a " + std::to_string(t.nodes) + "x" + std::to_string(t.nodes) + " table",
+                      "mean error, in mm:"},
+                     fixed(s.fit.before.mean_mm, 3),
+                     fixed(s.predicted_rms_mm, 3)}));
     ask(Prompt::review, 0, [this] { apply(); });
 }
 
@@ -878,9 +1029,10 @@ void Cycle::review_planar() {
          fixed(s.max_y_mm, 1) + " mm; error norm now " + fixed(s.before.mean_mm, 4) + " mm mean, " +
          fixed(s.before.max_mm, 4) + " mm worst; predicted after " + fixed(s.after.mean_mm, 4) +
          " mm mean, " + fixed(s.after.max_mm, 4) + " mm worst");
-    show("review", {"error model, " + std::to_string(s.fit.rank - 3) + " terms",
-                    "now " + fixed(s.before.mean_mm, 3) + " mm mean",
-                    "after " + fixed(s.after.mean_mm, 3) + " mm", prompt_text(Prompt::review)});
+    show(draw_screen(ReviewScreen{
+        {"error model, " + std::to_string(s.fit.rank - 3) + " terms", "mean error, in mm:"},
+        fixed(s.before.mean_mm, 3),
+        fixed(s.after.mean_mm, 3)}));
     ask(Prompt::review, 0, [this] { apply(); });
 }
 
@@ -954,6 +1106,10 @@ void Cycle::finish_cycle() {
     enter(CycleState::idle, report_.verify_xy_rms_mm
                                 ? "done: XY " + fixed(*report_.verify_xy_rms_mm, 3) + " mm"
                                 : "done");
+    last_stage_seconds_ = stage_seconds_;
+    if (report_.measured_xy_rms_mm && report_.verify_xy_rms_mm)
+        show(draw_screen(DoneScreen{fixed(*report_.measured_xy_rms_mm, 4) + " mm",
+                                    fixed(*report_.verify_xy_rms_mm, 4) + " mm"}));
     if (on_cycle_end) on_cycle_end(true);
 }
 

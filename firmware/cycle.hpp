@@ -4,6 +4,7 @@
 //   -> review -> apply -> verify -> idle, with error reachable from every state and cancel (a
 // long press, or the console) from every waiting one. It never blocks: the machine link, the
 // camera and the worker report back through the loop.
+#include <array>
 #include <chrono>
 #include <functional>
 #include <memory>
@@ -11,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/modes/delta.hpp"
 #include "core/modes/galvo.hpp"
@@ -18,6 +20,7 @@
 #include "firmware/button_press.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/screens.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
@@ -124,6 +127,16 @@ class Cycle {
     // reads them back (apply, then idle; error on a mismatch). Only from idle: returns why not,
     // empty when it started.
     std::string revert();
+    // The set-up on its own, from idle (the console's `camera calibrate` and `camera plane`):
+    // the camera's views then the plane, or the plane alone; back to idle after it. Returns why
+    // not, empty when it started.
+    std::string calibrate_camera();
+    std::string take_plane();
+    double setup_coverage() const { return setup_coverage_; }
+    // New settings (the console changed the configuration): in force at once in idle, else
+    // from the next cycle, so that a running one keeps what it started with.
+    void set_settings(CycleSettings settings);
+    const CycleSettings& settings() const { return settings_; }
 
     CycleState state() const { return state_; }
     Prompt prompt() const { return prompt_; }
@@ -138,12 +151,16 @@ class Cycle {
     std::function<void(Prompt, int step)> on_prompt;
     std::function<void(CycleState)> on_state;
     std::function<void(bool completed)> on_cycle_end;
+    // What a person at the console should read now: each set-up view's result, the set-up's.
+    std::function<void(const std::string&)> on_notice;
 
   private:
     void enter(CycleState next, const std::string& detail);
     void ask(Prompt prompt, int step, std::function<void()> then);
     void fail(const std::string& message);
-    void show(const std::string& title, const std::vector<std::string>& lines);
+    void show(const hal::MonoBitmap& frame);
+    ProgressScreen progress_screen(const std::string& detail) const;
+    IdleScreen idle_screen() const;
     void set_leds();
     void indicate(bool& failed, const char* what, const std::function<void()>& update);
     // Asynchronous steps: each continues only if the cycle was not cancelled meanwhile.
@@ -154,6 +171,10 @@ class Cycle {
 
     void begin_cycle();
     void setup_camera_view(int view);
+    void take_calibration_view(int view, const hal::Frame& frame,
+                               const std::optional<geometry::BoardObservation>& found);
+    void notice(const std::string& what);
+    void take_next_settings();
     void setup_plane();
     void ask_clear_bed_then_target();
     void make_target();
@@ -193,6 +214,7 @@ class Cycle {
     CycleDevices d_;
     models::MachineFile machine_;
     CycleSettings settings_;
+    std::optional<CycleSettings> next_settings_;
     Log log_;
     std::unique_ptr<hal::Timer> blink_;
     bool blink_phase_ = false;
@@ -209,7 +231,10 @@ class Cycle {
     int completed_ = 0;
 
     // The cycle's working data.
-    std::vector<hal::Frame> calibration_frames_;
+    std::vector<geometry::ObservedView> calibration_views_;
+    std::array<int, 2> image_size_{0, 0};
+    double setup_coverage_ = 0;  // of the image, by the views taken so far
+    bool setup_only_ = false;    // the set-up asked for on its own: back to idle after it
     std::function<void(std::vector<hal::Frame>)> pending_capture_;
     std::vector<std::string> target_job_;
     std::optional<modes::DeltaMeasurementsRecord> measurements_;
@@ -219,6 +244,11 @@ class Cycle {
     CycleReport report_;
     std::chrono::nanoseconds phase_started_{0};
     std::chrono::nanoseconds cycle_started_{0};
+    // Seconds per state (CycleState's order) in this cycle and the last completed one: the
+    // progress screen's time left.
+    std::array<double, 12> stage_seconds_{};
+    std::optional<std::array<double, 12>> last_stage_seconds_;
+    std::chrono::nanoseconds entered_at_{0};
 };
 
 // Wires the machine link to the loop: replies and the reply timer; a link that is gone is no

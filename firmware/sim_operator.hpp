@@ -2,14 +2,15 @@
 // The person at a sim board, for `calbox run --auto` and the tests: does what each prompt asks
 // on the twin's bench (holds the board, lays it on the bed, clears the bed) and presses the
 // button. Review is confirmed when `confirm_review` (else it is left to the button, the
-// console or a PLC); the start and error prompts are left to the caller.
+// console or a PLC); the start and error prompts are left to the caller. With `press` false the
+// person only does what is asked and leaves every press to the console (its tests).
 #include "board/sim/sim_board.hpp"
 #include "firmware/cycle.hpp"
 
 namespace calbox::firmware {
 
 inline bool act_on_prompt(sim::TwinBench& bench, sim::SimLines& lines, Prompt prompt, int step,
-                          bool confirm_review = true) {
+                          bool confirm_review = true, bool press = true) {
     switch (prompt) {
         case Prompt::hold_calibration_board:
             bench.hold_calibration_board(step);
@@ -27,8 +28,8 @@ inline bool act_on_prompt(sim::TwinBench& bench, sim::SimLines& lines, Prompt pr
         default:
             return false;
     }
-    lines.press(std::chrono::milliseconds(100));
-    return true;
+    if (press) lines.press(std::chrono::milliseconds(100));
+    return press;
 }
 
 }  // namespace calbox::firmware

@@ -1,6 +1,7 @@
 #include "core/geometry/calibration.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
@@ -149,8 +150,8 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
 
 CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
                                    const std::vector<NamedImage>& images) {
-    CalibrationResult result;
-    std::vector<BoardObservation> used;
+    std::vector<ObservedView> found;
+    std::vector<std::string> skipped;
     cv::Size size;
     for (const auto& image : images) {
         const cv::Size this_size(image.image.width_px, image.image.height_px);
@@ -163,23 +164,57 @@ CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
         }
         auto obs = find_board(pattern, image.image);
         if (!obs) {
-            result.skipped.push_back(image.name);
+            skipped.push_back(image.name);
             continue;
         }
-        used.push_back(std::move(*obs));
-        result.views.push_back({image.name, static_cast<int>(used.back().image_points.size()), 0});
+        found.push_back({image.name, std::move(*obs)});
     }
-    if (static_cast<int>(used.size()) < kMinimumCalibrationViews) {
-        throw CalibrationError("the board was found in " + std::to_string(used.size()) + " of " +
+    if (static_cast<int>(found.size()) < kMinimumCalibrationViews) {
+        throw CalibrationError("the board was found in " + std::to_string(found.size()) + " of " +
                                std::to_string(images.size()) +
                                " images; calibration needs at least " +
                                std::to_string(kMinimumCalibrationViews));
     }
+    auto result = calibrate_from_views(model, found, size.width, size.height);
+    result.skipped = std::move(skipped);
+    return result;
+}
+
+double image_coverage(const std::vector<ObservedView>& views, int width_px, int height_px) {
+    constexpr int kColumns = 8, kRows = 6;
+    if (width_px <= 0 || height_px <= 0) return 0;
+    std::array<bool, kColumns * kRows> covered{};
+    for (const auto& v : views) {
+        for (const auto& p : v.board.image_points) {
+            const int c = static_cast<int>(p.x * kColumns / width_px);
+            const int r = static_cast<int>(p.y * kRows / height_px);
+            if (c >= 0 && c < kColumns && r >= 0 && r < kRows)
+                covered[static_cast<std::size_t>(r * kColumns + c)] = true;
+        }
+    }
+    return static_cast<double>(std::count(covered.begin(), covered.end(), true)) /
+           (kColumns * kRows);
+}
+
+CalibrationResult calibrate_from_views(LensModel model, const std::vector<ObservedView>& views,
+                                       int width_px, int height_px) {
+    if (static_cast<int>(views.size()) < kMinimumCalibrationViews) {
+        throw CalibrationError("calibration needs at least " +
+                               std::to_string(kMinimumCalibrationViews) + " views, " +
+                               std::to_string(views.size()) + " given");
+    }
+    CalibrationResult result;
+    std::vector<const BoardObservation*> used;
+    for (const auto& v : views) {
+        used.push_back(&v.board);
+        result.views.push_back({v.name, static_cast<int>(v.board.image_points.size()), 0});
+    }
+    const cv::Size size(width_px, height_px);
     std::vector<std::vector<cv::Point3f>> object;
     std::vector<std::vector<cv::Point2f>> image;
-    for (const auto& o : used) {
-        object.push_back(object_points_f(o.object_points));
-        image.push_back(image_points_f(o.image_points));
+    for (const auto* o : used) {
+        object.push_back(object_points_f(o->object_points));
+        image.push_back(image_points_f(o->image_points));
     }
     cv::Mat k, d;
     std::vector<cv::Mat> rvecs, tvecs;
@@ -225,8 +260,8 @@ CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
             pose.rvec[static_cast<std::size_t>(i)] = rvecs[v].at<double>(i);
             pose.tvec_mm[static_cast<std::size_t>(i)] = tvecs[v].at<double>(i);
         }
-        const auto projected = project_points(camera, pose, used[v].object_points);
-        const double rms = rms_between(projected, used[v].image_points);
+        const auto projected = project_points(camera, pose, used[v]->object_points);
+        const double rms = rms_between(projected, used[v]->image_points);
         result.views[v].rms_px = rms;
         sum += rms * rms * static_cast<double>(projected.size());
         count += projected.size();

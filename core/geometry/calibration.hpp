@@ -49,6 +49,21 @@ struct CalibrationResult {
 
 constexpr int kMinimumCalibrationViews = 6;
 
+struct ObservedView {
+    std::string name;
+    BoardObservation board;
+};
+
+// The solve alone, from boards already found (the box finds each view's board as it is taken,
+// to say at once whether it counts); the same errors as calibrate_camera.
+CalibrationResult calibrate_from_views(LensModel model, const std::vector<ObservedView>& views,
+                                       int width_px, int height_px);
+
+// How much of the image the views' corners cover: the share of an 8 x 6 grid of cells holding
+// at least one corner. A calibration whose corners all sit in the middle extrapolates the
+// lens's distortion to the edges, where the bed's far corners are.
+double image_coverage(const std::vector<ObservedView>& views, int width_px, int height_px);
+
 // Throws CalibrationError when fewer than kMinimumCalibrationViews views are usable (naming how
 // many were found), when images differ in size, or when OpenCV's solver fails.
 CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,

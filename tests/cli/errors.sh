@@ -129,7 +129,10 @@ expect_error "--modbus-word-order: word order 'xyzw'" run --scenario "$top/tests
 expect_error "--modbus-map needs --modbus-client" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-map "$work/badmap.toml"
 expect_error "badmap.toml:1: 'radius' is not a result value" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-client tcp:127.0.0.1:1 --modbus-map "$work/badmap.toml"
 printf '[modbus]\nsever = "tcp:h:1"\n' > "$work/typo.toml"
-expect_error "typo.toml: \[modbus\] sever: unknown key" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --config "$work/typo.toml"
+expect_error "typo.toml:2: \[modbus\] sever: unknown key" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --config "$work/typo.toml"
+expect_error "/dev/ttyNOPE7: cannot open: No such file" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --console /dev/ttyNOPE7
+printf '[console]\nbaud = 115201\n' > "$work/baud.toml"
+expect_error "baud.toml:2: \[console\] baud: '115201' is not one of 9600" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --config "$work/baud.toml"
 expect_error "cannot open the serial device: No such file" run --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box" --modbus-server rtu:/dev/ttyNOPE9:19200
 
 # The galvo mode: a photo that is not the grid, measurements and results of another machine,

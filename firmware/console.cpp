@@ -1,0 +1,422 @@
+#include "firmware/console.hpp"
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+namespace calbox::firmware {
+namespace {
+
+using nlohmann::json;
+
+struct Command {
+    const char* usage;
+    const char* help;
+};
+
+// The commands in the order `help` lists them (the README's Console section follows it).
+constexpr Command kCommands[] = {
+    {"help", "this list"},
+    {"status", "the state, what the box waits for, the cycle's number and its last error"},
+    {"config list", "every key with its value, unit, range and default"},
+    {"config get KEY", "one key's value"},
+    {"config set KEY VALUE", "change a key (validated; in force from the next cycle)"},
+    {"config save", "write the configuration (a power cut leaves the old file or the new)"},
+    {"config reset [KEY]", "one key, or all, back to its default (save to keep it)"},
+    {"start", "start a calibration cycle (the button's short press in idle)"},
+    {"confirm", "go on where the box waits: apply in review, the next step in set-up"},
+    {"cancel", "stop the cycle (the button's long press); nothing more goes to the machine"},
+    {"revert", "send the settings in force before the last completed cycle"},
+    {"last", "the last completed cycle's result"},
+    {"log [N]", "the last N lines of the box's log (default 20)"},
+    {"version", "the firmware's version"},
+    {"camera calibrate", "set-up: calibrate the camera from board views, then take the plane"},
+    {"camera plane", "set-up: take the bed plane from the board laid on the bed"},
+    {"capture", "take the set-up view the box asks for (the button's press)"},
+};
+
+class Refused : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+std::vector<std::string> words_of(std::string_view line) {
+    std::vector<std::string> words;
+    std::istringstream in{std::string(line)};
+    std::string w;
+    while (in >> w) words.push_back(w);
+    return words;
+}
+
+// What follows the first `skip` words, trimmed; a value in double quotes loses them.
+std::string rest_after(std::string_view line, std::size_t skip) {
+    std::size_t at = 0;
+    for (std::size_t i = 0; i < skip; ++i) {
+        at = line.find_first_not_of(" \t", at);
+        at = line.find_first_of(" \t", at);
+        if (at == std::string_view::npos) return {};
+    }
+    std::string rest(line.substr(at));
+    rest.erase(0, rest.find_first_not_of(" \t"));
+    rest.erase(rest.find_last_not_of(" \t") + 1);
+    if (rest.size() >= 2 && rest.front() == '"' && rest.back() == '"')
+        rest = rest.substr(1, rest.size() - 2);
+    return rest;
+}
+
+std::string fixed(double v, int decimals) {
+    char b[64];
+    std::snprintf(b, sizeof b, "%.*f", decimals, v);
+    return b;
+}
+
+const char* kind_name(ConfigKind k) {
+    switch (k) {
+        case ConfigKind::integer:
+            return "integer";
+        case ConfigKind::number:
+            return "number";
+        case ConfigKind::text:
+            return "text";
+        case ConfigKind::choice:
+            return "choice";
+        case ConfigKind::flag:
+            return "flag";
+    }
+    return "?";
+}
+
+struct Reply {
+    std::string text;  // the human form, without the final newline
+    json data = json::object();
+};
+
+}  // namespace
+
+std::vector<LineAssembler::Line> LineAssembler::feed(std::string_view bytes) {
+    std::vector<Line> out;
+    for (const char c : bytes) {
+        const bool ends = c == '\n' || c == '\r';
+        if (c == '\n' && after_cr_) {  // the "\n" of "\r\n"
+            after_cr_ = false;
+            continue;
+        }
+        after_cr_ = c == '\r';
+        if (ends) {
+            out.push_back({std::move(pending_), overflowed_});
+            pending_.clear();
+            overflowed_ = false;
+            continue;
+        }
+        if (pending_.size() < limit_)
+            pending_ += c;
+        else
+            overflowed_ = true;
+    }
+    return out;
+}
+
+void LogBook::add(const std::string& line) {
+    lines_.push_back(line);
+    while (lines_.size() > keep_) lines_.pop_front();
+}
+
+std::vector<std::string> LogBook::last(std::size_t count) const {
+    const std::size_t from = lines_.size() > count ? lines_.size() - count : 0;
+    return {lines_.begin() + static_cast<std::ptrdiff_t>(from), lines_.end()};
+}
+
+std::string Console::refuse_too_long(const LineAssembler::Line& line) const {
+    const bool as_json = line.text.find("--json") != std::string::npos;
+    const std::string why = "line longer than " + std::to_string(kConsoleLineLimitBytes) +
+                            " bytes refused (nothing was done)";
+    if (as_json) return json{{"ok", false}, {"error", why}}.dump() + "\n";
+    return "error: " + why + "\n";
+}
+
+std::string Console::reply_to(std::string_view line) {
+    std::vector<std::string> words = words_of(line);
+    bool as_json = false;
+    std::erase_if(words, [&](const std::string& w) {
+        if (w != "--json") return false;
+        as_json = true;
+        return true;
+    });
+    std::string clean(line);
+    if (const auto at = clean.find("--json"); at != std::string::npos) clean.erase(at, 6);
+    if (words.empty()) return {};
+
+    Cycle& cycle = c_.cycle;
+    Reply r;
+    const auto& w0 = words[0];
+    const auto need_words = [&](std::size_t n, const char* usage) {
+        if (words.size() != n) throw Refused(std::string("usage: ") + usage);
+    };
+    try {
+        if (w0 == "help") {
+            std::ostringstream out;
+            json list = json::array();
+            for (const auto& c : kCommands) {
+                out << "  " << c.usage
+                    << std::string(22 - std::min<std::size_t>(21, std::string_view(c.usage).size()),
+                                   ' ')
+                    << c.help << "\n";
+                list.push_back({{"command", c.usage}, {"help", c.help}});
+            }
+            for (const auto& [name, extra] : c_.extras) {
+                out << "  " << name << std::string(22 - std::min<std::size_t>(21, name.size()), ' ')
+                    << extra.help << "\n";
+                list.push_back({{"command", name}, {"help", extra.help}});
+            }
+            out << "  (--json on any line: the reply as one JSON object)";
+            r.text = out.str();
+            r.data["commands"] = list;
+        } else if (w0 == "status") {
+            need_words(1, "status");
+            const std::string prompt = prompt_text(cycle.prompt());
+            r.text = std::string("state: ") + state_name(cycle.state());
+            if (!prompt.empty()) r.text += "\nwaiting: " + prompt;
+            if (cycle.state() == CycleState::setup_camera)
+                r.text += "\nset-up: view " + std::to_string(cycle.prompt_step() + 1) +
+                          ", image covered " +
+                          std::to_string(static_cast<int>(100 * cycle.setup_coverage() + 0.5)) +
+                          " %";
+            r.text += "\ncycle: " + std::to_string(cycle.report().number) + " (" +
+                      std::to_string(cycle.cycles_completed()) + " completed since start)";
+            if (!cycle.error().empty()) r.text += "\nlast error: " + cycle.error();
+            r.data = {{"state", state_name(cycle.state())},
+                      {"waiting", prompt},
+                      {"cycle", cycle.report().number},
+                      {"completed", cycle.cycles_completed()},
+                      {"error", cycle.error()},
+                      {"setup_coverage", cycle.setup_coverage()}};
+        } else if (w0 == "config") {
+            if (words.size() < 2) throw Refused("usage: config list|get|set|save|reset");
+            const auto& verb = words[1];
+            BoxConfig& config = c_.config;
+            if (verb == "list") {
+                need_words(2, "config list");
+                std::ostringstream out;
+                json keys = json::object();
+                for (const auto& k : config_schema()) {
+                    const std::string value = config.get(k.name);
+                    out << k.name << " = "
+                        << (k.kind == ConfigKind::text ? "\"" + value + "\"" : value);
+                    if (!k.unit.empty()) out << " " << k.unit;
+                    if (value != k.default_value) out << "  (default " << k.default_value << ")";
+                    if (k.needs_restart) out << "  [at start]";
+                    out << "\n";
+                    keys[std::string(k.name)] = {{"value", value},
+                                                 {"default", std::string(k.default_value)},
+                                                 {"unit", std::string(k.unit)},
+                                                 {"kind", kind_name(k.kind)},
+                                                 {"min", k.min},
+                                                 {"max", k.max},
+                                                 {"choices", std::string(k.choices)},
+                                                 {"at_start", k.needs_restart},
+                                                 {"doc", std::string(k.doc)}};
+                }
+                r.text = out.str();
+                r.text.pop_back();
+                r.data["config"] = keys;
+            } else if (verb == "get") {
+                need_words(3, "config get KEY");
+                const std::string value = config.get(words[2]);
+                r.text = words[2] + " = " + value;
+                r.data = {{"key", words[2]}, {"value", value}};
+            } else if (verb == "set") {
+                if (words.size() < 3) throw Refused("usage: config set KEY VALUE");
+                const std::string value = rest_after(clean, 3);
+                try {
+                    config.set(words[2], value);
+                } catch (const ConfigError& e) {
+                    throw Refused(e.what());
+                }
+                if (c_.config_changed) c_.config_changed();
+                const bool at_start = find_config_key(words[2])->needs_restart;
+                r.text = words[2] + " = " + config.get(words[2]) +
+                         (at_start ? " (in force at the next start; config save keeps it)"
+                                   : " (in force from the next cycle; config save keeps it)");
+                r.data = {
+                    {"key", words[2]}, {"value", config.get(words[2])}, {"at_start", at_start}};
+            } else if (verb == "save") {
+                need_words(2, "config save");
+                try {
+                    c_.settings.replace_file(c_.settings_name, config.to_toml());
+                } catch (const std::runtime_error& e) {
+                    throw Refused(std::string("not saved (the saved file is as it was): ") +
+                                  e.what());
+                }
+                r.text = "saved " + c_.settings_name;
+                r.data = {{"saved", c_.settings_name}};
+            } else if (verb == "reset") {
+                if (words.size() == 3) {
+                    try {
+                        config.reset(words[2]);
+                    } catch (const ConfigError& e) {
+                        throw Refused(e.what());
+                    }
+                    r.text = words[2] + " = " + config.get(words[2]) + " (the default)";
+                } else {
+                    need_words(2, "config reset [KEY]");
+                    config = BoxConfig();
+                    r.text = "every key back to its default (config save keeps it)";
+                }
+                if (c_.config_changed) c_.config_changed();
+            } else {
+                throw Refused("usage: config list|get|set|save|reset");
+            }
+        } else if (w0 == "start") {
+            need_words(1, "start");
+            if (cycle.state() != CycleState::idle)
+                throw Refused(std::string("busy: ") + state_name(cycle.state()));
+            cycle.start();
+            r.text = std::string("started: ") + state_name(cycle.state());
+        } else if (w0 == "confirm" || w0 == "capture") {
+            need_words(1, w0 == "confirm" ? "confirm" : "capture");
+            const Prompt p = cycle.prompt();
+            const bool setup_prompt =
+                p == Prompt::hold_calibration_board || p == Prompt::lay_plane_board;
+            if (p == Prompt::none || p == Prompt::start)
+                throw Refused(std::string("the box is not waiting for a person (") +
+                              state_name(cycle.state()) + ")");
+            if (w0 == "capture" && !setup_prompt)
+                throw Refused(std::string("no set-up view is asked for (waiting: ") +
+                              prompt_text(p) + ")");
+            const std::string was = prompt_text(p);
+            cycle.press(false);
+            r.text = "done: " + was;
+        } else if (w0 == "cancel") {
+            need_words(1, "cancel");
+            if (cycle.state() == CycleState::idle) throw Refused("nothing to cancel: idle");
+            cycle.cancel("cancelled from the console");
+            r.text = std::string("cancelled: ") + state_name(cycle.state());
+        } else if (w0 == "revert") {
+            need_words(1, "revert");
+            const std::string refused = cycle.revert();
+            if (!refused.empty()) throw Refused(refused);
+            r.text =
+                "reverting to the settings before cycle " + std::to_string(cycle.report().number);
+        } else if (w0 == "last") {
+            need_words(1, "last");
+            const auto& report = cycle.report();
+            if (cycle.cycles_completed() == 0) {
+                const auto last = c_.data.read_file("last-cycle");
+                if (!last) throw Refused("no cycle has completed yet");
+                r.text = "cycle " + last->substr(0, last->find('\n')) +
+                         " completed before the box started; its record is in the data directory";
+                r.data = {{"cycle", std::atoi(last->c_str())}};
+            } else {
+                r.text = "cycle " + std::to_string(report.number) + ": " +
+                         (report.applied ? "applied" : "not applied");
+                if (report.measured_xy_rms_mm)
+                    r.text += "\nbefore: " + fixed(*report.measured_xy_rms_mm, 4) + " mm RMS, " +
+                              fixed(*report.measured_xy_max_mm, 4) + " mm worst (measured)";
+                if (report.verify_xy_rms_mm)
+                    r.text += "\nafter: " + fixed(*report.verify_xy_rms_mm, 4) + " mm RMS, " +
+                              fixed(*report.verify_xy_max_mm, 4) + " mm worst (measured)";
+                r.data = {{"cycle", report.number}, {"applied", report.applied}};
+                if (report.measured_xy_rms_mm)
+                    r.data["before"] = {{"rms_mm", *report.measured_xy_rms_mm},
+                                        {"max_mm", *report.measured_xy_max_mm}};
+                if (report.verify_xy_rms_mm)
+                    r.data["after"] = {{"rms_mm", *report.verify_xy_rms_mm},
+                                       {"max_mm", *report.verify_xy_max_mm}};
+            }
+        } else if (w0 == "log") {
+            std::size_t count = 20;
+            if (words.size() == 2) {
+                try {
+                    count = std::stoul(words[1]);
+                } catch (const std::exception&) {
+                    throw Refused("usage: log [N]");
+                }
+            } else {
+                need_words(1, "log [N]");
+            }
+            const auto lines = c_.log.last(count);
+            for (const auto& l : lines) r.text += l + "\n";
+            if (!r.text.empty()) r.text.pop_back();
+            r.data["log"] = lines;
+        } else if (w0 == "version") {
+            need_words(1, "version");
+            r.text = "calbox " + c_.version;
+            r.data["version"] = c_.version;
+        } else if (w0 == "camera") {
+            if (words.size() != 2 || (words[1] != "calibrate" && words[1] != "plane"))
+                throw Refused("usage: camera calibrate|plane");
+            const std::string refused =
+                words[1] == "calibrate" ? cycle.calibrate_camera() : cycle.take_plane();
+            if (!refused.empty()) throw Refused(refused);
+            r.text = std::string("set-up started: ") + prompt_text(cycle.prompt()) +
+                     " (capture, confirm or the button)";
+        } else if (const auto extra = c_.extras.find(w0); extra != c_.extras.end()) {
+            r.text = extra->second.run(words);
+        } else {
+            throw Refused("'" + w0 + "' is not a command (help lists them)");
+        }
+    } catch (const Refused& e) {
+        if (as_json) return json{{"ok", false}, {"error", e.what()}}.dump() + "\n";
+        return std::string("error: ") + e.what() + "\n";
+    }
+    if (as_json) {
+        json out = r.data;
+        out["ok"] = true;
+        return out.dump() + "\n";
+    }
+    return r.text + "\n";
+}
+
+ConsoleLink::ConsoleLink(EventLoop& loop, hal::SerialPort& port, Console& console, Log log)
+    : loop_(loop), port_(port), console_(console), log_(std::move(log)) {
+    loop_.watch(port_.fd(), [this] { on_readable(); });
+    watching_ = true;
+}
+
+ConsoleLink::~ConsoleLink() {
+    if (watching_) loop_.unwatch(port_.fd());
+}
+
+void ConsoleLink::notice(const std::string& line) {
+    send("notice: " + line + "\n");
+}
+
+void ConsoleLink::on_readable() {
+    std::uint8_t buffer[512];
+    std::size_t n = 0;
+    try {
+        n = port_.read_some(buffer);
+    } catch (const std::runtime_error& e) {
+        log_(std::string("console: ") + e.what() + " (the console is off; the box goes on)");
+        loop_.unwatch(port_.fd());
+        watching_ = false;
+        return;
+    }
+    for (const auto& line : lines_.feed({reinterpret_cast<const char*>(buffer), n})) {
+        send(line.too_long ? console_.refuse_too_long(line) : console_.reply_to(line.text));
+    }
+}
+
+void ConsoleLink::send(const std::string& text) {
+    // Nobody may be reading (a pty with no client): what does not fit is dropped, said once.
+    std::size_t sent = 0;
+    try {
+        while (sent < text.size()) {
+            const std::size_t n = port_.write_some(
+                {reinterpret_cast<const std::uint8_t*>(text.data()) + sent, text.size() - sent});
+            if (n == 0) break;
+            sent += n;
+        }
+    } catch (const std::runtime_error& e) {
+        log_(std::string("console: ") + e.what());
+        return;
+    }
+    if (sent < text.size() && !dropped_told_) {
+        dropped_told_ = true;
+        log_("console: nobody reads the console; replies are dropped until someone does");
+    } else if (sent == text.size()) {
+        dropped_told_ = false;
+    }
+}
+
+}  // namespace calbox::firmware

@@ -1,0 +1,108 @@
+#pragma once
+// The box's line console: the same commands over a UART, the sim board's pseudo-terminal or
+// standard input. Console turns one line into its reply and knows nothing of the device;
+// ConsoleLink reads lines from a device on the event loop and writes the replies and the box's
+// notices back.
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "firmware/box_config.hpp"
+#include "firmware/cycle.hpp"
+#include "firmware/event_loop.hpp"
+#include "hal/serial_port.hpp"
+#include "hal/storage.hpp"
+
+namespace calbox::firmware {
+
+// A line longer than this is refused whole, never cut: a cut line could be a different
+// command (`config set records.keep_cycles 1000` cut to `... 1`).
+constexpr std::size_t kConsoleLineLimitBytes = 256;
+
+// Bytes to lines; "\n", "\r" or "\r\n" end one (terminal programs send "\r" for Enter).
+class LineAssembler {
+  public:
+    explicit LineAssembler(std::size_t limit_bytes) : limit_(limit_bytes) {}
+    struct Line {
+        std::string text;
+        bool too_long = false;  // the text is its first limit bytes
+    };
+    std::vector<Line> feed(std::string_view bytes);
+
+  private:
+    std::size_t limit_;
+    std::string pending_;
+    bool overflowed_ = false;
+    bool after_cr_ = false;
+};
+
+// The box's recent log lines, for the console's `log`.
+class LogBook {
+  public:
+    explicit LogBook(std::size_t keep = 200) : keep_(keep) {}
+    void add(const std::string& line);
+    std::vector<std::string> last(std::size_t count) const;
+
+  private:
+    std::size_t keep_;
+    std::deque<std::string> lines_;
+};
+
+struct ConsoleContext {
+    Cycle& cycle;
+    BoxConfig& config;       // the configuration in force
+    hal::Storage& settings;  // where `config save` writes
+    std::string settings_name;
+    hal::Storage& data;  // the cycles' records, for `last`
+    const LogBook& log;
+    std::string version;
+    // Called after the configuration changed (set or reset), to put it in force.
+    std::function<void()> config_changed;
+    // The board's own commands (the sim board: press, hold), with a line of help each.
+    struct Extra {
+        std::string help;
+        std::function<std::string(const std::vector<std::string>& words)> run;
+    };
+    std::map<std::string, Extra> extras;
+};
+
+class Console {
+  public:
+    explicit Console(ConsoleContext context) : c_(std::move(context)) {}
+    // The reply to one line, newline-terminated; "" for an empty line. With --json anywhere on
+    // the line the reply is one JSON object: {"ok":true,...} or {"ok":false,"error":"..."}.
+    std::string reply_to(std::string_view line);
+    std::string refuse_too_long(const LineAssembler::Line& line) const;
+
+  private:
+    ConsoleContext c_;
+};
+
+class ConsoleLink {
+  public:
+    using Log = std::function<void(const std::string&)>;
+    // Watches the port on the loop until it is gone (standard input closed, a UART unplugged).
+    ConsoleLink(EventLoop& loop, hal::SerialPort& port, Console& console, Log log);
+    ConsoleLink(const ConsoleLink&) = delete;
+    ConsoleLink& operator=(const ConsoleLink&) = delete;
+    ~ConsoleLink();
+    // An unsolicited line (a set-up view's result, a prompt): "notice: ..." on the console.
+    void notice(const std::string& line);
+
+  private:
+    void on_readable();
+    void send(const std::string& text);
+    EventLoop& loop_;
+    hal::SerialPort& port_;
+    Console& console_;
+    Log log_;
+    LineAssembler lines_{kConsoleLineLimitBytes};
+    bool watching_ = false;
+    bool dropped_told_ = false;
+};
+
+}  // namespace calbox::firmware

@@ -1,0 +1,245 @@
+#!/usr/bin/python3
+"""The console over a real pseudo-terminal, as a person at a serial terminal uses it.
+
+calbox run --console pty on the sim board (a router, the twin's person doing what each prompt
+asks but pressing nothing): every command, bad values and unknown keys (the saved file
+untouched), an over-long line, a disconnect and a reconnect, the camera's set-up from the
+console and a whole cycle started and confirmed from it.
+"""
+import json
+import os
+import select
+import subprocess
+import sys
+import tempfile
+import termios
+import time
+import tty
+
+calbox, top = sys.argv[1], sys.argv[2]
+work = tempfile.mkdtemp(prefix="calbox-console-")
+data = os.path.join(work, "box")
+DEADLINE_S = 600  # a whole cycle under the sanitizers
+
+
+def fail(why):
+    print("FAIL:", why)
+    try:
+        print(open(os.path.join(work, "run.err")).read()[-3000:])
+    except OSError:
+        pass
+    box.kill()
+    sys.exit(1)
+
+
+err = open(os.path.join(work, "run.err"), "w")
+box = subprocess.Popen(
+    [calbox, "run", "--board", "sim", "--console", "pty", "--operator-hands",
+     "--scenario", os.path.join(top, "tests/scenarios/planar_small.toml"), "--data", data],
+    stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
+
+link = os.path.join(data, "console")
+for _ in range(300):
+    if os.path.islink(link):
+        break
+    time.sleep(0.1)
+else:
+    fail("no console link")
+
+
+class Terminal:
+    def __init__(self):
+        self.fd = os.open(link, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self.fd)
+        termios.tcflush(self.fd, termios.TCIFLUSH)  # what the box said to nobody
+        self.buffer = b""
+        self.notices = []
+
+    def close(self):
+        os.close(self.fd)
+
+    def line(self, timeout_s):
+        end = time.time() + timeout_s
+        while b"\n" not in self.buffer:
+            left = end - time.time()
+            if left <= 0 or box.poll() is not None:
+                return None
+            r, _, _ = select.select([self.fd], [], [], left)
+            if r:
+                self.buffer += os.read(self.fd, 4096)
+        text, self.buffer = self.buffer.split(b"\n", 1)
+        return text.decode()
+
+    def send(self, text):
+        os.write(self.fd, text.encode())
+
+    def ask(self, command, ok=True):
+        """The JSON reply to a command; the notices met on the way are kept."""
+        self.send(command + " --json\r")  # a terminal program's Enter
+        while True:
+            line = self.line(60)
+            if line is None:
+                fail("no reply to " + command)
+            if line.startswith("notice: "):
+                self.notices.append(line[8:])
+                continue
+            reply = json.loads(line)
+            if reply["ok"] != ok:
+                fail(f"{command}: {reply}")
+            return reply
+
+    def text(self, command):
+        """A command's text reply: the lines until the console is quiet."""
+        self.send(command + "\n")
+        lines = []
+        while True:
+            line = self.line(1.0 if lines else 60)
+            if line is None:
+                return lines
+            if not line.startswith("notice: "):
+                lines.append(line)
+
+    def wait_notice(self, start):
+        end = time.time() + DEADLINE_S
+        while time.time() < end:
+            for i, n in enumerate(self.notices):
+                if n.startswith(start):
+                    del self.notices[: i + 1]
+                    return n
+            line = self.line(end - time.time())
+            if line is None:
+                break
+            if line.startswith("notice: "):
+                self.notices.append(line[8:])
+        fail("no notice " + start + "; seen " + repr(self.notices))
+
+    def wait_state(self, state, completed=None, waiting=None):
+        end = time.time() + DEADLINE_S
+        while time.time() < end:
+            s = self.ask("status")
+            if s["state"] == state and (completed is None or s["completed"] == completed) and (
+                    waiting is None or s["waiting"] == waiting):
+                return s
+            time.sleep(0.3)
+        fail(f"never {state} {waiting or ''}")
+
+
+t = Terminal()
+# version, help, status
+if t.ask("version")["version"] != "0.1.0":
+    fail("version")
+help_lines = "\n".join(t.text("help"))
+for command in ["status", "config list", "config get KEY", "config set KEY VALUE", "config save",
+                "config reset [KEY]", "start", "confirm", "cancel", "revert", "last", "log [N]",
+                "version", "camera calibrate", "camera plane", "capture", "press", "hold"]:
+    if command not in help_lines:
+        fail("help lacks " + command)
+s = t.ask("status")
+if s["state"] != "idle" or s["waiting"] != "press to calibrate":
+    fail(f"status {s}")
+
+# configuration: a good set saved, then bad values and unknown keys leave it as it was
+keys = t.ask("config list")["config"]
+if keys["cycle.frames_per_capture"]["value"] != "1" or keys["records.keep_cycles"]["unit"] != "cycles":
+    fail("config list")
+t.ask("config set setup.calibration_views 8")
+t.ask("config save")
+saved = os.path.join(data, "calbox.toml")
+before = open(saved).read()
+if "calibration_views = 8" not in before:
+    fail("the saved file lacks the set value")
+stat_before = os.stat(saved)
+r = t.ask("config set cycle.frames_per_capture 40", ok=False)
+if "'40' is not a whole number 1 to 16 photos" not in r["error"]:
+    fail(r["error"])
+r = t.ask("config set cycle.frames 2", ok=False)
+if "'cycle.frames' is not a configuration key" not in r["error"]:
+    fail(r["error"])
+r = t.ask("config set modbus.server tcp:nohost", ok=False)
+if "not tcp:HOST:PORT" not in r["error"]:
+    fail(r["error"])
+if t.ask("config get cycle.frames_per_capture")["value"] != "1":
+    fail("a refused value took")
+after = os.stat(saved)
+if open(saved).read() != before or after.st_mtime_ns != stat_before.st_mtime_ns or after.st_ino != stat_before.st_ino:
+    fail("the saved file changed")
+t.ask("config set records.keep_cycles 9")
+t.ask("config reset records.keep_cycles")
+if t.ask("config get records.keep_cycles")["value"] != "50":
+    fail("reset")
+print("config: set, save, refusals (file untouched), reset")
+
+# an over-long line is refused whole, and the console goes on
+t.send("config set console.device " + "x" * 300 + "\n")
+line = t.line(30)
+if line != "error: line longer than 256 bytes refused (nothing was done)":
+    fail("over-long line: " + repr(line))
+v = t.ask("config get console.device")["value"]
+if v != "stdin":
+    fail("the over-long line did something: " + repr(v))
+r = t.ask("frobnicate", ok=False)
+if "'frobnicate' is not a command" not in r["error"]:
+    fail(r["error"])
+for command, why in [("confirm", "not waiting for a person"), ("cancel", "nothing to cancel"),
+                     ("camera plane", "not calibrated yet"), ("capture", "not waiting"),
+                     ("last", "no cycle has completed yet"), ("revert", "no cycle")]:
+    r = t.ask(command, ok=False)
+    if why not in r["error"]:
+        fail(f"{command}: {r['error']}")
+print("refusals: over-long line, unknown command, commands out of place")
+
+# the camera's set-up from the console, one capture per view
+t.ask("camera calibrate")
+views = []
+for v in range(8):
+    # status, not the notice: a reconnected terminal did not see it
+    t.wait_state("setup-camera", waiting="hold the board in view, press")
+    t.ask("capture")
+    views.append(t.wait_notice(f"view {v + 1}/8: "))
+    if v == 3:
+        # the person's terminal goes away mid set-up and comes back
+        t.close()
+        t = Terminal()
+        s = t.ask("status")
+        if s["state"] != "setup-camera" or not s["setup_coverage"] > 0:
+            fail(f"after reconnecting: {s}")
+coverage = int(views[-1].split(" corners, ")[1].split(" %")[0])
+if coverage < 30 or int(views[0].split(" corners, ")[1].split(" %")[0]) >= coverage:
+    fail("coverage did not grow: " + repr(views))
+t.wait_notice("camera calibrated from 8 views, RMS ")
+t.wait_notice("waiting: lay the board")
+t.ask("capture")
+t.wait_notice("bed plane from")
+t.wait_state("idle")
+print("set-up:", views[-1], "| reconnected mid set-up")
+
+# a cycle started and confirmed from the console
+t.ask("start")
+t.wait_notice("waiting: clear the bed")
+r = t.ask("capture", ok=False)
+if "no set-up view" not in r["error"]:
+    fail(r["error"])
+t.ask("confirm")
+t.wait_notice("waiting: press: apply, hold: cancel")
+if t.ask("status")["state"] != "review":
+    fail("not in review")
+t.ask("confirm")
+t.wait_notice("waiting: clear the bed")  # the verification's sheet
+t.ask("confirm")
+t.wait_state("idle", completed=1)
+last = t.ask("last")
+if last["cycle"] != 1 or not last["applied"] or not (last["after"]["rms_mm"] < 0.05):
+    fail(f"last: {last}")
+log = t.ask("log 5")["log"]
+if len(log) != 5:
+    fail("log 5")
+t.ask("start")
+t.wait_notice("waiting: clear the bed")
+t.ask("cancel")
+t.wait_state("idle")
+t.ask("revert")
+t.send("quit\n")  # its reply may be lost with the pty as the box exits
+box.wait(60)
+if box.returncode != 0:
+    fail(f"exit {box.returncode}")
+print(f"cycle from the console: measured after {last['after']['rms_mm']:.4f} mm RMS; cancel, revert, quit")

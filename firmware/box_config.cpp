@@ -435,12 +435,6 @@ ModbusConfig BoxConfig::modbus() const {
     return m;
 }
 
-RecordsConfig BoxConfig::records() const {
-    return {static_cast<int>(integer("records.keep_cycles")),
-            static_cast<std::uintmax_t>(integer("records.max_size_mb")) * 1000000U,
-            flag("records.keep_photos")};
-}
-
 CycleSettings BoxConfig::cycle_settings(CycleSettings base) const {
     base.frames_per_capture = static_cast<int>(integer("cycle.frames_per_capture"));
     base.long_press = std::chrono::milliseconds(integer("cycle.long_press_ms"));
@@ -448,6 +442,9 @@ CycleSettings BoxConfig::cycle_settings(CycleSettings base) const {
     base.calibration_pattern = text("setup.calibration_pattern");
     base.plane_pattern = text("setup.plane_pattern");
     base.plane_board_thickness_mm = number("setup.plane_board_thickness_mm");
+    base.records.keep_cycles = static_cast<int>(integer("records.keep_cycles"));
+    base.records.max_bytes = static_cast<std::uintmax_t>(integer("records.max_size_mb")) * 1000000U;
+    base.records.keep_photos = flag("records.keep_photos");
     return base;
 }
 

@@ -45,12 +45,6 @@ struct ModbusConfig {
     std::uint32_t byte_timeout_ms = 500;
 };
 
-struct RecordsConfig {
-    int keep_cycles = 50;
-    std::uintmax_t max_bytes = 0;
-    bool keep_photos = false;
-};
-
 class BoxConfig {
   public:
     using Value = std::variant<std::int64_t, double, std::string, bool>;
@@ -76,8 +70,7 @@ class BoxConfig {
     bool flag(std::string_view key) const;
 
     ModbusConfig modbus() const;
-    RecordsConfig records() const;
-    // The cycle's settings the configuration owns (frames, long press, set-up boards).
+    // The cycle's settings the configuration owns (frames, long press, set-up boards, records).
     CycleSettings cycle_settings(CycleSettings base) const;
 
   private:

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <sstream>
 
 #include "core/geometry/calibration.hpp"
@@ -13,6 +14,7 @@
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
 #include "core/targets/planar_target.hpp"
+#include "firmware/png.hpp"
 #include "firmware/screens.hpp"
 
 namespace calbox::firmware {
@@ -199,6 +201,63 @@ void Cycle::on_blink() {
 
 void Cycle::show(const hal::MonoBitmap& frame) {
     indicate(display_failed_, "display", [&] { d_.display.show(frame); });
+    if (cycle_running_) cycle_screens_.push_back(frame);
+}
+
+bool Cycle::keep(const std::string& name, const std::string& contents) {
+    try {
+        d_.data.replace_file(name, contents);
+        return true;
+    } catch (const std::runtime_error& e) {
+        // A full disk or a failing card: nothing half-written (the save is atomic) and, as
+        // every record is kept before the step that needs it, nothing sent on the strength of it.
+        fail(std::string("records: ") + e.what());
+        return false;
+    }
+}
+
+// The end of a cycle, whatever its outcome: its display frames join its record, and the oldest
+// records go past the configured count and size. A failure here is told, never fatal: the
+// cycle's own outcome is already decided.
+void Cycle::close_record() {
+    if (!cycle_running_) return;
+    cycle_running_ = false;
+    try {
+        for (std::size_t i = 0; i < cycle_screens_.size(); ++i) {
+            char what[32];
+            std::snprintf(what, sizeof what, "screen-%02zu.png", i + 1);
+            d_.data.replace_file(record_name(report_.number, what), png_of(cycle_screens_[i]));
+        }
+        prune_records();
+    } catch (const std::runtime_error& e) {
+        log_("cycle " + std::to_string(report_.number) + ": records: " + e.what());
+    }
+    cycle_screens_.clear();
+}
+
+void Cycle::prune_records() {
+    std::map<int, std::vector<hal::Storage::Entry>> records;  // by cycle number
+    for (auto& entry : d_.data.list_files()) {
+        int number = 0;
+        if (std::sscanf(entry.name.c_str(), "cycle-%4d-", &number) == 1 && number > 0 &&
+            entry.name.size() > 11 && entry.name[10] == '-')
+            records[number].push_back(std::move(entry));
+    }
+    std::uintmax_t total = 0;
+    for (const auto& [number, files] : records)
+        for (const auto& f : files) total += f.size_bytes;
+    int left = static_cast<int>(records.size());
+    for (const auto& [number, files] : records) {
+        const bool too_many = left > settings_.records.keep_cycles;
+        const bool too_big = total > settings_.records.max_bytes;
+        if ((!too_many && !too_big) || number >= report_.number) break;  // never the newest
+        for (const auto& f : files) {
+            d_.data.remove_file(f.name);
+            total -= f.size_bytes;
+        }
+        --left;
+        log_("records: cycle " + std::to_string(number) + "'s record pruned");
+    }
 }
 
 // The stages a cycle goes through, in order, for the progress bar.
@@ -300,6 +359,7 @@ void Cycle::cancel(const std::string& why) {
     d_.lines.set_light(false);
     log_("cycle " + std::to_string(report_.number) + ": " + why);
     enter(CycleState::idle, why);
+    close_record();
     if (on_cycle_end) on_cycle_end(false);
 }
 
@@ -320,6 +380,7 @@ void Cycle::fail(const std::string& message) {
     set_leds();
     show(draw_screen(ErrorScreen{static_cast<int>(failed_in_), hint_for(failed_in_), message}));
     if (on_state) on_state(state_);
+    close_record();
     if (on_cycle_end) on_cycle_end(false);
     if (on_prompt) on_prompt(prompt_, 0);
 }
@@ -434,9 +495,11 @@ void Cycle::notice(const std::string& what) {
 void Cycle::begin_cycle() {
     take_next_settings();
     stage_seconds_ = {};
+    cycle_screens_.clear();
     report_ = CycleReport{};
     const auto last = d_.data.read_file("last-cycle");
     report_.number = (last ? std::atoi(last->c_str()) : 0) + 1;
+    cycle_running_ = true;
     cycle_started_ = d_.clock.now();
     error_.clear();
     setup_only_ = false;
@@ -507,9 +570,14 @@ void Cycle::take_calibration_view(int view, const hal::Frame& frame,
                        " views, RMS " + fixed(result.camera.rms_px, 3) + " px";
         },
         [this, yaml, summary] {
-            d_.data.replace_file("camera.yaml", *yaml);
+            if (!keep("camera.yaml", *yaml)) return;
             // A new camera model makes the old plane's pose stale: the plane is taken again.
-            d_.data.remove_file("plane.yaml");
+            try {
+                d_.data.remove_file("plane.yaml");
+            } catch (const std::runtime_error& e) {
+                fail(std::string("records: ") + e.what());
+                return;
+            }
             notice(*summary);
             enter(CycleState::setup_plane, "set-up: the bed plane");
             setup_plane();
@@ -534,7 +602,7 @@ void Cycle::setup_plane() {
                         "bed plane from " + pattern + ", RMS " + fixed(plane.rms_px, 3) + " px";
                 },
                 [this, yaml, summary] {
-                    d_.data.replace_file("plane.yaml", *yaml);
+                    if (!keep("plane.yaml", *yaml)) return;
                     notice(*summary);
                     if (setup_only_) {
                         setup_only_ = false;
@@ -647,8 +715,13 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
         auto planar = std::make_shared<modes::PlanarMeasurement>();
         const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
         const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
+        // The photos join the record when the configuration says so, encoded off the loop.
+        auto photos = std::make_shared<std::vector<std::string>>();
         work(
-            [machine = machine_, frames, record, galvo, planar, camera_yaml, plane_yaml] {
+            [machine = machine_, frames, record, galvo, planar, camera_yaml, plane_yaml, photos,
+             keep_photos = settings_.records.keep_photos] {
+                if (keep_photos)
+                    for (const auto& frame : *frames) photos->push_back(png_of(frame));
                 const auto camera = geometry::camera_from_yaml(camera_yaml);
                 const auto plane = geometry::plane_from_yaml(plane_yaml);
                 std::vector<vision::GrayView> views;
@@ -683,7 +756,13 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                 const auto measured = modes::measure_delta(machine, camera, plane, views);
                 *record = modes::record_of(measured, machine, names);
             },
-            [this, record, galvo, planar, then] {
+            [this, record, galvo, planar, then, photos, state] {
+                for (std::size_t i = 0; i < photos->size(); ++i) {
+                    const std::string what =
+                        std::string(state == CycleState::verify ? "verify" : "target") + "-photo-" +
+                        std::to_string(i + 1) + ".png";
+                    if (!keep(record_name(report_.number, what.c_str()), (*photos)[i])) return;
+                }
                 if (machine_.is_galvo()) {
                     galvo_measured_ = *galvo;
                 } else if (machine_.is_planar()) {
@@ -705,18 +784,21 @@ void Cycle::solve() {
         solve_planar();
         return;
     }
-    d_.data.replace_file(record_name(report_.number, "measurements.json"),
-                         modes::measurements_to_json(*measurements_));
+    if (!keep(record_name(report_.number, "measurements.json"),
+              modes::measurements_to_json(*measurements_)))
+        return;
     enter(CycleState::solve, std::to_string(measurements_->features.size()) + " corners");
     auto solution = std::make_shared<modes::DeltaSolution>();
-    work([machine = machine_, measurements = *measurements_, options = settings_.solve,
-          solution] { *solution = modes::solve_delta(machine, measurements, {}, options); },
-         [this, solution] {
-             report_.solution = *solution;
-             d_.data.replace_file(record_name(report_.number, "result.json"),
-                                  modes::result_to_json(*solution));
-             review();
-         });
+    work(
+        [machine = machine_, measurements = *measurements_, options = settings_.solve, solution] {
+            *solution = modes::solve_delta(machine, measurements, {}, options);
+        },
+        [this, solution] {
+            report_.solution = *solution;
+            if (!keep(record_name(report_.number, "result.json"), modes::result_to_json(*solution)))
+                return;
+            review();
+        });
 }
 
 void Cycle::review() {
@@ -759,7 +841,7 @@ void Cycle::apply() {
     const auto& s = *report_.solution;
     if (s.firmware == "klipper") {
         // Klipper's geometry lives in printer.cfg: shown and stored, never pretended applied.
-        d_.data.replace_file(record_name(report_.number, "printer.cfg"), joined(s.commands));
+        if (!keep(record_name(report_.number, "printer.cfg"), joined(s.commands))) return;
         enter(CycleState::apply, "Klipper: edit printer.cfg as " +
                                      record_name(report_.number, "printer.cfg") + " says");
         finish_cycle();
@@ -775,8 +857,8 @@ void Cycle::apply() {
                  " does not hold both its M665 and M666 settings to back up");
             return;
         }
-        d_.data.replace_file(record_name(report_.number, "backup.gcode"),
-                             joined(report_.backup) + "M500\n");
+        if (!keep(record_name(report_.number, "backup.gcode"), joined(report_.backup) + "M500\n"))
+            return;
         const auto& solution = *report_.solution;
         log_("cycle " + std::to_string(report_.number) + ": sending " +
              std::to_string(solution.commands.size()) + " lines");
@@ -823,7 +905,7 @@ std::string Cycle::revert() {
         error_.clear();
         enter(CycleState::apply,
               "reverting to the correction in force before cycle " + std::to_string(number));
-        d_.data.replace_file(kept_file(), *kept);
+        if (!keep(kept_file(), *kept)) return error_;
         enter(CycleState::idle, "reverted to " + backup_name);
         if (on_cycle_end) on_cycle_end(true);
         return "";
@@ -871,8 +953,9 @@ void Cycle::verify() {
                 const auto errors = modes::placement_errors(measurements_->features);
                 report_.verify_xy_rms_mm = errors.rms_mm;
                 report_.verify_xy_max_mm = errors.largest_mm;
-                d_.data.replace_file(record_name(report_.number, "verify-measurements.json"),
-                                     modes::measurements_to_json(*measurements_));
+                if (!keep(record_name(report_.number, "verify-measurements.json"),
+                          modes::measurements_to_json(*measurements_)))
+                    return;
                 log_("cycle " + std::to_string(report_.number) +
                      ": verified on the re-printed target: XY " +
                      fixed(*report_.verify_xy_rms_mm, 4) + " mm RMS, " +
@@ -884,8 +967,9 @@ void Cycle::verify() {
 }
 
 void Cycle::solve_galvo() {
-    d_.data.replace_file(record_name(report_.number, "measurements.json"),
-                         modes::galvo_measurements_to_json(*galvo_measured_));
+    if (!keep(record_name(report_.number, "measurements.json"),
+              modes::galvo_measurements_to_json(*galvo_measured_)))
+        return;
     enter(CycleState::solve, std::to_string(galvo_measured_->nodes.size()) + " marks, " +
                                  std::to_string(galvo_measured_->missing.size()) + " missing");
     auto solution = std::make_shared<modes::GalvoSolution>();
@@ -895,10 +979,12 @@ void Cycle::solve_galvo() {
              report_.galvo = *solution;
              report_.measured_xy_rms_mm = solution->fit.before.rms_mm;
              report_.measured_xy_max_mm = solution->fit.before.max_mm;
-             d_.data.replace_file(record_name(report_.number, "result.json"),
-                                  modes::galvo_result_to_json(*solution));
-             d_.data.replace_file(record_name(report_.number, "table.csv"),
-                                  models::table_to_csv(solution->fit.table));
+             if (!keep(record_name(report_.number, "result.json"),
+                       modes::galvo_result_to_json(*solution)))
+                 return;
+             if (!keep(record_name(report_.number, "table.csv"),
+                       models::table_to_csv(solution->fit.table)))
+                 return;
              review();
          });
 }
@@ -926,9 +1012,9 @@ void Cycle::review_galvo() {
 void Cycle::apply_galvo() {
     enter(CycleState::apply, "keeping the table: jobs now go through it");
     const auto previous = d_.data.read_file(kGalvoTableFile);
-    d_.data.replace_file(record_name(report_.number, kept_backup_name()),
-                         previous.value_or(kNoGalvoTable));
-    d_.data.replace_file(kGalvoTableFile, modes::galvo_result_to_json(*report_.galvo));
+    if (!keep(record_name(report_.number, kept_backup_name()), previous.value_or(kNoGalvoTable)))
+        return;
+    if (!keep(kGalvoTableFile, modes::galvo_result_to_json(*report_.galvo))) return;
     report_.applied = true;
     verify();
 }
@@ -957,13 +1043,13 @@ void Cycle::verify_galvo() {
                              [this, again] {
                                  report_.verify_xy_rms_mm = again->fit.before.rms_mm;
                                  report_.verify_xy_max_mm = again->fit.before.max_mm;
-                                 d_.data.replace_file(
-                                     record_name(report_.number, "verify-measurements.json"),
-                                     modes::galvo_measurements_to_json(*galvo_measured_));
+                                 if (!keep(record_name(report_.number, "verify-measurements.json"),
+                                           modes::galvo_measurements_to_json(*galvo_measured_)))
+                                     return;
                                  // Its "before" is the table's verified "after".
-                                 d_.data.replace_file(
-                                     record_name(report_.number, "verify-result.json"),
-                                     modes::galvo_result_to_json(*again));
+                                 if (!keep(record_name(report_.number, "verify-result.json"),
+                                           modes::galvo_result_to_json(*again)))
+                                     return;
                                  log_("cycle " + std::to_string(report_.number) +
                                       ": verified on the grid burned through the table: " +
                                       fixed(again->fit.before.mean_mm, 4) + " mm mean, " +
@@ -995,8 +1081,9 @@ const char* Cycle::kept_backup_name() const {
 }
 
 void Cycle::solve_planar() {
-    d_.data.replace_file(record_name(report_.number, "measurements.json"),
-                         modes::planar_measurements_to_json(*planar_measured_));
+    if (!keep(record_name(report_.number, "measurements.json"),
+              modes::planar_measurements_to_json(*planar_measured_)))
+        return;
     enter(CycleState::solve, std::to_string(planar_measured_->holes.size()) + " holes, " +
                                  std::to_string(planar_measured_->missing.size()) + " missing");
     auto solution = std::make_shared<modes::PlanarSolution>();
@@ -1010,13 +1097,14 @@ void Cycle::solve_planar() {
             report_.planar = *solution;
             report_.measured_xy_rms_mm = rms_norm(solution->error_mm);
             report_.measured_xy_max_mm = solution->before.max_mm;
-            d_.data.replace_file(record_name(report_.number, "result.json"),
-                                 modes::planar_result_to_json(*solution, *firmware));
+            if (!keep(record_name(report_.number, "result.json"),
+                      modes::planar_result_to_json(*solution, *firmware)))
+                return;
             // The firmware's own knobs, for a person who would rather set them: shown, not sent
             // (the compensated jobs carry the whole model; both would correct twice).
             std::string lines;
             for (const auto& line : firmware->lines) lines += line + "\n";
-            d_.data.replace_file(record_name(report_.number, "firmware.txt"), lines);
+            if (!keep(record_name(report_.number, "firmware.txt"), lines)) return;
             review();
         });
 }
@@ -1041,11 +1129,12 @@ void Cycle::review_planar() {
 void Cycle::apply_planar() {
     enter(CycleState::apply, "keeping the error model: jobs now go through it");
     const auto previous = d_.data.read_file(kPlanarResultFile);
-    d_.data.replace_file(record_name(report_.number, kept_backup_name()),
-                         previous.value_or(kNoPlanarResult));
-    d_.data.replace_file(kPlanarResultFile, modes::planar_result_to_json(
-                                                *report_.planar, modes::planar_firmware_settings(
-                                                                     machine_, *report_.planar)));
+    if (!keep(record_name(report_.number, kept_backup_name()), previous.value_or(kNoPlanarResult)))
+        return;
+    if (!keep(kPlanarResultFile,
+              modes::planar_result_to_json(
+                  *report_.planar, modes::planar_firmware_settings(machine_, *report_.planar))))
+        return;
     report_.applied = true;
     verify();
 }
@@ -1080,9 +1169,9 @@ void Cycle::verify_planar() {
                                  const auto& v = again->before;
                                  report_.verify_xy_rms_mm = rms_norm(again->error_mm);
                                  report_.verify_xy_max_mm = v.max_mm;
-                                 d_.data.replace_file(
-                                     record_name(report_.number, "verify-measurements.json"),
-                                     modes::planar_measurements_to_json(*planar_measured_));
+                                 if (!keep(record_name(report_.number, "verify-measurements.json"),
+                                           modes::planar_measurements_to_json(*planar_measured_)))
+                                     return;
                                  log_("cycle " + std::to_string(report_.number) +
                                       ": verified on the grid drilled through the model: " +
                                       fixed(v.mean_mm, 4) + " mm mean, " + fixed(v.max_mm, 4) +
@@ -1096,7 +1185,7 @@ void Cycle::verify_planar() {
 }
 
 void Cycle::finish_cycle() {
-    d_.data.replace_file("last-cycle", std::to_string(report_.number) + "\n");
+    if (!keep("last-cycle", std::to_string(report_.number) + "\n")) return;
     const double total = seconds(d_.clock.now() - cycle_started_);
     log_("cycle " + std::to_string(report_.number) + ": done in " + fixed(total, 1) +
          " s: the box's own work " + fixed(report_.box_seconds, 2) + " s, camera " +
@@ -1110,6 +1199,7 @@ void Cycle::finish_cycle() {
     if (report_.measured_xy_rms_mm && report_.verify_xy_rms_mm)
         show(draw_screen(DoneScreen{fixed(*report_.measured_xy_rms_mm, 4) + " mm",
                                     fixed(*report_.verify_xy_rms_mm, 4) + " mm"}));
+    close_record();
     if (on_cycle_end) on_cycle_end(true);
 }
 

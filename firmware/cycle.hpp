@@ -6,6 +6,7 @@
 // camera and the worker report back through the loop.
 #include <array>
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -66,7 +67,16 @@ constexpr const char* kNoGalvoTable = "none\n";
 constexpr const char* kPlanarResultFile = "planar-result.json";
 constexpr const char* kNoPlanarResult = "none\n";
 
+// Each cycle's record in the data directory (cycle-NNNN-*): what it measured, solved, sent and
+// showed; the oldest are pruned past these.
+struct RecordSettings {
+    int keep_cycles = 50;
+    std::uintmax_t max_bytes = 500'000'000;
+    bool keep_photos = false;  // each capture's photos as PNG (12 MP: about 8 MB each)
+};
+
 struct CycleSettings {
+    RecordSettings records;
     int frames_per_capture = 1;                  // averaged by measure
     std::chrono::milliseconds long_press{1500};  // at least this long: cancel
     int calibration_views = 12;
@@ -159,6 +169,10 @@ class Cycle {
     void ask(Prompt prompt, int step, std::function<void()> then);
     void fail(const std::string& message);
     void show(const hal::MonoBitmap& frame);
+    // Keeps a file of the cycle's; false (and the cycle in error) when it could not.
+    bool keep(const std::string& name, const std::string& contents);
+    void close_record();
+    void prune_records();
     ProgressScreen progress_screen(const std::string& detail) const;
     IdleScreen idle_screen() const;
     void set_leds();
@@ -249,6 +263,8 @@ class Cycle {
     std::array<double, 12> stage_seconds_{};
     std::optional<std::array<double, 12>> last_stage_seconds_;
     std::chrono::nanoseconds entered_at_{0};
+    bool cycle_running_ = false;                  // a cycle's record is open
+    std::vector<hal::MonoBitmap> cycle_screens_;  // what the display showed during it
 };
 
 // Wires the machine link to the loop: replies and the reply timer; a link that is gone is no

@@ -2,7 +2,8 @@
 // The appliance on the sim board, wired as `calbox run` wires it: the board's devices, the data
 // directory, the event loop, the worker, the machine link and the cycle. The clock is the
 // caller's: the real one for `calbox run` and `calbox revert`, a fake one in the tests. A
-// camera of the caller's (photos from files, or the twin's wrapped) may stand in for the twin's.
+// camera of the caller's (photos from files, or the twin's wrapped) may stand in for the twin's,
+// and the data directory's file calls may be a test's (a full disk).
 #include <functional>
 
 #include "board/sim/sim_board.hpp"
@@ -25,9 +26,10 @@ struct SimAppliance {
 
     SimAppliance(const sim::SimSettings& sim, hal::Clock& clock, GcodeHostSettings link,
                  CycleSettings settings, const Cycle::Log& log,
-                 const CameraChoice& choose_camera = {})
+                 const CameraChoice& choose_camera = {},
+                 drivers::FileSystemCalls& data_files = drivers::posix_file_system())
         : board(sim::make_sim_board(sim, clock, log)),
-          data(sim.data_dir),
+          data(sim.data_dir, data_files),
           host(*board.machine, clock, link, log),
           camera(choose_camera ? choose_camera(board) : *board.camera),
           cycle({camera, *board.lines, host, *board.display, clock, data, worker},

@@ -10,10 +10,13 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <sstream>
 
@@ -80,11 +83,12 @@ struct Rig {
     int ended = 0;
 
     Rig(const fs::path& data_dir, const std::string& scenario, firmware::CycleSettings settings,
-        const firmware::SimAppliance::CameraChoice& choose_camera = {})
+        const firmware::SimAppliance::CameraChoice& choose_camera = {},
+        drivers::FileSystemCalls& data_files = drivers::posix_file_system())
         : dir(data_dir),
           box(
               {scenario, data_dir, 115200}, clock, {1, 5000ms, 8}, std::move(settings),
-              [this](const std::string& l) { log.push_back(l); }, choose_camera) {
+              [this](const std::string& l) { log.push_back(l); }, choose_camera, data_files) {
         cycle.on_prompt = [this](firmware::Prompt p, int step) {
             if (intercept && intercept(p)) return;
             if (operator_acts) firmware::act_on_prompt(*board.bench, *board.lines, p, step);
@@ -665,6 +669,97 @@ TEST(ApplianceFiles, a_source_without_photos_and_photos_running_out_are_errors) 
 // A galvo scanner under the box (issue 17): the grid burned over the link, measured, the table
 // kept by the box, the grid burned through it to verify, and revert putting the previous (no)
 // table back. Half-size camera; the set-up from photos as on a real box.
+// The data directory's disk, filling up when the test says: every write then fails as a full
+// disk's does (ENOSPC), after part of the bytes went in.
+struct FillingDisk final : drivers::FileSystemCalls {
+    bool full = false;
+    drivers::FileSystemCalls& real = drivers::posix_file_system();
+    int create_truncated(const fs::path& p) override { return real.create_truncated(p); }
+    void write_all(int h, std::string_view bytes) override {
+        if (!full) return real.write_all(h, bytes);
+        real.write_all(h, bytes.substr(0, bytes.size() / 2));
+        errno = ENOSPC;
+        throw std::runtime_error("cannot write " + std::to_string(h) + ": " + std::strerror(errno));
+    }
+    void flush(int h) override { real.flush(h); }
+    void close(int h) override { real.close(h); }
+    void rename(const fs::path& a, const fs::path& b) override { real.rename(a, b); }
+    void flush_directory(const fs::path& d) override { real.flush_directory(d); }
+    void remove(const fs::path& p) noexcept override { real.remove(p); }
+};
+
+TEST(ApplianceFiles, a_full_disk_stops_the_cycle_with_nothing_half_written_and_nothing_sent) {
+    FillingDisk disk;
+    Rig rig(prepared_dir("full_disk"), kScenario.string(), {}, {}, disk);
+    const auto before = rig.board.bench->judge_delta_printer();
+    disk.full = true;
+    rig.run_cycle();
+    CHECK(rig.cycle.state() == firmware::CycleState::error);
+    STRCMP_CONTAINS("records: cannot write", rig.cycle.error().c_str());
+    STRCMP_CONTAINS("No space left on device", rig.cycle.error().c_str());
+    for (const auto& line : rig.transcript()) {
+        CHECK_TEXT(command_of(line).rfind("M665", 0) != 0 && command_of(line).rfind("M500", 0) != 0,
+                   ("sent with a full disk: " + line).c_str());
+    }
+    for (const auto& entry : fs::directory_iterator(rig.dir)) {
+        const auto name = entry.path().filename().string();
+        CHECK_TEXT(name.find(".tmp") == std::string::npos, ("left behind: " + name).c_str());
+        CHECK_TEXT(name.rfind("cycle-0001-", 0) != 0, ("half a record: " + name).c_str());
+    }
+    const auto after = rig.board.bench->judge_delta_printer();
+    DOUBLES_EQUAL(before.xy_rms, after.xy_rms, 1e-12);  // the printer's geometry as it was
+    check_error_state(rig, "No space left on device");
+}
+
+// A cycle's record: measurements, result, backup, its photos (records.keep_photos) and every
+// display frame it showed; older records pruned past the count, then past the size.
+TEST(ApplianceFiles, each_cycle_leaves_a_record_and_old_ones_are_pruned) {
+    const fs::path dir = prepared_dir("records");
+    for (int n : {1, 2, 3}) {
+        char name[40];
+        std::snprintf(name, sizeof name, "cycle-%04d-result.json", n);
+        std::ofstream(dir / name) << "{}\n";
+    }
+    fs::resize_file(dir / "cycle-0002-result.json", 50'000'000);  // sparse: 50 MB on paper
+    std::ofstream(dir / "last-cycle") << "3\n";
+    std::ofstream(dir / "cycle-notes.txt") << "not a record\n";
+    firmware::CycleSettings settings;
+    settings.records = {3, 20'000'000, true};
+    Rig rig(dir, kScenario.string(), settings);
+    rig.run_cycle();
+    CHECK_EQUAL(1, rig.cycle.cycles_completed());
+    CHECK_EQUAL(4, rig.cycle.report().number);
+    std::uintmax_t newest_bytes = 0;
+    int screens = 0;
+    for (const auto& entry : fs::directory_iterator(dir)) {
+        const auto name = entry.path().filename().string();
+        if (name.rfind("cycle-0004-", 0) == 0) newest_bytes += entry.file_size();
+        if (name.rfind("cycle-0004-screen-", 0) == 0) ++screens;
+    }
+    CHECK_TEXT(newest_bytes < 15'000'000, "the newest record alone is too big for this test");
+    CHECK_FALSE(fs::exists(dir / "cycle-0001-result.json"));  // past the count of 3
+    CHECK_FALSE(fs::exists(dir / "cycle-0002-result.json"));  // past 20 MB
+    CHECK_TRUE(fs::exists(dir / "cycle-0003-result.json"));
+    CHECK_TRUE(fs::exists(dir / "cycle-notes.txt"));
+    for (const char* f : {"measurements.json", "result.json", "backup.gcode",
+                          "verify-measurements.json", "target-photo-1.png", "verify-photo-1.png"})
+        CHECK_TEXT(fs::exists(dir / ("cycle-0004-" + std::string(f))), f);
+    const cv::Mat photo =
+        cv::imread((dir / "cycle-0004-target-photo-1.png").string(), cv::IMREAD_UNCHANGED);
+    CHECK_EQUAL(2028, photo.cols);
+    CHECK_EQUAL(1520, photo.rows);
+    CHECK_EQUAL(CV_8UC1, photo.type());
+    // Every frame the display showed from the start to the done screen.
+    CHECK_TRUE(screens >= 10);
+    const cv::Mat last_screen =
+        cv::imread((dir / ("cycle-0004-screen-" + std::string(screens < 10 ? "0" : "") +
+                           std::to_string(screens) + ".png"))
+                       .string(),
+                   cv::IMREAD_GRAYSCALE);
+    CHECK_EQUAL(128, last_screen.cols);
+    CHECK_EQUAL(64, last_screen.rows);
+}
+
 TEST_GROUP(ApplianceGalvo){void setup() override{mock().ignoreOtherCalls();
 }
 void teardown() override {

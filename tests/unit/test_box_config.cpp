@@ -43,8 +43,9 @@ TEST(BoxConfig, reads_every_table_and_names_the_line_of_what_it_does_not_know) {
     const auto settings = config.cycle_settings({});
     CHECK_EQUAL(4, settings.frames_per_capture);
     DOUBLES_EQUAL(3.0, settings.plane_board_thickness_mm, 0);  // an integer where a number is
-    CHECK_TRUE(config.records().keep_photos);
-    CHECK_EQUAL(50, config.records().keep_cycles);
+    CHECK_TRUE(settings.records.keep_photos);
+    CHECK_EQUAL(50, settings.records.keep_cycles);
+    CHECK_EQUAL(500000000U, settings.records.max_bytes);
 
     STRCMP_CONTAINS("calbox.toml:3: [modbus] sever: unknown key",
                     config_error("[modbus]\nserver = \"\"\nsever = \"tcp:h:1\"\n").c_str());

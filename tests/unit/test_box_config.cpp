@@ -101,7 +101,7 @@ TEST(BoxConfig, what_it_writes_reads_back_the_same_for_every_key) {
     config.set("modbus.client_map", "map.toml");
     config.set("setup.plane_board_thickness_mm", "0.125");
     config.set("records.keep_photos", "true");
-    config.set("cycle.camera_moved_px", "3.75");
+    config.set("cycle.long_press_ms", "2250");
     const auto again = firmware::BoxConfig::from_toml(config.to_toml(), "saved.toml");
     CHECK_TRUE(again == config);
     for (const auto& key : firmware::config_schema())

@@ -36,8 +36,8 @@ namespace calbox::cli {
 namespace {
 
 constexpr const char* kRunHelp = R"(usage:
-  calbox run [--board sim] [--scenario FILE] [--data DIR] [--config FILE] [--auto | --operator]
-             [--frames N] [--camera-files DIR|GLOB]
+  calbox run [--board sim] [--scenario FILE] [--data DIR] [--config FILE] [--console DEVICE]
+             [--auto | --operator | --operator-hands] [--frames N] [--camera-files DIR|GLOB]
              [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
              [--modbus-word-order ORDER]
       The appliance: waits for the button, then runs the calibration cycle of the scenario's
@@ -66,11 +66,19 @@ constexpr const char* kRunHelp = R"(usage:
                       0.01 mm, worst <= 0.03 mm over the printable area; a galvo's marks through
                       the table <= 0.008 mm mean, <= 0.03 mm worst; a router's (or printer's) fresh points
                       through the model under 0.05 mm mean and 95 % less than before.
-      --config FILE   the box's configuration (TOML; README, Configuration): today its [modbus]
-                      table, which the --modbus-* options override
+      --config FILE   the box's configuration (TOML; README, Configuration; default
+                      DIR/calbox.toml when it exists): [cycle], [setup], [records], [console] and
+                      [modbus]; the options override it. The console's `config save` writes it
+      --console DEVICE
+                      the console (README, Console): a serial device, "pty" (a pseudo-terminal,
+                      linked as DIR/console), "stdin" (the default: standard input when it is a
+                      terminal) or "" for none; overrides console.device
       --operator      the sim board's operator does what the set-up and bed prompts ask, but
                       the start and the review are left to the button, the console or a PLC
-      --frames N      photos averaged per capture (default 1)
+      --operator-hands
+                      the operator does what each prompt asks but presses nothing: every press
+                      comes from the console or the button
+      --frames N      photos averaged per capture (default: cycle.frames_per_capture, 1)
       --camera-files DIR|GLOB
                       photos from image files (name order, one per frame) instead of the
                       camera: a cycle re-run on saved photos, or photos from another camera.
@@ -87,7 +95,9 @@ constexpr const char* kRunHelp = R"(usage:
       --modbus-word-order ORDER
                       the floats' word order on Modbus: abcd (default: 123456.0 is 0x47F1
                       0x2000), cdab, badc or dcba
-      Standard input, when it is a terminal, takes: start, press, hold, cancel, status, quit.
+      The console's commands: help, status, config list|get|set|save|reset, start, confirm,
+      cancel, revert, last, log, version, camera calibrate|plane, capture; on the sim board also
+      press, hold and quit.
   calbox revert [--board sim] [--scenario FILE] [--data DIR]
       Sends the settings backed up before the last completed cycle applied its correction
       (DIR/cycle-NNNN-backup.gcode), then M500, and reads them back from the printer (M503;

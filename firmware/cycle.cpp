@@ -14,6 +14,7 @@
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
 #include "core/targets/planar_target.hpp"
+#include "firmware/overlays.hpp"
 #include "firmware/png.hpp"
 #include "firmware/screens.hpp"
 
@@ -717,9 +718,10 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
         const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
         // The photos join the record when the configuration says so, encoded off the loop.
         auto photos = std::make_shared<std::vector<std::string>>();
+        auto overlay = std::make_shared<std::string>();  // what was found, on the first photo
         work(
             [machine = machine_, frames, record, galvo, planar, camera_yaml, plane_yaml, photos,
-             keep_photos = settings_.records.keep_photos] {
+             overlay, keep_photos = settings_.records.keep_photos] {
                 if (keep_photos)
                     for (const auto& frame : *frames) photos->push_back(png_of(frame));
                 const auto camera = geometry::camera_from_yaml(camera_yaml);
@@ -745,18 +747,26 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                     // One photo of the whole grid: the first frame.
                     *galvo = modes::measure_galvo(machine, camera, plane, views.front());
                     galvo->photos = {names.front()};
+                    *overlay = galvo_overlay_png(views.front(), *galvo, machine, camera, plane);
                     return;
                 }
                 if (machine.is_planar()) {
                     // The box's camera sees the whole sheet: the first frame.
                     *planar = modes::measure_planar(machine, camera, plane, views.front());
                     planar->photos = {names.front()};
+                    *overlay = planar_overlay_png(views.front(), *planar, machine, camera, plane);
                     return;
                 }
                 const auto measured = modes::measure_delta(machine, camera, plane, views);
                 *record = modes::record_of(measured, machine, names);
+                *overlay = delta_overlay_png(views.front(), measured, camera, plane);
             },
-            [this, record, galvo, planar, then, photos, state] {
+            [this, record, galvo, planar, then, photos, overlay, state] {
+                if (!keep(record_name(report_.number, state == CycleState::verify
+                                                          ? "verify-overlay.png"
+                                                          : "overlay.png"),
+                          *overlay))
+                    return;
                 for (std::size_t i = 0; i < photos->size(); ++i) {
                     const std::string what =
                         std::string(state == CycleState::verify ? "verify" : "target") + "-photo-" +

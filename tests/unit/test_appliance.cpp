@@ -741,14 +741,17 @@ TEST(ApplianceFiles, each_cycle_leaves_a_record_and_old_ones_are_pruned) {
     CHECK_FALSE(fs::exists(dir / "cycle-0002-result.json"));  // past 20 MB
     CHECK_TRUE(fs::exists(dir / "cycle-0003-result.json"));
     CHECK_TRUE(fs::exists(dir / "cycle-notes.txt"));
-    for (const char* f : {"measurements.json", "result.json", "backup.gcode",
-                          "verify-measurements.json", "target-photo-1.png", "verify-photo-1.png"})
+    for (const char* f :
+         {"measurements.json", "result.json", "backup.gcode", "verify-measurements.json",
+          "target-photo-1.png", "verify-photo-1.png", "overlay.png", "verify-overlay.png"})
         CHECK_TEXT(fs::exists(dir / ("cycle-0004-" + std::string(f))), f);
     const cv::Mat photo =
         cv::imread((dir / "cycle-0004-target-photo-1.png").string(), cv::IMREAD_UNCHANGED);
     CHECK_EQUAL(2028, photo.cols);
     CHECK_EQUAL(1520, photo.rows);
     CHECK_EQUAL(CV_8UC1, photo.type());
+    const cv::Mat overlay = cv::imread((dir / "cycle-0004-overlay.png").string(), cv::IMREAD_COLOR);
+    CHECK_EQUAL(2028, overlay.cols);  // drawn on the first photo
     // Every frame the display showed from the start to the done screen.
     CHECK_TRUE(screens >= 10);
     const cv::Mat last_screen =

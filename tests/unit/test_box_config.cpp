@@ -7,6 +7,8 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <optional>
 #include <random>
@@ -92,6 +94,16 @@ TEST(BoxConfig, a_set_is_validated_before_it_takes_and_reset_gives_the_default) 
     DOUBLES_EQUAL(2.5, config.number("setup.plane_board_thickness_mm"), 0);
     config.reset("cycle.frames_per_capture");
     STRCMP_EQUAL("1", config.get("cycle.frames_per_capture").c_str());
+}
+
+TEST(BoxConfig, the_readme_documents_every_key) {
+    std::ifstream in(std::string(CALBOX_SOURCE_DIR) + "/README.md");
+    const std::string readme((std::istreambuf_iterator<char>(in)),
+                             std::istreambuf_iterator<char>());
+    CHECK_TRUE(readme.size() > 1000);
+    for (const auto& key : firmware::config_schema())
+        CHECK_TEXT(readme.find("| `" + std::string(key.name) + "` |") != std::string::npos,
+                   std::string(key.name).c_str());
 }
 
 TEST(BoxConfig, what_it_writes_reads_back_the_same_for_every_key) {

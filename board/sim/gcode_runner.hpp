@@ -46,6 +46,9 @@ class GcodeRunner {
     void run_line(std::string_view text);
     void run(std::istream& job);
     const JobResult& result() const { return result_; }
+    // The strokes laid so far are gone (the bed cleared): a twin that runs for hundreds of cycles
+    // does not keep every one it ever laid.
+    void forget_strokes() { result_.strokes.clear(); }
 
   private:
     void move(const gcode::Line& line);

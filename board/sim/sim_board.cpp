@@ -186,7 +186,8 @@ void TwinBench::take_board_away() {
 
 void TwinBench::clear_bed() {
     const std::lock_guard lock(mutex_);
-    strokes_cleared_ = runner_->result().strokes.size();
+    runner_->forget_strokes();
+    strokes_cleared_ = 0;
     earlier_runs_.clear();
 }
 

@@ -1,5 +1,6 @@
 #include "firmware/console.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -179,8 +180,7 @@ std::string Console::reply_to(std::string_view line) {
             if (cycle.state() == CycleState::setup_camera)
                 r.text += "\nset-up: view " + std::to_string(cycle.prompt_step() + 1) +
                           ", image covered " +
-                          std::to_string(static_cast<int>(100 * cycle.setup_coverage() + 0.5)) +
-                          " %";
+                          std::to_string(std::lround(100 * cycle.setup_coverage())) + " %";
             r.text += "\ncycle: " + std::to_string(cycle.report().number) + " (" +
                       std::to_string(cycle.cycles_completed()) + " completed since start)";
             if (!cycle.error().empty()) r.text += "\nlast error: " + cycle.error();

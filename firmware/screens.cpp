@@ -13,7 +13,8 @@ constexpr std::array<std::array<std::uint8_t, 12>, 95> kFont = {{
 #include "firmware/font_6x12.inc"
 }};
 
-constexpr int kLineTop[5] = {0, 13, 26, 39, 52};  // a 12 px title, then 13 px per line
+// A 12 px title, then 13 px per line; a row outside them is a programming error (at() throws).
+constexpr std::array<int, 5> kLineTop = {0, 13, 26, 39, 52};
 
 hal::MonoBitmap with_title(std::string_view title) {
     hal::MonoBitmap b(128, 64);
@@ -24,12 +25,13 @@ hal::MonoBitmap with_title(std::string_view title) {
 }
 
 void line(hal::MonoBitmap& b, int row, std::string_view text) {
-    draw_text(b, 1, kLineTop[row], text.substr(0, kScreenColumns));
+    draw_text(b, 1, kLineTop.at(static_cast<std::size_t>(row)), text.substr(0, kScreenColumns));
 }
 
 // A bar over the line's width, filled to `fraction`.
 void bar(hal::MonoBitmap& b, int row, double fraction) {
-    const int top = kLineTop[row] + 2, bottom = kLineTop[row] + 9;
+    const int top = kLineTop.at(static_cast<std::size_t>(row)) + 2,
+              bottom = kLineTop.at(static_cast<std::size_t>(row)) + 9;
     const int filled = 2 + static_cast<int>(std::lround(std::clamp(fraction, 0.0, 1.0) * 123));
     for (int x = 1; x < 127; ++x) {
         b.set(x, top, true);

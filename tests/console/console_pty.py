@@ -242,6 +242,11 @@ t.wait_notice("waiting: clear the bed")
 t.ask("cancel")
 t.wait_state("idle")
 t.ask("revert")
+t.ask("config reset")
+if t.ask("config get setup.calibration_views")["value"] != "12":
+    fail("config reset did not reset every key")
+if "calibration_views = 8" not in open(saved).read():
+    fail("config reset touched the saved file")
 t.send("quit\n")  # its reply may be lost with the pty as the box exits
 box.wait(60)
 if box.returncode != 0:

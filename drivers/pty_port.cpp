@@ -9,32 +9,13 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "drivers/fd_stream.hpp"
+
 namespace calbox::drivers {
 namespace {
 
 std::runtime_error pty_error(const char* what) {
     return std::runtime_error(std::string("console pty: ") + what + ": " + std::strerror(errno));
-}
-
-std::size_t read_ready(int fd, std::span<std::uint8_t> into, const char* gone) {
-    while (true) {
-        const ssize_t n = ::read(fd, into.data(), into.size());
-        if (n > 0) return static_cast<std::size_t>(n);
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return 0;
-        throw std::runtime_error(std::string(gone) +
-                                 (n == 0 ? std::string(" (end of input)") : std::strerror(errno)));
-    }
-}
-
-std::size_t write_ready(int fd, std::span<const std::uint8_t> bytes, const char* gone) {
-    while (true) {
-        const ssize_t n = ::write(fd, bytes.data(), bytes.size());
-        if (n >= 0) return static_cast<std::size_t>(n);
-        if (errno == EINTR) continue;
-        if (errno == EAGAIN || errno == EWOULDBLOCK) return 0;
-        throw std::runtime_error(std::string(gone) + std::strerror(errno));
-    }
 }
 
 }  // namespace
@@ -71,19 +52,19 @@ PtyPort::~PtyPort() {
 }
 
 std::size_t PtyPort::read_some(std::span<std::uint8_t> into) {
-    return read_ready(master_, into, "console pty: gone: ");
+    return read_available(master_, into, "console pty");
 }
 
 std::size_t PtyPort::write_some(std::span<const std::uint8_t> bytes) {
-    return write_ready(master_, bytes, "console pty: gone: ");
+    return write_available(master_, bytes, "console pty");
 }
 
 std::size_t StdioPort::read_some(std::span<std::uint8_t> into) {
-    return read_ready(0, into, "standard input: closed");
+    return read_available(0, into, "standard input");
 }
 
 std::size_t StdioPort::write_some(std::span<const std::uint8_t> bytes) {
-    return write_ready(1, bytes, "standard output: ");
+    return write_available(1, bytes, "standard output");
 }
 
 }  // namespace calbox::drivers

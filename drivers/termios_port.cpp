@@ -8,6 +8,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "drivers/fd_stream.hpp"
+
 namespace calbox::drivers {
 namespace {
 
@@ -74,25 +76,11 @@ TermiosPort::~TermiosPort() {
 }
 
 std::size_t TermiosPort::read_some(std::span<std::uint8_t> into) {
-    while (true) {
-        const ssize_t n = ::read(fd_, into.data(), into.size());
-        if (n > 0) return static_cast<std::size_t>(n);
-        if (n < 0 && errno == EINTR) continue;
-        if (n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK)) return 0;
-        // A tty that reads end-of-file or EIO has lost its far end (hang-up, USB gone).
-        throw std::runtime_error(device_ + ": link gone (" +
-                                 (n == 0 ? std::string("hang-up") : std::strerror(errno)) + ")");
-    }
+    return read_available(fd_, into, device_);
 }
 
 std::size_t TermiosPort::write_some(std::span<const std::uint8_t> bytes) {
-    while (true) {
-        const ssize_t n = ::write(fd_, bytes.data(), bytes.size());
-        if (n >= 0) return static_cast<std::size_t>(n);
-        if (errno == EINTR) continue;
-        if (errno == EAGAIN || errno == EWOULDBLOCK) return 0;
-        throw std::runtime_error(device_ + ": link gone (" + std::strerror(errno) + ")");
-    }
+    return write_available(fd_, bytes, device_);
 }
 
 }  // namespace calbox::drivers

@@ -9,6 +9,7 @@
 
 #include "core/geometry/pattern_spec.hpp"
 #include "core/models/register_words.hpp"
+#include "core/number_text.hpp"
 #include "drivers/modbus_link.hpp"
 
 namespace calbox::firmware {
@@ -177,19 +178,13 @@ std::string_view key_of(std::string_view name) {
     return name.substr(name.find('.') + 1);
 }
 
-std::string number_text(double v) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.10g", v);
-    return b;
-}
-
 std::string range_text(const ConfigKey& k) {
     if (k.kind == K::choice) return "one of " + std::string(k.choices);
     if (k.kind == K::flag) return "true or false";
     if (k.kind == K::text) return "text";
     const bool whole = k.kind == K::integer;
-    return (whole ? "a whole number " : "a number ") + number_text(k.min) + " to " +
-           number_text(k.max) + (k.unit.empty() ? "" : " " + std::string(k.unit));
+    return (whole ? "a whole number " : "a number ") + number_text("%.10g", k.min) + " to " +
+           number_text("%.10g", k.max) + (k.unit.empty() ? "" : " " + std::string(k.unit));
 }
 
 bool is_choice(const ConfigKey& k, std::string_view word) {
@@ -254,7 +249,7 @@ void check_text(std::string_view name, const std::string& value) {
 
 std::string value_text(const BoxConfig::Value& v) {
     if (const auto* i = std::get_if<std::int64_t>(&v)) return std::to_string(*i);
-    if (const auto* d = std::get_if<double>(&v)) return number_text(*d);
+    if (const auto* d = std::get_if<double>(&v)) return number_text("%.10g", *d);
     if (const auto* b = std::get_if<bool>(&v)) return *b ? "true" : "false";
     return std::get<std::string>(v);
 }
@@ -318,7 +313,7 @@ BoxConfig BoxConfig::from_toml(const std::string& text, const std::string& file)
                 v && (k->kind == K::integer || k->kind == K::number || k->kind == K::choice))
                 as_text = std::to_string(v->get());
             else if (const auto* d = node.as_floating_point(); d && k->kind == K::number)
-                as_text = number_text(d->get());
+                as_text = number_text("%.10g", d->get());
             else if (const auto* b = node.as_boolean(); b && k->kind == K::flag)
                 as_text = b->get() ? "true" : "false";
             else if (const auto* s = node.as_string();

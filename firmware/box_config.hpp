@@ -78,9 +78,4 @@ class BoxConfig {
     std::map<std::string, Value, std::less<>> values_;
 };
 
-// Kept for `calbox run --config`: BoxConfig::from_toml.
-inline BoxConfig read_box_config(const std::string& text, const std::string& file) {
-    return BoxConfig::from_toml(text, file);
-}
-
 }  // namespace calbox::firmware

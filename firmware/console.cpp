@@ -5,6 +5,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "core/number_text.hpp"
+
 namespace calbox::firmware {
 namespace {
 
@@ -63,12 +65,6 @@ std::string rest_after(std::string_view line, std::size_t skip) {
     if (rest.size() >= 2 && rest.front() == '"' && rest.back() == '"')
         rest = rest.substr(1, rest.size() - 2);
     return rest;
-}
-
-std::string fixed(double v, int decimals) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.*f", decimals, v);
-    return b;
 }
 
 const char* kind_name(ConfigKind k) {
@@ -310,11 +306,13 @@ std::string Console::reply_to(std::string_view line) {
                 r.text = "cycle " + std::to_string(report.number) + ": " +
                          (report.applied ? "applied" : "not applied");
                 if (report.measured_xy_rms_mm)
-                    r.text += "\nbefore: " + fixed(*report.measured_xy_rms_mm, 4) + " mm RMS, " +
-                              fixed(*report.measured_xy_max_mm, 4) + " mm worst (measured)";
+                    r.text += "\nbefore: " + number_text("%.4f", *report.measured_xy_rms_mm) +
+                              " mm RMS, " + number_text("%.4f", *report.measured_xy_max_mm) +
+                              " mm worst (measured)";
                 if (report.verify_xy_rms_mm)
-                    r.text += "\nafter: " + fixed(*report.verify_xy_rms_mm, 4) + " mm RMS, " +
-                              fixed(*report.verify_xy_max_mm, 4) + " mm worst (measured)";
+                    r.text += "\nafter: " + number_text("%.4f", *report.verify_xy_rms_mm) +
+                              " mm RMS, " + number_text("%.4f", *report.verify_xy_max_mm) +
+                              " mm worst (measured)";
                 r.data = {{"cycle", report.number}, {"applied", report.applied}};
                 if (report.measured_xy_rms_mm)
                     r.data["before"] = {{"rms_mm", *report.measured_xy_rms_mm},

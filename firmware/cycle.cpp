@@ -9,6 +9,7 @@
 #include "core/geometry/calibration.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta_records.hpp"
+#include "core/number_text.hpp"
 #include "core/targets/compensate.hpp"
 #include "core/targets/delta_target.hpp"
 #include "core/targets/galvo_target.hpp"
@@ -39,10 +40,6 @@ std::string record_name(int cycle, const char* what) {
     char b[64];
     std::snprintf(b, sizeof b, "cycle-%04d-%s", cycle, what);
     return b;
-}
-
-std::string signed_fixed(double v, int decimals) {
-    return (v >= 0 ? "+" : "") + fixed(v, decimals);
 }
 
 // The error screen's one line: what to look at first when a stage fails.
@@ -832,8 +829,8 @@ void Cycle::review() {
          " mm worst");
     for (const auto& command : s.commands) log_("  " + command);
     show(draw_screen(ReviewScreen{
-        {"rod " + signed_fixed(s.after.diagonal_rod_mm - before.diagonal_rod_mm, 3) + " mm",
-         "radius " + signed_fixed(s.after.radius_mm - before.radius_mm, 3) + " mm"},
+        {"rod " + number_text("%+.3f", s.after.diagonal_rod_mm - before.diagonal_rod_mm) + " mm",
+         "radius " + number_text("%+.3f", s.after.radius_mm - before.radius_mm) + " mm"},
         "XY " + fixed(report_.measured_xy_rms_mm.value_or(0), 3),
         fixed(c.predicted_xy_rms_mm, 3) + " mm"}));
     ask(Prompt::review, 0, [this] { apply(); });

@@ -2,11 +2,11 @@
 
 #include <cstdio>
 #include <map>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "core/geometry/camera_model.hpp"
+#include "firmware/png_picture.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -16,10 +16,45 @@ cv::Mat as_mat(const vision::GrayView& v) {
             static_cast<std::size_t>(v.stride_bytes)};
 }
 
-std::string png(const cv::Mat& picture) {
-    std::vector<std::uint8_t> bytes;
-    if (!cv::imencode(".png", picture, bytes)) throw std::runtime_error("PNG encoding failed");
-    return {bytes.begin(), bytes.end()};
+// A grid mode's overlay: the marks found (green; those `labelled` says, with their column,row)
+// and the extra blobs (orange, twice the size), all on the sheet's surface at height z_mm.
+struct GridMark {
+    geometry::Point2 measured_mm;
+    int column = 0, row = 0;
+    bool labelled = false;
+};
+struct GridMarkStyle {
+    int radius_divisor;         // the mark's radius: the picture's width / this (at least 4 px)
+    int label_offset_radii;     // the label's start, right of the mark, in radii
+    double font_scale_divisor;  // the label's scale: the picture's width / this
+};
+
+std::string grid_overlay_png(const vision::GrayView& photo, const std::vector<GridMark>& marks,
+                             const std::vector<geometry::Point2>& extra_mm, double z_mm,
+                             const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                             const GridMarkStyle& style) {
+    cv::Mat picture;
+    cv::cvtColor(as_mat(photo), picture, cv::COLOR_GRAY2BGR);
+    const int thickness = std::max(1, picture.cols / 1500);
+    std::vector<geometry::Point3> points;
+    for (const auto& m : marks) points.push_back({m.measured_mm.x, m.measured_mm.y, z_mm});
+    for (const auto& e : extra_mm) points.push_back({e.x, e.y, z_mm});
+    const auto px = geometry::project_points(camera, plane.bed_to_camera, points);
+    const int radius = std::max(4, picture.cols / style.radius_divisor);
+    for (std::size_t i = 0; i < px.size(); ++i) {
+        const cv::Point at(cvRound(px[i].x), cvRound(px[i].y));
+        const bool mark = i < marks.size();
+        cv::circle(picture, at, mark ? radius : 2 * radius,
+                   mark ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 140, 255), thickness);
+        if (mark && marks[i].labelled) {
+            const std::string label =
+                std::to_string(marks[i].column) + "," + std::to_string(marks[i].row);
+            cv::putText(picture, label, at + cv::Point(style.label_offset_radii * radius, -radius),
+                        cv::FONT_HERSHEY_SIMPLEX, picture.cols / style.font_scale_divisor,
+                        cv::Scalar(255, 0, 0), thickness);
+        }
+    }
+    return png_of_picture(picture);
 }
 
 }  // namespace
@@ -88,7 +123,7 @@ std::string delta_overlay_png(const vision::GrayView& photo,
         cv::putText(picture, label, (from + to) / 2, cv::FONT_HERSHEY_SIMPLEX,
                     picture.cols / 2000.0, cv::Scalar(255, 160, 0), thickness);
     }
-    return png(picture);
+    return png_of_picture(picture);
 }
 
 std::string galvo_overlay_png(const vision::GrayView& photo,
@@ -96,29 +131,12 @@ std::string galvo_overlay_png(const vision::GrayView& photo,
                               const models::MachineFile& machine,
                               const geometry::CameraModel& camera,
                               const geometry::BedPlane& plane) {
-    cv::Mat picture;
-    cv::cvtColor(as_mat(photo), picture, cv::COLOR_GRAY2BGR);
-    const int thickness = std::max(1, picture.cols / 1500);
-    const double z = machine.galvo->substrate_height_mm;
-    std::vector<geometry::Point3> points;
-    for (const auto& n : measured.nodes) points.push_back({n.measured_mm.x, n.measured_mm.y, z});
-    for (const auto& e : measured.extra_mm) points.push_back({e.x, e.y, z});
-    const auto px = geometry::project_points(camera, plane.bed_to_camera, points);
-    const int radius = std::max(4, picture.cols / 300);
-    for (std::size_t i = 0; i < px.size(); ++i) {
-        const cv::Point at(cvRound(px[i].x), cvRound(px[i].y));
-        const bool node = i < measured.nodes.size();
-        cv::circle(picture, at, node ? radius : 2 * radius,
-                   node ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 140, 255), thickness);
-        if (node && measured.nodes[i].index.column % 5 == 0 &&
-            measured.nodes[i].index.row % 5 == 0) {
-            const std::string label = std::to_string(measured.nodes[i].index.column) + "," +
-                                      std::to_string(measured.nodes[i].index.row);
-            cv::putText(picture, label, at + cv::Point(radius, -radius), cv::FONT_HERSHEY_SIMPLEX,
-                        picture.cols / 4000.0, cv::Scalar(255, 0, 0), thickness);
-        }
-    }
-    return png(picture);
+    std::vector<GridMark> marks;
+    for (const auto& n : measured.nodes)
+        marks.push_back({n.measured_mm, n.index.column, n.index.row,
+                         n.index.column % 5 == 0 && n.index.row % 5 == 0});
+    return grid_overlay_png(photo, marks, measured.extra_mm, machine.galvo->substrate_height_mm,
+                            camera, plane, {300, 1, 4000.0});
 }
 
 std::string planar_overlay_png(const vision::GrayView& photo,
@@ -126,31 +144,15 @@ std::string planar_overlay_png(const vision::GrayView& photo,
                                const models::MachineFile& machine,
                                const geometry::CameraModel& camera,
                                const geometry::BedPlane& plane) {
-    cv::Mat picture;
-    cv::cvtColor(as_mat(photo), picture, cv::COLOR_GRAY2BGR);
-    const int thickness = std::max(1, picture.cols / 1500);
-    const double z = machine.planar->surface_height_mm;
+    // The holes are in the machine's frame (y flipped back for a mirrored photo); the picture
+    // wants the photo's, in which the extra blobs already are.
     const double flip = measured.mirrored ? -1 : 1;
-    std::vector<geometry::Point3> points;
+    std::vector<GridMark> marks;
     for (const auto& h : measured.holes)
-        points.push_back({h.measured_mm.x, flip * h.measured_mm.y, z});
-    for (const auto& e : measured.extra_mm) points.push_back({e.x, e.y, z});
-    const auto px = geometry::project_points(camera, plane.bed_to_camera, points);
-    const int radius = std::max(4, picture.cols / 250);
-    for (std::size_t i = 0; i < px.size(); ++i) {
-        const cv::Point at(cvRound(px[i].x), cvRound(px[i].y));
-        const bool hole = i < measured.holes.size();
-        cv::circle(picture, at, hole ? radius : 2 * radius,
-                   hole ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 140, 255), thickness);
-        if (hole && measured.holes[i].large) {
-            const std::string label = std::to_string(measured.holes[i].index.column) + "," +
-                                      std::to_string(measured.holes[i].index.row);
-            cv::putText(picture, label, at + cv::Point(2 * radius, -radius),
-                        cv::FONT_HERSHEY_SIMPLEX, picture.cols / 2000.0, cv::Scalar(255, 0, 0),
-                        thickness);
-        }
-    }
-    return png(picture);
+        marks.push_back(
+            {{h.measured_mm.x, flip * h.measured_mm.y}, h.index.column, h.index.row, h.large});
+    return grid_overlay_png(photo, marks, measured.extra_mm, machine.planar->surface_height_mm,
+                            camera, plane, {250, 2, 2000.0});
 }
 
 }  // namespace calbox::firmware

@@ -37,6 +37,7 @@ std::string grid_overlay_png(const vision::GrayView& photo, const std::vector<Gr
     cv::cvtColor(as_mat(photo), picture, cv::COLOR_GRAY2BGR);
     const int thickness = std::max(1, picture.cols / 1500);
     std::vector<geometry::Point3> points;
+    points.reserve(marks.size() + extra_mm.size());
     for (const auto& m : marks) points.push_back({m.measured_mm.x, m.measured_mm.y, z_mm});
     for (const auto& e : extra_mm) points.push_back({e.x, e.y, z_mm});
     const auto px = geometry::project_points(camera, plane.bed_to_camera, points);

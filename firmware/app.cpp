@@ -258,6 +258,7 @@ int run(const std::vector<std::string>& words) {
     const std::string console_device =
         args.get("--console").value_or(config.text("console.device"));
     std::unique_ptr<hal::SerialPort> console_port;
+    firmware::ConsoleLink::Reopen reopen_console;
     if (console_device == "pty") {
         auto pty = std::make_unique<drivers::PtyPort>();
         const auto link = common.data_dir / "console";
@@ -270,11 +271,19 @@ int run(const std::vector<std::string>& words) {
         // Standard input when it is a terminal; /dev/null (as under CI) leaves it off.
         if (::isatty(STDIN_FILENO) == 1) console_port = std::make_unique<drivers::StdioPort>();
     } else if (!console_device.empty()) {
-        console_port = std::make_unique<drivers::TermiosPort>(
-            console_device, std::stoi(config.text("console.baud")));
-        log("console on " + console_device);
+        // A UART, often a USB adapter: unplugged and plugged in again, or not there yet at the
+        // start, it is opened again when it is back.
+        reopen_console = [console_device, baud = std::stoi(config.text("console.baud"))] {
+            return std::make_unique<drivers::TermiosPort>(console_device, baud);
+        };
+        try {
+            console_port = reopen_console();
+            log("console on " + console_device);
+        } catch (const std::runtime_error& e) {
+            log(std::string("console: ") + e.what() + " (opened when it is there)");
+        }
     }
-    const bool console = console_port != nullptr;
+    const bool console = console_port != nullptr || reopen_console;
     drivers::FileStorage config_home(config_path.parent_path().empty() ? std::filesystem::path(".")
                                                                        : config_path.parent_path());
     firmware::ConsoleContext context{cycle,
@@ -304,7 +313,10 @@ int run(const std::vector<std::string>& words) {
                               }};
     firmware::Console console_commands(std::move(context));
     std::optional<firmware::ConsoleLink> console_link;
-    if (console_port) console_link.emplace(loop, *console_port, console_commands, log);
+    if (console) {
+        console_link.emplace(loop, std::move(console_port), console_commands, log,
+                             std::move(reopen_console), &box.clock);
+    }
     cycle.on_notice = [&](const std::string& line) {
         if (console_link) console_link->notice(line);
     };

@@ -75,6 +75,26 @@ constexpr ConfigKey kSchema[] = {
      {},
      false,
      "the plane board's thickness: the bed is this far below its surface"},
+    {"setup.reference_marks",
+     K::text,
+     "DICT_APRILTAG_36h11",
+     {},
+     0,
+     0,
+     {},
+     false,
+     "the fixed reference marks' dictionary (OpenCV's name): at least 2 stuck outside the work "
+     "area, seen with the plane and checked at each cycle's start; \"none\": no camera check"},
+    {"setup.camera_moved_limit_mm",
+     K::number,
+     "0.05",
+     "mm",
+     0.005,
+     5,
+     {},
+     false,
+     "how far the reference marks may seem to move on the bed before a cycle stops (the camera "
+     "has moved)"},
     {"records.keep_cycles",
      K::integer,
      "50",
@@ -240,6 +260,8 @@ void check_text(std::string_view name, const std::string& value) {
     try {
         if (name == "setup.calibration_pattern" || name == "setup.plane_pattern")
             (void)geometry::parse_pattern_spec(value);
+        if (name == "setup.reference_marks" && value != kNoReferenceMarks)
+            (void)geometry::aruco_dictionary_id(value);
         if ((name == "modbus.server" || name == "modbus.client") && !value.empty())
             (void)drivers::parse_modbus_endpoint(value);
     } catch (const std::invalid_argument& e) {
@@ -428,6 +450,8 @@ CycleSettings BoxConfig::cycle_settings(CycleSettings base) const {
     base.calibration_pattern = text("setup.calibration_pattern");
     base.plane_pattern = text("setup.plane_pattern");
     base.plane_board_thickness_mm = number("setup.plane_board_thickness_mm");
+    base.reference_marks = text("setup.reference_marks");
+    base.camera_moved_limit_mm = number("setup.camera_moved_limit_mm");
     base.records.keep_cycles = static_cast<int>(integer("records.keep_cycles"));
     base.records.max_bytes = static_cast<std::uintmax_t>(integer("records.max_size_mb")) * 1000000U;
     base.records.keep_photos = flag("records.keep_photos");

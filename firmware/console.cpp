@@ -365,14 +365,57 @@ std::string Console::reply_to(std::string_view line) {
     return r.text + "\n";
 }
 
-ConsoleLink::ConsoleLink(EventLoop& loop, hal::SerialPort& port, Console& console, Log log)
-    : loop_(loop), port_(port), console_(console), log_(std::move(log)) {
-    loop_.watch(port_.fd(), [this] { on_readable(); });
-    watching_ = true;
+ConsoleLink::ConsoleLink(EventLoop& loop, std::unique_ptr<hal::SerialPort> port, Console& console,
+                         Log log, Reopen reopen, hal::Clock* clock)
+    : loop_(loop),
+      port_(std::move(port)),
+      console_(console),
+      log_(std::move(log)),
+      reopen_(std::move(reopen)) {
+    if (reopen_) {
+        if (clock == nullptr) throw std::logic_error("a console that reopens needs a clock");
+        retry_ = clock->make_timer();
+        loop_.watch(retry_->fd(), [this] {
+            retry_->take_expirations();
+            try_reopen();
+        });
+    }
+    if (port_) {
+        loop_.watch(port_->fd(), [this] { on_readable(); });
+        watching_ = true;
+    } else if (reopen_) {
+        retry_->arm(std::chrono::seconds(1), std::chrono::seconds(1));
+    }
 }
 
 ConsoleLink::~ConsoleLink() {
-    if (watching_) loop_.unwatch(port_.fd());
+    if (watching_) loop_.unwatch(port_->fd());
+    if (retry_) loop_.unwatch(retry_->fd());
+}
+
+void ConsoleLink::lost(const std::string& why) {
+    if (watching_) loop_.unwatch(port_->fd());
+    watching_ = false;
+    port_.reset();
+    lines_ = LineAssembler(kConsoleLineLimitBytes);  // half a line from before is not a command
+    if (!reopen_) {
+        log_("console: " + why + " (the console is off; the box goes on)");
+        return;
+    }
+    log_("console: " + why + " (opened again when it is back; the box goes on)");
+    retry_->arm(std::chrono::seconds(1), std::chrono::seconds(1));
+}
+
+void ConsoleLink::try_reopen() {
+    try {
+        port_ = reopen_();
+    } catch (const std::runtime_error&) {
+        return;  // still not there: said once, when it went
+    }
+    retry_->disarm();
+    loop_.watch(port_->fd(), [this] { on_readable(); });
+    watching_ = true;
+    log_("console: back");
 }
 
 void ConsoleLink::notice(const std::string& line) {
@@ -383,11 +426,9 @@ void ConsoleLink::on_readable() {
     std::uint8_t buffer[512];
     std::size_t n = 0;
     try {
-        n = port_.read_some(buffer);
+        n = port_->read_some(buffer);
     } catch (const std::runtime_error& e) {
-        log_(std::string("console: ") + e.what() + " (the console is off; the box goes on)");
-        loop_.unwatch(port_.fd());
-        watching_ = false;
+        lost(e.what());
         return;
     }
     for (const auto& line : lines_.feed({reinterpret_cast<const char*>(buffer), n})) {
@@ -396,17 +437,18 @@ void ConsoleLink::on_readable() {
 }
 
 void ConsoleLink::send(const std::string& text) {
+    if (!port_) return;  // gone: what it would have said is in the log
     // Nobody may be reading (a pty with no client): what does not fit is dropped, said once.
     std::size_t sent = 0;
     try {
         while (sent < text.size()) {
-            const std::size_t n = port_.write_some(
+            const std::size_t n = port_->write_some(
                 {reinterpret_cast<const std::uint8_t*>(text.data()) + sent, text.size() - sent});
             if (n == 0) break;
             sent += n;
         }
     } catch (const std::runtime_error& e) {
-        log_(std::string("console: ") + e.what());
+        lost(e.what());
         return;
     }
     if (sent < text.size() && !dropped_told_) {

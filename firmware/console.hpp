@@ -7,6 +7,7 @@
 #include <deque>
 #include <functional>
 #include <map>
+#include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -14,6 +15,7 @@
 #include "firmware/box_config.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
+#include "hal/clock.hpp"
 #include "hal/serial_port.hpp"
 #include "hal/storage.hpp"
 
@@ -85,8 +87,14 @@ class Console {
 class ConsoleLink {
   public:
     using Log = std::function<void(const std::string&)>;
+    // Opens the console's device again: a UART whose USB adapter was unplugged comes back under
+    // the same (by-id) path. Throws std::runtime_error while it is not there.
+    using Reopen = std::function<std::unique_ptr<hal::SerialPort>()>;
     // Watches the port on the loop until it is gone (standard input closed, a UART unplugged).
-    ConsoleLink(EventLoop& loop, hal::SerialPort& port, Console& console, Log log);
+    // With `reopen` (and `clock` for its timer) a port that is gone, or null at the start (the
+    // device not there when the box started), is tried again every second.
+    ConsoleLink(EventLoop& loop, std::unique_ptr<hal::SerialPort> port, Console& console, Log log,
+                Reopen reopen = {}, hal::Clock* clock = nullptr);
     ConsoleLink(const ConsoleLink&) = delete;
     ConsoleLink& operator=(const ConsoleLink&) = delete;
     ~ConsoleLink();
@@ -96,10 +104,14 @@ class ConsoleLink {
   private:
     void on_readable();
     void send(const std::string& text);
+    void lost(const std::string& why);
+    void try_reopen();
     EventLoop& loop_;
-    hal::SerialPort& port_;
+    std::unique_ptr<hal::SerialPort> port_;
     Console& console_;
     Log log_;
+    Reopen reopen_;
+    std::unique_ptr<hal::Timer> retry_;
     LineAssembler lines_{kConsoleLineLimitBytes};
     bool watching_ = false;
     bool dropped_told_ = false;

@@ -15,6 +15,7 @@
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
 #include "core/targets/planar_target.hpp"
+#include "core/vision/reference_marks.hpp"
 #include "firmware/overlays.hpp"
 #include "firmware/png.hpp"
 #include "firmware/screens.hpp"
@@ -34,6 +35,19 @@ std::string fixed(double v, int decimals) {
 
 vision::GrayView view_of(const hal::Frame& f) {
     return {f.pixels.data(), f.width_px, f.height_px, f.stride_bytes};
+}
+
+// Photos from files or another camera: the lens model holds only at the size it was calibrated
+// at.
+vision::GrayView calibrated_view_of(const hal::Frame& frame, const geometry::CameraModel& camera) {
+    if (frame.width_px != camera.image_width || frame.height_px != camera.image_height) {
+        throw std::runtime_error("the photo is " + std::to_string(frame.width_px) + "x" +
+                                 std::to_string(frame.height_px) +
+                                 ", the camera was calibrated at " +
+                                 std::to_string(camera.image_width) + "x" +
+                                 std::to_string(camera.image_height) + " (camera.yaml)");
+    }
+    return view_of(frame);
 }
 
 std::string record_name(int cycle, const char* what) {
@@ -366,7 +380,7 @@ void Cycle::acknowledge() {
     enter(CycleState::idle, "error acknowledged");
 }
 
-void Cycle::fail(const std::string& message) {
+void Cycle::fail(const std::string& message, const std::string& hint) {
     ++generation_;
     d_.machine.cancel(message);  // nothing more goes to the machine
     d_.lines.set_light(false);
@@ -376,7 +390,8 @@ void Cycle::fail(const std::string& message) {
     state_ = CycleState::error;
     prompt_ = Prompt::acknowledge_error;
     set_leds();
-    show(draw_screen(ErrorScreen{static_cast<int>(failed_in_), hint_for(failed_in_), message}));
+    show(draw_screen(ErrorScreen{static_cast<int>(failed_in_),
+                                 hint.empty() ? hint_for(failed_in_) : hint, message}));
     if (on_state) on_state(state_);
     close_record();
     if (on_cycle_end) on_cycle_end(false);
@@ -512,7 +527,7 @@ void Cycle::begin_cycle() {
         enter(CycleState::setup_plane, "set-up: the bed plane");
         setup_plane();
     } else {
-        ask_clear_bed_then_target();
+        check_camera();
     }
 }
 
@@ -587,19 +602,45 @@ void Cycle::setup_plane() {
         capture(1, [this](std::vector<hal::Frame> frames) {
             auto frame = std::make_shared<hal::Frame>(std::move(frames.front()));
             auto yaml = std::make_shared<std::string>();
+            auto reference_yaml = std::make_shared<std::string>();
             auto summary = std::make_shared<std::string>();
             const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
             work(
-                [frame, yaml, summary, camera_yaml, pattern = settings_.plane_pattern,
-                 thickness = settings_.plane_board_thickness_mm] {
+                [frame, yaml, reference_yaml, summary, camera_yaml,
+                 pattern = settings_.plane_pattern, thickness = settings_.plane_board_thickness_mm,
+                 marks = settings_.reference_marks] {
                     const auto camera = geometry::camera_from_yaml(camera_yaml);
                     const auto plane = geometry::estimate_bed_plane(
                         camera, geometry::parse_pattern_spec(pattern), view_of(*frame), thickness);
                     *yaml = geometry::plane_to_yaml(plane);
                     *summary =
                         "bed plane from " + pattern + ", RMS " + fixed(plane.rms_px, 3) + " px";
+                    if (marks == kNoReferenceMarks) return;
+                    // The marks' view is taken with the plane, in the same photo: the two hold
+                    // together until the camera moves.
+                    const auto reference =
+                        vision::find_reference_marks(view_of(*frame), marks, camera);
+                    if (static_cast<int>(reference.marks.size()) < kMinimumReferenceMarks) {
+                        throw geometry::CalibrationError(
+                            std::to_string(reference.marks.size()) + " of the at least " +
+                            std::to_string(kMinimumReferenceMarks) + " fixed reference marks (" +
+                            marks +
+                            ") in view: stick them on the frame or the bed outside the work area "
+                            "and clear of the board, or set setup.reference_marks = none to run "
+                            "without the camera check");
+                    }
+                    *reference_yaml = vision::reference_to_yaml(reference);
+                    *summary += ", " + std::to_string(reference.marks.size()) + " reference marks";
                 },
-                [this, yaml, summary] {
+                [this, yaml, reference_yaml, summary] {
+                    // The plane last: a plane on file always has its marks' view beside it.
+                    try {
+                        if (reference_yaml->empty()) d_.data.remove_file(kReferenceFile);
+                    } catch (const std::runtime_error& e) {
+                        fail(std::string("records: ") + e.what());
+                        return;
+                    }
+                    if (!reference_yaml->empty() && !keep(kReferenceFile, *reference_yaml)) return;
                     if (!keep("plane.yaml", *yaml)) return;
                     notice(*summary);
                     if (setup_only_) {
@@ -610,6 +651,67 @@ void Cycle::setup_plane() {
                     ask_clear_bed_then_target();
                 });
         });
+    });
+}
+
+void Cycle::check_camera() {
+    if (settings_.reference_marks == kNoReferenceMarks) {
+        ask_clear_bed_then_target();
+        return;
+    }
+    const auto stored = d_.data.read_file(kReferenceFile);
+    if (!stored) {
+        enter(CycleState::setup_plane, "set-up: checking the camera");
+        fail("the camera check: no stored view of the reference marks (" +
+                 std::string(kReferenceFile) +
+                 "); take the plane again (console: camera plane) with the marks in view",
+             "take the plane again");
+        return;
+    }
+    enter(CycleState::setup_plane, "set-up: checking the camera against the reference marks");
+    capture(1, [this, stored = *stored](std::vector<hal::Frame> frames) {
+        auto frame = std::make_shared<hal::Frame>(std::move(frames.front()));
+        auto move = std::make_shared<vision::CameraMove>();
+        work(
+            [frame, move, stored, camera_yaml = d_.data.read_file("camera.yaml").value_or(""),
+             plane_yaml = d_.data.read_file("plane.yaml").value_or("")] {
+                const auto reference = vision::reference_from_yaml(stored);
+                const auto camera = geometry::camera_from_yaml(camera_yaml);
+                *move = vision::compare_reference(
+                    reference,
+                    vision::find_reference_marks(calibrated_view_of(*frame, camera),
+                                                 reference.dictionary, camera),
+                    camera, geometry::plane_from_yaml(plane_yaml));
+            },
+            [this, move] {
+                const std::string seen =
+                    std::to_string(move->marks_compared) + " of " +
+                    std::to_string(move->marks_compared + static_cast<int>(move->missing.size())) +
+                    " reference marks";
+                if (move->marks_compared < kMinimumReferenceMarks || !move->missing.empty()) {
+                    std::string ids;
+                    for (int id : move->missing)
+                        ids += (ids.empty() ? "" : ", ") + std::to_string(id);
+                    fail("the camera check: " + seen + " found (missing: " + ids +
+                             "); the camera has moved or a mark is covered: uncover the marks or "
+                             "take the plane again (console: camera plane)",
+                         "marks hidden or moved");
+                    return;
+                }
+                report_.camera_move_mm = move->largest_mm;
+                const std::string moved = "largest apparent move " + fixed(move->largest_mm, 3) +
+                                          " mm (limit " +
+                                          fixed(settings_.camera_moved_limit_mm, 3) + " mm)";
+                if (move->largest_mm > settings_.camera_moved_limit_mm) {
+                    fail("the camera has moved since the plane was taken: " + seen + ", " + moved +
+                             "; fix the camera's mount, then take the plane again (console: "
+                             "camera plane)",
+                         "camera moved: replane");
+                    return;
+                }
+                notice("camera check: " + seen + ", " + moved);
+                ask_clear_bed_then_target();
+            });
     });
 }
 
@@ -724,19 +826,7 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                 const auto camera = geometry::camera_from_yaml(camera_yaml);
                 const auto plane = geometry::plane_from_yaml(plane_yaml);
                 std::vector<vision::GrayView> views;
-                for (const auto& frame : *frames) {
-                    // Photos from files or another camera: the lens model holds only
-                    // at the size it was calibrated at.
-                    if (frame.width_px != camera.image_width ||
-                        frame.height_px != camera.image_height) {
-                        throw std::runtime_error(
-                            "the photo is " + std::to_string(frame.width_px) + "x" +
-                            std::to_string(frame.height_px) + ", the camera was calibrated at " +
-                            std::to_string(camera.image_width) + "x" +
-                            std::to_string(camera.image_height) + " (camera.yaml)");
-                    }
-                    views.push_back(view_of(frame));
-                }
+                for (const auto& frame : *frames) views.push_back(calibrated_view_of(frame, camera));
                 std::vector<std::string> names;
                 for (std::size_t i = 0; i < frames->size(); ++i)
                     names.push_back("frame " + std::to_string(i + 1));

@@ -67,6 +67,13 @@ constexpr const char* kNoGalvoTable = "none\n";
 constexpr const char* kPlanarResultFile = "planar-result.json";
 constexpr const char* kNoPlanarResult = "none\n";
 
+// The fixed reference marks' view, taken with the plane (set-up), compared at each cycle's start.
+constexpr const char* kReferenceFile = "reference.yaml";
+constexpr const char* kNoReferenceMarks = "none";
+// Two marks apart show a turn of the camera that one mark's small square barely does, and one
+// may be knocked off or covered.
+constexpr int kMinimumReferenceMarks = 2;
+
 // Each cycle's record in the data directory (cycle-NNNN-*): what it measured, solved, sent and
 // showed; the oldest are pruned past these.
 struct RecordSettings {
@@ -83,6 +90,10 @@ struct CycleSettings {
     std::string calibration_pattern = "chessboard:11x8@20";
     std::string plane_pattern = "chessboard:9x6@20";
     double plane_board_thickness_mm = 0;
+    // The fixed reference marks' dictionary ("none": a box without them, no camera check) and
+    // how far they may seem to move on the bed before a cycle stops.
+    std::string reference_marks = "DICT_APRILTAG_36h11";
+    double camera_moved_limit_mm = 0.05;
     modes::DeltaSolveOptions solve;
 };
 
@@ -108,6 +119,8 @@ struct CycleReport {
     // grid), and made again after it (a galvo's through the table).
     std::optional<double> measured_xy_rms_mm, measured_xy_max_mm;
     std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
+    // The reference marks' largest apparent move on the bed since the plane was taken.
+    std::optional<double> camera_move_mm;
     double box_seconds = 0;      // the box's own work: measuring, solving, set-up solves
     double camera_seconds = 0;   // waiting for the camera (the twin's rendering on the sim board)
     double machine_seconds = 0;  // waiting for the machine
@@ -167,7 +180,8 @@ class Cycle {
   private:
     void enter(CycleState next, const std::string& detail);
     void ask(Prompt prompt, int step, std::function<void()> then);
-    void fail(const std::string& message);
+    // `hint`: the error screen's line when the stage's usual one would mislead.
+    void fail(const std::string& message, const std::string& hint = {});
     void show(const hal::MonoBitmap& frame);
     // Keeps a file of the cycle's; false (and the cycle in error) when it could not.
     bool keep(const std::string& name, const std::string& contents);
@@ -190,6 +204,9 @@ class Cycle {
     void notice(const std::string& what);
     void take_next_settings();
     void setup_plane();
+    // The camera's view of the reference marks against the one stored with the plane: a cycle
+    // goes on only if they have not moved.
+    void check_camera();
     void ask_clear_bed_then_target();
     void make_target();
     void read_printer_settings(std::function<void()> then);

@@ -170,7 +170,19 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.text("plane_pattern", s.setup.plane_pattern, {});
         const auto at = r.numbers("plane_board_at_mm", 2, 2);
         if (!at.empty()) s.setup.plane_board_at_mm = {at[0], at[1]};
+        r.boolean("reference_marks", s.setup.reference_marks);
+        const auto marks = r.numbers("reference_marks_at_mm", 0, 32);
+        if (marks.size() % 2 != 0) r.fail("reference_marks_at_mm", "x, y pairs");
+        for (std::size_t k = 0; k + 1 < marks.size(); k += 2)
+            s.setup.reference_marks_at_mm.push_back({marks[k], marks[k + 1]});
+        r.number("reference_mark_mm", s.setup.reference_mark_mm, 3, 100);
+        r.text("reference_dictionary", s.setup.reference_dictionary, {});
         r.finish();
+        try {
+            (void)geometry::aruco_dictionary_id(s.setup.reference_dictionary);
+        } catch (const geometry::PatternError& e) {
+            r.fail("reference_dictionary", e.what());
+        }
         const auto chessboard = [&r](const char* key, const std::string& spec) {
             try {
                 if (geometry::parse_pattern_spec(spec).kind !=

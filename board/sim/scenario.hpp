@@ -47,6 +47,13 @@ struct ScenarioSetup {
     std::string calibration_pattern = "chessboard:11x8@20";
     std::string plane_pattern = "chessboard:9x6@20";
     Vec2 plane_board_at_mm{-80, 50};  // its first inner corner, on the bed
+    // Fixed reference marks stuck on the bed outside the work area, ids 0, 1, ... of the
+    // dictionary, each a white square sticker two cells wider than its marker on every side.
+    // Not given: one near each corner of the camera's view (reference_marks_near_view_corners).
+    bool reference_marks = true;
+    std::vector<Vec2> reference_marks_at_mm;  // centres
+    double reference_mark_mm = 12;
+    std::string reference_dictionary = "DICT_APRILTAG_36h11";
 };
 
 struct Scenario {

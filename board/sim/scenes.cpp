@@ -450,4 +450,72 @@ std::vector<BoardScene::Feature> BoardScene::features() const {
     return out;
 }
 
+namespace {
+constexpr int kStickerMarginCells = 2;
+}
+
+double reference_sticker_half_side_mm(const std::string& dictionary, double marker_mm) {
+    const int cells =
+        cv::aruco::getPredefinedDictionary(geometry::aruco_dictionary_id(dictionary))->markerSize +
+        2;
+    return marker_mm / 2 + kStickerMarginCells * marker_mm / cells;
+}
+
+struct ReferenceMarksScene::Sticker {
+    BoardScene::Layout::Marker marker;
+    double half_side_mm;  // the sticker's: the marker and two cells of white around it
+    Vec2 centre_mm;
+};
+
+ReferenceMarksScene::ReferenceMarksScene(const Scene& inner,
+                                         const std::vector<ReferenceMark>& marks,
+                                         const std::string& dictionary_name, double marker_mm,
+                                         int supersample, const double inner_to_bed[2][2],
+                                         Vec2 inner_origin_on_bed)
+    : inner_(inner),
+      marker_mm_(marker_mm),
+      supersample_(std::max(1, supersample)),
+      a_{{inner_to_bed[0][0], inner_to_bed[0][1]}, {inner_to_bed[1][0], inner_to_bed[1][1]}},
+      b_(inner_origin_on_bed) {
+    const auto dictionary =
+        cv::aruco::getPredefinedDictionary(geometry::aruco_dictionary_id(dictionary_name));
+    const int cells = dictionary->markerSize + 2;
+    for (const auto& m : marks) {
+        if (m.id >= dictionary->bytesList.rows)
+            throw std::invalid_argument("more reference marks than " + dictionary_name + " has");
+        Sticker s;
+        s.marker.id = m.id;
+        s.marker.origin_mm = {0, 0};
+        s.marker.bits = cv::aruco::Dictionary::getBitsFromByteList(
+            dictionary->bytesList.rowRange(m.id, m.id + 1), dictionary->markerSize);
+        s.half_side_mm = marker_mm / 2 + kStickerMarginCells * marker_mm / cells;
+        s.centre_mm = m.centre_mm;
+        stickers_.push_back(std::move(s));
+    }
+}
+
+ReferenceMarksScene::~ReferenceMarksScene() = default;
+
+double ReferenceMarksScene::albedo(const Footprint& f) const {
+    const Vec2 c{a_[0][0] * f.centre_mm.x + a_[0][1] * f.centre_mm.y + b_.x,
+                 a_[1][0] * f.centre_mm.x + a_[1][1] * f.centre_mm.y + b_.y};
+    for (const auto& s : stickers_) {
+        if (std::abs(c.x - s.centre_mm.x) > s.half_side_mm ||
+            std::abs(c.y - s.centre_mm.y) > s.half_side_mm)
+            continue;
+        // The marker's own frame (OpenCV's: y down the printed marker) lies face up on the bed,
+        // its origin at the marker's corner of least x and greatest y.
+        const double to_marker[2][2] = {{a_[0][0], a_[0][1]}, {-a_[1][0], -a_[1][1]}};
+        Footprint on_marker = f;
+        on_marker.centre_mm = {c.x - (s.centre_mm.x - marker_mm_ / 2),
+                               (s.centre_mm.y + marker_mm_ / 2) - c.y};
+        for (int col = 0; col < 2; ++col)
+            for (int row = 0; row < 2; ++row)
+                on_marker.jacobian[row][col] =
+                    to_marker[row][0] * f.jacobian[0][col] + to_marker[row][1] * f.jacobian[1][col];
+        return marker_albedo(on_marker, s.marker, marker_mm_, supersample_);
+    }
+    return inner_.albedo(f);
+}
+
 }  // namespace calbox::sim

@@ -2,6 +2,7 @@
 // What lies on a plane in front of the camera, evaluated over one pixel's footprint so that
 // the rendered edges sit where the geometry puts them (exact half-plane area coverage).
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "board/sim/camera_reference.hpp"
@@ -78,6 +79,36 @@ class BoardScene final : public Scene {
   private:
     std::unique_ptr<Layout> layout_;
     int supersample_;
+};
+
+// Fixed reference marks stuck on the bed over whatever `inner` shows: each a white square sticker
+// holding one ArUco marker with a two-cell white margin (a narrower quiet zone lost AprilTag
+// 36h11 markers to OpenCV's detector on the dark bed). `inner`'s plane frame maps to the bed's
+// by bed = A p + b (identity for the bed itself; a board lying face up turns y over).
+struct ReferenceMark {
+    int id;
+    Vec2 centre_mm;  // on the bed
+};
+
+// Half the side of the white sticker that carries a `marker_mm` marker of `dictionary`.
+double reference_sticker_half_side_mm(const std::string& dictionary, double marker_mm);
+
+class ReferenceMarksScene final : public Scene {
+  public:
+    ReferenceMarksScene(const Scene& inner, const std::vector<ReferenceMark>& marks,
+                        const std::string& dictionary, double marker_mm, int supersample,
+                        const double inner_to_bed[2][2], Vec2 inner_origin_on_bed);
+    ~ReferenceMarksScene() override;
+    double albedo(const Footprint& f) const override;
+
+  private:
+    struct Sticker;
+    const Scene& inner_;
+    std::vector<Sticker> stickers_;
+    double marker_mm_;
+    int supersample_;
+    double a_[2][2];
+    Vec2 b_;
 };
 
 }  // namespace calbox::sim

@@ -58,6 +58,29 @@ std::vector<Pose> calibration_poses(const CameraIntrinsics& camera,
     return poses;
 }
 
+// One mark near each corner of the camera's view, 7 % of the view in from its edges, where
+// a person would stick them: in view, and (for the scenarios here) clear of the work area.
+std::vector<ReferenceMark> reference_marks_of(const Scenario& s, const Pose& bed_to_camera) {
+    std::vector<ReferenceMark> marks;
+    if (!s.setup.reference_marks) return marks;
+    if (!s.setup.reference_marks_at_mm.empty()) {
+        for (const auto& at : s.setup.reference_marks_at_mm)
+            marks.push_back({static_cast<int>(marks.size()), at});
+        return marks;
+    }
+    const auto& c = s.camera->intrinsics;
+    const Vec3 centre = bed_to_camera.camera_centre_in_plane();
+    const Mat3 camera_to_bed = bed_to_camera.rotation.transposed();
+    for (const auto& [u, v] : {std::pair{0.07, 0.07}, {0.93, 0.07}, {0.07, 0.93}, {0.93, 0.93}}) {
+        const Vec2 n = undistort_pixel(c, u * c.width_px, v * c.height_px);
+        const Vec3 ray = camera_to_bed * Vec3{n.x, n.y, 1};
+        const double t = -centre.z / ray.z;
+        marks.push_back(
+            {static_cast<int>(marks.size()), Vec2{centre.x + t * ray.x, centre.y + t * ray.y}});
+    }
+    return marks;
+}
+
 bool sets_delta_settings(const std::string& text) {
     try {
         const gcode::Line line = gcode::parse_line(text);
@@ -87,6 +110,45 @@ TwinBench::TwinBench(Scenario scenario, std::filesystem::path settings_file)
         machine_->settings_command(gcode::parse_line("M500"));
     }
     runner_ = std::make_unique<GcodeRunner>(*machine_, tool_settings_of(scenario_));
+    reference_marks_ = reference_marks_of(scenario_, bed_to_camera());
+    // A mark under the plane's board would be hidden in the photo its view is taken from.
+    const auto board = geometry::parse_pattern_spec(scenario_.setup.plane_pattern);
+    const Vec2 at = scenario_.setup.plane_board_at_mm;
+    const double sq = board.square_mm;
+    for (const auto& m : reference_marks_) {
+        const double half = reference_sticker_half_side_mm(scenario_.setup.reference_dictionary,
+                                                           scenario_.setup.reference_mark_mm);
+        if (m.centre_mm.x + half > at.x - 2 * sq &&
+            m.centre_mm.x - half < at.x + (board.columns + 1) * sq &&
+            m.centre_mm.y + half > at.y - (board.rows + 1) * sq &&
+            m.centre_mm.y - half < at.y + 2 * sq)
+            throw ScenarioError(scenario_.path + ": [setup] reference mark " +
+                                std::to_string(m.id) + " lies under the plane's board");
+        const auto& c = scenario_.camera->intrinsics;
+        for (const double dx : {-half, half}) {
+            for (const double dy : {-half, half}) {
+                const Vec2 px = project_point(c, bed_to_camera(),
+                                              Vec3{m.centre_mm.x + dx, m.centre_mm.y + dy, 0});
+                if (px.x < 0 || px.y < 0 || px.x > c.width_px - 1 || px.y > c.height_px - 1)
+                    throw ScenarioError(scenario_.path + ": [setup] reference mark " +
+                                        std::to_string(m.id) +
+                                        " is not wholly in the camera's view");
+            }
+        }
+    }
+}
+
+Pose TwinBench::bed_to_camera() const {
+    const auto& camera = *scenario_.camera;
+    return compose(knock_, look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg));
+}
+
+void TwinBench::knock_camera(double turn_deg, const Vec3& shift_mm) {
+    const std::lock_guard lock(mutex_);
+    Pose knock;
+    knock.rotation = rotation_from_vector(Vec3{radians(turn_deg), 0, 0});
+    knock.translation_mm = shift_mm;
+    knock_ = compose(knock, knock_);
 }
 
 void TwinBench::store_settings() const {
@@ -146,15 +208,31 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
     const auto& camera = *scenario_.camera;
     PhotoSettings photo = scenario_.photo;
     photo.seed = scenario_.photo.seed + 7919 * frame;
+    const auto& setup = scenario_.setup;
+    const auto with_marks = [&](const Scene& scene, const double to_bed[2][2], Vec2 origin) {
+        return ReferenceMarksScene(scene, reference_marks_, setup.reference_dictionary,
+                                   setup.reference_mark_mm, photo.supersample, to_bed, origin);
+    };
     if (board) {
         const BoardScene scene(geometry::parse_pattern_spec(board->spec), photo.supersample);
-        return render_photo(camera.intrinsics, board->board_to_camera, scene, photo);
+        if (!board->on_bed)
+            return render_photo(camera.intrinsics, board->board_to_camera, scene, photo);
+        // Face up on the bed: the board's y runs the other way from the bed's.
+        const double to_bed[2][2] = {{1, 0}, {0, -1}};
+        return render_photo(camera.intrinsics, board->board_to_camera,
+                            with_marks(scene, to_bed, setup.plane_board_at_mm), photo);
     }
-    const Pose bed_to_camera = look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
+    Pose bed_to_camera_now;
+    {
+        const std::lock_guard lock(mutex_);
+        bed_to_camera_now = bed_to_camera();
+    }
     const StrokeScene scene(as_photographed(scenario_, std::move(strokes)), scenario_.bed_albedo,
                             scenario_.material_albedo, photo.supersample,
                             stroke_footprint_mm(scenario_));
-    return render_photo(camera.intrinsics, bed_to_camera, scene, photo);
+    const double identity[2][2] = {{1, 0}, {0, 1}};
+    return render_photo(camera.intrinsics, bed_to_camera_now, with_marks(scene, identity, {0, 0}),
+                        photo);
 }
 
 void TwinBench::hold_calibration_board(int view) {
@@ -167,16 +245,14 @@ void TwinBench::hold_calibration_board(int view) {
             scenario_.camera->intrinsics,
             geometry::parse_pattern_spec(scenario_.setup.calibration_pattern), kCalibrationViews);
     board_ = Board{scenario_.setup.calibration_pattern,
-                   calibration_poses_[static_cast<std::size_t>(view)]};
+                   calibration_poses_[static_cast<std::size_t>(view)], false};
 }
 
 void TwinBench::lay_plane_board_on_bed() {
-    const auto& camera = *scenario_.camera;
-    const Pose bed_to_camera = look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
     const std::lock_guard lock(mutex_);
     const Vec2 at = scenario_.setup.plane_board_at_mm;
     board_ = Board{scenario_.setup.plane_pattern,
-                   compose(bed_to_camera, board_lying_on_bed({at.x, at.y, 0}, 0))};
+                   compose(bed_to_camera(), board_lying_on_bed({at.x, at.y, 0}, 0)), true};
 }
 
 void TwinBench::take_board_away() {

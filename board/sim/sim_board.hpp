@@ -54,6 +54,12 @@ class TwinBench {
     void lay_plane_board_on_bed();          // face up on the bed, clear of the printable area
     void take_board_away();
     void clear_bed();  // the printed material removed
+    // A knock on the camera's mount: it turns by `turn_deg` about its own x axis (the image's
+    // rows move) and shifts by `shift_mm`, and stays so.
+    void knock_camera(double turn_deg, const Vec3& shift_mm);
+    // The fixed reference marks on the bed (the scenario's [setup], or one near each corner of
+    // the camera's view).
+    const std::vector<ReferenceMark>& reference_marks() const { return reference_marks_; }
 
     // The judge, in the twin's truth (never called by the box's side): the delta printer as its
     // firmware is set now, over the printable area.
@@ -65,6 +71,7 @@ class TwinBench {
 
   private:
     void store_settings() const;
+    Pose bed_to_camera() const;  // under the mutex
     mutable std::mutex mutex_;
     Scenario scenario_;
     std::filesystem::path settings_file_;
@@ -75,9 +82,12 @@ class TwinBench {
     struct Board {
         std::string spec;
         Pose board_to_camera;
+        bool on_bed = false;  // the plane's board: the reference marks show around it
     };
     std::optional<Board> board_;
     std::vector<Pose> calibration_poses_;
+    std::vector<ReferenceMark> reference_marks_;
+    Pose knock_;  // the camera's frame after its knocks, from the one set up: identity at first
 };
 
 // The printer end of a pseudo-terminal: a thread answering as Marlin does (line numbers and

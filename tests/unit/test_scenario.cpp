@@ -2,8 +2,10 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <iterator>
 
 #include "board/sim/scenario.hpp"
+#include "board/sim/sim_board.hpp"
 
 using namespace calbox::sim;
 
@@ -72,6 +74,12 @@ TEST(Scenario, bad_files_name_the_file_and_the_key) {
                     error_of(std::string(kDelta) + "[cameras]\n").c_str());
     STRCMP_CONTAINS("a delta machine needs [delta]",
                     error_of("[machine]\nkind = \"delta\"\n").c_str());
+    STRCMP_CONTAINS(
+        "[setup] reference_marks_at_mm: x, y pairs",
+        error_of(std::string(kDelta) + "[setup]\nreference_marks_at_mm = [1, 2, 3]\n").c_str());
+    STRCMP_CONTAINS(
+        "[setup] reference_dictionary: unknown ArUco dictionary 'DICT_9X9'",
+        error_of(std::string(kDelta) + "[setup]\nreference_dictionary = \"DICT_9X9\"\n").c_str());
     // A TOML syntax error reports its line.
     STRCMP_CONTAINS(":2:", error_of("[machine]\nkind = = 3\n").c_str());
 }
@@ -118,4 +126,29 @@ TEST(Scenario, the_bed_carries_the_print_as_it_cools_and_the_box_takes_it_out) {
     auto bare = s.machine;
     bare.bed_material.reset();
     CHECK_THROWS(calbox::models::MachineFileError, calbox::models::bed_scale_at_photo(bare, 25.0));
+}
+
+// The twin's bench refuses reference marks a photo could not show whole: under the plane's board
+// (the marks' view is taken from the plane's photo) or partly out of the camera's view.
+TEST(Scenario, reference_marks_under_the_board_or_out_of_view_are_refused) {
+    std::ifstream in(std::string(CALBOX_SOURCE_DIR) + "/tests/scenarios/delta_cycle_small.toml");
+    const std::string base((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto bench_error = [&](const std::string& marks) {
+        const auto path = write_temp(base + "\n[setup]\nreference_marks_at_mm = " + marks + "\n");
+        std::string error;
+        try {
+            TwinBench bench(load_scenario(path));
+        } catch (const ScenarioError& e) {
+            error = e.what();
+        }
+        ::unlink(path.c_str());
+        return error;
+    };
+    STRCMP_EQUAL("", bench_error("[-132.0, 0.0, 132.0, 0.0]").c_str());
+    // The 9x6 board of 20 mm squares, its first corner at (-80, 50): paper over x -120..120, y
+    // -90..90.
+    STRCMP_CONTAINS("reference mark 1 lies under the plane's board",
+                    bench_error("[-132.0, 0.0, 0.0, 0.0]").c_str());
+    STRCMP_CONTAINS("reference mark 0 is not wholly in the camera's view",
+                    bench_error("[-150.0, 0.0]").c_str());
 }

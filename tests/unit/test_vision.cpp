@@ -8,10 +8,13 @@
 
 #include "board/sim/camera_reference.hpp"
 #include "board/sim/renderer.hpp"
+#include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
+#include "board/sim/sim_board.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/vision/edge_kernel.hpp"
 #include "core/vision/markers.hpp"
+#include "core/vision/reference_marks.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -182,4 +185,132 @@ TEST(DotGrids, symmetric_and_asymmetric_grids_are_found_at_their_true_centres) {
         CHECK_TEXT(worst < 0.3,
                    (std::string(text) + " worst centre " + std::to_string(worst) + " px").c_str());
     }
+}
+
+TEST_GROUP(ReferenceMarks){};
+
+namespace {
+
+// Where a knocked camera makes a bed point seem to be: the pixel it lands on now, traced back
+// through the camera as it was (the stored plane), onto the bed. The twin's own camera model.
+sim::Vec2 apparent_on_bed(const sim::CameraIntrinsics& c, const sim::Pose& before,
+                          const sim::Pose& after, const sim::Vec3& p) {
+    const sim::Vec2 px = sim::project_point(c, after, p);
+    const sim::Vec2 n = sim::undistort_pixel(c, px.x, px.y);
+    const sim::Vec3 centre = before.camera_centre_in_plane();
+    const sim::Vec3 ray = before.rotation.transposed() * sim::Vec3{n.x, n.y, 1};
+    const double t = -centre.z / ray.z;
+    return {centre.x + t * ray.x, centre.y + t * ray.y};
+}
+
+}  // namespace
+
+// The marks' view is taken with the plane (the board on the bed); after a knock that turns the
+// camera, the marks seem to move on the bed by what the twin's geometry says; unknocked, they
+// stay within the noise of two photos.
+TEST(ReferenceMarks, a_knocked_camera_moves_the_marks_by_what_the_twins_geometry_says) {
+    const auto scenario = sim::load_scenario(std::string(CALBOX_SOURCE_DIR) +
+                                             "/tests/scenarios/delta_cycle_small.toml");
+    sim::TwinBench bench(scenario);
+    const auto& c = scenario.camera->intrinsics;
+    const auto camera = sim::as_camera_model(c);
+    bench.lay_plane_board_on_bed();
+    const auto plane_photo = bench.photograph(0);
+    const auto plane = geometry::estimate_bed_plane(
+        camera, geometry::parse_pattern_spec(scenario.setup.plane_pattern), view_of(plane_photo),
+        0);
+    const auto stored =
+        vision::find_reference_marks(view_of(plane_photo), "DICT_APRILTAG_36h11", camera);
+    CHECK_EQUAL(4u, stored.marks.size());
+    bench.take_board_away();
+
+    const auto still = vision::compare_reference(
+        stored,
+        vision::find_reference_marks(view_of(bench.photograph(1)), stored.dictionary, camera),
+        camera, plane);
+    CHECK_EQUAL(4, still.marks_compared);
+    CHECK(still.missing.empty());
+    // Two photos' noise, the board's bright paper beside the marks in the first: well under the
+    // default limit (setup.camera_moved_limit_mm, 0.05 mm).
+    CHECK_TEXT(still.largest_mm < 0.01, std::to_string(still.largest_mm).c_str());
+
+    const sim::Pose before = sim::look_at_pose(
+        scenario.camera->position_mm, scenario.camera->look_at_mm, scenario.camera->roll_deg);
+    for (const double turn_deg : {0.004, 0.02, 0.1}) {
+        sim::TwinBench knocked_bench(scenario);
+        knocked_bench.knock_camera(turn_deg, {0, 0, 0});
+        sim::Pose knock;
+        knock.rotation = sim::rotation_from_vector(sim::Vec3{sim::radians(turn_deg), 0, 0});
+        const sim::Pose after = sim::compose(knock, before);
+        double truth = 0;
+        const double half = scenario.setup.reference_mark_mm / 2;
+        for (const auto& m : knocked_bench.reference_marks()) {
+            for (const double dx : {-half, half}) {
+                for (const double dy : {-half, half}) {
+                    const sim::Vec3 p{m.centre_mm.x + dx, m.centre_mm.y + dy, 0};
+                    const sim::Vec2 seen = apparent_on_bed(c, before, after, p);
+                    truth = std::max(truth, std::hypot(seen.x - p.x, seen.y - p.y));
+                }
+            }
+        }
+        const auto move = vision::compare_reference(
+            stored,
+            vision::find_reference_marks(view_of(knocked_bench.photograph(2)), stored.dictionary,
+                                         camera),
+            camera, plane);
+        UT_PRINT(("turned " + std::to_string(turn_deg) + " deg: largest apparent move " +
+                  std::to_string(move.largest_mm) + " mm, the twin's " + std::to_string(truth) +
+                  " mm")
+                     .c_str());
+        CHECK_EQUAL(4, move.marks_compared);
+        DOUBLES_EQUAL(truth, move.largest_mm, 0.005);
+    }
+}
+
+TEST(ReferenceMarks, the_stored_view_round_trips_and_a_broken_one_is_refused) {
+    vision::ReferenceView view{"DICT_APRILTAG_36h11", {}};
+    view.marks.push_back({3, {{{10.5, 20.25}, {30, 20}, {30, 40}, {10, 40.125}}}});
+    view.marks.push_back({7, {{{100, 200}, {130, 200}, {130, 240}, {100, 240}}}});
+    const auto back = vision::reference_from_yaml(vision::reference_to_yaml(view));
+    STRCMP_EQUAL("DICT_APRILTAG_36h11", back.dictionary.c_str());
+    CHECK_EQUAL(2u, back.marks.size());
+    CHECK_EQUAL(7, back.marks[1].id);
+    DOUBLES_EQUAL(40.125, back.marks[0].corners[3].y, 0);
+    DOUBLES_EQUAL(20.25, back.marks[0].corners[0].y, 0);
+
+    const auto refused = [](const std::string& text) {
+        try {
+            (void)vision::reference_from_yaml(text);
+        } catch (const geometry::FileFormatError& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    STRCMP_CONTAINS("'dictionary'", refused("%YAML:1.0\n---\nmarks: []\n").c_str());
+    STRCMP_CONTAINS("'marks'", refused("%YAML:1.0\n---\ndictionary: DICT_4X4_50\n").c_str());
+    STRCMP_CONTAINS(
+        "mark 2: 'corners' must be 8 numbers",
+        refused("%YAML:1.0\n---\ndictionary: D\nmarks:\n  - { id: 2, corners: [1, 2, 3] }\n")
+            .c_str());
+    STRCMP_CONTAINS("not an OpenCV YAML file", refused("").c_str());
+}
+
+// A stored mark not found now is named; the others still give the move.
+TEST(ReferenceMarks, a_mark_not_found_is_named) {
+    const auto camera = as_core(hq_camera());
+    geometry::BedPlane plane;
+    plane.bed_to_camera.rvec = {M_PI, 0, 0};  // looking straight down from 400 mm
+    plane.bed_to_camera.tvec_mm = {0, 0, 400};
+    vision::ReferenceView stored{"DICT_4X4_50", {}};
+    stored.marks.push_back({1, {{{100, 100}, {200, 100}, {200, 200}, {100, 200}}}});
+    stored.marks.push_back({2, {{{900, 100}, {1000, 100}, {1000, 200}, {900, 200}}}});
+    vision::ReferenceView now = stored;
+    now.marks.erase(now.marks.begin());
+    for (auto& p : now.marks[0].corners) p.x += 1.0;  // one pixel right
+    const auto move = vision::compare_reference(stored, now, camera, plane);
+    CHECK_EQUAL(1, move.marks_compared);
+    CHECK_EQUAL(1u, move.missing.size());
+    CHECK_EQUAL(1, move.missing[0]);
+    // One pixel at 400 mm through a lens of fx = hq_camera().fx, worked by hand.
+    DOUBLES_EQUAL(400.0 / hq_camera().fx, move.largest_mm, 0.1 * 400.0 / hq_camera().fx);
 }

@@ -276,11 +276,14 @@ int run(const std::vector<std::string>& words) {
         reopen_console = [console_device, baud = std::stoi(config.text("console.baud"))] {
             return std::make_unique<drivers::TermiosPort>(console_device, baud);
         };
-        try {
+        // A path that is there but cannot be opened (not a serial device, no permission) is a
+        // set-up mistake that waiting does not mend: it stops the box with its reason.
+        std::error_code ec;
+        if (std::filesystem::exists(console_device, ec)) {
             console_port = reopen_console();
             log("console on " + console_device);
-        } catch (const std::runtime_error& e) {
-            log(std::string("console: ") + e.what() + " (opened when it is there)");
+        } else {
+            log("console: " + console_device + " is not there (opened when it is)");
         }
     }
     const bool console = console_port != nullptr || reopen_console;

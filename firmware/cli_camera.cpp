@@ -13,8 +13,9 @@ constexpr const char* kCameraHelp = R"(usage:
   calbox camera calibrate --pattern SPEC [--model pinhole|fisheye] IMAGES... -o camera.yaml
       Intrinsic calibration from views of a board: SPEC is chessboard:COLSxROWS@MM (inner
       corners), charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares), circles:COLSxROWS@MM or
-      acircles:COLSxROWS@MM. Views where the board is not found are skipped and listed; at least
-      6 usable views are needed. Prints each view's reprojection RMS.
+      acircles:COLSxROWS@MM. Views where the board is not found are skipped and listed; a pinhole
+      needs at least 3 usable views and 60 corners, a fisheye 4 and 80. Prints each view's
+      reprojection RMS and which detector found it.
   calbox camera plane --camera camera.yaml --pattern SPEC [--thickness MM] IMAGE -o plane.yaml
       The bed plane from one image of a board lying on the bed, its surface --thickness mm
       (default 0) above the bed. The bed frame is right-handed with z up, its origin under the
@@ -42,8 +43,8 @@ int calibrate(const std::vector<std::string>& words) {
     const auto result = geometry::calibrate_camera(pattern, model, views);
     std::vector<double> per_view;
     for (const auto& v : result.views) {
-        std::printf("view %s: %d points, reprojection RMS %.4f px\n", v.name.c_str(), v.points,
-                    v.rms_px);
+        std::printf("view %s: %d points (%s), reprojection RMS %.4f px\n", v.name.c_str(), v.points,
+                    v.detector.c_str(), v.rms_px);
         per_view.push_back(v.rms_px);
     }
     for (const auto& s : result.skipped) std::printf("skipped %s: board not found\n", s.c_str());

@@ -170,6 +170,12 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.text("plane_pattern", s.setup.plane_pattern, {});
         const auto at = r.numbers("plane_board_at_mm", 2, 2);
         if (!at.empty()) s.setup.plane_board_at_mm = {at[0], at[1]};
+        std::string surroundings = "grey";
+        r.text("board_surroundings", surroundings, {"grey", "dark", "bright", "cluttered"});
+        s.setup.board_surroundings = surroundings == "dark"        ? Surroundings::dark
+                                     : surroundings == "bright"    ? Surroundings::bright
+                                     : surroundings == "cluttered" ? Surroundings::cluttered
+                                                                   : Surroundings::grey;
         r.boolean("reference_marks", s.setup.reference_marks);
         const auto marks = r.numbers("reference_marks_at_mm", 0, 32);
         if (marks.size() % 2 != 0) r.fail("reference_marks_at_mm", "x, y pairs");

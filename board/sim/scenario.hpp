@@ -46,7 +46,8 @@ struct ScenarioFaults {
 struct ScenarioSetup {
     std::string calibration_pattern = "chessboard:11x8@20";
     std::string plane_pattern = "chessboard:9x6@20";
-    Vec2 plane_board_at_mm{-80, 50};  // its first inner corner, on the bed
+    Vec2 plane_board_at_mm{-80, 50};                       // its first inner corner, on the bed
+    Surroundings board_surroundings = Surroundings::grey;  // around the boards' paper
     // Fixed reference marks stuck on the bed outside the work area, ids 0, 1, ... of the
     // dictionary, each a white square sticker two cells wider than its marker on every side.
     // Not given: one near each corner of the camera's view (reference_marks_near_view_corners).

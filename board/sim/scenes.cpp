@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <map>
 #include <opencv2/aruco.hpp>
@@ -238,6 +239,7 @@ double StrokeScene::albedo(const Footprint& f) const {
 
 struct BoardScene::Layout {
     geometry::PatternSpec spec;
+    Surroundings surroundings = Surroundings::grey;
     struct Marker {
         int id;
         Vec2 origin_mm;  // corner 0 (smallest x and y) in the board frame
@@ -266,6 +268,28 @@ struct BoardScene::Layout {
             return parity == white_parity ? kWhite : kBlack;
         }
         if (ci >= -1 && cj >= -1 && ci <= columns && cj <= rows) return kWhite;  // margin
+        return background(i, j);
+    }
+
+    // Beyond the paper, by board-square cell.
+    double background(int i, int j) const {
+        switch (surroundings) {
+            case Surroundings::grey:
+                return kBackground;
+            case Surroundings::dark:
+                return 0.03;
+            case Surroundings::bright:
+                return 0.95;
+            case Surroundings::cluttered: {
+                // A fixed hash of the cell: the same clutter in every view.
+                auto h = static_cast<std::uint32_t>(i * 73856093) ^
+                         static_cast<std::uint32_t>(j * 19349663);
+                h ^= h >> 13;
+                h *= 0x5bd1e995U;
+                h ^= h >> 15;
+                return 0.05 + 0.85 * static_cast<double>(h % 1000U) / 999.0;
+            }
+        }
         return kBackground;
     }
 
@@ -307,10 +331,12 @@ double marker_albedo(const Footprint& f, const BoardScene::Layout::Marker& m, do
 
 }  // namespace
 
-BoardScene::BoardScene(const geometry::PatternSpec& spec, int supersample)
+BoardScene::BoardScene(const geometry::PatternSpec& spec, int supersample,
+                       Surroundings surroundings)
     : layout_(std::make_unique<Layout>()), supersample_(std::max(1, supersample)) {
     Layout& l = *layout_;
     l.spec = spec;
+    l.surroundings = surroundings;
     using Kind = geometry::PatternSpec::Kind;
     if (spec.kind == Kind::chessboard) return;
     if (spec.is_circles()) {
@@ -390,7 +416,12 @@ double BoardScene::albedo(const Footprint& f) const {
     // Markers or dots on white paper with a margin of one pitch (or one gap plus a quarter marker).
     const double margin =
         l.spec.is_circles() ? l.spec.square_mm : l.spec.gap_mm + l.spec.marker_mm / 4;
-    const auto paper = [&](Vec2 q) { return l.on_paper(q, margin) ? kWhite : kBackground; };
+    const double cell = l.spec.is_circles() ? l.spec.square_mm : l.cell_pitch_mm;
+    const auto paper = [&](Vec2 q) {
+        if (l.on_paper(q, margin)) return kWhite;
+        return l.background(static_cast<int>(std::floor(q.x / cell)),
+                            static_cast<int>(std::floor(q.y / cell)));
+    };
     if (l.spec.kind == Kind::aruco) {
         // Cells split in the middle of the gaps, so a pixel on a marker's rim finds that marker.
         const double half_gap = l.spec.gap_mm / 2;

@@ -60,9 +60,15 @@ class StrokeScene final : public Scene {
 // Chessboard frame: origin at the first inner corner, x along columns, y along rows (OpenCV's
 // object points). ChArUco and ArUco grid frames: OpenCV's board frames. Dot grids: OpenCV's
 // findCirclesGrid object points, dots a quarter pitch in radius.
+// What lies around the board's paper: a mid grey; a dark cloth or bed; a white wall or sheet
+// (the paper's edge barely shows); a cluttered bench of board-sized patches of random greys
+// (false corners everywhere around the board).
+enum class Surroundings { grey, dark, bright, cluttered };
+
 class BoardScene final : public Scene {
   public:
-    BoardScene(const geometry::PatternSpec& spec, int supersample);
+    BoardScene(const geometry::PatternSpec& spec, int supersample,
+               Surroundings surroundings = Surroundings::grey);
     ~BoardScene() override;
     double albedo(const Footprint& f) const override;
 

@@ -214,7 +214,8 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
                                    setup.reference_mark_mm, photo.supersample, to_bed, origin);
     };
     if (board) {
-        const BoardScene scene(geometry::parse_pattern_spec(board->spec), photo.supersample);
+        const BoardScene scene(geometry::parse_pattern_spec(board->spec), photo.supersample,
+                               setup.board_surroundings);
         if (!board->on_bed)
             return render_photo(camera.intrinsics, board->board_to_camera, scene, photo);
         // Face up on the bed: the board's y runs the other way from the bed's.

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
@@ -62,17 +63,81 @@ void put_black_corner_first(const cv::Mat& gray, const PatternSpec& pattern,
 
 }  // namespace
 
+namespace {
+
+// The chessboard's inner corners in OpenCV's order (rows of columns), or empty; `detector`
+// says which found them.
+std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const PatternSpec& pattern,
+                                                 const ChessboardSearch& search,
+                                                 std::string& detector) {
+    const cv::Size size(pattern.columns, pattern.rows);
+    const int long_side = std::max(gray.cols, gray.rows);
+    const int factor =
+        std::max(1, (long_side + search.max_search_side_px - 1) / search.max_search_side_px);
+    cv::Mat reduced = gray;
+    if (factor > 1)
+        cv::resize(gray, reduced, cv::Size(), 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
+    // At full size SB's own accuracy pass is affordable and best; reduced, the corners are
+    // refined at full resolution below instead.
+    const int accuracy = factor == 1 ? cv::CALIB_CB_ACCURACY : 0;
+    std::vector<cv::Point2f> corners;
+    if (cv::findChessboardCornersSB(reduced, size, corners, accuracy)) {
+        detector = "sb";
+    } else if (cv::findChessboardCornersSB(reduced, size, corners,
+                                           accuracy | cv::CALIB_CB_NORMALIZE_IMAGE)) {
+        detector = "sb-normalized";
+    } else {
+        return {};
+    }
+    if (factor == 1) return corners;
+    // A reduced image's corner, at full resolution: OpenCV's pixel centres are at integers, so
+    // a reduced pixel's centre k lies at factor * k + (factor - 1) / 2.
+    const float offset = static_cast<float>(factor - 1) / 2;
+    for (auto& c : corners) c = c * static_cast<float>(factor) + cv::Point2f(offset, offset);
+    double spacing = 0;
+    int pairs = 0;
+    const auto columns = static_cast<std::size_t>(pattern.columns);
+    for (std::size_t i = 0; i + 1 < corners.size(); ++i) {
+        if ((i + 1) % columns == 0) continue;  // a row's last corner and the next row's first
+        spacing += cv::norm(corners[i + 1] - corners[i]);
+        ++pairs;
+    }
+    const int half_window = std::clamp(
+        static_cast<int>(std::lround(search.refine_window_share * spacing / std::max(1, pairs))),
+        search.refine_window_min_px, search.refine_window_max_px);
+    cv::cornerSubPix(gray, corners, cv::Size(half_window, half_window), cv::Size(-1, -1),
+                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.001));
+    return corners;
+}
+
+void check_minimum(LensModel model, const std::vector<ObservedView>& views,
+                   const std::string& found_in) {
+    const CalibrationMinimum need = calibration_minimum(model);
+    std::size_t corners = 0;
+    for (const auto& v : views) corners += v.board.image_points.size();
+    if (static_cast<int>(views.size()) >= need.views &&
+        corners >= static_cast<std::size_t>(need.corners))
+        return;
+    throw CalibrationError("the board was found in " + found_in + " (" + std::to_string(corners) +
+                           " corners); a " + (model == LensModel::fisheye ? "fisheye" : "pinhole") +
+                           " calibration needs at least " + std::to_string(need.views) +
+                           " views and " + std::to_string(need.corners) + " corners");
+}
+
+}  // namespace
+
+CalibrationMinimum calibration_minimum(LensModel model) {
+    return model == LensModel::fisheye ? CalibrationMinimum{4, 80} : CalibrationMinimum{3, 60};
+}
+
 std::optional<BoardObservation> find_board(const PatternSpec& pattern,
-                                           const vision::GrayView& image) {
+                                           const vision::GrayView& image,
+                                           const ChessboardSearch& search) {
     const cv::Mat gray = to_cv(image);
     BoardObservation obs;
     if (pattern.kind == PatternSpec::Kind::chessboard) {
-        std::vector<cv::Point2f> corners;
-        const cv::Size size(pattern.columns, pattern.rows);
-        if (!cv::findChessboardCornersSB(gray, size, corners,
-                                         cv::CALIB_CB_ACCURACY | cv::CALIB_CB_NORMALIZE_IMAGE)) {
-            return std::nullopt;
-        }
+        auto corners = find_chessboard_corners(gray, pattern, search, obs.detector);
+        if (corners.empty()) return std::nullopt;
         put_black_corner_first(gray, pattern, corners);
         for (int r = 0; r < pattern.rows; ++r) {
             for (int c = 0; c < pattern.columns; ++c) {
@@ -99,11 +164,13 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
                         static_cast<float>(4 * pattern.columns * pattern.rows);
         const auto detector = cv::SimpleBlobDetector::create(blobs);
         bool found = cv::findCirclesGrid(gray, size, centres, flags, detector);
+        obs.detector = "circles";
         if (!found) {
             // Bright dots on a dark ground (burned or printed in white): look at the negative.
             cv::Mat negative;
             cv::bitwise_not(gray, negative);
             found = cv::findCirclesGrid(negative, size, centres, flags, detector);
+            obs.detector = "circles-negative";
         }
         if (!found) return std::nullopt;
         for (int r = 0; r < pattern.rows; ++r) {
@@ -139,6 +206,7 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
     std::vector<int> ids;
     cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, gray, board, corners, ids);
     if (ids.size() < 6) return std::nullopt;
+    obs.detector = "charuco";
     for (std::size_t i = 0; i < ids.size(); ++i) {
         const auto& o = board->chessboardCorners[static_cast<std::size_t>(ids[i])];
         obs.image_points.push_back({corners[i].x, corners[i].y});
@@ -169,12 +237,9 @@ CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
         }
         found.push_back({image.name, std::move(*obs)});
     }
-    if (static_cast<int>(found.size()) < kMinimumCalibrationViews) {
-        throw CalibrationError("the board was found in " + std::to_string(found.size()) + " of " +
-                               std::to_string(images.size()) +
-                               " images; calibration needs at least " +
-                               std::to_string(kMinimumCalibrationViews));
-    }
+    check_minimum(
+        model, found,
+        std::to_string(found.size()) + " of " + std::to_string(images.size()) + " images");
     auto result = calibrate_from_views(model, found, size.width, size.height);
     result.skipped = std::move(skipped);
     return result;
@@ -198,16 +263,13 @@ double image_coverage(const std::vector<ObservedView>& views, int width_px, int 
 
 CalibrationResult calibrate_from_views(LensModel model, const std::vector<ObservedView>& views,
                                        int width_px, int height_px) {
-    if (static_cast<int>(views.size()) < kMinimumCalibrationViews) {
-        throw CalibrationError("calibration needs at least " +
-                               std::to_string(kMinimumCalibrationViews) + " views, " +
-                               std::to_string(views.size()) + " given");
-    }
+    check_minimum(model, views, std::to_string(views.size()) + " views");
     CalibrationResult result;
     std::vector<const BoardObservation*> used;
     for (const auto& v : views) {
         used.push_back(&v.board);
-        result.views.push_back({v.name, static_cast<int>(v.board.image_points.size()), 0});
+        result.views.push_back(
+            {v.name, static_cast<int>(v.board.image_points.size()), 0, v.board.detector});
     }
     const cv::Size size(width_px, height_px);
     std::vector<std::vector<cv::Point3f>> object;
@@ -271,7 +333,8 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
 }
 
 BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& pattern,
-                            const vision::GrayView& image, double board_thickness_mm) {
+                            const vision::GrayView& image, double board_thickness_mm,
+                            double max_rms_px) {
     if (!(board_thickness_mm >= 0 && board_thickness_mm < 100)) {
         throw CalibrationError("board thickness must be 0..100 mm");
     }
@@ -293,9 +356,16 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
     std::vector<cv::Point3d> object;
     for (const auto& p : obs->object_points) object.emplace_back(p.x, p.y, p.z);
     cv::Vec3d rvec, tvec;
-    cv::solvePnP(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec, tvec, false,
-                 cv::SOLVEPNP_IPPE);
-    cv::solvePnPRefineLM(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec, tvec);
+    try {
+        if (!cv::solvePnP(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec, tvec,
+                          false, cv::SOLVEPNP_IPPE))
+            throw CalibrationError("the board's pose could not be solved (solvePnP failed)");
+        cv::solvePnPRefineLM(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec,
+                             tvec);
+    } catch (const cv::Exception& e) {
+        throw CalibrationError(std::string("the board's pose could not be solved: ") + e.err);
+    }
+    if (!(tvec[2] > 0)) throw CalibrationError("the board's solved pose puts it behind the camera");
     RigidPose board;
     for (int i = 0; i < 3; ++i) {
         board.rvec[static_cast<std::size_t>(i)] = rvec[i];
@@ -305,6 +375,14 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
     plane.board_thickness_mm = board_thickness_mm;
     plane.rms_px =
         rms_between(project_points(camera, board, obs->object_points), obs->image_points);
+    if (!(plane.rms_px <= max_rms_px)) {
+        char why[200];
+        std::snprintf(why, sizeof why,
+                      "the plane's board reprojects to %.2f px RMS (at most %.2f px): is the board "
+                      "flat and wholly on the bed, and camera.yaml this camera's calibration?",
+                      plane.rms_px, max_rms_px);
+        throw CalibrationError(why);
+    }
     // Turn the board frame over about its x axis (z up, still right-handed), then drop the origin
     // from the board's surface to the bed's: the bed origin is the board point (0, 0, thickness).
     const cv::Matx33d r_board = rotation_of(board);

@@ -21,14 +21,39 @@ struct BoardObservation {
     std::vector<Point2> image_points;
     std::vector<Point3> object_points;
     std::vector<int> ids;  // chessboard: corner index; ChArUco: corner id
+    // What found it: "sb" or "sb-normalized" for a chessboard (below), "charuco", "circles" or
+    // "circles-negative".
+    std::string detector;
 };
 
-// Empty when the board is not in the image. Chessboards through findChessboardCornersSB,
+// How a chessboard is searched for, each limit with its reason.
+struct ChessboardSearch {
+    // Above this long side the board is found on an image reduced by a whole factor to fit it,
+    // then its corners refined at full resolution: OpenCV's SB detector costs about 7 s on a
+    // 12 MP view at full size and a tenth of that on a 1600 px one, which still shows 20 mm
+    // squares at 30+ px from half a metre.
+    int max_search_side_px = 1600;
+    // The corner refinement's half window, as a share of a square's side in pixels, and its
+    // bounds: a quarter square stays inside the square's two edges at the steepest tilt the
+    // detectors accept; under 3 px the saddle is not sampled, over 15 px blur and lens bend
+    // enter the window.
+    double refine_window_share = 0.25;
+    int refine_window_min_px = 3;
+    int refine_window_max_px = 15;
+};
+
+// Empty when the board is not in the image. A chessboard is tried with OpenCV's SB detector
+// without normalisation ("sb"), with it ("sb-normalized": histogram equalisation helps a
+// low-contrast board but defeats SB on dark surroundings); SB's own accurate corners at full
+// size, else cornerSubPix at full resolution. OpenCV's classic detector is not tried: it found
+// no board in the tests that SB missed, and on a ChArUco board (many small squares) it takes
+// two minutes to say no.
 // ChArUco boards through marker detection and corner interpolation (at least 6 corners), dot
 // grids through findCirclesGrid (dark dots on light, or light on dark). Throws
 // CalibrationError for an ArUco grid, which has no board corners.
 std::optional<BoardObservation> find_board(const PatternSpec& pattern,
-                                           const vision::GrayView& image);
+                                           const vision::GrayView& image,
+                                           const ChessboardSearch& search = {});
 
 struct NamedImage {
     std::string name;
@@ -39,6 +64,7 @@ struct ViewReport {
     std::string name;
     int points = 0;
     double rms_px = 0;
+    std::string detector;  // BoardObservation::detector
 };
 
 struct CalibrationResult {
@@ -47,7 +73,16 @@ struct CalibrationResult {
     std::vector<std::string> skipped;  // images where the board was not found
 };
 
-constexpr int kMinimumCalibrationViews = 6;
+// What a calibration needs before it is tried: views, since each view's pose is unknown and
+// only differing poses separate focal length from distance; and corners, for the model's
+// parameters (a pinhole's 9, a fisheye's 8) with room to average the noise. At least 3 views
+// and 60 corners for a pinhole (OpenCV's own ChArUco tutorial calibrates from a few photos);
+// a fisheye's distortion reaches the image's edges and needs 4 and 80.
+struct CalibrationMinimum {
+    int views = 0;
+    int corners = 0;
+};
+CalibrationMinimum calibration_minimum(LensModel model);
 
 struct ObservedView {
     std::string name;
@@ -64,8 +99,8 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
 // lens's distortion to the edges, where the bed's far corners are.
 double image_coverage(const std::vector<ObservedView>& views, int width_px, int height_px);
 
-// Throws CalibrationError when fewer than kMinimumCalibrationViews views are usable (naming how
-// many were found), when images differ in size, or when OpenCV's solver fails.
+// Throws CalibrationError when the usable views fall short of calibration_minimum (naming what
+// was found and what is needed), when images differ in size, or when OpenCV's solver fails.
 CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
                                    const std::vector<NamedImage>& images);
 
@@ -77,9 +112,16 @@ struct BedPlane {
     double rms_px = 0;
 };
 
-// Throws CalibrationError when the board is not found.
+// The board's corners reproject through the plane's pose within this: a flat board seen through
+// its own camera's model fits to a few tenths of a pixel; past a pixel the board is bowed or
+// lifted, the corners were found wrong, or the camera model is another camera's.
+constexpr double kPlaneMaxRmsPx = 1.0;
+
+// Throws CalibrationError when the board is not found, its pose cannot be solved, or its
+// reprojection RMS exceeds `max_rms_px` (the message gives the figure).
 BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& pattern,
-                            const vision::GrayView& image, double board_thickness_mm);
+                            const vision::GrayView& image, double board_thickness_mm,
+                            double max_rms_px = kPlaneMaxRmsPx);
 
 std::string plane_to_yaml(const BedPlane& plane);
 BedPlane plane_from_yaml(const std::string& text);  // throws FileFormatError

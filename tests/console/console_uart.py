@@ -89,7 +89,7 @@ box = subprocess.Popen(
     stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
 
 # Not there at the start: the box says so and runs on.
-if not log_has(uart + ": cannot open"):
+if not log_has(uart + " is not there"):
     fail("the missing UART was not told")
 if box.poll() is not None:
     fail("the box stopped without its console")

@@ -203,8 +203,14 @@ std::string range_text(const ConfigKey& k) {
     if (k.kind == K::flag) return "true or false";
     if (k.kind == K::text) return "text";
     const bool whole = k.kind == K::integer;
-    return (whole ? "a whole number " : "a number ") + number_text("%.10g", k.min) + " to " +
-           number_text("%.10g", k.max) + (k.unit.empty() ? "" : " " + std::string(k.unit));
+    // Appended, not `"literal" + std::string&&`: GCC 12 at -O2 warns falsely on the latter
+    // (-Wrestrict, GCC bug 105329).
+    std::string text = whole ? "a whole number " : "a number ";
+    text += number_text("%.10g", k.min);
+    text += " to ";
+    text += number_text("%.10g", k.max);
+    if (!k.unit.empty()) (text += ' ') += k.unit;
+    return text;
 }
 
 bool is_choice(const ConfigKey& k, std::string_view word) {

@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 
+#include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 
 namespace calbox::solve {
@@ -427,8 +428,21 @@ double classic_rod_length_mm(const DeltaGeometry& firmware,
         const auto measured = [&](double d) {
             return move(d, bar.commanded_to_mm) - move(d, bar.commanded_from_mm);
         };
+        // The search reaches a fifth of the rod either way; a bar whose length no rod there
+        // gives is refused rather than answered with an end of the search.
         double lo = d0 * 0.8, hi = d0 * 1.2;
-        const bool rising = measured(hi) > measured(lo);
+        const double at_lo = measured(lo), at_hi = measured(hi);
+        if (!std::isfinite(bar.measured_mm) || bar.measured_mm < std::min(at_lo, at_hi) ||
+            bar.measured_mm > std::max(at_lo, at_hi)) {
+            throw FitError(
+                "the classic method: a bar measured " + number_text("%.3f", bar.measured_mm) +
+                " mm (commanded from " + number_text("%.1f", bar.commanded_from_mm) + " to " +
+                number_text("%.1f", bar.commanded_to_mm) + " mm) is not what any rod from " +
+                number_text("%.1f", lo) + " to " + number_text("%.1f", hi) + " mm gives (" +
+                number_text("%.3f", std::min(at_lo, at_hi)) + " to " +
+                number_text("%.3f", std::max(at_lo, at_hi)) + " mm)");
+        }
+        const bool rising = at_hi > at_lo;
         for (int i = 0; i < 200; ++i) {
             const double mid = (lo + hi) / 2;
             if ((measured(mid) < bar.measured_mm) == rising)

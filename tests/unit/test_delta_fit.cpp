@@ -444,3 +444,24 @@ TEST(DeltaFit, bad_input_is_refused_with_a_reason) {
     refused_by({0.02, 3.0, 1e-6, 3.0}, "refused: the radius would change");
     CHECK_EQUAL(9u, solve::fit_delta(c.machine, c.features, {}).parameters.size());
 }
+
+TEST(DeltaFit, the_classic_method_answers_within_its_search_and_refuses_beyond_it) {
+    models::DeltaGeometry firmware;
+    firmware.diagonal_rod_mm = 250;
+    firmware.radius_mm = 140;
+    // Worked by hand: a bar as long as it was commanded is what the firmware's own rod gives
+    // (the paper's L = L* at d = d0).
+    DOUBLES_EQUAL(250.0, solve::classic_rod_length_mm(firmware, {{0, 60, 60.0}}), 1e-6);
+    // Worked by hand from the paper's equations: rods of 200 and 300 mm make a 60 mm bar 38.891
+    // and 85.789 mm long, so one read as 90 mm is beyond the search.
+    try {
+        solve::classic_rod_length_mm(firmware, {{0, 60, 60.0}, {0, 60, 90.0}});
+        FAIL("an end of the search was returned");
+    } catch (const solve::FitError& e) {
+        STRCMP_CONTAINS(
+            "a bar measured 90.000 mm (commanded from 0.0 to 60.0 mm) is not what any "
+            "rod from 200.0 to 300.0 mm gives (38.891 to 85.789 mm)",
+            e.what());
+    }
+    CHECK_THROWS(solve::FitError, solve::classic_rod_length_mm(firmware, {{0, 60, std::nan("")}}));
+}

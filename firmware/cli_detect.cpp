@@ -1,4 +1,5 @@
 // calbox detect markers|chessboard|circles: what the box sees.
+#include <algorithm>
 #include <cstdio>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -69,14 +70,19 @@ int markers(const Args& args, const std::string& image_path) {
     for (const auto& m : found) {
         nlohmann::json corners = nlohmann::json::array();
         for (const auto& c : m.corners) corners.push_back(point_json(c));
-        list.push_back({{"id", m.id}, {"corners", corners}});
+        nlohmann::json marker{{"id", m.id}, {"corners", corners}, {"refined", m.refined}};
+        if (!m.refined) marker["unrefined_because"] = m.unrefined_because;
+        list.push_back(std::move(marker));
     }
+    const auto unrefined =
+        std::count_if(found.begin(), found.end(), [](const auto& m) { return !m.refined; });
     emit(args, {{"schema", kSchema},
                 {"image", image_path},
                 {"image_width", gray.cols},
                 {"image_height", gray.rows},
                 {"dictionary", options.dictionary},
-                {"refined", options.refine_edges},
+                {"refine_edges", options.refine_edges},
+                {"unrefined", unrefined},
                 {"markers", list}});
     if (const auto overlay = args.get("--overlay")) {
         cv::Mat picture = colour_copy(gray);
@@ -93,7 +99,13 @@ int markers(const Args& args, const std::string& image_path) {
         }
         write_png(*overlay, picture);
     }
-    if (args.get("-o")) std::printf("found %zu markers\n", found.size());
+    if (args.get("-o")) {
+        std::printf("found %zu markers", found.size());
+        if (options.refine_edges && unrefined > 0)
+            std::printf(", %ld kept as the detector found them (refined: false)",
+                        static_cast<long>(unrefined));
+        std::printf("\n");
+    }
     return 0;
 }
 

@@ -1,4 +1,5 @@
 // calbox measure delta: photos of the printed target -> measurements.json.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -96,6 +97,20 @@ int delta(const std::vector<std::string>& words) {
         out, modes::measurements_to_json(modes::record_of(measured, machine, args.positional())));
     std::printf("%s: %zu corners of %zu markers from %zu photo(s)\n", out.c_str(),
                 measured.features.size(), measured.target.markers.size(), views.size());
+    if (!measured.heights_from_fit) std::printf("heights: %s\n", measured.heights_fallback.c_str());
+    const auto unrefined = std::count_if(measured.features.begin(), measured.features.end(),
+                                         [](const auto& f) { return !f.refined; });
+    if (unrefined > 0) {
+        std::printf("%ld corners kept as the detector found them (refined: false):\n",
+                    static_cast<long>(unrefined));
+        for (std::size_t f = 0; f < measured.frames.size(); ++f) {
+            for (const auto& m : measured.frames[f]) {
+                if (!m.refined)
+                    std::printf("  photo %zu, marker %d: %s\n", f + 1, m.id,
+                                m.unrefined_because.c_str());
+            }
+        }
+    }
     for (const auto& b : measured.bars) {
         std::printf("bar %c: %.3f mm edge to edge (+/- %.3f), commanded %.3f\n", b.tower,
                     b.measured_mm, b.sigma_mm, b.commanded_mm);

@@ -106,6 +106,10 @@ int delta(const std::vector<std::string>& words) {
             fitted.before.diagonal_rod_mm, solution.after.diagonal_rod_mm,
             fitted.estimate.diagonal_rod_mm);
     }
+    std::printf("fit: %d iterations, stopped on %s (last step %.1e)%s\n",
+                fitted.convergence.iterations, fitted.convergence.stopped_on.c_str(),
+                fitted.convergence.final_step,
+                fitted.convergence.stopped_on_limit ? ": NOT converged" : "");
     for (const auto& c : solution.commands) std::printf("  %s\n", c.c_str());
     return 0;
 }

@@ -6,10 +6,12 @@
 #include <cstdio>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <set>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/line_fit.hpp"
 #include "core/models/delta.hpp"
+#include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 #include "core/vision/edge_kernel.hpp"
 
@@ -149,7 +151,10 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
             f.measured_mm.y += dz * f.shift_per_height.y;
             f.seen_at_height_mm = z;
         }
-    } catch (const solve::FitError&) {
+    } catch (const solve::FitError& e) {
+        out.heights_fallback = std::string("the surface fit failed (") + e.what() +
+                               "): corners kept at the target's top, " +
+                               number_text("%.2f", out.target.top_height_mm) + " mm";
         std::vector<geometry::Point2> commanded, measured;
         for (const auto& f : out.features)
             commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
@@ -251,6 +256,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     // Per corner: the sum of its bed positions over the frames that saw it.
     std::map<std::pair<int, int>, std::vector<geometry::Point3>> seen;
     std::map<std::pair<int, int>, geometry::Point2> shift;  // bed mm per mm of height along the ray
+    std::set<std::pair<int, int>> unrefined;                // corners some photo could not refine
     for (std::size_t f = 0; f < frames.size(); ++f) {
         const auto& frame = frames[f];
         if (frame.width_px != camera.image_width || frame.height_px != camera.image_height) {
@@ -324,6 +330,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             const auto& above = above_bed[i];
             for (std::size_t k = 0; k < 4; ++k) {
                 seen[{found[i].id, static_cast<int>(k)}].push_back(bed[k]);
+                if (!found[i].refined) unrefined.insert({found[i].id, static_cast<int>(k)});
                 shift[{found[i].id, static_cast<int>(k)}] = {above[k].x - bed[k].x,
                                                              above[k].y - bed[k].y};
             }
@@ -354,7 +361,8 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                 {mx, my},
                                 sigma,
                                 out.target.top_height_mm,
-                                shift[key]});
+                                shift[key],
+                                !unrefined.contains(key)});
     }
     const SurfaceModel surface = fit_surface(machine, out);
     measure_bars(machine, camera, plane, frames, surface, out);

@@ -42,6 +42,8 @@ struct DeltaMeasurement {
     // Corners and bar ends moved along their rays to the surface heights a fit of the corners
     // gives (the fit's parallax terms then have nothing left to do); else at the nominal height.
     bool heights_from_fit = false;
+    // Otherwise why not, and what was done instead (the features stay at the target's height).
+    std::string heights_fallback;
 };
 
 // A corner's feature id: "m" marker id "c" corner index (OpenCV's order).
@@ -65,6 +67,7 @@ struct DeltaMeasurementsRecord {
     std::vector<std::string> photos;
     double bed_scale = 1;
     bool heights_from_fit = false;
+    std::string heights_fallback;
     std::vector<solve::FeatureMeasurement> features;
     std::vector<BarLengthMeasurement> bars;
 };

@@ -39,6 +39,18 @@ models::DeltaGeometry geometry_from(const json& j) {
     return g;
 }
 
+json convergence_json(const solve::FitConvergence& c) {
+    return {{"iterations", c.iterations},
+            {"final_step", c.final_step},
+            {"stopped_on", c.stopped_on},
+            {"stopped_on_limit", c.stopped_on_limit}};
+}
+
+solve::FitConvergence convergence_from(const json& j) {
+    return {j.at("iterations").get<int>(), j.at("final_step").get<double>(),
+            j.at("stopped_on").get<std::string>(), j.at("stopped_on_limit").get<bool>()};
+}
+
 }  // namespace
 
 std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
@@ -50,7 +62,8 @@ std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
              {"measured_mm", {f.measured_mm.x, f.measured_mm.y}},
              {"sigma_mm", f.sigma_mm},
              {"seen_at_height_mm", f.seen_at_height_mm},
-             {"shift_per_height", {f.shift_per_height.x, f.shift_per_height.y}}});
+             {"shift_per_height", {f.shift_per_height.x, f.shift_per_height.y}},
+             {"refined", f.refined}});
     }
     json bars = json::array();
     for (const auto& b : r.bars) {
@@ -68,6 +81,7 @@ std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
                  {"photos", r.photos},
                  {"bed_scale", r.bed_scale},
                  {"heights_from_fit", r.heights_from_fit},
+                 {"heights_fallback", r.heights_fallback},
                  {"features", features},
                  {"bars", bars}};
     return j.dump(1) + "\n";
@@ -82,6 +96,7 @@ DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std:
         if (j.contains("photos")) r.photos = j.at("photos").get<std::vector<std::string>>();
         r.bed_scale = j.value("bed_scale", 1.0);
         r.heights_from_fit = j.value("heights_from_fit", false);
+        r.heights_fallback = j.value("heights_fallback", "");
         for (const auto& f : j.at("features")) {
             solve::FeatureMeasurement fm;
             fm.id = f.value("id", "");
@@ -95,6 +110,7 @@ DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std:
                 fm.shift_per_height = {number(f.at("shift_per_height").at(0)),
                                        number(f.at("shift_per_height").at(1))};
             }
+            fm.refined = f.value("refined", true);
             r.features.push_back(fm);
         }
         if (j.contains("bars")) {
@@ -150,6 +166,9 @@ std::string result_to_json(const DeltaSolution& s) {
                   {{"rotation_deg", fitted.placement.angle_rad * 180 / 3.14159265358979323846},
                    {"translation_mm",
                     {fitted.placement.translation_mm.x, fitted.placement.translation_mm.y}}}},
+                 {"convergence",
+                  {{"estimate", convergence_json(fitted.convergence)},
+                   {"correction", fit ? convergence_json(correction.convergence) : json(nullptr)}}},
                  {"used_probe", fitted.used_probe},
                  {"classic_bars", s.classic_bars},
                  {"bed",
@@ -184,6 +203,12 @@ DeltaSolution result_from_json(std::string_view text, const std::string& source)
             j.at("placement").at("rotation_deg").get<double>() * 3.14159265358979323846 / 180;
         const auto& t = j.at("placement").at("translation_mm");
         fitted.placement.translation_mm = {t.at(0).get<double>(), t.at(1).get<double>()};
+        if (j.contains("convergence")) {
+            const auto& c = j.at("convergence");
+            fitted.convergence = convergence_from(c.at("estimate"));
+            if (!c.at("correction").is_null())
+                correction.convergence = convergence_from(c.at("correction"));
+        }
         fitted.used_probe = j.at("used_probe").get<bool>();
         s.classic_bars = j.value("classic_bars", std::size_t{0});
         correction.predicted_height_range_now_mm =

@@ -18,6 +18,7 @@ DeltaMeasurementsRecord record_of(const DeltaMeasurement& measured,
     r.photos = std::move(photos);
     r.bed_scale = measured.bed_scale;
     r.heights_from_fit = measured.heights_from_fit;
+    r.heights_fallback = measured.heights_fallback;
     r.features = measured.features;
     r.bars = measured.bars;
     return r;
@@ -72,7 +73,15 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
                          s.machine_fingerprint + ")");
     }
     if (s.method == DeltaMethod::fit) {
-        s.fit = solve::fit_delta(machine, measurements.features, probe, options.limits);
+        try {
+            s.fit = solve::fit_delta(machine, measurements.features, probe, options.limits);
+        } catch (const solve::FitError& e) {
+            // The measurement's own fit of the surface may have failed first: say so, it is
+            // usually the same cause seen earlier.
+            if (measurements.heights_fallback.empty()) throw;
+            throw solve::FitError(std::string(e.what()) + "; measuring, " +
+                                  measurements.heights_fallback);
+        }
         s.after = s.fit.correction.after;
     } else {
         // The fit still runs for its report (what the data determine), but sends nothing.

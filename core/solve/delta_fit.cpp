@@ -70,33 +70,58 @@ struct Solution {
     Vector x;
     Eigen::MatrixXd jacobian;  // at the solution, free columns only
     double cost = 0;
+    FitConvergence convergence;
 };
+
+// r(x), where a geometry that cannot reach a commanded point is the fit's error, not the
+// kinematics': the measurements are then far from anything this machine's model can be.
+Vector residuals_at(const std::function<Vector(const Vector&)>& r, const Vector& x,
+                    const char* where) {
+    try {
+        return r(x);
+    } catch (const models::UnreachableError& e) {
+        throw FitError(std::string("the fit cannot go on: ") + where + ", " + e.what() +
+                       " (the measurements are far from what this machine's model can give)");
+    }
+}
 
 Eigen::MatrixXd jacobian_of(const std::function<Vector(const Vector&)>& r, const Vector& x,
                             const std::vector<int>& free, const std::vector<double>& step) {
-    const Vector r0 = r(x);
+    const Vector r0 = residuals_at(r, x, "at the current estimate");
     Eigen::MatrixXd j(r0.size(), static_cast<Eigen::Index>(free.size()));
     for (std::size_t k = 0; k < free.size(); ++k) {
         Vector up = x, down = x;
         const double h = step[static_cast<std::size_t>(free[k])] * 1e-3;
         up[free[k]] += h;
         down[free[k]] -= h;
-        j.col(static_cast<Eigen::Index>(k)) = (r(up) - r(down)) / (2 * h);
+        j.col(static_cast<Eigen::Index>(k)) =
+            (residuals_at(r, up, "a parameter nudged for the Jacobian") -
+             residuals_at(r, down, "a parameter nudged for the Jacobian")) /
+            (2 * h);
     }
     return j;
 }
 
 Solution levenberg_marquardt(const std::function<Vector(const Vector&)>& r, Vector x,
                              const std::vector<int>& free, const std::vector<double>& step) {
+    // Converged when a step lowers the sum of squares by less than this share of it: the
+    // parameters then move by nanometres, far below any uncertainty.
+    constexpr double kConvergedGain = 1e-14;
+    constexpr int kMaxIterations = 100;
+    constexpr int kMaxDampingTries = 10;  // lambda grows 10^10 fold: no descent left
     double lambda = 1e-3;
-    Vector res = r(x);
+    Vector res = residuals_at(r, x, "at the starting geometry");
     double cost = res.squaredNorm();
-    for (int iteration = 0; iteration < 100; ++iteration) {
+    FitConvergence c;
+    c.stopped_on = "the iteration limit";
+    c.stopped_on_limit = true;
+    while (c.iterations < kMaxIterations) {
+        ++c.iterations;
         const Eigen::MatrixXd j = jacobian_of(r, x, free, step);
         const Eigen::MatrixXd jtj = j.transpose() * j;
         const Vector g = j.transpose() * res;
-        bool improved = false;
-        for (int tries = 0; tries < 10 && !improved; ++tries) {
+        bool improved = false, converged = false;
+        for (int tries = 0; tries < kMaxDampingTries && !improved; ++tries) {
             Eigen::MatrixXd a = jtj;
             a.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-12);
             const Vector dx = a.ldlt().solve(-g);
@@ -107,25 +132,36 @@ Solution levenberg_marquardt(const std::function<Vector(const Vector&)>& r, Vect
             try {
                 candidate_res = r(candidate);
             } catch (const models::UnreachableError&) {
-                lambda *= 10;
+                lambda *= 10;  // a trial step too far: a shorter one may not be
                 continue;
             }
             const double candidate_cost = candidate_res.squaredNorm();
             if (candidate_cost < cost) {
                 const double gain = cost - candidate_cost;
+                c.final_step = 0;
+                for (std::size_t k = 0; k < free.size(); ++k) {
+                    c.final_step =
+                        std::max(c.final_step, std::abs(dx[static_cast<Eigen::Index>(k)]) /
+                                                   step[static_cast<std::size_t>(free[k])]);
+                }
                 x = candidate;
                 res = candidate_res;
                 cost = candidate_cost;
                 lambda = std::max(lambda / 10, 1e-12);
                 improved = true;
-                if (gain < 1e-14 * (1 + cost)) iteration = 1000;
+                converged = gain < kConvergedGain * (1 + cost);
             } else {
                 lambda *= 10;
             }
         }
-        if (!improved) break;
+        if (!improved || converged) {
+            c.stopped_on = improved ? "a step that no longer lowers the residual"
+                                    : "no step that lowers the residual";
+            c.stopped_on_limit = false;
+            break;
+        }
     }
-    return {x, jacobian_of(r, x, free, step), cost};
+    return {x, jacobian_of(r, x, free, step), cost, c};
 }
 
 // Bed points for judging a correction: rings over the printable area.
@@ -180,6 +216,7 @@ void check_inputs(const models::MachineFile& machine,
 
 std::vector<double> parameter_steps() {
     std::vector<double> step;
+    step.reserve(kParameters.size());
     for (const auto& p : kParameters) step.push_back(p.step);
     return step;
 }
@@ -279,6 +316,7 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
     result.fit_rms_mm = std::sqrt(solution.cost / static_cast<double>(solution.jacobian.rows())) *
                         result.expected_rms_mm;
     result.estimate = geometry_of(solution.x);
+    result.convergence = solution.convergence;
     result.placement = {solution.x[kGeometry],
                         {solution.x[kGeometry + 1], solution.x[kGeometry + 2]}};
     for (int i = 0; i < kGeometry; ++i) {
@@ -332,6 +370,7 @@ DeltaCorrection design_delta_correction(const models::MachineFile& machine,
     const Solution correction =
         levenberg_marquardt(correction_residuals, pack(estimate), all, parameter_steps());
     result.after = unpack(correction.x);
+    result.convergence = correction.convergence;
     double sum = 0, worst = 0, change = 0;
     for (std::size_t i = 0; i < judge.size(); ++i) {
         const auto p = models::actual_position_mm(estimate, result.after, judge[i]);

@@ -28,6 +28,9 @@ struct FeatureMeasurement {
     // `shift_per_height` (bed mm per mm) for a surface higher than that. Zero: no parallax.
     double seen_at_height_mm = 0;
     geometry::Point2 shift_per_height;
+    // False when some photo's corner could not be refined past the detector's own: the point
+    // is then a few tenths of a pixel rougher (said in the measurement's summary).
+    bool refined = true;
 };
 
 // A probed height: the nozzle's height over the bed when commanded to (x, y, 0).
@@ -57,6 +60,16 @@ struct ParameterReport {
 
 constexpr std::size_t kDeltaParameterCount = 9;
 
+// How a least-squares fit ended: its iterations, its last accepted step (the largest over the
+// parameters, each in units of the change that moves the features about 0.1 mm) and why it
+// stopped; on the iteration limit the answer is not a converged one.
+struct FitConvergence {
+    int iterations = 0;
+    double final_step = 0;
+    std::string stopped_on;
+    bool stopped_on_limit = false;
+};
+
 // Stage one: the printer's true geometry from where its features landed.
 struct DeltaEstimate {
     models::DeltaGeometry before, estimate;  // in gauge
@@ -70,6 +83,7 @@ struct DeltaEstimate {
     double expected_rms_mm = 0;  // what the measurements' own uncertainty leads to expect
     RigidPlacement placement;    // the artifact on the bed: machine frame -> bed frame
     bool used_probe = false;
+    FitConvergence convergence;  // of the final fit (after undetermined parameters are held)
 };
 
 // Stage two: the parameters to send, and what the fit predicts they leave.
@@ -79,6 +93,7 @@ struct DeltaCorrection {
     double predicted_height_change_mm = 0;     // largest change of the height map, after vs now
     double predicted_height_range_now_mm = 0;  // the bed's height range the fit sees now
     bool levels_bed = false;  // the correction levels the bed (else keeps its height map)
+    FitConvergence convergence;
 };
 
 struct DeltaFitResult {

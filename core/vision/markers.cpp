@@ -8,6 +8,7 @@
 #include "core/geometry/cv_convert.hpp"
 #include "core/geometry/line_fit.hpp"
 #include "core/geometry/pattern_spec.hpp"
+#include "core/number_text.hpp"
 #include "core/vision/edge_kernel.hpp"
 
 #if CV_VERSION_MAJOR > 4 || (CV_VERSION_MAJOR == 4 && CV_VERSION_MINOR >= 7)
@@ -76,39 +77,42 @@ std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int c
 
 }  // namespace
 
-std::array<Point2, 4> refine_marker_corners(const GrayView& image,
-                                            const std::array<Point2, 4>& rough, int cells_per_side,
-                                            const geometry::CameraModel* camera) {
+RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Point2, 4>& rough,
+                                     int cells_per_side, const geometry::CameraModel* camera,
+                                     const MarkerRefineLimits& limits) {
+    static constexpr std::array<const char*, 4> kEdgeNames = {"top", "right", "bottom", "left"};
+    const auto kept = [&](std::string why) { return RefinedCorners{rough, false, std::move(why)}; };
     std::array<Point2, 4> corners = rough;
     for (int pass = 0; pass < 2; ++pass) {
         std::array<Line, 4> lines;
-        for (int k = 0; k < 4; ++k) {
-            auto points =
-                edge_points(image, corners[static_cast<std::size_t>(k)],
-                            corners[static_cast<std::size_t>((k + 1) % 4)], cells_per_side);
-            if (points.size() < 6) return rough;
+        for (std::size_t k = 0; k < 4; ++k) {
+            auto points = edge_points(image, corners[k], corners[(k + 1) % 4], cells_per_side);
+            if (points.size() < limits.min_edge_points) {
+                return kept(std::string("the ") + kEdgeNames[k] + " edge gave " +
+                            std::to_string(points.size()) + " points (at least " +
+                            std::to_string(limits.min_edge_points) + " needed)");
+            }
             if (camera != nullptr) points = geometry::undistort_to_normalized(*camera, points);
-            lines[static_cast<std::size_t>(k)] = fit_line(points);
+            lines[k] = fit_line(points);
         }
         std::vector<Point2> refined;
-        for (int k = 0; k < 4; ++k) {
-            const auto c = intersect(lines[static_cast<std::size_t>((k + 3) % 4)],
-                                     lines[static_cast<std::size_t>(k)]);
-            if (!c) return rough;
+        for (std::size_t k = 0; k < 4; ++k) {
+            const auto c = intersect(lines[(k + 3) % 4], lines[k]);
+            if (!c) return kept("two edges fitted parallel");
             refined.push_back(*c);
         }
         if (camera != nullptr) refined = geometry::distort_from_normalized(*camera, refined);
-        for (int k = 0; k < 4; ++k) {
-            const auto& r = refined[static_cast<std::size_t>(k)];
-            // A refinement that walks off by pixels has measured something else.
-            if (std::hypot(r.x - rough[static_cast<std::size_t>(k)].x,
-                           r.y - rough[static_cast<std::size_t>(k)].y) > 2.0) {
-                return rough;
+        for (std::size_t k = 0; k < 4; ++k) {
+            const double moved = std::hypot(refined[k].x - rough[k].x, refined[k].y - rough[k].y);
+            if (moved > limits.max_corner_move_px) {
+                return kept("corner " + std::to_string(k) + " moved " + number_text("%.1f", moved) +
+                            " px from OpenCV's (at most " +
+                            number_text("%.1f", limits.max_corner_move_px) + ")");
             }
-            corners[static_cast<std::size_t>(k)] = r;
+            corners[k] = refined[k];
         }
     }
-    return corners;
+    return {corners, true, {}};
 }
 
 std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
@@ -124,8 +128,13 @@ std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOp
                 raw.corners[m][static_cast<std::size_t>(k)].y};
         }
         if (options.refine_edges) {
-            marker.corners =
-                refine_marker_corners(image, marker.corners, raw.cells_per_side, options.camera);
+            auto r = refine_marker_corners(image, marker.corners, raw.cells_per_side,
+                                           options.camera, options.refine_limits);
+            marker.corners = r.corners;
+            marker.refined = r.refined;
+            marker.unrefined_because = std::move(r.unrefined_because);
+        } else {
+            marker.unrefined_because = "refinement off";
         }
         out.push_back(marker);
     }

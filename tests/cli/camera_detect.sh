@@ -47,6 +47,9 @@ grep -q "board_thickness_mm: 2" "$work/plane.yaml"
 "$calbox" detect markers "$work/markers.png" -o "$work/detections.json" --overlay "$work/overlay.png"
 grep -q '"calbox.detections/1"' "$work/detections.json"
 [ "$(grep -c '"id"' "$work/detections.json")" -eq 12 ]
+[ "$(grep -c '"refined": true' "$work/detections.json")" -eq 12 ]
+grep -q '"unrefined": 0' "$work/detections.json"
+"$calbox" detect markers "$work/markers.png" --no-refine | grep -q '"unrefined": 12'
 [ -s "$work/overlay.png" ]
 "$calbox" detect markers "$work/markers.png" | grep -q '"markers"'   # JSON on standard output
 "$calbox" detect chessboard "$work/bed.png" --pattern chessboard:9x6@20 -o "$work/corners.json"

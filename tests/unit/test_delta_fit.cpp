@@ -297,6 +297,13 @@ TEST(DeltaFit, twenty_seeded_printers_are_recovered_within_their_uncertainty_and
             ++fitted[i];
             if (std::abs(p.estimate - truth_values[i]) <= 3 * p.uncertainty) ++within[i];
         }
+        // Both fits converged: well inside the iteration limit, the last step a sliver of a
+        // parameter's scale.
+        for (const auto* conv : {&result.fitted.convergence, &result.correction.convergence}) {
+            CHECK_FALSE(conv->stopped_on_limit);
+            CHECK(conv->iterations >= 2 && conv->iterations < 50);
+            CHECK_TEXT(conv->final_step < 1e-3, std::to_string(conv->final_step).c_str());
+        }
         sim::DeltaTwin fresh(c.truth, c.firmware);
         const sim::DeltaJudgement after =
             sim::judge_delta(fresh, models::marlin_commands(result.correction.after));
@@ -443,6 +450,16 @@ TEST(DeltaFit, bad_input_is_refused_with_a_reason) {
     refused_by({0.02, 1e-4, 0.02, 3.0}, "refused: a tower angle trim");
     refused_by({0.02, 3.0, 1e-6, 3.0}, "refused: the radius would change");
     CHECK_EQUAL(9u, solve::fit_delta(c.machine, c.features, {}).parameters.size());
+    // A machine file whose rods cannot reach the measured corners: a fit error that says so,
+    // not the kinematics' own exception.
+    auto short_rods = c.machine;
+    short_rods.delta->diagonal_rod_mm = 150;
+    try {
+        solve::fit_delta(short_rods, c.features, {});
+        FAIL("a fit started where the nozzle cannot go");
+    } catch (const solve::FitError& e) {
+        STRCMP_CONTAINS("the fit cannot go on: at the starting geometry", e.what());
+    }
 }
 
 TEST(DeltaFit, the_classic_method_answers_within_its_search_and_refuses_beyond_it) {

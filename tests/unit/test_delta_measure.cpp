@@ -127,15 +127,41 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     // what is left is measurement noise, and the geometry comes out as the twin's truth.
     const auto fit = solve::fit_delta(machine, measured.features, {});
     const models::DeltaGeometry t = models::in_gauge(sim::machine_settings(truth));
-    UT_PRINT(("fit on the photo: residual " + std::to_string(fit.fitted.fit_rms_mm) + " mm RMS; rod " +
-              std::to_string(fit.fitted.estimate.diagonal_rod_mm) + " (true " +
+    UT_PRINT(("fit on the photo: residual " + std::to_string(fit.fitted.fit_rms_mm) +
+              " mm RMS; rod " + std::to_string(fit.fitted.estimate.diagonal_rod_mm) + " (true " +
               std::to_string(t.diagonal_rod_mm) + "), radius " +
-              std::to_string(fit.fitted.estimate.radius_mm) + " (true " + std::to_string(t.radius_mm) +
-              ")")
+              std::to_string(fit.fitted.estimate.radius_mm) + " (true " +
+              std::to_string(t.radius_mm) + ")")
                  .c_str());
-    CHECK_TEXT(fit.fitted.fit_rms_mm < 0.01, ("fit residual " + std::to_string(fit.fitted.fit_rms_mm)).c_str());
+    CHECK_TEXT(fit.fitted.fit_rms_mm < 0.01,
+               ("fit residual " + std::to_string(fit.fitted.fit_rms_mm)).c_str());
     DOUBLES_EQUAL(t.diagonal_rod_mm, fit.fitted.estimate.diagonal_rod_mm, 0.1);
     DOUBLES_EQUAL(t.radius_mm, fit.fitted.estimate.radius_mm, 0.1);
+
+    // The same photos through a camera model with the wrong lens distortion: the corners no
+    // longer fit a delta printer's geometry. Measurement says its surface fit failed and why,
+    // and keeps the nominal height; the solve's refusal then carries that reason along.
+    geometry::CameraModel wrong_lens = model;
+    wrong_lens.distortion[0] += 0.1;
+    const auto through_wrong_lens =
+        modes::measure_delta(machine, wrong_lens, plane, {view_of(print_photo)});
+    UT_PRINT(through_wrong_lens.heights_fallback.c_str());
+    CHECK_FALSE(through_wrong_lens.heights_from_fit);
+    STRCMP_CONTAINS("the surface fit failed (refused: the measurements do not fit",
+                    through_wrong_lens.heights_fallback.c_str());
+    STRCMP_CONTAINS("corners kept at the target's top, 0.20 mm",
+                    through_wrong_lens.heights_fallback.c_str());
+    for (const auto& f : through_wrong_lens.features)
+        DOUBLES_EQUAL(target.top_height_mm, f.seen_at_height_mm, 0);
+    modes::DeltaSolveOptions options;
+    try {
+        modes::solve_delta(machine,
+                           modes::record_of(through_wrong_lens, machine, {"wrong_lens.png"}), {},
+                           options);
+        FAIL("measurements that fit no delta printer were solved");
+    } catch (const solve::FitError& e) {
+        STRCMP_CONTAINS("; measuring, the surface fit failed", e.what());
+    }
 }
 
 TEST(DeltaMeasure, photos_that_cannot_be_measured_say_why) {

@@ -17,6 +17,7 @@ modes::DeltaMeasurementsRecord sample_measurements() {
     r.photos = {"a.png", "b.png"};
     r.bed_scale = 0.9993;
     r.heights_from_fit = true;
+    r.heights_fallback = "the surface fit failed (why)";
     solve::FeatureMeasurement f;
     f.id = "m3c1";
     f.commanded_mm = {12.5, -30.25, 0.2};
@@ -24,6 +25,7 @@ modes::DeltaMeasurementsRecord sample_measurements() {
     f.sigma_mm = 0.004;
     f.seen_at_height_mm = 0.21;
     f.shift_per_height = {0.03, -0.07};
+    f.refined = false;
     r.features = {f};
     modes::BarLengthMeasurement b;
     b.tower = 'B';
@@ -51,6 +53,7 @@ TEST(DeltaRecords, measurements_round_trip_field_for_field) {
     CHECK(r.photos == back.photos);
     DOUBLES_EQUAL(0.9993, back.bed_scale, 0);
     CHECK(back.heights_from_fit);
+    STRCMP_EQUAL("the surface fit failed (why)", back.heights_fallback.c_str());
     CHECK_EQUAL(1u, back.features.size());
     const auto& f = back.features[0];
     STRCMP_EQUAL("m3c1", f.id.c_str());
@@ -60,6 +63,7 @@ TEST(DeltaRecords, measurements_round_trip_field_for_field) {
     DOUBLES_EQUAL(0.004, f.sigma_mm, 0);
     DOUBLES_EQUAL(0.21, f.seen_at_height_mm, 0);
     DOUBLES_EQUAL(-0.07, f.shift_per_height.y, 0);
+    CHECK_FALSE(f.refined);
     const auto& b = back.bars.at(0);
     CHECK_EQUAL('B', b.tower);
     DOUBLES_EQUAL(20, b.commanded_from_mm, 0);
@@ -87,6 +91,8 @@ TEST(DeltaRecords, a_result_round_trips_and_keeps_what_was_held) {
     s.fit.correction.predicted_xy_max_mm = 0.005;
     s.fit.correction.predicted_height_range_now_mm = 0.3;
     s.fit.correction.levels_bed = true;
+    fitted.convergence = {7, 2.5e-6, "a step that no longer lowers the residual", false};
+    s.fit.correction.convergence = {100, 0.25, "the iteration limit", true};
     s.after = fitted.estimate;
     s.after.radius_mm = 140.5;
     s.fit.correction.after = s.after;
@@ -104,6 +110,11 @@ TEST(DeltaRecords, a_result_round_trips_and_keeps_what_was_held) {
     DOUBLES_EQUAL(0.004, back.fit.fitted.uncertainty[0], 0);
     DOUBLES_EQUAL(-2.5, back.fit.fitted.placement.translation_mm.y, 1e-12);
     CHECK(back.commands == s.commands);
+    CHECK_EQUAL(7, back.fit.fitted.convergence.iterations);
+    DOUBLES_EQUAL(2.5e-6, back.fit.fitted.convergence.final_step, 0);
+    CHECK_FALSE(back.fit.fitted.convergence.stopped_on_limit);
+    CHECK(back.fit.correction.convergence.stopped_on_limit);
+    STRCMP_EQUAL("the iteration limit", back.fit.correction.convergence.stopped_on.c_str());
     STRCMP_EQUAL(text.c_str(), modes::result_to_json(back).c_str());
 }
 

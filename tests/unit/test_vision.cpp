@@ -147,6 +147,49 @@ TEST(Markers, every_rendered_marker_is_found_with_corners_within_a_tenth_of_a_pi
                ("OpenCV corner RMS " + std::to_string(opencv) + " px").c_str());
 }
 
+TEST(Markers, a_corner_that_cannot_be_refined_is_kept_as_found_and_says_why) {
+    const auto scene = photograph_markers(17);
+    vision::MarkerOptions options;
+    const auto found = vision::detect_markers(view_of(scene.image), options);
+    for (const auto& m : found) {
+        CHECK_TEXT(m.refined, m.unrefined_because.c_str());
+        CHECK_TRUE(m.unrefined_because.empty());
+    }
+    // OpenCV's corners two and a half pixels to the right: the side edges are still within the
+    // profiles' reach and the refinement lands on the true corners, further from the rough ones
+    // than a refinement may move.
+    const auto& marker = found.at(3);
+    std::array<geometry::Point2, 4> rough = marker.corners;
+    for (auto& c : rough) c.x += 2.5;
+    const auto shifted = vision::refine_marker_corners(view_of(scene.image), rough, 6, nullptr);
+    CHECK_FALSE(shifted.refined);
+    STRCMP_CONTAINS("px from OpenCV's (at most 2.0)", shifted.unrefined_because.c_str());
+    for (std::size_t k = 0; k < 4; ++k) DOUBLES_EQUAL(rough[k].x, shifted.corners[k].x, 0);
+    // The same with the limit raised: refined, onto the truth.
+    vision::MarkerRefineLimits wide;
+    wide.max_corner_move_px = 4;
+    const auto allowed =
+        vision::refine_marker_corners(view_of(scene.image), rough, 6, nullptr, wide);
+    CHECK_TRUE(allowed.refined);
+    for (int k = 0; k < 4; ++k) {
+        const auto t = scene.truth.at({marker.id, k});
+        const auto& c = allowed.corners[static_cast<std::size_t>(k)];
+        CHECK_TEXT(std::hypot(c.x - t.x, c.y - t.y) < 0.2, ("corner " + std::to_string(k)).c_str());
+    }
+    // A blank patch has no edges.
+    const std::vector<std::uint8_t> flat(64 * 64, 120);
+    const auto blank = vision::refine_marker_corners(
+        {flat.data(), 64, 64, 64}, {{{10, 10}, {50, 10}, {50, 50}, {10, 50}}}, 6, nullptr);
+    CHECK_FALSE(blank.refined);
+    STRCMP_EQUAL("the top edge gave 0 points (at least 6 needed)", blank.unrefined_because.c_str());
+    // Refinement off: every marker says so.
+    options.refine_edges = false;
+    for (const auto& m : vision::detect_markers(view_of(scene.image), options)) {
+        CHECK_FALSE(m.refined);
+        STRCMP_EQUAL("refinement off", m.unrefined_because.c_str());
+    }
+}
+
 TEST(Markers, unknown_dictionary_is_refused) {
     const std::vector<std::uint8_t> pixels(64 * 64, 50);
     vision::MarkerOptions options;
@@ -269,8 +312,8 @@ TEST(ReferenceMarks, a_knocked_camera_moves_the_marks_by_what_the_twins_geometry
 
 TEST(ReferenceMarks, the_stored_view_round_trips_and_a_broken_one_is_refused) {
     vision::ReferenceView view{"DICT_APRILTAG_36h11", {}};
-    view.marks.push_back({3, {{{10.5, 20.25}, {30, 20}, {30, 40}, {10, 40.125}}}});
-    view.marks.push_back({7, {{{100, 200}, {130, 200}, {130, 240}, {100, 240}}}});
+    view.marks.push_back({3, {{{10.5, 20.25}, {30, 20}, {30, 40}, {10, 40.125}}}, true, {}});
+    view.marks.push_back({7, {{{100, 200}, {130, 200}, {130, 240}, {100, 240}}}, true, {}});
     const auto back = vision::reference_from_yaml(vision::reference_to_yaml(view));
     STRCMP_EQUAL("DICT_APRILTAG_36h11", back.dictionary.c_str());
     CHECK_EQUAL(2u, back.marks.size());
@@ -302,8 +345,8 @@ TEST(ReferenceMarks, a_mark_not_found_is_named) {
     plane.bed_to_camera.rvec = {M_PI, 0, 0};  // looking straight down from 400 mm
     plane.bed_to_camera.tvec_mm = {0, 0, 400};
     vision::ReferenceView stored{"DICT_4X4_50", {}};
-    stored.marks.push_back({1, {{{100, 100}, {200, 100}, {200, 200}, {100, 200}}}});
-    stored.marks.push_back({2, {{{900, 100}, {1000, 100}, {1000, 200}, {900, 200}}}});
+    stored.marks.push_back({1, {{{100, 100}, {200, 100}, {200, 200}, {100, 200}}}, true, {}});
+    stored.marks.push_back({2, {{{900, 100}, {1000, 100}, {1000, 200}, {900, 200}}}, true, {}});
     vision::ReferenceView now = stored;
     now.marks.erase(now.marks.begin());
     for (auto& p : now.marks[0].corners) p.x += 1.0;  // one pixel right

@@ -1,5 +1,6 @@
 #include "core/geometry/line_fit.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace calbox::geometry {
@@ -28,6 +29,25 @@ double line_rms(const Line& line, const std::vector<Point2>& points) {
         sum += d * d;
     }
     return std::sqrt(sum / static_cast<double>(points.size()));
+}
+
+double line_sigma_at(const Line& line, const std::vector<Point2>& points, Point2 at,
+                     double independent_share) {
+    const auto n = static_cast<double>(points.size());
+    if (points.size() <= 2) return 0;
+    double along = 0, across = 0;
+    for (const auto& p : points) {
+        const double dx = p.x - line.point.x, dy = p.y - line.point.y;
+        const double t = dx * line.direction.x + dy * line.direction.y;
+        const double d = dx * line.direction.y - dy * line.direction.x;
+        along += t * t;
+        across += d * d;
+    }
+    const double scatter = across / (n - 2);
+    const double t_at =
+        (at.x - line.point.x) * line.direction.x + (at.y - line.point.y) * line.direction.y;
+    const double share = std::clamp(independent_share, 1e-3, 1.0);
+    return std::sqrt(scatter * (1 / (n * share) + (along > 0 ? t_at * t_at / (along * share) : 0)));
 }
 
 std::optional<Point2> intersect(const Line& a, const Line& b) {

@@ -257,6 +257,8 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     std::map<std::pair<int, int>, std::vector<geometry::Point3>> seen;
     std::map<std::pair<int, int>, geometry::Point2> shift;  // bed mm per mm of height along the ray
     std::set<std::pair<int, int>> unrefined;                // corners some photo could not refine
+    // Per corner: the squared uncertainty each frame's edge fits give it, in bed mm.
+    std::map<std::pair<int, int>, std::vector<double>> edge_variance;
     for (std::size_t f = 0; f < frames.size(); ++f) {
         const auto& frame = frames[f];
         if (frame.width_px != camera.image_width || frame.height_px != camera.image_height) {
@@ -325,21 +327,39 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                std::to_string(markers.size()) +
                                " markers: the artifact is partly out of frame");
         }
+        // Each marker's scale on the bed: its sides in millimetres over its sides in pixels.
+        std::vector<double> mm_per_px;
+        for (std::size_t i = 0; i < found.size(); ++i) {
+            double mm = 0, px = 0;
+            for (std::size_t k = 0; k < 4; ++k) {
+                const auto& a = on_bed[i][k];
+                const auto& b = on_bed[i][(k + 1) % 4];
+                mm += std::hypot(b.x - a.x, b.y - a.y);
+                px += std::hypot(found[i].corners[(k + 1) % 4].x - found[i].corners[k].x,
+                                 found[i].corners[(k + 1) % 4].y - found[i].corners[k].y);
+            }
+            mm_per_px.push_back(mm / px);
+        }
         for (std::size_t i = 0; i < found.size(); ++i) {
             const auto& bed = on_bed[i];
             const auto& above = above_bed[i];
             for (std::size_t k = 0; k < 4; ++k) {
                 seen[{found[i].id, static_cast<int>(k)}].push_back(bed[k]);
                 if (!found[i].refined) unrefined.insert({found[i].id, static_cast<int>(k)});
+                const double sigma_mm = found[i].corner_sigma_px[k] * mm_per_px[i];
+                edge_variance[{found[i].id, static_cast<int>(k)}].push_back(sigma_mm * sigma_mm);
                 shift[{found[i].id, static_cast<int>(k)}] = {above[k].x - bed[k].x,
                                                              above[k].y - bed[k].y};
             }
         }
         out.frames.push_back(std::move(found));
     }
-    // A printed corner's position from one 12 MP frame is good to about 0.005 mm; several frames
-    // average, and their scatter is used when it is larger.
-    constexpr double kSingleFrameSigmaMm = 0.005;
+    // A corner's uncertainty in one frame: what its edge fits' own scatter gives (sensor noise,
+    // a ragged strand edge), on top of a floor for what they cannot see (the camera's and the
+    // plane's calibration, the print's texture): on the twin's 12 MP photos the corners are
+    // 0.003-0.005 mm from the material while their edge fits alone claim 0.0004 mm. Several
+    // frames average, and their scatter is used when it is larger.
+    constexpr double kFrameFloorMm = 0.005;
     for (const auto& [key, points] : seen) {
         const auto& target_corner = markers[static_cast<std::size_t>(key.first)]
                                         .corners_mm[static_cast<std::size_t>(key.second)];
@@ -353,9 +373,11 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             const double dx = p.x / out.bed_scale - mx, dy = p.y / out.bed_scale - my;
             scatter += dx * dx + dy * dy;
         }
+        double edge = 0;
+        for (const double v : edge_variance[key]) edge += v;
+        const double frame_sigma = std::sqrt(kFrameFloorMm * kFrameFloorMm + edge / n);
         const double sigma =
-            std::max(kSingleFrameSigmaMm, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) /
-            std::sqrt(n);
+            std::max(frame_sigma, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) / std::sqrt(n);
         out.features.push_back({corner_feature_id(key.first, key.second),
                                 {target_corner.x, target_corner.y, out.target.top_height_mm},
                                 {mx, my},

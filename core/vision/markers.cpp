@@ -81,12 +81,21 @@ RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Poi
                                      int cells_per_side, const geometry::CameraModel* camera,
                                      const MarkerRefineLimits& limits) {
     static constexpr std::array<const char*, 4> kEdgeNames = {"top", "right", "bottom", "left"};
-    const auto kept = [&](std::string why) { return RefinedCorners{rough, false, std::move(why)}; };
+    const auto kept = [&](std::string why) {
+        const double s = limits.unrefined_corner_sigma_px;
+        return RefinedCorners{rough, false, std::move(why), {s, s, s, s}};
+    };
+    // Edge profiles are taken every half pixel and each reads a 2x2 neighbourhood: only every
+    // second one carries noise of its own.
+    constexpr double kIndependentProfileShare = 0.5;
+    std::array<std::vector<Point2>, 4> edges;
+    std::array<Line, 4> lines;
+    std::vector<Point2> fitted_corners;  // in the edges' coordinates (normalised with a camera)
     std::array<Point2, 4> corners = rough;
     for (int pass = 0; pass < 2; ++pass) {
-        std::array<Line, 4> lines;
         for (std::size_t k = 0; k < 4; ++k) {
-            auto points = edge_points(image, corners[k], corners[(k + 1) % 4], cells_per_side);
+            auto& points = edges[k];
+            points = edge_points(image, corners[k], corners[(k + 1) % 4], cells_per_side);
             if (points.size() < limits.min_edge_points) {
                 return kept(std::string("the ") + kEdgeNames[k] + " edge gave " +
                             std::to_string(points.size()) + " points (at least " +
@@ -95,13 +104,15 @@ RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Poi
             if (camera != nullptr) points = geometry::undistort_to_normalized(*camera, points);
             lines[k] = fit_line(points);
         }
-        std::vector<Point2> refined;
+        fitted_corners.clear();
         for (std::size_t k = 0; k < 4; ++k) {
             const auto c = intersect(lines[(k + 3) % 4], lines[k]);
             if (!c) return kept("two edges fitted parallel");
-            refined.push_back(*c);
+            fitted_corners.push_back(*c);
         }
-        if (camera != nullptr) refined = geometry::distort_from_normalized(*camera, refined);
+        auto refined = camera != nullptr
+                           ? geometry::distort_from_normalized(*camera, fitted_corners)
+                           : fitted_corners;
         for (std::size_t k = 0; k < 4; ++k) {
             const double moved = std::hypot(refined[k].x - rough[k].x, refined[k].y - rough[k].y);
             if (moved > limits.max_corner_move_px) {
@@ -112,7 +123,21 @@ RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Poi
             corners[k] = refined[k];
         }
     }
-    return {corners, true, {}};
+    // A corner moves with either edge's offset across it: per coordinate, the two offsets'
+    // RMS over the sine of the angle between the edges.
+    const double pixels_per_unit = camera != nullptr ? camera->fx() : 1.0;
+    std::array<double, 4> sigma_px{};
+    for (std::size_t k = 0; k < 4; ++k) {
+        const auto& a = lines[(k + 3) % 4];
+        const auto& b = lines[k];
+        const double sa = geometry::line_sigma_at(a, edges[(k + 3) % 4], fitted_corners[k],
+                                                  kIndependentProfileShare);
+        const double sb =
+            geometry::line_sigma_at(b, edges[k], fitted_corners[k], kIndependentProfileShare);
+        const double sine = std::abs(a.direction.x * b.direction.y - a.direction.y * b.direction.x);
+        sigma_px[k] = pixels_per_unit * std::sqrt((sa * sa + sb * sb) / 2) / sine;
+    }
+    return {corners, true, {}, sigma_px};
 }
 
 std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
@@ -133,8 +158,10 @@ std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOp
             marker.corners = r.corners;
             marker.refined = r.refined;
             marker.unrefined_because = std::move(r.unrefined_because);
+            marker.corner_sigma_px = r.sigma_px;
         } else {
             marker.unrefined_because = "refinement off";
+            marker.corner_sigma_px.fill(options.refine_limits.unrefined_corner_sigma_px);
         }
         out.push_back(marker);
     }

@@ -19,6 +19,9 @@ struct DetectedMarker {
     // 0.2 px off on a blurred photo), and `unrefined_because` says why.
     bool refined = false;
     std::string unrefined_because;
+    // Each corner's standard uncertainty per coordinate, in pixels: from the edge fits' own
+    // scatter when refined, else what OpenCV's corners are worth.
+    std::array<double, 4> corner_sigma_px{};
 };
 
 // Where each edge is looked for and how far a refined corner may move, with their reasons.
@@ -31,6 +34,9 @@ struct MarkerRefineLimits {
     // neighbouring edge, a smudge): OpenCV's corners are within half a pixel on any photo
     // the detector decodes.
     double max_corner_move_px = 2.0;
+    // What a corner kept as OpenCV found it is worth, per coordinate: its sub-pixel corners are
+    // 0.2 px RMS from the truth on the twin's blurred photos (test_vision, Markers).
+    double unrefined_corner_sigma_px = 0.2;
 };
 
 struct MarkerOptions {
@@ -50,6 +56,7 @@ struct RefinedCorners {
     std::array<geometry::Point2, 4> corners;
     bool refined = false;
     std::string unrefined_because;
+    std::array<double, 4> sigma_px{};  // as DetectedMarker::corner_sigma_px
 };
 
 // Refines OpenCV's corners of one marker whose side holds `cells_per_side` cells (its bits plus

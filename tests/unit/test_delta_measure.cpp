@@ -138,6 +138,34 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     DOUBLES_EQUAL(t.diagonal_rod_mm, fit.fitted.estimate.diagonal_rod_mm, 0.1);
     DOUBLES_EQUAL(t.radius_mm, fit.fitted.estimate.radius_mm, 0.1);
 
+    // A noisier photo (four times the sensor noise) is measured with larger uncertainties from
+    // its own edge fits, and the fit takes it: a noisier photo is not a refusal.
+    const auto mean_sigma = [](const modes::DeltaMeasurement& m) {
+        double sum = 0;
+        for (const auto& f : m.features) sum += f.sigma_mm;
+        return sum / static_cast<double>(m.features.size());
+    };
+    sim::PhotoSettings noisier = photo;
+    noisier.noise_sigma_dn = 4 * photo.noise_sigma_dn;
+    const auto noisy_photo = sim::render_photo(camera, bed_to_camera, print_scene, noisier);
+    const auto plain = modes::measure_delta(machine, model, plane, {view_of(print_photo)});
+    const auto noisy = modes::measure_delta(machine, model, plane, {view_of(noisy_photo)});
+    const auto noisy_fit = solve::fit_delta(machine, noisy.features, {});
+    UT_PRINT(("one photo: mean corner sigma " + std::to_string(mean_sigma(plain)) +
+              " mm; four times the noise: " + std::to_string(mean_sigma(noisy)) +
+              " mm, fit residual " + std::to_string(noisy_fit.fitted.fit_rms_mm) + " mm")
+                 .c_str());
+    // Above the 0.005 mm floor, the edge fits' share grows with the noise (the print's own
+    // texture keeps it from growing the full four times).
+    const auto edge_share = [&](const modes::DeltaMeasurement& m) {
+        return std::sqrt(std::max(0.0, std::pow(mean_sigma(m), 2) - 0.005 * 0.005));
+    };
+    CHECK(mean_sigma(plain) >= 0.005);
+    CHECK(mean_sigma(noisy) > 1.03 * mean_sigma(plain));
+    const double growth = edge_share(noisy) / edge_share(plain);
+    CHECK_TEXT(growth > 2.5 && growth < 5, std::to_string(growth).c_str());
+    DOUBLES_EQUAL(t.diagonal_rod_mm, noisy_fit.fitted.estimate.diagonal_rod_mm, 0.1);
+
     // The same photos through a camera model with the wrong lens distortion: the corners no
     // longer fit a delta printer's geometry. Measurement says its surface fit failed and why,
     // and keeps the nominal height; the solve's refusal then carries that reason along.

@@ -14,6 +14,7 @@
 #include "board/sim/scenes.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
+#include "core/geometry/line_fit.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -371,4 +372,22 @@ TEST(BedPlane, a_missing_board_is_an_error) {
         geometry::CalibrationError,
         geometry::estimate_bed_plane(camera, geometry::parse_pattern_spec("chessboard:9x6@20"),
                                      {blank.data(), 1920, 1080, 1920}, 0));
+}
+
+TEST_GROUP(LineFit){};
+
+TEST(LineFit, a_lines_uncertainty_follows_its_points_scatter_worked_by_hand) {
+    // Three points about y = 0: residuals 0.1, -0.2, 0.1, so s^2 = 0.06 / (3 - 2) = 0.06, and
+    // the points' spread along the line S_tt = 2.
+    const std::vector<geometry::Point2> points{{-1, 0.1}, {0, -0.2}, {1, 0.1}};
+    const auto line = geometry::fit_line(points);
+    DOUBLES_EQUAL(0, line.direction.y, 1e-12);
+    DOUBLES_EQUAL(std::sqrt(0.06 / 3), geometry::line_sigma_at(line, points, {0, 0}), 1e-12);
+    // Two units beyond the middle: 0.06 (1/3 + 4/2).
+    DOUBLES_EQUAL(std::sqrt(0.06 * (1.0 / 3 + 2)), geometry::line_sigma_at(line, points, {2, 5}),
+                  1e-12);
+    // Half the points independent: 0.06 (2/3 + 4/1).
+    DOUBLES_EQUAL(std::sqrt(0.06 * (2.0 / 3 + 4)),
+                  geometry::line_sigma_at(line, points, {2, 0}, 0.5), 1e-12);
+    DOUBLES_EQUAL(0, geometry::line_sigma_at(line, {{0, 0}, {1, 0}}, {0, 0}), 0);
 }

@@ -126,6 +126,12 @@ TEST(Markers, every_rendered_marker_is_found_with_corners_within_a_tenth_of_a_pi
     for (std::size_t i = 0; i < found.size(); ++i) CHECK_EQUAL(static_cast<int>(i), found[i].id);
     const double rms = corner_rms(scene, found);
     CHECK_TEXT(rms < 0.1, ("marker corner RMS " + std::to_string(rms) + " px").c_str());
+    // Each corner carries its edge fits' uncertainty: well under the 0.2 px OpenCV's own
+    // corners are worth, and not zero.
+    for (const auto& m : found) {
+        for (const double s : m.corner_sigma_px)
+            CHECK_TEXT(s > 1e-4 && s < 0.05, std::to_string(s).c_str());
+    }
 
     // With the camera the edges are fitted as the straight lines they are on the marker.
     const auto camera = as_core(hq_camera());
@@ -163,6 +169,7 @@ TEST(Markers, a_corner_that_cannot_be_refined_is_kept_as_found_and_says_why) {
     for (auto& c : rough) c.x += 2.5;
     const auto shifted = vision::refine_marker_corners(view_of(scene.image), rough, 6, nullptr);
     CHECK_FALSE(shifted.refined);
+    DOUBLES_EQUAL(0.2, shifted.sigma_px[2], 0);
     STRCMP_CONTAINS("px from OpenCV's (at most 2.0)", shifted.unrefined_because.c_str());
     for (std::size_t k = 0; k < 4; ++k) DOUBLES_EQUAL(rough[k].x, shifted.corners[k].x, 0);
     // The same with the limit raised: refined, onto the truth.

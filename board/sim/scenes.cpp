@@ -282,8 +282,8 @@ struct BoardScene::Layout {
                 return 0.95;
             case Surroundings::cluttered: {
                 // A fixed hash of the cell: the same clutter in every view.
-                auto h = static_cast<std::uint32_t>(i * 73856093) ^
-                         static_cast<std::uint32_t>(j * 19349663);
+                auto h = static_cast<std::uint32_t>(i) * 73856093U ^
+                         static_cast<std::uint32_t>(j) * 19349663U;
                 h ^= h >> 13;
                 h *= 0x5bd1e995U;
                 h ^= h >> 15;

@@ -410,6 +410,7 @@ std::string plane_to_yaml(const BedPlane& plane) {
 BedPlane plane_from_yaml(const std::string& text) {
     BedPlane plane;
     try {
+        check_yaml_text(text);
         cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
         if (!fs.isOpened()) throw FileFormatError("not an OpenCV YAML file");
         const auto vec3 = [&](const char* key, std::array<double, 3>& out) {
@@ -431,8 +432,8 @@ BedPlane plane_from_yaml(const std::string& text) {
             throw FileFormatError("missing key 'board_thickness_mm'");
         fs["board_thickness_mm"] >> plane.board_thickness_mm;
         if (!fs["rms"].empty()) fs["rms"] >> plane.rms_px;
-    } catch (const cv::Exception& e) {
-        throw FileFormatError(std::string("corrupt YAML: ") + e.err);
+    } catch (...) {
+        rethrow_as_file_format_error();
     }
     return plane;
 }

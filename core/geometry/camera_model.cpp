@@ -1,8 +1,10 @@
 #include "core/geometry/camera_model.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
+#include <string_view>
 
 #include "core/geometry/cv_convert.hpp"
 
@@ -63,9 +65,85 @@ std::string camera_to_yaml(const CameraModel& camera, const std::vector<double>&
     return fs.releaseAndGetString();
 }
 
+void rethrow_as_file_format_error() {
+    try {
+        throw;
+    } catch (const FileFormatError&) {
+        throw;
+    } catch (const cv::Exception& e) {
+        throw FileFormatError(std::string("corrupt YAML: ") + e.err);
+    } catch (const std::exception& e) {
+        throw FileFormatError(std::string("corrupt YAML: ") + e.what());
+    }
+}
+
+void check_yaml_text(const std::string& text) {
+    // OpenCV writes every file the box keeps with this header; without it a mangled first line
+    // hides where the document starts.
+    if (text.rfind("%YAML:1.0\n---", 0) != 0 && text.rfind("%YAML:1.0\r\n---", 0) != 0)
+        throw FileFormatError("corrupt YAML: it does not start with '%YAML:1.0' and '---'");
+    std::string open;  // the brackets still open, innermost last
+    int line = 1;
+    char quote = 0;
+    char before = '\n';  // the last character that was not a space
+    bool comment = false;
+    int documents = 0;
+    bool seen_first_key = false;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        const char c = text[i];
+        if (c == '\n') {
+            ++line;
+            comment = false;
+            before = '\n';
+            continue;
+        }
+        if (before == '\n' && quote == 0 && text.compare(i, 3, "---") == 0 && ++documents > 1) {
+            throw FileFormatError("corrupt YAML: line " + std::to_string(line) +
+                                  ": a second document; the file holds one");
+        }
+        // The document's first line is a key at the margin, as every file the box writes has
+        // it: an indented one sends OpenCV's parser round for ever.
+        if (documents == 1 && !seen_first_key && before == '\n' && c != '-' && c != '\r' &&
+            c != '#') {
+            if (!(std::isalpha(static_cast<unsigned char>(c)) || c == '_')) {
+                throw FileFormatError("corrupt YAML: line " + std::to_string(line) +
+                                      ": the document does not start with a key");
+            }
+            seen_first_key = true;
+        }
+        if (comment) continue;
+        if (quote != 0) {
+            if (c == quote) quote = 0;
+            continue;
+        }
+        const char previous = before;
+        if (c != ' ' && c != '\t') before = c;
+        // A quote opens a quoted scalar only where a value starts; inside a plain one it is text.
+        const bool value_starts = std::string_view("\n:,[{-").find(previous) != std::string::npos;
+        if ((c == '"' || c == '\'') && value_starts) {
+            quote = c;
+        } else if (c == '#') {
+            comment = true;
+        } else if (c == '[' || c == '{') {
+            open.push_back(c);
+        } else if (c == ']' || c == '}') {
+            if (open.empty() || open.back() != (c == ']' ? '[' : '{')) {
+                throw FileFormatError("corrupt YAML: line " + std::to_string(line) + ": '" +
+                                      std::string(1, c) + "' closes nothing open");
+            }
+            open.pop_back();
+        }
+    }
+    if (!open.empty()) {
+        throw FileFormatError("corrupt YAML: a '" + std::string(1, open.back()) +
+                              "' is never closed");
+    }
+}
+
 CameraModel camera_from_yaml(const std::string& text) {
     CameraModel c;
     try {
+        check_yaml_text(text);
         cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
         if (!fs.isOpened()) throw FileFormatError("not an OpenCV YAML file");
         const auto node = [&](const char* key) {
@@ -107,8 +185,8 @@ CameraModel camera_from_yaml(const std::string& text) {
         for (double v : c.distortion)
             if (!std::isfinite(v)) throw FileFormatError("distortion_coefficients must be finite");
         if (!fs["rms"].empty()) fs["rms"] >> c.rms_px;
-    } catch (const cv::Exception& e) {
-        throw FileFormatError(std::string("corrupt YAML: ") + e.err);
+    } catch (...) {
+        rethrow_as_file_format_error();
     }
     return c;
 }

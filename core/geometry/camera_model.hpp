@@ -45,4 +45,18 @@ std::string camera_to_yaml(const CameraModel& camera,
 // Throws FileFormatError naming the missing or malformed key.
 CameraModel camera_from_yaml(const std::string& text);
 
+// For a catch (...) around a read of OpenCV YAML text: FileFormatError goes on as it is;
+// OpenCV's errors, and the standard exceptions its parser lets out on some malformed texts (a
+// std::length_error on a cut-off flow mapping, found by tests/fuzz), become
+// FileFormatError("corrupt YAML: ...").
+[[noreturn]] void rethrow_as_file_format_error();
+
+// Throws FileFormatError, before OpenCV reads the text, for YAML without OpenCV's header
+// ("%YAML:1.0", "---"), whose flow brackets ([ ] and
+// { }) do not nest and close, that holds more than one document (the box's files hold one) or
+// whose document does not start with a key at the margin:
+// OpenCV 4.6's parser loops forever on some such texts (found by tests/fuzz), and a file the
+// box cannot read must stop it with a message, not hang it.
+void check_yaml_text(const std::string& text);
+
 }  // namespace calbox::geometry

@@ -43,8 +43,6 @@ void check_exposure(const vision::GrayView& image, std::size_t frame) {
     }
 }
 
-constexpr double kPi = 3.14159265358979323846;
-
 // Where a printed surface lies on the bed frame the photos are mapped in: the machine's actual
 // nozzle position for a commanded point, placed on the bed, grown with the bed.
 struct SurfaceModel {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 
 namespace calbox::gcode {
@@ -135,12 +136,19 @@ Line parse_line(std::string_view raw) {
         std::optional<double> value;
         if (!values.empty()) value = values.front();
         if (letter == 'N' && line.command_letter == 0 && !line.line_number) {
-            if (values.size() != 1) throw SyntaxError("line number N without one value");
+            // Hosts number lines from 0 upwards in a signed 32-bit counter.
+            if (values.size() != 1 || !(*value >= 0 && *value <= 2147483647.0) ||
+                *value != std::floor(*value)) {
+                throw SyntaxError("line number N without one whole value from 0 to 2147483647");
+            }
             line.line_number = static_cast<long>(*value);
             continue;
         }
         if (line.command_letter == 0 && (letter == 'G' || letter == 'M' || letter == 'T')) {
-            if (values.size() != 1 || *value < 0 || *value != static_cast<int>(*value)) {
+            // No firmware's command numbers reach 10000 (Marlin's highest is M9xx); the range is
+            // checked before the conversion, which is undefined outside int.
+            if (values.size() != 1 || !(*value >= 0 && *value < 10000) ||
+                *value != std::floor(*value)) {
                 throw SyntaxError(std::string("bad command number after ") + letter);
             }
             line.command_letter = letter;

@@ -8,6 +8,8 @@
 #include <optional>
 #include <pugixml.hpp>
 
+#include "core/number_text.hpp"
+
 namespace calbox::targets {
 namespace {
 
@@ -115,7 +117,15 @@ void flatten_arc(const Affine& m, Point2 centre, double rx, double ry, double ph
     const double r_mm = std::max(rx, ry) * m.scale();
     double step = kPi / 2;
     if (r_mm > tolerance) step = std::min(step, 2 * std::acos(1 - tolerance / r_mm));
-    const int n = std::max(1, static_cast<int>(std::ceil(std::abs(delta) / step)));
+    // A million points is a 60 km arc at the default tolerance: more is a broken number, and
+    // past int the count itself would be undefined (found by tests/fuzz under UBSan).
+    constexpr double kMaxArcPoints = 1e6;
+    const double count = std::ceil(std::abs(delta) / step);
+    if (!std::isfinite(count) || count > kMaxArcPoints) {
+        throw SvgError("an arc of radius " + number_text("%.3g", r_mm) +
+                       " mm is too large to flatten");
+    }
+    const int n = std::max(1, static_cast<int>(count));
     const double cp = std::cos(phi), sp = std::sin(phi);
     for (int k = 1; k <= n; ++k) {
         const double t = theta1 + delta * k / n;

@@ -37,6 +37,7 @@ ReferenceView reference_from_yaml(const std::string& text) {
     if (text.find_first_not_of(" \t\r\n") == std::string::npos)
         throw geometry::FileFormatError("empty: not an OpenCV YAML file");
     try {
+        geometry::check_yaml_text(text);
         cv::FileStorage fs(text, cv::FileStorage::READ | cv::FileStorage::MEMORY);
         if (!fs.isOpened()) throw geometry::FileFormatError("not an OpenCV YAML file");
         if (fs["dictionary"].empty() || !fs["dictionary"].isString())
@@ -62,8 +63,8 @@ ReferenceView reference_from_yaml(const std::string& text) {
             }
             view.marks.push_back(m);
         }
-    } catch (const cv::Exception& e) {
-        throw geometry::FileFormatError(std::string("corrupt YAML: ") + e.err);
+    } catch (...) {
+        geometry::rethrow_as_file_format_error();
     }
     return view;
 }

@@ -50,6 +50,14 @@ TEST(GcodeLine, rejects_bad_numbers_and_stray_text) {
     CHECK_THROWS(SyntaxError, parse_line("X10"));
     CHECK_THROWS(SyntaxError, parse_line("G1 (open comment X1"));
     CHECK_THROWS(SyntaxError, parse_line("G1.5 X1"));
+    // Found by tests/fuzz (libFuzzer under UBSan): numbers past what a command or a line number
+    // can be were converted to integers anyway.
+    CHECK_THROWS(SyntaxError, parse_line("G233333333333333333333G1"));
+    CHECK_THROWS(SyntaxError, parse_line("M10000"));
+    CHECK_THROWS(SyntaxError, parse_line("N1e30 G1 X1"));
+    CHECK_THROWS(SyntaxError, parse_line("N-1 G1 X1"));
+    CHECK_EQUAL(9999, parse_line("M9999").command_number);
+    CHECK_EQUAL(2147483647L, *parse_line("N2147483647 G1").line_number);
 }
 
 TEST(GcodeLine, keeps_message_text) {

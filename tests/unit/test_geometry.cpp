@@ -150,6 +150,37 @@ TEST(CameraFile, opencv_models_agree_with_the_twins_own) {
     }
 }
 
+TEST(CameraFile, yaml_opencv_cannot_read_safely_is_refused_before_it_reads_it) {
+    const auto refusal = [](const std::string& text) {
+        try {
+            geometry::camera_from_yaml(text);
+        } catch (const geometry::FileFormatError& e) {
+            return std::string(e.what());
+        }
+        return std::string("read");
+    };
+    // Found by tests/fuzz: OpenCV 4.6's parser never returns on these texts.
+    const std::string loops =
+        "%YAML:1.0\n---\n -YAML:1.0\n---\n - { id:7, corners: { id:7, corners:[ 100. 200., "
+        "130., 200., 130.,dictionary: DICT_APRILTAG_3611\nmarks:\n   0., 40.$ 10., 4ickness_mm: "
+        "0.\nrms: 1.3816189421583067e-02\n";
+    STRCMP_EQUAL("corrupt YAML: line 3: the document does not start with a key",
+                 refusal(loops).c_str());
+    CHECK_THROWS(geometry::FileFormatError, geometry::plane_from_yaml(loops));
+    STRCMP_EQUAL("corrupt YAML: line 3: the document does not start with a key",
+                 refusal("%YAML:1.0\n---\n -a\n--%\n - ").c_str());
+    STRCMP_EQUAL("corrupt YAML: line 4: a second document; the file holds one",
+                 refusal("%YAML:1.0\n---\na: 1\n---\nb: 2\n").c_str());
+    STRCMP_EQUAL("corrupt YAML: a '[' is never closed",
+                 refusal("%YAML:1.0\n---\na: [1, { b: 2 }\n").c_str());
+    STRCMP_EQUAL("corrupt YAML: line 4: ']' closes nothing open",
+                 refusal("%YAML:1.0\n---\na: [1, 2]\nb: { c: 1 ]\n").c_str());
+    STRCMP_EQUAL("corrupt YAML: it does not start with '%YAML:1.0' and '---'",
+                 refusal("%YAML:1.---\n -a\n--%\n - ").c_str());
+    // Brackets in quotes and comments are text; a quote inside a plain word is a letter.
+    geometry::check_yaml_text("%YAML:1.0\n---\n# c\na: \"[\" # {\nb: it's [1, '}']\n");
+}
+
 TEST_GROUP(Calibration){};
 
 TEST(Calibration, pinhole_from_15_rendered_views_recovers_the_true_camera) {

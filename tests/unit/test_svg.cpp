@@ -124,6 +124,15 @@ TEST(SvgPath, unknown_commands_and_bad_numbers_are_refused) {
     CHECK_THROWS(SvgError, parse_path_data("M0 0 L 10", kIdentity, 0.01));
     CHECK_THROWS(SvgError, parse_path_data("10 10", kIdentity, 0.01));
     CHECK_THROWS(SvgError, parse_path_data("M0 0 A 5 5 0 2 1 10 0", kIdentity, 0.01));
+    // Found by tests/fuzz under UBSan: an arc between points 1e85 apart counted its points
+    // past int. Refused by name; a 10 m arc is still drawn.
+    try {
+        parse_path_data("M0 0 A 3 4 20 1 0 1e85 0", kIdentity, 0.01);
+        FAIL("flattened");
+    } catch (const SvgError& e) {
+        STRCMP_CONTAINS("is too large to flatten", e.what());
+    }
+    CHECK(parse_path_data("M0 0 A 5000 5000 0 0 1 10000 0", kIdentity, 0.01).size() >= 1);
 }
 
 TEST_GROUP(SvgDocument){};

@@ -1,0 +1,1 @@
+G28 (home) ; then wait

@@ -1,0 +1,11 @@
+// Fuzz target: the SVG reader (calbox target svg).
+#include "core/targets/svg.hpp"
+#include "tests/fuzz/fuzz_target.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    try {
+        calbox::targets::parse_svg(calbox::fuzz::as_text(data, size));
+    } catch (const calbox::targets::SvgError&) {
+    }
+    return 0;
+}

@@ -6,7 +6,6 @@
 #include <cstdio>
 #include <map>
 #include <opencv2/imgproc.hpp>
-#include <set>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/line_fit.hpp"
@@ -251,12 +250,14 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     const auto& markers = out.target.markers;
     vision::MarkerOptions options;
     options.camera = &camera;
-    // Per corner: the sum of its bed positions over the frames that saw it.
-    std::map<std::pair<int, int>, std::vector<geometry::Point3>> seen;
-    std::map<std::pair<int, int>, geometry::Point2> shift;  // bed mm per mm of height along the ray
-    std::set<std::pair<int, int>> unrefined;                // corners some photo could not refine
-    // Per corner: the squared uncertainty each frame's edge fits give it, in bed mm.
-    std::map<std::pair<int, int>, std::vector<double>> edge_variance;
+    // Per corner, what the frames that saw it gave.
+    struct CornerSightings {
+        std::vector<geometry::Point3> on_bed;
+        geometry::Point2 shift;        // bed mm per mm of height along the ray
+        bool refined = true;           // false when some photo could not refine it
+        double edge_variance_sum = 0;  // of each frame's edge-fit uncertainty, in bed mm^2
+    };
+    std::map<std::pair<int, int>, CornerSightings> seen;
     for (std::size_t f = 0; f < frames.size(); ++f) {
         const auto& frame = frames[f];
         if (frame.width_px != camera.image_width || frame.height_px != camera.image_height) {
@@ -342,12 +343,12 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             const auto& bed = on_bed[i];
             const auto& above = above_bed[i];
             for (std::size_t k = 0; k < 4; ++k) {
-                seen[{found[i].id, static_cast<int>(k)}].push_back(bed[k]);
-                if (!found[i].refined) unrefined.insert({found[i].id, static_cast<int>(k)});
+                auto& corner = seen[{found[i].id, static_cast<int>(k)}];
+                corner.on_bed.push_back(bed[k]);
+                corner.refined = corner.refined && found[i].refined;
                 const double sigma_mm = found[i].corner_sigma_px[k] * mm_per_px[i];
-                edge_variance[{found[i].id, static_cast<int>(k)}].push_back(sigma_mm * sigma_mm);
-                shift[{found[i].id, static_cast<int>(k)}] = {above[k].x - bed[k].x,
-                                                             above[k].y - bed[k].y};
+                corner.edge_variance_sum += sigma_mm * sigma_mm;
+                corner.shift = {above[k].x - bed[k].x, above[k].y - bed[k].y};
             }
         }
         out.frames.push_back(std::move(found));
@@ -358,7 +359,8 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     // 0.003-0.005 mm from the material while their edge fits alone claim 0.0004 mm. Several
     // frames average, and their scatter is used when it is larger.
     constexpr double kFrameFloorMm = 0.005;
-    for (const auto& [key, points] : seen) {
+    for (const auto& [key, corner] : seen) {
+        const auto& points = corner.on_bed;
         const auto& target_corner = markers[static_cast<std::size_t>(key.first)]
                                         .corners_mm[static_cast<std::size_t>(key.second)];
         double mx = 0, my = 0;
@@ -371,9 +373,8 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             const double dx = p.x / out.bed_scale - mx, dy = p.y / out.bed_scale - my;
             scatter += dx * dx + dy * dy;
         }
-        double edge = 0;
-        for (const double v : edge_variance[key]) edge += v;
-        const double frame_sigma = std::sqrt(kFrameFloorMm * kFrameFloorMm + edge / n);
+        const double frame_sigma =
+            std::sqrt(kFrameFloorMm * kFrameFloorMm + corner.edge_variance_sum / n);
         const double sigma =
             std::max(frame_sigma, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) / std::sqrt(n);
         out.features.push_back({corner_feature_id(key.first, key.second),
@@ -381,8 +382,8 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                 {mx, my},
                                 sigma,
                                 out.target.top_height_mm,
-                                shift[key],
-                                !unrefined.contains(key)});
+                                corner.shift,
+                                corner.refined});
     }
     const SurfaceModel surface = fit_surface(machine, out);
     measure_bars(machine, camera, plane, frames, surface, out);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 #include <stdexcept>
@@ -59,6 +60,26 @@ void render_rows(const CameraIntrinsics& camera, const Pose& pose, const Scene& 
     }
 }
 
+// A straight smear of `length_px` along `direction_deg`: the line's weight spread bilinearly
+// over the kernel's pixels, so that sub-pixel lengths and any angle are represented.
+cv::Mat motion_kernel(double length_px, double direction_deg) {
+    const int half = static_cast<int>(std::ceil(length_px / 2)) + 1;
+    cv::Mat kernel = cv::Mat::zeros(2 * half + 1, 2 * half + 1, CV_32F);
+    const double c = std::cos(radians(direction_deg)), s = std::sin(radians(direction_deg));
+    const int samples = 64;
+    for (int i = 0; i < samples; ++i) {
+        const double t = ((i + 0.5) / samples - 0.5) * length_px;
+        const double x = half + t * c, y = half + t * s;
+        const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+        const double fx = x - x0, fy = y - y0;
+        kernel.at<float>(y0, x0) += static_cast<float>((1 - fx) * (1 - fy));
+        kernel.at<float>(y0, x0 + 1) += static_cast<float>(fx * (1 - fy));
+        kernel.at<float>(y0 + 1, x0) += static_cast<float>((1 - fx) * fy);
+        kernel.at<float>(y0 + 1, x0 + 1) += static_cast<float>(fx * fy);
+    }
+    return kernel / static_cast<double>(samples);
+}
+
 }  // namespace
 
 std::vector<float> render_albedo(const CameraIntrinsics& camera, const Pose& plane_to_camera,
@@ -105,6 +126,11 @@ GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_came
         cv::GaussianBlur(radiance, radiance, cv::Size(0, 0), settings.blur_sigma_px, 0,
                          cv::BORDER_REFLECT);
     }
+    if (settings.motion_blur_px > 0) {
+        cv::filter2D(radiance, radiance, -1,
+                     motion_kernel(settings.motion_blur_px, settings.motion_blur_direction_deg),
+                     cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
+    }
     GrayImage image{camera.width_px, camera.height_px, {}};
     image.pixels.resize(light_dn.size());
     std::mt19937_64 rng(settings.seed);
@@ -114,6 +140,17 @@ GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_came
         double dn = light_dn[i];
         if (noisy) dn += settings.noise_sigma_dn * noise(rng);
         image.pixels[i] = static_cast<std::uint8_t>(std::clamp(std::lround(dn), 0L, 255L));
+    }
+    if (settings.jpeg_quality > 0) {
+        if (settings.jpeg_quality > 100) throw std::invalid_argument("JPEG quality is 1..100");
+        const cv::Mat sensor(image.height_px, image.width_px, CV_8U, image.pixels.data());
+        std::vector<std::uint8_t> file;
+        cv::imencode(".jpg", sensor, file, {cv::IMWRITE_JPEG_QUALITY, settings.jpeg_quality});
+        const cv::Mat decoded = cv::imdecode(file, cv::IMREAD_GRAYSCALE);
+        if (decoded.size() != sensor.size() || !decoded.isContinuous()) {
+            throw std::runtime_error("the JPEG round trip lost the picture");
+        }
+        std::copy(decoded.datastart, decoded.dataend, image.pixels.begin());
     }
     return image;
 }

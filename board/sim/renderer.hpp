@@ -1,6 +1,6 @@
 #pragma once
 // Renders what a camera sees of a planar scene: exact-coverage geometry, then lighting,
-// vignetting, defocus blur, sensor noise and 8-bit quantisation, all seeded.
+// vignetting, defocus and motion blur, sensor noise, 8-bit quantisation and JPEG, all seeded.
 #include <cstdint>
 #include <vector>
 
@@ -18,6 +18,12 @@ struct PhotoSettings {
     double lighting_gradient = 0;  // relative change of light across the image
     double lighting_direction_deg = 0;
     double vignetting = 0;  // relative loss of light at the image corners
+    // The box or the machine still moving during the exposure: a straight smear of this length.
+    double motion_blur_px = 0;
+    double motion_blur_direction_deg = 0;
+    // Saved as a JPEG at this quality (1-100) and read back, as a camera app delivers it;
+    // 0 keeps the sensor's 8-bit values. The Raspberry Pi's still app uses 93.
+    int jpeg_quality = 0;
 };
 
 struct GrayImage {

@@ -148,6 +148,15 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("lighting_gradient", p.lighting_gradient, -1, 1);
         r.number("lighting_direction_deg", p.lighting_direction_deg, -360, 360);
         r.number("vignetting", p.vignetting, 0, 0.9);
+        r.number("motion_blur_px", p.motion_blur_px, 0, 50);
+        r.number("motion_blur_direction_deg", p.motion_blur_direction_deg, -360, 360);
+        r.integer("jpeg_quality", p.jpeg_quality, 0, 100);
+        auto& look = s.surface;
+        r.number("bed_texture", look.bed_texture, 0, 1);
+        r.number("bed_texture_grain_mm", look.bed_texture_grain_mm, 0.01, 100);
+        r.number("gloss", look.gloss, 0, 2);
+        r.number("light_azimuth_deg", look.light_azimuth_deg, -360, 360);
+        r.number("light_elevation_deg", look.light_elevation_deg, 1, 90);
         r.number("bed_temperature_c", s.photo_bed_temperature_c, -50, 200);
         r.number("bed_albedo", s.bed_albedo, 0, 1);
         r.number("material_albedo", s.material_albedo, 0, 1);

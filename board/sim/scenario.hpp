@@ -72,6 +72,7 @@ struct Scenario {
     std::optional<double> photo_bed_temperature_c;  // [photo]: the bed when photographed
     double bed_albedo = 0.08;                       // matte black PEI
     double material_albedo = 0.85;                  // white PETG
+    StrokeSurface surface;                          // [photo]: the bed's grain, the gloss
     ScenarioFaults faults;
     ScenarioSetup setup;
 };

@@ -104,7 +104,27 @@ namespace {
 struct Nearest {
     double signed_distance_mm = std::numeric_limits<double>::infinity();
     Vec2 normal{1, 0};
+    double width_mm = 0;
 };
+
+// Smooth value noise in [-1, 1] with unit grain: a fixed hash of the lattice, interpolated.
+double value_noise(double x, double y) {
+    const double fx = std::floor(x), fy = std::floor(y);
+    const auto lattice = [](double i, double j) {
+        auto h = static_cast<std::uint32_t>(static_cast<std::int64_t>(i)) * 73856093U ^
+                 static_cast<std::uint32_t>(static_cast<std::int64_t>(j)) * 19349663U;
+        h ^= h >> 13;
+        h *= 0x5bd1e995U;
+        h ^= h >> 15;
+        return static_cast<double>(h % 2001U) / 1000.0 - 1.0;
+    };
+    const auto smooth = [](double t) { return t * t * (3 - 2 * t); };
+    const double tx = smooth(x - fx), ty = smooth(y - fy);
+    const double top = lattice(fx, fy) + tx * (lattice(fx + 1, fy) - lattice(fx, fy));
+    const double bottom =
+        lattice(fx, fy + 1) + tx * (lattice(fx + 1, fy + 1) - lattice(fx, fy + 1));
+    return top + ty * (bottom - top);
+}
 
 double closest_parameter(const StrokeSegment& s, double x, double y) {
     const double dx = s.b_mm.x - s.a_mm.x, dy = s.b_mm.y - s.a_mm.y;
@@ -116,12 +136,26 @@ double closest_parameter(const StrokeSegment& s, double x, double y) {
 }  // namespace
 
 StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
-                         double material_albedo, int supersample, double footprint_mm)
+                         double material_albedo, int supersample, double footprint_mm,
+                         const StrokeSurface& surface)
     : strokes_(std::move(strokes)),
       index_(std::make_unique<Index>()),
       bed_albedo_(bed_albedo),
       material_albedo_(material_albedo),
-      supersample_(std::max(1, supersample)) {
+      supersample_(std::max(1, supersample)),
+      surface_(surface) {
+    if (!(surface.bed_texture_grain_mm > 0) || surface.bed_texture < 0 || surface.gloss < 0) {
+        throw std::invalid_argument("a bed's grain must be positive, its texture and gloss >= 0");
+    }
+    {
+        // The camera looks straight down; the light comes from its azimuth and elevation.
+        const double az = radians(surface.light_azimuth_deg);
+        const double el = radians(surface.light_elevation_deg);
+        const Vec3 light{std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+        const Vec3 half = (light + Vec3{0, 0, 1}).normalized();
+        gloss_half_vector_xy_ = {half.x, half.y};
+        gloss_half_vector_z_ = half.z;
+    }
     if (strokes_.empty()) return;
     double zmin = 1e300, zmax = -1e300, xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
     double zsum = 0;
@@ -178,8 +212,19 @@ StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
 
 StrokeScene::~StrokeScene() = default;
 
+double StrokeScene::bed_at(Vec2 p) const {
+    if (surface_.bed_texture == 0) return bed_albedo_;
+    // Two octaves of grain, the finer at half the size and half the swing.
+    const double g = surface_.bed_texture_grain_mm;
+    const double n =
+        (2 * value_noise(p.x / g, p.y / g) + value_noise(2 * p.x / g + 17.5, 2 * p.y / g - 3.25)) /
+        3;
+    return std::clamp(bed_albedo_ * (1 + surface_.bed_texture * n), 0.0, 1.0);
+}
+
 double StrokeScene::albedo(const Footprint& f) const {
-    if (strokes_.empty()) return bed_albedo_;
+    const double bed = bed_at(f.centre_mm);
+    if (strokes_.empty()) return bed;
     const Index& ix = *index_;
     const auto nearest = [&](Vec2 p) {
         Nearest best;
@@ -204,6 +249,7 @@ double StrokeScene::albedo(const Footprint& f) const {
             const double sd = d - s.width_mm / 2;
             if (sd < best.signed_distance_mm) {
                 best.signed_distance_mm = sd;
+                best.width_mm = s.width_mm;
                 if (d > 1e-12) {
                     best.normal = {dx / d, dy / d};
                 } else {
@@ -231,7 +277,26 @@ double StrokeScene::albedo(const Footprint& f) const {
             return inside_fraction(n.signed_distance_mm, n.normal, f.jacobian, supersample_);
         });
     }
-    return bed_albedo_ + coverage * (material_albedo_ - bed_albedo_);
+    double highlight = 0;
+    if (surface_.gloss > 0 && centre.signed_distance_mm < 0 && centre.width_mm > 0) {
+        // A round strand's top: the surface normal leans out by the fraction of the half-width
+        // one is across it. The highlight is a lobe around the half vector (about 8 degrees),
+        // spread over the pixel's footprint with its energy kept.
+        const double half_width = centre.width_mm / 2;
+        const double across =
+            std::clamp((centre.signed_distance_mm + half_width) / half_width, 0.0, 1.0);
+        const double nz = std::sqrt(1 - across * across);
+        const double cosine = across * (centre.normal.x * gloss_half_vector_xy_.x +
+                                        centre.normal.y * gloss_half_vector_xy_.y) +
+                              nz * gloss_half_vector_z_;
+        const double angle = std::acos(std::clamp(cosine, -1.0, 1.0));
+        const double lobe = radians(8.0);
+        const double footprint = reach / 2 / half_width / std::sqrt(12.0);
+        const double spread = std::hypot(lobe, footprint);
+        highlight =
+            surface_.gloss * lobe / spread * std::exp(-0.5 * angle * angle / (spread * spread));
+    }
+    return bed + coverage * (material_albedo_ - bed) + coverage * highlight;
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -38,13 +38,24 @@ struct StrokeSegment {
     double width_mm;
 };
 
+// What a real bed and filament add to the plain two-tone picture: a textured sheet's grain
+// (multiplicative on the bed's albedo) and a glossy filament's highlight, where a strand's
+// round top turns a single light towards the camera (above the bed, looking down).
+struct StrokeSurface {
+    double bed_texture = 0;  // relative albedo swing of the grain, 0 for a smooth sheet
+    double bed_texture_grain_mm = 0.4;
+    double gloss = 0;              // the highlight's peak, in albedo units added to the material's
+    double light_azimuth_deg = 0;  // where the light stands, seen from the bed's centre
+    double light_elevation_deg = 30;  // its height above the bed's plane
+};
+
 class StrokeScene final : public Scene {
   public:
     // `footprint_mm`: the largest a pixel's footprint on the plane gets (the index lists each
     // stroke in the cells it can reach from that far); fine marks seen through a fine camera
     // render much faster with a footprint to match.
     StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo, double material_albedo,
-                int supersample, double footprint_mm = 1.0);
+                int supersample, double footprint_mm = 1.0, const StrokeSurface& surface = {});
     ~StrokeScene() override;
     double albedo(const Footprint& f) const override;
 
@@ -54,6 +65,10 @@ class StrokeScene final : public Scene {
     std::unique_ptr<Index> index_;
     double bed_albedo_, material_albedo_;
     int supersample_;
+    StrokeSurface surface_;
+    Vec2 gloss_half_vector_xy_;  // the in-plane part of the unit vector between light and camera
+    double gloss_half_vector_z_ = 1;
+    double bed_at(Vec2 p) const;
 };
 
 // A calibration board on its own plane, with a white margin, on a grey background.

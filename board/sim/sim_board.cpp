@@ -230,7 +230,7 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
     }
     const StrokeScene scene(as_photographed(scenario_, std::move(strokes)), scenario_.bed_albedo,
                             scenario_.material_albedo, photo.supersample,
-                            stroke_footprint_mm(scenario_));
+                            stroke_footprint_mm(scenario_), scenario_.surface);
     const double identity[2][2] = {{1, 0}, {0, 1}};
     return render_photo(camera.intrinsics, bed_to_camera_now, with_marks(scene, identity, {0, 0}),
                         photo);

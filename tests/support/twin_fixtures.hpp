@@ -67,6 +67,16 @@ inline sim::GrayImage photo_of_print(const sim::CameraIntrinsics& camera, const 
         photo);
 }
 
+// The same on another bed and filament, with the bed's grain and the filament's gloss.
+inline sim::GrayImage photo_of_print(const sim::CameraIntrinsics& camera, const sim::Pose& pose,
+                                     std::vector<sim::StrokeSegment> strokes,
+                                     const sim::PhotoSettings& photo, double bed_albedo,
+                                     double material_albedo, const sim::StrokeSurface& surface) {
+    return sim::render_photo(
+        camera, pose,
+        sim::StrokeScene(std::move(strokes), bed_albedo, material_albedo, 4, 1.0, surface), photo);
+}
+
 inline vision::GrayView view_of(const sim::GrayImage& image) {
     return {image.pixels.data(), image.width_px, image.height_px, image.width_px};
 }

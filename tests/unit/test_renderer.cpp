@@ -459,3 +459,144 @@ TEST(SensorModel, noise_is_seeded_and_has_the_asked_spread_light_falls_off_as_as
     DOUBLES_EQUAL(100.0 * 0.95 * 0.8, at(0, 0), 1.0);
     CHECK(at(399, 150) - at(0, 150) > 8.0);
 }
+
+// The harder twin's troubles (issue 12), each against a hand-worked value.
+TEST_GROUP(HarderPhotos){};
+
+namespace {
+
+CameraIntrinsics overhead_camera() {
+    CameraIntrinsics camera;
+    camera.width_px = 400;
+    camera.height_px = 300;
+    camera.fx = camera.fy = 1000;  // 0.4 mm a pixel at 400 mm
+    camera.cx = 199.5;
+    camera.cy = 149.5;
+    return camera;
+}
+
+// Where along a row the highlight's excess over the plain material is centred, in bed mm
+// (0.4 mm a pixel, the camera over the origin), and how high it peaks.
+std::pair<double, double> highlight_across_row(const std::vector<float>& albedo, int row,
+                                               double material) {
+    double sum = 0, weighted = 0, peak = 0;
+    for (int u = 0; u < 400; ++u) {
+        const double excess = albedo[static_cast<std::size_t>(row) * 400 + u] - material;
+        if (excess <= 0.01) continue;
+        sum += excess;
+        weighted += excess * u;
+        peak = std::max(peak, excess);
+    }
+    if (sum == 0) return {0.0, 0.0};
+    return {(weighted / sum - 199.5) * 0.4, peak};
+}
+
+}  // namespace
+
+TEST(HarderPhotos, gloss_shines_where_a_round_strand_turns_the_lamp_to_the_camera) {
+    const auto camera = overhead_camera();
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    StrokeSurface glossy;
+    glossy.gloss = 0.5;
+    glossy.light_azimuth_deg = 0;  // from +x
+    glossy.light_elevation_deg = 30;
+    // Half vector of the lamp (cos 30, 0, sin 30) and the camera (0, 0, 1): (1/2, 0, sqrt(3)/2),
+    // which a round strand's normal meets half-way out of its half-width towards the lamp: a
+    // 4 mm strand along y shines at x = +1 mm.
+    const StrokeScene across({{{0, -40, 0}, {0, 40, 0}, 4.0}}, 0.08, 0.60, 4, 1.0, glossy);
+    const auto [at_mm, peak] = highlight_across_row(render_albedo(camera, pose, across), 150, 0.60);
+    DOUBLES_EQUAL(1.0, at_mm, 0.1);
+    CHECK(peak > 0.2);
+    // A strand along the lamp's direction cannot lean towards it: its top, 30 degrees off the
+    // half vector, hardly shines.
+    const StrokeScene along({{{-40, 0, 0}, {40, 0, 0}, 4.0}}, 0.08, 0.60, 4, 1.0, glossy);
+    const auto albedo = render_albedo(camera, pose, along);
+    double brightest = 0;
+    for (int v = 140; v < 160; ++v)
+        brightest = std::max(brightest,
+                             static_cast<double>(albedo[static_cast<std::size_t>(v) * 400 + 200]));
+    CHECK(brightest - 0.60 < 0.05 * peak);
+}
+
+TEST(HarderPhotos, a_textured_bed_keeps_its_mean_albedo_and_varies_by_the_asked_swing) {
+    const auto camera = overhead_camera();
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    StrokeSurface grain;
+    grain.bed_texture = 0.3;
+    grain.bed_texture_grain_mm = 2.0;  // five pixels: resolved
+    const auto albedo = render_albedo(camera, pose, StrokeScene({}, 0.5, 0.85, 4, 1.0, grain));
+    double sum = 0, sum2 = 0, low = 1, high = 0;
+    for (const float a : albedo) {
+        sum += a;
+        sum2 += static_cast<double>(a) * a;
+        low = std::min(low, static_cast<double>(a));
+        high = std::max(high, static_cast<double>(a));
+    }
+    const double n = static_cast<double>(albedo.size());
+    const double mean = sum / n, spread = std::sqrt(sum2 / n - mean * mean);
+    DOUBLES_EQUAL(0.5, mean, 0.01);
+    // Value noise uniform in [-1, 1] at the lattice, smoothed: a spread of 0.1-0.2 of the swing.
+    CHECK_TEXT(spread > 0.5 * 0.3 * 0.1 && spread < 0.5 * 0.3 * 0.4,
+               std::to_string(spread).c_str());
+    CHECK(low >= 0.5 * 0.7 - 1e-6 && high <= 0.5 * 1.3 + 1e-6);
+    CHECK(render_albedo(camera, pose, StrokeScene({}, 0.5, 0.85, 4, 1.0, grain)) == albedo);
+}
+
+TEST(HarderPhotos, motion_blur_ramps_an_edge_across_its_length_and_keeps_the_light) {
+    const auto camera = overhead_camera();
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    // A 40 mm band along y: two sharp vertical edges at x = -20 and +20 mm.
+    const StrokeScene band({{{0, -100, 0}, {0, 100, 0}, 40.0}}, 0.1, 0.9, 4);
+    PhotoSettings sharp;
+    sharp.exposure_dn = 200;
+    PhotoSettings smeared = sharp;
+    smeared.motion_blur_px = 8;
+    const auto mean_of = [](const GrayImage& image) {
+        double sum = 0;
+        for (const auto p : image.pixels) sum += p;
+        return sum / static_cast<double>(image.pixels.size());
+    };
+    // The 10-90 % rise of a straight smear of length L over a sharp edge is 0.8 L.
+    const auto rise_px = [](const GrayImage& image) {
+        const auto* row = &image.pixels[150 * 400];
+        const double low = row[100], high = row[200];
+        int first = -1, last = -1;
+        for (int u = 100; u < 200; ++u) {
+            if (first < 0 && row[u] > low + 0.1 * (high - low)) first = u;
+            if (last < 0 && row[u] >= low + 0.9 * (high - low)) last = u;
+        }
+        return last - first;
+    };
+    const GrayImage a = render_photo(camera, pose, band, sharp);
+    const GrayImage b = render_photo(camera, pose, band, smeared);
+    DOUBLES_EQUAL(mean_of(a), mean_of(b), 0.5);
+    CHECK(rise_px(a) <= 1);
+    DOUBLES_EQUAL(0.8 * 8, rise_px(b), 1.0);
+    smeared.motion_blur_direction_deg = 90;  // along the edge: it stays sharp
+    CHECK(rise_px(render_photo(camera, pose, band, smeared)) <= 1);
+}
+
+TEST(HarderPhotos, jpeg_at_the_camera_apps_quality_changes_pixels_by_a_few_counts) {
+    const auto camera = overhead_camera();
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    const StrokeScene strokes(
+        {{{-30, -20, 0}, {30, 25, 0}, 1.2}, {{-30, 20, 0}, {30, -10, 0}, 0.8}}, 0.08, 0.85, 4);
+    PhotoSettings raw;
+    raw.noise_sigma_dn = 2;
+    raw.blur_sigma_px = 0.7;
+    const GrayImage sensor = render_photo(camera, pose, strokes, raw);
+    const auto rms_from_sensor = [&](int quality) {
+        PhotoSettings jpeg = raw;
+        jpeg.jpeg_quality = quality;
+        const GrayImage image = render_photo(camera, pose, strokes, jpeg);
+        double sum = 0;
+        for (std::size_t i = 0; i < image.pixels.size(); ++i) {
+            const double d = static_cast<double>(image.pixels[i]) - sensor.pixels[i];
+            sum += d * d;
+        }
+        return std::sqrt(sum / static_cast<double>(image.pixels.size()));
+    };
+    const double q93 = rms_from_sensor(93), q50 = rms_from_sensor(50);
+    CHECK_TEXT(q93 > 0.3 && q93 < 2.5, std::to_string(q93).c_str());
+    CHECK_TEXT(q50 > q93, (std::to_string(q50) + " at quality 50").c_str());
+}

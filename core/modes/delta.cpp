@@ -17,16 +17,29 @@
 namespace calbox::modes {
 namespace {
 
-// Exposure that leaves no edge to measure: the print's bright side clipped (its edges then move
-// towards the dark side), most of the frame clipped, or no contrast at all.
-void check_exposure(const vision::GrayView& image, std::size_t frame) {
+// Exposure that leaves no edge to measure, in the limits' words. Each is what a photo of white
+// or grey filament on a dark or light sheet, lit by the box's lamp, stays well clear of.
+struct ExposureLimits {
+    // The print's brightest part must reach this: below it the edges' steps are a few tens of
+    // counts, and the sensor's noise (2-3 counts) and the JPEG's rounding become their size.
+    double brightest_at_least_dn = 60;
+    // A pixel at or above this is taken as clipped: sensor curves and JPEG flatten the last few
+    // counts before 255.
+    double clipped_from_dn = 250;
+    // A clipped bright side moves its edges towards the dark side; up to this share of the bright
+    // part (or of the frame) is a highlight or a glint, past it the exposure is wrong.
+    double clipped_share_at_most = 0.2;
+};
+
+void check_exposure(const vision::GrayView& image, std::size_t frame,
+                    const ExposureLimits& limits = {}) {
     const std::string which = "photo " + std::to_string(frame + 1);
     const cv::Mat view(image.height_px, image.width_px, CV_8UC1,
                        const_cast<std::uint8_t*>(image.pixels),
                        static_cast<std::size_t>(image.stride_bytes));
     double brightest = 0;
     cv::minMaxLoc(view, nullptr, &brightest);
-    if (brightest < 60)
+    if (brightest < limits.brightest_at_least_dn)
         throw MeasureError(which + " is under-exposed: nothing in it is brighter than " +
                            std::to_string(static_cast<int>(brightest)) + " of 255");
     // Bright and dark split where Otsu's method puts it: the printed lines and the bed.
@@ -34,8 +47,9 @@ void check_exposure(const vision::GrayView& image, std::size_t frame) {
     const double split = cv::threshold(view, ignored, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
     const auto total = static_cast<double>(view.total());
     const double bright = cv::countNonZero(view > split);
-    const double clipped = cv::countNonZero(view >= 250);
-    if (clipped > 0.2 * total || (bright > 0 && clipped > 0.2 * bright)) {
+    const double clipped = cv::countNonZero(view >= limits.clipped_from_dn);
+    if (clipped > limits.clipped_share_at_most * total ||
+        (bright > 0 && clipped > limits.clipped_share_at_most * bright)) {
         throw MeasureError(which + " is over-exposed: " +
                            std::to_string(static_cast<int>(100 * clipped / bright)) +
                            " % of its bright part is clipped white");
@@ -58,6 +72,22 @@ struct SurfaceModel {
     }
 };
 
+// How a bar's end face is looked for and when it is not one, with the reasons.
+struct EndFaceLimits {
+    // Before the printer is calibrated the face can be a millimetre or more from where the
+    // target puts it: it is first looked for this far either side along the bar's centreline.
+    double search_reach_mm = 3.0;
+    // Then profiled closely, this far either side of where it was found: a strand's width, so
+    // that no other edge (the bar's far side, a neighbouring strand) enters a profile.
+    double profile_reach_mm = 0.8;
+    int profiles = 15;  // across the face's flat part
+    // A face with an edge in fewer profiles than this share is cut, smeared or hidden.
+    double min_profile_share = 2.0 / 3.0;
+    // A clean printed face is straight to a few micrometres; a blob, a gap or a stray strand
+    // is not a face to measure.
+    double max_face_rms_mm = 0.05;
+};
+
 // One end face of a bar in one photo: the edge points where the material stops, on the bed
 // frame, found by profiles along the bar at offsets across it.
 struct EndFace {
@@ -66,11 +96,13 @@ struct EndFace {
     std::size_t points = 0;
 };
 
+// Without a face, `why_not` says what was missing.
 std::optional<EndFace> measure_end_face(const vision::GrayView& image,
                                         const geometry::CameraModel& camera,
                                         const geometry::BedPlane& plane, geometry::Point2 end,
                                         geometry::Point2 outward, double height_mm,
-                                        double half_flat_mm) {
+                                        double half_flat_mm, std::string& why_not,
+                                        const EndFaceLimits& limits = {}) {
     const geometry::Point2 across{-outward.y, outward.x};
     // Material inside, bed outside: the step falls going outwards. `reach` mm either side.
     const auto edge_along = [&](geometry::Point2 centre,
@@ -84,25 +116,34 @@ std::optional<EndFace> measure_end_face(const vision::GrayView& image,
         const auto bed = geometry::pixels_to_bed(camera, plane, {*edge}, height_mm)[0];
         return geometry::Point2{bed.x, bed.y};
     };
-    // The prediction can be a millimetre or more off before the printer is calibrated: find the
-    // face on the bar's centreline first, then profile it closely.
-    const auto rough = edge_along(end, 3.0);
-    if (!rough) return std::nullopt;
+    const auto rough = edge_along(end, limits.search_reach_mm);
+    if (!rough) {
+        why_not = "no edge within " + number_text("%g", limits.search_reach_mm) +
+                  " mm of where it was expected";
+        return std::nullopt;
+    }
     std::vector<geometry::Point2> points;
-    constexpr int kProfiles = 15;
-    for (int k = 0; k < kProfiles; ++k) {
-        const double t = half_flat_mm * (2.0 * k / (kProfiles - 1) - 1);
-        const auto p = edge_along({rough->x + across.x * t, rough->y + across.y * t}, 0.8);
+    const int profiles = std::max(2, limits.profiles);
+    for (int k = 0; k < profiles; ++k) {
+        const double t = half_flat_mm * (2.0 * k / (profiles - 1) - 1);
+        const auto p =
+            edge_along({rough->x + across.x * t, rough->y + across.y * t}, limits.profile_reach_mm);
         if (p) points.push_back(*p);
     }
-    if (points.size() < kProfiles * 2 / 3) return std::nullopt;
+    if (static_cast<double>(points.size()) < limits.min_profile_share * profiles) {
+        why_not = "an edge in only " + std::to_string(points.size()) + " of " +
+                  std::to_string(profiles) + " profiles across it";
+        return std::nullopt;
+    }
     EndFace face;
     face.line = geometry::fit_line(points);
     face.rms_mm = geometry::line_rms(face.line, points);
     face.points = points.size();
-    // A clean printed face is straight to a few micrometres; a blob, a gap or a stray strand
-    // is not a face to measure.
-    if (face.rms_mm > 0.05) return std::nullopt;
+    if (face.rms_mm > limits.max_face_rms_mm) {
+        why_not = "not straight: its edge points lie " + number_text("%.3f", face.rms_mm) +
+                  " mm RMS from a line, " + number_text("%g", limits.max_face_rms_mm) + " allowed";
+        return std::nullopt;
+    }
     return face;
 }
 
@@ -181,12 +222,21 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
         std::vector<double> lengths;
         double sigma_sum = 0;
         std::array<geometry::Point3, 2> faces_seen{};
-        for (const auto& frame : frames) {
-            const auto near = measure_end_face(frame, camera, plane, {start.x, start.y},
-                                               {-axis.x, -axis.y}, start.z, half_profiled);
-            const auto far =
-                measure_end_face(frame, camera, plane, {end.x, end.y}, axis, end.z, half_profiled);
-            if (!near || !far) break;
+        std::string why_not;
+        for (std::size_t f = 0; f < frames.size(); ++f) {
+            const auto& frame = frames[f];
+            std::string near_why, far_why;
+            const auto near =
+                measure_end_face(frame, camera, plane, {start.x, start.y}, {-axis.x, -axis.y},
+                                 start.z, half_profiled, near_why);
+            const auto far = measure_end_face(frame, camera, plane, {end.x, end.y}, axis, end.z,
+                                              half_profiled, far_why);
+            if (!near || !far) {
+                why_not = std::string("bar ") + bar.tower + ": photo " + std::to_string(f + 1) +
+                          ": its " + (near ? "outer" : "inner") +
+                          " end face: " + (near ? far_why : near_why);
+                break;
+            }
             if (lengths.empty()) {
                 faces_seen = {geometry::Point3{near->line.point.x, near->line.point.y, start.z},
                               geometry::Point3{far->line.point.x, far->line.point.y, end.z}};
@@ -203,7 +253,10 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
             sigma_sum += near->rms_mm * near->rms_mm / static_cast<double>(near->points) +
                          far->rms_mm * far->rms_mm / static_cast<double>(far->points);
         }
-        if (lengths.size() != frames.size()) continue;  // not measurable in every photo
+        if (lengths.size() != frames.size()) {  // not measurable in every photo
+            out.bars_unmeasured.push_back(why_not);
+            continue;
+        }
         BarLengthMeasurement m;
         m.tower = bar.tower;
         m.commanded_from_mm = std::hypot(bar.start_mm.x, bar.start_mm.y);
@@ -346,7 +399,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                 auto& corner = seen[{found[i].id, static_cast<int>(k)}];
                 corner.on_bed.push_back(bed[k]);
                 corner.refined = corner.refined && found[i].refined;
-                const double sigma_mm = found[i].corner_sigma_px[k] * mm_per_px[i];
+                const double sigma_mm = found[i].sigma_px[k] * mm_per_px[i];
                 corner.edge_variance_sum += sigma_mm * sigma_mm;
                 corner.shift = {above[k].x - bed[k].x, above[k].y - bed[k].y};
             }

@@ -35,8 +35,10 @@ struct BarLengthMeasurement {
 
 struct DeltaMeasurement {
     targets::DeltaTarget target;
-    std::vector<solve::FeatureMeasurement> features;          // one per marker corner seen
-    std::vector<BarLengthMeasurement> bars;                   // those fully seen in every photo
+    std::vector<solve::FeatureMeasurement> features;  // one per marker corner seen
+    std::vector<BarLengthMeasurement> bars;           // those fully seen in every photo
+    // The others, each with why: "bar A: photo 1: its far end face ...".
+    std::vector<std::string> bars_unmeasured;
     std::vector<std::vector<vision::DetectedMarker>> frames;  // what each photo showed
     double bed_scale = 1;  // the print in the photos against as printed (the bed's expansion)
     // Corners and bar ends moved along their rays to the surface heights a fit of the corners
@@ -68,6 +70,7 @@ struct DeltaMeasurementsRecord {
     double bed_scale = 1;
     bool heights_from_fit = false;
     std::string heights_fallback;
+    std::vector<std::string> bars_unmeasured;
     std::vector<solve::FeatureMeasurement> features;
     std::vector<BarLengthMeasurement> bars;
 };

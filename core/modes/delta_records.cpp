@@ -82,6 +82,7 @@ std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
                  {"bed_scale", r.bed_scale},
                  {"heights_from_fit", r.heights_from_fit},
                  {"heights_fallback", r.heights_fallback},
+                 {"bars_unmeasured", r.bars_unmeasured},
                  {"features", features},
                  {"bars", bars}};
     return j.dump(1) + "\n";
@@ -97,6 +98,8 @@ DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std:
         r.bed_scale = j.value("bed_scale", 1.0);
         r.heights_from_fit = j.value("heights_from_fit", false);
         r.heights_fallback = j.value("heights_fallback", "");
+        if (j.contains("bars_unmeasured"))
+            r.bars_unmeasured = j.at("bars_unmeasured").get<std::vector<std::string>>();
         for (const auto& f : j.at("features")) {
             solve::FeatureMeasurement fm;
             fm.id = f.value("id", "");

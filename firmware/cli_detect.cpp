@@ -19,8 +19,10 @@ constexpr const char* kDetectHelp = R"(usage:
                               [-o detections.json] [--overlay PNG]
   calbox detect chessboard IMAGE --pattern chessboard:COLSxROWS@MM [-o ...] [--overlay PNG]
   calbox detect circles IMAGE --pattern circles:COLSxROWS@MM|acircles:COLSxROWS@MM [-o ...] [--overlay PNG]
-      Finds ArUco markers (default dictionary DICT_4X4_50), a chessboard or a dot grid in the
-      image and writes their pixel positions as JSON (to standard output without -o). Pixels use
+      Finds ArUco markers (default dictionary DICT_4X4_50; OpenCV's names, DICT_4X4_50 ...
+      DICT_APRILTAG_36h11), AprilTag markers (tag36h11, tag25h9, tagStandard41h12: found by
+      libapriltag), a chessboard or a dot grid in the image and writes their pixel positions as
+      JSON (to standard output without -o). Pixels use
       OpenCV's convention (pixel centres at integer coordinates); marker corners are in OpenCV's
       order, refined by fitting each outer edge over its length (with --camera, as straight lines
       after undistortion). --overlay draws what was found on the image.

@@ -5,6 +5,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
 #include <string_view>
+#include <vector>
 
 #include "core/geometry/cv_convert.hpp"
 
@@ -77,67 +78,229 @@ void rethrow_as_file_format_error() {
     }
 }
 
+namespace {
+
+// The strict reader of the box's own YAML shapes, one line at a time; see check_yaml_text.
+class YamlShape {
+  public:
+    void line(std::string_view text, int number) {
+        number_ = number;
+        if (!text.empty() && text.back() == '\r') text.remove_suffix(1);
+        if (!open_.empty()) {
+            // A flow collection running on: indented, nothing but its own content.
+            if (!text.empty() && text.front() != ' ')
+                fail("a '" + std::string(1, open_.back()) + "' is never closed");
+            flow(text);
+            return;
+        }
+        std::size_t indent = 0;
+        while (indent < text.size() && text[indent] == ' ') ++indent;
+        const std::string_view rest = text.substr(indent);
+        if (rest.empty() || rest.front() == '#') return;
+        if (rest.find('\t') != std::string_view::npos && rest.find('\t') < rest.find('#'))
+            fail("a tab; the box's files indent with spaces");
+        if (indent == 0 && rest.substr(0, 3) == "---")
+            fail("a second document; the file holds one");
+        place(indent);
+        const bool item = rest.front() == '-' && (rest.size() == 1 || rest[1] == ' ');
+        Block& block = blocks_.back();
+        if (block.kind == Kind::unknown) block.kind = item ? Kind::sequence : Kind::mapping;
+        if ((block.kind == Kind::sequence) != item)
+            fail("list items and keys mixed at one indentation");
+        if (item) {
+            const std::string_view after = rest.substr(1);
+            if (after.empty() || trailing_comment(after)) {
+                opened_at_line_ = number_;  // an item that is itself a block, below it
+            } else {
+                value(after.substr(1));
+            }
+            return;
+        }
+        seen_key_ = true;
+        if (key_and_value(rest)) opened_at_line_ = number_;
+    }
+
+    void end() const {
+        if (!open_.empty()) {
+            throw FileFormatError("corrupt YAML: a '" + std::string(1, open_.back()) +
+                                  "' is never closed");
+        }
+        if (opened_at_line_ != 0) {
+            throw FileFormatError("corrupt YAML: line " + std::to_string(opened_at_line_) +
+                                  ": a key without a value");
+        }
+    }
+
+  private:
+    [[noreturn]] void fail(const std::string& why) const {
+        throw FileFormatError("corrupt YAML: line " + std::to_string(number_) + ": " + why);
+    }
+
+    static bool word_letter(char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '_' || c == '.' ||
+               c == '+' || c == '-';
+    }
+
+    // `key:` then a value, or nothing (or OpenCV's matrix tag) for a block below it. Returns
+    // whether it opened one.
+    bool key_and_value(std::string_view text) {
+        std::size_t i = 0;
+        if (!(std::isalpha(static_cast<unsigned char>(text[0])) != 0 || text[0] == '_'))
+            fail("a line that is not 'key: value'");
+        while (i < text.size() &&
+               (std::isalnum(static_cast<unsigned char>(text[i])) != 0 || text[i] == '_'))
+            ++i;
+        if (i == text.size() || text[i] != ':') fail("a line that is not 'key: value'");
+        std::string_view after = text.substr(i + 1);
+        if (after.empty() || trailing_comment(after)) return true;
+        if (after.front() != ' ') fail("no space after a key's ':'");
+        while (!after.empty() && after.front() == ' ') after.remove_prefix(1);
+        if (after.substr(0, 15) == "!!opencv-matrix") {
+            if (!after.substr(15).empty() && !trailing_comment(after.substr(15)))
+                fail("text after '!!opencv-matrix'");
+            return true;
+        }
+        value(after);
+        return false;
+    }
+
+    // Spaces and then at most a comment.
+    static bool trailing_comment(std::string_view text) {
+        std::size_t i = 0;
+        while (i < text.size() && text[i] == ' ') ++i;
+        return i == text.size() || (i > 0 && text[i] == '#');
+    }
+
+    // A plain word or number, quoted text, or a flow collection.
+    void value(std::string_view text) {
+        if (text.empty()) fail("a missing value");
+        if (text.front() == '[' || text.front() == '{') {
+            flow(text);
+            return;
+        }
+        std::size_t i = 0;
+        if (text.front() == '"' || text.front() == '\'') {
+            i = quoted(text, 0);
+        } else {
+            while (i < text.size() && (word_letter(text[i]) || text[i] == ' ')) {
+                if (text[i] == ' ' && i + 1 < text.size() && text[i + 1] == '#') break;
+                ++i;
+            }
+            if (i == 0) fail("a value that is neither a word, a number, quoted text nor a list");
+        }
+        if (!trailing_comment(text.substr(i))) fail("unexpected text after a value");
+    }
+
+    // Index past the closing quote of the quoted text starting at `from`.
+    std::size_t quoted(std::string_view text, std::size_t from) const {
+        const char quote = text[from];
+        for (std::size_t i = from + 1; i < text.size(); ++i) {
+            if (text[i] == '\\' && quote == '"') {
+                ++i;
+            } else if (text[i] == quote) {
+                return i + 1;
+            }
+        }
+        fail("quoted text that does not close on its line");
+    }
+
+    // Flow content: words, numbers, quoted text, `key:` inside braces, commas, nested brackets.
+    void flow(std::string_view text) {
+        std::size_t i = 0;
+        while (i < text.size()) {
+            const char c = text[i];
+            if (c == '[' || c == '{') {
+                if (open_.size() >= 8) fail("lists nested deeper than the box's files nest them");
+                open_.push_back(c);
+                ++i;
+            } else if (c == ']' || c == '}') {
+                if (open_.empty() || open_.back() != (c == ']' ? '[' : '{'))
+                    fail("'" + std::string(1, c) + "' closes nothing open");
+                open_.pop_back();
+                ++i;
+                if (open_.empty()) {
+                    if (!trailing_comment(text.substr(i))) fail("unexpected text after a list");
+                    return;
+                }
+            } else if (c == ' ' || c == ',') {
+                ++i;
+            } else if (c == '"' || c == '\'') {
+                i = quoted(text, i);
+            } else if (c == '#' && i > 0 && text[i - 1] == ' ') {
+                return;
+            } else if (word_letter(c)) {
+                while (i < text.size() && word_letter(text[i])) ++i;
+                if (i < text.size() && text[i] == ':') {
+                    if (open_.back() != '{') fail("'key:' inside a list");
+                    ++i;
+                }
+            } else {
+                fail(std::string("'") + c + "' where a list's content was expected");
+            }
+        }
+    }
+
+    // Where this line's indentation puts it: in the block the line before opened (deeper), in
+    // an open block (the same indentation as its lines), or nowhere.
+    void place(std::size_t indent) {
+        if (opened_at_line_ != 0) {
+            if (indent <= blocks_.back().indent) {
+                number_ = opened_at_line_;
+                fail("a key without a value");
+            }
+            if (blocks_.size() >= 8) fail("blocks nested deeper than the box's files nest them");
+            blocks_.push_back({indent, Kind::unknown});
+            opened_at_line_ = 0;
+            return;
+        }
+        while (blocks_.size() > 1 && indent < blocks_.back().indent) blocks_.pop_back();
+        if (indent != blocks_.back().indent) {
+            fail(seen_key_ ? "an indented line that belongs to no key"
+                           : "the document does not start with a key");
+        }
+    }
+
+    enum class Kind { unknown, mapping, sequence };
+    struct Block {
+        std::size_t indent;
+        Kind kind;
+    };
+    int number_ = 0;
+    bool seen_key_ = false;
+    int opened_at_line_ = 0;  // the line of a key or item whose block has not started yet
+    std::vector<Block> blocks_{{0, Kind::mapping}};
+    std::string open_;  // flow brackets still open, innermost last
+};
+
+}  // namespace
+
 void check_yaml_text(const std::string& text) {
     // OpenCV writes every file the box keeps with this header; without it a mangled first line
     // hides where the document starts.
     if (text.rfind("%YAML:1.0\n---", 0) != 0 && text.rfind("%YAML:1.0\r\n---", 0) != 0)
         throw FileFormatError("corrupt YAML: it does not start with '%YAML:1.0' and '---'");
-    std::string open;  // the brackets still open, innermost last
-    int line = 1;
-    char quote = 0;
-    char before = '\n';  // the last character that was not a space
-    bool comment = false;
-    int documents = 0;
-    bool seen_first_key = false;
-    for (std::size_t i = 0; i < text.size(); ++i) {
-        const char c = text[i];
-        if (c == '\n') {
-            ++line;
-            comment = false;
-            before = '\n';
-            continue;
+    YamlShape shape;
+    std::size_t start = 0;
+    int number = 0;
+    while (start <= text.size()) {
+        const std::size_t stop = std::min(text.find('\n', start), text.size());
+        ++number;
+        std::string_view line(text.data() + start, stop - start);
+        if (number == 2) {
+            // The document marker line: nothing but '---' (and a comment).
+            if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+            if (line.substr(0, 3) != "---" ||
+                (line.size() > 3 &&
+                 line.substr(3).find_first_not_of(' ') != std::string_view::npos &&
+                 line[line.find_first_not_of(' ', 3)] != '#'))
+                throw FileFormatError("corrupt YAML: line 2: text after '---'");
+        } else if (number > 2) {
+            shape.line(line, number);
         }
-        if (before == '\n' && quote == 0 && text.compare(i, 3, "---") == 0 && ++documents > 1) {
-            throw FileFormatError("corrupt YAML: line " + std::to_string(line) +
-                                  ": a second document; the file holds one");
-        }
-        // The document's first line is a key at the margin, as every file the box writes has
-        // it: an indented one sends OpenCV's parser round for ever.
-        if (documents == 1 && !seen_first_key && before == '\n' && c != '-' && c != '\r' &&
-            c != '#') {
-            if (!(std::isalpha(static_cast<unsigned char>(c)) || c == '_')) {
-                throw FileFormatError("corrupt YAML: line " + std::to_string(line) +
-                                      ": the document does not start with a key");
-            }
-            seen_first_key = true;
-        }
-        if (comment) continue;
-        if (quote != 0) {
-            if (c == quote) quote = 0;
-            continue;
-        }
-        const char previous = before;
-        if (c != ' ' && c != '\t') before = c;
-        // A quote opens a quoted scalar only where a value starts; inside a plain one it is text.
-        const bool value_starts = std::string_view("\n:,[{-").find(previous) != std::string::npos;
-        if ((c == '"' || c == '\'') && value_starts) {
-            quote = c;
-        } else if (c == '#') {
-            comment = true;
-        } else if (c == '[' || c == '{') {
-            open.push_back(c);
-        } else if (c == ']' || c == '}') {
-            if (open.empty() || open.back() != (c == ']' ? '[' : '{')) {
-                throw FileFormatError("corrupt YAML: line " + std::to_string(line) + ": '" +
-                                      std::string(1, c) + "' closes nothing open");
-            }
-            open.pop_back();
-        }
+        if (stop == text.size()) break;
+        start = stop + 1;
     }
-    if (!open.empty()) {
-        throw FileFormatError("corrupt YAML: a '" + std::string(1, open.back()) +
-                              "' is never closed");
-    }
+    shape.end();
 }
 
 CameraModel camera_from_yaml(const std::string& text) {

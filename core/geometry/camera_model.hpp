@@ -51,12 +51,13 @@ CameraModel camera_from_yaml(const std::string& text);
 // FileFormatError("corrupt YAML: ...").
 [[noreturn]] void rethrow_as_file_format_error();
 
-// Throws FileFormatError, before OpenCV reads the text, for YAML without OpenCV's header
-// ("%YAML:1.0", "---"), whose flow brackets ([ ] and
-// { }) do not nest and close, that holds more than one document (the box's files hold one) or
-// whose document does not start with a key at the margin:
-// OpenCV 4.6's parser loops forever on some such texts (found by tests/fuzz), and a file the
-// box cannot read must stop it with a message, not hang it.
+// Throws FileFormatError, naming the line, for YAML that is not in the shapes the box's own
+// files have (OpenCV's FileStorage writes them so): the header "%YAML:1.0" and "---", then
+// `key: value` lines at the margin; a key with no value or an !!opencv-matrix tag opens a block
+// of indented `key: value` or `- value` lines; a flow list ([ ] or { }) may run on over
+// indented lines until it closes. Values are words and numbers, quoted text on one line, or
+// lists of them. OpenCV 4.6's parser loops for ever on some texts outside these shapes (found
+// by tests/fuzz), and a file the box cannot read must stop it with a message, not hang it.
 void check_yaml_text(const std::string& text);
 
 }  // namespace calbox::geometry

@@ -1,7 +1,13 @@
 #include "core/vision/markers.hpp"
 
+#include <apriltag/apriltag.h>
+#include <apriltag/tag25h9.h>
+#include <apriltag/tag36h11.h>
+#include <apriltag/tagStandard41h12.h>
+
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <opencv2/core/version.hpp>
 #include <optional>
 
@@ -30,7 +36,8 @@ using geometry::Point2;
 struct RawMarkers {
     std::vector<std::vector<cv::Point2f>> corners;
     std::vector<int> ids;
-    int cells_per_side = 0;
+    int cells_per_side = 0;   // of the square whose outline was found
+    bool dark_inside = true;  // that square's border: black inside a white zone, or reversed
 };
 
 // The adapter: OpenCV 4.7 moved ArUco into objdetect with a detector object.
@@ -52,16 +59,73 @@ RawMarkers opencv_detect(const cv::Mat& gray, int dictionary_id) {
     return raw;
 }
 
+// libapriltag's families (AprilTag 3), by the names its own tools use. OpenCV draws its
+// DICT_APRILTAG_36h11 and 25h9 markers turned half round from AprilTag's own images of the same
+// codes; the corners are numbered as OpenCV numbers its drawing, so that a target drawn by
+// either library has the same corner 0 whichever detector reads it. A family OpenCV lacks is
+// numbered as AprilTag draws it: clockwise from its top-left.
+struct AprilTagFamily {
+    const char* name;
+    apriltag_family_t* (*create)();
+    void (*destroy)(apriltag_family_t*);
+    bool turned_in_opencv;
+};
+constexpr std::array<AprilTagFamily, 3> kAprilTagFamilies{{
+    {"tag36h11", tag36h11_create, tag36h11_destroy, true},
+    {"tag25h9", tag25h9_create, tag25h9_destroy, true},
+    {"tagStandard41h12", tagStandard41h12_create, tagStandard41h12_destroy, false},
+}};
+
+const AprilTagFamily* apriltag_family(const std::string& name) {
+    for (const auto& f : kAprilTagFamilies)
+        if (name == f.name) return &f;
+    return nullptr;
+}
+
+RawMarkers apriltag_detect(const GrayView& image, const AprilTagFamily& which,
+                           const AprilTagLimits& limits) {
+    const std::unique_ptr<apriltag_family_t, void (*)(apriltag_family_t*)> family(which.create(),
+                                                                                  which.destroy);
+    const std::unique_ptr<apriltag_detector_t, void (*)(apriltag_detector_t*)> detector(
+        apriltag_detector_create(), apriltag_detector_destroy);
+    if (!family || !detector) throw std::bad_alloc();
+    apriltag_detector_add_family_bits(detector.get(), family.get(), limits.bits_corrected);
+    detector->quad_decimate = limits.quad_decimate;
+    detector->nthreads = 2;
+    detector->refine_edges = true;
+    // The detector takes a mutable image but only reads it.
+    image_u8_t view{image.width_px, image.height_px, image.stride_bytes,
+                    const_cast<std::uint8_t*>(image.pixels)};
+    const std::unique_ptr<zarray_t, void (*)(zarray_t*)> found(
+        apriltag_detector_detect(detector.get(), &view), apriltag_detections_destroy);
+    RawMarkers raw;
+    raw.cells_per_side = family->width_at_border;
+    raw.dark_inside = !family->reversed_border;
+    for (int i = 0; i < zarray_size(found.get()); ++i) {
+        apriltag_detection_t* d = nullptr;
+        zarray_get(found.get(), i, &d);
+        if (d->decision_margin < limits.min_decision_margin) continue;
+        raw.ids.push_back(d->id);
+        // AprilTag's corners run the other way round from its image's bottom-left.
+        std::vector<cv::Point2f> corners;
+        for (const int k : which.turned_in_opencv ? std::array{1, 0, 3, 2} : std::array{3, 2, 1, 0})
+            corners.emplace_back(static_cast<float>(d->p[k][0]), static_cast<float>(d->p[k][1]));
+        raw.corners.push_back(std::move(corners));
+    }
+    return raw;
+}
+
 // Edge points along the side from p to q (clockwise order: the marker lies to the right).
-std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int cells_per_side) {
+std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int cells_per_side,
+                                bool dark_inside, const MarkerRefineLimits& limits) {
     const double length = std::hypot(q.x - p.x, q.y - p.y);
     std::vector<Point2> out;
     if (length < 8) return out;
     const Point2 d{(q.x - p.x) / length, (q.y - p.y) / length};
     const Point2 outward{d.y, -d.x};
-    // The profile spans the black border cell and the white quiet zone, no further.
-    const double half = std::clamp(0.45 * length / cells_per_side, 1.5, 4.0);
-    const double margin = std::max(0.1 * length, half + 1.0);
+    const double half = std::clamp(limits.profile_reach_cells * length / cells_per_side,
+                                   limits.profile_reach_min_px, limits.profile_reach_max_px);
+    const double margin = std::max(limits.corner_clearance_share * length, half + 1.0);
     // Profiles every half pixel along the edge, clear of its corners.
     const int profiles = static_cast<int>((length - 2 * margin) / 0.5) + 1;
     for (int i = 0; i < profiles; ++i) {
@@ -69,7 +133,7 @@ std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int c
         const Point2 on{p.x + d.x * t, p.y + d.y * t};
         const auto edge =
             step_edge_on_segment(image, {on.x - outward.x * half, on.y - outward.y * half},
-                                 {on.x + outward.x * half, on.y + outward.y * half}, true);
+                                 {on.x + outward.x * half, on.y + outward.y * half}, dark_inside);
         if (edge) out.push_back(*edge);
     }
     return out;
@@ -79,7 +143,7 @@ std::vector<Point2> edge_points(const GrayView& image, Point2 p, Point2 q, int c
 
 RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Point2, 4>& rough,
                                      int cells_per_side, const geometry::CameraModel* camera,
-                                     const MarkerRefineLimits& limits) {
+                                     const MarkerRefineLimits& limits, bool dark_inside) {
     static constexpr std::array<const char*, 4> kEdgeNames = {"top", "right", "bottom", "left"};
     const auto kept = [&](std::string why) {
         const double s = limits.unrefined_corner_sigma_px;
@@ -95,7 +159,8 @@ RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Poi
     for (int pass = 0; pass < 2; ++pass) {
         for (std::size_t k = 0; k < 4; ++k) {
             auto& points = edges[k];
-            points = edge_points(image, corners[k], corners[(k + 1) % 4], cells_per_side);
+            points = edge_points(image, corners[k], corners[(k + 1) % 4], cells_per_side,
+                                 dark_inside, limits);
             if (points.size() < limits.min_edge_points) {
                 return kept(std::string("the ") + kEdgeNames[k] + " edge gave " +
                             std::to_string(points.size()) + " points (at least " +
@@ -141,8 +206,22 @@ RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Poi
 }
 
 std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
-    const int dictionary_id = geometry::aruco_dictionary_id(options.dictionary);
-    const RawMarkers raw = opencv_detect(geometry::to_cv(image), dictionary_id);
+    const AprilTagFamily* family = apriltag_family(options.dictionary);
+    RawMarkers raw;
+    if (family != nullptr) {
+        raw = apriltag_detect(image, *family, options.apriltag_limits);
+    } else {
+        int dictionary_id = 0;
+        try {
+            dictionary_id = geometry::aruco_dictionary_id(options.dictionary);
+        } catch (const geometry::PatternError&) {
+            throw geometry::PatternError(
+                "unknown marker dictionary '" + options.dictionary +
+                "' (OpenCV's DICT_4X4_50 ... DICT_7X7_1000, DICT_ARUCO_ORIGINAL, "
+                "DICT_APRILTAG_36h11, or libapriltag's tag36h11, tag25h9, tagStandard41h12)");
+        }
+        raw = opencv_detect(geometry::to_cv(image), dictionary_id);
+    }
     std::vector<DetectedMarker> out;
     for (std::size_t m = 0; m < raw.ids.size(); ++m) {
         DetectedMarker marker;
@@ -153,15 +232,12 @@ std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOp
                 raw.corners[m][static_cast<std::size_t>(k)].y};
         }
         if (options.refine_edges) {
-            auto r = refine_marker_corners(image, marker.corners, raw.cells_per_side,
-                                           options.camera, options.refine_limits);
-            marker.corners = r.corners;
-            marker.refined = r.refined;
-            marker.unrefined_because = std::move(r.unrefined_because);
-            marker.corner_sigma_px = r.sigma_px;
+            static_cast<RefinedCorners&>(marker) =
+                refine_marker_corners(image, marker.corners, raw.cells_per_side, options.camera,
+                                      options.refine_limits, raw.dark_inside);
         } else {
             marker.unrefined_because = "refinement off";
-            marker.corner_sigma_px.fill(options.refine_limits.unrefined_corner_sigma_px);
+            marker.sigma_px.fill(options.refine_limits.unrefined_corner_sigma_px);
         }
         out.push_back(marker);
     }

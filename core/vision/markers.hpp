@@ -1,8 +1,8 @@
 #pragma once
 // ArUco markers: OpenCV finds and decodes them (behind one small adapter for the 4.6 and 4.7+
-// APIs); the corners are then refined by fitting each outer edge over its length and
-// intersecting neighbouring edges, which removes the bias of OpenCV's corner refinement on
-// blurred corners.
+// APIs), AprilTag families libapriltag; the corners are then refined by fitting each outer edge
+// over its length and intersecting neighbouring edges, which removes the bias of OpenCV's corner
+// refinement on blurred corners.
 #include <array>
 #include <string>
 #include <vector>
@@ -12,16 +12,20 @@
 
 namespace calbox::vision {
 
-struct DetectedMarker {
-    int id = 0;
+// A marker's corners as refined, or kept as the detector found them with the reason.
+struct RefinedCorners {
     std::array<geometry::Point2, 4> corners;  // OpenCV's order: clockwise from the top-left
-    // False when the edge refinement was off or failed: the corners are OpenCV's own (about
-    // 0.2 px off on a blurred photo), and `unrefined_because` says why.
+    // False when the edge refinement was off or failed: the corners are the detector's own
+    // (about 0.2 px off on a blurred photo), and `unrefined_because` says why.
     bool refined = false;
     std::string unrefined_because;
     // Each corner's standard uncertainty per coordinate, in pixels: from the edge fits' own
-    // scatter when refined, else what OpenCV's corners are worth.
-    std::array<double, 4> corner_sigma_px{};
+    // scatter when refined, else what the detector's corners are worth.
+    std::array<double, 4> sigma_px{};
+};
+
+struct DetectedMarker : RefinedCorners {
+    int id = 0;
 };
 
 // Where each edge is looked for and how far a refined corner may move, with their reasons.
@@ -37,33 +41,55 @@ struct MarkerRefineLimits {
     // What a corner kept as OpenCV found it is worth, per coordinate: its sub-pixel corners are
     // 0.2 px RMS from the truth on the twin's blurred photos (test_vision, Markers).
     double unrefined_corner_sigma_px = 0.2;
+    // How far each profile reaches either side of the edge: this share of a cell, so that it
+    // spans the black border cell and the white quiet zone and no further (the marker's bits lie
+    // beyond), but at least enough pixels for a blurred step and at most what a cell of a large
+    // marker needs.
+    double profile_reach_cells = 0.45;
+    double profile_reach_min_px = 1.5;
+    double profile_reach_max_px = 4.0;
+    // Profiles stay this share of the side (and a reach plus a pixel) clear of the corners, where
+    // the neighbouring edge's step would enter them.
+    double corner_clearance_share = 0.1;
+};
+
+// libapriltag's detector settings, with their reasons.
+struct AprilTagLimits {
+    // Bits of a code the decoder may correct: two, as AprilTag's authors advise (more costs
+    // memory and false detections, fewer loses worn marks).
+    int bits_corrected = 2;
+    // Quads are looked for at this fraction of the resolution: a marker is tens to hundreds of
+    // pixels across, and its corners are fitted again at full resolution afterwards.
+    float quad_decimate = 2.0F;
+    // A decode whose bits stand less than this far (grey levels) from their threshold is noise
+    // read as a code: real marks on the twin's photos decode at 170-210, the false ones found
+    // in a background at 2.
+    float min_decision_margin = 30.0F;
 };
 
 struct MarkerOptions {
+    // OpenCV's ArUco dictionaries by OpenCV's names (DICT_4X4_50 ... DICT_APRILTAG_36h11), or
+    // AprilTag families by libapriltag's (tag36h11, tag25h9, tagStandard41h12), which its own
+    // detector then finds.
     std::string dictionary = "DICT_4X4_50";
     bool refine_edges = true;
     // With a camera, edges are fitted as straight lines after undistortion (they are straight on
     // the marker, not in the raw image); without one, in raw pixels.
     const geometry::CameraModel* camera = nullptr;
     MarkerRefineLimits refine_limits;
+    AprilTagLimits apriltag_limits;
 };
 
 // Markers sorted by id. Throws geometry::PatternError for an unknown dictionary name.
 std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options);
 
-// OpenCV's corners of one marker refined, or kept with the reason they could not be.
-struct RefinedCorners {
-    std::array<geometry::Point2, 4> corners;
-    bool refined = false;
-    std::string unrefined_because;
-    std::array<double, 4> sigma_px{};  // as DetectedMarker::corner_sigma_px
-};
-
-// Refines OpenCV's corners of one marker whose side holds `cells_per_side` cells (its bits plus
-// the black border).
+// Refines a detector's corners of one marker whose found outline holds `cells_per_side` cells
+// (its bits plus the black border), black inside a white zone or (`dark_inside` false, as
+// AprilTag's standard families have it) white inside a black ring.
 RefinedCorners refine_marker_corners(const GrayView& image,
                                      const std::array<geometry::Point2, 4>& rough,
                                      int cells_per_side, const geometry::CameraModel* camera,
-                                     const MarkerRefineLimits& limits = {});
+                                     const MarkerRefineLimits& limits = {},
+                                     bool dark_inside = true);
 
 }  // namespace calbox::vision

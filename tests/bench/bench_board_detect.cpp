@@ -16,72 +16,18 @@
 #include "board/sim/scenes.hpp"
 #include "core/geometry/calibration.hpp"
 #include "tests/bench/bench_support.hpp"
+#include "tests/support/board_views.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
 
-namespace {
-
-struct View {
-    sim::GrayImage image;
-    std::vector<sim::Vec2> truth;  // OpenCV's corner order
-};
-
-// An 11x8 chessboard of 20 mm squares held half a metre from the camera, tilted and turned.
-std::vector<View> render_views(int count) {
-    const auto camera = test::hq_camera();
-    const auto spec = geometry::parse_pattern_spec("chessboard:11x8@20");
-    const sim::BoardScene board(spec, 2);
-    sim::PhotoSettings photo;
-    photo.supersample = 2;
-    photo.noise_sigma_dn = 2.0;
-    photo.blur_sigma_px = 1.2;  // a 12 MP sensor behind a small lens: about a pixel of blur
-    std::mt19937 rng(11);
-    std::uniform_real_distribution<double> tilt(-25, 25), shift(-1, 1), distance(430, 560);
-    std::vector<View> views;
-    while (static_cast<int>(views.size()) < count) {
-        sim::Pose pose;
-        pose.rotation = sim::rotation_from_vector(
-            sim::Vec3{sim::radians(tilt(rng)), sim::radians(tilt(rng)), sim::radians(tilt(rng))});
-        const double z = distance(rng);
-        pose.translation_mm = sim::Vec3{shift(rng) * z * 0.2, shift(rng) * z * 0.1, z} -
-                              pose.rotation * sim::Vec3{100, 70, 0};
-        bool inside = true;
-        for (const auto& c : {sim::Vec3{-30, -30, 0}, sim::Vec3{230, -30, 0},
-                              sim::Vec3{-30, 170, 0}, sim::Vec3{230, 170, 0}}) {
-            const auto px = sim::project_point(camera, pose, c);
-            inside = inside && px.x > 5 && px.y > 5 && px.x < camera.width_px - 5 &&
-                     px.y < camera.height_px - 5;
-        }
-        if (!inside) continue;
-        photo.seed = views.size() + 1;
-        View v{sim::render_photo(camera, pose, board, photo), {}};
-        for (const auto& f : board.features())
-            v.truth.push_back(sim::project_point(camera, pose, f.position_mm));
-        views.push_back(std::move(v));
-    }
-    return views;
-}
-
-// RMS from the truth, the corners matched to the nearest true corner (either detector may
-// number the board from the other end).
-double corner_rms(const std::vector<geometry::Point2>& found, const std::vector<sim::Vec2>& truth) {
-    double sum = 0;
-    for (const auto& p : found) {
-        double best = 1e30;
-        for (const auto& t : truth)
-            best = std::min(best, std::pow(p.x - t.x, 2) + std::pow(p.y - t.y, 2));
-        sum += best;
-    }
-    return std::sqrt(sum / static_cast<double>(found.size()));
-}
-
-}  // namespace
+using test::corner_rms;
+using test::render_board_views;
 
 int main(int argc, char** argv) {
     const int count = argc > 1 ? std::atoi(argv[1]) : 4;
     std::printf("rendering %d views of 4056 x 3040 ...\n", count);
-    const auto views = render_views(count);
+    const auto views = render_board_views(count);
     const auto spec = geometry::parse_pattern_spec("chessboard:11x8@20");
     double old_s = 0, new_s = 0, old_sq = 0, new_sq = 0;
     int old_found = 0, new_found = 0;

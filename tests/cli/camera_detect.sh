@@ -52,6 +52,12 @@ grep -q '"unrefined": 0' "$work/detections.json"
 "$calbox" detect markers "$work/markers.png" --no-refine | grep -q '"unrefined": 12'
 [ -s "$work/overlay.png" ]
 "$calbox" detect markers "$work/markers.png" | grep -q '"markers"'   # JSON on standard output
+# AprilTag's own detector for an AprilTag family; an unknown name lists both kinds.
+"$calbox" sim photo --scenario "$work/scene.toml" --board aruco:4x3@30/8:DICT_APRILTAG_36h11 --on-bed -70,45,10 -o "$work/tags.png"
+"$calbox" detect markers "$work/tags.png" --dict tag36h11 -o "$work/tags.json"
+[ "$(grep -c '"refined": true' "$work/tags.json")" -eq 12 ]
+if "$calbox" detect markers "$work/tags.png" --dict tag99h1 2> "$work/dict.err"; then exit 1; fi
+grep -q "libapriltag's tag36h11" "$work/dict.err"
 "$calbox" detect chessboard "$work/bed.png" --pattern chessboard:9x6@20 -o "$work/corners.json"
 grep -q '"corners"' "$work/corners.json"
 "$calbox" sim photo --scenario "$work/scene.toml" --board acircles:4x11@8 --on-bed -40,50,0 -o "$work/dots.png"

@@ -54,7 +54,7 @@ printf '%%YAML:1.0\n---\nmodel: pinhole\n' > "$work/incomplete.yaml"
 "$calbox" sim photo --scenario "$scenario" --board chessboard:9x6@20 --on-bed -80,50,0 -o "$work/board.png" 2>/dev/null
 expect_error "cannot read image .*missing.png: no such file" detect markers "$work/missing.png"
 expect_error "not an image OpenCV can decode" detect markers "$work/fake.png"
-expect_error "unknown ArUco dictionary 'DICT_9X9_9'" detect markers "$work/board.png" --dict DICT_9X9_9
+expect_error "unknown marker dictionary 'DICT_9X9_9'" detect markers "$work/board.png" --dict DICT_9X9_9
 expect_error "no DICT_4X4_50 markers found" detect markers "$work/board.png"
 expect_error "bad pattern 'chessboard:9by6@20'" detect chessboard "$work/board.png" --pattern chessboard:9by6@20
 expect_error "no chessboard:7x4@20 found" detect chessboard "$work/board.png" --pattern chessboard:7x4@20

@@ -3,7 +3,11 @@
 // spliced with another file), so that the test suite runs every target under its own compiler
 // and sanitizers. Coverage-guided fuzzing is the fuzz preset's (tests/fuzz/README.md).
 //   replay CORPUS_DIR [--mutations N] [--seed S]
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -72,6 +76,24 @@ std::vector<std::uint8_t> mutate(std::vector<std::uint8_t> bytes,
     return bytes;
 }
 
+// A reader that never returns is a bug as much as a crash: the input running when the watchdog
+// fires is kept as hang-input (libFuzzer keeps timeout-* files), with only async-signal-safe
+// calls from the handler.
+const std::vector<std::uint8_t>* g_running = nullptr;
+constexpr unsigned kHangSeconds = 20;
+
+extern "C" void keep_hanging_input(int) {
+    static const char kMessage[] = "an input ran past the watchdog: kept as hang-input\n";
+    const int fd = ::open("hang-input", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd >= 0 && g_running != nullptr) {
+        const ssize_t written = ::write(fd, g_running->data(), g_running->size());
+        (void)written;
+    }
+    const ssize_t said = ::write(2, kMessage, sizeof kMessage - 1);
+    (void)said;
+    std::_Exit(3);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -109,13 +131,17 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "%s: no corpus files\n", argv[1]);
         return 2;
     }
+    std::signal(SIGALRM, keep_hanging_input);
     for (const auto& input : corpus) LLVMFuzzerTestOneInput(input.data(), input.size());
     std::mt19937 random(seed);
     for (long m = 0; m < mutations; ++m) {
         const auto input =
             mutate(corpus[static_cast<std::size_t>(m) % corpus.size()], corpus, random);
+        g_running = &input;
+        ::alarm(kHangSeconds);
         try {
             LLVMFuzzerTestOneInput(input.data(), input.size());
+            ::alarm(0);
         } catch (...) {
             // Kept for the report, as libFuzzer keeps its crash-* files.
             const std::string kept = "crash-mutation-" + std::to_string(m);

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "board/rpi/rpi_board.hpp"
 #include "board/sim/sim_board.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/modes/planar.hpp"
@@ -15,6 +16,7 @@
 #include "drivers/pty_port.hpp"
 #include "drivers/termios_port.hpp"
 #include "drivers/timerfd_clock.hpp"
+#include "firmware/appliance.hpp"
 #include "firmware/box_config.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/console.hpp"
@@ -36,7 +38,8 @@ namespace calbox::cli {
 namespace {
 
 constexpr const char* kRunHelp = R"(usage:
-  calbox run [--board sim] [--scenario FILE] [--data DIR] [--config FILE] [--console DEVICE]
+  calbox run [--board sim|rpi] [--scenario FILE] [--data DIR] [--config FILE] [--console DEVICE]
+             [--board-file FILE] [--machine FILE]
              [--auto | --operator | --operator-hands] [--frames N] [--camera-files DIR|GLOB]
              [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
              [--modbus-word-order ORDER]
@@ -53,7 +56,12 @@ constexpr const char* kRunHelp = R"(usage:
       asks for views of a chessboard held in front of the camera and for one on the bed (the
       scenario's [setup]: chessboard:11x8@20 and 9x6@20 unless it says otherwise). Every state
       change is one line on standard error.
-      --board sim     the digital twin (the only board built today): --scenario FILE (default
+      --board rpi     a Raspberry Pi 4 or 5 with its camera (V4L2), button, LEDs and light
+                      (GPIO), display (I2C) and the machine's serial port, where --board-file
+                      FILE (default /etc/calbox/board.toml when it exists; README, The
+                      Raspberry Pi board) says; --machine FILE is the machine beside the box.
+                      A device that is not there stops it with one line naming it
+      --board sim     the digital twin (the default): --scenario FILE (default
                       examples/delta_cycle.toml; examples/galvo_cycle.toml is a galvo scanner,
                       examples/planar_cycle.toml a router, tests/scenarios/
                       planar_printer_small.toml a cartesian printer) is
@@ -129,10 +137,11 @@ struct Common {
     std::filesystem::path data_dir;
 };
 
-Common common_options(const Args& args) {
+Common common_options(const Args& args, bool rpi_allowed = false) {
     const std::string board = args.get("--board").value_or("sim");
-    if (board != "sim")
-        throw UsageError("board '" + board + "' is not built yet: only --board sim exists today");
+    if (board != "sim" && !(rpi_allowed && board == "rpi"))
+        throw UsageError("unknown board '" + board + "': " + (rpi_allowed ? "sim or rpi" : "sim"));
+    if (board == "rpi" && args.get("--scenario")) throw UsageError("--scenario is the sim board's");
     Common c;
     c.scenario = args.get("--scenario").value_or(CALBOX_EXAMPLES_DIR "/delta_cycle.toml");
     c.data_dir =
@@ -168,12 +177,41 @@ struct Box {
     }
 };
 
+// The appliance on the Raspberry Pi's own devices, opened in order: the first one that is not
+// there stops it with one line naming it.
+struct RpiBox {
+    models::MachineFile machine;
+    drivers::TimerfdClock clock;
+    board::RpiDevices devices;
+    firmware::Appliance appliance;
+
+    RpiBox(const Args& args, const Common& common, firmware::CycleSettings settings,
+           const firmware::Cycle::Log& log)
+        : machine(machine_file(args)),
+          devices(board::open_rpi_devices(board_settings(args), clock)),
+          appliance({*devices.camera, *devices.lines, *devices.display, *devices.machine},
+                    common.data_dir, clock, {}, machine, std::move(settings), log) {}
+
+    static board::RpiSettings board_settings(const Args& args) {
+        const auto given = args.get("--board-file");
+        const std::string path = given.value_or("/etc/calbox/board.toml");
+        std::error_code ec;
+        if (!given && !std::filesystem::exists(path, ec)) return board::default_rpi_settings();
+        return board::read_rpi_settings(path);
+    }
+    static models::MachineFile machine_file(const Args& args) {
+        const auto path = args.get("--machine");
+        if (!path) throw UsageError("--board rpi needs --machine FILE: the machine beside the box");
+        return models::parse_machine_file(read_input_file(*path, "machine file"), *path);
+    }
+};
+
 int run(const std::vector<std::string>& words) {
-    const Args args(
-        words,
-        {"--board", "--scenario", "--data", "--config", "--console", "--frames", "--camera-files",
-         "--modbus-server", "--modbus-client", "--modbus-map", "--modbus-word-order"},
-        {"--auto", "--operator", "--operator-hands"});
+    const Args args(words,
+                    {"--board", "--scenario", "--data", "--config", "--console", "--frames",
+                     "--camera-files", "--modbus-server", "--modbus-client", "--modbus-map",
+                     "--modbus-word-order", "--board-file", "--machine"},
+                    {"--auto", "--operator", "--operator-hands"});
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
     const bool automatic = args.flag("--auto");
     if (automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
@@ -185,7 +223,16 @@ int run(const std::vector<std::string>& words) {
         args.get("--frames") ? std::optional<int>(static_cast<int>(args.number("--frames", 1)))
                              : std::nullopt;
     if (frames && (*frames < 1 || *frames > 16)) throw UsageError("--frames must be 1 to 16");
-    const Common common = common_options(args);
+    const Common common = common_options(args, true);
+    const bool on_rpi = args.get("--board").value_or("sim") == "rpi";
+    if (!on_rpi && (args.get("--board-file") || args.get("--machine")))
+        throw UsageError(
+            "--board-file and --machine are the rpi board's (the sim board's machine "
+            "is its scenario's)");
+    if (on_rpi && (operator_acts || args.get("--camera-files")))
+        throw UsageError(
+            "--auto, --operator, --operator-hands and --camera-files are the sim "
+            "board's");
     // The configuration: --config FILE, else DATA/calbox.toml when it exists; `config save` on
     // the console writes it back there. Options win over it.
     const std::filesystem::path config_path = args.get("--config")
@@ -242,10 +289,20 @@ int run(const std::vector<std::string>& words) {
         log_line(line);
         log_book.add(line);
     };
-    Box box(common, settings_from(config), args.get("--camera-files"), log);
-    auto& board = box.parts.board;
-    auto& loop = box.loop;
-    auto& cycle = box.cycle;
+    std::optional<Box> sim_box;
+    std::optional<RpiBox> rpi_box;
+    if (on_rpi) {
+        rpi_box.emplace(args, common, settings_from(config), log);
+    } else {
+        sim_box.emplace(common, settings_from(config), args.get("--camera-files"), log);
+    }
+    firmware::EventLoop& loop = sim_box ? sim_box->loop : rpi_box->appliance.loop;
+    firmware::Cycle& cycle = sim_box ? sim_box->cycle : rpi_box->appliance.cycle;
+    drivers::FileStorage& data = sim_box ? sim_box->parts.data : rpi_box->appliance.data;
+    drivers::TimerfdClock& clock = sim_box ? sim_box->clock : rpi_box->clock;
+    sim::SimBoard* sim_board = sim_box ? &sim_box->parts.board : nullptr;
+    const models::MachineFile& machine =
+        sim_board != nullptr ? sim_board->bench->scenario().machine : rpi_box->machine;
 
     int stopped_by = 0;
     loop.watch(signals.fd(), [&] {
@@ -255,8 +312,10 @@ int run(const std::vector<std::string>& words) {
     });
 
     // The console: --console DEVICE, else the configuration's console.device.
-    const std::string console_device =
-        args.get("--console").value_or(config.text("console.device"));
+    // On the rpi board its file's console UART when neither says one.
+    std::string console_device = args.get("--console").value_or(config.text("console.device"));
+    if (on_rpi && !args.get("--console") && console_device == "stdin")
+        console_device = RpiBox::board_settings(args).console_device;
     std::unique_ptr<hal::SerialPort> console_port;
     firmware::ConsoleLink::Reopen reopen_console;
     if (console_device == "pty") {
@@ -289,36 +348,34 @@ int run(const std::vector<std::string>& words) {
     const bool console = console_port != nullptr || reopen_console;
     drivers::FileStorage config_home(config_path.parent_path().empty() ? std::filesystem::path(".")
                                                                        : config_path.parent_path());
-    firmware::ConsoleContext context{cycle,
-                                     config,
-                                     config_home,
-                                     config_path.filename().string(),
-                                     box.parts.data,
-                                     log_book,
-                                     CALBOX_VERSION,
-                                     {},
-                                     {}};
+    firmware::ConsoleContext context{
+        cycle,          config, config_home, config_path.filename().string(), data, log_book,
+        CALBOX_VERSION, {},     {}};
     context.config_changed = [&] {
-        cycle.set_settings(firmware::SimAppliance::with_setup_boards(
-            settings_from(config), board.bench->scenario().setup));
+        cycle.set_settings(sim_board != nullptr
+                               ? firmware::SimAppliance::with_setup_boards(
+                                     settings_from(config), sim_board->bench->scenario().setup)
+                               : settings_from(config));
     };
-    context.extras["press"] = {"the sim board: a short press of the button", [&](const auto&) {
-                                   board.lines->press(std::chrono::milliseconds(100));
-                                   return std::string("pressed");
-                               }};
-    context.extras["hold"] = {"the sim board: a long press of the button", [&](const auto&) {
-                                  board.lines->press(std::chrono::milliseconds(2000));
-                                  return std::string("held");
-                              }};
-    context.extras["quit"] = {"the sim board: stop the box", [&](const auto&) {
-                                  loop.stop();
-                                  return std::string("stopping");
-                              }};
+    if (sim_board != nullptr) {
+        context.extras["press"] = {"the sim board: a short press of the button", [&](const auto&) {
+                                       sim_board->lines->press(std::chrono::milliseconds(100));
+                                       return std::string("pressed");
+                                   }};
+        context.extras["hold"] = {"the sim board: a long press of the button", [&](const auto&) {
+                                      sim_board->lines->press(std::chrono::milliseconds(2000));
+                                      return std::string("held");
+                                  }};
+        context.extras["quit"] = {"the sim board: stop the box", [&](const auto&) {
+                                      loop.stop();
+                                      return std::string("stopping");
+                                  }};
+    }
     firmware::Console console_commands(std::move(context));
     std::optional<firmware::ConsoleLink> console_link;
     if (console) {
         console_link.emplace(loop, std::move(console_port), console_commands, log,
-                             std::move(reopen_console), &box.clock);
+                             std::move(reopen_console), &clock);
     }
     cycle.on_notice = [&](const std::string& line) {
         if (console_link) console_link->notice(line);
@@ -359,7 +416,7 @@ int run(const std::vector<std::string>& words) {
         if (console_link && prompt != firmware::Prompt::none)
             console_link->notice(std::string("waiting: ") + firmware::prompt_text(prompt));
         if (operator_acts) {
-            firmware::act_on_prompt(*board.bench, *board.lines, prompt, step, automatic,
+            firmware::act_on_prompt(*sim_board->bench, *sim_board->lines, prompt, step, automatic,
                                     !operator_hands);
         }
         if (plc) plc->publish();
@@ -377,8 +434,8 @@ int run(const std::vector<std::string>& words) {
             loop.stop();
         }
     };
-    const auto& machine = board.bench->scenario().machine;
     if (automatic) {
+        const auto& board = *sim_board;
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
         if (machine.is_planar()) {
             const auto before = sim::judge_planar_machine(board.bench->scenario(), nullptr);
@@ -413,6 +470,7 @@ int run(const std::vector<std::string>& words) {
         return 1;
     }
     if (!automatic) return 0;
+    const auto& board = *sim_board;
     const auto& report = cycle.report();
     std::printf("box: %.2f s of its own work (measure, solve%s), camera %.2f s, machine %.2f s\n",
                 report.box_seconds, report.number == 1 ? ", set-up" : "", report.camera_seconds,
@@ -423,7 +481,7 @@ int run(const std::vector<std::string>& words) {
                                                                        : cycle.error()));
     if (machine.is_planar()) {
         // The error model the box keeps, judged on a fresh job through it.
-        const auto kept = box.parts.data.read_file(firmware::kPlanarResultFile);
+        const auto kept = data.read_file(firmware::kPlanarResultFile);
         if (!kept || *kept == firmware::kNoPlanarResult)
             throw std::runtime_error("the cycle completed but the box keeps no error model");
         const auto solution = modes::planar_result_from_json(*kept, firmware::kPlanarResultFile);
@@ -445,7 +503,7 @@ int run(const std::vector<std::string>& words) {
     }
     if (machine.is_galvo()) {
         // The table the box keeps, judged on a fresh grid over its area.
-        const auto kept = box.parts.data.read_file(firmware::kGalvoTableFile);
+        const auto kept = data.read_file(firmware::kGalvoTableFile);
         if (!kept || *kept == firmware::kNoGalvoTable)
             throw std::runtime_error("the cycle completed but the box keeps no table");
         const auto table =

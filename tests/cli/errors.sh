@@ -176,5 +176,19 @@ expect_error "made for another machine file" solve planar --machine "$router" --
 printf '{"schema": "calbox.planar-result/1", "machine_fingerprint": "x"}' > "$work/short_planar.json"
 expect_error "short_planar.json: .*tool_length_mm" compensate --result "$work/short_planar.json" "$work/ok.gcode" -o "$work/result"
 
+# The Raspberry Pi board on a machine without its devices: one line naming the first missing.
+printf '[camera]\nv4l2_device = "/dev/calbox-test-no-camera"\n' > "$work/board.toml"
+expect_error "^calbox: the camera: /dev/calbox-test-no-camera \(V4L2 camera\): open: No such file or directory$" \
+    run --board rpi --board-file "$work/board.toml" --machine "$top/examples/delta_printer.toml" --data "$work/rpi"
+printf '[camera]\nv4l2_device = "/dev/null"\n' > "$work/board_null.toml"
+expect_error "^calbox: the camera: /dev/null: not a V4L2 device" \
+    run --board rpi --board-file "$work/board_null.toml" --machine "$top/examples/delta_printer.toml" --data "$work/rpi"
+printf '[lines]\nbuton = "GPIO17"\n' > "$work/board_typo.toml"
+expect_error "board_typo.toml: \[lines\] buton: unknown key" \
+    run --board rpi --board-file "$work/board_typo.toml" --machine "$top/examples/delta_printer.toml" --data "$work/rpi"
+expect_error "needs --machine FILE" run --board rpi --board-file "$work/board.toml" --data "$work/rpi"
+expect_error "unknown board 'pi': sim or rpi" run --board pi --data "$work/rpi"
+expect_error "the sim board's" run --board rpi --auto --machine "$top/examples/delta_printer.toml" --data "$work/rpi"
+
 [ "$failures" -eq 0 ] && echo "all error cases give one clear line"
 exit "$failures"

@@ -1,0 +1,18 @@
+#!/bin/bash
+# The Raspberry Pi board's system files: the service's exposure as systemd scores it (README:
+# 0.6, the goal 2.0 or lower), and the udev rules' and config.txt's lines as the README lists them.
+set -eu
+top="$1"
+unit="$top/board/rpi/system/calbox.service"
+score=$(systemd-analyze security --offline=true "$unit" 2>&1 | sed -n 's/.*Overall exposure level for calbox.service: \([0-9.]*\) .*/\1/p')
+[ -n "$score" ] || { echo "FAIL: no exposure level from systemd-analyze"; exit 1; }
+awk -v s="$score" 'BEGIN { exit !(s <= 0.6) }' || { echo "FAIL: exposure $score, README says 0.6"; exit 1; }
+grep -q '^DevicePolicy=closed$' "$unit"
+grep -q '^User=calbox$' "$unit"
+grep -q '^ExecStart=/usr/bin/calbox run --board rpi ' "$unit"
+rules="$top/board/rpi/system/60-calbox.rules"
+for group in gpio i2c video; do grep -q "GROUP=\"$group\", MODE=\"0660\"" "$rules"; done
+for line in camera_auto_detect=1 dtparam=i2c_arm=on enable_uart=1 dtoverlay=disable-bt; do
+    grep -q "^$line$" "$top/board/rpi/system/config.txt"
+done
+echo "system files: exposure $score"

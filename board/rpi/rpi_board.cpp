@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/models/toml_reader.hpp"
+#include "drivers/libcamera_camera.hpp"
 #include "drivers/termios_port.hpp"
 
 namespace calbox::board {
@@ -111,12 +112,24 @@ RpiSettings read_rpi_settings(const std::string& path) {
 
 RpiDevices open_rpi_devices(const RpiSettings& settings, hal::Clock& clock) {
     RpiDevices d;
+    // libcamera first (the Pi's cameras); a USB camera through V4L2 when libcamera has none.
     d.camera = opening("the camera", [&]() -> std::unique_ptr<hal::Camera> {
-        drivers::V4l2Settings v;
-        v.width_px = settings.camera_width_px;
-        v.height_px = settings.camera_height_px;
-        return std::make_unique<drivers::V4l2Camera>(
-            drivers::open_v4l2_device(settings.camera_v4l2_device), v);
+        std::string libcamera_failed;
+        try {
+            return drivers::open_libcamera_camera(
+                {settings.camera_width_px, settings.camera_height_px, 2});
+        } catch (const std::runtime_error& e) {
+            libcamera_failed = e.what();
+        }
+        try {
+            drivers::V4l2Settings v;
+            v.width_px = settings.camera_width_px;
+            v.height_px = settings.camera_height_px;
+            return std::make_unique<drivers::V4l2Camera>(
+                drivers::open_v4l2_device(settings.camera_v4l2_device), v);
+        } catch (const std::runtime_error& e) {
+            throw std::runtime_error(libcamera_failed + ", and " + e.what());
+        }
     });
     d.lines = opening("the button and lights", [&]() -> std::unique_ptr<hal::Lines> {
         return std::make_unique<drivers::GpioLines>(drivers::make_libgpiod_chipset(),

@@ -178,10 +178,10 @@ expect_error "short_planar.json: .*tool_length_mm" compensate --result "$work/sh
 
 # The Raspberry Pi board on a machine without its devices: one line naming the first missing.
 printf '[camera]\nv4l2_device = "/dev/calbox-test-no-camera"\n' > "$work/board.toml"
-expect_error "^calbox: the camera: /dev/calbox-test-no-camera \(V4L2 camera\): open: No such file or directory$" \
+expect_error "^calbox: the camera: libcamera found no camera, and /dev/calbox-test-no-camera \(V4L2 camera\): open: No such file or directory$" \
     run --board rpi --board-file "$work/board.toml" --machine "$top/examples/delta_printer.toml" --data "$work/rpi"
 printf '[camera]\nv4l2_device = "/dev/null"\n' > "$work/board_null.toml"
-expect_error "^calbox: the camera: /dev/null: not a V4L2 device" \
+expect_error "^calbox: the camera: libcamera found no camera, and /dev/null: not a V4L2 device" \
     run --board rpi --board-file "$work/board_null.toml" --machine "$top/examples/delta_printer.toml" --data "$work/rpi"
 printf '[lines]\nbuton = "GPIO17"\n' > "$work/board_typo.toml"
 expect_error "board_typo.toml: \[lines\] buton: unknown key" \

@@ -1,4 +1,4 @@
-// The V4L2 camera driver against a node that speaks the kernel's streaming protocol from memory
+// The camera drivers. V4L2 against a node that speaks the kernel's streaming protocol from memory
 // (tests/mocks/fake_v4l2_device.hpp): formats, frames, controls, and the error paths a real
 // camera takes (no device, unplugged mid-burst, frames that never come).
 #include <CppUTest/TestHarness.h>
@@ -8,6 +8,7 @@
 #include <memory>
 #include <string>
 
+#include "drivers/libcamera_camera.hpp"
 #include "drivers/v4l2_camera.hpp"
 #include "tests/mocks/fake_v4l2_device.hpp"
 #include "tests/support/device_errors.hpp"
@@ -171,4 +172,17 @@ TEST(V4l2Camera, a_device_without_a_usable_format_or_node_is_refused_by_name) {
         test::error_as_unprivileged_user([&] {
             drivers::open_v4l2_device(root_only.path);
         }).c_str());
+}
+
+// libcamera on a machine without a camera (this one, and CI's): one line saying so, after
+// libcamera's manager started and looked. Its capture paths need a camera: README, Devices.
+TEST_GROUP(LibcameraCamera){};
+
+TEST(LibcameraCamera, without_a_camera_it_says_libcamera_found_none) {
+    try {
+        drivers::open_libcamera_camera({});
+        FAIL("a camera was found: this test expects a machine without one");
+    } catch (const std::runtime_error& e) {
+        STRCMP_EQUAL("libcamera found no camera", e.what());
+    }
 }

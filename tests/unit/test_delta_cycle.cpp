@@ -237,7 +237,7 @@ void run_scenarios(unsigned first) {
                    ("height range " + std::to_string(f.range_before) + " -> " +
                     std::to_string(f.range_after))
                        .c_str());
-        // The target printed again on the corrected printer (README: 0.0030 mm RMS, 0.011 worst).
+        // The target printed again on the corrected printer (README: 0.0020 mm RMS, 0.0061 worst).
         CHECK_TEXT(f.reprint_xy_rms <= 0.005,
                    ("re-printed pattern RMS " + std::to_string(f.reprint_xy_rms)).c_str());
         CHECK_TEXT(f.reprint_xy_max <= 0.015,
@@ -253,7 +253,7 @@ void run_scenarios(unsigned first) {
               std::to_string(worst_rms) + " mm; classic mean RMS " +
               std::to_string(classic_sum / 5) + " mm")
                  .c_str());
-    // README: bars within 0.003-0.004 mm mean absolute error, 0.011 worst (the seed paper: 0.75).
+    // README: bars within 0.0024 mm mean absolute error, 0.0066 worst (the seed paper: 0.75).
     CHECK_TEXT(bar_mean <= 0.006, ("bar mean absolute error " + std::to_string(bar_mean)).c_str());
     CHECK_TEXT(bar_worst <= 0.015, ("bar worst error " + std::to_string(bar_worst)).c_str());
     // README: the classic rod correction from the same bars leaves about 0.24 mm RMS, fifty

@@ -5,11 +5,12 @@
 #   toolchain/calbox.sh run   [--preset P]   the main job: calbox run --board sim --auto (release)
 #   toolchain/calbox.sh test  [--preset P]   every test under ctest (default preset: dev)
 #   toolchain/calbox.sh build [--preset P]   configure and build only
+# Presets: dev, asan, release, fuzz, and arm64 (cross-built for the Raspberry Pi, run under qemu).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 top="$(dirname "$here")"
 
-usage() { sed -n '2,9p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,8p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 
 action="${1:-}"
 [ -n "$action" ] || { usage >&2; exit 2; }
@@ -17,7 +18,7 @@ shift
 preset=""
 while [ $# -gt 0 ]; do
     case "$1" in
-        --preset) preset="${2:?--preset needs a name: dev, asan or release}"; shift 2 ;;
+        --preset) preset="${2:?--preset needs a name: dev, asan, release or arm64}"; shift 2 ;;
         -h|--help) usage; exit 0 ;;
         *) echo "calbox.sh: unknown argument '$1'" >&2; exit 2 ;;
     esac
@@ -29,10 +30,17 @@ case "$action" in
     *) echo "calbox.sh: unknown action '$action' (run, test or build)" >&2; exit 2 ;;
 esac
 
+# A manifest line is a package this machine needs for every preset, or one tagged for the arm64
+# preset: `arm64-host` on this machine, `arm64-sysroot` unpacked by toolchain/arm64_sysroot.sh.
 install_missing() {
     local missing=()
-    while read -r pkg; do
-        case "$pkg" in ''|'#'*) continue ;; esac
+    while read -r first second; do
+        case "$first" in ''|'#'*) continue ;; esac
+        local pkg="$first"
+        if [ -n "$second" ]; then
+            [ "$first" = arm64-host ] && [ "$preset" = arm64 ] || continue
+            pkg="$second"
+        fi
         if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed'; then
             missing+=("$pkg")
         fi
@@ -50,6 +58,9 @@ install_missing() {
 
 build() {
     cd "$top"
+    if [ "$preset" = arm64 ]; then
+        bash "$here/arm64_sysroot.sh" "$top/build/arm64-sysroot"
+    fi
     if [ ! -f "build/$preset/CMakeCache.txt" ]; then
         cmake --preset "$preset"
     fi
@@ -65,5 +76,7 @@ case "$action" in
         # The appliance on the digital twin, from an empty data directory so that the one-time
         # set-up (camera and bed plane from photos) runs too; then one whole cycle, judged.
         cd "$top" && rm -rf out/box && mkdir -p out
-        exec "build/$preset/calbox" run --board sim --auto --scenario examples/delta_cycle.toml --data out/box ;;
+        binary="build/$preset/calbox"
+        [ "$preset" != arm64 ] || binary="build/arm64/calbox-emulated"
+        exec "$binary" run --board sim --auto --scenario examples/delta_cycle.toml --data out/box ;;
 esac

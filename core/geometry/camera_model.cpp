@@ -215,7 +215,7 @@ class YamlShape {
                 ++i;
             } else if (c == ']' || c == '}') {
                 if (open_.empty() || open_.back() != (c == ']' ? '[' : '{'))
-                    fail("'" + std::string(1, c) + "' closes nothing open");
+                    fail(std::string(1, '\'') + c + "' closes nothing open");
                 open_.pop_back();
                 ++i;
                 if (open_.empty()) {

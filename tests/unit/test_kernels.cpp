@@ -1,0 +1,139 @@
+// The fixed-point measurement kernels give the same bits on every architecture the box is built
+// for: their outputs on an image made with integer arithmetic only are folded into one digest and
+// compared with the value stored here, which the x86-64 and the arm64 (qemu) builds both meet.
+// Only integer results and doubles made by one correctly rounded division or addition of them
+// take part: GCC contracts a*b+c into a fused multiply-add on arm64 (C++ keeps -ffp-contract=fast),
+// so the kernels' double-precision by-products (a spot's elongation and sigma) may differ in
+// their last bits between the two and are left out.
+#include <CppUTest/TestHarness.h>
+
+#include <algorithm>
+#include <array>
+#include <bit>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <vector>
+
+#include "core/vision/edge_kernel.hpp"
+#include "core/vision/spots.hpp"
+
+using namespace calbox;
+
+namespace {
+
+constexpr int kSide = 96;
+// A dark disc (radius 12.3 px, edge ramp 2 px wide in squared distance) at (47.37, 51.81) px on a
+// bright substrate with +-3 grey levels of hashed noise, all in integers.
+constexpr std::int64_t kCentreX_q8 = 12127, kCentreY_q8 = 13263, kRadius_q8 = 3149;
+
+std::uint32_t pixel_hash(std::uint32_t x, std::uint32_t y) {
+    std::uint32_t h = x * 0x9E3779B1u ^ (y + 0x7F4A7C15u) * 0x85EBCA77u;
+    h ^= h >> 15;
+    h *= 0x2C1B3C6Du;
+    h ^= h >> 12;
+    return h;
+}
+
+std::vector<std::uint8_t> integer_disc_image() {
+    std::vector<std::uint8_t> pixels(kSide * kSide);
+    const std::int64_t outer2 = (kRadius_q8 + 256) * (kRadius_q8 + 256);
+    const std::int64_t inner2 = (kRadius_q8 - 256) * (kRadius_q8 - 256);
+    for (int y = 0; y < kSide; ++y)
+        for (int x = 0; x < kSide; ++x) {
+            const std::int64_t ex = std::int64_t{x} * 256 - kCentreX_q8;
+            const std::int64_t ey = std::int64_t{y} * 256 - kCentreY_q8;
+            const std::int64_t d2 = ex * ex + ey * ey;
+            const std::int64_t dark = std::clamp<std::int64_t>(outer2 - d2, 0, outer2 - inner2);
+            const std::int64_t level = 200 - 170 * dark / (outer2 - inner2);
+            const std::int64_t noise =
+                static_cast<std::int64_t>(
+                    pixel_hash(static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y)) % 7) -
+                3;
+            pixels[static_cast<std::size_t>(y * kSide + x)] =
+                static_cast<std::uint8_t>(std::clamp<std::int64_t>(level + noise, 0, 255));
+        }
+    return pixels;
+}
+
+struct Digest {
+    std::uint64_t value = 0xCBF29CE484222325ull;  // FNV-1a, 64 bits
+    void add(std::uint64_t word) {
+        for (int byte = 0; byte < 8; ++byte) {
+            value ^= (word >> (8 * byte)) & 0xFFu;
+            value *= 0x100000001B3ull;
+        }
+    }
+    void add(double v) { add(std::bit_cast<std::uint64_t>(v)); }
+};
+
+// Eight directions of 1/8 px steps in Q16: the axes, and 3-4-5 triangles in between.
+constexpr std::array<std::array<std::int64_t, 2>, 8> kSteps_q16{{{8192, 0},
+                                                                 {4915, 6554},
+                                                                 {0, 8192},
+                                                                 {-6554, 4915},
+                                                                 {-8192, 0},
+                                                                 {-4915, -6554},
+                                                                 {0, -8192},
+                                                                 {6554, -4915}}};
+
+}  // namespace
+
+TEST_GROUP(FixedPointKernels) {
+    std::vector<std::uint8_t> pixels = integer_disc_image();
+    vision::GrayView view{pixels.data(), kSide, kSide, kSide};
+};
+
+// Radial profiles from near the disc's centre outwards, both directions of step asked for, and
+// the moment kernel on windows placed at sub-pixel offsets: every sample, edge and centroid.
+TEST(FixedPointKernels, give_the_stored_bits_on_every_architecture) {
+    Digest digest;
+    constexpr int kCount = 160;  // 20 px: past the disc's edge (12.3 px) on every ray
+    std::array<std::int32_t, kCount> profile{};
+    int rising_edges = 0;
+    double worst_edge_error_px = 0;
+    for (int k = 0; k < 200; ++k) {
+        // Starts scattered over +-1 px around the centre by an integer sequence.
+        const std::int64_t x0 = kCentreX_q8 * 256 + (k * 40503 % 131072) - 65536;
+        const std::int64_t y0 = kCentreY_q8 * 256 + (k * 77201 % 131072) - 65536;
+        const auto& step = kSteps_q16[static_cast<std::size_t>(k % 8)];
+        CHECK(vision::sample_profile_q8(view, x0, y0, step[0], step[1], kCount, profile.data()));
+        for (const std::int32_t v : profile) digest.add(static_cast<std::uint64_t>(v));
+        const auto rising = vision::step_edge_q16(profile.data(), kCount, true);
+        const auto falling = vision::step_edge_q16(profile.data(), kCount, false);
+        digest.add(static_cast<std::uint64_t>(rising.value_or(-1)));
+        digest.add(static_cast<std::uint64_t>(falling.value_or(-1)));
+        if (!rising) continue;
+        ++rising_edges;
+        // Where the edge is in the image: half-dark at sqrt(r^2 + 1) = 12.34 px from the centre.
+        const double x =
+            vision::from_q16(x0 + *rising * step[0] / vision::kQ16) - kCentreX_q8 / 256.0;
+        const double y =
+            vision::from_q16(y0 + *rising * step[1] / vision::kQ16) - kCentreY_q8 / 256.0;
+        worst_edge_error_px = std::max(worst_edge_error_px, std::abs(std::hypot(x, y) - 12.34));
+    }
+    CHECK_EQUAL(200, rising_edges);
+    // The sanity of what is hashed: the kernel finds the disc's edge where it was drawn.
+    CHECK(worst_edge_error_px < 0.15);
+
+    for (int k = 0; k < 40; ++k) {
+        vision::MomentWindow window;
+        window.centre_px = {47.0 + k * 0.0625, 52.5 - k * 0.03125};
+        window.radius_px = 16.0 + (k % 5) * 0.25;
+        window.substrate_dn = 200;
+        window.mark_dn = 30;
+        window.noise_dn = 2;
+        const auto spot = vision::measure_spot_q16(view, window);
+        digest.add(spot.centre_px.x);
+        digest.add(spot.centre_px.y);
+        digest.add(spot.area_px);
+        DOUBLES_EQUAL(kCentreX_q8 / 256.0, spot.centre_px.x, 0.05);
+        DOUBLES_EQUAL(kCentreY_q8 / 256.0, spot.centre_px.y, 0.05);
+    }
+
+    constexpr std::uint64_t kStoredDigest = 0x2C7434720370F73Aull;
+    if (digest.value != kStoredDigest)
+        std::fprintf(stderr, "fixed-point kernels' digest: 0x%016llX\n",
+                     static_cast<unsigned long long>(digest.value));
+    CHECK_EQUAL(kStoredDigest, digest.value);
+}

@@ -59,6 +59,12 @@ find "$partial" -type l -lname '/*' | while read -r link; do
     target="$(readlink "$link")"
     ln -sfn "$(realpath -m --relative-to="$(dirname "$link")" "$partial$target")" "$link"
 done
+# What each library's package says a binary linking it depends on (its shlibs file: library,
+# version, dependency): the cross-built package's Depends come from it (cmake/cross_package_depends.cmake),
+# as dpkg-shlibdeps makes them from the installed packages' files on a native build.
+for deb in "$state"/archives/*.deb; do
+    { dpkg-deb -I "$deb" shlibs 2>/dev/null || true; }
+done | awk '$1 !~ /:$/ && NF >= 3' > "$partial/.calbox-shlibs"
 echo "$stamp" > "$partial/.calbox-sysroot"
 rm -rf "$sysroot" && mv "$partial" "$sysroot"
 echo "arm64_sysroot.sh: $(ls "$state"/archives/*.deb | wc -l) packages unpacked into $sysroot"

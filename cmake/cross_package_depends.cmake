@@ -1,0 +1,43 @@
+# Run by CPack (CPACK_PROJECT_CONFIG_FILE) for a cross-built package: its Depends from the
+# libraries the binary needs (objdump's NEEDED entries) and the shlibs files of the sysroot's
+# packages, which say which package and version each library comes from. dpkg-shlibdeps does the
+# same on a native build, from the packages installed on the machine, which a cross build's
+# libraries are not.
+execute_process(COMMAND "${CPACK_CALBOX_OBJDUMP}" -p "${CPACK_CALBOX_BINARY}"
+                OUTPUT_VARIABLE dynamic_section RESULT_VARIABLE objdump_status)
+if(NOT objdump_status EQUAL 0)
+  message(FATAL_ERROR "package dependencies: ${CPACK_CALBOX_OBJDUMP} could not read ${CPACK_CALBOX_BINARY}")
+endif()
+file(STRINGS "${CPACK_CALBOX_SHLIBS}" shlibs_lines)
+string(REGEX MATCHALL "NEEDED +[^\n]+" needed_lines "${dynamic_section}")
+set(depends "adduser")
+foreach(line ${needed_lines})
+  string(REGEX REPLACE "NEEDED +" "" soname "${line}")
+  string(STRIP "${soname}" soname)
+  if(soname MATCHES "^(.+)\\.so\\.(.+)$")
+    set(library "${CMAKE_MATCH_1}")
+    set(version "${CMAKE_MATCH_2}")
+  elseif(soname MATCHES "^(.+)-([0-9.]+)\\.so$")
+    set(library "${CMAKE_MATCH_1}")
+    set(version "${CMAKE_MATCH_2}")
+  else()
+    message(FATAL_ERROR "package dependencies: cannot read the library name ${soname}")
+  endif()
+  # Compared as text: library names hold regular expressions' characters (libstdc++).
+  set(prefix "${library} ${version} ")
+  string(LENGTH "${prefix}" prefix_length)
+  set(found "")
+  foreach(entry ${shlibs_lines})
+    string(SUBSTRING "${entry}" 0 ${prefix_length} head)
+    if(head STREQUAL prefix)
+      string(SUBSTRING "${entry}" ${prefix_length} -1 found)
+      break()
+    endif()
+  endforeach()
+  if(found STREQUAL "")
+    message(FATAL_ERROR "package dependencies: no package in the sysroot provides ${soname}")
+  endif()
+  list(APPEND depends "${found}")
+endforeach()
+list(REMOVE_DUPLICATES depends)
+list(JOIN depends ", " CPACK_DEBIAN_PACKAGE_DEPENDS)

@@ -22,7 +22,7 @@ using namespace calbox;
 
 namespace {
 
-constexpr int kSide = 96;
+constexpr std::size_t kSide = 96;
 // A dark disc (radius 12.3 px, edge ramp 2 px wide in squared distance) at (47.37, 51.81) px on a
 // bright substrate with +-3 grey levels of hashed noise, all in integers.
 constexpr std::int64_t kCentreX_q8 = 12127, kCentreY_q8 = 13263, kRadius_q8 = 3149;
@@ -39,10 +39,10 @@ std::vector<std::uint8_t> integer_disc_image() {
     std::vector<std::uint8_t> pixels(kSide * kSide);
     const std::int64_t outer2 = (kRadius_q8 + 256) * (kRadius_q8 + 256);
     const std::int64_t inner2 = (kRadius_q8 - 256) * (kRadius_q8 - 256);
-    for (int y = 0; y < kSide; ++y)
-        for (int x = 0; x < kSide; ++x) {
-            const std::int64_t ex = std::int64_t{x} * 256 - kCentreX_q8;
-            const std::int64_t ey = std::int64_t{y} * 256 - kCentreY_q8;
+    for (std::size_t y = 0; y < kSide; ++y)
+        for (std::size_t x = 0; x < kSide; ++x) {
+            const std::int64_t ex = static_cast<std::int64_t>(x) * 256 - kCentreX_q8;
+            const std::int64_t ey = static_cast<std::int64_t>(y) * 256 - kCentreY_q8;
             const std::int64_t d2 = ex * ex + ey * ey;
             const std::int64_t dark = std::clamp<std::int64_t>(outer2 - d2, 0, outer2 - inner2);
             const std::int64_t level = 200 - 170 * dark / (outer2 - inner2);
@@ -50,7 +50,7 @@ std::vector<std::uint8_t> integer_disc_image() {
                 static_cast<std::int64_t>(
                     pixel_hash(static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y)) % 7) -
                 3;
-            pixels[static_cast<std::size_t>(y * kSide + x)] =
+            pixels[y * kSide + x] =
                 static_cast<std::uint8_t>(std::clamp<std::int64_t>(level + noise, 0, 255));
         }
     return pixels;
@@ -81,7 +81,8 @@ constexpr std::array<std::array<std::int64_t, 2>, 8> kSteps_q16{{{8192, 0},
 
 TEST_GROUP(FixedPointKernels) {
     std::vector<std::uint8_t> pixels = integer_disc_image();
-    vision::GrayView view{pixels.data(), kSide, kSide, kSide};
+    vision::GrayView view{pixels.data(), static_cast<int>(kSide), static_cast<int>(kSide),
+                          static_cast<int>(kSide)};
 };
 
 // Radial profiles from near the disc's centre outwards, both directions of step asked for, and

@@ -1,5 +1,6 @@
 #include "core/geometry/camera_model.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
@@ -158,10 +159,32 @@ class YamlShape {
         if (after.substr(0, 15) == "!!opencv-matrix") {
             if (!after.substr(15).empty() && !trailing_comment(after.substr(15)))
                 fail("text after '!!opencv-matrix'");
+            matrix_rows_ = matrix_cols_ = 0;
             return true;
         }
+        const std::string_view key = text.substr(0, i);
+        if (key == "rows" || key == "cols") matrix_size(key == "rows", after);
         value(after);
         return false;
+    }
+
+    // OpenCV allocates a matrix for the size it declares before reading its values: a mangled
+    // size would ask for gigabytes (libFuzzer found "cols: it1" asking for 48 GB). The box's
+    // matrices are 3x3 and smaller; reference mark lists hold hundreds of rows.
+    static constexpr long kMaxMatrixValues = 1L << 20;
+    void matrix_size(bool rows, std::string_view text) {
+        long count = 0;
+        std::size_t i = 0;
+        while (i < text.size() && text[i] >= '0' && text[i] <= '9')
+            count = std::min(count * 10 + (text[i++] - '0'), kMaxMatrixValues + 1);
+        if (i == 0 || count == 0 || !trailing_comment(text.substr(i)))
+            fail(std::string("a matrix's ") + (rows ? "rows" : "cols") +
+                 " that is not a positive whole number");
+        (rows ? matrix_rows_ : matrix_cols_) = count;
+        if (matrix_rows_ * std::max(matrix_cols_, 1L) > kMaxMatrixValues ||
+            matrix_cols_ * std::max(matrix_rows_, 1L) > kMaxMatrixValues)
+            fail("a matrix of more than " + std::to_string(kMaxMatrixValues) +
+                 " values; the box's files hold small ones");
     }
 
     // Spaces and then at most a comment.
@@ -269,7 +292,8 @@ class YamlShape {
     bool seen_key_ = false;
     int opened_at_line_ = 0;  // the line of a key or item whose block has not started yet
     std::vector<Block> blocks_{{0, Kind::mapping}};
-    std::string open_;  // flow brackets still open, innermost last
+    std::string open_;                        // flow brackets still open, innermost last
+    long matrix_rows_ = 0, matrix_cols_ = 0;  // of the last matrix opened, as declared so far
 };
 
 }  // namespace

@@ -194,6 +194,25 @@ TEST(CameraFile, yaml_opencv_cannot_read_safely_is_refused_before_it_reads_it) {
                  refusal("%YAML:1.0\n---\na: \"x\ny\"\n").c_str());
     STRCMP_EQUAL("corrupt YAML: line 4: an indented line that belongs to no key",
                  refusal("%YAML:1.0\n---\na: 1\n  b: 2\n").c_str());
+    // Found by libFuzzer: OpenCV allocates what a matrix declares before reading its values
+    // ("cols: it1" asked for 48 GB).
+    const auto matrix = [](const std::string& rows, const std::string& cols) {
+        return "%YAML:1.0\n---\nk: !!opencv-matrix\n   rows: " + rows + "\n   cols: " + cols +
+               "\n   dt: d\n   data: [ 1. ]\n";
+    };
+    STRCMP_EQUAL("corrupt YAML: line 5: a matrix's cols that is not a positive whole number",
+                 refusal(matrix("3", "it1")).c_str());
+    STRCMP_EQUAL("corrupt YAML: line 4: a matrix's rows that is not a positive whole number",
+                 refusal(matrix("0", "1")).c_str());
+    STRCMP_EQUAL(
+        "corrupt YAML: line 5: a matrix of more than 1048576 values; the box's files hold small "
+        "ones",
+        refusal(matrix("3", "2147483647")).c_str());
+    STRCMP_EQUAL(
+        "corrupt YAML: line 5: a matrix of more than 1048576 values; the box's files hold small "
+        "ones",
+        refusal(matrix("1024", "1025")).c_str());
+    geometry::check_yaml_text(matrix("1024", "1024"));  // a million values: allowed
 }
 
 TEST_GROUP(Calibration){};

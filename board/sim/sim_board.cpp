@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -323,6 +324,7 @@ void TwinPrinterLink::serve() {
             continue;
         }
         if ((p.revents & POLLIN) != 0) {
+            answering_ = true;  // before the read empties the pty: one of the two always shows
             const ssize_t n = ::read(master_fd_, buffer, sizeof buffer);
             if (n > 0) incoming.append(buffer, static_cast<std::size_t>(n));
         }
@@ -339,7 +341,14 @@ void TwinPrinterLink::serve() {
             if (n <= 0) break;
             outgoing.erase(0, static_cast<std::size_t>(n));
         }
+        answering_ = !outgoing.empty();
     }
+}
+
+bool TwinPrinterLink::settled() const {
+    int unread = 0;
+    if (::ioctl(master_fd_, FIONREAD, &unread) != 0) return true;  // closed: nothing to wait for
+    return unread == 0 && !answering_;
 }
 
 std::vector<std::string> TwinPrinterLink::answer(std::string line) {

@@ -101,6 +101,10 @@ class TwinPrinterLink {
     ~TwinPrinterLink();  // stops the thread and closes the master (the box sees a hang-up)
     const std::string& device_path() const { return device_path_; }
     std::size_t lines_received() const { return lines_received_; }
+    // Everything the box sent has been answered: nothing unread at the printer's end of the pty,
+    // no line being answered. A test on a simulated clock moves time on only then, so that the
+    // printer's thread being slow on a loaded machine is not taken for a printer gone silent.
+    bool settled() const;
 
   private:
     void serve();
@@ -110,6 +114,7 @@ class TwinPrinterLink {
     std::string device_path_;
     std::atomic<bool> stop_{false};
     std::atomic<std::size_t> lines_received_{0};
+    std::atomic<bool> answering_{false};  // from reading the box's bytes to writing the replies
     long last_line_ = 0;
     bool halted_ = false;
     std::mt19937_64 noise_;

@@ -647,7 +647,7 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
                       return recorder;
                   });
         first.run_cycle();
-        CHECK_EQUAL(1, first.cycle.cycles_completed());
+        first.check_cycles_completed(1);
         first_commands = first.cycle.report().solution->commands;
         first_verify = first.cycle.report().verify_xy_rms_mm;
     }
@@ -657,7 +657,7 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
     auto use_files = [&files](sim::SimBoard&) -> hal::Camera& { return files; };
     Rig second(prepared_dir("files_second"), kScenario.string(), {}, use_files);
     second.run_cycle();
-    CHECK_EQUAL(1, second.cycle.cycles_completed());
+    second.check_cycles_completed(1);
     CHECK_EQUAL(0, second.board.camera->captures_started());  // the twin's camera never used
     CHECK(second.cycle.report().solution->commands == *first_commands);
     DOUBLES_EQUAL(*first_verify, *second.cycle.report().verify_xy_rms_mm, 1e-12);

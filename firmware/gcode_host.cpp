@@ -71,6 +71,7 @@ void GcodeHost::pump() {
 }
 
 void GcodeHost::write_line(const std::string& text) {
+    ++lines_written_;
     transcript_.push_back(text);
     if (transcript_.size() > settings_.transcript_lines) transcript_.pop_front();
     outgoing_ += text;

@@ -56,6 +56,8 @@ class GcodeHost {
     // The lines written to the printer, in order, resends included: the last
     // `transcript_lines` of them at most (a box that runs for months keeps a bounded record).
     const std::deque<std::string>& transcript() const { return transcript_; }
+    // Every line handed to the port since start-up, resends included.
+    std::size_t lines_written() const { return lines_written_; }
 
   private:
     void handle(const std::string& reply);
@@ -71,7 +73,8 @@ class GcodeHost {
     Log log_;
     std::vector<std::string> job_;  // job_[n] is line number n (0: the M110)
     std::size_t next_ = 0;          // the next line number to send
-    int in_flight_ = 0;             // lines sent, not yet acknowledged
+    std::size_t lines_written_ = 0;
+    int in_flight_ = 0;  // lines sent, not yet acknowledged
     bool heard_from_printer_ = false;
     bool waiting_for_startup_ = false;
     int resends_of_line_ = 0;

@@ -111,7 +111,12 @@ struct Rig {
                             (log.empty() ? std::string() : log.back()))
                                .c_str());
     }
-    bool printer_settled() const { return !board.printer || board.printer->settled(); }
+    // The twin has read every line the box wrote (a pty can hold written bytes back from the
+    // reader for a while on a loaded machine) and answered it.
+    bool printer_settled() const {
+        return !board.printer || (board.printer->lines_received() >= host.lines_written() &&
+                                  board.printer->settled());
+    }
     // A photo being rendered: simulated time waits for it (a prompt is a person, not the camera).
     bool camera_busy() const {
         if (cycle.prompt() != firmware::Prompt::none) return false;

@@ -1,6 +1,7 @@
 #include "drivers/libcamera_camera.hpp"
 
 #include <libcamera/libcamera.h>
+#include <libcamera/version.h>
 #include <sys/mman.h>
 
 #include <algorithm>
@@ -14,6 +15,22 @@
 
 namespace calbox::drivers {
 namespace {
+
+// libcamera 0.5 replaced the one AeEnable switch by a manual mode per control (Raspberry Pi OS
+// ships releases past it, Debian 12 the 0.0.3 before it): the only API difference this driver
+// meets, kept here. The names of one release do not exist in the other, hence the preprocessor.
+void set_manual_exposure(libcamera::ControlList& c, bool manual) {
+#if LIBCAMERA_VERSION_MAJOR > 0 || LIBCAMERA_VERSION_MINOR >= 5
+    c.set(libcamera::controls::ExposureTimeMode, manual
+                                                     ? libcamera::controls::ExposureTimeModeManual
+                                                     : libcamera::controls::ExposureTimeModeAuto);
+    c.set(libcamera::controls::AnalogueGainMode, manual
+                                                     ? libcamera::controls::AnalogueGainModeManual
+                                                     : libcamera::controls::AnalogueGainModeAuto);
+#else
+    c.set(libcamera::controls::AeEnable, !manual);
+#endif
+}
 
 // One frame buffer's planes, mapped once for the camera's life.
 struct MappedBuffer {
@@ -129,7 +146,7 @@ LibcameraCamera::~LibcameraCamera() {
 void LibcameraCamera::set_controls(libcamera::Request& request) const {
     auto& c = request.controls();
     const bool manual = asked_.exposure.has_value() || asked_.analogue_gain.has_value();
-    c.set(libcamera::controls::AeEnable, !manual);
+    set_manual_exposure(c, manual);
     if (asked_.exposure)
         c.set(libcamera::controls::ExposureTime,
               static_cast<std::int32_t>(asked_.exposure->count()));

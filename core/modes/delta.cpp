@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <map>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/line_fit.hpp"
@@ -278,6 +279,52 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
     }
 }
 
+// The target's markers a photo did not show, told apart: those it should show (the placement of
+// the ones it did puts all four corners inside the frame), which were there but could not be
+// read (a squashed, smeared or missing first layer), and those outside the frame.
+struct MissingMarkers {
+    std::vector<std::string> unread;  // "marker 7 near (1234, 567) px"
+    std::size_t outside_frame = 0;
+};
+MissingMarkers missing_markers(const targets::DeltaTarget& target,
+                               const std::vector<vision::DetectedMarker>& found,
+                               const solve::RigidPlacement& placement,
+                               const geometry::CameraModel& camera,
+                               const geometry::BedPlane& plane) {
+    MissingMarkers out;
+    for (const auto& marker : target.markers) {
+        const bool seen = std::any_of(found.begin(), found.end(),
+                                      [&](const auto& m) { return m.id == marker.id; });
+        if (seen) continue;
+        std::vector<geometry::Point3> corners;
+        for (const auto& c : marker.corners_mm) {
+            const auto p = placement.apply(c);
+            corners.push_back({p.x, p.y, target.top_height_mm});
+        }
+        const auto px = geometry::project_points(camera, plane.bed_to_camera, corners);
+        const bool inside = std::all_of(px.begin(), px.end(), [&](const geometry::Point2& q) {
+            return q.x >= 0 && q.y >= 0 && q.x <= camera.image_width - 1 &&
+                   q.y <= camera.image_height - 1;
+        });
+        if (!inside) {
+            ++out.outside_frame;
+            continue;
+        }
+        char where[96];
+        std::snprintf(where, sizeof where, "marker %d near (%.0f, %.0f) px", marker.id,
+                      (px[0].x + px[1].x + px[2].x + px[3].x) / 4,
+                      (px[0].y + px[1].y + px[2].y + px[3].y) / 4);
+        out.unread.emplace_back(where);
+    }
+    return out;
+}
+
+std::string joined(const std::vector<std::string>& parts) {
+    std::string text;
+    for (const auto& part : parts) text += (text.empty() ? "" : ", ") + part;
+    return text;
+}
+
 }  // namespace
 
 std::string corner_feature_id(int marker_id, int corner) {
@@ -347,6 +394,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         }
         // The markers must lie as this target lays them out, give or take what an uncalibrated
         // printer does to it: another ArUco artifact (a board, another machine's target) does not.
+        std::optional<solve::RigidPlacement> laid_on_bed;
         if (found.size() >= 2) {
             std::vector<geometry::Point2> laid, seen_centres;
             for (std::size_t i = 0; i < found.size(); ++i) {
@@ -356,6 +404,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                         (bed[0].y + bed[1].y + bed[2].y + bed[3].y) / 4});
             }
             const auto placement = solve::best_rigid_placement(laid, seen_centres);
+            laid_on_bed = placement;
             double worst = 0;
             for (std::size_t i = 0; i < laid.size(); ++i) {
                 const auto p = placement.apply(laid[i]);
@@ -373,12 +422,27 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             }
         }
         // The fit needs the whole bed: a quarter of the target missing is not a calibration.
+        // Markers the photo should show but does not are the print's fault, not the framing's.
+        const auto missing = laid_on_bed
+                                 ? missing_markers(out.target, found, *laid_on_bed, camera, plane)
+                                 : MissingMarkers{};
+        const std::string photo_name = "photo " + std::to_string(f + 1);
         if (found.size() * 4 < markers.size() * 3) {
-            throw MeasureError("photo " + std::to_string(f + 1) + " shows " +
-                               std::to_string(found.size()) + " of the target's " +
-                               std::to_string(markers.size()) +
-                               " markers: the artifact is partly out of frame");
+            std::string why = photo_name + " shows " + std::to_string(found.size()) +
+                              " of the target's " + std::to_string(markers.size()) + " markers";
+            if (!missing.unread.empty()) {
+                why += ": " + std::to_string(missing.unread.size()) +
+                       " in the frame could not be read (" + joined(missing.unread) +
+                       "): a squashed, smeared or missing first layer there";
+            }
+            if (missing.outside_frame > 0 || missing.unread.empty()) {
+                why += missing.unread.empty() ? ": " : "; ";
+                why += "the artifact is partly out of frame";
+            }
+            throw MeasureError(why);
         }
+        for (const auto& marker : missing.unread)
+            out.markers_unread.push_back(photo_name + ": " + marker + " could not be read");
         // Each marker's scale on the bed: its sides in millimetres over its sides in pixels.
         std::vector<double> mm_per_px;
         for (std::size_t i = 0; i < found.size(); ++i) {

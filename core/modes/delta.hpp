@@ -39,6 +39,9 @@ struct DeltaMeasurement {
     std::vector<BarLengthMeasurement> bars;           // those fully seen in every photo
     // The others, each with why: "bar A: photo 1: its far end face ...".
     std::vector<std::string> bars_unmeasured;
+    // Markers a photo should show (inside its frame) but could not read, each with where:
+    // "photo 1: marker 7 near (1234, 567) px could not be read".
+    std::vector<std::string> markers_unread;
     std::vector<std::vector<vision::DetectedMarker>> frames;  // what each photo showed
     double bed_scale = 1;  // the print in the photos against as printed (the bed's expansion)
     // Corners and bar ends moved along their rays to the surface heights a fit of the corners

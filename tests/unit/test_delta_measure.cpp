@@ -1,6 +1,7 @@
 // The delta mode's measurement judged in the twin's truth: where the material really is.
 #include <CppUTest/TestHarness.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 #include <sstream>
@@ -165,6 +166,46 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     const double growth = edge_share(noisy) / edge_share(plain);
     CHECK_TEXT(growth > 2.5 && growth < 5, std::to_string(growth).c_str());
     DOUBLES_EQUAL(t.diagonal_rod_mm, noisy_fit.fitted.estimate.diagonal_rod_mm, 0.1);
+
+    // Markers the photo should show but whose print is unreadable (a smeared first layer, here
+    // painted over with the bed's grey) are named with where they are, not taken for the target
+    // lying partly out of frame.
+    const auto painted_over = [&](std::vector<int> ids) {
+        auto pixels = print_photo.pixels;
+        for (const auto& m : measured.frames.front()) {
+            if (std::find(ids.begin(), ids.end(), m.id) == ids.end()) continue;
+            double x0 = 1e9, y0 = 1e9, x1 = -1e9, y1 = -1e9;
+            for (const auto& c : m.corners) {
+                x0 = std::min(x0, c.x), y0 = std::min(y0, c.y);
+                x1 = std::max(x1, c.x), y1 = std::max(y1, c.y);
+            }
+            const double grow = (x1 - x0) * 0.2;  // the quiet zone too
+            for (int y = static_cast<int>(y0 - grow); y <= static_cast<int>(y1 + grow); ++y)
+                for (int x = static_cast<int>(x0 - grow); x <= static_cast<int>(x1 + grow); ++x)
+                    pixels[static_cast<std::size_t>(y) * static_cast<std::size_t>(camera.width_px) +
+                           static_cast<std::size_t>(x)] = 20;
+        }
+        return pixels;
+    };
+    const auto one_smeared = painted_over({5});
+    const auto with_one = modes::measure_delta(
+        machine, model, plane,
+        {{one_smeared.data(), camera.width_px, camera.height_px, camera.width_px}});
+    CHECK_EQUAL(4 * (target.markers.size() - 1), with_one.features.size());
+    CHECK_EQUAL(1u, with_one.markers_unread.size());
+    STRCMP_CONTAINS("photo 1: marker 5 near (", with_one.markers_unread.front().c_str());
+    const auto many_smeared = painted_over({1, 2, 3, 4, 5, 6, 7});
+    try {
+        modes::measure_delta(
+            machine, model, plane,
+            {{many_smeared.data(), camera.width_px, camera.height_px, camera.width_px}});
+        FAIL("a photo missing seven markers was measured");
+    } catch (const modes::MeasureError& e) {
+        UT_PRINT(e.what());
+        STRCMP_CONTAINS("7 in the frame could not be read (marker 1 near (", e.what());
+        STRCMP_CONTAINS("a squashed, smeared or missing first layer there", e.what());
+        CHECK(std::string(e.what()).find("out of frame") == std::string::npos);
+    }
 
     // The same photos through a camera model with the wrong lens distortion: the corners no
     // longer fit a delta printer's geometry. Measurement says its surface fit failed and why,

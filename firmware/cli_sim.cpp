@@ -185,12 +185,13 @@ int sim_photo(const std::vector<std::string>& words) {
         std::vector<sim::StrokeSegment> strokes;
         nlohmann::json stroke_truth = nlohmann::json::array();
         for (const auto& s : record.result.strokes) {
-            strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+            strokes.push_back(sim::material_of(s));
             stroke_truth.push_back({{"a_mm", {s.a_mm.x, s.a_mm.y, s.a_mm.z}},
                                     {"b_mm", {s.b_mm.x, s.b_mm.y, s.b_mm.z}},
                                     {"a_px", pixel_json(camera.intrinsics, bed_to_camera, s.a_mm)},
                                     {"b_px", pixel_json(camera.intrinsics, bed_to_camera, s.b_mm)},
-                                    {"width_mm", s.width_mm}});
+                                    {"width_mm", s.width_mm},
+                                    {"top_mm", {s.top_a_mm, s.top_b_mm}}});
         }
         // Photographed with the bed at another temperature than it was printed at, the print
         // has grown or shrunk with the bed; the truth keeps where the nozzle laid it.

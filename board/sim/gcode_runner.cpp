@@ -1,5 +1,6 @@
 #include "board/sim/gcode_runner.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 
@@ -103,6 +104,19 @@ void GcodeRunner::execute(const gcode::Line& l) {
                    format_command(l));
 }
 
+StrandShape first_layer_strand(double cross_section_mm2, double gap_mm, double nozzle_flat_mm) {
+    if (!(cross_section_mm2 > 0) || !(nozzle_flat_mm > 0))
+        throw std::invalid_argument("a strand needs a cross-section and a nozzle");
+    const double bead_mm = std::sqrt(4 * cross_section_mm2 / 3.14159265358979323846);
+    // A scraped trace still has some height: the bed's texture and the nozzle's own wear.
+    constexpr double kScrapedTraceMm = 0.01;
+    StrandShape s;
+    s.free_bead = gap_mm >= bead_mm;
+    s.height_mm = std::clamp(gap_mm, kScrapedTraceMm, bead_mm);
+    s.width_mm = std::min(cross_section_mm2 / s.height_mm, nozzle_flat_mm);
+    return s;
+}
+
 void GcodeRunner::move(const gcode::Line& l) {
     Vec3 target = logical_;
     double e_target = e_;
@@ -137,14 +151,26 @@ void GcodeRunner::move(const gcode::Line& l) {
         const bool cuts =
             tool_.kind != ToolKind::spindle || std::max(previous_commanded.z, commanded.z) <= 1e-9;
         if (marks && cuts) {
-            Stroke s{previous_commanded,  commanded,   previous_actual, actual,
-                     tool_.tool_width_mm, line_number_};
+            Stroke s{previous_commanded,  commanded,    previous_actual,   actual,
+                     tool_.tool_width_mm, line_number_, previous_actual.z, actual.z};
             if (tool_.kind == ToolKind::extruder) {
                 // The segment's share of the filament spreads over its true length.
                 const double volume = extruded / segments * filament_area;
                 const double true_length =
                     std::hypot(actual.x - previous_actual.x, actual.y - previous_actual.y);
-                s.width_mm = true_length > 0 ? volume / (true_length * tool_.layer_height_mm) : 0;
+                const double cross_section = true_length > 0 ? volume / true_length : 0;
+                s.width_mm = cross_section / tool_.layer_height_mm;
+                // Only the first layer lies on the bed; later ones sit on the layer below.
+                const double gap = (previous_actual.z + actual.z) / 2;
+                if (tool_.real_first_layer && cross_section > 0 &&
+                    gap < 1.5 * tool_.layer_height_mm) {
+                    const auto at = [&](double nozzle_z) {
+                        return first_layer_strand(cross_section, nozzle_z, tool_.nozzle_flat_mm);
+                    };
+                    s.width_mm = at(gap).width_mm;
+                    s.top_a_mm = at(previous_actual.z).height_mm;
+                    s.top_b_mm = at(actual.z).height_mm;
+                }
             }
             if (s.width_mm > 0) result_.strokes.push_back(s);
         }

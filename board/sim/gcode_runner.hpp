@@ -23,13 +23,34 @@ struct ToolSettings {
     double layer_height_mm = 0.2;        // extruder: the height a stroke's volume spreads over
     double tool_width_mm = 0.1;          // laser spot or cutter width
     double segment_mm = 0.5;             // moves are split as a delta firmware segments them
+    // extruder: the first layer as a real one lies (first_layer_strand) rather than at its
+    // commanded width with its top at the nozzle. Off until the delta measurement reads stroke
+    // centrelines (issue "Delta mode 3"): today's corners move with the strand's width.
+    bool real_first_layer = false;
+    double nozzle_flat_mm = 1.0;  // the nozzle tip's flat: a squashed strand spreads no wider
 };
+
+// A first-layer strand's cross-section as the nozzle leaves it: while the nozzle touches the
+// strand (a gap under the strand's own size) it is pressed to the gap's height and spreads to
+// keep its cross-section; past that it is a free bead of its own diameter lying on the bed
+// (sqrt(4 A / pi)), no lower for a larger gap; where the nozzle meets the bed it scrapes a thin
+// trace no wider than the tip's flat (the rest stays in the nozzle). Widths are the
+// cross-section over the height: a rectangle of the strand's footprint.
+struct StrandShape {
+    double height_mm = 0;  // its top above the bed
+    double width_mm = 0;
+    bool free_bead = false;
+};
+StrandShape first_layer_strand(double cross_section_mm2, double gap_mm, double nozzle_flat_mm);
 
 struct Stroke {
     Vec3 commanded_a_mm, commanded_b_mm;
     Vec3 a_mm, b_mm;  // where the nozzle/tool really was (machine frame, bed at z = 0)
     double width_mm = 0;
     int line = 0;  // job line number, from 1
+    // The top of what was laid above the bed at each end: the nozzle's height, except for a
+    // real first layer's free bead (first_layer_strand).
+    double top_a_mm = 0, top_b_mm = 0;
 };
 
 struct JobResult {

@@ -1,5 +1,6 @@
 #include "board/sim/machine_twin.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -71,6 +72,74 @@ void DeltaTwin::zero_height_at_centre() {
     stored_ = firmware_;
     home();
     homed_ = was_homed;
+}
+
+template <typename Settings>
+void DeltaTwin::level(const std::vector<Vec3>& points, int unknowns, Settings free) {
+    const DeltaParams start = firmware_;
+    const bool was_homed = homed_;
+    const auto heights = [&](const Eigen::VectorXd& v) {
+        firmware_ = start;
+        free(v, firmware_);
+        home();
+        Eigen::VectorXd z(static_cast<Eigen::Index>(points.size()));
+        for (std::size_t i = 0; i < points.size(); ++i)
+            z[static_cast<Eigen::Index>(i)] = actual_position_mm(points[i]).z;
+        return z;
+    };
+    Eigen::VectorXd v = Eigen::VectorXd::Zero(unknowns);
+    for (int iteration = 0; iteration < 8; ++iteration) {
+        const Eigen::VectorXd z = heights(v);
+        Eigen::MatrixXd j(z.size(), unknowns);
+        for (int k = 0; k < unknowns; ++k) {
+            Eigen::VectorXd step = v;
+            step[k] += 1e-4;
+            j.col(k) = (heights(step) - z) / 1e-4;
+        }
+        v -= j.completeOrthogonalDecomposition().solve(z);
+    }
+    heights(v);
+    stored_ = firmware_;
+    homed_ = was_homed;
+}
+
+namespace {
+// Endstop offsets a, b relative to tower C's and a height change, kept <= 0 as Marlin wants by
+// moving the common part into the height (the same machine).
+void set_endstops(DeltaParams& p, double a, double b, double height_change) {
+    const double top = std::max({a, b, 0.0});
+    p.height_mm += height_change - top;
+    p.endstop_offset_mm = {a - top, b - top, -top};
+}
+void set_endstops_from(DeltaParams& p, const Eigen::VectorXd& v) {
+    const auto& e = p.endstop_offset_mm;
+    set_endstops(p, e[0] - e[2] + v[0], e[1] - e[2] + v[1], v[2] + e[2]);
+}
+}  // namespace
+
+void DeltaTwin::level_by_paper(double r) {
+    std::vector<Vec3> points{{0, 0, 0}};
+    for (const double deg : {210.0, 330.0, 90.0})
+        points.push_back({r * std::cos(radians(deg)), r * std::sin(radians(deg)), 0});
+    level(points, 4, [](const Eigen::VectorXd& v, DeltaParams& p) {
+        p.radius_mm += v[3];
+        set_endstops_from(p, v);
+    });
+}
+
+void DeltaTwin::level_by_probe(double r) {
+    std::vector<Vec3> points{{0, 0, 0}};
+    for (int k = 0; k < 12; ++k)
+        points.push_back({r * std::cos(radians(30.0 * k)), r * std::sin(radians(30.0 * k)), 0});
+    for (int k = 0; k < 6; ++k)
+        points.push_back({r / 2 * std::cos(radians(60.0 * k) + 0.5),
+                          r / 2 * std::sin(radians(60.0 * k) + 0.5), 0});
+    level(points, 6, [](const Eigen::VectorXd& v, DeltaParams& p) {
+        p.radius_mm += v[3];
+        p.tower_angle_trim_deg[0] += v[4];
+        p.tower_angle_trim_deg[1] += v[5];
+        set_endstops_from(p, v);
+    });
 }
 
 std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode::Line& line) {

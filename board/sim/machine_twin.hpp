@@ -53,11 +53,25 @@ class DeltaTwin final : public MachineTwin {
     // Shifts the firmware's height so that commanded Z = 0 touches the bed at its centre, as a
     // paper test does.
     void zero_height_at_centre();
+    // What an owner's paper test leaves, the classic manual way: the endstop offsets (M666)
+    // and the height set so that commanded Z = 0 touches the bed near each tower (at
+    // `tower_points_radius_mm`), the radius so that it touches at the centre too; between those
+    // points the bed is as the rest of the geometry makes it.
+    void level_by_paper(double tower_points_radius_mm);
+    // What a probe routine (Marlin's G33, RepRapFirmware's G32) leaves: radius, height, endstop
+    // offsets and two angle trims set so that the nozzle's height over a ring of probe points
+    // out to `probe_radius_mm` is as flat as they can make it; the rods, which a probe cannot
+    // see, stay wrong.
+    void level_by_probe(double probe_radius_mm);
     // The commands that set the stored settings again, in the twin's dialect (its EEPROM or
     // config-override.g).
     std::vector<std::string> stored_settings_commands() const;
 
   private:
+    // Gauss-Newton on the firmware's settings `free` makes of a vector, to zero the nozzle's
+    // height at `points` commanded to Z = 0.
+    template <typename Settings>
+    void level(const std::vector<Vec3>& points, int unknowns, Settings free);
     std::optional<std::vector<std::string>> rrf_settings_command(const gcode::Line& line);
     DeltaParams truth_, firmware_, stored_;
     DeltaDialect dialect_;

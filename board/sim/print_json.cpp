@@ -1,5 +1,6 @@
 #include "board/sim/print_json.hpp"
 
+#include <array>
 #include <cmath>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
@@ -33,6 +34,7 @@ std::string print_to_json(const PrintRecord& record) {
                            {"a", to_json(s.a_mm)},
                            {"b", to_json(s.b_mm)},
                            {"width_mm", s.width_mm},
+                           {"top_mm", {s.top_a_mm, s.top_b_mm}},
                            {"line", s.line}});
     }
     const nlohmann::json j{{"schema", kSchema},
@@ -66,6 +68,12 @@ PrintRecord print_from_json(const std::string& text) {
             stroke.width_mm = s.at("width_mm").get<double>();
             if (!(stroke.width_mm > 0 && stroke.width_mm < 100))
                 throw std::runtime_error("width_mm out of range");
+            const auto top = s.at("top_mm").get<std::array<double, 2>>();
+            if (!(std::isfinite(top[0]) && std::isfinite(top[1]) && std::abs(top[0]) < 1e4 &&
+                  std::abs(top[1]) < 1e4))
+                throw std::runtime_error("top_mm out of range");
+            stroke.top_a_mm = top[0];
+            stroke.top_b_mm = top[1];
             stroke.line = s.at("line").get<int>();
             r.result.strokes.push_back(stroke);
         }

@@ -104,7 +104,11 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
     if (const auto* twin = models::subtable(path, root, "twin")) {
         TomlReader r(path, *twin, "twin");
         r.boolean("zero_height_at_centre", s.zero_height_at_centre);
+        r.text("levelled_by", s.levelled_by, {"centre", "paper", "probe"});
         r.number("segment_mm", s.segment_mm, 0.01, 10);
+        std::string first_layer = s.real_first_layer ? "real" : "as_commanded";
+        r.text("first_layer", first_layer, {"real", "as_commanded"});
+        s.real_first_layer = first_layer == "real";
         r.finish();
     }
     if (const auto* camera = models::subtable(path, root, "camera")) {
@@ -282,7 +286,10 @@ std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
         auto twin = std::make_unique<DeltaTwin>(
             s.delta_truth, s.delta_firmware,
             s.machine.firmware == "rrf" ? DeltaDialect::rrf : DeltaDialect::marlin);
-        if (s.zero_height_at_centre) twin->zero_height_at_centre();
+        if (s.zero_height_at_centre || s.levelled_by != "centre") twin->zero_height_at_centre();
+        const double bed_radius_mm = s.machine.bed_radius_mm;
+        if (s.levelled_by == "paper") twin->level_by_paper(0.8 * bed_radius_mm);
+        if (s.levelled_by == "probe") twin->level_by_probe(0.9 * bed_radius_mm);
         return twin;
     }
     if (s.machine.is_galvo()) return std::make_unique<GalvoTwin>(s.galvo_truth);
@@ -308,7 +315,12 @@ ToolSettings tool_settings_of(const Scenario& s) {
     t.layer_height_mm = s.machine.layer_height_mm;
     t.tool_width_mm = s.machine.tool_width_mm;
     t.segment_mm = s.segment_mm;
+    t.real_first_layer = s.real_first_layer;
     return t;
+}
+
+StrokeSegment material_of(const Stroke& s) {
+    return {{s.a_mm.x, s.a_mm.y, s.top_a_mm}, {s.b_mm.x, s.b_mm.y, s.top_b_mm}, s.width_mm};
 }
 
 }  // namespace calbox::sim

@@ -66,7 +66,13 @@ struct Scenario {
     GalvoTruth galvo_truth;           // [truth.galvo]: a seeded scanner, keys given override
     RouterTruth router_truth;         // [truth.router]: a seeded router, keys given override
     bool zero_height_at_centre = true;
+    // [twin] levelled_by: how the printer's bed was levelled before the box saw it. "centre":
+    // only the height zeroed at the centre; "paper": an owner's paper test at the towers and the
+    // centre (DeltaTwin::level_by_paper at 0.8 of the bed's radius); "probe": a probe routine
+    // (level_by_probe over 0.9 of it). Implies zero_height_at_centre.
+    std::string levelled_by = "centre";
     double segment_mm = 0.5;
+    bool real_first_layer = false;  // [twin] first_layer = "real" | "as_commanded" (default)
     std::optional<ScenarioCamera> camera;
     PhotoSettings photo;
     std::optional<double> photo_bed_temperature_c;  // [photo]: the bed when photographed
@@ -93,6 +99,9 @@ std::vector<StrokeSegment> carried_by_bed(std::vector<StrokeSegment> strokes, do
 // What the camera sees of the material a job laid down: carried by the bed's growth, and a
 // router's cuts on the sheet's top (the dark backing shows through the holes).
 std::vector<StrokeSegment> as_photographed(const Scenario& s, std::vector<StrokeSegment> strokes);
+
+// The material a stroke left, as the camera sees it: its top at the height the strand has.
+StrokeSegment material_of(const Stroke& s);
 
 // Throws ScenarioError naming the file and the key at fault.
 Scenario load_scenario(const std::string& path);

@@ -182,7 +182,7 @@ void TwinBench::reset_printer() {
     const std::lock_guard lock(mutex_);
     const auto& strokes = runner_->result().strokes;
     for (std::size_t i = strokes_cleared_; i < strokes.size(); ++i)
-        earlier_runs_.push_back({strokes[i].a_mm, strokes[i].b_mm, strokes[i].width_mm});
+        earlier_runs_.push_back(material_of(strokes[i]));
     // The settings the firmware stored survive; what it held in RAM and its homing do not.
     if (auto* delta = dynamic_cast<DeltaTwin*>(machine_.get())) {
         auto fresh = std::make_unique<DeltaTwin>(scenario_.delta_truth, delta->stored_firmware(),
@@ -204,7 +204,7 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
         strokes = earlier_runs_;
         const auto& laid = runner_->result().strokes;
         for (std::size_t i = strokes_cleared_; i < laid.size(); ++i)
-            strokes.push_back({laid[i].a_mm, laid[i].b_mm, laid[i].width_mm});
+            strokes.push_back(material_of(laid[i]));
     }
     const auto& camera = *scenario_.camera;
     PhotoSettings photo = scenario_.photo;

@@ -39,7 +39,7 @@ inline std::vector<sim::StrokeSegment> print_on_twin(sim::MachineTwin& twin,
     runner.run(job);
     std::vector<sim::StrokeSegment> strokes;
     strokes.reserve(runner.result().strokes.size());
-    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+    for (const auto& s : runner.result().strokes) strokes.push_back(sim::material_of(s));
     return strokes;
 }
 

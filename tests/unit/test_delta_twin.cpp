@@ -282,3 +282,108 @@ TEST(DeltaTwin, zeroing_at_the_centre_puts_the_nozzle_on_the_bed_there) {
     DOUBLES_EQUAL(0.0, twin.actual_position_mm({0, 0, 0}).z, 1e-9);
     DOUBLES_EQUAL(kossel().height_mm + short_of_bed, twin.firmware().height_mm, 1e-9);
 }
+
+TEST_GROUP(FirstLayer){};
+
+TEST(FirstLayer, a_strand_is_pressed_to_the_gap_then_lies_as_a_free_bead) {
+    // 0.45 x 0.2 mm of cross-section: 0.09 mm^2. Worked by hand:
+    // at a 0.1 mm gap it is pressed to 0.1 mm and spreads to 0.09 / 0.1 = 0.9 mm;
+    // at 0.2 mm it is as commanded, 0.45 mm;
+    // a free bead is sqrt(4 * 0.09 / pi) = 0.338514 mm across, so from that gap on its top
+    // stays there and its width is 0.09 / 0.338514 = 0.265868 mm;
+    // at 0.05 mm it would spread to 1.8 mm: the 1.0 mm tip's flat stops it.
+    const double area = 0.09, tip = 1.0;
+    const auto pressed = first_layer_strand(area, 0.1, tip);
+    DOUBLES_EQUAL(0.1, pressed.height_mm, 1e-12);
+    DOUBLES_EQUAL(0.9, pressed.width_mm, 1e-12);
+    CHECK_FALSE(pressed.free_bead);
+    DOUBLES_EQUAL(0.45, first_layer_strand(area, 0.2, tip).width_mm, 1e-12);
+    for (const double gap : {0.34, 0.5, 1.0}) {
+        const auto bead = first_layer_strand(area, gap, tip);
+        CHECK(bead.free_bead);
+        DOUBLES_EQUAL(0.338514, bead.height_mm, 1e-6);
+        DOUBLES_EQUAL(0.265868, bead.width_mm, 1e-6);
+    }
+    const auto scraped = first_layer_strand(area, 0.05, tip);
+    DOUBLES_EQUAL(1.0, scraped.width_mm, 1e-12);
+    DOUBLES_EQUAL(0.05, scraped.height_mm, 1e-12);
+    DOUBLES_EQUAL(0.01, first_layer_strand(area, -0.1, tip).height_mm, 1e-12);
+    CHECK_THROWS(std::invalid_argument, first_layer_strand(0, 0.2, tip));
+}
+
+TEST(FirstLayer, the_twin_lays_the_first_layer_by_its_gap_and_later_layers_as_commanded) {
+    // The square job's strands are 0.601320 mm x 0.2 mm (stroke_width_follows_extruded_volume):
+    // 0.120264 mm^2. Endstops that stop every carriage 0.05 mm higher leave the nozzle 0.05 mm
+    // higher everywhere: a 0.25 mm gap, a strand pressed to 0.25 mm and 0.481056 mm wide.
+    DeltaParams truth = kossel();
+    truth.endstop_offset_mm = {-0.05, -0.05, -0.05};
+    DeltaTwin twin(truth, kossel());
+    ToolSettings tool;
+    tool.real_first_layer = true;
+    GcodeRunner runner(twin, tool);
+    std::istringstream job(std::string(kSquareJob) + "G0 Z0.4\nG1 X20 Y-20 E10\n");
+    runner.run(job);
+    const auto& first = runner.result().strokes.front();
+    DOUBLES_EQUAL(0.25, first.top_a_mm, 1e-3);
+    DOUBLES_EQUAL(0.481056, first.width_mm, 1e-3);
+    // The second layer (the last stroke) keeps its commanded width and its top at the nozzle.
+    const auto& second = runner.result().strokes.back();
+    DOUBLES_EQUAL(0.601320, second.width_mm, 1e-5);
+    DOUBLES_EQUAL(second.b_mm.z, second.top_b_mm, 1e-12);
+}
+
+TEST(FirstLayer, a_paper_test_zeroes_the_towers_and_centre_and_leaves_the_rest) {
+    DeltaParams truth = kossel();
+    truth.diagonal_rod_mm = 251.2;
+    truth.diagonal_rod_trim_mm = {0.6, -0.4, -0.3};
+    truth.radius_mm = 141;
+    truth.tower_angle_trim_deg = {0.3, -0.2, 0.1};
+    truth.endstop_offset_mm = {-0.3, -0.1, -0.2};
+    DeltaTwin twin(truth, kossel());
+    twin.zero_height_at_centre();
+    twin.level_by_paper(68);
+    twin.home();
+    for (const double deg : {210.0, 330.0, 90.0, 0.0}) {
+        const double r = deg == 0.0 ? 0 : 68;
+        DOUBLES_EQUAL(
+            0.0,
+            twin.actual_position_mm({r * std::cos(radians(deg)), r * std::sin(radians(deg)), 0}).z,
+            1e-6);
+    }
+    // Marlin's gauge: the largest offset is zero, none positive.
+    const auto& e = twin.firmware().endstop_offset_mm;
+    DOUBLES_EQUAL(0.0, *std::max_element(e.begin(), e.end()), 1e-12);
+    // Between the points the radius error is still there: opposite a tower, at the same
+    // radius, the nozzle is off the bed.
+    const double opposite =
+        twin.actual_position_mm({68 * std::cos(radians(30)), 68 * std::sin(radians(30)), 0}).z;
+    CHECK(std::abs(opposite) > 0.02);
+}
+
+TEST(FirstLayer, a_probe_routine_flattens_what_the_paper_test_leaves) {
+    DeltaParams truth = kossel();
+    truth.diagonal_rod_mm = 251.2;
+    truth.diagonal_rod_trim_mm = {0.6, -0.4, -0.3};
+    truth.radius_mm = 141;
+    truth.tower_angle_trim_deg = {0.3, -0.2, 0.1};
+    truth.endstop_offset_mm = {-0.3, -0.1, -0.2};
+    double worst_paper = 0, worst_probe = 0;
+    for (const bool probe : {false, true}) {
+        DeltaTwin twin(truth, kossel());
+        twin.zero_height_at_centre();
+        probe ? twin.level_by_probe(76) : twin.level_by_paper(68);
+        twin.home();
+        double lo = 1e9, hi = -1e9;
+        for (int k = 0; k < 200; ++k) {
+            const double r = 80 * std::sqrt((k + 0.5) / 200), a = k * 2.399963;
+            const double z = twin.actual_position_mm({r * std::cos(a), r * std::sin(a), 0}).z;
+            lo = std::min(lo, z), hi = std::max(hi, z);
+        }
+        (probe ? worst_probe : worst_paper) = hi - lo;
+    }
+    UT_PRINT(("bed height range after a paper test " + std::to_string(worst_paper) +
+              " mm, after a probe routine " + std::to_string(worst_probe) + " mm")
+                 .c_str());
+    CHECK_TEXT(worst_paper > 0.1, std::to_string(worst_paper).c_str());
+    CHECK_TEXT(worst_probe < 0.04, std::to_string(worst_probe).c_str());
+}

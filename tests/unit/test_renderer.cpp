@@ -11,6 +11,7 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
+#include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
 
 using namespace calbox;
@@ -289,7 +290,7 @@ PrintedSquare print_and_photograph(const DeltaParams& truth, const DeltaParams& 
         "G1 X20 Y-20 E1.8\nG1 X20 Y20 E3.6\nG1 X-20 Y20 E5.4\nG1 X-20 Y-20 E7.2\n");
     runner.run(job);
     std::vector<StrokeSegment> strokes;
-    for (const auto& s : runner.result().strokes) strokes.push_back({s.a_mm, s.b_mm, s.width_mm});
+    for (const auto& s : runner.result().strokes) strokes.push_back(sim::material_of(s));
     PrintedSquare out;
     out.camera.width_px = 1300;
     out.camera.height_px = 1100;

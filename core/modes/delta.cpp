@@ -7,6 +7,7 @@
 #include <map>
 #include <opencv2/imgproc.hpp>
 #include <optional>
+#include <utility>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/line_fit.hpp"
@@ -441,8 +442,13 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             }
             throw MeasureError(why);
         }
-        for (const auto& marker : missing.unread)
-            out.markers_unread.push_back(photo_name + ": " + marker + " could not be read");
+        for (const auto& marker : missing.unread) {
+            std::string line = photo_name;
+            line += ": ";
+            line += marker;
+            line += " could not be read";
+            out.markers_unread.push_back(std::move(line));
+        }
         // Each marker's scale on the bed: its sides in millimetres over its sides in pixels.
         std::vector<double> mm_per_px;
         for (std::size_t i = 0; i < found.size(); ++i) {

@@ -283,6 +283,18 @@ TEST(DeltaTwin, zeroing_at_the_centre_puts_the_nozzle_on_the_bed_there) {
     DOUBLES_EQUAL(kossel().height_mm + short_of_bed, twin.firmware().height_mm, 1e-9);
 }
 
+namespace {
+DeltaParams off_in_every_parameter() {
+    DeltaParams truth = kossel();
+    truth.diagonal_rod_mm = 251.2;
+    truth.diagonal_rod_trim_mm = {0.6, -0.4, -0.3};
+    truth.radius_mm = 141;
+    truth.tower_angle_trim_deg = {0.3, -0.2, 0.1};
+    truth.endstop_offset_mm = {-0.3, -0.1, -0.2};
+    return truth;
+}
+}  // namespace
+
 TEST_GROUP(FirstLayer){};
 
 TEST(FirstLayer, a_strand_is_pressed_to_the_gap_then_lies_as_a_free_bead) {
@@ -333,12 +345,7 @@ TEST(FirstLayer, the_twin_lays_the_first_layer_by_its_gap_and_later_layers_as_co
 }
 
 TEST(FirstLayer, a_paper_test_zeroes_the_towers_and_centre_and_leaves_the_rest) {
-    DeltaParams truth = kossel();
-    truth.diagonal_rod_mm = 251.2;
-    truth.diagonal_rod_trim_mm = {0.6, -0.4, -0.3};
-    truth.radius_mm = 141;
-    truth.tower_angle_trim_deg = {0.3, -0.2, 0.1};
-    truth.endstop_offset_mm = {-0.3, -0.1, -0.2};
+    const DeltaParams truth = off_in_every_parameter();
     DeltaTwin twin(truth, kossel());
     twin.zero_height_at_centre();
     twin.level_by_paper(68);
@@ -361,12 +368,7 @@ TEST(FirstLayer, a_paper_test_zeroes_the_towers_and_centre_and_leaves_the_rest) 
 }
 
 TEST(FirstLayer, a_probe_routine_flattens_what_the_paper_test_leaves) {
-    DeltaParams truth = kossel();
-    truth.diagonal_rod_mm = 251.2;
-    truth.diagonal_rod_trim_mm = {0.6, -0.4, -0.3};
-    truth.radius_mm = 141;
-    truth.tower_angle_trim_deg = {0.3, -0.2, 0.1};
-    truth.endstop_offset_mm = {-0.3, -0.1, -0.2};
+    const DeltaParams truth = off_in_every_parameter();
     double worst_paper = 0, worst_probe = 0;
     for (const bool probe : {false, true}) {
         DeltaTwin twin(truth, kossel());

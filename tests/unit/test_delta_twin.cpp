@@ -17,8 +17,8 @@ DeltaParams kossel() {
     return DeltaParams{};
 }  // rod 250, radius 140, height 300, no trims
 
-JobResult run_job(MachineTwin& machine, const std::string& job) {
-    GcodeRunner runner(machine, ToolSettings{});
+JobResult run_job(MachineTwin& machine, const std::string& job, const ToolSettings& tool = {}) {
+    GcodeRunner runner(machine, tool);
     std::istringstream in(job);
     runner.run(in);
     return runner.result();
@@ -284,6 +284,12 @@ TEST(DeltaTwin, zeroing_at_the_centre_puts_the_nozzle_on_the_bed_there) {
 }
 
 namespace {
+ToolSettings real_first_layer() {
+    ToolSettings tool;
+    tool.real_first_layer = true;
+    return tool;
+}
+
 DeltaParams off_in_every_parameter() {
     DeltaParams truth = kossel();
     truth.diagonal_rod_mm = 251.2;
@@ -330,17 +336,14 @@ TEST(FirstLayer, the_twin_lays_the_first_layer_by_its_gap_and_later_layers_as_co
     DeltaParams truth = kossel();
     truth.endstop_offset_mm = {-0.05, -0.05, -0.05};
     DeltaTwin twin(truth, kossel());
-    ToolSettings tool;
-    tool.real_first_layer = true;
-    GcodeRunner runner(twin, tool);
-    std::istringstream job(std::string(kSquareJob) + "G0 Z0.4\nG1 X20 Y-20 E10\n");
-    runner.run(job);
-    const auto& first = runner.result().strokes.front();
+    const auto result =
+        run_job(twin, std::string(kSquareJob) + "G0 Z0.4\nG1 X20 Y-20 E10\n", real_first_layer());
+    const auto& first = result.strokes.front();
     DOUBLES_EQUAL(0.25, first.top_a_mm, 1e-3);
     DOUBLES_EQUAL(0.481056, first.width_mm, 1e-3);
     // The second layer (the last stroke) keeps its commanded width and its top at the nozzle,
     // whatever the gap: the job commanded it a layer up.
-    const auto& second = runner.result().strokes.back();
+    const auto& second = result.strokes.back();
     DOUBLES_EQUAL(0.601320, second.width_mm, 1e-5);
     DOUBLES_EQUAL(second.b_mm.z, second.top_b_mm, 1e-12);
 }
@@ -352,12 +355,8 @@ TEST(FirstLayer, a_first_layer_far_off_the_bed_is_still_a_free_bead) {
     DeltaParams truth = kossel();
     truth.endstop_offset_mm = {-0.3, -0.3, -0.3};
     DeltaTwin twin(truth, kossel());
-    ToolSettings tool;
-    tool.real_first_layer = true;
-    GcodeRunner runner(twin, tool);
-    std::istringstream job(kSquareJob);
-    runner.run(job);
-    const auto& first = runner.result().strokes.front();
+    const auto result = run_job(twin, kSquareJob, real_first_layer());
+    const auto& first = result.strokes.front();
     DOUBLES_EQUAL(0.391312, first.top_a_mm, 1e-5);
     DOUBLES_EQUAL(0.120264 / 0.391312, first.width_mm, 1e-5);
 }

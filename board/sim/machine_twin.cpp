@@ -127,13 +127,13 @@ void DeltaTwin::level_by_paper(double r) {
     });
 }
 
-void DeltaTwin::level_by_probe(double r) {
+void DeltaTwin::level_by_probe(double r, double inner) {
     std::vector<Vec3> points{{0, 0, 0}};
     for (int k = 0; k < 12; ++k)
         points.push_back({r * std::cos(radians(30.0 * k)), r * std::sin(radians(30.0 * k)), 0});
     for (int k = 0; k < 6; ++k)
-        points.push_back({r / 2 * std::cos(radians(60.0 * k) + 0.5),
-                          r / 2 * std::sin(radians(60.0 * k) + 0.5), 0});
+        points.push_back({inner * std::cos(radians(60.0 * k) + 0.5),
+                          inner * std::sin(radians(60.0 * k) + 0.5), 0});
     level(points, 6, [](const Eigen::VectorXd& v, DeltaParams& p) {
         p.radius_mm += v[3];
         p.tower_angle_trim_deg[0] += v[4];

@@ -59,10 +59,10 @@ class DeltaTwin final : public MachineTwin {
     // points the bed is as the rest of the geometry makes it.
     void level_by_paper(double tower_points_radius_mm);
     // What a probe routine (Marlin's G33, RepRapFirmware's G32) leaves: radius, height, endstop
-    // offsets and two angle trims set so that the nozzle's height over a ring of probe points
-    // out to `probe_radius_mm` is as flat as they can make it; the rods, which a probe cannot
-    // see, stay wrong.
-    void level_by_probe(double probe_radius_mm);
+    // offsets and two angle trims set so that the nozzle's height at the centre, twelve points
+    // at `outer_radius_mm` and six at `inner_radius_mm` is as flat as they can make it; the
+    // rods, which a probe cannot see, stay wrong.
+    void level_by_probe(double outer_radius_mm, double inner_radius_mm);
     // The commands that set the stored settings again, in the twin's dialect (its EEPROM or
     // config-override.g).
     std::vector<std::string> stored_settings_commands() const;

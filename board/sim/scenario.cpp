@@ -289,7 +289,8 @@ std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
         if (s.zero_height_at_centre || s.levelled_by != "centre") twin->zero_height_at_centre();
         const double bed_radius_mm = s.machine.bed_radius_mm;
         if (s.levelled_by == "paper") twin->level_by_paper(0.8 * bed_radius_mm);
-        if (s.levelled_by == "probe") twin->level_by_probe(0.9 * bed_radius_mm);
+        if (s.levelled_by == "probe")
+            twin->level_by_probe(0.9 * bed_radius_mm, 0.45 * bed_radius_mm);
         return twin;
     }
     if (s.machine.is_galvo()) return std::make_unique<GalvoTwin>(s.galvo_truth);

@@ -2,7 +2,6 @@
 // the code under test), judged in the twin's truth.
 #include <CppUTest/TestHarness.h>
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <memory>
@@ -31,51 +30,12 @@ struct Case {
     std::unique_ptr<sim::DeltaTwin> twin;
 };
 
-// What a probe routine (Marlin's G33, RepRapFirmware's G32) leaves behind: the firmware's radius,
-// height, endstop offsets and angle trims adjusted until the nozzle's height over the bed is as
-// flat as they can make it; the rod length and its trims, which the probe cannot see, stay wrong.
-// Gauss-Newton on the twin's reference kinematics.
+// What a probe routine (Marlin's G33, RepRapFirmware's G32) leaves behind: the twin's own
+// routine over the centre, twelve points at 75 mm and six at 40 mm.
 sim::DeltaParams levelled_firmware(const sim::DeltaParams& truth) {
-    sim::DeltaParams fw;
-    std::vector<sim::Vec3> points{{0, 0, 0}};
-    for (int k = 0; k < 12; ++k)
-        points.push_back({75 * std::cos(k * kPi / 6), 75 * std::sin(k * kPi / 6), 0});
-    for (int k = 0; k < 6; ++k)
-        points.push_back({40 * std::cos(k * kPi / 3 + 0.5), 40 * std::sin(k * kPi / 3 + 0.5), 0});
-    const auto heights = [&](const Eigen::VectorXd& v) {
-        sim::DeltaParams p = fw;
-        // Offsets relative to tower C's, kept <= 0 as Marlin wants by moving the common part
-        // into the height (the same machine).
-        const double top = std::max({v[2], v[3], 0.0});
-        p.radius_mm = v[0];
-        p.height_mm = v[1] - top;
-        p.endstop_offset_mm = {v[2] - top, v[3] - top, -top};
-        p.tower_angle_trim_deg = {v[4], v[5], 0};
-        sim::DeltaTwin twin(truth, p);
-        twin.home();
-        Eigen::VectorXd z(static_cast<Eigen::Index>(points.size()));
-        for (std::size_t i = 0; i < points.size(); ++i)
-            z[static_cast<Eigen::Index>(i)] = twin.actual_position_mm(points[i]).z;
-        return z;
-    };
-    Eigen::VectorXd v(6);
-    v << fw.radius_mm, fw.height_mm, 0, 0, 0, 0;
-    for (int iteration = 0; iteration < 8; ++iteration) {
-        const Eigen::VectorXd z = heights(v);
-        Eigen::MatrixXd j(z.size(), 6);
-        for (int k = 0; k < 6; ++k) {
-            Eigen::VectorXd up = v;
-            up[k] += 1e-4;
-            j.col(k) = (heights(up) - z) / 1e-4;
-        }
-        v -= j.completeOrthogonalDecomposition().solve(z);
-    }
-    const double top = std::max({v[2], v[3], 0.0});
-    fw.radius_mm = v[0];
-    fw.height_mm = v[1] - top;
-    fw.endstop_offset_mm = {v[2] - top, v[3] - top, -top};
-    fw.tower_angle_trim_deg = {v[4], v[5], 0};
-    return fw;
+    sim::DeltaTwin twin(truth, sim::DeltaParams{});
+    twin.level_by_probe(75, 40);
+    return twin.firmware();
 }
 
 Case make_case(unsigned seed) {

@@ -390,7 +390,7 @@ TEST(FirstLayer, a_probe_routine_flattens_what_the_paper_test_leaves) {
     for (const bool probe : {false, true}) {
         DeltaTwin twin(truth, kossel());
         twin.zero_height_at_centre();
-        probe ? twin.level_by_probe(76) : twin.level_by_paper(68);
+        probe ? twin.level_by_probe(76, 38) : twin.level_by_paper(68);
         twin.home();
         double lo = 1e9, hi = -1e9;
         for (int k = 0; k < 200; ++k) {

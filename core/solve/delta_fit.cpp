@@ -266,7 +266,7 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
             const auto p = models::actual_position_mm(g, firmware, f.commanded_mm);
             // Seen on its ray at the mapping height, the point lies where the ray meets its own
             // (predicted) height: measured = placed position - (height - mapping height) * shift.
-            const double dz = p.z - f.seen_at_height_mm;
+            const double dz = f.height_measured ? 0.0 : p.z - f.seen_at_height_mm;
             r[k++] = (c * p.x - s * p.y + x[kGeometry + 1] - dz * f.shift_per_height.x -
                       f.measured_mm.x) /
                      f.sigma_mm;

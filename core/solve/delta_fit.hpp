@@ -28,6 +28,13 @@ struct FeatureMeasurement {
     // `shift_per_height` (bed mm per mm) for a surface higher than that. Zero: no parallax.
     double seen_at_height_mm = 0;
     geometry::Point2 shift_per_height;
+    // True when the height it was mapped at was measured (a first-layer strand's height from
+    // its width): the point already lies where the material is, and the fit moves it along its
+    // ray no further. `sigma_mm` then holds that height's share (height_sigma_mm times the
+    // shift). A free bead's top stands at its own diameter whatever the gap under it.
+    bool height_measured = false;
+    double height_sigma_mm = 0;
+    bool free_bead = false;
     // False when some photo's corner could not be refined past the detector's own: the point
     // is then a few tenths of a pixel rougher (said in the measurement's summary).
     bool refined = true;

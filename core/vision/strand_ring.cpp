@@ -99,7 +99,8 @@ StrandHeight strand_height_from_width(double section_mm2, double width_mm, doubl
     const double bead_mm = std::sqrt(4 * section_mm2 / 3.14159265358979323846);
     if (width_mm * bead_mm <= section_mm2) return {bead_mm, kFreeBeadHeightSigmaMm, true};
     const double height = section_mm2 / width_mm;
-    return {height, height / width_mm * width_sigma_mm, false};
+    if (width_mm >= kScrapedFromShare * kNozzleFlatMm) return {height / 2, height / 2, false, true};
+    return {height, height / width_mm * width_sigma_mm, false, false};
 }
 
 StrandRing measure_strand_ring(const GrayView& image,
@@ -108,62 +109,96 @@ StrandRing measure_strand_ring(const GrayView& image,
                                const StrandRingLimits& limits) {
     static constexpr std::array<const char*, 4> kSideNames = {"top", "right", "bottom", "left"};
     StrandRing ring;
-    const MarkerFrame frame(marker_corners_px, layout.marker_half_mm, camera);
     const auto ring_corners = square_corners(layout.ring_half_mm);
     const double half_width = layout.strand_width_mm / 2;
-    // Each profile runs outwards from the middle of the bare gap to past the strand.
-    const double from_mm = -(half_width + layout.gap_mm / 2);
-    const double to_mm = half_width + limits.reach_outside_mm;
+    // The strand's outer edge (strand to bare bed, falling) is looked for from a little inside
+    // its expected centreline to past its commanded outer edge; its inner edge (rising) on a
+    // stretch ending just inside the outer edge found and reaching a widest strand's width
+    // further in. Neither reaches the other's competitor (the quiet zone's fill inside, a
+    // neighbour outside) however far a squashed strand spread.
+    const double outer_from_mm = -limits.centre_uncertainty_mm;
+    const double outer_to_mm = half_width + limits.reach_outside_mm;
+    const double inner_span_mm = limits.widest_multiple * layout.strand_width_mm;
     std::array<SideProfiles, 4> sides;
     std::array<geometry::Line, 4> lines;
-    for (std::size_t k = 0; k < 4; ++k) {
-        const Point2 a = ring_corners[k], b = ring_corners[(k + 1) % 4];
-        const double length = std::hypot(b.x - a.x, b.y - a.y);
-        const Point2 along{(b.x - a.x) / length, (b.y - a.y) / length};
-        const Point2 outward{-along.y, along.x};  // the corners run clockwise as printed
-        // Both ends of every profile, in pixels, in one call through the lens.
-        std::vector<double> ts;
-        std::vector<Point2> ends;
-        for (double s = limits.corner_clearance_share * length;
-             s <= (1 - limits.corner_clearance_share) * length; s += limits.profile_step_mm) {
-            const double t = s / length;
-            if (std::abs(t - 0.5) < limits.seam_clearance_share) continue;
-            const Point2 p{a.x + s * along.x, a.y + s * along.y};
-            ts.push_back(t);
-            ends.push_back(
-                frame.to_fit_space({p.x + from_mm * outward.x, p.y + from_mm * outward.y}));
-            ends.push_back(frame.to_fit_space({p.x + to_mm * outward.x, p.y + to_mm * outward.y}));
+    // The first pass expects the ring where the marker's corners put it (a marker's own edges
+    // move with its strands' widths: tenths of a millimetre); the second where the first
+    // found it.
+    MarkerFrame frame(marker_corners_px, layout.marker_half_mm, camera);
+    for (int pass = 0; pass < 2; ++pass) {
+        if (pass == 1) {
+            std::array<Point2, 4> found{};
+            std::vector<Point2> fit_space;
+            for (std::size_t k = 0; k < 4; ++k) {
+                const auto c = geometry::intersect(lines[(k + 3) % 4], lines[k]);
+                if (!c) {
+                    ring.unmeasured_because = "two of its sides fitted parallel";
+                    return ring;
+                }
+                fit_space.push_back(*c);
+            }
+            const auto px = frame.to_pixels(fit_space);
+            std::copy(px.begin(), px.end(), found.begin());
+            frame = MarkerFrame(found, layout.ring_half_mm, camera);
         }
-        ends = frame.to_pixels(ends);
-        auto& side = sides[k];
-        std::vector<Point2> centres_px;
-        for (std::size_t i = 0; i < ts.size(); ++i) {
-            const Point2 start = ends[2 * i], end = ends[2 * i + 1];
-            const auto rising = step_edge_on_segment(image, start, end, true, limits.edges);
-            const auto falling = step_edge_on_segment(image, start, end, false, limits.edges);
-            if (!rising || !falling) continue;
-            const double span_px = std::hypot(end.x - start.x, end.y - start.y);
-            const double mm_per_px = (to_mm - from_mm) / span_px;
-            const double at_rise = std::hypot(rising->x - start.x, rising->y - start.y) * mm_per_px;
-            const double at_fall =
-                std::hypot(falling->x - start.x, falling->y - start.y) * mm_per_px;
-            const double width_mm = at_fall - at_rise;
-            if (width_mm < limits.narrowest_share * layout.strand_width_mm ||
-                width_mm > limits.widest_multiple * layout.strand_width_mm)
-                continue;
-            side.t.push_back(ts[i]);
-            side.width_px.push_back(width_mm / mm_per_px);
-            centres_px.push_back({(rising->x + falling->x) / 2, (rising->y + falling->y) / 2});
+        for (std::size_t k = 0; k < 4; ++k) {
+            const Point2 a = ring_corners[k], b = ring_corners[(k + 1) % 4];
+            const double length = std::hypot(b.x - a.x, b.y - a.y);
+            const Point2 along{(b.x - a.x) / length, (b.y - a.y) / length};
+            const Point2 outward{-along.y, along.x};  // the corners run clockwise as printed
+            // Every profile's two stations, in pixels, in one call through the lens.
+            std::vector<double> ts;
+            std::vector<Point2> stations;
+            for (double s = limits.corner_clearance_share * length;
+                 s <= (1 - limits.corner_clearance_share) * length; s += limits.profile_step_mm) {
+                const double t = s / length;
+                if (std::abs(t - 0.5) < limits.seam_clearance_share) continue;
+                const Point2 p{a.x + s * along.x, a.y + s * along.y};
+                ts.push_back(t);
+                for (const double d : {outer_from_mm, outer_to_mm})
+                    stations.push_back(
+                        frame.to_fit_space({p.x + d * outward.x, p.y + d * outward.y}));
+            }
+            stations = frame.to_pixels(stations);
+            auto& side = sides[k];
+            side = {};
+            std::vector<Point2> centres_px;
+            for (std::size_t i = 0; i < ts.size(); ++i) {
+                const Point2 from = stations[2 * i], to = stations[2 * i + 1];
+                const double span_px = std::hypot(to.x - from.x, to.y - from.y);
+                const double px_per_mm = span_px / (outer_to_mm - outer_from_mm);
+                const Point2 unit{(to.x - from.x) / span_px, (to.y - from.y) / span_px};
+                const auto falling = step_edge_on_segment(image, from, to, false, limits.edges);
+                if (!falling) continue;
+                const auto inward = [&](double mm) {
+                    return Point2{falling->x - unit.x * mm * px_per_mm,
+                                  falling->y - unit.y * mm * px_per_mm};
+                };
+                const auto rising = step_edge_on_segment(
+                    image, inward(inner_span_mm), inward(limits.narrowest_share * half_width), true,
+                    limits.edges);
+                if (!rising) continue;
+                const double width_px =
+                    (falling->x - rising->x) * unit.x + (falling->y - rising->y) * unit.y;
+                const double width_mm = width_px / px_per_mm;
+                if (width_mm < limits.narrowest_share * layout.strand_width_mm ||
+                    width_mm > limits.widest_multiple * layout.strand_width_mm)
+                    continue;
+                side.t.push_back(ts[i]);
+                side.width_px.push_back(width_px);
+                centres_px.push_back({(rising->x + falling->x) / 2, (rising->y + falling->y) / 2});
+            }
+            if (side.t.size() < limits.min_profiles_per_side) {
+                ring.unmeasured_because = std::string("its ") + kSideNames[k] +
+                                          " side showed the strand in " +
+                                          std::to_string(side.t.size()) + " of " +
+                                          std::to_string(ts.size()) + " profiles (at least " +
+                                          std::to_string(limits.min_profiles_per_side) + " needed)";
+                return ring;
+            }
+            side.centre = frame.from_pixels(centres_px);
+            lines[k] = geometry::fit_line(side.centre);
         }
-        if (side.t.size() < limits.min_profiles_per_side) {
-            ring.unmeasured_because =
-                std::string("its ") + kSideNames[k] + " side showed the strand in " +
-                std::to_string(side.t.size()) + " of " + std::to_string(ts.size()) +
-                " profiles (at least " + std::to_string(limits.min_profiles_per_side) + " needed)";
-            return ring;
-        }
-        side.centre = frame.from_pixels(centres_px);
-        lines[k] = geometry::fit_line(side.centre);
     }
     std::vector<Point2> corners_fit;
     for (std::size_t k = 0; k < 4; ++k) {

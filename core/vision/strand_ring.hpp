@@ -17,9 +17,9 @@ namespace calbox::vision {
 // origin, +y towards its top edge as printed).
 struct StrandRingLayout {
     double marker_half_mm = 6;      // the marker's black border, centre to edge
-    double ring_half_mm = 9.4;      // centre to the ring's centreline
+    double ring_half_mm = 9.95;     // centre to the ring's centreline
     double strand_width_mm = 0.45;  // as commanded
-    double gap_mm = 1.2;            // bare bed inside the ring, as commanded
+    double gap_mm = 1.5;            // bare bed inside the ring, as commanded
 };
 
 // Every threshold the ring measurement uses, with why.
@@ -31,10 +31,14 @@ struct StrandRingLimits {
     // One profile every this many millimetres along a side: a few pixels apart at 0.07 mm/px,
     // each reading its own noise.
     double profile_step_mm = 0.25;
-    // Each profile starts in the middle of the bare gap and reaches this far past the strand's
-    // commanded outer edge: a strand pressed to a millimetre still ends inside it, the next
-    // row's ring (a millimetre and a half away) does not enter.
-    double reach_outside_mm = 0.6;
+    // Each edge is looked for this far past the strand's commanded edge on its side: a strand
+    // pressed to a millimetre still ends inside it, the next row's ring (a millimetre and a
+    // half away) and the quiet zone's fill (the gap inside) do not enter.
+    double reach_outside_mm = 0.8;
+    // How far the strand's centreline may lie from where it is expected: the marker's own
+    // edges, which place the first pass, move with their strands' widths by up to a quarter
+    // millimetre, scaled up from the marker to the ring.
+    double centre_uncertainty_mm = 0.5;
     // A side whose profiles found both edges fewer times than this gives no centreline.
     std::size_t min_profiles_per_side = 8;
     // A strand narrower than this share of its commanded width, or wider than this multiple,
@@ -68,7 +72,15 @@ struct StrandHeight {
     double height_mm = 0;
     double sigma_mm = 0;
     bool free_bead = false;
+    // Spread as wide as a nozzle's flat lets it: the nozzle scraped the bed, and the strand is
+    // no higher than its cross-section over that width: the height given is half that bound,
+    // its uncertainty the same.
+    bool scraped = false;
 };
+// A 0.4 mm nozzle's flat tip is about a millimetre across: a strand pressed wider than 95 % of
+// it is taken as scraped (the twin's own nozzle has the same flat).
+constexpr double kNozzleFlatMm = 1.0;
+constexpr double kScrapedFromShare = 0.95;
 // A free bead's top, per coordinate of what stands in its way: a real bead sags and flattens
 // on the bed by a few hundredths.
 constexpr double kFreeBeadHeightSigmaMm = 0.02;

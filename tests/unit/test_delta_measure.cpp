@@ -66,7 +66,11 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
         modes::measure_delta(machine, model, plane, {view_of(print_photo), view_of(second_photo)});
     for (const auto& why : measured.rings_unmeasured) UT_PRINT(why.c_str());
     CHECK(measured.rings_unmeasured.empty());
-    CHECK_EQUAL(4 * target.markers.size(), measured.features.size());
+    for (const auto& why : measured.markers_unread) UT_PRINT(why.c_str());
+    // A real first layer leaves a marker where the nozzle was far off the bed unreadable (its
+    // fill's lines do not touch); every marker read gives its ring's four corners.
+    CHECK_EQUAL(4 * measured.frames.front().size(), measured.features.size());
+    CHECK(measured.frames.front().size() + 1 >= target.markers.size());
     CHECK_EQUAL(2u, measured.frames.size());
     CHECK_EQUAL(3u, measured.bars.size());
     // Averaged over two frames: the single frame's 0.005 mm shrinks by sqrt(2) unless the frames
@@ -101,18 +105,30 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     const double rms = residual_rms(seen, worst);
     // Each corner's strand height from its width, against the twin's own strand there (the
     // nozzle's true gap through the twin's first-layer model): within 0.03 mm where the nozzle
-    // pressed it; a free bead's top is its own diameter.
+    // pressed it; where it scraped the bed (the strand as wide as the nozzle's flat) no higher
+    // than the cross-section over that width, with an uncertainty to match.
     double worst_height = 0;
+    int pressed = 0, scraped = 0;
     for (std::size_t i = 0; i < real.size(); ++i) {
         const auto strand = sim::first_layer_strand(0.45 * 0.2, real[i].z, 1.0);
         const auto& f = measured.features[i];
         CHECK(f.height_measured);
         CHECK_EQUAL(strand.free_bead, f.free_bead);
-        worst_height = std::max(worst_height, std::abs(f.seen_at_height_mm - strand.height_mm));
+        const double error = std::abs(f.seen_at_height_mm - strand.height_mm);
+        if (strand.width_mm < 0.95) {
+            ++pressed;
+            worst_height = std::max(worst_height, error);
+        } else {
+            ++scraped;
+            CHECK(strand.height_mm <= 2 * f.seen_at_height_mm + 0.01);
+            CHECK(error <= 3 * f.height_sigma_mm);
+        }
     }
-    UT_PRINT(("strand heights from widths: worst " + std::to_string(worst_height) +
-              " mm from the twin's")
+    UT_PRINT(("strand heights from widths: " + std::to_string(pressed) + " pressed, worst " +
+              std::to_string(worst_height) + " mm from the twin's; " + std::to_string(scraped) +
+              " scraped")
                  .c_str());
+    CHECK(pressed >= 24);
     CHECK_TEXT(worst_height <= 0.03, std::to_string(worst_height).c_str());
     UT_PRINT(("measured corners against the material: " + std::to_string(rms) + " mm RMS, worst " +
               std::to_string(worst) + " mm")
@@ -154,15 +170,17 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
               " mm; four times the noise: " + std::to_string(mean_sigma(noisy)) +
               " mm, fit residual " + std::to_string(noisy_fit.fitted.fit_rms_mm) + " mm")
                  .c_str());
-    // Above the 0.005 mm floor, the edge fits' share grows with the noise (the print's own
-    // texture keeps it from growing the full four times).
+    // Above the 0.005 mm floor, the centreline fits' share grows with the noise; not the full
+    // four times: part of it is the strands' own unevenness (a first layer's width changes
+    // along a side with the gap) and the height's share along the ray, which noise does not
+    // change.
     const auto edge_share = [&](const modes::DeltaMeasurement& m) {
         return std::sqrt(std::max(0.0, std::pow(mean_sigma(m), 2) - 0.005 * 0.005));
     };
     CHECK(mean_sigma(plain) >= 0.005);
     CHECK(mean_sigma(noisy) > 1.03 * mean_sigma(plain));
     const double growth = edge_share(noisy) / edge_share(plain);
-    CHECK_TEXT(growth > 2.5 && growth < 5, std::to_string(growth).c_str());
+    CHECK_TEXT(growth > 1.3 && growth < 5, std::to_string(growth).c_str());
     DOUBLES_EQUAL(t.diagonal_rod_mm, noisy_fit.fitted.estimate.diagonal_rod_mm, 0.1);
 
     // Markers the photo should show but whose print is unreadable (a smeared first layer, here
@@ -189,18 +207,26 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     const auto with_one = modes::measure_delta(
         machine, model, plane,
         {{one_smeared.data(), camera.width_px, camera.height_px, camera.width_px}});
-    CHECK_EQUAL(4 * (target.markers.size() - 1), with_one.features.size());
-    CHECK_EQUAL(1u, with_one.markers_unread.size());
-    STRCMP_CONTAINS("photo 1: marker 5 near (", with_one.markers_unread.front().c_str());
-    const auto many_smeared = painted_over({1, 2, 3, 4, 5, 6, 7});
+    const std::size_t read = measured.frames.front().size();
+    CHECK_EQUAL(4 * (read - 1), with_one.features.size());
+    CHECK_EQUAL(target.markers.size() - read + 1, with_one.markers_unread.size());
+    CHECK(std::any_of(
+        with_one.markers_unread.begin(), with_one.markers_unread.end(),
+        [](const std::string& line) { return line.rfind("photo 1: marker 5 near (", 0) == 0; }));
+    // Past a quarter of the target unread, the photo is refused, each marker said.
+    std::vector<int> smeared;
+    for (int id = 1; smeared.size() + (target.markers.size() - read) < 4; ++id)
+        smeared.push_back(id);
+    const auto many_smeared = painted_over(smeared);
     try {
         modes::measure_delta(
             machine, model, plane,
             {{many_smeared.data(), camera.width_px, camera.height_px, camera.width_px}});
-        FAIL("a photo missing seven markers was measured");
+        FAIL("a photo missing four of nine markers was measured");
     } catch (const modes::MeasureError& e) {
         UT_PRINT(e.what());
-        STRCMP_CONTAINS("7 in the frame could not be read (marker 1 near (", e.what());
+        STRCMP_CONTAINS("4 in the frame could not be read (marker ", e.what());
+        STRCMP_CONTAINS("marker 1 near (", e.what());
         STRCMP_CONTAINS("a squashed, smeared or missing first layer there", e.what());
         CHECK(std::string(e.what()).find("out of frame") == std::string::npos);
     }

@@ -46,6 +46,10 @@ struct ProbePoint {
     double sigma_mm = 0.01;
 };
 
+// The nozzle's gap a first layer's pressed strands measured (their height from their width, the
+// commanded layer taken off), as probe points: a free bead's says only that the gap was larger.
+std::vector<ProbePoint> strand_heights_as_probe(const std::vector<FeatureMeasurement>& features);
+
 // One set of bounds for every correction the delta mode may send, whichever method made it.
 struct DeltaFitLimits {
     double max_rod_change_fraction = 0.02;  // the fit's and the classic method's

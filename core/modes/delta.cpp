@@ -360,6 +360,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         double edge_variance_sum = 0;    // of each frame's centreline-fit uncertainty, in bed mm^2
         double height_variance_sum = 0;  // of each frame's strand height, mm^2
         int free_beads = 0;              // frames whose strand there was a free bead
+        int scraped = 0;                 // frames whose strand there was scraped
     };
     std::map<std::pair<int, int>, CornerSightings> seen;
     for (std::size_t f = 0; f < frames.size(); ++f) {
@@ -491,6 +492,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                 corner.edge_variance_sum += sigma_mm * sigma_mm;
                 corner.height_variance_sum += height.sigma_mm * height.sigma_mm;
                 corner.free_beads += height.free_bead ? 1 : 0;
+                corner.scraped += height.scraped ? 1 : 0;
                 corner.shift = {above.x - at.x, above.y - at.y};
             }
         }
@@ -539,6 +541,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         feature.height_measured = true;
         feature.height_sigma_mm = height_sigma;
         feature.free_bead = corner.free_beads * 2 > static_cast<int>(points.size());
+        feature.scraped = corner.scraped * 2 > static_cast<int>(points.size());
         out.features.push_back(feature);
     }
     const SurfaceModel surface = fit_surface(machine, out);

@@ -66,7 +66,8 @@ std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
              {"refined", f.refined},
              {"height_measured", f.height_measured},
              {"height_sigma_mm", f.height_sigma_mm},
-             {"free_bead", f.free_bead}});
+             {"free_bead", f.free_bead},
+             {"scraped", f.scraped}});
     }
     json bars = json::array();
     for (const auto& b : r.bars) {
@@ -120,6 +121,7 @@ DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std:
             // Files from before heights were measured have none.
             fm.height_measured = f.value("height_measured", false);
             fm.free_bead = f.value("free_bead", false);
+            fm.scraped = f.value("scraped", false);
             if (fm.height_measured) {
                 fm.height_sigma_mm = number(f.at("height_sigma_mm"));
                 if (!(fm.height_sigma_mm >= 0))

@@ -497,7 +497,7 @@ double classic_rod_length_mm(const DeltaGeometry& firmware,
 std::vector<ProbePoint> strand_heights_as_probe(const std::vector<FeatureMeasurement>& features) {
     std::vector<ProbePoint> probe;
     for (const auto& f : features) {
-        if (!f.height_measured || f.free_bead || !(f.height_sigma_mm > 0)) continue;
+        if (!f.height_measured || f.free_bead || f.scraped || !(f.height_sigma_mm > 0)) continue;
         probe.push_back({f.commanded_mm.x, f.commanded_mm.y, f.seen_at_height_mm - f.commanded_mm.z,
                          f.height_sigma_mm});
     }

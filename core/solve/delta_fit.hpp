@@ -35,6 +35,7 @@ struct FeatureMeasurement {
     bool height_measured = false;
     double height_sigma_mm = 0;
     bool free_bead = false;
+    bool scraped = false;  // as wide as the nozzle's flat: its height only bounded
     // False when some photo's corner could not be refined past the detector's own: the point
     // is then a few tenths of a pixel rougher (said in the measurement's summary).
     bool refined = true;
@@ -47,7 +48,8 @@ struct ProbePoint {
 };
 
 // The nozzle's gap a first layer's pressed strands measured (their height from their width, the
-// commanded layer taken off), as probe points: a free bead's says only that the gap was larger.
+// commanded layer taken off), as probe points: a free bead's says only that the gap was larger,
+// a scraped one's only that it was smaller.
 std::vector<ProbePoint> strand_heights_as_probe(const std::vector<FeatureMeasurement>& features);
 
 // One set of bounds for every correction the delta mode may send, whichever method made it.

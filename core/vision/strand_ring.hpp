@@ -17,7 +17,7 @@ namespace calbox::vision {
 // origin, +y towards its top edge as printed).
 struct StrandRingLayout {
     double marker_half_mm = 6;      // the marker's black border, centre to edge
-    double ring_half_mm = 9.95;     // centre to the ring's centreline
+    double ring_half_mm = 9.725;    // centre to the ring's centreline
     double strand_width_mm = 0.45;  // as commanded
     double gap_mm = 1.5;            // bare bed inside the ring, as commanded
 };

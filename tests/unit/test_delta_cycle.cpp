@@ -77,7 +77,7 @@ struct PhotoConditions {
     int jpeg_quality = 0;
     // How the owner levelled the printer before the box saw it: "centre" (the height zeroed
     // there only), "paper" (a paper test at the towers and the centre), "probe" (G33).
-    const char* levelled_by = "centre";
+    const char* levelled_by = "paper";
 };
 
 // One seeded printer through the whole cycle.

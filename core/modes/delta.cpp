@@ -523,9 +523,14 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         for (const auto& p : points) height_scatter += (p.z - mz) * (p.z - mz);
         // The strand's height, its uncertainty (the frames' own, or their disagreement) and the
         // XY uncertainty it brings along the ray.
-        const double height_sigma = std::max(std::sqrt(corner.height_variance_sum / n),
-                                             n > 1 ? std::sqrt(height_scatter / (n - 1)) : 0.0) /
-                                    std::sqrt(n);
+        // A strand's width varies along a side as one over the gap, which the widths' straight
+        // fit only follows closely: on the twin the heights at the corners are within 0.005 mm
+        // where their fits claim a tenth of that. That floor is added in quadrature.
+        constexpr double kHeightFloorMm = 0.005;
+        const double height_sigma =
+            std::max(std::sqrt(corner.height_variance_sum / n + kHeightFloorMm * kHeightFloorMm),
+                     n > 1 ? std::sqrt(height_scatter / (n - 1)) : 0.0) /
+            std::sqrt(n);
         const double along_ray = height_sigma * std::hypot(corner.shift.x, corner.shift.y);
         const double frame_sigma =
             std::sqrt(kFrameFloorMm * kFrameFloorMm + corner.edge_variance_sum / n);

@@ -70,7 +70,27 @@ struct SideProfiles {
 struct ValueAt {
     double value = 0, sigma = 0;
 };
+ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0);
+
+// The same, with the points more than four robust deviations off a first fit left out: a
+// profile whose edge was a speck or a neighbour's gives a width far off the side's trend.
 ValueAt linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0) {
+    std::vector<double> residuals;
+    for (std::size_t i = 0; i < t.size(); ++i)
+        residuals.push_back(std::abs(v[i] - plain_linear_fit_at(t, v, t[i]).value));
+    std::vector<double> sorted = residuals;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                     sorted.end());
+    const double robust_sigma = 1.4826 * sorted[sorted.size() / 2];
+    std::vector<double> kept_t, kept_v;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        if (residuals[i] <= 4 * robust_sigma + 1e-9) kept_t.push_back(t[i]), kept_v.push_back(v[i]);
+    }
+    return kept_t.size() >= 3 ? plain_linear_fit_at(kept_t, kept_v, t0)
+                              : plain_linear_fit_at(t, v, t0);
+}
+
+ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0) {
     const double n = static_cast<double>(t.size());
     double mt = 0, mv = 0;
     for (std::size_t i = 0; i < t.size(); ++i) mt += t[i], mv += v[i];

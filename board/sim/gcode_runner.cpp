@@ -160,10 +160,13 @@ void GcodeRunner::move(const gcode::Line& l) {
                     std::hypot(actual.x - previous_actual.x, actual.y - previous_actual.y);
                 const double cross_section = true_length > 0 ? volume / true_length : 0;
                 s.width_mm = cross_section / tool_.layer_height_mm;
-                // Only the first layer lies on the bed; later ones sit on the layer below.
+                // Only the first layer lies on the bed; later ones sit on the layer below. Which
+                // layer a stroke is the job says: a badly levelled bed's gap under the first one
+                // can be more than a layer and a half.
                 const double gap = (previous_actual.z + actual.z) / 2;
+                const double commanded_z = (previous_commanded.z + commanded.z) / 2;
                 if (tool_.real_first_layer && cross_section > 0 &&
-                    gap < 1.5 * tool_.layer_height_mm) {
+                    commanded_z < 1.5 * tool_.layer_height_mm) {
                     const auto at = [&](double nozzle_z) {
                         return first_layer_strand(cross_section, nozzle_z, tool_.nozzle_flat_mm);
                     };

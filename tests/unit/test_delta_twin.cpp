@@ -338,10 +338,28 @@ TEST(FirstLayer, the_twin_lays_the_first_layer_by_its_gap_and_later_layers_as_co
     const auto& first = runner.result().strokes.front();
     DOUBLES_EQUAL(0.25, first.top_a_mm, 1e-3);
     DOUBLES_EQUAL(0.481056, first.width_mm, 1e-3);
-    // The second layer (the last stroke) keeps its commanded width and its top at the nozzle.
+    // The second layer (the last stroke) keeps its commanded width and its top at the nozzle,
+    // whatever the gap: the job commanded it a layer up.
     const auto& second = runner.result().strokes.back();
     DOUBLES_EQUAL(0.601320, second.width_mm, 1e-5);
     DOUBLES_EQUAL(second.b_mm.z, second.top_b_mm, 1e-12);
+}
+
+TEST(FirstLayer, a_first_layer_far_off_the_bed_is_still_a_free_bead) {
+    // Endstops that stop every carriage 0.3 mm higher: a 0.5 mm gap under a first layer
+    // commanded at 0.2 mm. It lies as a free bead (top sqrt(4 * 0.120264 / pi) = 0.391312 mm),
+    // not as a second layer would (0.601320 mm wide, its top at the nozzle).
+    DeltaParams truth = kossel();
+    truth.endstop_offset_mm = {-0.3, -0.3, -0.3};
+    DeltaTwin twin(truth, kossel());
+    ToolSettings tool;
+    tool.real_first_layer = true;
+    GcodeRunner runner(twin, tool);
+    std::istringstream job(kSquareJob);
+    runner.run(job);
+    const auto& first = runner.result().strokes.front();
+    DOUBLES_EQUAL(0.391312, first.top_a_mm, 1e-5);
+    DOUBLES_EQUAL(0.120264 / 0.391312, first.width_mm, 1e-5);
 }
 
 TEST(FirstLayer, a_paper_test_zeroes_the_towers_and_centre_and_leaves_the_rest) {

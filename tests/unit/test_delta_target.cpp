@@ -34,7 +34,7 @@ TEST(DeltaTarget, is_deterministic_spread_over_the_bed_and_prints_in_under_ten_m
     CHECK_EQUAL(3u, a.bars.size());
     double reach = 0;
     for (const auto& m : a.markers)
-        reach = std::max(reach, std::hypot(m.centre_mm.x, m.centre_mm.y));
+        for (const auto& c : m.outline_corners_mm) reach = std::max(reach, std::hypot(c.x, c.y));
     CHECK(reach > 55);  // features reach well out towards the edge of the 85 mm bed
     CHECK(a.job.estimated_time_s(machine) < 600);
 }

@@ -100,6 +100,8 @@ int delta(const std::vector<std::string>& words) {
     if (!measured.heights_from_fit) std::printf("heights: %s\n", measured.heights_fallback.c_str());
     for (const auto& why : measured.bars_unmeasured) std::printf("not measured: %s\n", why.c_str());
     for (const auto& why : measured.markers_unread) std::printf("not read: %s\n", why.c_str());
+    for (const auto& why : measured.rings_unmeasured)
+        std::printf("not measured: %s\n", why.c_str());
     const auto unrefined = std::count_if(measured.features.begin(), measured.features.end(),
                                          [](const auto& f) { return !f.refined; });
     if (unrefined > 0) {

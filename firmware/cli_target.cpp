@@ -171,8 +171,12 @@ int delta(const std::vector<std::string>& words) {
         for (const auto& m : target.markers) {
             nlohmann::json corners = nlohmann::json::array();
             for (const auto& c : m.corners_mm) corners.push_back(point(c));
-            markers.push_back(
-                {{"id", m.id}, {"centre_mm", point(m.centre_mm)}, {"corners_mm", corners}});
+            nlohmann::json ring = nlohmann::json::array();
+            for (const auto& c : m.outline_corners_mm) ring.push_back(point(c));
+            markers.push_back({{"id", m.id},
+                               {"centre_mm", point(m.centre_mm)},
+                               {"corners_mm", corners},
+                               {"ring_corners_mm", ring}});
         }
         for (const auto& b : target.bars) {
             bars.push_back({{"tower", std::string(1, b.tower)},

@@ -24,9 +24,8 @@ struct ToolSettings {
     double tool_width_mm = 0.1;          // laser spot or cutter width
     double segment_mm = 0.5;             // moves are split as a delta firmware segments them
     // extruder: the first layer as a real one lies (first_layer_strand) rather than at its
-    // commanded width with its top at the nozzle. Off until the delta measurement reads stroke
-    // centrelines (issue "Delta mode 3"): today's corners move with the strand's width.
-    bool real_first_layer = false;
+    // commanded width with its top at the nozzle
+    bool real_first_layer = true;
     double nozzle_flat_mm = 1.0;  // the nozzle tip's flat: a squashed strand spreads no wider
 };
 

@@ -72,7 +72,7 @@ struct Scenario {
     // (level_by_probe over 0.9 of it). Implies zero_height_at_centre.
     std::string levelled_by = "centre";
     double segment_mm = 0.5;
-    bool real_first_layer = false;  // [twin] first_layer = "real" | "as_commanded" (default)
+    bool real_first_layer = true;  // [twin] first_layer = "real" (default) | "as_commanded"
     std::optional<ScenarioCamera> camera;
     PhotoSettings photo;
     std::optional<double> photo_bed_temperature_c;  // [photo]: the bed when photographed

@@ -15,6 +15,7 @@
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 #include "core/vision/edge_kernel.hpp"
+#include "core/vision/strand_ring.hpp"
 
 namespace calbox::modes {
 namespace {
@@ -184,6 +185,7 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
         surface.placement = fit.placement;
         out.heights_from_fit = true;
         for (auto& f : out.features) {
+            if (f.height_measured) continue;
             const double z =
                 models::actual_position_mm(fit.estimate, *machine.delta, f.commanded_mm).z;
             const double dz = z - f.seen_at_height_mm;
@@ -193,7 +195,7 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
         }
     } catch (const solve::FitError& e) {
         out.heights_fallback = std::string("the surface fit failed (") + e.what() +
-                               "): corners kept at the target's top, " +
+                               "): bar ends mapped at the target's top, " +
                                number_text("%.2f", out.target.top_height_mm) + " mm";
         std::vector<geometry::Point2> commanded, measured;
         for (const auto& f : out.features)
@@ -353,10 +355,12 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     options.camera = &camera;
     // Per corner, what the frames that saw it gave.
     struct CornerSightings {
-        std::vector<geometry::Point3> on_bed;
-        geometry::Point2 shift;        // bed mm per mm of height along the ray
-        bool refined = true;           // false when some photo could not refine it
-        double edge_variance_sum = 0;  // of each frame's edge-fit uncertainty, in bed mm^2
+        std::vector<geometry::Point3> on_bed;  // at the strand's height each frame measured
+        geometry::Point2 shift;                // bed mm per mm of height along the ray
+        double edge_variance_sum = 0;    // of each frame's centreline-fit uncertainty, in bed mm^2
+        double height_variance_sum = 0;  // of each frame's strand height, mm^2
+        int free_beads = 0;              // frames whose strand there was a free bead
+        int scraped = 0;                 // frames whose strand there was scraped
     };
     std::map<std::pair<int, int>, CornerSightings> seen;
     for (std::size_t f = 0; f < frames.size(); ++f) {
@@ -383,15 +387,12 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             std::remove_if(found.begin(), found.end(),
                            [&](const auto& m) { return m.id >= static_cast<int>(markers.size()); }),
             found.end());
-        // Each corner on the bed at the target's top, and one millimetre higher (the shift of
-        // its ray per mm of height).
-        std::vector<std::vector<geometry::Point3>> on_bed, above_bed;
+        // Each marker's corners on the bed at the target's top: for the layout and the scale.
+        std::vector<std::vector<geometry::Point3>> on_bed;
         for (const auto& m : found) {
             const std::vector<geometry::Point2> corners(m.corners.begin(), m.corners.end());
             on_bed.push_back(
                 geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm));
-            above_bed.push_back(
-                geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm + 1));
         }
         // The markers must lie as this target lays them out, give or take what an uncalibrated
         // printer does to it: another ArUco artifact (a board, another machine's target) does not.
@@ -462,16 +463,37 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             }
             mm_per_px.push_back(mm / px);
         }
+        // The features: each marker's ring strand, its corners where its sides' centrelines
+        // meet (where the nozzle went, however wide the strand lies), each mapped to the bed at
+        // the height the strand's width there says it stands.
         for (std::size_t i = 0; i < found.size(); ++i) {
-            const auto& bed = on_bed[i];
-            const auto& above = above_bed[i];
+            const auto& marker = markers[static_cast<std::size_t>(found[i].id)];
+            const vision::StrandRingLayout layout{out.target.marker_half_mm, marker.outline_half_mm,
+                                                  out.target.strand_width_mm,
+                                                  out.target.ring_gap_mm};
+            const auto ring = vision::measure_strand_ring(frame, found[i].corners, layout, &camera);
+            if (!ring.measured()) {
+                out.rings_unmeasured.push_back(photo_name + ": marker " +
+                                               std::to_string(found[i].id) +
+                                               "'s ring: " + ring.unmeasured_because);
+                continue;
+            }
             for (std::size_t k = 0; k < 4; ++k) {
+                const auto height = vision::strand_height_from_width(
+                    out.target.strand_section_mm2, ring.width_px[k] * mm_per_px[i],
+                    ring.width_sigma_px[k] * mm_per_px[i]);
+                const auto at = geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]},
+                                                        height.height_mm)[0];
+                const auto above = geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]},
+                                                           height.height_mm + 1)[0];
                 auto& corner = seen[{found[i].id, static_cast<int>(k)}];
-                corner.on_bed.push_back(bed[k]);
-                corner.refined = corner.refined && found[i].refined;
-                const double sigma_mm = found[i].sigma_px[k] * mm_per_px[i];
+                corner.on_bed.push_back(at);
+                const double sigma_mm = ring.sigma_px[k] * mm_per_px[i];
                 corner.edge_variance_sum += sigma_mm * sigma_mm;
-                corner.shift = {above[k].x - bed[k].x, above[k].y - bed[k].y};
+                corner.height_variance_sum += height.sigma_mm * height.sigma_mm;
+                corner.free_beads += height.free_bead ? 1 : 0;
+                corner.scraped += height.scraped ? 1 : 0;
+                corner.shift = {above.x - at.x, above.y - at.y};
             }
         }
         out.frames.push_back(std::move(found));
@@ -485,9 +507,9 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     for (const auto& [key, corner] : seen) {
         const auto& points = corner.on_bed;
         const auto& target_corner = markers[static_cast<std::size_t>(key.first)]
-                                        .corners_mm[static_cast<std::size_t>(key.second)];
-        double mx = 0, my = 0;
-        for (const auto& p : points) mx += p.x, my += p.y;
+                                        .outline_corners_mm[static_cast<std::size_t>(key.second)];
+        double mx = 0, my = 0, mz = 0;
+        for (const auto& p : points) mx += p.x, my += p.y, mz += p.z;
         const double n = static_cast<double>(points.size());
         // As printed: the bed has grown or shrunk since, about a point the placement absorbs.
         mx /= n * out.bed_scale, my /= n * out.bed_scale;
@@ -496,17 +518,36 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             const double dx = p.x / out.bed_scale - mx, dy = p.y / out.bed_scale - my;
             scatter += dx * dx + dy * dy;
         }
+        mz /= n;
+        double height_scatter = 0;
+        for (const auto& p : points) height_scatter += (p.z - mz) * (p.z - mz);
+        // The strand's height, its uncertainty (the frames' own, or their disagreement) and the
+        // XY uncertainty it brings along the ray.
+        // A strand's width varies along a side as one over the gap, which the widths' straight
+        // fit only follows closely: on the twin the heights at the corners are within 0.005 mm
+        // where their fits claim a tenth of that. That floor is added in quadrature.
+        constexpr double kHeightFloorMm = 0.005;
+        const double height_sigma =
+            std::max(std::sqrt(corner.height_variance_sum / n + kHeightFloorMm * kHeightFloorMm),
+                     n > 1 ? std::sqrt(height_scatter / (n - 1)) : 0.0) /
+            std::sqrt(n);
+        const double along_ray = height_sigma * std::hypot(corner.shift.x, corner.shift.y);
         const double frame_sigma =
             std::sqrt(kFrameFloorMm * kFrameFloorMm + corner.edge_variance_sum / n);
-        const double sigma =
+        const double xy_sigma =
             std::max(frame_sigma, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) / std::sqrt(n);
-        out.features.push_back({corner_feature_id(key.first, key.second),
-                                {target_corner.x, target_corner.y, out.target.top_height_mm},
-                                {mx, my},
-                                sigma,
-                                out.target.top_height_mm,
-                                corner.shift,
-                                corner.refined});
+        solve::FeatureMeasurement feature;
+        feature.id = corner_feature_id(key.first, key.second);
+        feature.commanded_mm = {target_corner.x, target_corner.y, out.target.top_height_mm};
+        feature.measured_mm = {mx, my};
+        feature.sigma_mm = std::sqrt(xy_sigma * xy_sigma + along_ray * along_ray);
+        feature.seen_at_height_mm = mz;
+        feature.shift_per_height = corner.shift;
+        feature.height_measured = true;
+        feature.height_sigma_mm = height_sigma;
+        feature.free_bead = corner.free_beads * 2 > static_cast<int>(points.size());
+        feature.scraped = corner.scraped * 2 > static_cast<int>(points.size());
+        out.features.push_back(feature);
     }
     const SurfaceModel surface = fit_surface(machine, out);
     measure_bars(machine, camera, plane, frames, surface, out);

@@ -42,12 +42,15 @@ struct DeltaMeasurement {
     // Markers a photo should show (inside its frame) but could not read, each with where:
     // "photo 1: marker 7 near (1234, 567) px could not be read".
     std::vector<std::string> markers_unread;
+    // Markers read whose ring strand could not be measured (their corners are not features):
+    // "photo 1: marker 7's ring: its top side showed the strand in 3 of 60 profiles ...".
+    std::vector<std::string> rings_unmeasured;
     std::vector<std::vector<vision::DetectedMarker>> frames;  // what each photo showed
     double bed_scale = 1;  // the print in the photos against as printed (the bed's expansion)
-    // Corners and bar ends moved along their rays to the surface heights a fit of the corners
-    // gives (the fit's parallax terms then have nothing left to do); else at the nominal height.
+    // The features stand at the heights their strands' widths give; the bars' ends are mapped
+    // at the surface heights a fit of the features gives, else at the nominal height.
     bool heights_from_fit = false;
-    // Otherwise why not, and what was done instead (the features stay at the target's height).
+    // Otherwise why not, and what was done instead (the bar ends stay at the target's height).
     std::string heights_fallback;
 };
 

@@ -63,7 +63,11 @@ std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
              {"sigma_mm", f.sigma_mm},
              {"seen_at_height_mm", f.seen_at_height_mm},
              {"shift_per_height", {f.shift_per_height.x, f.shift_per_height.y}},
-             {"refined", f.refined}});
+             {"refined", f.refined},
+             {"height_measured", f.height_measured},
+             {"height_sigma_mm", f.height_sigma_mm},
+             {"free_bead", f.free_bead},
+             {"scraped", f.scraped}});
     }
     json bars = json::array();
     for (const auto& b : r.bars) {
@@ -114,6 +118,15 @@ DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std:
                                        number(f.at("shift_per_height").at(1))};
             }
             fm.refined = f.value("refined", true);
+            // Files from before heights were measured have none.
+            fm.height_measured = f.value("height_measured", false);
+            fm.free_bead = f.value("free_bead", false);
+            fm.scraped = f.value("scraped", false);
+            if (fm.height_measured) {
+                fm.height_sigma_mm = number(f.at("height_sigma_mm"));
+                if (!(fm.height_sigma_mm >= 0))
+                    throw RecordError(source + ": height_sigma_mm must not be negative");
+            }
             r.features.push_back(fm);
         }
         if (j.contains("bars")) {

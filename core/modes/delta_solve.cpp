@@ -67,6 +67,9 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
         throw SolveError("the delta solve writes for marlin, rrf or klipper, not '" + s.firmware +
                          "'");
     }
+    // Without a probe, the heights the strands' widths measured.
+    const auto heights =
+        probe.empty() ? solve::strand_heights_as_probe(measurements.features) : probe;
     s.machine_fingerprint = models::fingerprint(machine);
     if (measurements.machine_fingerprint != s.machine_fingerprint) {
         throw SolveError("the measurements were made for another machine (fingerprint " +
@@ -75,7 +78,7 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
     }
     if (s.method == DeltaMethod::fit) {
         try {
-            s.fit = solve::fit_delta(machine, measurements.features, probe, options.limits);
+            s.fit = solve::fit_delta(machine, measurements.features, heights, options.limits);
         } catch (const solve::FitError& e) {
             // The measurement's own fit of the surface may have failed first: say so, it is
             // usually the same cause seen earlier.
@@ -86,7 +89,7 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
         s.after = s.fit.correction.after;
     } else {
         // The fit still runs for its report (what the data determine), but sends nothing.
-        s.fit.fitted = solve::estimate_delta_geometry(machine, measurements.features, probe);
+        s.fit.fitted = solve::estimate_delta_geometry(machine, measurements.features, heights);
         s.fit.correction = solve::design_delta_correction(machine, s.fit.fitted);
         std::vector<solve::BarMeasurement> bars;
         for (const auto& b : measurements.bars)

@@ -266,7 +266,7 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
             const auto p = models::actual_position_mm(g, firmware, f.commanded_mm);
             // Seen on its ray at the mapping height, the point lies where the ray meets its own
             // (predicted) height: measured = placed position - (height - mapping height) * shift.
-            const double dz = p.z - f.seen_at_height_mm;
+            const double dz = f.height_measured ? 0.0 : p.z - f.seen_at_height_mm;
             r[k++] = (c * p.x - s * p.y + x[kGeometry + 1] - dz * f.shift_per_height.x -
                       f.measured_mm.x) /
                      f.sigma_mm;
@@ -492,6 +492,16 @@ double classic_rod_length_mm(const DeltaGeometry& firmware,
         sum += (lo + hi) / 2;
     }
     return sum / static_cast<double>(bars.size());
+}
+
+std::vector<ProbePoint> strand_heights_as_probe(const std::vector<FeatureMeasurement>& features) {
+    std::vector<ProbePoint> probe;
+    for (const auto& f : features) {
+        if (!f.height_measured || f.free_bead || f.scraped || !(f.height_sigma_mm > 0)) continue;
+        probe.push_back({f.commanded_mm.x, f.commanded_mm.y, f.seen_at_height_mm - f.commanded_mm.z,
+                         f.height_sigma_mm});
+    }
+    return probe;
 }
 
 }  // namespace calbox::solve

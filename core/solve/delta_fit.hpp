@@ -28,6 +28,14 @@ struct FeatureMeasurement {
     // `shift_per_height` (bed mm per mm) for a surface higher than that. Zero: no parallax.
     double seen_at_height_mm = 0;
     geometry::Point2 shift_per_height;
+    // True when the height it was mapped at was measured (a first-layer strand's height from
+    // its width): the point already lies where the material is, and the fit moves it along its
+    // ray no further. `sigma_mm` then holds that height's share (height_sigma_mm times the
+    // shift). A free bead's top stands at its own diameter whatever the gap under it.
+    bool height_measured = false;
+    double height_sigma_mm = 0;
+    bool free_bead = false;
+    bool scraped = false;  // as wide as the nozzle's flat: its height only bounded
     // False when some photo's corner could not be refined past the detector's own: the point
     // is then a few tenths of a pixel rougher (said in the measurement's summary).
     bool refined = true;
@@ -38,6 +46,11 @@ struct ProbePoint {
     double x_mm = 0, y_mm = 0, z_mm = 0;
     double sigma_mm = 0.01;
 };
+
+// The nozzle's gap a first layer's pressed strands measured (their height from their width, the
+// commanded layer taken off), as probe points: a free bead's says only that the gap was larger,
+// a scraped one's only that it was smaller.
+std::vector<ProbePoint> strand_heights_as_probe(const std::vector<FeatureMeasurement>& features);
 
 // One set of bounds for every correction the delta mode may send, whichever method made it.
 struct DeltaFitLimits {

@@ -53,7 +53,9 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
         throw JobError("marker cells of " + std::to_string(cell) + " mm are too small for a " +
                        std::to_string(w) + " mm line");
     const double quiet_half = o.marker_mm / 2 + cell;  // the white margin around the marker
-    const double usable = machine.bed_radius_mm - 5;   // keep clear of the clips and the edge
+    const double outline_half = quiet_half + o.outline_gap_mm + w / 2;
+    const double outer_half = outline_half + w / 2;   // the ring strand's outer edge
+    const double usable = machine.bed_radius_mm - 5;  // keep clear of the clips and the edge
     if (usable < 30) throw JobError("the bed is too small for the delta target");
 
     // Bars along the towers, from the inner radius to the usable edge.
@@ -73,11 +75,11 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
     for (int j = -n; j <= n; ++j) {
         for (int i = -n; i <= n; ++i) {
             const Point2 c{(i + 0.5 * (j & 1)) * o.pitch_mm, j * o.pitch_mm * std::sqrt(3.0) / 2};
-            if (std::hypot(c.x, c.y) + quiet_half * std::sqrt(2.0) > usable) continue;
+            if (std::hypot(c.x, c.y) + outer_half * std::sqrt(2.0) > usable) continue;
             bool clear = true;
             for (const auto& b : target.bars) {
                 const double d = distance_to_segment(c, {0, 0}, b.end_mm);
-                clear = clear && d > quiet_half * std::sqrt(2.0) + b.width_mm / 2 + 1;
+                clear = clear && d > outer_half * std::sqrt(2.0) + b.width_mm / 2 + 1;
             }
             if (clear) centres.push_back(c);
         }
@@ -121,6 +123,10 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
         marker.centre_mm = c;
         marker.corners_mm = {Point2{c.x - half, c.y + half}, Point2{c.x + half, c.y + half},
                              Point2{c.x + half, c.y - half}, Point2{c.x - half, c.y - half}};
+        const double r = outline_half;
+        marker.outline_corners_mm = {Point2{c.x - r, c.y + r}, Point2{c.x + r, c.y + r},
+                                     Point2{c.x + r, c.y - r}, Point2{c.x - r, c.y - r}};
+        marker.outline_half_mm = r;
         target.markers.push_back(marker);
     }
     for (const std::size_t k : order) {
@@ -141,6 +147,16 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
             }
         }
         append(target.job.toolpath, plan_fill(contours, FillRule::nonzero, fill, pen));
+        // The ring strand, started mid-side: the nozzle's start and stop blobs stay off the
+        // corners and off the stretches the centrelines are measured on near them.
+        Contour ring;
+        ring.closed = true;
+        ring.points = {{c.x, c.y - outline_half},
+                       {c.x + outline_half, c.y - outline_half},
+                       {c.x + outline_half, c.y + outline_half},
+                       {c.x - outline_half, c.y + outline_half},
+                       {c.x - outline_half, c.y - outline_half}};
+        append(target.job.toolpath, plan_trace({ring}, pen));
     }
     for (const auto& b : target.bars) {
         // A filled rectangle whose ends lie exactly at start and end.
@@ -162,6 +178,10 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
     target.job.min_x = target.job.min_y = -usable;
     target.job.max_x = target.job.max_y = usable;
     target.top_height_mm = o.layers * machine.layer_height_mm;
+    target.marker_half_mm = half;
+    target.ring_gap_mm = o.outline_gap_mm;
+    target.strand_width_mm = w;
+    target.strand_section_mm2 = w * machine.layer_height_mm;
     // The fingerprint ties measurements to this exact layout on this exact machine.
     std::string canonical = models::fingerprint(machine) + "|" + o.dictionary;
     char b[64];
@@ -169,7 +189,8 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
         std::snprintf(b, sizeof b, "|%d:%.4f,%.4f", m.id, m.centre_mm.x, m.centre_mm.y);
         canonical += b;
     }
-    std::snprintf(b, sizeof b, "|%.4f|%.4f|%d", o.marker_mm, o.bar_width_mm, o.layers);
+    std::snprintf(b, sizeof b, "|%.4f|%.4f|%d|%.4f", o.marker_mm, o.bar_width_mm, o.layers,
+                  o.outline_gap_mm);
     canonical += b;
     target.fingerprint = models::digest(canonical);
     return target;

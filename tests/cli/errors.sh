@@ -114,7 +114,7 @@ measure_photo() {  # measure_photo REGEX PHOTO
 }
 measure_photo "photo 1 is over-exposed: [0-9]+ % of its bright part is clipped white" "$work/overexposed.png"
 measure_photo "photo 1 is under-exposed: nothing in it is brighter than [0-9]+ of 255" "$work/underexposed.png"
-measure_photo "photo 1 shows [0-9]+ of the target's 21 markers: the artifact is partly out of frame" "$work/aside.png"
+measure_photo "photo 1 shows [0-9]+ of the target's 9 markers: .*the artifact is partly out of frame" "$work/aside.png"
 measure_photo "photo 1 shows markers laid out unlike this machine's delta target .*another target" "$work/other_target.png"
 measure_photo "photo 1 shows no DICT_4X4_50 markers" "$work/cycle_board.png"
 expect_error "a photo bed temperature needs bed_material and bed_temperature_c" measure delta \

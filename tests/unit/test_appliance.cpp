@@ -232,12 +232,13 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
               std::to_string(report.box_seconds) + " s")
                  .c_str());
     // The goal (XY RMS <= 0.01, worst <= 0.03), and the README's figures for this seeded
-    // scenario: 0.257 (0.539) before, 0.0008 (0.0020) after, the verification print 0.0022.
+    // scenario on a real first layer: 0.257 (0.539) before, 0.0026 (0.0067) after, the
+    // verification print 0.0024.
     CHECK(before.xy_rms > 0.25 && before.xy_rms < 0.26);
     CHECK(after.xy_rms <= 0.01);
     CHECK(after.xy_max <= 0.03);
-    CHECK(after.xy_rms <= 0.002);
-    CHECK(after.xy_max <= 0.005);
+    CHECK(after.xy_rms <= 0.004);
+    CHECK(after.xy_max <= 0.01);
     CHECK(report.applied);
     CHECK(*report.verify_xy_rms_mm <= 0.01);
     CHECK(*report.verify_xy_rms_mm <= 0.003);
@@ -483,8 +484,8 @@ TEST(ApplianceCycle, a_reprapfirmware_printer_is_read_corrected_and_read_back_in
     UT_PRINT(("RepRapFirmware printer after the cycle: XY " + std::to_string(after.xy_rms) +
               " mm RMS, " + std::to_string(after.xy_max) + " mm worst")
                  .c_str());
-    CHECK(after.xy_rms <= 0.002);  // the README's 0.0008 / 0.0020
-    CHECK(after.xy_max <= 0.005);
+    CHECK(after.xy_rms <= 0.004);  // the README's 0.0026 / 0.0067
+    CHECK(after.xy_max <= 0.01);
     std::vector<std::string> commands;
     for (const auto& line : rig.transcript()) commands.push_back(command_of(line));
     CHECK(std::find(commands.begin(), commands.end(), "M503") == commands.end());

@@ -64,7 +64,13 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
 
     const auto measured =
         modes::measure_delta(machine, model, plane, {view_of(print_photo), view_of(second_photo)});
-    CHECK_EQUAL(4 * target.markers.size(), measured.features.size());
+    for (const auto& why : measured.rings_unmeasured) UT_PRINT(why.c_str());
+    CHECK(measured.rings_unmeasured.empty());
+    for (const auto& why : measured.markers_unread) UT_PRINT(why.c_str());
+    // A real first layer leaves a marker where the nozzle was far off the bed unreadable (its
+    // fill's lines do not touch); every marker read gives its ring's four corners.
+    CHECK_EQUAL(4 * measured.frames.front().size(), measured.features.size());
+    CHECK(measured.frames.front().size() + 1 >= target.markers.size());
     CHECK_EQUAL(2u, measured.frames.size());
     CHECK_EQUAL(3u, measured.bars.size());
     // Averaged over two frames: the single frame's 0.005 mm shrinks by sqrt(2) unless the frames
@@ -97,25 +103,33 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     for (const auto& f : measured.features) seen.push_back(f.measured_mm);
     double worst = 0;
     const double rms = residual_rms(seen, worst);
-    // The same pixels mapped at each corner's true printed height (the unlevelled printer's
-    // dome lifts or lowers the surface by up to a few tenths of a millimetre).
-    std::map<std::string, geometry::Point2> pixel;
-    for (const auto& m : measured.frames.front())
-        for (int k = 0; k < 4; ++k)
-            pixel[modes::corner_feature_id(m.id, k)] = m.corners[static_cast<std::size_t>(k)];
-    std::vector<geometry::Point2> at_true_height;
+    // Each corner's strand height from its width, against the twin's own strand there (the
+    // nozzle's true gap through the twin's first-layer model): within 0.03 mm where the nozzle
+    // pressed it; where it scraped the bed (the strand as wide as the nozzle's flat) no higher
+    // than the cross-section over that width, with an uncertainty to match.
+    double worst_height = 0;
+    int pressed = 0, scraped = 0;
     for (std::size_t i = 0; i < real.size(); ++i) {
-        const auto p = geometry::pixels_to_bed(model, plane, {pixel.at(measured.features[i].id)},
-                                               real[i].z)[0];
-        at_true_height.push_back({p.x, p.y});
+        const auto strand = sim::first_layer_strand(0.45 * 0.2, real[i].z, 1.0);
+        const auto& f = measured.features[i];
+        CHECK(f.height_measured);
+        CHECK_EQUAL(strand.free_bead, f.free_bead);
+        const double error = std::abs(f.seen_at_height_mm - strand.height_mm);
+        if (strand.width_mm < 0.95) {
+            ++pressed;
+            worst_height = std::max(worst_height, error);
+        } else {
+            ++scraped;
+            CHECK(strand.height_mm <= 2 * f.seen_at_height_mm + 0.01);
+            CHECK(error <= 3 * f.height_sigma_mm);
+        }
     }
-    double worst_true = 0;
-    const double rms_true = residual_rms(at_true_height, worst_true);
-    UT_PRINT(("at the true surface heights: " + std::to_string(rms_true) + " mm RMS, worst " +
-              std::to_string(worst_true) + " mm")
+    UT_PRINT(("strand heights from widths: " + std::to_string(pressed) + " pressed, worst " +
+              std::to_string(worst_height) + " mm from the twin's; " + std::to_string(scraped) +
+              " scraped")
                  .c_str());
-    CHECK_TEXT(rms_true < 0.01,
-               ("feature RMS at the true heights " + std::to_string(rms_true)).c_str());
+    CHECK(pressed >= 24);
+    CHECK_TEXT(worst_height <= 0.03, std::to_string(worst_height).c_str());
     UT_PRINT(("measured corners against the material: " + std::to_string(rms) + " mm RMS, worst " +
               std::to_string(worst) + " mm")
                  .c_str());
@@ -156,15 +170,17 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
               " mm; four times the noise: " + std::to_string(mean_sigma(noisy)) +
               " mm, fit residual " + std::to_string(noisy_fit.fitted.fit_rms_mm) + " mm")
                  .c_str());
-    // Above the 0.005 mm floor, the edge fits' share grows with the noise (the print's own
-    // texture keeps it from growing the full four times).
+    // Above the 0.005 mm floor, the centreline fits' share grows with the noise; not the full
+    // four times: part of it is the strands' own unevenness (a first layer's width changes
+    // along a side with the gap) and the height's share along the ray, which noise does not
+    // change.
     const auto edge_share = [&](const modes::DeltaMeasurement& m) {
         return std::sqrt(std::max(0.0, std::pow(mean_sigma(m), 2) - 0.005 * 0.005));
     };
     CHECK(mean_sigma(plain) >= 0.005);
     CHECK(mean_sigma(noisy) > 1.03 * mean_sigma(plain));
     const double growth = edge_share(noisy) / edge_share(plain);
-    CHECK_TEXT(growth > 2.5 && growth < 5, std::to_string(growth).c_str());
+    CHECK_TEXT(growth > 1.3 && growth < 5, std::to_string(growth).c_str());
     DOUBLES_EQUAL(t.diagonal_rod_mm, noisy_fit.fitted.estimate.diagonal_rod_mm, 0.1);
 
     // Markers the photo should show but whose print is unreadable (a smeared first layer, here
@@ -191,25 +207,34 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     const auto with_one = modes::measure_delta(
         machine, model, plane,
         {{one_smeared.data(), camera.width_px, camera.height_px, camera.width_px}});
-    CHECK_EQUAL(4 * (target.markers.size() - 1), with_one.features.size());
-    CHECK_EQUAL(1u, with_one.markers_unread.size());
-    STRCMP_CONTAINS("photo 1: marker 5 near (", with_one.markers_unread.front().c_str());
-    const auto many_smeared = painted_over({1, 2, 3, 4, 5, 6, 7});
+    const std::size_t read = measured.frames.front().size();
+    CHECK_EQUAL(4 * (read - 1), with_one.features.size());
+    CHECK_EQUAL(target.markers.size() - read + 1, with_one.markers_unread.size());
+    CHECK(std::any_of(
+        with_one.markers_unread.begin(), with_one.markers_unread.end(),
+        [](const std::string& line) { return line.rfind("photo 1: marker 5 near (", 0) == 0; }));
+    // Past a quarter of the target unread, the photo is refused, each marker said.
+    std::vector<int> smeared;
+    for (int id = 1; smeared.size() + (target.markers.size() - read) < 4; ++id)
+        smeared.push_back(id);
+    const auto many_smeared = painted_over(smeared);
     try {
         modes::measure_delta(
             machine, model, plane,
             {{many_smeared.data(), camera.width_px, camera.height_px, camera.width_px}});
-        FAIL("a photo missing seven markers was measured");
+        FAIL("a photo missing four of nine markers was measured");
     } catch (const modes::MeasureError& e) {
         UT_PRINT(e.what());
-        STRCMP_CONTAINS("7 in the frame could not be read (marker 1 near (", e.what());
+        STRCMP_CONTAINS("4 in the frame could not be read (marker ", e.what());
+        STRCMP_CONTAINS("marker 1 near (", e.what());
         STRCMP_CONTAINS("a squashed, smeared or missing first layer there", e.what());
         CHECK(std::string(e.what()).find("out of frame") == std::string::npos);
     }
 
     // The same photos through a camera model with the wrong lens distortion: the corners no
     // longer fit a delta printer's geometry. Measurement says its surface fit failed and why,
-    // and keeps the nominal height; the solve's refusal then carries that reason along.
+    // and maps the bars' ends at the nominal height; the solve's refusal then carries that
+    // reason along.
     geometry::CameraModel wrong_lens = model;
     wrong_lens.distortion[0] += 0.1;
     const auto through_wrong_lens =
@@ -218,10 +243,8 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     CHECK_FALSE(through_wrong_lens.heights_from_fit);
     STRCMP_CONTAINS("the surface fit failed (refused: the measurements do not fit",
                     through_wrong_lens.heights_fallback.c_str());
-    STRCMP_CONTAINS("corners kept at the target's top, 0.20 mm",
+    STRCMP_CONTAINS("bar ends mapped at the target's top, 0.20 mm",
                     through_wrong_lens.heights_fallback.c_str());
-    for (const auto& f : through_wrong_lens.features)
-        DOUBLES_EQUAL(target.top_height_mm, f.seen_at_height_mm, 0);
     modes::DeltaSolveOptions options;
     try {
         modes::solve_delta(machine,

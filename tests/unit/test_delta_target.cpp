@@ -27,11 +27,14 @@ TEST(DeltaTarget, is_deterministic_spread_over_the_bed_and_prints_in_under_ten_m
     CHECK_EQUAL(targets::write_gcode(a.job, machine, "t"),
                 targets::write_gcode(b.job, machine, "t"));
     STRCMP_EQUAL(a.fingerprint.c_str(), b.fingerprint.c_str());
-    CHECK(a.markers.size() >= 20);
+    // Each marker ringed by its own strand, with room for a pressed strand's spread: nine on an
+    // 85 mm bed, 36 ring corners.
+    CHECK(a.markers.size() >= 9);
+    for (const auto& m : a.markers) DOUBLES_EQUAL(8 + 1.5 + 0.225, m.outline_half_mm, 1e-12);
     CHECK_EQUAL(3u, a.bars.size());
     double reach = 0;
     for (const auto& m : a.markers)
-        reach = std::max(reach, std::hypot(m.centre_mm.x, m.centre_mm.y));
+        for (const auto& c : m.outline_corners_mm) reach = std::max(reach, std::hypot(c.x, c.y));
     CHECK(reach > 55);  // features reach well out towards the edge of the 85 mm bed
     CHECK(a.job.estimated_time_s(machine) < 600);
 }

@@ -1,0 +1,255 @@
+#include "core/vision/strand_ring.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <vector>
+
+#include "core/geometry/line_fit.hpp"
+
+namespace calbox::vision {
+namespace {
+
+using geometry::Point2;
+
+// The marker's (and the ring's) corners in its own millimetres, in OpenCV's order as printed.
+std::array<Point2, 4> square_corners(double half) {
+    return {Point2{-half, half}, Point2{half, half}, Point2{half, -half}, Point2{-half, -half}};
+}
+
+// Marker millimetres -> the coordinates edges are fitted in (undistorted normalized with a
+// camera, raw pixels without) and -> raw pixels.
+class MarkerFrame {
+  public:
+    MarkerFrame(const std::array<Point2, 4>& marker_corners_px, double marker_half,
+                const geometry::CameraModel* camera)
+        : camera_(camera) {
+        std::vector<Point2> seen(marker_corners_px.begin(), marker_corners_px.end());
+        if (camera_ != nullptr) seen = geometry::undistort_to_normalized(*camera_, seen);
+        const auto local = square_corners(marker_half);
+        std::array<cv::Point2f, 4> from{}, to{};
+        for (std::size_t k = 0; k < 4; ++k) {
+            from[k] = cv::Point2f(static_cast<float>(local[k].x), static_cast<float>(local[k].y));
+            to[k] = cv::Point2f(static_cast<float>(seen[k].x), static_cast<float>(seen[k].y));
+        }
+        homography_ = cv::getPerspectiveTransform(from.data(), to.data());
+    }
+    Point2 to_fit_space(Point2 local) const {
+        const auto& h = homography_;
+        const double w =
+            h.at<double>(2, 0) * local.x + h.at<double>(2, 1) * local.y + h.at<double>(2, 2);
+        return {
+            (h.at<double>(0, 0) * local.x + h.at<double>(0, 1) * local.y + h.at<double>(0, 2)) / w,
+            (h.at<double>(1, 0) * local.x + h.at<double>(1, 1) * local.y + h.at<double>(1, 2)) / w};
+    }
+    std::vector<Point2> to_pixels(const std::vector<Point2>& fit_space) const {
+        return camera_ != nullptr ? geometry::distort_from_normalized(*camera_, fit_space)
+                                  : fit_space;
+    }
+    std::vector<Point2> from_pixels(const std::vector<Point2>& pixels) const {
+        return camera_ != nullptr ? geometry::undistort_to_normalized(*camera_, pixels) : pixels;
+    }
+    double pixels_per_unit() const { return camera_ != nullptr ? camera_->fx() : 1.0; }
+
+  private:
+    const geometry::CameraModel* camera_;
+    cv::Mat homography_;
+};
+
+// One side's profiles: where along the side (0 at its first corner, 1 at its second), the
+// centreline point (fit space) and the strand's width there (pixels).
+struct SideProfiles {
+    std::vector<double> t;
+    std::vector<Point2> centre;
+    std::vector<double> width_px;
+};
+
+// Least-squares straight line through (t, v): its value at t0 and that value's standard
+// uncertainty from the scatter.
+struct ValueAt {
+    double value = 0, sigma = 0;
+};
+ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0);
+
+// The same, with the points more than four robust deviations off a first fit left out: a
+// profile whose edge was a speck or a neighbour's gives a width far off the side's trend.
+ValueAt linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0) {
+    std::vector<double> residuals;
+    for (std::size_t i = 0; i < t.size(); ++i)
+        residuals.push_back(std::abs(v[i] - plain_linear_fit_at(t, v, t[i]).value));
+    std::vector<double> sorted = residuals;
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
+                     sorted.end());
+    const double robust_sigma = 1.4826 * sorted[sorted.size() / 2];
+    std::vector<double> kept_t, kept_v;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        if (residuals[i] <= 4 * robust_sigma + 1e-9) kept_t.push_back(t[i]), kept_v.push_back(v[i]);
+    }
+    return kept_t.size() >= 3 ? plain_linear_fit_at(kept_t, kept_v, t0)
+                              : plain_linear_fit_at(t, v, t0);
+}
+
+ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0) {
+    const double n = static_cast<double>(t.size());
+    double mt = 0, mv = 0;
+    for (std::size_t i = 0; i < t.size(); ++i) mt += t[i], mv += v[i];
+    mt /= n, mv /= n;
+    double stt = 0, stv = 0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        stt += (t[i] - mt) * (t[i] - mt);
+        stv += (t[i] - mt) * (v[i] - mv);
+    }
+    const double slope = stt > 0 ? stv / stt : 0;
+    double ss = 0;
+    for (std::size_t i = 0; i < t.size(); ++i) {
+        const double r = v[i] - mv - slope * (t[i] - mt);
+        ss += r * r;
+    }
+    const double s2 = n > 2 ? ss / (n - 2) : 0;
+    const double dt = t0 - mt;
+    return {mv + slope * dt, std::sqrt(s2 * (1 / n + (stt > 0 ? dt * dt / stt : 0)))};
+}
+
+}  // namespace
+
+StrandHeight strand_height_from_width(double section_mm2, double width_mm, double width_sigma_mm) {
+    if (!(section_mm2 > 0) || !(width_mm > 0))
+        throw std::invalid_argument("a strand's height needs its cross-section and its width");
+    const double bead_mm = std::sqrt(4 * section_mm2 / 3.14159265358979323846);
+    if (width_mm * bead_mm <= section_mm2) return {bead_mm, kFreeBeadHeightSigmaMm, true};
+    const double height = section_mm2 / width_mm;
+    if (width_mm >= kScrapedFromShare * kNozzleFlatMm) return {height / 2, height / 2, false, true};
+    return {height, height / width_mm * width_sigma_mm, false, false};
+}
+
+StrandRing measure_strand_ring(const GrayView& image,
+                               const std::array<geometry::Point2, 4>& marker_corners_px,
+                               const StrandRingLayout& layout, const geometry::CameraModel* camera,
+                               const StrandRingLimits& limits) {
+    static constexpr std::array<const char*, 4> kSideNames = {"top", "right", "bottom", "left"};
+    StrandRing ring;
+    const auto ring_corners = square_corners(layout.ring_half_mm);
+    const double half_width = layout.strand_width_mm / 2;
+    // The strand's outer edge (strand to bare bed, falling) is looked for from a little inside
+    // its expected centreline to past its commanded outer edge; its inner edge (rising) on a
+    // stretch ending just inside the outer edge found and reaching a widest strand's width
+    // further in. Neither reaches the other's competitor (the quiet zone's fill inside, a
+    // neighbour outside) however far a squashed strand spread.
+    const double outer_from_mm = -limits.centre_uncertainty_mm;
+    const double outer_to_mm = half_width + limits.reach_outside_mm;
+    const double inner_span_mm = limits.widest_multiple * layout.strand_width_mm;
+    std::array<SideProfiles, 4> sides;
+    std::array<geometry::Line, 4> lines;
+    // The first pass expects the ring where the marker's corners put it (a marker's own edges
+    // move with its strands' widths: tenths of a millimetre); the second where the first
+    // found it.
+    MarkerFrame frame(marker_corners_px, layout.marker_half_mm, camera);
+    for (int pass = 0; pass < 2; ++pass) {
+        if (pass == 1) {
+            std::array<Point2, 4> found{};
+            std::vector<Point2> fit_space;
+            for (std::size_t k = 0; k < 4; ++k) {
+                const auto c = geometry::intersect(lines[(k + 3) % 4], lines[k]);
+                if (!c) {
+                    ring.unmeasured_because = "two of its sides fitted parallel";
+                    return ring;
+                }
+                fit_space.push_back(*c);
+            }
+            const auto px = frame.to_pixels(fit_space);
+            std::copy(px.begin(), px.end(), found.begin());
+            frame = MarkerFrame(found, layout.ring_half_mm, camera);
+        }
+        for (std::size_t k = 0; k < 4; ++k) {
+            const Point2 a = ring_corners[k], b = ring_corners[(k + 1) % 4];
+            const double length = std::hypot(b.x - a.x, b.y - a.y);
+            const Point2 along{(b.x - a.x) / length, (b.y - a.y) / length};
+            const Point2 outward{-along.y, along.x};  // the corners run clockwise as printed
+            // Every profile's two stations, in pixels, in one call through the lens.
+            std::vector<double> ts;
+            std::vector<Point2> stations;
+            for (double s = limits.corner_clearance_share * length;
+                 s <= (1 - limits.corner_clearance_share) * length; s += limits.profile_step_mm) {
+                const double t = s / length;
+                if (std::abs(t - 0.5) < limits.seam_clearance_share) continue;
+                const Point2 p{a.x + s * along.x, a.y + s * along.y};
+                ts.push_back(t);
+                for (const double d : {outer_from_mm, outer_to_mm})
+                    stations.push_back(
+                        frame.to_fit_space({p.x + d * outward.x, p.y + d * outward.y}));
+            }
+            stations = frame.to_pixels(stations);
+            auto& side = sides[k];
+            side = {};
+            std::vector<Point2> centres_px;
+            for (std::size_t i = 0; i < ts.size(); ++i) {
+                const Point2 from = stations[2 * i], to = stations[2 * i + 1];
+                const double span_px = std::hypot(to.x - from.x, to.y - from.y);
+                const double px_per_mm = span_px / (outer_to_mm - outer_from_mm);
+                const Point2 unit{(to.x - from.x) / span_px, (to.y - from.y) / span_px};
+                const auto falling = step_edge_on_segment(image, from, to, false, limits.edges);
+                if (!falling) continue;
+                const auto inward = [&](double mm) {
+                    return Point2{falling->x - unit.x * mm * px_per_mm,
+                                  falling->y - unit.y * mm * px_per_mm};
+                };
+                const auto rising = step_edge_on_segment(
+                    image, inward(inner_span_mm), inward(limits.narrowest_share * half_width), true,
+                    limits.edges);
+                if (!rising) continue;
+                const double width_px =
+                    (falling->x - rising->x) * unit.x + (falling->y - rising->y) * unit.y;
+                const double width_mm = width_px / px_per_mm;
+                if (width_mm < limits.narrowest_share * layout.strand_width_mm ||
+                    width_mm > limits.widest_multiple * layout.strand_width_mm)
+                    continue;
+                side.t.push_back(ts[i]);
+                side.width_px.push_back(width_px);
+                centres_px.push_back({(rising->x + falling->x) / 2, (rising->y + falling->y) / 2});
+            }
+            if (side.t.size() < limits.min_profiles_per_side) {
+                ring.unmeasured_because = std::string("its ") + kSideNames[k] +
+                                          " side showed the strand in " +
+                                          std::to_string(side.t.size()) + " of " +
+                                          std::to_string(ts.size()) + " profiles (at least " +
+                                          std::to_string(limits.min_profiles_per_side) + " needed)";
+                return ring;
+            }
+            side.centre = frame.from_pixels(centres_px);
+            lines[k] = geometry::fit_line(side.centre);
+        }
+    }
+    std::vector<Point2> corners_fit;
+    for (std::size_t k = 0; k < 4; ++k) {
+        const auto c = geometry::intersect(lines[(k + 3) % 4], lines[k]);
+        if (!c) {
+            ring.unmeasured_because = "two of its sides fitted parallel";
+            return ring;
+        }
+        corners_fit.push_back(*c);
+    }
+    const auto corners_px = frame.to_pixels(corners_fit);
+    for (std::size_t k = 0; k < 4; ++k) {
+        const std::size_t before = (k + 3) % 4;
+        ring.corners_px[k] = corners_px[k];
+        // A corner moves with either centreline's offset across it (the profiles are a few
+        // pixels apart: each its own noise).
+        const auto& a = lines[before];
+        const auto& b = lines[k];
+        const double sa = geometry::line_sigma_at(a, sides[before].centre, corners_fit[k]);
+        const double sb = geometry::line_sigma_at(b, sides[k].centre, corners_fit[k]);
+        const double sine = std::abs(a.direction.x * b.direction.y - a.direction.y * b.direction.x);
+        ring.sigma_px[k] = frame.pixels_per_unit() * std::sqrt((sa * sa + sb * sb) / 2) / sine;
+        // The side before ends at this corner, this side starts there.
+        const auto end_of_before = linear_fit_at(sides[before].t, sides[before].width_px, 1);
+        const auto start_of_this = linear_fit_at(sides[k].t, sides[k].width_px, 0);
+        ring.width_px[k] = (end_of_before.value + start_of_this.value) / 2;
+        ring.width_sigma_px[k] = std::sqrt(end_of_before.sigma * end_of_before.sigma +
+                                           start_of_this.sigma * start_of_this.sigma) /
+                                 2;
+    }
+    return ring;
+}
+
+}  // namespace calbox::vision

@@ -1,0 +1,96 @@
+#pragma once
+// A single strand laid as a square ring around a marker, measured on both its edges. A first
+// layer's strand spreads where the nozzle pressed it and narrows where it did not, so its edges
+// move with its width; its centreline stays where the nozzle went. The ring's corners are the
+// intersections of its sides' centrelines, and its width says how high the strand stands.
+#include <array>
+#include <cstddef>
+#include <string>
+
+#include "core/geometry/camera_model.hpp"
+#include "core/vision/edge_kernel.hpp"
+#include "core/vision/image_view.hpp"
+
+namespace calbox::vision {
+
+// Where the ring lies around its marker, in the marker's own millimetres (its centre at the
+// origin, +y towards its top edge as printed).
+struct StrandRingLayout {
+    double marker_half_mm = 6;      // the marker's black border, centre to edge
+    double ring_half_mm = 9.725;    // centre to the ring's centreline
+    double strand_width_mm = 0.45;  // as commanded
+    double gap_mm = 1.5;            // bare bed inside the ring, as commanded
+};
+
+// Every threshold the ring measurement uses, with why.
+struct StrandRingLimits {
+    // Profiles stay this share of a side clear of its corners (the turning nozzle rounds them)
+    // and of its middle (where a ring starts and stops, a blob or a seam).
+    double corner_clearance_share = 0.15;
+    double seam_clearance_share = 0.06;
+    // One profile every this many millimetres along a side: a few pixels apart at 0.07 mm/px,
+    // each reading its own noise.
+    double profile_step_mm = 0.25;
+    // Each edge is looked for this far past the strand's commanded edge on its side: a strand
+    // pressed to a millimetre still ends inside it, the next row's ring (a millimetre and a
+    // half away) and the quiet zone's fill (the gap inside) do not enter.
+    double reach_outside_mm = 0.8;
+    // How far the strand's centreline may lie from where it is expected: the marker's own
+    // edges, which place the first pass, move with their strands' widths by up to a quarter
+    // millimetre, scaled up from the marker to the ring.
+    double centre_uncertainty_mm = 0.5;
+    // A side whose profiles found both edges fewer times than this gives no centreline.
+    std::size_t min_profiles_per_side = 8;
+    // A strand narrower than this share of its commanded width, or wider than this multiple,
+    // is not the strand (a speck, a neighbour's edge): a free bead is 0.59 of a 0.45 x 0.2 mm
+    // line, and a nozzle's flat spreads it to about twice.
+    double narrowest_share = 0.35;
+    double widest_multiple = 3.0;
+    EdgeKernelSettings edges;
+};
+
+struct StrandRing {
+    // The centrelines' intersections in raw pixels, in the marker's corner order (OpenCV's:
+    // top-left, top-right, bottom-right, bottom-left as printed), each with its standard
+    // uncertainty per coordinate from the centrelines' own scatter.
+    std::array<geometry::Point2, 4> corners_px{};
+    std::array<double, 4> sigma_px{};
+    // The strand's width at each corner, in pixels: each side's widths fitted along it (a gap
+    // that changes across the bed changes them steadily) and the two sides' values there
+    // averaged, with the standard uncertainty of that figure.
+    std::array<double, 4> width_px{};
+    std::array<double, 4> width_sigma_px{};
+    std::string unmeasured_because;  // empty when measured
+    bool measured() const { return unmeasured_because.empty(); }
+};
+
+// A first-layer strand's height from its width, the cross-section known from the job: pressed
+// by the nozzle it is as high as the cross-section over its width; as narrow as a free bead
+// (sqrt(pi A / 4), the section over its own diameter) or narrower it is one, its top at that
+// diameter sqrt(4 A / pi) whatever the gap under it (which the width then cannot tell).
+struct StrandHeight {
+    double height_mm = 0;
+    double sigma_mm = 0;
+    bool free_bead = false;
+    // Spread as wide as a nozzle's flat lets it: the nozzle scraped the bed, and the strand is
+    // no higher than its cross-section over that width: the height given is half that bound,
+    // its uncertainty the same.
+    bool scraped = false;
+};
+// A 0.4 mm nozzle's flat tip is about a millimetre across: a strand pressed wider than 95 % of
+// it is taken as scraped (the twin's own nozzle has the same flat).
+constexpr double kNozzleFlatMm = 1.0;
+constexpr double kScrapedFromShare = 0.95;
+// A free bead's top, per coordinate of what stands in its way: a real bead sags and flattens
+// on the bed by a few hundredths.
+constexpr double kFreeBeadHeightSigmaMm = 0.02;
+StrandHeight strand_height_from_width(double section_mm2, double width_mm, double width_sigma_mm);
+
+// Measures the ring around a marker whose four corners (raw pixels, OpenCV's order) were found.
+// With a camera the centrelines are fitted as straight lines after undistortion.
+StrandRing measure_strand_ring(const GrayView& image,
+                               const std::array<geometry::Point2, 4>& marker_corners_px,
+                               const StrandRingLayout& layout, const geometry::CameraModel* camera,
+                               const StrandRingLimits& limits = {});
+
+}  // namespace calbox::vision

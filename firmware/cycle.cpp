@@ -826,7 +826,8 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                 const auto camera = geometry::camera_from_yaml(camera_yaml);
                 const auto plane = geometry::plane_from_yaml(plane_yaml);
                 std::vector<vision::GrayView> views;
-                for (const auto& frame : *frames) views.push_back(calibrated_view_of(frame, camera));
+                for (const auto& frame : *frames)
+                    views.push_back(calibrated_view_of(frame, camera));
                 std::vector<std::string> names;
                 for (std::size_t i = 0; i < frames->size(); ++i)
                     names.push_back("frame " + std::to_string(i + 1));
@@ -849,16 +850,18 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                 *overlay = delta_overlay_png(views.front(), measured, camera, plane);
             },
             [this, record, galvo, planar, then, photos, overlay, state] {
-                if (!keep(record_name(report_.number, state == CycleState::verify
-                                                          ? "verify-overlay.png"
-                                                          : "overlay.png"),
+                const bool verifying = state == CycleState::verify;
+                if (!keep(verifying ? pass_file("verify-overlay.png")
+                                    : record_name(report_.number, "overlay.png"),
                           *overlay))
                     return;
                 for (std::size_t i = 0; i < photos->size(); ++i) {
-                    const std::string what =
-                        std::string(state == CycleState::verify ? "verify" : "target") + "-photo-" +
-                        std::to_string(i + 1) + ".png";
-                    if (!keep(record_name(report_.number, what.c_str()), (*photos)[i])) return;
+                    const std::string what = std::string(verifying ? "verify" : "target") +
+                                             "-photo-" + std::to_string(i + 1) + ".png";
+                    if (!keep(verifying ? pass_file(what.c_str())
+                                        : record_name(report_.number, what.c_str()),
+                              (*photos)[i]))
+                        return;
                 }
                 if (machine_.is_galvo()) {
                     galvo_measured_ = *galvo;
@@ -881,21 +884,46 @@ void Cycle::solve() {
         solve_planar();
         return;
     }
-    if (!keep(record_name(report_.number, "measurements.json"),
-              modes::measurements_to_json(*measurements_)))
+    // A later pass measures the verification print, kept as the pass before's.
+    const int pass = static_cast<int>(report_.passes.size()) + 1;
+    if (pass == 1 && !keep(record_name(report_.number, "measurements.json"),
+                           modes::measurements_to_json(*measurements_)))
         return;
-    enter(CycleState::solve, std::to_string(measurements_->features.size()) + " corners");
+    enter(CycleState::solve, (pass > 1 ? "pass " + std::to_string(pass) + ": " : std::string()) +
+                                 std::to_string(measurements_->features.size()) + " corners");
     auto solution = std::make_shared<modes::DeltaSolution>();
-    work(
-        [machine = machine_, measurements = *measurements_, options = settings_.solve, solution] {
-            *solution = modes::solve_delta(machine, measurements, {}, options);
-        },
-        [this, solution] {
-            report_.solution = *solution;
-            if (!keep(record_name(report_.number, "result.json"), modes::result_to_json(*solution)))
-                return;
-            review();
-        });
+    work([machine = machine_, measurements = *measurements_, options = settings_.solve,
+          solution] { *solution = modes::solve_delta(machine, measurements, {}, options); },
+         [this, solution, pass] {
+             DeltaPassReport p;
+             p.pass = pass;
+             const auto errors = modes::placement_errors(measurements_->features);
+             p.measured_xy_rms_mm = errors.rms_mm;
+             p.measured_xy_max_mm = errors.largest_mm;
+             const auto& c = solution->fit.correction;
+             p.gap_range_mm = c.predicted_height_range_now_mm;
+             p.xy_change_mm = c.predicted_xy_change_mm;
+             p.height_change_mm = c.predicted_height_change_mm;
+             p.step = modes::next_delta_pass_step(*solution, pass, settings_.passes);
+             report_.passes.push_back(p);
+             if (!keep(pass_file("result.json"), modes::result_to_json(*solution))) return;
+             log_("cycle " + std::to_string(report_.number) + ": " +
+                  modes::describe_delta_pass(*solution, pass, p.step, settings_.passes));
+             // A printer that holds keeps the correction in force: the report's stays the one sent.
+             if (p.step == modes::DeltaPassStep::holds) {
+                 finish_cycle();
+                 return;
+             }
+             report_.solution = *solution;
+             review();
+         });
+}
+
+std::string Cycle::pass_file(const char* what) const {
+    const std::size_t pass = std::max<std::size_t>(report_.passes.size(), 1);
+    return record_name(
+        report_.number,
+        (pass == 1 ? std::string(what) : "pass-" + std::to_string(pass) + "-" + what).c_str());
 }
 
 void Cycle::review() {
@@ -910,7 +938,10 @@ void Cycle::review() {
     const auto& s = *report_.solution;
     const auto& before = s.fit.fitted.before;
     const auto& c = s.fit.correction;
-    enter(CycleState::review, "predicted XY after " + fixed(c.predicted_xy_rms_mm, 4) + " mm RMS");
+    const auto& pass = report_.passes.back();
+    enter(CycleState::review, (pass.pass > 1 ? "pass " + std::to_string(pass.pass) + ": " : "") +
+                                  std::string("predicted XY after ") +
+                                  fixed(c.predicted_xy_rms_mm, 4) + " mm RMS");
     log_("cycle " + std::to_string(report_.number) + ": proposed: rod " +
          fixed(before.diagonal_rod_mm, 3) + " -> " + fixed(s.after.diagonal_rod_mm, 3) +
          " mm, radius " + fixed(before.radius_mm, 3) + " -> " + fixed(s.after.radius_mm, 3) +
@@ -921,7 +952,7 @@ void Cycle::review() {
     show(draw_screen(ReviewScreen{
         {"rod " + number_text("%+.3f", s.after.diagonal_rod_mm - before.diagonal_rod_mm) + " mm",
          "radius " + number_text("%+.3f", s.after.radius_mm - before.radius_mm) + " mm"},
-        "XY " + fixed(report_.measured_xy_rms_mm.value_or(0), 3),
+        "XY " + fixed(pass.measured_xy_rms_mm, 3),
         fixed(c.predicted_xy_rms_mm, 3) + " mm"}));
     ask(Prompt::review, 0, [this] { apply(); });
 }
@@ -954,8 +985,8 @@ void Cycle::apply() {
                  " does not hold both its M665 and M666 settings to back up");
             return;
         }
-        if (!keep(record_name(report_.number, "backup.gcode"), joined(report_.backup) + "M500\n"))
-            return;
+        // Each pass backs up what it changes; revert goes back to before the cycle (pass 1's).
+        if (!keep(pass_file("backup.gcode"), joined(report_.backup) + "M500\n")) return;
         const auto& solution = *report_.solution;
         log_("cycle " + std::to_string(report_.number) + ": sending " +
              std::to_string(solution.commands.size()) + " lines");
@@ -1050,13 +1081,25 @@ void Cycle::verify() {
                 const auto errors = modes::placement_errors(measurements_->features);
                 report_.verify_xy_rms_mm = errors.rms_mm;
                 report_.verify_xy_max_mm = errors.largest_mm;
-                if (!keep(record_name(report_.number, "verify-measurements.json"),
+                if (!keep(pass_file("verify-measurements.json"),
                           modes::measurements_to_json(*measurements_)))
                     return;
                 log_("cycle " + std::to_string(report_.number) +
                      ": verified on the re-printed target: XY " +
                      fixed(*report_.verify_xy_rms_mm, 4) + " mm RMS, " +
                      fixed(*report_.verify_xy_max_mm, 4) + " mm worst");
+                auto& pass = report_.passes.back();
+                pass.verify_xy_rms_mm = report_.verify_xy_rms_mm;
+                pass.verify_xy_max_mm = report_.verify_xy_max_mm;
+                if (pass.step == modes::DeltaPassStep::apply_then_measure_again) {
+                    solve();  // the verification print, on the levelled bed, is the next pass
+                    return;
+                }
+                if (pass.step == modes::DeltaPassStep::apply_and_stop_out_of_passes)
+                    notice("the bed's gap still varied by " + fixed(pass.gap_range_mm, 3) +
+                           " mm on pass " + std::to_string(pass.pass) +
+                           ", the last allowed: check that the bed is flat and firmly mounted, "
+                           "then calibrate again");
                 finish_cycle();
             });
         });

@@ -95,6 +95,7 @@ struct CycleSettings {
     std::string reference_marks = "DICT_APRILTAG_36h11";
     double camera_moved_limit_mm = 0.05;
     modes::DeltaSolveOptions solve;
+    modes::DeltaPassLimits passes;  // a delta printer's: calibrate again until it holds
 };
 
 struct CycleDevices {
@@ -107,10 +108,22 @@ struct CycleDevices {
     Worker& worker;
 };
 
+// One pass of a delta printer's cycle: the target as measured, what the fit found and did, and
+// the target printed again after it (the next pass's measurement, when there is one).
+struct DeltaPassReport {
+    int pass = 1;
+    double measured_xy_rms_mm = 0, measured_xy_max_mm = 0;
+    double gap_range_mm = 0;  // the nozzle's gap over the bed, as the fit found it
+    double xy_change_mm = 0, height_change_mm = 0;  // what its correction moves the nozzle by
+    modes::DeltaPassStep step = modes::DeltaPassStep::apply;
+    std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
+};
+
 // What one cycle found and did, for the log, the display and the caller.
 struct CycleReport {
     int number = 0;
-    std::optional<modes::DeltaSolution> solution;  // a delta printer's correction
+    std::optional<modes::DeltaSolution> solution;  // a delta printer's correction (last pass's)
+    std::vector<DeltaPassReport> passes;           // a delta printer's, in order
     std::optional<modes::GalvoSolution> galvo;     // a galvo scanner's correction table
     std::optional<modes::PlanarSolution> planar;   // a router's error model
     bool applied = false;
@@ -241,6 +254,9 @@ class Cycle {
     const char* kept_file() const;
     const char* kept_backup_name() const;
     void finish_cycle();
+    // A delta pass's file in the record: pass 1's keep their names (measurements.json,
+    // result.json, ...), later passes' are prefixed "pass-N-".
+    std::string pass_file(const char* what) const;
 
     CycleDevices d_;
     models::MachineFile machine_;

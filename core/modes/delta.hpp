@@ -125,6 +125,32 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
                           const std::vector<solve::ProbePoint>& probe,
                           const DeltaSolveOptions& options = {});
 
+// Calibrating until the printer holds. A first layer laid where the nozzle's gap varies by
+// tenths of a millimetre is pressed in one place, a free bead or a scraped trace in another: it
+// measures the printer less well than one laid on a level bed. A pass whose fit found the gap
+// varying by more than `gap_range_limit_mm` is followed by another: its verification print,
+// laid on the bed that pass levelled, is measured and fitted as the next pass. A later pass
+// whose correction would move the nozzle by no more than `holds_within_mm` anywhere on the
+// printable area (XY and height) sends nothing: the printer holds.
+struct DeltaPassLimits {
+    double gap_range_limit_mm = 0.1;
+    double holds_within_mm = 0.01;
+    int max_passes = 3;
+};
+
+// What follows pass `pass` (from 1), given its solution.
+enum class DeltaPassStep {
+    apply,                        // send the correction; the cycle ends with its verification
+    apply_then_measure_again,     // send it; its verification print is the next pass
+    holds,                        // send nothing: a later pass found the printer within tolerance
+    apply_and_stop_out_of_passes  // the gap still varied on the last pass allowed: send, stop
+};
+DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
+                                   const DeltaPassLimits& limits = {});
+// One line for the log and the record: what the pass found and what follows.
+std::string describe_delta_pass(const DeltaSolution& solution, int pass, DeltaPassStep step,
+                                const DeltaPassLimits& limits = {});
+
 std::string method_name(DeltaMethod method);
 DeltaMethod parse_method(const std::string& name);  // throws SolveError
 

@@ -176,6 +176,7 @@ std::string result_to_json(const DeltaSolution& s) {
                   fit ? json{{"xy_rms", correction.predicted_xy_rms_mm},
                              {"xy_max", correction.predicted_xy_max_mm},
                              {"height_map_change_max", correction.predicted_height_change_mm},
+                             {"xy_change_max", correction.predicted_xy_change_mm},
                              {"fit_rms", fitted.fit_rms_mm}}
                       : json(nullptr)},
                  {"placement",
@@ -213,6 +214,7 @@ DeltaSolution result_from_json(std::string_view text, const std::string& source)
             correction.predicted_xy_rms_mm = p.at("xy_rms").get<double>();
             correction.predicted_xy_max_mm = p.at("xy_max").get<double>();
             correction.predicted_height_change_mm = p.at("height_map_change_max").get<double>();
+            correction.predicted_xy_change_mm = p.at("xy_change_max").get<double>();
             fitted.fit_rms_mm = p.at("fit_rms").get<double>();
         }
         fitted.placement.angle_rad =

@@ -2,9 +2,11 @@
 // appliance and `calbox solve` call these.
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta.hpp"
+#include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 
 namespace calbox::modes {
@@ -102,6 +104,49 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
     }
     s.commands = models::firmware_commands(s.firmware, s.after);
     return s;
+}
+
+DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
+                                   const DeltaPassLimits& limits) {
+    if (pass < 1 || limits.max_passes < 1)
+        throw SolveError("passes count from 1 and at least one is allowed");
+    const auto& c = solution.fit.correction;
+    // The classic method corrects the rod alone and says nothing of the bed: one pass.
+    if (solution.method != DeltaMethod::fit) return DeltaPassStep::apply;
+    const bool level = c.predicted_height_range_now_mm <= limits.gap_range_limit_mm;
+    if (pass > 1 && level && c.predicted_xy_change_mm <= limits.holds_within_mm &&
+        c.predicted_height_change_mm <= limits.holds_within_mm)
+        return DeltaPassStep::holds;
+    if (level) return DeltaPassStep::apply;
+    return pass < limits.max_passes ? DeltaPassStep::apply_then_measure_again
+                                    : DeltaPassStep::apply_and_stop_out_of_passes;
+}
+
+std::string describe_delta_pass(const DeltaSolution& solution, int pass, DeltaPassStep step,
+                                const DeltaPassLimits& limits) {
+    const auto& c = solution.fit.correction;
+    char found[200];
+    std::snprintf(found, sizeof found,
+                  "pass %d: the nozzle's gap varied by %.3f mm over the bed (limit %.3f mm); the "
+                  "correction moves the nozzle by up to %.4f mm in XY, %.4f mm in height",
+                  pass, c.predicted_height_range_now_mm, limits.gap_range_limit_mm,
+                  c.predicted_xy_change_mm, c.predicted_height_change_mm);
+    switch (step) {
+        case DeltaPassStep::apply:
+            return std::string(found) + ": sent, the printer then printed the target to verify";
+        case DeltaPassStep::apply_then_measure_again:
+            return std::string(found) +
+                   ": sent, and the target printed again on the levelled bed is the next pass";
+        case DeltaPassStep::holds:
+            return std::string(found) + ": within " + number_text("%.3f", limits.holds_within_mm) +
+                   " mm, nothing sent: the printer holds";
+        case DeltaPassStep::apply_and_stop_out_of_passes:
+            return std::string(found) + ": sent, and no pass is left (" +
+                   std::to_string(limits.max_passes) +
+                   " allowed): the bed still varied that much under this pass's first layer; "
+                   "check that the bed is flat and firmly mounted, then calibrate again";
+    }
+    return found;
 }
 
 }  // namespace calbox::modes

@@ -312,9 +312,15 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
     for (Eigen::Index i = 0; i < sv.size(); ++i) result.singular_values.push_back(sv[i]);
     result.condition_number =
         sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
-    // The normalised residual in the first feature's units.
-    result.fit_rms_mm = std::sqrt(solution.cost / static_cast<double>(solution.jacobian.rows())) *
-                        result.expected_rms_mm;
+    // The features' normalised residual in the first feature's units. Heights (a probe's, or the
+    // strands') are left out: the fit meets them closely whatever the camera's lens model says,
+    // and counted in they would hide a wrong one's XY misfit.
+    const auto feature_rows = static_cast<Eigen::Index>(2 * features.size());
+    result.fit_rms_mm =
+        std::sqrt(
+            residuals_at(residuals, solution.x, "the final fit").head(feature_rows).squaredNorm() /
+            static_cast<double>(feature_rows)) *
+        result.expected_rms_mm;
     result.estimate = geometry_of(solution.x);
     result.convergence = solution.convergence;
     result.placement = {solution.x[kGeometry],
@@ -371,14 +377,17 @@ DeltaCorrection design_delta_correction(const models::MachineFile& machine,
         levenberg_marquardt(correction_residuals, pack(estimate), all, parameter_steps());
     result.after = unpack(correction.x);
     result.convergence = correction.convergence;
-    double sum = 0, worst = 0, change = 0;
+    double sum = 0, worst = 0, change = 0, moved = 0;
     for (std::size_t i = 0; i < judge.size(); ++i) {
         const auto p = models::actual_position_mm(estimate, result.after, judge[i]);
+        const auto now = models::actual_position_mm(estimate, firmware, judge[i]);
         const double e = std::hypot(p.x - judge[i].x, p.y - judge[i].y);
         sum += e * e;
         worst = std::max(worst, e);
         change = std::max(change, std::abs(p.z - z_now[i]));
+        moved = std::max(moved, std::hypot(p.x - now.x, p.y - now.y));
     }
+    result.predicted_xy_change_mm = moved;
     result.predicted_xy_rms_mm = std::sqrt(sum / static_cast<double>(judge.size()));
     result.predicted_xy_max_mm = worst;
     result.predicted_height_change_mm = change;

@@ -54,6 +54,13 @@ double true_bar_length_mm(const std::vector<sim::StrokeSegment>& strokes,
     return high - low;
 }
 
+// One pass of the cycle: what the fit found and did, judged in the twin's truth after it.
+struct PassFigures {
+    double gap_range = 0;  // the nozzle's gap over the bed, as the fit found it
+    modes::DeltaPassStep step = modes::DeltaPassStep::apply;
+    double xy_rms = 0, xy_max = 0;  // the printer after this pass (the last sent, for a hold)
+};
+
 struct CycleFigures {
     double feature_rms = 0, feature_worst = 0;
     double fit_xy_rms = 0, fit_xy_max = 0, range_before = 0, range_after = 0, before_rms = 0;
@@ -63,7 +70,25 @@ struct CycleFigures {
     double feature_sigma_mean = 0;   // the edge fits' share of the corners' sigma, on average
     double strand_height_worst = 0;  // heights from widths against the twin's, where pressed
     std::size_t markers_found = 0, markers_printed = 0;
+    std::vector<PassFigures> passes;
 };
+
+// The passes as one line: "1: gap 0.282 mm, XY 0.0008/0.0025 | 2: holds".
+std::string passes_text(const std::vector<PassFigures>& passes) {
+    std::string out;
+    for (std::size_t i = 0; i < passes.size(); ++i) {
+        char b[120];
+        const auto& p = passes[i];
+        if (p.step == modes::DeltaPassStep::holds)
+            std::snprintf(b, sizeof b, "%s%zu: gap %.3f mm, holds", i ? " | " : "", i + 1,
+                          p.gap_range);
+        else
+            std::snprintf(b, sizeof b, "%s%zu: gap %.3f mm, XY %.4f/%.4f", i ? " | " : "", i + 1,
+                          p.gap_range, p.xy_rms, p.xy_max);
+        out += b;
+    }
+    return out;
+}
 
 // What a real photo has that the plain twin lacks (issue 12's harder twin): the defaults are
 // the plain twin's matte black sheet, white filament and mild light.
@@ -80,7 +105,16 @@ struct PhotoConditions {
     const char* levelled_by = "paper";
 };
 
-// One seeded printer through the whole cycle.
+// Sends a pass's commands to the twin as the printer takes them (then G28).
+void send_to_twin(sim::DeltaTwin& twin, const std::vector<std::string>& commands) {
+    sim::GcodeRunner runner(twin, sim::ToolSettings{});
+    for (const auto& line : commands) runner.run_line(line);
+    runner.run_line("G28");
+}
+
+// One seeded printer through the whole cycle, pass after pass as the box runs them
+// (modes::next_delta_pass_step): the target printed on the printer as it stands, photographed by
+// the same camera, measured, solved, and the correction sent, until the printer holds.
 CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<double> u(-1, 1);
@@ -98,16 +132,10 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
 
     sim::Scenario scenario;
     scenario.machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
-    scenario.machine.delta = sim::machine_settings(twin.firmware());
     scenario.machine.bed_material = "aluminium";
     scenario.machine.bed_temperature_c = 60;
     // Photographed once the bed has cooled part of the way: 25 to 45 degrees.
     scenario.photo_bed_temperature_c = 35 + 10 * u(rng);
-    const models::MachineFile& machine = scenario.machine;
-
-    const auto target = targets::make_delta_target(machine);
-    const std::string target_job = targets::write_gcode(target.job, machine, "target");
-    const auto laid = test::print_on_twin(twin, target_job);
 
     // The box's camera about 40 cm up, a few degrees off vertical, turned at random.
     const auto camera = test::hq_camera();
@@ -123,80 +151,102 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
     photo.motion_blur_px = look.motion_blur_px;
     if (look.motion_blur_px > 0) photo.motion_blur_direction_deg = 180 * u(rng);
     photo.jpeg_quality = look.jpeg_quality;
-    photo.seed = seed;
-    const auto print_photo = test::photo_of_print(
-        camera, bed_to_camera, sim::carried_by_bed(laid, sim::bed_growth_at_photo(scenario)), photo,
-        look.bed_albedo, look.material_albedo, look.surface);
     const auto pattern = geometry::parse_pattern_spec("chessboard:9x6@20");
+    photo.seed = seed;
     const auto board_photo = sim::render_photo(
         camera, sim::compose(bed_to_camera, sim::board_lying_on_bed({-80, 50, 0}, 0)),
         sim::BoardScene(pattern, 4), photo);
     const geometry::CameraModel model = test::as_core(camera);
     const auto plane = geometry::estimate_bed_plane(model, pattern, test::view_of(board_photo), 0);
+    const double printable = scenario.machine.bed_radius_mm;
 
-    const auto measured = modes::measure_delta(machine, model, plane, {test::view_of(print_photo)},
-                                               scenario.photo_bed_temperature_c);
-    CHECK_TEXT(measured.heights_from_fit, "the surface heights come from the fit");
     CycleFigures figures;
-    figures.markers_found = measured.frames.at(0).size();
-    figures.markers_printed = measured.target.markers.size();
-    // The share of each corner's sigma its edge fits gave, above measure's 0.005 mm floor for
-    // what they cannot see (README, measurements.json).
-    for (const auto& f : measured.features)
-        figures.feature_sigma_mean +=
-            std::sqrt(std::max(0.0, f.sigma_mm * f.sigma_mm - 0.005 * 0.005));
-    figures.feature_sigma_mean /= static_cast<double>(measured.features.size());
-
-    // Features as the fit uses them, against where the material really is.
-    {
-        twin.home();
-        std::vector<geometry::Point2> seen, material;
+    std::vector<std::string> sent;  // every pass's commands, in the order the printer took them
+    std::vector<solve::BarMeasurement> first_bars;
+    std::string target_job;
+    for (int pass = 1;; ++pass) {
+        // The box reads the printer's settings in force (M503) before each pass.
+        scenario.machine.delta = sim::machine_settings(twin.firmware());
+        const models::MachineFile& machine = scenario.machine;
+        const auto target = targets::make_delta_target(machine);
+        target_job = targets::write_gcode(target.job, machine, "target");
+        const auto laid = test::print_on_twin(twin, target_job);
+        photo.seed = seed + 1000 * static_cast<unsigned>(pass);
+        const auto print_photo = test::photo_of_print(
+            camera, bed_to_camera, sim::carried_by_bed(laid, sim::bed_growth_at_photo(scenario)),
+            photo, look.bed_albedo, look.material_albedo, look.surface);
+        const auto measured = modes::measure_delta(
+            machine, model, plane, {test::view_of(print_photo)}, scenario.photo_bed_temperature_c);
+        CHECK_TEXT(measured.heights_from_fit, "the surface heights come from the fit");
+        // The strands' heights from their widths, against the twin's where it pressed them.
         for (const auto& f : measured.features) {
-            const auto r =
-                twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z});
-            seen.push_back(f.measured_mm);
-            material.push_back({r.x, r.y});
+            const double gap =
+                twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}).z;
+            const auto strand = sim::first_layer_strand(target.strand_section_mm2, gap, 1.0);
+            if (strand.width_mm < 0.95 && !strand.free_bead)
+                figures.strand_height_worst = std::max(
+                    figures.strand_height_worst, std::abs(f.seen_at_height_mm - strand.height_mm));
         }
-        const auto placement = solve::best_rigid_placement(seen, material);
-        double sum = 0;
-        for (std::size_t i = 0; i < seen.size(); ++i) {
-            const auto p = placement.apply(seen[i]);
-            const double e = std::hypot(p.x - material[i].x, p.y - material[i].y);
-            sum += e * e;
-            figures.feature_worst = std::max(figures.feature_worst, e);
+        if (pass == 1) {
+            figures.markers_found = measured.frames.at(0).size();
+            figures.markers_printed = measured.target.markers.size();
+            // The share of each corner's sigma its edge fits gave, above measure's 0.005 mm
+            // floor for what they cannot see (README, measurements.json).
+            for (const auto& f : measured.features)
+                figures.feature_sigma_mean +=
+                    std::sqrt(std::max(0.0, f.sigma_mm * f.sigma_mm - 0.005 * 0.005));
+            figures.feature_sigma_mean /= static_cast<double>(measured.features.size());
+            // Features as the fit uses them, against where the material really is.
+            twin.home();
+            std::vector<geometry::Point2> seen, material;
+            for (const auto& f : measured.features) {
+                const auto r =
+                    twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z});
+                seen.push_back(f.measured_mm);
+                material.push_back({r.x, r.y});
+            }
+            const auto placement = solve::best_rigid_placement(seen, material);
+            double sum = 0;
+            for (std::size_t i = 0; i < seen.size(); ++i) {
+                const auto p = placement.apply(seen[i]);
+                const double e = std::hypot(p.x - material[i].x, p.y - material[i].y);
+                sum += e * e;
+                figures.feature_worst = std::max(figures.feature_worst, e);
+            }
+            figures.feature_rms = std::sqrt(sum / static_cast<double>(seen.size()));
+            // Bars against a vernier on the laid material.
+            CHECK_EQUAL(3u, measured.bars.size());
+            for (const auto& b : measured.bars) {
+                const auto& bar = target.bars[static_cast<std::size_t>(b.tower - 'A')];
+                const double truth_mm = true_bar_length_mm(laid, bar, twin, target.top_height_mm);
+                figures.bar_errors.push_back(b.measured_mm - truth_mm);
+                first_bars.push_back({b.commanded_from_mm, b.commanded_to_mm, b.measured_mm});
+            }
         }
-        figures.feature_rms = std::sqrt(sum / static_cast<double>(seen.size()));
-    }
-    // Bars against a vernier on the laid material.
-    CHECK_EQUAL(3u, measured.bars.size());
-    std::vector<solve::BarMeasurement> bars;
-    for (const auto& b : measured.bars) {
-        const auto& bar = target.bars[static_cast<std::size_t>(b.tower - 'A')];
-        const double truth_mm = true_bar_length_mm(laid, bar, twin, target.top_height_mm);
-        figures.bar_errors.push_back(b.measured_mm - truth_mm);
-        bars.push_back({b.commanded_from_mm, b.commanded_to_mm, b.measured_mm});
+        const auto solution =
+            modes::solve_delta(machine, modes::record_of(measured, machine, {"photo"}), {});
+        PassFigures p;
+        p.gap_range = solution.fit.correction.predicted_height_range_now_mm;
+        p.step = modes::next_delta_pass_step(solution, pass);
+        if (p.step != modes::DeltaPassStep::holds) {
+            sent.insert(sent.end(), solution.commands.begin(), solution.commands.end());
+            send_to_twin(twin, solution.commands);
+        }
+        sim::DeltaTwin judged(truth, levelled);
+        const auto after = sim::judge_delta(judged, sent, printable);
+        p.xy_rms = after.xy_rms, p.xy_max = after.xy_max;
+        figures.passes.push_back(p);
+        if (p.step != modes::DeltaPassStep::apply_then_measure_again) break;
     }
 
-    // One cycle: the fit's commands, then the classic method's, each on the printer as it was.
-    const auto fit = solve::fit_delta(machine, measured.features,
-                                      solve::strand_heights_as_probe(measured.features));
+    // The printer as the passes left it, judged against the printer as it came.
     sim::DeltaTwin fixed(truth, levelled);
-    const double printable = machine.bed_radius_mm;
-    const auto after =
-        sim::judge_delta(fixed, models::marlin_commands(fit.correction.after), printable);
+    const auto after = sim::judge_delta(fixed, sent, printable);
     figures.fit_xy_rms = after.xy_rms;
     figures.fit_xy_max = after.xy_max;
     figures.range_before = after.height_range_before;
     figures.range_after = after.height_range_after;
-    figures.strand_height_worst = 0;
-    for (const auto& f : measured.features) {
-        const double gap =
-            twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}).z;
-        const auto strand = sim::first_layer_strand(target.strand_section_mm2, gap, 1.0);
-        if (strand.width_mm < 0.95 && !strand.free_bead)
-            figures.strand_height_worst = std::max(
-                figures.strand_height_worst, std::abs(f.seen_at_height_mm - strand.height_mm));
-    }
+    figures.before_rms = after.xy_rms_before;
     // The verification print: the target again on the corrected printer, every stroke end's
     // commanded position against where the nozzle really laid it, placement taken out.
     {
@@ -217,24 +267,27 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
         }
         figures.reprint_xy_rms = std::sqrt(sum / static_cast<double>(placed.size()));
     }
-    figures.before_rms = after.xy_rms_before;
-    models::DeltaGeometry classic = *machine.delta;
-    classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, bars);
+    // The seed paper's classic rod correction from the first pass's bars, on the printer as it
+    // came.
+    models::DeltaGeometry classic = sim::machine_settings(levelled);
+    classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, first_bars);
     sim::DeltaTwin classic_twin(truth, levelled);
     figures.classic_xy_rms =
         sim::judge_delta(classic_twin, models::marlin_commands(classic), printable).xy_rms;
 
-    char line[480];
+    char line[600];
     std::snprintf(line, sizeof line,
                   "%s, seed %2u: features %.4f rms %.4f worst | bars %+.4f %+.4f %+.4f | XY before "
                   "%.3f, after %.4f rms %.4f worst (re-print %.4f rms %.4f worst), classic %.3f | "
-                  "height range %.3f -> %.3f, strand heights %.4f worst",
+                  "height range %.3f -> %.3f, strand heights %.4f worst | passes %s",
                   look.name, seed, figures.feature_rms, figures.feature_worst,
                   figures.bar_errors[0], figures.bar_errors[1], figures.bar_errors[2],
                   figures.before_rms, figures.fit_xy_rms, figures.fit_xy_max,
                   figures.reprint_xy_rms, figures.reprint_xy_max, figures.classic_xy_rms,
-                  figures.range_before, figures.range_after, figures.strand_height_worst);
+                  figures.range_before, figures.range_after, figures.strand_height_worst,
+                  passes_text(figures.passes).c_str());
     UT_PRINT(line);
+    CHECK_TEXT(figures.passes.size() <= 3, "at most three passes");
     return figures;
 }
 
@@ -409,11 +462,14 @@ TEST(DeltaNoisier, twice_the_sensor_noise_completes_the_cycle_with_larger_uncert
 
 // Issue "Delta mode 3": printers levelled by hand as many owners do (a paper test at the three
 // towers and the centre) print a first layer whose gap varies over the bed by tenths; a probe
-// routine leaves it flat. Both calibrate in one pass, and the strands' heights read from their
-// widths match the twin's where the nozzle pressed them.
+// routine leaves it flat. The first calibrate in at most three passes (the second measuring the
+// verification print laid on the bed the first levelled), the second in one; the strands'
+// heights read from their widths match the twin's where the nozzle pressed them.
 namespace {
 void run_levelled(const char* levelled_by, unsigned first) {
-    double worst_rms = 0, worst_max = 0, worst_height = 0, widest_range = 0;
+    const bool by_probe = std::string(levelled_by) == "probe";
+    double worst_rms = 0, worst_max = 0, worst_height = 0, widest_range = 0, narrowest = 1e9;
+    std::size_t most_passes = 0;
     for (unsigned seed = first; seed < first + 5; ++seed) {
         PhotoConditions look;
         look.name = levelled_by;
@@ -423,6 +479,8 @@ void run_levelled(const char* levelled_by, unsigned first) {
         worst_max = std::max(worst_max, f.fit_xy_max);
         worst_height = std::max(worst_height, f.strand_height_worst);
         widest_range = std::max(widest_range, f.range_before);
+        narrowest = std::min(narrowest, f.range_before);
+        most_passes = std::max(most_passes, f.passes.size());
         CHECK_TEXT(f.fit_xy_rms <= 0.01, ("XY RMS after " + std::to_string(f.fit_xy_rms)).c_str());
         CHECK_TEXT(f.fit_xy_max <= 0.03,
                    ("XY worst after " + std::to_string(f.fit_xy_max)).c_str());
@@ -430,15 +488,21 @@ void run_levelled(const char* levelled_by, unsigned first) {
                    ("re-printed pattern RMS " + std::to_string(f.reprint_xy_rms)).c_str());
         CHECK_TEXT(f.strand_height_worst <= 0.03,
                    ("strand height from width " + std::to_string(f.strand_height_worst)).c_str());
-        if (std::string(levelled_by) == "paper")
-            CHECK_TEXT(f.range_before >= 0.05,
-                       ("a paper test's bed range " + std::to_string(f.range_before)).c_str());
-        else
+        if (by_probe) {
             CHECK_TEXT(f.range_before <= 0.06,
                        ("a probe's bed range " + std::to_string(f.range_before)).c_str());
+            CHECK_EQUAL(1u, f.passes.size());
+        } else {
+            CHECK_TEXT(f.range_before >= 0.1 && f.range_before <= 0.5,
+                       ("a paper test's bed range " + std::to_string(f.range_before)).c_str());
+            // The first pass alone already meets the goal; the passes are what make it sure.
+            CHECK_TEXT(f.passes.front().xy_rms <= 0.01 && f.passes.front().xy_max <= 0.03,
+                       "the first pass meets the goal");
+        }
     }
-    UT_PRINT((std::string(levelled_by) + ": bed ranges up to " + std::to_string(widest_range) +
-              " mm; after one pass XY worst RMS " + std::to_string(worst_rms) + " mm, worst " +
+    UT_PRINT((std::string(levelled_by) + ": bed ranges " + std::to_string(narrowest) + " to " +
+              std::to_string(widest_range) + " mm; at most " + std::to_string(most_passes) +
+              " passes; XY after worst RMS " + std::to_string(worst_rms) + " mm, worst " +
               std::to_string(worst_max) + " mm; strand heights within " +
               std::to_string(worst_height) + " mm")
                  .c_str());
@@ -446,7 +510,7 @@ void run_levelled(const char* levelled_by, unsigned first) {
 }  // namespace
 
 TEST_GROUP(DeltaPaperLevelled){};
-TEST(DeltaPaperLevelled, five_printers_levelled_by_a_paper_test_calibrate_in_one_pass) {
+TEST(DeltaPaperLevelled, five_printers_levelled_by_a_paper_test_calibrate_in_three_passes_at_most) {
     run_levelled("paper", 41);
 }
 

@@ -89,6 +89,7 @@ TEST(DeltaRecords, a_result_round_trips_and_keeps_what_was_held) {
     fitted.uncertainty[0] = 0.004;
     s.fit.correction.predicted_xy_rms_mm = 0.002;
     s.fit.correction.predicted_xy_max_mm = 0.005;
+    s.fit.correction.predicted_xy_change_mm = 0.125;
     s.fit.correction.predicted_height_range_now_mm = 0.3;
     s.fit.correction.levels_bed = true;
     fitted.convergence = {7, 2.5e-6, "a step that no longer lowers the residual", false};
@@ -104,6 +105,7 @@ TEST(DeltaRecords, a_result_round_trips_and_keeps_what_was_held) {
     CHECK(back.method == modes::DeltaMethod::fit);
     STRCMP_EQUAL("rrf", back.firmware.c_str());
     DOUBLES_EQUAL(140.5, back.after.radius_mm, 0);
+    DOUBLES_EQUAL(0.125, back.fit.correction.predicted_xy_change_mm, 0);
     DOUBLES_EQUAL(251.25, back.fit.fitted.estimate.diagonal_rod_mm, 0);
     CHECK(back.fit.fitted.held[8]);
     CHECK_FALSE(back.fit.fitted.held[0]);
@@ -150,4 +152,64 @@ TEST(DeltaRecords, the_solve_refuses_another_machine_and_an_unknown_firmware_bef
     CHECK_THROWS(modes::SolveError, modes::parse_method("best"));
     // With the policy passed, the fit itself refuses one feature (it needs twelve).
     CHECK_THROWS(solve::FitError, modes::solve_delta(machine, r, {}));
+}
+
+// Calibrating until the printer holds (issue "Delta mode 3"): what follows each pass, from the
+// gap the fit found and the change its correction makes, against the default limits (0.1 mm of
+// gap, 0.01 mm of change, three passes).
+namespace {
+modes::DeltaSolution pass_solution(double gap_mm, double xy_change_mm, double height_change_mm) {
+    modes::DeltaSolution s;
+    s.fit.correction.predicted_height_range_now_mm = gap_mm;
+    s.fit.correction.predicted_xy_change_mm = xy_change_mm;
+    s.fit.correction.predicted_height_change_mm = height_change_mm;
+    return s;
+}
+}  // namespace
+
+TEST_GROUP(DeltaPasses){};
+
+TEST(DeltaPasses, a_bed_whose_gap_varies_past_the_limit_is_levelled_and_measured_again) {
+    using Step = modes::DeltaPassStep;
+    // Pass 1 always sends: a level bed ends the cycle, an uneven one asks for another pass.
+    CHECK(Step::apply == modes::next_delta_pass_step(pass_solution(0.1, 0.5, 0.2), 1));
+    CHECK(Step::apply_then_measure_again ==
+          modes::next_delta_pass_step(pass_solution(0.101, 0.001, 0.001), 1));
+    // A later pass on a level bed whose correction moves the nozzle 0.01 mm or less: the printer
+    // holds, nothing is sent. One more micrometre, in XY or in height, and it is sent.
+    CHECK(Step::holds == modes::next_delta_pass_step(pass_solution(0.05, 0.01, 0.01), 2));
+    CHECK(Step::apply == modes::next_delta_pass_step(pass_solution(0.05, 0.011, 0.0), 2));
+    CHECK(Step::apply == modes::next_delta_pass_step(pass_solution(0.05, 0.0, 0.011), 3));
+    // Still uneven: again while passes are left, then the last is sent and the cycle stops.
+    CHECK(Step::apply_then_measure_again ==
+          modes::next_delta_pass_step(pass_solution(0.3, 0.002, 0.002), 2));
+    CHECK(Step::apply_and_stop_out_of_passes ==
+          modes::next_delta_pass_step(pass_solution(0.3, 0.002, 0.002), 3));
+    modes::DeltaPassLimits one;
+    one.max_passes = 1;
+    CHECK(Step::apply_and_stop_out_of_passes ==
+          modes::next_delta_pass_step(pass_solution(0.3, 0.2, 0.2), 1, one));
+    // The classic method corrects the rod alone: one pass, whatever the bed.
+    auto classic = pass_solution(0.4, 0.3, 0.3);
+    classic.method = modes::DeltaMethod::classic;
+    CHECK(Step::apply == modes::next_delta_pass_step(classic, 1));
+    CHECK_THROWS(modes::SolveError, modes::next_delta_pass_step(classic, 0));
+}
+
+TEST(DeltaPasses, each_pass_says_what_it_found_and_what_follows) {
+    using Step = modes::DeltaPassStep;
+    STRCMP_EQUAL(
+        "pass 2: the nozzle's gap varied by 0.004 mm over the bed (limit 0.100 mm); the "
+        "correction moves the nozzle by up to 0.0030 mm in XY, 0.0020 mm in height: within "
+        "0.010 mm, nothing sent: the printer holds",
+        modes::describe_delta_pass(pass_solution(0.004, 0.003, 0.002), 2, Step::holds).c_str());
+    const auto last = modes::describe_delta_pass(pass_solution(0.25, 0.03, 0.2), 3,
+                                                 Step::apply_and_stop_out_of_passes);
+    STRCMP_CONTAINS("pass 3: the nozzle's gap varied by 0.250 mm", last.c_str());
+    STRCMP_CONTAINS("no pass is left (3 allowed)", last.c_str());
+    STRCMP_CONTAINS("check that the bed is flat and firmly mounted", last.c_str());
+    STRCMP_CONTAINS(
+        "sent, and the target printed again on the levelled bed is the next pass",
+        modes::describe_delta_pass(pass_solution(0.25, 0.1, 0.2), 1, Step::apply_then_measure_again)
+            .c_str());
 }

@@ -377,7 +377,8 @@ DeltaCorrection design_delta_correction(const models::MachineFile& machine,
         levenberg_marquardt(correction_residuals, pack(estimate), all, parameter_steps());
     result.after = unpack(correction.x);
     result.convergence = correction.convergence;
-    double sum = 0, worst = 0, change = 0, moved = 0;
+    double sum = 0, worst = 0, change = 0;
+    std::vector<geometry::Point2> xy_now, xy_after;
     for (std::size_t i = 0; i < judge.size(); ++i) {
         const auto p = models::actual_position_mm(estimate, result.after, judge[i]);
         const auto now = models::actual_position_mm(estimate, firmware, judge[i]);
@@ -385,9 +386,16 @@ DeltaCorrection design_delta_correction(const models::MachineFile& machine,
         sum += e * e;
         worst = std::max(worst, e);
         change = std::max(change, std::abs(p.z - z_now[i]));
-        moved = std::max(moved, std::hypot(p.x - now.x, p.y - now.y));
+        xy_now.push_back({now.x, now.y}), xy_after.push_back({p.x, p.y});
     }
-    result.predicted_xy_change_mm = moved;
+    // A turn or shift of the whole print is no change of its shape (a tower angle trim turns
+    // the frame): taken out before the largest move is read.
+    const auto turn = best_rigid_placement(xy_now, xy_after);
+    for (std::size_t i = 0; i < judge.size(); ++i) {
+        const auto p = turn.apply(xy_now[i]);
+        result.predicted_xy_change_mm = std::max(
+            result.predicted_xy_change_mm, std::hypot(xy_after[i].x - p.x, xy_after[i].y - p.y));
+    }
     result.predicted_xy_rms_mm = std::sqrt(sum / static_cast<double>(judge.size()));
     result.predicted_xy_max_mm = worst;
     result.predicted_height_change_mm = change;

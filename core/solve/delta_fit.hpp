@@ -103,8 +103,8 @@ struct DeltaEstimate {
 struct DeltaCorrection {
     models::DeltaGeometry after;                              // in gauge
     double predicted_xy_rms_mm = 0, predicted_xy_max_mm = 0;  // over the printable area, after
-    double predicted_height_change_mm = 0;     // largest change of the height map, after vs now
-    double predicted_xy_change_mm = 0;  // largest XY move of the nozzle it makes, after vs now
+    double predicted_height_change_mm = 0;  // largest change of the height map, after vs now
+    double predicted_xy_change_mm = 0;      // largest XY move it makes, a turn or shift taken out
     double predicted_height_range_now_mm = 0;  // the bed's height range the fit sees now
     bool levels_bed = false;  // the correction levels the bed (else keeps its height map)
     FitConvergence convergence;

@@ -231,17 +231,28 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
               std::to_string(*report.verify_xy_max_mm) + " worst; box " +
               std::to_string(report.box_seconds) + " s")
                  .c_str());
+    for (const auto& line : rig.log)
+        if (line.find(": pass ") != std::string::npos) UT_PRINT(line.c_str());
     // The goal (XY RMS <= 0.01, worst <= 0.03), and the README's figures for this seeded
-    // scenario on a real first layer: 0.257 (0.539) before, 0.0026 (0.0067) after, the
-    // verification print 0.0024.
+    // scenario on a real first layer: 0.257 (0.539) before, 0.0014 (0.0032) after two passes,
+    // the verification print 0.0012.
     CHECK(before.xy_rms > 0.25 && before.xy_rms < 0.26);
     CHECK(after.xy_rms <= 0.01);
     CHECK(after.xy_max <= 0.03);
-    CHECK(after.xy_rms <= 0.004);
-    CHECK(after.xy_max <= 0.01);
+    CHECK(after.xy_rms <= 0.002);
+    CHECK(after.xy_max <= 0.005);
     CHECK(report.applied);
     CHECK(*report.verify_xy_rms_mm <= 0.01);
-    CHECK(*report.verify_xy_rms_mm <= 0.003);
+    CHECK(*report.verify_xy_rms_mm <= 0.002);
+    // Its bed is only zeroed at the centre: the first pass finds the gap varying by 0.43 mm and
+    // levels it; the second measures the verification print laid on that bed, finds 0.04 mm,
+    // and sends what is left (0.022 mm of height), then verifies.
+    CHECK_EQUAL(2u, report.passes.size());
+    CHECK(report.passes[0].step == modes::DeltaPassStep::apply_then_measure_again);
+    CHECK(report.passes[0].gap_range_mm > 0.3);
+    CHECK(report.passes[1].step == modes::DeltaPassStep::apply);
+    CHECK(report.passes[1].gap_range_mm <= 0.1);
+    DOUBLES_EQUAL(*report.passes[0].verify_xy_rms_mm, report.passes[1].measured_xy_rms_mm, 1e-12);
 
     // The transcript: jobs each opened by N0 M110 N0, lines numbered on from 1, every checksum
     // right, nothing resent on a clean link.
@@ -258,24 +269,35 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
         CHECK_EQUAL('N', line[0]);
         jobs.back().push_back(command_of(line));
     }
-    // the settings read, target print, M503 backup, the correction, M503 read-back, the
-    // verification print
-    CHECK_EQUAL(6u, jobs.size());
+    // the settings read, target print; per pass: M503 backup, the correction, M503 read-back,
+    // the verification print (the next pass's target)
+    CHECK_EQUAL(10u, jobs.size());
     CHECK(jobs[0] == std::vector<std::string>{"M503"});
     CHECK(jobs[1] == jobs[5]);
+    CHECK(jobs[1] == jobs[9]);
     CHECK(std::find(jobs[1].begin(), jobs[1].end(), "G28") != jobs[1].end());
-    CHECK(jobs[2] == std::vector<std::string>{"M503"});
-    CHECK(jobs[3] == report.solution->commands);
-    CHECK_EQUAL(3u, jobs[3].size());
-    STRCMP_CONTAINS("M665 L", jobs[3][0].c_str());
-    STRCMP_CONTAINS("M666 X", jobs[3][1].c_str());
-    STRCMP_EQUAL("M500", jobs[3][2].c_str());
-    CHECK(jobs[4] == std::vector<std::string>{"M503"});
-    // The record: measurements, result, the settings backup.
+    for (std::size_t pass_start : {2u, 6u}) {
+        CHECK(jobs[pass_start] == std::vector<std::string>{"M503"});
+        CHECK_EQUAL(3u, jobs[pass_start + 1].size());
+        STRCMP_CONTAINS("M665 L", jobs[pass_start + 1][0].c_str());
+        STRCMP_CONTAINS("M666 X", jobs[pass_start + 1][1].c_str());
+        STRCMP_EQUAL("M500", jobs[pass_start + 1][2].c_str());
+        CHECK(jobs[pass_start + 2] == std::vector<std::string>{"M503"});
+    }
+    CHECK(jobs[7] == report.solution->commands);
+    CHECK(jobs[3] != jobs[7]);
+    // The record: measurements, each pass's result and settings backup; revert's backup is the
+    // one from before the cycle.
     CHECK(rig.data.read_file("cycle-0001-result.json").has_value());
+    CHECK(rig.data.read_file("cycle-0001-pass-2-result.json").has_value());
+    CHECK(rig.data.read_file("cycle-0001-verify-measurements.json").has_value());
+    CHECK(rig.data.read_file("cycle-0001-pass-2-verify-measurements.json").has_value());
     const auto backup = rig.data.read_file("cycle-0001-backup.gcode");
     CHECK(backup.has_value());
     STRCMP_CONTAINS("M665 L250.000 R140.000", backup->c_str());
+    const auto second_backup = rig.data.read_file("cycle-0001-pass-2-backup.gcode");
+    CHECK(second_backup.has_value());
+    CHECK(second_backup->find("M665 L250.000 R140.000") == std::string::npos);
     CHECK(rig.board.display->frames_shown() > 5);
 }
 
@@ -484,13 +506,14 @@ TEST(ApplianceCycle, a_reprapfirmware_printer_is_read_corrected_and_read_back_in
     UT_PRINT(("RepRapFirmware printer after the cycle: XY " + std::to_string(after.xy_rms) +
               " mm RMS, " + std::to_string(after.xy_max) + " mm worst")
                  .c_str());
-    CHECK(after.xy_rms <= 0.004);  // the README's 0.0026 / 0.0067
-    CHECK(after.xy_max <= 0.01);
+    CHECK(after.xy_rms <= 0.002);  // the README's 0.0014 / 0.0032
+    CHECK(after.xy_max <= 0.005);
     std::vector<std::string> commands;
     for (const auto& line : rig.transcript()) commands.push_back(command_of(line));
     CHECK(std::find(commands.begin(), commands.end(), "M503") == commands.end());
-    CHECK_EQUAL(3,
-                std::count(commands.begin(), commands.end(), "M665"));  // read, back up, read back
+    // read, then per pass: back up, read back
+    CHECK_EQUAL(2u, rig.cycle.report().passes.size());
+    CHECK_EQUAL(5, std::count(commands.begin(), commands.end(), "M665"));
     const auto& sent = rig.cycle.report().solution->commands;
     STRCMP_CONTAINS(":", sent[0].c_str());  // M665 L a:b:c
     CHECK(std::find(commands.begin(), commands.end(), sent[0]) != commands.end());
@@ -657,7 +680,8 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
         first_commands = first.cycle.report().solution->commands;
         first_verify = first.cycle.report().verify_xy_rms_mm;
     }
-    CHECK_EQUAL(3, recorder.saved);  // the camera check, the target, the verification print
+    // the camera check, the target, each of the two passes' verification prints
+    CHECK_EQUAL(4, recorder.saved);
 
     drivers::FileCamera files(photos.string());
     auto use_files = [&files](sim::SimBoard&) -> hal::Camera& { return files; };
@@ -777,7 +801,7 @@ TEST(ApplianceFiles, each_cycle_leaves_a_record_and_old_ones_are_pruned) {
     std::ofstream(dir / "last-cycle") << "3\n";
     std::ofstream(dir / "cycle-notes.txt") << "not a record\n";
     firmware::CycleSettings settings;
-    settings.records = {3, 20'000'000, true};
+    settings.records = {3, 30'000'000, true};
     Rig rig(dir, kScenario.string(), settings);
     rig.run_cycle();
     rig.check_cycles_completed(1);
@@ -789,14 +813,17 @@ TEST(ApplianceFiles, each_cycle_leaves_a_record_and_old_ones_are_pruned) {
         if (name.rfind("cycle-0004-", 0) == 0) newest_bytes += entry.file_size();
         if (name.rfind("cycle-0004-screen-", 0) == 0) ++screens;
     }
-    CHECK_TEXT(newest_bytes < 15'000'000, "the newest record alone is too big for this test");
+    UT_PRINT(("the newest record: " + std::to_string(newest_bytes) + " bytes").c_str());
+    CHECK_TEXT(newest_bytes < 25'000'000, "the newest record alone is too big for this test");
     CHECK_FALSE(fs::exists(dir / "cycle-0001-result.json"));  // past the count of 3
-    CHECK_FALSE(fs::exists(dir / "cycle-0002-result.json"));  // past 20 MB
+    CHECK_FALSE(fs::exists(dir / "cycle-0002-result.json"));  // past 30 MB
     CHECK_TRUE(fs::exists(dir / "cycle-0003-result.json"));
     CHECK_TRUE(fs::exists(dir / "cycle-notes.txt"));
     for (const char* f :
          {"measurements.json", "result.json", "backup.gcode", "verify-measurements.json",
-          "target-photo-1.png", "verify-photo-1.png", "overlay.png", "verify-overlay.png"})
+          "target-photo-1.png", "verify-photo-1.png", "overlay.png", "verify-overlay.png",
+          "pass-2-result.json", "pass-2-backup.gcode", "pass-2-verify-measurements.json",
+          "pass-2-verify-photo-1.png", "pass-2-verify-overlay.png"})
         CHECK_TEXT(fs::exists(dir / ("cycle-0004-" + std::string(f))), f);
     const cv::Mat photo =
         cv::imread((dir / "cycle-0004-target-photo-1.png").string(), cv::IMREAD_UNCHANGED);

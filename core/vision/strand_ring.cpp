@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <stdexcept>
 #include <vector>
 
@@ -111,6 +112,17 @@ ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<doub
     return {mv + slope * dt, std::sqrt(s2 * (1 / n + (stt > 0 ? dt * dt / stt : 0)))};
 }
 
+// Where consecutive sides' centrelines meet, in the fit space; none when two run parallel.
+std::optional<std::vector<Point2>> where_sides_meet(const std::array<geometry::Line, 4>& lines) {
+    std::vector<Point2> corners;
+    for (std::size_t k = 0; k < 4; ++k) {
+        const auto c = geometry::intersect(lines[(k + 3) % 4], lines[k]);
+        if (!c) return std::nullopt;
+        corners.push_back(*c);
+    }
+    return corners;
+}
+
 }  // namespace
 
 StrandHeight strand_height_from_width(double section_mm2, double width_mm, double width_sigma_mm) {
@@ -148,16 +160,12 @@ StrandRing measure_strand_ring(const GrayView& image,
     for (int pass = 0; pass < 2; ++pass) {
         if (pass == 1) {
             std::array<Point2, 4> found{};
-            std::vector<Point2> fit_space;
-            for (std::size_t k = 0; k < 4; ++k) {
-                const auto c = geometry::intersect(lines[(k + 3) % 4], lines[k]);
-                if (!c) {
-                    ring.unmeasured_because = "two of its sides fitted parallel";
-                    return ring;
-                }
-                fit_space.push_back(*c);
+            const auto met = where_sides_meet(lines);
+            if (!met) {
+                ring.unmeasured_because = "two of its sides fitted parallel";
+                return ring;
             }
-            const auto px = frame.to_pixels(fit_space);
+            const auto px = frame.to_pixels(*met);
             std::copy(px.begin(), px.end(), found.begin());
             frame = MarkerFrame(found, layout.ring_half_mm, camera);
         }
@@ -169,8 +177,13 @@ StrandRing measure_strand_ring(const GrayView& image,
             // Every profile's two stations, in pixels, in one call through the lens.
             std::vector<double> ts;
             std::vector<Point2> stations;
-            for (double s = limits.corner_clearance_share * length;
-                 s <= (1 - limits.corner_clearance_share) * length; s += limits.profile_step_mm) {
+            const double first_mm = limits.corner_clearance_share * length;
+            const auto profiles = static_cast<int>(std::floor(
+                                      ((1 - limits.corner_clearance_share) * length - first_mm) /
+                                      limits.profile_step_mm)) +
+                                  1;
+            for (int i = 0; i < profiles; ++i) {
+                const double s = first_mm + i * limits.profile_step_mm;
                 const double t = s / length;
                 if (std::abs(t - 0.5) < limits.seam_clearance_share) continue;
                 const Point2 p{a.x + s * along.x, a.y + s * along.y};
@@ -220,15 +233,12 @@ StrandRing measure_strand_ring(const GrayView& image,
             lines[k] = geometry::fit_line(side.centre);
         }
     }
-    std::vector<Point2> corners_fit;
-    for (std::size_t k = 0; k < 4; ++k) {
-        const auto c = geometry::intersect(lines[(k + 3) % 4], lines[k]);
-        if (!c) {
-            ring.unmeasured_because = "two of its sides fitted parallel";
-            return ring;
-        }
-        corners_fit.push_back(*c);
+    const auto met = where_sides_meet(lines);
+    if (!met) {
+        ring.unmeasured_because = "two of its sides fitted parallel";
+        return ring;
     }
+    const std::vector<Point2>& corners_fit = *met;
     const auto corners_px = frame.to_pixels(corners_fit);
     for (std::size_t k = 0; k < 4; ++k) {
         const std::size_t before = (k + 3) % 4;

@@ -1102,10 +1102,11 @@ void Cycle::verify() {
                     return;
                 }
                 if (pass.step == modes::DeltaPassStep::apply_and_stop_out_of_passes)
-                    notice("the bed's gap still varied by " + fixed(pass.gap_range_mm, 3) +
-                           " mm on pass " + std::to_string(pass.pass) +
-                           ", the last allowed: check that the bed is flat and firmly mounted, "
-                           "then calibrate again");
+                    notice("pass " + std::to_string(pass.pass) +
+                           ", the last allowed, still corrected the printer by up to " +
+                           fixed(std::max(pass.xy_change_mm, pass.height_change_mm), 3) +
+                           " mm; calibrate again to see whether it holds, and if it does not, "
+                           "check that the bed is flat and firmly mounted");
                 finish_cycle();
             });
         });

@@ -127,11 +127,12 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
 
 // Calibrating until the printer holds. A first layer laid where the nozzle's gap varies by
 // tenths of a millimetre is pressed in one place, a free bead or a scraped trace in another: it
-// measures the printer less well than one laid on a level bed. A pass whose fit found the gap
-// varying by more than `gap_range_limit_mm` is followed by another: its verification print,
-// laid on the bed that pass levelled, is measured and fitted as the next pass. A later pass
-// whose correction would move the nozzle by no more than `holds_within_mm` anywhere on the
-// printable area (XY and height) sends nothing: the printer holds.
+// measures the printer less well than one laid on a level bed. A first pass whose fit found the
+// gap varying by more than `gap_range_limit_mm` is followed by another: its verification print,
+// laid on the bed that pass levelled, is measured and fitted as the next pass, and so on until a
+// pass's correction would move the nozzle by no more than `holds_within_mm` anywhere on the
+// printable area (XY, a turn or shift of the whole print taken out, and height): it sends
+// nothing, the printer holds. The last pass allowed sends its correction and says so.
 struct DeltaPassLimits {
     double gap_range_limit_mm = 0.1;
     double holds_within_mm = 0.01;
@@ -143,7 +144,7 @@ enum class DeltaPassStep {
     apply,                        // send the correction; the cycle ends with its verification
     apply_then_measure_again,     // send it; its verification print is the next pass
     holds,                        // send nothing: a later pass found the printer within tolerance
-    apply_and_stop_out_of_passes  // the gap still varied on the last pass allowed: send, stop
+    apply_and_stop_out_of_passes  // the last pass allowed still changed more: send it, stop
 };
 DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
                                    const DeltaPassLimits& limits = {});

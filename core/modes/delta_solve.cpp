@@ -113,11 +113,13 @@ DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
     const auto& c = solution.fit.correction;
     // The classic method corrects the rod alone and says nothing of the bed: one pass.
     if (solution.method != DeltaMethod::fit) return DeltaPassStep::apply;
-    const bool level = c.predicted_height_range_now_mm <= limits.gap_range_limit_mm;
-    if (pass > 1 && level && c.predicted_xy_change_mm <= limits.holds_within_mm &&
+    // A level bed at the first pass: its first layer measured the printer well, one pass does.
+    if (pass == 1 && c.predicted_height_range_now_mm <= limits.gap_range_limit_mm)
+        return DeltaPassStep::apply;
+    // Passes go on until a correction would change less than the tolerance.
+    if (pass > 1 && c.predicted_xy_change_mm <= limits.holds_within_mm &&
         c.predicted_height_change_mm <= limits.holds_within_mm)
         return DeltaPassStep::holds;
-    if (level) return DeltaPassStep::apply;
     return pass < limits.max_passes ? DeltaPassStep::apply_then_measure_again
                                     : DeltaPassStep::apply_and_stop_out_of_passes;
 }
@@ -143,8 +145,8 @@ std::string describe_delta_pass(const DeltaSolution& solution, int pass, DeltaPa
         case DeltaPassStep::apply_and_stop_out_of_passes:
             return std::string(found) + ": sent, and no pass is left (" +
                    std::to_string(limits.max_passes) +
-                   " allowed): the bed still varied that much under this pass's first layer; "
-                   "check that the bed is flat and firmly mounted, then calibrate again";
+                   " allowed) to see whether it holds; if a later cycle finds the same, check "
+                   "that the bed is flat and firmly mounted";
     }
     return found;
 }

@@ -17,11 +17,13 @@ after=$(sed -nE 's/^after: XY rms ([0-9.]+) mm, max ([0-9.]+) mm$/\1 \2/p' "$wor
 awk -v a="$after" 'BEGIN { split(a, v, " "); exit !(v[1] <= 0.002 && v[2] <= 0.005) }' ||
     fail "after $after misses 0.002 / 0.005"
 # Its bed is zeroed at the centre only: the first pass levels it, the second measures the
-# verification print laid on the levelled bed.
+# verification print laid on the levelled bed and sends what is left, the third finds it holds.
 grep -qE 'cycle 1: pass 1: the nozzle.s gap varied by 0\.[3-9][0-9]* mm .*is the next pass$' "$work/run.err" ||
     fail "no first pass that asked for another"
 grep -qE 'cycle 1: pass 2: the nozzle.s gap varied by 0\.0[0-9]* mm ' "$work/run.err" ||
     fail "no second pass on a level bed"
+grep -qE 'cycle 1: pass 3: .*nothing sent: the printer holds$' "$work/run.err" ||
+    fail "no third pass that found the printer holding"
 grep -q 'cycle 1: idle -> setup-camera' "$work/run.err" || fail "the first run did not set up"
 stored="$work/box/twin-printer-settings.gcode"
 grep -q '^M665 L25[01]\.[0-9]* ' "$stored" || fail "the printer stored nothing"

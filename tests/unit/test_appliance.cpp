@@ -234,8 +234,8 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     for (const auto& line : rig.log)
         if (line.find(": pass ") != std::string::npos) UT_PRINT(line.c_str());
     // The goal (XY RMS <= 0.01, worst <= 0.03), and the README's figures for this seeded
-    // scenario on a real first layer: 0.257 (0.539) before, 0.0014 (0.0032) after two passes,
-    // the verification print 0.0012.
+    // scenario on a real first layer: 0.257 (0.539) before, 0.0014 (0.0032) after three passes
+    // (the third sends nothing), the last verification print 0.0012.
     CHECK(before.xy_rms > 0.25 && before.xy_rms < 0.26);
     CHECK(after.xy_rms <= 0.01);
     CHECK(after.xy_max <= 0.03);
@@ -245,14 +245,18 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     CHECK(*report.verify_xy_rms_mm <= 0.01);
     CHECK(*report.verify_xy_rms_mm <= 0.002);
     // Its bed is only zeroed at the centre: the first pass finds the gap varying by 0.43 mm and
-    // levels it; the second measures the verification print laid on that bed, finds 0.04 mm,
-    // and sends what is left (0.022 mm of height), then verifies.
-    CHECK_EQUAL(2u, report.passes.size());
+    // levels it; the second measures the verification print laid on that bed, finds 0.04 mm and
+    // sends what is left (0.022 mm of height); the third, on the second's verification print,
+    // would change 0.005 mm at most: the printer holds, nothing more is sent.
+    CHECK_EQUAL(3u, report.passes.size());
     CHECK(report.passes[0].step == modes::DeltaPassStep::apply_then_measure_again);
     CHECK(report.passes[0].gap_range_mm > 0.3);
-    CHECK(report.passes[1].step == modes::DeltaPassStep::apply);
+    CHECK(report.passes[1].step == modes::DeltaPassStep::apply_then_measure_again);
     CHECK(report.passes[1].gap_range_mm <= 0.1);
+    CHECK(report.passes[2].step == modes::DeltaPassStep::holds);
+    CHECK(report.passes[2].xy_change_mm <= 0.01 && report.passes[2].height_change_mm <= 0.01);
     DOUBLES_EQUAL(*report.passes[0].verify_xy_rms_mm, report.passes[1].measured_xy_rms_mm, 1e-12);
+    DOUBLES_EQUAL(*report.passes[1].verify_xy_rms_mm, report.passes[2].measured_xy_rms_mm, 1e-12);
 
     // The transcript: jobs each opened by N0 M110 N0, lines numbered on from 1, every checksum
     // right, nothing resent on a clean link.
@@ -269,8 +273,8 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
         CHECK_EQUAL('N', line[0]);
         jobs.back().push_back(command_of(line));
     }
-    // the settings read, target print; per pass: M503 backup, the correction, M503 read-back,
-    // the verification print (the next pass's target)
+    // the settings read, target print; per pass that sent something: M503 backup, the
+    // correction, M503 read-back, the verification print (the next pass's target)
     CHECK_EQUAL(10u, jobs.size());
     CHECK(jobs[0] == std::vector<std::string>{"M503"});
     CHECK(jobs[1] == jobs[5]);
@@ -292,6 +296,8 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     CHECK(rig.data.read_file("cycle-0001-pass-2-result.json").has_value());
     CHECK(rig.data.read_file("cycle-0001-verify-measurements.json").has_value());
     CHECK(rig.data.read_file("cycle-0001-pass-2-verify-measurements.json").has_value());
+    CHECK(rig.data.read_file("cycle-0001-pass-3-result.json").has_value());
+    CHECK_FALSE(rig.data.read_file("cycle-0001-pass-3-backup.gcode").has_value());
     const auto backup = rig.data.read_file("cycle-0001-backup.gcode");
     CHECK(backup.has_value());
     STRCMP_CONTAINS("M665 L250.000 R140.000", backup->c_str());
@@ -511,8 +517,8 @@ TEST(ApplianceCycle, a_reprapfirmware_printer_is_read_corrected_and_read_back_in
     std::vector<std::string> commands;
     for (const auto& line : rig.transcript()) commands.push_back(command_of(line));
     CHECK(std::find(commands.begin(), commands.end(), "M503") == commands.end());
-    // read, then per pass: back up, read back
-    CHECK_EQUAL(2u, rig.cycle.report().passes.size());
+    // read, then per pass that sent something: back up, read back
+    CHECK_EQUAL(3u, rig.cycle.report().passes.size());
     CHECK_EQUAL(5, std::count(commands.begin(), commands.end(), "M665"));
     const auto& sent = rig.cycle.report().solution->commands;
     STRCMP_CONTAINS(":", sent[0].c_str());  // M665 L a:b:c
@@ -680,7 +686,7 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
         first_commands = first.cycle.report().solution->commands;
         first_verify = first.cycle.report().verify_xy_rms_mm;
     }
-    // the camera check, the target, each of the two passes' verification prints
+    // the camera check, the target, the verification prints of the two passes that sent something
     CHECK_EQUAL(4, recorder.saved);
 
     drivers::FileCamera files(photos.string());

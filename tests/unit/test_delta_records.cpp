@@ -175,16 +175,18 @@ TEST(DeltaPasses, a_bed_whose_gap_varies_past_the_limit_is_levelled_and_measured
     CHECK(Step::apply == modes::next_delta_pass_step(pass_solution(0.1, 0.5, 0.2), 1));
     CHECK(Step::apply_then_measure_again ==
           modes::next_delta_pass_step(pass_solution(0.101, 0.001, 0.001), 1));
-    // A later pass on a level bed whose correction moves the nozzle 0.01 mm or less: the printer
-    // holds, nothing is sent. One more micrometre, in XY or in height, and it is sent.
+    // A later pass whose correction moves the nozzle 0.01 mm or less: the printer holds, nothing
+    // is sent (a bed the geometry cannot level further holds too: the change says so). One more
+    // micrometre, in XY or in height, and it is sent and measured again, while passes are left.
     CHECK(Step::holds == modes::next_delta_pass_step(pass_solution(0.05, 0.01, 0.01), 2));
-    CHECK(Step::apply == modes::next_delta_pass_step(pass_solution(0.05, 0.011, 0.0), 2));
-    CHECK(Step::apply == modes::next_delta_pass_step(pass_solution(0.05, 0.0, 0.011), 3));
-    // Still uneven: again while passes are left, then the last is sent and the cycle stops.
+    CHECK(Step::holds == modes::next_delta_pass_step(pass_solution(0.3, 0.002, 0.002), 3));
     CHECK(Step::apply_then_measure_again ==
-          modes::next_delta_pass_step(pass_solution(0.3, 0.002, 0.002), 2));
+          modes::next_delta_pass_step(pass_solution(0.05, 0.011, 0.0), 2));
+    CHECK(Step::apply_then_measure_again ==
+          modes::next_delta_pass_step(pass_solution(0.02, 0.0, 0.011), 2));
+    // The last pass allowed sends what it found and the cycle stops.
     CHECK(Step::apply_and_stop_out_of_passes ==
-          modes::next_delta_pass_step(pass_solution(0.3, 0.002, 0.002), 3));
+          modes::next_delta_pass_step(pass_solution(0.02, 0.0, 0.011), 3));
     modes::DeltaPassLimits one;
     one.max_passes = 1;
     CHECK(Step::apply_and_stop_out_of_passes ==
@@ -206,7 +208,7 @@ TEST(DeltaPasses, each_pass_says_what_it_found_and_what_follows) {
     const auto last = modes::describe_delta_pass(pass_solution(0.25, 0.03, 0.2), 3,
                                                  Step::apply_and_stop_out_of_passes);
     STRCMP_CONTAINS("pass 3: the nozzle's gap varied by 0.250 mm", last.c_str());
-    STRCMP_CONTAINS("no pass is left (3 allowed)", last.c_str());
+    STRCMP_CONTAINS("no pass is left (3 allowed) to see whether it holds", last.c_str());
     STRCMP_CONTAINS("check that the bed is flat and firmly mounted", last.c_str());
     STRCMP_CONTAINS(
         "sent, and the target printed again on the levelled bed is the next pass",

@@ -8,6 +8,7 @@
 #include <map>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+#include <stdexcept>
 
 #include "board/sim/camera_reference.hpp"
 #include "board/sim/gcode_runner.hpp"
@@ -31,8 +32,10 @@ bed_size_y_mm = 200.0
 tool_width_mm = 0.1
 )toml";
 
+// The drawings live beside the project (../shared/data): a clone elsewhere says so here.
 std::string read_file(const std::string& path) {
     std::ifstream in(path);
+    if (!in) throw std::runtime_error("cannot read " + path);
     std::ostringstream s;
     s << in.rdbuf();
     return s.str();

@@ -897,9 +897,12 @@ void Cycle::solve() {
          [this, solution, pass] {
              DeltaPassReport p;
              p.pass = pass;
-             const auto errors = modes::placement_errors(measurements_->features);
-             p.measured_xy_rms_mm = errors.rms_mm;
-             p.measured_xy_max_mm = errors.largest_mm;
+             // What the pass measured was placed already: the cycle's first print, or the
+             // verification print of the pass before.
+             p.measured_xy_rms_mm = pass == 1 ? report_.measured_xy_rms_mm.value()
+                                              : report_.passes.back().verify_xy_rms_mm.value();
+             p.measured_xy_max_mm = pass == 1 ? report_.measured_xy_max_mm.value()
+                                              : report_.passes.back().verify_xy_max_mm.value();
              const auto& c = solution->fit.correction;
              p.gap_range_mm = c.predicted_height_range_now_mm;
              p.xy_change_mm = c.predicted_xy_change_mm;

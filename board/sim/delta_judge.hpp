@@ -43,6 +43,13 @@ struct DeltaJudgement {
     double height_range_before = 0, height_range_after = 0;
 };
 
+// Sends `commands` to the twin as the printer takes them, then G28.
+inline void send_commands(DeltaTwin& twin, const std::vector<std::string>& commands) {
+    GcodeRunner runner(twin, ToolSettings{});
+    for (const auto& line : commands) runner.run_line(line);
+    runner.run_line("G28");
+}
+
 // Sends `commands` (then G28) to the twin and judges it on a 5 mm grid out to `radius_mm`.
 inline DeltaJudgement judge_delta(DeltaTwin& twin, const std::vector<std::string>& commands,
                                   double radius_mm = 75) {
@@ -53,9 +60,7 @@ inline DeltaJudgement judge_delta(DeltaTwin& twin, const std::vector<std::string
     twin.home();
     std::vector<Vec3> before;
     for (const auto& p : grid) before.push_back(twin.actual_position_mm(p));
-    GcodeRunner runner(twin, ToolSettings{});
-    for (const auto& line : commands) runner.run_line(line);
-    runner.run_line("G28");
+    send_commands(twin, commands);
     std::vector<Vec3> after;
     for (const auto& p : grid) after.push_back(twin.actual_position_mm(p));
     // XY error of actual positions against the grid, their best placement taken out.

@@ -105,13 +105,6 @@ struct PhotoConditions {
     const char* levelled_by = "paper";
 };
 
-// Sends a pass's commands to the twin as the printer takes them (then G28).
-void send_to_twin(sim::DeltaTwin& twin, const std::vector<std::string>& commands) {
-    sim::GcodeRunner runner(twin, sim::ToolSettings{});
-    for (const auto& line : commands) runner.run_line(line);
-    runner.run_line("G28");
-}
-
 // One seeded printer through the whole cycle, pass after pass as the box runs them
 // (modes::next_delta_pass_step): the target printed on the printer as it stands, photographed by
 // the same camera, measured, solved, and the correction sent, until the printer holds.
@@ -230,7 +223,7 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
         p.step = modes::next_delta_pass_step(solution, pass);
         if (p.step != modes::DeltaPassStep::holds) {
             sent.insert(sent.end(), solution.commands.begin(), solution.commands.end());
-            send_to_twin(twin, solution.commands);
+            sim::send_commands(twin, solution.commands);
         }
         sim::DeltaTwin judged(truth, levelled);
         const auto after = sim::judge_delta(judged, sent, printable);

@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/modes/delta.hpp"
+#include "core/modes/delta_probe.hpp"
 #include "core/modes/delta_records.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/modes/planar.hpp"
@@ -20,11 +21,12 @@ constexpr const char* kSolveHelp = R"(usage:
       Fits the delta's geometry to where its features really landed and writes the correction:
       parameters before and after, their uncertainty, what the data determine (singular values,
       condition number, parameters held), the residual predicted after correction, and the exact
-      lines to send. --probe adds measured heights (CSV x,y,z: the nozzle's height over the bed
-      when commanded to z = 0 there) so the height and the height map are corrected too. Without
-      it, a bed the fit finds out of level by more than 0.1 mm is levelled about its centre and
-      a flatter one keeps the height map it has. --method classic is the seed paper's rod-only
-      correction from the bar lengths, for comparison. Refused, nothing written: measurements
+      lines to send. --probe adds measured heights so the height and the height map are
+      corrected from them: CSV x,y,z (the nozzle's height over the bed when commanded to z = 0
+      there), or a Marlin console log whose "Bed X: .. Y: .. Z: .." lines G30, or G29 at V3 or
+      more, printed (the bed's height there, negated). Without it, the heights the first
+      layer's pressed strands measured from their widths stand in. --method classic is the seed
+      paper's rod-only correction from the bar lengths, for comparison. Refused, nothing written: measurements
       the geometry cannot explain (residual over 3 times their uncertainty), a rod or radius
       change over 2 %, a tower angle trim over 3 degrees.
   calbox solve galvo --machine scanner.toml --measurements measurements.json -o result.json
@@ -81,7 +83,7 @@ int delta(const std::vector<std::string>& words) {
         read_input_file(measurements_path, "measurements"), measurements_path);
     std::vector<solve::ProbePoint> probe;
     if (const auto p = args.get("--probe"))
-        probe = modes::probe_from_csv(read_input_file(*p, "probe file"), *p);
+        probe = modes::probe_from_file(read_input_file(*p, "probe file"), *p);
     modes::DeltaSolution solution;
     try {
         solution = modes::solve_delta(machine, measurements, probe, options);

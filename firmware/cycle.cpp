@@ -8,6 +8,7 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/models/delta_commands.hpp"
+#include "core/modes/delta_probe.hpp"
 #include "core/modes/delta_records.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/compensate.hpp"
@@ -756,7 +757,7 @@ void Cycle::make_target() {
             if (keeps_correction()) {
                 make();
             } else {
-                read_printer_settings(std::move(make));
+                read_printer_settings([this, make = std::move(make)] { probe_printer(make); });
             }
         });
 }
@@ -783,6 +784,40 @@ void Cycle::read_printer_settings(std::function<void()> then) {
                            ": the printer's settings: " + spaced(commands));
                       then();
                   });
+}
+
+void Cycle::probe_printer(std::function<void()> then) {
+    probe_.clear();
+    if (!machine_.probe) {
+        then();
+        return;
+    }
+    const auto points = modes::probe_points(*machine_.probe);
+    enter(CycleState::wait_machine,
+          "the printer probes the bed: " + std::to_string(points.size()) + " points");
+    run_job(modes::probe_job(machine_.firmware, points),
+            [this, points, then = std::move(then)](const JobOutcome& outcome) {
+                try {
+                    probe_ = modes::probe_from_replies(machine_.firmware, points, outcome.replies,
+                                                       machine_.probe->repeatability_mm);
+                } catch (const std::invalid_argument& e) {
+                    fail(std::string("the printer's probe report: ") + e.what());
+                    return;
+                }
+                std::string csv = "x,y,z\n";
+                double low = 1e9, high = -1e9;
+                for (const auto& p : probe_) {
+                    csv += number_text("%.3f", p.x_mm) + "," + number_text("%.3f", p.y_mm) + "," +
+                           number_text("%.4f", p.z_mm) + "\n";
+                    low = std::min(low, p.z_mm);
+                    high = std::max(high, p.z_mm);
+                }
+                if (!keep(record_name(report_.number, "probe.csv"), csv)) return;
+                log_("cycle " + std::to_string(report_.number) + ": the printer's probe: " +
+                     std::to_string(probe_.size()) + " points, the nozzle's gap ranging " +
+                     number_text("%.3f", high - low) + " mm over the bed");
+                then();
+            });
 }
 
 void Cycle::read_settings(const std::string& firmware,
@@ -892,8 +927,11 @@ void Cycle::solve() {
     enter(CycleState::solve, (pass > 1 ? "pass " + std::to_string(pass) + ": " : std::string()) +
                                  std::to_string(measurements_->features.size()) + " corners");
     auto solution = std::make_shared<modes::DeltaSolution>();
-    work([machine = machine_, measurements = *measurements_, options = settings_.solve,
-          solution] { *solution = modes::solve_delta(machine, measurements, {}, options); },
+    // The probe measured the printer as the first pass found it.
+    auto probe = pass == 1 ? probe_ : std::vector<solve::ProbePoint>{};
+    work([machine = machine_, measurements = *measurements_, options = settings_.solve, solution,
+          probe = std::move(
+              probe)] { *solution = modes::solve_delta(machine, measurements, probe, options); },
          [this, solution, pass] {
              DeltaPassReport p;
              p.pass = pass;

@@ -254,6 +254,9 @@ class Cycle {
     const char* kept_file() const;
     const char* kept_backup_name() const;
     void finish_cycle();
+    // A delta printer with [probe]: its probe measures the gap on the clear bed, before the
+    // target is printed (probe_), into the record as probe.csv.
+    void probe_printer(std::function<void()> then);
     // A delta pass's file in the record: pass 1's keep their names (measurements.json,
     // result.json, ...), later passes' are prefixed "pass-N-".
     std::string pass_file(const char* what) const;
@@ -285,6 +288,7 @@ class Cycle {
     std::function<void(std::vector<hal::Frame>)> pending_capture_;
     std::vector<std::string> target_job_;
     std::optional<modes::DeltaMeasurementsRecord> measurements_;
+    std::vector<solve::ProbePoint> probe_;  // the printer's own probe's, this cycle's first pass
     std::optional<modes::GalvoMeasurement> galvo_measured_;
     std::optional<modes::PlanarMeasurement> planar_measured_;
     std::vector<std::string> readback_;

@@ -56,6 +56,16 @@ void GcodeRunner::execute(const gcode::Line& l) {
         tool_on_ = false;
         return;
     }
+    if (l.is('G', 30)) {
+        if (tool_on_)
+            throw JobError("line " + std::to_string(line_number_) + ": G30 with the tool on");
+        Vec3 at = logical_ + offset_;
+        if (const auto x = l.value('X')) at.x = *x + offset_.x;
+        if (const auto y = l.value('Y')) at.y = *y + offset_.y;
+        for (auto& r : machine_.probe_bed(l, at)) result_.replies.push_back(std::move(r));
+        logical_ = at - offset_;
+        return;
+    }
     if (l.is('G', 90)) {
         absolute_xyz_ = true;
         absolute_e_ = true;

@@ -142,6 +142,29 @@ void DeltaTwin::level_by_probe(double r, double inner) {
     });
 }
 
+std::vector<std::string> MachineTwin::probe_bed(const gcode::Line& /*line*/, Vec3& /*at*/) {
+    throw MachineError("G30: this machine has no bed probe");
+}
+
+std::vector<std::string> DeltaTwin::probe_bed(const gcode::Line& line, Vec3& at) {
+    if (!homed_) throw MachineError("G30 before homing (G28)");
+    if (dialect_ == DeltaDialect::rrf && line.value('S') != -1.0)
+        throw MachineError(
+            "the twin's RepRapFirmware probes with G30 S-1 only (report, no change)");
+    // The commanded Z where the nozzle meets the bed: the height there, on the slope the
+    // geometry gives it (about one, so a few steps converge far below the probe's noise).
+    double touch_z = 0;
+    for (int step = 0; step < 4; ++step) touch_z -= actual_position_mm({at.x, at.y, touch_z}).z;
+    touch_z += std::normal_distribution<double>(0, 0.004)(probe_noise_);
+    char reply[120];
+    if (dialect_ == DeltaDialect::rrf)
+        std::snprintf(reply, sizeof reply, "Stopped at height %.3f mm", touch_z);
+    else
+        std::snprintf(reply, sizeof reply, "Bed X: %.2f Y: %.2f Z: %.2f", at.x, at.y, touch_z);
+    at.z = touch_z + 5;  // raised after probing
+    return {reply};
+}
+
 std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode::Line& line) {
     if (dialect_ == DeltaDialect::rrf) return rrf_settings_command(line);
     if (line.is('M', 665)) {

@@ -2,6 +2,7 @@
 // Simulated machines: where the nozzle or tool really is for a commanded position, given the
 // hidden true geometry and what the firmware believes.
 #include <optional>
+#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -27,6 +28,10 @@ class MachineTwin {
     // Machine-specific settings commands (M665, M666, M500, M503): the reply lines, or empty
     // when the command is not one of them.
     virtual std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) = 0;
+    // G30: probes the bed at the commanded position `at` (its X and Y; Z is where the nozzle
+    // ends up after) and returns the reply lines. Throws MachineError when the machine has no
+    // probe or does not take the command so.
+    virtual std::vector<std::string> probe_bed(const gcode::Line& line, Vec3& at);
 };
 
 // Whose settings commands the delta twin speaks. Marlin: M665 L R H X Y Z A B C (rod trims),
@@ -46,6 +51,11 @@ class DeltaTwin final : public MachineTwin {
     Vec3 position_after_homing_mm() const override { return {0, 0, firmware_.height_mm}; }
     Vec3 actual_position_mm(const Vec3& commanded) const override;
     std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) override;
+    // A probe at the nozzle, as a good inductive one: each reading off by a repeatable-looking
+    // 0.004 mm (standard deviation, from a fixed seed), then printed as the firmware prints it
+    // (Marlin "Bed X: .. Y: .. Z: .." to 0.01 mm; RepRapFirmware's G30 S-1 "Stopped at height
+    // .. mm" to 0.001 mm). The height is the commanded Z at which the nozzle touches the bed.
+    std::vector<std::string> probe_bed(const gcode::Line& line, Vec3& at) override;
 
     const DeltaParams& firmware() const { return firmware_; }
     const DeltaParams& stored_firmware() const { return stored_; }  // as of the last M500
@@ -78,6 +88,7 @@ class DeltaTwin final : public MachineTwin {
     bool homed_ = false;
     std::array<double, 3> home_physical_mm_{};  // carriage heights in the true frame at home
     std::array<double, 3> home_logical_mm_{};   // what the firmware believes they are
+    std::mt19937 probe_noise_{20261125};
 };
 
 // A cartesian machine with small axis scale errors and an out-of-square X/Y pair.

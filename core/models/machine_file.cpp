@@ -145,7 +145,8 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
                                 std::initializer_list<std::string_view> other_sections) {
     for (const auto& [key, node] : root) {
         const std::string_view name = key.str();
-        bool known = name == "machine" || name == "delta" || name == "galvo" || name == "planar";
+        bool known = name == "machine" || name == "delta" || name == "galvo" || name == "planar" ||
+                     name == "probe";
         for (const auto& s : other_sections) known = known || s == name;
         if (!known)
             throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
@@ -192,6 +193,24 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         read_delta_settings(file, *delta, "delta", *m.delta);
     } else if (delta != nullptr) {
         throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
+    }
+    if (const auto* probe = subtable(file, root, "probe")) {
+        if (!m.is_delta()) throw MachineFileError(file + ": [probe] on a " + m.kind + " machine");
+        if (m.firmware != "marlin" && m.firmware != "rrf")
+            throw MachineFileError(
+                file + ": [probe] is read over the link from Marlin or RepRapFirmware, not " +
+                m.firmware +
+                (m.firmware == "klipper" ? " (its probe report lacks the z_offset in printer.cfg; "
+                                           "give its heights to `calbox solve delta --probe`)"
+                                         : std::string()));
+        m.probe.emplace();
+        TomlReader p(file, *probe, "probe");
+        p.number("radius_mm", m.probe->radius_mm, 1, 1000);
+        p.number("repeatability_mm", m.probe->repeatability_mm, 0.0005, 1);
+        p.finish();
+        if (!(m.probe->radius_mm > 0)) p.fail("radius_mm", "is required");
+        if (m.probe->radius_mm > m.bed_radius_mm)
+            p.fail("radius_mm", "probes beyond the bed's radius (bed_radius_mm)");
     }
     const auto* galvo = subtable(file, root, "galvo");
     if (m.is_galvo()) {

@@ -53,6 +53,14 @@ struct PlanarSettings {
     std::optional<double> steps_per_mm_x, steps_per_mm_y;
 };
 
+// [probe]: a delta printer's own bed probe, which the box has probe the bed over the machine
+// link before it prints the target (Marlin's G30, RepRapFirmware's G30 S-1): the probed gap
+// makes one pass enough. Its points: the centre, rings at half the radius and at the radius.
+struct ProbeSettings {
+    double radius_mm = 0;            // within the probe's reach on the bed
+    double repeatability_mm = 0.01;  // one reading's standard uncertainty
+};
+
 struct MachineFile {
     std::string kind = "delta";  // delta | cartesian | router | laser | galvo
     std::string firmware = "marlin";
@@ -80,6 +88,7 @@ struct MachineFile {
     std::optional<DeltaSettings> delta;
     std::optional<GalvoSettings> galvo;
     std::optional<PlanarSettings> planar;  // every router, cartesian and laser machine
+    std::optional<ProbeSettings> probe;    // a delta printer's own probe, when the box may use it
 
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
     bool is_delta() const { return kind == "delta"; }

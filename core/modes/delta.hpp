@@ -115,6 +115,9 @@ struct DeltaSolution {
     models::DeltaGeometry after;
     std::vector<std::string> commands;  // the exact lines to send (Klipper: a printer.cfg section)
     std::size_t classic_bars = 0;       // bars the classic method averaged
+    // The gap's heights came from a probe (a file, or the printer's own over the link), not from
+    // the first layer's strands: known everywhere, one pass suffices.
+    bool heights_from_probe = false;
 };
 
 // The delta mode's solve, policy included: the measurements must be this machine's, the
@@ -132,7 +135,8 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
 // laid on the bed that pass levelled, is measured and fitted as the next pass, and so on until a
 // pass's correction would move the nozzle by no more than `holds_within_mm` anywhere on the
 // printable area (XY, a turn or shift of the whole print taken out, and height): it sends
-// nothing, the printer holds. The last pass allowed sends its correction and says so.
+// nothing, the printer holds. The last pass allowed sends its correction and says so. A pass
+// whose heights a probe measured knows the gap however the strands lay: it is the only one.
 struct DeltaPassLimits {
     double gap_range_limit_mm = 0.1;
     double holds_within_mm = 0.01;

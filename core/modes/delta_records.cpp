@@ -187,6 +187,7 @@ std::string result_to_json(const DeltaSolution& s) {
                   {{"estimate", convergence_json(fitted.convergence)},
                    {"correction", fit ? convergence_json(correction.convergence) : json(nullptr)}}},
                  {"used_probe", fitted.used_probe},
+                 {"heights_from", s.heights_from_probe ? "probe" : "strands"},
                  {"classic_bars", s.classic_bars},
                  {"bed",
                   {{"height_range_now_mm", correction.predicted_height_range_now_mm},
@@ -228,6 +229,11 @@ DeltaSolution result_from_json(std::string_view text, const std::string& source)
                 correction.convergence = convergence_from(c.at("correction"));
         }
         fitted.used_probe = j.at("used_probe").get<bool>();
+        const auto heights_from = j.at("heights_from").get<std::string>();
+        if (heights_from != "probe" && heights_from != "strands")
+            throw RecordError(source + ": heights_from must be probe or strands, not '" +
+                              heights_from + "'");
+        s.heights_from_probe = heights_from == "probe";
         s.classic_bars = j.value("classic_bars", std::size_t{0});
         correction.predicted_height_range_now_mm =
             j.at("bed").at("height_range_now_mm").get<double>();
@@ -250,26 +256,6 @@ DeltaSolution result_from_json(std::string_view text, const std::string& source)
         throw RecordError(source + ": " + e.what());
     }
     return s;
-}
-
-std::vector<solve::ProbePoint> probe_from_csv(std::string_view text, const std::string& source) {
-    std::vector<solve::ProbePoint> out;
-    std::istringstream in{std::string(text)};
-    std::string line;
-    int number_of_line = 0;
-    while (std::getline(in, line)) {
-        ++number_of_line;
-        if (line.empty() || line[0] == '#' || line[0] == 'x') continue;
-        double v[3];
-        char comma1 = 0, comma2 = 0;
-        std::istringstream fields(line);
-        if (!(fields >> v[0] >> comma1 >> v[1] >> comma2 >> v[2]) || comma1 != ',' ||
-            comma2 != ',') {
-            throw RecordError(source + ":" + std::to_string(number_of_line) + ": expected x,y,z");
-        }
-        out.push_back({v[0], v[1], v[2], 0.01});
-    }
-    return out;
 }
 
 }  // namespace calbox::modes

@@ -1,6 +1,6 @@
 #pragma once
 // The delta mode's files, read and written in one place: measurements
-// (`calbox.measurements/1`), results (`calbox.delta-result/1`) and probe heights (CSV x,y,z).
+// (`calbox.measurements/1`), results (`calbox.delta-result/1`); probe heights are delta_probe's.
 // Text in, text out: the caller does the file I/O.
 #include <stdexcept>
 #include <string>
@@ -18,9 +18,5 @@ DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std:
 
 std::string result_to_json(const DeltaSolution& solution);
 DeltaSolution result_from_json(std::string_view text, const std::string& source);
-
-// CSV `x,y,z` per line (a header line starting with x and # comments are skipped): the nozzle's
-// height over the bed when commanded to (x, y, 0).
-std::vector<solve::ProbePoint> probe_from_csv(std::string_view text, const std::string& source);
 
 }  // namespace calbox::modes

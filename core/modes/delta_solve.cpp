@@ -69,6 +69,7 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
         throw SolveError("the delta solve writes for marlin, rrf or klipper, not '" + s.firmware +
                          "'");
     }
+    s.heights_from_probe = !probe.empty();
     // Without a probe, the heights the strands' widths measured.
     const auto heights =
         probe.empty() ? solve::strand_heights_as_probe(measurements.features) : probe;
@@ -113,8 +114,10 @@ DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
     const auto& c = solution.fit.correction;
     // The classic method corrects the rod alone and says nothing of the bed: one pass.
     if (solution.method != DeltaMethod::fit) return DeltaPassStep::apply;
-    // A level bed at the first pass: its first layer measured the printer well, one pass does.
-    if (pass == 1 && c.predicted_height_range_now_mm <= limits.gap_range_limit_mm)
+    // A level bed at the first pass: its first layer measured the printer well, one pass does;
+    // so does a probe, which measured the gap itself.
+    if (pass == 1 && (solution.heights_from_probe ||
+                      c.predicted_height_range_now_mm <= limits.gap_range_limit_mm))
         return DeltaPassStep::apply;
     // Passes go on until a correction would change less than the tolerance.
     if (pass > 1 && c.predicted_xy_change_mm <= limits.holds_within_mm &&
@@ -127,12 +130,16 @@ DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
 std::string describe_delta_pass(const DeltaSolution& solution, int pass, DeltaPassStep step,
                                 const DeltaPassLimits& limits) {
     const auto& c = solution.fit.correction;
-    char found[200];
+    const std::string against =
+        solution.heights_from_probe
+            ? "probed"
+            : "limit " + number_text("%.3f", limits.gap_range_limit_mm) + " mm";
+    char found[240];
     std::snprintf(found, sizeof found,
-                  "pass %d: the nozzle's gap varied by %.3f mm over the bed (limit %.3f mm); the "
-                  "correction moves the nozzle by up to %.4f mm in XY, %.4f mm in height",
-                  pass, c.predicted_height_range_now_mm, limits.gap_range_limit_mm,
-                  c.predicted_xy_change_mm, c.predicted_height_change_mm);
+                  "pass %d: the nozzle's gap varied by %.3f mm over the bed (%s); the correction "
+                  "moves the nozzle by up to %.4f mm in XY, %.4f mm in height",
+                  pass, c.predicted_height_range_now_mm, against.c_str(), c.predicted_xy_change_mm,
+                  c.predicted_height_change_mm);
     switch (step) {
         case DeltaPassStep::apply:
             return std::string(found) + ": sent, the printer then printed the target to verify";

@@ -31,6 +31,14 @@ diagonal_rod_mm = 250.0
 radius_mm = 140.0
 )toml";
 
+// The replies a twin gives to a job's lines (a probe job's reports), in order.
+inline std::vector<std::string> replies_of_twin(sim::MachineTwin& twin,
+                                                const std::vector<std::string>& lines) {
+    sim::GcodeRunner runner(twin, sim::ToolSettings{});
+    for (const auto& line : lines) runner.run_line(line);
+    return runner.result().replies;
+}
+
 // Runs a whole G-code job on a twin and returns the material it left, ready to render.
 inline std::vector<sim::StrokeSegment> print_on_twin(sim::MachineTwin& twin,
                                                      const std::string& gcode) {

@@ -20,6 +20,7 @@
 #include "core/models/delta.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta.hpp"
+#include "core/modes/delta_probe.hpp"
 #include "core/solve/placement.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
@@ -103,6 +104,9 @@ struct PhotoConditions {
     // How the owner levelled the printer before the box saw it: "centre" (the height zeroed
     // there only), "paper" (a paper test at the towers and the centre), "probe" (G33).
     const char* levelled_by = "paper";
+    // The box has the printer's own probe measure the gap before the first pass (G30 over the
+    // link, [probe] at 76 mm): its heights go to that pass's fit.
+    bool printer_probes = false;
 };
 
 // One seeded printer through the whole cycle, pass after pass as the box runs them
@@ -157,6 +161,13 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
     std::vector<std::string> sent;  // every pass's commands, in the order the printer took them
     std::vector<solve::BarMeasurement> first_bars;
     std::string target_job;
+    std::vector<solve::ProbePoint> probe;
+    if (look.printer_probes) {
+        const auto points = modes::probe_points({76, 0.01});
+        probe = modes::probe_from_replies(
+            "marlin", points, test::replies_of_twin(twin, modes::probe_job("marlin", points)),
+            0.01);
+    }
     for (int pass = 1;; ++pass) {
         // The box reads the printer's settings in force (M503) before each pass.
         scenario.machine.delta = sim::machine_settings(twin.firmware());
@@ -217,7 +228,8 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
             }
         }
         const auto solution =
-            modes::solve_delta(machine, modes::record_of(measured, machine, {"photo"}), {});
+            modes::solve_delta(machine, modes::record_of(measured, machine, {"photo"}),
+                               pass == 1 ? probe : std::vector<solve::ProbePoint>{});
         PassFigures p;
         p.gap_range = solution.fit.correction.predicted_height_range_now_mm;
         p.step = modes::next_delta_pass_step(solution, pass);
@@ -469,7 +481,7 @@ TEST(DeltaNoisier, twice_the_sensor_noise_completes_the_cycle_with_larger_uncert
 // verification print laid on the bed the first levelled), the second in one; the strands'
 // heights read from their widths match the twin's where the nozzle pressed them.
 namespace {
-void run_levelled(const char* levelled_by, unsigned first) {
+void run_levelled(const char* levelled_by, unsigned first, bool printer_probes = false) {
     const bool by_probe = std::string(levelled_by) == "probe";
     double worst_rms = 0, worst_max = 0, worst_height = 0, widest_range = 0, narrowest = 1e9;
     std::size_t most_passes = 0;
@@ -477,6 +489,8 @@ void run_levelled(const char* levelled_by, unsigned first) {
         PhotoConditions look;
         look.name = levelled_by;
         look.levelled_by = levelled_by;
+        look.printer_probes = printer_probes;
+        if (printer_probes) look.name = "paper, probed over the link";
         const auto f = run_cycle(seed, look);
         worst_rms = std::max(worst_rms, f.fit_xy_rms);
         worst_max = std::max(worst_max, f.fit_xy_max);
@@ -491,6 +505,7 @@ void run_levelled(const char* levelled_by, unsigned first) {
                    ("re-printed pattern RMS " + std::to_string(f.reprint_xy_rms)).c_str());
         CHECK_TEXT(f.strand_height_worst <= 0.03,
                    ("strand height from width " + std::to_string(f.strand_height_worst)).c_str());
+        if (printer_probes) CHECK_EQUAL(1u, f.passes.size());  // the probe measured the gap
         if (by_probe) {
             CHECK_TEXT(f.range_before <= 0.06,
                        ("a probe's bed range " + std::to_string(f.range_before)).c_str());
@@ -503,11 +518,11 @@ void run_levelled(const char* levelled_by, unsigned first) {
                        "the first pass meets the goal");
         }
     }
-    UT_PRINT((std::string(levelled_by) + ": bed ranges " + std::to_string(narrowest) + " to " +
-              std::to_string(widest_range) + " mm; at most " + std::to_string(most_passes) +
-              " passes; XY after worst RMS " + std::to_string(worst_rms) + " mm, worst " +
-              std::to_string(worst_max) + " mm; strand heights within " +
-              std::to_string(worst_height) + " mm")
+    UT_PRINT((std::string(levelled_by) + (printer_probes ? ", probed over the link" : "") +
+              ": bed ranges " + std::to_string(narrowest) + " to " + std::to_string(widest_range) +
+              " mm; at most " + std::to_string(most_passes) + " passes; XY after worst RMS " +
+              std::to_string(worst_rms) + " mm, worst " + std::to_string(worst_max) +
+              " mm; strand heights within " + std::to_string(worst_height) + " mm")
                  .c_str());
 }
 }  // namespace
@@ -520,4 +535,11 @@ TEST(DeltaPaperLevelled, five_printers_levelled_by_a_paper_test_calibrate_in_thr
 TEST_GROUP(DeltaProbeLevelled){};
 TEST(DeltaProbeLevelled, five_printers_levelled_by_a_probe_calibrate_in_one_pass) {
     run_levelled("probe", 51);
+}
+
+// The same printers as DeltaPaperLevelled, with the printer's own probe read over the link
+// before the first pass: the gap is known, one pass suffices.
+TEST_GROUP(DeltaPaperProbed){};
+TEST(DeltaPaperProbed, the_same_printers_probed_over_the_link_calibrate_in_one_pass) {
+    run_levelled("paper", 41, true);
 }

@@ -99,7 +99,9 @@ TEST(DeltaRecords, a_result_round_trips_and_keeps_what_was_held) {
     s.fit.correction.after = s.after;
     s.fit.parameters = solve::report_parameters(fitted, s.after);
     s.commands = {"M665 L251.250:251.250:251.250 R140.500", "M500"};
+    s.heights_from_probe = true;
     const std::string text = modes::result_to_json(s);
+    STRCMP_CONTAINS("\"heights_from\": \"probe\"", text.c_str());
     STRCMP_CONTAINS("\"height_mm\": null", text.c_str());
     const auto back = modes::result_from_json(text, "r.json");
     CHECK(back.method == modes::DeltaMethod::fit);
@@ -112,6 +114,7 @@ TEST(DeltaRecords, a_result_round_trips_and_keeps_what_was_held) {
     DOUBLES_EQUAL(0.004, back.fit.fitted.uncertainty[0], 0);
     DOUBLES_EQUAL(-2.5, back.fit.fitted.placement.translation_mm.y, 1e-12);
     CHECK(back.commands == s.commands);
+    CHECK(back.heights_from_probe);
     CHECK_EQUAL(7, back.fit.fitted.convergence.iterations);
     DOUBLES_EQUAL(2.5e-6, back.fit.fitted.convergence.final_step, 0);
     CHECK_FALSE(back.fit.fitted.convergence.stopped_on_limit);
@@ -130,10 +133,6 @@ TEST(DeltaRecords, the_wrong_schema_or_broken_text_is_refused_with_its_name) {
     CHECK_THROWS(modes::RecordError, modes::result_from_json("{", "r.json"));
     CHECK_THROWS(modes::RecordError,
                  modes::measurements_from_json(R"({"schema": "calbox.measurements/1"})", "m"));
-    const auto probe = modes::probe_from_csv("x,y,z\n# probed\n1,2,0.05\n-3.5,4,-0.1\n", "p");
-    CHECK_EQUAL(2u, probe.size());
-    DOUBLES_EQUAL(-0.1, probe[1].z_mm, 0);
-    CHECK_THROWS(modes::RecordError, modes::probe_from_csv("1;2;3\n", "p"));
 }
 
 TEST(DeltaRecords, the_solve_refuses_another_machine_and_an_unknown_firmware_before_fitting) {
@@ -196,6 +195,12 @@ TEST(DeltaPasses, a_bed_whose_gap_varies_past_the_limit_is_levelled_and_measured
     classic.method = modes::DeltaMethod::classic;
     CHECK(Step::apply == modes::next_delta_pass_step(classic, 1));
     CHECK_THROWS(modes::SolveError, modes::next_delta_pass_step(classic, 0));
+    // A probe measured the gap itself: its pass is the only one, however uneven the bed.
+    auto probed = pass_solution(0.4, 0.3, 0.3);
+    probed.heights_from_probe = true;
+    CHECK(Step::apply == modes::next_delta_pass_step(probed, 1));
+    STRCMP_CONTAINS("pass 1: the nozzle's gap varied by 0.400 mm over the bed (probed); ",
+                    modes::describe_delta_pass(probed, 1, Step::apply).c_str());
 }
 
 TEST(DeltaPasses, each_pass_says_what_it_found_and_what_follows) {

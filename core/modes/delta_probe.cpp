@@ -1,0 +1,164 @@
+#include "core/modes/delta_probe.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/modes/record_error.hpp"
+#include "core/number_text.hpp"
+
+namespace calbox::modes {
+namespace {
+
+std::string lower(std::string_view s) {
+    std::string out(s);
+    std::transform(out.begin(), out.end(), out.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    return out;
+}
+
+// The number after `key` in `line` (lower case), if it is there and is one.
+std::optional<double> number_after(const std::string& line, std::string_view key,
+                                   std::size_t from = 0) {
+    const auto at = line.find(key, from);
+    if (at == std::string::npos) return std::nullopt;
+    const char* begin = line.c_str() + at + key.size();
+    char* end = nullptr;
+    const double v = std::strtod(begin, &end);
+    if (end == begin || !std::isfinite(v)) return std::nullopt;
+    return v;
+}
+
+// Marlin's "Bed X: 10.00 Y: -20.00 Z: 0.12" (older releases: "Bed x: 10 y: .. z: .."), after
+// whatever a host put before it: the probed point and its bed height. Empty for other lines;
+// throws std::invalid_argument for one that starts so but does not hold three numbers.
+std::optional<geometry::Point3> marlin_probe_line(const std::string& text) {
+    const std::string line = lower(text);
+    const auto at = line.find("bed x:");
+    if (at == std::string::npos) return std::nullopt;
+    const auto x = number_after(line, "x:", at);
+    const auto y = number_after(line, " y:", at);
+    const auto z = number_after(line, " z:", at);
+    if (!x || !y || !z)
+        throw std::invalid_argument("a probe report line without its X, Y and Z: '" + text + "'");
+    return geometry::Point3{*x, *y, *z};
+}
+
+}  // namespace
+
+std::vector<geometry::Point2> probe_points(const models::ProbeSettings& probe) {
+    constexpr double kPi = 3.14159265358979323846;
+    std::vector<geometry::Point2> out{{0, 0}};
+    // Tower A stands at 210 degrees; every 30 degrees from it on the rim, every 60 inside.
+    for (const auto& [count, radius] : {std::pair{6, probe.radius_mm / 2}, {12, probe.radius_mm}}) {
+        for (int i = 0; i < count; ++i) {
+            const double a = (210.0 + 360.0 * i / count) * kPi / 180;
+            out.push_back({radius * std::cos(a), radius * std::sin(a)});
+        }
+    }
+    return out;
+}
+
+std::vector<std::string> probe_job(const std::string& firmware,
+                                   const std::vector<geometry::Point2>& points) {
+    std::vector<std::string> job{"G28"};
+    for (const auto& p : points) {
+        const std::string xy = " X" + number_text("%.2f", p.x) + " Y" + number_text("%.2f", p.y);
+        if (firmware == "marlin") {
+            job.push_back("G30" + xy);
+        } else if (firmware == "rrf") {
+            job.push_back("G1" + xy + " Z5 F6000");
+            job.push_back("G30 S-1");
+        } else if (firmware == "klipper") {
+            throw std::invalid_argument(
+                "Klipper's probe report lacks its z_offset, which lives in printer.cfg: give its "
+                "heights to `calbox solve delta --probe` instead");
+        } else {
+            throw std::invalid_argument("no probe job for firmware '" + firmware + "'");
+        }
+    }
+    job.push_back("G28");
+    return job;
+}
+
+std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
+                                                  const std::vector<geometry::Point2>& points,
+                                                  const std::vector<std::string>& replies,
+                                                  double sigma_mm) {
+    if (firmware != "marlin" && firmware != "rrf")
+        throw std::invalid_argument("no probe report for firmware '" + firmware + "'");
+    std::vector<solve::ProbePoint> out;
+    for (const auto& reply : replies) {
+        if (firmware == "marlin") {
+            if (const auto p = marlin_probe_line(reply))
+                out.push_back({p->x, p->y, -p->z, sigma_mm});
+            continue;
+        }
+        const std::string line = lower(reply);
+        if (line.find("stopped at height") == std::string::npos) continue;
+        const auto z = number_after(line, "stopped at height");
+        if (!z) throw std::invalid_argument("a probe report without its height: '" + reply + "'");
+        out.push_back({0, 0, -*z, sigma_mm});
+    }
+    if (out.size() != points.size())
+        throw std::invalid_argument("the printer reported " + std::to_string(out.size()) +
+                                    " probe height(s) for " + std::to_string(points.size()) +
+                                    " points");
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const auto& asked = points[i];
+        auto& got = out[i];
+        if (firmware == "rrf") {
+            got.x_mm = asked.x, got.y_mm = asked.y;  // its report says the height alone
+            continue;
+        }
+        // Marlin prints the point to 0.01 mm; one far from where the box asked is another
+        // command's report, or a probe moved by its offset.
+        if (std::hypot(got.x_mm - asked.x, got.y_mm - asked.y) > 0.5)
+            throw std::invalid_argument(
+                "probe point " + std::to_string(i + 1) + " was reported at (" +
+                number_text("%.2f", got.x_mm) + ", " + number_text("%.2f", got.y_mm) +
+                ") where the box asked for (" + number_text("%.2f", asked.x) + ", " +
+                number_text("%.2f", asked.y) + ")");
+    }
+    return out;
+}
+
+std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source) {
+    constexpr double kSigmaMm = 0.01;
+    // A console log is told by its report lines: the rest of it is the printer's chatter.
+    const bool log = lower(text).find("bed x:") != std::string::npos;
+    std::vector<solve::ProbePoint> out;
+    std::istringstream in{std::string(text)};
+    std::string line;
+    int number_of_line = 0;
+    while (std::getline(in, line)) {
+        ++number_of_line;
+        const std::string where = source + ":" + std::to_string(number_of_line);
+        if (log) {
+            try {
+                if (const auto p = marlin_probe_line(line))
+                    out.push_back({p->x, p->y, -p->z, kSigmaMm});
+            } catch (const std::invalid_argument& e) {
+                throw RecordError(where + ": " + e.what());
+            }
+            continue;
+        }
+        if (line.empty() || line[0] == '#' || line[0] == 'x') continue;
+        double v[3];
+        char comma1 = 0, comma2 = 0;
+        std::istringstream fields(line);
+        if (!(fields >> v[0] >> comma1 >> v[1] >> comma2 >> v[2]) || comma1 != ',' ||
+            comma2 != ',') {
+            throw RecordError(where + ": expected x,y,z (or a Marlin log's \"Bed X:\" lines)");
+        }
+        out.push_back({v[0], v[1], v[2], kSigmaMm});
+    }
+    if (out.empty()) throw RecordError(source + ": no probe heights");
+    return out;
+}
+
+}  // namespace calbox::modes

@@ -1,0 +1,43 @@
+#pragma once
+// The printer's own bed probe, read over the machine link: where to probe, the job that makes
+// the printer do it and report each height, and those heights as the fit takes them. A probe
+// measures the nozzle's gap over the bed before the target is printed, so the fit knows it
+// everywhere and one pass suffices however unevenly the first layer lies.
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/models/machine_file.hpp"
+#include "core/solve/delta_fit.hpp"
+
+namespace calbox::modes {
+
+// Where the box probes (machine frame, mm): the centre, six points at half the radius and
+// twelve at the radius ([probe] radius_mm), the towers' directions among them.
+std::vector<geometry::Point2> probe_points(const models::ProbeSettings& probe);
+
+// The job that probes them: Marlin `G30 X Y` (it reports "Bed X: .. Y: .. Z: .."),
+// RepRapFirmware a move there and `G30 S-1` ("Stopped at height .. mm"). Homes first. Throws
+// std::invalid_argument for Klipper, whose PROBE reports where the probe triggered without its
+// z_offset, which lives in printer.cfg out of the link's reach.
+std::vector<std::string> probe_job(const std::string& firmware,
+                                   const std::vector<geometry::Point2>& points);
+
+// The heights in the printer's replies to probe_job, in the points' order, as the fit takes
+// them: the nozzle's gap over the bed when commanded to (x, y, 0), which is the reported bed
+// height negated. Marlin's lines carry their own X and Y (used, and checked against where the
+// box asked); RepRapFirmware's are paired with the points in order. `sigma_mm`: the probe's
+// repeatability. Throws std::invalid_argument with one line when the replies hold another
+// number of heights than points, or a Marlin height reported elsewhere than asked.
+std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
+                                                  const std::vector<geometry::Point2>& points,
+                                                  const std::vector<std::string>& replies,
+                                                  double sigma_mm);
+
+// A probe file for `calbox solve delta --probe`: CSV `x,y,z` lines (the gap as above; a header
+// line starting with x and # comments are skipped), or a Marlin console log holding "Bed X: ..
+// Y: .. Z: .." lines (G30's, or G29's at V3 or higher), whose heights are negated as above.
+// Throws RecordError naming the line.
+std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source);
+
+}  // namespace calbox::modes

@@ -314,6 +314,21 @@ std::string Console::reply_to(std::string_view line) {
                               " mm RMS, " + number_text("%.4f", *report.verify_xy_max_mm) +
                               " mm worst (measured)";
                 r.data = {{"cycle", report.number}, {"applied", report.applied}};
+                // A delta printer's passes: what each found, moved and did.
+                auto passes = json::array();
+                for (const auto& p : report.passes) {
+                    r.text += "\npass " + std::to_string(p.pass) + ": gap varied " +
+                              number_text("%.3f", p.gap_range_mm) + " mm; moves the nozzle " +
+                              number_text("%.4f", p.xy_change_mm) + " mm in XY, " +
+                              number_text("%.4f", p.height_change_mm) +
+                              " mm in height: " + modes::pass_step_name(p.step);
+                    passes.push_back({{"pass", p.pass},
+                                      {"gap_range_mm", p.gap_range_mm},
+                                      {"xy_change_mm", p.xy_change_mm},
+                                      {"height_change_mm", p.height_change_mm},
+                                      {"step", modes::pass_step_name(p.step)}});
+                }
+                if (!report.passes.empty()) r.data["passes"] = passes;
                 if (report.measured_xy_rms_mm)
                     r.data["before"] = {{"rms_mm", *report.measured_xy_rms_mm},
                                         {"max_mm", *report.measured_xy_max_mm}};

@@ -155,6 +155,9 @@ DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
 // One line for the log and the record: what the pass found and what follows.
 std::string describe_delta_pass(const DeltaSolution& solution, int pass, DeltaPassStep step,
                                 const DeltaPassLimits& limits = {});
+// A step in a few words, for the console and its JSON: "sent", "sent, measured again",
+// "holds, nothing sent", "sent, no pass left".
+const char* pass_step_name(DeltaPassStep step);
 
 std::string method_name(DeltaMethod method);
 DeltaMethod parse_method(const std::string& name);  // throws SolveError

@@ -127,6 +127,20 @@ DeltaPassStep next_delta_pass_step(const DeltaSolution& solution, int pass,
                                     : DeltaPassStep::apply_and_stop_out_of_passes;
 }
 
+const char* pass_step_name(DeltaPassStep step) {
+    switch (step) {
+        case DeltaPassStep::apply:
+            return "sent";
+        case DeltaPassStep::apply_then_measure_again:
+            return "sent, measured again";
+        case DeltaPassStep::holds:
+            return "holds, nothing sent";
+        case DeltaPassStep::apply_and_stop_out_of_passes:
+            return "sent, no pass left";
+    }
+    return "?";
+}
+
 std::string describe_delta_pass(const DeltaSolution& solution, int pass, DeltaPassStep step,
                                 const DeltaPassLimits& limits) {
     const auto& c = solution.fit.correction;

@@ -8,6 +8,26 @@ work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 "$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$work/m.json" --probe "$work/probe.csv" -o "$work/result.json" | tee "$work/log"
 grep -q '"calbox.delta-result/1"' "$work/result.json"
 grep -q '"used_probe": true' "$work/result.json"
+grep -q '"heights_from": "probe"' "$work/result.json"
+# The same heights as a Marlin console log of G30 (the bed's height, so the gap negated) give
+# the same fit.
+/usr/bin/python3 - "$work/probe.csv" > "$work/g30.log" <<'PY'
+import sys
+for row in open(sys.argv[1]):
+    if row[0] in "x#":
+        continue
+    x, y, z = (float(v) for v in row.split(","))
+    print("Send: G30 X%.2f Y%.2f" % (x, y))
+    print("Recv: Bed X: %.2f Y: %.2f Z: %.4f" % (x, y, -z))
+    print("Recv: ok")
+PY
+"$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$work/m.json" --probe "$work/g30.log" -o "$work/from_log.json" > /dev/null
+/usr/bin/python3 - "$work/result.json" "$work/from_log.json" <<'PY'
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:])
+for key in ("diagonal_rod_mm", "radius_mm", "height_mm"):
+    assert abs(a["estimate"][key] - b["estimate"][key]) < 2e-4, (key, a["estimate"], b["estimate"])
+PY
 # The fit finds the hidden rod (251.1 mm, trims 0.6 -0.4 -0.3 -> in gauge 251.067).
 /usr/bin/python3 - "$work/result.json" <<'PY'
 import json, sys
@@ -52,5 +72,10 @@ expect_error "feature f4 was commanded off the bed" "$work/off.json"
 expect_error "refused: the measurements do not fit a delta" "$work/big.json"
 expect_error "made for another machine" "$work/m.json" "$work/other.toml"
 expect_error "malformed measurements" "$work/probe.csv"
+printf 'x,y,z\n1,2,0.05\n1;2;3\n' > "$work/bad_probe.csv"
+if "$calbox" solve delta --machine "$top/examples/delta.toml" --measurements "$work/m.json" --probe "$work/bad_probe.csv" -o "$work/bad_result.json" > /dev/null 2> "$work/err" ||
+    ! grep -q "bad_probe.csv:3: expected x,y,z" "$work/err" || [ -e "$work/bad_result.json" ]; then
+    echo "FAIL: a bad probe row:"; cat "$work/err"; failures=$((failures + 1))
+fi
 [ "$failures" -eq 0 ] && echo "solve delta works end to end and refuses bad input"
 exit "$failures"

@@ -20,9 +20,12 @@
 #include <optional>
 #include <sstream>
 
+#include "core/modes/delta_probe.hpp"
 #include "core/modes/galvo.hpp"
+#include "core/number_text.hpp"
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
+#include "firmware/console.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
@@ -257,6 +260,24 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     CHECK(report.passes[2].xy_change_mm <= 0.01 && report.passes[2].height_change_mm <= 0.01);
     DOUBLES_EQUAL(*report.passes[0].verify_xy_rms_mm, report.passes[1].measured_xy_rms_mm, 1e-12);
     DOUBLES_EQUAL(*report.passes[1].verify_xy_rms_mm, report.passes[2].measured_xy_rms_mm, 1e-12);
+    // The console's `last` lists them, each with what it found and did.
+    {
+        firmware::BoxConfig config;
+        firmware::LogBook log_book;
+        firmware::Console console(
+            {rig.cycle, config, rig.data, "calbox.toml", rig.data, log_book, "test", {}, {}});
+        const std::string last = console.reply_to("last");
+        STRCMP_CONTAINS(
+            ("\npass 1: gap varied " + number_text("%.3f", report.passes[0].gap_range_mm) +
+             " mm; moves the nozzle ")
+                .c_str(),
+            last.c_str());
+        STRCMP_CONTAINS(": sent, measured again\npass 2: ", last.c_str());
+        STRCMP_CONTAINS(": sent, measured again\npass 3: gap varied 0.0", last.c_str());
+        STRCMP_CONTAINS(": holds, nothing sent\n", last.c_str());
+        STRCMP_CONTAINS("\"step\":\"holds, nothing sent\"",
+                        console.reply_to("last --json").c_str());
+    }
 
     // The transcript: jobs each opened by N0 M110 N0, lines numbered on from 1, every checksum
     // right, nothing resent on a clean link.
@@ -305,6 +326,59 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     CHECK(second_backup.has_value());
     CHECK(second_backup->find("M665 L250.000 R140.000") == std::string::npos);
     CHECK(rig.board.display->frames_shown() > 5);
+}
+
+// Issue "Delta mode 3": a printer with a probe ([probe]) is probed over the link on the clear
+// bed before the target is printed; the probe measured the gap, so the same printer the test
+// above takes three passes for calibrates in one.
+TEST(ApplianceCycle, a_printer_with_a_probe_is_probed_first_and_calibrated_in_one_pass) {
+    Rig rig(prepared_dir("probe"), scenario_with("probe", "[probe]\nradius_mm = 76"), {});
+    rig.run_cycle();
+    rig.check_cycles_completed(1);
+    const auto after = rig.board.bench->judge_delta_printer();
+    const auto& report = rig.cycle.report();
+    UT_PRINT(("probed printer after the cycle: XY " + std::to_string(after.xy_rms) + " mm RMS, " +
+              std::to_string(after.xy_max) + " mm worst, gap range " +
+              std::to_string(after.height_range_after) + " mm")
+                 .c_str());
+    // The goal, and the README's figures: 0.0022 (0.0066) after one pass, against three passes'
+    // 0.0014 (0.0032) without the probe; the gap then flat within 0.008 mm.
+    CHECK(after.xy_rms <= 0.01 && after.xy_max <= 0.03);
+    CHECK(after.xy_rms <= 0.003);
+    CHECK(after.xy_max <= 0.008);
+    CHECK(after.height_range_after <= 0.01);
+    CHECK_EQUAL(1u, report.passes.size());
+    CHECK(report.passes[0].step == modes::DeltaPassStep::apply);
+    CHECK(report.passes[0].gap_range_mm > 0.3);  // as uneven as above
+    CHECK(report.solution->heights_from_probe);
+    // the settings read, the probe job, the target print, the backup, the correction, the
+    // read-back, the verification print
+    std::vector<std::vector<std::string>> jobs;
+    for (const auto& line : rig.transcript()) {
+        if (line == "N0 M110 N0*125") {
+            jobs.emplace_back();
+            continue;
+        }
+        jobs.back().push_back(command_of(line));
+    }
+    CHECK_EQUAL(7u, jobs.size());
+    CHECK_EQUAL(21u, jobs[1].size());
+    STRCMP_EQUAL("G28", jobs[1].front().c_str());
+    STRCMP_EQUAL("G30 X0.00 Y0.00", jobs[1][1].c_str());
+    STRCMP_EQUAL("G30 X-65.82 Y-38.00", jobs[1][8].c_str());  // tower A's way, 76 mm out
+    STRCMP_EQUAL("G28", jobs[1].back().c_str());
+    const auto probe = rig.data.read_file("cycle-0001-probe.csv");
+    CHECK(probe.has_value());
+    CHECK_EQUAL(19u, modes::probe_from_file(*probe, "probe.csv").size());
+    bool logged = false;
+    for (const auto& line : rig.log) {
+        if (line.find("cycle 1: the printer's probe: 19 points, the nozzle's gap ranging 0.") ==
+            std::string::npos)
+            continue;
+        UT_PRINT(line.c_str());
+        logged = true;
+    }
+    CHECK_TEXT(logged, "the probe's log line");
 }
 
 // A display that fails mid-use (here its directory replaced by a file) is told once; the cycle

@@ -25,7 +25,7 @@ constexpr const char* kMeasureHelp = R"(usage:
       file), refines their corners, maps them to the bed and moves each along its ray to the
       printed surface's height (from a fit of the corners), and writes each corner's commanded
       and measured position with its uncertainty. Several photos are averaged. The three bars
-      are measured edge to edge along their length, as a vernier would. --bed-temperature: the
+      are measured between the centrelines of the single strands across their ends. --bed-temperature: the
       bed's temperature when the photos were taken (default: the machine file's
       photo_bed_temperature_c), if not the bed_temperature_c it printed at; the print has grown or shrunk with the bed (bed_material) and positions are
       given as printed. --overlay draws on the first photo what was found, each corner's error
@@ -116,7 +116,7 @@ int delta(const std::vector<std::string>& words) {
         }
     }
     for (const auto& b : measured.bars) {
-        std::printf("bar %c: %.3f mm edge to edge (+/- %.3f), commanded %.3f\n", b.tower,
+        std::printf("bar %c: %.3f mm between its end ticks (+/- %.3f), commanded %.3f\n", b.tower,
                     b.measured_mm, b.sigma_mm, b.commanded_mm);
     }
     if (const auto overlay = args.get("--overlay"))

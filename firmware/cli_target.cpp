@@ -22,8 +22,8 @@ constexpr const char* kTargetHelp = R"(usage:
   calbox target delta --machine printer.toml -o target.gcode [--preview target.png]
                       [--describe target.json] [--layers N]
       The delta calibration artifact: ArUco markers (DICT_4X4_50, 12 mm) spread over the bed,
-      their white cells filled as zigzag lines at the line width, and three bars along the
-      towers. --describe writes each feature's commanded position in machine millimetres.
+      their white cells filled as zigzag lines at the line width, each ringed by one strand, and
+      three bars along the towers with one strand across each end. --describe writes each feature's commanded position in machine millimetres.
   calbox target galvo --machine scanner.toml -o JOB [--format gcode|csv] [--grid N]
                       [--preview PNG] [--describe target.json]
       The galvo calibration artifact: an N x N grid (default 31) of filled circles over the
@@ -183,6 +183,7 @@ int delta(const std::vector<std::string>& words) {
                             {"start_mm", point(b.start_mm)},
                             {"end_mm", point(b.end_mm)},
                             {"width_mm", b.width_mm},
+                            {"ticks_mm", {point(b.ticks_mm[0]), point(b.ticks_mm[1])}},
                             {"length_mm", b.length_mm()}});
         }
         const nlohmann::json j{{"schema", "calbox.target/1"},

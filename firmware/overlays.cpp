@@ -111,10 +111,10 @@ std::string delta_overlay_png(const vision::GrayView& photo,
     std::snprintf(legend, sizeof legend, "errors x%.0f (largest %.3f mm)", gain, largest);
     cv::putText(picture, legend, {picture.cols / 40, picture.rows / 20}, cv::FONT_HERSHEY_SIMPLEX,
                 picture.cols / 1500.0, cv::Scalar(0, 0, 255), thickness);
-    // Each bar between its measured end faces, with its length against the commanded one.
+    // Each bar between its measured end ticks, with its length against the commanded one.
     for (const auto& b : measured.bars) {
         const auto px = geometry::project_points(camera, plane.bed_to_camera,
-                                                 {b.faces_seen_mm[0], b.faces_seen_mm[1]});
+                                                 {b.ticks_seen_mm[0], b.ticks_seen_mm[1]});
         const cv::Point from(cvRound(px[0].x), cvRound(px[0].y));
         const cv::Point to(cvRound(px[1].x), cvRound(px[1].y));
         cv::line(picture, from, to, cv::Scalar(255, 160, 0), 2 * thickness);

@@ -13,7 +13,7 @@
 namespace calbox::firmware {
 
 // Each marker's outline, each corner's placement error as an arrow (magnified, with its factor
-// printed) and each bar between its measured end faces with its length.
+// printed) and each bar between its measured end ticks with its length.
 std::string delta_overlay_png(const vision::GrayView& photo,
                               const modes::DeltaMeasurement& measured,
                               const geometry::CameraModel& camera, const geometry::BedPlane& plane);

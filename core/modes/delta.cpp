@@ -75,96 +75,74 @@ struct SurfaceModel {
     }
 };
 
-// How a bar's end face is looked for and when it is not one, with the reasons.
-struct EndFaceLimits {
-    // Before the printer is calibrated the face can be a millimetre or more from where the
-    // target puts it: it is first looked for this far either side along the bar's centreline.
-    double search_reach_mm = 3.0;
-    // Then profiled closely, this far either side of where it was found: a strand's width, so
-    // that no other edge (the bar's far side, a neighbouring strand) enters a profile.
-    double profile_reach_mm = 0.8;
-    int profiles = 15;  // across the face's flat part
-    // A face with an edge in fewer profiles than this share is cut, smeared or hidden.
+// How a bar's end tick is profiled and when it is not one, with the reasons.
+struct TickLimits {
+    // Profiles stay this far inside the tick's ends (where the nozzle starts and stops it,
+    // rounded and blobbed), one every this many millimetres along it.
+    double end_clearance_mm = 0.6;
+    double profile_step_mm = 0.25;
+    // A tick seen in fewer profiles than this share is cut, smeared or hidden.
     double min_profile_share = 2.0 / 3.0;
-    // A clean printed face is straight to a few micrometres; a blob, a gap or a stray strand
-    // is not a face to measure.
-    double max_face_rms_mm = 0.05;
+    // A tick's centreline is straight to a few micrometres; a blob, a gap or a stray strand is
+    // not a tick to measure.
+    double max_rms_mm = 0.05;
+    vision::StrandRingLimits strand;  // how each profile finds its two edges
 };
 
-// One end face of a bar in one photo: the edge points where the material stops, on the bed
-// frame, found by profiles along the bar at offsets across it.
-struct EndFace {
+// One end tick of a bar in one photo: the centreline of the strand on the bed frame (at
+// `height_mm`), from its two edges on profiles along the bar.
+struct TickLine {
     geometry::Line line;
-    double rms_mm = 0;
-    std::size_t points = 0;
+    std::vector<geometry::Point2> points;
 };
 
-// Without a face, `why_not` says what was missing.
-std::optional<EndFace> measure_end_face(const vision::GrayView& image,
-                                        const geometry::CameraModel& camera,
-                                        const geometry::BedPlane& plane, geometry::Point2 end,
-                                        geometry::Point2 outward, double height_mm,
-                                        double half_flat_mm, std::string& why_not,
-                                        const EndFaceLimits& limits = {}) {
+// Without a tick, `why_not` says what was missing. `outward`: along the bar, away from it.
+std::optional<TickLine> measure_tick(const vision::GrayView& image,
+                                     const geometry::CameraModel& camera,
+                                     const geometry::BedPlane& plane, geometry::Point2 expected,
+                                     geometry::Point2 outward, double height_mm,
+                                     double half_length_mm, double strand_width_mm,
+                                     std::string& why_not, const TickLimits& limits = {}) {
     const geometry::Point2 across{-outward.y, outward.x};
-    // Material inside, bed outside: the step falls going outwards. `reach` mm either side.
-    const auto edge_along = [&](geometry::Point2 centre,
-                                double reach) -> std::optional<geometry::Point2> {
-        const auto px = geometry::project_points(
-            camera, plane.bed_to_camera,
-            {{centre.x - outward.x * reach, centre.y - outward.y * reach, height_mm},
-             {centre.x + outward.x * reach, centre.y + outward.y * reach, height_mm}});
-        const auto edge = vision::step_edge_on_segment(image, px[0], px[1], false);
-        if (!edge) return std::nullopt;
-        const auto bed = geometry::pixels_to_bed(camera, plane, {*edge}, height_mm)[0];
-        return geometry::Point2{bed.x, bed.y};
-    };
-    const auto rough = edge_along(end, limits.search_reach_mm);
-    if (!rough) {
-        why_not = "no edge within " + number_text("%g", limits.search_reach_mm) +
-                  " mm of where it was expected";
-        return std::nullopt;
-    }
-    std::vector<geometry::Point2> points;
-    const int profiles = std::max(2, limits.profiles);
+    // From a little inside its expected centreline (short of the bar's end face, a gap away)
+    // to past its commanded outer edge: as the rings are profiled.
+    const double from_mm = -limits.strand.centre_uncertainty_mm;
+    const double to_mm = strand_width_mm / 2 + limits.strand.reach_outside_mm;
+    const double reach = half_length_mm - limits.end_clearance_mm;
+    const int profiles = static_cast<int>(std::floor(2 * reach / limits.profile_step_mm)) + 1;
+    std::vector<geometry::Point3> stations;
     for (int k = 0; k < profiles; ++k) {
-        const double t = half_flat_mm * (2.0 * k / (profiles - 1) - 1);
-        const auto p =
-            edge_along({rough->x + across.x * t, rough->y + across.y * t}, limits.profile_reach_mm);
-        if (p) points.push_back(*p);
+        const double t = -reach + k * limits.profile_step_mm;
+        for (const double d : {from_mm, to_mm})
+            stations.push_back({expected.x + across.x * t + outward.x * d,
+                                expected.y + across.y * t + outward.y * d, height_mm});
     }
-    if (static_cast<double>(points.size()) < limits.min_profile_share * profiles) {
-        why_not = "an edge in only " + std::to_string(points.size()) + " of " +
+    const auto px = geometry::project_points(camera, plane.bed_to_camera, stations);
+    std::vector<geometry::Point2> centres_px;
+    for (int k = 0; k < profiles; ++k) {
+        const auto from = px[static_cast<std::size_t>(2 * k)];
+        const auto to = px[static_cast<std::size_t>(2 * k + 1)];
+        const double px_per_mm = std::hypot(to.x - from.x, to.y - from.y) / (to_mm - from_mm);
+        const auto crossing =
+            vision::strand_across(image, from, to, px_per_mm, strand_width_mm, limits.strand);
+        if (crossing) centres_px.push_back(crossing->centre_px);
+    }
+    if (static_cast<double>(centres_px.size()) < limits.min_profile_share * profiles) {
+        why_not = "the strand in only " + std::to_string(centres_px.size()) + " of " +
                   std::to_string(profiles) + " profiles across it";
         return std::nullopt;
     }
-    EndFace face;
-    face.line = geometry::fit_line(points);
-    face.rms_mm = geometry::line_rms(face.line, points);
-    face.points = points.size();
-    if (face.rms_mm > limits.max_face_rms_mm) {
-        why_not = "not straight: its edge points lie " + number_text("%.3f", face.rms_mm) +
-                  " mm RMS from a line, " + number_text("%g", limits.max_face_rms_mm) + " allowed";
+    TickLine tick;
+    for (const auto& p : geometry::pixels_to_bed(camera, plane, centres_px, height_mm))
+        tick.points.push_back({p.x, p.y});
+    tick.line = geometry::fit_line(tick.points);
+    const double rms = geometry::line_rms(tick.line, tick.points);
+    if (rms > limits.max_rms_mm) {
+        why_not = "not straight: its centreline points lie " + number_text("%.3f", rms) +
+                  " mm RMS from a line, " + number_text("%g", limits.max_rms_mm) + " allowed";
         return std::nullopt;
     }
-    return face;
-}
-
-// How far the face reaches along `axis` (towards `sign` * axis), the bar's centre at `centre`:
-// the flat face runs `half_flat_mm` either side of the centreline before the rounded corners.
-double face_reach(const EndFace& face, geometry::Point2 centre, geometry::Point2 axis,
-                  double half_flat_mm, double sign) {
-    const geometry::Point2 across{-axis.y, axis.x};
-    const auto& l = face.line;
-    const double d_across = l.direction.x * across.x + l.direction.y * across.y;
-    const double p_across = (l.point.x - centre.x) * across.x + (l.point.y - centre.y) * across.y;
-    double reach = -1e300;
-    for (const double lateral : {-half_flat_mm, half_flat_mm}) {
-        const double s = (lateral - p_across) / d_across;
-        const geometry::Point2 q{l.point.x + s * l.direction.x, l.point.y + s * l.direction.y};
-        reach = std::max(reach, sign * ((q.x - centre.x) * axis.x + (q.y - centre.y) * axis.y));
-    }
-    return sign * reach;
+    return tick;
 }
 
 // The printed surface, from a fit of the marker corners: on an uncalibrated printer the bed's
@@ -208,54 +186,55 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
     return surface;
 }
 
-// The classic bars, edge to edge, each end face mapped at the surface's height there.
+// The classic bars, each between its end ticks' centrelines, mapped at the surface's height
+// there, along the bar's centreline as the surface model places it.
 void measure_bars(const models::MachineFile& machine, const geometry::CameraModel& camera,
                   const geometry::BedPlane& plane, const std::vector<vision::GrayView>& frames,
                   const SurfaceModel& surface, DeltaMeasurement& out) {
-    const double line_width = machine.line_width_mm;
+    const double top = out.target.top_height_mm;
     for (const auto& bar : out.target.bars) {
-        // The flat part of each end face: the bar's width less the rounded corners of its
-        // perimeter line.
-        const double half_flat = bar.width_mm / 2 - line_width / 2;
-        const double half_profiled = bar.width_mm / 2 - line_width;
-        const double top = out.target.top_height_mm;
-        const auto start = surface.on_bed({bar.start_mm.x, bar.start_mm.y, top});
-        const auto end = surface.on_bed({bar.end_mm.x, bar.end_mm.y, top});
-        const double length_mm = std::hypot(end.x - start.x, end.y - start.y);
-        const geometry::Point2 axis{(end.x - start.x) / length_mm, (end.y - start.y) / length_mm};
+        const auto near = surface.on_bed({bar.ticks_mm[0].x, bar.ticks_mm[0].y, top});
+        const auto far = surface.on_bed({bar.ticks_mm[1].x, bar.ticks_mm[1].y, top});
+        const double span = std::hypot(far.x - near.x, far.y - near.y);
+        const geometry::Point2 axis{(far.x - near.x) / span, (far.y - near.y) / span};
+        const geometry::Line centreline{{near.x, near.y}, axis};
         std::vector<double> lengths;
         double sigma_sum = 0;
-        std::array<geometry::Point3, 2> faces_seen{};
+        std::array<geometry::Point3, 2> ticks_seen{};
         std::string why_not;
         for (std::size_t f = 0; f < frames.size(); ++f) {
-            const auto& frame = frames[f];
-            std::string near_why, far_why;
-            const auto near =
-                measure_end_face(frame, camera, plane, {start.x, start.y}, {-axis.x, -axis.y},
-                                 start.z, half_profiled, near_why);
-            const auto far = measure_end_face(frame, camera, plane, {end.x, end.y}, axis, end.z,
-                                              half_profiled, far_why);
-            if (!near || !far) {
-                why_not = std::string("bar ") + bar.tower + ": photo " + std::to_string(f + 1) +
-                          ": its " + (near ? "outer" : "inner") +
-                          " end face: " + (near ? far_why : near_why);
-                break;
+            std::array<std::optional<geometry::Point2>, 2> crossings;
+            double sigma2 = 0;
+            for (std::size_t end = 0; end < 2; ++end) {
+                const auto& at = end == 0 ? near : far;
+                const double sign = end == 0 ? -1 : 1;
+                std::string tick_why;
+                const auto tick = measure_tick(frames[f], camera, plane, {at.x, at.y},
+                                               {sign * axis.x, sign * axis.y}, at.z,
+                                               bar.width_mm / 2, machine.line_width_mm, tick_why);
+                if (!tick) {
+                    why_not = std::string("bar ") + bar.tower + ": photo " + std::to_string(f + 1) +
+                              ": its " + (end == 0 ? "inner" : "outer") + " end tick: " + tick_why;
+                    break;
+                }
+                crossings[end] = geometry::intersect(tick->line, centreline);
+                if (!crossings[end]) {
+                    why_not = std::string("bar ") + bar.tower + ": photo " + std::to_string(f + 1) +
+                              ": its end tick runs along the bar";
+                    break;
+                }
+                const double s = geometry::line_sigma_at(tick->line, tick->points, *crossings[end]);
+                sigma2 += s * s;
             }
+            if (!crossings[0] || !crossings[1]) break;
             if (lengths.empty()) {
-                faces_seen = {geometry::Point3{near->line.point.x, near->line.point.y, start.z},
-                              geometry::Point3{far->line.point.x, far->line.point.y, end.z}};
+                ticks_seen = {geometry::Point3{crossings[0]->x, crossings[0]->y, near.z},
+                              geometry::Point3{crossings[1]->x, crossings[1]->y, far.z}};
             }
-            // The bar's own axis, through the middles of its end faces.
-            const geometry::Point2 a{far->line.point.x - near->line.point.x,
-                                     far->line.point.y - near->line.point.y};
-            const double n = std::hypot(a.x, a.y);
-            const geometry::Point2 u{a.x / n, a.y / n};
-            const double reach_far = face_reach(*far, near->line.point, u, half_flat, 1);
-            const double reach_near = face_reach(*near, near->line.point, u, half_flat, -1);
-            lengths.push_back((reach_far - reach_near) / out.bed_scale);
-            // Each face's position from its points' scatter.
-            sigma_sum += near->rms_mm * near->rms_mm / static_cast<double>(near->points) +
-                         far->rms_mm * far->rms_mm / static_cast<double>(far->points);
+            lengths.push_back(
+                std::hypot(crossings[1]->x - crossings[0]->x, crossings[1]->y - crossings[0]->y) /
+                out.bed_scale);
+            sigma_sum += sigma2;
         }
         if (lengths.size() != frames.size()) {  // not measurable in every photo
             out.bars_unmeasured.push_back(why_not);
@@ -263,8 +242,8 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
         }
         BarLengthMeasurement m;
         m.tower = bar.tower;
-        m.commanded_from_mm = std::hypot(bar.start_mm.x, bar.start_mm.y);
-        m.commanded_to_mm = std::hypot(bar.end_mm.x, bar.end_mm.y);
+        m.commanded_from_mm = std::hypot(bar.ticks_mm[0].x, bar.ticks_mm[0].y);
+        m.commanded_to_mm = std::hypot(bar.ticks_mm[1].x, bar.ticks_mm[1].y);
         m.commanded_mm = bar.length_mm();
         const double k = static_cast<double>(lengths.size());
         double mean = 0;
@@ -276,8 +255,8 @@ void measure_bars(const models::MachineFile& machine, const geometry::CameraMode
         // The mapping's own scale (the plane calibration) adds a floor of about 0.003 mm.
         const double per_frame = std::sqrt(sigma_sum / k + 0.003 * 0.003);
         m.sigma_mm = std::max(per_frame, k > 1 ? std::sqrt(scatter / (k - 1)) : 0.0) / std::sqrt(k);
-        m.surface_height_mm = (start.z + end.z) / 2;
-        m.faces_seen_mm = faces_seen;
+        m.surface_height_mm = (near.z + far.z) / 2;
+        m.ticks_seen_mm = ticks_seen;
         out.bars.push_back(m);
     }
 }

@@ -19,25 +19,25 @@ class MeasureError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-// One of the classic bars, measured edge to edge along its length as a vernier reads it (the
-// jaws square to the bar, touching its end faces where they reach furthest).
+// One of the classic bars, measured between its end ticks' centrelines along the bar (where
+// the nozzle went, whatever the strands' widths).
 struct BarLengthMeasurement {
     char tower = 'A';
-    double commanded_from_mm = 0, commanded_to_mm = 0;  // distances from the bed centre
-    double commanded_mm = 0;                            // end minus start
+    double commanded_from_mm = 0, commanded_to_mm = 0;  // the ticks' distances from the centre
+    double commanded_mm = 0;                            // far tick minus near tick
     double measured_mm = 0;
     double sigma_mm = 0;
-    double surface_height_mm = 0;  // mean of the ends' printed heights the edges were mapped at
-    // The middles of the near and far end faces in the first photo, on the bed frame at the
-    // height they were mapped at: where to draw the bar on that photo.
-    std::array<geometry::Point3, 2> faces_seen_mm{};
+    double surface_height_mm = 0;  // mean of the ticks' printed heights they were mapped at
+    // Where the bar's centreline crosses the inner and outer ticks' in the first photo, on the
+    // bed frame at the height they were mapped at: where to draw the bar on that photo.
+    std::array<geometry::Point3, 2> ticks_seen_mm{};
 };
 
 struct DeltaMeasurement {
     targets::DeltaTarget target;
     std::vector<solve::FeatureMeasurement> features;  // one per marker corner seen
     std::vector<BarLengthMeasurement> bars;           // those fully seen in every photo
-    // The others, each with why: "bar A: photo 1: its far end face ...".
+    // The others, each with why: "bar A: photo 1: its outer end tick ...".
     std::vector<std::string> bars_unmeasured;
     // Markers a photo should show (inside its frame) but could not read, each with where:
     // "photo 1: marker 7 near (1234, 567) px could not be read".

@@ -37,7 +37,7 @@ double distance_to_segment(Point2 p, Point2 a, Point2 b) {
 }  // namespace
 
 double TargetBar::length_mm() const {
-    return std::hypot(end_mm.x - start_mm.x, end_mm.y - start_mm.y);
+    return std::hypot(ticks_mm[1].x - ticks_mm[0].x, ticks_mm[1].y - ticks_mm[0].y);
 }
 
 DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTargetOptions& o) {
@@ -67,6 +67,12 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
         const double outer = usable - o.bar_width_mm / 2;
         bar.start_mm = {o.bar_inner_radius_mm * std::cos(a), o.bar_inner_radius_mm * std::sin(a)};
         bar.end_mm = {outer * std::cos(a), outer * std::sin(a)};
+        const double tick_inner = o.bar_inner_radius_mm - o.bar_tick_gap_mm - w / 2;
+        const double tick_outer = outer + o.bar_tick_gap_mm + w / 2;
+        bar.ticks_mm = {Point2{tick_inner * std::cos(a), tick_inner * std::sin(a)},
+                        Point2{tick_outer * std::cos(a), tick_outer * std::sin(a)}};
+        if (std::hypot(tick_outer + w / 2, o.bar_width_mm / 2) > usable)
+            throw JobError("the bars' outer ticks do not fit on the bed");
         target.bars.push_back(bar);
     }
     // Markers on a hexagonal grid, clear of the bars and inside the usable disc.
@@ -170,6 +176,16 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
                     {b.end_mm.x - n.x, b.end_mm.y - n.y},
                     {b.end_mm.x + n.x, b.end_mm.y + n.y}};
         append(target.job.toolpath, plan_fill({r}, FillRule::nonzero, fill, pen));
+        // Its end ticks, each drawn from the side the pen is nearer.
+        for (const auto& tick : b.ticks_mm) {
+            Contour line;
+            line.closed = false;
+            line.points = {{tick.x + n.x, tick.y + n.y}, {tick.x - n.x, tick.y - n.y}};
+            if (std::hypot(pen.x - line.points[1].x, pen.y - line.points[1].y) <
+                std::hypot(pen.x - line.points[0].x, pen.y - line.points[0].y))
+                std::swap(line.points[0], line.points[1]);
+            append(target.job.toolpath, plan_trace({line}, pen));
+        }
     }
     target.job.line_width_mm = w;
     target.job.spacing_mm = w;
@@ -189,8 +205,8 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
         std::snprintf(b, sizeof b, "|%d:%.4f,%.4f", m.id, m.centre_mm.x, m.centre_mm.y);
         canonical += b;
     }
-    std::snprintf(b, sizeof b, "|%.4f|%.4f|%d|%.4f", o.marker_mm, o.bar_width_mm, o.layers,
-                  o.outline_gap_mm);
+    std::snprintf(b, sizeof b, "|%.4f|%.4f|%d|%.4f|ticks %.4f", o.marker_mm, o.bar_width_mm,
+                  o.layers, o.outline_gap_mm, o.bar_tick_gap_mm);
     canonical += b;
     target.fingerprint = models::digest(canonical);
     return target;

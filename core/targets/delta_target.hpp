@@ -21,6 +21,10 @@ struct DeltaTargetOptions {
     double pitch_mm = 25.0;
     double bar_width_mm = 4.0;
     double bar_inner_radius_mm = 12.0;  // bars run from here outwards along each tower
+    // A single strand across each bar's end, this much bare bed past it, as long as the bar is
+    // wide: the bar's length is read between their centrelines, which stay where the nozzle
+    // went whatever the strands' widths (a bar's own end faces move with its fill's).
+    double bar_tick_gap_mm = 1.5;
     // Each marker's quiet zone is ringed by one strand, this much bare bed inside it: both its
     // edges show, so its centreline (where the nozzle went, whatever the strand's width) and its
     // width (the strand's height, where the nozzle pressed it) can be measured. 0.8 mm keeps an
@@ -40,9 +44,12 @@ struct TargetMarker {
 
 struct TargetBar {
     char tower = 'A';
-    geometry::Point2 start_mm, end_mm;  // the bar's centreline, outer edges included
+    geometry::Point2 start_mm, end_mm;  // the filled bar's centreline, outer edges included
     double width_mm = 0;
-    double length_mm() const;  // edge to edge along the tower, as a vernier reads it
+    // The end ticks' middles (the inner one first): each tick is one strand square to the bar,
+    // `width_mm` long, its centreline through this point.
+    std::array<geometry::Point2, 2> ticks_mm{};
+    double length_mm() const;  // between the ticks' centrelines, along the tower
 };
 
 struct DeltaTarget {

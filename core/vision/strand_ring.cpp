@@ -135,6 +135,29 @@ StrandHeight strand_height_from_width(double section_mm2, double width_mm, doubl
     return {height, height / width_mm * width_sigma_mm, false, false};
 }
 
+std::optional<StrandCrossing> strand_across(const GrayView& image, Point2 from, Point2 to,
+                                            double px_per_mm, double strand_width_mm,
+                                            const StrandRingLimits& limits) {
+    const double span_px = std::hypot(to.x - from.x, to.y - from.y);
+    if (!(span_px > 0) || !(px_per_mm > 0)) return std::nullopt;
+    const Point2 unit{(to.x - from.x) / span_px, (to.y - from.y) / span_px};
+    const auto falling = step_edge_on_segment(image, from, to, false, limits.edges);
+    if (!falling) return std::nullopt;
+    const auto inward = [&](double mm) {
+        return Point2{falling->x - unit.x * mm * px_per_mm, falling->y - unit.y * mm * px_per_mm};
+    };
+    const auto rising = step_edge_on_segment(
+        image, inward(limits.widest_multiple * strand_width_mm),
+        inward(limits.narrowest_share * strand_width_mm / 2), true, limits.edges);
+    if (!rising) return std::nullopt;
+    const double width_px = (falling->x - rising->x) * unit.x + (falling->y - rising->y) * unit.y;
+    const double width_mm = width_px / px_per_mm;
+    if (width_mm < limits.narrowest_share * strand_width_mm ||
+        width_mm > limits.widest_multiple * strand_width_mm)
+        return std::nullopt;
+    return StrandCrossing{{(rising->x + falling->x) / 2, (rising->y + falling->y) / 2}, width_px};
+}
+
 StrandRing measure_strand_ring(const GrayView& image,
                                const std::array<geometry::Point2, 4>& marker_corners_px,
                                const StrandRingLayout& layout, const geometry::CameraModel* camera,
@@ -150,7 +173,6 @@ StrandRing measure_strand_ring(const GrayView& image,
     // neighbour outside) however far a squashed strand spread.
     const double outer_from_mm = -limits.centre_uncertainty_mm;
     const double outer_to_mm = half_width + limits.reach_outside_mm;
-    const double inner_span_mm = limits.widest_multiple * layout.strand_width_mm;
     std::array<SideProfiles, 4> sides;
     std::array<geometry::Line, 4> lines;
     // The first pass expects the ring where the marker's corners put it (a marker's own edges
@@ -198,28 +220,14 @@ StrandRing measure_strand_ring(const GrayView& image,
             std::vector<Point2> centres_px;
             for (std::size_t i = 0; i < ts.size(); ++i) {
                 const Point2 from = stations[2 * i], to = stations[2 * i + 1];
-                const double span_px = std::hypot(to.x - from.x, to.y - from.y);
-                const double px_per_mm = span_px / (outer_to_mm - outer_from_mm);
-                const Point2 unit{(to.x - from.x) / span_px, (to.y - from.y) / span_px};
-                const auto falling = step_edge_on_segment(image, from, to, false, limits.edges);
-                if (!falling) continue;
-                const auto inward = [&](double mm) {
-                    return Point2{falling->x - unit.x * mm * px_per_mm,
-                                  falling->y - unit.y * mm * px_per_mm};
-                };
-                const auto rising = step_edge_on_segment(
-                    image, inward(inner_span_mm), inward(limits.narrowest_share * half_width), true,
-                    limits.edges);
-                if (!rising) continue;
-                const double width_px =
-                    (falling->x - rising->x) * unit.x + (falling->y - rising->y) * unit.y;
-                const double width_mm = width_px / px_per_mm;
-                if (width_mm < limits.narrowest_share * layout.strand_width_mm ||
-                    width_mm > limits.widest_multiple * layout.strand_width_mm)
-                    continue;
+                const double px_per_mm =
+                    std::hypot(to.x - from.x, to.y - from.y) / (outer_to_mm - outer_from_mm);
+                const auto crossing =
+                    strand_across(image, from, to, px_per_mm, layout.strand_width_mm, limits);
+                if (!crossing) continue;
                 side.t.push_back(ts[i]);
-                side.width_px.push_back(width_px);
-                centres_px.push_back({(rising->x + falling->x) / 2, (rising->y + falling->y) / 2});
+                side.width_px.push_back(crossing->width_px);
+                centres_px.push_back(crossing->centre_px);
             }
             if (side.t.size() < limits.min_profiles_per_side) {
                 ring.unmeasured_because = std::string("its ") + kSideNames[k] +

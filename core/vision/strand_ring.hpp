@@ -5,6 +5,7 @@
 // intersections of its sides' centrelines, and its width says how high the strand stands.
 #include <array>
 #include <cstddef>
+#include <optional>
 #include <string>
 
 #include "core/geometry/camera_model.hpp"
@@ -63,6 +64,21 @@ struct StrandRing {
     std::string unmeasured_because;  // empty when measured
     bool measured() const { return unmeasured_because.empty(); }
 };
+
+// One profile across a single strand: its edge to bare bed looked for on the segment `from` ->
+// `to` (pixels; material to bed going that way: the segment starts inside the strand, or on the
+// bed before it, and ends on the bed past it), then its other edge back from there, within a
+// widest strand's width and no nearer than a narrowest one's (the limits'). `px_per_mm` along
+// the segment; `strand_width_mm` as commanded. Empty when either edge is missing or the width
+// is not a strand's.
+struct StrandCrossing {
+    geometry::Point2 centre_px;  // midway between its edges
+    double width_px = 0;
+};
+std::optional<StrandCrossing> strand_across(const GrayView& image, geometry::Point2 from,
+                                            geometry::Point2 to, double px_per_mm,
+                                            double strand_width_mm,
+                                            const StrandRingLimits& limits = {});
 
 // A first-layer strand's height from its width, the cross-section known from the job: pressed
 // by the nozzle it is as high as the cross-section over its width; as narrow as a free bead

@@ -17,6 +17,7 @@
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
+#include "core/geometry/line_fit.hpp"
 #include "core/models/delta.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta.hpp"
@@ -28,31 +29,33 @@ using namespace calbox;
 
 namespace {
 
-// A printed bar's length as a vernier reads it, from the material the twin laid: the extent of
-// its round-ended strokes along the line through the bar's actual end points.
-double true_bar_length_mm(const std::vector<sim::StrokeSegment>& strokes,
-                          const targets::TargetBar& bar, sim::DeltaTwin& twin, double top_mm) {
-    const auto a = twin.actual_position_mm({bar.start_mm.x, bar.start_mm.y, top_mm});
-    const auto b = twin.actual_position_mm({bar.end_mm.x, bar.end_mm.y, top_mm});
-    const double length = std::hypot(b.x - a.x, b.y - a.y);
-    const double ux = (b.x - a.x) / length, uy = (b.y - a.y) / length;
-    double low = 1e9, high = -1e9;
-    for (const auto& s : strokes) {
-        bool inside = true;
-        for (const auto& p : {s.a_mm, s.b_mm}) {
-            const double along = (p.x - a.x) * ux + (p.y - a.y) * uy;
-            const double across = -(p.x - a.x) * uy + (p.y - a.y) * ux;
-            inside = inside && along > -2 && along < length + 2 &&
-                     std::abs(across) < bar.width_mm / 2 + 1;
-        }
-        if (!inside) continue;
-        for (const auto& p : {s.a_mm, s.b_mm}) {
-            const double along = (p.x - a.x) * ux + (p.y - a.y) * uy;
-            low = std::min(low, along - s.width_mm / 2);
-            high = std::max(high, along + s.width_mm / 2);
-        }
+// A bar's length as the nozzle laid it: between where its end ticks' centrelines really are (the
+// twin's own kinematics at their commanded ends), along the line through their middles.
+double true_bar_length_mm(const targets::TargetBar& bar, sim::DeltaTwin& twin, double top_mm) {
+    const double dx = bar.ticks_mm[1].x - bar.ticks_mm[0].x,
+                 dy = bar.ticks_mm[1].y - bar.ticks_mm[0].y;
+    const double n = std::hypot(dx, dy);
+    const double half = bar.width_mm / 2;
+    const auto actual = [&](double x, double y) {
+        const auto p = twin.actual_position_mm({x, y, top_mm});
+        return geometry::Point2{p.x, p.y};
+    };
+    std::array<geometry::Line, 2> ticks;
+    std::array<geometry::Point2, 2> middles;
+    for (std::size_t k = 0; k < 2; ++k) {
+        const auto& t = bar.ticks_mm[k];
+        const auto a = actual(t.x - dy / n * half, t.y + dx / n * half);
+        const auto b = actual(t.x + dy / n * half, t.y - dx / n * half);
+        const double l = std::hypot(b.x - a.x, b.y - a.y);
+        ticks[k] = {a, {(b.x - a.x) / l, (b.y - a.y) / l}};
+        middles[k] = actual(t.x, t.y);
     }
-    return high - low;
+    const double m = std::hypot(middles[1].x - middles[0].x, middles[1].y - middles[0].y);
+    const geometry::Line centreline{
+        middles[0], {(middles[1].x - middles[0].x) / m, (middles[1].y - middles[0].y) / m}};
+    const auto p = geometry::intersect(ticks[0], centreline);
+    const auto q = geometry::intersect(ticks[1], centreline);
+    return std::hypot(q->x - p->x, q->y - p->y);
 }
 
 // One pass of the cycle: what the fit found and did, judged in the twin's truth after it.
@@ -218,11 +221,11 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
                 figures.feature_worst = std::max(figures.feature_worst, e);
             }
             figures.feature_rms = std::sqrt(sum / static_cast<double>(seen.size()));
-            // Bars against a vernier on the laid material.
+            // Bars against where the twin really laid their end ticks.
             CHECK_EQUAL(3u, measured.bars.size());
             for (const auto& b : measured.bars) {
                 const auto& bar = target.bars[static_cast<std::size_t>(b.tower - 'A')];
-                const double truth_mm = true_bar_length_mm(laid, bar, twin, target.top_height_mm);
+                const double truth_mm = true_bar_length_mm(bar, twin, target.top_height_mm);
                 figures.bar_errors.push_back(b.measured_mm - truth_mm);
                 first_bars.push_back({b.commanded_from_mm, b.commanded_to_mm, b.measured_mm});
             }

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
@@ -112,6 +113,14 @@ ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<doub
     return {mv + slope * dt, std::sqrt(s2 * (1 / n + (stt > 0 ? dt * dt / stt : 0)))};
 }
 
+// The image's grey level at a point (bilinear, the measurement kernels' own sampler); empty
+// off the image.
+std::optional<double> grey_at(const GrayView& image, Point2 at) {
+    std::int32_t q8 = 0;
+    if (!sample_profile_q8(image, to_q16(at.x), to_q16(at.y), 0, 0, 1, &q8)) return std::nullopt;
+    return q8 / 256.0;
+}
+
 // Where consecutive sides' centrelines meet, in the fit space; none when two run parallel.
 std::optional<std::vector<Point2>> where_sides_meet(const std::array<geometry::Line, 4>& lines) {
     std::vector<Point2> corners;
@@ -155,7 +164,14 @@ std::optional<StrandCrossing> strand_across(const GrayView& image, Point2 from, 
     if (width_mm < limits.narrowest_share * strand_width_mm ||
         width_mm > limits.widest_multiple * strand_width_mm)
         return std::nullopt;
-    return StrandCrossing{{(rising->x + falling->x) / 2, (rising->y + falling->y) / 2}, width_px};
+    const Point2 middle{(rising->x + falling->x) / 2, (rising->y + falling->y) / 2};
+    // The bed half a strand's width past its edge, against the strand's middle.
+    const double past_px = strand_width_mm / 2 * px_per_mm;
+    const auto middle_dn = grey_at(image, middle);
+    const auto bed_dn =
+        grey_at(image, {falling->x + unit.x * past_px, falling->y + unit.y * past_px});
+    if (!middle_dn || !bed_dn || *middle_dn - *bed_dn < limits.min_contrast_dn) return std::nullopt;
+    return StrandCrossing{middle, width_px};
 }
 
 StrandRing measure_strand_ring(const GrayView& image,

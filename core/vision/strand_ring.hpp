@@ -47,6 +47,10 @@ struct StrandRingLimits {
     // line, and a nozzle's flat spreads it to about twice.
     double narrowest_share = 0.35;
     double widest_multiple = 3.0;
+    // The strand's middle stands brighter than the bed just past it by at least this many grey
+    // levels: filament on a sheet differs by tens (a grey strand on a black sheet, over forty),
+    // while on bare bed the kernel still finds the sensor noise's steepest steps, a few levels.
+    double min_contrast_dn = 8;
     EdgeKernelSettings edges;
 };
 
@@ -69,8 +73,8 @@ struct StrandRing {
 // `to` (pixels; material to bed going that way: the segment starts inside the strand, or on the
 // bed before it, and ends on the bed past it), then its other edge back from there, within a
 // widest strand's width and no nearer than a narrowest one's (the limits'). `px_per_mm` along
-// the segment; `strand_width_mm` as commanded. Empty when either edge is missing or the width
-// is not a strand's.
+// the segment; `strand_width_mm` as commanded. Empty when either edge is missing, the width is
+// not a strand's, or its middle is not brighter than the bed past it (no strand there).
 struct StrandCrossing {
     geometry::Point2 centre_px;  // midway between its edges
     double width_px = 0;

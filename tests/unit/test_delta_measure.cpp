@@ -39,6 +39,27 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     machine.delta = sim::machine_settings(twin.firmware());
     const auto target = targets::make_delta_target(*&machine);
     auto strokes = test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target"));
+    // The same print without tower A's outer end tick (a strand that did not stick): where the
+    // nozzle really drew it, every piece of material along it is left out.
+    std::vector<sim::StrokeSegment> without_tick;
+    {
+        const auto& bar = target.bars.front();
+        const double dx = bar.end_mm.x - bar.start_mm.x, dy = bar.end_mm.y - bar.start_mm.y;
+        const double n = std::hypot(dx, dy), half = bar.width_mm / 2;
+        const auto& t = bar.ticks_mm[1];
+        const auto a = twin.actual_position_mm({t.x - dy / n * half, t.y + dx / n * half, 0.2});
+        const auto b = twin.actual_position_mm({t.x + dy / n * half, t.y - dx / n * half, 0.2});
+        const auto off_tick = [&](const sim::Vec3& p) {
+            const double len = std::hypot(b.x - a.x, b.y - a.y);
+            const double along = ((p.x - a.x) * (b.x - a.x) + (p.y - a.y) * (b.y - a.y)) / len;
+            const double across =
+                std::abs((p.x - a.x) * (b.y - a.y) - (p.y - a.y) * (b.x - a.x)) / len;
+            return across > 0.3 || along < -0.5 || along > len + 0.5;
+        };
+        for (const auto& segment : strokes)
+            if (off_tick(segment.a_mm) || off_tick(segment.b_mm)) without_tick.push_back(segment);
+        CHECK(without_tick.size() < strokes.size());
+    }
 
     const auto camera = hq_camera();
     const sim::Pose bed_to_camera = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
@@ -229,6 +250,20 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
         STRCMP_CONTAINS("marker 1 near (", e.what());
         STRCMP_CONTAINS("a squashed, smeared or missing first layer there", e.what());
         CHECK(std::string(e.what()).find("out of frame") == std::string::npos);
+    }
+
+    // The print without one end tick: that bar is named with why, the others are measured.
+    {
+        const sim::StrokeScene scene(std::move(without_tick), 0.08, 0.85, 4);
+        const auto missing =
+            modes::measure_delta(machine, model, plane,
+                                 {view_of(sim::render_photo(camera, bed_to_camera, scene, photo))});
+        CHECK_EQUAL(2u, missing.bars.size());
+        CHECK_EQUAL(1u, missing.bars_unmeasured.size());
+        UT_PRINT(missing.bars_unmeasured.front().c_str());
+        STRCMP_CONTAINS("bar A: photo 1: its outer end tick: the strand in only ",
+                        missing.bars_unmeasured.front().c_str());
+        STRCMP_CONTAINS(" of 12 profiles across it", missing.bars_unmeasured.front().c_str());
     }
 
     // The same photos through a camera model with the wrong lens distortion: the corners no

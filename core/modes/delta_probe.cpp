@@ -72,7 +72,7 @@ std::vector<std::string> probe_job(const std::string& firmware,
             job.push_back("G30" + xy);
         } else if (firmware == "rrf") {
             job.push_back("G1" + xy + " Z5 F6000");
-            job.push_back("G30 S-1");
+            job.emplace_back("G30 S-1");
         } else if (firmware == "klipper") {
             throw std::invalid_argument(
                 "Klipper's probe report lacks its z_offset, which lives in printer.cfg: give its "
@@ -81,7 +81,7 @@ std::vector<std::string> probe_job(const std::string& firmware,
             throw std::invalid_argument("no probe job for firmware '" + firmware + "'");
         }
     }
-    job.push_back("G28");
+    job.emplace_back("G28");
     return job;
 }
 

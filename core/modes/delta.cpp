@@ -119,9 +119,9 @@ std::optional<TickLine> measure_tick(const vision::GrayView& image,
     }
     const auto px = geometry::project_points(camera, plane.bed_to_camera, stations);
     std::vector<geometry::Point2> centres_px;
-    for (int k = 0; k < profiles; ++k) {
-        const auto from = px[static_cast<std::size_t>(2 * k)];
-        const auto to = px[static_cast<std::size_t>(2 * k + 1)];
+    for (std::size_t k = 0; k + 1 < px.size(); k += 2) {
+        const auto from = px[k];
+        const auto to = px[k + 1];
         const double px_per_mm = std::hypot(to.x - from.x, to.y - from.y) / (to_mm - from_mm);
         const auto crossing =
             vision::strand_across(image, from, to, px_per_mm, strand_width_mm, limits.strand);

@@ -804,15 +804,13 @@ void Cycle::probe_printer(std::function<void()> then) {
                     fail(std::string("the printer's probe report: ") + e.what());
                     return;
                 }
-                std::string csv = "x,y,z\n";
                 double low = 1e9, high = -1e9;
                 for (const auto& p : probe_) {
-                    csv += number_text("%.3f", p.x_mm) + "," + number_text("%.3f", p.y_mm) + "," +
-                           number_text("%.4f", p.z_mm) + "\n";
                     low = std::min(low, p.z_mm);
                     high = std::max(high, p.z_mm);
                 }
-                if (!keep(record_name(report_.number, "probe.csv"), csv)) return;
+                if (!keep(record_name(report_.number, "probe.csv"), modes::probe_to_csv(probe_)))
+                    return;
                 log_("cycle " + std::to_string(report_.number) + ": the printer's probe: " +
                      std::to_string(probe_.size()) + " points, the nozzle's gap ranging " +
                      number_text("%.3f", high - low) + " mm over the bed");

@@ -34,9 +34,10 @@ std::optional<double> number_after(const std::string& line, std::string_view key
 }
 
 // Marlin's "Bed X: 10.00 Y: -20.00 Z: 0.12" (older releases: "Bed x: 10 y: .. z: .."), after
-// whatever a host put before it: the probed point and its bed height. Empty for other lines;
-// throws std::invalid_argument for one that starts so but does not hold three numbers.
-std::optional<geometry::Point3> marlin_probe_line(const std::string& text) {
+// whatever a host put before it, as a probe point: the bed's height there negated is the
+// nozzle's gap at commanded Z = 0. Empty for other lines; throws std::invalid_argument for one
+// that starts so but does not hold three numbers.
+std::optional<solve::ProbePoint> marlin_probe_point(const std::string& text, double sigma_mm) {
     const std::string line = lower(text);
     const auto at = line.find("bed x:");
     if (at == std::string::npos) return std::nullopt;
@@ -45,7 +46,7 @@ std::optional<geometry::Point3> marlin_probe_line(const std::string& text) {
     const auto z = number_after(line, " z:", at);
     if (!x || !y || !z)
         throw std::invalid_argument("a probe report line without its X, Y and Z: '" + text + "'");
-    return geometry::Point3{*x, *y, *z};
+    return solve::ProbePoint{*x, *y, -*z, sigma_mm};
 }
 
 }  // namespace
@@ -94,8 +95,7 @@ std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
     std::vector<solve::ProbePoint> out;
     for (const auto& reply : replies) {
         if (firmware == "marlin") {
-            if (const auto p = marlin_probe_line(reply))
-                out.push_back({p->x, p->y, -p->z, sigma_mm});
+            if (const auto p = marlin_probe_point(reply, sigma_mm)) out.push_back(*p);
             continue;
         }
         const std::string line = lower(reply);
@@ -140,8 +140,7 @@ std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std:
         const std::string where = source + ":" + std::to_string(number_of_line);
         if (log) {
             try {
-                if (const auto p = marlin_probe_line(line))
-                    out.push_back({p->x, p->y, -p->z, kSigmaMm});
+                if (const auto p = marlin_probe_point(line, kSigmaMm)) out.push_back(*p);
             } catch (const std::invalid_argument& e) {
                 throw RecordError(where + ": " + e.what());
             }
@@ -159,6 +158,14 @@ std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std:
     }
     if (out.empty()) throw RecordError(source + ": no probe heights");
     return out;
+}
+
+std::string probe_to_csv(const std::vector<solve::ProbePoint>& probe) {
+    std::string csv = "x,y,z\n";
+    for (const auto& p : probe)
+        csv += number_text("%.3f", p.x_mm) + "," + number_text("%.3f", p.y_mm) + "," +
+               number_text("%.4f", p.z_mm) + "\n";
+    return csv;
 }
 
 }  // namespace calbox::modes

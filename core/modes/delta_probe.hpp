@@ -39,5 +39,7 @@ std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
 // Y: .. Z: .." lines (G30's, or G29's at V3 or higher), whose heights are negated as above.
 // Throws RecordError naming the line.
 std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source);
+// Probe points as that file's CSV (a header line, then x,y,z to 1, 1 and 0.1 micrometre).
+std::string probe_to_csv(const std::vector<solve::ProbePoint>& probe);
 
 }  // namespace calbox::modes

@@ -40,6 +40,13 @@ double TargetBar::length_mm() const {
     return std::hypot(ticks_mm[1].x - ticks_mm[0].x, ticks_mm[1].y - ticks_mm[0].y);
 }
 
+std::array<Point2, 2> TargetBar::tick_ends_mm(std::size_t which) const {
+    const double dx = end_mm.x - start_mm.x, dy = end_mm.y - start_mm.y, len = std::hypot(dx, dy);
+    const Point2 n{-dy / len * width_mm / 2, dx / len * width_mm / 2};
+    const Point2& t = ticks_mm.at(which);
+    return {Point2{t.x + n.x, t.y + n.y}, Point2{t.x - n.x, t.y - n.y}};
+}
+
 DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTargetOptions& o) {
     if (!machine.is_delta())
         throw JobError("the delta target is for delta printers, not a " + machine.kind);
@@ -177,10 +184,11 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
                     {b.end_mm.x + n.x, b.end_mm.y + n.y}};
         append(target.job.toolpath, plan_fill({r}, FillRule::nonzero, fill, pen));
         // Its end ticks, each drawn from the side the pen is nearer.
-        for (const auto& tick : b.ticks_mm) {
+        for (std::size_t k = 0; k < b.ticks_mm.size(); ++k) {
+            const auto ends = b.tick_ends_mm(k);
             Contour line;
             line.closed = false;
-            line.points = {{tick.x + n.x, tick.y + n.y}, {tick.x - n.x, tick.y - n.y}};
+            line.points = {ends[0], ends[1]};
             if (std::hypot(pen.x - line.points[1].x, pen.y - line.points[1].y) <
                 std::hypot(pen.x - line.points[0].x, pen.y - line.points[0].y))
                 std::swap(line.points[0], line.points[1]);

@@ -50,6 +50,8 @@ struct TargetBar {
     // `width_mm` long, its centreline through this point.
     std::array<geometry::Point2, 2> ticks_mm{};
     double length_mm() const;  // between the ticks' centrelines, along the tower
+    // Where tick `which` (0: the inner one) starts and ends, as commanded.
+    std::array<geometry::Point2, 2> tick_ends_mm(std::size_t which) const;
 };
 
 struct DeltaTarget {

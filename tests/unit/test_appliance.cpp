@@ -197,6 +197,24 @@ std::string command_of(const std::string& line) {
     return line.substr(space + 1, line.find('*') - space - 1);
 }
 
+// The transcript as jobs, each opened by N0 M110 N0, its lines numbered on from 1, every
+// checksum right: each job's commands.
+std::vector<std::vector<std::string>> jobs_of(const std::vector<std::string>& transcript) {
+    std::vector<std::vector<std::string>> jobs;
+    for (const auto& line : transcript) {
+        CHECK_TEXT(checksum_holds(line), line.c_str());
+        if (line == "N0 M110 N0*125") {
+            jobs.emplace_back();
+            continue;
+        }
+        CHECK(!jobs.empty());
+        CHECK_EQUAL(std::to_string(jobs.back().size() + 1), line.substr(1, line.find(' ') - 1));
+        CHECK_EQUAL('N', line[0]);
+        jobs.back().push_back(command_of(line));
+    }
+    return jobs;
+}
+
 void check_error_state(Rig& rig, const char* message_part) {
     CHECK(rig.cycle.state() == firmware::CycleState::error);
     STRCMP_CONTAINS(message_part, rig.cycle.error().c_str());
@@ -281,19 +299,7 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
 
     // The transcript: jobs each opened by N0 M110 N0, lines numbered on from 1, every checksum
     // right, nothing resent on a clean link.
-    const auto t = rig.transcript();
-    std::vector<std::vector<std::string>> jobs;
-    for (const auto& line : t) {
-        CHECK_TEXT(checksum_holds(line), line.c_str());
-        if (line == "N0 M110 N0*125") {
-            jobs.emplace_back();
-            continue;
-        }
-        CHECK(!jobs.empty());
-        CHECK_EQUAL(std::to_string(jobs.back().size() + 1), line.substr(1, line.find(' ') - 1));
-        CHECK_EQUAL('N', line[0]);
-        jobs.back().push_back(command_of(line));
-    }
+    const auto jobs = jobs_of(rig.transcript());
     // the settings read, target print; per pass that sent something: M503 backup, the
     // correction, M503 read-back, the verification print (the next pass's target)
     CHECK_EQUAL(10u, jobs.size());
@@ -353,14 +359,7 @@ TEST(ApplianceCycle, a_printer_with_a_probe_is_probed_first_and_calibrated_in_on
     CHECK(report.solution->heights_from_probe);
     // the settings read, the probe job, the target print, the backup, the correction, the
     // read-back, the verification print
-    std::vector<std::vector<std::string>> jobs;
-    for (const auto& line : rig.transcript()) {
-        if (line == "N0 M110 N0*125") {
-            jobs.emplace_back();
-            continue;
-        }
-        jobs.back().push_back(command_of(line));
-    }
+    const auto jobs = jobs_of(rig.transcript());
     CHECK_EQUAL(7u, jobs.size());
     CHECK_EQUAL(21u, jobs[1].size());
     STRCMP_EQUAL("G28", jobs[1].front().c_str());

@@ -32,23 +32,19 @@ namespace {
 // A bar's length as the nozzle laid it: between where its end ticks' centrelines really are (the
 // twin's own kinematics at their commanded ends), along the line through their middles.
 double true_bar_length_mm(const targets::TargetBar& bar, sim::DeltaTwin& twin, double top_mm) {
-    const double dx = bar.ticks_mm[1].x - bar.ticks_mm[0].x,
-                 dy = bar.ticks_mm[1].y - bar.ticks_mm[0].y;
-    const double n = std::hypot(dx, dy);
-    const double half = bar.width_mm / 2;
-    const auto actual = [&](double x, double y) {
-        const auto p = twin.actual_position_mm({x, y, top_mm});
+    const auto actual = [&](geometry::Point2 at) {
+        const auto p = twin.actual_position_mm({at.x, at.y, top_mm});
         return geometry::Point2{p.x, p.y};
     };
     std::array<geometry::Line, 2> ticks;
     std::array<geometry::Point2, 2> middles;
     for (std::size_t k = 0; k < 2; ++k) {
-        const auto& t = bar.ticks_mm[k];
-        const auto a = actual(t.x - dy / n * half, t.y + dx / n * half);
-        const auto b = actual(t.x + dy / n * half, t.y - dx / n * half);
+        const auto ends = bar.tick_ends_mm(k);
+        const auto a = actual(ends[0]);
+        const auto b = actual(ends[1]);
         const double l = std::hypot(b.x - a.x, b.y - a.y);
         ticks[k] = {a, {(b.x - a.x) / l, (b.y - a.y) / l}};
-        middles[k] = actual(t.x, t.y);
+        middles[k] = actual(bar.ticks_mm[k]);
     }
     const double m = std::hypot(middles[1].x - middles[0].x, middles[1].y - middles[0].y);
     const geometry::Line centreline{

@@ -43,12 +43,9 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     // nozzle really drew it, every piece of material along it is left out.
     std::vector<sim::StrokeSegment> without_tick;
     {
-        const auto& bar = target.bars.front();
-        const double dx = bar.end_mm.x - bar.start_mm.x, dy = bar.end_mm.y - bar.start_mm.y;
-        const double n = std::hypot(dx, dy), half = bar.width_mm / 2;
-        const auto& t = bar.ticks_mm[1];
-        const auto a = twin.actual_position_mm({t.x - dy / n * half, t.y + dx / n * half, 0.2});
-        const auto b = twin.actual_position_mm({t.x + dy / n * half, t.y - dx / n * half, 0.2});
+        const auto ends = target.bars.front().tick_ends_mm(1);
+        const auto a = twin.actual_position_mm({ends[0].x, ends[0].y, 0.2});
+        const auto b = twin.actual_position_mm({ends[1].x, ends[1].y, 0.2});
         const auto off_tick = [&](const sim::Vec3& p) {
             const double len = std::hypot(b.x - a.x, b.y - a.y);
             const double along = ((p.x - a.x) * (b.x - a.x) + (p.y - a.y) * (b.y - a.y)) / len;

@@ -114,6 +114,12 @@ TEST(DeltaProbe, a_probe_file_is_csv_rows_or_a_marlin_console_log) {
         STRCMP_CONTAINS("g30.log:2: a probe report line without its X, Y and Z", e.what());
     }
     CHECK_THROWS(modes::RecordError, modes::probe_from_file("# nothing\n", "empty.csv"));
+    // What the box keeps in a cycle's record reads back as it was, to the digits it writes.
+    const auto back = modes::probe_from_file(modes::probe_to_csv(log), "probe.csv");
+    CHECK_EQUAL(2u, back.size());
+    DOUBLES_EQUAL(-40, back[0].x_mm, 5e-4);
+    DOUBLES_EQUAL(-0.25, back[0].z_mm, 5e-5);
+    DOUBLES_EQUAL(0.11, back[1].z_mm, 5e-5);
 }
 
 TEST(DeltaProbe, the_twin_answers_g30_with_the_gap_a_hand_worked_height_error_gives) {

@@ -40,7 +40,7 @@ struct ModbusTimeouts {
 // The box as a Modbus server (a PLC reads and drives it): coils and holding registers the
 // client may write, discrete inputs and input registers it reads. Serves on its own thread;
 // libmodbus answers reads, out-of-range addresses (exception 2) and bad values (exception 3).
-class ModbusServer {
+class ModbusServer final : public hal::RegisterServer {
   public:
     struct Tables {
         int coils = 0, discrete_inputs = 0, holding_registers = 0, input_registers = 0;
@@ -56,10 +56,10 @@ class ModbusServer {
     int port() const { return port_; }  // the TCP port listened on (useful with port 0)
     // Readable after a client wrote a coil; take_coils_set() then gives each coil a client set
     // to 1 since the last call, in order, and clears them back to 0.
-    int written_fd() const { return written_.fd(); }
-    std::vector<int> take_coils_set();
-    void set_discrete_inputs(int first, const std::vector<bool>& values);
-    void set_input_registers(int first, std::span<const std::uint16_t> values);
+    int written_fd() const override { return written_.fd(); }
+    std::vector<int> take_coils_set() override;
+    void set_discrete_inputs(int first, const std::vector<bool>& values) override;
+    void set_input_registers(int first, std::span<const std::uint16_t> values) override;
 
   private:
     void serve();

@@ -9,10 +9,10 @@
 
 #include "board/rpi/rpi_board.hpp"
 #include "board/sim/sim_board.hpp"
-#include "core/modes/galvo.hpp"
-#include "core/modes/planar.hpp"
+#include "board/sim/twin_judge.hpp"
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
+#include "drivers/modbus_link.hpp"
 #include "drivers/pty_port.hpp"
 #include "drivers/termios_port.hpp"
 #include "drivers/timerfd_clock.hpp"
@@ -121,12 +121,6 @@ std::filesystem::path default_data_dir() {
     throw std::runtime_error(
         "no --data directory given and neither XDG_STATE_HOME nor HOME is set");
 }
-
-// Issue 17's goal for a galvo scanner after one table, on a fresh grid: the seed reached 0.018.
-constexpr double kGalvoGoalMeanMm = 0.008, kGalvoGoalMaxMm = 0.03;
-// Issue 16's for a router after one cycle, on a fresh job: 95 % less error and under 0.05 mm
-// mean (the seed reached 67.8 % less, 0.495 mm).
-constexpr double kPlanarGoalMeanMm = 0.05, kPlanarGoalReduction = 0.95;
 
 void log_line(const std::string& line) {
     std::fprintf(stderr, "calbox: %s\n", line.c_str());
@@ -301,8 +295,6 @@ int run(const std::vector<std::string>& words) {
     drivers::FileStorage& data = sim_box ? sim_box->parts.data : rpi_box->appliance.data;
     drivers::TimerfdClock& clock = sim_box ? sim_box->clock : rpi_box->clock;
     sim::SimBoard* sim_board = sim_box ? &sim_box->parts.board : nullptr;
-    const models::MachineFile& machine =
-        sim_board != nullptr ? sim_board->bench->scenario().machine : rpi_box->machine;
 
     int stopped_by = 0;
     loop.watch(signals.fd(), [&] {
@@ -358,18 +350,22 @@ int run(const std::vector<std::string>& words) {
                                : settings_from(config));
     };
     if (sim_board != nullptr) {
-        context.extras["press"] = {"the sim board: a short press of the button", [&](const auto&) {
+        using Words = std::vector<std::string>;
+        context.board_commands = {{"press", "press", "the sim board: a short press of the button",
+                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
                                        sim_board->lines->press(std::chrono::milliseconds(100));
-                                       return std::string("pressed");
-                                   }};
-        context.extras["hold"] = {"the sim board: a long press of the button", [&](const auto&) {
-                                      sim_board->lines->press(std::chrono::milliseconds(2000));
-                                      return std::string("held");
-                                  }};
-        context.extras["quit"] = {"the sim board: stop the box", [&](const auto&) {
-                                      loop.stop();
-                                      return std::string("stopping");
-                                  }};
+                                       r.text = "pressed";
+                                   }},
+                                  {"hold", "hold", "the sim board: a long press of the button",
+                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                                       sim_board->lines->press(std::chrono::milliseconds(2000));
+                                       r.text = "held";
+                                   }},
+                                  {"quit", "quit", "the sim board: stop the box",
+                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                                       loop.stop();
+                                       r.text = "stopping";
+                                   }}};
     }
     firmware::Console console_commands(std::move(context));
     std::optional<firmware::ConsoleLink> console_link;
@@ -425,7 +421,7 @@ int run(const std::vector<std::string>& words) {
         if (plc) plc->publish();
         if (result_writer && cycle.cycles_completed() > results_written_for) {
             results_written_for = cycle.cycles_completed();
-            result_writer->write(cycle.report());
+            result_writer->write(cycle.report(), cycle.mode().result(cycle.report().applied));
         }
         if (!automatic) return;
         if (result_writer && !result_writer->idle()) {
@@ -434,32 +430,15 @@ int run(const std::vector<std::string>& words) {
             loop.stop();
         }
     };
+    std::unique_ptr<sim::TwinJudge> judge;
+    std::optional<sim::TwinVerdict> before;
     if (automatic) {
-        const auto& board = *sim_board;
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
-        if (machine.is_planar()) {
-            const auto before = sim::judge_planar_machine(board.bench->scenario(), nullptr);
-            std::printf(
-                "before: %.4f mm mean, %.4f mm worst (the twin's truth, a fresh job of %zu "
-                "points half a pitch off the target's)\n",
-                before.before.mean_mm, before.before.max_mm, before.holes);
-        } else if (machine.is_galvo()) {
-            const auto before = board.bench->judge_galvo_scanner(
-                [](sim::Vec2 p) { return p; },
-                sim::field_less_a_pitch(board.bench->scenario().galvo_truth));
-            std::printf(
-                "before: marks %.4f mm mean, %.4f mm worst (the twin's truth, a fresh 30 x "
-                "30 grid over the field less a pitch)\n",
-                before.mean_mm, before.max_mm);
-        } else {
-            const auto before = board.bench->judge_delta_printer();
-            std::printf(
-                "before: XY rms %.4f mm, max %.4f mm (the twin's truth, over the printable "
-                "area)\n",
-                before.xy_rms, before.xy_max);
-        }
+        judge = sim::make_twin_judge(*sim_board->bench);
+        before = judge->before();
+        std::printf("before: %s\n", before->line.c_str());
         std::fflush(stdout);
-        board.lines->press(std::chrono::milliseconds(100));
+        sim_board->lines->press(std::chrono::milliseconds(100));
     } else if (!console) {
         log("waiting for the button (no console)");
     }
@@ -470,7 +449,6 @@ int run(const std::vector<std::string>& words) {
         return 1;
     }
     if (!automatic) return 0;
-    const auto& board = *sim_board;
     const auto& report = cycle.report();
     std::printf("box: %.2f s of its own work (measure, solve%s), camera %.2f s, machine %.2f s\n",
                 report.box_seconds, report.number == 1 ? ", set-up" : "", report.camera_seconds,
@@ -479,57 +457,14 @@ int run(const std::vector<std::string>& words) {
         throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
                                                                        ? std::string("cancelled")
                                                                        : cycle.error()));
-    if (machine.is_planar()) {
-        // The error model the box keeps, judged on a fresh job through it.
-        const auto kept = data.read_file(firmware::kPlanarResultFile);
-        if (!kept || *kept == firmware::kNoPlanarResult)
-            throw std::runtime_error("the cycle completed but the box keeps no error model");
-        const auto solution = modes::planar_result_from_json(*kept, firmware::kPlanarResultFile);
-        const targets::Correction correct = [&solution](geometry::Point2 p) {
-            return modes::planar_command_for(solution, p);
-        };
-        const auto verdict = sim::judge_planar_machine(board.bench->scenario(), &correct);
-        const double reduction = 1 - verdict.after->mean_mm / verdict.before.mean_mm;
-        std::printf(
-            "after: through the error model %.5f mm mean, %.5f mm worst (%.1f %% "
-            "less)\n",
-            verdict.after->mean_mm, verdict.after->max_mm, 100 * reduction);
-        if (verdict.after->mean_mm >= kPlanarGoalMeanMm || reduction < kPlanarGoalReduction)
-            throw std::runtime_error(
-                "the planar goal is not met: " + std::to_string(verdict.after->mean_mm) +
-                " mm mean, " + std::to_string(100 * reduction) +
-                " % less (goal under 0.05 mm and 95 %)");
-        return 0;
-    }
-    if (machine.is_galvo()) {
-        // The table the box keeps, judged on a fresh grid over its area.
-        const auto kept = data.read_file(firmware::kGalvoTableFile);
-        if (!kept || *kept == firmware::kNoGalvoTable)
-            throw std::runtime_error("the cycle completed but the box keeps no table");
-        const auto table =
-            modes::galvo_result_from_json(*kept, firmware::kGalvoTableFile).fit.table;
-        const auto after = board.bench->judge_galvo_scanner(
-            [&table](sim::Vec2 p) {
-                const auto c = table.command_for({p.x, p.y});
-                return sim::Vec2{c.x, c.y};
-            },
-            {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm});
-        std::printf("after: marks through the table %.5f mm mean, %.5f mm worst\n", after.mean_mm,
-                    after.max_mm);
-        if (after.mean_mm > kGalvoGoalMeanMm || after.max_mm > kGalvoGoalMaxMm) {
-            throw std::runtime_error("the galvo goal is not met: " + std::to_string(after.mean_mm) +
-                                     " mm mean, " + std::to_string(after.max_mm) +
-                                     " mm worst (goal 0.008 and 0.03)");
-        }
-        return 0;
-    }
-    const auto after = board.bench->judge_delta_printer();
-    std::printf("after: XY rms %.4f mm, max %.4f mm\n", after.xy_rms, after.xy_max);
-    if (after.xy_rms > firmware::kDeltaGoalXyRmsMm || after.xy_max > firmware::kDeltaGoalXyMaxMm) {
-        throw std::runtime_error("the delta goal is not met: XY after " +
-                                 std::to_string(after.xy_rms) + " mm RMS, " +
-                                 std::to_string(after.xy_max) + " mm worst (goal 0.01 and 0.03)");
-    }
+    // The machine as the cycle left it, judged on a fresh job (through the correction the box
+    // keeps, when it keeps one) against the mode's goal.
+    const auto after = judge->after(cycle.mode().kept_correction());
+    std::printf("after: %s\n", after.line.c_str());
+    const auto goal = cycle.mode().goal();
+    if (const auto shortfall = goal.shortfall(before->figures, after.figures); !shortfall.empty())
+        throw std::runtime_error("the " + goal.mode + " goal is not met: " + shortfall + " (goal " +
+                                 goal.describe() + ")");
     return 0;
 }
 

@@ -12,36 +12,7 @@ namespace {
 
 using nlohmann::json;
 
-struct Command {
-    const char* usage;
-    const char* help;
-};
-
-// The commands in the order `help` lists them (the README's Console section follows it).
-constexpr Command kCommands[] = {
-    {"help", "this list"},
-    {"status", "the state, what the box waits for, the cycle's number and its last error"},
-    {"config list", "every key with its value, unit, range and default"},
-    {"config get KEY", "one key's value"},
-    {"config set KEY VALUE", "change a key (validated; in force from the next cycle)"},
-    {"config save", "write the configuration (a power cut leaves the old file or the new)"},
-    {"config reset [KEY]", "one key, or all, back to its default (save to keep it)"},
-    {"start", "start a calibration cycle (the button's short press in idle)"},
-    {"confirm", "go on where the box waits: apply in review, the next step in set-up"},
-    {"cancel", "stop the cycle (the button's long press); nothing more goes to the machine"},
-    {"revert", "send the settings in force before the last completed cycle"},
-    {"last", "the last completed cycle's result"},
-    {"log [N]", "the last N lines of the box's log (default 20)"},
-    {"version", "the firmware's version"},
-    {"camera calibrate", "set-up: calibrate the camera from board views, then take the plane"},
-    {"camera plane", "set-up: take the bed plane from the board laid on the bed"},
-    {"capture", "take the set-up view the box asks for (the button's press)"},
-};
-
-class Refused : public std::runtime_error {
-  public:
-    using std::runtime_error::runtime_error;
-};
+using Refused = ConsoleRefused;
 
 std::vector<std::string> words_of(std::string_view line) {
     std::vector<std::string> words;
@@ -82,11 +53,6 @@ const char* kind_name(ConfigKind k) {
     }
     return "?";
 }
-
-struct Reply {
-    std::string text;  // the human form, without the final newline
-    json data = json::object();
-};
 
 }  // namespace
 
@@ -131,6 +97,281 @@ std::string Console::refuse_too_long(const LineAssembler::Line& line) const {
     return "error: " + why + "\n";
 }
 
+// Each command's handler: the line's words (without --json), the line itself, and the reply to
+// fill; a refusal is thrown as Refused.
+namespace {
+
+using Words = std::vector<std::string>;
+
+void need_words(const Words& words, std::size_t n, const std::string& usage) {
+    if (words.size() != n) throw Refused("usage: " + usage);
+}
+
+}  // namespace
+
+std::vector<ConsoleCommand> Console::commands() {
+    // The order `help` lists them in (docs/appliance.md's Console section follows it).
+    return {
+        {"help", "help", "this list",
+         [this](const Words&, std::string_view, ConsoleReply& r) {
+             std::ostringstream out;
+             json list = json::array();
+             for (const auto& c : table_) {
+                 out << "  " << c.usage
+                     << std::string(22 - std::min<std::size_t>(21, c.usage.size()), ' ') << c.help
+                     << "\n";
+                 list.push_back({{"command", c.usage}, {"help", c.help}});
+             }
+             out << "  (--json on any line: the reply as one JSON object)";
+             r.text = out.str();
+             r.data["commands"] = list;
+         }},
+        {"status", "status",
+         "the state, what the box waits for, the cycle's number and its last error",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "status");
+             const Cycle& cycle = c_.cycle;
+             const std::string prompt = prompt_text(cycle.prompt());
+             r.text = std::string("state: ") + state_name(cycle.state());
+             if (!prompt.empty()) r.text += "\nwaiting: " + prompt;
+             if (cycle.state() == CycleState::setup_camera)
+                 r.text += "\nset-up: view " + std::to_string(cycle.prompt_step() + 1) +
+                           ", image covered " +
+                           std::to_string(std::lround(100 * cycle.setup_coverage())) + " %";
+             r.text += "\ncycle: " + std::to_string(cycle.report().number) + " (" +
+                       std::to_string(cycle.cycles_completed()) + " completed since start)";
+             if (!cycle.error().empty()) r.text += "\nlast error: " + cycle.error();
+             r.data = {{"state", state_name(cycle.state())},
+                       {"waiting", prompt},
+                       {"cycle", cycle.report().number},
+                       {"completed", cycle.cycles_completed()},
+                       {"error", cycle.error()},
+                       {"setup_coverage", cycle.setup_coverage()}};
+         }},
+        {"config list", "config list", "every key with its value, unit, range and default",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 2, "config list");
+             std::ostringstream out;
+             json keys = json::object();
+             for (const auto& k : config_schema()) {
+                 const std::string value = c_.config.get(k.name);
+                 out << k.name << " = "
+                     << (k.kind == ConfigKind::text ? "\"" + value + "\"" : value);
+                 if (!k.unit.empty()) out << " " << k.unit;
+                 if (value != k.default_value) out << "  (default " << k.default_value << ")";
+                 if (k.needs_restart) out << "  [at start]";
+                 out << "\n";
+                 keys[std::string(k.name)] = {{"value", value},
+                                              {"default", std::string(k.default_value)},
+                                              {"unit", std::string(k.unit)},
+                                              {"kind", kind_name(k.kind)},
+                                              {"min", k.min},
+                                              {"max", k.max},
+                                              {"choices", std::string(k.choices)},
+                                              {"at_start", k.needs_restart},
+                                              {"doc", std::string(k.doc)}};
+             }
+             r.text = out.str();
+             r.text.pop_back();
+             r.data["config"] = keys;
+         }},
+        {"config get", "config get KEY", "one key's value",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 3, "config get KEY");
+             const std::string value = c_.config.get(words[2]);
+             r.text = words[2] + " = " + value;
+             r.data = {{"key", words[2]}, {"value", value}};
+         }},
+        {"config set", "config set KEY VALUE",
+         "change a key (validated; in force from the next cycle)",
+         [this](const Words& words, std::string_view line, ConsoleReply& r) {
+             if (words.size() < 3) throw Refused("usage: config set KEY VALUE");
+             const std::string value = rest_after(line, 3);
+             try {
+                 c_.config.set(words[2], value);
+             } catch (const ConfigError& e) {
+                 throw Refused(e.what());
+             }
+             if (c_.config_changed) c_.config_changed();
+             const bool at_start = find_config_key(words[2])->needs_restart;
+             r.text = words[2] + " = " + c_.config.get(words[2]) +
+                      (at_start ? " (in force at the next start; config save keeps it)"
+                                : " (in force from the next cycle; config save keeps it)");
+             r.data = {
+                 {"key", words[2]}, {"value", c_.config.get(words[2])}, {"at_start", at_start}};
+         }},
+        {"config save", "config save",
+         "write the configuration (a power cut leaves the old file or the new)",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 2, "config save");
+             try {
+                 c_.settings.replace_file(c_.settings_name, c_.config.to_toml());
+             } catch (const std::runtime_error& e) {
+                 throw Refused(std::string("not saved (the saved file is as it was): ") + e.what());
+             }
+             r.text = "saved " + c_.settings_name;
+             r.data = {{"saved", c_.settings_name}};
+         }},
+        {"config reset", "config reset [KEY]",
+         "one key, or all, back to its default (save to keep it)",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             if (words.size() == 3) {
+                 try {
+                     c_.config.reset(words[2]);
+                 } catch (const ConfigError& e) {
+                     throw Refused(e.what());
+                 }
+                 r.text = words[2] + " = " + c_.config.get(words[2]) + " (the default)";
+             } else {
+                 need_words(words, 2, "config reset [KEY]");
+                 c_.config = BoxConfig();
+                 r.text = "every key back to its default (config save keeps it)";
+             }
+             if (c_.config_changed) c_.config_changed();
+         }},
+        {"start", "start", "start a calibration cycle (the button's short press in idle)",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "start");
+             Cycle& cycle = c_.cycle;
+             if (cycle.state() != CycleState::idle)
+                 throw Refused(std::string("busy: ") + state_name(cycle.state()));
+             cycle.start();
+             r.text = std::string("started: ") + state_name(cycle.state());
+         }},
+        {"confirm", "confirm",
+         "go on where the box waits: apply in review, the next step in set-up",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "confirm");
+             r.text = press_for_prompt(false);
+         }},
+        {"cancel", "cancel",
+         "stop the cycle (the button's long press); nothing more goes to the machine",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "cancel");
+             Cycle& cycle = c_.cycle;
+             if (cycle.state() == CycleState::idle) throw Refused("nothing to cancel: idle");
+             cycle.cancel("cancelled from the console");
+             r.text = std::string("cancelled: ") + state_name(cycle.state());
+         }},
+        {"revert", "revert", "send the settings in force before the last completed cycle",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "revert");
+             const std::string refused = c_.cycle.revert();
+             if (!refused.empty()) throw Refused(refused);
+             r.text = "reverting to the settings before cycle " +
+                      std::to_string(c_.cycle.report().number);
+         }},
+        {"last", "last", "the last completed cycle's result",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "last");
+             describe_last(r);
+         }},
+        {"log", "log [N]", "the last N lines of the box's log (default 20)",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             std::size_t count = 20;
+             if (words.size() == 2) {
+                 try {
+                     count = std::stoul(words[1]);
+                 } catch (const std::exception&) {
+                     throw Refused("usage: log [N]");
+                 }
+             } else {
+                 need_words(words, 1, "log [N]");
+             }
+             const auto lines = c_.log.last(count);
+             for (const auto& l : lines) r.text += l + "\n";
+             if (!r.text.empty()) r.text.pop_back();
+             r.data["log"] = lines;
+         }},
+        {"version", "version", "the firmware's version",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "version");
+             r.text = "calbox " + c_.version;
+             r.data["version"] = c_.version;
+         }},
+        {"camera calibrate", "camera calibrate",
+         "set-up: calibrate the camera from board views, then take the plane",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 2, "camera calibrate|plane");
+             start_setup(c_.cycle.calibrate_camera(), r);
+         }},
+        {"camera plane", "camera plane",
+         "set-up: take the bed plane from the board laid on the bed",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 2, "camera calibrate|plane");
+             start_setup(c_.cycle.take_plane(), r);
+         }},
+        {"capture", "capture", "take the set-up view the box asks for (the button's press)",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "capture");
+             r.text = press_for_prompt(true);
+         }},
+    };
+}
+
+Console::Console(ConsoleContext context) : c_(std::move(context)), table_(commands()) {
+    for (auto& c : c_.board_commands) table_.push_back(std::move(c));
+    c_.board_commands.clear();
+}
+
+std::string Console::press_for_prompt(bool setup_view_only) {
+    Cycle& cycle = c_.cycle;
+    const Prompt p = cycle.prompt();
+    const bool setup_prompt = p == Prompt::hold_calibration_board || p == Prompt::lay_plane_board;
+    if (p == Prompt::none || p == Prompt::start)
+        throw Refused(std::string("the box is not waiting for a person (") +
+                      state_name(cycle.state()) + ")");
+    if (setup_view_only && !setup_prompt)
+        throw Refused(std::string("no set-up view is asked for (waiting: ") + prompt_text(p) + ")");
+    const std::string was = prompt_text(p);
+    cycle.press(false);
+    return "done: " + was;
+}
+
+void Console::start_setup(const std::string& refused, ConsoleReply& r) {
+    if (!refused.empty()) throw Refused(refused);
+    r.text = std::string("set-up started: ") + prompt_text(c_.cycle.prompt()) +
+             " (capture, confirm or the button)";
+}
+
+void Console::describe_last(ConsoleReply& r) {
+    const Cycle& cycle = c_.cycle;
+    const auto& report = cycle.report();
+    if (cycle.cycles_completed() == 0) {
+        const auto last = c_.data.read_file("last-cycle");
+        if (!last) throw Refused("no cycle has completed yet");
+        r.text = "cycle " + last->substr(0, last->find('\n')) +
+                 " completed before the box started; its record is in the data directory";
+        r.data = {{"cycle", std::atoi(last->c_str())}};
+        return;
+    }
+    r.text = "cycle " + std::to_string(report.number) + ": " +
+             (report.applied ? "applied" : "not applied");
+    const auto figures = [](const modes::ErrorFigures& f) {
+        json j{{"rms_mm", f.rms_mm}, {"max_mm", f.max_mm}};
+        if (f.mean_mm) j["mean_mm"] = *f.mean_mm;
+        return j;
+    };
+    const auto line = [](const modes::ErrorFigures& f) {
+        return (f.mean_mm ? number_text("%.4f", *f.mean_mm) + " mm mean, " : std::string()) +
+               number_text("%.4f", f.rms_mm) + " mm RMS, " + number_text("%.4f", f.max_mm) +
+               " mm worst (measured)";
+    };
+    if (report.measured) r.text += "\nbefore: " + line(*report.measured);
+    if (report.verified) r.text += "\nafter: " + line(*report.verified);
+    const auto goal = cycle.mode().goal();
+    const bool met = cycle.goal_met();
+    if (report.verified) r.text += "\ngoal (" + goal.describe() + "): " + (met ? "met" : "not met");
+    r.data = {{"cycle", report.number},
+              {"applied", report.applied},
+              {"mode", goal.mode},
+              {"goal", goal.describe()},
+              {"goal_met", met}};
+    cycle.mode().describe_last(r.text, r.data);
+    if (report.measured) r.data["before"] = figures(*report.measured);
+    if (report.verified) r.data["after"] = figures(*report.verified);
+}
+
 std::string Console::reply_to(std::string_view line) {
     std::vector<std::string> words = words_of(line);
     bool as_json = false;
@@ -143,231 +384,26 @@ std::string Console::reply_to(std::string_view line) {
     if (const auto at = clean.find("--json"); at != std::string::npos) clean.erase(at, 6);
     if (words.empty()) return {};
 
-    Cycle& cycle = c_.cycle;
-    Reply r;
-    const auto& w0 = words[0];
-    const auto need_words = [&](std::size_t n, const char* usage) {
-        if (words.size() != n) throw Refused(std::string("usage: ") + usage);
-    };
+    ConsoleReply r;
     try {
-        if (w0 == "help") {
-            std::ostringstream out;
-            json list = json::array();
-            for (const auto& c : kCommands) {
-                out << "  " << c.usage
-                    << std::string(22 - std::min<std::size_t>(21, std::string_view(c.usage).size()),
-                                   ' ')
-                    << c.help << "\n";
-                list.push_back({{"command", c.usage}, {"help", c.help}});
+        // The row whose name's words begin the line, the longest first ("config set").
+        const ConsoleCommand* found = nullptr;
+        std::size_t found_words = 0;
+        std::string group_usage;  // "config list|get|..." for a group's first word alone
+        for (const auto& c : table_) {
+            const auto name = words_of(c.name);
+            if (name.size() <= words.size() && name.size() > found_words &&
+                std::equal(name.begin(), name.end(), words.begin())) {
+                found = &c;
+                found_words = name.size();
             }
-            for (const auto& [name, extra] : c_.extras) {
-                out << "  " << name << std::string(22 - std::min<std::size_t>(21, name.size()), ' ')
-                    << extra.help << "\n";
-                list.push_back({{"command", name}, {"help", extra.help}});
-            }
-            out << "  (--json on any line: the reply as one JSON object)";
-            r.text = out.str();
-            r.data["commands"] = list;
-        } else if (w0 == "status") {
-            need_words(1, "status");
-            const std::string prompt = prompt_text(cycle.prompt());
-            r.text = std::string("state: ") + state_name(cycle.state());
-            if (!prompt.empty()) r.text += "\nwaiting: " + prompt;
-            if (cycle.state() == CycleState::setup_camera)
-                r.text += "\nset-up: view " + std::to_string(cycle.prompt_step() + 1) +
-                          ", image covered " +
-                          std::to_string(std::lround(100 * cycle.setup_coverage())) + " %";
-            r.text += "\ncycle: " + std::to_string(cycle.report().number) + " (" +
-                      std::to_string(cycle.cycles_completed()) + " completed since start)";
-            if (!cycle.error().empty()) r.text += "\nlast error: " + cycle.error();
-            r.data = {{"state", state_name(cycle.state())},
-                      {"waiting", prompt},
-                      {"cycle", cycle.report().number},
-                      {"completed", cycle.cycles_completed()},
-                      {"error", cycle.error()},
-                      {"setup_coverage", cycle.setup_coverage()}};
-        } else if (w0 == "config") {
-            if (words.size() < 2) throw Refused("usage: config list|get|set|save|reset");
-            const auto& verb = words[1];
-            BoxConfig& config = c_.config;
-            if (verb == "list") {
-                need_words(2, "config list");
-                std::ostringstream out;
-                json keys = json::object();
-                for (const auto& k : config_schema()) {
-                    const std::string value = config.get(k.name);
-                    out << k.name << " = "
-                        << (k.kind == ConfigKind::text ? "\"" + value + "\"" : value);
-                    if (!k.unit.empty()) out << " " << k.unit;
-                    if (value != k.default_value) out << "  (default " << k.default_value << ")";
-                    if (k.needs_restart) out << "  [at start]";
-                    out << "\n";
-                    keys[std::string(k.name)] = {{"value", value},
-                                                 {"default", std::string(k.default_value)},
-                                                 {"unit", std::string(k.unit)},
-                                                 {"kind", kind_name(k.kind)},
-                                                 {"min", k.min},
-                                                 {"max", k.max},
-                                                 {"choices", std::string(k.choices)},
-                                                 {"at_start", k.needs_restart},
-                                                 {"doc", std::string(k.doc)}};
-                }
-                r.text = out.str();
-                r.text.pop_back();
-                r.data["config"] = keys;
-            } else if (verb == "get") {
-                need_words(3, "config get KEY");
-                const std::string value = config.get(words[2]);
-                r.text = words[2] + " = " + value;
-                r.data = {{"key", words[2]}, {"value", value}};
-            } else if (verb == "set") {
-                if (words.size() < 3) throw Refused("usage: config set KEY VALUE");
-                const std::string value = rest_after(clean, 3);
-                try {
-                    config.set(words[2], value);
-                } catch (const ConfigError& e) {
-                    throw Refused(e.what());
-                }
-                if (c_.config_changed) c_.config_changed();
-                const bool at_start = find_config_key(words[2])->needs_restart;
-                r.text = words[2] + " = " + config.get(words[2]) +
-                         (at_start ? " (in force at the next start; config save keeps it)"
-                                   : " (in force from the next cycle; config save keeps it)");
-                r.data = {
-                    {"key", words[2]}, {"value", config.get(words[2])}, {"at_start", at_start}};
-            } else if (verb == "save") {
-                need_words(2, "config save");
-                try {
-                    c_.settings.replace_file(c_.settings_name, config.to_toml());
-                } catch (const std::runtime_error& e) {
-                    throw Refused(std::string("not saved (the saved file is as it was): ") +
-                                  e.what());
-                }
-                r.text = "saved " + c_.settings_name;
-                r.data = {{"saved", c_.settings_name}};
-            } else if (verb == "reset") {
-                if (words.size() == 3) {
-                    try {
-                        config.reset(words[2]);
-                    } catch (const ConfigError& e) {
-                        throw Refused(e.what());
-                    }
-                    r.text = words[2] + " = " + config.get(words[2]) + " (the default)";
-                } else {
-                    need_words(2, "config reset [KEY]");
-                    config = BoxConfig();
-                    r.text = "every key back to its default (config save keeps it)";
-                }
-                if (c_.config_changed) c_.config_changed();
-            } else {
-                throw Refused("usage: config list|get|set|save|reset");
-            }
-        } else if (w0 == "start") {
-            need_words(1, "start");
-            if (cycle.state() != CycleState::idle)
-                throw Refused(std::string("busy: ") + state_name(cycle.state()));
-            cycle.start();
-            r.text = std::string("started: ") + state_name(cycle.state());
-        } else if (w0 == "confirm" || w0 == "capture") {
-            need_words(1, w0 == "confirm" ? "confirm" : "capture");
-            const Prompt p = cycle.prompt();
-            const bool setup_prompt =
-                p == Prompt::hold_calibration_board || p == Prompt::lay_plane_board;
-            if (p == Prompt::none || p == Prompt::start)
-                throw Refused(std::string("the box is not waiting for a person (") +
-                              state_name(cycle.state()) + ")");
-            if (w0 == "capture" && !setup_prompt)
-                throw Refused(std::string("no set-up view is asked for (waiting: ") +
-                              prompt_text(p) + ")");
-            const std::string was = prompt_text(p);
-            cycle.press(false);
-            r.text = "done: " + was;
-        } else if (w0 == "cancel") {
-            need_words(1, "cancel");
-            if (cycle.state() == CycleState::idle) throw Refused("nothing to cancel: idle");
-            cycle.cancel("cancelled from the console");
-            r.text = std::string("cancelled: ") + state_name(cycle.state());
-        } else if (w0 == "revert") {
-            need_words(1, "revert");
-            const std::string refused = cycle.revert();
-            if (!refused.empty()) throw Refused(refused);
-            r.text =
-                "reverting to the settings before cycle " + std::to_string(cycle.report().number);
-        } else if (w0 == "last") {
-            need_words(1, "last");
-            const auto& report = cycle.report();
-            if (cycle.cycles_completed() == 0) {
-                const auto last = c_.data.read_file("last-cycle");
-                if (!last) throw Refused("no cycle has completed yet");
-                r.text = "cycle " + last->substr(0, last->find('\n')) +
-                         " completed before the box started; its record is in the data directory";
-                r.data = {{"cycle", std::atoi(last->c_str())}};
-            } else {
-                r.text = "cycle " + std::to_string(report.number) + ": " +
-                         (report.applied ? "applied" : "not applied");
-                if (report.measured_xy_rms_mm)
-                    r.text += "\nbefore: " + number_text("%.4f", *report.measured_xy_rms_mm) +
-                              " mm RMS, " + number_text("%.4f", *report.measured_xy_max_mm) +
-                              " mm worst (measured)";
-                if (report.verify_xy_rms_mm)
-                    r.text += "\nafter: " + number_text("%.4f", *report.verify_xy_rms_mm) +
-                              " mm RMS, " + number_text("%.4f", *report.verify_xy_max_mm) +
-                              " mm worst (measured)";
-                r.data = {{"cycle", report.number}, {"applied", report.applied}};
-                // A delta printer's passes: what each found, moved and did.
-                auto passes = json::array();
-                for (const auto& p : report.passes) {
-                    r.text += "\npass " + std::to_string(p.pass) + ": gap varied " +
-                              number_text("%.3f", p.gap_range_mm) + " mm; moves the nozzle " +
-                              number_text("%.4f", p.xy_change_mm) + " mm in XY, " +
-                              number_text("%.4f", p.height_change_mm) +
-                              " mm in height: " + modes::pass_step_name(p.step);
-                    passes.push_back({{"pass", p.pass},
-                                      {"gap_range_mm", p.gap_range_mm},
-                                      {"xy_change_mm", p.xy_change_mm},
-                                      {"height_change_mm", p.height_change_mm},
-                                      {"step", modes::pass_step_name(p.step)}});
-                }
-                if (!report.passes.empty()) r.data["passes"] = passes;
-                if (report.measured_xy_rms_mm)
-                    r.data["before"] = {{"rms_mm", *report.measured_xy_rms_mm},
-                                        {"max_mm", *report.measured_xy_max_mm}};
-                if (report.verify_xy_rms_mm)
-                    r.data["after"] = {{"rms_mm", *report.verify_xy_rms_mm},
-                                       {"max_mm", *report.verify_xy_max_mm}};
-            }
-        } else if (w0 == "log") {
-            std::size_t count = 20;
-            if (words.size() == 2) {
-                try {
-                    count = std::stoul(words[1]);
-                } catch (const std::exception&) {
-                    throw Refused("usage: log [N]");
-                }
-            } else {
-                need_words(1, "log [N]");
-            }
-            const auto lines = c_.log.last(count);
-            for (const auto& l : lines) r.text += l + "\n";
-            if (!r.text.empty()) r.text.pop_back();
-            r.data["log"] = lines;
-        } else if (w0 == "version") {
-            need_words(1, "version");
-            r.text = "calbox " + c_.version;
-            r.data["version"] = c_.version;
-        } else if (w0 == "camera") {
-            if (words.size() != 2 || (words[1] != "calibrate" && words[1] != "plane"))
-                throw Refused("usage: camera calibrate|plane");
-            const std::string refused =
-                words[1] == "calibrate" ? cycle.calibrate_camera() : cycle.take_plane();
-            if (!refused.empty()) throw Refused(refused);
-            r.text = std::string("set-up started: ") + prompt_text(cycle.prompt()) +
-                     " (capture, confirm or the button)";
-        } else if (const auto extra = c_.extras.find(w0); extra != c_.extras.end()) {
-            r.text = extra->second.run(words);
-        } else {
-            throw Refused("'" + w0 + "' is not a command (help lists them)");
+            if (name.size() > 1 && name[0] == words[0])
+                group_usage += (group_usage.empty() ? words[0] + " " : "|") + name[1];
         }
+        if (found == nullptr && !group_usage.empty()) throw Refused("usage: " + group_usage);
+        if (found == nullptr)
+            throw Refused("'" + words[0] + "' is not a command (help lists them)");
+        found->run(words, clean, r);
     } catch (const Refused& e) {
         if (as_json) return json{{"ok", false}, {"error", e.what()}}.dump() + "\n";
         return std::string("error: ") + e.what() + "\n";

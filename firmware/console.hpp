@@ -8,6 +8,8 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -54,6 +56,29 @@ class LogBook {
     std::deque<std::string> lines_;
 };
 
+// A command's reply: the human form (without the final newline) and the --json one.
+struct ConsoleReply {
+    std::string text;
+    nlohmann::json data = nlohmann::json::object();
+};
+
+// A command refused: one line, and nothing was done.
+class ConsoleRefused : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+// One row of the console's table: the words that name it ("config set"), its usage and help
+// line, and what it does (throwing ConsoleRefused to refuse).
+struct ConsoleCommand {
+    std::string name;
+    std::string usage;
+    std::string help;
+    std::function<void(const std::vector<std::string>& words, std::string_view line,
+                       ConsoleReply& reply)>
+        run;
+};
+
 struct ConsoleContext {
     Cycle& cycle;
     BoxConfig& config;       // the configuration in force
@@ -64,24 +89,25 @@ struct ConsoleContext {
     std::string version;
     // Called after the configuration changed (set or reset), to put it in force.
     std::function<void()> config_changed;
-    // The board's own commands (the sim board: press, hold), with a line of help each.
-    struct Extra {
-        std::string help;
-        std::function<std::string(const std::vector<std::string>& words)> run;
-    };
-    std::map<std::string, Extra> extras;
+    // The board's own commands (the sim board: press, hold, quit), listed after the box's.
+    std::vector<ConsoleCommand> board_commands;
 };
 
 class Console {
   public:
-    explicit Console(ConsoleContext context) : c_(std::move(context)) {}
+    explicit Console(ConsoleContext context);
     // The reply to one line, newline-terminated; "" for an empty line. With --json anywhere on
     // the line the reply is one JSON object: {"ok":true,...} or {"ok":false,"error":"..."}.
     std::string reply_to(std::string_view line);
     std::string refuse_too_long(const LineAssembler::Line& line) const;
 
   private:
+    std::vector<ConsoleCommand> commands();
+    std::string press_for_prompt(bool setup_view_only);
+    void start_setup(const std::string& refused, ConsoleReply& reply);
+    void describe_last(ConsoleReply& reply);
     ConsoleContext c_;
+    std::vector<ConsoleCommand> table_;
 };
 
 class ConsoleLink {

@@ -7,17 +7,8 @@
 #include <sstream>
 
 #include "core/geometry/calibration.hpp"
-#include "core/models/delta_commands.hpp"
-#include "core/modes/delta_probe.hpp"
-#include "core/modes/delta_records.hpp"
-#include "core/number_text.hpp"
-#include "core/targets/compensate.hpp"
-#include "core/targets/delta_target.hpp"
-#include "core/targets/galvo_target.hpp"
-#include "core/targets/job.hpp"
-#include "core/targets/planar_target.hpp"
 #include "core/vision/reference_marks.hpp"
-#include "firmware/overlays.hpp"
+#include "firmware/modes/photos.hpp"
 #include "firmware/png.hpp"
 #include "firmware/screens.hpp"
 
@@ -28,33 +19,10 @@ double seconds(std::chrono::nanoseconds d) {
     return std::chrono::duration<double>(d).count();
 }
 
-std::string fixed(double v, int decimals) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.*f", decimals, v);
-    return b;
-}
-
-vision::GrayView view_of(const hal::Frame& f) {
-    return {f.pixels.data(), f.width_px, f.height_px, f.stride_bytes};
-}
-
-// Photos from files or another camera: the lens model holds only at the size it was calibrated
-// at.
-vision::GrayView calibrated_view_of(const hal::Frame& frame, const geometry::CameraModel& camera) {
-    if (frame.width_px != camera.image_width || frame.height_px != camera.image_height) {
-        throw std::runtime_error("the photo is " + std::to_string(frame.width_px) + "x" +
-                                 std::to_string(frame.height_px) +
-                                 ", the camera was calibrated at " +
-                                 std::to_string(camera.image_width) + "x" +
-                                 std::to_string(camera.image_height) + " (camera.yaml)");
-    }
-    return view_of(frame);
-}
-
-std::string record_name(int cycle, const char* what) {
-    char b[64];
-    std::snprintf(b, sizeof b, "cycle-%04d-%s", cycle, what);
-    return b;
+std::string record_file_name(int cycle, const std::string& what) {
+    char b[32];
+    std::snprintf(b, sizeof b, "cycle-%04d-", cycle);
+    return b + what;
 }
 
 // The error screen's one line: what to look at first when a stage fails.
@@ -80,20 +48,6 @@ std::string hint_for(CycleState stage) {
         default:
             return "see the log";
     }
-}
-
-// The lines as a file's text: each one ended by a newline.
-std::string joined(const std::vector<std::string>& lines) {
-    std::string out;
-    for (const auto& l : lines) out += l + "\n";
-    return out;
-}
-
-// "M665 M666": commands named in a message.
-std::string spaced(const std::vector<std::string>& words) {
-    std::string out;
-    for (const auto& w : words) out += (out.empty() ? "" : " ") + w;
-    return out;
 }
 
 }  // namespace
@@ -150,13 +104,10 @@ const char* prompt_text(Prompt p) {
 
 Cycle::Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings settings, Log log)
     : d_(devices),
-      machine_(std::move(machine)),
       settings_(std::move(settings)),
       log_(std::move(log)),
+      mode_(make_cycle_mode(machine, *this)),
       blink_(d_.clock.make_timer()) {
-    if (!machine_.is_delta() && !machine_.is_galvo() && !machine_.is_planar())
-        throw std::invalid_argument("the cycle runs the delta, galvo and planar modes, not a " +
-                                    machine_.kind);
     blink_->arm(std::chrono::milliseconds(500), std::chrono::milliseconds(500));
     set_leds();
     show(draw_screen(idle_screen()));
@@ -239,7 +190,7 @@ void Cycle::close_record() {
         for (std::size_t i = 0; i < cycle_screens_.size(); ++i) {
             char what[32];
             std::snprintf(what, sizeof what, "screen-%02zu.png", i + 1);
-            d_.data.replace_file(record_name(report_.number, what), png_of(cycle_screens_[i]));
+            d_.data.replace_file(record_file_name(report_.number, what), png_of(cycle_screens_[i]));
         }
         prune_records();
     } catch (const std::runtime_error& e) {
@@ -298,10 +249,11 @@ ProgressScreen Cycle::progress_screen(const std::string& detail) const {
 }
 
 IdleScreen Cycle::idle_screen() const {
-    IdleScreen idle{machine_.kind + " " + machine_.firmware, "no cycle yet"};
-    if (completed_ > 0 && report_.measured_xy_rms_mm && report_.verify_xy_rms_mm)
-        idle.last_result = "last " + fixed(*report_.measured_xy_rms_mm, 3) + " -> " +
-                           fixed(*report_.verify_xy_rms_mm, 3) + " mm";
+    IdleScreen idle{machine().kind + " " + machine().firmware, "no cycle yet"};
+    if (completed_ > 0 && report_.measured && report_.verified)
+        idle.last_result = "last " + fixed(report_.measured->rms_mm, 3) + " -> " +
+                           fixed(report_.verified->rms_mm, 3) + " mm" +
+                           (goal_met() ? "" : " (short of goal)");
     return idle;
 }
 
@@ -448,7 +400,8 @@ void Cycle::work(std::function<void()> job, std::function<void()> then) {
     });
 }
 
-void Cycle::run_job(const std::vector<std::string>& lines, std::function<void(JobOutcome)> then) {
+void Cycle::run_job(const std::vector<std::string>& lines,
+                    std::function<void(const JobOutcome&)> then) {
     const unsigned generation = generation_;
     const auto started = d_.clock.now();
     d_.machine.start_job(lines,
@@ -501,6 +454,18 @@ void Cycle::take_next_settings() {
     presses_ = PressClassifier(settings_.long_press);
 }
 
+std::optional<std::string> Cycle::read(const std::string& name) const {
+    return d_.data.read_file(name);
+}
+
+std::string Cycle::record_name(const std::string& what) const {
+    return record_file_name(report_.number, what);
+}
+
+void Cycle::log(const std::string& line) {
+    log_("cycle " + std::to_string(report_.number) + ": " + line);
+}
+
 void Cycle::notice(const std::string& what) {
     log_("cycle " + std::to_string(report_.number) + ": " + what);
     if (on_notice) on_notice(what);
@@ -511,6 +476,7 @@ void Cycle::begin_cycle() {
     stage_seconds_ = {};
     cycle_screens_.clear();
     report_ = CycleReport{};
+    mode_->begin();
     const auto last = d_.data.read_file("last-cycle");
     report_.number = (last ? std::atoi(last->c_str()) : 0) + 1;
     cycle_running_ = true;
@@ -717,657 +683,135 @@ void Cycle::check_camera() {
 }
 
 void Cycle::ask_clear_bed_then_target() {
-    enter(CycleState::make_target, "the " + machine_.kind + " target for " + machine_.firmware);
+    enter(CycleState::make_target, "the " + machine().kind + " target for " + machine().firmware);
     ask(Prompt::clear_bed, 0, [this] { make_target(); });
 }
 
 void Cycle::make_target() {
-    auto lines = std::make_shared<std::vector<std::string>>();
-    work(
-        [machine = machine_, lines] {
-            std::istringstream text(
-                machine.is_planar()
-                    ? targets::make_planar_target(machine).job
-                    : targets::write_gcode(machine.is_galvo()
-                                               ? targets::make_galvo_target(machine).job
-                                               : targets::make_delta_target(machine).job,
-                                           machine, "calbox target"));
-            std::string line;
-            while (std::getline(text, line)) lines->push_back(line);
-        },
-        [this, lines] {
-            target_job_ = *lines;
-            auto make = [this] {
-                enter(CycleState::wait_machine,
-                      "making the target: " + std::to_string(target_job_.size()) + " lines");
-                run_job(target_job_, [this](const JobOutcome&) {
-                    enter(CycleState::capture,
-                          std::to_string(settings_.frames_per_capture) + " frame(s)");
-                    measure_print(CycleState::measure, [this] {
-                        if (measurements_) {
-                            const auto errors = modes::placement_errors(measurements_->features);
-                            report_.measured_xy_rms_mm = errors.rms_mm;
-                            report_.measured_xy_max_mm = errors.largest_mm;
-                        }
-                        solve();
-                    });
-                });
-            };
-            // A galvo or a router has no geometry settings to read: its correction is the box's.
-            if (keeps_correction()) {
-                make();
-            } else {
-                read_printer_settings([this, make = std::move(make)] { probe_printer(make); });
-            }
-        });
-}
-
-// The correction is worked out from the settings in force, which an earlier cycle, a revert or
-// the owner may have changed since the machine file was written: they are read from the printer.
-// Klipper's live in printer.cfg, out of the link's reach: the machine file's stand.
-void Cycle::read_printer_settings(std::function<void()> then) {
-    if (machine_.firmware == "klipper") {
-        then();
-        return;
-    }
-    read_settings(machine_.firmware,
-                  [this, then = std::move(then)](const std::vector<std::string>& commands) {
-                      try {
-                          machine_.delta =
-                              models::geometry_from_settings(machine_.firmware, commands);
-                      } catch (const std::exception& e) {
-                          fail("the printer's reply to " +
-                               spaced(models::settings_query(machine_.firmware)) + ": " + e.what());
-                          return;
-                      }
-                      log_("cycle " + std::to_string(report_.number) +
-                           ": the printer's settings: " + spaced(commands));
-                      then();
-                  });
-}
-
-void Cycle::probe_printer(std::function<void()> then) {
-    probe_.clear();
-    if (!machine_.probe) {
-        then();
-        return;
-    }
-    const auto points = modes::probe_points(*machine_.probe);
-    enter(CycleState::wait_machine,
-          "the printer probes the bed: " + std::to_string(points.size()) + " points");
-    run_job(modes::probe_job(machine_.firmware, points),
-            [this, points, then = std::move(then)](const JobOutcome& outcome) {
-                try {
-                    probe_ = modes::probe_from_replies(machine_.firmware, points, outcome.replies,
-                                                       machine_.probe->repeatability_mm);
-                } catch (const std::invalid_argument& e) {
-                    fail(std::string("the printer's probe report: ") + e.what());
-                    return;
-                }
-                double low = 1e9, high = -1e9;
-                for (const auto& p : probe_) {
-                    low = std::min(low, p.z_mm);
-                    high = std::max(high, p.z_mm);
-                }
-                if (!keep(record_name(report_.number, "probe.csv"), modes::probe_to_csv(probe_)))
-                    return;
-                log_("cycle " + std::to_string(report_.number) + ": the printer's probe: " +
-                     std::to_string(probe_.size()) + " points, the nozzle's gap ranging " +
-                     number_text("%.3f", high - low) + " mm over the bed");
-                then();
+    mode_->make_target([this](std::vector<std::string> lines) {
+        target_job_ = std::move(lines);
+        mode_->before_target([this] {
+            enter(CycleState::wait_machine,
+                  "making the target: " + std::to_string(target_job_.size()) + " lines");
+            run_job(target_job_, [this](const JobOutcome&) {
+                enter(CycleState::capture,
+                      std::to_string(settings_.frames_per_capture) + " frame(s)");
+                measure_print(CycleState::measure, [this] { solve(); });
             });
-}
-
-void Cycle::read_settings(const std::string& firmware,
-                          std::function<void(std::vector<std::string>)> then) {
-    run_job(models::settings_query(firmware),
-            [firmware, then = std::move(then)](const JobOutcome& outcome) {
-                then(models::settings_from_report(firmware, outcome.replies));
-            });
-}
-
-void Cycle::send_and_read_back(const std::string& firmware, const std::vector<std::string>& lines,
-                               std::function<void(std::string, std::vector<std::string>)> then) {
-    run_job(lines, [this, firmware, lines, then = std::move(then)](const JobOutcome&) {
-        read_settings(firmware, [firmware, lines, then](std::vector<std::string> reported) {
-            // Compared before the report is moved on (argument order is unspecified).
-            std::string mismatch = models::settings_mismatch(firmware, lines, reported);
-            then(std::move(mismatch), std::move(reported));
         });
     });
 }
 
-// Photographs what was printed and measures it into measurements_.
 void Cycle::measure_print(CycleState state, std::function<void()> then) {
     capture(settings_.frames_per_capture, [this, state,
                                            then = std::move(then)](std::vector<hal::Frame> f) {
-        auto frames = std::make_shared<std::vector<hal::Frame>>(std::move(f));
+        auto frames = std::make_shared<const std::vector<hal::Frame>>(std::move(f));
         enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
-        auto record = std::make_shared<modes::DeltaMeasurementsRecord>();
-        auto galvo = std::make_shared<modes::GalvoMeasurement>();
-        auto planar = std::make_shared<modes::PlanarMeasurement>();
-        const std::string camera_yaml = d_.data.read_file("camera.yaml").value_or("");
-        const std::string plane_yaml = d_.data.read_file("plane.yaml").value_or("");
+        const bool verifying = state == CycleState::verify;
+        MeasureInput input{frames, read("camera.yaml").value_or(""),
+                           read("plane.yaml").value_or("")};
+        auto measure = [this, input = std::move(input), verifying, then] {
+            mode_->measure(input, verifying, then);
+        };
+        if (!settings_.records.keep_photos) {
+            measure();
+            return;
+        }
         // The photos join the record when the configuration says so, encoded off the loop.
         auto photos = std::make_shared<std::vector<std::string>>();
-        auto overlay = std::make_shared<std::string>();  // what was found, on the first photo
         work(
-            [machine = machine_, frames, record, galvo, planar, camera_yaml, plane_yaml, photos,
-             overlay, keep_photos = settings_.records.keep_photos] {
-                if (keep_photos)
-                    for (const auto& frame : *frames) photos->push_back(png_of(frame));
-                const auto camera = geometry::camera_from_yaml(camera_yaml);
-                const auto plane = geometry::plane_from_yaml(plane_yaml);
-                std::vector<vision::GrayView> views;
-                for (const auto& frame : *frames)
-                    views.push_back(calibrated_view_of(frame, camera));
-                std::vector<std::string> names;
-                for (std::size_t i = 0; i < frames->size(); ++i)
-                    names.push_back("frame " + std::to_string(i + 1));
-                if (machine.is_galvo()) {
-                    // One photo of the whole grid: the first frame.
-                    *galvo = modes::measure_galvo(machine, camera, plane, views.front());
-                    galvo->photos = {names.front()};
-                    *overlay = galvo_overlay_png(views.front(), *galvo, machine, camera, plane);
-                    return;
-                }
-                if (machine.is_planar()) {
-                    // The box's camera sees the whole sheet: the first frame.
-                    *planar = modes::measure_planar(machine, camera, plane, views.front());
-                    planar->photos = {names.front()};
-                    *overlay = planar_overlay_png(views.front(), *planar, machine, camera, plane);
-                    return;
-                }
-                const auto measured = modes::measure_delta(machine, camera, plane, views);
-                *record = modes::record_of(measured, machine, names);
-                *overlay = delta_overlay_png(views.front(), measured, camera, plane);
+            [frames, photos] {
+                for (const auto& frame : *frames) photos->push_back(png_of(frame));
             },
-            [this, record, galvo, planar, then, photos, overlay, state] {
-                const bool verifying = state == CycleState::verify;
-                if (!keep(verifying ? pass_file("verify-overlay.png")
-                                    : record_name(report_.number, "overlay.png"),
-                          *overlay))
-                    return;
-                for (std::size_t i = 0; i < photos->size(); ++i) {
-                    const std::string what = std::string(verifying ? "verify" : "target") +
-                                             "-photo-" + std::to_string(i + 1) + ".png";
-                    if (!keep(verifying ? pass_file(what.c_str())
-                                        : record_name(report_.number, what.c_str()),
+            [this, photos, verifying, measure = std::move(measure)] {
+                const std::string prefix = verifying ? mode_->pass_prefix() + "verify" : "target";
+                for (std::size_t i = 0; i < photos->size(); ++i)
+                    if (!keep(record_name(prefix + "-photo-" + std::to_string(i + 1) + ".png"),
                               (*photos)[i]))
                         return;
-                }
-                if (machine_.is_galvo()) {
-                    galvo_measured_ = *galvo;
-                } else if (machine_.is_planar()) {
-                    planar_measured_ = *planar;
-                } else {
-                    measurements_ = *record;
-                }
-                then();
+                measure();
             });
     });
 }
 
 void Cycle::solve() {
-    if (machine_.is_galvo()) {
-        solve_galvo();
-        return;
-    }
-    if (machine_.is_planar()) {
-        solve_planar();
-        return;
-    }
-    // A later pass measures the verification print, kept as the pass before's.
-    const int pass = static_cast<int>(report_.passes.size()) + 1;
-    if (pass == 1 && !keep(record_name(report_.number, "measurements.json"),
-                           modes::measurements_to_json(*measurements_)))
-        return;
-    enter(CycleState::solve, (pass > 1 ? "pass " + std::to_string(pass) + ": " : std::string()) +
-                                 std::to_string(measurements_->features.size()) + " corners");
-    auto solution = std::make_shared<modes::DeltaSolution>();
-    // The probe measured the printer as the first pass found it.
-    auto probe = pass == 1 ? probe_ : std::vector<solve::ProbePoint>{};
-    work([machine = machine_, measurements = *measurements_, options = settings_.solve, solution,
-          probe = std::move(
-              probe)] { *solution = modes::solve_delta(machine, measurements, probe, options); },
-         [this, solution, pass] {
-             DeltaPassReport p;
-             p.pass = pass;
-             // What the pass measured was placed already: the cycle's first print, or the
-             // verification print of the pass before.
-             p.measured_xy_rms_mm = pass == 1 ? report_.measured_xy_rms_mm.value()
-                                              : report_.passes.back().verify_xy_rms_mm.value();
-             p.measured_xy_max_mm = pass == 1 ? report_.measured_xy_max_mm.value()
-                                              : report_.passes.back().verify_xy_max_mm.value();
-             const auto& c = solution->fit.correction;
-             p.gap_range_mm = c.predicted_height_range_now_mm;
-             p.xy_change_mm = c.predicted_xy_change_mm;
-             p.height_change_mm = c.predicted_height_change_mm;
-             p.step = modes::next_delta_pass_step(*solution, pass, settings_.passes);
-             report_.passes.push_back(p);
-             if (!keep(pass_file("result.json"), modes::result_to_json(*solution))) return;
-             log_("cycle " + std::to_string(report_.number) + ": " +
-                  modes::describe_delta_pass(*solution, pass, p.step, settings_.passes));
-             // A printer that holds keeps the correction in force: the report's stays the one sent.
-             if (p.step == modes::DeltaPassStep::holds) {
-                 finish_cycle();
-                 return;
-             }
-             report_.solution = *solution;
-             // The owner reviewed the cycle's correction at its first pass; a later one is the
-             // same calibration carried on (within the same bounds), applied as it comes so
-             // that a button or a PLC confirms a cycle once.
-             if (pass > 1) {
-                 for (const auto& command : solution->commands) log_("  " + command);
-                 apply();
-                 return;
-             }
-             review();
-         });
-}
-
-std::string Cycle::pass_file(const char* what) const {
-    const std::size_t pass = std::max<std::size_t>(report_.passes.size(), 1);
-    return record_name(
-        report_.number,
-        (pass == 1 ? std::string(what) : "pass-" + std::to_string(pass) + "-" + what).c_str());
+    mode_->solve([this](SolveOutcome outcome) {
+        // A later pass's measurement is the verification print of the one before.
+        if (!report_.measured) report_.measured = outcome.measured;
+        switch (outcome.next) {
+            case SolveOutcome::Next::review:
+                review();
+                return;
+            case SolveOutcome::Next::apply:
+                apply();
+                return;
+            case SolveOutcome::Next::done:
+                finish_cycle();
+                return;
+        }
+    });
 }
 
 void Cycle::review() {
-    if (machine_.is_galvo()) {
-        review_galvo();
-        return;
-    }
-    if (machine_.is_planar()) {
-        review_planar();
-        return;
-    }
-    const auto& s = *report_.solution;
-    const auto& before = s.fit.fitted.before;
-    const auto& c = s.fit.correction;
-    const auto& pass = report_.passes.back();
-    enter(CycleState::review, "predicted XY after " + fixed(c.predicted_xy_rms_mm, 4) + " mm RMS");
-    log_("cycle " + std::to_string(report_.number) + ": proposed: rod " +
-         fixed(before.diagonal_rod_mm, 3) + " -> " + fixed(s.after.diagonal_rod_mm, 3) +
-         " mm, radius " + fixed(before.radius_mm, 3) + " -> " + fixed(s.after.radius_mm, 3) +
-         " mm; fit RMS " + fixed(s.fit.fitted.fit_rms_mm, 4) + " mm; predicted XY " +
-         fixed(c.predicted_xy_rms_mm, 4) + " mm RMS, " + fixed(c.predicted_xy_max_mm, 4) +
-         " mm worst");
-    for (const auto& command : s.commands) log_("  " + command);
-    show(draw_screen(ReviewScreen{
-        {"rod " + number_text("%+.3f", s.after.diagonal_rod_mm - before.diagonal_rod_mm) + " mm",
-         "radius " + number_text("%+.3f", s.after.radius_mm - before.radius_mm) + " mm"},
-        "XY " + fixed(pass.measured_xy_rms_mm, 3),
-        fixed(c.predicted_xy_rms_mm, 3) + " mm"}));
+    const ReviewText text = mode_->review();
+    enter(CycleState::review, text.detail);
+    log(text.proposed);
+    for (const auto& line : text.details) log_detail(line);
+    show(draw_screen(text.screen));
     ask(Prompt::review, 0, [this] { apply(); });
 }
 
 void Cycle::apply() {
-    if (machine_.is_galvo()) {
-        apply_galvo();
-        return;
-    }
-    if (machine_.is_planar()) {
-        apply_planar();
-        return;
-    }
-    const auto& s = *report_.solution;
-    if (s.firmware == "klipper") {
-        // Klipper's geometry lives in printer.cfg: shown and stored, never pretended applied.
-        if (!keep(record_name(report_.number, "printer.cfg"), joined(s.commands))) return;
-        enter(CycleState::apply, "Klipper: edit printer.cfg as " +
-                                     record_name(report_.number, "printer.cfg") + " says");
-        finish_cycle();
-        return;
-    }
-    enter(CycleState::apply,
-          "backing up the settings (" + spaced(models::settings_query(s.firmware)) + ")");
-    read_settings(s.firmware, [this](std::vector<std::string> backup) {
-        report_.backup = std::move(backup);
-        if (report_.backup.size() != 2) {
-            fail("apply: the printer's reply to " +
-                 spaced(models::settings_query(report_.solution->firmware)) +
-                 " does not hold both its M665 and M666 settings to back up");
-            return;
-        }
-        // Each pass backs up what it changes; revert goes back to before the cycle (pass 1's).
-        if (!keep(pass_file("backup.gcode"), joined(report_.backup) + "M500\n")) return;
-        const auto& solution = *report_.solution;
-        log_("cycle " + std::to_string(report_.number) + ": sending " +
-             std::to_string(solution.commands.size()) + " lines");
-        send_and_read_back(solution.firmware, solution.commands,
-                           [this](const std::string& mismatch, const std::vector<std::string>&) {
-                               if (mismatch.empty()) {
-                                   report_.applied = true;
-                                   machine_.delta = report_.solution->after;
-                                   verify();
-                                   return;
-                               }
-                               restore_backup("apply: read-back mismatch: " + mismatch);
-                           });
+    mode_->apply([this](bool verify_next) {
+        report_.applied = verify_next;
+        if (verify_next)
+            verify();
+        else
+            finish_cycle();
     });
 }
 
-// Puts back what was there, then stops with the reason.
-void Cycle::restore_backup(const std::string& why) {
-    auto restore = report_.backup;
-    restore.emplace_back("M500");
-    log_("cycle " + std::to_string(report_.number) + ": " + why + "; restoring the backup");
-    run_job(restore, [this, why](const JobOutcome&) {
-        fail(why + " (the previous settings were restored)");
+void Cycle::verify() {
+    enter(CycleState::verify, mode_->verify_detail());
+    ask(Prompt::clear_bed, 0, [this] {
+        mode_->verification_job(target_job_, [this](std::vector<std::string> job) {
+            run_job(job, [this](const JobOutcome&) {
+                measure_print(CycleState::verify, [this] {
+                    mode_->judge_verification([this](VerifyOutcome outcome) {
+                        report_.verified = outcome.verified;
+                        if (outcome.solve_again) {
+                            solve();
+                            return;
+                        }
+                        finish_cycle();
+                    });
+                });
+            });
+        });
     });
 }
 
 std::string Cycle::revert() {
     if (state_ != CycleState::idle)
         return "revert: the box is busy (" + std::string(state_name(state_)) + ")";
-    if (machine_.firmware == "klipper")
-        return "revert: Klipper's settings live in printer.cfg; the box never changed them";
-    const auto last = d_.data.read_file("last-cycle");
+    const auto last = read("last-cycle");
     if (!last) return "revert: no cycle has run here";
     const int number = std::atoi(last->c_str());
-    if (keeps_correction()) {
-        // The correction is the box's own file: the one in force before goes back.
-        const std::string backup_name = record_name(number, kept_backup_name());
-        const auto kept = d_.data.read_file(backup_name);
-        if (!kept)
-            return "revert: cycle " + std::to_string(number) + " applied nothing (no " +
-                   backup_name + ")";
-        report_ = CycleReport{};
-        report_.number = number;
-        error_.clear();
-        enter(CycleState::apply,
-              "reverting to the correction in force before cycle " + std::to_string(number));
-        if (!keep(kept_file(), *kept)) return error_;
-        enter(CycleState::idle, "reverted to " + backup_name);
-        if (on_cycle_end) on_cycle_end(true);
-        return "";
-    }
-    const std::string name = record_name(number, "backup.gcode");
-    const auto backup = d_.data.read_file(name);
-    if (!backup)
-        return "revert: cycle " + std::to_string(number) + " applied nothing (no " + name + ")";
-    std::vector<std::string> lines;
-    std::istringstream text(*backup);
-    for (std::string line; std::getline(text, line);)
-        if (!line.empty()) lines.push_back(line);
     report_ = CycleReport{};
     report_.number = number;
     error_.clear();
-    enter(CycleState::apply,
-          "reverting to the settings saved before cycle " + std::to_string(number));
-    send_and_read_back(
-        machine_.firmware, lines,
-        [this, name](const std::string& mismatch, const std::vector<std::string>& reported) {
-            if (!mismatch.empty()) {
-                fail("revert: read-back mismatch: " + mismatch);
-                return;
-            }
-            machine_.delta = models::geometry_from_settings(machine_.firmware, reported);
-            enter(CycleState::idle, "reverted to " + name);
-            if (on_cycle_end) on_cycle_end(true);
-        });
-    return "";
-}
-
-void Cycle::verify() {
-    if (machine_.is_galvo()) {
-        verify_galvo();
-        return;
-    }
-    if (machine_.is_planar()) {
-        verify_planar();
-        return;
-    }
-    enter(CycleState::verify, "printing the target again on the corrected machine");
-    ask(Prompt::clear_bed, 0, [this] {
-        run_job(target_job_, [this](const JobOutcome&) {
-            measure_print(CycleState::verify, [this] {
-                const auto errors = modes::placement_errors(measurements_->features);
-                report_.verify_xy_rms_mm = errors.rms_mm;
-                report_.verify_xy_max_mm = errors.largest_mm;
-                if (!keep(pass_file("verify-measurements.json"),
-                          modes::measurements_to_json(*measurements_)))
-                    return;
-                log_("cycle " + std::to_string(report_.number) +
-                     ": verified on the re-printed target: XY " +
-                     fixed(*report_.verify_xy_rms_mm, 4) + " mm RMS, " +
-                     fixed(*report_.verify_xy_max_mm, 4) + " mm worst");
-                auto& pass = report_.passes.back();
-                pass.verify_xy_rms_mm = report_.verify_xy_rms_mm;
-                pass.verify_xy_max_mm = report_.verify_xy_max_mm;
-                if (pass.step == modes::DeltaPassStep::apply_then_measure_again) {
-                    solve();  // the verification print, on the levelled bed, is the next pass
-                    return;
-                }
-                if (pass.step == modes::DeltaPassStep::apply_and_stop_out_of_passes)
-                    notice("pass " + std::to_string(pass.pass) +
-                           ", the last allowed, still corrected the printer by up to " +
-                           fixed(std::max(pass.xy_change_mm, pass.height_change_mm), 3) +
-                           " mm; calibrate again to see whether it holds, and if it does not, "
-                           "check that the bed is flat and firmly mounted");
-                finish_cycle();
-            });
-        });
+    mode_->begin();
+    const std::string refused = mode_->revert(number, [this](const std::string& what) {
+        enter(CycleState::idle, what);
+        if (on_cycle_end) on_cycle_end(true);
     });
+    if (!refused.empty()) return refused;
+    return state_ == CycleState::error ? error_ : std::string();
 }
 
-void Cycle::solve_galvo() {
-    if (!keep(record_name(report_.number, "measurements.json"),
-              modes::galvo_measurements_to_json(*galvo_measured_)))
-        return;
-    enter(CycleState::solve, std::to_string(galvo_measured_->nodes.size()) + " marks, " +
-                                 std::to_string(galvo_measured_->missing.size()) + " missing");
-    auto solution = std::make_shared<modes::GalvoSolution>();
-    work([machine = machine_, measured = *galvo_measured_,
-          solution] { *solution = modes::solve_galvo(machine, measured, std::nullopt); },
-         [this, solution] {
-             report_.galvo = *solution;
-             report_.measured_xy_rms_mm = solution->fit.before.rms_mm;
-             report_.measured_xy_max_mm = solution->fit.before.max_mm;
-             if (!keep(record_name(report_.number, "result.json"),
-                       modes::galvo_result_to_json(*solution)))
-                 return;
-             if (!keep(record_name(report_.number, "table.csv"),
-                       models::table_to_csv(solution->fit.table)))
-                 return;
-             review();
-         });
-}
-
-void Cycle::review_galvo() {
-    const auto& s = *report_.galvo;
-    const auto& t = s.fit.table;
-    enter(CycleState::review, "predicted after " + fixed(s.predicted_rms_mm, 4) + " mm RMS");
-    log_("cycle " + std::to_string(report_.number) + ": proposed: a " + std::to_string(t.nodes) +
-         " x " + std::to_string(t.nodes) + " table over X " + fixed(t.min_x_mm, 2) + ".." +
-         fixed(t.max_x_mm, 2) + " Y " + fixed(t.min_y_mm, 2) + ".." + fixed(t.max_y_mm, 2) +
-         " mm; error now " + fixed(s.fit.before.mean_mm, 4) + " mm mean, " +
-         fixed(s.fit.before.max_mm, 4) + " mm worst; predicted after " +
-         fixed(s.predicted_rms_mm, 4) + " mm RMS");
-    show(draw_screen(
-        ReviewScreen{{"a " + std::to_string(t.nodes) + "x" + std::to_string(t.nodes) + " table",
-                      "mean error, in mm:"},
-                     fixed(s.fit.before.mean_mm, 3),
-                     fixed(s.predicted_rms_mm, 3)}));
-    ask(Prompt::review, 0, [this] { apply(); });
-}
-
-// The box keeps the scanner's table (kGalvoTableFile) and sends jobs through it; the one in
-// force before is kept with the cycle's record, so that revert can put it back.
-void Cycle::apply_galvo() {
-    enter(CycleState::apply, "keeping the table: jobs now go through it");
-    const auto previous = d_.data.read_file(kGalvoTableFile);
-    if (!keep(record_name(report_.number, kept_backup_name()), previous.value_or(kNoGalvoTable)))
-        return;
-    if (!keep(kGalvoTableFile, modes::galvo_result_to_json(*report_.galvo))) return;
-    report_.applied = true;
-    verify();
-}
-
-void Cycle::verify_galvo() {
-    enter(CycleState::verify, "burning the grid again through the table");
-    ask(Prompt::clear_bed, 0, [this] {
-        auto lines = std::make_shared<std::vector<std::string>>();
-        work(
-            [job = target_job_, table = report_.galvo->fit.table, lines] {
-                std::string text;
-                for (const auto& l : job) text += l + "\n";
-                targets::CompensateReport ignored;
-                std::istringstream compensated(targets::compensate_gcode(
-                    text, [&table](geometry::Point2 p) { return table.command_for(p); },
-                    [&table](geometry::Point2 p) { return table.covers(p); }, {}, ignored));
-                for (std::string line; std::getline(compensated, line);) lines->push_back(line);
-            },
-            [this, lines] {
-                run_job(*lines, [this](const JobOutcome&) {
-                    measure_print(CycleState::verify, [this] {
-                        auto again = std::make_shared<modes::GalvoSolution>();
-                        work([machine = machine_, measured = *galvo_measured_,
-                              through = report_.galvo,
-                              again] { *again = modes::solve_galvo(machine, measured, through); },
-                             [this, again] {
-                                 report_.verify_xy_rms_mm = again->fit.before.rms_mm;
-                                 report_.verify_xy_max_mm = again->fit.before.max_mm;
-                                 if (!keep(record_name(report_.number, "verify-measurements.json"),
-                                           modes::galvo_measurements_to_json(*galvo_measured_)))
-                                     return;
-                                 // Its "before" is the table's verified "after".
-                                 if (!keep(record_name(report_.number, "verify-result.json"),
-                                           modes::galvo_result_to_json(*again)))
-                                     return;
-                                 log_("cycle " + std::to_string(report_.number) +
-                                      ": verified on the grid burned through the table: " +
-                                      fixed(again->fit.before.mean_mm, 4) + " mm mean, " +
-                                      fixed(again->fit.before.rms_mm, 4) + " mm RMS, " +
-                                      fixed(again->fit.before.max_mm, 4) + " mm worst");
-                                 finish_cycle();
-                             });
-                    });
-                });
-            });
-    });
-}
-
-namespace {
-
-double rms_norm(const std::vector<geometry::Point2>& errors_mm) {
-    double sum = 0;
-    for (const auto& e : errors_mm) sum += e.x * e.x + e.y * e.y;
-    return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, errors_mm.size())));
-}
-
-}  // namespace
-
-const char* Cycle::kept_file() const {
-    return machine_.is_galvo() ? kGalvoTableFile : kPlanarResultFile;
-}
-const char* Cycle::kept_backup_name() const {
-    return machine_.is_galvo() ? "backup-table.json" : "backup-result.json";
-}
-
-void Cycle::solve_planar() {
-    if (!keep(record_name(report_.number, "measurements.json"),
-              modes::planar_measurements_to_json(*planar_measured_)))
-        return;
-    enter(CycleState::solve, std::to_string(planar_measured_->holes.size()) + " holes, " +
-                                 std::to_string(planar_measured_->missing.size()) + " missing");
-    auto solution = std::make_shared<modes::PlanarSolution>();
-    auto firmware = std::make_shared<modes::FirmwareSettings>();
-    work(
-        [machine = machine_, measured = *planar_measured_, solution, firmware] {
-            *solution = modes::solve_planar(machine, measured);
-            *firmware = modes::planar_firmware_settings(machine, *solution);
-        },
-        [this, solution, firmware] {
-            report_.planar = *solution;
-            report_.measured_xy_rms_mm = rms_norm(solution->error_mm);
-            report_.measured_xy_max_mm = solution->before.max_mm;
-            if (!keep(record_name(report_.number, "result.json"),
-                      modes::planar_result_to_json(*solution, *firmware)))
-                return;
-            // The firmware's own knobs, for a person who would rather set them: shown, not sent
-            // (the compensated jobs carry the whole model; both would correct twice).
-            std::string lines;
-            for (const auto& line : firmware->lines) lines += line + "\n";
-            if (!keep(record_name(report_.number, "firmware.txt"), lines)) return;
-            review();
-        });
-}
-
-void Cycle::review_planar() {
-    const auto& s = *report_.planar;
-    enter(CycleState::review, "predicted after " + fixed(s.after.mean_mm, 4) + " mm mean");
-    log_("cycle " + std::to_string(report_.number) + ": proposed: the error model over X " +
-         fixed(s.min_x_mm, 1) + ".." + fixed(s.max_x_mm, 1) + " Y " + fixed(s.min_y_mm, 1) + ".." +
-         fixed(s.max_y_mm, 1) + " mm; error norm now " + fixed(s.before.mean_mm, 4) + " mm mean, " +
-         fixed(s.before.max_mm, 4) + " mm worst; predicted after " + fixed(s.after.mean_mm, 4) +
-         " mm mean, " + fixed(s.after.max_mm, 4) + " mm worst");
-    show(draw_screen(ReviewScreen{
-        {"error model, " + std::to_string(s.fit.rank - 3) + " terms", "mean error, in mm:"},
-        fixed(s.before.mean_mm, 3),
-        fixed(s.after.mean_mm, 3)}));
-    ask(Prompt::review, 0, [this] { apply(); });
-}
-
-// The box keeps the error model (kPlanarResultFile) and compensates jobs through it; the one in
-// force before is kept with the cycle's record, so that revert can put it back.
-void Cycle::apply_planar() {
-    enter(CycleState::apply, "keeping the error model: jobs now go through it");
-    const auto previous = d_.data.read_file(kPlanarResultFile);
-    if (!keep(record_name(report_.number, kept_backup_name()), previous.value_or(kNoPlanarResult)))
-        return;
-    if (!keep(kPlanarResultFile,
-              modes::planar_result_to_json(
-                  *report_.planar, modes::planar_firmware_settings(machine_, *report_.planar))))
-        return;
-    report_.applied = true;
-    verify();
-}
-
-void Cycle::verify_planar() {
-    enter(CycleState::verify, "drilling the grid again through the error model");
-    ask(Prompt::clear_bed, 0, [this] {
-        auto lines = std::make_shared<std::vector<std::string>>();
-        work(
-            [job = target_job_, solution = *report_.planar, lines] {
-                std::string text;
-                for (const auto& l : job) text += l + "\n";
-                targets::CompensateReport ignored;
-                std::istringstream compensated(targets::compensate_gcode(
-                    text,
-                    [&solution](geometry::Point2 p) {
-                        return modes::planar_command_for(solution, p);
-                    },
-                    [&solution](geometry::Point2 p) { return modes::planar_covers(solution, p); },
-                    {}, ignored));
-                for (std::string line; std::getline(compensated, line);) lines->push_back(line);
-            },
-            [this, lines] {
-                run_job(*lines, [this](const JobOutcome&) {
-                    measure_print(CycleState::verify, [this] {
-                        auto again = std::make_shared<modes::PlanarSolution>();
-                        work([machine = machine_, measured = *planar_measured_,
-                              again] { *again = modes::solve_planar(machine, measured); },
-                             [this, again] {
-                                 // The holes drilled through the model against where they were
-                                 // meant: the second solve's "before".
-                                 const auto& v = again->before;
-                                 report_.verify_xy_rms_mm = rms_norm(again->error_mm);
-                                 report_.verify_xy_max_mm = v.max_mm;
-                                 if (!keep(record_name(report_.number, "verify-measurements.json"),
-                                           modes::planar_measurements_to_json(*planar_measured_)))
-                                     return;
-                                 log_("cycle " + std::to_string(report_.number) +
-                                      ": verified on the grid drilled through the model: " +
-                                      fixed(v.mean_mm, 4) + " mm mean, " + fixed(v.max_mm, 4) +
-                                      " mm worst");
-                                 finish_cycle();
-                             });
-                    });
-                });
-            });
-    });
+bool Cycle::goal_met() const {
+    return completed_ > 0 && report_.verified &&
+           mode_->goal().met(report_.measured.value_or(modes::ErrorFigures{}), *report_.verified);
 }
 
 void Cycle::finish_cycle() {
@@ -1378,13 +822,12 @@ void Cycle::finish_cycle() {
          fixed(report_.camera_seconds, 2) + " s, machine " + fixed(report_.machine_seconds, 2) +
          " s");
     ++completed_;
-    enter(CycleState::idle, report_.verify_xy_rms_mm
-                                ? "done: XY " + fixed(*report_.verify_xy_rms_mm, 3) + " mm"
-                                : "done");
+    enter(CycleState::idle,
+          report_.verified ? "done: XY " + fixed(report_.verified->rms_mm, 3) + " mm" : "done");
     last_stage_seconds_ = stage_seconds_;
-    if (report_.measured_xy_rms_mm && report_.verify_xy_rms_mm)
-        show(draw_screen(DoneScreen{fixed(*report_.measured_xy_rms_mm, 4) + " mm",
-                                    fixed(*report_.verify_xy_rms_mm, 4) + " mm"}));
+    if (report_.measured && report_.verified)
+        show(draw_screen(DoneScreen{fixed(report_.measured->rms_mm, 4) + " mm",
+                                    fixed(report_.verified->rms_mm, 4) + " mm"}));
     close_record();
     if (on_cycle_end) on_cycle_end(true);
 }

@@ -15,10 +15,9 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/modes/delta.hpp"
-#include "core/modes/galvo.hpp"
-#include "core/modes/planar.hpp"
+#include "core/modes/goal.hpp"
 #include "firmware/button_press.hpp"
+#include "firmware/cycle_mode.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
 #include "firmware/screens.hpp"
@@ -29,22 +28,6 @@
 #include "hal/storage.hpp"
 
 namespace calbox::firmware {
-
-enum class CycleState {
-    idle,
-    setup_camera,
-    setup_plane,
-    make_target,
-    wait_machine,
-    capture,
-    measure,
-    solve,
-    review,
-    apply,
-    verify,
-    error
-};
-const char* state_name(CycleState state);
 
 // What the box waits for a person to do before the button press that continues.
 enum class Prompt {
@@ -57,15 +40,6 @@ enum class Prompt {
     acknowledge_error        // press to return to idle
 };
 const char* prompt_text(Prompt prompt);
-
-// A galvo scanner's correction in force: the solve result whose table the box sends jobs
-// through (kNoGalvoTable: none).
-constexpr const char* kGalvoTableFile = "galvo-table.json";
-constexpr const char* kNoGalvoTable = "none\n";
-// A router's (or other planar machine's) correction in force: the solve result whose error
-// model the box sends jobs through (kNoPlanarResult: none).
-constexpr const char* kPlanarResultFile = "planar-result.json";
-constexpr const char* kNoPlanarResult = "none\n";
 
 // The fixed reference marks' view, taken with the plane (set-up), compared at each cycle's start.
 constexpr const char* kReferenceFile = "reference.yaml";
@@ -94,8 +68,6 @@ struct CycleSettings {
     // how far they may seem to move on the bed before a cycle stops.
     std::string reference_marks = "DICT_APRILTAG_36h11";
     double camera_moved_limit_mm = 0.05;
-    modes::DeltaSolveOptions solve;
-    modes::DeltaPassLimits passes;  // a delta printer's: calibrate again until it holds
 };
 
 struct CycleDevices {
@@ -108,30 +80,14 @@ struct CycleDevices {
     Worker& worker;
 };
 
-// One pass of a delta printer's cycle: the target as measured, what the fit found and did, and
-// the target printed again after it (the next pass's measurement, when there is one).
-struct DeltaPassReport {
-    int pass = 1;
-    double measured_xy_rms_mm = 0, measured_xy_max_mm = 0;
-    double gap_range_mm = 0;  // the nozzle's gap over the bed, as the fit found it
-    double xy_change_mm = 0, height_change_mm = 0;  // what its correction moves the nozzle by
-    modes::DeltaPassStep step = modes::DeltaPassStep::apply;
-    std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
-};
-
-// What one cycle found and did, for the log, the display and the caller.
+// What one cycle found and did, for the log, the display and the caller; the mode's own
+// (a delta's passes, a galvo's table) are the mode's (Cycle::mode()).
 struct CycleReport {
     int number = 0;
-    std::optional<modes::DeltaSolution> solution;  // a delta printer's correction (last pass's)
-    std::vector<DeltaPassReport> passes;           // a delta printer's, in order
-    std::optional<modes::GalvoSolution> galvo;     // a galvo scanner's correction table
-    std::optional<modes::PlanarSolution> planar;   // a router's error model
     bool applied = false;
-    std::vector<std::string> backup;  // the settings before, as commands (M665, M666)
-    // The target measured before the correction (placement errors; a galvo's marks against its
-    // grid), and made again after it (a galvo's through the table).
-    std::optional<double> measured_xy_rms_mm, measured_xy_max_mm;
-    std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
+    // The target measured before the correction (a delta's placement errors; a galvo's marks
+    // against its grid), and made again after it (a galvo's through the table).
+    std::optional<modes::ErrorFigures> measured, verified;
     // The reference marks' largest apparent move on the bed since the plane was taken.
     std::optional<double> camera_move_mm;
     double box_seconds = 0;      // the box's own work: measuring, solving, set-up solves
@@ -139,7 +95,7 @@ struct CycleReport {
     double machine_seconds = 0;  // waiting for the machine
 };
 
-class Cycle {
+class Cycle final : private CycleSteps {
   public:
     using Log = std::function<void(const std::string&)>;
     Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings settings, Log log);
@@ -181,6 +137,11 @@ class Cycle {
     CycleState failed_in() const { return failed_in_; }  // the stage the last error stopped
     const CycleReport& report() const { return report_; }
     int cycles_completed() const { return completed_; }
+    // The machine's mode: its goal, its own figures of the last cycle, the correction it keeps.
+    const CycleMode& mode() const { return *mode_; }
+    const models::MachineFile& machine() const { return mode_->machine(); }
+    // The last cycle completed and its own verification met the mode's goal.
+    bool goal_met() const;
 
     // Called on every prompt (the sim board's operator acts on them), every state change, and
     // when a cycle ends (done or not).
@@ -191,13 +152,23 @@ class Cycle {
     std::function<void(const std::string&)> on_notice;
 
   private:
-    void enter(CycleState next, const std::string& detail);
+    // CycleSteps: what the mode's steps ask of the cycle.
+    void work(std::function<void()> job, std::function<void()> then) override;
+    void run_job(const std::vector<std::string>& lines,
+                 std::function<void(const JobOutcome&)> then) override;
+    bool keep(const std::string& name, const std::string& contents) override;
+    std::optional<std::string> read(const std::string& name) const override;
+    std::string record_name(const std::string& what) const override;
+    void enter(CycleState next, const std::string& detail) override;
+    void log(const std::string& line) override;
+    void log_detail(const std::string& line) override { log_(line); }
+    void notice(const std::string& what) override;
+    void fail(const std::string& message) override { fail(message, {}); }
+
     void ask(Prompt prompt, int step, std::function<void()> then);
     // `hint`: the error screen's line when the stage's usual one would mislead.
-    void fail(const std::string& message, const std::string& hint = {});
+    void fail(const std::string& message, const std::string& hint);
     void show(const hal::MonoBitmap& frame);
-    // Keeps a file of the cycle's; false (and the cycle in error) when it could not.
-    bool keep(const std::string& name, const std::string& contents);
     void close_record();
     void prune_records();
     ProgressScreen progress_screen(const std::string& detail) const;
@@ -206,15 +177,12 @@ class Cycle {
     void indicate(bool& failed, const char* what, const std::function<void()>& update);
     // Asynchronous steps: each continues only if the cycle was not cancelled meanwhile.
     void capture(int frames, std::function<void(std::vector<hal::Frame>)> then);
-    void work(std::function<void()> job, std::function<void()> then);
-    void run_job(const std::vector<std::string>& lines, std::function<void(JobOutcome)> then);
     bool current(unsigned generation) const { return generation == generation_; }
 
     void begin_cycle();
     void setup_camera_view(int view);
     void take_calibration_view(int view, const hal::Frame& frame,
                                const std::optional<geometry::BoardObservation>& found);
-    void notice(const std::string& what);
     void take_next_settings();
     void setup_plane();
     // The camera's view of the reference marks against the one stored with the plane: a cycle
@@ -222,50 +190,19 @@ class Cycle {
     void check_camera();
     void ask_clear_bed_then_target();
     void make_target();
-    void read_printer_settings(std::function<void()> then);
-    // The printer's settings report (settings_query), as the commands that set it again.
-    void read_settings(const std::string& firmware,
-                       std::function<void(std::vector<std::string>)> then);
-    // Sends settings lines, reads the settings back and compares: `then(mismatch, reported)`,
-    // the mismatch empty when they agree.
-    void send_and_read_back(const std::string& firmware, const std::vector<std::string>& lines,
-                            std::function<void(std::string, std::vector<std::string>)> then);
-    void restore_backup(const std::string& why);
+    // Photographs what was made and has the mode measure it.
     void measure_print(CycleState state, std::function<void()> then);
     void solve();
     void review();
     void apply();
     void verify();
-    // The galvo mode's solve, review, apply (the box keeps the table; jobs go through it) and
-    // verification (the grid burned through the table and measured again).
-    void solve_galvo();
-    void review_galvo();
-    void apply_galvo();
-    void verify_galvo();
-    // The planar mode's: the box keeps the error model and compensates jobs through it; the
-    // target drilled again through it and measured to verify.
-    void solve_planar();
-    void review_planar();
-    void apply_planar();
-    void verify_planar();
-    // The galvo and planar modes keep their correction in a file of the box's; a cycle keeps the
-    // one in force before it as cycle-NNNN-<backup_name>.
-    bool keeps_correction() const { return machine_.is_galvo() || machine_.is_planar(); }
-    const char* kept_file() const;
-    const char* kept_backup_name() const;
     void finish_cycle();
-    // A delta printer with [probe]: its probe measures the gap on the clear bed, before the
-    // target is printed (probe_), into the record as probe.csv.
-    void probe_printer(std::function<void()> then);
-    // A delta pass's file in the record: pass 1's keep their names (measurements.json,
-    // result.json, ...), later passes' are prefixed "pass-N-".
-    std::string pass_file(const char* what) const;
 
     CycleDevices d_;
-    models::MachineFile machine_;
     CycleSettings settings_;
     std::optional<CycleSettings> next_settings_;
     Log log_;
+    std::unique_ptr<CycleMode> mode_;
     std::unique_ptr<hal::Timer> blink_;
     bool blink_phase_ = false;
 
@@ -287,11 +224,6 @@ class Cycle {
     bool setup_only_ = false;    // the set-up asked for on its own: back to idle after it
     std::function<void(std::vector<hal::Frame>)> pending_capture_;
     std::vector<std::string> target_job_;
-    std::optional<modes::DeltaMeasurementsRecord> measurements_;
-    std::vector<solve::ProbePoint> probe_;  // the printer's own probe's, this cycle's first pass
-    std::optional<modes::GalvoMeasurement> galvo_measured_;
-    std::optional<modes::PlanarMeasurement> planar_measured_;
-    std::vector<std::string> readback_;
     CycleReport report_;
     std::chrono::nanoseconds phase_started_{0};
     std::chrono::nanoseconds cycle_started_{0};

@@ -24,45 +24,50 @@ void append_float(std::vector<std::uint16_t>& words, double value, models::WordO
 
 }  // namespace
 
-std::vector<std::pair<std::string, double>> delta_result_values(const CycleReport& r) {
-    auto value_or_absent = [](const std::optional<double>& v) { return v.value_or(kAbsent); };
-    std::vector<std::pair<std::string, double>> values{
-        {"measured_xy_rms_mm", value_or_absent(r.measured_xy_rms_mm)},
-        {"measured_xy_max_mm", value_or_absent(r.measured_xy_max_mm)},
-        {"predicted_xy_rms_mm",
-         r.solution ? r.solution->fit.correction.predicted_xy_rms_mm : kAbsent},
-        {"predicted_xy_max_mm",
-         r.solution ? r.solution->fit.correction.predicted_xy_max_mm : kAbsent},
-        {"verified_xy_rms_mm", value_or_absent(r.verify_xy_rms_mm)},
-        {"verified_xy_max_mm", value_or_absent(r.verify_xy_max_mm)},
-    };
-    const models::DeltaGeometry* g = r.solution ? &r.solution->after : nullptr;
-    auto add = [&](const std::string& name, double models::DeltaGeometry::*field) {
-        values.emplace_back(name, g ? g->*field : kAbsent);
-    };
-    auto add3 = [&](const std::string& stem, const std::string& unit,
-                    std::array<double, 3> models::DeltaGeometry::*field) {
-        const char* towers[] = {"a", "b", "c"};
-        for (std::size_t i = 0; i < 3; ++i) {
-            std::string name = stem;
-            name.append("_").append(towers[i]).append("_").append(unit);
-            values.emplace_back(std::move(name), g ? (g->*field)[i] : kAbsent);
-        }
-    };
-    add("diagonal_rod_mm", &models::DeltaGeometry::diagonal_rod_mm);
-    add3("diagonal_rod_trim", "mm", &models::DeltaGeometry::diagonal_rod_trim_mm);
-    add("radius_mm", &models::DeltaGeometry::radius_mm);
-    add3("tower_angle_trim", "deg", &models::DeltaGeometry::tower_angle_trim_deg);
-    add3("endstop_offset", "mm", &models::DeltaGeometry::endstop_offset_mm);
-    add("height_mm", &models::DeltaGeometry::height_mm);
+const std::vector<std::string>& result_value_names() {
+    static const std::vector<std::string> names = [] {
+        std::vector<std::string> n{"measured_xy_rms_mm",  "measured_xy_max_mm",
+                                   "predicted_xy_rms_mm", "predicted_xy_max_mm",
+                                   "verified_xy_rms_mm",  "verified_xy_max_mm",
+                                   "diagonal_rod_mm"};
+        for (const char* t : {"a", "b", "c"})
+            n.push_back(std::string("diagonal_rod_trim_") + t + "_mm");
+        n.emplace_back("radius_mm");
+        for (const char* t : {"a", "b", "c"})
+            n.push_back(std::string("tower_angle_trim_") + t + "_deg");
+        for (const char* t : {"a", "b", "c"})
+            n.push_back(std::string("endstop_offset_") + t + "_mm");
+        n.emplace_back("height_mm");
+        return n;
+    }();
+    return names;
+}
+
+std::vector<std::pair<std::string, double>> result_values(const CycleReport& r,
+                                                          const ModeResult& mode) {
+    std::map<std::string, double> known;
+    if (r.measured) {
+        known["measured_xy_rms_mm"] = r.measured->rms_mm;
+        known["measured_xy_max_mm"] = r.measured->max_mm;
+    }
+    if (r.verified) {
+        known["verified_xy_rms_mm"] = r.verified->rms_mm;
+        known["verified_xy_max_mm"] = r.verified->max_mm;
+    }
+    for (const auto& [name, value] : mode.values) known[name] = value;
+    std::vector<std::pair<std::string, double>> values;
+    for (const auto& name : result_value_names()) {
+        const auto at = known.find(name);
+        values.emplace_back(name, at == known.end() ? kAbsent : at->second);
+    }
     return values;
 }
 
 int input_register_count() {
-    return plc::kResultBlockRegister + 2 * static_cast<int>(delta_result_values({}).size());
+    return plc::kResultBlockRegister + 2 * static_cast<int>(result_value_names().size());
 }
 
-PlcServer::PlcServer(drivers::ModbusServer& server, Cycle& cycle, models::WordOrder order, Log log)
+PlcServer::PlcServer(hal::RegisterServer& server, Cycle& cycle, models::WordOrder order, Log log)
     : server_(server),
       cycle_(cycle),
       order_(order),
@@ -78,9 +83,8 @@ void PlcServer::publish() {
     was_idle_ = idle;
     const bool done = idle && cycle_.cycles_completed() > completed_at_start_;
     const auto& report = cycle_.report();
-    const bool pass = done && report.verify_xy_rms_mm && report.verify_xy_max_mm &&
-                      *report.verify_xy_rms_mm <= kDeltaGoalXyRmsMm &&
-                      *report.verify_xy_max_mm <= kDeltaGoalXyMaxMm;
+    // Each mode's own goal, on the box's own verification.
+    const bool pass = done && cycle_.goal_met();
     const Prompt prompt = cycle_.prompt();
     const bool error = state == CycleState::error;
     std::vector<bool> inputs(plc::kDiscreteInputCount, false);
@@ -97,7 +101,8 @@ void PlcServer::publish() {
     // never sees half of the next cycle.
     if (done && published_results_ != cycle_.cycles_completed()) {
         std::vector<std::uint16_t> block;
-        for (const auto& [name, value] : delta_result_values(report)) {
+        for (const auto& [name, value] :
+             result_values(report, cycle_.mode().result(report.applied))) {
             append_float(block, value, order_);
         }
         server_.set_input_registers(plc::kResultBlockRegister, block);
@@ -147,7 +152,7 @@ void PlcServer::on_coils_written() {
 ResultRegisterMap ResultRegisterMap::whole_block(int first_register) {
     ResultRegisterMap map;
     int address = first_register;
-    for (const auto& [name, value] : delta_result_values({})) {
+    for (const auto& name : result_value_names()) {
         map.registers.emplace_back(name, address);
         address += 2;
     }
@@ -164,7 +169,7 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
         throw std::runtime_error(where.str());
     }
     std::map<std::string, bool> known;
-    for (const auto& [name, value] : delta_result_values({})) known[name] = true;
+    for (const auto& name : result_value_names()) known[name] = true;
     ResultRegisterMap map;
     std::map<int, std::string> taken;  // register -> the value using it
     for (const auto& [key, node] : table) {
@@ -212,31 +217,21 @@ ResultWriter::ResultWriter(hal::RegisterLink& link, ResultRegisterMap map, model
                            Log log)
     : link_(link), map_(std::move(map)), order_(order), log_(std::move(log)) {}
 
-void ResultWriter::write(const CycleReport& report) {
+void ResultWriter::write(const CycleReport& report, const ModeResult& mode) {
     std::map<std::string, double> values;
-    for (const auto& [name, value] : delta_result_values(report)) values[name] = value;
+    for (const auto& [name, value] : result_values(report, mode)) values[name] = value;
     std::vector<std::pair<int, std::uint16_t>> words;
     for (const auto& [name, address] : map_.registers) {
         const auto w = models::pack_float(static_cast<float>(values.at(name)), order_);
         words.emplace_back(address, w[0]);
         words.emplace_back(address + 1, w[1]);
     }
-    if (report.galvo && report.applied) {
-        // The table the box keeps, for a controller that reads it from its registers.
-        const auto& t = report.galvo->fit.table;
-        std::vector<float> floats{static_cast<float>(t.nodes), static_cast<float>(t.min_x_mm),
-                                  static_cast<float>(t.min_y_mm), static_cast<float>(t.max_x_mm),
-                                  static_cast<float>(t.max_y_mm)};
-        for (const auto& c : t.command_mm) {
-            floats.push_back(static_cast<float>(c.x));
-            floats.push_back(static_cast<float>(c.y));
-        }
-        int address = map_.galvo_table_register;
-        for (const float f : floats) {
-            const auto w = models::pack_float(f, order_);
-            words.emplace_back(address++, w[0]);
-            words.emplace_back(address++, w[1]);
-        }
+    // A correction table the box keeps, for a controller that reads it from its registers.
+    int address = map_.galvo_table_register;
+    for (const float f : mode.table) {
+        const auto w = models::pack_float(f, order_);
+        words.emplace_back(address++, w[0]);
+        words.emplace_back(address++, w[1]);
     }
     queue_words(std::move(words));
     if (!in_flight_) next();

@@ -12,14 +12,10 @@
 #include <vector>
 
 #include "core/models/register_words.hpp"
-#include "drivers/modbus_link.hpp"
 #include "firmware/cycle.hpp"
+#include "hal/register_link.hpp"
 
 namespace calbox::firmware {
-
-// The delta goal a cycle passes (on the re-printed target, measured by the box).
-constexpr double kDeltaGoalXyRmsMm = 0.01;
-constexpr double kDeltaGoalXyMaxMm = 0.03;
 
 namespace plc {
 // Coils (function 1 to read, 5 or 15 to write): a client writes 1, the box acts and clears it.
@@ -33,7 +29,7 @@ constexpr int kReadyInput = 0;   // idle: a trigger starts a cycle
 constexpr int kBusyInput = 1;    // a cycle or a revert is running
 constexpr int kReviewInput = 2;  // waiting for confirm (or cancel)
 constexpr int kDoneInput = 3;    // the last cycle completed; cleared when the next starts
-constexpr int kPassInput = 4;    // ... and met the goal on its re-printed target
+constexpr int kPassInput = 4;    // ... and met its mode's goal on its verification
 constexpr int kErrorInput = 5;   // stopped on an error; acknowledge to clear
 constexpr int kPersonInput = 6;  // waiting for a person at the box (set-up, clear the bed)
 constexpr int kDiscreteInputCount = 7;
@@ -45,22 +41,25 @@ constexpr int kWordOrderRegister = 3;      // the floats' order: 0 abcd, 1 cdab,
 constexpr int kResultBlockRegister = 4;    // the result values, two registers each
 }  // namespace plc
 
-// The result of a completed delta cycle in the order of the result block; NaN where the cycle
-// has no such value (no verification print, no solution).
-std::vector<std::pair<std::string, double>> delta_result_values(const CycleReport& report);
+// The result block's value names, in its order.
+const std::vector<std::string>& result_value_names();
+// A completed cycle's result in the order of the result block; NaN where the cycle has no such
+// value (no verification, or a mode without it: a galvo has no rod length).
+std::vector<std::pair<std::string, double>> result_values(const CycleReport& report,
+                                                          const ModeResult& mode);
 int input_register_count();
 
 class PlcServer {
   public:
     using Log = std::function<void(const std::string&)>;
-    PlcServer(drivers::ModbusServer& server, Cycle& cycle, models::WordOrder order, Log log);
+    PlcServer(hal::RegisterServer& server, Cycle& cycle, models::WordOrder order, Log log);
     // Call on every state change and prompt: the status bits and registers follow the cycle.
     void publish();
     // Call when the server's written_fd() is readable: acts on the coils a client set.
     void on_coils_written();
 
   private:
-    drivers::ModbusServer& server_;
+    hal::RegisterServer& server_;
     Cycle& cycle_;
     models::WordOrder order_;
     Log log_;
@@ -87,8 +86,9 @@ class ResultWriter {
   public:
     using Log = std::function<void(const std::string&)>;
     ResultWriter(hal::RegisterLink& link, ResultRegisterMap map, models::WordOrder order, Log log);
-    void write(const CycleReport& report);  // queued behind a write still in flight
-    void on_completion();                   // when the link's completion_fd is readable
+    // Queued behind a write still in flight.
+    void write(const CycleReport& report, const ModeResult& mode);
+    void on_completion();  // when the link's completion_fd is readable
     bool idle() const { return !in_flight_ && queue_.empty(); }
     int written() const { return written_; }
     int failed() const { return failed_; }

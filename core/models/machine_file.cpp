@@ -146,7 +146,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     for (const auto& [key, node] : root) {
         const std::string_view name = key.str();
         bool known = name == "machine" || name == "delta" || name == "galvo" || name == "planar" ||
-                     name == "probe";
+                     name == "probe" || name == "limits";
         for (const auto& s : other_sections) known = known || s == name;
         if (!known)
             throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
@@ -211,6 +211,16 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         if (!(m.probe->radius_mm > 0)) p.fail("radius_mm", "is required");
         if (m.probe->radius_mm > m.bed_radius_mm)
             p.fail("radius_mm", "probes beyond the bed's radius (bed_radius_mm)");
+    }
+    if (const auto* limits = subtable(file, root, "limits")) {
+        if (!m.is_delta()) throw MachineFileError(file + ": [limits] on a " + m.kind + " machine");
+        TomlReader l(file, *limits, "limits");
+        auto& d = m.delta_limits;
+        l.number("max_rod_change_fraction", d.max_rod_change_fraction, 0.0001, 0.2);
+        l.number("max_angle_trim_deg", d.max_angle_trim_deg, 0.01, 10);
+        l.number("max_radius_change_fraction", d.max_radius_change_fraction, 0.0001, 0.2);
+        l.number("max_residual_ratio", d.max_residual_ratio, 1, 100);
+        l.finish();
     }
     const auto* galvo = subtable(file, root, "galvo");
     if (m.is_galvo()) {

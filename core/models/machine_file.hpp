@@ -61,6 +61,17 @@ struct ProbeSettings {
     double repeatability_mm = 0.01;  // one reading's standard uncertainty
 };
 
+// What a delta correction may change before it is refused, never sent (the machine file's
+// [limits]: a tighter bound for a machine known to be close, a wider one for a rebuilt one).
+struct DeltaLimits {
+    double max_rod_change_fraction = 0.02;  // the fit's and the classic method's
+    double max_angle_trim_deg = 3.0;
+    double max_radius_change_fraction = 0.02;
+    // The residual against the measurements' own uncertainty: beyond this the points are not a
+    // delta printer's work (a wrong match, a loose part, a bad photo) and nothing is corrected.
+    double max_residual_ratio = 3.0;
+};
+
 struct MachineFile {
     std::string kind = "delta";  // delta | cartesian | router | laser | galvo
     std::string firmware = "marlin";
@@ -89,6 +100,7 @@ struct MachineFile {
     std::optional<GalvoSettings> galvo;
     std::optional<PlanarSettings> planar;  // every router, cartesian and laser machine
     std::optional<ProbeSettings> probe;    // a delta printer's own probe, when the box may use it
+    DeltaLimits delta_limits;              // [limits]: a delta's
 
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
     bool is_delta() const { return kind == "delta"; }

@@ -102,7 +102,6 @@ enum class DeltaMethod { fit, classic };
 struct DeltaSolveOptions {
     std::string firmware;  // marlin | rrf | klipper; empty: the machine file's
     DeltaMethod method = DeltaMethod::fit;
-    solve::DeltaFitLimits limits;
 };
 
 // A solve's outcome (the result file, `calbox.delta-result/1`): the fit always runs (it reports
@@ -121,8 +120,8 @@ struct DeltaSolution {
 };
 
 // The delta mode's solve, policy included: the measurements must be this machine's, the
-// firmware one calbox writes for, the correction within `options.limits`. Throws SolveError or
-// solve::FitError with one line; nothing is returned to send.
+// firmware one calbox writes for, the correction within the machine file's [limits]. Throws
+// SolveError or solve::FitError with one line; nothing is returned to send.
 DeltaSolution solve_delta(const models::MachineFile& machine,
                           const DeltaMeasurementsRecord& measurements,
                           const std::vector<solve::ProbePoint>& probe,

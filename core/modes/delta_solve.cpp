@@ -81,7 +81,7 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
     }
     if (s.method == DeltaMethod::fit) {
         try {
-            s.fit = solve::fit_delta(machine, measurements.features, heights, options.limits);
+            s.fit = solve::fit_delta(machine, measurements.features, heights, machine.delta_limits);
         } catch (const solve::FitError& e) {
             // The measurement's own fit of the surface may have failed first: say so, it is
             // usually the same cause seen earlier.
@@ -101,7 +101,7 @@ DeltaSolution solve_delta(const models::MachineFile& machine,
         s.after = s.fit.fitted.before;
         s.after.diagonal_rod_mm = solve::classic_rod_length_mm(*machine.delta, bars);
         s.fit.parameters = solve::report_parameters(s.fit.fitted, s.after);
-        solve::check_correction_bounds(s.fit.fitted.before, s.after, options.limits);
+        solve::check_correction_bounds(s.fit.fitted.before, s.after, machine.delta_limits);
     }
     s.commands = models::firmware_commands(s.firmware, s.after);
     return s;

@@ -53,14 +53,8 @@ struct ProbePoint {
 std::vector<ProbePoint> strand_heights_as_probe(const std::vector<FeatureMeasurement>& features);
 
 // One set of bounds for every correction the delta mode may send, whichever method made it.
-struct DeltaFitLimits {
-    double max_rod_change_fraction = 0.02;  // the fit's and the classic method's
-    double max_angle_trim_deg = 3.0;
-    double max_radius_change_fraction = 0.02;
-    // The residual against the measurements' own uncertainty: beyond this the points are not a
-    // delta printer's work (a wrong match, a loose part, a bad photo) and nothing is corrected.
-    double max_residual_ratio = 3.0;
-};
+// The bounds a correction must keep (the machine file's [limits]).
+using DeltaFitLimits = models::DeltaLimits;
 
 struct ParameterReport {
     std::string name;        // the [delta] key with its tower: "diagonal_rod_trim_mm[A]"

@@ -36,6 +36,12 @@ struct CompensateReport {
 using Correction = std::function<geometry::Point2(geometry::Point2)>;
 using Covers = std::function<bool(geometry::Point2)>;
 
+// A correction a box keeps and sends jobs through, with the rectangle it holds over.
+struct KeptCorrection {
+    Correction correct;
+    double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;
+};
+
 // G-code in absolute XY (G90), millimetres (G21). Throws CompensateError("line N: ...") for what
 // it cannot carry through faithfully: relative XY moves (G91), inches (G20), G92 with X or Y,
 // arcs off the XY plane (G18, G19), numbered or checksummed lines, or a syntax error.

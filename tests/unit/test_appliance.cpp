@@ -29,6 +29,8 @@
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/modes/delta_mode.hpp"
+#include "firmware/modes/galvo_mode.hpp"
 #include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
 #include "tests/support/device_errors.hpp"
@@ -39,6 +41,11 @@ using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
 namespace {
+
+// A delta printer's cycle: its passes and the correction sent.
+const firmware::DeltaCycleMode& delta_of(const firmware::Cycle& cycle) {
+    return dynamic_cast<const firmware::DeltaCycleMode&>(cycle.mode());
+}
 
 const fs::path kScenario = fs::path(CALBOX_SOURCE_DIR) / "tests/scenarios/delta_cycle_small.toml";
 
@@ -245,11 +252,12 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     rig.check_cycles_completed(1);
     const auto after = rig.board.bench->judge_delta_printer();
     const auto& report = rig.cycle.report();
+    const auto& passes = delta_of(rig.cycle).passes();
     UT_PRINT(("before XY " + std::to_string(before.xy_rms) + " mm RMS, " +
               std::to_string(before.xy_max) + " worst; after " + std::to_string(after.xy_rms) +
               ", " + std::to_string(after.xy_max) + "; verify measured " +
-              std::to_string(*report.verify_xy_rms_mm) + " RMS, " +
-              std::to_string(*report.verify_xy_max_mm) + " worst; box " +
+              std::to_string(report.verified->rms_mm) + " RMS, " +
+              std::to_string(report.verified->max_mm) + " worst; box " +
               std::to_string(report.box_seconds) + " s")
                  .c_str());
     for (const auto& line : rig.log)
@@ -263,21 +271,21 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
     CHECK(after.xy_rms <= 0.002);
     CHECK(after.xy_max <= 0.005);
     CHECK(report.applied);
-    CHECK(*report.verify_xy_rms_mm <= 0.01);
-    CHECK(*report.verify_xy_rms_mm <= 0.002);
+    CHECK(report.verified->rms_mm <= 0.01);
+    CHECK(report.verified->rms_mm <= 0.002);
     // Its bed is only zeroed at the centre: the first pass finds the gap varying by 0.43 mm and
     // levels it; the second measures the verification print laid on that bed, finds 0.04 mm and
     // sends what is left (0.022 mm of height); the third, on the second's verification print,
     // would change 0.005 mm at most: the printer holds, nothing more is sent.
-    CHECK_EQUAL(3u, report.passes.size());
-    CHECK(report.passes[0].step == modes::DeltaPassStep::apply_then_measure_again);
-    CHECK(report.passes[0].gap_range_mm > 0.3);
-    CHECK(report.passes[1].step == modes::DeltaPassStep::apply_then_measure_again);
-    CHECK(report.passes[1].gap_range_mm <= 0.1);
-    CHECK(report.passes[2].step == modes::DeltaPassStep::holds);
-    CHECK(report.passes[2].xy_change_mm <= 0.01 && report.passes[2].height_change_mm <= 0.01);
-    DOUBLES_EQUAL(*report.passes[0].verify_xy_rms_mm, report.passes[1].measured_xy_rms_mm, 1e-12);
-    DOUBLES_EQUAL(*report.passes[1].verify_xy_rms_mm, report.passes[2].measured_xy_rms_mm, 1e-12);
+    CHECK_EQUAL(3u, passes.size());
+    CHECK(passes[0].step == modes::DeltaPassStep::apply_then_measure_again);
+    CHECK(passes[0].gap_range_mm > 0.3);
+    CHECK(passes[1].step == modes::DeltaPassStep::apply_then_measure_again);
+    CHECK(passes[1].gap_range_mm <= 0.1);
+    CHECK(passes[2].step == modes::DeltaPassStep::holds);
+    CHECK(passes[2].xy_change_mm <= 0.01 && passes[2].height_change_mm <= 0.01);
+    DOUBLES_EQUAL(*passes[0].verify_xy_rms_mm, passes[1].measured_xy_rms_mm, 1e-12);
+    DOUBLES_EQUAL(*passes[1].verify_xy_rms_mm, passes[2].measured_xy_rms_mm, 1e-12);
     // The console's `last` lists them, each with what it found and did.
     {
         firmware::BoxConfig config;
@@ -285,11 +293,10 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
         firmware::Console console(
             {rig.cycle, config, rig.data, "calbox.toml", rig.data, log_book, "test", {}, {}});
         const std::string last = console.reply_to("last");
-        STRCMP_CONTAINS(
-            ("\npass 1: gap varied " + number_text("%.3f", report.passes[0].gap_range_mm) +
-             " mm; moves the nozzle ")
-                .c_str(),
-            last.c_str());
+        STRCMP_CONTAINS(("\npass 1: gap varied " + number_text("%.3f", passes[0].gap_range_mm) +
+                         " mm; moves the nozzle ")
+                            .c_str(),
+                        last.c_str());
         STRCMP_CONTAINS(": sent, measured again\npass 2: ", last.c_str());
         STRCMP_CONTAINS(": sent, measured again\npass 3: gap varied 0.0", last.c_str());
         STRCMP_CONTAINS(": holds, nothing sent\n", last.c_str());
@@ -315,7 +322,7 @@ TEST(ApplianceCycle, corrects_the_printer_and_sends_exactly_the_protocol) {
         STRCMP_EQUAL("M500", jobs[pass_start + 1][2].c_str());
         CHECK(jobs[pass_start + 2] == std::vector<std::string>{"M503"});
     }
-    CHECK(jobs[7] == report.solution->commands);
+    CHECK(jobs[7] == delta_of(rig.cycle).solution()->commands);
     CHECK(jobs[3] != jobs[7]);
     // The record: measurements, each pass's result and settings backup; revert's backup is the
     // one from before the cycle.
@@ -342,7 +349,7 @@ TEST(ApplianceCycle, a_printer_with_a_probe_is_probed_first_and_calibrated_in_on
     rig.run_cycle();
     rig.check_cycles_completed(1);
     const auto after = rig.board.bench->judge_delta_printer();
-    const auto& report = rig.cycle.report();
+    const auto& passes = delta_of(rig.cycle).passes();
     UT_PRINT(("probed printer after the cycle: XY " + std::to_string(after.xy_rms) + " mm RMS, " +
               std::to_string(after.xy_max) + " mm worst, gap range " +
               std::to_string(after.height_range_after) + " mm")
@@ -353,10 +360,10 @@ TEST(ApplianceCycle, a_printer_with_a_probe_is_probed_first_and_calibrated_in_on
     CHECK(after.xy_rms <= 0.003);
     CHECK(after.xy_max <= 0.008);
     CHECK(after.height_range_after <= 0.01);
-    CHECK_EQUAL(1u, report.passes.size());
-    CHECK(report.passes[0].step == modes::DeltaPassStep::apply);
-    CHECK(report.passes[0].gap_range_mm > 0.3);  // as uneven as above
-    CHECK(report.solution->heights_from_probe);
+    CHECK_EQUAL(1u, passes.size());
+    CHECK(passes[0].step == modes::DeltaPassStep::apply);
+    CHECK(passes[0].gap_range_mm > 0.3);  // as uneven as above
+    CHECK(delta_of(rig.cycle).solution()->heights_from_probe);
     // the settings read, the probe job, the target print, the backup, the correction, the
     // read-back, the verification print
     const auto jobs = jobs_of(rig.transcript());
@@ -559,9 +566,8 @@ TEST(ApplianceCycle, a_read_back_mismatch_restores_the_backup) {
 }
 
 TEST(ApplianceCycle, a_correction_beyond_the_bounds_is_refused_and_never_sent) {
-    firmware::CycleSettings s;
-    s.solve.limits.max_rod_change_fraction = 0.001;
-    Rig rig(prepared_dir("bounds"), kScenario.string(), s);
+    Rig rig(prepared_dir("bounds"),
+            scenario_with("bounds", "[limits]\nmax_rod_change_fraction = 0.001"), {});
     rig.run_cycle();
     for (const auto& line : rig.transcript()) CHECK(line.find("M665") == std::string::npos);
     check_error_state(rig, "solve: refused: the rod length would change");
@@ -591,9 +597,9 @@ TEST(ApplianceCycle, a_reprapfirmware_printer_is_read_corrected_and_read_back_in
     for (const auto& line : rig.transcript()) commands.push_back(command_of(line));
     CHECK(std::find(commands.begin(), commands.end(), "M503") == commands.end());
     // read, then per pass that sent something: back up, read back
-    CHECK_EQUAL(3u, rig.cycle.report().passes.size());
+    CHECK_EQUAL(3u, delta_of(rig.cycle).passes().size());
     CHECK_EQUAL(5, std::count(commands.begin(), commands.end(), "M665"));
-    const auto& sent = rig.cycle.report().solution->commands;
+    const auto& sent = delta_of(rig.cycle).solution()->commands;
     STRCMP_CONTAINS(":", sent[0].c_str());  // M665 L a:b:c
     CHECK(std::find(commands.begin(), commands.end(), sent[0]) != commands.end());
     const auto backup = rig.data.read_file("cycle-0001-backup.gcode");
@@ -756,8 +762,8 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
                   });
         first.run_cycle();
         first.check_cycles_completed(1);
-        first_commands = first.cycle.report().solution->commands;
-        first_verify = first.cycle.report().verify_xy_rms_mm;
+        first_commands = delta_of(first.cycle).solution()->commands;
+        first_verify = first.cycle.report().verified->rms_mm;
     }
     // the camera check, the target, the verification prints of the two passes that sent something
     CHECK_EQUAL(4, recorder.saved);
@@ -768,8 +774,8 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
     second.run_cycle();
     second.check_cycles_completed(1);
     CHECK_EQUAL(0, second.board.camera->captures_started());  // the twin's camera never used
-    CHECK(second.cycle.report().solution->commands == *first_commands);
-    DOUBLES_EQUAL(*first_verify, *second.cycle.report().verify_xy_rms_mm, 1e-12);
+    CHECK(delta_of(second.cycle).solution()->commands == *first_commands);
+    DOUBLES_EQUAL(*first_verify, second.cycle.report().verified->rms_mm, 1e-12);
     const auto after = second.board.bench->judge_delta_printer();
     CHECK(after.xy_rms <= 0.0045);
     CHECK(after.xy_max <= 0.0105);
@@ -939,13 +945,13 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
     rig.run_cycle();
     rig.check_cycles_completed(1);
     const auto& report = rig.cycle.report();
-    CHECK(report.galvo.has_value());
+    const auto* galvo = dynamic_cast<const firmware::GalvoCycleMode*>(&rig.cycle.mode());
+    CHECK(galvo != nullptr && galvo->solution().has_value());
     CHECK(report.applied);
-    CHECK(!report.solution.has_value());
     // The box's own figures: the grid as burned, and through the table.
-    CHECK(*report.measured_xy_rms_mm > 0.05);
-    CHECK_TEXT(*report.verify_xy_rms_mm <= 0.004, std::to_string(*report.verify_xy_rms_mm).c_str());
-    CHECK(*report.verify_xy_max_mm <= 0.015);
+    CHECK(report.measured->rms_mm > 0.05);
+    CHECK_TEXT(report.verified->rms_mm <= 0.004, std::to_string(report.verified->rms_mm).c_str());
+    CHECK(report.verified->max_mm <= 0.015);
     // The twin judges the table the box keeps, on a fresh grid.
     const auto kept = rig.data.read_file(firmware::kGalvoTableFile);
     CHECK(kept.has_value());
@@ -958,7 +964,7 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
         {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm});
     UT_PRINT(("galvo on the box: before " + std::to_string(before.mean_mm) + " mm mean, after " +
               std::to_string(after.mean_mm) + " mean " + std::to_string(after.max_mm) +
-              " worst; the box verified " + std::to_string(*report.verify_xy_rms_mm) + " RMS")
+              " worst; the box verified " + std::to_string(report.verified->rms_mm) + " RMS")
                  .c_str());
     // The goal is 0.008 mean and 0.03 worst; the README claims 0.002 and 0.008.
     CHECK(before.mean_mm > 0.05);
@@ -978,7 +984,7 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
     const auto verified = modes::galvo_result_from_json(
         *rig.data.read_file("cycle-0001-verify-result.json"), "verify-result.json");
     CHECK_EQUAL(2, verified.pass);
-    DOUBLES_EQUAL(*report.verify_xy_rms_mm, verified.fit.before.rms_mm, 1e-12);
+    DOUBLES_EQUAL(report.verified->rms_mm, verified.fit.before.rms_mm, 1e-12);
     CHECK_EQUAL(std::string(firmware::kNoGalvoTable),
                 *rig.data.read_file("cycle-0001-backup-table.json"));
     // Revert puts back what was in force before: no table.

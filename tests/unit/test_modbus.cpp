@@ -17,6 +17,7 @@
 #include "core/models/register_words.hpp"
 #include "drivers/modbus_link.hpp"
 #include "firmware/box_config.hpp"
+#include "firmware/modes/galvo_mode.hpp"
 #include "firmware/plc_link.hpp"
 #include "tests/mocks/hal_mocks.hpp"
 #include "tests/support/device_errors.hpp"
@@ -107,16 +108,16 @@ TEST(GalvoTableRegisters, the_kept_table_follows_the_result_block_in_stated_regi
     mock().ignoreOtherCalls();
     firmware::CycleReport report;
     report.applied = true;
-    report.galvo.emplace();
-    auto& t = report.galvo->fit.table;
+    models::CorrectionTable t;
     t.nodes = 3;
     t.min_x_mm = -50.5, t.min_y_mm = -49.25, t.max_x_mm = 50.125, t.max_y_mm = 51;
     for (int i = 0; i < 9; ++i) t.command_mm.push_back({-50 + 12.5 * i, 0.001 * i - 3});
     mocks::MockRegisterLink registers_link;
     auto map = firmware::ResultRegisterMap::from_toml(
         "measured_xy_rms_mm = 0\ngalvo_table = 2000\n", "map.toml");
-    firmware::ResultWriter writer(registers_link, map, models::WordOrder::cdab, [](const std::string&) {});
-    writer.write(report);
+    firmware::ResultWriter writer(registers_link, map, models::WordOrder::cdab,
+                                  [](const std::string&) {});
+    writer.write(report, {{}, firmware::table_registers(t)});
     while (!writer.idle()) {
         registers_link.results.push_back({});
         writer.on_completion();
@@ -366,4 +367,3 @@ TEST(ModbusClient, a_serial_device_it_may_not_open_is_one_line) {
         ("modbus rtu:" + device.path + ":9600: cannot connect: Permission denied").c_str(),
         error.c_str());
 }
-

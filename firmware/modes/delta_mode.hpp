@@ -1,0 +1,81 @@
+#pragma once
+// The delta mode's adapter: a printer whose own settings (M665/M666) are corrected, sent with a
+// backup and a read-back, in passes until the printer holds.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/modes/delta.hpp"
+#include "core/modes/delta_records.hpp"
+#include "firmware/cycle_mode.hpp"
+
+namespace calbox::firmware {
+
+// One pass of a delta printer's cycle: the target as measured, what the fit found and did, and
+// the target printed again after it (the next pass's measurement, when there is one).
+struct DeltaPassReport {
+    int pass = 1;
+    double measured_xy_rms_mm = 0, measured_xy_max_mm = 0;
+    double gap_range_mm = 0;  // the nozzle's gap over the bed, as the fit found it
+    double xy_change_mm = 0, height_change_mm = 0;  // what its correction moves the nozzle by
+    modes::DeltaPassStep step = modes::DeltaPassStep::apply;
+    std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
+};
+
+class DeltaCycleMode final : public CycleMode {
+  public:
+    DeltaCycleMode(models::MachineFile machine, CycleSteps& steps,
+                   modes::DeltaSolveOptions solve = {}, modes::DeltaPassLimits passes = {});
+
+    const models::MachineFile& machine() const override { return machine_; }
+    modes::ModeGoal goal() const override { return modes::delta_goal(); }
+    void begin() override;
+    void make_target(std::function<void(std::vector<std::string>)> then) override;
+    void before_target(std::function<void()> then) override;
+    void measure(MeasureInput input, bool verifying, std::function<void()> then) override;
+    void solve(std::function<void(SolveOutcome)> then) override;
+    ReviewText review() const override;
+    void apply(std::function<void(bool verify)> then) override;
+    std::string verify_detail() const override {
+        return "printing the target again on the corrected machine";
+    }
+    void verification_job(const std::vector<std::string>& target,
+                          std::function<void(std::vector<std::string>)> then) override {
+        then(target);
+    }
+    void judge_verification(std::function<void(VerifyOutcome)> then) override;
+    std::string pass_prefix() const override;
+    std::string revert(int number, std::function<void(std::string what)> then) override;
+    void describe_last(std::string& text, nlohmann::json& data) const override;
+    ModeResult result(bool applied) const override;
+
+    // The last cycle's passes, in order, and the correction sent (the last pass's).
+    const std::vector<DeltaPassReport>& passes() const { return passes_; }
+    const std::optional<modes::DeltaSolution>& solution() const { return solution_; }
+    const std::vector<std::string>& backup() const { return backup_; }
+
+  private:
+    void read_printer_settings(std::function<void()> then);
+    void probe_printer(std::function<void()> then);
+    // The printer's settings report (settings_query), as the commands that set it again.
+    void read_settings(std::function<void(std::vector<std::string>)> then);
+    // Sends settings lines, reads the settings back and compares: `then(mismatch, reported)`,
+    // the mismatch empty when they agree.
+    void send_and_read_back(const std::vector<std::string>& lines,
+                            std::function<void(std::string, std::vector<std::string>)> then);
+    void restore_backup(const std::string& why);
+    std::string pass_file(const std::string& what) const;
+
+    models::MachineFile machine_;
+    CycleSteps& steps_;
+    modes::DeltaSolveOptions solve_options_;
+    modes::DeltaPassLimits pass_limits_;
+    // This cycle's working data.
+    std::vector<solve::ProbePoint> probe_;  // the printer's own probe's, this cycle's first pass
+    std::optional<modes::DeltaMeasurementsRecord> measurements_;
+    std::vector<DeltaPassReport> passes_;
+    std::optional<modes::DeltaSolution> solution_;
+    std::vector<std::string> backup_;  // the settings before, as commands (M665, M666)
+};
+
+}  // namespace calbox::firmware

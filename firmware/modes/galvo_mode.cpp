@@ -1,0 +1,152 @@
+#include "firmware/modes/galvo_mode.hpp"
+
+#include "core/targets/galvo_target.hpp"
+#include "core/targets/job.hpp"
+#include "firmware/modes/photos.hpp"
+#include "firmware/overlays.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+modes::ErrorFigures figures_of(const models::ErrorStatistics& s) {
+    return {s.mean_mm, s.rms_mm, s.max_mm};
+}
+
+targets::Correction through_table(const models::CorrectionTable& table) {
+    return [table](geometry::Point2 p) { return table.command_for(p); };
+}
+
+}  // namespace
+
+GalvoCycleMode::GalvoCycleMode(models::MachineFile machine, CycleSteps& steps)
+    : KeptCorrectionMode(steps, {kGalvoTableFile, kNoGalvoTable, "backup-table.json",
+                                 "keeping the table: jobs now go through it",
+                                 "burning the grid again through the table"}),
+      machine_(std::move(machine)) {}
+
+void GalvoCycleMode::begin() {
+    measured_.reset();
+    solution_.reset();
+}
+
+void GalvoCycleMode::make_target(std::function<void(std::vector<std::string>)> then) {
+    auto lines = std::make_shared<std::vector<std::string>>();
+    steps_.work(
+        [machine = machine_, lines] {
+            *lines = lines_of(targets::write_gcode(targets::make_galvo_target(machine).job, machine,
+                                                   "calbox target"));
+        },
+        [lines, then = std::move(then)] { then(std::move(*lines)); });
+}
+
+void GalvoCycleMode::measure(MeasureInput input, bool verifying, std::function<void()> then) {
+    measure_photos(
+        steps_, std::move(input),
+        steps_.record_name(verifying ? "verify-overlay.png" : "overlay.png"),
+        [this, machine = machine_](const CalibratedPhotos& photos, std::string& overlay) {
+            // One photo of the whole grid: the first frame.
+            auto measured =
+                modes::measure_galvo(machine, photos.camera, photos.plane, photos.views.front());
+            measured.photos = {photos.names.front()};
+            overlay = galvo_overlay_png(photos.views.front(), measured, machine, photos.camera,
+                                        photos.plane);
+            return [this, measured] { measured_ = measured; };
+        },
+        std::move(then));
+}
+
+void GalvoCycleMode::solve(std::function<void(SolveOutcome)> then) {
+    if (!steps_.keep(steps_.record_name("measurements.json"),
+                     modes::galvo_measurements_to_json(*measured_)))
+        return;
+    steps_.enter(CycleState::solve, std::to_string(measured_->nodes.size()) + " marks, " +
+                                        std::to_string(measured_->missing.size()) + " missing");
+    auto solution = std::make_shared<modes::GalvoSolution>();
+    steps_.work([machine = machine_, measured = *measured_,
+                 solution] { *solution = modes::solve_galvo(machine, measured, std::nullopt); },
+                [this, solution, then = std::move(then)] {
+                    solution_ = *solution;
+                    if (!steps_.keep(steps_.record_name("result.json"),
+                                     modes::galvo_result_to_json(*solution_)))
+                        return;
+                    if (!steps_.keep(steps_.record_name("table.csv"),
+                                     models::table_to_csv(solution_->fit.table)))
+                        return;
+                    then({SolveOutcome::Next::review, figures_of(solution_->fit.before)});
+                });
+}
+
+ReviewText GalvoCycleMode::review() const {
+    const auto& s = *solution_;
+    const auto& t = s.fit.table;
+    ReviewText r;
+    r.detail = "predicted after " + fixed(s.predicted_rms_mm, 4) + " mm RMS";
+    r.proposed = ("proposed: a " + std::to_string(t.nodes) + " x " + std::to_string(t.nodes) +
+                  " table over X " + fixed(t.min_x_mm, 2) + ".." + fixed(t.max_x_mm, 2) + " Y " +
+                  fixed(t.min_y_mm, 2) + ".." + fixed(t.max_y_mm, 2) + " mm; error now " +
+                  fixed(s.fit.before.mean_mm, 4) + " mm mean, " + fixed(s.fit.before.max_mm, 4) +
+                  " mm worst; predicted after " + fixed(s.predicted_rms_mm, 4) + " mm RMS");
+    r.screen =
+        ReviewScreen{{"a " + std::to_string(t.nodes) + "x" + std::to_string(t.nodes) + " table",
+                      "mean error, in mm:"},
+                     fixed(s.fit.before.mean_mm, 3),
+                     fixed(s.predicted_rms_mm, 3)};
+    return r;
+}
+
+void GalvoCycleMode::judge_verification(std::function<void(VerifyOutcome)> then) {
+    auto again = std::make_shared<modes::GalvoSolution>();
+    steps_.work([machine = machine_, measured = *measured_, through = solution_,
+                 again] { *again = modes::solve_galvo(machine, measured, through); },
+                [this, again, then = std::move(then)] {
+                    if (!steps_.keep(steps_.record_name("verify-measurements.json"),
+                                     modes::galvo_measurements_to_json(*measured_)))
+                        return;
+                    // Its "before" is the table's verified "after".
+                    if (!steps_.keep(steps_.record_name("verify-result.json"),
+                                     modes::galvo_result_to_json(*again)))
+                        return;
+                    const auto& v = again->fit.before;
+                    steps_.log("verified on the grid burned through the table: " +
+                               fixed(v.mean_mm, 4) + " mm mean, " + fixed(v.rms_mm, 4) +
+                               " mm RMS, " + fixed(v.max_mm, 4) + " mm worst");
+                    then({figures_of(v), false});
+                });
+}
+
+ModeResult GalvoCycleMode::result(bool applied) const {
+    ModeResult r;
+    if (!solution_ || !applied) return r;
+    r.table = table_registers(solution_->fit.table);
+    return r;
+}
+
+std::vector<float> table_registers(const models::CorrectionTable& t) {
+    std::vector<float> floats{static_cast<float>(t.nodes), static_cast<float>(t.min_x_mm),
+                              static_cast<float>(t.min_y_mm), static_cast<float>(t.max_x_mm),
+                              static_cast<float>(t.max_y_mm)};
+    for (const auto& c : t.command_mm) {
+        floats.push_back(static_cast<float>(c.x));
+        floats.push_back(static_cast<float>(c.y));
+    }
+    return floats;
+}
+
+std::string GalvoCycleMode::kept_text() const {
+    return modes::galvo_result_to_json(*solution_);
+}
+
+targets::Correction GalvoCycleMode::correction() const {
+    return through_table(solution_->fit.table);
+}
+
+targets::Covers GalvoCycleMode::covers() const {
+    return [table = solution_->fit.table](geometry::Point2 p) { return table.covers(p); };
+}
+
+targets::KeptCorrection GalvoCycleMode::correction_of(const std::string& kept_text) const {
+    const auto table = modes::galvo_result_from_json(kept_text, kGalvoTableFile).fit.table;
+    return {through_table(table), table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm};
+}
+
+}  // namespace calbox::firmware

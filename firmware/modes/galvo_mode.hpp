@@ -1,0 +1,47 @@
+#pragma once
+// The galvo mode's adapter: the scanner's field corrected by a table the box keeps
+// (galvo-table.json) and sends jobs through; verified on the grid burned through it.
+#include <optional>
+
+#include "core/modes/galvo.hpp"
+#include "firmware/modes/kept_correction.hpp"
+
+namespace calbox::firmware {
+
+constexpr const char* kGalvoTableFile = "galvo-table.json";
+constexpr const char* kNoGalvoTable = "none\n";
+
+// A table as a controller reads it from its registers: the node count and the rectangle, then
+// each node's command x and y, row by row (README, "The table over Modbus").
+std::vector<float> table_registers(const models::CorrectionTable& table);
+
+class GalvoCycleMode final : public KeptCorrectionMode {
+  public:
+    GalvoCycleMode(models::MachineFile machine, CycleSteps& steps);
+    const models::MachineFile& machine() const override { return machine_; }
+    modes::ModeGoal goal() const override { return modes::galvo_goal(); }
+    void begin() override;
+    void make_target(std::function<void(std::vector<std::string>)> then) override;
+    void before_target(std::function<void()> then) override { then(); }
+    void measure(MeasureInput input, bool verifying, std::function<void()> then) override;
+    void solve(std::function<void(SolveOutcome)> then) override;
+    ReviewText review() const override;
+    void judge_verification(std::function<void(VerifyOutcome)> then) override;
+    void describe_last(std::string&, nlohmann::json&) const override {}
+    ModeResult result(bool applied) const override;
+
+    const std::optional<modes::GalvoSolution>& solution() const { return solution_; }
+
+  protected:
+    std::string kept_text() const override;
+    targets::Correction correction() const override;
+    targets::Covers covers() const override;
+    targets::KeptCorrection correction_of(const std::string& kept_text) const override;
+
+  private:
+    models::MachineFile machine_;
+    std::optional<modes::GalvoMeasurement> measured_;
+    std::optional<modes::GalvoSolution> solution_;
+};
+
+}  // namespace calbox::firmware

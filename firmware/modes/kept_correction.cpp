@@ -1,0 +1,48 @@
+#include "firmware/modes/kept_correction.hpp"
+
+#include <memory>
+#include <stdexcept>
+
+namespace calbox::firmware {
+
+// The one in force before is kept with the cycle's record first, so that nothing is lost if the
+// new one cannot be written.
+void KeptCorrectionMode::apply(std::function<void(bool verify)> then) {
+    steps_.enter(CycleState::apply, files_.apply_detail);
+    const auto previous = steps_.read(files_.kept);
+    if (!steps_.keep(steps_.record_name(files_.backup), previous.value_or(files_.none))) return;
+    if (!steps_.keep(files_.kept, kept_text())) return;
+    then(true);
+}
+
+void KeptCorrectionMode::verification_job(const std::vector<std::string>& target,
+                                          std::function<void(std::vector<std::string>)> then) {
+    auto lines = std::make_shared<std::vector<std::string>>();
+    steps_.work(
+        [text = joined(target), correct = correction(), covers = this->covers(), lines] {
+            targets::CompensateReport ignored;
+            *lines = lines_of(targets::compensate_gcode(text, correct, covers, {}, ignored));
+        },
+        [lines, then = std::move(then)] { then(std::move(*lines)); });
+}
+
+std::string KeptCorrectionMode::revert(int number, std::function<void(std::string what)> then) {
+    const std::string backup_name = steps_.record_name(files_.backup);
+    const auto kept = steps_.read(backup_name);
+    if (!kept)
+        return "revert: cycle " + std::to_string(number) + " applied nothing (no " + backup_name +
+               ")";
+    steps_.enter(CycleState::apply,
+                 "reverting to the correction in force before cycle " + std::to_string(number));
+    if (!steps_.keep(files_.kept, *kept)) return {};  // the cycle is in error, saying why
+    then("reverted to " + backup_name);
+    return {};
+}
+
+std::optional<targets::KeptCorrection> KeptCorrectionMode::kept_correction() const {
+    const auto kept = steps_.read(files_.kept);
+    if (!kept || *kept == files_.none) return std::nullopt;
+    return correction_of(*kept);
+}
+
+}  // namespace calbox::firmware

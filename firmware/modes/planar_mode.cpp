@@ -1,0 +1,142 @@
+#include "firmware/modes/planar_mode.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/targets/planar_target.hpp"
+#include "firmware/modes/photos.hpp"
+#include "firmware/overlays.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+// The error norms' figures: the model's statistics have a mean and a worst, the RMS from the
+// errors themselves.
+modes::ErrorFigures figures_of(const modes::PlanarSolution& s) {
+    double sum = 0;
+    for (const auto& e : s.error_mm) sum += e.x * e.x + e.y * e.y;
+    const double rms =
+        std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, s.error_mm.size())));
+    return {s.before.mean_mm, rms, s.before.max_mm};
+}
+
+targets::Correction through_model(const modes::PlanarSolution& solution) {
+    return [solution](geometry::Point2 p) { return modes::planar_command_for(solution, p); };
+}
+
+}  // namespace
+
+PlanarCycleMode::PlanarCycleMode(models::MachineFile machine, CycleSteps& steps)
+    : KeptCorrectionMode(steps, {kPlanarResultFile, kNoPlanarResult, "backup-result.json",
+                                 "keeping the error model: jobs now go through it",
+                                 "drilling the grid again through the error model"}),
+      machine_(std::move(machine)) {}
+
+void PlanarCycleMode::begin() {
+    measured_.reset();
+    solution_.reset();
+}
+
+void PlanarCycleMode::make_target(std::function<void(std::vector<std::string>)> then) {
+    auto lines = std::make_shared<std::vector<std::string>>();
+    steps_.work([machine = machine_,
+                 lines] { *lines = lines_of(targets::make_planar_target(machine).job); },
+                [lines, then = std::move(then)] { then(std::move(*lines)); });
+}
+
+void PlanarCycleMode::measure(MeasureInput input, bool verifying, std::function<void()> then) {
+    measure_photos(
+        steps_, std::move(input),
+        steps_.record_name(verifying ? "verify-overlay.png" : "overlay.png"),
+        [this, machine = machine_](const CalibratedPhotos& photos, std::string& overlay) {
+            // The box's camera sees the whole sheet: the first frame.
+            auto measured =
+                modes::measure_planar(machine, photos.camera, photos.plane, photos.views.front());
+            measured.photos = {photos.names.front()};
+            overlay = planar_overlay_png(photos.views.front(), measured, machine, photos.camera,
+                                         photos.plane);
+            return [this, measured] { measured_ = measured; };
+        },
+        std::move(then));
+}
+
+void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
+    if (!steps_.keep(steps_.record_name("measurements.json"),
+                     modes::planar_measurements_to_json(*measured_)))
+        return;
+    steps_.enter(CycleState::solve, std::to_string(measured_->holes.size()) + " holes, " +
+                                        std::to_string(measured_->missing.size()) + " missing");
+    auto solution = std::make_shared<modes::PlanarSolution>();
+    auto firmware = std::make_shared<modes::FirmwareSettings>();
+    steps_.work(
+        [machine = machine_, measured = *measured_, solution, firmware] {
+            *solution = modes::solve_planar(machine, measured);
+            *firmware = modes::planar_firmware_settings(machine, *solution);
+        },
+        [this, solution, firmware, then = std::move(then)] {
+            solution_ = *solution;
+            if (!steps_.keep(steps_.record_name("result.json"),
+                             modes::planar_result_to_json(*solution_, *firmware)))
+                return;
+            // The firmware's own knobs, for a person who would rather set them: shown, not sent
+            // (the compensated jobs carry the whole model; both would correct twice).
+            if (!steps_.keep(steps_.record_name("firmware.txt"), joined(firmware->lines))) return;
+            then({SolveOutcome::Next::review, figures_of(*solution_)});
+        });
+}
+
+ReviewText PlanarCycleMode::review() const {
+    const auto& s = *solution_;
+    ReviewText r;
+    r.detail = "predicted after " + fixed(s.after.mean_mm, 4) + " mm mean";
+    r.proposed =
+        ("proposed: the error model over X " + fixed(s.min_x_mm, 1) + ".." + fixed(s.max_x_mm, 1) +
+         " Y " + fixed(s.min_y_mm, 1) + ".." + fixed(s.max_y_mm, 1) + " mm; error norm now " +
+         fixed(s.before.mean_mm, 4) + " mm mean, " + fixed(s.before.max_mm, 4) +
+         " mm worst; predicted after " + fixed(s.after.mean_mm, 4) + " mm mean, " +
+         fixed(s.after.max_mm, 4) + " mm worst");
+    r.screen = ReviewScreen{
+        {"error model, " + std::to_string(s.fit.rank - 3) + " terms", "mean error, in mm:"},
+        fixed(s.before.mean_mm, 3),
+        fixed(s.after.mean_mm, 3)};
+    return r;
+}
+
+void PlanarCycleMode::judge_verification(std::function<void(VerifyOutcome)> then) {
+    auto again = std::make_shared<modes::PlanarSolution>();
+    steps_.work([machine = machine_, measured = *measured_,
+                 again] { *again = modes::solve_planar(machine, measured); },
+                [this, again, then = std::move(then)] {
+                    // The holes drilled through the model against where they were meant: the second
+                    // solve's "before".
+                    const auto verified = figures_of(*again);
+                    if (!steps_.keep(steps_.record_name("verify-measurements.json"),
+                                     modes::planar_measurements_to_json(*measured_)))
+                        return;
+                    steps_.log("verified on the grid drilled through the model: " +
+                               fixed(*verified.mean_mm, 4) + " mm mean, " +
+                               fixed(verified.max_mm, 4) + " mm worst");
+                    then({verified, false});
+                });
+}
+
+std::string PlanarCycleMode::kept_text() const {
+    return modes::planar_result_to_json(*solution_,
+                                        modes::planar_firmware_settings(machine_, *solution_));
+}
+
+targets::Correction PlanarCycleMode::correction() const {
+    return through_model(*solution_);
+}
+
+targets::Covers PlanarCycleMode::covers() const {
+    return
+        [solution = *solution_](geometry::Point2 p) { return modes::planar_covers(solution, p); };
+}
+
+targets::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_text) const {
+    const auto s = modes::planar_result_from_json(kept_text, kPlanarResultFile);
+    return {through_model(s), s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm};
+}
+
+}  // namespace calbox::firmware

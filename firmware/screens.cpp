@@ -94,6 +94,7 @@ hal::MonoBitmap draw_screen(const IdleScreen& s) {
     auto b = with_title("calbox: ready");
     line(b, 1, s.machine);
     line(b, 2, s.last_result);
+    if (!s.verdict.empty()) line(b, 3, s.verdict);
     line(b, 4, "press to calibrate");
     return b;
 }

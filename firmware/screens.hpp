@@ -22,6 +22,7 @@ void draw_text(hal::MonoBitmap& bitmap, int x, int y, std::string_view text, boo
 struct IdleScreen {
     std::string machine;      // "delta Marlin"
     std::string last_result;  // "last: 0.257 -> 0.003" or "no cycle yet"
+    std::string verdict;      // the mode's goal: "goal met" or "short of goal"
 };
 struct ProgressScreen {
     std::string stage;                // "measure"

@@ -25,8 +25,7 @@ constexpr int kScale = 3;  // the README's pictures: three screen pixels a pixel
 cv::Mat picture(const hal::MonoBitmap& b) {
     cv::Mat small(b.height_px(), b.width_px(), CV_8UC1);
     for (int y = 0; y < b.height_px(); ++y)
-        for (int x = 0; x < b.width_px(); ++x)
-            small.at<std::uint8_t>(y, x) = b.at(x, y) ? 255 : 0;
+        for (int x = 0; x < b.width_px(); ++x) small.at<std::uint8_t>(y, x) = b.at(x, y) ? 255 : 0;
     cv::Mat big;
     cv::resize(small, big, {}, kScale, kScale, cv::INTER_NEAREST);
     return big;
@@ -94,15 +93,14 @@ TEST(Screens, the_progress_bar_fills_to_its_fraction_and_the_title_is_inverted) 
 TEST(Screens, the_readmes_pictures_are_these_drawings) {
     const std::filesystem::path dir = std::filesystem::path(CALBOX_SOURCE_DIR) / "docs" / "screens";
     const std::pair<const char*, hal::MonoBitmap> screens[] = {
-        {"idle", draw_screen(firmware::IdleScreen{"delta Marlin", "last 0.257 -> 0.003 mm"})},
-        {"setup", draw_screen(firmware::PromptScreen{"set-up: camera",
-                                                     "hold the board in view, press",
-                                                     "view 5/12", 0.62})},
-        {"progress", draw_screen(firmware::ProgressScreen{"measure", 0.375, 48,
-                                                          "measuring 1 photo(s)"})},
-        {"review", draw_screen(firmware::ReviewScreen{{"rod +1.144 mm", "radius -0.512 mm"},
-                                                      "XY 0.257",
-                                                      "0.003 mm"})},
+        {"idle",
+         draw_screen(firmware::IdleScreen{"delta Marlin", "last 0.257->0.003 mm", "goal met"})},
+        {"setup", draw_screen(firmware::PromptScreen{
+                      "set-up: camera", "hold the board in view, press", "view 5/12", 0.62})},
+        {"progress",
+         draw_screen(firmware::ProgressScreen{"measure", 0.375, 48, "measuring 1 photo(s)"})},
+        {"review", draw_screen(firmware::ReviewScreen{
+                       {"rod +1.144 mm", "radius -0.512 mm"}, "XY 0.257", "0.003 mm"})},
         {"done", draw_screen(firmware::DoneScreen{"0.2574 mm", "0.0032 mm"})},
         {"error", draw_screen(firmware::ErrorScreen{4, "check camera + light",
                                                     "camera: frame 2 of 3 never arrived "

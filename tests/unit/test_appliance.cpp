@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <sstream>
@@ -31,6 +32,7 @@
 #include "firmware/gcode_host.hpp"
 #include "firmware/modes/delta_mode.hpp"
 #include "firmware/modes/galvo_mode.hpp"
+#include "firmware/plc_link.hpp"
 #include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
 #include "tests/support/device_errors.hpp"
@@ -994,4 +996,103 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
     CHECK_EQUAL(std::string(firmware::kNoGalvoTable),
                 *rig.data.read_file(firmware::kGalvoTableFile));
     CHECK_EQUAL(sent_before_revert, rig.transcript().size());
+}
+
+// Issue "One shape for every mode": the PLC's pass bit is each mode's own goal on the box's own
+// verification, not the delta goal for every machine.
+namespace {
+
+// The box's registers as a PLC would read them.
+class PlcRegisters final : public hal::RegisterServer {
+  public:
+    std::vector<bool> inputs = std::vector<bool>(firmware::plc::kDiscreteInputCount, false);
+    std::map<int, std::uint16_t> registers;
+    int written_fd() const override { return -1; }
+    std::vector<int> take_coils_set() override { return {}; }
+    void set_discrete_inputs(int first, const std::vector<bool>& values) override {
+        for (std::size_t i = 0; i < values.size(); ++i)
+            inputs.at(static_cast<std::size_t>(first) + i) = values[i];
+    }
+    void set_input_registers(int first, std::span<const std::uint16_t> values) override {
+        for (std::size_t i = 0; i < values.size(); ++i)
+            registers[first + static_cast<int>(i)] = values[i];
+    }
+    double result(const std::string& name) const {
+        const auto& names = firmware::result_value_names();
+        const auto at = std::find(names.begin(), names.end(), name) - names.begin();
+        const int address = firmware::plc::kResultBlockRegister + 2 * static_cast<int>(at);
+        return models::unpack_float({registers.at(address), registers.at(address + 1)},
+                                    models::WordOrder::abcd);
+    }
+};
+
+struct PlcRig {
+    Rig rig;
+    PlcRegisters registers;
+    firmware::PlcServer plc{registers, rig.cycle, models::WordOrder::abcd,
+                            [](const std::string&) {}};
+    explicit PlcRig(const std::string& scenario)
+        : rig(fresh_dir("plc-" + fs::path(scenario).stem().string()),
+              (fs::path(CALBOX_SOURCE_DIR) / scenario).string(), {}) {
+        rig.cycle.on_state = [this](firmware::CycleState) { plc.publish(); };
+        rig.run_cycle();
+        rig.check_cycles_completed(1);
+        plc.publish();
+        CHECK(registers.inputs[firmware::plc::kDoneInput]);
+    }
+};
+
+}  // namespace
+
+TEST_GROUP(AppliancePlc){void setup() override{mock().ignoreOtherCalls();
+}
+}
+;
+
+// The router's own figures: 0.025 mm mean (0.027 RMS, 0.065 worst) through the model, from 1.23
+// before: under 0.05 and 98 % less. The delta goal (RMS <= 0.01) would have read fail.
+TEST(AppliancePlc, a_router_meeting_its_goal_reads_pass) {
+    PlcRig r("tests/scenarios/planar_small.toml");
+    const auto& report = r.rig.cycle.report();
+    UT_PRINT(("router verified " + std::to_string(*report.verified->mean_mm) + " mm mean, " +
+              std::to_string(report.verified->rms_mm) + " RMS, from " +
+              std::to_string(*report.measured->mean_mm))
+                 .c_str());
+    CHECK(*report.verified->mean_mm < 0.05);
+    CHECK(*report.verified->mean_mm < 0.05 * *report.measured->mean_mm);
+    CHECK(report.verified->rms_mm > 0.01);
+    CHECK(r.registers.inputs[firmware::plc::kPassInput]);
+    CHECK(r.rig.cycle.goal_met());
+    DOUBLES_EQUAL(report.verified->rms_mm, r.registers.result("verified_xy_rms_mm"), 1e-5);
+    CHECK(std::isnan(r.registers.result("diagonal_rod_mm")));  // a router has no rods
+}
+
+// Under a coarse, noisy camera the box measures the grid through its table at 0.012 mm mean:
+// it cannot confirm the galvo goal (0.008), and says so.
+TEST(AppliancePlc, a_galvo_missing_its_goal_reads_fail) {
+    PlcRig r("tests/scenarios/galvo_coarse.toml");
+    const auto& report = r.rig.cycle.report();
+    UT_PRINT(("galvo verified " + std::to_string(*report.verified->mean_mm) + " mm mean, " +
+              std::to_string(report.verified->max_mm) + " worst")
+                 .c_str());
+    CHECK(report.applied);
+    CHECK(*report.verified->mean_mm > 0.008);
+    CHECK_FALSE(r.registers.inputs[firmware::plc::kPassInput]);
+    CHECK_FALSE(r.rig.cycle.goal_met());
+    STRCMP_CONTAINS("goal (mean <= 0.0080 mm, worst <= 0.0300 mm): not met",
+                    [&r] {
+                        firmware::BoxConfig config;
+                        firmware::LogBook log_book;
+                        firmware::Console console({r.rig.cycle,
+                                                   config,
+                                                   r.rig.data,
+                                                   "calbox.toml",
+                                                   r.rig.data,
+                                                   log_book,
+                                                   "test",
+                                                   {},
+                                                   {}});
+                        return console.reply_to("last");
+                    }()
+                        .c_str());
 }

@@ -8,23 +8,54 @@
 
 namespace {
 
-constexpr const char* kHelp = R"(calbox: calibrates machines from photos of what they make
+using calbox::cli::UsageError;
 
-usage: calbox COMMAND [ARGS...]
+struct Subcommand {
+    const char* name;
+    const char* usage;  // what follows the name in the list
+    const char* help;
+    int (*run)(const std::vector<std::string>& words);
+};
 
-commands:
-  run                         the appliance: the one-button calibration cycle (calbox run --help)
-  revert                      send the settings backed up before the last applied cycle
-  camera calibrate|plane      intrinsic calibration and the bed plane (calbox camera --help)
-  detect markers|chessboard|circles   what the box sees in an image (calbox detect --help)
-  measure delta|galvo         measure the made target in photos (calbox measure --help)
-  solve delta|galvo           fit the machine's model and write the correction (calbox solve --help)
-  compensate                  a job sent through a solve's correction (calbox compensate --help)
-  target delta|galvo|svg      a calibration target, or a job from a drawing (calbox target --help)
-  sim print|photo             the digital twin: run a G-code job, render a photo (calbox sim --help)
+// The modes, as `target`, `measure` and `solve` name them.
+constexpr const char* kModes = "delta|galvo|planar";
 
-Every command exits 0 on success, and non-zero with one line on standard error on failure.
-)";
+// One row a subcommand: `calbox --help` lists them and `calbox NAME` runs one.
+const Subcommand kSubcommands[] = {
+    {"run", "", "the appliance: the one-button calibration cycle", calbox::cli::run_appliance},
+    {"revert", "", "put back what the last applied cycle changed", calbox::cli::run_revert},
+    {"camera", "calibrate|plane", "intrinsic calibration and the bed plane",
+     calbox::cli::run_camera},
+    {"detect", "markers|chessboard|circles", "what the box sees in an image",
+     calbox::cli::run_detect},
+    {"target", "MODE|svg", "a calibration target, or a job from a drawing",
+     calbox::cli::run_target},
+    {"measure", "MODE", "measure the made target in photos", calbox::cli::run_measure},
+    {"solve", "MODE", "fit the machine's model and write the correction", calbox::cli::run_solve},
+    {"compensate", "", "a job sent through a solve's correction", calbox::cli::run_compensate},
+    {"sim", "print|photo|measurements|camera|verify", "the digital twin", calbox::cli::run_sim},
+};
+
+std::string help_text() {
+    std::string out =
+        "calbox: calibrates machines from photos of what they make\n\n"
+        "usage: calbox COMMAND [ARGS...]   (calbox COMMAND --help for each)\n\n"
+        "commands:\n";
+    for (const auto& c : kSubcommands) {
+        std::string usage = c.usage;
+        if (const auto at = usage.find("MODE"); at != std::string::npos)
+            usage.replace(at, 4, kModes);
+        std::string left = std::string("  ") + c.name + (usage.empty() ? "" : " " + usage);
+        left.resize(std::max<std::size_t>(left.size() + 2, 40), ' ');
+        out += left + c.help + "\n";
+    }
+    out +=
+        "\nmodes: delta (delta 3D printers), galvo (galvo laser scanners), planar (CNC routers,\n"
+        "cartesian printers and gantry lasers)\n\n"
+        "Every command exits 0 on success, and non-zero with one line on standard error on "
+        "failure.\n";
+    return out;
+}
 
 }  // namespace
 
@@ -32,11 +63,11 @@ int main(int argc, char** argv) {
     const std::vector<std::string> words(argv + 1, argv + argc);
     try {
         if (words.empty()) {
-            std::cerr << kHelp;
+            std::cerr << help_text();
             return 2;
         }
         if (words[0] == "--help" || words[0] == "-h" || words[0] == "help") {
-            std::cout << kHelp;
+            std::cout << help_text();
             return 0;
         }
         if (words[0] == "--version") {
@@ -44,21 +75,13 @@ int main(int argc, char** argv) {
             return 0;
         }
         const std::vector<std::string> rest(words.begin() + 1, words.end());
-        if (words[0] == "run") return calbox::cli::run_appliance(rest);
-        if (words[0] == "revert") return calbox::cli::run_revert(rest);
-        if (words[0] == "sim") return calbox::cli::run_sim(rest);
-        if (words[0] == "camera") return calbox::cli::run_camera(rest);
-        if (words[0] == "detect") return calbox::cli::run_detect(rest);
-        if (words[0] == "target") return calbox::cli::run_target(rest);
-        if (words[0] == "solve") return calbox::cli::run_solve(rest);
-        if (words[0] == "measure") return calbox::cli::run_measure(rest);
-        if (words[0] == "compensate") return calbox::cli::run_compensate(rest);
-        throw calbox::cli::UsageError("unknown command '" + words[0] +
-                                      "' (calbox --help lists them)");
+        for (const auto& c : kSubcommands)
+            if (words[0] == c.name) return c.run(rest);
+        throw UsageError("unknown command '" + words[0] + "' (calbox --help lists them)");
     } catch (const calbox::geometry::PatternError& e) {
         std::cerr << "calbox: " << e.what() << "\n";
         return 2;
-    } catch (const calbox::cli::UsageError& e) {
+    } catch (const UsageError& e) {
         std::cerr << "calbox: " << e.what() << " (see calbox --help)\n";
         return 2;
     } catch (const std::exception& e) {

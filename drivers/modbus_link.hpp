@@ -10,7 +10,6 @@
 #include <thread>
 #include <vector>
 
-#include "core/models/modbus_endpoint.hpp"
 #include "drivers/background_job.hpp"
 #include "drivers/notifier.hpp"
 #include "hal/register_link.hpp"
@@ -20,9 +19,23 @@ typedef struct _modbus_mapping_t modbus_mapping_t;
 
 namespace calbox::drivers {
 
-using models::ModbusEndpoint;
-using models::ModbusTimeouts;
-using models::parse_modbus_endpoint;
+// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD" (8 data bits, no parity, one stop bit).
+struct ModbusEndpoint {
+    enum class Kind { tcp, rtu };
+    Kind kind = Kind::tcp;
+    std::string host;    // tcp
+    int port = 502;      // tcp
+    std::string device;  // rtu
+    int baud = 19200;    // rtu
+    int unit_id = 1;     // rtu: the server's address; tcp: the unit identifier sent
+    std::string describe() const;
+};
+ModbusEndpoint parse_modbus_endpoint(const std::string& text);  // throws std::invalid_argument
+
+struct ModbusTimeouts {
+    std::uint32_t response_ms = 1000;  // the whole reply (client) or a frame once begun (both)
+    std::uint32_t byte_ms = 500;       // between two bytes of one frame
+};
 
 // The box as a Modbus server (a PLC reads and drives it): coils and holding registers the
 // client may write, discrete inputs and input registers it reads. Serves on its own thread;

@@ -7,15 +7,10 @@
 #include <filesystem>
 #include <iostream>
 
+#include "board/devices.hpp"
 #include "board/rpi/rpi_board.hpp"
 #include "board/sim/sim_board.hpp"
 #include "board/sim/twin_judge.hpp"
-#include "drivers/file_camera.hpp"
-#include "drivers/file_storage.hpp"
-#include "drivers/modbus_link.hpp"
-#include "drivers/pty_port.hpp"
-#include "drivers/termios_port.hpp"
-#include "drivers/timerfd_clock.hpp"
 #include "firmware/appliance.hpp"
 #include "firmware/box_config.hpp"
 #include "firmware/cli_args.hpp"
@@ -106,7 +101,8 @@ constexpr const char* kRunHelp = R"(usage:
       The console's commands: help, status, config list|get|set|save|reset, start, confirm,
       cancel, revert, last, log, version, camera calibrate|plane, capture; on the sim board also
       press, hold and quit.
-  calbox revert [--board sim] [--scenario FILE] [--data DIR]
+  calbox revert [--board sim|rpi] [--scenario FILE] [--data DIR] [--board-file FILE]
+                [--machine FILE]
       Sends the settings backed up before the last completed cycle applied its correction
       (DIR/cycle-NNNN-backup.gcode), then M500, and reads them back from the printer (M503;
       RepRapFirmware: M665, M666); exits 1 if the printer reports anything else. The sim
@@ -146,57 +142,67 @@ Common common_options(const Args& args, bool rpi_allowed = false) {
     return c;
 }
 
-// The appliance's parts on the real clock, as calbox run and calbox revert both use them.
-// With --camera-files the photos come from files, not from the twin's camera.
-struct Box {
-    drivers::TimerfdClock clock;
-    std::optional<drivers::FileCamera> photo_files;
-    firmware::SimAppliance parts;
-    firmware::Cycle& cycle = parts.cycle;
-    firmware::EventLoop& loop = parts.loop;
-
-    Box(const Common& common, firmware::CycleSettings settings,
-        const std::optional<std::string>& camera_files = std::nullopt,
-        const firmware::Cycle::Log& log = log_line)
-        : photo_files(camera_files
-                          ? std::optional<drivers::FileCamera>(std::in_place, *camera_files)
-                          : std::nullopt),
-          parts({common.scenario, common.data_dir, 115200}, clock, {}, std::move(settings), log,
-                choose_camera()) {}
-
-  private:
-    firmware::SimAppliance::CameraChoice choose_camera() {
-        if (!photo_files) return {};
-        return [this](sim::SimBoard&) -> hal::Camera& { return *photo_files; };
-    }
+// The board --board chose: its devices (one type, whichever board), the machine beside them,
+// and on the sim board the twin (its bench for the operator and the judge, its own commands).
+struct ChosenBoard {
+    std::unique_ptr<sim::SimBoard> sim;
+    board::Devices own;  // a real board's devices
+    models::MachineFile machine;
+    board::Devices& devices() { return sim ? sim->devices : own; }
 };
 
-// The appliance on the Raspberry Pi's own devices, opened in order: the first one that is not
-// there stops it with one line naming it.
-struct RpiBox {
-    models::MachineFile machine;
-    drivers::TimerfdClock clock;
-    board::RpiDevices devices;
-    firmware::Appliance appliance;
+board::RpiSettings rpi_board_settings(const Args& args) {
+    const auto given = args.get("--board-file");
+    const std::string path = given.value_or("/etc/calbox/board.toml");
+    std::error_code ec;
+    if (!given && !std::filesystem::exists(path, ec)) return board::default_rpi_settings();
+    return board::read_rpi_settings(path);
+}
 
-    RpiBox(const Args& args, const Common& common, firmware::CycleSettings settings,
-           const firmware::Cycle::Log& log)
-        : machine(machine_file(args)),
-          devices(board::open_rpi_devices(board_settings(args), clock)),
-          appliance({*devices.camera, *devices.lines, *devices.display, *devices.machine},
-                    common.data_dir, clock, {}, machine, std::move(settings), log) {}
-
-    static board::RpiSettings board_settings(const Args& args) {
-        const auto given = args.get("--board-file");
-        const std::string path = given.value_or("/etc/calbox/board.toml");
-        std::error_code ec;
-        if (!given && !std::filesystem::exists(path, ec)) return board::default_rpi_settings();
-        return board::read_rpi_settings(path);
-    }
-    static models::MachineFile machine_file(const Args& args) {
+// A real board's devices are opened in order: the first one that is not there stops the box
+// with one line naming it.
+ChosenBoard choose_board(const Args& args, const Common& common, hal::Clock& clock,
+                         const firmware::Cycle::Log& log) {
+    ChosenBoard chosen;
+    if (args.get("--board").value_or("sim") == "rpi") {
         const auto path = args.get("--machine");
         if (!path) throw UsageError("--board rpi needs --machine FILE: the machine beside the box");
-        return models::parse_machine_file(read_input_file(*path, "machine file"), *path);
+        chosen.machine = models::parse_machine_file(read_input_file(*path, "machine file"), *path);
+        chosen.own = board::open_rpi_devices(rpi_board_settings(args), clock);
+        return chosen;
+    }
+    chosen.sim = std::make_unique<sim::SimBoard>(
+        sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log));
+    chosen.machine = chosen.sim->bench->scenario().machine;
+    return chosen;
+}
+
+// The appliance on the real clock, built from the chosen board's devices as calbox run and
+// calbox revert both use it. With --camera-files the photos come from files, not the board's
+// camera.
+struct Box {
+    std::unique_ptr<hal::Clock> clock = board::monotonic_clock();
+    ChosenBoard board;
+    std::unique_ptr<hal::Camera> photo_files;
+    std::unique_ptr<hal::Storage> data = nullptr;
+    firmware::Appliance appliance;
+    firmware::Cycle& cycle = appliance.cycle;
+    firmware::EventLoop& loop = appliance.loop;
+
+    Box(const Args& args, const Common& common, firmware::CycleSettings settings,
+        const firmware::Cycle::Log& log = log_line)
+        : board(choose_board(args, common, *clock, log)),
+          photo_files(args.get("--camera-files") ? board::photo_files(*args.get("--camera-files"))
+                                                 : nullptr),
+          data(board::data_directory(common.data_dir)),
+          appliance(firmware::ApplianceDevices::of(board.devices(), photo_files.get()), *data,
+                    *clock, {}, board.machine, with_board(std::move(settings)), log) {}
+
+    // The boards the sim board's person holds are the ones the box asks for.
+    firmware::CycleSettings with_board(firmware::CycleSettings settings) const {
+        if (!board.sim) return settings;
+        return firmware::SimAppliance::with_setup_boards(std::move(settings),
+                                                         board.sim->bench->scenario().setup);
     }
 };
 
@@ -254,15 +260,14 @@ int run(const std::vector<std::string>& words) {
     } catch (const std::invalid_argument& e) {
         throw UsageError(std::string("--modbus-word-order: ") + e.what());
     }
-    std::optional<drivers::ModbusEndpoint> server_endpoint, client_endpoint;
+    std::optional<board::ModbusEndpoint> server_endpoint, client_endpoint;
     try {
-        if (!modbus.server.empty()) server_endpoint = drivers::parse_modbus_endpoint(modbus.server);
-        if (!modbus.client.empty()) client_endpoint = drivers::parse_modbus_endpoint(modbus.client);
+        if (!modbus.server.empty()) server_endpoint = board::parse_modbus_endpoint(modbus.server);
+        if (!modbus.client.empty()) client_endpoint = board::parse_modbus_endpoint(modbus.client);
     } catch (const std::invalid_argument& e) {
         throw UsageError(e.what());
     }
-    const drivers::ModbusTimeouts modbus_timeouts{modbus.response_timeout_ms,
-                                                  modbus.byte_timeout_ms};
+    const board::ModbusTimeouts modbus_timeouts{modbus.response_timeout_ms, modbus.byte_timeout_ms};
     std::optional<firmware::ResultRegisterMap> result_map;
     if (client_endpoint) {
         result_map = modbus.client_map.empty()
@@ -283,18 +288,12 @@ int run(const std::vector<std::string>& words) {
         log_line(line);
         log_book.add(line);
     };
-    std::optional<Box> sim_box;
-    std::optional<RpiBox> rpi_box;
-    if (on_rpi) {
-        rpi_box.emplace(args, common, settings_from(config), log);
-    } else {
-        sim_box.emplace(common, settings_from(config), args.get("--camera-files"), log);
-    }
-    firmware::EventLoop& loop = sim_box ? sim_box->loop : rpi_box->appliance.loop;
-    firmware::Cycle& cycle = sim_box ? sim_box->cycle : rpi_box->appliance.cycle;
-    drivers::FileStorage& data = sim_box ? sim_box->parts.data : rpi_box->appliance.data;
-    drivers::TimerfdClock& clock = sim_box ? sim_box->clock : rpi_box->clock;
-    sim::SimBoard* sim_board = sim_box ? &sim_box->parts.board : nullptr;
+    Box box(args, common, settings_from(config), log);
+    firmware::EventLoop& loop = box.loop;
+    firmware::Cycle& cycle = box.cycle;
+    hal::Storage& data = *box.data;
+    hal::Clock& clock = *box.clock;
+    sim::SimBoard* sim_board = box.board.sim.get();
 
     int stopped_by = 0;
     loop.watch(signals.fd(), [&] {
@@ -307,25 +306,25 @@ int run(const std::vector<std::string>& words) {
     // On the rpi board its file's console UART when neither says one.
     std::string console_device = args.get("--console").value_or(config.text("console.device"));
     if (on_rpi && !args.get("--console") && console_device == "stdin")
-        console_device = RpiBox::board_settings(args).console_device;
+        console_device = rpi_board_settings(args).console_device;
     std::unique_ptr<hal::SerialPort> console_port;
     firmware::ConsoleLink::Reopen reopen_console;
     if (console_device == "pty") {
-        auto pty = std::make_unique<drivers::PtyPort>();
+        auto pty = board::pseudo_terminal();
         const auto link = common.data_dir / "console";
         std::error_code ec;
         std::filesystem::remove(link, ec);
-        std::filesystem::create_symlink(pty->slave_path(), link, ec);
-        log("console on " + pty->slave_path() + (ec ? "" : " (" + link.string() + ")"));
-        console_port = std::move(pty);
+        std::filesystem::create_symlink(pty.path, link, ec);
+        log("console on " + pty.path + (ec ? "" : " (" + link.string() + ")"));
+        console_port = std::move(pty.port);
     } else if (console_device == "stdin") {
         // Standard input when it is a terminal; /dev/null (as under CI) leaves it off.
-        if (::isatty(STDIN_FILENO) == 1) console_port = std::make_unique<drivers::StdioPort>();
+        if (::isatty(STDIN_FILENO) == 1) console_port = board::standard_io();
     } else if (!console_device.empty()) {
         // A UART, often a USB adapter: unplugged and plugged in again, or not there yet at the
         // start, it is opened again when it is back.
         reopen_console = [console_device, baud = std::stoi(config.text("console.baud"))] {
-            return std::make_unique<drivers::TermiosPort>(console_device, baud);
+            return board::serial_port(console_device, baud);
         };
         // A path that is there but cannot be opened (not a serial device, no permission) is a
         // set-up mistake that waiting does not mend: it stops the box with its reason.
@@ -338,11 +337,12 @@ int run(const std::vector<std::string>& words) {
         }
     }
     const bool console = console_port != nullptr || reopen_console;
-    drivers::FileStorage config_home(config_path.parent_path().empty() ? std::filesystem::path(".")
-                                                                       : config_path.parent_path());
+    const auto config_home = board::data_directory(
+        config_path.parent_path().empty() ? std::filesystem::path(".") : config_path.parent_path());
     firmware::ConsoleContext context{
-        cycle,          config, config_home, config_path.filename().string(), data, log_book,
-        CALBOX_VERSION, {},     {}};
+        cycle, config,   *config_home,   config_path.filename().string(),
+        data,  log_book, CALBOX_VERSION, {},
+        {}};
     context.config_changed = [&] {
         cycle.set_settings(sim_board != nullptr
                                ? firmware::SimAppliance::with_setup_boards(
@@ -377,28 +377,27 @@ int run(const std::vector<std::string>& words) {
         if (console_link) console_link->notice(line);
     };
 
-    std::optional<drivers::ModbusServer> modbus_server;
+    board::RegisterServer modbus_server;
     std::optional<firmware::PlcServer> plc;
     if (server_endpoint) {
         namespace plc_map = firmware::plc;
-        modbus_server.emplace(
-            *server_endpoint,
-            drivers::ModbusServer::Tables{plc_map::kCoilCount, plc_map::kDiscreteInputCount, 0,
-                                          firmware::input_register_count()},
-            modbus_timeouts, log_line);
-        plc.emplace(*modbus_server, cycle, word_order, log_line);
-        loop.watch(modbus_server->written_fd(), [&] { plc->on_coils_written(); });
+        modbus_server = board::register_server(*server_endpoint,
+                                               {plc_map::kCoilCount, plc_map::kDiscreteInputCount,
+                                                0, firmware::input_register_count()},
+                                               modbus_timeouts, log_line);
+        plc.emplace(*modbus_server.server, cycle, word_order, log_line);
+        loop.watch(modbus_server.server->written_fd(), [&] { plc->on_coils_written(); });
         log_line(server_endpoint->describe() + ": serving the PLC map" +
-                 (server_endpoint->kind == drivers::ModbusEndpoint::Kind::tcp
-                      ? " on port " + std::to_string(modbus_server->port())
+                 (server_endpoint->kind == board::ModbusEndpoint::Kind::tcp
+                      ? " on port " + std::to_string(modbus_server.port)
                       : std::string()));
     }
-    std::optional<drivers::ModbusClient> modbus_client;
+    std::unique_ptr<hal::RegisterLink> modbus_client;
     std::optional<firmware::ResultWriter> result_writer;
     int results_written_for = cycle.cycles_completed();
     bool stop_when_written = false;
     if (client_endpoint) {
-        modbus_client.emplace(*client_endpoint, modbus_timeouts);
+        modbus_client = board::register_client(*client_endpoint, modbus_timeouts);
         result_writer.emplace(*modbus_client, *result_map, word_order, log_line);
         loop.watch(modbus_client->completion_fd(), [&] {
             result_writer->on_completion();
@@ -469,11 +468,11 @@ int run(const std::vector<std::string>& words) {
 }
 
 int revert(const std::vector<std::string>& words) {
-    const Args args(words, {"--board", "--scenario", "--data"}, {});
+    const Args args(words, {"--board", "--scenario", "--data", "--board-file", "--machine"}, {});
     if (!args.positional().empty()) throw UsageError("revert takes no positional argument");
-    const Common common = common_options(args);
+    const Common common = common_options(args, true);
     firmware::SignalWatch signals;
-    Box box(common, {});
+    Box box(args, common, {});
     bool finished = false;
     box.cycle.on_state = [&box, &finished](firmware::CycleState state) {
         if (state == firmware::CycleState::idle || state == firmware::CycleState::error) {

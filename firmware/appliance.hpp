@@ -4,7 +4,7 @@
 // one for `calbox run` and `calbox revert`, a fake one in the tests.
 #include <filesystem>
 
-#include "drivers/file_storage.hpp"
+#include "board/devices.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
@@ -15,26 +15,29 @@
 
 namespace calbox::firmware {
 
-// What the appliance needs of a board; each outlives the appliance.
+// What the appliance needs of a board's devices (board::Devices, whichever board); each outlives
+// the appliance. The camera may be another than the board's (photos from files).
 struct ApplianceDevices {
     hal::Camera& camera;
     hal::Lines& lines;
     hal::Display& display;
     hal::SerialPort& machine;
+    static ApplianceDevices of(board::Devices& d, hal::Camera* camera = nullptr) {
+        return {camera != nullptr ? *camera : *d.camera, *d.lines, *d.display, *d.machine};
+    }
 };
 
 struct Appliance {
-    drivers::FileStorage data;
+    hal::Storage& data;
     EventLoop loop;
     Worker worker{loop};
     GcodeHost host;
     Cycle cycle;
 
-    Appliance(ApplianceDevices devices, const std::filesystem::path& data_dir, hal::Clock& clock,
+    Appliance(ApplianceDevices devices, hal::Storage& data_dir, hal::Clock& clock,
               GcodeHostSettings link, const models::MachineFile& machine, CycleSettings settings,
-              const Cycle::Log& log,
-              drivers::FileSystemCalls& data_files = drivers::posix_file_system())
-        : data(data_dir, data_files),
+              const Cycle::Log& log)
+        : data(data_dir),
           host(devices.machine, clock, link, log),
           cycle({devices.camera, devices.lines, host, devices.display, clock, data, worker},
                 machine, std::move(settings), log) {

@@ -7,10 +7,10 @@
 #include <cstdio>
 #include <sstream>
 
+#include "board/devices.hpp"
 #include "core/geometry/pattern_spec.hpp"
 #include "core/models/register_words.hpp"
 #include "core/number_text.hpp"
-#include "drivers/modbus_link.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -269,7 +269,7 @@ void check_text(std::string_view name, const std::string& value) {
         if (name == "setup.reference_marks" && value != kNoReferenceMarks)
             (void)geometry::aruco_dictionary_id(value);
         if ((name == "modbus.server" || name == "modbus.client") && !value.empty())
-            (void)drivers::parse_modbus_endpoint(value);
+            (void)board::parse_modbus_endpoint(value);
     } catch (const std::invalid_argument& e) {
         throw ConfigError(e.what());
     }

@@ -7,7 +7,7 @@
 #include <iostream>
 #include <sstream>
 
-#include "drivers/file_storage.hpp"
+#include "board/devices.hpp"
 
 namespace calbox::cli {
 
@@ -83,7 +83,7 @@ void write_output_file(const std::string& path, const std::string& contents) {
     if (!std::filesystem::is_directory(directory)) {
         throw std::runtime_error("cannot write " + path + ": no directory " + directory.string());
     }
-    drivers::FileStorage(directory).replace_file(p.filename().string(), contents);
+    board::data_directory(directory)->replace_file(p.filename().string(), contents);
 }
 
 std::string read_input_file(const std::string& path, const std::string& what) {

@@ -1,11 +1,13 @@
 #include "firmware/event_loop.hpp"
 
 #include <sys/epoll.h>
+#include <sys/eventfd.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <csignal>
+#include <cstdint>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -69,6 +71,25 @@ void EventLoop::run() {
     while (!stopped_) run_once(std::chrono::milliseconds(1000));
 }
 
+Wakeup::Wakeup() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
+    if (fd_ < 0) throw os_error("eventfd");
+}
+
+Wakeup::~Wakeup() {
+    ::close(fd_);
+}
+
+void Wakeup::signal() {
+    const std::uint64_t one = 1;
+    while (::write(fd_, &one, sizeof one) < 0 && errno == EINTR) {
+    }
+}
+
+bool Wakeup::take() {
+    std::uint64_t count = 0;
+    return ::read(fd_, &count, sizeof count) == sizeof count && count > 0;
+}
+
 Worker::Worker(EventLoop& loop) : loop_(loop) {
     loop_.watch(notifier_.fd(), [this] { finished(); });
 }
@@ -95,7 +116,7 @@ void Worker::start(std::function<void()> work, std::function<void(std::exception
 }
 
 void Worker::finished() {
-    if (notifier_.take() == 0) return;
+    if (!notifier_.take()) return;
     thread_.join();
     busy_ = false;
     auto done = std::move(done_);

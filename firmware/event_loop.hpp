@@ -8,8 +8,6 @@
 #include <memory>
 #include <thread>
 
-#include "drivers/notifier.hpp"
-
 namespace calbox::firmware {
 
 class EventLoop {
@@ -36,6 +34,21 @@ class EventLoop {
     bool stopped_ = false;
 };
 
+// Another thread's "done" to the loop: an eventfd, the loop's own way in (as its signals are).
+class Wakeup {
+  public:
+    Wakeup();  // throws std::runtime_error when the kernel refuses one
+    Wakeup(const Wakeup&) = delete;
+    Wakeup& operator=(const Wakeup&) = delete;
+    ~Wakeup();
+    int fd() const { return fd_; }
+    void signal();
+    bool take();  // false when nothing was signalled
+
+  private:
+    int fd_ = -1;
+};
+
 // Runs slow work (measure, solve, calibrate) off the loop: `work` on the worker's thread, then
 // `done` on the loop's thread when the loop sees the completion. One job at a time.
 class Worker {
@@ -51,7 +64,7 @@ class Worker {
   private:
     void finished();
     EventLoop& loop_;
-    drivers::Notifier notifier_;
+    Wakeup notifier_;
     std::thread thread_;
     std::function<void(std::exception_ptr)> done_;
     std::exception_ptr error_;

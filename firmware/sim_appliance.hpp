@@ -2,11 +2,10 @@
 // The appliance (firmware/appliance.hpp) on the sim board's devices. The clock is the
 // caller's: the real one for `calbox run` and `calbox revert`, a fake one in the tests. A
 // camera of the caller's (photos from files, or the twin's wrapped) may stand in for the twin's,
-// and the data directory's file calls may be a test's (a full disk).
+// and the data directory may be the caller's (a test's full disk).
 #include <functional>
 
 #include "board/sim/sim_board.hpp"
-#include "drivers/file_storage.hpp"
 #include "firmware/appliance.hpp"
 
 namespace calbox::firmware {
@@ -15,8 +14,9 @@ struct SimAppliance {
     using CameraChoice = std::function<hal::Camera&(sim::SimBoard&)>;
     sim::SimBoard board;
     hal::Camera& camera;  // the twin's, or the caller's
+    std::unique_ptr<hal::Storage> data_directory;
     Appliance appliance;
-    drivers::FileStorage& data = appliance.data;
+    hal::Storage& data = appliance.data;
     EventLoop& loop = appliance.loop;
     Worker& worker = appliance.worker;
     GcodeHost& host = appliance.host;
@@ -25,13 +25,13 @@ struct SimAppliance {
     SimAppliance(const sim::SimSettings& sim, hal::Clock& clock, GcodeHostSettings link,
                  CycleSettings settings, const Cycle::Log& log,
                  const CameraChoice& choose_camera = {},
-                 drivers::FileSystemCalls& data_files = drivers::posix_file_system())
+                 std::unique_ptr<hal::Storage> data = nullptr)
         : board(sim::make_sim_board(sim, clock, log)),
           camera(choose_camera ? choose_camera(board) : *board.camera),
-          appliance({camera, *board.lines, *board.display, *board.machine}, sim.data_dir, clock,
-                    link, board.bench->scenario().machine,
-                    with_setup_boards(std::move(settings), board.bench->scenario().setup), log,
-                    data_files) {}
+          data_directory(data ? std::move(data) : board::data_directory(sim.data_dir)),
+          appliance(ApplianceDevices::of(board.devices, &camera), *data_directory, clock, link,
+                    board.bench->scenario().machine,
+                    with_setup_boards(std::move(settings), board.bench->scenario().setup), log) {}
 
     // The boards the sim board's person holds are the ones the box asks for.
     static CycleSettings with_setup_boards(CycleSettings settings,

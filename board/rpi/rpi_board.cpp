@@ -110,8 +110,8 @@ RpiSettings read_rpi_settings(const std::string& path) {
     return s;
 }
 
-RpiDevices open_rpi_devices(const RpiSettings& settings, hal::Clock& clock) {
-    RpiDevices d;
+Devices open_rpi_devices(const RpiSettings& settings, hal::Clock& clock) {
+    Devices d;
     // libcamera first (the Pi's cameras); a USB camera through V4L2 when libcamera has none.
     d.camera = opening("the camera", [&]() -> std::unique_ptr<hal::Camera> {
         std::string libcamera_failed;

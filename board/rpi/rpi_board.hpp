@@ -4,6 +4,7 @@
 #include <memory>
 #include <string>
 
+#include "board/devices.hpp"
 #include "drivers/gpio_lines.hpp"
 #include "drivers/oled_display.hpp"
 #include "drivers/v4l2_camera.hpp"
@@ -33,17 +34,10 @@ RpiSettings default_rpi_settings();
 // at fault (unknown keys and sections included).
 RpiSettings read_rpi_settings(const std::string& path);
 
-struct RpiDevices {
-    std::unique_ptr<hal::Camera> camera;
-    std::unique_ptr<hal::Lines> lines;
-    std::unique_ptr<hal::Display> display;
-    std::unique_ptr<hal::SerialPort> machine;
-};
-
 // Opens the camera, the GPIO lines, the display and the machine's port, in that order (the
 // console is the appliance's to open: a USB adapter may come and go). Throws
 // std::runtime_error with one line: "the camera: ...", "the button and lights: ...", naming
 // what it looked for and why it is not usable. `clock` must be CLOCK_MONOTONIC's.
-RpiDevices open_rpi_devices(const RpiSettings& settings, hal::Clock& clock);
+Devices open_rpi_devices(const RpiSettings& settings, hal::Clock& clock);
 
 }  // namespace calbox::board

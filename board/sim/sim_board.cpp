@@ -514,11 +514,14 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
             "not a " +
             kind);
     board.printer = std::make_unique<TwinPrinterLink>(board.bench);
-    board.camera = std::make_unique<TwinCamera>(board.bench);
-    board.lines = std::make_unique<SimLines>(clock, std::move(log));
-    board.machine =
-        std::make_unique<drivers::TermiosPort>(board.printer->device_path(), settings.baud);
-    board.display = std::make_unique<PngDisplay>(settings.data_dir / "display");
+    auto camera = std::make_unique<TwinCamera>(board.bench);
+    auto lines = std::make_unique<SimLines>(clock, std::move(log));
+    auto display = std::make_unique<PngDisplay>(settings.data_dir / "display");
+    board.camera = camera.get();
+    board.lines = lines.get();
+    board.display = display.get();
+    board.devices = {std::move(camera), std::move(lines), std::move(display),
+                     board::serial_port(board.printer->device_path(), settings.baud)};
     return board;
 }
 

@@ -15,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "board/devices.hpp"
 #include "board/sim/delta_judge.hpp"
 #include "board/sim/galvo_twin.hpp"
 #include "board/sim/scenario.hpp"
@@ -186,15 +187,16 @@ struct SimSettings {
     int baud = 115200;
 };
 
-// The board's devices; the sim-only parts (the bench, the lines to press) stay reachable for
-// the operator and the judge.
+// The board's devices, as every board gives them; the sim-only parts (the bench, the printer's
+// end of the link, the lines to press) stay reachable for the operator, the judge and tests.
 struct SimBoard {
     std::shared_ptr<TwinBench> bench;
     std::unique_ptr<TwinPrinterLink> printer;
-    std::unique_ptr<TwinCamera> camera;
-    std::unique_ptr<SimLines> lines;
-    std::unique_ptr<hal::SerialPort> machine;  // the box's end of the printer's pty
-    std::unique_ptr<PngDisplay> display;
+    board::Devices devices;  // the machine's link: the box's end of the printer's pty
+    // The devices' own, by their types.
+    TwinCamera* camera = nullptr;
+    SimLines* lines = nullptr;
+    PngDisplay* display = nullptr;
 };
 
 // Throws ScenarioError for a scenario the sim board cannot run (no camera, not a delta).

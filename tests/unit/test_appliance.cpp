@@ -85,7 +85,7 @@ struct Rig {
     std::vector<std::string> log;
     firmware::SimAppliance box;
     sim::SimBoard& board = box.board;
-    drivers::FileStorage& data = box.data;
+    hal::Storage& data = box.data;
     firmware::EventLoop& loop = box.loop;
     firmware::Worker& worker = box.worker;
     firmware::GcodeHost& host = box.host;
@@ -100,7 +100,8 @@ struct Rig {
         : dir(data_dir),
           box(
               {scenario, data_dir, 115200}, clock, {1, 5000ms, 8}, std::move(settings),
-              [this](const std::string& l) { log.push_back(l); }, choose_camera, data_files) {
+              [this](const std::string& l) { log.push_back(l); }, choose_camera,
+              std::make_unique<drivers::FileStorage>(data_dir, data_files)) {
         cycle.on_prompt = [this](firmware::Prompt p, int step) {
             if (intercept && intercept(p)) return;
             if (operator_acts) firmware::act_on_prompt(*board.bench, *board.lines, p, step);
@@ -759,7 +760,7 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
     {
         Rig first(prepared_dir("files_first"), kScenario.string(), {},
                   [&recorder](sim::SimBoard& board) -> hal::Camera& {
-                      recorder.twin = board.camera.get();
+                      recorder.twin = board.camera;
                       return recorder;
                   });
         first.run_cycle();

@@ -53,7 +53,7 @@ constexpr const char* kRunHelp = R"(usage:
       change is one line on standard error.
       --board rpi     a Raspberry Pi 4 or 5 with its camera (V4L2), button, LEDs and light
                       (GPIO), display (I2C) and the machine's serial port, where --board-file
-                      FILE (default /etc/calbox/board.toml when it exists; README, The
+                      FILE (default /etc/calbox/board.toml when it exists; docs/devices.md, The
                       Raspberry Pi board) says; --machine FILE is the machine beside the box.
                       A device that is not there stops it with one line naming it
       --board sim     the digital twin (the default): --scenario FILE (default
@@ -69,11 +69,11 @@ constexpr const char* kRunHelp = R"(usage:
                       0.01 mm, worst <= 0.03 mm over the printable area; a galvo's marks through
                       the table <= 0.008 mm mean, <= 0.03 mm worst; a router's (or printer's) fresh points
                       through the model under 0.05 mm mean and 95 % less than before.
-      --config FILE   the box's configuration (TOML; README, Configuration; default
+      --config FILE   the box's configuration (TOML; docs/appliance.md, Configuration; default
                       DIR/calbox.toml when it exists): [cycle], [setup], [records], [console] and
                       [modbus]; the options override it. The console's `config save` writes it
       --console DEVICE
-                      the console (README, Console): a serial device, "pty" (a pseudo-terminal,
+                      the console (docs/appliance.md, Console): a serial device, "pty" (a pseudo-terminal,
                       linked as DIR/console), "stdin" (the default: standard input when it is a
                       terminal) or "" for none; overrides console.device
       --operator      the sim board's operator does what the set-up and bed prompts ask, but
@@ -87,7 +87,7 @@ constexpr const char* kRunHelp = R"(usage:
                       camera: a cycle re-run on saved photos, or photos from another camera.
                       Their size must be the calibration's (camera.yaml), else one error line
       --modbus-server ENDPOINT
-                      serve the PLC map (README, Modbus): trigger, confirm, cancel and
+                      serve the PLC map (docs/devices.md, Modbus): trigger, confirm, cancel and
                       acknowledge coils; ready, busy, review, done, pass, error and person inputs;
                       state, error code, result counter and the result block in input registers.
                       ENDPOINT is tcp:HOST:PORT (0.0.0.0 for all interfaces) or rtu:DEVICE:BAUD
@@ -247,27 +247,28 @@ int run(const std::vector<std::string>& words) {
             throw UsageError(e.what());
         }
     }
-    firmware::ModbusConfig modbus = config.modbus();
-    if (auto v = args.get("--modbus-server")) modbus.server = *v;
-    if (auto v = args.get("--modbus-client")) modbus.client = *v;
-    if (auto v = args.get("--modbus-map")) modbus.client_map = *v;
-    if (auto v = args.get("--modbus-word-order")) modbus.word_order = *v;
-    if (!modbus.client_map.empty() && modbus.client.empty())
-        throw UsageError("--modbus-map needs --modbus-client");
-    models::WordOrder word_order = models::WordOrder::abcd;
+    // The options win over the configuration, each parsed once into its typed value.
+    firmware::ModbusSettings modbus = config.settings().modbus;
     try {
-        word_order = models::parse_word_order(modbus.word_order);
-    } catch (const std::invalid_argument& e) {
-        throw UsageError(std::string("--modbus-word-order: ") + e.what());
-    }
-    std::optional<board::ModbusEndpoint> server_endpoint, client_endpoint;
-    try {
-        if (!modbus.server.empty()) server_endpoint = board::parse_modbus_endpoint(modbus.server);
-        if (!modbus.client.empty()) client_endpoint = board::parse_modbus_endpoint(modbus.client);
+        if (auto v = args.get("--modbus-server")) modbus.server = board::parse_modbus_endpoint(*v);
+        if (auto v = args.get("--modbus-client")) modbus.client = board::parse_modbus_endpoint(*v);
     } catch (const std::invalid_argument& e) {
         throw UsageError(e.what());
     }
-    const board::ModbusTimeouts modbus_timeouts{modbus.response_timeout_ms, modbus.byte_timeout_ms};
+    if (auto v = args.get("--modbus-map")) modbus.client_map = *v;
+    if (auto v = args.get("--modbus-word-order")) {
+        try {
+            modbus.word_order = models::parse_word_order(*v);
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(std::string("--modbus-word-order: ") + e.what());
+        }
+    }
+    if (!modbus.client_map.empty() && !modbus.client)
+        throw UsageError("--modbus-map needs --modbus-client");
+    const models::WordOrder word_order = modbus.word_order;
+    const std::optional<board::ModbusEndpoint>& server_endpoint = modbus.server;
+    const std::optional<board::ModbusEndpoint>& client_endpoint = modbus.client;
+    const board::ModbusTimeouts modbus_timeouts = modbus.timeouts;
     std::optional<firmware::ResultRegisterMap> result_map;
     if (client_endpoint) {
         result_map = modbus.client_map.empty()
@@ -279,7 +280,7 @@ int run(const std::vector<std::string>& words) {
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
     // The cycle's settings as the configuration says, the options over them.
     const auto settings_from = [&frames](const firmware::BoxConfig& c) {
-        auto s = c.cycle_settings({});
+        auto s = c.settings().cycle;
         if (frames) s.frames_per_capture = *frames;
         return s;
     };
@@ -304,7 +305,7 @@ int run(const std::vector<std::string>& words) {
 
     // The console: --console DEVICE, else the configuration's console.device.
     // On the rpi board its file's console UART when neither says one.
-    std::string console_device = args.get("--console").value_or(config.text("console.device"));
+    std::string console_device = args.get("--console").value_or(config.settings().console.device);
     if (on_rpi && !args.get("--console") && console_device == "stdin")
         console_device = rpi_board_settings(args).console_device;
     std::unique_ptr<hal::SerialPort> console_port;
@@ -323,7 +324,7 @@ int run(const std::vector<std::string>& words) {
     } else if (!console_device.empty()) {
         // A UART, often a USB adapter: unplugged and plugged in again, or not there yet at the
         // start, it is opened again when it is back.
-        reopen_console = [console_device, baud = std::stoi(config.text("console.baud"))] {
+        reopen_console = [console_device, baud = config.settings().console.baud] {
             return board::serial_port(console_device, baud);
         };
         // A path that is there but cannot be opened (not a serial device, no permission) is a

@@ -158,11 +158,12 @@ std::vector<ConsoleCommand> Console::commands() {
                  out << k.name << " = "
                      << (k.kind == ConfigKind::text ? "\"" + value + "\"" : value);
                  if (!k.unit.empty()) out << " " << k.unit;
-                 if (value != k.default_value) out << "  (default " << k.default_value << ")";
+                 const std::string fallback = default_text(k);
+                 if (value != fallback) out << "  (default " << fallback << ")";
                  if (k.needs_restart) out << "  [at start]";
                  out << "\n";
                  keys[std::string(k.name)] = {{"value", value},
-                                              {"default", std::string(k.default_value)},
+                                              {"default", fallback},
                                               {"unit", std::string(k.unit)},
                                               {"kind", kind_name(k.kind)},
                                               {"min", k.min},

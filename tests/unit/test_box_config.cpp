@@ -36,13 +36,16 @@ TEST(BoxConfig, reads_every_table_and_names_the_line_of_what_it_does_not_know) {
         "[cycle]\nframes_per_capture = 4\n[setup]\nplane_board_thickness_mm = 3\n"
         "[records]\nkeep_photos = true\n",
         "calbox.toml");
-    const auto modbus = config.modbus();
-    STRCMP_EQUAL("tcp:0.0.0.0:502", modbus.server.c_str());
-    STRCMP_EQUAL("", modbus.client.c_str());
-    STRCMP_EQUAL("cdab", modbus.word_order.c_str());
-    CHECK_EQUAL(200U, modbus.byte_timeout_ms);
-    CHECK_EQUAL(1000U, modbus.response_timeout_ms);  // the default
-    const auto settings = config.cycle_settings({});
+    const auto& modbus = config.settings().modbus;
+    CHECK_TRUE(modbus.server.has_value());
+    STRCMP_EQUAL("0.0.0.0", modbus.server->host.c_str());
+    CHECK_EQUAL(502, modbus.server->port);
+    STRCMP_EQUAL("tcp:0.0.0.0:502", firmware::endpoint_text(*modbus.server).c_str());
+    CHECK_FALSE(modbus.client.has_value());
+    CHECK(models::WordOrder::cdab == modbus.word_order);
+    CHECK_EQUAL(200U, modbus.timeouts.byte_ms);
+    CHECK_EQUAL(1000U, modbus.timeouts.response_ms);  // the default
+    const auto& settings = config.settings().cycle;
     CHECK_EQUAL(4, settings.frames_per_capture);
     DOUBLES_EQUAL(3.0, settings.plane_board_thickness_mm, 0);  // an integer where a number is
     CHECK_TRUE(settings.records.keep_photos);
@@ -91,13 +94,13 @@ TEST(BoxConfig, a_set_is_validated_before_it_takes_and_reset_gives_the_default) 
         test::construction_error([&] { config.set("console.baud", "115201"); }).c_str());
     CHECK_TRUE(config == before);  // nothing changed by the refusals
     config.set("setup.plane_board_thickness_mm", "2.5");
-    DOUBLES_EQUAL(2.5, config.number("setup.plane_board_thickness_mm"), 0);
+    DOUBLES_EQUAL(2.5, config.settings().cycle.plane_board_thickness_mm, 0);
     config.reset("cycle.frames_per_capture");
     STRCMP_EQUAL("1", config.get("cycle.frames_per_capture").c_str());
 }
 
 TEST(BoxConfig, the_readme_documents_every_key) {
-    std::ifstream in(std::string(CALBOX_SOURCE_DIR) + "/README.md");
+    std::ifstream in(std::string(CALBOX_SOURCE_DIR) + "/docs/appliance.md");
     const std::string readme((std::istreambuf_iterator<char>(in)),
                              std::istreambuf_iterator<char>());
     CHECK_TRUE(readme.size() > 1000);

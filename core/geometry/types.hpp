@@ -1,6 +1,7 @@
 #pragma once
 // Plain geometric values passed across core's interfaces (OpenCV stays inside the .cpp files).
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -18,6 +19,10 @@ constexpr std::size_t grid_nodes(int count) {
 struct Point2 {
     double x = 0, y = 0;
 };
+
+inline double distance(Point2 a, Point2 b) {
+    return std::hypot(a.x - b.x, a.y - b.y);
+}
 
 struct Point3 {
     double x = 0, y = 0, z = 0;

@@ -91,7 +91,7 @@ struct VerifyOutcome {
 
 // What a completed cycle hands a controller over Modbus: named values (the names of
 // result_value_names(); a mode leaves out what it does not have) and, for a mode whose correction
-// is a table, the table's floats (README, "The table over Modbus").
+// is a table, the table's floats (docs/devices.md, "The table over Modbus").
 struct ModeResult {
     std::vector<std::pair<std::string, double>> values;
     std::vector<float> table;
@@ -141,6 +141,14 @@ class CycleMode {
     virtual void describe_last(std::string& text, nlohmann::json& data) const = 0;
     virtual ModeResult result(bool applied) const = 0;
 };
+
+// `compute` off the loop (touching only what it captured), then `then` with its value on the loop.
+template <class T>
+void work_out(CycleSteps& steps, std::function<T()> compute, std::function<void(T)> then) {
+    auto value = std::make_shared<T>();
+    steps.work([compute = std::move(compute), value] { *value = compute(); },
+               [value, then = std::move(then)] { then(std::move(*value)); });
+}
 
 // The one place the box's side reads the machine's kind.
 std::unique_ptr<CycleMode> make_cycle_mode(const models::MachineFile& machine, CycleSteps& steps);

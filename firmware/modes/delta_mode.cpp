@@ -46,13 +46,13 @@ void DeltaCycleMode::begin() {
 }
 
 void DeltaCycleMode::make_target(std::function<void(std::vector<std::string>)> then) {
-    auto lines = std::make_shared<std::vector<std::string>>();
-    steps_.work(
-        [machine = machine_, lines] {
-            *lines = lines_of(targets::write_gcode(targets::make_delta_target(machine).job, machine,
-                                                   "calbox target"));
+    work_out<std::vector<std::string>>(
+        steps_,
+        [machine = machine_] {
+            return lines_of(targets::write_gcode(targets::make_delta_target(machine).job, machine,
+                                                 "calbox target"));
         },
-        [lines, then = std::move(then)] { then(std::move(*lines)); });
+        std::move(then));
 }
 
 void DeltaCycleMode::before_target(std::function<void()> then) {

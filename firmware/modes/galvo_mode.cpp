@@ -30,13 +30,13 @@ void GalvoCycleMode::begin() {
 }
 
 void GalvoCycleMode::make_target(std::function<void(std::vector<std::string>)> then) {
-    auto lines = std::make_shared<std::vector<std::string>>();
-    steps_.work(
-        [machine = machine_, lines] {
-            *lines = lines_of(targets::write_gcode(targets::make_galvo_target(machine).job, machine,
-                                                   "calbox target"));
+    work_out<std::vector<std::string>>(
+        steps_,
+        [machine = machine_] {
+            return lines_of(targets::write_gcode(targets::make_galvo_target(machine).job, machine,
+                                                 "calbox target"));
         },
-        [lines, then = std::move(then)] { then(std::move(*lines)); });
+        std::move(then));
 }
 
 void GalvoCycleMode::measure(MeasureInput input, bool verifying, std::function<void()> then) {

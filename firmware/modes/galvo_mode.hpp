@@ -12,7 +12,7 @@ constexpr const char* kGalvoTableFile = "galvo-table.json";
 constexpr const char* kNoGalvoTable = "none\n";
 
 // A table as a controller reads it from its registers: the node count and the rectangle, then
-// each node's command x and y, row by row (README, "The table over Modbus").
+// each node's command x and y, row by row (docs/devices.md, "The table over Modbus").
 std::vector<float> table_registers(const models::CorrectionTable& table);
 
 class GalvoCycleMode final : public KeptCorrectionMode {

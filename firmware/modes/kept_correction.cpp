@@ -17,13 +17,13 @@ void KeptCorrectionMode::apply(std::function<void(bool verify)> then) {
 
 void KeptCorrectionMode::verification_job(const std::vector<std::string>& target,
                                           std::function<void(std::vector<std::string>)> then) {
-    auto lines = std::make_shared<std::vector<std::string>>();
-    steps_.work(
-        [text = joined(target), correct = correction(), covers = this->covers(), lines] {
+    work_out<std::vector<std::string>>(
+        steps_,
+        [text = joined(target), correct = correction(), covers = this->covers()] {
             targets::CompensateReport ignored;
-            *lines = lines_of(targets::compensate_gcode(text, correct, covers, {}, ignored));
+            return lines_of(targets::compensate_gcode(text, correct, covers, {}, ignored));
         },
-        [lines, then = std::move(then)] { then(std::move(*lines)); });
+        std::move(then));
 }
 
 std::string KeptCorrectionMode::revert(int number, std::function<void(std::string what)> then) {

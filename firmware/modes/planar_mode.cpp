@@ -38,10 +38,9 @@ void PlanarCycleMode::begin() {
 }
 
 void PlanarCycleMode::make_target(std::function<void(std::vector<std::string>)> then) {
-    auto lines = std::make_shared<std::vector<std::string>>();
-    steps_.work([machine = machine_,
-                 lines] { *lines = lines_of(targets::make_planar_target(machine).job); },
-                [lines, then = std::move(then)] { then(std::move(*lines)); });
+    work_out<std::vector<std::string>>(
+        steps_, [machine = machine_] { return lines_of(targets::make_planar_target(machine).job); },
+        std::move(then));
 }
 
 void PlanarCycleMode::measure(MeasureInput input, bool verifying, std::function<void()> then) {

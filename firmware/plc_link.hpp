@@ -1,7 +1,7 @@
 #pragma once
 // The box on Modbus: as a server a PLC drives it the way PLCs drive smart cameras (a trigger
 // coil, status bits, a result counter and a result block), and as a client it writes each
-// completed cycle's result into a controller's registers. The map below is the one the README
+// completed cycle's result into a controller's registers. The map below is the one docs/devices.md
 // shows; change both together.
 #include <array>
 #include <cstdint>
@@ -72,7 +72,7 @@ class PlcServer {
 // (two registers) per mapped name; the default map is the whole block from register 0.
 struct ResultRegisterMap {
     std::vector<std::pair<std::string, int>> registers;  // value name -> first holding register
-    // A galvo scanner's correction table, after the result (README, "The table over Modbus"):
+    // A galvo scanner's correction table, after the result (docs/devices.md, "The table over Modbus"):
     // from this holding register, the node count and the rectangle (5 floats), then each node's
     // command x and y, row by row. The TOML key `galvo_table` moves it.
     int galvo_table_register = 1000;

@@ -1,7 +1,7 @@
 #pragma once
 // What the 128x64 display shows, drawn in a 6x12 bitmap font (Terminus, see font_6x12.inc):
 // five lines of 21 characters, the first inverted as a title. One drawing per screen the box
-// has; each takes what it shows as plain values, so the README's pictures and the box's frames
+// has; each takes what it shows as plain values, so docs/appliance.md's pictures and the box's frames
 // come from the same code.
 #include <optional>
 #include <string>

@@ -1,5 +1,5 @@
 #!/bin/bash
-# The Debian package (README, Installing): built twice by CPack from this build (two versions),
+# The Debian package (docs/devices.md, Installing): built twice by CPack from this build (two versions),
 # installed, upgraded, removed and purged by dpkg in a throwaway root. The maintainer scripts
 # run there without a chroot and, seeing DPKG_ROOT, touch only files; what they do on a real
 # system (user, groups, udev, systemd) is checked by reading them.

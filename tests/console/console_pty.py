@@ -134,10 +134,10 @@ for command in ["status", "config list", "config get KEY", "config set KEY VALUE
                 "version", "camera calibrate", "camera plane", "capture", "press", "hold"]:
     if command not in help_lines:
         fail("help lacks " + command)
-readme = open(os.path.join(top, "README.md")).read()
+readme = open(os.path.join(top, "docs", "appliance.md")).read()
 for entry in t.ask("help")["commands"]:
     if "`" + entry["command"] + "`" not in readme:
-        fail("the README does not document " + entry["command"])
+        fail("docs/appliance.md does not document " + entry["command"])
 s = t.ask("status")
 if s["state"] != "idle" or s["waiting"] != "press to calibrate":
     fail(f"status {s}")

@@ -12,6 +12,7 @@
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
+#include "board/sim/twin_kind.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/modes/delta_records.hpp"
@@ -252,14 +253,15 @@ int sim_measurements(const std::vector<std::string>& words) {
     if (!args.positional().empty())
         throw UsageError("sim measurements takes no positional argument");
     const auto scenario = scenario_from(args);
-    if (!scenario.machine.is_delta())
+    auto machine = sim::make_machine_twin(scenario);
+    const auto* delta = dynamic_cast<const sim::DeltaTwin*>(machine.get());
+    if (delta == nullptr)
         throw std::runtime_error(scenario.path + ": measurements are made for delta scenarios");
     const int count = static_cast<int>(args.number("--features", 150));
     const double noise_mm = args.number("--noise", 0.01);
     if (count < 1 || count > 100000) throw UsageError("--features must be 1 to 100000");
     if (noise_mm < 0 || noise_mm > 5) throw UsageError("--noise must be 0 to 5 mm");
     const std::string out = args.require("-o");
-    auto machine = sim::make_machine_twin(scenario);
     machine->home();
     std::mt19937_64 rng(static_cast<std::uint64_t>(args.number("--seed", 1)));
     std::normal_distribution<double> noise(0, noise_mm);
@@ -288,9 +290,7 @@ int sim_measurements(const std::vector<std::string>& words) {
     }
     // The firmware's belief as the twin holds it (its height zeroed at the centre, if asked).
     models::MachineFile believed = scenario.machine;
-    if (const auto* delta = dynamic_cast<const sim::DeltaTwin*>(machine.get())) {
-        believed.delta = sim::machine_settings(delta->firmware());
-    }
+    believed.delta = sim::machine_settings(delta->firmware());
     const nlohmann::json j{{"schema", "calbox.measurements/1"},
                            {"machine_fingerprint", models::fingerprint(believed)},
                            {"source", "calbox sim measurements " + scenario.path},
@@ -317,111 +317,18 @@ int sim_measurements(const std::vector<std::string>& words) {
 
 }  // namespace
 
-// The twin judges a delta correction in its truth: the firmware lines of a solve result sent to
-// the scenario's printer, then commanded against actual positions over the printable area.
-// The twin judges a galvo scanner in its truth: a fresh 30 x 30 grid of marks over the table's
-// area (or the field less a pitch) burned as commanded, then through the result's table.
-int sim_verify_galvo(const Args& args, const sim::Scenario& scenario) {
-    std::optional<modes::GalvoSolution> solution;
-    if (const auto path = args.get("--result"))
-        solution = modes::galvo_result_from_json(read_input_file(*path, "result"), *path);
-    const std::array<double, 4> area =
-        solution ? std::array<double, 4>{solution->fit.table.min_x_mm, solution->fit.table.min_y_mm,
-                                         solution->fit.table.max_x_mm, solution->fit.table.max_y_mm}
-                 : sim::field_less_a_pitch(scenario.galvo_truth);
-    const auto fresh = sim::fresh_grid(area, 30);
-    const auto before =
-        sim::judge_galvo(scenario.galvo_truth, fresh, [](sim::Vec2 p) { return p; });
-    std::printf("before: %zu marks %.4f mm mean, %.4f RMS, %.4f worst\n", before.points,
-                before.mean_mm, before.rms_mm, before.max_mm);
-    nlohmann::json j{
-        {"schema", "calbox.sim-verify-galvo/1"},
-        {"area_mm", area},
-        {"before",
-         {{"mean_mm", before.mean_mm}, {"rms_mm", before.rms_mm}, {"max_mm", before.max_mm}}}};
-    if (solution) {
-        const auto& table = solution->fit.table;
-        const auto after = sim::judge_galvo(scenario.galvo_truth, fresh, [&](sim::Vec2 p) {
-            const auto c = table.command_for({p.x, p.y});
-            return sim::Vec2{c.x, c.y};
-        });
-        std::printf("after the table: %.5f mm mean, %.5f RMS, %.5f worst\n", after.mean_mm,
-                    after.rms_mm, after.max_mm);
-        j["after"] = {
-            {"mean_mm", after.mean_mm}, {"rms_mm", after.rms_mm}, {"max_mm", after.max_mm}};
-    }
-    if (const auto out = args.get("-o")) write_output_file(*out, j.dump(1) + "\n");
-    return 0;
-}
-
-// The twin judges a router in its truth: a fresh job of holes half a pitch off the target's
-// drilled as commanded, and with --result through the compensated G-code.
-int sim_verify_router(const Args& args, const sim::Scenario& scenario) {
-    std::optional<modes::PlanarSolution> solution;
-    if (const auto path = args.get("--result"))
-        solution = modes::planar_result_from_json(read_input_file(*path, "result"), *path);
-    const targets::Correction correct = [&](geometry::Point2 p) {
-        return modes::planar_command_for(*solution, p);
-    };
-    const auto verdict = sim::judge_planar_machine(scenario, solution ? &correct : nullptr);
-    const auto judgement = [](const sim::RouterJudgement& j) {
-        return nlohmann::json{{"mean_mm", j.mean_mm}, {"rms_mm", j.rms_mm}, {"max_mm", j.max_mm}};
-    };
-    std::printf("before: %zu holes %.4f mm mean, %.4f RMS, %.4f worst\n", verdict.holes,
-                verdict.before.mean_mm, verdict.before.rms_mm, verdict.before.max_mm);
-    nlohmann::json j{{"schema", "calbox.sim-verify-router/1"},
-                     {"holes", verdict.holes},
-                     {"before", judgement(verdict.before)}};
-    if (verdict.after) {
-        std::printf("through the compensated G-code: %.5f mm mean, %.5f RMS, %.5f worst\n",
-                    verdict.after->mean_mm, verdict.after->rms_mm, verdict.after->max_mm);
-        j["after"] = judgement(*verdict.after);
-    }
-    if (const auto out = args.get("-o")) write_output_file(*out, j.dump(1) + "\n");
-    return 0;
-}
-
+// The twin judges a solve's result in its truth, each kind of machine its own way
+// (board/sim/twin_kind).
 int sim_verify(const std::vector<std::string>& words) {
     const Args args(words, {"--scenario", "--result", "-o"}, {});
     if (!args.positional().empty()) throw UsageError("sim verify takes no positional argument");
     const auto scenario = scenario_from(args);
-    if (scenario.machine.is_galvo()) return sim_verify_galvo(args, scenario);
-    if (scenario.machine.is_planar()) return sim_verify_router(args, scenario);
-    if (!scenario.machine.is_delta())
-        throw std::runtime_error(scenario.path +
-                                 ": sim verify judges delta, galvo and router scenarios");
-    std::vector<std::string> commands;
+    std::optional<sim::ResultFile> result;
     if (const auto path = args.get("--result"))
-        commands = modes::result_from_json(read_input_file(*path, "result"), *path).commands;
-    auto machine = sim::make_machine_twin(scenario);
-    auto* delta = dynamic_cast<sim::DeltaTwin*>(machine.get());
-    const double printable = scenario.machine.bed_radius_mm;
-    sim::DeltaJudgement judged;
-    try {
-        judged = sim::judge_delta(*delta, commands, printable);
-    } catch (const std::exception& e) {
-        throw std::runtime_error(std::string("the twin refused the commands: ") + e.what());
-    }
-    std::printf("before: XY %.4f mm RMS, worst %.4f mm; height range %.4f mm\n",
-                judged.xy_rms_before, judged.xy_max_before, judged.height_range_before);
-    if (!commands.empty()) {
-        std::printf("after %zu command(s): XY %.4f mm RMS, worst %.4f mm; height range %.4f mm\n",
-                    commands.size(), judged.xy_rms, judged.xy_max, judged.height_range_after);
-    }
-    if (const auto out = args.get("-o")) {
-        const nlohmann::json j{{"schema", "calbox.sim-verify/1"},
-                               {"printable_radius_mm", printable},
-                               {"before",
-                                {{"xy_rms_mm", judged.xy_rms_before},
-                                 {"xy_max_mm", judged.xy_max_before},
-                                 {"height_range_mm", judged.height_range_before}}},
-                               {"after",
-                                {{"xy_rms_mm", judged.xy_rms},
-                                 {"xy_max_mm", judged.xy_max},
-                                 {"height_range_mm", judged.height_range_after}}},
-                               {"commands", commands}};
-        write_output_file(*out, j.dump(1) + "\n");
-    }
+        result = sim::ResultFile{*path, read_input_file(*path, "result")};
+    const auto verdict = sim::twin_kind_of(scenario.machine).verify(scenario, result);
+    for (const auto& line : verdict.lines) std::printf("%s\n", line.c_str());
+    if (const auto out = args.get("-o")) write_output_file(*out, verdict.json);
     return 0;
 }
 

@@ -6,6 +6,8 @@
 #include <set>
 #include <sstream>
 
+#include "board/sim/truth_table.hpp"
+#include "board/sim/twin_kind.hpp"
 #include "core/models/toml_reader.hpp"
 
 namespace calbox::sim {
@@ -20,86 +22,30 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         path, root, {"truth", "twin", "camera", "photo", "faults", "setup"});
     if (s.machine.delta) s.delta_firmware = twin_params(*s.machine.delta);
     s.delta_truth = s.delta_firmware;
+    // The machine's hidden truth: its kind reads its own [truth.*] table and refuses another's.
+    const TwinKind& kind = twin_kind_of(s.machine);
+    const toml::table* own = nullptr;
     if (const auto* truth = models::subtable(path, root, "truth")) {
         for (const auto& [key, node] : *truth) {
-            if (key.str() != "delta" && key.str() != "cartesian" && key.str() != "galvo" &&
-                key.str() != "router") {
-                throw ScenarioError(path + ": [truth] has unknown part '" + std::string(key.str()) +
-                                    "'");
-            }
-        }
-        if (const auto* d = models::subtable(path, *truth, "delta")) {
-            if (!s.machine.is_delta())
-                throw ScenarioError(path + ": [truth.delta] on a " + s.machine.kind);
-            models::DeltaSettings truth_delta = *s.machine.delta;
-            models::read_delta_settings(path, *d, "truth.delta", truth_delta);
-            s.delta_truth = twin_params(truth_delta);
-        }
-        if (const auto* c = models::subtable(path, *truth, "cartesian")) {
-            if (s.machine.kind == "router")
+            const std::string part(key.str());
+            if (part != "delta" && part != "cartesian" && part != "galvo" && part != "router")
+                throw ScenarioError(path + ": [truth] has unknown part '" + part + "'");
+            if (part == kind.truth_table()) {
+                own = models::subtable(path, *truth, part.c_str());
+            } else if (part == "cartesian" && std::string(kind.truth_table()) == "router") {
                 throw ScenarioError(path +
                                     ": a router's truth is [truth.router], not "
                                     "[truth.cartesian]");
-            TomlReader r(path, *c, "truth.cartesian");
-            r.number("scale_error_x", s.cartesian_truth.scale_error_x, -0.05, 0.05);
-            r.number("scale_error_y", s.cartesian_truth.scale_error_y, -0.05, 0.05);
-            r.number("squareness_error_deg", s.cartesian_truth.squareness_error_deg, -5, 5);
-            r.finish();
-        }
-        if (const auto* g = models::subtable(path, *truth, "galvo")) {
-            if (!s.machine.is_galvo())
-                throw ScenarioError(path + ": [truth.galvo] on a " + s.machine.kind);
-            TomlReader r(path, *g, "truth.galvo");
-            int seed = 0;
-            r.integer("seed", seed, 0, 1000000);
-            auto& t = s.galvo_truth;
-            if (seed > 0)
-                t = random_galvo_truth(static_cast<unsigned>(seed), s.machine.galvo->field_size_mm);
-            r.number("gain_x", t.gain_x, -0.05, 0.05);
-            r.number("gain_y", t.gain_y, -0.05, 0.05);
-            r.number("offset_x_mm", t.offset_x_mm, -10, 10);
-            r.number("offset_y_mm", t.offset_y_mm, -10, 10);
-            r.number("skew_deg", t.skew_deg, -2, 2);
-            r.number("rotation_deg", t.rotation_deg, -180, 180);
-            r.number("mirror_bow_mm", t.mirror_bow_mm, -10, 10);
-            r.number("lens_radial_mm", t.lens_radial_mm, -10, 10);
-            r.number("ripple_mm", t.ripple_mm, 0, 1);
-            r.number("ripple_period_mm", t.ripple_period_mm, 1, 1000);
-            r.boolean("x_reversed", t.x_reversed);
-            r.finish();
+            } else {
+                throw ScenarioError(path + ": [truth." + part + "] on a " + s.machine.kind);
+            }
         }
     }
-    if (s.machine.kind == "router") {
-        auto& t = s.router_truth;
-        t.travel_x_mm = s.machine.bed_size_x_mm;
-        t.travel_y_mm = s.machine.bed_size_y_mm;
-        const auto* truth = models::subtable(path, root, "truth");
-        const auto* r = truth != nullptr ? models::subtable(path, *truth, "router") : nullptr;
-        if (r != nullptr) {
-            TomlReader reader(path, *r, "truth.router");
-            int seed = 0;
-            reader.integer("seed", seed, 0, 1000000);
-            if (seed > 0)
-                t = random_router_truth(static_cast<unsigned>(seed), t.travel_x_mm, t.travel_y_mm);
-            reader.number("scale_x", t.scale_x, -0.05, 0.05);
-            reader.number("scale_y", t.scale_y, -0.05, 0.05);
-            reader.number("squareness_rad", t.squareness_rad, -0.05, 0.05);
-            reader.number("bow_x_mm", t.bow_x_mm, -10, 10);
-            reader.number("bow_y_mm", t.bow_y_mm, -10, 10);
-            reader.number("gantry_yaw_rad_per_mm", t.gantry_yaw_rad_per_mm, -1e-3, 1e-3);
-            reader.number("tool_length_mm", t.tool_length_mm, 0, 500);
-            reader.number("screw_error_mm", t.screw_error_mm, 0, 1);
-            reader.number("backlash_x_mm", t.backlash_x_mm, 0, 2);
-            reader.number("backlash_y_mm", t.backlash_y_mm, 0, 2);
-            reader.finish();
-        }
-    } else if (const auto* truth = models::subtable(path, root, "truth");
-               truth != nullptr && models::subtable(path, *truth, "router") != nullptr) {
-        throw ScenarioError(path + ": [truth.router] on a " + s.machine.kind);
-    }
-    if (s.machine.galvo) {
-        s.galvo_truth.field_size_mm = s.machine.galvo->field_size_mm;
-        s.galvo_truth.substrate_height_mm = s.machine.galvo->substrate_height_mm;
+    if (own != nullptr) {
+        const TruthTable table{*own};
+        kind.read_truth(path, &table, s);
+    } else {
+        kind.read_truth(path, nullptr, s);
     }
     if (const auto* twin = models::subtable(path, root, "twin")) {
         TomlReader r(path, *twin, "twin");
@@ -221,8 +167,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
 }  // namespace
 
 double stroke_footprint_mm(const Scenario& s) {
-    if (!s.machine.is_galvo() || !s.camera) return 1.0;
-    return 3 * (s.camera->position_mm - s.camera->look_at_mm).norm() / s.camera->intrinsics.fx;
+    return twin_kind_of(s.machine).stroke_footprint_mm(s);
 }
 
 double bed_growth_at_photo(const Scenario& s) {
@@ -251,12 +196,8 @@ std::vector<StrokeSegment> carried_by_bed(std::vector<StrokeSegment> strokes, do
 }
 
 std::vector<StrokeSegment> as_photographed(const Scenario& s, std::vector<StrokeSegment> strokes) {
-    strokes = carried_by_bed(std::move(strokes), bed_growth_at_photo(s));
-    if (s.machine.kind != "router") return strokes;
-    std::vector<Stroke> cuts;
-    cuts.reserve(strokes.size());
-    for (const auto& c : strokes) cuts.push_back({c.a_mm, c.b_mm, c.a_mm, c.b_mm, c.width_mm, 0});
-    return holes_on_the_sheet(cuts, s.machine.planar->surface_height_mm);
+    return twin_kind_of(s.machine).on_the_bed(
+        s, carried_by_bed(std::move(strokes), bed_growth_at_photo(s)));
 }
 
 DeltaParams twin_params(const models::DeltaSettings& d) {
@@ -282,36 +223,16 @@ Scenario load_scenario(const std::string& path) {
 }
 
 std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
-    if (s.machine.kind == "delta") {
-        auto twin = std::make_unique<DeltaTwin>(
-            s.delta_truth, s.delta_firmware,
-            s.machine.firmware == "rrf" ? DeltaDialect::rrf : DeltaDialect::marlin);
-        if (s.zero_height_at_centre || s.levelled_by != "centre") twin->zero_height_at_centre();
-        const double bed_radius_mm = s.machine.bed_radius_mm;
-        if (s.levelled_by == "paper") twin->level_by_paper(0.8 * bed_radius_mm);
-        if (s.levelled_by == "probe")
-            twin->level_by_probe(0.9 * bed_radius_mm, 0.45 * bed_radius_mm);
-        return twin;
-    }
-    if (s.machine.is_galvo()) return std::make_unique<GalvoTwin>(s.galvo_truth);
-    if (s.machine.kind == "router") return std::make_unique<RouterTwin>(s.router_truth);
-    return std::make_unique<CartesianTwin>(s.cartesian_truth);
+    return twin_kind_of(s.machine).make_machine(s);
 }
 
 RouterVerdict judge_planar_machine(const Scenario& s, const targets::Correction* correct) {
-    if (s.machine.kind == "router")
-        return judge_router_fresh_holes(s.router_truth, s.machine, correct);
-    if (!s.machine.is_planar())
-        throw ScenarioError(s.path + ": a " + s.machine.kind +
-                            " is not judged as a planar machine");
-    return judge_cartesian_fresh_points(s.cartesian_truth, s.machine, correct);
+    return twin_kind_of(s.machine).judge_fresh_job(s, correct);
 }
 
 ToolSettings tool_settings_of(const Scenario& s) {
     ToolSettings t;
-    t.kind = s.machine.kind == "laser" || s.machine.kind == "galvo" ? ToolKind::laser
-             : s.machine.kind == "router"                           ? ToolKind::spindle
-                                                                    : ToolKind::extruder;
+    t.kind = twin_kind_of(s.machine).tool();
     t.filament_diameter_mm = s.machine.filament_diameter_mm;
     t.layer_height_mm = s.machine.layer_height_mm;
     t.tool_width_mm = s.machine.tool_width_mm;

@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
+#include "board/sim/twin_kind.hpp"
 #include "core/targets/gcode_line.hpp"
 #include "drivers/termios_port.hpp"
 
@@ -271,7 +272,11 @@ void TwinBench::clear_bed() {
 
 GalvoJudgement TwinBench::judge_galvo_scanner(const std::function<Vec2(Vec2)>& command_for,
                                               const std::array<double, 4>& area_mm) const {
-    if (!scenario_.machine.is_galvo()) throw ScenarioError("the judge judges galvo scanners here");
+    {
+        const std::lock_guard lock(mutex_);
+        if (dynamic_cast<const GalvoTwin*>(machine_.get()) == nullptr)
+            throw ScenarioError("the judge judges galvo scanners here");
+    }
     const auto fresh = fresh_grid(area_mm, 30);
     return judge_galvo(scenario_.galvo_truth, fresh, command_for);
 }
@@ -505,14 +510,12 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
     SimBoard board;
     board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
                                               settings.data_dir / kTwinSettingsFile);
-    const auto& kind = board.bench->scenario().machine.kind;
-    if (kind != "delta" && kind != "galvo" && kind != "router" && kind != "cartesian")
-        throw ScenarioError(
-            settings.scenario_path +
-            ": the sim board runs delta printers, galvo scanners, routers and cartesian "
-            "printers, "
-            "not a " +
-            kind);
+    const auto& machine = board.bench->scenario().machine;
+    if (!twin_kind_of(machine).runs_on_the_sim_board())
+        throw ScenarioError(settings.scenario_path +
+                            ": the sim board runs delta printers, galvo scanners, routers and "
+                            "cartesian printers, not a " +
+                            machine.kind);
     board.printer = std::make_unique<TwinPrinterLink>(board.bench);
     auto camera = std::make_unique<TwinCamera>(board.bench);
     auto lines = std::make_unique<SimLines>(clock, std::move(log));

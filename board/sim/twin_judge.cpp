@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "board/sim/scenario.hpp"
+#include "board/sim/twin_kind.hpp"
 
 namespace calbox::sim {
 namespace {
@@ -96,14 +97,18 @@ class PlanarJudge final : public TwinJudge {
 
 }  // namespace
 
+std::unique_ptr<TwinJudge> delta_judge(const TwinBench& bench) {
+    return std::make_unique<DeltaJudge>(bench);
+}
+std::unique_ptr<TwinJudge> galvo_judge(const TwinBench& bench) {
+    return std::make_unique<GalvoJudge>(bench);
+}
+std::unique_ptr<TwinJudge> planar_judge(const TwinBench& bench) {
+    return std::make_unique<PlanarJudge>(bench);
+}
+
 std::unique_ptr<TwinJudge> make_twin_judge(const TwinBench& bench) {
-    const auto& machine = bench.scenario().machine;
-    if (machine.is_delta()) return std::make_unique<DeltaJudge>(bench);
-    if (machine.is_galvo()) return std::make_unique<GalvoJudge>(bench);
-    if (machine.is_planar()) return std::make_unique<PlanarJudge>(bench);
-    throw ScenarioError(
-        "the twin judges delta printers, galvo scanners and planar machines, not a " +
-        machine.kind);
+    return twin_kind_of(bench.scenario().machine).make_judge(bench);
 }
 
 }  // namespace calbox::sim

@@ -1,8 +1,8 @@
 #pragma once
 // The twin's judge: how far the machine is off in the twin's truth, before a cycle and after it
 // (`calbox run --auto`'s before/after lines and its exit status, with the mode's goal). One judge
-// per kind of machine, one verdict shape; make_twin_judge is the one place on the twin's side
-// that picks a judge by the machine's kind. Never called by the box's side.
+// per kind of machine, one verdict shape; the machine's kind (board/sim/twin_kind) picks it.
+// Never called by the box's side.
 #include <memory>
 #include <optional>
 #include <string>

@@ -1,0 +1,309 @@
+#include "board/sim/twin_kind.hpp"
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include "board/sim/delta_judge.hpp"
+#include "board/sim/galvo_twin.hpp"
+#include "board/sim/router_twin.hpp"
+#include "board/sim/truth_table.hpp"
+#include "board/sim/twin_judge.hpp"
+#include "core/modes/delta_records.hpp"
+#include "core/modes/galvo.hpp"
+#include "core/modes/planar.hpp"
+
+namespace calbox::sim {
+
+// The judges (board/sim/twin_judge.cpp), one per kind.
+std::unique_ptr<TwinJudge> delta_judge(const TwinBench& bench);
+std::unique_ptr<TwinJudge> galvo_judge(const TwinBench& bench);
+std::unique_ptr<TwinJudge> planar_judge(const TwinBench& bench);
+
+RouterVerdict TwinKind::judge_fresh_job(const Scenario& s, const targets::Correction*) const {
+    throw ScenarioError(s.path + ": a " + s.machine.kind + " is not judged as a planar machine");
+}
+
+namespace {
+
+using models::TomlReader;
+using nlohmann::json;
+
+std::string printed(const char* format, auto... values) {
+    char line[256];
+    std::snprintf(line, sizeof line, format, values...);
+    return line;
+}
+
+json figures(double mean_mm, double rms_mm, double max_mm) {
+    return {{"mean_mm", mean_mm}, {"rms_mm", rms_mm}, {"max_mm", max_mm}};
+}
+
+// A planar machine's `sim verify`: a fresh job of holes half a pitch off the target's made as
+// commanded, and with a result through the compensated G-code.
+SimVerification verify_planar(const TwinKind& kind, const Scenario& s,
+                              const std::optional<ResultFile>& result) {
+    std::optional<modes::PlanarSolution> solution;
+    if (result) solution = modes::planar_result_from_json(result->text, result->path);
+    const targets::Correction correct = [&solution](geometry::Point2 p) {
+        return modes::planar_command_for(*solution, p);
+    };
+    const auto verdict = kind.judge_fresh_job(s, solution ? &correct : nullptr);
+    const auto as_json = [](const RouterJudgement& r) {
+        return figures(r.mean_mm, r.rms_mm, r.max_mm);
+    };
+    SimVerification v;
+    v.lines.push_back(printed("before: %zu holes %.4f mm mean, %.4f RMS, %.4f worst", verdict.holes,
+                              verdict.before.mean_mm, verdict.before.rms_mm,
+                              verdict.before.max_mm));
+    json j{{"schema", "calbox.sim-verify-router/1"},
+           {"holes", verdict.holes},
+           {"before", as_json(verdict.before)}};
+    if (verdict.after) {
+        v.lines.push_back(
+            printed("through the compensated G-code: %.5f mm mean, %.5f RMS, %.5f worst",
+                    verdict.after->mean_mm, verdict.after->rms_mm, verdict.after->max_mm));
+        j["after"] = as_json(*verdict.after);
+    }
+    v.json = j.dump(1) + "\n";
+    return v;
+}
+
+class DeltaKind final : public TwinKind {
+  public:
+    const char* truth_table() const override { return "delta"; }
+    void read_truth(const std::string& path, const TruthTable* t, Scenario& s) const override {
+        if (t == nullptr) return;
+        models::DeltaSettings truth_delta = *s.machine.delta;
+        models::read_delta_settings(path, t->table, "truth.delta", truth_delta);
+        s.delta_truth = twin_params(truth_delta);
+    }
+    std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {
+        auto twin = std::make_unique<DeltaTwin>(
+            s.delta_truth, s.delta_firmware,
+            s.machine.firmware == "rrf" ? DeltaDialect::rrf : DeltaDialect::marlin);
+        if (s.zero_height_at_centre || s.levelled_by != "centre") twin->zero_height_at_centre();
+        const double bed_radius_mm = s.machine.bed_radius_mm;
+        if (s.levelled_by == "paper") twin->level_by_paper(0.8 * bed_radius_mm);
+        if (s.levelled_by == "probe")
+            twin->level_by_probe(0.9 * bed_radius_mm, 0.45 * bed_radius_mm);
+        return twin;
+    }
+    std::unique_ptr<TwinJudge> make_judge(const TwinBench& bench) const override {
+        return delta_judge(bench);
+    }
+    ToolKind tool() const override { return ToolKind::extruder; }
+    // The firmware lines of a solve result sent to the scenario's printer, then commanded against
+    // actual positions over the printable area.
+    SimVerification verify(const Scenario& s,
+                           const std::optional<ResultFile>& result) const override {
+        std::vector<std::string> commands;
+        if (result) commands = modes::result_from_json(result->text, result->path).commands;
+        auto machine = make_machine(s);
+        auto& delta = dynamic_cast<DeltaTwin&>(*machine);
+        const double printable = s.machine.bed_radius_mm;
+        DeltaJudgement judged;
+        try {
+            judged = judge_delta(delta, commands, printable);
+        } catch (const std::exception& e) {
+            throw std::runtime_error(std::string("the twin refused the commands: ") + e.what());
+        }
+        SimVerification v;
+        v.lines.push_back(printed("before: XY %.4f mm RMS, worst %.4f mm; height range %.4f mm",
+                                  judged.xy_rms_before, judged.xy_max_before,
+                                  judged.height_range_before));
+        if (!commands.empty())
+            v.lines.push_back(
+                printed("after %zu command(s): XY %.4f mm RMS, worst %.4f mm; height range %.4f mm",
+                        commands.size(), judged.xy_rms, judged.xy_max, judged.height_range_after));
+        v.json = json{{"schema", "calbox.sim-verify/1"},
+                      {"printable_radius_mm", printable},
+                      {"before",
+                       {{"xy_rms_mm", judged.xy_rms_before},
+                        {"xy_max_mm", judged.xy_max_before},
+                        {"height_range_mm", judged.height_range_before}}},
+                      {"after",
+                       {{"xy_rms_mm", judged.xy_rms},
+                        {"xy_max_mm", judged.xy_max},
+                        {"height_range_mm", judged.height_range_after}}},
+                      {"commands", commands}}
+                     .dump(1) +
+                 "\n";
+        return v;
+    }
+};
+
+class GalvoKind final : public TwinKind {
+  public:
+    const char* truth_table() const override { return "galvo"; }
+    void read_truth(const std::string& path, const TruthTable* table, Scenario& s) const override {
+        auto& t = s.galvo_truth;
+        if (table != nullptr) {
+            TomlReader r(path, table->table, "truth.galvo");
+            int seed = 0;
+            r.integer("seed", seed, 0, 1000000);
+            if (seed > 0)
+                t = random_galvo_truth(static_cast<unsigned>(seed), s.machine.galvo->field_size_mm);
+            r.number("gain_x", t.gain_x, -0.05, 0.05);
+            r.number("gain_y", t.gain_y, -0.05, 0.05);
+            r.number("offset_x_mm", t.offset_x_mm, -10, 10);
+            r.number("offset_y_mm", t.offset_y_mm, -10, 10);
+            r.number("skew_deg", t.skew_deg, -2, 2);
+            r.number("rotation_deg", t.rotation_deg, -180, 180);
+            r.number("mirror_bow_mm", t.mirror_bow_mm, -10, 10);
+            r.number("lens_radial_mm", t.lens_radial_mm, -10, 10);
+            r.number("ripple_mm", t.ripple_mm, 0, 1);
+            r.number("ripple_period_mm", t.ripple_period_mm, 1, 1000);
+            r.boolean("x_reversed", t.x_reversed);
+            r.finish();
+        }
+        t.field_size_mm = s.machine.galvo->field_size_mm;
+        t.substrate_height_mm = s.machine.galvo->substrate_height_mm;
+    }
+    std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {
+        return std::make_unique<GalvoTwin>(s.galvo_truth);
+    }
+    std::unique_ptr<TwinJudge> make_judge(const TwinBench& bench) const override {
+        return galvo_judge(bench);
+    }
+    ToolKind tool() const override { return ToolKind::laser; }
+    // A fresh 30 x 30 grid of marks over the table's area (or the field less a pitch) burned as
+    // commanded, then through the result's table.
+    SimVerification verify(const Scenario& s,
+                           const std::optional<ResultFile>& result) const override {
+        std::optional<modes::GalvoSolution> solution;
+        if (result) solution = modes::galvo_result_from_json(result->text, result->path);
+        const auto& t = solution ? &solution->fit.table : nullptr;
+        const std::array<double, 4> area =
+            t ? std::array<double, 4>{t->min_x_mm, t->min_y_mm, t->max_x_mm, t->max_y_mm}
+              : field_less_a_pitch(s.galvo_truth);
+        const auto fresh = fresh_grid(area, 30);
+        const auto before = judge_galvo(s.galvo_truth, fresh, [](Vec2 p) { return p; });
+        SimVerification v;
+        v.lines.push_back(printed("before: %zu marks %.4f mm mean, %.4f RMS, %.4f worst",
+                                  before.points, before.mean_mm, before.rms_mm, before.max_mm));
+        json j{{"schema", "calbox.sim-verify-galvo/1"},
+               {"area_mm", area},
+               {"before", figures(before.mean_mm, before.rms_mm, before.max_mm)}};
+        if (t) {
+            const auto after = judge_galvo(s.galvo_truth, fresh, [t](Vec2 p) {
+                const auto c = t->command_for({p.x, p.y});
+                return Vec2{c.x, c.y};
+            });
+            v.lines.push_back(printed("after the table: %.5f mm mean, %.5f RMS, %.5f worst",
+                                      after.mean_mm, after.rms_mm, after.max_mm));
+            j["after"] = figures(after.mean_mm, after.rms_mm, after.max_mm);
+        }
+        v.json = j.dump(1) + "\n";
+        return v;
+    }
+    // A burn's footprint: three pixels of the camera's at its distance (one without a camera).
+    double stroke_footprint_mm(const Scenario& s) const override {
+        if (!s.camera) return 1.0;
+        return 3 * (s.camera->position_mm - s.camera->look_at_mm).norm() / s.camera->intrinsics.fx;
+    }
+};
+
+class RouterKind final : public TwinKind {
+  public:
+    const char* truth_table() const override { return "router"; }
+    void read_truth(const std::string& path, const TruthTable* table, Scenario& s) const override {
+        auto& t = s.router_truth;
+        t.travel_x_mm = s.machine.bed_size_x_mm;
+        t.travel_y_mm = s.machine.bed_size_y_mm;
+        if (table == nullptr) return;
+        TomlReader reader(path, table->table, "truth.router");
+        int seed = 0;
+        reader.integer("seed", seed, 0, 1000000);
+        if (seed > 0)
+            t = random_router_truth(static_cast<unsigned>(seed), t.travel_x_mm, t.travel_y_mm);
+        reader.number("scale_x", t.scale_x, -0.05, 0.05);
+        reader.number("scale_y", t.scale_y, -0.05, 0.05);
+        reader.number("squareness_rad", t.squareness_rad, -0.05, 0.05);
+        reader.number("bow_x_mm", t.bow_x_mm, -10, 10);
+        reader.number("bow_y_mm", t.bow_y_mm, -10, 10);
+        reader.number("gantry_yaw_rad_per_mm", t.gantry_yaw_rad_per_mm, -1e-3, 1e-3);
+        reader.number("tool_length_mm", t.tool_length_mm, 0, 500);
+        reader.number("screw_error_mm", t.screw_error_mm, 0, 1);
+        reader.number("backlash_x_mm", t.backlash_x_mm, 0, 2);
+        reader.number("backlash_y_mm", t.backlash_y_mm, 0, 2);
+        reader.finish();
+    }
+    std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {
+        return std::make_unique<RouterTwin>(s.router_truth);
+    }
+    std::unique_ptr<TwinJudge> make_judge(const TwinBench& bench) const override {
+        return planar_judge(bench);
+    }
+    ToolKind tool() const override { return ToolKind::spindle; }
+    SimVerification verify(const Scenario& s,
+                           const std::optional<ResultFile>& result) const override {
+        return verify_planar(*this, s, result);
+    }
+    RouterVerdict judge_fresh_job(const Scenario& s,
+                                  const targets::Correction* correct) const override {
+        return judge_router_fresh_holes(s.router_truth, s.machine, correct);
+    }
+    // A router cuts holes: the camera sees the sheet's top with the holes in it.
+    std::vector<StrokeSegment> on_the_bed(const Scenario& s,
+                                          std::vector<StrokeSegment> strokes) const override {
+        std::vector<Stroke> cuts;
+        cuts.reserve(strokes.size());
+        for (const auto& c : strokes)
+            cuts.push_back({c.a_mm, c.b_mm, c.a_mm, c.b_mm, c.width_mm, 0});
+        return holes_on_the_sheet(cuts, s.machine.planar->surface_height_mm);
+    }
+};
+
+// A cartesian printer, or a gantry laser (whose twin runs jobs; the sim board has no cycle for
+// it yet).
+class CartesianKind final : public TwinKind {
+  public:
+    explicit CartesianKind(bool on_the_sim_board) : on_the_sim_board_(on_the_sim_board) {}
+    const char* truth_table() const override { return "cartesian"; }
+    void read_truth(const std::string& path, const TruthTable* table, Scenario& s) const override {
+        if (table == nullptr) return;
+        TomlReader r(path, table->table, "truth.cartesian");
+        r.number("scale_error_x", s.cartesian_truth.scale_error_x, -0.05, 0.05);
+        r.number("scale_error_y", s.cartesian_truth.scale_error_y, -0.05, 0.05);
+        r.number("squareness_error_deg", s.cartesian_truth.squareness_error_deg, -5, 5);
+        r.finish();
+    }
+    std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {
+        return std::make_unique<CartesianTwin>(s.cartesian_truth);
+    }
+    std::unique_ptr<TwinJudge> make_judge(const TwinBench& bench) const override {
+        return planar_judge(bench);
+    }
+    ToolKind tool() const override {
+        return on_the_sim_board_ ? ToolKind::extruder : ToolKind::laser;
+    }
+    RouterVerdict judge_fresh_job(const Scenario& s,
+                                  const targets::Correction* correct) const override {
+        return judge_cartesian_fresh_points(s.cartesian_truth, s.machine, correct);
+    }
+    bool runs_on_the_sim_board() const override { return on_the_sim_board_; }
+    SimVerification verify(const Scenario& s,
+                           const std::optional<ResultFile>& result) const override {
+        return verify_planar(*this, s, result);
+    }
+
+  private:
+    bool on_the_sim_board_;
+};
+
+}  // namespace
+
+const TwinKind& twin_kind_of(const models::MachineFile& machine) {
+    static const DeltaKind delta;
+    static const GalvoKind galvo;
+    static const RouterKind router;
+    static const CartesianKind cartesian(true), laser(false);
+    if (machine.kind == "delta") return delta;
+    if (machine.kind == "galvo") return galvo;
+    if (machine.kind == "router") return router;
+    if (machine.kind == "cartesian") return cartesian;
+    if (machine.kind == "laser") return laser;
+    throw ScenarioError("the twin has no " + machine.kind + " machine");
+}
+
+}  // namespace calbox::sim

@@ -42,7 +42,7 @@ void prepare(const std::filesystem::path& dir, const models::MachineFile& machin
                         const_cast<std::uint8_t*>(photo.pixels.data())));
     const auto camera = test::as_core(bench.camera);
     std::ofstream(dir / "camera.yaml") << geometry::camera_to_yaml(camera);
-    std::ofstream(dir / "plane.yaml") << geometry::plane_to_yaml(test::router_plane(bench, camera));
+    std::ofstream(dir / "plane.yaml") << geometry::plane_to_yaml(test::router_plane(bench));
 }
 }  // namespace
 

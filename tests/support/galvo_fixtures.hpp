@@ -67,13 +67,9 @@ inline sim::GrayImage photo_of_burned_grid(const GalvoBench& bench, const sim::G
 }
 
 // The bed plane from a 15 x 11 chessboard of 8 mm squares lying on the platform.
-inline geometry::BedPlane plane_from_board(const GalvoBench& bench,
-                                           const geometry::CameraModel& camera) {
-    const auto pattern = geometry::parse_pattern_spec("chessboard:15x11@8");
-    const auto board = sim::render_photo(
-        bench.camera, sim::compose(bench.bed_to_camera, sim::board_lying_on_bed({-56, 40, 0}, 0)),
-        sim::BoardScene(pattern, 4), bench.photo);
-    return geometry::estimate_bed_plane(camera, pattern, view_of(board), 0);
+inline geometry::BedPlane plane_from_board(const GalvoBench& bench) {
+    return plane_from_board(bench.camera, bench.bed_to_camera, {"chessboard:15x11@8", {-56, 40, 0}},
+                            bench.photo);
 }
 
 }  // namespace calbox::test

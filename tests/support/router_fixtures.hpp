@@ -122,13 +122,9 @@ inline sim::Pose carried_camera_pose(const sim::RouterTruth& truth, sim::Vec2 vi
 
 // The bed plane from a 15 x 11 chessboard of 15 mm squares lying on the spoilboard (its rows
 // run towards -y).
-inline geometry::BedPlane router_plane(const RouterBench& bench,
-                                       const geometry::CameraModel& camera) {
-    const auto pattern = geometry::parse_pattern_spec("chessboard:15x11@15");
-    const auto board = sim::render_photo(
-        bench.camera, sim::compose(bench.bed_to_camera, sim::board_lying_on_bed({45, 235, 0}, 0)),
-        sim::BoardScene(pattern, 4), bench.photo);
-    return geometry::estimate_bed_plane(camera, pattern, view_of(board), 0);
+inline geometry::BedPlane router_plane(const RouterBench& bench) {
+    return plane_from_board(bench.camera, bench.bed_to_camera,
+                            {"chessboard:15x11@15", {45, 235, 0}}, bench.photo);
 }
 
 }  // namespace calbox::test

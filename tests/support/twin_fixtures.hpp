@@ -1,6 +1,6 @@
 #pragma once
 // Small pieces the tests share: the box's 12 MP camera, views of rendered images, the core
-// camera model of a twin camera.
+// camera model of a twin camera, the bed plane from a board lying on the bed.
 #include <sstream>
 #include <string>
 #include <vector>
@@ -11,6 +11,7 @@
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
+#include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/vision/image_view.hpp"
 
@@ -91,6 +92,28 @@ inline vision::GrayView view_of(const sim::GrayImage& image) {
 
 inline geometry::CameraModel as_core(const sim::CameraIntrinsics& c) {
     return sim::as_camera_model(c);
+}
+
+// The bed plane as the box takes it: a chessboard (`pattern`, the calbox form) lying on the bed,
+// its first inner corner at `corner_mm` (z: the bed's height under it), turned `turn_deg`, `thick`
+// mm thick, photographed by `camera` at `bed_to_camera`, and the plane estimated from the photo.
+struct BoardOnBed {
+    std::string pattern = "chessboard:9x6@20";
+    sim::Vec3 corner_mm{-80, 50, 0};
+    double turn_deg = 0;
+    double thickness_mm = 0;
+};
+inline geometry::BedPlane plane_from_board(const sim::CameraIntrinsics& camera,
+                                           const sim::Pose& bed_to_camera, const BoardOnBed& board,
+                                           const sim::PhotoSettings& photo) {
+    const auto spec = geometry::parse_pattern_spec(board.pattern);
+    const auto image = sim::render_photo(
+        camera,
+        sim::compose(bed_to_camera,
+                     sim::board_lying_on_bed(board.corner_mm + sim::Vec3{0, 0, board.thickness_mm},
+                                             board.turn_deg)),
+        sim::BoardScene(spec, 4), photo);
+    return geometry::estimate_bed_plane(as_core(camera), spec, view_of(image), board.thickness_mm);
 }
 
 }  // namespace calbox::test

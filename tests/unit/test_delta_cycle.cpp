@@ -147,13 +147,9 @@ CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
     photo.motion_blur_px = look.motion_blur_px;
     if (look.motion_blur_px > 0) photo.motion_blur_direction_deg = 180 * u(rng);
     photo.jpeg_quality = look.jpeg_quality;
-    const auto pattern = geometry::parse_pattern_spec("chessboard:9x6@20");
     photo.seed = seed;
-    const auto board_photo = sim::render_photo(
-        camera, sim::compose(bed_to_camera, sim::board_lying_on_bed({-80, 50, 0}, 0)),
-        sim::BoardScene(pattern, 4), photo);
     const geometry::CameraModel model = test::as_core(camera);
-    const auto plane = geometry::estimate_bed_plane(model, pattern, test::view_of(board_photo), 0);
+    const auto plane = test::plane_from_board(camera, bed_to_camera, {}, photo);
     const double printable = scenario.machine.bed_radius_mm;
 
     CycleFigures figures;

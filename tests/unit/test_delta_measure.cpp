@@ -72,13 +72,8 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     second.seed = photo.seed + 1;
     const auto second_photo = sim::render_photo(camera, bed_to_camera, print_scene, second);
     // The bed plane from a chessboard lying on the bed, as the box would take it.
-    const sim::Pose board = sim::compose(bed_to_camera, sim::board_lying_on_bed({-80, 50, 0}, 0));
-    const auto board_photo = sim::render_photo(
-        camera, board, sim::BoardScene(geometry::parse_pattern_spec("chessboard:9x6@20"), 4),
-        photo);
     const geometry::CameraModel model = as_core(camera);
-    const auto plane = geometry::estimate_bed_plane(
-        model, geometry::parse_pattern_spec("chessboard:9x6@20"), view_of(board_photo), 0);
+    const auto plane = test::plane_from_board(camera, bed_to_camera, {}, photo);
 
     const auto measured =
         modes::measure_delta(machine, model, plane, {view_of(print_photo), view_of(second_photo)});

@@ -80,7 +80,7 @@ Box set_up_box(unsigned seed) {
     box.bench.photo.lighting_gradient = 0.1;
     box.bench.photo.seed = seed;
     box.camera = test::as_core(box.bench.camera);
-    box.plane = test::plane_from_board(box.bench, box.camera);
+    box.plane = test::plane_from_board(box.bench);
     return box;
 }
 
@@ -334,7 +334,7 @@ TEST(GalvoOrientation, all_eight_ways_round_are_read_and_damage_is_reported) {
     bench.photo.blur_sigma_px = 0.8;
     bench.photo.noise_sigma_dn = 2;
     const auto camera = test::as_core(bench.camera);
-    const auto plane = test::plane_from_board(bench, camera);
+    const auto plane = test::plane_from_board(bench);
     std::set<int> symmetries;
     for (int way = 0; way < 8; ++way) {
         auto truth = sim::random_galvo_truth(2);

@@ -346,7 +346,7 @@ TEST(PlanarMeasure, every_hole_is_found_where_the_twin_drilled_it) {
     const auto target = targets::make_planar_target(machine);
     const auto bench = test::router_bench(0.5);
     const auto camera = test::as_core(bench.camera);
-    const auto plane = test::router_plane(bench, camera);
+    const auto plane = test::router_plane(bench);
     const auto truth = sim::random_router_truth(4);
     test::DrillFaults faults;
     faults.chipped_holes = {40};
@@ -398,7 +398,7 @@ RouterOutcome calibrate_router(unsigned seed, const targets::PlanarTargetOptions
     const auto target = targets::make_planar_target(machine, design);
     const auto bench = test::router_bench(0.5);
     const auto camera = test::as_core(bench.camera);
-    const auto plane = test::router_plane(bench, camera);
+    const auto plane = test::router_plane(bench);
     const auto truth = sim::random_router_truth(seed);
     test::DrillFaults faults;
     faults.seed = seed;
@@ -454,7 +454,7 @@ namespace {
 std::string refusal(const models::MachineFile& machine, const sim::GrayImage& photo,
                     const test::RouterBench& bench) {
     const auto camera = test::as_core(bench.camera);
-    const auto plane = test::router_plane(bench, camera);
+    const auto plane = test::router_plane(bench);
     try {
         modes::measure_planar(machine, camera, plane, test::view_of(photo));
     } catch (const modes::PlanarError& e) {
@@ -549,7 +549,7 @@ TEST(PlanarMeasure, a_hole_not_drilled_and_swarf_on_the_sheet_are_listed_not_fat
     auto target = targets::make_planar_target(machine);
     const auto bench = test::router_bench(0.5);
     const auto camera = test::as_core(bench.camera);
-    const auto plane = test::router_plane(bench, camera);
+    const auto plane = test::router_plane(bench);
     // Hole (5, 6) never drilled: the job without it.
     std::vector<targets::PlanarHole> holes;
     for (const auto& h : target.holes)
@@ -579,11 +579,8 @@ TEST(PlanarMeasure,
     // The camera calibrated and the plane laid down under the first view.
     bench.bed_to_camera = test::carried_camera_pose(truth, sent[0]);
     const auto camera = test::as_core(bench.camera);
-    const auto pattern = geometry::parse_pattern_spec("chessboard:15x11@10");
-    const auto board_photo = sim::render_photo(
-        bench.camera, sim::compose(bench.bed_to_camera, sim::board_lying_on_bed({20, 150, 0}, 0)),
-        sim::BoardScene(pattern, 4), bench.photo);
-    const auto plane = geometry::estimate_bed_plane(camera, pattern, test::view_of(board_photo), 0);
+    const auto plane = test::plane_from_board(bench.camera, bench.bed_to_camera,
+                                              {"chessboard:15x11@10", {20, 150, 0}}, bench.photo);
     std::vector<sim::GrayImage> photos;
     for (const auto& v : sent) {
         auto at = bench;
@@ -737,11 +734,8 @@ surface_height_mm = 0.2
     const auto picture =
         test::photo_of_print(camera_model, pose, test::print_on_twin(twin, target.job), photo);
     const auto camera = test::as_core(camera_model);
-    const auto pattern = geometry::parse_pattern_spec("chessboard:15x11@10");
-    const auto board = sim::render_photo(
-        camera_model, sim::compose(pose, sim::board_lying_on_bed({25, 160, 0}, 0)),
-        sim::BoardScene(pattern, 4), photo);
-    const auto plane = geometry::estimate_bed_plane(camera, pattern, test::view_of(board), 0);
+    const auto plane =
+        test::plane_from_board(camera_model, pose, {"chessboard:15x11@10", {25, 160, 0}}, photo);
     const auto measured = modes::measure_planar(machine, camera, plane, test::view_of(picture));
     CHECK_EQUAL(80u, measured.holes.size());
     const auto solution = modes::solve_planar(machine, measured);

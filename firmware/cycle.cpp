@@ -102,7 +102,8 @@ const char* prompt_text(Prompt p) {
     return "";
 }
 
-Cycle::Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings settings, Log log)
+Cycle::Cycle(CycleDevices devices, const models::MachineFile& machine, CycleSettings settings,
+             Log log)
     : d_(devices),
       settings_(std::move(settings)),
       log_(std::move(log)),
@@ -405,16 +406,16 @@ void Cycle::run_job(const std::vector<std::string>& lines,
                     std::function<void(const JobOutcome&)> then) {
     const unsigned generation = generation_;
     const auto started = d_.clock.now();
-    d_.machine.start_job(lines,
-                         [this, generation, started, then = std::move(then)](JobOutcome outcome) {
-                             if (!current(generation)) return;
-                             report_.machine_seconds += seconds(d_.clock.now() - started);
-                             if (!outcome.ok) {
-                                 fail("machine: " + outcome.error);
-                                 return;
-                             }
-                             then(std::move(outcome));
-                         });
+    d_.machine.start_job(
+        lines, [this, generation, started, then = std::move(then)](const JobOutcome& outcome) {
+            if (!current(generation)) return;
+            report_.machine_seconds += seconds(d_.clock.now() - started);
+            if (!outcome.ok) {
+                fail("machine: " + outcome.error);
+                return;
+            }
+            then(outcome);
+        });
 }
 
 void Cycle::set_settings(CycleSettings settings) {
@@ -565,7 +566,7 @@ void Cycle::apply() {
 void Cycle::verify() {
     enter(CycleState::verify, mode_->verify_detail());
     ask(Prompt::clear_bed, 0, [this] {
-        mode_->verification_job(target_job_, [this](std::vector<std::string> job) {
+        mode_->verification_job(target_job_, [this](const std::vector<std::string>& job) {
             run_job(job, [this](const JobOutcome&) {
                 measure_print(CycleState::verify, [this] {
                     mode_->judge_verification([this](VerifyOutcome outcome) {
@@ -592,7 +593,7 @@ std::string Cycle::revert() {
     report_.number = number;
     error_.clear();
     mode_->begin();
-    const std::string refused = mode_->revert(number, [this](const std::string& what) {
+    std::string refused = mode_->revert(number, [this](const std::string& what) {
         enter(CycleState::idle, what);
         if (on_cycle_end) on_cycle_end(true);
     });

@@ -98,7 +98,8 @@ struct CycleReport {
 class Cycle final : private CycleSteps {
   public:
     using Log = std::function<void(const std::string&)>;
-    Cycle(CycleDevices devices, models::MachineFile machine, CycleSettings settings, Log log);
+    Cycle(CycleDevices devices, const models::MachineFile& machine, CycleSettings settings,
+          Log log);
     Cycle(const Cycle&) = delete;
     Cycle& operator=(const Cycle&) = delete;
     ~Cycle();

@@ -29,7 +29,10 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         for (const auto& [key, node] : *truth) {
             const std::string part(key.str());
             if (part != "delta" && part != "cartesian" && part != "galvo" && part != "router")
-                throw ScenarioError(path + ": [truth] has unknown part '" + part + "'");
+                throw ScenarioError(std::string(path)
+                                        .append(": [truth] has unknown part '")
+                                        .append(part)
+                                        .append("'"));
             if (part == kind.truth_table()) {
                 own = models::subtable(path, *truth, part.c_str());
             } else if (part == "cartesian" && std::string(kind.truth_table()) == "router") {
@@ -37,7 +40,11 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
                                     ": a router's truth is [truth.router], not "
                                     "[truth.cartesian]");
             } else {
-                throw ScenarioError(path + ": [truth." + part + "] on a " + s.machine.kind);
+                throw ScenarioError(std::string(path)
+                                        .append(": [truth.")
+                                        .append(part)
+                                        .append("] on a ")
+                                        .append(s.machine.kind));
             }
         }
     }

@@ -359,8 +359,11 @@ ModeResult DeltaCycleMode::result(bool) const {
     const char* towers[] = {"a", "b", "c"};
     auto add3 = [&](const std::string& stem, const std::string& unit,
                     const std::array<double, 3>& values) {
-        for (std::size_t i = 0; i < 3; ++i)
-            r.values.emplace_back(stem + "_" + towers[i] + "_" + unit, values[i]);
+        for (std::size_t i = 0; i < 3; ++i) {
+            std::string name = stem;
+            name.append("_").append(towers[i]).append("_").append(unit);
+            r.values.emplace_back(std::move(name), values[i]);
+        }
     };
     r.values.emplace_back("diagonal_rod_mm", g.diagonal_rod_mm);
     add3("diagonal_rod_trim", "mm", g.diagonal_rod_trim_mm);

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -23,6 +24,7 @@
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_probe.hpp"
 #include "core/solve/placement.hpp"
+#include "tests/support/cycle_harness.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -111,185 +113,224 @@ struct PhotoConditions {
 // One seeded printer through the whole cycle, pass after pass as the box runs them
 // (modes::next_delta_pass_step): the target printed on the printer as it stands, photographed by
 // the same camera, measured, solved, and the correction sent, until the printer holds.
-CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
-    std::mt19937 rng(seed);
-    std::uniform_real_distribution<double> u(-1, 1);
-    sim::DeltaParams truth;
-    truth.diagonal_rod_mm = 250 + 1.5 * u(rng);
-    for (auto& t : truth.diagonal_rod_trim_mm) t = u(rng);
-    truth.radius_mm = 140 + u(rng);
-    for (auto& a : truth.tower_angle_trim_deg) a = 0.5 * u(rng);
-    for (auto& e : truth.endstop_offset_mm) e = -0.15 * (1 + u(rng));
-    sim::DeltaTwin twin(truth, sim::DeltaParams{});
-    twin.zero_height_at_centre();
-    if (std::string(look.levelled_by) == "paper") twin.level_by_paper(68);
-    if (std::string(look.levelled_by) == "probe") twin.level_by_probe(76, 38);
-    const sim::DeltaParams levelled = twin.firmware();
+class DeltaCase {
+  public:
+    DeltaCase(unsigned seed, const PhotoConditions& look)
+        : seed_(seed), look_(look), rng_(seed), u_(-1, 1) {
+        auto& u = u_;
+        auto& rng = rng_;
+        truth_.diagonal_rod_mm = 250 + 1.5 * u(rng);
+        for (auto& t : truth_.diagonal_rod_trim_mm) t = u(rng);
+        truth_.radius_mm = 140 + u(rng);
+        for (auto& a : truth_.tower_angle_trim_deg) a = 0.5 * u(rng);
+        for (auto& e : truth_.endstop_offset_mm) e = -0.15 * (1 + u(rng));
+        twin_ = sim::DeltaTwin(truth_, sim::DeltaParams{});
+        twin_.zero_height_at_centre();
+        if (std::string(look.levelled_by) == "paper") twin_.level_by_paper(68);
+        if (std::string(look.levelled_by) == "probe") twin_.level_by_probe(76, 38);
+        levelled_ = twin_.firmware();
 
-    sim::Scenario scenario;
-    scenario.machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
-    scenario.machine.bed_material = "aluminium";
-    scenario.machine.bed_temperature_c = 60;
-    // Photographed once the bed has cooled part of the way: 25 to 45 degrees.
-    scenario.photo_bed_temperature_c = 35 + 10 * u(rng);
+        scenario_.machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
+        scenario_.machine.bed_material = "aluminium";
+        scenario_.machine.bed_temperature_c = 60;
+        // Photographed once the bed has cooled part of the way: 25 to 45 degrees.
+        scenario_.photo_bed_temperature_c = 35 + 10 * u(rng);
 
-    // The box's camera about 40 cm up, a few degrees off vertical, turned at random.
-    const auto camera = test::hq_camera();
-    const sim::Pose bed_to_camera =
-        sim::look_at_pose({25 * u(rng), -30 + 15 * u(rng), 400 + 10 * u(rng)},
-                          {3 * u(rng), 3 * u(rng), 0}, 20 * u(rng));
-    sim::PhotoSettings photo;
-    photo.blur_sigma_px = 0.7 + 0.2 * u(rng);
-    photo.noise_sigma_dn = look.noise_sigma_dn;
-    photo.vignetting = 0.15;
-    photo.lighting_gradient = look.lighting_gradient;
-    photo.lighting_direction_deg = look.surface.light_azimuth_deg;
-    photo.motion_blur_px = look.motion_blur_px;
-    if (look.motion_blur_px > 0) photo.motion_blur_direction_deg = 180 * u(rng);
-    photo.jpeg_quality = look.jpeg_quality;
-    photo.seed = seed;
-    const geometry::CameraModel model = test::as_core(camera);
-    const auto plane = test::plane_from_board(camera, bed_to_camera, {}, photo);
-    const double printable = scenario.machine.bed_radius_mm;
-
-    CycleFigures figures;
-    std::vector<std::string> sent;  // every pass's commands, in the order the printer took them
-    std::vector<solve::BarMeasurement> first_bars;
-    std::string target_job;
-    std::vector<solve::ProbePoint> probe;
-    if (look.printer_probes) {
-        const auto points = modes::probe_points({76, 0.01});
-        probe = modes::probe_from_replies(
-            "marlin", points, test::replies_of_twin(twin, modes::probe_job("marlin", points)),
-            0.01);
+        // The box's camera about 40 cm up, a few degrees off vertical, turned at random.
+        bed_to_camera_ = sim::look_at_pose({25 * u(rng), -30 + 15 * u(rng), 400 + 10 * u(rng)},
+                                           {3 * u(rng), 3 * u(rng), 0}, 20 * u(rng));
+        photo_.blur_sigma_px = 0.7 + 0.2 * u(rng);
+        photo_.noise_sigma_dn = look.noise_sigma_dn;
+        photo_.vignetting = 0.15;
+        photo_.lighting_gradient = look.lighting_gradient;
+        photo_.lighting_direction_deg = look.surface.light_azimuth_deg;
+        photo_.motion_blur_px = look.motion_blur_px;
+        if (look.motion_blur_px > 0) photo_.motion_blur_direction_deg = 180 * u(rng);
+        photo_.jpeg_quality = look.jpeg_quality;
+        photo_.seed = seed;
+        plane_ = test::plane_from_board(camera_, bed_to_camera_, {}, photo_);
+        printable_ = scenario_.machine.bed_radius_mm;
+        if (look.printer_probes) {
+            const auto points = modes::probe_points({76, 0.01});
+            probe_ = modes::probe_from_replies(
+                "marlin", points, test::replies_of_twin(twin_, modes::probe_job("marlin", points)),
+                0.01);
+        }
     }
-    for (int pass = 1;; ++pass) {
-        // The box reads the printer's settings in force (M503) before each pass.
-        scenario.machine.delta = sim::machine_settings(twin.firmware());
-        const models::MachineFile& machine = scenario.machine;
-        const auto target = targets::make_delta_target(machine);
-        target_job = targets::write_gcode(target.job, machine, "target");
-        const auto laid = test::print_on_twin(twin, target_job);
-        photo.seed = seed + 1000 * static_cast<unsigned>(pass);
-        const auto print_photo = test::photo_of_print(
-            camera, bed_to_camera, sim::carried_by_bed(laid, sim::bed_growth_at_photo(scenario)),
-            photo, look.bed_albedo, look.material_albedo, look.surface);
-        const auto measured = modes::measure_delta(
-            machine, model, plane, {test::view_of(print_photo)}, scenario.photo_bed_temperature_c);
+
+    // The box reads the printer's settings in force (M503) before each pass, and prints.
+    sim::GrayImage make_target(int pass) {
+        scenario_.machine.delta = sim::machine_settings(twin_.firmware());
+        const models::MachineFile& machine = scenario_.machine;
+        target_ = targets::make_delta_target(machine);
+        target_job_ = targets::write_gcode(target_->job, machine, "target");
+        const auto laid = test::print_on_twin(twin_, target_job_);
+        photo_.seed = seed_ + 1000 * static_cast<unsigned>(pass);
+        return test::photo_of_print(camera_, bed_to_camera_,
+                                    sim::carried_by_bed(laid, sim::bed_growth_at_photo(scenario_)),
+                                    photo_, look_.bed_albedo, look_.material_albedo, look_.surface);
+    }
+
+    modes::DeltaMeasurement measure(const sim::GrayImage& print_photo, int pass) {
+        const models::MachineFile& machine = scenario_.machine;
+        const auto& target = *target_;
+        auto measured = modes::measure_delta(machine, model_, plane_, {test::view_of(print_photo)},
+                                             scenario_.photo_bed_temperature_c);
         CHECK_TEXT(measured.heights_from_fit, "the surface heights come from the fit");
         // The strands' heights from their widths, against the twin's where it pressed them.
         for (const auto& f : measured.features) {
             const double gap =
-                twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}).z;
+                twin_.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z}).z;
             const auto strand = sim::first_layer_strand(target.strand_section_mm2, gap, 1.0);
             if (strand.width_mm < 0.95 && !strand.free_bead)
-                figures.strand_height_worst = std::max(
-                    figures.strand_height_worst, std::abs(f.seen_at_height_mm - strand.height_mm));
+                figures_.strand_height_worst = std::max(
+                    figures_.strand_height_worst, std::abs(f.seen_at_height_mm - strand.height_mm));
         }
-        if (pass == 1) {
-            figures.markers_found = measured.frames.at(0).size();
-            figures.markers_printed = measured.target.markers.size();
-            // The share of each corner's sigma its edge fits gave, above measure's 0.005 mm
-            // floor for what they cannot see (README, measurements.json).
-            for (const auto& f : measured.features)
-                figures.feature_sigma_mean +=
-                    std::sqrt(std::max(0.0, f.sigma_mm * f.sigma_mm - 0.005 * 0.005));
-            figures.feature_sigma_mean /= static_cast<double>(measured.features.size());
-            // Features as the fit uses them, against where the material really is.
-            twin.home();
-            std::vector<geometry::Point2> seen, material;
-            for (const auto& f : measured.features) {
-                const auto r =
-                    twin.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z});
-                seen.push_back(f.measured_mm);
-                material.push_back({r.x, r.y});
-            }
-            const auto placement = solve::best_rigid_placement(seen, material);
-            double sum = 0;
-            for (std::size_t i = 0; i < seen.size(); ++i) {
-                const auto p = placement.apply(seen[i]);
-                const double e = std::hypot(p.x - material[i].x, p.y - material[i].y);
-                sum += e * e;
-                figures.feature_worst = std::max(figures.feature_worst, e);
-            }
-            figures.feature_rms = std::sqrt(sum / static_cast<double>(seen.size()));
-            // Bars against where the twin really laid their end ticks.
-            CHECK_EQUAL(3u, measured.bars.size());
-            for (const auto& b : measured.bars) {
-                const auto& bar = target.bars[static_cast<std::size_t>(b.tower - 'A')];
-                const double truth_mm = true_bar_length_mm(bar, twin, target.top_height_mm);
-                figures.bar_errors.push_back(b.measured_mm - truth_mm);
-                first_bars.push_back({b.commanded_from_mm, b.commanded_to_mm, b.measured_mm});
-            }
-        }
+        if (pass == 1) first_pass_figures(measured);
+        return measured;
+    }
+
+    bool solve_and_correct(const modes::DeltaMeasurement& measured, int pass) {
+        const models::MachineFile& machine = scenario_.machine;
         const auto solution =
             modes::solve_delta(machine, modes::record_of(measured, machine, {"photo"}),
-                               pass == 1 ? probe : std::vector<solve::ProbePoint>{});
+                               pass == 1 ? probe_ : std::vector<solve::ProbePoint>{});
         PassFigures p;
         p.gap_range = solution.fit.correction.predicted_height_range_now_mm;
         p.step = modes::next_delta_pass_step(solution, pass);
         if (p.step != modes::DeltaPassStep::holds) {
-            sent.insert(sent.end(), solution.commands.begin(), solution.commands.end());
-            sim::send_commands(twin, solution.commands);
+            sent_.insert(sent_.end(), solution.commands.begin(), solution.commands.end());
+            sim::send_commands(twin_, solution.commands);
         }
-        sim::DeltaTwin judged(truth, levelled);
-        const auto after = sim::judge_delta(judged, sent, printable);
+        sim::DeltaTwin judged(truth_, levelled_);
+        const auto after = sim::judge_delta(judged, sent_, printable_);
         p.xy_rms = after.xy_rms, p.xy_max = after.xy_max;
-        figures.passes.push_back(p);
-        if (p.step != modes::DeltaPassStep::apply_then_measure_again) break;
+        figures_.passes.push_back(p);
+        return p.step == modes::DeltaPassStep::apply_then_measure_again;
     }
 
     // The printer as the passes left it, judged against the printer as it came.
-    sim::DeltaTwin fixed(truth, levelled);
-    const auto after = sim::judge_delta(fixed, sent, printable);
-    figures.fit_xy_rms = after.xy_rms;
-    figures.fit_xy_max = after.xy_max;
-    figures.range_before = after.height_range_before;
-    figures.range_after = after.height_range_after;
-    figures.before_rms = after.xy_rms_before;
-    // The verification print: the target again on the corrected printer, every stroke end's
-    // commanded position against where the nozzle really laid it, placement taken out.
-    {
-        sim::GcodeRunner runner(fixed, sim::ToolSettings{});
-        std::istringstream job(target_job);
-        runner.run(job);
-        std::vector<sim::Vec3> commanded, laid_again;
-        for (const auto& st : runner.result().strokes) {
-            commanded.push_back(st.commanded_a_mm), commanded.push_back(st.commanded_b_mm);
-            laid_again.push_back(st.a_mm), laid_again.push_back(st.b_mm);
+    CycleFigures judge() {
+        auto& figures = figures_;
+        sim::DeltaTwin fixed(truth_, levelled_);
+        const auto after = sim::judge_delta(fixed, sent_, printable_);
+        figures.fit_xy_rms = after.xy_rms;
+        figures.fit_xy_max = after.xy_max;
+        figures.range_before = after.height_range_before;
+        figures.range_after = after.height_range_after;
+        figures.before_rms = after.xy_rms_before;
+        // The verification print: the target again on the corrected printer, every stroke end's
+        // commanded position against where the nozzle really laid it, placement taken out.
+        {
+            sim::GcodeRunner runner(fixed, sim::ToolSettings{});
+            std::istringstream job(target_job_);
+            runner.run(job);
+            std::vector<sim::Vec3> commanded, laid_again;
+            for (const auto& st : runner.result().strokes) {
+                commanded.push_back(st.commanded_a_mm), commanded.push_back(st.commanded_b_mm);
+                laid_again.push_back(st.a_mm), laid_again.push_back(st.b_mm);
+            }
+            const auto placed = sim::rigidly_onto(laid_again, commanded);
+            double sum = 0;
+            for (std::size_t i = 0; i < placed.size(); ++i) {
+                const double e =
+                    std::hypot(placed[i].x - commanded[i].x, placed[i].y - commanded[i].y);
+                sum += e * e;
+                figures.reprint_xy_max = std::max(figures.reprint_xy_max, e);
+            }
+            figures.reprint_xy_rms = std::sqrt(sum / static_cast<double>(placed.size()));
         }
-        const auto placed = sim::rigidly_onto(laid_again, commanded);
-        double sum = 0;
-        for (std::size_t i = 0; i < placed.size(); ++i) {
-            const double e = std::hypot(placed[i].x - commanded[i].x, placed[i].y - commanded[i].y);
-            sum += e * e;
-            figures.reprint_xy_max = std::max(figures.reprint_xy_max, e);
-        }
-        figures.reprint_xy_rms = std::sqrt(sum / static_cast<double>(placed.size()));
-    }
-    // The seed paper's classic rod correction from the first pass's bars, on the printer as it
-    // came.
-    models::DeltaGeometry classic = sim::machine_settings(levelled);
-    classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, first_bars);
-    sim::DeltaTwin classic_twin(truth, levelled);
-    figures.classic_xy_rms =
-        sim::judge_delta(classic_twin, models::marlin_commands(classic), printable).xy_rms;
+        // The seed paper's classic rod correction from the first pass's bars, on the printer as
+        // it came.
+        models::DeltaGeometry classic = sim::machine_settings(levelled_);
+        classic.diagonal_rod_mm = solve::classic_rod_length_mm(classic, first_bars_);
+        sim::DeltaTwin classic_twin(truth_, levelled_);
+        figures.classic_xy_rms =
+            sim::judge_delta(classic_twin, models::marlin_commands(classic), printable_).xy_rms;
 
-    char line[600];
-    std::snprintf(
-        line, sizeof line,
-        "%s, seed %2u: features %.4f rms %.4f worst | bars %+.4f %+.4f %+.4f | XY before "
-        "%.3f, after %.4f rms %.4f worst (re-print %.4f rms %.4f worst), classic %.3f | "
-        "height range %.3f -> %.3f, strand heights %.4f worst | passes %s | markers "
-        "read %zu of %zu",
-        look.name, seed, figures.feature_rms, figures.feature_worst, figures.bar_errors[0],
-        figures.bar_errors[1], figures.bar_errors[2], figures.before_rms, figures.fit_xy_rms,
-        figures.fit_xy_max, figures.reprint_xy_rms, figures.reprint_xy_max, figures.classic_xy_rms,
-        figures.range_before, figures.range_after, figures.strand_height_worst,
-        passes_text(figures.passes).c_str(), figures.markers_found, figures.markers_printed);
-    UT_PRINT(line);
-    CHECK_TEXT(figures.passes.size() <= 3, "at most three passes");
-    return figures;
+        char line[600];
+        std::snprintf(
+            line, sizeof line,
+            "%s, seed %2u: features %.4f rms %.4f worst | bars %+.4f %+.4f %+.4f | XY before "
+            "%.3f, after %.4f rms %.4f worst (re-print %.4f rms %.4f worst), classic %.3f | "
+            "height range %.3f -> %.3f, strand heights %.4f worst | passes %s | markers "
+            "read %zu of %zu",
+            look_.name, seed_, figures.feature_rms, figures.feature_worst, figures.bar_errors[0],
+            figures.bar_errors[1], figures.bar_errors[2], figures.before_rms, figures.fit_xy_rms,
+            figures.fit_xy_max, figures.reprint_xy_rms, figures.reprint_xy_max,
+            figures.classic_xy_rms, figures.range_before, figures.range_after,
+            figures.strand_height_worst, passes_text(figures.passes).c_str(), figures.markers_found,
+            figures.markers_printed);
+        UT_PRINT(line);
+        CHECK_TEXT(figures.passes.size() <= 3, "at most three passes");
+        return figures;
+    }
+
+  private:
+    void first_pass_figures(const modes::DeltaMeasurement& measured) {
+        auto& figures = figures_;
+        const auto& target = *target_;
+        figures.markers_found = measured.frames.at(0).size();
+        figures.markers_printed = measured.target.markers.size();
+        // The share of each corner's sigma its edge fits gave, above measure's 0.005 mm
+        // floor for what they cannot see (docs/formats.md, measurements.json).
+        for (const auto& f : measured.features)
+            figures.feature_sigma_mean +=
+                std::sqrt(std::max(0.0, f.sigma_mm * f.sigma_mm - 0.005 * 0.005));
+        figures.feature_sigma_mean /= static_cast<double>(measured.features.size());
+        // Features as the fit uses them, against where the material really is.
+        twin_.home();
+        std::vector<geometry::Point2> seen, material;
+        for (const auto& f : measured.features) {
+            const auto r =
+                twin_.actual_position_mm({f.commanded_mm.x, f.commanded_mm.y, f.commanded_mm.z});
+            seen.push_back(f.measured_mm);
+            material.push_back({r.x, r.y});
+        }
+        const auto placement = solve::best_rigid_placement(seen, material);
+        double sum = 0;
+        for (std::size_t i = 0; i < seen.size(); ++i) {
+            const auto p = placement.apply(seen[i]);
+            const double e = std::hypot(p.x - material[i].x, p.y - material[i].y);
+            sum += e * e;
+            figures.feature_worst = std::max(figures.feature_worst, e);
+        }
+        figures.feature_rms = std::sqrt(sum / static_cast<double>(seen.size()));
+        // Bars against where the twin really laid their end ticks.
+        CHECK_EQUAL(3u, measured.bars.size());
+        for (const auto& b : measured.bars) {
+            const auto& bar = target.bars[static_cast<std::size_t>(b.tower - 'A')];
+            const double truth_mm = true_bar_length_mm(bar, twin_, target.top_height_mm);
+            figures.bar_errors.push_back(b.measured_mm - truth_mm);
+            first_bars_.push_back({b.commanded_from_mm, b.commanded_to_mm, b.measured_mm});
+        }
+    }
+
+    unsigned seed_;
+    PhotoConditions look_;
+    std::mt19937 rng_;
+    std::uniform_real_distribution<double> u_;
+    sim::DeltaParams truth_;
+    sim::DeltaTwin twin_{sim::DeltaParams{}, sim::DeltaParams{}};
+    sim::DeltaParams levelled_;
+    sim::Scenario scenario_;
+    const sim::CameraIntrinsics camera_ = test::hq_camera();
+    const geometry::CameraModel model_ = test::as_core(camera_);
+    sim::Pose bed_to_camera_;
+    sim::PhotoSettings photo_;
+    geometry::BedPlane plane_;
+    double printable_ = 0;
+    std::vector<solve::ProbePoint> probe_;
+    std::optional<targets::DeltaTarget> target_;
+    std::string target_job_;
+    CycleFigures figures_;
+    std::vector<std::string> sent_;  // every pass's commands, in the order the printer took them
+    std::vector<solve::BarMeasurement> first_bars_;
+};
+
+CycleFigures run_cycle(unsigned seed, const PhotoConditions& look = {}) {
+    DeltaCase printer(seed, look);
+    return test::run_mode_cycle(printer);
 }
 
 // Five scenarios per group, so that ctest runs the two groups side by side.

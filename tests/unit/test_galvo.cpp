@@ -16,6 +16,7 @@
 #include "core/models/galvo_field.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/targets/galvo_target.hpp"
+#include "tests/support/cycle_harness.hpp"
 #include "tests/support/galvo_fixtures.hpp"
 
 using namespace calbox;
@@ -84,36 +85,64 @@ Box set_up_box(unsigned seed) {
     return box;
 }
 
-Figures run_scanner(Box& box, unsigned seed, bool dark_marks) {
-    const auto machine = galvo_machine();
-    auto truth = sim::random_galvo_truth(seed, machine.galvo->field_size_mm);
-    truth.substrate_height_mm = machine.galvo->substrate_height_mm;
-    box.bench.dark_marks = dark_marks;
-    box.bench.photo.seed = seed;
-    const auto target = targets::make_galvo_target(machine);
-    const auto job = targets::write_gcode(target.job, machine, "galvo grid");
-    const auto photo = test::photo_of_burned_grid(box.bench, truth, job);
+// One scanner under the box: the grid burned and photographed, measured, one table solved, and
+// the table judged on a fresh grid in the twin's truth.
+class ScannerCase {
+  public:
+    ScannerCase(Box& box, unsigned seed, bool dark_marks)
+        : box_(box), seed_(seed), dark_marks_(dark_marks) {}
 
-    Figures f;
-    const auto start = std::chrono::steady_clock::now();
-    f.measured = modes::measure_galvo(machine, box.camera, box.plane, test::view_of(photo));
-    f.seconds_measure =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const auto solution = modes::solve_galvo(machine, f.measured, std::nullopt);
-    const auto& table = solution.fit.table;
-    const auto fresh = verification_grid(table, 30);
-    f.before = sim::judge_galvo(truth, fresh, [](sim::Vec2 p) { return p; });
-    f.after = sim::judge_galvo(truth, fresh, [&](sim::Vec2 p) { return through(table, p); });
-    char line[300];
-    std::snprintf(line, sizeof line,
-                  "scanner %2u: before %.4f mean %.4f max | after %.5f mean %.5f rms %.5f max | "
-                  "%zu marks, %zu missing, %zu extra, symmetry %d, sigma %.5f mm | measure %.2f s",
-                  seed, f.before.mean_mm, f.before.max_mm, f.after.mean_mm, f.after.rms_mm,
-                  f.after.max_mm, f.measured.nodes.size(), f.measured.missing.size(),
-                  f.measured.extra_mm.size(), f.measured.symmetry, solution.measurement_sigma_mm,
-                  f.seconds_measure);
-    UT_PRINT(line);
-    return f;
+    sim::GrayImage make_target(int) {
+        truth_ = sim::random_galvo_truth(seed_, machine_.galvo->field_size_mm);
+        truth_.substrate_height_mm = machine_.galvo->substrate_height_mm;
+        box_.bench.dark_marks = dark_marks_;
+        box_.bench.photo.seed = seed_;
+        const auto target = targets::make_galvo_target(machine_);
+        const auto job = targets::write_gcode(target.job, machine_, "galvo grid");
+        return test::photo_of_burned_grid(box_.bench, truth_, job);
+    }
+    modes::GalvoMeasurement measure(const sim::GrayImage& photo, int) {
+        const auto start = std::chrono::steady_clock::now();
+        f_.measured = modes::measure_galvo(machine_, box_.camera, box_.plane, test::view_of(photo));
+        f_.seconds_measure =
+            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return f_.measured;
+    }
+    bool solve_and_correct(const modes::GalvoMeasurement& measured, int) {
+        solution_ = modes::solve_galvo(machine_, measured, std::nullopt);
+        return false;  // one table
+    }
+    Figures judge() {
+        const auto& table = solution_->fit.table;
+        const auto fresh = verification_grid(table, 30);
+        f_.before = sim::judge_galvo(truth_, fresh, [](sim::Vec2 p) { return p; });
+        f_.after = sim::judge_galvo(truth_, fresh, [&](sim::Vec2 p) { return through(table, p); });
+        char line[300];
+        std::snprintf(
+            line, sizeof line,
+            "scanner %2u: before %.4f mean %.4f max | after %.5f mean %.5f rms %.5f max | "
+            "%zu marks, %zu missing, %zu extra, symmetry %d, sigma %.5f mm | measure %.2f s",
+            seed_, f_.before.mean_mm, f_.before.max_mm, f_.after.mean_mm, f_.after.rms_mm,
+            f_.after.max_mm, f_.measured.nodes.size(), f_.measured.missing.size(),
+            f_.measured.extra_mm.size(), f_.measured.symmetry, solution_->measurement_sigma_mm,
+            f_.seconds_measure);
+        UT_PRINT(line);
+        return f_;
+    }
+
+  private:
+    Box& box_;
+    unsigned seed_;
+    bool dark_marks_;
+    const models::MachineFile machine_ = galvo_machine();
+    sim::GalvoTruth truth_;
+    std::optional<modes::GalvoSolution> solution_;
+    Figures f_;
+};
+
+Figures run_scanner(Box& box, unsigned seed, bool dark_marks) {
+    ScannerCase scanner(box, seed, dark_marks);
+    return test::run_mode_cycle(scanner);
 }
 
 // Five scanners under one box (seed..seed+4), dark marks on light and light on dark.

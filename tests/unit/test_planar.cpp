@@ -13,6 +13,7 @@
 #include "core/solve/placement.hpp"
 #include "core/targets/compensate.hpp"
 #include "core/targets/planar_target.hpp"
+#include "tests/support/cycle_harness.hpp"
 #include "tests/support/router_fixtures.hpp"
 
 using namespace calbox;
@@ -393,29 +394,52 @@ struct RouterOutcome {
     modes::PlanarSolution solution;
 };
 
+// One router under the box: the sheet drilled and photographed, measured, the error model
+// solved, and judged on a fresh job through it in the twin's truth.
+class RouterCase {
+  public:
+    RouterCase(unsigned seed, const targets::PlanarTargetOptions& design)
+        : seed_(seed), design_(design), target_(targets::make_planar_target(machine_, design)) {}
+
+    sim::GrayImage make_target(int) {
+        test::DrillFaults faults;
+        faults.seed = seed_;
+        return test::photo_of_drilled_sheet(bench_, truth_, target_.job, faults);
+    }
+    modes::PlanarMeasurement measure(const sim::GrayImage& photo, int) {
+        modes::PlanarMeasureSettings settings;
+        settings.target = design_;
+        return modes::measure_planar(machine_, camera_, plane_, test::view_of(photo), settings);
+    }
+    bool solve_and_correct(const modes::PlanarMeasurement& measured, int) {
+        out_.solution = modes::solve_planar(machine_, measured);
+        return false;  // one model
+    }
+    RouterOutcome judge() {
+        const targets::Correction correct = [this](Point2 p) {
+            return modes::planar_command_for(out_.solution, p);
+        };
+        const auto verdict = sim::judge_router_fresh_holes(truth_, machine_, &correct);
+        out_.before = verdict.before;
+        out_.after = *verdict.after;
+        return out_;
+    }
+
+  private:
+    unsigned seed_;
+    targets::PlanarTargetOptions design_;
+    const models::MachineFile machine_ = router_machine();
+    targets::PlanarTarget target_;
+    const test::RouterBench bench_ = test::router_bench(0.5);
+    const geometry::CameraModel camera_ = test::as_core(bench_.camera);
+    const geometry::BedPlane plane_ = test::router_plane(bench_);
+    const sim::RouterTruth truth_ = sim::random_router_truth(seed_);
+    RouterOutcome out_;
+};
+
 RouterOutcome calibrate_router(unsigned seed, const targets::PlanarTargetOptions& design = {}) {
-    const auto machine = router_machine();
-    const auto target = targets::make_planar_target(machine, design);
-    const auto bench = test::router_bench(0.5);
-    const auto camera = test::as_core(bench.camera);
-    const auto plane = test::router_plane(bench);
-    const auto truth = sim::random_router_truth(seed);
-    test::DrillFaults faults;
-    faults.seed = seed;
-    const auto photo = test::photo_of_drilled_sheet(bench, truth, target.job, faults);
-    modes::PlanarMeasureSettings settings;
-    settings.target = design;
-    const auto measured =
-        modes::measure_planar(machine, camera, plane, test::view_of(photo), settings);
-    RouterOutcome out;
-    out.solution = modes::solve_planar(machine, measured);
-    const targets::Correction correct = [&](Point2 p) {
-        return modes::planar_command_for(out.solution, p);
-    };
-    const auto verdict = sim::judge_router_fresh_holes(truth, machine, &correct);
-    out.before = verdict.before;
-    out.after = *verdict.after;
-    return out;
+    RouterCase router(seed, design);
+    return test::run_mode_cycle(router);
 }
 
 void run_routers(unsigned first) {

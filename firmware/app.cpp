@@ -266,11 +266,9 @@ int run(const std::vector<std::string>& words) {
     if (!modbus.client_map.empty() && !modbus.client)
         throw UsageError("--modbus-map needs --modbus-client");
     const models::WordOrder word_order = modbus.word_order;
-    const std::optional<board::ModbusEndpoint>& server_endpoint = modbus.server;
-    const std::optional<board::ModbusEndpoint>& client_endpoint = modbus.client;
     const board::ModbusTimeouts modbus_timeouts = modbus.timeouts;
     std::optional<firmware::ResultRegisterMap> result_map;
-    if (client_endpoint) {
+    if (modbus.client) {
         result_map = modbus.client_map.empty()
                          ? firmware::ResultRegisterMap::whole_block(0)
                          : firmware::ResultRegisterMap::from_toml(
@@ -344,12 +342,7 @@ int run(const std::vector<std::string>& words) {
         cycle, config,   *config_home,   config_path.filename().string(),
         data,  log_book, CALBOX_VERSION, {},
         {}};
-    context.config_changed = [&] {
-        cycle.set_settings(sim_board != nullptr
-                               ? firmware::SimAppliance::with_setup_boards(
-                                     settings_from(config), sim_board->bench->scenario().setup)
-                               : settings_from(config));
-    };
+    context.config_changed = [&] { cycle.set_settings(box.with_board(settings_from(config))); };
     if (sim_board != nullptr) {
         using Words = std::vector<std::string>;
         context.board_commands = {{"press", "press", "the sim board: a short press of the button",
@@ -380,16 +373,16 @@ int run(const std::vector<std::string>& words) {
 
     board::RegisterServer modbus_server;
     std::optional<firmware::PlcServer> plc;
-    if (server_endpoint) {
+    if (modbus.server) {
         namespace plc_map = firmware::plc;
-        modbus_server = board::register_server(*server_endpoint,
+        modbus_server = board::register_server(*modbus.server,
                                                {plc_map::kCoilCount, plc_map::kDiscreteInputCount,
                                                 0, firmware::input_register_count()},
                                                modbus_timeouts, log_line);
         plc.emplace(*modbus_server.server, cycle, word_order, log_line);
         loop.watch(modbus_server.server->written_fd(), [&] { plc->on_coils_written(); });
-        log_line(server_endpoint->describe() + ": serving the PLC map" +
-                 (server_endpoint->kind == board::ModbusEndpoint::Kind::tcp
+        log_line(modbus.server->describe() + ": serving the PLC map" +
+                 (modbus.server->kind == board::ModbusEndpoint::Kind::tcp
                       ? " on port " + std::to_string(modbus_server.port)
                       : std::string()));
     }
@@ -397,8 +390,8 @@ int run(const std::vector<std::string>& words) {
     std::optional<firmware::ResultWriter> result_writer;
     int results_written_for = cycle.cycles_completed();
     bool stop_when_written = false;
-    if (client_endpoint) {
-        modbus_client = board::register_client(*client_endpoint, modbus_timeouts);
+    if (modbus.client) {
+        modbus_client = board::register_client(*modbus.client, modbus_timeouts);
         result_writer.emplace(*modbus_client, *result_map, word_order, log_line);
         loop.watch(modbus_client->completion_fd(), [&] {
             result_writer->on_completion();

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/geometry/calibration.hpp"
+#include "core/number_text.hpp"
 #include "core/vision/reference_marks.hpp"
 #include "firmware/modes/photos.hpp"
 #include "firmware/png.hpp"
@@ -252,8 +253,8 @@ ProgressScreen Cycle::progress_screen(const std::string& detail) const {
 IdleScreen Cycle::idle_screen() const {
     IdleScreen idle{machine().kind + " " + machine().firmware, "no cycle yet", {}};
     if (completed_ > 0 && report_.measured && report_.verified)
-        idle.last_result = "last " + fixed(report_.measured->rms_mm, 3) + "->" +
-                           fixed(report_.verified->rms_mm, 3) + " mm";
+        idle.last_result = "last " + number_text("%.3f", report_.measured->rms_mm) + "->" +
+                           number_text("%.3f", report_.verified->rms_mm) + " mm";
     if (completed_ > 0 && report_.verified)
         idle.verdict = goal_met() ? "goal met" : "short of goal";
     return idle;
@@ -443,7 +444,7 @@ void Cycle::log(const std::string& line) {
 }
 
 void Cycle::notice(const std::string& what) {
-    log_("cycle " + std::to_string(report_.number) + ": " + what);
+    log(what);
     if (on_notice) on_notice(what);
 }
 
@@ -499,12 +500,13 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
                                            then = std::move(then)](std::vector<hal::Frame> f) {
         auto frames = std::make_shared<const std::vector<hal::Frame>>(std::move(f));
         enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
-        const bool verifying = state == CycleState::verify;
-        MeasureInput input{frames, read("camera.yaml").value_or(""),
-                           read("plane.yaml").value_or("")};
-        auto measure = [this, input = std::move(input), verifying, then] {
-            mode_->measure(input, verifying, then);
-        };
+        // A verification's files carry its pass ("pass-2-verify-overlay.png").
+        const std::string what =
+            state == CycleState::verify ? mode_->pass_prefix() + "verify" : "target";
+        MeasureInput input{
+            frames, read("camera.yaml").value_or(""), read("plane.yaml").value_or(""),
+            record_name(state == CycleState::verify ? what + "-overlay.png" : "overlay.png")};
+        auto measure = [this, input = std::move(input), then] { mode_->measure(input, then); };
         if (!settings_.records.keep_photos) {
             measure();
             return;
@@ -515,10 +517,9 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
             [frames, photos] {
                 for (const auto& frame : *frames) photos->push_back(png_of(frame));
             },
-            [this, photos, verifying, measure = std::move(measure)] {
-                const std::string prefix = verifying ? mode_->pass_prefix() + "verify" : "target";
+            [this, photos, what, measure = std::move(measure)] {
                 for (std::size_t i = 0; i < photos->size(); ++i)
-                    if (!keep(record_name(prefix + "-photo-" + std::to_string(i + 1) + ".png"),
+                    if (!keep(record_name(what + "-photo-" + std::to_string(i + 1) + ".png"),
                               (*photos)[i]))
                         return;
                 measure();
@@ -609,17 +610,18 @@ bool Cycle::goal_met() const {
 void Cycle::finish_cycle() {
     if (!keep("last-cycle", std::to_string(report_.number) + "\n")) return;
     const double total = seconds(d_.clock.now() - cycle_started_);
-    log_("cycle " + std::to_string(report_.number) + ": done in " + fixed(total, 1) +
-         " s: the box's own work " + fixed(report_.box_seconds, 2) + " s, camera " +
-         fixed(report_.camera_seconds, 2) + " s, machine " + fixed(report_.machine_seconds, 2) +
-         " s");
+    log_("cycle " + std::to_string(report_.number) + ": done in " + number_text("%.1f", total) +
+         " s: the box's own work " + number_text("%.2f", report_.box_seconds) + " s, camera " +
+         number_text("%.2f", report_.camera_seconds) + " s, machine " +
+         number_text("%.2f", report_.machine_seconds) + " s");
     ++completed_;
     enter(CycleState::idle,
-          report_.verified ? "done: XY " + fixed(report_.verified->rms_mm, 3) + " mm" : "done");
+          report_.verified ? "done: XY " + number_text("%.3f", report_.verified->rms_mm) + " mm"
+                           : "done");
     last_stage_seconds_ = stage_seconds_;
     if (report_.measured && report_.verified)
-        show(draw_screen(DoneScreen{fixed(report_.measured->rms_mm, 4) + " mm",
-                                    fixed(report_.verified->rms_mm, 4) + " mm"}));
+        show(draw_screen(DoneScreen{number_text("%.4f", report_.measured->rms_mm) + " mm",
+                                    number_text("%.4f", report_.verified->rms_mm) + " mm"}));
     close_record();
     if (on_cycle_end) on_cycle_end(true);
 }

@@ -61,10 +61,12 @@ class CycleSteps {
     virtual void fail(const std::string& message) = 0;
 };
 
-// The photos a capture gave, and the set-up they are measured with.
+// The photos a capture gave, the set-up they are measured with, and where the overlay of what
+// was found goes in the cycle's record.
 struct MeasureInput {
     std::shared_ptr<const std::vector<hal::Frame>> frames;
     std::string camera_yaml, plane_yaml;
+    std::string overlay_name;
 };
 
 struct SolveOutcome {
@@ -111,8 +113,8 @@ class CycleMode {
     // probe. Most modes go straight on.
     virtual void before_target(std::function<void()> then) = 0;
     // 2. Measure the photos of the target (or of the verification job) into the mode's working
-    // data; its overlay is kept in the record before `then`.
-    virtual void measure(MeasureInput input, bool verifying, std::function<void()> then) = 0;
+    // data; its overlay is kept in the record (input.overlay_name) before `then`.
+    virtual void measure(MeasureInput input, std::function<void()> then) = 0;
     // 3. Solve what was measured last, keeping its record files.
     virtual void solve(std::function<void(SolveOutcome)> then) = 0;
     virtual ReviewText review() const = 0;
@@ -154,7 +156,6 @@ void work_out(CycleSteps& steps, std::function<T()> compute, std::function<void(
 std::unique_ptr<CycleMode> make_cycle_mode(const models::MachineFile& machine, CycleSteps& steps);
 
 // Record and data-directory helpers the modes share.
-std::string fixed(double value, int decimals);
 std::vector<std::string> lines_of(const std::string& text);
 std::string joined(const std::vector<std::string>& lines);  // each line ended by a newline
 

@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/geometry/calibration.hpp"
+#include "core/number_text.hpp"
 #include "core/vision/reference_marks.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/modes/photos.hpp"
@@ -86,7 +87,7 @@ void Cycle::take_calibration_view(int view, const hal::Frame& frame,
             for (const auto& v : result.views) per_view.push_back(v.rms_px);
             *yaml = geometry::camera_to_yaml(result.camera, per_view);
             *summary = "camera calibrated from " + std::to_string(result.views.size()) +
-                       " views, RMS " + fixed(result.camera.rms_px, 3) + " px";
+                       " views, RMS " + number_text("%.3f", result.camera.rms_px) + " px";
         },
         [this, yaml, summary] {
             if (!keep("camera.yaml", *yaml)) return;
@@ -119,8 +120,8 @@ void Cycle::setup_plane() {
                     const auto plane = geometry::estimate_bed_plane(
                         camera, geometry::parse_pattern_spec(pattern), view_of(*frame), thickness);
                     *yaml = geometry::plane_to_yaml(plane);
-                    *summary =
-                        "bed plane from " + pattern + ", RMS " + fixed(plane.rms_px, 3) + " px";
+                    *summary = "bed plane from " + pattern + ", RMS " +
+                               number_text("%.3f", plane.rms_px) + " px";
                     if (marks == kNoReferenceMarks) return;
                     // The marks' view is taken with the plane, in the same photo: the two hold
                     // together until the camera moves.
@@ -205,9 +206,9 @@ void Cycle::check_camera() {
                     return;
                 }
                 report_.camera_move_mm = move->largest_mm;
-                const std::string moved = "largest apparent move " + fixed(move->largest_mm, 3) +
-                                          " mm (limit " +
-                                          fixed(settings_.camera_moved_limit_mm, 3) + " mm)";
+                const std::string moved =
+                    "largest apparent move " + number_text("%.3f", move->largest_mm) +
+                    " mm (limit " + number_text("%.3f", settings_.camera_moved_limit_mm) + " mm)";
                 if (move->largest_mm > settings_.camera_moved_limit_mm) {
                     fail("the camera has moved since the plane was taken: " + seen + ", " + moved +
                              "; fix the camera's mount, then take the plane again (console: "

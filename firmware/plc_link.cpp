@@ -9,6 +9,8 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "firmware/modes/delta_mode.hpp"
+
 namespace calbox::firmware {
 namespace {
 
@@ -28,16 +30,9 @@ const std::vector<std::string>& result_value_names() {
     static const std::vector<std::string> names = [] {
         std::vector<std::string> n{"measured_xy_rms_mm",  "measured_xy_max_mm",
                                    "predicted_xy_rms_mm", "predicted_xy_max_mm",
-                                   "verified_xy_rms_mm",  "verified_xy_max_mm",
-                                   "diagonal_rod_mm"};
-        for (const char* t : {"a", "b", "c"})
-            n.push_back(std::string("diagonal_rod_trim_") + t + "_mm");
-        n.emplace_back("radius_mm");
-        for (const char* t : {"a", "b", "c"})
-            n.push_back(std::string("tower_angle_trim_") + t + "_deg");
-        for (const char* t : {"a", "b", "c"})
-            n.push_back(std::string("endstop_offset_") + t + "_mm");
-        n.emplace_back("height_mm");
+                                   "verified_xy_rms_mm",  "verified_xy_max_mm"};
+        // Then the settings a delta's correction sent.
+        for (const auto& [name, value] : settings_values({})) n.push_back(name);
         return n;
     }();
     return names;

@@ -135,10 +135,9 @@ void DeltaCycleMode::send_and_read_back(
     });
 }
 
-void DeltaCycleMode::measure(MeasureInput input, bool verifying, std::function<void()> then) {
+void DeltaCycleMode::measure(MeasureInput input, std::function<void()> then) {
     measure_photos(
         steps_, std::move(input),
-        verifying ? pass_file("verify-overlay.png") : steps_.record_name("overlay.png"),
         [this, machine = machine_](const CalibratedPhotos& photos, std::string& overlay) {
             const auto measured =
                 modes::measure_delta(machine, photos.camera, photos.plane, photos.views);
@@ -221,19 +220,20 @@ ReviewText DeltaCycleMode::review() const {
     const auto& c = s.fit.correction;
     const auto& pass = passes_.back();
     ReviewText r;
-    r.detail = "predicted XY after " + fixed(c.predicted_xy_rms_mm, 4) + " mm RMS";
+    r.detail = "predicted XY after " + number_text("%.4f", c.predicted_xy_rms_mm) + " mm RMS";
     r.proposed =
-        ("proposed: rod " + fixed(before.diagonal_rod_mm, 3) + " -> " +
-         fixed(s.after.diagonal_rod_mm, 3) + " mm, radius " + fixed(before.radius_mm, 3) + " -> " +
-         fixed(s.after.radius_mm, 3) + " mm; fit RMS " + fixed(s.fit.fitted.fit_rms_mm, 4) +
-         " mm; predicted XY " + fixed(c.predicted_xy_rms_mm, 4) + " mm RMS, " +
-         fixed(c.predicted_xy_max_mm, 4) + " mm worst");
+        ("proposed: rod " + number_text("%.3f", before.diagonal_rod_mm) + " -> " +
+         number_text("%.3f", s.after.diagonal_rod_mm) + " mm, radius " +
+         number_text("%.3f", before.radius_mm) + " -> " + number_text("%.3f", s.after.radius_mm) +
+         " mm; fit RMS " + number_text("%.4f", s.fit.fitted.fit_rms_mm) + " mm; predicted XY " +
+         number_text("%.4f", c.predicted_xy_rms_mm) + " mm RMS, " +
+         number_text("%.4f", c.predicted_xy_max_mm) + " mm worst");
     for (const auto& command : s.commands) r.details.push_back("  " + command);
     r.screen = ReviewScreen{
         {"rod " + number_text("%+.3f", s.after.diagonal_rod_mm - before.diagonal_rod_mm) + " mm",
          "radius " + number_text("%+.3f", s.after.radius_mm - before.radius_mm) + " mm"},
-        "XY " + fixed(pass.measured_xy_rms_mm, 3),
-        fixed(c.predicted_xy_rms_mm, 3) + " mm"};
+        "XY " + number_text("%.3f", pass.measured_xy_rms_mm),
+        number_text("%.3f", c.predicted_xy_rms_mm) + " mm"};
     return r;
 }
 
@@ -287,8 +287,8 @@ void DeltaCycleMode::judge_verification(std::function<void(VerifyOutcome)> then)
     if (!steps_.keep(pass_file("verify-measurements.json"),
                      modes::measurements_to_json(*measurements_)))
         return;
-    steps_.log("verified on the re-printed target: XY " + fixed(verified.rms_mm, 4) + " mm RMS, " +
-               fixed(verified.max_mm, 4) + " mm worst");
+    steps_.log("verified on the re-printed target: XY " + number_text("%.4f", verified.rms_mm) +
+               " mm RMS, " + number_text("%.4f", verified.max_mm) + " mm worst");
     auto& pass = passes_.back();
     pass.verify_xy_rms_mm = verified.rms_mm;
     pass.verify_xy_max_mm = verified.max_mm;
@@ -300,7 +300,7 @@ void DeltaCycleMode::judge_verification(std::function<void(VerifyOutcome)> then)
     if (pass.step == modes::DeltaPassStep::apply_and_stop_out_of_passes)
         steps_.notice("pass " + std::to_string(pass.pass) +
                       ", the last allowed, still corrected the printer by up to " +
-                      fixed(std::max(pass.xy_change_mm, pass.height_change_mm), 3) +
+                      number_text("%.3f", std::max(pass.xy_change_mm, pass.height_change_mm)) +
                       " mm; calibrate again to see whether it holds, and if it does not, "
                       "check that the bed is flat and firmly mounted");
     then({verified, false});
@@ -355,23 +355,28 @@ ModeResult DeltaCycleMode::result(bool) const {
     const auto& c = solution_->fit.correction;
     r.values = {{"predicted_xy_rms_mm", c.predicted_xy_rms_mm},
                 {"predicted_xy_max_mm", c.predicted_xy_max_mm}};
-    const auto& g = solution_->after;
+    for (auto& value : settings_values(solution_->after)) r.values.push_back(std::move(value));
+    return r;
+}
+
+std::vector<std::pair<std::string, double>> settings_values(const models::DeltaGeometry& g) {
+    std::vector<std::pair<std::string, double>> values;
     const char* towers[] = {"a", "b", "c"};
     auto add3 = [&](const std::string& stem, const std::string& unit,
-                    const std::array<double, 3>& values) {
+                    const std::array<double, 3>& per_tower) {
         for (std::size_t i = 0; i < 3; ++i) {
             std::string name = stem;
             name.append("_").append(towers[i]).append("_").append(unit);
-            r.values.emplace_back(std::move(name), values[i]);
+            values.emplace_back(std::move(name), per_tower[i]);
         }
     };
-    r.values.emplace_back("diagonal_rod_mm", g.diagonal_rod_mm);
+    values.emplace_back("diagonal_rod_mm", g.diagonal_rod_mm);
     add3("diagonal_rod_trim", "mm", g.diagonal_rod_trim_mm);
-    r.values.emplace_back("radius_mm", g.radius_mm);
+    values.emplace_back("radius_mm", g.radius_mm);
     add3("tower_angle_trim", "deg", g.tower_angle_trim_deg);
     add3("endstop_offset", "mm", g.endstop_offset_mm);
-    r.values.emplace_back("height_mm", g.height_mm);
-    return r;
+    values.emplace_back("height_mm", g.height_mm);
+    return values;
 }
 
 }  // namespace calbox::firmware

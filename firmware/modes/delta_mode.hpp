@@ -3,6 +3,7 @@
 // backup and a read-back, in passes until the printer holds.
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/modes/delta.hpp"
@@ -22,6 +23,10 @@ struct DeltaPassReport {
     std::optional<double> verify_xy_rms_mm, verify_xy_max_mm;
 };
 
+// The settings a delta correction sends, named as the Modbus result block names them
+// ("diagonal_rod_trim_a_mm", ...), in its order.
+std::vector<std::pair<std::string, double>> settings_values(const models::DeltaGeometry& g);
+
 class DeltaCycleMode final : public CycleMode {
   public:
     DeltaCycleMode(models::MachineFile machine, CycleSteps& steps,
@@ -32,7 +37,7 @@ class DeltaCycleMode final : public CycleMode {
     void begin() override;
     void make_target(std::function<void(std::vector<std::string>)> then) override;
     void before_target(std::function<void()> then) override;
-    void measure(MeasureInput input, bool verifying, std::function<void()> then) override;
+    void measure(MeasureInput input, std::function<void()> then) override;
     void solve(std::function<void(SolveOutcome)> then) override;
     ReviewText review() const override;
     void apply(std::function<void(bool verify)> then) override;

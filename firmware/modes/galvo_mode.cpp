@@ -1,5 +1,6 @@
 #include "firmware/modes/galvo_mode.hpp"
 
+#include "core/number_text.hpp"
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
 #include "firmware/modes/photos.hpp"
@@ -39,10 +40,9 @@ void GalvoCycleMode::make_target(std::function<void(std::vector<std::string>)> t
         std::move(then));
 }
 
-void GalvoCycleMode::measure(MeasureInput input, bool verifying, std::function<void()> then) {
+void GalvoCycleMode::measure(MeasureInput input, std::function<void()> then) {
     measure_photos(
         steps_, std::move(input),
-        steps_.record_name(verifying ? "verify-overlay.png" : "overlay.png"),
         [this, machine = machine_](const CalibratedPhotos& photos, std::string& overlay) {
             // One photo of the whole grid: the first frame.
             auto measured =
@@ -80,17 +80,19 @@ ReviewText GalvoCycleMode::review() const {
     const auto& s = *solution_;
     const auto& t = s.fit.table;
     ReviewText r;
-    r.detail = "predicted after " + fixed(s.predicted_rms_mm, 4) + " mm RMS";
+    r.detail = "predicted after " + number_text("%.4f", s.predicted_rms_mm) + " mm RMS";
     r.proposed = ("proposed: a " + std::to_string(t.nodes) + " x " + std::to_string(t.nodes) +
-                  " table over X " + fixed(t.min_x_mm, 2) + ".." + fixed(t.max_x_mm, 2) + " Y " +
-                  fixed(t.min_y_mm, 2) + ".." + fixed(t.max_y_mm, 2) + " mm; error now " +
-                  fixed(s.fit.before.mean_mm, 4) + " mm mean, " + fixed(s.fit.before.max_mm, 4) +
-                  " mm worst; predicted after " + fixed(s.predicted_rms_mm, 4) + " mm RMS");
+                  " table over X " + number_text("%.2f", t.min_x_mm) + ".." +
+                  number_text("%.2f", t.max_x_mm) + " Y " + number_text("%.2f", t.min_y_mm) + ".." +
+                  number_text("%.2f", t.max_y_mm) + " mm; error now " +
+                  number_text("%.4f", s.fit.before.mean_mm) + " mm mean, " +
+                  number_text("%.4f", s.fit.before.max_mm) + " mm worst; predicted after " +
+                  number_text("%.4f", s.predicted_rms_mm) + " mm RMS");
     r.screen =
         ReviewScreen{{"a " + std::to_string(t.nodes) + "x" + std::to_string(t.nodes) + " table",
                       "mean error, in mm:"},
-                     fixed(s.fit.before.mean_mm, 3),
-                     fixed(s.predicted_rms_mm, 3)};
+                     number_text("%.3f", s.fit.before.mean_mm),
+                     number_text("%.3f", s.predicted_rms_mm)};
     return r;
 }
 
@@ -108,8 +110,9 @@ void GalvoCycleMode::judge_verification(std::function<void(VerifyOutcome)> then)
                         return;
                     const auto& v = again->fit.before;
                     steps_.log("verified on the grid burned through the table: " +
-                               fixed(v.mean_mm, 4) + " mm mean, " + fixed(v.rms_mm, 4) +
-                               " mm RMS, " + fixed(v.max_mm, 4) + " mm worst");
+                               number_text("%.4f", v.mean_mm) + " mm mean, " +
+                               number_text("%.4f", v.rms_mm) + " mm RMS, " +
+                               number_text("%.4f", v.max_mm) + " mm worst");
                     then({figures_of(v), false});
                 });
 }

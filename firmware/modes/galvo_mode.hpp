@@ -23,7 +23,7 @@ class GalvoCycleMode final : public KeptCorrectionMode {
     void begin() override;
     void make_target(std::function<void(std::vector<std::string>)> then) override;
     void before_target(std::function<void()> then) override { then(); }
-    void measure(MeasureInput input, bool verifying, std::function<void()> then) override;
+    void measure(MeasureInput input, std::function<void()> then) override;
     void solve(std::function<void(SolveOutcome)> then) override;
     ReviewText review() const override;
     void judge_verification(std::function<void(VerifyOutcome)> then) override;

@@ -1,5 +1,4 @@
 // The one place on the box's side that reads the machine's kind.
-#include <cstdio>
 #include <sstream>
 #include <stdexcept>
 
@@ -15,12 +14,6 @@ std::unique_ptr<CycleMode> make_cycle_mode(const models::MachineFile& machine, C
     if (machine.is_planar()) return std::make_unique<PlanarCycleMode>(machine, steps);
     throw std::invalid_argument("the cycle runs the delta, galvo and planar modes, not a " +
                                 machine.kind);
-}
-
-std::string fixed(double value, int decimals) {
-    char b[64];
-    std::snprintf(b, sizeof b, "%.*f", decimals, value);
-    return b;
 }
 
 std::vector<std::string> lines_of(const std::string& text) {

@@ -35,9 +35,10 @@ CalibratedPhotos calibrated_photos(const MeasureInput& input) {
 
 namespace calbox::firmware {
 
-void measure_photos(CycleSteps& steps, MeasureInput input, const std::string& overlay_name,
-                    Measurer measurer, std::function<void()> then) {
+void measure_photos(CycleSteps& steps, MeasureInput input, Measurer measurer,
+                    std::function<void()> then) {
     auto overlay = std::make_shared<std::string>();
+    const std::string overlay_name = input.overlay_name;
     auto take = std::make_shared<TakeMeasurement>();
     steps.work([measurer = std::move(measurer), input = std::move(input), overlay,
                 take] { *take = measurer(calibrated_photos(input), *overlay); },

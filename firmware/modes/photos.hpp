@@ -34,9 +34,9 @@ namespace calbox::firmware {
 // overlay's PNG), it returns what stores the measurement in the mode, run on the loop.
 using TakeMeasurement = std::function<void()>;
 using Measurer = std::function<TakeMeasurement(const CalibratedPhotos&, std::string& overlay_png)>;
-// Measures the photos with `measurer`, keeps the overlay as `overlay_name` in the data
+// Measures the photos with `measurer`, keeps the overlay as input.overlay_name in the data
 // directory, stores the measurement, then `then`.
-void measure_photos(CycleSteps& steps, MeasureInput input, const std::string& overlay_name,
-                    Measurer measurer, std::function<void()> then);
+void measure_photos(CycleSteps& steps, MeasureInput input, Measurer measurer,
+                    std::function<void()> then);
 
 }  // namespace calbox::firmware

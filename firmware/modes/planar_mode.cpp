@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/number_text.hpp"
 #include "core/targets/planar_target.hpp"
 #include "firmware/modes/photos.hpp"
 #include "firmware/overlays.hpp"
@@ -43,10 +44,9 @@ void PlanarCycleMode::make_target(std::function<void(std::vector<std::string>)> 
         std::move(then));
 }
 
-void PlanarCycleMode::measure(MeasureInput input, bool verifying, std::function<void()> then) {
+void PlanarCycleMode::measure(MeasureInput input, std::function<void()> then) {
     measure_photos(
         steps_, std::move(input),
-        steps_.record_name(verifying ? "verify-overlay.png" : "overlay.png"),
         [this, machine = machine_](const CalibratedPhotos& photos, std::string& overlay) {
             // The box's camera sees the whole sheet: the first frame.
             auto measured =
@@ -87,17 +87,18 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
 ReviewText PlanarCycleMode::review() const {
     const auto& s = *solution_;
     ReviewText r;
-    r.detail = "predicted after " + fixed(s.after.mean_mm, 4) + " mm mean";
-    r.proposed =
-        ("proposed: the error model over X " + fixed(s.min_x_mm, 1) + ".." + fixed(s.max_x_mm, 1) +
-         " Y " + fixed(s.min_y_mm, 1) + ".." + fixed(s.max_y_mm, 1) + " mm; error norm now " +
-         fixed(s.before.mean_mm, 4) + " mm mean, " + fixed(s.before.max_mm, 4) +
-         " mm worst; predicted after " + fixed(s.after.mean_mm, 4) + " mm mean, " +
-         fixed(s.after.max_mm, 4) + " mm worst");
+    r.detail = "predicted after " + number_text("%.4f", s.after.mean_mm) + " mm mean";
+    r.proposed = ("proposed: the error model over X " + number_text("%.1f", s.min_x_mm) + ".." +
+                  number_text("%.1f", s.max_x_mm) + " Y " + number_text("%.1f", s.min_y_mm) + ".." +
+                  number_text("%.1f", s.max_y_mm) + " mm; error norm now " +
+                  number_text("%.4f", s.before.mean_mm) + " mm mean, " +
+                  number_text("%.4f", s.before.max_mm) + " mm worst; predicted after " +
+                  number_text("%.4f", s.after.mean_mm) + " mm mean, " +
+                  number_text("%.4f", s.after.max_mm) + " mm worst");
     r.screen = ReviewScreen{
         {"error model, " + std::to_string(s.fit.rank - 3) + " terms", "mean error, in mm:"},
-        fixed(s.before.mean_mm, 3),
-        fixed(s.after.mean_mm, 3)};
+        number_text("%.3f", s.before.mean_mm),
+        number_text("%.3f", s.after.mean_mm)};
     return r;
 }
 
@@ -113,8 +114,8 @@ void PlanarCycleMode::judge_verification(std::function<void(VerifyOutcome)> then
                                      modes::planar_measurements_to_json(*measured_)))
                         return;
                     steps_.log("verified on the grid drilled through the model: " +
-                               fixed(*verified.mean_mm, 4) + " mm mean, " +
-                               fixed(verified.max_mm, 4) + " mm worst");
+                               number_text("%.4f", *verified.mean_mm) + " mm mean, " +
+                               number_text("%.4f", verified.max_mm) + " mm worst");
                     then({verified, false});
                 });
 }

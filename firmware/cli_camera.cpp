@@ -14,8 +14,11 @@ constexpr const char* kCameraHelp = R"(usage:
       Intrinsic calibration from views of a board: SPEC is chessboard:COLSxROWS@MM (inner
       corners), charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares), circles:COLSxROWS@MM or
       acircles:COLSxROWS@MM. Views where the board is not found are skipped and listed; a pinhole
-      needs at least 3 usable views and 60 corners, a fisheye 4 and 80. Prints each view's
-      reprojection RMS and which detector found it.
+      needs at least 3 usable views and 60 corners, a fisheye 4 and 80. A view reprojecting
+      far beyond the others (5 times the better views, and over 1 px) is re-solved through the
+      others' camera or dropped, with a line saying which and why. Nothing is written when the
+      views left are too few or the RMS exceeds 1 px (pinhole) or 1.5 px (fisheye). Prints each
+      view's reprojection RMS and which detector found it.
   calbox camera plane --camera camera.yaml --pattern SPEC [--thickness MM] IMAGE -o plane.yaml
       The bed plane from one image of a board lying on the bed, its surface --thickness mm
       (default 0) above the bed. The bed frame is right-handed with z up, its origin under the
@@ -43,11 +46,14 @@ int calibrate(const std::vector<std::string>& words) {
     const auto result = geometry::calibrate_camera(pattern, model, views);
     std::vector<double> per_view;
     for (const auto& v : result.views) {
-        std::printf("view %s: %d points (%s), reprojection RMS %.4f px\n", v.name.c_str(), v.points,
-                    v.detector.c_str(), v.rms_px);
+        std::printf("view %s: %d points (%s), reprojection RMS %.4f px%s%s\n", v.name.c_str(),
+                    v.points, v.detector.c_str(), v.rms_px, v.note.empty() ? "" : "; ",
+                    v.note.c_str());
         per_view.push_back(v.rms_px);
     }
     for (const auto& s : result.skipped) std::printf("skipped %s: board not found\n", s.c_str());
+    for (const auto& d : result.dropped)
+        std::printf("dropped %s: %s\n", d.name.c_str(), d.why.c_str());
     const auto& c = result.camera;
     std::printf("%s camera %dx%d: fx %.3f fy %.3f cx %.3f cy %.3f, RMS %.4f px over %zu views\n",
                 model == geometry::LensModel::fisheye ? "fisheye" : "pinhole", c.image_width,

@@ -88,6 +88,7 @@ void Cycle::take_calibration_view(int view, const hal::Frame& frame,
             *yaml = geometry::camera_to_yaml(result.camera, per_view);
             *summary = "camera calibrated from " + std::to_string(result.views.size()) +
                        " views, RMS " + number_text("%.3f", result.camera.rms_px) + " px";
+            for (const auto& d : result.dropped) *summary += "; dropped " + d.name + ": " + d.why;
         },
         [this, yaml, summary] {
             if (!keep("camera.yaml", *yaml)) return;

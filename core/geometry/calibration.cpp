@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
@@ -261,29 +262,31 @@ double image_coverage(const std::vector<ObservedView>& views, int width_px, int 
            (kColumns * kRows);
 }
 
-CalibrationResult calibrate_from_views(LensModel model, const std::vector<ObservedView>& views,
-                                       int width_px, int height_px) {
-    check_minimum(model, views, std::to_string(views.size()) + " views");
-    CalibrationResult result;
-    std::vector<const BoardObservation*> used;
-    for (const auto& v : views) {
-        used.push_back(&v.board);
-        result.views.push_back(
-            {v.name, static_cast<int>(v.board.image_points.size()), 0, v.board.detector});
-    }
-    const cv::Size size(width_px, height_px);
+namespace {
+
+struct IntrinsicSolve {
+    CameraModel camera;
+    std::vector<double> view_rms_px;
+};
+
+// OpenCV's solve over `boards`; from `guess` when given (its views' poses are then started from
+// the guess's intrinsics, which is what brings round a view whose own start did not converge).
+IntrinsicSolve solve_intrinsics(LensModel model, const std::vector<const BoardObservation*>& boards,
+                                cv::Size size, const CameraModel* guess) {
     std::vector<std::vector<cv::Point3f>> object;
     std::vector<std::vector<cv::Point2f>> image;
-    for (const auto* o : used) {
+    for (const auto* o : boards) {
         object.push_back(object_points_f(o->object_points));
         image.push_back(image_points_f(o->image_points));
     }
     cv::Mat k, d;
     std::vector<cv::Mat> rvecs, tvecs;
-    CameraModel& camera = result.camera;
+    IntrinsicSolve out;
+    CameraModel& camera = out.camera;
     camera.model = model;
     camera.image_width = size.width;
     camera.image_height = size.height;
+    const cv::TermCriteria until(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12);
     try {
         if (model == LensModel::fisheye) {
             std::vector<std::vector<cv::Point3d>> object_d;
@@ -294,16 +297,24 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
             }
             cv::Matx33d kk;
             cv::Vec4d dd;
-            cv::fisheye::calibrate(
-                object_d, image_d, size, kk, dd, rvecs, tvecs,
-                cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW,
-                cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12));
+            int flags = cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW;
+            if (guess) {
+                kk = cv::Matx33d(guess->camera_matrix.data());
+                for (int i = 0; i < 4; ++i)
+                    dd[i] = guess->distortion.at(static_cast<std::size_t>(i));
+                flags |= cv::fisheye::CALIB_USE_INTRINSIC_GUESS;
+            }
+            cv::fisheye::calibrate(object_d, image_d, size, kk, dd, rvecs, tvecs, flags, until);
             k = cv::Mat(kk);
             d = cv::Mat(dd);
         } else {
-            cv::calibrateCamera(
-                object, image, size, k, d, rvecs, tvecs, 0,
-                cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 200, 1e-12));
+            int flags = 0;
+            if (guess) {
+                k = cv::Mat(cv::Matx33d(guess->camera_matrix.data()));
+                d = cv::Mat(guess->distortion, true);
+                flags |= cv::CALIB_USE_INTRINSIC_GUESS;
+            }
+            cv::calibrateCamera(object, image, size, k, d, rvecs, tvecs, flags, until);
         }
     } catch (const cv::Exception& e) {
         throw CalibrationError(std::string("OpenCV could not calibrate from these views: ") +
@@ -316,19 +327,165 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
     camera.distortion.assign(d.begin<double>(), d.end<double>());
     double sum = 0;
     std::size_t count = 0;
-    for (std::size_t v = 0; v < used.size(); ++v) {
+    for (std::size_t v = 0; v < boards.size(); ++v) {
         RigidPose pose;
         for (int i = 0; i < 3; ++i) {
             pose.rvec[static_cast<std::size_t>(i)] = rvecs[v].at<double>(i);
             pose.tvec_mm[static_cast<std::size_t>(i)] = tvecs[v].at<double>(i);
         }
-        const auto projected = project_points(camera, pose, used[v]->object_points);
-        const double rms = rms_between(projected, used[v]->image_points);
-        result.views[v].rms_px = rms;
+        const auto projected = project_points(camera, pose, boards[v]->object_points);
+        const double rms = rms_between(projected, boards[v]->image_points);
+        out.view_rms_px.push_back(rms);
         sum += rms * rms * static_cast<double>(projected.size());
         count += projected.size();
     }
     camera.rms_px = std::sqrt(sum / static_cast<double>(count));
+    return out;
+}
+
+// The level the better views reach: their lower quartile, which stays with the good views even
+// when half of a small set is off (a median would then sit between the two groups).
+double typical_rms_px(std::vector<double> values) {
+    std::sort(values.begin(), values.end());
+    return values[(values.size() - 1) / 4];
+}
+
+std::string px_text(double px) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%.2f px", px);
+    return text;
+}
+
+const char* model_name(LensModel model) {
+    return model == LensModel::fisheye ? "fisheye" : "pinhole";
+}
+
+}  // namespace
+
+RigidPose solve_board_pose(const CameraModel& camera, const BoardObservation& board) {
+    // Pose from undistorted points with an ideal camera: the same path for both lens models.
+    const auto normalized = undistort_to_normalized(camera, board.image_points);
+    std::vector<cv::Point3d> object;
+    for (const auto& p : board.object_points) object.emplace_back(p.x, p.y, p.z);
+    cv::Vec3d rvec, tvec;
+    try {
+        if (!cv::solvePnP(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec, tvec,
+                          false, cv::SOLVEPNP_IPPE))
+            throw CalibrationError("the board's pose could not be solved (solvePnP failed)");
+        cv::solvePnPRefineLM(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec,
+                             tvec);
+    } catch (const cv::Exception& e) {
+        throw CalibrationError(std::string("the board's pose could not be solved: ") + e.err);
+    }
+    if (!(tvec[2] > 0)) throw CalibrationError("the board's solved pose puts it behind the camera");
+    RigidPose pose;
+    for (int i = 0; i < 3; ++i) {
+        pose.rvec[static_cast<std::size_t>(i)] = rvec[i];
+        pose.tvec_mm[static_cast<std::size_t>(i)] = tvec[i];
+    }
+    return pose;
+}
+
+double calibration_max_rms_px(LensModel model) {
+    return model == LensModel::fisheye ? 1.5 : 1.0;
+}
+
+CalibrationResult calibrate_from_views(LensModel model, const std::vector<ObservedView>& views,
+                                       int width_px, int height_px, const ViewJudging& judging) {
+    check_minimum(model, views, std::to_string(views.size()) + " views");
+    const cv::Size size(width_px, height_px);
+    std::vector<const BoardObservation*> boards;
+    for (const auto& v : views) boards.push_back(&v.board);
+    IntrinsicSolve solve = solve_intrinsics(model, boards, size, nullptr);
+
+    // A view whose reprojection stands far above the others' was solved wrong (its pose did not
+    // converge from OpenCV's start) or found wrong (corners mis-ordered, another board): it pulls
+    // every intrinsic towards it. It is set aside, the rest solved, and then its pose solved
+    // through the rest's camera: a view that then fits rejoins, one that does not is dropped.
+    const double first_typical = typical_rms_px(solve.view_rms_px);
+    const double limit_px =
+        std::max(judging.outlier_factor * first_typical, judging.outlier_floor_px);
+    std::vector<std::size_t> kept, outliers;
+    for (std::size_t v = 0; v < views.size(); ++v)
+        (solve.view_rms_px[v] > limit_px ? outliers : kept).push_back(v);
+
+    CalibrationResult result;
+    std::vector<std::size_t> used = kept;
+    std::vector<std::string> notes(views.size());
+    if (!outliers.empty()) {
+        std::vector<ObservedView> rest;
+        for (const auto v : kept) rest.push_back(views[v]);
+        std::string dropped_names;
+        for (const auto v : outliers)
+            dropped_names += (dropped_names.empty() ? "" : ", ") + views[v].name;
+        check_minimum(model, rest,
+                      std::to_string(rest.size()) + " views once " + dropped_names +
+                          " (far off the others) were set aside");
+        std::vector<const BoardObservation*> rest_boards;
+        for (const auto v : kept) rest_boards.push_back(&views[v].board);
+        IntrinsicSolve without = solve_intrinsics(model, rest_boards, size, nullptr);
+        const double rest_typical = typical_rms_px(without.view_rms_px);
+        const double rest_limit_px =
+            std::max(judging.outlier_factor * rest_typical, judging.outlier_floor_px);
+        std::vector<std::size_t> rejoined;
+        for (const auto v : outliers) {
+            double resolved_px = std::numeric_limits<double>::infinity();
+            try {
+                const RigidPose pose = solve_board_pose(without.camera, views[v].board);
+                resolved_px =
+                    rms_between(project_points(without.camera, pose, views[v].board.object_points),
+                                views[v].board.image_points);
+            } catch (const CalibrationError&) {
+            }
+            if (resolved_px <= rest_limit_px) {
+                rejoined.push_back(v);
+                notes[v] = "re-solved: its pose had not converged (" +
+                           px_text(solve.view_rms_px[v]) + "), through the other views' camera " +
+                           px_text(resolved_px);
+            } else {
+                result.dropped.push_back(
+                    {views[v].name,
+                     "reprojects at " + px_text(solve.view_rms_px[v]) +
+                         " against the better views' " + px_text(first_typical) + ", and " +
+                         (std::isfinite(resolved_px) ? px_text(resolved_px)
+                                                     : std::string("no pose")) +
+                         " through their camera: its corners do not fit the lens the others "
+                         "show (mis-ordered, another board, or past the lens model's reach)"});
+            }
+        }
+        solve = std::move(without);
+        if (!rejoined.empty()) {
+            std::vector<std::size_t> all = kept;
+            all.insert(all.end(), rejoined.begin(), rejoined.end());
+            std::vector<const BoardObservation*> all_boards;
+            for (const auto v : all) all_boards.push_back(&views[v].board);
+            IntrinsicSolve with = solve_intrinsics(model, all_boards, size, &solve.camera);
+            bool all_fit = true;
+            for (const double rms : with.view_rms_px) all_fit = all_fit && rms <= rest_limit_px;
+            if (all_fit) {
+                solve = std::move(with);
+                used = std::move(all);
+            } else {
+                for (const auto v : rejoined)
+                    result.dropped.push_back({views[v].name,
+                                              "fits alone through the other views' camera but not "
+                                              "solved with them: left out"});
+            }
+        }
+    }
+    for (std::size_t i = 0; i < used.size(); ++i) {
+        const auto& view = views[used[i]];
+        result.views.push_back({view.name, static_cast<int>(view.board.image_points.size()),
+                                solve.view_rms_px[i], view.board.detector, notes[used[i]]});
+    }
+    result.camera = solve.camera;
+    const double max_rms_px = calibration_max_rms_px(model);
+    if (!(result.camera.rms_px <= max_rms_px))
+        throw CalibrationError("the " + std::string(model_name(model)) +
+                               " calibration reprojects at " + px_text(result.camera.rms_px) +
+                               " RMS over " + std::to_string(result.views.size()) +
+                               " views (at most " + px_text(max_rms_px) +
+                               "): is the lens model right, and the board flat and sharp?");
     return result;
 }
 
@@ -351,26 +508,7 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
                                                ? "chessboard"
                                                : "ChArUco board") +
                                " was not found in the image");
-    // Pose from undistorted points with an ideal camera: the same path for both lens models.
-    const auto normalized = undistort_to_normalized(camera, obs->image_points);
-    std::vector<cv::Point3d> object;
-    for (const auto& p : obs->object_points) object.emplace_back(p.x, p.y, p.z);
-    cv::Vec3d rvec, tvec;
-    try {
-        if (!cv::solvePnP(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec, tvec,
-                          false, cv::SOLVEPNP_IPPE))
-            throw CalibrationError("the board's pose could not be solved (solvePnP failed)");
-        cv::solvePnPRefineLM(object, to_cv(normalized), cv::Matx33d::eye(), cv::noArray(), rvec,
-                             tvec);
-    } catch (const cv::Exception& e) {
-        throw CalibrationError(std::string("the board's pose could not be solved: ") + e.err);
-    }
-    if (!(tvec[2] > 0)) throw CalibrationError("the board's solved pose puts it behind the camera");
-    RigidPose board;
-    for (int i = 0; i < 3; ++i) {
-        board.rvec[static_cast<std::size_t>(i)] = rvec[i];
-        board.tvec_mm[static_cast<std::size_t>(i)] = tvec[i];
-    }
+    const RigidPose board = solve_board_pose(camera, *obs);
     BedPlane plane;
     plane.board_thickness_mm = board_thickness_mm;
     plane.rms_px =
@@ -387,7 +525,8 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
     // from the board's surface to the bed's: the bed origin is the board point (0, 0, thickness).
     const cv::Matx33d r_board = rotation_of(board);
     const cv::Matx33d r_bed = r_board * cv::Matx33d(1, 0, 0, 0, -1, 0, 0, 0, -1);
-    const cv::Vec3d t_bed = tvec + r_board * cv::Vec3d(0, 0, board_thickness_mm);
+    const cv::Vec3d t_bed = cv::Vec3d(board.tvec_mm[0], board.tvec_mm[1], board.tvec_mm[2]) +
+                            r_board * cv::Vec3d(0, 0, board_thickness_mm);
     cv::Vec3d r;
     cv::Rodrigues(r_bed, r);
     for (int i = 0; i < 3; ++i) {

@@ -17,6 +17,7 @@
 #include "board/sim/scenes.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/targets/job.hpp"
+#include "tests/support/test_data.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -32,17 +33,8 @@ bed_size_y_mm = 200.0
 tool_width_mm = 0.1
 )toml";
 
-// The drawings live beside the project (../shared/data): a clone elsewhere says so here.
-std::string read_file(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) throw std::runtime_error("cannot read " + path);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
 std::string drawing(const std::string& name) {
-    return read_file(std::string(CALBOX_SOURCE_DIR) + "/../shared/data/svg/" + name + ".svg");
+    return test::read_test_data("svg/" + name + ".svg");
 }
 
 // The outline as the test reads it: the polygon's points, fitted to 40 mm and centred as the

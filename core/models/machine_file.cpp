@@ -229,6 +229,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
             TomlReader g(file, *galvo, "galvo");
             g.number("field_size_mm", m.galvo->field_size_mm, 5, 2000);
             g.number("substrate_height_mm", m.galvo->substrate_height_mm, -50, 200);
+            g.text("marks", m.galvo->marks, {"dark", "light"});
             g.finish();
         }
     } else if (galvo != nullptr) {
@@ -237,6 +238,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     const auto* planar = subtable(file, root, "planar");
     if (m.is_planar()) {
         m.planar.emplace();
+        if (m.kind == "cartesian") m.planar->holes = "light";
         if (planar != nullptr) {
             TomlReader g(file, *planar, "planar");
             g.number("hole_pitch_mm", m.planar->hole_pitch_mm, 2, 500);
@@ -247,6 +249,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
             g.number("dwell_s", m.planar->dwell_s, 0, 60);
             g.number("steps_per_mm_x", m.planar->steps_per_mm_x, 0.01, 1e6);
             g.number("steps_per_mm_y", m.planar->steps_per_mm_y, 0.01, 1e6);
+            g.text("holes", m.planar->holes, {"dark", "light"});
             g.finish();
         }
     } else if (planar != nullptr) {

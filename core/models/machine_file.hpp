@@ -32,6 +32,9 @@ struct GalvoSettings {
     // The marked surface (powder layer, Zp) above the plane the bed-plane board lay on: the
     // camera maps marks at this height.
     double substrate_height_mm = 0.0;
+    // How a burn shows on the substrate: "dark" on a light one (paper, anodised aluminium's
+    // white oxide, powder), "light" where the laser bleaches or foams it (dark anodising).
+    std::string marks = "dark";
 };
 
 // [planar]: routers, cartesian printers and gantry lasers calibrated from a grid of holes or
@@ -51,6 +54,11 @@ struct PlanarSettings {
     // The firmware's steps per mm now (Marlin M92, grbl $100 / $101): given, the result says
     // the new values; not given, the factor to multiply them by.
     std::optional<double> steps_per_mm_x, steps_per_mm_y;
+    // How a hole or mark shows on the sheet: "dark" (a drilled hole over a dark backing, a
+    // burned dot on a light sheet: the default for routers and lasers) or "light" (a light
+    // filament's dots on a dark printing sheet: the default for cartesian printers; a light
+    // backing under a dark sheet).
+    std::string holes = "dark";
 };
 
 // [probe]: a delta printer's own bed probe, which the box has probe the bed over the machine

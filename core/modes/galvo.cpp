@@ -30,7 +30,12 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
                          std::to_string(photo.height_px) + ", the camera was calibrated at " +
                          std::to_string(camera.image_width) + "x" +
                          std::to_string(camera.image_height));
-    const vision::SpotImage seen = vision::find_spots(photo, settings.spots);
+    vision::SpotSettings spots = settings.spots;
+    spots.polarity = machine.galvo->marks == "light" ? vision::MarkPolarity::light
+                                                     : vision::MarkPolarity::dark;
+    spots.mark_diameter_px =
+        0.8 * pitch * pixels_per_mm_at_centre(camera, plane, machine.galvo->substrate_height_mm);
+    const vision::SpotImage seen = vision::find_spots(photo, spots);
     GalvoMeasurement out;
     out.machine_fingerprint = models::fingerprint(machine);
     out.target_fingerprint = target.fingerprint;

@@ -53,38 +53,60 @@ class Neighbourhood {
 std::vector<SeenMark> marks_on_bed(const geometry::CameraModel& camera,
                                    const geometry::BedPlane& plane, const vision::SpotImage& seen,
                                    double height_mm) {
-    // Each spot with a pixel to its right, so that its size and uncertainty come out in mm at
-    // the local scale.
+    // Each spot with a pixel to its right and one below, so that its size and uncertainty come
+    // out in mm at the local scale in both directions (a tilted view foreshortens one).
     std::vector<Point2> pixels;
     for (const auto& s : seen.spots) {
         pixels.push_back(s.centre_px);
         pixels.push_back({s.centre_px.x + 1, s.centre_px.y});
+        pixels.push_back({s.centre_px.x, s.centre_px.y + 1});
     }
     const auto on_bed = geometry::pixels_to_bed(camera, plane, pixels, height_mm);
     std::vector<SeenMark> marks;
     for (std::size_t i = 0; i < seen.spots.size(); ++i) {
         const auto& s = seen.spots[i];
-        const Point2 at{on_bed[2 * i].x, on_bed[2 * i].y};
-        const double mm_per_px = std::hypot(on_bed[2 * i + 1].x - at.x, on_bed[2 * i + 1].y - at.y);
-        marks.push_back({at, std::sqrt(s.area_px / 3.14159265358979) * mm_per_px,
+        const auto& c = on_bed[3 * i];
+        const Point2 at{c.x, c.y};
+        const Point2 du{on_bed[3 * i + 1].x - c.x, on_bed[3 * i + 1].y - c.y};
+        const Point2 dv{on_bed[3 * i + 2].x - c.x, on_bed[3 * i + 2].y - c.y};
+        const double mm2_per_px = std::abs(du.x * dv.y - du.y * dv.x);
+        const double mm_per_px = std::sqrt(mm2_per_px);
+        marks.push_back({at, std::sqrt(s.area_px * mm2_per_px / 3.14159265358979),
                          s.sigma_px * mm_per_px, s.elongation, s.touches_border});
     }
     return marks;
 }
 
+double pixels_per_mm_at_centre(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                               double height_mm) {
+    const Point2 c{camera.cx(), camera.cy()};
+    const auto on_bed =
+        geometry::pixels_to_bed(camera, plane, {c, {c.x + 1, c.y}, {c.x, c.y + 1}}, height_mm);
+    const double du_x = on_bed[1].x - on_bed[0].x, du_y = on_bed[1].y - on_bed[0].y;
+    const double dv_x = on_bed[2].x - on_bed[0].x, dv_y = on_bed[2].y - on_bed[0].y;
+    return 1 / std::sqrt(std::abs(du_x * dv_y - du_y * dv_x));
+}
+
 void set_aside_odd_sizes(std::vector<MarkCandidate>& candidates, double max_deviation,
                          std::vector<Point2>& extra_mm) {
+    const auto median = [](std::vector<double> v) {
+        std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+        return v[v.size() / 2];
+    };
     for (const bool kind : {false, true}) {
         std::vector<double> radii;
         for (const auto& c : candidates)
             if (c.large == kind) radii.push_back(c.radius_mm);
         if (radii.empty()) continue;
-        std::nth_element(radii.begin(), radii.begin() + static_cast<long>(radii.size() / 2),
-                         radii.end());
-        const double typical = radii[radii.size() / 2];
+        const double typical = median(radii);
+        // The kind's own spread, as a standard deviation from the median absolute deviation:
+        // small marks seen by few pixels measure a few percent apart even when made alike.
+        std::vector<double> deviations;
+        for (const double r : radii) deviations.push_back(std::abs(r / typical - 1));
+        const double allowed =
+            std::max(max_deviation, kSizeSpreadsAllowed * 1.4826 * median(deviations));
         for (auto& c : candidates)
-            if (c.large == kind && std::abs(c.radius_mm / typical - 1) > max_deviation)
-                c.taken = true;
+            if (c.large == kind && std::abs(c.radius_mm / typical - 1) > allowed) c.taken = true;
     }
     for (auto it = candidates.begin(); it != candidates.end();) {
         if (it->taken) {

@@ -38,9 +38,17 @@ struct MarkCandidate {
     bool taken = false;
 };
 
+// How far the pixels of the plane's middle are apart on the bed, as pixels per mm (the geometric
+// mean of the two directions): what a mark of known size spans in the photo, roughly.
+double pixels_per_mm_at_centre(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                               double height_mm);
+
 // Marks of one kind are made alike: one whose radius differs from its kind's median by more
-// than `max_deviation` (a fraction) has something fused to it (spatter, a chip, a burr) or
-// missing from it, and its centroid moved with it. Those are moved to `extra_mm`.
+// than `max_deviation` (a fraction), or by more than kSizeSpreadsAllowed times the kind's own
+// spread where that is larger (holes 11 px across measure 3.5 % apart, one sigma), has something
+// fused to it (spatter, a chip, a burr) or missing from it, and its centroid moved with it.
+// Those are moved to `extra_mm`.
+constexpr double kSizeSpreadsAllowed = 4;
 void set_aside_odd_sizes(std::vector<MarkCandidate>& candidates, double max_deviation,
                          std::vector<geometry::Point2>& extra_mm);
 

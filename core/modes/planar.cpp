@@ -120,7 +120,13 @@ std::vector<MarkCandidate> holes_in_photo(const models::MachineFile& machine,
                           std::to_string(photo.height_px) + ", the camera was calibrated at " +
                           std::to_string(camera.image_width) + "x" +
                           std::to_string(camera.image_height));
-    const vision::SpotImage seen = vision::find_spots(photo, settings.spots);
+    vision::SpotSettings spots = settings.spots;
+    spots.polarity = machine.planar->holes == "light" ? vision::MarkPolarity::light
+                                                      : vision::MarkPolarity::dark;
+    spots.mark_diameter_px =
+        target.large_diameter_mm *
+        pixels_per_mm_at_centre(camera, plane, machine.planar->surface_height_mm);
+    const vision::SpotImage seen = vision::find_spots(photo, spots);
     const double small = 0.5 * target.hole_diameter_mm, large = 0.5 * target.large_diameter_mm;
     std::vector<MarkCandidate> candidates;
     for (const auto& m : marks_on_bed(camera, plane, seen, machine.planar->surface_height_mm)) {

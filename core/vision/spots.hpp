@@ -10,8 +10,21 @@
 
 namespace calbox::vision {
 
+// Which side of its surroundings a mark is: what the mode knows (a drilled hole shows the dark
+// backing, a burn is dark on a light substrate) or the machine file says where a machine differs.
+enum class MarkPolarity { dark, light };
+
 // Every threshold the spot finder uses, with why it is what it is.
 struct SpotSettings {
+    MarkPolarity polarity = MarkPolarity::dark;
+    // The largest mark's diameter in the photo, roughly. Given, each pixel is compared with the
+    // mean of a box three diameters across around it: what surrounds the work (a dark bed, a
+    // grey floor, a white table) then moves no mark's level, where one Otsu level over the frame
+    // splits the work from its surroundings and finds no mark. 0: one Otsu level.
+    double mark_diameter_px = 0;
+    // With the local level, a mark pixel lies this far past its box's mean: five times the
+    // grey-level noise left after the median filter, well under any real mark's contrast.
+    double local_contrast_dn = 8;
     // Soot specks and dust a few pixels across vanish under a median filter of this size; a mark
     // tens of pixels across keeps its edge where it was (the median of a straight edge is the
     // edge, and a circle's curvature shifts every side alike).
@@ -35,11 +48,11 @@ struct Spot {
 struct SpotImage {
     std::vector<Spot> spots;
     bool dark_marks = true;   // dark marks on a light substrate, or light on dark
-    double threshold_dn = 0;  // Otsu's level between marks and substrate
+    double threshold_dn = 0;  // Otsu's level between marks and substrate; 0 with a local level
 };
 
-// The marks are whichever side of Otsu's threshold covers less of the image. Throws
-// std::invalid_argument for an empty image.
+// The marks of `settings.polarity`, against a local level or one Otsu level (SpotSettings).
+// Throws std::invalid_argument for an empty image.
 SpotImage find_spots(const GrayView& image, const SpotSettings& settings = {});
 
 // The fixed-point moment kernel on its own: the centroid of a mark within a circular window,

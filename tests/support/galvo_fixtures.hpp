@@ -1,6 +1,7 @@
 #pragma once
 // The galvo scanner's bench on the twin: the machine file, the seed paper's camera over a
 // 110 mm field, a grid burned on a twin scanner and photographed, the bed plane from a board.
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -9,6 +10,7 @@
 #include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/targets/galvo_target.hpp"
+#include "tests/support/surroundings.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 namespace calbox::test {
@@ -50,7 +52,8 @@ struct GalvoBench {
 // The grid burned on `truth` (with `faults`), as the box's camera sees it.
 inline sim::GrayImage photo_of_burned_grid(const GalvoBench& bench, const sim::GalvoTruth& truth,
                                            const std::string& job,
-                                           const sim::BurnFaults& faults = {}) {
+                                           const sim::BurnFaults& faults = {},
+                                           const std::optional<WorkOnBed>& plate = {}) {
     sim::GalvoTwin twin(truth);
     sim::ToolSettings tool;
     tool.kind = sim::ToolKind::laser;
@@ -59,11 +62,13 @@ inline sim::GrayImage photo_of_burned_grid(const GalvoBench& bench, const sim::G
     std::istringstream in(job);
     runner.run(in);
     const double substrate = bench.dark_marks ? 0.85 : 0.08, mark = bench.dark_marks ? 0.12 : 0.8;
-    return sim::render_photo(
-        bench.camera, bench.bed_to_camera,
-        sim::StrokeScene(sim::with_burn_faults(runner.result().strokes, faults), substrate, mark, 4,
-                         2 * bench.bed_to_camera.translation_mm.z / bench.camera.fx),
-        bench.photo);
+    const sim::StrokeScene burned(sim::with_burn_faults(runner.result().strokes, faults), substrate,
+                                  mark, 4,
+                                  2 * bench.bed_to_camera.translation_mm.z / bench.camera.fx);
+    if (plate)
+        return sim::render_photo(bench.camera, bench.bed_to_camera, SurroundedScene(burned, *plate),
+                                 bench.photo);
+    return sim::render_photo(bench.camera, bench.bed_to_camera, burned, bench.photo);
 }
 
 // The bed plane from a 15 x 11 chessboard of 8 mm squares lying on the platform.

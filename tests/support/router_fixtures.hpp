@@ -2,6 +2,7 @@
 // The router's bench on the twin: the machine file, a 12 MP camera over its 300 x 300 mm work
 // area, a sheet drilled on a twin router over a dark backing and photographed, the bed plane
 // from a board lying on the spoilboard.
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -10,6 +11,7 @@
 #include "board/sim/router_twin.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
+#include "tests/support/surroundings.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 namespace calbox::test {
@@ -72,7 +74,8 @@ struct DrillFaults {
 // through the holes.
 inline sim::GrayImage photo_of_drilled_sheet(const RouterBench& bench,
                                              const sim::RouterTruth& truth, const std::string& job,
-                                             const DrillFaults& faults = {}) {
+                                             const DrillFaults& faults = {},
+                                             const std::optional<WorkOnBed>& sheet = {}) {
     sim::RouterTwin twin(truth);
     sim::ToolSettings tool;
     tool.kind = sim::ToolKind::spindle;
@@ -101,11 +104,12 @@ inline sim::GrayImage photo_of_drilled_sheet(const RouterBench& bench,
                 strokes.push_back({at, at, 2 * faults.chip_radius_mm});
             }
     }
-    return sim::render_photo(
-        bench.camera, bench.bed_to_camera,
-        sim::StrokeScene(std::move(strokes), 0.82, 0.1, 4,
-                         2 * bench.bed_to_camera.translation_mm.z / bench.camera.fx),
-        bench.photo);
+    const sim::StrokeScene drilled(std::move(strokes), 0.82, 0.1, 4,
+                                   2 * bench.bed_to_camera.translation_mm.z / bench.camera.fx);
+    if (sheet)
+        return sim::render_photo(bench.camera, bench.bed_to_camera,
+                                 SurroundedScene(drilled, *sheet), bench.photo);
+    return sim::render_photo(bench.camera, bench.bed_to_camera, drilled, bench.photo);
 }
 
 // A camera the router carries on its gantry, 380 mm above the sheet: the half-size HQ camera

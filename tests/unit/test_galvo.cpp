@@ -23,8 +23,11 @@ using namespace calbox;
 
 namespace {
 
-models::MachineFile galvo_machine() {
-    return models::parse_machine_file(test::kGalvoMachineToml, "test");
+// The machine file says how its burns show: dark on a light substrate, or light on dark.
+models::MachineFile galvo_machine(bool dark_marks = true) {
+    auto machine = models::parse_machine_file(test::kGalvoMachineToml, "test");
+    machine.galvo->marks = dark_marks ? "dark" : "light";
+    return machine;
 }
 
 // Fresh marks, half a pitch off the calibration grid's nodes, over the table's rectangle.
@@ -90,7 +93,7 @@ Box set_up_box(unsigned seed) {
 class ScannerCase {
   public:
     ScannerCase(Box& box, unsigned seed, bool dark_marks)
-        : box_(box), seed_(seed), dark_marks_(dark_marks) {}
+        : box_(box), seed_(seed), dark_marks_(dark_marks), machine_(galvo_machine(dark_marks)) {}
 
     sim::GrayImage make_target(int) {
         truth_ = sim::random_galvo_truth(seed_, machine_.galvo->field_size_mm);
@@ -134,7 +137,7 @@ class ScannerCase {
     Box& box_;
     unsigned seed_;
     bool dark_marks_;
-    const models::MachineFile machine_ = galvo_machine();
+    const models::MachineFile machine_;
     sim::GalvoTruth truth_;
     std::optional<modes::GalvoSolution> solution_;
     Figures f_;
@@ -380,7 +383,8 @@ TEST(GalvoOrientation, all_eight_ways_round_are_read_and_damage_is_reported) {
                                 landed({8, 8}, 0.5 * target.pitch_mm, 0.5 * target.pitch_mm)};
         bench.dark_marks = way % 2 == 0;
         const auto photo = test::photo_of_burned_grid(bench, truth, job, faults);
-        const auto m = modes::measure_galvo(machine, camera, plane, test::view_of(photo));
+        const auto m = modes::measure_galvo(galvo_machine(bench.dark_marks), camera, plane,
+                                            test::view_of(photo));
         CHECK_EQUAL(bench.dark_marks, m.dark_marks);
         // The blob that fused with a small mark takes that mark out too: its centroid would
         // have moved by a tenth of a millimetre.
@@ -422,4 +426,30 @@ TEST(GalvoScannersFirst, scanners_1_to_5_at_the_seed_camera_are_corrected_in_the
 TEST_GROUP(GalvoScannersSecond){};
 TEST(GalvoScannersSecond, scanners_6_to_10_at_the_seed_camera_are_corrected_in_the_twins_truth) {
     run_scanners(6);
+}
+
+// The case: a 116 mm plate filling part of the frame, the scanner's platform around it
+// dark (it had 58 % of the pixels below Otsu's level, and no mark was found), grey or white.
+TEST(GalvoSpots, a_plate_amid_a_dark_grey_or_white_platform_gives_every_mark) {
+    const auto machine = galvo_machine();
+    const auto target = targets::make_galvo_target(machine);
+    const auto job = targets::write_gcode(target.job, machine, "grid");
+    test::GalvoBench bench;
+    bench.camera = test::galvo_camera(0.5);
+    bench.bed_to_camera = sim::look_at_pose({3, -4, 375}, {0, 0, 0}, 2);
+    bench.photo.blur_sigma_px = 0.8;
+    bench.photo.noise_sigma_dn = 2;
+    const auto camera = test::as_core(bench.camera);
+    const auto plane = test::plane_from_board(bench);
+    auto truth = sim::random_galvo_truth(3);
+    for (const double platform : {0.04, 0.5, 0.97}) {
+        const auto photo = test::photo_of_burned_grid(bench, truth, job, {},
+                                                      test::WorkOnBed{-58, -58, 58, 58, platform});
+        const auto m = modes::measure_galvo(machine, camera, plane, test::view_of(photo));
+        UT_PRINT(("platform " + std::to_string(platform) + ": " + std::to_string(m.nodes.size()) +
+                  " marks, " + std::to_string(m.missing.size()) + " missing")
+                     .c_str());
+        CHECK_EQUAL(961u, m.nodes.size());
+        CHECK(m.missing.empty());
+    }
 }

@@ -489,6 +489,27 @@ std::string refusal(const models::MachineFile& machine, const sim::GrayImage& ph
 
 }  // namespace
 
+// The case: the drilled sheet filling part of the frame, the machine's bed around it
+// dark (half the frame below Otsu's level: no hole was found), grey or white.
+TEST(PlanarMeasure, a_sheet_amid_a_dark_grey_or_white_bed_gives_every_hole) {
+    const auto machine = router_machine();
+    const auto target = targets::make_planar_target(machine);
+    const auto bench = test::router_bench(0.5);
+    const auto camera = test::as_core(bench.camera);
+    const auto plane = test::router_plane(bench);
+    const auto truth = sim::random_router_truth(5);
+    for (const double bed : {0.04, 0.5, 0.97}) {
+        const auto photo = test::photo_of_drilled_sheet(bench, truth, target.job, {},
+                                                        test::WorkOnBed{-2, -2, 302, 302, bed});
+        const auto m = modes::measure_planar(machine, camera, plane, test::view_of(photo));
+        UT_PRINT(("bed " + std::to_string(bed) + ": " + std::to_string(m.holes.size()) +
+                  " holes, " + std::to_string(m.missing.size()) + " missing")
+                     .c_str());
+        CHECK_EQUAL(target.holes.size(), m.holes.size());
+        CHECK(m.missing.empty());
+    }
+}
+
 TEST(PlanarMeasure, a_holes_centroid_under_perspective_and_the_lens_is_its_centre_within_2_um) {
     // A hole's outline is a circle on the sheet; seen at an angle and through the lens its image
     // is no longer centred on the centre's image. At the chosen size (a 3.175 mm bit) and the

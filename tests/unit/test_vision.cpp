@@ -16,10 +16,13 @@
 #include "board/sim/scenes.hpp"
 #include "board/sim/sim_board.hpp"
 #include "core/geometry/calibration.hpp"
+#include "core/modes/mark_grid.hpp"
 #include "core/number_text.hpp"
 #include "core/vision/edge_kernel.hpp"
 #include "core/vision/markers.hpp"
 #include "core/vision/reference_marks.hpp"
+#include "core/vision/spots.hpp"
+#include "tests/support/surroundings.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -560,4 +563,68 @@ TEST(MarkerBackends, opencv_and_libapriltag_recall_and_corner_error_on_harder_ph
             CHECK_TEXT(found_by[1] == 48, line.c_str());
         }
     }
+}
+
+// Marks found whatever surrounds the work: a sheet of dark holes filling 30 to 90 % of the frame
+// against a dark bed, a grey floor and a white table, the holes 8 to 40 px across. A straight
+// camera at 0.5 mm a pixel, a slight tilt so that the scale differs across the frame.
+TEST_GROUP(MarkSurroundings){};
+
+TEST(MarkSurroundings, every_hole_is_found_and_none_set_aside_for_its_size) {
+    sim::CameraIntrinsics lens;
+    lens.width_px = 800, lens.height_px = 600;
+    lens.fx = lens.fy = 800;
+    lens.cx = 399.5, lens.cy = 299.5;
+    lens.distortion = {0, 0, 0, 0, 0};
+    const sim::Pose pose = sim::look_at_pose({12, -9, 400}, {0, 0, 0}, 4);
+    const auto camera = as_core(lens);
+    geometry::BedPlane plane;
+    const sim::Vec3 r = sim::vector_from_rotation(pose.rotation);
+    plane.bed_to_camera.rvec = {r.x, r.y, r.z};
+    plane.bed_to_camera.tvec_mm = {pose.translation_mm.x, pose.translation_mm.y,
+                                   pose.translation_mm.z};
+    sim::PhotoSettings photo;
+    photo.blur_sigma_px = 0.8, photo.noise_sigma_dn = 2;
+    const double mm_per_px = 0.5;
+    int cases = 0;
+    for (const double share : {0.3, 0.6, 0.9})
+        for (const double surroundings : {0.05, 0.45, 0.97})
+            for (const double hole_px : {8.0, 16.0, 40.0}) {
+                const double half_w = 0.5 * 400 * std::sqrt(share) * 0.98;
+                const double half_h = 0.5 * 300 * std::sqrt(share) * 0.98;
+                const double diameter_mm = hole_px * mm_per_px, pitch_mm = 3 * diameter_mm;
+                std::vector<sim::StrokeSegment> holes;
+                for (double y = -half_h + pitch_mm; y <= half_h - pitch_mm; y += pitch_mm)
+                    for (double x = -half_w + pitch_mm; x <= half_w - pitch_mm; x += pitch_mm)
+                        holes.push_back({{x, y, 0}, {x, y, 0}, diameter_mm});
+                const sim::StrokeScene sheet(holes, 0.82, 0.1, 4, 1.0);
+                const test::SurroundedScene scene(sheet,
+                                                  {-half_w, -half_h, half_w, half_h, surroundings});
+                photo.seed = static_cast<unsigned>(++cases);
+                const auto image = sim::render_photo(lens, pose, scene, photo);
+                vision::SpotSettings settings;
+                settings.polarity = vision::MarkPolarity::dark;
+                settings.mark_diameter_px =
+                    diameter_mm * modes::pixels_per_mm_at_centre(camera, plane, 0);
+                const auto seen = vision::find_spots(view_of(image), settings);
+                std::vector<modes::MarkCandidate> candidates;
+                for (const auto& m : modes::marks_on_bed(camera, plane, seen, 0)) {
+                    const double nominal = 0.5 * diameter_mm;
+                    if (m.touches_border || m.elongation > 1.08 || m.radius_mm < 0.7 * nominal ||
+                        m.radius_mm > 1.3 * nominal)
+                        continue;
+                    candidates.push_back({m.bed_mm, m.radius_mm, m.sigma_mm, false, false});
+                }
+                const std::string what =
+                    number_text("%.0f %% of the frame, surroundings ", 100 * share) +
+                    number_text("%.2f, holes ", surroundings) + number_text("%.0f px: ", hole_px) +
+                    std::to_string(candidates.size()) + " of " + std::to_string(holes.size()) +
+                    " found";
+                CHECK_TEXT(candidates.size() == holes.size(), what.c_str());
+                std::vector<geometry::Point2> set_aside;
+                modes::set_aside_odd_sizes(candidates, 0.05, set_aside);
+                CHECK_TEXT(set_aside.empty(), (what + ", " + std::to_string(set_aside.size()) +
+                                               " set aside for their size")
+                                                  .c_str());
+            }
 }

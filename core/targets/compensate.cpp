@@ -1,9 +1,13 @@
 #include "core/targets/compensate.hpp"
 
+#include <algorithm>
+#include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <optional>
 #include <sstream>
+#include <vector>
 
 #include "core/targets/gcode_line.hpp"
 
@@ -36,14 +40,6 @@ std::string comment_of(std::string_view raw) {
     return c;
 }
 
-struct Machine {
-    bool absolute_xy = true, absolute_e = true;
-    Point2 xy;
-    bool xy_known = false;  // not until a move gives both axes (and not after G28)
-    std::optional<double> z;
-    double e = 0;
-};
-
 class Writer {
   public:
     Writer(const Correction& correct, const Covers& covers, CompensateReport& report)
@@ -60,6 +56,202 @@ class Writer {
     CompensateReport& report_;
 };
 
+// A G word's number and its decimal (92.1 -> 92, 1; 90 -> 90, -1).
+struct Code {
+    int number = -1, subcode = -1;
+    bool is(int n) const { return number == n && subcode < 0; }
+    bool is_motion() const { return number >= 0 && number <= 3 && subcode < 0; }
+    std::string text() const {
+        return "G" + std::to_string(number) + (subcode >= 0 ? "." + std::to_string(subcode) : "");
+    }
+};
+
+std::vector<Code> g_codes_of(const gcode::Line& line) {
+    std::vector<Code> codes;
+    if (line.command_letter == 'G') codes.push_back({line.command_number, line.command_subcode});
+    for (const auto& w : line.parameters)
+        if (w.letter == 'G' && w.value) {
+            const double whole = std::floor(*w.value);
+            const int tenths = static_cast<int>(std::lround((*w.value - whole) * 10));
+            codes.push_back({static_cast<int>(whole), tenths > 0 ? tenths : -1});
+        }
+    return codes;
+}
+
+bool has_m(const gcode::Line& line, int number) {
+    if (line.is('M', number)) return true;
+    for (const auto& w : line.parameters)
+        if (w.letter == 'M' && w.value && *w.value == number) return true;
+    return false;
+}
+
+// What the controller holds between lines, as the job's lines set it. XY are kept on the frame
+// the correction was measured on (the job's frame without a G92 offset, G54), in mm; Z in the
+// job's own frame, in mm (the correction does not move it; a move's pieces share it).
+struct Modal {
+    int motion = -1;  // 0..3, or -1 before any motion command and after G80
+    bool absolute = true, absolute_e = true;
+    double unit_mm = 1;  // 25.4 after G20
+    int plane = 17;
+    Point2 g92_offset_mm;  // the calibrated frame's point minus the job's, for XY
+    Point2 xy_mm;
+    bool xy_known = false;  // not until a move gives both axes (and not after G28)
+    std::optional<double> z_mm;
+    double e = 0;
+    // The position last written, in the job's units and frame: relative moves are written as
+    // differences of it, so that rounding never accumulates.
+    Point2 written_xy;
+    std::optional<double> written_z;
+};
+
+struct PathPoint {
+    Point2 xy;                   // the calibrated frame, mm
+    std::optional<double> z_mm;  // the job's frame
+};
+
+// A straight move's pieces, from the start (excluded) to the end.
+std::vector<PathPoint> line_path(bool start_known, Point2 from, Point2 to,
+                                 std::optional<double> z_from, std::optional<double> z_to,
+                                 const CompensateSettings& settings) {
+    const double length = start_known ? std::hypot(to.x - from.x, to.y - from.y) : 0;
+    const int pieces = std::max(1, static_cast<int>(std::ceil(length / settings.max_segment_mm)));
+    std::vector<PathPoint> path;
+    for (int k = 1; k <= pieces; ++k) {
+        const double share = static_cast<double>(k) / pieces;
+        std::optional<double> z = z_to;
+        if (z_from && z_to) z = *z_from + (*z_to - *z_from) * share;
+        path.push_back({k == pieces ? to
+                                    : Point2{from.x + (to.x - from.x) * share,
+                                             from.y + (to.y - from.y) * share},
+                        z});
+    }
+    return path;
+}
+
+template <typename Fail>
+std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 from, Point2 to,
+                                std::optional<double> z_from, std::optional<double> z_to,
+                                const CompensateSettings& settings, const Fail& fail) {
+    if (!m.xy_known) throw fail("an arc needs a known start");
+    if (m.plane != 17 && (!z_from || !z_to))
+        throw fail("an arc in the XZ or YZ plane needs a known Z");
+    // The arc's plane as (a, b) with the helix along h: G17 XY, G18 ZX, G19 YZ, each ordered so
+    // that a x b is the plane's normal (clockwise as seen from its positive side).
+    const auto to_abh = [&](Point2 xy, double z) -> std::array<double, 3> {
+        if (m.plane == 18) return {z, xy.x, xy.y};
+        if (m.plane == 19) return {xy.y, z, xy.x};
+        return {xy.x, xy.y, z};
+    };
+    const auto from_abh = [&](const std::array<double, 3>& p) -> PathPoint {
+        if (m.plane == 18) return {{p[1], p[2]}, p[0]};
+        if (m.plane == 19) return {{p[2], p[0]}, p[1]};
+        return {{p[0], p[1]}, p[2]};
+    };
+    const char offset_a = m.plane == 17 ? 'I' : (m.plane == 18 ? 'K' : 'J');
+    const char offset_b = m.plane == 17 ? 'J' : (m.plane == 18 ? 'I' : 'K');
+    const auto f = to_abh(from, z_from.value_or(0));
+    const auto t = to_abh(to, z_to.value_or(0));
+    const bool clockwise = m.motion == 2;
+    double ca = 0, cb = 0;
+    if (line.has('R')) {
+        const double r = line.value('R').value_or(0) * m.unit_mm;
+        const double da = t[0] - f[0], db = t[1] - f[1], chord = std::hypot(da, db);
+        if (!(std::abs(r) >= chord / 2 - 1e-9) || chord == 0)
+            throw fail("the arc's radius R is shorter than half its chord");
+        const double h = std::sqrt(std::max(0.0, r * r - chord * chord / 4));
+        // Clockwise with R > 0 takes the short way: the centre to the chord's right.
+        const double side = (clockwise ? 1 : -1) * (r > 0 ? 1 : -1);
+        ca = f[0] + da / 2 + side * h * db / chord;
+        cb = f[1] + db / 2 - side * h * da / chord;
+    } else {
+        if (!line.has(offset_a) && !line.has(offset_b))
+            throw fail(std::string("an arc needs ") + offset_a + " and " + offset_b + ", or R");
+        ca = f[0] + line.value(offset_a).value_or(0) * m.unit_mm;
+        cb = f[1] + line.value(offset_b).value_or(0) * m.unit_mm;
+    }
+    const double radius = std::hypot(f[0] - ca, f[1] - cb);
+    const double a0 = std::atan2(f[1] - cb, f[0] - ca);
+    const double a1 = std::atan2(t[1] - cb, t[0] - ca);
+    double sweep = a1 - a0;
+    if (clockwise) {
+        while (sweep >= -1e-12) sweep -= 2 * kPi;
+    } else {
+        while (sweep <= 1e-12) sweep += 2 * kPi;
+    }
+    if (std::hypot(t[0] - f[0], t[1] - f[1]) < 1e-9 && !line.has('R'))
+        sweep = clockwise ? -2 * kPi : 2 * kPi;  // a whole circle
+    const double by_tolerance = radius > settings.arc_tolerance_mm
+                                    ? 2 * std::acos(1 - settings.arc_tolerance_mm / radius)
+                                    : kPi;
+    const double by_length = settings.max_segment_mm / std::max(radius, 1e-9);
+    const int pieces = std::max(
+        1, static_cast<int>(std::ceil(std::abs(sweep) / std::min(by_tolerance, by_length))));
+    std::vector<PathPoint> path;
+    for (int k = 1; k <= pieces; ++k) {
+        if (k == pieces) {
+            path.push_back({to, z_to});
+            continue;
+        }
+        const double a = a0 + sweep * k / pieces;
+        const double share = static_cast<double>(k) / pieces;
+        PathPoint p = from_abh(
+            {ca + radius * std::cos(a), cb + radius * std::sin(a), f[2] + (t[2] - f[2]) * share});
+        if (m.plane == 17 && !(z_from && z_to)) p.z_mm = z_to;
+        path.push_back(p);
+    }
+    return path;
+}
+
+// A job whose lines were numbered comes out numbered, from its first number on, by its own step,
+// with a checksum where the line had one.
+struct Numbering {
+    std::optional<long> first, step, next;
+    void saw(long number) {
+        if (!first) {
+            first = next = number;
+        } else if (!step) {
+            step = std::max(1L, number - *first);
+            next = *first + *step;
+        }
+    }
+    std::string line(const std::string& body, bool checksummed) {
+        const long n = *next;
+        next = n + step.value_or(1);
+        return checksummed ? gcode::numbered_line(n, body) : "N" + std::to_string(n) + " " + body;
+    }
+};
+
+// The raw line without its line number and checksum, comments kept.
+std::string body_of(std::string_view raw) {
+    const std::string_view body = gcode::without_checksum(raw);
+    std::size_t i = 0;
+    while (i < body.size() && (body[i] == ' ' || body[i] == '\t')) ++i;
+    std::string prefix;
+    if (i < body.size() && body[i] == '/') prefix = "/", ++i;
+    if (i < body.size() && (body[i] == 'N' || body[i] == 'n')) {
+        ++i;
+        while (i < body.size() && std::isdigit(static_cast<unsigned char>(body[i]))) ++i;
+        while (i < body.size() && (body[i] == ' ' || body[i] == '\t')) ++i;
+    }
+    std::string out = prefix + std::string(body.substr(i));
+    while (!out.empty() && (out.back() == '\r' || out.back() == ' ')) out.pop_back();
+    return out;
+}
+
+// LinuxCNC's programming words and polar coordinates, which a plain G-code reader cannot
+// evaluate: the reason, or empty.
+std::string unplain_words(std::string_view raw) {
+    const std::string words = gcode::strip_comments(gcode::without_checksum(raw));
+    const auto first = words.find_first_not_of(" \t/");
+    if (words.find_first_of("#[") != std::string::npos ||
+        (first != std::string::npos && (words[first] == 'o' || words[first] == 'O')))
+        return "parameters, expressions or O-word subroutines (LinuxCNC's '#', '[ ]', 'o'): calbox "
+               "reads plain G-code; have the CAM post-processor write plain numbers";
+    if (words.find_first_of("@^") != std::string::npos)
+        return "polar coordinates ('@', '^'): have the CAM write X and Y";
+    return {};
+}
+
 }  // namespace
 
 std::string compensate_gcode(std::string_view job, const Correction& correct, const Covers& covers,
@@ -67,14 +259,15 @@ std::string compensate_gcode(std::string_view job, const Correction& correct, co
     if (!(settings.max_segment_mm > 0) || !(settings.arc_tolerance_mm > 0))
         throw CompensateError("the segment length and arc tolerance must be positive");
     Writer writer(correct, covers, report);
-    Machine m;
+    Modal m;
+    Numbering numbering;
     std::string out;
     std::size_t start = 0;
     long number_of_line = 0;
     while (start <= job.size()) {
         const auto end = job.find('\n', start);
         const bool last = end == std::string_view::npos;
-        const std::string_view raw = job.substr(start, last ? std::string_view::npos : end - start);
+        std::string_view raw = job.substr(start, last ? std::string_view::npos : end - start);
         start = last ? job.size() + 1 : end + 1;
         if (last && raw.empty()) break;
         ++number_of_line;
@@ -84,138 +277,187 @@ std::string compensate_gcode(std::string_view job, const Correction& correct, co
         };
         gcode::Line line;
         try {
+            if (const auto why = unplain_words(raw); !why.empty()) throw fail(why);
             line = gcode::parse_line(raw);
         } catch (const gcode::SyntaxError& e) {
             throw fail(e.what());
         }
-        if (line.line_number || raw.find('*') != std::string_view::npos)
-            throw fail(
-                "numbered or checksummed lines: compensate the job before a host numbers it");
-        const auto verbatim = [&] {
-            out += raw;
+        const bool numbered = line.line_number.has_value();
+        const bool checksummed = gcode::without_checksum(raw).size() != raw.size();
+        if (numbered) numbering.saw(*line.line_number);
+        const auto emit = [&](const std::string& text) {
+            out += numbered ? numbering.line(text, checksummed) : text;
             out += '\n';
         };
-        if (line.command_letter == 'G') {
-            switch (line.command_number) {
-                case 90:
-                    m.absolute_xy = true;
-                    break;
-                case 91:
-                    m.absolute_xy = false;
-                    break;
-                case 20:
-                    throw fail("inches (G20): calbox compensates jobs in millimetres");
-                case 18:
-                case 19:
-                    throw fail("arcs off the XY plane (G18 / G19) cannot be compensated");
-                case 92:
-                    if (line.has('X') || line.has('Y'))
-                        throw fail("G92 with X or Y moves the job's origin: not compensated");
-                    if (auto e = line.value('E')) m.e = *e;
-                    if (auto z = line.value('Z')) m.z = *z;
-                    break;
-                case 28:
-                    m.xy_known = false, m.z.reset();
-                    break;
-                default:
-                    break;
+        const auto verbatim = [&] {
+            if (numbered) {
+                emit(body_of(raw));
+            } else {
+                out += raw;
+                out += '\n';
             }
-        } else if (line.is('M', 82)) {
-            m.absolute_e = true;
-        } else if (line.is('M', 83)) {
-            m.absolute_e = false;
+        };
+        const auto codes = g_codes_of(line);
+        // G92, G28 / G30, G4, G53 and probing take axis words that are not a move.
+        bool axis_words_not_a_move = false;
+        std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move
+        for (const Code c : codes) {
+            if (c.is_motion()) {
+                m.motion = c.number;
+                continue;
+            }
+            kept_codes.push_back(c);
+            if (c.is(20)) {
+                m.unit_mm = 25.4;
+            } else if (c.is(21)) {
+                m.unit_mm = 1;
+            } else if (c.is(90)) {
+                m.absolute = true;
+            } else if (c.is(91)) {
+                m.absolute = false;
+            } else if (c.number == 90 && c.subcode == 1) {
+                throw fail("absolute arc centres (G90.1): have the CAM write I J K relative");
+            } else if (c.is(17) || c.is(18) || c.is(19)) {
+                m.plane = c.number;
+            } else if (c.is(80)) {
+                m.motion = -1;
+            } else if (c.number == 41 || c.number == 42) {
+                throw fail("cutter radius compensation (" + c.text() +
+                           "): the cutter's path is not in the file; have the CAM write the "
+                           "compensated path");
+            } else if (c.is(73) || c.is(76) || (c.number >= 81 && c.number <= 89)) {
+                throw fail("canned cycle " + c.text() +
+                           ": have the CAM post-processor expand cycles into moves");
+            } else if (c.number >= 55 && c.number <= 59) {
+                throw fail("work offset " + c.text() +
+                           " is held by the controller, not the file: calbox compensates jobs in "
+                           "G54, the frame it measured");
+            } else if (c.is(10)) {
+                throw fail("G10 sets offsets in the controller: not in a compensated job");
+            } else if (c.is(53)) {
+                if (line.has('X') || line.has('Y'))
+                    throw fail(
+                        "a move in machine coordinates (G53) with X or Y: their place "
+                        "against the job's is not in the file");
+                axis_words_not_a_move = true;
+            } else if (c.is(92)) {
+                axis_words_not_a_move = true;
+                if (line.has('X') || line.has('Y')) {
+                    if (!m.xy_known) throw fail("G92 with X or Y before the position is known");
+                    if (auto x = line.value('X')) {
+                        m.g92_offset_mm.x = m.xy_mm.x - *x * m.unit_mm;
+                        m.written_xy.x = *x;
+                    }
+                    if (auto y = line.value('Y')) {
+                        m.g92_offset_mm.y = m.xy_mm.y - *y * m.unit_mm;
+                        m.written_xy.y = *y;
+                    }
+                }
+                if (auto e = line.value('E')) m.e = *e;
+                if (auto z = line.value('Z')) m.z_mm = *z * m.unit_mm, m.written_z = *z;
+            } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2)) {
+                axis_words_not_a_move = true;
+                m.written_xy = {m.written_xy.x + m.g92_offset_mm.x / m.unit_mm,
+                                m.written_xy.y + m.g92_offset_mm.y / m.unit_mm};
+                m.g92_offset_mm = {};
+            } else if (c.number == 92) {
+                throw fail("G92.3 restores an offset the file did not set");
+            } else if (c.is(28) || c.is(30)) {
+                axis_words_not_a_move = true;
+                m.xy_known = false, m.z_mm.reset(), m.written_z.reset();
+            } else if (c.is(4)) {
+                axis_words_not_a_move = true;
+            } else if (c.number == 38) {
+                if (line.has('X') || line.has('Y'))
+                    throw fail("a probing move (" + c.text() +
+                               ") with X or Y: where it stops is not known");
+                axis_words_not_a_move = true;
+            }
         }
-        const bool move =
-            line.command_letter == 'G' && line.command_number >= 0 && line.command_number <= 3;
-        const bool arc = line.command_number == 2 || line.command_number == 3;
-        if (!move || !(line.has('X') || line.has('Y') || arc)) {
-            if (move && line.has('Z')) {
-                if (auto z = line.value('Z')) m.z = m.absolute_xy ? *z : m.z.value_or(0) + *z;
+        if (has_m(line, 82)) m.absolute_e = true;
+        if (has_m(line, 83)) m.absolute_e = false;
+
+        const bool axes = line.has('X') || line.has('Y') || line.has('Z');
+        const bool arc_words = line.has('I') || line.has('J') || line.has('K') || line.has('R');
+        const bool commanded_motion =
+            std::any_of(codes.begin(), codes.end(), [](Code c) { return c.is_motion(); });
+        const bool is_arc_mode = m.motion == 2 || m.motion == 3;
+        const bool moves = !axis_words_not_a_move && m.motion >= 0 && line.command_letter != 'M' &&
+                           line.command_letter != 'T' &&
+                           (axes || (is_arc_mode && (arc_words || commanded_motion)));
+        const bool moves_xy = moves && (is_arc_mode || line.has('X') || line.has('Y'));
+        if (!moves_xy) {
+            if (moves && line.has('Z')) {
+                if (auto z = line.value('Z')) {
+                    m.z_mm = m.absolute ? *z * m.unit_mm : m.z_mm.value_or(0) + *z * m.unit_mm;
+                    m.written_z = m.absolute ? *z : m.written_z.value_or(0) + *z;
+                }
             }
-            if (move && line.has('E')) {
+            if (moves && line.has('E')) {
                 if (auto e = line.value('E')) m.e = m.absolute_e ? *e : m.e + *e;
             }
             verbatim();
             continue;
         }
-        if (!m.absolute_xy)
-            throw fail("relative XY moves (G91) cannot be compensated: write the job in G90");
-        if (!m.xy_known && !(line.has('X') && line.has('Y')))
+        if (line.block_delete)
+            throw fail("a move under block delete ('/'): whether it runs is the operator's switch");
+        if (!m.xy_known && !(m.absolute && line.has('X') && line.has('Y')))
             throw fail(
                 "a move that gives one axis where the other's position is unknown (after G28 or at "
                 "the start)");
-        const Point2 from = m.xy;
-        const Point2 to{line.value('X').value_or(from.x), line.value('Y').value_or(from.y)};
-        const std::optional<double> z_from = m.z;
-        const std::optional<double> z_to = line.value('Z') ? line.value('Z') : m.z;
+        // The move's end on the calibrated frame, in mm.
+        const Point2 from = m.xy_mm;
+        Point2 to = from;
+        if (auto x = line.value('X'))
+            to.x = m.absolute ? *x * m.unit_mm + m.g92_offset_mm.x : from.x + *x * m.unit_mm;
+        if (auto y = line.value('Y'))
+            to.y = m.absolute ? *y * m.unit_mm + m.g92_offset_mm.y : from.y + *y * m.unit_mm;
+        const std::optional<double> z_from = m.z_mm;
+        std::optional<double> z_to = m.z_mm;
+        if (auto z = line.value('Z'))
+            z_to = m.absolute ? *z * m.unit_mm : m.z_mm.value_or(0) + *z * m.unit_mm;
         const std::optional<double> e_word = line.value('E');
-        // The path's points, from the start (excluded) to the end.
-        std::vector<Point2> path;
-        if (arc) {
-            if (!m.xy_known) throw fail("an arc needs a known start");
-            ++report.arcs;
-            Point2 centre;
-            if (line.has('R')) {
-                const double r = line.value('R').value_or(0);
-                const double dx = to.x - from.x, dy = to.y - from.y, chord = std::hypot(dx, dy);
-                if (!(std::abs(r) >= chord / 2 - 1e-9) || chord == 0)
-                    throw fail("the arc's radius R is shorter than half its chord");
-                const double h = std::sqrt(std::max(0.0, r * r - chord * chord / 4));
-                // G2 (clockwise) with R > 0 takes the short way: the centre to the chord's right.
-                const double side = (line.command_number == 2 ? 1 : -1) * (r > 0 ? 1 : -1);
-                centre = {from.x + dx / 2 + side * h * dy / chord,
-                          from.y + dy / 2 - side * h * dx / chord};
-            } else {
-                if (!line.has('I') && !line.has('J')) throw fail("an arc needs I and J, or R");
-                centre = {from.x + line.value('I').value_or(0),
-                          from.y + line.value('J').value_or(0)};
-            }
-            const double radius = std::hypot(from.x - centre.x, from.y - centre.y);
-            const double a0 = std::atan2(from.y - centre.y, from.x - centre.x);
-            const double a1 = std::atan2(to.y - centre.y, to.x - centre.x);
-            const bool clockwise = line.command_number == 2;
-            double sweep = a1 - a0;
-            if (clockwise) {
-                while (sweep >= -1e-12) sweep -= 2 * kPi;
-            } else {
-                while (sweep <= 1e-12) sweep += 2 * kPi;
-            }
-            if (std::hypot(to.x - from.x, to.y - from.y) < 1e-9 && !line.has('R'))
-                sweep = clockwise ? -2 * kPi : 2 * kPi;  // a whole circle
-            const double by_tolerance = radius > settings.arc_tolerance_mm
-                                            ? 2 * std::acos(1 - settings.arc_tolerance_mm / radius)
-                                            : kPi;
-            const double by_length = settings.max_segment_mm / std::max(radius, 1e-9);
-            const int pieces = std::max(
-                1,
-                static_cast<int>(std::ceil(std::abs(sweep) / std::min(by_tolerance, by_length))));
-            for (int k = 1; k <= pieces; ++k) {
-                const double a = a0 + sweep * k / pieces;
-                path.push_back(k == pieces ? to
-                                           : Point2{centre.x + radius * std::cos(a),
-                                                    centre.y + radius * std::sin(a)});
-            }
-        } else {
-            const double length = m.xy_known ? std::hypot(to.x - from.x, to.y - from.y) : 0;
-            const int pieces =
-                std::max(1, static_cast<int>(std::ceil(length / settings.max_segment_mm)));
-            for (int k = 1; k <= pieces; ++k)
-                path.push_back(k == pieces ? to
-                                           : Point2{from.x + (to.x - from.x) * k / pieces,
-                                                    from.y + (to.y - from.y) * k / pieces});
-        }
+        const std::vector<PathPoint> path =
+            is_arc_mode ? arc_path(line, m, from, to, z_from, z_to, settings, fail)
+                        : line_path(m.xy_known, from, to, z_from, z_to, settings);
+        if (is_arc_mode) ++report.arcs;
         ++report.moves;
-        const std::string command = arc ? "G1" : (line.command_number == 0 ? "G0" : "G1");
+        const bool moves_z = z_to.has_value() && (line.has('Z') || (is_arc_mode && m.plane != 17));
+        const std::string command = m.motion == 0 ? "G0" : "G1";
+        // A tenth of a micron either way: 4 decimals of a mm, 5 of an inch.
+        const int decimals = m.unit_mm > 1 ? 5 : 4;
         const double e_from = m.e;
         const double e_total = e_word ? (m.absolute_e ? *e_word - m.e : *e_word) : 0;
         const std::size_t n = path.size();
         for (std::size_t k = 0; k < n; ++k) {
             const double share = static_cast<double>(k + 1) / static_cast<double>(n);
-            const Point2 c = writer.corrected(path[k]);
-            std::string text = command + " X" + number(c.x, 4) + " Y" + number(c.y, 4);
-            if (line.has('Z') && z_to) {
-                const double z = z_from ? *z_from + (*z_to - *z_from) * share : *z_to;
-                text += " Z" + number(z, 4);
+            const Point2 c = writer.corrected(path[k].xy);
+            // Back to the job's frame and units.
+            const Point2 job_xy{(c.x - m.g92_offset_mm.x) / m.unit_mm,
+                                (c.y - m.g92_offset_mm.y) / m.unit_mm};
+            std::string text;
+            if (k == 0)
+                for (const Code code : kept_codes) text += code.text() + " ";
+            text += command;
+            if (m.absolute) {
+                text += " X" + number(job_xy.x, decimals) + " Y" + number(job_xy.y, decimals);
+                m.written_xy = job_xy;
+            } else {
+                const double dx = std::stod(number(job_xy.x - m.written_xy.x, decimals));
+                const double dy = std::stod(number(job_xy.y - m.written_xy.y, decimals));
+                text += " X" + number(dx, decimals) + " Y" + number(dy, decimals);
+                m.written_xy = {m.written_xy.x + dx, m.written_xy.y + dy};
+            }
+            if (moves_z && path[k].z_mm) {
+                const double z_job = *path[k].z_mm / m.unit_mm;
+                if (m.absolute || !m.written_z) {
+                    text += " Z" + number(z_job, decimals);
+                    m.written_z = z_job;
+                } else {
+                    const double dz = std::stod(number(z_job - *m.written_z, decimals));
+                    text += " Z" + number(dz, decimals);
+                    *m.written_z += dz;
+                }
             }
             if (e_word) {
                 text += " E" + number(m.absolute_e ? e_from + e_total * share
@@ -224,8 +466,7 @@ std::string compensate_gcode(std::string_view job, const Correction& correct, co
             }
             if (k == 0) {
                 for (const auto& w : line.parameters) {
-                    if (w.letter == 'X' || w.letter == 'Y' || w.letter == 'Z' || w.letter == 'E' ||
-                        w.letter == 'I' || w.letter == 'J' || w.letter == 'R')
+                    if (std::string_view("XYZEIJKRG").find(w.letter) != std::string_view::npos)
                         continue;
                     text += ' ';
                     text += w.letter;
@@ -233,15 +474,15 @@ std::string compensate_gcode(std::string_view job, const Correction& correct, co
                 }
             }
             if (k + 1 == n) {
-                const std::string comment = comment_of(raw);
+                const std::string comment = comment_of(gcode::without_checksum(raw));
                 if (!comment.empty()) text += " " + comment;
             }
-            out += text + '\n';
+            emit(text);
             ++report.pieces;
         }
-        m.xy = to;
+        m.xy_mm = to;
         m.xy_known = true;
-        m.z = z_to;
+        m.z_mm = z_to;
         if (e_word) m.e = m.absolute_e ? *e_word : m.e + *e_word;
     }
     return out;

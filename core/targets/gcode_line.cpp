@@ -32,6 +32,11 @@ std::string strip_comments(std::string_view raw) {
         out.push_back(c);
     }
     if (in_paren) throw SyntaxError("unclosed '(' comment");
+    std::size_t first = 0;
+    while (first < out.size() && is_blank(out[first])) ++first;
+    std::size_t last = out.size();
+    while (last > first && is_blank(out[last - 1])) --last;
+    if (last == first + 1 && out[first] == '%') return {};
     return out;
 }
 
@@ -53,8 +58,24 @@ std::string numbered_line(long number, std::string_view command) {
 
 namespace {
 
+// Where the checksum's '*' is: the first outside a comment, or npos.
+std::size_t checksum_star(std::string_view line) {
+    bool in_paren = false;
+    for (std::size_t i = 0; i < line.size(); ++i) {
+        const char c = line[i];
+        if (in_paren) {
+            in_paren = c != ')';
+            continue;
+        }
+        if (c == ';') return std::string_view::npos;
+        if (c == '(') in_paren = true;
+        if (c == '*') return i;
+    }
+    return std::string_view::npos;
+}
+
 std::string_view verify_checksum(std::string_view line) {
-    const auto star = line.find('*');
+    const auto star = checksum_star(line);
     if (star == std::string_view::npos) return line;
     const std::uint8_t sum = checksum(line.substr(0, star));
     auto digits = line.substr(star + 1);
@@ -72,6 +93,10 @@ std::string_view verify_checksum(std::string_view line) {
 }
 
 }  // namespace
+
+std::string_view without_checksum(std::string_view raw) {
+    return raw.substr(0, checksum_star(raw));
+}
 
 bool Line::has(char letter) const {
     for (const auto& w : parameters)
@@ -99,6 +124,11 @@ Line parse_line(std::string_view raw) {
     const auto skip_blanks = [&] {
         while (i < body.size() && is_blank(body[i])) ++i;
     };
+    skip_blanks();
+    if (i < body.size() && body[i] == '/') {
+        line.block_delete = true;
+        ++i;
+    }
     while (true) {
         skip_blanks();
         if (i >= body.size()) break;
@@ -146,13 +176,20 @@ Line parse_line(std::string_view raw) {
         }
         if (line.command_letter == 0 && (letter == 'G' || letter == 'M' || letter == 'T')) {
             // No firmware's command numbers reach 10000 (Marlin's highest is M9xx); the range is
-            // checked before the conversion, which is undefined outside int.
-            if (values.size() != 1 || !(*value >= 0 && *value < 10000) ||
-                *value != std::floor(*value)) {
+            // checked before the conversion, which is undefined outside int. A G code may have
+            // one decimal (G92.1, G38.2, G61.1).
+            if (values.size() != 1 || !(*value >= 0 && *value < 10000)) {
+                throw SyntaxError(std::string("bad command number after ") + letter);
+            }
+            const double whole = std::floor(*value);
+            const double tenths = std::round((*value - whole) * 10);
+            if ((letter != 'G' && whole != *value) ||
+                std::abs((*value - whole) * 10 - tenths) > 1e-6) {
                 throw SyntaxError(std::string("bad command number after ") + letter);
             }
             line.command_letter = letter;
-            line.command_number = static_cast<int>(*value);
+            line.command_number = static_cast<int>(whole);
+            if (tenths > 0) line.command_subcode = static_cast<int>(tenths);
             if (line.is('M', 117) || line.is('M', 118)) {
                 skip_blanks();
                 line.text = body.substr(i);
@@ -160,9 +197,6 @@ Line parse_line(std::string_view raw) {
                 break;
             }
             continue;
-        }
-        if (line.command_letter == 0) {
-            throw SyntaxError(std::string("parameter ") + letter + " before any command");
         }
         line.parameters.push_back(Word{letter, value, std::move(values)});
     }

@@ -25,13 +25,16 @@ struct Word {
 
 struct Line {
     std::optional<long> line_number;
-    char command_letter = 0;  // 'G', 'M' or 'T'; 0 for a line with no command
+    char command_letter = 0;  // 'G', 'M' or 'T'; 0 for a line with no command (modal words)
     int command_number = -1;
+    int command_subcode = -1;   // the 1 of G92.1, the 2 of G38.2; -1 for a whole number
+    bool block_delete = false;  // the line starts with '/': the operator's switch skips it
     std::vector<Word> parameters;
     std::string text;  // the free text of M117/M118
 
+    // A whole-numbered command: G92.1 is not G92.
     bool is(char letter, int number) const {
-        return command_letter == letter && command_number == number;
+        return command_letter == letter && command_number == number && command_subcode < 0;
     }
     bool has(char letter) const;
     std::optional<double> value(char letter) const;  // empty when absent or bare
@@ -39,13 +42,18 @@ struct Line {
 };
 
 // Removes comments ('(' to ')', ';' to the end of the line); throws SyntaxError for an unclosed
-// '('.
+// '('. A line of only '%' (a program's start and end, as CAM writes them) is blank.
 std::string strip_comments(std::string_view raw);
 // The RepRap checksum: XOR of the bytes.
 std::uint8_t checksum(std::string_view text);
 // "N<number> <command>*<checksum>", as hosts send a line that the firmware must acknowledge.
 std::string numbered_line(long number, std::string_view command);
 
+// The part of a raw line before its checksum's '*', where that '*' is outside every comment (a
+// '*' in a comment is text: PrusaSlicer's settings block has them).
+std::string_view without_checksum(std::string_view raw);
+
+// Words before any command are modal (S12000, F500, X10 Y20 under the last motion command).
 // Throws SyntaxError naming what is wrong (bad number, checksum mismatch, stray text).
 Line parse_line(std::string_view raw);
 

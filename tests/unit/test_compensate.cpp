@@ -106,13 +106,131 @@ TEST(Compensate, what_cannot_be_carried_through_is_refused_naming_the_line) {
         }
         FAIL(("not refused: " + job).c_str());
     };
-    refused("G90\nG91\nG1 X1 Y1\n", "line 3: relative XY moves");
-    refused("G20\n", "line 1: inches");
-    refused("G92 X0 Y0\n", "line 1: G92");
-    refused("N1 G1 X1 Y1\n", "line 1: numbered");
     refused("G1 X1\n", "line 1: a move that gives one axis");
-    refused("G1 X0 Y0\nG18\n", "line 2: arcs off the XY plane");
     refused("G1 X0 Y0\nG2 X10 Y0 R4\n", "shorter than half its chord");
+    refused("G1 X0 Y0\nG41 D1 X5 Y5\n", "line 2: cutter radius compensation (G41)");
+    refused("G1 X0 Y0\nG81 X5 Y5 Z-1 R1\n", "line 2: canned cycle G81");
+    refused("G55\n", "line 1: work offset G55 is held by the controller");
+    refused("#1 = 5\n", "line 1: parameters, expressions or O-word");
+    refused("G1 X0 Y0\nG1 X[1+2] Y0\n", "line 2: parameters");
+    refused("o100 sub\n", "line 1: parameters");
+    refused("G1 X0 Y0\nG53 G0 X10 Y10\n", "line 2: a move in machine coordinates (G53)");
+    refused("G1 X0 Y0\n/G1 X5 Y5\n", "line 2: a move under block delete");
+    refused("G90.1\n", "line 1: absolute arc centres");
+    refused("G1 X0 Y0\nG1 X1 Y1 Q\"\n", "line 2: bad number");
+}
+
+namespace {
+
+// The absolute XY positions an output job reaches, move by move (the test's own reading: G90 /
+// G91, G20 / G21, G0 / G1 only, which is all compensate_gcode writes for motion).
+std::vector<Point2> positions_of(const std::string& job) {
+    std::vector<Point2> out;
+    Point2 at;
+    bool absolute = true;
+    double unit = 1;
+    for (const auto& raw : lines_of(job)) {
+        const auto line = gcode::parse_line(raw);
+        for (const int g : {20, 21, 90, 91}) {
+            bool here = line.is('G', g);
+            for (const auto& w : line.parameters)
+                here = here || (w.letter == 'G' && w.value && *w.value == g);
+            if (!here) continue;
+            if (g == 20 || g == 21) unit = g == 20 ? 25.4 : 1;
+            if (g == 90 || g == 91) absolute = g == 90;
+        }
+        if (!(line.is('G', 0) || line.is('G', 1))) continue;
+        if (!line.has('X') && !line.has('Y')) continue;
+        const double x = line.value('X').value_or(absolute ? at.x / unit : 0) * unit;
+        const double y = line.value('Y').value_or(absolute ? at.y / unit : 0) * unit;
+        at = absolute ? Point2{x, y} : Point2{at.x + x, at.y + y};
+        out.push_back(at);
+    }
+    return out;
+}
+
+}  // namespace
+
+TEST(Compensate, modal_words_comments_and_program_delimiters_are_carried) {
+    const std::string job =
+        "%\nG21 G90 G17\nS12000 M3\nF500\nG1 X0 Y0\nX2 Y0\n; fill = *rect* ;\nM5\n%\n";
+    const auto out = lines_of(compensated(job, [](Point2 p) { return Point2{p.x + 1, p.y}; }));
+    CHECK_EQUAL(std::string("%"), out[0]);
+    CHECK_EQUAL(std::string("S12000 M3"), out[2]);
+    CHECK_EQUAL(std::string("F500"), out[3]);
+    CHECK_EQUAL(std::string("G1 X1 Y0"), out[4]);
+    // The modal move (X2 Y0 under G1) in two pieces through the correction.
+    CHECK_EQUAL(std::string("G1 X2 Y0"), out[5]);
+    CHECK_EQUAL(std::string("G1 X3 Y0"), out[6]);
+    CHECK_EQUAL(std::string("; fill = *rect* ;"), out[7]);
+    CHECK_EQUAL(std::string("%"), out[9]);
+}
+
+TEST(Compensate, inches_relative_moves_and_g92_offsets_are_tracked) {
+    // 1 % long in x: a point x mm out lands at 1.01 x.
+    const targets::Correction longer = [](Point2 p) { return Point2{1.01 * p.x, p.y}; };
+    // Inches: 1 in = 25.4 mm goes to 25.654 mm = 1.01 in, written in inches.
+    const auto inches = lines_of(compensated("G20\nG90\nG0 X0 Y0\nG1 X1 Y0\n", longer));
+    CHECK_EQUAL(std::string("G1 X1.01 Y0"), inches.back());
+    CHECK_EQUAL(2u + 1u + 26u, inches.size());  // 25.4 mm in pieces of at most 1 mm
+    // Relative moves: from x = 10 by 2 mm, the corrected end is 12.12, 0.12 past the start's
+    // corrected 10.1 + 2; the pieces add up to it.
+    const auto relative = positions_of(compensated("G90\nG0 X10 Y0\nG91\nG1 X2 Y1\n", longer));
+    DOUBLES_EQUAL(12.12, relative.back().x, 1e-9);
+    DOUBLES_EQUAL(1, relative.back().y, 1e-9);
+    // G92 X0 at x = 10: the job's x = 5 is the frame's 15, corrected to 15.15: the job's 5.15.
+    const auto offset = lines_of(compensated("G90\nG0 X10 Y0\nG92 X0 Y0\nG0 X5 Y0\n", longer));
+    CHECK_EQUAL(std::string("G0 X5.15 Y0"), offset.back());
+    // G92.1 clears it: x = 5 is the frame's 5 again.
+    const auto cleared =
+        lines_of(compensated("G90\nG0 X10 Y0\nG92 X0 Y0\nG92.1\nG0 X5 Y0\n", longer));
+    CHECK_EQUAL(std::string("G0 X5.05 Y0"), cleared.back());
+}
+
+TEST(Compensate, arcs_in_every_plane_and_helices_are_traced) {
+    // G18 (the ZX plane), clockwise as seen from +Y: from x = 0 to x = 10 about x = 5 it passes
+    // z = -5 (worked by hand from the standard's axis order Z, X).
+    const auto xz = lines_of(compensated("G90\nG0 X0 Y0 Z0\nG18\nG2 X10 Z0 I5 K0\n"));
+    double lowest = 0;
+    for (std::size_t i = 3; i < xz.size(); ++i) {
+        const auto l = gcode::parse_line(xz[i]);
+        const double x = *l.value('X'), z = *l.value('Z');
+        DOUBLES_EQUAL(25, (x - 5) * (x - 5) + z * z, 0.01);
+        DOUBLES_EQUAL(0, *l.value('Y'), 1e-9);
+        lowest = std::min(lowest, z);
+    }
+    DOUBLES_EQUAL(-5, lowest, 0.01);
+    // A helix: half a turn counter-clockwise about the origin, rising 2 mm.
+    const auto helix = lines_of(compensated("G90\nG0 X5 Y0 Z0\nG3 X-5 Y0 Z2 I-5 J0\n"));
+    for (std::size_t i = 2; i < helix.size(); ++i) {
+        const auto l = gcode::parse_line(helix[i]);
+        const double x = *l.value('X'), y = *l.value('Y'), z = *l.value('Z');
+        DOUBLES_EQUAL(25, x * x + y * y, 0.01);
+        CHECK(y >= -1e-9);
+        // The height follows the angle swept.
+        DOUBLES_EQUAL(2 * std::atan2(y, x) / 3.14159265358979, z, 0.001);
+    }
+    // G19 (the YZ plane) with J and K.
+    const auto yz = lines_of(compensated("G90\nG0 X0 Y0 Z0\nG19\nG3 Y10 Z0 J5 K0\n"));
+    for (std::size_t i = 3; i < yz.size(); ++i) {
+        const auto l = gcode::parse_line(yz[i]);
+        const double y = *l.value('Y'), z = *l.value('Z');
+        DOUBLES_EQUAL(25, (y - 5) * (y - 5) + z * z, 0.01);
+    }
+}
+
+TEST(Compensate, numbered_and_checksummed_lines_are_renumbered) {
+    const auto out = lines_of(compensated("N10 G90\nN20 G0 X0 Y0\nN30 G1 X2 Y0 (cut)\nN40 M5\n"));
+    CHECK_EQUAL(std::string("N10 G90"), out[0]);
+    CHECK_EQUAL(std::string("N30 G1 X1 Y0"), out[2]);
+    CHECK_EQUAL(std::string("N40 G1 X2 Y0 (cut)"), out[3]);
+    CHECK_EQUAL(std::string("N50 M5"), out[4]);
+    const std::string first = gcode::numbered_line(1, "G0 X0 Y0");
+    const std::string second = gcode::numbered_line(2, "G1 X2 Y0");
+    const auto host = lines_of(compensated(first + "\n" + second + "\n"));
+    CHECK_EQUAL(3u, host.size());
+    CHECK_EQUAL(gcode::numbered_line(3, "G1 X2 Y0"), host[2]);
+    for (const auto& l : host) CHECK(gcode::parse_line(l).line_number.has_value());
 }
 
 TEST(Compensate, scanner_jobs_are_corrected_point_by_point) {

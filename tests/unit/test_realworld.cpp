@@ -3,12 +3,17 @@
 #include <CppUTest/TestHarness.h>
 
 #include <algorithm>
+#include <cctype>
 #include <filesystem>
+#include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/geometry/calibration.hpp"
+#include "core/targets/compensate.hpp"
+#include "core/targets/gcode_line.hpp"
 #include "tests/support/test_data.hpp"
 
 using namespace calbox;
@@ -125,4 +130,118 @@ TEST(RealCamera, too_few_views_left_once_the_far_ones_are_dropped_is_refused) {
         CHECK_TEXT(why.find("set aside") != std::string::npos, e.what());
         CHECK_TEXT(why.find("at least 4 views") != std::string::npos, e.what());
     }
+}
+
+// G-code other people's slicers and CAM programs wrote (realworld/gcode), through a correction
+// a little off the identity: each file compensated, or refused for a reason a CAM user reads.
+TEST_GROUP(RealGcode){};
+
+namespace {
+
+const targets::Correction kSlightlyOff = [](geometry::Point2 p) {
+    return geometry::Point2{1.001 * p.x + 0.0005 * p.y + 0.1, -0.0004 * p.x + 0.999 * p.y - 0.05};
+};
+
+// A line the compensator moves: one with X or Y (or an arc's words) under a motion command.
+// Everything else must come out as it went in, in order (line numbers aside).
+bool is_xy_motion(const std::string& raw) {
+    gcode::Line line;
+    try {
+        line = gcode::parse_line(raw);
+    } catch (const gcode::SyntaxError&) {
+        return false;
+    }
+    if (line.command_letter == 'M' || line.command_letter == 'T') return false;
+    for (const int g : {4, 10, 28, 30, 53, 92})
+        if (line.is('G', g)) return false;
+    if (line.command_letter == 'G' && line.command_subcode >= 0) return false;
+    return line.has('X') || line.has('Y') || line.has('I') || line.has('J') || line.has('R');
+}
+
+std::string without_number(std::string raw) {
+    while (!raw.empty() && (raw.back() == '\r' || raw.back() == ' ')) raw.pop_back();
+    raw = std::string(gcode::without_checksum(raw));
+    std::size_t i = raw.find_first_not_of(" \t");
+    if (i != std::string::npos && (raw[i] == 'N' || raw[i] == 'n')) {
+        ++i;
+        while (i < raw.size() && std::isdigit(static_cast<unsigned char>(raw[i]))) ++i;
+        while (i < raw.size() && raw[i] == ' ') ++i;
+        raw = raw.substr(i);
+    }
+    while (!raw.empty() && raw.back() == ' ') raw.pop_back();
+    return raw;
+}
+
+std::vector<std::string> kept_lines(const std::string& text, bool output) {
+    std::vector<std::string> kept;
+    std::istringstream in(text);
+    for (std::string raw; std::getline(in, raw);) {
+        if (output) {
+            const auto line = gcode::parse_line(raw);
+            const bool written_move =
+                (line.is('G', 0) || line.is('G', 1) ||
+                 (line.command_letter == 'G' && !line.parameters.empty() &&
+                  std::any_of(line.parameters.begin(), line.parameters.end(),
+                              [](const gcode::Word& w) {
+                                  return w.letter == 'G' && w.value && *w.value <= 1;
+                              }))) &&
+                (line.has('X') || line.has('Y'));
+            if (written_move) continue;
+        } else if (is_xy_motion(raw)) {
+            continue;
+        }
+        kept.push_back(without_number(raw));
+    }
+    return kept;
+}
+
+}  // namespace
+
+TEST(RealGcode, every_file_is_compensated_or_refused_for_a_reason_a_cam_user_reads) {
+    // What each file is: compensated (""), or refused with these words.
+    const std::map<std::string, std::string> expected = {
+        {"cnc/fusion360/1070_wall_27bit.nc", ""},
+        {"cnc/jsdc.gcode", ""},
+        {"cnc/linuxcnc/arcspiral.ngc", ""},
+        {"cnc/linuxcnc/g76.ngc", "position is unknown"},
+        {"cnc/linuxcnc/hole-circle.ngc", "polar coordinates"},
+        {"cnc/linuxcnc/tort.ngc", ""},
+        {"cnc/ugs/ShapeOko_Calibration_Pattern_01b.ngc", ""},
+        {"cnc/ugs/arc_rword_test.gcode", ""},
+        {"laser/input5.gcode", ""},
+        {"printer/gcode-preview_plant-sign_prusaslicer274_arcs.gcode", ""},
+        {"printer/gcode-preview_puzzle_all_cura231.gcode", ""},
+        {"printer/gcode-preview_vase_prusaslicer274.gcode", ""},
+    };
+    int compensated = 0, refused = 0;
+    for (const auto& [file, refusal] : expected) {
+        const std::string job = test::read_test_data("realworld/gcode/" + file);
+        targets::CompensateReport report;
+        std::string out, why;
+        try {
+            out = targets::compensate_gcode(
+                job, kSlightlyOff, [](geometry::Point2) { return true; }, {}, report);
+        } catch (const targets::CompensateError& e) {
+            why = e.what();
+        }
+        UT_PRINT((file + ": " +
+                  (why.empty() ? "compensated, " + std::to_string(report.moves) + " moves, " +
+                                     std::to_string(report.arcs) + " arcs"
+                               : "refused: " + why))
+                     .c_str());
+        if (why.empty()) {
+            ++compensated;
+            CHECK_TEXT(refusal.empty(), file.c_str());
+            // Every non-motion line kept, in order.
+            const auto in = kept_lines(job, false), kept = kept_lines(out, true);
+            CHECK_TEXT(in == kept, (file + ": " + std::to_string(in.size()) + " lines in, " +
+                                    std::to_string(kept.size()) + " kept")
+                                       .c_str());
+        } else {
+            ++refused;
+            CHECK_TEXT(!refusal.empty() && why.find(refusal) != std::string::npos, why.c_str());
+        }
+    }
+    UT_PRINT((std::to_string(compensated) + " compensated, " + std::to_string(refused) + " refused")
+                 .c_str());
 }

@@ -20,15 +20,18 @@ constexpr const char* kCompensateHelp = R"(usage:
       machine marks where the job meant: a galvo result (calbox solve galvo), whose table gives
       the scanner command for each intended point, or a planar result (calbox solve planar),
       whose error model e gives X_c = X_t - e(X_c) (the rigid part of e left to the work's zero
-      and heading). IN is G-code (absolute XY in mm: G90,
-      G21; G0/G1 moves and G2/G3 arcs in the XY plane) or a plain scanner job (its first line
-      x_mm,y_mm,power). Moves are split into pieces of at most --segment mm (default 1: the
-      table's bilinear correction then bends less than 0.0001 mm between pieces on scanners
-      of the size tested) and arcs are traced by chords within 0.002 mm; every other word,
-      comment and line is kept as written. Points outside the table's area take the edge's
-      correction (a planar model extrapolates beyond its measured holes) and are counted on
-      standard error. Refused, nothing written: relative XY
-      (G91), inches (G20), G92 with X or Y, arcs off the XY plane, numbered lines.
+      and heading). IN is G-code as slicers and CAM write it (modal words alone on a line,
+      either comment, % delimiters; inches G20, relative G91, G92 offsets, arcs in G17/G18/G19
+      and helices, numbered and checksummed lines renumbered: each carried and written back as
+      the job had it) or a plain scanner job (its first line x_mm,y_mm,power). Moves are split
+      into pieces of at most --segment mm (default 1: the table's bilinear correction then
+      bends less than 0.0001 mm between pieces on scanners of the size tested) and arcs are
+      traced by chords within 0.002 mm; every other word, comment and line is kept as written.
+      Points outside the table's area take the edge's correction (a planar model extrapolates
+      beyond its measured holes) and are counted on standard error. Refused, naming the line,
+      nothing written: cutter compensation (G41/G42), canned cycles (G73, G76, G81-G89), work
+      offsets held by the controller (G55-G59, G10), G53 moves with X or Y, moves under block
+      delete, absolute arc centres (G90.1), LinuxCNC parameters and O-words, polar words.
 )";
 
 int compensate(const std::vector<std::string>& words) {

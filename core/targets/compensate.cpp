@@ -17,6 +17,9 @@ namespace {
 using geometry::Point2;
 
 constexpr double kPi = 3.14159265358979323846;
+// No slicer or CAM program writes a line near this (PrusaSlicer's longest, its settings and
+// thumbnail lines, stay under a few thousand characters); past it the file is not G-code.
+constexpr std::size_t kLongestLine = 65536;
 
 // A number as G-code writes it: no exponent, no trailing zeros.
 std::string number(double v, int decimals) {
@@ -275,6 +278,11 @@ std::string compensate_gcode(std::string_view job, const Correction& correct, co
         const auto fail = [&](const std::string& why) -> CompensateError {
             return CompensateError("line " + std::to_string(number_of_line) + ": " + why);
         };
+        if (raw.size() > kLongestLine)
+            throw CompensateError("line " + std::to_string(number_of_line) + " is " +
+                                  std::to_string(raw.size()) +
+                                  " characters long: not G-code (a line holds at most " +
+                                  std::to_string(kLongestLine) + ")");
         gcode::Line line;
         try {
             if (const auto why = unplain_words(raw); !why.empty()) throw fail(why);

@@ -395,6 +395,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
     check_minimum(model, views, std::to_string(views.size()) + " views");
     const cv::Size size(width_px, height_px);
     std::vector<const BoardObservation*> boards;
+    boards.reserve(views.size());
     for (const auto& v : views) boards.push_back(&v.board);
     IntrinsicSolve solve = solve_intrinsics(model, boards, size, nullptr);
 
@@ -414,6 +415,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
     std::vector<std::string> notes(views.size());
     if (!outliers.empty()) {
         std::vector<ObservedView> rest;
+        rest.reserve(kept.size());
         for (const auto v : kept) rest.push_back(views[v]);
         std::string dropped_names;
         for (const auto v : outliers)
@@ -422,6 +424,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
                       std::to_string(rest.size()) + " views once " + dropped_names +
                           " (far off the others) were set aside");
         std::vector<const BoardObservation*> rest_boards;
+        rest_boards.reserve(kept.size());
         for (const auto v : kept) rest_boards.push_back(&views[v].board);
         IntrinsicSolve without = solve_intrinsics(model, rest_boards, size, nullptr);
         const double rest_typical = typical_rms_px(without.view_rms_px);
@@ -458,6 +461,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
             std::vector<std::size_t> all = kept;
             all.insert(all.end(), rejoined.begin(), rejoined.end());
             std::vector<const BoardObservation*> all_boards;
+            all_boards.reserve(all.size());
             for (const auto v : all) all_boards.push_back(&views[v].board);
             IntrinsicSolve with = solve_intrinsics(model, all_boards, size, &solve.camera);
             bool all_fit = true;

@@ -102,6 +102,7 @@ void set_aside_odd_sizes(std::vector<MarkCandidate>& candidates, double max_devi
         // The kind's own spread, as a standard deviation from the median absolute deviation:
         // small marks seen by few pixels measure a few percent apart even when made alike.
         std::vector<double> deviations;
+        deviations.reserve(radii.size());
         for (const double r : radii) deviations.push_back(std::abs(r / typical - 1));
         const double allowed =
             std::max(max_deviation, kSizeSpreadsAllowed * 1.4826 * median(deviations));

@@ -137,7 +137,14 @@ int svg(const std::vector<std::string>& words) {
     } catch (const targets::SvgError& e) {
         throw std::runtime_error(svg_path + ": " + e.what());
     }
+    for (const auto& warning : document.warnings)
+        std::fprintf(stderr, "calbox: warning: %s: %s\n", svg_path.c_str(), warning.c_str());
     const auto job = targets::plan_svg_job(document, machine, settings);
+    if (job.shapes_cut_at_page > 0)
+        std::fprintf(stderr,
+                     "calbox: warning: %s: %d shapes reach past the drawing's page and were cut at "
+                     "its edge, as a browser shows them\n",
+                     svg_path.c_str(), job.shapes_cut_at_page);
     write_output_file(
         out, targets::write_gcode(
                  job, machine,

@@ -1,10 +1,12 @@
 #include "core/targets/job.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
 
 #include "core/number_text.hpp"
+#include "core/targets/toolpath.hpp"
 
 namespace calbox::targets {
 namespace {
@@ -17,6 +19,90 @@ double line_width_of(const models::MachineFile& m) {
 
 std::string xy(Point2 p) {
     return " X" + number_text("%.4f", p.x) + " Y" + number_text("%.4f", p.y);
+}
+
+// The pieces of a polyline inside the rectangle [0, w] x [0, h] (Liang-Barsky on each segment).
+std::vector<Contour> cut_polyline(const Contour& c, double w, double h) {
+    std::vector<Point2> points = c.points;
+    if (c.closed && !points.empty()) points.push_back(points.front());
+    std::vector<Contour> pieces;
+    Contour piece;
+    const auto flush = [&] {
+        if (piece.points.size() >= 2) pieces.push_back(piece);
+        piece = {};
+    };
+    for (std::size_t i = 0; i + 1 < points.size(); ++i) {
+        const Point2 a = points[i], b = points[i + 1];
+        double t0 = 0, t1 = 1;
+        const double d[2] = {b.x - a.x, b.y - a.y};
+        const double lo[2] = {-a.x, -a.y}, hi[2] = {w - a.x, h - a.y};
+        bool inside = true;
+        for (int k = 0; k < 2 && inside; ++k) {
+            if (d[k] == 0) {
+                inside = lo[k] <= 0 && hi[k] >= 0;
+                continue;
+            }
+            double ta = lo[k] / d[k], tb = hi[k] / d[k];
+            if (ta > tb) std::swap(ta, tb);
+            t0 = std::max(t0, ta), t1 = std::min(t1, tb);
+            inside = t0 <= t1;
+        }
+        if (!inside) {
+            flush();
+            continue;
+        }
+        const Point2 p{a.x + d[0] * t0, a.y + d[1] * t0}, q{a.x + d[0] * t1, a.y + d[1] * t1};
+        if (piece.points.empty() || t0 > 0) {
+            flush();
+            piece.points.push_back(p);
+        }
+        piece.points.push_back(q);
+        if (t1 < 1) flush();
+    }
+    flush();
+    return pieces;
+}
+
+// The drawing as a browser shows it: what lies past the page (the viewport the document's width,
+// height and viewBox make) is not shown, so each shape reaching past it is cut at its edge, its
+// fill as a region and its stroke as lines.
+SvgDocument cut_at_page(const SvgDocument& document, std::optional<FillRule> fill_rule,
+                        int& shapes_cut) {
+    const double w = document.width_mm, h = document.height_mm;
+    SvgDocument shown = document;
+    shown.shapes.clear();
+    const Polygon page{{0, 0}, {w, 0}, {w, h}, {0, h}};
+    for (const auto& shape : document.shapes) {
+        bool within = true;
+        for (const auto& c : shape.contours)
+            for (const auto& p : c.points)
+                within = within && p.x >= 0 && p.x <= w && p.y >= 0 && p.y <= h;
+        if (within) {
+            shown.shapes.push_back(shape);
+            continue;
+        }
+        ++shapes_cut;
+        if (shape.filled) {
+            SvgShape fill = shape;
+            fill.stroked = false;
+            fill.fill_rule = FillRule::nonzero;  // resolved below
+            fill.contours.clear();
+            for (auto& p : intersect_region(
+                     resolve_fill(shape.contours, fill_rule.value_or(shape.fill_rule)), page))
+                fill.contours.push_back({std::move(p), true});
+            if (!fill.contours.empty()) shown.shapes.push_back(std::move(fill));
+        }
+        if (shape.stroked) {
+            SvgShape stroke = shape;
+            stroke.filled = false;
+            stroke.contours.clear();
+            for (const auto& c : shape.contours)
+                for (auto& piece : cut_polyline(c, w, h))
+                    stroke.contours.push_back(std::move(piece));
+            if (!stroke.contours.empty()) shown.shapes.push_back(std::move(stroke));
+        }
+    }
+    return shown;
 }
 
 }  // namespace
@@ -52,8 +138,13 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     if (settings.perimeters < 0 || settings.perimeters > 20)
         throw JobError("perimeters must be 0 to 20");
     if (settings.scale && settings.fit_mm) throw JobError("give --scale or --fit, not both");
+    const SvgDocument shown =
+        document.width_mm > 0 && document.height_mm > 0
+            ? cut_at_page(document, settings.fill_rule, job.shapes_cut_at_page)
+            : document;
+    if (shown.shapes.empty()) throw JobError("nothing of the drawing lies on its page");
     double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
-    for (const auto& shape : document.shapes)
+    for (const auto& shape : shown.shapes)
         for (const auto& c : shape.contours)
             for (const auto& p : c.points)
                 xmin = std::min(xmin, p.x), xmax = std::max(xmax, p.x), ymin = std::min(ymin, p.y),
@@ -76,6 +167,7 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     const auto place = [&](Point2 p) {
         return Point2{bed_centre.x + (p.x - cx) * job.scale, bed_centre.y - (p.y - cy) * job.scale};
     };
+    job.drawing_min = {xmin, ymin};
     job.min_x = bed_centre.x - (xmax - xmin) / 2 * job.scale;
     job.max_x = bed_centre.x + (xmax - xmin) / 2 * job.scale;
     job.min_y = bed_centre.y - (ymax - ymin) / 2 * job.scale;
@@ -101,7 +193,7 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     fill.angle_deg = settings.angle_deg;
     fill.perimeters = settings.perimeters;
     Point2 pen = bed_centre;
-    for (const auto& shape : document.shapes) {
+    for (const auto& shape : shown.shapes) {
         std::vector<Contour> placed;
         for (const auto& c : shape.contours) {
             Contour p;
@@ -109,12 +201,12 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
             for (const auto& q : c.points) p.points.push_back(place(q));
             placed.push_back(std::move(p));
         }
-        if (shape.filled) {
+        // As a browser paints it: the fill (nothing where it has no area), then the stroke
+        // over it, traced along its centreline.
+        if (shape.filled)
             append(job.toolpath,
                    plan_fill(placed, settings.fill_rule.value_or(shape.fill_rule), fill, pen));
-        } else {
-            append(job.toolpath, plan_trace(placed, pen));
-        }
+        if (shape.stroked) append(job.toolpath, plan_trace(placed, pen));
     }
     if (job.toolpath.working_length_mm() <= 0)
         throw JobError("the drawing is too small to fill with a " +

@@ -35,6 +35,13 @@ struct PlacedJob {
     double feed_mm_s = 0;
     int layers = 1;  // printers: the toolpath repeated one layer height higher each time
     double min_x = 0, min_y = 0, max_x = 0, max_y = 0;  // the drawing's extent on the bed
+    // The same extent's corner in the document (mm, y down): the document's point
+    // (x, y) lies on the bed at (min_x + (x - drawing_min.x) * scale, max_y - (y - drawing_min.y)
+    // * scale).
+    geometry::Point2 drawing_min;
+    // Shapes that reached past the drawing's page and were cut at its edge, as a browser shows
+    // them.
+    int shapes_cut_at_page = 0;
     double estimated_time_s(const models::MachineFile& machine) const;
 };
 

@@ -239,8 +239,10 @@ struct Style {
     bool visible = true;
 };
 
+// A styling value that does not parse is ignored, as a browser ignores it (the inherited value
+// stands), with a warning naming it; a geometry value that does not parse is refused.
 void apply_property(Style& style, const std::string& name, std::string value,
-                    const pugi::xml_node& node) {
+                    const pugi::xml_node& node, std::vector<std::string>& warnings) {
     while (!value.empty() && std::isspace(static_cast<unsigned char>(value.back())))
         value.pop_back();
     while (!value.empty() && std::isspace(static_cast<unsigned char>(value.front())))
@@ -253,9 +255,11 @@ void apply_property(Style& style, const std::string& name, std::string value,
         style.fill_rule = value == "evenodd" ? FillRule::evenodd : FillRule::nonzero;
     } else if (name == "stroke-width") {
         const auto v = length_in_px(value);
-        if (!v)
-            throw SvgError("non-numeric stroke-width \"" + value + "\" on <" + element_name(node) +
-                           ">");
+        if (!v || *v < 0) {
+            warnings.push_back("ignored stroke-width \"" + value + "\" on <" + element_name(node) +
+                               "> (not a length), as a browser ignores it");
+            return;
+        }
         style.stroke_width_px = *v;
     } else if (name == "display") {
         if (value == "none") style.visible = false;
@@ -264,10 +268,11 @@ void apply_property(Style& style, const std::string& name, std::string value,
     }
 }
 
-Style style_of(const pugi::xml_node& node, Style inherited) {
+Style style_of(const pugi::xml_node& node, Style inherited, std::vector<std::string>& warnings) {
     for (const char* name :
          {"fill", "stroke", "fill-rule", "stroke-width", "display", "visibility"}) {
-        if (const auto a = node.attribute(name)) apply_property(inherited, name, a.value(), node);
+        if (const auto a = node.attribute(name))
+            apply_property(inherited, name, a.value(), node, warnings);
     }
     const std::string style = node.attribute("style").value();
     std::size_t start = 0;
@@ -280,7 +285,7 @@ Style style_of(const pugi::xml_node& node, Style inherited) {
             name.erase(std::remove_if(name.begin(), name.end(),
                                       [](unsigned char c) { return std::isspace(c); }),
                        name.end());
-            apply_property(inherited, name, item.substr(colon + 1), node);
+            apply_property(inherited, name, item.substr(colon + 1), node, warnings);
         }
         start = end + 1;
     }
@@ -293,14 +298,30 @@ struct Reader {
     SvgOptions options;
     SvgDocument document;
 
-    void element(const pugi::xml_node& node, const Affine& parent, const Style& parent_style) {
+    // Groups nest this deep at most: drawing programs nest a few levels, a document nested
+    // thousands deep is made to exhaust a reader's stack.
+    static constexpr int kDeepestGroup = 256;
+
+    void element(const pugi::xml_node& node, const Affine& parent, const Style& parent_style,
+                 int depth = 0) {
+        if (depth > kDeepestGroup)
+            throw SvgError("groups nested deeper than " + std::to_string(kDeepestGroup) +
+                           " levels: not a drawing");
         const std::string name = element_name(node);
         if (name == "defs" || name == "title" || name == "desc" || name == "metadata" ||
             name == "style" || name == "clipPath" || name == "mask" || name == "symbol" ||
             name == "marker" || name == "pattern") {
             return;  // not drawn where it stands
         }
-        const Style style = style_of(node, parent_style);
+        if (name == "text")
+            throw SvgError(
+                "<text> is not drawn by a machine: convert text to paths (Inkscape: Path > "
+                "Object to Path)");
+        if (name == "image") {
+            document.warnings.push_back("ignored <image>: a machine draws no bitmap");
+            return;
+        }
+        const Style style = style_of(node, parent_style, document.warnings);
         if (!style.visible) return;
         Affine transform = parent;
         if (const auto t = node.attribute("transform")) {
@@ -312,7 +333,7 @@ struct Reader {
         }
         if (name == "g" || name == "a" || name == "switch") {
             for (const auto& child : node.children()) {
-                if (child.type() == pugi::node_element) element(child, transform, style);
+                if (child.type() == pugi::node_element) element(child, transform, style, depth + 1);
             }
             return;
         }
@@ -383,7 +404,7 @@ struct Reader {
             out.pop_back();  // the last point repeats the first
             return {mapped(std::move(out), true)};
         }
-        return {};  // text, images and the like are not drawn by a machine
+        return {};  // anything else is not drawn
     }
 };
 
@@ -644,7 +665,7 @@ SvgDocument parse_svg(std::string_view text, const SvgOptions& options) {
     reader.document.height_mm = height.value_or(0) * kMmPerPx;
     for (const auto& child : root.children()) {
         if (child.type() == pugi::node_element)
-            reader.element(child, to_mm, style_of(root, Style{}));
+            reader.element(child, to_mm, style_of(root, Style{}, reader.document.warnings));
     }
     if (reader.document.shapes.empty()) throw SvgError("nothing drawable in the document");
     return std::move(reader.document);

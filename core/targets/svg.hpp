@@ -36,6 +36,9 @@ struct SvgShape {
 struct SvgDocument {
     std::vector<SvgShape> shapes;
     double width_mm = 0, height_mm = 0;  // the viewport
+    // What was ignored as a browser ignores it (a styling value that does not parse, an image),
+    // one line each.
+    std::vector<std::string> warnings;
 };
 
 struct SvgOptions {
@@ -54,7 +57,8 @@ struct Affine {
 };
 
 // Throws SvgError with one line naming the problem: malformed XML (with its line), no <svg>
-// root, nothing drawable, too large, an unknown path command, a non-numeric attribute.
+// root, nothing drawable, too large, an unknown path command, a non-numeric geometry attribute,
+// <text> (convert it to paths).
 SvgDocument parse_svg(std::string_view text, const SvgOptions& options = {});
 
 // Path data alone, mapped through `to_mm` and flattened to `tolerance_mm`.

@@ -227,6 +227,16 @@ std::vector<Polygon> resolve_fill(const std::vector<Contour>& contours, FillRule
     return from_clipper(solution);
 }
 
+std::vector<Polygon> intersect_region(const std::vector<Polygon>& region, const Polygon& window) {
+    ClipperLib::Clipper clipper;
+    for (const auto& p : region) clipper.AddPath(to_clipper(p), ClipperLib::ptSubject, true);
+    clipper.AddPath(to_clipper(window), ClipperLib::ptClip, true);
+    ClipperLib::Paths solution;
+    clipper.Execute(ClipperLib::ctIntersection, solution, ClipperLib::pftNonZero,
+                    ClipperLib::pftNonZero);
+    return from_clipper(solution);
+}
+
 std::vector<Polygon> offset_region(const std::vector<Polygon>& region, double distance_mm) {
     ClipperLib::Paths paths;
     for (const auto& p : region) paths.push_back(to_clipper(p));

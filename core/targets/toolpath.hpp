@@ -47,6 +47,9 @@ struct FillSettings {
 // do not overlap (open contours closed implicitly).
 std::vector<Polygon> resolve_fill(const std::vector<Contour>& contours, FillRule rule);
 
+// The part of a resolved region inside `window` (a simple polygon).
+std::vector<Polygon> intersect_region(const std::vector<Polygon>& region, const Polygon& window);
+
 // Insets (negative) or outsets a resolved region by `distance_mm`, mitred corners.
 std::vector<Polygon> offset_region(const std::vector<Polygon>& region, double distance_mm);
 

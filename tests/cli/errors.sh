@@ -53,6 +53,15 @@ printf '%%YAML:1.0\n---\nmodel: [unclosed\n' > "$work/corrupt.yaml"
 printf '%%YAML:1.0\n---\nmodel: pinhole\n' > "$work/incomplete.yaml"
 "$calbox" sim photo --scenario "$scenario" --board chessboard:9x6@20 --on-bed -80,50,0 -o "$work/board.png" 2>/dev/null
 expect_error "cannot read image .*missing.png: no such file" detect markers "$work/missing.png"
+# OpenCV's sample photos (Debian's opencv-doc, in the manifest): one cut short in transfer is
+# refused (libjpeg would fill it grey and calibrate from it), and photos of another board say
+# how many held this one; nothing is written either way.
+samples=/usr/share/doc/opencv-doc/examples/data
+head -c 20000 "$samples/left01.jpg" > "$work/cut_short.jpg"
+expect_error "cut_short.jpg: the JPEG is cut short" camera calibrate --pattern chessboard:9x6@25 \
+    "$work/cut_short.jpg" "$samples/left02.jpg" "$samples/left03.jpg" "$samples/left04.jpg" -o "$work/result"
+expect_error "the board was found in 0 of 3 images" camera calibrate --pattern chessboard:10x7@30 \
+    "$samples/left02.jpg" "$samples/left03.jpg" "$samples/left04.jpg" -o "$work/result"
 expect_error "not an image OpenCV can decode" detect markers "$work/fake.png"
 expect_error "unknown marker dictionary 'DICT_9X9_9'" detect markers "$work/board.png" --dict DICT_9X9_9
 expect_error "no DICT_4X4_50 markers found" detect markers "$work/board.png"

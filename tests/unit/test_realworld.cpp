@@ -1,19 +1,26 @@
 // Inputs other people's cameras made (CALBOX_TEST_DATA/realworld, each folder's source, licence
 // and reference values in its README), through the same calls the command line makes.
 #include <CppUTest/TestHarness.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/geometry/calibration.hpp"
+#include "core/models/machine_file.hpp"
+#include "core/number_text.hpp"
 #include "core/targets/compensate.hpp"
 #include "core/targets/gcode_line.hpp"
+#include "core/targets/job.hpp"
+#include "core/targets/svg.hpp"
 #include "tests/support/test_data.hpp"
 
 using namespace calbox;
@@ -244,4 +251,140 @@ TEST(RealGcode, every_file_is_compensated_or_refused_for_a_reason_a_cam_user_rea
     }
     UT_PRINT((std::to_string(compensated) + " compensated, " + std::to_string(refused) + " refused")
                  .c_str());
+}
+
+// Drawings other people made (realworld/svg), as a job for a laser and as librsvg (a browser's
+// renderer, from Debian) paints them: the job's lines lie on what is painted, and what is painted
+// lies near the job's lines, within 1 % of the drawing's size and the widest stroke's width.
+TEST_GROUP(RealSvg){};
+
+namespace {
+
+const char* kLaserToml = R"toml(
+[machine]
+kind = "laser"
+firmware = "grbl"
+bed_size_x_mm = 300.0
+bed_size_y_mm = 300.0
+tool_width_mm = 0.2
+)toml";
+
+struct Painted {
+    cv::Mat mask;  // 255 where painted
+    cv::Rect box;
+};
+
+Painted as_librsvg_paints(const std::string& svg_path, const std::string& png_path) {
+    const std::string command =
+        "rsvg-convert -w 600 -a -o '" + png_path + "' '" + svg_path + "' 2>/dev/null";
+    if (std::system(command.c_str()) != 0) FAIL(("rsvg-convert failed on " + svg_path).c_str());
+    const cv::Mat rgba = cv::imread(png_path, cv::IMREAD_UNCHANGED);
+    std::vector<cv::Mat> channels;
+    cv::split(rgba, channels);
+    Painted p;
+    // Any coverage counts: a stroke under a pixel wide is painted at partial alpha.
+    p.mask = channels.size() == 4 ? channels[3] > 31 : cv::Mat(rgba.size(), CV_8U, 255);
+    p.box = cv::boundingRect(p.mask);
+    return p;
+}
+
+// The share of `a`'s pixels farther than `reach_px` from any of `b`'s.
+double share_beyond(const cv::Mat& a, const cv::Mat& b, double reach_px) {
+    cv::Mat distance;
+    cv::distanceTransform(~b, distance, cv::DIST_L2, 3);
+    const cv::Mat far = (distance > reach_px) & a;
+    return static_cast<double>(cv::countNonZero(far)) / std::max(1, cv::countNonZero(a));
+}
+
+}  // namespace
+
+TEST(RealSvg, every_drawing_gives_a_job_on_the_drawing_as_a_browser_paints_it) {
+    const auto machine = models::parse_machine_file(kLaserToml, "laser.toml");
+    // What each file is: a job (""), or refused with these words.
+    const std::map<std::string, std::string> expected = {
+        {"nanosvg/23.svg", ""},
+        {"svgpathtools/circle.svg", ""},
+        {"svgpathtools/ellipse.svg", ""},
+        {"svgpathtools/groups.svg", ""},
+        {"svgpathtools/negative-scale.svg", ""},
+        {"svgpathtools/polygons.svg", ""},
+        {"svgpathtools/rects.svg", ""},
+        {"svgpathtools/test.svg", ""},
+        {"svgpathtools/transforms.svg", "convert text to paths"},
+        {"svgpathtools/zero-radius-arcs.svg", ""},
+    };
+    const std::string png = (std::filesystem::temp_directory_path() /
+                             ("calbox_realsvg_" + std::to_string(::getpid()) + ".png"))
+                                .string();
+    for (const auto& [file, refusal] : expected) {
+        const std::string path = test::test_data_path("realworld/svg/" + file);
+        targets::PlacedJob job;
+        std::string why;
+        try {
+            targets::SvgJobSettings settings;
+            settings.fit_mm = 100;
+            job = targets::plan_svg_job(
+                targets::parse_svg(test::read_test_data("realworld/svg/" + file)), machine,
+                settings);
+        } catch (const std::exception& e) {
+            why = e.what();
+        }
+        if (!why.empty()) {
+            UT_PRINT((file + ": refused: " + why).c_str());
+            CHECK_TEXT(!refusal.empty() && why.find(refusal) != std::string::npos, why.c_str());
+            continue;
+        }
+        CHECK_TEXT(refusal.empty(), (file + " was not refused").c_str());
+        const Painted painted = as_librsvg_paints(path, png);
+        // librsvg paints the page (the document's viewport) 600 px wide: the job's lines are
+        // drawn on that frame through the job's own placement, taken back to the document. A
+        // document without a page (no width or height) is painted over its content's extent:
+        // the job's lines are then drawn on the painted extent.
+        const auto document = targets::parse_svg(test::read_test_data("realworld/svg/" + file));
+        const bool has_page = document.width_mm > 0 && document.height_mm > 0;
+        double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
+        for (const auto& m : job.toolpath.moves) {
+            if (m.kind == targets::MoveKind::travel) continue;
+            for (const auto& p : {m.from, m.to}) {
+                min_x = std::min(min_x, p.x), max_x = std::max(max_x, p.x);
+                min_y = std::min(min_y, p.y), max_y = std::max(max_y, p.y);
+            }
+        }
+        const double px_per_mm = has_page
+                                     ? 600 / document.width_mm
+                                     : std::max(painted.box.width, painted.box.height) /
+                                           (std::max(max_x - min_x, max_y - min_y) / job.scale);
+        cv::Mat lines = cv::Mat::zeros(painted.mask.size(), CV_8U);
+        const auto at = [&](geometry::Point2 p) {
+            if (!has_page)
+                return cv::Point(static_cast<int>(std::lround(
+                                     painted.box.x + (p.x - min_x) / job.scale * px_per_mm)),
+                                 static_cast<int>(std::lround(
+                                     painted.box.y + (max_y - p.y) / job.scale * px_per_mm)));
+            const double x = job.drawing_min.x + (p.x - job.min_x) / job.scale;
+            const double y = job.drawing_min.y + (job.max_y - p.y) / job.scale;
+            return cv::Point(static_cast<int>(std::lround(x * px_per_mm - 0.5)),
+                             static_cast<int>(std::lround(y * px_per_mm - 0.5)));
+        };
+        const int thickness =
+            std::max(1, static_cast<int>(std::lround(job.line_width_mm / job.scale * px_per_mm)));
+        for (const auto& m : job.toolpath.moves)
+            if (m.kind != targets::MoveKind::travel)
+                cv::line(lines, at(m.from), at(m.to), 255, thickness);
+        // A stroke is painted its width across, the job traces its middle: the reach takes in
+        // the widest stroke whole (a group's uneven scale widens it one way).
+        double widest_stroke_mm = 0;
+        for (const auto& shape : document.shapes)
+            if (shape.stroked) widest_stroke_mm = std::max(widest_stroke_mm, shape.stroke_width_mm);
+        const double reach_px = 0.01 * std::max(painted.box.width, painted.box.height) + 2 +
+                                widest_stroke_mm * px_per_mm;
+        const double job_off = share_beyond(lines, painted.mask, reach_px);
+        const double painted_off = share_beyond(painted.mask, lines, reach_px);
+        UT_PRINT((file + ": " +
+                  number_text("%.2f %% of the job's line off the painting, ", 100 * job_off) +
+                  number_text("%.2f %% of the painting away from the job", 100 * painted_off))
+                     .c_str());
+        CHECK_TEXT(job_off < 0.005 && painted_off < 0.005, file.c_str());
+    }
+    std::filesystem::remove(png);
 }

@@ -222,7 +222,22 @@ TEST(SvgDocument, bad_documents_get_one_line_naming_the_problem) {
     STRCMP_CONTAINS("no <svg> root", error_of("<html><rect width='1' height='1'/></html>").c_str());
     STRCMP_CONTAINS("nothing drawable",
                     error_of("<svg xmlns='http://www.w3.org/2000/svg'></svg>").c_str());
-    STRCMP_CONTAINS("nothing drawable", error_of("<svg><text>hello</text></svg>").c_str());
+    // Text is refused naming the element (a browser shows it; a machine needs its outlines).
+    STRCMP_CONTAINS("<text> is not drawn by a machine: convert text to paths",
+                    error_of("<svg><text>hello</text></svg>").c_str());
+    // A geometry value that does not parse is refused; a styling value is ignored with a
+    // warning, as a browser ignores it.
+    const auto styled =
+        parse_svg(in_mm("<path d='M0 0 L5 0' stroke='#000' stroke-width='0.35 px'/>"));
+    CHECK_EQUAL(1u, styled.warnings.size());
+    STRCMP_CONTAINS("ignored stroke-width \"0.35 px\" on <path>", styled.warnings[0].c_str());
+    CHECK(styled.shapes[0].stroked);
+    // Groups nested 10,000 deep: refused in one line, not a stack overflow.
+    std::string deep;
+    for (int i = 0; i < 10000; ++i) deep += "<g>";
+    deep += "<rect width='1' height='1'/>";
+    for (int i = 0; i < 10000; ++i) deep += "</g>";
+    STRCMP_CONTAINS("groups nested deeper than 256 levels", error_of(in_mm(deep)).c_str());
     STRCMP_CONTAINS("unknown command 'X'", error_of(in_mm("<path d='M0 0 X 5 5'/>")).c_str());
     STRCMP_CONTAINS("non-numeric attribute width=\"abc\" on <rect>",
                     error_of(in_mm("<rect width='abc' height='2'/>")).c_str());

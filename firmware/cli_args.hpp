@@ -52,5 +52,6 @@ int run_measure(const std::vector<std::string>& words);     // "calbox measure .
 int run_compensate(const std::vector<std::string>& words);  // "calbox compensate ..."
 int run_appliance(const std::vector<std::string>& words);   // "calbox run ..."
 int run_revert(const std::vector<std::string>& words);      // "calbox revert ..."
+int run_machine(const std::vector<std::string>& words);     // "calbox machine ..."
 
 }  // namespace calbox::cli

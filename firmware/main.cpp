@@ -33,6 +33,7 @@ const Subcommand kSubcommands[] = {
     {"measure", "MODE", "measure the made target in photos", calbox::cli::run_measure},
     {"solve", "MODE", "fit the machine's model and write the correction", calbox::cli::run_solve},
     {"compensate", "", "a job sent through a solve's correction", calbox::cli::run_compensate},
+    {"machine", "import", "a machine file from the printer's own files", calbox::cli::run_machine},
     {"sim", "print|photo|measurements|camera|verify", "the digital twin", calbox::cli::run_sim},
 };
 

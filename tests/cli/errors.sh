@@ -56,6 +56,13 @@ expect_error "cannot read image .*missing.png: no such file" detect markers "$wo
 # OpenCV's sample photos (Debian's opencv-doc, in the manifest): one cut short in transfer is
 # refused (libjpeg would fill it grey and calibrate from it), and photos of another board say
 # how many held this one; nothing is written either way.
+# A printer.cfg whose includes loop: one line naming the loop, no machine file.
+printf '[include b.cfg]\n[printer]\nkinematics: delta\n' > "$work/a.cfg"
+printf '[include a.cfg]\n' > "$work/b.cfg"
+expect_error "includes loop: .*a.cfg -> .*b.cfg -> .*a.cfg" machine import --klipper "$work/a.cfg" -o "$work/result"
+printf 'echo:.Height:297.80    Ex:-0.14  Ey:-0.07  Ez:+0.00    Radius:100.79\n' > "$work/g33.log"
+expect_error "G33's report leaves it out; give --diagonal-rod" machine import --marlin "$work/g33.log" -o "$work/result"
+expect_error "takes one of --marlin, --rrf, --klipper" machine import -o "$work/result"
 samples=/usr/share/doc/opencv-doc/examples/data
 head -c 20000 "$samples/left01.jpg" > "$work/cut_short.jpg"
 expect_error "cut_short.jpg: the JPEG is cut short" camera calibrate --pattern chessboard:9x6@25 \

@@ -16,6 +16,7 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
+#include "core/models/machine_import.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/compensate.hpp"
 #include "core/targets/gcode_line.hpp"
@@ -387,4 +388,170 @@ TEST(RealSvg, every_drawing_gives_a_job_on_the_drawing_as_a_browser_paints_it) {
         CHECK_TEXT(job_off < 0.005 && painted_off < 0.005, file.c_str());
     }
     std::filesystem::remove(png);
+}
+
+// Printers' own files (realworld/firmware_console): each imports as a machine file, its
+// geometry read as the folder's README gives it.
+TEST_GROUP(RealImport){};
+
+namespace {
+
+const std::string kConsole = "realworld/firmware_console/";
+
+models::ReadIncluded from_test_data() {
+    return [](const std::string& path) -> std::optional<std::string> {
+        try {
+            return test::read_test_data(path.substr(test::test_data_path("").size()));
+        } catch (const std::runtime_error&) {
+            return std::nullopt;
+        }
+    };
+}
+
+// The machine file written reads back, with the same geometry.
+void reads_back(const models::ImportedMachine& imported) {
+    const auto again = models::parse_machine_file(models::machine_file_text(imported), "import");
+    CHECK_EQUAL(imported.machine.kind, again.kind);
+    if (!imported.machine.delta) return;
+    const auto& a = *imported.machine.delta;
+    const auto& b = *again.delta;
+    DOUBLES_EQUAL(a.diagonal_rod_mm, b.diagonal_rod_mm, 1e-6);
+    DOUBLES_EQUAL(a.radius_mm, b.radius_mm, 1e-6);
+    DOUBLES_EQUAL(a.height_mm, b.height_mm, 1e-6);
+    for (std::size_t i = 0; i < 3; ++i) {
+        DOUBLES_EQUAL(a.tower_angle_trim_deg[i], b.tower_angle_trim_deg[i], 1e-6);
+        DOUBLES_EQUAL(a.endstop_offset_mm[i], b.endstop_offset_mm[i], 1e-6);
+        DOUBLES_EQUAL(a.diagonal_rod_trim_mm[i], b.diagonal_rod_trim_mm[i], 1e-6);
+    }
+}
+
+}  // namespace
+
+TEST(RealImport, klipper_flsun_q5_reads_its_save_config_block_over_the_sections) {
+    const std::string path = test::test_data_path(
+        kConsole + "klipper_delta/flsun_q5_razorcopter/printer_post_calibration.cfg");
+    const std::string text = test::read_test_data(
+        kConsole + "klipper_delta/flsun_q5_razorcopter/printer_post_calibration.cfg");
+    const auto config = models::read_klipper_config(path, text, from_test_data());
+    DOUBLES_EQUAL(101.288849, config.delta.delta_radius_mm, 1e-6);
+    const double angles[3] = {210.481232, 330.925002, 90};
+    const double arms[3] = {217.6266, 216.0959, 215.7964};
+    const double endstops[3] = {218.724820, 219.438345, 218.763895};
+    for (std::size_t i = 0; i < 3; ++i) {
+        DOUBLES_EQUAL(angles[i], config.delta.angle_deg[i], 1e-6);
+        DOUBLES_EQUAL(arms[i], config.delta.arm_length_mm[i], 1e-6);
+        DOUBLES_EQUAL(endstops[i], config.delta.position_endstop_mm[i], 1e-6);
+    }
+    // fluidd.cfg, which it includes, is not in the folder: said, not fatal.
+    CHECK_EQUAL(1u, config.notes.size());
+    const auto imported = models::import_klipper(path, text, from_test_data(), {});
+    DOUBLES_EQUAL(105, imported.machine.bed_radius_mm, 1e-9);  // [printer] print_radius
+    reads_back(imported);
+    // The file before calibration has delta_radius commented out: Klipper itself refuses it
+    // ("must be specified"), and so does the import, naming the key.
+    const std::string before_path = test::test_data_path(
+        kConsole + "klipper_delta/flsun_q5_razorcopter/printer_pre_calibration.cfg");
+    try {
+        models::read_klipper_config(
+            before_path,
+            test::read_test_data(kConsole + "klipper_delta/flsun_q5_razorcopter/"
+                                            "printer_pre_calibration.cfg"),
+            from_test_data());
+        FAIL("a printer.cfg without delta_radius imported");
+    } catch (const models::ImportError& e) {
+        STRCMP_CONTAINS("no delta_radius in [printer]", e.what());
+    }
+}
+
+TEST(RealImport, a_printer_cfg_whose_includes_loop_is_refused_naming_the_loop) {
+    const std::map<std::string, std::string> files = {
+        {"cfg/b.cfg", "[include a.cfg]\n"},
+        {"cfg/a.cfg", "[include b.cfg]\n[printer]\nkinematics: delta\n"}};
+    const models::ReadIncluded read = [&](const std::string& p) -> std::optional<std::string> {
+        const auto it = files.find(p);
+        return it == files.end() ? std::nullopt : std::optional<std::string>(it->second);
+    };
+    try {
+        models::read_klipper_config("cfg/a.cfg", files.at("cfg/a.cfg"), read);
+        FAIL("an include loop was read");
+    } catch (const models::ImportError& e) {
+        STRCMP_CONTAINS("includes loop: cfg/a.cfg -> cfg/b.cfg -> cfg/a.cfg", e.what());
+    }
+}
+
+TEST(RealImport, reprapfirmware_deltas_read_config_override_over_config) {
+    const std::string kossel = kConsole + "rrf_delta/kossel250vs_gaelreinaudi/";
+    const auto config =
+        models::read_rrf_config({test::read_test_data(kossel + "config.g"),
+                                 test::read_test_data(kossel + "config-override.g")});
+    const auto m665 = gcode::parse_line(*config.m665);
+    const auto m666 = gcode::parse_line(*config.m666);
+    const auto rods = m665.values('L');
+    CHECK_EQUAL(3u, rods.size());
+    for (const double rod : rods) DOUBLES_EQUAL(288.280, rod, 1e-9);
+    DOUBLES_EQUAL(170.909, *m665.value('R'), 1e-9);
+    DOUBLES_EQUAL(226.861, *m665.value('H'), 1e-9);
+    DOUBLES_EQUAL(-0.095, *m665.value('X'), 1e-9);
+    DOUBLES_EQUAL(0.274, *m665.value('Y'), 1e-9);
+    DOUBLES_EQUAL(0.143, *m666.value('X'), 1e-9);
+    DOUBLES_EQUAL(0.118, *m666.value('Y'), 1e-9);
+    DOUBLES_EQUAL(-0.261, *m666.value('Z'), 1e-9);
+    const auto imported = models::import_rrf({test::read_test_data(kossel + "config.g"),
+                                              test::read_test_data(kossel + "config-override.g")},
+                                             {});
+    DOUBLES_EQUAL(120, imported.machine.bed_radius_mm, 1e-9);  // M665 B
+    reads_back(imported);
+    const std::string anycubic = kConsole + "rrf_delta/anycubic_kossel_citruspers/";
+    const auto other =
+        models::read_rrf_config({test::read_test_data(anycubic + "config.g"),
+                                 test::read_test_data(anycubic + "config-override.g")});
+    const auto l = gcode::parse_line(*other.m665);
+    DOUBLES_EQUAL(271.5, *l.value('L'), 1e-9);
+    DOUBLES_EQUAL(134.67, *l.value('R'), 1e-9);
+    DOUBLES_EQUAL(290, *l.value('H'), 1e-9);
+    reads_back(models::import_rrf({test::read_test_data(anycubic + "config.g"),
+                                   test::read_test_data(anycubic + "config-override.g")},
+                                  {}));
+}
+
+TEST(RealImport, marlin_g33_reports_and_m503_captures) {
+    const std::string page =
+        test::read_test_data(kConsole + "marlin_delta/marlindocs_G033_sample_output.md");
+    // Marlin's documentation page: its first example, the V1 run, ends at height 297.80, Ex -0.14
+    // Ey -0.07, radius 100.79, tower angles -0.10 / +0.22.
+    const auto first = page.find("> G33");
+    const auto second = page.find("> G33", first + 5);
+    const auto v1 = models::read_marlin_capture(page.substr(first, second - first));
+    CHECK(v1.delta && v1.delta->from_g33);
+    DOUBLES_EQUAL(297.80, *v1.delta->height_mm, 1e-9);
+    DOUBLES_EQUAL(100.79, *v1.delta->radius_mm, 1e-9);
+    DOUBLES_EQUAL(-0.14, v1.delta->endstop_mm[0], 1e-9);
+    DOUBLES_EQUAL(-0.07, v1.delta->endstop_mm[1], 1e-9);
+    DOUBLES_EQUAL(-0.10, v1.delta->angle_trim_deg[0], 1e-9);
+    DOUBLES_EQUAL(0.22, v1.delta->angle_trim_deg[1], 1e-9);
+    // G33 leaves the rod out: asked for.
+    try {
+        models::import_marlin(page, {});
+        FAIL("a G33 report imported without its rod");
+    } catch (const models::ImportError& e) {
+        STRCMP_CONTAINS("give --diagonal-rod", e.what());
+    }
+    models::ImportOptions rod;
+    rod.diagonal_rod_mm = 218;
+    reads_back(models::import_marlin(page, rod));
+    // OctoPrint's wrapped M503 of a cartesian printer: M92 X200 Y200.
+    const auto cartesian = models::import_marlin(
+        test::read_test_data(kConsole + "marlin_cartesian_m503/tmc_response.gcode"), {});
+    CHECK_EQUAL(std::string("cartesian"), cartesian.machine.kind);
+    DOUBLES_EQUAL(200, *cartesian.machine.planar->steps_per_mm_x, 1e-9);
+    DOUBLES_EQUAL(200, *cartesian.machine.planar->steps_per_mm_y, 1e-9);
+    reads_back(cartesian);
+    // A fragment of M503 with neither: refused, saying what to capture.
+    try {
+        models::import_marlin(
+            test::read_test_data(kConsole + "marlin_cartesian_m503/issue33_debug.gcode"), {});
+        FAIL("a capture without geometry imported");
+    } catch (const models::ImportError& e) {
+        STRCMP_CONTAINS("capture the printer's whole reply to M503", e.what());
+    }
 }

@@ -1,0 +1,405 @@
+#include "core/models/machine_import.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+
+#include "core/number_text.hpp"
+#include "core/targets/gcode_line.hpp"
+
+namespace calbox::models {
+namespace {
+
+std::string trimmed(std::string_view text) {
+    std::size_t a = 0, b = text.size();
+    while (a < b && std::isspace(static_cast<unsigned char>(text[a]))) ++a;
+    while (b > a && std::isspace(static_cast<unsigned char>(text[b - 1]))) --b;
+    return std::string(text.substr(a, b - a));
+}
+
+std::vector<std::string> lines_of(std::string_view text) {
+    std::vector<std::string> out;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        const auto end = std::min(text.find('\n', start), text.size());
+        std::string line(text.substr(start, end - start));
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        out.push_back(std::move(line));
+        start = end + 1;
+    }
+    return out;
+}
+
+// The number right after `key` in `text` (G33's ".Height:297.80  Ex:-0.14"), if any.
+std::optional<double> number_after(std::string_view text, std::string_view key) {
+    const auto at = text.find(key);
+    if (at == std::string_view::npos) return std::nullopt;
+    const std::string rest(text.substr(at + key.size()));
+    const char* begin = rest.c_str();
+    while (*begin == ' ') ++begin;
+    char* end = nullptr;
+    const double v = std::strtod(begin, &end);
+    if (end == begin) return std::nullopt;
+    return v;
+}
+
+// The G-code command starting at `word` in a console line ("echo:  M665 L250.00 ..."), its
+// comment cut off; empty when the line holds none.
+std::optional<gcode::Line> command_in(const std::string& line, std::string_view word) {
+    std::size_t at = 0;
+    while ((at = line.find(word, at)) != std::string::npos) {
+        const bool starts = at == 0 || line[at - 1] == ' ' || line[at - 1] == ':';
+        const std::size_t after = at + word.size();
+        const bool ends = after == line.size() || line[after] == ' ';
+        if (starts && ends) {
+            std::string command = line.substr(at);
+            command = command.substr(0, command.find(';'));
+            try {
+                return gcode::parse_line(command);
+            } catch (const gcode::SyntaxError&) {
+                return std::nullopt;
+            }
+        }
+        at = after;
+    }
+    return std::nullopt;
+}
+
+double required(const std::optional<double>& v, const std::string& what) {
+    if (!v) throw ImportError(what);
+    return *v;
+}
+
+double parse_number(const std::string& text, const std::string& what) {
+    const std::string t = trimmed(text);
+    char* end = nullptr;
+    const double v = std::strtod(t.c_str(), &end);
+    if (t.empty() || end != t.c_str() + t.size())
+        throw ImportError(what + " is not a number: '" + t + "'");
+    return v;
+}
+
+std::string number_toml(double v) {
+    std::string s = number_text("%.6f", v);
+    while (!s.empty() && s.back() == '0') s.pop_back();
+    if (!s.empty() && s.back() == '.') s += '0';
+    return s;
+}
+
+std::string triple_toml(const std::array<double, 3>& v) {
+    return "[" + number_toml(v[0]) + ", " + number_toml(v[1]) + ", " + number_toml(v[2]) + "]";
+}
+
+// A delta machine file's [machine] part: the printable radius from the files, the options, or
+// defaulted with a note.
+ImportedMachine delta_machine(const std::string& firmware, const DeltaGeometry& geometry,
+                              std::optional<double> bed_radius_mm, const std::string& radius_from,
+                              const ImportOptions& options) {
+    ImportedMachine out;
+    out.machine.kind = "delta";
+    out.machine.firmware = firmware;
+    out.machine.delta = geometry;
+    if (options.bed_radius_mm) {
+        out.machine.bed_radius_mm = *options.bed_radius_mm;
+    } else if (bed_radius_mm) {
+        out.machine.bed_radius_mm = *bed_radius_mm;
+        out.notes.push_back("bed_radius_mm " + number_toml(*bed_radius_mm) + " from " +
+                            radius_from);
+    } else {
+        out.machine.bed_radius_mm = std::round(0.6 * geometry.radius_mm);
+        out.notes.push_back("bed_radius_mm: not in the files; " +
+                            number_toml(out.machine.bed_radius_mm) +
+                            " (0.6 of the delta radius) assumed, give --bed-radius");
+    }
+    out.notes.push_back(
+        "not in the files, left to the defaults: the line width, layer height and filament "
+        "(0.45, 0.2, 1.75 mm), the bed's material and temperatures; the camera is set up by "
+        "the box");
+    return out;
+}
+
+}  // namespace
+
+MarlinCapture read_marlin_capture(std::string_view log) {
+    MarlinCapture capture;
+    const auto delta = [&]() -> MarlinDeltaSettings& {
+        if (!capture.delta) capture.delta.emplace();
+        return *capture.delta;
+    };
+    for (const auto& line : lines_of(log)) {
+        if (const auto m665 = command_in(line, "M665")) {
+            auto& d = delta();
+            if (auto v = m665->value('L')) d.rod_mm = v;
+            if (auto v = m665->value('R')) d.radius_mm = v;
+            if (auto v = m665->value('H')) d.height_mm = v;
+            for (std::size_t i = 0; i < 3; ++i) {
+                if (auto v = m665->value("XYZ"[i])) d.angle_trim_deg[i] = *v;
+                if (auto v = m665->value("ABC"[i])) d.rod_trim_mm[i] = *v;
+            }
+        } else if (const auto m666 = command_in(line, "M666")) {
+            auto& d = delta();
+            for (std::size_t i = 0; i < 3; ++i)
+                if (auto v = m666->value("XYZ"[i])) d.endstop_mm[i] = *v;
+        } else if (const auto m92 = command_in(line, "M92")) {
+            if (m92->has('T')) continue;  // an extruder's steps
+            if (auto x = m92->value('X'), y = m92->value('Y'); x && y)
+                capture.steps_per_mm_xy = std::array<double, 2>{*x, *y};
+        } else if (line.find(".Height:") != std::string::npos) {
+            // G33's report of what it set: ".Height:297.80  Ex:-0.14  Ey:-0.07  Ez:+0.00
+            // Radius:100.79"; the last report is what is in force.
+            auto& d = delta();
+            d.from_g33 = true;
+            if (auto v = number_after(line, ".Height:")) d.height_mm = v;
+            if (auto v = number_after(line, "Radius:")) d.radius_mm = v;
+            for (std::size_t i = 0; i < 3; ++i)
+                if (auto v = number_after(line, std::string("E") + "xyz"[i] + ":"))
+                    d.endstop_mm[i] = *v;
+        } else if (line.find(".Tower angle") != std::string::npos) {
+            auto& d = delta();
+            for (std::size_t i = 0; i < 3; ++i)
+                if (auto v = number_after(line, std::string("T") + "xyz"[i] + ":"))
+                    d.angle_trim_deg[i] = *v;
+        }
+    }
+    return capture;
+}
+
+ImportedMachine import_marlin(std::string_view log, const ImportOptions& options) {
+    const MarlinCapture capture = read_marlin_capture(log);
+    if (capture.delta) {
+        const auto& d = *capture.delta;
+        DeltaGeometry g;
+        if (options.diagonal_rod_mm) {
+            g.diagonal_rod_mm = *options.diagonal_rod_mm;
+        } else {
+            g.diagonal_rod_mm = required(
+                d.rod_mm, "the capture does not give the diagonal rod (M665 L)" +
+                              std::string(d.from_g33 ? ": G33's report leaves it out" : "") +
+                              "; give --diagonal-rod MM, or capture M503");
+        }
+        g.radius_mm = required(d.radius_mm, "the capture does not give the delta radius (M665 R)");
+        g.height_mm = required(d.height_mm, "the capture does not give the height (M665 H)");
+        g.tower_angle_trim_deg = d.angle_trim_deg;
+        g.diagonal_rod_trim_mm = d.rod_trim_mm;
+        g.endstop_offset_mm = d.endstop_mm;
+        auto out = delta_machine("marlin", in_gauge(g), std::nullopt, "", options);
+        out.notes.insert(out.notes.begin(),
+                         std::string("the delta geometry from ") +
+                             (d.from_g33 ? "G33's last report" : "M665 and M666") +
+                             (options.diagonal_rod_mm ? ", the rod from --diagonal-rod" : ""));
+        return out;
+    }
+    if (capture.steps_per_mm_xy) {
+        ImportedMachine out;
+        out.machine.kind = "cartesian";
+        out.machine.firmware = "marlin";
+        out.machine.planar.emplace();
+        out.machine.planar->holes = "light";
+        out.machine.planar->steps_per_mm_x = (*capture.steps_per_mm_xy)[0];
+        out.machine.planar->steps_per_mm_y = (*capture.steps_per_mm_xy)[1];
+        out.notes.push_back("a cartesian printer: steps per mm from M92");
+        out.notes.push_back(
+            "not in the capture, left to the defaults: the bed's size (200 x 200 mm), the hole "
+            "pitch and margin, the line width and filament");
+        return out;
+    }
+    throw ImportError(
+        "the capture holds no delta geometry (M665, M666, G33's report) and no steps per mm (M92): "
+        "capture the printer's whole reply to M503");
+}
+
+RrfConfig read_rrf_config(const std::vector<std::string>& files) {
+    RrfConfig config;
+    for (const auto& file : files)
+        for (const auto& raw : lines_of(file)) {
+            const std::string line = trimmed(raw.substr(0, raw.find(';')));
+            const auto is = [&](std::string_view word) {
+                return line.rfind(word, 0) == 0 &&
+                       (line.size() == word.size() || line[word.size()] == ' ');
+            };
+            if (is("M665")) {
+                config.m665 = line;
+                if (auto b = number_after(line, " B")) config.bed_radius_mm = b;
+            } else if (is("M666")) {
+                config.m666 = line;
+            }
+        }
+    return config;
+}
+
+ImportedMachine import_rrf(const std::vector<std::string>& files, const ImportOptions& options) {
+    const RrfConfig config = read_rrf_config(files);
+    if (!config.m665)
+        throw ImportError(
+            "no M665 in the files: give config.g and config-override.g of a delta printer");
+    std::vector<std::string> notes;
+    std::string m666 = config.m666.value_or("M666 X0 Y0 Z0");
+    if (!config.m666) notes.push_back("no M666 in the files: the endstop adjustments taken as 0");
+    DeltaGeometry g;
+    try {
+        g = geometry_from_settings("rrf", {*config.m665, m666});
+    } catch (const std::exception& e) {
+        throw ImportError(e.what());
+    }
+    auto out = delta_machine("rrf", g, config.bed_radius_mm, "M665 B", options);
+    out.notes.insert(out.notes.begin(),
+                     "the delta geometry from the last M665 and M666 of the files");
+    out.notes.insert(out.notes.end(), notes.begin(), notes.end());
+    return out;
+}
+
+namespace {
+
+using Sections = std::map<std::string, std::map<std::string, std::string>>;
+
+std::string folder_of(const std::string& path) {
+    const auto slash = path.rfind('/');
+    return slash == std::string::npos ? std::string() : path.substr(0, slash + 1);
+}
+
+constexpr int kDeepestInclude = 32;
+
+void read_klipper_file(const std::string& path, const std::string& text, const ReadIncluded& read,
+                       std::vector<std::string>& chain, Sections& sections, Sections& saved,
+                       std::vector<std::string>& notes) {
+    if (std::find(chain.begin(), chain.end(), path) != chain.end()) {
+        std::string loop;
+        for (const auto& p : chain) loop += p + " -> ";
+        throw ImportError("printer.cfg's includes loop: " + loop + path);
+    }
+    if (static_cast<int>(chain.size()) >= kDeepestInclude)
+        throw ImportError("printer.cfg's includes nest deeper than " +
+                          std::to_string(kDeepestInclude) + " files");
+    chain.push_back(path);
+    std::string section;
+    bool in_saved = false;
+    for (const auto& raw : lines_of(text)) {
+        if (raw.rfind("#*#", 0) == 0) {
+            if (raw.find("SAVE_CONFIG") != std::string::npos) {
+                in_saved = true;
+                continue;
+            }
+            if (!in_saved) continue;
+            const std::string line = trimmed(std::string_view(raw).substr(3));
+            if (line.size() > 2 && line.front() == '[' && line.back() == ']') {
+                section = trimmed(line.substr(1, line.size() - 2));
+            } else if (const auto eq = line.find_first_of("=:"); eq != std::string::npos) {
+                saved[section][trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
+            }
+            continue;
+        }
+        if (!raw.empty() && std::isspace(static_cast<unsigned char>(raw[0]))) continue;
+        std::string line = raw.substr(0, raw.find_first_of("#;"));
+        line = trimmed(line);
+        if (line.empty()) continue;
+        if (line.front() == '[' && line.back() == ']') {
+            const std::string name = trimmed(line.substr(1, line.size() - 2));
+            if (name.rfind("include ", 0) == 0) {
+                const std::string included = folder_of(path) + trimmed(name.substr(8));
+                if (const auto content = read(included)) {
+                    read_klipper_file(included, *content, read, chain, sections, saved, notes);
+                } else {
+                    notes.push_back(included +
+                                    " (included) is not here: its settings are not read");
+                }
+                section.clear();
+                continue;
+            }
+            section = name;
+            continue;
+        }
+        if (const auto sep = line.find_first_of(":="); sep != std::string::npos)
+            sections[section][trimmed(line.substr(0, sep))] = trimmed(line.substr(sep + 1));
+    }
+    chain.pop_back();
+}
+
+}  // namespace
+
+KlipperConfig read_klipper_config(const std::string& path, const std::string& text,
+                                  const ReadIncluded& read) {
+    Sections sections, saved;
+    KlipperConfig config;
+    std::vector<std::string> chain;
+    read_klipper_file(path, text, read, chain, sections, saved, config.notes);
+    for (const auto& [name, keys] : saved)
+        for (const auto& [key, value] : keys) sections[name][key] = value;
+    const auto value = [&](const std::string& section, const std::string& key) {
+        const auto s = sections.find(section);
+        if (s == sections.end()) return std::optional<std::string>{};
+        const auto k = s->second.find(key);
+        return k == s->second.end() ? std::optional<std::string>{} : k->second;
+    };
+    const auto kinematics = value("printer", "kinematics");
+    if (!kinematics) throw ImportError(path + ": no [printer] kinematics");
+    if (*kinematics != "delta")
+        throw ImportError(path + ": kinematics is '" + *kinematics +
+                          "', not delta: calbox imports Klipper deltas");
+    const auto number = [&](const std::string& section, const std::string& key,
+                            std::optional<double> fallback = std::nullopt) {
+        const auto v = value(section, key);
+        if (!v) {
+            if (fallback) return *fallback;
+            throw ImportError(path + ": no " + key + " in [" + section + "]");
+        }
+        return parse_number(*v, path + ": [" + section + "] " + key);
+    };
+    config.delta.delta_radius_mm = number("printer", "delta_radius");
+    const double arm = number("stepper_a", "arm_length");
+    const double endstop = number("stepper_a", "position_endstop");
+    const char* steppers[3] = {"stepper_a", "stepper_b", "stepper_c"};
+    const double angles[3] = {210, 330, 90};
+    for (std::size_t i = 0; i < 3; ++i) {
+        config.delta.arm_length_mm[i] = number(steppers[i], "arm_length", arm);
+        config.delta.position_endstop_mm[i] = number(steppers[i], "position_endstop", endstop);
+        config.delta.angle_deg[i] = number(steppers[i], "angle", angles[i]);
+    }
+    if (value("printer", "print_radius"))
+        config.print_radius_mm = number("printer", "print_radius");
+    return config;
+}
+
+ImportedMachine import_klipper(const std::string& path, const std::string& text,
+                               const ReadIncluded& read, const ImportOptions& options) {
+    const KlipperConfig config = read_klipper_config(path, text, read);
+    auto out = delta_machine("klipper", from_klipper(config.delta), config.print_radius_mm,
+                             "[printer] print_radius", options);
+    out.notes.insert(out.notes.begin(),
+                     "the delta geometry from [printer] and [stepper_a/b/c], SAVE_CONFIG's over "
+                     "the sections above it");
+    out.notes.insert(out.notes.end(), config.notes.begin(), config.notes.end());
+    return out;
+}
+
+std::string machine_file_text(const ImportedMachine& imported) {
+    const MachineFile& m = imported.machine;
+    std::ostringstream out;
+    out << "# calbox machine file, imported from the printer's own files:\n";
+    for (const auto& note : imported.notes) out << "# - " << note << "\n";
+    out << "[machine]\nkind = \"" << m.kind << "\"\nfirmware = \"" << m.firmware << "\"\n";
+    if (m.delta) {
+        const auto& d = *m.delta;
+        out << "bed_radius_mm = " << number_toml(m.bed_radius_mm) << "\n[delta]\n"
+            << "diagonal_rod_mm = " << number_toml(d.diagonal_rod_mm) << "\n"
+            << "diagonal_rod_trim_mm = " << triple_toml(d.diagonal_rod_trim_mm) << "\n"
+            << "radius_mm = " << number_toml(d.radius_mm) << "\n"
+            << "tower_angle_trim_deg = " << triple_toml(d.tower_angle_trim_deg) << "\n"
+            << "endstop_offset_mm = " << triple_toml(d.endstop_offset_mm) << "\n"
+            << "height_mm = " << number_toml(d.height_mm) << "\n";
+    } else if (m.planar) {
+        out << "bed_size_x_mm = " << number_toml(m.bed_size_x_mm) << "\n"
+            << "bed_size_y_mm = " << number_toml(m.bed_size_y_mm) << "\n[planar]\n"
+            << "holes = \"" << m.planar->holes << "\"\n";
+        if (m.planar->steps_per_mm_x)
+            out << "steps_per_mm_x = " << number_toml(*m.planar->steps_per_mm_x) << "\n";
+        if (m.planar->steps_per_mm_y)
+            out << "steps_per_mm_y = " << number_toml(*m.planar->steps_per_mm_y) << "\n";
+    }
+    return out.str();
+}
+
+}  // namespace calbox::models

@@ -127,8 +127,53 @@ std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
     return out;
 }
 
+namespace {
+
+// RepRapFirmware's height map (heightmap.csv, written by G29): a title line, the grid's header
+// (xmin,xmax,ymin,ymax,radius,xspacing,yspacing,xnum,ynum) and its values, then a row of heights
+// per y from ymin up. A height is where the probe found the bed against the homed frame, so the
+// gap is its negation; points beyond the probing radius were not probed (RRF writes them 0).
+std::vector<solve::ProbePoint> rrf_height_map(std::string_view text, const std::string& source,
+                                              double sigma_mm) {
+    std::istringstream in{std::string(text)};
+    std::string title, names, header;
+    std::getline(in, title);
+    std::getline(in, names);
+    std::getline(in, header);
+    std::replace(header.begin(), header.end(), ',', ' ');
+    std::istringstream h(header);
+    double xmin = 0, xmax = 0, ymin = 0, ymax = 0, radius = 0, dx = 0, dy = 0;
+    int columns = 0, rows = 0;
+    if (!(h >> xmin >> xmax >> ymin >> ymax >> radius >> dx >> dy >> columns >> rows) ||
+        columns < 1 || rows < 1 || columns > 1000 || rows > 1000 || !(dx > 0) || !(dy > 0))
+        throw RecordError(source + ":3: not a RepRapFirmware height map header");
+    std::vector<solve::ProbePoint> out;
+    std::string line;
+    for (int r = 0; r < rows; ++r) {
+        if (!std::getline(in, line))
+            throw RecordError(source + ": the height map has " + std::to_string(r) + " of its " +
+                              std::to_string(rows) + " rows");
+        std::replace(line.begin(), line.end(), ',', ' ');
+        std::istringstream values(line);
+        for (int c = 0; c < columns; ++c) {
+            double z = 0;
+            if (!(values >> z))
+                throw RecordError(source + ":" + std::to_string(4 + r) + ": expected " +
+                                  std::to_string(columns) + " heights");
+            const double x = xmin + c * dx, y = ymin + r * dy;
+            if (radius > 0 && std::hypot(x, y) > radius + 1e-9) continue;
+            out.push_back({x, y, -z, sigma_mm});
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
 std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source) {
     constexpr double kSigmaMm = 0.01;
+    if (text.rfind("RepRapFirmware height map", 0) == 0)
+        return rrf_height_map(text, source, kSigmaMm);
     // A console log is told by its report lines: the rest of it is the printer's chatter.
     const bool log = lower(text).find("bed x:") != std::string::npos;
     std::vector<solve::ProbePoint> out;

@@ -36,7 +36,8 @@ std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
 
 // A probe file for `calbox solve delta --probe`: CSV `x,y,z` lines (the gap as above; a header
 // line starting with x and # comments are skipped), or a Marlin console log holding "Bed X: ..
-// Y: .. Z: .." lines (G30's, or G29's at V3 or higher), whose heights are negated as above.
+// Y: .. Z: .." lines (G30's, or G29's at V3 or higher), whose heights are negated as above, or
+// RepRapFirmware's heightmap.csv (G29's grid; points beyond its probing radius left out).
 // Throws RecordError naming the line.
 std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source);
 // Probe points as that file's CSV (a header line, then x,y,z to 1, 1 and 0.1 micrometre).

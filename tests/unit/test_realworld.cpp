@@ -17,6 +17,7 @@
 #include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/models/machine_import.hpp"
+#include "core/modes/delta_probe.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/compensate.hpp"
 #include "core/targets/gcode_line.hpp"
@@ -554,4 +555,25 @@ TEST(RealImport, marlin_g33_reports_and_m503_captures) {
     } catch (const models::ImportError& e) {
         STRCMP_CONTAINS("capture the printer's whole reply to M503", e.what());
     }
+}
+
+// RepRapFirmware's measured height map (anycubic_kossel_citruspers/heightmap.csv: 7 x 7 at 30 mm,
+// radius 110, "mean error -0.017, deviation 0.061") as the probe file `solve delta --probe` takes.
+TEST(RealImport, an_rrf_height_map_is_a_probe_file_with_its_stated_mean_and_deviation) {
+    const auto probe = modes::probe_from_file(
+        test::read_test_data(kConsole + "rrf_delta/anycubic_kossel_citruspers/heightmap.csv"),
+        "heightmap.csv");
+    // The 7 x 7 grid's points within 110 mm of the centre: all but the four corners.
+    CHECK_EQUAL(45u, probe.size());
+    double sum = 0, sum2 = 0;
+    for (const auto& p : probe) {
+        CHECK(std::hypot(p.x_mm, p.y_mm) <= 110);
+        sum += -p.z_mm;  // the map's heights are the gaps negated
+        sum2 += p.z_mm * p.z_mm;
+    }
+    const double n = static_cast<double>(probe.size());
+    const double mean = sum / n;
+    const double deviation = std::sqrt(sum2 / n - mean * mean);
+    DOUBLES_EQUAL(-0.017, mean, 0.0015);
+    DOUBLES_EQUAL(0.061, deviation, 0.0015);
 }

@@ -210,6 +210,17 @@ std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOp
     RawMarkers raw;
     if (family != nullptr) {
         raw = apriltag_detect(image, *family, options.apriltag_limits);
+        if (options.apriltag_limits.second_pass_decimate > 0 &&
+            options.apriltag_limits.second_pass_decimate != options.apriltag_limits.quad_decimate) {
+            AprilTagLimits second = options.apriltag_limits;
+            second.quad_decimate = options.apriltag_limits.second_pass_decimate;
+            const RawMarkers more = apriltag_detect(image, *family, second);
+            for (std::size_t m = 0; m < more.ids.size(); ++m)
+                if (std::find(raw.ids.begin(), raw.ids.end(), more.ids[m]) == raw.ids.end()) {
+                    raw.ids.push_back(more.ids[m]);
+                    raw.corners.push_back(more.corners[m]);
+                }
+        }
     } else {
         int dictionary_id = 0;
         try {

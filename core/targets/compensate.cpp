@@ -173,6 +173,7 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
         cb = f[1] + line.value(offset_b).value_or(0) * m.unit_mm;
     }
     const double radius = std::hypot(f[0] - ca, f[1] - cb);
+    const double end_radius = std::hypot(t[0] - ca, t[1] - cb);
     const double a0 = std::atan2(f[1] - cb, f[0] - ca);
     const double a1 = std::atan2(t[1] - cb, t[0] - ca);
     double sweep = a1 - a0;
@@ -197,8 +198,11 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
         }
         const double a = a0 + sweep * k / pieces;
         const double share = static_cast<double>(k) / pieces;
-        PathPoint p = from_abh(
-            {ca + radius * std::cos(a), cb + radius * std::sin(a), f[2] + (t[2] - f[2]) * share});
+        // CAM rounds I J K: the end lies a micron or so off the start's circle. The radius moves
+        // from the start's to the end's along the sweep, so the path meets the end without a step.
+        const double r = radius + (end_radius - radius) * share;
+        PathPoint p =
+            from_abh({ca + r * std::cos(a), cb + r * std::sin(a), f[2] + (t[2] - f[2]) * share});
         if (m.plane == 17 && !(z_from && z_to)) p.z_mm = z_to;
         path.push_back(p);
     }

@@ -23,6 +23,7 @@
 #include "core/targets/gcode_line.hpp"
 #include "core/targets/job.hpp"
 #include "core/targets/svg.hpp"
+#include "tests/support/gcode_reference.hpp"
 #include "tests/support/test_data.hpp"
 
 using namespace calbox;
@@ -576,4 +577,96 @@ TEST(RealImport, an_rrf_height_map_is_a_probe_file_with_its_stated_mean_and_devi
     const double deviation = std::sqrt(sum2 / n - mean * mean);
     DOUBLES_EQUAL(-0.017, mean, 0.0015);
     DOUBLES_EQUAL(0.061, deviation, 0.0015);
+}
+
+namespace {
+
+// Segments by the cells of a grid they cross: the distance from a point to a path of tens of
+// thousands of segments, in a few of them.
+class PathIndex {
+  public:
+    explicit PathIndex(const std::vector<std::pair<geometry::Point2, geometry::Point2>>& segments)
+        : segments_(segments) {
+        for (std::size_t i = 0; i < segments_.size(); ++i) {
+            const auto& [a, b] = segments_[i];
+            for (long x = cell(std::min(a.x, b.x)); x <= cell(std::max(a.x, b.x)); ++x)
+                for (long y = cell(std::min(a.y, b.y)); y <= cell(std::max(a.y, b.y)); ++y)
+                    cells_[{x, y}].push_back(i);
+        }
+    }
+    double distance(geometry::Point2 p) const {
+        double best = 1e300;
+        for (long dx = -1; dx <= 1; ++dx)
+            for (long dy = -1; dy <= 1; ++dy) {
+                const auto it = cells_.find({cell(p.x) + dx, cell(p.y) + dy});
+                if (it == cells_.end()) continue;
+                for (const std::size_t i : it->second) {
+                    const auto& [a, b] = segments_[i];
+                    const double vx = b.x - a.x, vy = b.y - a.y, len2 = vx * vx + vy * vy;
+                    const double t =
+                        len2 > 0
+                            ? std::clamp(((p.x - a.x) * vx + (p.y - a.y) * vy) / len2, 0.0, 1.0)
+                            : 0;
+                    best = std::min(best, std::hypot(a.x + t * vx - p.x, a.y + t * vy - p.y));
+                }
+            }
+        return best;
+    }
+
+  private:
+    static long cell(double v) { return static_cast<long>(std::floor(v / kCellMm)); }
+    static constexpr double kCellMm = 2;
+    std::vector<std::pair<geometry::Point2, geometry::Point2>> segments_;
+    std::map<std::pair<long, long>, std::vector<std::size_t>> cells_;
+};
+
+std::vector<std::pair<geometry::Point2, geometry::Point2>> segments_of(
+    const std::vector<test::ReferenceMove>& moves, const targets::Correction& through) {
+    std::vector<std::pair<geometry::Point2, geometry::Point2>> out;
+    for (const auto& m : moves)
+        for (std::size_t k = 1; k < m.path_mm.size(); ++k)
+            out.emplace_back(through(m.path_mm[k - 1]), through(m.path_mm[k]));
+    return out;
+}
+
+}  // namespace
+
+// The compensated files' motion against the input's motion sent through the correction, each
+// read by the tests' own reading (tests/support/gcode_reference.hpp): every point the output
+// reaches lies on the corrected input path, and every point of the input path, corrected, on the
+// output's, within the compensator's own arc tolerance of 0.002 mm (and its 0.0001 mm digits).
+TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction) {
+    const targets::Correction identity = [](geometry::Point2 p) { return p; };
+    double worst = 0;
+    for (const char* file :
+         {"cnc/fusion360/1070_wall_27bit.nc", "cnc/jsdc.gcode", "cnc/linuxcnc/arcspiral.ngc",
+          "cnc/linuxcnc/tort.ngc", "cnc/ugs/ShapeOko_Calibration_Pattern_01b.ngc",
+          "cnc/ugs/arc_rword_test.gcode", "laser/input5.gcode",
+          "printer/gcode-preview_plant-sign_prusaslicer274_arcs.gcode",
+          "printer/gcode-preview_puzzle_all_cura231.gcode",
+          "printer/gcode-preview_vase_prusaslicer274.gcode"}) {
+        const std::string job = test::read_test_data(std::string("realworld/gcode/") + file);
+        targets::CompensateReport report;
+        const std::string out = targets::compensate_gcode(
+            job, kSlightlyOff, [](geometry::Point2) { return true; }, {}, report);
+        const auto in_moves = test::reference_motion(job);
+        const auto out_moves = test::reference_motion(out);
+        const PathIndex input_corrected(segments_of(in_moves, kSlightlyOff));
+        const PathIndex output(segments_of(out_moves, identity));
+        double off_input = 0, off_output = 0;
+        for (const auto& m : out_moves)
+            for (std::size_t k = m.start_known ? 0 : 1; k < m.path_mm.size(); ++k)
+                off_input = std::max(off_input, input_corrected.distance(m.path_mm[k]));
+        for (const auto& m : in_moves)
+            for (std::size_t k = m.start_known ? 0 : 1; k < m.path_mm.size(); ++k)
+                off_output = std::max(off_output, output.distance(kSlightlyOff(m.path_mm[k])));
+        UT_PRINT((std::string(file) + ": " + std::to_string(in_moves.size()) + " moves in, " +
+                  std::to_string(out_moves.size()) + " out; the output off the corrected input " +
+                  number_text("%.5f", off_input) + " mm, the corrected input off the output " +
+                  number_text("%.5f", off_output) + " mm")
+                     .c_str());
+        worst = std::max({worst, off_input, off_output});
+        CHECK_TEXT(off_input <= 0.0021 && off_output <= 0.0021, file);
+    }
+    UT_PRINT(("worst " + number_text("%.5f", worst) + " mm").c_str());
 }

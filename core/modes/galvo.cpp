@@ -31,10 +31,14 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
                          std::to_string(camera.image_width) + "x" +
                          std::to_string(camera.image_height));
     vision::SpotSettings spots = settings.spots;
-    spots.polarity = machine.galvo->marks == "light" ? vision::MarkPolarity::light
-                                                     : vision::MarkPolarity::dark;
+    spots.polarity =
+        machine.galvo->marks == "light" ? vision::MarkPolarity::light : vision::MarkPolarity::dark;
     spots.mark_diameter_px =
         0.8 * pitch * pixels_per_mm_at_centre(camera, plane, machine.galvo->substrate_height_mm);
+    // The field lies within its diagonal of the plane's board, which lay on the platform.
+    spots.search_outline_px =
+        work_outline_px(camera, plane, machine.galvo->substrate_height_mm,
+                        std::sqrt(2.0) * machine.galvo->field_size_mm + kOutlineMarginMm);
     const vision::SpotImage seen = vision::find_spots(photo, spots);
     GalvoMeasurement out;
     out.machine_fingerprint = models::fingerprint(machine);

@@ -87,6 +87,28 @@ double pixels_per_mm_at_centre(const geometry::CameraModel& camera, const geomet
     return 1 / std::sqrt(std::abs(du_x * dv_y - du_y * dv_x));
 }
 
+std::vector<Point2> work_outline_px(const geometry::CameraModel& camera,
+                                    const geometry::BedPlane& plane, double height_mm,
+                                    double reach_mm) {
+    constexpr int kSides = 72;
+    std::vector<geometry::Point3> circle;
+    for (int k = 0; k < kSides; ++k) {
+        const double a = 2 * 3.14159265358979 * k / kSides;
+        circle.push_back({reach_mm * std::cos(a), reach_mm * std::sin(a), height_mm});
+    }
+    const auto pixels = geometry::project_points(camera, plane.bed_to_camera, circle);
+    // A point behind the camera projects too, mirrored: each must map back to where it was.
+    try {
+        const auto back = geometry::pixels_to_bed(camera, plane, pixels, height_mm);
+        for (std::size_t k = 0; k < circle.size(); ++k)
+            if (std::hypot(back[k].x - circle[k].x, back[k].y - circle[k].y) > 0.01 * reach_mm)
+                return {};
+    } catch (const geometry::CalibrationError&) {
+        return {};
+    }
+    return pixels;
+}
+
 void set_aside_odd_sizes(std::vector<MarkCandidate>& candidates, double max_deviation,
                          std::vector<Point2>& extra_mm) {
     const auto median = [](std::vector<double> v) {

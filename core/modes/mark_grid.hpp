@@ -43,6 +43,16 @@ struct MarkCandidate {
 double pixels_per_mm_at_centre(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                                double height_mm);
 
+// Where the work can be in the photo: a circle of `reach_mm` about the plane's origin at
+// `height_mm`, through the camera, as a polygon in pixels. The board the plane was taken from lay
+// on the bed, so the bed lies within its own diagonal of that origin. Empty (no limit) where the
+// circle reaches behind the camera or beyond the plane's horizon.
+// The margin past the work's reach: the board may lie a little off the bed's edge.
+constexpr double kOutlineMarginMm = 20;
+std::vector<geometry::Point2> work_outline_px(const geometry::CameraModel& camera,
+                                              const geometry::BedPlane& plane, double height_mm,
+                                              double reach_mm);
+
 // Marks of one kind are made alike: one whose radius differs from its kind's median by more
 // than `max_deviation` (a fraction), or by more than kSizeSpreadsAllowed times the kind's own
 // spread where that is larger (holes 11 px across measure 3.5 % apart, one sigma), has something

@@ -121,11 +121,15 @@ std::vector<MarkCandidate> holes_in_photo(const models::MachineFile& machine,
                           std::to_string(camera.image_width) + "x" +
                           std::to_string(camera.image_height));
     vision::SpotSettings spots = settings.spots;
-    spots.polarity = machine.planar->holes == "light" ? vision::MarkPolarity::light
-                                                      : vision::MarkPolarity::dark;
+    spots.polarity =
+        machine.planar->holes == "light" ? vision::MarkPolarity::light : vision::MarkPolarity::dark;
     spots.mark_diameter_px =
         target.large_diameter_mm *
         pixels_per_mm_at_centre(camera, plane, machine.planar->surface_height_mm);
+    // The work area lies within its diagonal of the plane's board, which lay on the bed.
+    spots.search_outline_px = work_outline_px(
+        camera, plane, machine.planar->surface_height_mm,
+        std::hypot(machine.bed_size_x_mm, machine.bed_size_y_mm) + kOutlineMarginMm);
     const vision::SpotImage seen = vision::find_spots(photo, spots);
     const double small = 0.5 * target.hole_diameter_mm, large = 0.5 * target.large_diameter_mm;
     std::vector<MarkCandidate> candidates;

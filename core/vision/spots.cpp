@@ -197,10 +197,18 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
     const int count = cv::connectedComponentsWithStats(marks, labels, stats, centroids, 8, CV_32S);
     const GrayView fview{filtered.data, filtered.cols, filtered.rows,
                          static_cast<int>(filtered.step)};
+    std::vector<cv::Point2f> outline;
+    for (const auto& p : settings.search_outline_px)
+        outline.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
     for (int k = 1; k < count; ++k) {
         const int area = stats.at<int>(k, cv::CC_STAT_AREA);
         if (area < settings.min_area_px) continue;
         const geometry::Point2 rough{centroids.at<double>(k, 0), centroids.at<double>(k, 1)};
+        if (outline.size() >= 3 &&
+            cv::pointPolygonTest(
+                outline, cv::Point2f(static_cast<float>(rough.x), static_cast<float>(rough.y)),
+                false) < 0)
+            continue;
         const double radius = std::sqrt(area / 3.14159265358979) + settings.window_margin_px;
         const Ring ring = substrate_ring(fview, rough, radius + 1, radius + 4);
         Spot spot;

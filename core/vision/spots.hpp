@@ -25,6 +25,9 @@ struct SpotSettings {
     // With the local level, a mark pixel lies this far past its box's mean: five times the
     // grey-level noise left after the median filter, well under any real mark's contrast.
     double local_contrast_dn = 8;
+    // Where the work can be in the photo (a polygon in pixels; empty: anywhere): a blob whose
+    // centre lies outside is not looked at, whatever it is (a wall, a lamp, the floor).
+    std::vector<geometry::Point2> search_outline_px;
     // Soot specks and dust a few pixels across vanish under a median filter of this size; a mark
     // tens of pixels across keeps its edge where it was (the median of a straight edge is the
     // edge, and a circle's curvature shifts every side alike).

@@ -646,3 +646,39 @@ TEST(MarkSurroundings, every_hole_is_found_and_none_set_aside_for_its_size) {
                                                   .c_str());
             }
 }
+
+// The search limited to where the work can be: dots of the holes' own size on the surroundings,
+// past the outline, are not looked at; without the outline they would pass for holes.
+TEST(MarkSurroundings, blobs_past_the_work_outline_are_not_looked_at) {
+    sim::CameraIntrinsics lens;
+    lens.width_px = 800, lens.height_px = 600;
+    lens.fx = lens.fy = 800;
+    lens.cx = 399.5, lens.cy = 299.5;
+    lens.distortion = {0, 0, 0, 0, 0};
+    const sim::Pose pose = sim::look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    const auto camera = as_core(lens);
+    geometry::BedPlane plane;
+    const sim::Vec3 r = sim::vector_from_rotation(pose.rotation);
+    plane.bed_to_camera.rvec = {r.x, r.y, r.z};
+    plane.bed_to_camera.tvec_mm = {pose.translation_mm.x, pose.translation_mm.y,
+                                   pose.translation_mm.z};
+    // The outline of a 60 mm reach: a circle 120 px in radius about the image's middle.
+    const auto outline = modes::work_outline_px(camera, plane, 0, 60);
+    CHECK_EQUAL(72u, outline.size());
+    for (const auto& p : outline) DOUBLES_EQUAL(120, std::hypot(p.x - 399.5, p.y - 299.5), 0.5);
+    // Holes of 8 mm within 40 mm of the middle, and decoys of the same size 120 mm out.
+    std::vector<sim::StrokeSegment> dots;
+    for (const double a : {0.0, 1.5, 3.0, 4.5})
+        dots.push_back(
+            {{40 * std::cos(a), 40 * std::sin(a), 0}, {40 * std::cos(a), 40 * std::sin(a), 0}, 8});
+    for (const double x : {-150.0, 150.0}) dots.push_back({{x, 100, 0}, {x, 100, 0}, 8});
+    sim::PhotoSettings photo;
+    photo.blur_sigma_px = 0.8, photo.noise_sigma_dn = 2;
+    const auto image =
+        sim::render_photo(lens, pose, sim::StrokeScene(dots, 0.82, 0.1, 4, 1.0), photo);
+    vision::SpotSettings settings;
+    settings.mark_diameter_px = 16;
+    CHECK_EQUAL(6u, vision::find_spots(view_of(image), settings).spots.size());
+    settings.search_outline_px = outline;
+    CHECK_EQUAL(4u, vision::find_spots(view_of(image), settings).spots.size());
+}

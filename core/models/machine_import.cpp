@@ -360,6 +360,7 @@ KlipperConfig read_klipper_config(const std::string& path, const std::string& te
     }
     if (value("printer", "print_radius"))
         config.print_radius_mm = number("printer", "print_radius");
+    config.sections = std::move(sections);
     return config;
 }
 

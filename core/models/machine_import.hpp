@@ -3,6 +3,7 @@
 // reply, G33's report), RepRapFirmware's config.g and config-override.g, Klipper's printer.cfg
 // with its SAVE_CONFIG block. What the files cannot tell is defaulted and said so.
 #include <functional>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -61,6 +62,8 @@ struct KlipperConfig {
     KlipperDelta delta;
     std::optional<double> print_radius_mm;
     std::vector<std::string> notes;  // includes not found
+    // Every section's keys as Klipper ends up with them (SAVE_CONFIG's over the rest).
+    std::map<std::string, std::map<std::string, std::string>> sections;
 };
 // Sections merged as Klipper reads them: includes in place, later values over earlier, the
 // SAVE_CONFIG block (#*# lines) over everything. Throws ImportError for an include loop, a

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/models/machine_file.hpp"
+#include "core/models/machine_import.hpp"
 #include "core/solve/delta_fit.hpp"
 
 namespace calbox::modes {
@@ -40,6 +41,15 @@ std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
 // RepRapFirmware's heightmap.csv (G29's grid; points beyond its probing radius left out).
 // Throws RecordError naming the line.
 std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source);
+// Klipper's saved [delta_calibrate] probe (SAVE_CONFIG's heightN and heightN_pos: the height the
+// probe reports at the trigger and the three steppers' positions there), through the saved
+// geometry: each position is steps below its tower's endstop (as Klipper's delta_calibrate keeps
+// it), by the stepper's steps per mm (full steps x microsteps / rotation distance) a carriage
+// height; the carriages give the effector's place; the gap at z = 0 is the height less the
+// effector's z. Throws RecordError when the block holds no heights.
+std::vector<solve::ProbePoint> klipper_calibrate_probe(const models::KlipperConfig& config,
+                                                       const std::string& source);
+
 // Probe points as that file's CSV (a header line, then x,y,z to 1, 1 and 0.1 micrometre).
 std::string probe_to_csv(const std::vector<solve::ProbePoint>& probe);
 

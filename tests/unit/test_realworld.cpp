@@ -670,3 +670,38 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
     }
     UT_PRINT(("worst " + number_text("%.5f", worst) + " mm").c_str());
 }
+
+// Klipper's saved [delta_calibrate] probe (FLSUN Q5): its seven stepper positions (80 steps a mm,
+// kept as steps below each endstop) through the geometry saved beside them. DELTA_CALIBRATE
+// probes the centre and six points at 90 + 60 k degrees, 0.95, 0.90, 0.85, 0.70, 0.75 and 0.80 of
+// its radius (Klipper's delta_calibrate.py): read back through the saved geometry, the points lie
+// at those angles and at those radii times one common scale within 3 % (the probing was
+// commanded through the geometry before the calibration, and the nozzle really was a few percent
+// further out than commanded), and their gaps within a quarter of a millimetre (the extended
+// calibration came after the heights were kept). A wrong reading of the positions (steps from
+// zero instead of below the endstop) put the centre's gap at 21 mm.
+TEST(RealImport, klippers_saved_delta_calibrate_heights_are_probe_points_in_their_geometry) {
+    const std::string file =
+        kConsole + "klipper_delta/flsun_q5_razorcopter/printer_post_calibration.cfg";
+    const auto probe = modes::probe_from_file(test::read_test_data(file), file);
+    CHECK_EQUAL(7u, probe.size());
+    CHECK(std::hypot(probe[0].x_mm, probe[0].y_mm) < 2);
+    const double scatter[6] = {0.95, 0.90, 0.85, 0.70, 0.75, 0.80};
+    double low = probe[0].z_mm, high = probe[0].z_mm, scale_low = 1e9, scale_high = 0;
+    for (std::size_t k = 1; k < 7; ++k) {
+        const auto& p = probe[k];
+        const double angle = std::atan2(p.y_mm, p.x_mm) * 180 / 3.14159265358979;
+        const double expected = 90.0 + 60.0 * static_cast<double>(k - 1);
+        const double off = std::remainder(angle - expected, 360.0);
+        const double scale = std::hypot(p.x_mm, p.y_mm) / (100 * scatter[k - 1]);
+        UT_PRINT((number_text("point %.0f: ", static_cast<double>(k)) +
+                  number_text("%.2f deg off, ", off) + number_text("radius scale %.4f, ", scale) +
+                  number_text("gap %.4f mm", p.z_mm))
+                     .c_str());
+        CHECK(std::abs(off) < 1.5);
+        scale_low = std::min(scale_low, scale), scale_high = std::max(scale_high, scale);
+        low = std::min(low, p.z_mm), high = std::max(high, p.z_mm);
+    }
+    CHECK(scale_high - scale_low < 0.03);
+    CHECK(high - low < 0.25);
+}

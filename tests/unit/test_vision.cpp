@@ -588,19 +588,40 @@ TEST(MarkerBackends, opencv_and_libapriltag_recall_and_corner_error_on_harder_ph
 // camera at 0.5 mm a pixel, a slight tilt so that the scale differs across the frame.
 TEST_GROUP(MarkSurroundings){};
 
-TEST(MarkSurroundings, every_hole_is_found_and_none_set_aside_for_its_size) {
+namespace {
+
+// An 800 x 600 camera without distortion 400 mm over the bed (0.5 mm a pixel), at `pose`, and the
+// bed plane as the twin has it (what is tested is the marks, not the board).
+struct PlainBench {
     sim::CameraIntrinsics lens;
-    lens.width_px = 800, lens.height_px = 600;
-    lens.fx = lens.fy = 800;
-    lens.cx = 399.5, lens.cy = 299.5;
-    lens.distortion = {0, 0, 0, 0, 0};
-    const sim::Pose pose = sim::look_at_pose({12, -9, 400}, {0, 0, 0}, 4);
-    const auto camera = as_core(lens);
+    sim::Pose pose;
+    geometry::CameraModel camera;
     geometry::BedPlane plane;
+};
+
+PlainBench plain_bench(const sim::Pose& pose) {
+    PlainBench b;
+    b.lens.width_px = 800, b.lens.height_px = 600;
+    b.lens.fx = b.lens.fy = 800;
+    b.lens.cx = 399.5, b.lens.cy = 299.5;
+    b.lens.distortion = {0, 0, 0, 0, 0};
+    b.pose = pose;
+    b.camera = as_core(b.lens);
     const sim::Vec3 r = sim::vector_from_rotation(pose.rotation);
-    plane.bed_to_camera.rvec = {r.x, r.y, r.z};
-    plane.bed_to_camera.tvec_mm = {pose.translation_mm.x, pose.translation_mm.y,
-                                   pose.translation_mm.z};
+    b.plane.bed_to_camera.rvec = {r.x, r.y, r.z};
+    b.plane.bed_to_camera.tvec_mm = {pose.translation_mm.x, pose.translation_mm.y,
+                                     pose.translation_mm.z};
+    return b;
+}
+
+}  // namespace
+
+TEST(MarkSurroundings, every_hole_is_found_and_none_set_aside_for_its_size) {
+    const PlainBench bench = plain_bench(sim::look_at_pose({12, -9, 400}, {0, 0, 0}, 4));
+    const auto& lens = bench.lens;
+    const auto& pose = bench.pose;
+    const auto& camera = bench.camera;
+    const auto& plane = bench.plane;
     sim::PhotoSettings photo;
     photo.blur_sigma_px = 0.8, photo.noise_sigma_dn = 2;
     const double mm_per_px = 0.5;
@@ -650,18 +671,11 @@ TEST(MarkSurroundings, every_hole_is_found_and_none_set_aside_for_its_size) {
 // The search limited to where the work can be: dots of the holes' own size on the surroundings,
 // past the outline, are not looked at; without the outline they would pass for holes.
 TEST(MarkSurroundings, blobs_past_the_work_outline_are_not_looked_at) {
-    sim::CameraIntrinsics lens;
-    lens.width_px = 800, lens.height_px = 600;
-    lens.fx = lens.fy = 800;
-    lens.cx = 399.5, lens.cy = 299.5;
-    lens.distortion = {0, 0, 0, 0, 0};
-    const sim::Pose pose = sim::look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
-    const auto camera = as_core(lens);
-    geometry::BedPlane plane;
-    const sim::Vec3 r = sim::vector_from_rotation(pose.rotation);
-    plane.bed_to_camera.rvec = {r.x, r.y, r.z};
-    plane.bed_to_camera.tvec_mm = {pose.translation_mm.x, pose.translation_mm.y,
-                                   pose.translation_mm.z};
+    const PlainBench bench = plain_bench(sim::look_at_pose({0, 0, 400}, {0, 0, 0}, 0));
+    const auto& lens = bench.lens;
+    const auto& pose = bench.pose;
+    const auto& camera = bench.camera;
+    const auto& plane = bench.plane;
     // The outline of a 60 mm reach: a circle 120 px in radius about the image's middle.
     const auto outline = modes::work_outline_px(camera, plane, 0, 60);
     CHECK_EQUAL(72u, outline.size());

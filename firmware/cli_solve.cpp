@@ -17,14 +17,17 @@ namespace {
 
 constexpr const char* kSolveHelp = R"(usage:
   calbox solve delta --machine printer.toml --measurements measurements.json [--probe heights.csv]
-                     [--firmware marlin|rrf|klipper] [--method fit|classic] -o result.json
+                     [--probe-radius MM] [--firmware marlin|rrf|klipper] [--method fit|classic]
+                     -o result.json
       Fits the delta's geometry to where its features really landed and writes the correction:
       parameters before and after, their uncertainty, what the data determine (singular values,
       condition number, parameters held), the residual predicted after correction, and the exact
       lines to send. --probe adds measured heights so the height and the height map are
       corrected from them: CSV x,y,z (the nozzle's height over the bed when commanded to z = 0
       there), or a Marlin console log whose "Bed X: .. Y: .. Z: .." lines G30, or G29 at V3 or
-      more, printed (the bed's height there, negated). Without it, the heights the first
+      more, printed (the bed's height there, negated), RepRapFirmware's heightmap.csv,
+      Klipper's printer.cfg with a saved [delta_calibrate], or a Marlin G33 report at V2 or
+      more (with --probe-radius MM, its DELTA_CALIBRATION_RADIUS). Without it, the heights the first
       layer's pressed strands measured from their widths stand in. --method classic is the seed
       paper's rod-only correction from the bar lengths, for comparison. Refused, nothing written: measurements
       the geometry cannot explain (residual over 3 times their uncertainty), a rod or radius
@@ -61,7 +64,9 @@ constexpr const char* kSolveHelp = R"(usage:
 
 int delta(const std::vector<std::string>& words) {
     const Args args(words,
-                    {"--machine", "--measurements", "--probe", "--firmware", "--method", "-o"}, {});
+                    {"--machine", "--measurements", "--probe", "--probe-radius", "--firmware",
+                     "--method", "-o"},
+                    {});
     if (!args.positional().empty()) throw UsageError("solve delta takes no positional argument");
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
@@ -83,7 +88,10 @@ int delta(const std::vector<std::string>& words) {
         read_input_file(measurements_path, "measurements"), measurements_path);
     std::vector<solve::ProbePoint> probe;
     if (const auto p = args.get("--probe"))
-        probe = modes::probe_from_file(read_input_file(*p, "probe file"), *p);
+        probe = modes::probe_from_file(read_input_file(*p, "probe file"), *p,
+                                       args.get("--probe-radius")
+                                           ? std::optional<double>(args.number("--probe-radius", 0))
+                                           : std::nullopt);
     modes::DeltaSolution solution;
     try {
         solution = modes::solve_delta(machine, measurements, probe, options);

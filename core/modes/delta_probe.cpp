@@ -173,8 +173,86 @@ std::vector<solve::ProbePoint> rrf_height_map(std::string_view text, const std::
 
 }  // namespace
 
-std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source) {
+namespace {
+
+// The number after `key` on a G33 report line ("x:+0.06"), if any.
+std::optional<double> g33_value(const std::string& line, const std::string& key) {
+    const auto at = line.find(key);
+    if (at == std::string::npos) return std::nullopt;
+    const char* begin = line.c_str() + at + key.size();
+    char* end = nullptr;
+    const double v = std::strtod(begin, &end);
+    if (end == begin) return std::nullopt;
+    return v;
+}
+
+std::vector<solve::ProbePoint> g33_report(std::string_view text, const std::string& source,
+                                          std::optional<double> radius_mm, double sigma_mm) {
+    if (!radius_mm || !(*radius_mm > 0))
+        throw RecordError(source +
+                          ": G33's report does not say where it probed: give --probe-radius MM "
+                          "(Marlin's DELTA_CALIBRATION_RADIUS)");
+    struct Block {
+        std::string geometry;  // the .Height and .Tower angle lines printed before it
+        std::array<double, 7> z{};
+    };
+    std::vector<Block> blocks;
+    std::string geometry, last_geometry;
+    std::istringstream in{std::string(text)};
+    std::string line;
+    std::optional<Block> open;
+    while (std::getline(in, line)) {
+        if (line.find(".Height:") != std::string::npos) {
+            geometry = line.substr(line.find(".Height:"));
+            last_geometry = geometry;
+        } else if (line.find(".Tower angle") != std::string::npos) {
+            geometry += line.substr(line.find(".Tower angle"));
+            last_geometry = geometry;
+        } else if (auto c = g33_value(line, " c:")) {
+            open = Block{geometry, {}};
+            open->z[0] = *c;
+            for (std::size_t i = 0; i < 3; ++i) {
+                const auto v = g33_value(line, std::string(" ") + "xyz"[i] + ":");
+                if (!v) throw RecordError(source + ": a G33 line without its " + "xyz"[i]);
+                open->z[1 + i] = *v;
+            }
+        } else if (open && line.find("yz:") != std::string::npos) {
+            const char* keys[3] = {"yz:", "zx:", "xy:"};
+            for (std::size_t i = 0; i < 3; ++i) {
+                const auto v = g33_value(line, keys[i]);
+                if (!v) throw RecordError(source + ": a G33 line without its " + keys[i]);
+                open->z[4 + i] = *v;
+            }
+            blocks.push_back(*open);
+            open.reset();
+        }
+    }
+    const Block* chosen = nullptr;
+    for (const auto& b : blocks)
+        if (b.geometry == last_geometry) chosen = &b;
+    if (chosen == nullptr)
+        throw RecordError(source +
+                          ": no G33 probe block measured under the geometry the run "
+                          "ended with (G33 V2 prints them)");
+    // Towards towers X, Y, Z (210, 330, 90 degrees), then opposite them (30, 150, 270).
+    const double angles_deg[6] = {210, 330, 90, 30, 150, 270};
+    std::vector<solve::ProbePoint> out{{0, 0, -chosen->z[0], sigma_mm}};
+    for (std::size_t i = 0; i < 6; ++i) {
+        const double a = angles_deg[i] * 3.14159265358979323846 / 180;
+        out.push_back(
+            {*radius_mm * std::cos(a), *radius_mm * std::sin(a), -chosen->z[1 + i], sigma_mm});
+    }
+    return out;
+}
+
+}  // namespace
+
+std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source,
+                                               std::optional<double> g33_radius_mm) {
     constexpr double kSigmaMm = 0.01;
+    if (text.find(" c:") != std::string_view::npos && text.find("yz:") != std::string_view::npos &&
+        text.find("G33") != std::string_view::npos)
+        return g33_report(text, source, g33_radius_mm, kSigmaMm);
     if (text.rfind("RepRapFirmware height map", 0) == 0)
         return rrf_height_map(text, source, kSigmaMm);
     // Klipper's printer.cfg with its saved [delta_calibrate] (its includes are not needed: the

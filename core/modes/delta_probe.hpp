@@ -3,6 +3,7 @@
 // the printer do it and report each height, and those heights as the fit takes them. A probe
 // measures the nozzle's gap over the bed before the target is printed, so the fit knows it
 // everywhere and one pass suffices however unevenly the first layer lies.
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -40,7 +41,13 @@ std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
 // Y: .. Z: .." lines (G30's, or G29's at V3 or higher), whose heights are negated as above, or
 // RepRapFirmware's heightmap.csv (G29's grid; points beyond its probing radius left out).
 // Throws RecordError naming the line.
-std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source);
+// Marlin's G33 report at V2 or higher (". c:.. x:.. y:.. z:.." and ". yz:.. zx:.. xy:.." lines:
+// the bed's height at the centre, towards each tower and opposite each, at its calibration
+// radius) is read too, given that radius (`g33_radius_mm`, Marlin's DELTA_CALIBRATION_RADIUS,
+// which the report does not print): the block measured under the geometry the run ended with
+// (after "rolling back" that is the first block, not the last).
+std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std::string& source,
+                                               std::optional<double> g33_radius_mm = std::nullopt);
 // Klipper's saved [delta_calibrate] probe (SAVE_CONFIG's heightN and heightN_pos: the height the
 // probe reports at the trigger and the three steppers' positions there), through the saved
 // geometry: each position is steps below its tower's endstop (as Klipper's delta_calibrate keeps

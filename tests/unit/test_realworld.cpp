@@ -18,6 +18,7 @@
 #include "core/models/machine_file.hpp"
 #include "core/models/machine_import.hpp"
 #include "core/modes/delta_probe.hpp"
+#include "core/modes/record_error.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/compensate.hpp"
 #include "core/targets/gcode_line.hpp"
@@ -704,4 +705,35 @@ TEST(RealImport, klippers_saved_delta_calibrate_heights_are_probe_points_in_thei
     }
     CHECK(scale_high - scale_low < 0.03);
     CHECK(high - low < 0.25);
+}
+
+// Marlin's G33 at V2 (its documentation page's example): two probe blocks, then "rolling back" to
+// the first geometry; the block measured under that geometry is the first one
+// (c:+0.01 x:+0.06 y:+0.04 z:+0.01, yz:-0.02 zx:-0.01 xy:+0.01), at the radius given.
+TEST(RealImport, a_marlin_g33_v2_report_is_a_probe_file_given_its_radius) {
+    const std::string page =
+        test::read_test_data(kConsole + "marlin_delta/marlindocs_G033_sample_output.md");
+    const auto start = page.find("> G33 V2");
+    const std::string run = page.substr(start, page.find("> G33", start + 5) - start);
+    try {
+        modes::probe_from_file(run, "g33.log");
+        FAIL("a G33 report read without its radius");
+    } catch (const modes::RecordError& e) {
+        STRCMP_CONTAINS("give --probe-radius", e.what());
+    }
+    const auto probe = modes::probe_from_file(run, "g33.log", 80.0);
+    CHECK_EQUAL(7u, probe.size());
+    const double gaps[7] = {-0.01, -0.06, -0.04, -0.01, 0.02, 0.01, -0.01};
+    const double angles[6] = {210, 330, 90, 30, 150, 270};
+    DOUBLES_EQUAL(0, std::hypot(probe[0].x_mm, probe[0].y_mm), 1e-9);
+    for (std::size_t i = 0; i < 7; ++i) DOUBLES_EQUAL(gaps[i], probe[i].z_mm, 1e-9);
+    for (std::size_t i = 0; i < 6; ++i) {
+        DOUBLES_EQUAL(80, std::hypot(probe[i + 1].x_mm, probe[i + 1].y_mm), 1e-9);
+        DOUBLES_EQUAL(
+            angles[i],
+            std::fmod(
+                std::atan2(probe[i + 1].y_mm, probe[i + 1].x_mm) * 180 / 3.14159265358979 + 360,
+                360),
+            1e-6);
+    }
 }

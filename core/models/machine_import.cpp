@@ -34,19 +34,6 @@ std::vector<std::string> lines_of(std::string_view text) {
     return out;
 }
 
-// The number right after `key` in `text` (G33's ".Height:297.80  Ex:-0.14"), if any.
-std::optional<double> number_after(std::string_view text, std::string_view key) {
-    const auto at = text.find(key);
-    if (at == std::string_view::npos) return std::nullopt;
-    const std::string rest(text.substr(at + key.size()));
-    const char* begin = rest.c_str();
-    while (*begin == ' ') ++begin;
-    char* end = nullptr;
-    const double v = std::strtod(begin, &end);
-    if (end == begin) return std::nullopt;
-    return v;
-}
-
 // The G-code command starting at `word` in a console line ("echo:  M665 L250.00 ..."), its
 // comment cut off; empty when the line holds none.
 std::optional<gcode::Line> command_in(const std::string& line, std::string_view word) {
@@ -123,6 +110,17 @@ ImportedMachine delta_machine(const std::string& firmware, const DeltaGeometry& 
 }
 
 }  // namespace
+
+std::optional<double> number_after(std::string_view text, std::string_view key, std::size_t from) {
+    const auto at = text.find(key, from);
+    if (at == std::string_view::npos) return std::nullopt;
+    // strtod reads a terminated string: the rest of the line, copied.
+    const std::string rest(text.substr(at + key.size()));
+    char* end = nullptr;
+    const double v = std::strtod(rest.c_str(), &end);
+    if (end == rest.c_str() || !std::isfinite(v)) return std::nullopt;
+    return v;
+}
 
 MarlinCapture read_marlin_capture(std::string_view log) {
     MarlinCapture capture;

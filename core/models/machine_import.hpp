@@ -34,6 +34,12 @@ struct ImportedMachine {
     std::vector<std::string> notes;
 };
 
+// The number a firmware's report prints after `key` (G33's ".Height:297.80", Marlin's "Bed X:
+// 10.00"), looked for from `from` on: empty when the key is not there or no finite number
+// follows it.
+std::optional<double> number_after(std::string_view text, std::string_view key,
+                                   std::size_t from = 0);
+
 // The settings as each firmware states them, before they become the machine file's [delta]
 // (Marlin's conventions, in gauge): what the tests compare with the folders' READMEs.
 struct MarlinDeltaSettings {

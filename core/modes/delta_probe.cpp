@@ -24,17 +24,7 @@ std::string lower(std::string_view s) {
     return out;
 }
 
-// The number after `key` in `line` (lower case), if it is there and is one.
-std::optional<double> number_after(const std::string& line, std::string_view key,
-                                   std::size_t from = 0) {
-    const auto at = line.find(key, from);
-    if (at == std::string::npos) return std::nullopt;
-    const char* begin = line.c_str() + at + key.size();
-    char* end = nullptr;
-    const double v = std::strtod(begin, &end);
-    if (end == begin || !std::isfinite(v)) return std::nullopt;
-    return v;
-}
+using models::number_after;
 
 // Marlin's "Bed X: 10.00 Y: -20.00 Z: 0.12" (older releases: "Bed x: 10 y: .. z: .."), after
 // whatever a host put before it, as a probe point: the bed's height there negated is the
@@ -175,17 +165,6 @@ std::vector<solve::ProbePoint> rrf_height_map(std::string_view text, const std::
 
 namespace {
 
-// The number after `key` on a G33 report line ("x:+0.06"), if any.
-std::optional<double> g33_value(const std::string& line, const std::string& key) {
-    const auto at = line.find(key);
-    if (at == std::string::npos) return std::nullopt;
-    const char* begin = line.c_str() + at + key.size();
-    char* end = nullptr;
-    const double v = std::strtod(begin, &end);
-    if (end == begin) return std::nullopt;
-    return v;
-}
-
 std::vector<solve::ProbePoint> g33_report(std::string_view text, const std::string& source,
                                           std::optional<double> radius_mm, double sigma_mm) {
     if (!radius_mm || !(*radius_mm > 0))
@@ -208,18 +187,18 @@ std::vector<solve::ProbePoint> g33_report(std::string_view text, const std::stri
         } else if (line.find(".Tower angle") != std::string::npos) {
             geometry += line.substr(line.find(".Tower angle"));
             last_geometry = geometry;
-        } else if (auto c = g33_value(line, " c:")) {
+        } else if (auto c = number_after(line, " c:")) {
             open = Block{geometry, {}};
             open->z[0] = *c;
             for (std::size_t i = 0; i < 3; ++i) {
-                const auto v = g33_value(line, std::string(" ") + "xyz"[i] + ":");
+                const auto v = number_after(line, std::string(" ") + "xyz"[i] + ":");
                 if (!v) throw RecordError(source + ": a G33 line without its " + "xyz"[i]);
                 open->z[1 + i] = *v;
             }
         } else if (open && line.find("yz:") != std::string::npos) {
             const char* keys[3] = {"yz:", "zx:", "xy:"};
             for (std::size_t i = 0; i < 3; ++i) {
-                const auto v = g33_value(line, keys[i]);
+                const auto v = number_after(line, keys[i]);
                 if (!v) throw RecordError(source + ": a G33 line without its " + keys[i]);
                 open->z[4 + i] = *v;
             }

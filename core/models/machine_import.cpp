@@ -358,7 +358,37 @@ KlipperConfig read_klipper_config(const std::string& path, const std::string& te
     }
     if (value("printer", "print_radius"))
         config.print_radius_mm = number("printer", "print_radius");
-    config.sections = std::move(sections);
+    std::array<double, 3> steps_per_mm{};
+    bool steps_given = true;
+    for (std::size_t i = 0; i < 3; ++i) {
+        // Klipper wants each stepper's own; stepper_a's stand in where a file leaves them out.
+        const auto given = [&](const std::string& key) {
+            return value(steppers[i], key) ? steppers[i] : std::string("stepper_a");
+        };
+        const std::string rotation = given("rotation_distance"), microsteps = given("microsteps");
+        if (!value(rotation, "rotation_distance") || !value(microsteps, "microsteps")) {
+            steps_given = false;
+            continue;
+        }
+        steps_per_mm[i] = number(given("full_steps_per_rotation"), "full_steps_per_rotation", 200) *
+                          number(microsteps, "microsteps") / number(rotation, "rotation_distance");
+    }
+    if (steps_given) config.steps_per_mm = steps_per_mm;
+    for (int n = 0;; ++n) {
+        const std::string key = "height" + std::to_string(n);
+        const auto height = value("delta_calibrate", key);
+        const auto at = value("delta_calibrate", key + "_pos");
+        if (!height || !at) break;
+        KlipperSavedProbe point;
+        point.height_mm = number("delta_calibrate", key);
+        std::string positions = *at;
+        std::replace(positions.begin(), positions.end(), ',', ' ');
+        std::istringstream in(positions);
+        for (double& steps : point.steps_below_endstop)
+            if (!(in >> steps))
+                throw ImportError(path + ": " + key + "_pos is not three stepper positions");
+        config.saved_probe.push_back(point);
+    }
     return config;
 }
 

@@ -2,8 +2,8 @@
 // A machine file from what a printer's owner already has: a Marlin console capture (M503's
 // reply, G33's report), RepRapFirmware's config.g and config-override.g, Klipper's printer.cfg
 // with its SAVE_CONFIG block. What the files cannot tell is defaulted and said so.
+#include <array>
 #include <functional>
-#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -64,16 +64,26 @@ RrfConfig read_rrf_config(const std::vector<std::string>& files);
 // Reads a file a printer.cfg includes (a path relative to the including file's folder): empty
 // when it is not there.
 using ReadIncluded = std::function<std::optional<std::string>(const std::string& path)>;
+// One point DELTA_CALIBRATE probed, as SAVE_CONFIG keeps it ([delta_calibrate] heightN and
+// heightN_pos): the height the probe reported and each stepper's position, in steps below its
+// tower's endstop.
+struct KlipperSavedProbe {
+    double height_mm = 0;
+    std::array<double, 3> steps_below_endstop{};
+};
+
 struct KlipperConfig {
     KlipperDelta delta;
     std::optional<double> print_radius_mm;
     std::vector<std::string> notes;  // includes not found
-    // Every section's keys as Klipper ends up with them (SAVE_CONFIG's over the rest).
-    std::map<std::string, std::map<std::string, std::string>> sections;
+    // Each stepper's full steps x microsteps / rotation_distance, where all three are given
+    // (stepper_b and _c take stepper_a's where they give none).
+    std::optional<std::array<double, 3>> steps_per_mm;
+    std::vector<KlipperSavedProbe> saved_probe;  // heightN in order, empty without them
 };
 // Sections merged as Klipper reads them: includes in place, later values over earlier, the
 // SAVE_CONFIG block (#*# lines) over everything. Throws ImportError for an include loop, a
-// printer that is not a delta, or missing keys.
+// printer that is not a delta, missing keys or a malformed value.
 KlipperConfig read_klipper_config(const std::string& path, const std::string& text,
                                   const ReadIncluded& read);
 

@@ -5,7 +5,6 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
-#include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -279,63 +278,25 @@ std::vector<solve::ProbePoint> probe_from_file(std::string_view text, const std:
 
 std::vector<solve::ProbePoint> klipper_calibrate_probe(const models::KlipperConfig& config,
                                                        const std::string& source) {
-    const auto section = [&](const std::string& name) -> const std::map<std::string, std::string>& {
-        static const std::map<std::string, std::string> kNone;
-        const auto it = config.sections.find(name);
-        return it == config.sections.end() ? kNone : it->second;
-    };
-    const auto number = [&](const std::string& text, const std::string& what) {
-        char* end = nullptr;
-        const double v = std::strtod(text.c_str(), &end);
-        if (text.empty() || end == text.c_str())
-            throw RecordError(source + ": " + what + " is not a number: '" + text + "'");
-        return v;
-    };
-    // Steps per mm of each stepper (stepper_b and _c default to stepper_a's values).
-    std::array<double, 3> steps_per_mm{};
-    const char* steppers[3] = {"stepper_a", "stepper_b", "stepper_c"};
-    for (std::size_t i = 0; i < 3; ++i) {
-        const auto value = [&](const std::string& key, const std::string& fallback) {
-            for (const char* s : {steppers[i], "stepper_a"}) {
-                const auto& keys = section(s);
-                if (const auto it = keys.find(key); it != keys.end()) return it->second;
-            }
-            return fallback;
-        };
-        const std::string rotation = value("rotation_distance", "");
-        if (rotation.empty())
-            throw RecordError(source + ": no rotation_distance in [" + steppers[i] + "]");
-        steps_per_mm[i] =
-            number(value("full_steps_per_rotation", "200"), "full_steps_per_rotation") *
-            number(value("microsteps", ""), "microsteps") / number(rotation, "rotation_distance");
-    }
+    if (config.saved_probe.empty())
+        throw RecordError(source + ": no saved [delta_calibrate] heights");
+    if (!config.steps_per_mm)
+        throw RecordError(source + ": no rotation_distance and microsteps in [stepper_a/b/c]");
     const auto geometry = models::from_klipper(config.delta);
-    const auto& saved = section("delta_calibrate");
     std::vector<solve::ProbePoint> out;
-    for (int n = 0;; ++n) {
-        const auto height = saved.find("height" + std::to_string(n));
-        const auto at = saved.find("height" + std::to_string(n) + "_pos");
-        if (height == saved.end() || at == saved.end()) break;
+    for (const auto& point : config.saved_probe) {
         std::array<double, 3> carriage{};
-        std::string positions = at->second;
-        std::replace(positions.begin(), positions.end(), ',', ' ');
-        std::istringstream in(positions);
         for (std::size_t i = 0; i < 3; ++i) {
-            double steps = 0;
-            if (!(in >> steps))
-                throw RecordError(source + ": height" + std::to_string(n) +
-                                  "_pos is not three stepper positions");
             // Klipper keeps each position as steps below the tower's endstop, which lies
             // position_endstop + sqrt(arm^2 - radius^2) up the tower in the saved geometry.
             const double arm = config.delta.arm_length_mm[i], radius = config.delta.delta_radius_mm;
             carriage[i] = config.delta.position_endstop_mm[i] +
-                          std::sqrt(arm * arm - radius * radius) - steps / steps_per_mm[i];
+                          std::sqrt(arm * arm - radius * radius) -
+                          point.steps_below_endstop[i] / (*config.steps_per_mm)[i];
         }
         const auto effector = models::effector_position_mm(geometry, carriage);
-        out.push_back({effector.x, effector.y,
-                       number(height->second, "height" + std::to_string(n)) - effector.z, 0.01});
+        out.push_back({effector.x, effector.y, point.height_mm - effector.z, 0.01});
     }
-    if (out.empty()) throw RecordError(source + ": no saved [delta_calibrate] heights");
     return out;
 }
 

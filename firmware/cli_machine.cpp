@@ -1,8 +1,7 @@
 // calbox machine import
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
+#include <optional>
+#include <stdexcept>
 
 #include "core/models/machine_import.hpp"
 #include "firmware/cli_args.hpp"
@@ -23,12 +22,13 @@ constexpr const char* kMachineHelp = R"(usage:
       without a delta's geometry but with M92 gives a cartesian printer.
 )";
 
+// An included file Klipper's config names: empty where it is not there (said, not fatal).
 std::optional<std::string> read_if_there(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in || std::filesystem::is_directory(path)) return std::nullopt;
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
+    try {
+        return read_input_file(path, "included file");
+    } catch (const std::runtime_error&) {
+        return std::nullopt;
+    }
 }
 
 int import_machine(const std::vector<std::string>& words) {

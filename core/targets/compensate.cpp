@@ -69,14 +69,16 @@ struct Code {
     }
 };
 
+// The line's G words: its command and every G among its words (G90 G94 G17 G21), read as the
+// command is. Throws gcode::SyntaxError for a G word that is no command number.
 std::vector<Code> g_codes_of(const gcode::Line& line) {
     std::vector<Code> codes;
     if (line.command_letter == 'G') codes.push_back({line.command_number, line.command_subcode});
     for (const auto& w : line.parameters)
         if (w.letter == 'G' && w.value) {
-            const double whole = std::floor(*w.value);
-            const int tenths = static_cast<int>(std::lround((*w.value - whole) * 10));
-            codes.push_back({static_cast<int>(whole), tenths > 0 ? tenths : -1});
+            const auto command = gcode::command_number_of('G', *w.value);
+            if (!command) throw gcode::SyntaxError("bad command number after G");
+            codes.push_back({command->number, command->subcode});
         }
     return codes;
 }
@@ -288,9 +290,11 @@ std::string compensate_gcode(std::string_view job, const Correction& correct, co
                                   " characters long: not G-code (a line holds at most " +
                                   std::to_string(kLongestLine) + ")");
         gcode::Line line;
+        std::vector<Code> codes;
         try {
             if (const auto why = unplain_words(raw); !why.empty()) throw fail(why);
             line = gcode::parse_line(raw);
+            codes = g_codes_of(line);
         } catch (const gcode::SyntaxError& e) {
             throw fail(e.what());
         }
@@ -309,7 +313,6 @@ std::string compensate_gcode(std::string_view job, const Correction& correct, co
                 out += '\n';
             }
         };
-        const auto codes = g_codes_of(line);
         // G92, G28 / G30, G4, G53 and probing take axis words that are not a move.
         bool axis_words_not_a_move = false;
         std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move

@@ -15,6 +15,17 @@ bool is_blank(char c) {
 
 }  // namespace
 
+std::optional<CommandNumber> command_number_of(char letter, double value) {
+    // The range is checked before the conversion, which is undefined outside int. A G code may
+    // have one decimal (G92.1, G38.2, G61.1).
+    if (!(value >= 0 && value < 10000)) return std::nullopt;
+    const double whole = std::floor(value);
+    const double tenths = std::round((value - whole) * 10);
+    if ((letter != 'G' && whole != value) || std::abs((value - whole) * 10 - tenths) > 1e-6)
+        return std::nullopt;
+    return CommandNumber{static_cast<int>(whole), tenths > 0 ? static_cast<int>(tenths) : -1};
+}
+
 std::string strip_comments(std::string_view raw) {
     std::string out;
     out.reserve(raw.size());
@@ -175,21 +186,12 @@ Line parse_line(std::string_view raw) {
             continue;
         }
         if (line.command_letter == 0 && (letter == 'G' || letter == 'M' || letter == 'T')) {
-            // No firmware's command numbers reach 10000 (Marlin's highest is M9xx); the range is
-            // checked before the conversion, which is undefined outside int. A G code may have
-            // one decimal (G92.1, G38.2, G61.1).
-            if (values.size() != 1 || !(*value >= 0 && *value < 10000)) {
-                throw SyntaxError(std::string("bad command number after ") + letter);
-            }
-            const double whole = std::floor(*value);
-            const double tenths = std::round((*value - whole) * 10);
-            if ((letter != 'G' && whole != *value) ||
-                std::abs((*value - whole) * 10 - tenths) > 1e-6) {
-                throw SyntaxError(std::string("bad command number after ") + letter);
-            }
+            const auto command =
+                values.size() == 1 ? command_number_of(letter, *value) : std::nullopt;
+            if (!command) throw SyntaxError(std::string("bad command number after ") + letter);
             line.command_letter = letter;
-            line.command_number = static_cast<int>(whole);
-            if (tenths > 0) line.command_subcode = static_cast<int>(tenths);
+            line.command_number = command->number;
+            line.command_subcode = command->subcode;
             if (line.is('M', 117) || line.is('M', 118)) {
                 skip_blanks();
                 line.text = body.substr(i);

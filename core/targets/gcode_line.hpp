@@ -41,6 +41,15 @@ struct Line {
     std::vector<double> values(char letter) const;   // empty when absent or bare
 };
 
+// A command number as written (92, 92.1): its whole part and its one decimal (-1 for none).
+struct CommandNumber {
+    int number = -1;
+    int subcode = -1;
+};
+// Empty when `value` is none for `letter`: negative, 10000 or more (no firmware's command numbers
+// reach it; Marlin's highest is M9xx), a decimal on an M or T, or more than one decimal.
+std::optional<CommandNumber> command_number_of(char letter, double value);
+
 // Removes comments ('(' to ')', ';' to the end of the line); throws SyntaxError for an unclosed
 // '('. A line of only '%' (a program's start and end, as CAM writes them) is blank.
 std::string strip_comments(std::string_view raw);

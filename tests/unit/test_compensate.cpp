@@ -117,6 +117,7 @@ TEST(Compensate, what_cannot_be_carried_through_is_refused_naming_the_line) {
     refused("G1 X0 Y0\nG53 G0 X10 Y10\n", "line 2: a move in machine coordinates (G53)");
     refused("G1 X0 Y0\n/G1 X5 Y5\n", "line 2: a move under block delete");
     refused("G90.1\n", "line 1: absolute arc centres");
+    refused("G1 X0 Y0\nG90 G1.55 X1 Y1\n", "line 2: bad command number after G");
     refused("G1 X0 Y0\nG1 X1 Y1 Q\"\n", "line 2: bad number");
 }
 

@@ -50,41 +50,59 @@ class Neighbourhood {
 
 }  // namespace
 
+namespace {
+
+// Each pixel with the one to its right and the one below it, on the bed: the bed area a pixel
+// covers there comes out in both directions (a tilted view foreshortens one).
+std::vector<geometry::Point3> with_neighbours_on_bed(const geometry::CameraModel& camera,
+                                                     const geometry::BedPlane& plane,
+                                                     const std::vector<Point2>& at_px,
+                                                     double height_mm) {
+    std::vector<Point2> pixels;
+    pixels.reserve(3 * at_px.size());
+    for (const auto& p : at_px) {
+        pixels.push_back(p);
+        pixels.push_back({p.x + 1, p.y});
+        pixels.push_back({p.x, p.y + 1});
+    }
+    return geometry::pixels_to_bed(camera, plane, pixels, height_mm);
+}
+
+// The bed area of the pixel whose three points start at `on_bed[3 * i]`, mm^2.
+double mm2_per_pixel(const std::vector<geometry::Point3>& on_bed, std::size_t i) {
+    const auto& c = on_bed[3 * i];
+    const Point2 du{on_bed[3 * i + 1].x - c.x, on_bed[3 * i + 1].y - c.y};
+    const Point2 dv{on_bed[3 * i + 2].x - c.x, on_bed[3 * i + 2].y - c.y};
+    return std::abs(du.x * dv.y - du.y * dv.x);
+}
+
+}  // namespace
+
 std::vector<SeenMark> marks_on_bed(const geometry::CameraModel& camera,
                                    const geometry::BedPlane& plane, const vision::SpotImage& seen,
                                    double height_mm) {
-    // Each spot with a pixel to its right and one below, so that its size and uncertainty come
-    // out in mm at the local scale in both directions (a tilted view foreshortens one).
-    std::vector<Point2> pixels;
-    for (const auto& s : seen.spots) {
-        pixels.push_back(s.centre_px);
-        pixels.push_back({s.centre_px.x + 1, s.centre_px.y});
-        pixels.push_back({s.centre_px.x, s.centre_px.y + 1});
-    }
-    const auto on_bed = geometry::pixels_to_bed(camera, plane, pixels, height_mm);
+    std::vector<Point2> centres;
+    centres.reserve(seen.spots.size());
+    for (const auto& s : seen.spots) centres.push_back(s.centre_px);
+    const auto on_bed = with_neighbours_on_bed(camera, plane, centres, height_mm);
     std::vector<SeenMark> marks;
     for (std::size_t i = 0; i < seen.spots.size(); ++i) {
         const auto& s = seen.spots[i];
-        const auto& c = on_bed[3 * i];
-        const Point2 at{c.x, c.y};
-        const Point2 du{on_bed[3 * i + 1].x - c.x, on_bed[3 * i + 1].y - c.y};
-        const Point2 dv{on_bed[3 * i + 2].x - c.x, on_bed[3 * i + 2].y - c.y};
-        const double mm2_per_px = std::abs(du.x * dv.y - du.y * dv.x);
-        const double mm_per_px = std::sqrt(mm2_per_px);
-        marks.push_back({at, std::sqrt(s.area_px * mm2_per_px / 3.14159265358979),
-                         s.sigma_px * mm_per_px, s.elongation, s.touches_border});
+        const double mm2_per_px = mm2_per_pixel(on_bed, i);
+        marks.push_back({{on_bed[3 * i].x, on_bed[3 * i].y},
+                         std::sqrt(s.area_px * mm2_per_px / 3.14159265358979),
+                         s.sigma_px * std::sqrt(mm2_per_px),
+                         s.elongation,
+                         s.touches_border});
     }
     return marks;
 }
 
 double pixels_per_mm_at_centre(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                                double height_mm) {
-    const Point2 c{camera.cx(), camera.cy()};
     const auto on_bed =
-        geometry::pixels_to_bed(camera, plane, {c, {c.x + 1, c.y}, {c.x, c.y + 1}}, height_mm);
-    const double du_x = on_bed[1].x - on_bed[0].x, du_y = on_bed[1].y - on_bed[0].y;
-    const double dv_x = on_bed[2].x - on_bed[0].x, dv_y = on_bed[2].y - on_bed[0].y;
-    return 1 / std::sqrt(std::abs(du_x * dv_y - du_y * dv_x));
+        with_neighbours_on_bed(camera, plane, {{camera.cx(), camera.cy()}}, height_mm);
+    return 1 / std::sqrt(mm2_per_pixel(on_bed, 0));
 }
 
 std::vector<Point2> work_outline_px(const geometry::CameraModel& camera,

@@ -23,6 +23,16 @@ using namespace calbox;
 
 namespace {
 
+// The half-size camera 375 mm over the platform, a little off and turned: enough to index.
+test::GalvoBench half_size_bench() {
+    test::GalvoBench bench;
+    bench.camera = test::galvo_camera(0.5);
+    bench.bed_to_camera = sim::look_at_pose({3, -4, 375}, {0, 0, 0}, 2);
+    bench.photo.blur_sigma_px = 0.8;
+    bench.photo.noise_sigma_dn = 2;
+    return bench;
+}
+
 // The machine file says how its burns show: dark on a light substrate, or light on dark.
 models::MachineFile galvo_machine(bool dark_marks = true) {
     auto machine = models::parse_machine_file(test::kGalvoMachineToml, "test");
@@ -360,11 +370,7 @@ TEST(GalvoOrientation, all_eight_ways_round_are_read_and_damage_is_reported) {
     for (const targets::GridIndex i : {targets::GridIndex{3, 4}, {15, 16}, {27, 20}})
         faults.misfires_at_mm.push_back({target.at(i).centre_mm.x, target.at(i).centre_mm.y});
     faults.misfire_radius_mm = 0.45 * target.pitch_mm;
-    test::GalvoBench bench;
-    bench.camera = test::galvo_camera(0.5);
-    bench.bed_to_camera = sim::look_at_pose({3, -4, 375}, {0, 0, 0}, 2);
-    bench.photo.blur_sigma_px = 0.8;
-    bench.photo.noise_sigma_dn = 2;
+    test::GalvoBench bench = half_size_bench();
     const auto camera = test::as_core(bench.camera);
     const auto plane = test::plane_from_board(bench);
     std::set<int> symmetries;
@@ -434,11 +440,7 @@ TEST(GalvoSpots, a_plate_amid_a_dark_grey_or_white_platform_gives_every_mark) {
     const auto machine = galvo_machine();
     const auto target = targets::make_galvo_target(machine);
     const auto job = targets::write_gcode(target.job, machine, "grid");
-    test::GalvoBench bench;
-    bench.camera = test::galvo_camera(0.5);
-    bench.bed_to_camera = sim::look_at_pose({3, -4, 375}, {0, 0, 0}, 2);
-    bench.photo.blur_sigma_px = 0.8;
-    bench.photo.noise_sigma_dn = 2;
+    test::GalvoBench bench = half_size_bench();
     const auto camera = test::as_core(bench.camera);
     const auto plane = test::plane_from_board(bench);
     auto truth = sim::random_galvo_truth(3);

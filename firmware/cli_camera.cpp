@@ -56,8 +56,8 @@ int calibrate(const std::vector<std::string>& words) {
         std::printf("dropped %s: %s\n", d.name.c_str(), d.why.c_str());
     const auto& c = result.camera;
     std::printf("%s camera %dx%d: fx %.3f fy %.3f cx %.3f cy %.3f, RMS %.4f px over %zu views\n",
-                model == geometry::LensModel::fisheye ? "fisheye" : "pinhole", c.image_width,
-                c.image_height, c.fx(), c.fy(), c.cx(), c.cy(), c.rms_px, result.views.size());
+                geometry::lens_model_name(model), c.image_width, c.image_height, c.fx(), c.fy(),
+                c.cx(), c.cy(), c.rms_px, result.views.size());
     write_output_file(out, geometry::camera_to_yaml(c, per_view));
     return 0;
 }

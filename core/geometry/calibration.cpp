@@ -120,7 +120,7 @@ void check_minimum(LensModel model, const std::vector<ObservedView>& views,
         corners >= static_cast<std::size_t>(need.corners))
         return;
     throw CalibrationError("the board was found in " + found_in + " (" + std::to_string(corners) +
-                           " corners); a " + (model == LensModel::fisheye ? "fisheye" : "pinhole") +
+                           " corners); a " + lens_model_name(model) +
                            " calibration needs at least " + std::to_string(need.views) +
                            " views and " + std::to_string(need.corners) + " corners");
 }
@@ -356,10 +356,6 @@ std::string px_text(double px) {
     return text;
 }
 
-const char* model_name(LensModel model) {
-    return model == LensModel::fisheye ? "fisheye" : "pinhole";
-}
-
 }  // namespace
 
 RigidPose solve_board_pose(const CameraModel& camera, const BoardObservation& board) {
@@ -394,18 +390,27 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
                                        int width_px, int height_px, const ViewJudging& judging) {
     check_minimum(model, views, std::to_string(views.size()) + " views");
     const cv::Size size(width_px, height_px);
-    std::vector<const BoardObservation*> boards;
-    boards.reserve(views.size());
-    for (const auto& v : views) boards.push_back(&v.board);
-    IntrinsicSolve solve = solve_intrinsics(model, boards, size, nullptr);
+    const auto boards_of = [&](const std::vector<std::size_t>& which) {
+        std::vector<const BoardObservation*> boards;
+        boards.reserve(which.size());
+        for (const auto v : which) boards.push_back(&views[v].board);
+        return boards;
+    };
+    // How far a view may reproject, against the better views of a solve.
+    const auto limit_px_of = [&](const IntrinsicSolve& s) {
+        return std::max(judging.outlier_factor * typical_rms_px(s.view_rms_px),
+                        judging.outlier_floor_px);
+    };
+    std::vector<std::size_t> every(views.size());
+    for (std::size_t v = 0; v < views.size(); ++v) every[v] = v;
+    IntrinsicSolve solve = solve_intrinsics(model, boards_of(every), size, nullptr);
 
     // A view whose reprojection stands far above the others' was solved wrong (its pose did not
     // converge from OpenCV's start) or found wrong (corners mis-ordered, another board): it pulls
     // every intrinsic towards it. It is set aside, the rest solved, and then its pose solved
     // through the rest's camera: a view that then fits rejoins, one that does not is dropped.
     const double first_typical = typical_rms_px(solve.view_rms_px);
-    const double limit_px =
-        std::max(judging.outlier_factor * first_typical, judging.outlier_floor_px);
+    const double limit_px = limit_px_of(solve);
     std::vector<std::size_t> kept, outliers;
     for (std::size_t v = 0; v < views.size(); ++v)
         (solve.view_rms_px[v] > limit_px ? outliers : kept).push_back(v);
@@ -423,13 +428,8 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
         check_minimum(model, rest,
                       std::to_string(rest.size()) + " views once " + dropped_names +
                           " (far off the others) were set aside");
-        std::vector<const BoardObservation*> rest_boards;
-        rest_boards.reserve(kept.size());
-        for (const auto v : kept) rest_boards.push_back(&views[v].board);
-        IntrinsicSolve without = solve_intrinsics(model, rest_boards, size, nullptr);
-        const double rest_typical = typical_rms_px(without.view_rms_px);
-        const double rest_limit_px =
-            std::max(judging.outlier_factor * rest_typical, judging.outlier_floor_px);
+        IntrinsicSolve without = solve_intrinsics(model, boards_of(kept), size, nullptr);
+        const double rest_limit_px = limit_px_of(without);
         std::vector<std::size_t> rejoined;
         for (const auto v : outliers) {
             double resolved_px = std::numeric_limits<double>::infinity();
@@ -460,10 +460,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
         if (!rejoined.empty()) {
             std::vector<std::size_t> all = kept;
             all.insert(all.end(), rejoined.begin(), rejoined.end());
-            std::vector<const BoardObservation*> all_boards;
-            all_boards.reserve(all.size());
-            for (const auto v : all) all_boards.push_back(&views[v].board);
-            IntrinsicSolve with = solve_intrinsics(model, all_boards, size, &solve.camera);
+            IntrinsicSolve with = solve_intrinsics(model, boards_of(all), size, &solve.camera);
             bool all_fit = true;
             for (const double rms : with.view_rms_px) all_fit = all_fit && rms <= rest_limit_px;
             if (all_fit) {
@@ -485,7 +482,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
     result.camera = solve.camera;
     const double max_rms_px = calibration_max_rms_px(model);
     if (!(result.camera.rms_px <= max_rms_px))
-        throw CalibrationError("the " + std::string(model_name(model)) +
+        throw CalibrationError("the " + std::string(lens_model_name(model)) +
                                " calibration reprojects at " + px_text(result.camera.rms_px) +
                                " RMS over " + std::to_string(result.views.size()) +
                                " views (at most " + px_text(max_rms_px) +

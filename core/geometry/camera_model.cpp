@@ -55,9 +55,13 @@ std::vector<Point2> project_points(const CameraModel& camera, const RigidPose& p
     return from_cv(out);
 }
 
+const char* lens_model_name(LensModel model) {
+    return model == LensModel::fisheye ? "fisheye" : "pinhole";
+}
+
 std::string camera_to_yaml(const CameraModel& camera, const std::vector<double>& per_view_rms_px) {
     cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
-    fs << "model" << (camera.model == LensModel::fisheye ? "fisheye" : "pinhole");
+    fs << "model" << lens_model_name(camera.model);
     fs << "image_width" << camera.image_width;
     fs << "image_height" << camera.image_height;
     fs << "camera_matrix" << camera_matrix_of(camera);

@@ -10,6 +10,8 @@
 namespace calbox::geometry {
 
 enum class LensModel { pinhole, fisheye };
+// "pinhole" or "fisheye", as camera.yaml and the command line write it.
+const char* lens_model_name(LensModel model);
 
 struct CameraModel {
     LensModel model = LensModel::pinhole;

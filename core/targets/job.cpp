@@ -21,48 +21,6 @@ std::string xy(Point2 p) {
     return " X" + number_text("%.4f", p.x) + " Y" + number_text("%.4f", p.y);
 }
 
-// The pieces of a polyline inside the rectangle [0, w] x [0, h] (Liang-Barsky on each segment).
-std::vector<Contour> cut_polyline(const Contour& c, double w, double h) {
-    std::vector<Point2> points = c.points;
-    if (c.closed && !points.empty()) points.push_back(points.front());
-    std::vector<Contour> pieces;
-    Contour piece;
-    const auto flush = [&] {
-        if (piece.points.size() >= 2) pieces.push_back(piece);
-        piece = {};
-    };
-    for (std::size_t i = 0; i + 1 < points.size(); ++i) {
-        const Point2 a = points[i], b = points[i + 1];
-        double t0 = 0, t1 = 1;
-        const double d[2] = {b.x - a.x, b.y - a.y};
-        const double lo[2] = {-a.x, -a.y}, hi[2] = {w - a.x, h - a.y};
-        bool inside = true;
-        for (int k = 0; k < 2 && inside; ++k) {
-            if (d[k] == 0) {
-                inside = lo[k] <= 0 && hi[k] >= 0;
-                continue;
-            }
-            double ta = lo[k] / d[k], tb = hi[k] / d[k];
-            if (ta > tb) std::swap(ta, tb);
-            t0 = std::max(t0, ta), t1 = std::min(t1, tb);
-            inside = t0 <= t1;
-        }
-        if (!inside) {
-            flush();
-            continue;
-        }
-        const Point2 p{a.x + d[0] * t0, a.y + d[1] * t0}, q{a.x + d[0] * t1, a.y + d[1] * t1};
-        if (piece.points.empty() || t0 > 0) {
-            flush();
-            piece.points.push_back(p);
-        }
-        piece.points.push_back(q);
-        if (t1 < 1) flush();
-    }
-    flush();
-    return pieces;
-}
-
 // The drawing as a browser shows it: what lies past the page (the viewport the document's width,
 // height and viewBox make) is not shown, so each shape reaching past it is cut at its edge, its
 // fill as a region and its stroke as lines.
@@ -96,9 +54,7 @@ SvgDocument cut_at_page(const SvgDocument& document, std::optional<FillRule> fil
             SvgShape stroke = shape;
             stroke.filled = false;
             stroke.contours.clear();
-            for (const auto& c : shape.contours)
-                for (auto& piece : cut_polyline(c, w, h))
-                    stroke.contours.push_back(std::move(piece));
+            stroke.contours = intersect_lines(shape.contours, page);
             if (!stroke.contours.empty()) shown.shapes.push_back(std::move(stroke));
         }
     }

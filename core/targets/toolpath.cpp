@@ -23,10 +23,11 @@ ClipperLib::Path to_clipper(const Polygon& polygon) {
     return path;
 }
 
-std::vector<Polygon> from_clipper(const ClipperLib::Paths& paths) {
+// Paths of at least `min_points` (a polygon's 3; an open line's 2).
+std::vector<Polygon> from_clipper(const ClipperLib::Paths& paths, std::size_t min_points = 3) {
     std::vector<Polygon> out;
     for (const auto& path : paths) {
-        if (path.size() < 3) continue;
+        if (path.size() < min_points) continue;
         Polygon polygon;
         for (const auto& p : path)
             polygon.push_back(
@@ -235,6 +236,24 @@ std::vector<Polygon> intersect_region(const std::vector<Polygon>& region, const 
     clipper.Execute(ClipperLib::ctIntersection, solution, ClipperLib::pftNonZero,
                     ClipperLib::pftNonZero);
     return from_clipper(solution);
+}
+
+std::vector<Contour> intersect_lines(const std::vector<Contour>& lines, const Polygon& window) {
+    ClipperLib::Clipper clipper;
+    for (const auto& c : lines) {
+        Polygon points = c.points;
+        if (c.closed && !points.empty()) points.push_back(points.front());
+        if (points.size() >= 2) clipper.AddPath(to_clipper(points), ClipperLib::ptSubject, false);
+    }
+    clipper.AddPath(to_clipper(window), ClipperLib::ptClip, true);
+    ClipperLib::PolyTree tree;
+    clipper.Execute(ClipperLib::ctIntersection, tree, ClipperLib::pftNonZero,
+                    ClipperLib::pftNonZero);
+    ClipperLib::Paths open;
+    ClipperLib::OpenPathsFromPolyTree(tree, open);
+    std::vector<Contour> out;
+    for (auto& piece : from_clipper(open, 2)) out.push_back({std::move(piece), false});
+    return out;
 }
 
 std::vector<Polygon> offset_region(const std::vector<Polygon>& region, double distance_mm) {

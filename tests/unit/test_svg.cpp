@@ -251,3 +251,29 @@ TEST(SvgDocument, bad_documents_get_one_line_naming_the_problem) {
                     error_of(in_mm("<rect width='2' height='2' transform='spin(3)'/>")).c_str());
     STRCMP_EQUAL("", error_of("").empty() ? "x" : "");  // an empty string is malformed too
 }
+
+// Lines cut at a page's edge (a stroke past the page, as a browser shows it), worked by hand.
+TEST_GROUP(PageCut){};
+
+TEST(PageCut, lines_past_the_window_are_cut_at_its_edge) {
+    const Polygon page{{0, 0}, {10, 0}, {10, 10}, {0, 10}};
+    // Across the page: the part between its sides.
+    auto pieces = intersect_lines({Contour{{{-5, 5}, {15, 5}}, false}}, page);
+    CHECK_EQUAL(1u, pieces.size());
+    CHECK_EQUAL(2u, pieces[0].points.size());
+    DOUBLES_EQUAL(0, std::min(pieces[0].points[0].x, pieces[0].points[1].x), 1e-9);
+    DOUBLES_EQUAL(10, std::max(pieces[0].points[0].x, pieces[0].points[1].x), 1e-9);
+    DOUBLES_EQUAL(5, pieces[0].points[0].y, 1e-9);
+    // Wholly off the page: nothing.
+    CHECK(intersect_lines({Contour{{{-5, -5}, {-1, -1}}, false}}, page).empty());
+    // A closed square from (5, 5) to (15, 15): its closing side counts; inside the page lie the
+    // two sides meeting at (5, 5), 5 mm each.
+    pieces = intersect_lines({Contour{{{5, 5}, {15, 5}, {15, 15}, {5, 15}}, true}}, page);
+    double length = 0;
+    for (const auto& piece : pieces)
+        for (std::size_t k = 1; k < piece.points.size(); ++k)
+            length += std::hypot(piece.points[k].x - piece.points[k - 1].x,
+                                 piece.points[k].y - piece.points[k - 1].y);
+    DOUBLES_EQUAL(10, length, 1e-6);
+    for (const auto& piece : pieces) CHECK(!piece.closed);
+}

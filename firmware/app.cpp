@@ -173,7 +173,7 @@ ChosenBoard choose_board(const Args& args, const Common& common, hal::Clock& clo
     }
     chosen.sim = std::make_unique<sim::SimBoard>(
         sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log));
-    chosen.machine = chosen.sim->bench->scenario().machine;
+    chosen.machine = chosen.sim->machine;
     return chosen;
 }
 
@@ -436,10 +436,12 @@ int run(const std::vector<std::string>& words) {
         log("waiting for the button (no console)");
     }
     loop.run();
+    // systemctl stop (SIGTERM) and Ctrl-C (SIGINT) are how a box is meant to be stopped: a clean
+    // stop, status 0, whatever the cycle was doing (cancelled: nothing half-sent stays in flight).
     if (stopped_by != 0) {
-        log_line("stopped by signal " + std::to_string(stopped_by) +
-                 "; the machine link is closed");
-        return 1;
+        log_line("stopped by signal " + std::to_string(stopped_by) + "; " +
+                 box.appliance.link->closing_note());
+        return 0;
     }
     if (!automatic) return 0;
     const auto& report = cycle.report();

@@ -3,6 +3,8 @@
 // event loop, the worker, the machine link and the cycle. The clock is the caller's: the real
 // one for `calbox run` and `calbox revert`, a fake one in the tests.
 #include <filesystem>
+#include <memory>
+#include <stdexcept>
 
 #include "board/devices.hpp"
 #include "firmware/cycle.hpp"
@@ -21,31 +23,44 @@ struct ApplianceDevices {
     hal::Camera& camera;
     hal::Lines& lines;
     hal::Display& display;
-    hal::SerialPort& machine;
+    hal::SerialPort* machine;  // the machine's serial port; none for a machine behind a host
     static ApplianceDevices of(board::Devices& d, hal::Camera* camera = nullptr) {
-        return {camera != nullptr ? *camera : *d.camera, *d.lines, *d.display, *d.machine};
+        return {camera != nullptr ? *camera : *d.camera, *d.lines, *d.display, d.machine.get()};
     }
 };
+
+// The machine link the machine file's [link] says: G-code streamed over the board's serial port,
+// or a host's API. Throws std::runtime_error naming what is missing (no serial port; a key file
+// that cannot be read).
+std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings& link,
+                                               hal::SerialPort* port, hal::Clock& clock,
+                                               GcodeHostSettings serial, const GcodeHost::Log& log);
 
 struct Appliance {
     hal::Storage& data;
     EventLoop loop;
     Worker worker{loop};
-    GcodeHost host;
+    std::unique_ptr<MachineLink> link;
     Cycle cycle;
 
     Appliance(ApplianceDevices devices, hal::Storage& data_dir, hal::Clock& clock,
-              GcodeHostSettings link, const models::MachineFile& machine, CycleSettings settings,
+              GcodeHostSettings serial, const models::MachineFile& machine, CycleSettings settings,
               const Cycle::Log& log)
         : data(data_dir),
-          host(devices.machine, clock, link, log),
-          cycle({devices.camera, devices.lines, host, devices.display, clock, data, worker},
+          link(make_machine_link(machine.link, devices.machine, clock, serial, log)),
+          cycle({devices.camera, devices.lines, *link, devices.display, clock, data, worker},
                 machine, std::move(settings), log) {
-        watch_cycle(loop, cycle, host, devices.camera, devices.lines);
+        watch_cycle(loop, cycle, *link, devices.camera, devices.lines);
     }
     Appliance(const Appliance&) = delete;
     Appliance& operator=(const Appliance&) = delete;
-    ~Appliance() { loop.unwatch(host.port_fd()); }
+    ~Appliance() { link->detach(loop); }
+    // The serial link's host (its transcript), for tests; throws std::logic_error for a host's.
+    GcodeHost& serial_host() const {
+        auto* host = dynamic_cast<GcodeHost*>(link.get());
+        if (host == nullptr) throw std::logic_error("the machine link is not a serial port");
+        return *host;
+    }
 };
 
 }  // namespace calbox::firmware

@@ -405,18 +405,25 @@ void Cycle::work(std::function<void()> job, std::function<void()> then) {
 
 void Cycle::run_job(const std::vector<std::string>& lines,
                     std::function<void(const JobOutcome&)> then) {
+    ask_machine(
+        [&lines](MachineLink& m, MachineLink::Done done) { m.run_job(lines, std::move(done)); },
+        std::move(then), true);
+}
+
+void Cycle::ask_machine(std::function<void(MachineLink&, MachineLink::Done)> start,
+                        std::function<void(const JobOutcome&)> then, bool failure_is_error) {
     const unsigned generation = generation_;
     const auto started = d_.clock.now();
-    d_.machine.start_job(
-        lines, [this, generation, started, then = std::move(then)](const JobOutcome& outcome) {
-            if (!current(generation)) return;
-            report_.machine_seconds += seconds(d_.clock.now() - started);
-            if (!outcome.ok) {
-                fail("machine: " + outcome.error);
-                return;
-            }
-            then(outcome);
-        });
+    start(d_.machine, [this, generation, started, failure_is_error,
+                       then = std::move(then)](const JobOutcome& outcome) {
+        if (!current(generation)) return;
+        report_.machine_seconds += seconds(d_.clock.now() - started);
+        if (!outcome.ok && failure_is_error) {
+            fail("machine: " + outcome.error);
+            return;
+        }
+        then(outcome);
+    });
 }
 
 void Cycle::set_settings(CycleSettings settings) {
@@ -626,17 +633,9 @@ void Cycle::finish_cycle() {
     if (on_cycle_end) on_cycle_end(true);
 }
 
-void watch_machine(EventLoop& loop, GcodeHost& host) {
-    loop.watch(host.port_fd(), [&loop, &host] {
-        host.on_readable();
-        if (!host.link_gone().empty()) loop.unwatch(host.port_fd());
-    });
-    loop.watch(host.timer_fd(), [&host] { host.on_timer(); });
-}
-
-void watch_cycle(EventLoop& loop, Cycle& cycle, GcodeHost& host, hal::Camera& camera,
+void watch_cycle(EventLoop& loop, Cycle& cycle, MachineLink& machine, hal::Camera& camera,
                  hal::Lines& lines) {
-    watch_machine(loop, host);
+    machine.attach(loop);
     loop.watch(lines.button_fd(), [&cycle] { cycle.on_button(); });
     loop.watch(camera.completion_fd(), [&cycle] { cycle.on_camera(); });
     loop.watch(cycle.blink_fd(), [&cycle] { cycle.on_blink(); });

@@ -19,7 +19,7 @@
 #include "firmware/button_press.hpp"
 #include "firmware/cycle_mode.hpp"
 #include "firmware/event_loop.hpp"
-#include "firmware/gcode_host.hpp"
+#include "firmware/machine_link.hpp"
 #include "firmware/screens.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
@@ -73,7 +73,7 @@ struct CycleSettings {
 struct CycleDevices {
     hal::Camera& camera;
     hal::Lines& lines;
-    GcodeHost& machine;
+    MachineLink& machine;
     hal::Display& display;
     hal::Clock& clock;
     hal::Storage& data;  // set-up (camera.yaml, plane.yaml) and the cycles' records
@@ -157,6 +157,9 @@ class Cycle final : private CycleSteps {
     void work(std::function<void()> job, std::function<void()> then) override;
     void run_job(const std::vector<std::string>& lines,
                  std::function<void(const JobOutcome&)> then) override;
+    void ask_machine(std::function<void(MachineLink&, MachineLink::Done)> start,
+                     std::function<void(const JobOutcome&)> then, bool failure_is_error) override;
+    const MachineLink& machine_link() const override { return d_.machine; }
     bool keep(const std::string& name, const std::string& contents) override;
     std::optional<std::string> read(const std::string& name) const override;
     std::string record_name(const std::string& what) const override;
@@ -237,12 +240,9 @@ class Cycle final : private CycleSteps {
     std::vector<hal::MonoBitmap> cycle_screens_;  // what the display showed during it
 };
 
-// Wires the machine link to the loop: replies and the reply timer; a link that is gone is no
-// longer watched (its descriptor would stay readable).
-void watch_machine(EventLoop& loop, GcodeHost& host);
 // Wires a cycle and its devices to the loop: the machine link, the button, the camera's
 // completion and the blink timer. `calbox run` and the tests wire it the same way.
-void watch_cycle(EventLoop& loop, Cycle& cycle, GcodeHost& host, hal::Camera& camera,
+void watch_cycle(EventLoop& loop, Cycle& cycle, MachineLink& machine, hal::Camera& camera,
                  hal::Lines& lines);
 
 }  // namespace calbox::firmware

@@ -16,6 +16,7 @@
 #include "core/models/machine_file.hpp"
 #include "core/modes/goal.hpp"
 #include "core/targets/compensate.hpp"
+#include "firmware/machine_link.hpp"
 #include "firmware/screens.hpp"
 #include "hal/camera.hpp"
 
@@ -37,8 +38,6 @@ enum class CycleState {
 };
 const char* state_name(CycleState state);
 
-struct JobOutcome;
-
 // What a mode's steps ask of the cycle. Each asynchronous one continues only while the cycle that
 // started it runs: a cancel or an error drops late completions, so a mode never sees them.
 class CycleSteps {
@@ -49,6 +48,19 @@ class CycleSteps {
     // A job the machine runs; a failed one puts the cycle in error and `then` is not called.
     virtual void run_job(const std::vector<std::string>& lines,
                          std::function<void(const JobOutcome&)> then) = 0;
+    // Any request to the machine link: `start` makes it, handing the link the completion. A
+    // failed one puts the cycle in error unless `failure_is_error` is false: `then` gets it.
+    virtual void ask_machine(std::function<void(MachineLink&, MachineLink::Done)> start,
+                             std::function<void(const JobOutcome&)> then,
+                             bool failure_is_error) = 0;
+    // Commands whose replies the mode reads (a settings report, a probe), as ask_machine.
+    void send_commands(const std::vector<std::string>& lines,
+                       std::function<void(const JobOutcome&)> then) {
+        ask_machine([lines](MachineLink& m,
+                            MachineLink::Done done) { m.send_commands(lines, std::move(done)); },
+                    std::move(then), true);
+    }
+    virtual const MachineLink& machine_link() const = 0;
     // A file in the data directory; false (and the cycle in error) when it could not be kept.
     virtual bool keep(const std::string& name, const std::string& contents) = 0;
     virtual std::optional<std::string> read(const std::string& name) const = 0;

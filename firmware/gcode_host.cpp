@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "core/targets/gcode_line.hpp"
+#include "firmware/event_loop.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -25,6 +26,20 @@ long resend_number(const std::string& reply) {
 
 }  // namespace
 
+// A link that is gone is no longer watched (its descriptor would stay readable).
+void GcodeHost::attach(EventLoop& loop) {
+    loop.watch(port_fd(), [this, &loop] {
+        on_readable();
+        if (!link_gone().empty()) loop.unwatch(port_fd());
+    });
+    loop.watch(timer_fd(), [this] { on_timer(); });
+}
+
+void GcodeHost::detach(EventLoop& loop) {
+    loop.unwatch(port_fd());
+    loop.unwatch(timer_fd());
+}
+
 GcodeHost::GcodeHost(hal::SerialPort& port, hal::Clock& clock, GcodeHostSettings settings, Log log)
     : port_(port), timer_(clock.make_timer()), settings_(settings), log_(std::move(log)) {
     if (settings_.window < 1) throw std::invalid_argument("the G-code window must be at least 1");
@@ -34,7 +49,7 @@ void GcodeHost::start_job(const std::vector<std::string>& lines,
                           std::function<void(JobOutcome)> done) {
     if (busy()) throw std::logic_error("a G-code job is already running");
     if (!gone_.empty()) {
-        done(JobOutcome{false, gone_, {}});
+        done(JobOutcome{false, gone_, {}, {}});
         return;
     }
     job_.assign(1, "M110 N0");
@@ -227,7 +242,7 @@ void GcodeHost::finish(bool ok, const std::string& error) {
     timer_->disarm();
     waiting_for_startup_ = false;
     outgoing_.clear();  // nothing more goes to the printer
-    JobOutcome outcome{ok, error, std::move(replies_)};
+    JobOutcome outcome{ok, error, std::move(replies_), {}};
     replies_.clear();
     auto done = std::move(done_);
     done_ = nullptr;

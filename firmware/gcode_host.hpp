@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "firmware/machine_link.hpp"
 #include "hal/clock.hpp"
 #include "hal/serial_port.hpp"
 
@@ -28,13 +29,8 @@ struct GcodeHostSettings {
     std::size_t transcript_lines = 200000;  // about two whole delta cycles with resends
 };
 
-struct JobOutcome {
-    bool ok = false;
-    std::string error;                 // one line, when not ok
-    std::vector<std::string> replies;  // what the printer said besides ok / resend (reports)
-};
-
-class GcodeHost {
+// The machine link over a serial port the box owns.
+class GcodeHost final : public MachineLink {
   public:
     using Log = std::function<void(const std::string&)>;
     GcodeHost(hal::SerialPort& port, hal::Clock& clock, GcodeHostSettings settings, Log log);
@@ -44,11 +40,23 @@ class GcodeHost {
     // Streams `lines` (comments and blank lines dropped); `done` is called once, on the caller's
     // thread, from on_readable() or on_timer(). Throws std::logic_error while a job runs.
     void start_job(const std::vector<std::string>& lines, std::function<void(JobOutcome)> done);
-    bool busy() const { return static_cast<bool>(done_); }
+    bool busy() const override { return static_cast<bool>(done_); }
     void on_readable();
     void on_timer();
     // Ends the running job with `why`; nothing more is sent.
-    void cancel(const std::string& why);
+    void cancel(const std::string& why) override;
+
+    // As a machine link: a job and a command are both streamed.
+    void attach(EventLoop& loop) override;
+    void detach(EventLoop& loop) override;
+    std::string describe() const override { return "serial"; }
+    void run_job(const std::vector<std::string>& lines, Done done) override {
+        start_job(lines, std::move(done));
+    }
+    void send_commands(const std::vector<std::string>& lines, Done done) override {
+        start_job(lines, std::move(done));
+    }
+    std::string closing_note() const override { return "the machine link is closed"; }
     // Not empty once the device vanished: what was seen. Stop watching port_fd() then.
     const std::string& link_gone() const { return gone_; }
     // Whether anything has come from the printer since the port opened (its banner, an ok).

@@ -19,7 +19,7 @@ struct SimAppliance {
     hal::Storage& data = appliance.data;
     EventLoop& loop = appliance.loop;
     Worker& worker = appliance.worker;
-    GcodeHost& host = appliance.host;
+    GcodeHost& host() const { return appliance.serial_host(); }
     Cycle& cycle = appliance.cycle;
 
     SimAppliance(const sim::SimSettings& sim, hal::Clock& clock, GcodeHostSettings link,
@@ -30,7 +30,7 @@ struct SimAppliance {
           camera(choose_camera ? choose_camera(board) : *board.camera),
           data_directory(data ? std::move(data) : board::data_directory(sim.data_dir)),
           appliance(ApplianceDevices::of(board.devices, &camera), *data_directory, clock, link,
-                    board.bench->scenario().machine,
+                    board.machine,
                     with_setup_boards(std::move(settings), board.bench->scenario().setup), log) {}
 
     // The boards the sim board's person holds are the ones the box asks for.

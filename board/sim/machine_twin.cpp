@@ -167,6 +167,7 @@ std::vector<std::string> DeltaTwin::probe_bed(const gcode::Line& line, Vec3& at)
 
 std::optional<std::vector<std::string>> DeltaTwin::settings_command(const gcode::Line& line) {
     if (dialect_ == DeltaDialect::rrf) return rrf_settings_command(line);
+    if (dialect_ == DeltaDialect::klipper) return std::nullopt;
     if (line.is('M', 665)) {
         const auto set = [&](char letter, double& field) {
             if (const auto v = line.value(letter)) field = *v;

@@ -38,7 +38,8 @@ class MachineTwin {
 // M666 offsets <= 0, M503 reports. RepRapFirmware (LinearDeltaKinematics): M665 L a:b:c (one
 // rod per tower) R H B X Y Z, M666 X Y Z adjustments of either sign (+ raises the endstop, so it
 // is Marlin's offset negated), each reporting its settings when given no parameters.
-enum class DeltaDialect { marlin, rrf };
+// Klipper: no settings commands at all (its geometry is printer.cfg's, taken at a restart).
+enum class DeltaDialect { marlin, rrf, klipper };
 
 // A linear delta in Marlin's conventions. G28 moves each carriage to its physical endstop,
 // then down by the firmware's M666 offset, and declares the nozzle at (0, 0, height).

@@ -59,6 +59,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.boolean("zero_height_at_centre", s.zero_height_at_centre);
         r.text("levelled_by", s.levelled_by, {"centre", "paper", "probe"});
         r.number("segment_mm", s.segment_mm, 0.01, 10);
+        r.number("host_print_seconds", s.host_print_seconds, 0, 3600);
         std::string first_layer = s.real_first_layer ? "real" : "as_commanded";
         r.text("first_layer", first_layer, {"real", "as_commanded"});
         s.real_first_layer = first_layer == "real";
@@ -128,7 +129,22 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.integer("reset_at_line", f.reset_at_line, 0, 100000000);
         r.integer("camera_fails_at_capture", f.camera_fails_at_capture, 0, 1000000);
         r.boolean("settings_ignored", f.settings_ignored);
+        auto& h = f.host;
+        r.boolean("host_wrong_key", h.wrong_key);
+        r.boolean("host_klippy_not_ready", h.klippy_not_ready);
+        r.boolean("host_print_cancelled", h.print_cancelled);
+        r.boolean("host_upload_refused", h.upload_refused);
+        r.integer("host_restart_at_request", h.restart_at_request, 0, 1000000);
+        r.integer("host_silent_at_request", h.silent_at_request, 0, 1000000);
+        r.boolean("host_config_edited", h.config_edited);
+        r.boolean("host_new_config_rejected", h.new_config_rejected);
         r.finish();
+        const bool host_fault = h.wrong_key || h.klippy_not_ready || h.print_cancelled ||
+                                h.upload_refused || h.restart_at_request > 0 ||
+                                h.silent_at_request > 0 || h.config_edited || h.new_config_rejected;
+        if (host_fault && !s.machine.link.is_host())
+            throw ScenarioError(path + ": [faults] host_* are a host's: the machine's [link] is " +
+                                s.machine.link.kind);
     }
     if (const auto* setup = models::subtable(path, root, "setup")) {
         TomlReader r(path, *setup, "setup");

@@ -11,6 +11,7 @@
 #include "board/sim/galvo_twin.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
+#include "board/sim/moonraker_twin.hpp"
 #include "board/sim/renderer.hpp"
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenes.hpp"
@@ -39,6 +40,7 @@ struct ScenarioFaults {
     int reset_at_line = 0;            // it resets on this line (the start-up banner follows)
     int camera_fails_at_capture = 0;  // the camera's n-th capture fails
     bool settings_ignored = false;    // M665 / M666 answered ok but not applied
+    HostFaults host;                  // host_*: a printer behind a host ([link])
 };
 
 // [setup]: the boards the person at the box uses to set it up (a real box's configuration says
@@ -72,6 +74,9 @@ struct Scenario {
     // (level_by_probe over 0.9 of it). Implies zero_height_at_centre.
     std::string levelled_by = "centre";
     double segment_mm = 0.5;
+    // [twin] host_print_seconds: a print on a twin host lasts at least this long (a real one
+    // takes minutes; the twin's runs at once unless told).
+    double host_print_seconds = 0;
     bool real_first_layer = true;  // [twin] first_layer = "real" (default) | "as_commanded"
     std::optional<ScenarioCamera> camera;
     PhotoSettings photo;

@@ -179,19 +179,38 @@ std::vector<std::string> TwinBench::run_printer_line(std::string_view line) {
     return out;
 }
 
+DeltaParams TwinBench::delta_printer_firmware() const {
+    const std::lock_guard lock(mutex_);
+    const auto* delta = dynamic_cast<const DeltaTwin*>(machine_.get());
+    if (delta == nullptr) throw std::logic_error("the twin machine is not a delta printer");
+    return delta->firmware();
+}
+
+void TwinBench::restart_delta_printer(const DeltaParams& firmware) {
+    const std::lock_guard lock(mutex_);
+    const auto* delta = dynamic_cast<const DeltaTwin*>(machine_.get());
+    if (delta == nullptr) throw std::logic_error("the twin machine is not a delta printer");
+    scenario_.delta_firmware = firmware;
+    replace_printer(std::make_unique<DeltaTwin>(scenario_.delta_truth, firmware, delta->dialect()));
+}
+
 void TwinBench::reset_printer() {
     const std::lock_guard lock(mutex_);
+    // The settings the firmware stored survive; what it held in RAM and its homing do not.
+    if (auto* delta = dynamic_cast<DeltaTwin*>(machine_.get())) {
+        replace_printer(std::make_unique<DeltaTwin>(scenario_.delta_truth, delta->stored_firmware(),
+                                                    delta->dialect()));
+    } else {
+        replace_printer(make_machine_twin(scenario_));
+    }
+}
+
+// Under the mutex: the material laid so far stays on the bed.
+void TwinBench::replace_printer(std::unique_ptr<MachineTwin> machine) {
     const auto& strokes = runner_->result().strokes;
     for (std::size_t i = strokes_cleared_; i < strokes.size(); ++i)
         earlier_runs_.push_back(material_of(strokes[i]));
-    // The settings the firmware stored survive; what it held in RAM and its homing do not.
-    if (auto* delta = dynamic_cast<DeltaTwin*>(machine_.get())) {
-        auto fresh = std::make_unique<DeltaTwin>(scenario_.delta_truth, delta->stored_firmware(),
-                                                 delta->dialect());
-        machine_ = std::move(fresh);
-    } else {
-        machine_ = make_machine_twin(scenario_);
-    }
+    machine_ = std::move(machine);
     runner_ = std::make_unique<GcodeRunner>(*machine_, tool_settings_of(scenario_));
     strokes_cleared_ = 0;
 }
@@ -516,15 +535,43 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
                             ": the sim board runs delta printers, galvo scanners, routers and "
                             "cartesian printers, not a " +
                             machine.kind);
-    board.printer = std::make_unique<TwinPrinterLink>(board.bench);
+    board.machine = machine;
+    std::unique_ptr<hal::SerialPort> port;
+    if (machine.link.kind == "moonraker") {
+        if (!machine.is_delta())
+            throw ScenarioError(settings.scenario_path +
+                                ": the twin's Moonraker host serves a Klipper delta printer");
+        // The host's key, made anew each run and handed to the box in its key file (the
+        // scenario's own key_file, if any, is a real box's and not read).
+        std::random_device random;
+        char key[33];
+        std::snprintf(key, sizeof key, "%08x%08x%08x%08x", random(), random(), random(), random());
+        const auto key_file = settings.data_dir / kTwinHostKeyFile;
+        {
+            std::ofstream out(key_file, std::ios::trunc);
+            out << key << "\n";
+            if (!out.flush()) throw ScenarioError(key_file.string() + ": cannot write");
+        }
+        std::filesystem::permissions(
+            key_file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+        const auto& scenario = board.bench->scenario();
+        board.host = std::make_unique<MoonrakerTwin>(
+            board.bench, settings.data_dir / kTwinHostDirectory,
+            TwinHostSettings{key, scenario.faults.host, machine.bed_radius_mm,
+                             scenario.host_print_seconds});
+        board.machine.link.url = board.host->url();
+        board.machine.link.key_file = key_file.string();
+    } else {
+        board.printer = std::make_unique<TwinPrinterLink>(board.bench);
+        port = board::serial_port(board.printer->device_path(), settings.baud);
+    }
     auto camera = std::make_unique<TwinCamera>(board.bench);
     auto lines = std::make_unique<SimLines>(clock, std::move(log));
     auto display = std::make_unique<PngDisplay>(settings.data_dir / "display");
     board.camera = camera.get();
     board.lines = lines.get();
     board.display = display.get();
-    board.devices = {std::move(camera), std::move(lines), std::move(display),
-                     board::serial_port(board.printer->device_path(), settings.baud)};
+    board.devices = {std::move(camera), std::move(lines), std::move(display), std::move(port)};
     return board;
 }
 

@@ -43,6 +43,11 @@ class TwinBench {
     // JobError for a line it refuses.
     std::vector<std::string> run_printer_line(std::string_view line);
     void reset_printer();  // a power cycle or watchdog reset: unhomed, job state gone
+    // A delta printer's geometry as its firmware holds it now, and a restart that gives it
+    // another (Klipper's FIRMWARE_RESTART with a new printer.cfg): unhomed, job state gone.
+    // Throw std::logic_error on another machine.
+    DeltaParams delta_printer_firmware() const;
+    void restart_delta_printer(const DeltaParams& firmware);
 
     // What the camera sees now: the printed material, or a board, rendered with the scenario's
     // camera and photo settings; `frame` varies the sensor noise.
@@ -72,6 +77,7 @@ class TwinBench {
 
   private:
     void store_settings() const;
+    void replace_printer(std::unique_ptr<MachineTwin> machine);
     Pose bed_to_camera() const;  // under the mutex
     mutable std::mutex mutex_;
     Scenario scenario_;
@@ -180,6 +186,10 @@ class PngDisplay final : public hal::Display {
 // In the data directory: the twin printer's stored settings (its EEPROM), the G-code that
 // sets them.
 constexpr const char* kTwinSettingsFile = "twin-printer-settings.gcode";
+// In the data directory: a twin host's disk (printer.cfg, uploaded jobs) and its API key as the
+// box's key_file holds it.
+constexpr const char* kTwinHostDirectory = "twin-host";
+constexpr const char* kTwinHostKeyFile = "twin-host.key";
 
 struct SimSettings {
     std::string scenario_path;
@@ -191,8 +201,12 @@ struct SimSettings {
 // end of the link, the lines to press) stay reachable for the operator, the judge and tests.
 struct SimBoard {
     std::shared_ptr<TwinBench> bench;
-    std::unique_ptr<TwinPrinterLink> printer;
-    board::Devices devices;  // the machine's link: the box's end of the printer's pty
+    std::unique_ptr<TwinPrinterLink> printer;  // a printer on a serial link: its pty's end
+    std::unique_ptr<MoonrakerTwin> host;       // a printer behind a host: the host
+    // The scenario's machine file as the box is given it: a host's [link] pointed at the twin's
+    // address and key file.
+    models::MachineFile machine;
+    board::Devices devices;  // the machine's serial link: the box's end of the printer's pty
     // The devices' own, by their types.
     TwinCamera* camera = nullptr;
     SimLines* lines = nullptr;

@@ -153,9 +153,11 @@ class DeltaKind final : public TwinKind {
         s.delta_truth = twin_params(truth_delta);
     }
     std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {
-        auto twin = std::make_unique<DeltaTwin>(
-            s.delta_truth, s.delta_firmware,
-            s.machine.firmware == "rrf" ? DeltaDialect::rrf : DeltaDialect::marlin);
+        auto twin =
+            std::make_unique<DeltaTwin>(s.delta_truth, s.delta_firmware,
+                                        s.machine.firmware == "rrf"       ? DeltaDialect::rrf
+                                        : s.machine.firmware == "klipper" ? DeltaDialect::klipper
+                                                                          : DeltaDialect::marlin);
         if (s.zero_height_at_centre || s.levelled_by != "centre") twin->zero_height_at_centre();
         const double bed_radius_mm = s.machine.bed_radius_mm;
         if (s.levelled_by == "paper") twin->level_by_paper(0.8 * bed_radius_mm);

@@ -14,6 +14,15 @@ std::vector<std::string> rrf_commands(const DeltaGeometry& g);
 // Klipper: a printer.cfg snippet ([printer] delta_radius, [stepper_*] arm_length, angle,
 // position_endstop), one line per element.
 std::vector<std::string> klipper_snippet(const DeltaGeometry& g);
+// printer.cfg with `g` where Klipper's SAVE_CONFIG keeps what it saves: the "#*#" block at its
+// end, which Klipper reads over the sections above. The block's other values (a bed mesh,
+// DELTA_CALIBRATE's probe) and everything above it stay as they are; a file without the block
+// gets one, as SAVE_CONFIG would write it.
+std::string klipper_saved_config(const std::string& printer_cfg, const DeltaGeometry& g);
+// Compares the geometry sent (klipper_saved_config) with the one Klipper took (its settings in
+// force, read back), in Klipper's own values to the 3 decimals sent: empty when they agree, else
+// one line naming the first difference.
+std::string klipper_settings_mismatch(const DeltaGeometry& sent, const DeltaGeometry& in_force);
 std::vector<std::string> firmware_commands(const std::string& firmware,
                                            const DeltaGeometry& g);  // by name
 

@@ -146,7 +146,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     for (const auto& [key, node] : root) {
         const std::string_view name = key.str();
         bool known = name == "machine" || name == "delta" || name == "galvo" || name == "planar" ||
-                     name == "probe" || name == "limits";
+                     name == "probe" || name == "limits" || name == "link";
         for (const auto& s : other_sections) known = known || s == name;
         if (!known)
             throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
@@ -193,6 +193,31 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         read_delta_settings(file, *delta, "delta", *m.delta);
     } else if (delta != nullptr) {
         throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
+    }
+    if (const auto* link = subtable(file, root, "link")) {
+        TomlReader l(file, *link, "link");
+        l.text("kind", m.link.kind, {"serial", "moonraker"});
+        std::optional<std::string> url, key_file;
+        std::optional<double> reply_timeout_s, restart_timeout_s;
+        l.text("url", url);
+        l.text("key_file", key_file);
+        l.number("reply_timeout_s", reply_timeout_s, 0.1, 3600);
+        l.number("restart_timeout_s", restart_timeout_s, 1, 3600);
+        l.finish();
+        // A serial link's timing is the box's own (its G-code host); these keys are a host's.
+        if (!m.link.is_host()) {
+            if (url) l.fail("url", "is a host's (kind = \"moonraker\")");
+            if (key_file) l.fail("key_file", "is a host's (kind = \"moonraker\")");
+            if (reply_timeout_s || restart_timeout_s)
+                l.fail(reply_timeout_s ? "reply_timeout_s" : "restart_timeout_s",
+                       "is a host's (kind = \"moonraker\")");
+        }
+        m.link.url = url.value_or("");
+        m.link.key_file = key_file.value_or("");
+        m.link.reply_timeout_s = reply_timeout_s.value_or(m.link.reply_timeout_s);
+        m.link.restart_timeout_s = restart_timeout_s.value_or(m.link.restart_timeout_s);
+        if (m.link.kind == "moonraker" && m.firmware != "klipper")
+            l.fail("kind", "Moonraker serves Klipper printers ([machine] firmware = \"klipper\")");
     }
     if (const auto* probe = subtable(file, root, "probe")) {
         if (!m.is_delta()) throw MachineFileError(file + ": [probe] on a " + m.kind + " machine");

@@ -80,6 +80,19 @@ struct DeltaLimits {
     double max_residual_ratio = 3.0;
 };
 
+// [link]: how the box reaches the machine. "serial": the port its board gives it, which it
+// owns. "moonraker": Klipper through its Moonraker host at `url`, which owns the printer's port.
+struct MachineLinkSettings {
+    std::string kind = "serial";  // serial | moonraker
+    std::string url;              // a host's: "http://printer.local:7125" (the sim board's own)
+    // A file holding the host's API key: the key itself is never in the machine file, which is
+    // copied into records and shown.
+    std::string key_file;
+    double reply_timeout_s = 30;    // a command's reply, a file's transfer
+    double restart_timeout_s = 60;  // a firmware restart until the printer is ready again
+    bool is_host() const { return kind != "serial"; }
+};
+
 struct MachineFile {
     std::string kind = "delta";  // delta | cartesian | router | laser | galvo
     std::string firmware = "marlin";
@@ -109,6 +122,7 @@ struct MachineFile {
     std::optional<PlanarSettings> planar;  // every router, cartesian and laser machine
     std::optional<ProbeSettings> probe;    // a delta printer's own probe, when the box may use it
     DeltaLimits delta_limits;              // [limits]: a delta's
+    MachineLinkSettings link;              // [link]
 
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
     bool is_delta() const { return kind == "delta"; }

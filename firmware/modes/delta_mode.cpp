@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/models/delta_commands.hpp"
+#include "core/models/machine_import.hpp"
 #include "core/modes/delta_probe.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/delta_target.hpp"
@@ -26,6 +27,13 @@ std::string spaced(const std::vector<std::string>& words) {
 modes::ErrorFigures placement_figures(const modes::DeltaMeasurementsRecord& measured) {
     const auto errors = modes::placement_errors(measured.features);
     return {std::nullopt, errors.rms_mm, errors.largest_mm};
+}
+
+// The delta geometry a printer.cfg (or Klipper's settings in force, written as one) gives.
+models::DeltaGeometry klipper_geometry(const std::string& text, const std::string& source) {
+    const auto config = models::read_klipper_config(
+        source, text, [](const std::string&) { return std::optional<std::string>(); });
+    return models::from_klipper(config.delta);
 }
 
 }  // namespace
@@ -61,10 +69,19 @@ void DeltaCycleMode::before_target(std::function<void()> then) {
 
 // The correction is worked out from the settings in force, which an earlier cycle, a revert or
 // the owner may have changed since the machine file was written: they are read from the printer.
-// Klipper's live in printer.cfg, out of the link's reach: the machine file's stand.
+// Klipper's live in printer.cfg: read through its host (configfile.settings), else out of the
+// link's reach, and the machine file's stand.
 void DeltaCycleMode::read_printer_settings(std::function<void()> then) {
     if (machine_.firmware == "klipper") {
-        then();
+        if (!klipper_on_host()) {
+            then();
+            return;
+        }
+        read_klipper_settings([this, then = std::move(then)](const models::DeltaGeometry& g) {
+            machine_.delta = g;
+            steps_.log("the printer's settings in force: " + spaced(models::klipper_snippet(g)));
+            then();
+        });
         return;
     }
     read_settings([this, then = std::move(then)](const std::vector<std::string>& commands) {
@@ -91,7 +108,7 @@ void DeltaCycleMode::probe_printer(std::function<void()> then) {
     const auto points = modes::probe_points(*machine_.probe);
     steps_.enter(CycleState::wait_machine,
                  "the printer probes the bed: " + std::to_string(points.size()) + " points");
-    steps_.run_job(
+    steps_.send_commands(
         modes::probe_job(machine_.firmware, points),
         [this, points, then = std::move(then)](const JobOutcome& outcome) {
             try {
@@ -116,16 +133,17 @@ void DeltaCycleMode::probe_printer(std::function<void()> then) {
 }
 
 void DeltaCycleMode::read_settings(std::function<void(std::vector<std::string>)> then) {
-    steps_.run_job(models::settings_query(machine_.firmware),
-                   [firmware = machine_.firmware, then = std::move(then)](const JobOutcome& o) {
-                       then(models::settings_from_report(firmware, o.replies));
-                   });
+    steps_.send_commands(
+        models::settings_query(machine_.firmware),
+        [firmware = machine_.firmware, then = std::move(then)](const JobOutcome& o) {
+            then(models::settings_from_report(firmware, o.replies));
+        });
 }
 
 void DeltaCycleMode::send_and_read_back(
     const std::vector<std::string>& lines,
     std::function<void(std::string, std::vector<std::string>)> then) {
-    steps_.run_job(lines, [this, lines, then = std::move(then)](const JobOutcome&) {
+    steps_.send_commands(lines, [this, lines, then = std::move(then)](const JobOutcome&) {
         read_settings(
             [firmware = machine_.firmware, lines, then](std::vector<std::string> reported) {
                 // Compared before the report is moved on (argument order is unspecified).
@@ -237,8 +255,115 @@ ReviewText DeltaCycleMode::review() const {
     return r;
 }
 
+bool DeltaCycleMode::klipper_on_host() const {
+    return machine_.firmware == "klipper" && steps_.machine_link().has_config_file();
+}
+
+void DeltaCycleMode::read_klipper_settings(std::function<void(models::DeltaGeometry)> then) {
+    steps_.ask_machine(
+        [](MachineLink& m, MachineLink::Done done) { m.read_settings_in_force(std::move(done)); },
+        [this, then = std::move(then)](const JobOutcome& outcome) {
+            models::DeltaGeometry g;
+            try {
+                g = klipper_geometry(outcome.text, "Klipper's settings in force");
+            } catch (const std::exception& e) {
+                steps_.fail(e.what());
+                return;
+            }
+            then(g);
+        },
+        true);
+}
+
+// Klipper takes printer.cfg as a whole: the fitted values go where SAVE_CONFIG keeps them, the
+// file as it was is the backup, and the settings Klipper took after its restart are compared.
+void DeltaCycleMode::apply_on_klipper_host(std::function<void(bool verify)> then) {
+    steps_.enter(CycleState::apply,
+                 "backing up printer.cfg through " + steps_.machine_link().describe());
+    steps_.ask_machine(
+        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
+        [this, then = std::move(then)](const JobOutcome& read) {
+            std::string updated;
+            try {
+                updated = models::klipper_saved_config(read.text, solution_->after);
+            } catch (const std::exception& e) {
+                steps_.fail(std::string("apply: ") + e.what() + " (nothing was written)");
+                return;
+            }
+            if (!steps_.keep(pass_file(kKlipperBackup), read.text) ||
+                !steps_.keep(pass_file("printer.cfg"), updated))
+                return;
+            steps_.log("writing printer.cfg's SAVE_CONFIG block and restarting Klipper");
+            steps_.ask_machine(
+                [updated, old = read.text](MachineLink& m, MachineLink::Done done) {
+                    m.replace_config_file(updated, old, std::move(done));
+                },
+                [this, then, updated, old = read.text](const JobOutcome& replaced) {
+                    if (!replaced.ok) {
+                        restore_klipper_config(old, updated, "apply: " + replaced.error);
+                        return;
+                    }
+                    read_klipper_settings(
+                        [this, then, updated, old](const models::DeltaGeometry& in_force) {
+                            const std::string mismatch =
+                                models::klipper_settings_mismatch(solution_->after, in_force);
+                            if (!mismatch.empty()) {
+                                restore_klipper_config(old, updated,
+                                                       "apply: read-back mismatch: " + mismatch);
+                                return;
+                            }
+                            machine_.delta = in_force;
+                            then(true);
+                        });
+                },
+                false);
+        },
+        true);
+}
+
+// After a failed apply the host holds the old file, the box's new one, or someone else's: only
+// the box's is replaced by the backup, so the printer's configuration ends untouched or fully
+// the backup.
+void DeltaCycleMode::restore_klipper_config(const std::string& backup, const std::string& written,
+                                            const std::string& why) {
+    steps_.log(why + "; checking printer.cfg on the host");
+    steps_.ask_machine(
+        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
+        [this, backup, written, why](const JobOutcome& now) {
+            if (!now.ok) {
+                steps_.fail(why + "; printer.cfg could not be read to check it: " + now.error);
+                return;
+            }
+            if (now.text == backup) {
+                steps_.fail(why + " (printer.cfg was not changed)");
+                return;
+            }
+            if (now.text != written) {
+                steps_.fail(why +
+                            " (printer.cfg on the host is someone else's now: left as it is)");
+                return;
+            }
+            steps_.ask_machine(
+                [backup, written](MachineLink& m, MachineLink::Done done) {
+                    m.replace_config_file(backup, written, std::move(done));
+                },
+                [this, why](const JobOutcome& restored) {
+                    steps_.fail(restored.ok
+                                    ? why + " (the previous printer.cfg was restored)"
+                                    : why + "; restoring the previous printer.cfg failed too: " +
+                                          restored.error);
+                },
+                false);
+        },
+        false);
+}
+
 void DeltaCycleMode::apply(std::function<void(bool verify)> then) {
     const auto& s = *solution_;
+    if (klipper_on_host()) {
+        apply_on_klipper_host(std::move(then));
+        return;
+    }
     if (s.firmware == "klipper") {
         // Klipper's geometry lives in printer.cfg: shown and stored, never pretended applied.
         if (!steps_.keep(steps_.record_name("printer.cfg"), joined(s.commands))) return;
@@ -277,7 +402,7 @@ void DeltaCycleMode::restore_backup(const std::string& why) {
     auto restore = backup_;
     restore.emplace_back("M500");
     steps_.log(why + "; restoring the backup");
-    steps_.run_job(restore, [this, why](const JobOutcome&) {
+    steps_.send_commands(restore, [this, why](const JobOutcome&) {
         steps_.fail(why + " (the previous settings were restored)");
     });
 }
@@ -307,6 +432,7 @@ void DeltaCycleMode::judge_verification(std::function<void(VerifyOutcome)> then)
 }
 
 std::string DeltaCycleMode::revert(int number, std::function<void(std::string what)> then) {
+    if (klipper_on_host()) return revert_on_klipper_host(number, std::move(then));
     if (machine_.firmware == "klipper")
         return "revert: Klipper's settings live in printer.cfg; the box never changed them";
     const std::string name = steps_.record_name("backup.gcode");
@@ -328,6 +454,46 @@ std::string DeltaCycleMode::revert(int number, std::function<void(std::string wh
             machine_.delta = models::geometry_from_settings(machine_.firmware, reported);
             then("reverted to " + name);
         });
+    return {};
+}
+
+std::string DeltaCycleMode::revert_on_klipper_host(int number,
+                                                   std::function<void(std::string what)> then) {
+    const std::string name = steps_.record_name(kKlipperBackup);
+    const auto backup = steps_.read(name);
+    if (!backup)
+        return "revert: cycle " + std::to_string(number) + " applied nothing (no " + name + ")";
+    models::DeltaGeometry backed_up;
+    try {
+        backed_up = klipper_geometry(*backup, name);
+    } catch (const std::exception& e) {
+        return std::string("revert: ") + e.what();
+    }
+    steps_.enter(CycleState::apply,
+                 "reverting printer.cfg to the one saved before cycle " + std::to_string(number));
+    steps_.ask_machine(
+        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
+        [this, name, backup = *backup, backed_up, then = std::move(then)](const JobOutcome& now) {
+            steps_.ask_machine(
+                [backup, current = now.text](MachineLink& m, MachineLink::Done done) {
+                    m.replace_config_file(backup, current, std::move(done));
+                },
+                [this, name, backed_up, then](const JobOutcome&) {
+                    read_klipper_settings(
+                        [this, name, backed_up, then](const models::DeltaGeometry& in_force) {
+                            const std::string mismatch =
+                                models::klipper_settings_mismatch(backed_up, in_force);
+                            if (!mismatch.empty()) {
+                                steps_.fail("revert: read-back mismatch: " + mismatch);
+                                return;
+                            }
+                            machine_.delta = in_force;
+                            then("reverted to " + name);
+                        });
+                },
+                true);
+        },
+        true);
     return {};
 }
 

@@ -69,6 +69,15 @@ class DeltaCycleMode final : public CycleMode {
     void send_and_read_back(const std::vector<std::string>& lines,
                             std::function<void(std::string, std::vector<std::string>)> then);
     void restore_backup(const std::string& why);
+    // Klipper through a host that keeps its printer.cfg (MachineLink::has_config_file).
+    bool klipper_on_host() const;
+    void read_klipper_settings(std::function<void(models::DeltaGeometry)> then);
+    void apply_on_klipper_host(std::function<void(bool verify)> then);
+    void restore_klipper_config(const std::string& backup, const std::string& written,
+                                const std::string& why);
+    std::string revert_on_klipper_host(int number, std::function<void(std::string what)> then);
+    // Each pass's printer.cfg as it was before the pass wrote it.
+    static constexpr const char* kKlipperBackup = "backup-printer.cfg";
     std::string pass_file(const std::string& what) const;
 
     models::MachineFile machine_;

@@ -88,7 +88,7 @@ struct Rig {
     hal::Storage& data = box.data;
     firmware::EventLoop& loop = box.loop;
     firmware::Worker& worker = box.worker;
-    firmware::GcodeHost& host = box.host;
+    firmware::GcodeHost& host = box.host();
     firmware::Cycle& cycle = box.cycle;
     bool operator_acts = true;
     std::function<bool(firmware::Prompt)> intercept;  // true: the test handled the prompt

@@ -1,0 +1,496 @@
+#include "board/sim/moonraker_twin.hpp"
+
+#include <array>
+#include <atomic>
+#include <cctype>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+#include <vector>
+
+#include "board/sim/gcode_runner.hpp"
+#include "board/sim/sim_board.hpp"
+#include "drivers/http.hpp"
+
+namespace calbox::sim {
+namespace {
+
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+using Sections = std::map<std::string, std::map<std::string, std::string>>;
+
+std::string lower(std::string s) {
+    for (auto& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return s;
+}
+
+std::string trim(const std::string& s) {
+    const auto first = s.find_first_not_of(" \t\r");
+    if (first == std::string::npos) return {};
+    return s.substr(first, s.find_last_not_of(" \t\r") - first + 1);
+}
+
+// printer.cfg as Klipper's configfile reads it: the body's sections, the SAVE_CONFIG block's
+// over them (includes are not followed: the twin's printer.cfg has none).
+Sections read_sections(const std::string& text) {
+    Sections body, saved;
+    std::string section;
+    std::istringstream in(text);
+    std::string raw;
+    while (std::getline(in, raw)) {
+        Sections* into = &body;
+        std::string line = raw;
+        if (line.rfind("#*#", 0) == 0) {
+            into = &saved;
+            line = line.substr(3);
+        } else {
+            // A comment starts a line, or follows whitespace.
+            for (std::size_t i = 0; i < line.size(); ++i)
+                if ((line[i] == '#' || line[i] == ';') &&
+                    (i == 0 || std::isspace(static_cast<unsigned char>(line[i - 1])))) {
+                    line.resize(i);
+                    break;
+                }
+        }
+        line = trim(line);
+        if (line.empty() || line.rfind("<-", 0) == 0 || line.rfind("DO NOT EDIT", 0) == 0) continue;
+        if (line.front() == '[' && line.back() == ']') {
+            section = lower(trim(line.substr(1, line.size() - 2)));
+            (*into)[section];
+            continue;
+        }
+        const auto sep = line.find_first_of(":=");
+        if (sep == std::string::npos || section.empty())
+            throw std::runtime_error("File contains parsing errors: '" + line + "'");
+        (*into)[section][lower(trim(line.substr(0, sep)))] = trim(line.substr(sep + 1));
+    }
+    for (const auto& [name, values] : saved)
+        for (const auto& [key, value] : values) body[name][key] = value;
+    return body;
+}
+
+double option(const Sections& s, const std::string& section, const std::string& key,
+              const double* fallback = nullptr) {
+    const auto sec = s.find(section);
+    if (sec != s.end()) {
+        const auto it = sec->second.find(key);
+        if (it != sec->second.end()) {
+            char* end = nullptr;
+            const double v = std::strtod(it->second.c_str(), &end);
+            if (end == it->second.c_str() || *end != '\0')
+                throw std::runtime_error("Unable to parse option '" + key + "' in section '" +
+                                         section + "'");
+            return v;
+        }
+    }
+    if (fallback != nullptr) return *fallback;
+    throw std::runtime_error("Option '" + key + "' in section '" + section + "' must be specified");
+}
+
+constexpr std::array<double, 3> kDefaultAngleDeg = {210, 330, 90};
+constexpr std::array<const char*, 3> kSteppers = {"stepper_a", "stepper_b", "stepper_c"};
+
+// Every option the twin's printer takes, its defaults filled in, as configfile.settings gives
+// them (numbers as numbers).
+json settings_of(const Sections& s) {
+    json out = json::object();
+    for (const auto& [name, values] : s) {
+        json section = json::object();
+        for (const auto& [key, value] : values) {
+            char* end = nullptr;
+            const double v = std::strtod(value.c_str(), &end);
+            if (!value.empty() && end != value.c_str() && *end == '\0')
+                section[key] = v;
+            else
+                section[key] = value;
+        }
+        out[name] = section;
+    }
+    const double arm_a = option(s, "stepper_a", "arm_length");
+    const double endstop_a = option(s, "stepper_a", "position_endstop");
+    for (std::size_t i = 0; i < 3; ++i) {
+        out[kSteppers[i]]["arm_length"] = option(s, kSteppers[i], "arm_length", &arm_a);
+        out[kSteppers[i]]["position_endstop"] =
+            option(s, kSteppers[i], "position_endstop", &endstop_a);
+        out[kSteppers[i]]["angle"] = option(s, kSteppers[i], "angle", &kDefaultAngleDeg[i]);
+    }
+    return out;
+}
+
+void write_atomically(const std::filesystem::path& path, const std::string& text) {
+    const auto temporary = path.string() + ".part";
+    {
+        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+        out << text;
+        if (!out.flush()) throw std::runtime_error(temporary + ": cannot write");
+    }
+    std::filesystem::rename(temporary, path);
+}
+
+std::string read_file(const std::filesystem::path& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error(path.string() + ": not there");
+    std::ostringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+json rpc_error(const json& id, int code, const std::string& message) {
+    return {{"jsonrpc", "2.0"}, {"error", {{"code", code}, {"message", message}}}, {"id", id}};
+}
+
+drivers::ServerResponse http_error(int status, const std::string& message) {
+    return {status, "application/json",
+            json{{"error", {{"code", status}, {"message", message}}}}.dump()};
+}
+
+// One multipart/form-data body's fields: name -> (file name, contents).
+std::map<std::string, std::pair<std::string, std::string>> form_fields(
+    const std::string& content_type, const std::string& body) {
+    std::map<std::string, std::pair<std::string, std::string>> fields;
+    const auto b = content_type.find("boundary=");
+    if (b == std::string::npos) return fields;
+    const std::string boundary = "--" + content_type.substr(b + 9);
+    std::size_t at = body.find(boundary);
+    while (at != std::string::npos) {
+        at += boundary.size();
+        if (body.compare(at, 2, "--") == 0) break;
+        const auto head_end = body.find("\r\n\r\n", at);
+        const auto next = body.find("\r\n" + boundary, head_end);
+        if (head_end == std::string::npos || next == std::string::npos) break;
+        const std::string head = body.substr(at, head_end - at);
+        const auto quoted = [&head](const std::string& key) {
+            const auto k = head.find(key + "=\"");
+            if (k == std::string::npos) return std::string();
+            const auto start = k + key.size() + 2;
+            return head.substr(start, head.find('"', start) - start);
+        };
+        fields[quoted("name")] = {quoted("filename"),
+                                  body.substr(head_end + 4, next - head_end - 4)};
+        at = next + 2;
+    }
+    return fields;
+}
+
+}  // namespace
+
+DeltaParams twin_params_from_printer_cfg(const std::string& text) {
+    const Sections s = read_sections(text);
+    const auto printer = s.find("printer");
+    if (printer == s.end() || printer->second.count("kinematics") == 0 ||
+        printer->second.at("kinematics") != "delta")
+        throw std::runtime_error("the twin's Klipper printer is a delta ([printer] kinematics)");
+    DeltaParams p;
+    p.radius_mm = option(s, "printer", "delta_radius");
+    const json settings = settings_of(s);
+    std::array<double, 3> endstop{};
+    for (std::size_t i = 0; i < 3; ++i) endstop[i] = settings[kSteppers[i]]["position_endstop"];
+    // Marlin's conventions: the nozzle over the centre with every carriage at its trigger is
+    // the lowest position_endstop; each other tower's carriage homes below its trigger by the
+    // difference.
+    p.height_mm = std::min({endstop[0], endstop[1], endstop[2]});
+    p.diagonal_rod_mm = settings["stepper_a"]["arm_length"];
+    for (std::size_t i = 0; i < 3; ++i) {
+        p.diagonal_rod_trim_mm[i] =
+            settings[kSteppers[i]]["arm_length"].get<double>() - p.diagonal_rod_mm;
+        p.tower_angle_trim_deg[i] =
+            settings[kSteppers[i]]["angle"].get<double>() - kDefaultAngleDeg[i];
+        p.endstop_offset_mm[i] = p.height_mm - endstop[i];
+    }
+    if (!(p.diagonal_rod_mm > p.radius_mm))
+        throw std::runtime_error("arm_length must exceed delta_radius");
+    return p;
+}
+
+std::string printer_cfg_of(const DeltaParams& p, double print_radius_mm) {
+    char b[200];
+    std::string out =
+        "# The twin Klipper delta's printer.cfg, as its owner wrote it.\n"
+        "[mcu]\nserial: /dev/serial/by-id/usb-Klipper_twin\n\n"
+        "[printer]\nkinematics: delta\nmax_velocity: 300\nmax_accel: 3000\n";
+    std::snprintf(b, sizeof b, "delta_radius: %.4f\nprint_radius: %.1f\n\n", p.radius_mm,
+                  print_radius_mm);
+    out += b;
+    for (std::size_t i = 0; i < 3; ++i) {
+        std::snprintf(
+            b, sizeof b,
+            "[%s]\nstep_pin: PF%zu\ndir_pin: PF%zu\nmicrosteps: 16\n"
+            "rotation_distance: 40\nendstop_pin: ^PE%zu\nhoming_speed: 50\n"
+            "arm_length: %.4f\nangle: %.4f\nposition_endstop: %.4f\n\n",
+            kSteppers[i], 2 * i, 2 * i + 1, i, p.diagonal_rod_mm + p.diagonal_rod_trim_mm[i],
+            kDefaultAngleDeg[i] + p.tower_angle_trim_deg[i], p.height_mm - p.endstop_offset_mm[i]);
+        out += b;
+    }
+    return out;
+}
+
+struct MoonrakerTwin::State {
+    std::shared_ptr<TwinBench> bench;
+    std::filesystem::path dir;
+    std::string key;
+    HostFaults faults;
+    double print_seconds = 0;
+    std::string first_config;  // as the twin started: new_config_rejected refuses another
+
+    std::mutex mutex;
+    std::string klippy_state = "ready", state_message = "Printer is ready";
+    Clock::time_point ready_at{};  // a restart in progress ends then
+    json settings = json::object();
+    std::string print_state = "standby", print_message;
+    int prints_started = 0;
+    std::atomic<bool> stop_print{false};
+    std::thread printing;
+    std::atomic<int> requests{0};
+    bool config_read_once = false;
+    std::unique_ptr<drivers::HttpServer> server;  // last: its handlers use the above
+
+    // Klipper reads printer.cfg: ready, or its error.
+    void load_config() {
+        try {
+            const std::string text = read_file(dir / "printer.cfg");
+            if (faults.new_config_rejected && text != first_config)
+                throw std::runtime_error(
+                    "Option 'position_endstop' in section 'stepper_a' must be below 400");
+            const DeltaParams firmware = twin_params_from_printer_cfg(text);
+            settings = settings_of(read_sections(text));
+            bench->restart_delta_printer(firmware);
+            klippy_state = "ready";
+            state_message = "Printer is ready";
+        } catch (const std::exception& e) {
+            klippy_state = "error";
+            state_message = e.what();
+        }
+    }
+
+    // Under the mutex: a restart that has run its time is over.
+    void settle() {
+        if (klippy_state == "startup" && !faults.klippy_not_ready && Clock::now() >= ready_at)
+            load_config();
+    }
+
+    void restart(std::chrono::milliseconds takes) {
+        stop_print = true;
+        klippy_state = "startup";
+        state_message = "Klipper is restarting";
+        ready_at = Clock::now() + takes;
+        print_state = "standby";
+    }
+
+    bool authorised(const drivers::ServerRequest& r) const {
+        const std::string wanted = faults.wrong_key ? key + "-rotated" : key;
+        const auto it = r.headers.find("x-api-key");
+        return it != r.headers.end() && it->second == wanted;
+    }
+
+    drivers::ServerResponse http(const drivers::ServerRequest& r) {
+        if (!authorised(r)) return http_error(401, "Unauthorized");
+        if (r.method == "GET" && r.target == "/server/files/config/printer.cfg") {
+            const std::lock_guard lock(mutex);
+            std::string text = read_file(dir / "printer.cfg");
+            if (faults.config_edited && !config_read_once) {
+                // Someone at the printer changes a value by hand right after the box looked.
+                write_atomically(dir / "printer.cfg", text + "\n# max_z_velocity raised by hand\n");
+            }
+            config_read_once = true;
+            return {200, "text/plain", text};
+        }
+        if (r.method == "POST" && r.target == "/server/files/upload") {
+            const auto content_type =
+                r.headers.count("content-type") != 0 ? r.headers.at("content-type") : std::string();
+            const auto fields = form_fields(content_type, r.body);
+            if (fields.count("file") == 0) return http_error(400, "No file in the upload");
+            const std::string root =
+                fields.count("root") != 0 ? fields.at("root").second : "gcodes";
+            const auto& [name, contents] = fields.at("file");
+            if (name.empty() || name.find('/') != std::string::npos || name[0] == '.')
+                return http_error(400, "Invalid file name");
+            if (root == "config") {
+                if (faults.upload_refused) return http_error(400, "Insufficient disk space");
+                const std::lock_guard lock(mutex);
+                write_atomically(dir / name, contents);
+            } else if (root == "gcodes") {
+                std::filesystem::create_directories(dir / "gcodes");
+                const std::lock_guard lock(mutex);
+                write_atomically(dir / "gcodes" / name, contents);
+            } else {
+                return http_error(400, "Invalid root request: " + root);
+            }
+            return {
+                201, "application/json",
+                json{{"item", {{"path", name}, {"root", root}}}, {"action", "create_file"}}.dump()};
+        }
+        return http_error(404, "Not Found");
+    }
+
+    void run_print(std::vector<std::string> lines) {
+        const bool cancel_half_way = faults.print_cancelled && prints_started == 1;
+        const auto started = Clock::now();
+        const auto per_line = std::chrono::duration<double>(print_seconds) /
+                              static_cast<double>(std::max<std::size_t>(lines.size(), 1));
+        for (std::size_t i = 0; i < lines.size(); ++i) {
+            if (stop_print) return;
+            if (print_seconds > 0)
+                std::this_thread::sleep_until(
+                    started + std::chrono::duration_cast<Clock::duration>(per_line * i));
+            if (cancel_half_way && i == lines.size() / 2) {
+                const std::lock_guard lock(mutex);
+                print_state = "cancelled";
+                return;
+            }
+            try {
+                bench->run_printer_line(lines[i]);
+            } catch (const std::exception& e) {
+                const std::lock_guard lock(mutex);
+                print_state = "error";
+                print_message = e.what();
+                return;
+            }
+        }
+        const std::lock_guard lock(mutex);
+        print_state = "complete";
+    }
+
+    // One JSON-RPC request: the messages to send back (G-code responses, then the reply).
+    std::vector<std::string> message(const std::string& text) {
+        const json request = json::parse(text, nullptr, false);
+        if (request.is_discarded() || !request.contains("method")) return {};
+        const json id = request.value("id", json());
+        const std::string method = request["method"];
+        const json params = request.value("params", json::object());
+        const int n = ++requests;
+        if (faults.silent_at_request > 0 && n >= faults.silent_at_request) return {};
+        if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
+            {
+                const std::lock_guard lock(mutex);
+                restart(std::chrono::milliseconds(1500));
+            }
+            server->drop_connections();
+            return {};
+        }
+        const auto reply = [&id](json result) {
+            return json{{"jsonrpc", "2.0"}, {"result", std::move(result)}, {"id", id}}.dump();
+        };
+        std::unique_lock lock(mutex);
+        settle();
+        if (method == "server.connection.identify") return {reply({{"connection_id", 1}})};
+        if (method == "printer.info")
+            return {reply({{"state", klippy_state},
+                           {"state_message", state_message},
+                           {"hostname", "twin"},
+                           {"software_version", "v0.12.0-twin"}})};
+        if (klippy_state != "ready" && method != "printer.firmware_restart")
+            return {rpc_error(id, 503, "Klippy Host not connected").dump()};
+        if (method == "printer.firmware_restart") {
+            restart(std::chrono::milliseconds(300));
+            return {reply("ok")};
+        }
+        if (method == "printer.gcode.script") {
+            if (print_state == "printing")
+                return {rpc_error(id, 400, "G-code not allowed while printing").dump()};
+            lock.unlock();
+            std::vector<std::string> out;
+            std::istringstream script(params.value("script", std::string()));
+            std::string line;
+            while (std::getline(script, line)) {
+                try {
+                    for (const auto& r : bench->run_printer_line(line))
+                        out.push_back(json{
+                            {"jsonrpc", "2.0"},
+                            {"method", "notify_gcode_response"},
+                            {"params",
+                             {r}}}.dump());
+                } catch (const std::exception& e) {
+                    out.push_back(rpc_error(id, 400, e.what()).dump());
+                    return out;
+                }
+            }
+            out.push_back(reply("ok"));
+            return out;
+        }
+        if (method == "printer.print.start") {
+            const std::string name = params.value("filename", std::string());
+            std::string job;
+            try {
+                job = read_file(dir / "gcodes" / name);
+            } catch (const std::exception&) {
+                return {rpc_error(id, 400, "File not found: " + name).dump()};
+            }
+            if (print_state == "printing")
+                return {rpc_error(id, 400, "Printer is already printing").dump()};
+            std::vector<std::string> lines;
+            std::istringstream in(job);
+            for (std::string line; std::getline(in, line);) lines.push_back(line);
+            print_state = "printing";
+            print_message.clear();
+            ++prints_started;
+            stop_print = false;
+            if (printing.joinable()) {
+                lock.unlock();
+                printing.join();
+                lock.lock();
+            }
+            printing = std::thread([this, lines = std::move(lines)] { run_print(lines); });
+            return {reply("ok")};
+        }
+        if (method == "printer.objects.query") {
+            json status = json::object();
+            const json objects = params.value("objects", json::object());
+            for (const auto& [object, fields] : objects.items()) {
+                if (object == "print_stats")
+                    status[object] = {{"state", print_state}, {"message", print_message}};
+                else if (object == "configfile")
+                    status[object] = {{"settings", settings}};
+                else
+                    status[object] = json::object();
+            }
+            return {reply({{"eventtime", 1.0}, {"status", status}})};
+        }
+        return {rpc_error(id, -32601, "Method not found").dump()};
+    }
+};
+
+MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_dir,
+                             TwinHostSettings settings)
+    : state_(std::make_unique<State>()) {
+    auto& s = *state_;
+    s.bench = std::move(bench);
+    s.dir = std::move(host_dir);
+    s.key = std::move(settings.api_key);
+    s.faults = settings.faults;
+    s.print_seconds = settings.print_seconds;
+    std::filesystem::create_directories(s.dir);
+    if (!std::filesystem::exists(s.dir / "printer.cfg"))
+        write_atomically(s.dir / "printer.cfg", printer_cfg_of(s.bench->delta_printer_firmware(),
+                                                               settings.print_radius_mm));
+    s.first_config = read_file(s.dir / "printer.cfg");
+    s.load_config();
+    if (s.faults.klippy_not_ready) {
+        s.klippy_state = "startup";
+        s.state_message = "mcu 'mcu': Unable to connect";
+    }
+    s.server = std::make_unique<drivers::HttpServer>(
+        "127.0.0.1", 0,
+        drivers::HttpServer::Handlers{
+            [&s](const drivers::ServerRequest& r) { return s.http(r); },
+            [&s](const drivers::ServerRequest& r) { return s.authorised(r) ? 101 : 401; },
+            [&s](const drivers::ServerRequest&, const std::string& m) { return s.message(m); }});
+}
+
+MoonrakerTwin::~MoonrakerTwin() {
+    state_->server.reset();
+    state_->stop_print = true;
+    if (state_->printing.joinable()) state_->printing.join();
+}
+
+std::string MoonrakerTwin::url() const {
+    return "http://127.0.0.1:" + std::to_string(state_->server->port());
+}
+
+}  // namespace calbox::sim

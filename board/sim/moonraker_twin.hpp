@@ -1,0 +1,61 @@
+#pragma once
+// The twin Klipper printer behind its Moonraker host, on loopback: the same twin bench as over
+// the pty, reached through Moonraker's API (its websocket's JSON-RPC, its file upload and
+// download), with its API key. printer.cfg lives in a directory of the host's own, kept from one
+// run to the next as the host's disk keeps it, and is read (by the twin's own reader: it does not
+// share the box's) at each FIRMWARE_RESTART. Faults from the scenario's [faults] make it
+// misbehave as real hosts do.
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "board/sim/delta_reference.hpp"
+
+namespace calbox::sim {
+
+class TwinBench;
+
+// [faults] keys for a printer behind a host (zero and false: off).
+struct HostFaults {
+    bool wrong_key = false;            // the host takes another key than the box's file holds
+    bool klippy_not_ready = false;     // Klipper stays in its start-up error
+    bool print_cancelled = false;      // someone cancels the box's first print on the host
+    bool upload_refused = false;       // the host refuses to store printer.cfg (its disk full)
+    int restart_at_request = 0;        // the host restarts at its n-th JSON-RPC request
+    int silent_at_request = 0;         // from its n-th JSON-RPC request on, it never replies
+    bool config_edited = false;        // someone edits printer.cfg after the box first reads it
+    bool new_config_rejected = false;  // Klipper refuses the printer.cfg the box writes
+};
+
+// The twin's own reading of a Klipper delta's printer.cfg: sections, then the SAVE_CONFIG block
+// over them; stepper_b and _c take stepper_a's arm_length and position_endstop when they give
+// none, the angles default to 210, 330 and 90. Throws std::runtime_error as Klipper refuses a
+// config ("Option 'delta_radius' in section 'printer' must be specified").
+DeltaParams twin_params_from_printer_cfg(const std::string& text);
+// A printer.cfg for a twin delta (as its owner would have written it).
+std::string printer_cfg_of(const DeltaParams& firmware, double print_radius_mm);
+
+struct TwinHostSettings {
+    std::string api_key;
+    HostFaults faults;
+    double print_radius_mm = 85;  // printer.cfg's, when the host writes it first
+    double print_seconds = 0;     // a print lasts at least this long
+};
+
+class MoonrakerTwin {
+  public:
+    // Serves on 127.0.0.1, a free port. `host_dir` holds printer.cfg (written from the bench's
+    // printer when absent) and the uploaded jobs.
+    MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_dir,
+                  TwinHostSettings settings);
+    MoonrakerTwin(const MoonrakerTwin&) = delete;
+    MoonrakerTwin& operator=(const MoonrakerTwin&) = delete;
+    ~MoonrakerTwin();
+    std::string url() const;
+
+  private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+}  // namespace calbox::sim

@@ -1,0 +1,113 @@
+#pragma once
+// HTTP and WebSocket over TCP, through Boost.Beast (kept out of this header: it is heavy to
+// compile): a client for the hosts that own a printer (Moonraker), and a small threaded server
+// for the twin that stands in for them on the sim board.
+#include <chrono>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace calbox::drivers {
+
+// A connection refused, a name not found, a timeout, a peer that closed: what, with the reason.
+class NetworkError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+// "http://host:port/path" or "ws://...": parsed once. Throws std::invalid_argument naming what
+// is wrong (https and wss: not yet, said so).
+struct Url {
+    std::string scheme, host, port, path;
+    std::string origin() const { return scheme + "://" + host + ":" + port; }
+};
+Url parse_url(const std::string& text);
+
+using Headers = std::vector<std::pair<std::string, std::string>>;
+
+struct HttpRequest {
+    std::string method = "GET";
+    std::string target;  // "/server/info?x=1"
+    Headers headers;
+    std::string content_type;
+    std::string body;
+};
+struct HttpResponse {
+    int status = 0;
+    std::string body;
+};
+
+// One request on a connection of its own, answered within `timeout`. Throws NetworkError.
+HttpResponse http_request(const Url& server, const HttpRequest& request,
+                          std::chrono::milliseconds timeout);
+
+// A multipart/form-data body holding one file (an upload's "file" field) and plain fields.
+struct FormBody {
+    std::string content_type, body;
+};
+FormBody multipart_form(const std::string& file_field, const std::string& file_name,
+                        const std::string& file_contents, const Headers& fields = {});
+
+class WebSocketClient {
+  public:
+    // Connects and upgrades within `timeout`; throws NetworkError (a refused upgrade names the
+    // HTTP status the server gave).
+    WebSocketClient(const Url& url, const Headers& headers, std::chrono::milliseconds timeout);
+    WebSocketClient(const WebSocketClient&) = delete;
+    WebSocketClient& operator=(const WebSocketClient&) = delete;
+    ~WebSocketClient();
+    void send(const std::string& text);  // throws NetworkError
+    // The next message, or nothing within `within` (the read goes on at the next call). Throws
+    // NetworkError when the connection is gone.
+    std::optional<std::string> receive(std::chrono::milliseconds within);
+
+  private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+// What a server is asked: header names in lower case.
+struct ServerRequest {
+    std::string method, target;
+    std::map<std::string, std::string> headers;
+    std::string body;
+};
+struct ServerResponse {
+    int status = 200;
+    std::string content_type = "application/json";
+    std::string body;
+};
+
+// Serves HTTP and WebSocket on one port of `address`, a thread per connection. Each handler is
+// called on the connection's thread (they must be thread-safe).
+class HttpServer {
+  public:
+    struct Handlers {
+        std::function<ServerResponse(const ServerRequest&)> http;
+        // An upgrade: 101 accepts it, any other status refuses it so.
+        std::function<int(const ServerRequest&)> accept_socket;
+        // One message on an accepted socket: the messages to send back, in order.
+        std::function<std::vector<std::string>(const ServerRequest& upgrade,
+                                               const std::string& message)>
+            message;
+    };
+    // Port 0 takes a free one (port()). Throws NetworkError when it cannot listen.
+    HttpServer(const std::string& address, int port, Handlers handlers);
+    HttpServer(const HttpServer&) = delete;
+    HttpServer& operator=(const HttpServer&) = delete;
+    ~HttpServer();  // closes every connection and waits for its thread
+    int port() const;
+    // Closes every open connection (a host restarting): clients see them gone.
+    void drop_connections();
+
+  private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+}  // namespace calbox::drivers

@@ -1,0 +1,340 @@
+#include "firmware/moonraker_link.hpp"
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <thread>
+
+#include "firmware/event_loop.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// What ends a request: one line for the cycle's error.
+class LinkError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+std::string joined_lines(const std::vector<std::string>& lines) {
+    std::string out;
+    for (const auto& line : lines) out += line + "\n";
+    return out;
+}
+
+// A value of configfile.settings as printer.cfg writes it.
+std::string config_value(const json& v) {
+    if (v.is_string()) return v.get<std::string>();
+    if (v.is_boolean()) return v.get<bool>() ? "True" : "False";
+    if (v.is_number()) {
+        char b[40];
+        std::snprintf(b, sizeof b, "%.10g", v.get<double>());
+        return b;
+    }
+    return {};
+}
+
+}  // namespace
+
+struct MoonrakerLink::Session {
+    const MoonrakerSettings& settings;
+    const std::atomic<bool>& stop;
+    std::unique_ptr<drivers::WebSocketClient> socket;
+    long next_id = 1;
+
+    drivers::Headers auth() const {
+        if (settings.api_key.empty()) return {};
+        return {{"X-Api-Key", settings.api_key}};
+    }
+
+    void check_stop() const {
+        if (stop) throw LinkError("stopped");
+    }
+
+    void connect() {
+        if (socket) return;
+        drivers::Url url = settings.url;
+        url.path = "/websocket";
+        try {
+            socket =
+                std::make_unique<drivers::WebSocketClient>(url, auth(), settings.reply_timeout);
+        } catch (const drivers::NetworkError& e) {
+            throw LinkError(std::string("Moonraker: ") + e.what() +
+                            (std::string(e.what()).find("HTTP 401") != std::string::npos
+                                 ? " (is key_file's API key the host's?)"
+                                 : ""));
+        }
+        call("server.connection.identify", {{"client_name", "calbox"},
+                                            {"version", "1"},
+                                            {"type", "other"},
+                                            {"url", "https://calbox.invalid"}});
+    }
+
+    // A JSON-RPC request and its result; the G-code responses that arrive meanwhile are added
+    // to `responses`.
+    json call(const std::string& method, const json& params,
+              std::vector<std::string>* responses = nullptr) {
+        check_stop();
+        connect();
+        const long id = next_id++;
+        try {
+            socket->send(json{
+                {"jsonrpc", "2.0"},
+                {"method", method},
+                {"params", params},
+                {"id", id}}.dump());
+            const auto deadline = Clock::now() + settings.reply_timeout;
+            for (;;) {
+                check_stop();
+                const auto left =
+                    std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+                if (left.count() <= 0)
+                    throw LinkError("Moonraker: no reply to " + method + " within " +
+                                    std::to_string(settings.reply_timeout.count() / 1000) + " s");
+                const auto message =
+                    socket->receive(std::min(left, std::chrono::milliseconds(100)));
+                if (!message) continue;
+                const json j = json::parse(*message, nullptr, false);
+                if (j.is_discarded() || !j.is_object()) continue;
+                if (j.contains("method")) {
+                    if (responses != nullptr && j["method"] == "notify_gcode_response" &&
+                        j.contains("params") && j["params"].is_array())
+                        for (const auto& p : j["params"])
+                            if (p.is_string()) responses->push_back(p.get<std::string>());
+                    continue;
+                }
+                if (!j.contains("id") || j["id"] != id) continue;
+                if (j.contains("error")) {
+                    const auto& e = j["error"];
+                    throw LinkError(method + ": " +
+                                    (e.contains("message") && e["message"].is_string()
+                                         ? e["message"].get<std::string>()
+                                         : e.dump()));
+                }
+                return j.contains("result") ? j["result"] : json();
+            }
+        } catch (const drivers::NetworkError& e) {
+            socket.reset();  // the next request connects again
+            throw LinkError(std::string("Moonraker: ") + e.what());
+        }
+    }
+
+    drivers::HttpResponse http(drivers::HttpRequest request) {
+        check_stop();
+        for (auto& h : auth()) request.headers.push_back(std::move(h));
+        try {
+            return drivers::http_request(settings.url, request, settings.reply_timeout);
+        } catch (const drivers::NetworkError& e) {
+            throw LinkError(std::string("Moonraker: ") + e.what());
+        }
+    }
+
+    static std::string error_of(const drivers::HttpResponse& r) {
+        const json j = json::parse(r.body, nullptr, false);
+        if (!j.is_discarded() && j.contains("error") && j["error"].contains("message"))
+            return "HTTP " + std::to_string(r.status) + ": " + config_value(j["error"]["message"]);
+        return "HTTP " + std::to_string(r.status);
+    }
+
+    std::string klippy_state(std::string* message = nullptr) {
+        const json info = call("printer.info", json::object());
+        if (message != nullptr) *message = config_value(info.value("state_message", json("")));
+        return config_value(info.value("state", json("")));
+    }
+
+    void ensure_ready() {
+        std::string message;
+        const std::string state = klippy_state(&message);
+        if (state != "ready")
+            throw LinkError("Klipper is not ready (" + state +
+                            (message.empty() ? std::string() : ": " + message) + ")");
+    }
+
+    void upload(const std::string& root, const std::string& name, const std::string& contents) {
+        const auto form = drivers::multipart_form("file", name, contents, {{"root", root}});
+        const auto r = http({"POST", "/server/files/upload", {}, form.content_type, form.body});
+        if (r.status != 200 && r.status != 201)
+            throw LinkError("the host refused the upload of " + name + " (" + error_of(r) + ")");
+    }
+
+    std::string download(const std::string& path) {
+        const auto r = http({"GET", "/server/files/" + path, {}, {}, {}});
+        if (r.status != 200) throw LinkError("reading " + path + " from the host: " + error_of(r));
+        return r.body;
+    }
+
+    void pause() const { std::this_thread::sleep_for(settings.poll_interval); }
+};
+
+MoonrakerLink::MoonrakerLink(MoonrakerSettings settings, Log log)
+    : settings_(std::move(settings)),
+      log_(std::move(log)),
+      session_(std::make_unique<Session>(Session{settings_, stop_waiting_, nullptr, 1})) {}
+
+MoonrakerLink::~MoonrakerLink() {
+    stop_waiting_ = true;
+}
+
+void MoonrakerLink::attach(EventLoop& loop) {
+    loop.watch(job_.fd(), [this] { finished(); });
+}
+
+void MoonrakerLink::detach(EventLoop& loop) {
+    loop.unwatch(job_.fd());
+}
+
+std::string MoonrakerLink::describe() const {
+    return "moonraker " + settings_.url.origin();
+}
+
+std::string MoonrakerLink::closing_note() const {
+    if (printing_)
+        return "the job in flight on " + describe() + " is left to the host (cancel it there)";
+    return "the link to " + describe() + " is closed";
+}
+
+void MoonrakerLink::start(std::function<JobOutcome(Session&)> request, Done done) {
+    if (busy()) throw std::logic_error("a request to Moonraker is already running");
+    done_ = std::move(done);
+    cancelled_.clear();
+    stop_waiting_ = false;
+    job_.start([this, request = std::move(request)] {
+        try {
+            return request(*session_);
+        } catch (const LinkError& e) {
+            return JobOutcome{false, e.what(), {}, {}};
+        } catch (const std::exception& e) {
+            return JobOutcome{false, std::string("Moonraker: ") + e.what(), {}, {}};
+        }
+    });
+}
+
+void MoonrakerLink::finished() {
+    auto outcome = job_.take();
+    if (!outcome || !done_) return;
+    if (!cancelled_.empty()) *outcome = JobOutcome{false, cancelled_, {}, {}};
+    auto done = std::move(done_);
+    done_ = nullptr;
+    done(std::move(*outcome));
+}
+
+void MoonrakerLink::cancel(const std::string& why) {
+    if (!busy()) return;
+    cancelled_ = why;
+    stop_waiting_ = true;
+    if (printing_) log_(describe() + ": the print goes on there; cancel it on the host if needed");
+}
+
+void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done done) {
+    start(
+        [lines](Session& s) {
+            s.ensure_ready();
+            JobOutcome outcome{true, {}, {}, {}};
+            // One script per line: each has its own deadline, its replies in order.
+            for (const auto& line : lines)
+                s.call("printer.gcode.script", {{"script", line}}, &outcome.replies);
+            return outcome;
+        },
+        std::move(done));
+}
+
+void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
+    start(
+        [this, text = joined_lines(lines)](Session& s) {
+            s.ensure_ready();
+            s.upload("gcodes", settings_.job_file_name, text);
+            s.call("printer.print.start", {{"filename", settings_.job_file_name}});
+            printing_ = true;
+            struct Clear {
+                std::atomic<bool>& flag;
+                ~Clear() { flag = false; }
+            } clear{printing_};
+            const json query = {{"objects", {{"print_stats", {"state", "message"}}}}};
+            for (;;) {
+                s.pause();
+                const json status = s.call("printer.objects.query", query);
+                const json& stats = status.at("status").at("print_stats");
+                const std::string state = config_value(stats.value("state", json("")));
+                if (state == "complete") return JobOutcome{true, {}, {}, {}};
+                if (state == "cancelled")
+                    return JobOutcome{false, "the print was cancelled on the host", {}, {}};
+                if (state == "error")
+                    return JobOutcome{false,
+                                      "the print failed on the host: " +
+                                          config_value(stats.value("message", json(""))),
+                                      {},
+                                      {}};
+                if (state == "standby")
+                    return JobOutcome{
+                        false, "the print ended on the host without completing", {}, {}};
+            }
+        },
+        std::move(done));
+}
+
+void MoonrakerLink::read_config_file(Done done) {
+    start(
+        [](Session& s) {
+            // The file API answers whatever Klipper's state (a printer.cfg it refused included).
+            return JobOutcome{true, {}, {}, s.download("config/printer.cfg")};
+        },
+        std::move(done));
+}
+
+void MoonrakerLink::replace_config_file(const std::string& text, const std::string& expected_now,
+                                        Done done) {
+    start(
+        [this, text, expected_now](Session& s) {
+            if (s.download("config/printer.cfg") != expected_now)
+                throw LinkError(
+                    "printer.cfg was changed on the host since the box read it; nothing was "
+                    "written");
+            s.upload("config", "printer.cfg", text);
+            s.call("printer.firmware_restart", json::object());
+            // Ready again, or the reason Klipper gives for not starting.
+            const auto deadline = Clock::now() + settings_.restart_timeout;
+            std::string state, message;
+            while (Clock::now() < deadline) {
+                s.pause();
+                try {
+                    state = s.klippy_state(&message);
+                } catch (const LinkError&) {
+                    state = "restarting";  // the host reconnects to Klipper meanwhile
+                    continue;
+                }
+                if (state == "ready") return JobOutcome{true, {}, {}, {}};
+                if (state == "error" || state == "shutdown")
+                    throw LinkError("Klipper did not start with the new printer.cfg (" +
+                                    state.append(": ").append(message) + ")");
+            }
+            throw LinkError("Klipper was not ready within " +
+                            std::to_string(settings_.restart_timeout.count() / 1000) +
+                            " s of FIRMWARE_RESTART (" + state + ")");
+        },
+        std::move(done));
+}
+
+void MoonrakerLink::read_settings_in_force(Done done) {
+    start(
+        [](Session& s) {
+            s.ensure_ready();
+            const json r =
+                s.call("printer.objects.query", {{"objects", {{"configfile", {"settings"}}}}});
+            const json& settings = r.at("status").at("configfile").at("settings");
+            std::string text;
+            for (const auto& [section, values] : settings.items()) {
+                if (!values.is_object()) continue;
+                text += "[" + section + "]\n";
+                for (const auto& [key, value] : values.items())
+                    if (value.is_primitive() && !value.is_null())
+                        text += key + ": " + config_value(value) + "\n";
+            }
+            return JobOutcome{true, {}, {}, text};
+        },
+        std::move(done));
+}
+
+}  // namespace calbox::firmware

@@ -1,0 +1,413 @@
+// A printer behind a host: the HTTP and WebSocket driver on loopback, printer.cfg's SAVE_CONFIG
+// block as the box writes it, the twin's own reading of printer.cfg, and the Moonraker link
+// against the twin's host (faults included).
+#include <CppUTest/TestHarness.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <thread>
+
+#include "board/sim/moonraker_twin.hpp"
+#include "board/sim/scenario.hpp"
+#include "board/sim/sim_board.hpp"
+#include "core/models/delta_commands.hpp"
+#include "core/models/machine_file.hpp"
+#include "drivers/http.hpp"
+#include "firmware/event_loop.hpp"
+#include "firmware/moonraker_link.hpp"
+
+using namespace calbox;
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+TEST_GROUP(HttpDriver){};
+
+TEST(HttpDriver, parses_urls_and_refuses_what_it_cannot_reach) {
+    const auto u = drivers::parse_url("http://printer.local:7125/api");
+    STRCMP_EQUAL("http", u.scheme.c_str());
+    STRCMP_EQUAL("printer.local", u.host.c_str());
+    STRCMP_EQUAL("7125", u.port.c_str());
+    STRCMP_EQUAL("/api", u.path.c_str());
+    STRCMP_EQUAL("80", drivers::parse_url("http://10.0.0.5").port.c_str());
+    CHECK_THROWS(std::invalid_argument, drivers::parse_url("printer.local:7125"));
+    CHECK_THROWS(std::invalid_argument, drivers::parse_url("ftp://printer.local"));
+    CHECK_THROWS(std::invalid_argument, drivers::parse_url("http://printer.local:99999"));
+    CHECK_THROWS(std::invalid_argument, drivers::parse_url("http://user:pw@printer.local"));
+    try {
+        drivers::parse_url("https://printer.local");
+        FAIL("https was taken");
+    } catch (const std::invalid_argument& e) {
+        STRCMP_CONTAINS("TLS", e.what());
+    }
+}
+
+// A request and a websocket exchange through the server, as the twin host and the link use
+// them; a refused upgrade names its status; a read that gets nothing gives nothing, and the
+// message that comes later is not lost.
+TEST(HttpDriver, serves_and_reaches_http_and_websocket_on_loopback) {
+    drivers::HttpServer server(
+        "127.0.0.1", 0,
+        {[](const drivers::ServerRequest& r) {
+             return drivers::ServerResponse{
+                 r.target == "/echo" ? 200 : 404, "text/plain",
+                 r.method + " " + r.body + " " +
+                     (r.headers.count("x-api-key") != 0 ? r.headers.at("x-api-key")
+                                                        : std::string("-"))};
+         },
+         [](const drivers::ServerRequest& r) {
+             return r.headers.count("x-api-key") != 0 ? 101 : 401;
+         },
+         [](const drivers::ServerRequest&, const std::string& m) {
+             if (m == "quiet") return std::vector<std::string>{};
+             return std::vector<std::string>{"1:" + m, "2:" + m};
+         }});
+    const auto url = drivers::parse_url("http://127.0.0.1:" + std::to_string(server.port()));
+    const auto r = drivers::http_request(
+        url, {"POST", "/echo", {{"X-Api-Key", "k1"}}, "text/plain", "body"}, 2000ms);
+    CHECK_EQUAL(200, r.status);
+    STRCMP_EQUAL("POST body k1", r.body.c_str());
+    CHECK_EQUAL(404, drivers::http_request(url, {"GET", "/other", {}, {}, {}}, 2000ms).status);
+
+    try {
+        drivers::WebSocketClient refused(url, {}, 2000ms);
+        FAIL("the upgrade without a key was accepted");
+    } catch (const drivers::NetworkError& e) {
+        STRCMP_CONTAINS("HTTP 401", e.what());
+    }
+    drivers::WebSocketClient ws(url, {{"X-Api-Key", "k1"}}, 2000ms);
+    ws.send("quiet");
+    CHECK_FALSE(ws.receive(100ms).has_value());
+    ws.send("hello");
+    STRCMP_EQUAL("1:hello", ws.receive(2000ms).value().c_str());
+    STRCMP_EQUAL("2:hello", ws.receive(2000ms).value().c_str());
+
+    // The server closing every connection (a host restarting): the client sees it gone.
+    server.drop_connections();
+    CHECK_THROWS(drivers::NetworkError, ws.receive(2000ms));
+}
+
+TEST(HttpDriver, a_port_nobody_listens_on_is_a_network_error) {
+    // A port just freed: nothing listens there.
+    int port = 0;
+    {
+        drivers::HttpServer s("127.0.0.1", 0, {});
+        port = s.port();
+    }
+    const auto url = drivers::parse_url("http://127.0.0.1:" + std::to_string(port));
+    CHECK_THROWS(drivers::NetworkError, drivers::http_request(url, {}, 1000ms));
+}
+
+TEST_GROUP(KlipperConfig){};
+
+namespace {
+
+models::DeltaGeometry example_geometry() {
+    models::DeltaGeometry g;
+    g.diagonal_rod_mm = 251.0;
+    g.diagonal_rod_trim_mm = {0.5, -0.25, -0.25};
+    g.radius_mm = 139.2;
+    g.tower_angle_trim_deg = {0.25, -0.4, 0.15};
+    g.endstop_offset_mm = {0, -0.18, -0.3};
+    g.height_mm = 301.7;
+    return g;
+}
+
+// The SAVE_CONFIG block's lines: everything from its first "#*#".
+std::string block_of(const std::string& cfg) {
+    return cfg.substr(cfg.find("#*#"));
+}
+
+}  // namespace
+
+// Hand-worked: Klipper's arm_length = rod + trim, angle = 210/330/90 + trim, position_endstop =
+// height - offset (the gauge already holds: trims sum to zero, the largest offset is zero).
+TEST(KlipperConfig, a_file_without_the_block_gets_one_and_keeps_its_body) {
+    const std::string body =
+        "[printer]\nkinematics: delta\ndelta_radius: 140\n\n[stepper_a]\narm_length: 250\n"
+        "position_endstop: 300\n\n\n";
+    const std::string out = models::klipper_saved_config(body, example_geometry());
+    CHECK(out.rfind("[printer]\nkinematics: delta\ndelta_radius: 140\n\n[stepper_a]\narm_length: "
+                    "250\nposition_endstop: 300\n\n#*# <",
+                    0) == 0);
+    STRCMP_EQUAL(
+        "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
+        "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n"
+        "#*#\n"
+        "#*# [printer]\n#*# delta_radius = 139.200\n#*#\n"
+        "#*# [stepper_a]\n#*# angle = 210.250\n#*# arm_length = 251.500\n"
+        "#*# position_endstop = 301.700\n#*#\n"
+        "#*# [stepper_b]\n#*# angle = 329.600\n#*# arm_length = 250.750\n"
+        "#*# position_endstop = 301.880\n#*#\n"
+        "#*# [stepper_c]\n#*# angle = 90.150\n#*# arm_length = 250.750\n"
+        "#*# position_endstop = 302.000\n",
+        block_of(out).c_str());
+}
+
+TEST(KlipperConfig, the_blocks_other_values_stay_and_its_delta_values_are_replaced) {
+    const std::string before =
+        "[printer]\nkinematics: delta\n\n"
+        "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
+        "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n"
+        "#*#\n#*# [bed_mesh default]\n#*# version = 1\n#*#\n"
+        "#*# [stepper_a]\n#*# angle = 211.0\n#*# position_endstop = 299.0\n"
+        "#*# arm_length = 249.0\n#*#\n#*# [delta_calibrate]\n#*# height0 = 1.5\n";
+    const std::string out = models::klipper_saved_config(before, example_geometry());
+    const std::string block = block_of(out);
+    STRCMP_CONTAINS("#*# [bed_mesh default]\n#*# version = 1\n#*#\n", block.c_str());
+    STRCMP_CONTAINS(
+        "#*# [stepper_a]\n#*# angle = 210.250\n#*# position_endstop = 301.700\n"
+        "#*# arm_length = 251.500\n",
+        block.c_str());
+    STRCMP_CONTAINS("#*# [delta_calibrate]\n#*# height0 = 1.5\n", block.c_str());
+    CHECK(block.find("211.0") == std::string::npos);
+    // Written twice, the same file: the block is read back as it was written.
+    STRCMP_EQUAL(out.c_str(), models::klipper_saved_config(out, example_geometry()).c_str());
+    CHECK_THROWS(std::invalid_argument,
+                 models::klipper_saved_config(before + "[printer]\nx: 1\n", example_geometry()));
+}
+
+TEST(KlipperConfig, a_mismatch_names_the_first_value_that_differs_beyond_the_last_digit) {
+    const auto sent = example_geometry();
+    auto same = sent;
+    same.radius_mm += 0.001;  // within the 3 decimals' rounding
+    STRCMP_EQUAL("", models::klipper_settings_mismatch(sent, same).c_str());
+    auto other = sent;
+    other.diagonal_rod_trim_mm[1] += 0.01;
+    other.diagonal_rod_trim_mm[2] -= 0.01;
+    STRCMP_EQUAL("[stepper_b] arm_length sent 250.750, in force 250.760",
+                 models::klipper_settings_mismatch(sent, other).c_str());
+}
+
+// The twin's own reading (not the box's): stepper_b and _c default to stepper_a's arm and
+// endstop, the angles to 210/330/90, the SAVE_CONFIG block over the body.
+TEST(KlipperConfig, the_twin_reads_printer_cfg_as_klipper_does) {
+    const auto p = sim::twin_params_from_printer_cfg(
+        "[printer]\nkinematics: delta\ndelta_radius: 140 # measured\n"
+        "[stepper_a]\narm_length: 250\nposition_endstop: 300\n"
+        "[stepper_b]\n[stepper_c]\nangle: 91\n"
+        "#*# [stepper_b]\n#*# position_endstop = 299.5\n");
+    DOUBLES_EQUAL(140, p.radius_mm, 1e-12);
+    DOUBLES_EQUAL(250, p.diagonal_rod_mm, 1e-12);
+    DOUBLES_EQUAL(299.5, p.height_mm, 1e-12);
+    DOUBLES_EQUAL(-0.5, p.endstop_offset_mm[0], 1e-12);
+    DOUBLES_EQUAL(0.0, p.endstop_offset_mm[1], 1e-12);
+    DOUBLES_EQUAL(-0.5, p.endstop_offset_mm[2], 1e-12);
+    DOUBLES_EQUAL(1.0, p.tower_angle_trim_deg[2], 1e-12);
+    DOUBLES_EQUAL(0.0, p.tower_angle_trim_deg[1], 1e-12);
+    try {
+        sim::twin_params_from_printer_cfg("[printer]\nkinematics: delta\n[stepper_a]\n");
+        FAIL("a printer.cfg without delta_radius was taken");
+    } catch (const std::runtime_error& e) {
+        STRCMP_CONTAINS("'delta_radius' in section 'printer' must be specified", e.what());
+    }
+    // The twin's printer.cfg read by the twin: the same printer.
+    sim::DeltaParams q;
+    q.diagonal_rod_trim_mm = {0.2, -0.1, -0.1};
+    q.tower_angle_trim_deg = {0.3, 0, -0.3};
+    q.endstop_offset_mm = {0, -0.4, -0.2};
+    const auto r = sim::twin_params_from_printer_cfg(sim::printer_cfg_of(q, 85));
+    for (std::size_t i = 0; i < 3; ++i) {
+        DOUBLES_EQUAL(q.diagonal_rod_mm + q.diagonal_rod_trim_mm[i],
+                      r.diagonal_rod_mm + r.diagonal_rod_trim_mm[i], 1e-9);
+        DOUBLES_EQUAL(q.endstop_offset_mm[i], r.endstop_offset_mm[i], 1e-9);
+        DOUBLES_EQUAL(q.tower_angle_trim_deg[i], r.tower_angle_trim_deg[i], 1e-9);
+    }
+}
+
+TEST(KlipperConfig, the_machine_files_link_says_how_the_box_reaches_the_machine) {
+    const std::string base =
+        "[machine]\nkind = \"delta\"\nfirmware = \"klipper\"\n[delta]\ndiagonal_rod_mm = 250\n"
+        "radius_mm = 140\nheight_mm = 300\n";
+    const auto m = models::parse_machine_file(
+        base +
+            "[link]\nkind = \"moonraker\"\nurl = \"http://p:7125\"\nkey_file = \"/k\"\n"
+            "reply_timeout_s = 5\n",
+        "m.toml");
+    STRCMP_EQUAL("moonraker", m.link.kind.c_str());
+    STRCMP_EQUAL("http://p:7125", m.link.url.c_str());
+    DOUBLES_EQUAL(5, m.link.reply_timeout_s, 0);
+    CHECK_FALSE(models::parse_machine_file(base, "m.toml").link.is_host());
+    CHECK_THROWS(models::MachineFileError,
+                 models::parse_machine_file(base + "[link]\nurl = \"http://p\"\n", "m.toml"));
+    CHECK_THROWS(models::MachineFileError,
+                 models::parse_machine_file(base + "[link]\nkind = \"telnet\"\n", "m.toml"));
+    std::string marlin = base;
+    marlin.replace(marlin.find("klipper"), 7, "marlin");
+    try {
+        models::parse_machine_file(marlin + "[link]\nkind = \"moonraker\"\n", "m.toml");
+        FAIL("Moonraker in front of Marlin was taken");
+    } catch (const models::MachineFileError& e) {
+        STRCMP_CONTAINS("Klipper", e.what());
+    }
+}
+
+// The link against the twin's host: commands and their replies, the settings in force, the
+// file read and replaced only while it is the one read, a job uploaded and run; each fault
+// ends its request with one line naming it.
+TEST_GROUP(MoonrakerLink) {
+    fs::path dir;
+    std::shared_ptr<sim::TwinBench> bench;
+    std::unique_ptr<sim::MoonrakerTwin> host;
+    std::unique_ptr<firmware::MoonrakerLink> link;
+    firmware::EventLoop loop;
+    std::vector<std::string> log;
+
+    void setup() override {
+        dir = fs::temp_directory_path() / ("calbox-moonraker-" + std::to_string(::getpid()));
+        fs::remove_all(dir);
+        fs::create_directories(dir);
+    }
+    void teardown() override {
+        if (link) link->detach(loop);
+        link.reset();
+        host.reset();
+        fs::remove_all(dir);
+    }
+
+    void start(const sim::HostFaults& faults, const std::string& key = "sesame",
+               const std::string& link_key = "sesame") {
+        auto scenario = sim::load_scenario(CALBOX_SOURCE_DIR "/examples/moonraker_delta.toml");
+        bench = std::make_shared<sim::TwinBench>(scenario);
+        host = std::make_unique<sim::MoonrakerTwin>(bench, dir / "host",
+                                                    sim::TwinHostSettings{key, faults, 85, 0});
+        firmware::MoonrakerSettings s;
+        s.url = drivers::parse_url(host->url());
+        s.api_key = link_key;
+        s.reply_timeout = 1500ms;
+        s.restart_timeout = 5000ms;
+        s.poll_interval = 20ms;
+        link = std::make_unique<firmware::MoonrakerLink>(
+            s, [this](const std::string& line) { log.push_back(line); });
+        link->attach(loop);
+    }
+
+    // Runs a request to its end on the loop.
+    template <class Start>
+    firmware::JobOutcome await(Start start_request) {
+        std::optional<firmware::JobOutcome> outcome;
+        start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
+        const auto deadline = std::chrono::steady_clock::now() + 60s;
+        while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
+        CHECK_TEXT(outcome.has_value(), "the request never ended");
+        return *outcome;
+    }
+
+    std::string host_config() const {
+        std::ifstream in(dir / "host" / "printer.cfg");
+        std::ostringstream s;
+        s << in.rdbuf();
+        return s.str();
+    }
+};
+
+TEST(MoonrakerLink, commands_settings_and_printer_cfg_through_the_host) {
+    start({});
+    auto o = await([&](auto done) { link->send_commands({"G28", "M400"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    o = await([&](auto done) { link->send_commands({"M665 L250"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("unknown command", o.error.c_str());
+
+    o = await([&](auto done) { link->read_settings_in_force(done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    STRCMP_CONTAINS("[stepper_b]", o.text.c_str());
+    STRCMP_CONTAINS("delta_radius: 140", o.text.c_str());
+
+    const auto before = await([&](auto done) { link->read_config_file(done); });
+    STRCMP_EQUAL(host_config().c_str(), before.text.c_str());
+    // Written only while the host still holds the file the box read.
+    o = await([&](auto done) { link->replace_config_file("x", before.text + "#", done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("changed on the host", o.error.c_str());
+    STRCMP_EQUAL(before.text.c_str(), host_config().c_str());
+
+    auto g = example_geometry();
+    const std::string updated = models::klipper_saved_config(before.text, g);
+    o = await([&](auto done) { link->replace_config_file(updated, before.text, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    STRCMP_EQUAL(updated.c_str(), host_config().c_str());
+    // The twin printer took it at its restart.
+    const auto firmware = bench->delta_printer_firmware();
+    DOUBLES_EQUAL(139.2, firmware.radius_mm, 1e-9);
+    DOUBLES_EQUAL(251.5, firmware.diagonal_rod_mm + firmware.diagonal_rod_trim_mm[0], 1e-9);
+}
+
+TEST(MoonrakerLink, a_job_is_uploaded_started_and_followed_to_its_end) {
+    start({});
+    auto o = await([&](auto done) { link->run_job({"G28", "G1 X10 Y10 Z5 F3000"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    CHECK(fs::exists(dir / "host" / "gcodes" / "calbox-target.gcode"));
+    o = await([&](auto done) { link->run_job({"M665 L250"}, done); });  // not Klipper's
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("the print failed on the host", o.error.c_str());
+}
+
+TEST(MoonrakerLink, a_wrong_key_is_named) {
+    start({}, "sesame", "open");
+    const auto o = await([&](auto done) { link->send_commands({"G28"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("HTTP 401", o.error.c_str());
+    STRCMP_CONTAINS("API key", o.error.c_str());
+    CHECK(o.error.find("open") == std::string::npos);
+}
+
+TEST(MoonrakerLink, klipper_not_ready_is_named) {
+    sim::HostFaults f;
+    f.klippy_not_ready = true;
+    start(f);
+    const auto o = await([&](auto done) { link->read_settings_in_force(done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("Klipper is not ready (startup: mcu 'mcu': Unable to connect)",
+                    o.error.c_str());
+}
+
+TEST(MoonrakerLink, a_host_that_never_replies_times_out) {
+    sim::HostFaults f;
+    f.silent_at_request = 3;  // identify, printer.info, then silence
+    start(f);
+    const auto o = await([&](auto done) { link->send_commands({"G28"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("no reply to printer.gcode.script within 1 s", o.error.c_str());
+}
+
+TEST(MoonrakerLink, a_host_restarting_mid_request_is_named_and_the_next_request_reconnects) {
+    sim::HostFaults f;
+    f.restart_at_request = 3;
+    start(f);
+    auto o = await([&](auto done) { link->send_commands({"G28"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("Moonraker: ", o.error.c_str());
+    std::this_thread::sleep_for(1600ms);  // the twin host's restart
+    o = await([&](auto done) { link->send_commands({"G28"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+}
+
+TEST(MoonrakerLink, a_print_cancelled_on_the_host_is_named) {
+    sim::HostFaults f;
+    f.print_cancelled = true;
+    start(f);
+    const auto o = await([&](auto done) {
+        link->run_job({"G28", "G1 X1 Z5", "G1 X2 Z5", "G1 X3 Z5", "G1 X4 Z5"}, done);
+    });
+    CHECK_FALSE(o.ok);
+    STRCMP_EQUAL("the print was cancelled on the host", o.error.c_str());
+}
+
+TEST(MoonrakerLink, a_refused_upload_leaves_the_file_as_it_was) {
+    sim::HostFaults f;
+    f.upload_refused = true;
+    start(f);
+    const auto before = await([&](auto done) { link->read_config_file(done); });
+    const auto o = await([&](auto done) {
+        link->replace_config_file(models::klipper_saved_config(before.text, example_geometry()),
+                                  before.text, done);
+    });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS(
+        "the host refused the upload of printer.cfg (HTTP 400: Insufficient disk space)",
+        o.error.c_str());
+    STRCMP_EQUAL(before.text.c_str(), host_config().c_str());
+}

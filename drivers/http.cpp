@@ -8,6 +8,8 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <cctype>
+#include <deque>
+#include <map>
 #include <mutex>
 #include <random>
 #include <set>
@@ -282,6 +284,11 @@ struct HttpServer::State {
     bool stopping = false;
 
     void serve(tcp::socket socket);
+    // An accepted websocket on an io_context of its own: one read always pending, writes queued
+    // (the replies to each message, and whatever push() posts from other threads).
+    void serve_socket(tcp::socket socket, const http::request<http::string_body>& upgrade,
+                      const ServerRequest& request);
+    std::map<int, std::function<void(std::string)>> pushers;  // by socket, under the mutex
 };
 
 namespace {
@@ -321,23 +328,9 @@ void HttpServer::State::serve(tcp::socket socket) {
                 http::write(socket, res, ec);
                 break;
             }
-            websocket::stream<tcp::socket> ws(std::move(socket));
-            ws.read_message_max(kBodyLimitBytes);
-            ws.accept(req, ec);
-            if (ec) break;
-            for (;;) {
-                beast::flat_buffer message;
-                ws.read(message, ec);
-                if (ec) break;
-                for (const auto& out :
-                     handlers.message(request, beast::buffers_to_string(message.data()))) {
-                    ws.text(true);
-                    ws.write(net::buffer(out), ec);
-                    if (ec) break;
-                }
-                if (ec) break;
-            }
-            break;
+            // It closes the socket itself, once it is no longer among the open ones.
+            serve_socket(std::move(socket), req, request);
+            return;
         }
         const ServerResponse answer = handlers.http(request);
         http::response<http::string_body> res{static_cast<http::status>(answer.status), 11};
@@ -351,6 +344,79 @@ void HttpServer::State::serve(tcp::socket socket) {
     const std::lock_guard lock(mutex);
     open_fds.erase(fd);
     // The socket (or the stream it moved into) closes as it goes out of scope.
+}
+
+void HttpServer::State::serve_socket(tcp::socket accepted,
+                                     const http::request<http::string_body>& upgrade,
+                                     const ServerRequest& request) {
+    net::io_context ioc;
+    boost::system::error_code ec;
+    const int fd = accepted.native_handle();
+    tcp::socket own(ioc);
+    const auto protocol = accepted.local_endpoint(ec).protocol();
+    own.assign(protocol, accepted.release(ec), ec);
+    websocket::stream<tcp::socket> ws(std::move(own));
+    // No longer among the open ones once this returns, before the descriptor closes with `ws`
+    // (declared after it: undone before it).
+    struct Forget {
+        State& state;
+        int fd;
+        ~Forget() {
+            const std::lock_guard lock(state.mutex);
+            state.pushers.erase(fd);
+            state.open_fds.erase(fd);
+        }
+    } forget{*this, fd};
+    if (ec) return;
+    ws.read_message_max(kBodyLimitBytes);
+    ws.accept(upgrade, ec);
+    if (ec) return;
+    ws.text(true);
+    std::deque<std::string> outbox;
+    bool writing = false;
+    beast::flat_buffer buffer;
+    std::function<void()> write_next = [&] {
+        if (writing || outbox.empty()) return;
+        writing = true;
+        ws.async_write(net::buffer(outbox.front()), [&](boost::system::error_code e, std::size_t) {
+            writing = false;
+            if (e) {
+                ioc.stop();
+                return;
+            }
+            outbox.pop_front();
+            write_next();
+        });
+    };
+    std::function<void()> read_next = [&] {
+        ws.async_read(buffer, [&](boost::system::error_code e, std::size_t) {
+            if (e) {
+                ioc.stop();
+                return;
+            }
+            const std::string message = beast::buffers_to_string(buffer.data());
+            buffer.consume(buffer.size());
+            for (auto& out : handlers.message(request, message)) outbox.push_back(std::move(out));
+            write_next();
+            read_next();
+        });
+    };
+    {
+        const std::lock_guard lock(mutex);
+        pushers[fd] = [&ioc, &outbox, &write_next](std::string m) {
+            net::post(ioc, [&outbox, &write_next, m = std::move(m)]() mutable {
+                outbox.push_back(std::move(m));
+                write_next();
+            });
+        };
+    }
+    read_next();
+    ioc.run();
+}
+
+void HttpServer::push(const std::string& message) {
+    const std::lock_guard lock(state_->mutex);
+    for (auto& [fd, post] : state_->pushers) post(message);
 }
 
 HttpServer::HttpServer(const std::string& address, int port, Handlers handlers)

@@ -104,6 +104,8 @@ class HttpServer {
     int port() const;
     // Closes every open connection (a host restarting): clients see them gone.
     void drop_connections();
+    // Sends `message` on every open websocket (a host's push: OctoPrint's terminal logs).
+    void push(const std::string& message);
 
   private:
     struct State;

@@ -83,6 +83,14 @@ TEST(HttpDriver, serves_and_reaches_http_and_websocket_on_loopback) {
     ws.send("hello");
     STRCMP_EQUAL("1:hello", ws.receive(2000ms).value().c_str());
     STRCMP_EQUAL("2:hello", ws.receive(2000ms).value().c_str());
+    // What the server pushes on its own (a host's terminal log) reaches every open socket.
+    drivers::WebSocketClient other(url, {{"X-Api-Key", "k2"}}, 2000ms);
+    other.send("hi");
+    STRCMP_EQUAL("1:hi", other.receive(2000ms).value().c_str());
+    STRCMP_EQUAL("2:hi", other.receive(2000ms).value().c_str());
+    server.push("news");
+    STRCMP_EQUAL("news", ws.receive(2000ms).value().c_str());
+    STRCMP_EQUAL("news", other.receive(2000ms).value().c_str());
 
     // The server closing every connection (a host restarting): the client sees it gone.
     server.drop_connections();

@@ -13,12 +13,6 @@ namespace {
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-// What ends a request: one line for the cycle's error.
-class LinkError : public std::runtime_error {
-  public:
-    using std::runtime_error::runtime_error;
-};
-
 std::string joined_lines(const std::vector<std::string>& lines) {
     std::string out;
     for (const auto& line : lines) out += line + "\n";
@@ -40,8 +34,8 @@ std::string config_value(const json& v) {
 }  // namespace
 
 struct MoonrakerLink::Session {
+    const MoonrakerLink& link;
     const MoonrakerSettings& settings;
-    const std::atomic<bool>& stop;
     std::unique_ptr<drivers::WebSocketClient> socket;
     long next_id = 1;
 
@@ -50,9 +44,7 @@ struct MoonrakerLink::Session {
         return {{"X-Api-Key", settings.api_key}};
     }
 
-    void check_stop() const {
-        if (stop) throw LinkError("stopped");
-    }
+    void check_stop() const { link.check_stop(); }
 
     void connect() {
         if (socket) return;
@@ -166,70 +158,24 @@ struct MoonrakerLink::Session {
         return r.body;
     }
 
-    void pause() const { std::this_thread::sleep_for(settings.poll_interval); }
+    void pause() const { link.pause(settings.poll_interval); }
 };
 
 MoonrakerLink::MoonrakerLink(MoonrakerSettings settings, Log log)
-    : settings_(std::move(settings)),
-      log_(std::move(log)),
-      session_(std::make_unique<Session>(Session{settings_, stop_waiting_, nullptr, 1})) {}
+    : HostLink("moonraker", settings.url, std::move(log)),
+      settings_(std::move(settings)),
+      session_(std::make_unique<Session>(Session{*this, settings_, nullptr, 1})) {}
 
 MoonrakerLink::~MoonrakerLink() {
-    stop_waiting_ = true;
+    finish_requests();
 }
 
-void MoonrakerLink::attach(EventLoop& loop) {
-    loop.watch(job_.fd(), [this] { finished(); });
-}
-
-void MoonrakerLink::detach(EventLoop& loop) {
-    loop.unwatch(job_.fd());
-}
-
-std::string MoonrakerLink::describe() const {
-    return "moonraker " + settings_.url.origin();
-}
-
-std::string MoonrakerLink::closing_note() const {
-    if (printing_)
-        return "the job in flight on " + describe() + " is left to the host (cancel it there)";
-    return "the link to " + describe() + " is closed";
-}
-
-void MoonrakerLink::start(std::function<JobOutcome(Session&)> request, Done done) {
-    if (busy()) throw std::logic_error("a request to Moonraker is already running");
-    done_ = std::move(done);
-    cancelled_.clear();
-    stop_waiting_ = false;
-    job_.start([this, request = std::move(request)] {
-        try {
-            return request(*session_);
-        } catch (const LinkError& e) {
-            return JobOutcome{false, e.what(), {}, {}};
-        } catch (const std::exception& e) {
-            return JobOutcome{false, std::string("Moonraker: ") + e.what(), {}, {}};
-        }
-    });
-}
-
-void MoonrakerLink::finished() {
-    auto outcome = job_.take();
-    if (!outcome || !done_) return;
-    if (!cancelled_.empty()) *outcome = JobOutcome{false, cancelled_, {}, {}};
-    auto done = std::move(done_);
-    done_ = nullptr;
-    done(std::move(*outcome));
-}
-
-void MoonrakerLink::cancel(const std::string& why) {
-    if (!busy()) return;
-    cancelled_ = why;
-    stop_waiting_ = true;
-    if (printing_) log_(describe() + ": the print goes on there; cancel it on the host if needed");
+void MoonrakerLink::start_session(std::function<JobOutcome(Session&)> request, Done done) {
+    start([this, request = std::move(request)] { return request(*session_); }, std::move(done));
 }
 
 void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done done) {
-    start(
+    start_session(
         [lines](Session& s) {
             s.ensure_ready();
             JobOutcome outcome{true, {}, {}, {}};
@@ -242,16 +188,16 @@ void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done do
 }
 
 void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
-    start(
+    start_session(
         [this, text = joined_lines(lines)](Session& s) {
             s.ensure_ready();
             s.upload("gcodes", settings_.job_file_name, text);
             s.call("printer.print.start", {{"filename", settings_.job_file_name}});
-            printing_ = true;
+            set_printing(true);
             struct Clear {
-                std::atomic<bool>& flag;
-                ~Clear() { flag = false; }
-            } clear{printing_};
+                MoonrakerLink& link;
+                ~Clear() { link.set_printing(false); }
+            } clear{*this};
             const json query = {{"objects", {{"print_stats", {"state", "message"}}}}};
             for (;;) {
                 s.pause();
@@ -276,7 +222,7 @@ void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
 }
 
 void MoonrakerLink::read_config_file(Done done) {
-    start(
+    start_session(
         [](Session& s) {
             // The file API answers whatever Klipper's state (a printer.cfg it refused included).
             return JobOutcome{true, {}, {}, s.download("config/printer.cfg")};
@@ -286,7 +232,7 @@ void MoonrakerLink::read_config_file(Done done) {
 
 void MoonrakerLink::replace_config_file(const std::string& text, const std::string& expected_now,
                                         Done done) {
-    start(
+    start_session(
         [this, text, expected_now](Session& s) {
             if (s.download("config/printer.cfg") != expected_now)
                 throw LinkError(
@@ -318,7 +264,7 @@ void MoonrakerLink::replace_config_file(const std::string& text, const std::stri
 }
 
 void MoonrakerLink::read_settings_in_force(Done done) {
-    start(
+    start_session(
         [](Session& s) {
             s.ensure_ready();
             const json r =

@@ -6,16 +6,14 @@
 // printer.cfg read and replaced through the file API and taken by FIRMWARE_RESTART, the settings
 // in force from configfile.settings. The API key goes in the X-Api-Key header and nowhere else.
 // Each request runs on a thread of its own; its `done` comes back through the event loop.
-#include <atomic>
 #include <chrono>
 #include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
-#include "drivers/background_job.hpp"
 #include "drivers/http.hpp"
-#include "firmware/machine_link.hpp"
+#include "firmware/host_link.hpp"
 
 namespace calbox::firmware {
 
@@ -28,20 +26,15 @@ struct MoonrakerSettings {
     std::string job_file_name = "calbox-target.gcode";
 };
 
-class MoonrakerLink final : public MachineLink {
+class MoonrakerLink final : public HostLink {
   public:
-    using Log = std::function<void(const std::string&)>;
     MoonrakerLink(MoonrakerSettings settings, Log log);
     ~MoonrakerLink() override;
+    MoonrakerLink(const MoonrakerLink&) = delete;
+    MoonrakerLink& operator=(const MoonrakerLink&) = delete;
 
-    void attach(EventLoop& loop) override;
-    void detach(EventLoop& loop) override;
-    std::string describe() const override;
     void run_job(const std::vector<std::string>& lines, Done done) override;
     void send_commands(const std::vector<std::string>& lines, Done done) override;
-    bool busy() const override { return static_cast<bool>(done_); }
-    void cancel(const std::string& why) override;
-    std::string closing_note() const override;
 
     bool has_config_file() const override { return true; }
     void read_config_file(Done done) override;
@@ -49,20 +42,13 @@ class MoonrakerLink final : public MachineLink {
                              Done done) override;
     void read_settings_in_force(Done done) override;
 
-    struct Session;  // the websocket and its request ids, on the request's thread only
+    struct Session;  // the websocket and its request ids, on the request thread only
 
   private:
-    void start(std::function<JobOutcome(Session&)> request, Done done);
-    void finished();
+    void start_session(std::function<JobOutcome(Session&)> request, Done done);
 
     MoonrakerSettings settings_;
-    Log log_;
     std::unique_ptr<Session> session_;
-    drivers::BackgroundJob<JobOutcome> job_;
-    Done done_;
-    std::string cancelled_;
-    std::atomic<bool> stop_waiting_{false};
-    std::atomic<bool> printing_{false};  // a job of the box's is running on the host
 };
 
 }  // namespace calbox::firmware

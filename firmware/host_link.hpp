@@ -1,0 +1,67 @@
+#pragma once
+// What every link to a printer's host shares (Moonraker, OctoPrint, Duet): each request runs on
+// a thread of its own, blocking on the host's API; its `done` comes back through the event loop.
+// A cancel or the box stopping ends the request at its next wait; a print running on the host is
+// left to the host, and said so.
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "drivers/background_job.hpp"
+#include "drivers/http.hpp"
+#include "firmware/machine_link.hpp"
+
+namespace calbox::firmware {
+
+// What ends a request to a host: its text is the outcome's one line.
+class LinkError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+class HostLink : public MachineLink {
+  public:
+    using Log = std::function<void(const std::string&)>;
+    // `name`: "moonraker", "octoprint", "duet", for the log.
+    HostLink(std::string name, drivers::Url url, Log log);
+
+    void attach(EventLoop& loop) final;
+    void detach(EventLoop& loop) final;
+    std::string describe() const final { return name_ + " " + url_.origin(); }
+    bool busy() const final { return static_cast<bool>(done_); }
+    void cancel(const std::string& why) final;
+    std::string closing_note() const final;
+
+  protected:
+    // Runs `request` on the request thread: a LinkError (or any exception) ends it with its
+    // text. Throws std::logic_error while another request runs.
+    void start(std::function<JobOutcome()> request, Done done);
+    // Each subclass's destructor calls it first: the request thread is joined while the
+    // subclass's members are still there.
+    void finish_requests();
+    // On the request thread: throws LinkError("stopped") once cancelled or stopping.
+    void check_stop() const;
+    // Waits `how_long` unless cancelled meanwhile (then throws as check_stop).
+    void pause(std::chrono::milliseconds how_long) const;
+    // While set, a stop leaves a print running on the host (closing_note says so).
+    void set_printing(bool printing) { printing_ = printing; }
+    const drivers::Url& url() const { return url_; }
+    const Log& log() const { return log_; }
+
+  private:
+    void finished();
+
+    std::string name_;
+    drivers::Url url_;
+    Log log_;
+    Done done_;
+    std::string cancelled_;
+    std::atomic<bool> stopping_{false};
+    std::atomic<bool> printing_{false};
+    std::unique_ptr<drivers::BackgroundJob<JobOutcome>> job_;
+};
+
+}  // namespace calbox::firmware

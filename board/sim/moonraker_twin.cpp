@@ -124,24 +124,6 @@ json settings_of(const Sections& s) {
     return out;
 }
 
-void write_atomically(const std::filesystem::path& path, const std::string& text) {
-    const auto temporary = path.string() + ".part";
-    {
-        std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-        out << text;
-        if (!out.flush()) throw std::runtime_error(temporary + ": cannot write");
-    }
-    std::filesystem::rename(temporary, path);
-}
-
-std::string read_file(const std::filesystem::path& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error(path.string() + ": not there");
-    std::ostringstream text;
-    text << in.rdbuf();
-    return text.str();
-}
-
 json rpc_error(const json& id, int code, const std::string& message) {
     return {{"jsonrpc", "2.0"}, {"error", {{"code", code}, {"message", message}}}, {"id", id}};
 }
@@ -149,34 +131,6 @@ json rpc_error(const json& id, int code, const std::string& message) {
 drivers::ServerResponse http_error(int status, const std::string& message) {
     return {status, "application/json",
             json{{"error", {{"code", status}, {"message", message}}}}.dump()};
-}
-
-// One multipart/form-data body's fields: name -> (file name, contents).
-std::map<std::string, std::pair<std::string, std::string>> form_fields(
-    const std::string& content_type, const std::string& body) {
-    std::map<std::string, std::pair<std::string, std::string>> fields;
-    const auto b = content_type.find("boundary=");
-    if (b == std::string::npos) return fields;
-    const std::string boundary = "--" + content_type.substr(b + 9);
-    std::size_t at = body.find(boundary);
-    while (at != std::string::npos) {
-        at += boundary.size();
-        if (body.compare(at, 2, "--") == 0) break;
-        const auto head_end = body.find("\r\n\r\n", at);
-        const auto next = body.find("\r\n" + boundary, head_end);
-        if (head_end == std::string::npos || next == std::string::npos) break;
-        const std::string head = body.substr(at, head_end - at);
-        const auto quoted = [&head](const std::string& key) {
-            const auto k = head.find(key + "=\"");
-            if (k == std::string::npos) return std::string();
-            const auto start = k + key.size() + 2;
-            return head.substr(start, head.find('"', start) - start);
-        };
-        fields[quoted("name")] = {quoted("filename"),
-                                  body.substr(head_end + 4, next - head_end - 4)};
-        at = next + 2;
-    }
-    return fields;
 }
 
 }  // namespace
@@ -243,10 +197,7 @@ struct MoonrakerTwin::State {
     std::string klippy_state = "ready", state_message = "Printer is ready";
     Clock::time_point ready_at{};  // a restart in progress ends then
     json settings = json::object();
-    std::string print_state = "standby", print_message;
-    int prints_started = 0;
-    std::atomic<bool> stop_print{false};
-    std::thread printing;
+    std::unique_ptr<TwinPrint> print;
     std::atomic<int> requests{0};
     bool config_read_once = false;
     std::unique_ptr<drivers::HttpServer> server;  // last: its handlers use the above
@@ -254,7 +205,7 @@ struct MoonrakerTwin::State {
     // Klipper reads printer.cfg: ready, or its error.
     void load_config() {
         try {
-            const std::string text = read_file(dir / "printer.cfg");
+            const std::string text = read_whole_file(dir / "printer.cfg");
             if (faults.new_config_rejected && text != first_config)
                 throw std::runtime_error(
                     "Option 'position_endstop' in section 'stepper_a' must be below 400");
@@ -271,16 +222,32 @@ struct MoonrakerTwin::State {
 
     // Under the mutex: a restart that has run its time is over.
     void settle() {
-        if (klippy_state == "startup" && !faults.klippy_not_ready && Clock::now() >= ready_at)
+        if (klippy_state == "startup" && !faults.printer_not_ready && Clock::now() >= ready_at)
             load_config();
     }
 
     void restart(std::chrono::milliseconds takes) {
-        stop_print = true;
+        print->stop();
         klippy_state = "startup";
         state_message = "Klipper is restarting";
         ready_at = Clock::now() + takes;
-        print_state = "standby";
+    }
+
+    // print_stats' state, as Klipper names it.
+    std::string print_state() const {
+        switch (print->state()) {
+            case TwinPrint::State::idle:
+                return "standby";
+            case TwinPrint::State::printing:
+                return "printing";
+            case TwinPrint::State::complete:
+                return "complete";
+            case TwinPrint::State::cancelled:
+                return "cancelled";
+            case TwinPrint::State::error:
+                return "error";
+        }
+        return "standby";
     }
 
     bool authorised(const drivers::ServerRequest& r) const {
@@ -293,10 +260,10 @@ struct MoonrakerTwin::State {
         if (!authorised(r)) return http_error(401, "Unauthorized");
         if (r.method == "GET" && r.target == "/server/files/config/printer.cfg") {
             const std::lock_guard lock(mutex);
-            std::string text = read_file(dir / "printer.cfg");
+            std::string text = read_whole_file(dir / "printer.cfg");
             if (faults.config_edited && !config_read_once) {
                 // Someone at the printer changes a value by hand right after the box looked.
-                write_atomically(dir / "printer.cfg", text + "\n# max_z_velocity raised by hand\n");
+                write_file_whole(dir / "printer.cfg", text + "\n# max_z_velocity raised by hand\n");
             }
             config_read_once = true;
             return {200, "text/plain", text};
@@ -314,11 +281,11 @@ struct MoonrakerTwin::State {
             if (root == "config") {
                 if (faults.upload_refused) return http_error(400, "Insufficient disk space");
                 const std::lock_guard lock(mutex);
-                write_atomically(dir / name, contents);
+                write_file_whole(dir / name, contents);
             } else if (root == "gcodes") {
                 std::filesystem::create_directories(dir / "gcodes");
                 const std::lock_guard lock(mutex);
-                write_atomically(dir / "gcodes" / name, contents);
+                write_file_whole(dir / "gcodes" / name, contents);
             } else {
                 return http_error(400, "Invalid root request: " + root);
             }
@@ -327,34 +294,6 @@ struct MoonrakerTwin::State {
                 json{{"item", {{"path", name}, {"root", root}}}, {"action", "create_file"}}.dump()};
         }
         return http_error(404, "Not Found");
-    }
-
-    void run_print(std::vector<std::string> lines) {
-        const bool cancel_half_way = faults.print_cancelled && prints_started == 1;
-        const auto started = Clock::now();
-        const auto per_line = std::chrono::duration<double>(print_seconds) /
-                              static_cast<double>(std::max<std::size_t>(lines.size(), 1));
-        for (std::size_t i = 0; i < lines.size(); ++i) {
-            if (stop_print) return;
-            if (print_seconds > 0)
-                std::this_thread::sleep_until(
-                    started + std::chrono::duration_cast<Clock::duration>(per_line * i));
-            if (cancel_half_way && i == lines.size() / 2) {
-                const std::lock_guard lock(mutex);
-                print_state = "cancelled";
-                return;
-            }
-            try {
-                bench->run_printer_line(lines[i]);
-            } catch (const std::exception& e) {
-                const std::lock_guard lock(mutex);
-                print_state = "error";
-                print_message = e.what();
-                return;
-            }
-        }
-        const std::lock_guard lock(mutex);
-        print_state = "complete";
     }
 
     // One JSON-RPC request: the messages to send back (G-code responses, then the reply).
@@ -392,7 +331,7 @@ struct MoonrakerTwin::State {
             return {reply("ok")};
         }
         if (method == "printer.gcode.script") {
-            if (print_state == "printing")
+            if (print->state() == TwinPrint::State::printing)
                 return {rpc_error(id, 400, "G-code not allowed while printing").dump()};
             lock.unlock();
             std::vector<std::string> out;
@@ -418,25 +357,16 @@ struct MoonrakerTwin::State {
             const std::string name = params.value("filename", std::string());
             std::string job;
             try {
-                job = read_file(dir / "gcodes" / name);
+                job = read_whole_file(dir / "gcodes" / name);
             } catch (const std::exception&) {
                 return {rpc_error(id, 400, "File not found: " + name).dump()};
             }
-            if (print_state == "printing")
-                return {rpc_error(id, 400, "Printer is already printing").dump()};
-            std::vector<std::string> lines;
-            std::istringstream in(job);
-            for (std::string line; std::getline(in, line);) lines.push_back(line);
-            print_state = "printing";
-            print_message.clear();
-            ++prints_started;
-            stop_print = false;
-            if (printing.joinable()) {
-                lock.unlock();
-                printing.join();
-                lock.lock();
+            try {
+                print->start(name, job, print_seconds,
+                             faults.print_cancelled && print->started() == 0);
+            } catch (const std::logic_error& e) {
+                return {rpc_error(id, 400, e.what()).dump()};
             }
-            printing = std::thread([this, lines = std::move(lines)] { run_print(lines); });
             return {reply("ok")};
         }
         if (method == "printer.objects.query") {
@@ -444,7 +374,7 @@ struct MoonrakerTwin::State {
             const json objects = params.value("objects", json::object());
             for (const auto& [object, fields] : objects.items()) {
                 if (object == "print_stats")
-                    status[object] = {{"state", print_state}, {"message", print_message}};
+                    status[object] = {{"state", print_state()}, {"message", print->message()}};
                 else if (object == "configfile")
                     status[object] = {{"settings", settings}};
                 else
@@ -465,13 +395,14 @@ MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
     s.key = std::move(settings.api_key);
     s.faults = settings.faults;
     s.print_seconds = settings.print_seconds;
+    s.print = std::make_unique<TwinPrint>(s.bench);
     std::filesystem::create_directories(s.dir);
     if (!std::filesystem::exists(s.dir / "printer.cfg"))
-        write_atomically(s.dir / "printer.cfg", printer_cfg_of(s.bench->delta_printer_firmware(),
+        write_file_whole(s.dir / "printer.cfg", printer_cfg_of(s.bench->delta_printer_firmware(),
                                                                settings.print_radius_mm));
-    s.first_config = read_file(s.dir / "printer.cfg");
+    s.first_config = read_whole_file(s.dir / "printer.cfg");
     s.load_config();
-    if (s.faults.klippy_not_ready) {
+    if (s.faults.printer_not_ready) {
         s.klippy_state = "startup";
         s.state_message = "mcu 'mcu': Unable to connect";
     }
@@ -485,8 +416,7 @@ MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
 
 MoonrakerTwin::~MoonrakerTwin() {
     state_->server.reset();
-    state_->stop_print = true;
-    if (state_->printing.joinable()) state_->printing.join();
+    state_->print->stop();
 }
 
 std::string MoonrakerTwin::url() const {

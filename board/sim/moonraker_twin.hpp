@@ -10,22 +10,9 @@
 #include <string>
 
 #include "board/sim/delta_reference.hpp"
+#include "board/sim/twin_host.hpp"
 
 namespace calbox::sim {
-
-class TwinBench;
-
-// [faults] keys for a printer behind a host (zero and false: off).
-struct HostFaults {
-    bool wrong_key = false;            // the host takes another key than the box's file holds
-    bool klippy_not_ready = false;     // Klipper stays in its start-up error
-    bool print_cancelled = false;      // someone cancels the box's first print on the host
-    bool upload_refused = false;       // the host refuses to store printer.cfg (its disk full)
-    int restart_at_request = 0;        // the host restarts at its n-th JSON-RPC request
-    int silent_at_request = 0;         // from its n-th JSON-RPC request on, it never replies
-    bool config_edited = false;        // someone edits printer.cfg after the box first reads it
-    bool new_config_rejected = false;  // Klipper refuses the printer.cfg the box writes
-};
 
 // The twin's own reading of a Klipper delta's printer.cfg: sections, then the SAVE_CONFIG block
 // over them; stepper_b and _c take stepper_a's arm_length and position_endstop when they give
@@ -34,13 +21,6 @@ struct HostFaults {
 DeltaParams twin_params_from_printer_cfg(const std::string& text);
 // A printer.cfg for a twin delta (as its owner would have written it).
 std::string printer_cfg_of(const DeltaParams& firmware, double print_radius_mm);
-
-struct TwinHostSettings {
-    std::string api_key;
-    HostFaults faults;
-    double print_radius_mm = 85;  // printer.cfg's, when the host writes it first
-    double print_seconds = 0;     // a print lasts at least this long
-};
 
 class MoonrakerTwin {
   public:

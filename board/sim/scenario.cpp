@@ -131,7 +131,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.boolean("settings_ignored", f.settings_ignored);
         auto& h = f.host;
         r.boolean("host_wrong_key", h.wrong_key);
-        r.boolean("host_klippy_not_ready", h.klippy_not_ready);
+        r.boolean("host_printer_not_ready", h.printer_not_ready);
         r.boolean("host_print_cancelled", h.print_cancelled);
         r.boolean("host_upload_refused", h.upload_refused);
         r.integer("host_restart_at_request", h.restart_at_request, 0, 1000000);
@@ -139,7 +139,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.boolean("host_config_edited", h.config_edited);
         r.boolean("host_new_config_rejected", h.new_config_rejected);
         r.finish();
-        const bool host_fault = h.wrong_key || h.klippy_not_ready || h.print_cancelled ||
+        const bool host_fault = h.wrong_key || h.printer_not_ready || h.print_cancelled ||
                                 h.upload_refused || h.restart_at_request > 0 ||
                                 h.silent_at_request > 0 || h.config_edited || h.new_config_rejected;
         if (host_fault && !s.machine.link.is_host())

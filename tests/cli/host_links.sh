@@ -79,7 +79,7 @@ expect_fault() {  # name, expected text, what printer.cfg must be after, [faults
 expect_fault wrong_key "machine: Moonraker: http://127.0.0.1:" original 'host_wrong_key = true'
 grep -q "HTTP 401" "$work/wrong_key.err" || fail "wrong_key: no HTTP 401"
 expect_fault not_ready "Klipper is not ready (startup: mcu 'mcu': Unable to connect)" original \
-    'host_klippy_not_ready = true'
+    'host_printer_not_ready = true'
 expect_fault restart "Moonraker: " original 'host_restart_at_request = 5'
 expect_fault cancelled "machine: the print was cancelled on the host" original \
     'host_print_cancelled = true'

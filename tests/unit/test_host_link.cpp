@@ -364,7 +364,7 @@ TEST(MoonrakerLink, a_wrong_key_is_named) {
 
 TEST(MoonrakerLink, klipper_not_ready_is_named) {
     sim::HostFaults f;
-    f.klippy_not_ready = true;
+    f.printer_not_ready = true;
     start(f);
     const auto o = await([&](auto done) { link->read_settings_in_force(done); });
     CHECK_FALSE(o.ok);

@@ -133,12 +133,15 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
     });
     ioc.restart();
     ioc.run();
-    if (ec)
-        throw NetworkError(
-            where + ": the reply to " + request.target + ": " +
-            (ec == beast::error::timeout
-                 ? std::string("none within ") + std::to_string(timeout.count()) + " ms"
-                 : ec.message()));
+    if (ec) {
+        std::string why = ec.message();
+        if (ec == beast::error::timeout)
+            why = "none within " + std::to_string(timeout.count()) + " ms";
+        else if (ec == http::error::end_of_stream || ec == net::error::eof ||
+                 ec == net::error::connection_reset)
+            why = "the host closed the connection";
+        throw NetworkError(where + ": the reply to " + request.target + ": " + why);
+    }
     stream.socket().shutdown(tcp::socket::shutdown_both, ec);
     auto response = parser.release();
     return {static_cast<int>(response.result_int()), std::move(response.body())};

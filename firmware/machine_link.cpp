@@ -3,6 +3,7 @@
 
 #include "firmware/appliance.hpp"
 #include "firmware/moonraker_link.hpp"
+#include "firmware/octoprint_link.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -39,19 +40,31 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings
                 "the machine's link is serial but the board has no port for it");
         return std::make_unique<GcodeHost>(*port, clock, serial, log);
     }
+    if (link.url.empty())
+        throw std::runtime_error("[link] kind = \"" + link.kind + "\" needs the host's url");
+    drivers::Url url;
+    try {
+        url = drivers::parse_url(link.url);
+    } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(std::string("[link] url: ") + e.what());
+    }
     if (link.kind == "moonraker") {
         MoonrakerSettings s;
-        if (link.url.empty())
-            throw std::runtime_error("[link] kind = \"moonraker\" needs the host's url");
-        try {
-            s.url = drivers::parse_url(link.url);
-        } catch (const std::invalid_argument& e) {
-            throw std::runtime_error(std::string("[link] url: ") + e.what());
-        }
+        s.url = url;
         s.api_key = read_key_file(link.key_file);
         s.reply_timeout = milliseconds_of(link.reply_timeout_s);
         s.restart_timeout = milliseconds_of(link.restart_timeout_s);
         return std::make_unique<MoonrakerLink>(std::move(s), log);
+    }
+    if (link.kind == "octoprint") {
+        OctoPrintSettings s;
+        s.url = url;
+        s.api_key = read_key_file(link.key_file);
+        if (s.api_key.empty())
+            throw std::runtime_error(
+                "[link] OctoPrint needs key_file (`calbox link key` asks OctoPrint for one)");
+        s.reply_timeout = milliseconds_of(link.reply_timeout_s);
+        return std::make_unique<OctoPrintLink>(std::move(s), log);
     }
     throw std::runtime_error("[link] kind '" + link.kind + "' is not one the box speaks");
 }

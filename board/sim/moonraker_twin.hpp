@@ -22,7 +22,7 @@ DeltaParams twin_params_from_printer_cfg(const std::string& text);
 // A printer.cfg for a twin delta (as its owner would have written it).
 std::string printer_cfg_of(const DeltaParams& firmware, double print_radius_mm);
 
-class MoonrakerTwin {
+class MoonrakerTwin final : public TwinHostServer {
   public:
     // Serves on 127.0.0.1, a free port. `host_dir` holds printer.cfg (written from the bench's
     // printer when absent) and the uploaded jobs.
@@ -30,8 +30,8 @@ class MoonrakerTwin {
                   TwinHostSettings settings);
     MoonrakerTwin(const MoonrakerTwin&) = delete;
     MoonrakerTwin& operator=(const MoonrakerTwin&) = delete;
-    ~MoonrakerTwin();
-    std::string url() const;
+    ~MoonrakerTwin() override;
+    std::string url() const override;
 
   private:
     struct State;

@@ -11,7 +11,7 @@
 #include "board/sim/galvo_twin.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
-#include "board/sim/moonraker_twin.hpp"
+#include "board/sim/twin_host.hpp"
 #include "board/sim/renderer.hpp"
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenes.hpp"

@@ -13,6 +13,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
+#include "board/sim/moonraker_twin.hpp"
+#include "board/sim/octoprint_twin.hpp"
 #include "board/sim/twin_kind.hpp"
 #include "core/targets/gcode_line.hpp"
 #include "drivers/termios_port.hpp"
@@ -537,8 +539,8 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
                             machine.kind);
     board.machine = machine;
     std::unique_ptr<hal::SerialPort> port;
-    if (machine.link.kind == "moonraker") {
-        if (!machine.is_delta())
+    if (machine.link.is_host()) {
+        if (machine.link.kind == "moonraker" && !machine.is_delta())
             throw ScenarioError(settings.scenario_path +
                                 ": the twin's Moonraker host serves a Klipper delta printer");
         // The host's key, made anew each run and handed to the box in its key file (the
@@ -555,10 +557,13 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
         std::filesystem::permissions(
             key_file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
         const auto& scenario = board.bench->scenario();
-        board.host = std::make_unique<MoonrakerTwin>(
-            board.bench, settings.data_dir / kTwinHostDirectory,
-            TwinHostSettings{key, scenario.faults.host, machine.bed_radius_mm,
-                             scenario.host_print_seconds});
+        const TwinHostSettings host{key, scenario.faults.host, machine.bed_radius_mm,
+                                    scenario.host_print_seconds};
+        const auto host_dir = settings.data_dir / kTwinHostDirectory;
+        if (machine.link.kind == "moonraker")
+            board.host = std::make_unique<MoonrakerTwin>(board.bench, host_dir, host);
+        else
+            board.host = std::make_unique<OctoPrintTwin>(board.bench, host_dir, host);
         board.machine.link.url = board.host->url();
         board.machine.link.key_file = key_file.string();
     } else {

@@ -202,7 +202,7 @@ struct SimSettings {
 struct SimBoard {
     std::shared_ptr<TwinBench> bench;
     std::unique_ptr<TwinPrinterLink> printer;  // a printer on a serial link: its pty's end
-    std::unique_ptr<MoonrakerTwin> host;       // a printer behind a host: the host
+    std::unique_ptr<TwinHostServer> host;      // a printer behind a host: the host
     // The scenario's machine file as the box is given it: a host's [link] pointed at the twin's
     // address and key file.
     models::MachineFile machine;

@@ -42,6 +42,13 @@ struct TwinHostSettings {
     double print_seconds = 0;     // a print lasts at least this long
 };
 
+// A twin host serving on loopback (each kind its own API in front of the same bench).
+class TwinHostServer {
+  public:
+    virtual ~TwinHostServer() = default;
+    virtual std::string url() const = 0;  // "http://127.0.0.1:PORT"
+};
+
 // A file replaced whole: written beside and renamed over. Throws std::runtime_error.
 void write_file_whole(const std::filesystem::path& path, const std::string& text);
 std::string read_whole_file(const std::filesystem::path& path);  // throws std::runtime_error

@@ -196,7 +196,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     }
     if (const auto* link = subtable(file, root, "link")) {
         TomlReader l(file, *link, "link");
-        l.text("kind", m.link.kind, {"serial", "moonraker"});
+        l.text("kind", m.link.kind, {"serial", "moonraker", "octoprint"});
         std::optional<std::string> url, key_file;
         std::optional<double> reply_timeout_s, restart_timeout_s;
         l.text("url", url);
@@ -206,11 +206,11 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         l.finish();
         // A serial link's timing is the box's own (its G-code host); these keys are a host's.
         if (!m.link.is_host()) {
-            if (url) l.fail("url", "is a host's (kind = \"moonraker\")");
-            if (key_file) l.fail("key_file", "is a host's (kind = \"moonraker\")");
+            const char* why = "is a host's (kind = \"moonraker\" or \"octoprint\")";
+            if (url) l.fail("url", why);
+            if (key_file) l.fail("key_file", why);
             if (reply_timeout_s || restart_timeout_s)
-                l.fail(reply_timeout_s ? "reply_timeout_s" : "restart_timeout_s",
-                       "is a host's (kind = \"moonraker\")");
+                l.fail(reply_timeout_s ? "reply_timeout_s" : "restart_timeout_s", why);
         }
         m.link.url = url.value_or("");
         m.link.key_file = key_file.value_or("");
@@ -218,6 +218,10 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         m.link.restart_timeout_s = restart_timeout_s.value_or(m.link.restart_timeout_s);
         if (m.link.kind == "moonraker" && m.firmware != "klipper")
             l.fail("kind", "Moonraker serves Klipper printers ([machine] firmware = \"klipper\")");
+        if (m.link.kind == "octoprint" && m.firmware != "marlin")
+            l.fail("kind",
+                   "the box speaks to Marlin printers through OctoPrint ([machine] firmware = "
+                   "\"marlin\")");
     }
     if (const auto* probe = subtable(file, root, "probe")) {
         if (!m.is_delta()) throw MachineFileError(file + ": [probe] on a " + m.kind + " machine");

@@ -81,9 +81,10 @@ struct DeltaLimits {
 };
 
 // [link]: how the box reaches the machine. "serial": the port its board gives it, which it
-// owns. "moonraker": Klipper through its Moonraker host at `url`, which owns the printer's port.
+// owns. "moonraker": Klipper through its Moonraker host at `url`, which owns the printer's port;
+// "octoprint": Marlin through OctoPrint.
 struct MachineLinkSettings {
-    std::string kind = "serial";  // serial | moonraker
+    std::string kind = "serial";  // serial | moonraker | octoprint
     std::string url;              // a host's: "http://printer.local:7125" (the sim board's own)
     // A file holding the host's API key: the key itself is never in the machine file, which is
     // copied into records and shown.

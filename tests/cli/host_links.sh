@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# A Klipper delta behind its Moonraker host (examples/moonraker_delta.toml), as a user runs it:
+# Printers behind a host, as a user runs them. A Klipper delta behind Moonraker
+# (examples/moonraker_delta.toml):
 # calbox run --auto meets the delta goal by the twin's judgement, the host holds the printer.cfg
 # the box wrote (its SAVE_CONFIG block) and Klipper's settings in force were read back; calbox
 # revert puts the old printer.cfg back through the host. Each host fault ends the cycle in error
@@ -45,13 +46,13 @@ key=$(cat "$work/box/twin-host.key")
 [ ${#key} -eq 32 ] || fail "the twin host's key is not 32 characters"
 
 # Each fault on a box already set up (its camera, bed plane and reference marks), with a fresh
-# host whose printer.cfg is the original one.
-expect_fault() {  # name, expected text, what printer.cfg must be after, [faults] line, sed
-    local name="$1" text="$2" cfg="$3" fault="$4" edit="${5:-}"
+# host and printer: the cycle ends in error, its last line naming the fault; the key is nowhere.
+expect_fault() {  # scenario, name, expected text, [faults] line, sed on the scenario
+    local base="$1" name="$2" text="$3" fault="$4" edit="${5:-}"
     local d="$work/$name"
     mkdir -p "$d/box"
     cp "$work/box/camera.yaml" "$work/box/plane.yaml" "$work/box/reference.yaml" "$d/box/"
-    { if [ -n "$edit" ]; then sed -e "$edit" "$scenario"; else cat "$scenario"; fi
+    { if [ -n "$edit" ]; then sed -e "$edit" "$base"; else cat "$base"; fi
       printf '\n[faults]\n%s\n' "$fault"; } > "$d/scenario.toml"
     if "$calbox" run --board sim --auto --scenario "$d/scenario.toml" --data "$d/box" \
         > "$work/$name.out" 2> "$work/$name.err" < /dev/null; then
@@ -63,12 +64,6 @@ expect_fault() {  # name, expected text, what printer.cfg must be after, [faults
         "calbox: the cycle did not complete: "*"$text"*) ;;
         *) fail "$name: the last line is '$last', not one naming '$text'" ;;
     esac
-    local held="$d/box/twin-host/printer.cfg"
-    case "$cfg" in
-        original) cmp -s "$held" "$original" || fail "$name: printer.cfg on the host changed" ;;
-        edited) { cat "$original"; printf '\n# max_z_velocity raised by hand\n'; } | cmp -s - "$held" ||
-                    fail "$name: the hand edit on the host was not left as it was" ;;
-    esac
     local k
     k=$(cat "$d/box/twin-host.key")
     if grep -rqF "$k" "$d/box" "$work/$name.out" "$work/$name.err" --exclude=twin-host.key; then
@@ -76,30 +71,93 @@ expect_fault() {  # name, expected text, what printer.cfg must be after, [faults
     fi
     echo "host fault $name: $last"
 }
-expect_fault wrong_key "machine: Moonraker: http://127.0.0.1:" original 'host_wrong_key = true'
+# Klipper's printer.cfg after a fault: untouched (the original), or someone else's edit left.
+klipper_cfg_is() {  # name, original | edited
+    local held="$work/$1/box/twin-host/printer.cfg"
+    case "$2" in
+        original) cmp -s "$held" "$original" || fail "$1: printer.cfg on the host changed" ;;
+        edited) { cat "$original"; printf '\n# max_z_velocity raised by hand\n'; } | cmp -s - "$held" ||
+                    fail "$1: the hand edit on the host was not left as it was" ;;
+    esac
+}
+expect_fault "$scenario" wrong_key "machine: Moonraker: http://127.0.0.1:" 'host_wrong_key = true'
 grep -q "HTTP 401" "$work/wrong_key.err" || fail "wrong_key: no HTTP 401"
-expect_fault not_ready "Klipper is not ready (startup: mcu 'mcu': Unable to connect)" original \
+klipper_cfg_is wrong_key original
+expect_fault "$scenario" not_ready "Klipper is not ready (startup: mcu 'mcu': Unable to connect)" \
     'host_printer_not_ready = true'
-expect_fault restart "Moonraker: " original 'host_restart_at_request = 5'
-expect_fault cancelled "machine: the print was cancelled on the host" original \
+klipper_cfg_is not_ready original
+expect_fault "$scenario" restart "Moonraker: " 'host_restart_at_request = 5'
+klipper_cfg_is restart original
+expect_fault "$scenario" cancelled "machine: the print was cancelled on the host" \
     'host_print_cancelled = true'
-expect_fault silent "machine: Moonraker: no reply to" original 'host_silent_at_request = 5' \
+klipper_cfg_is cancelled original
+expect_fault "$scenario" silent "machine: Moonraker: no reply to" 'host_silent_at_request = 5' \
     's/^reply_timeout_s = 30.0$/reply_timeout_s = 1.0/'
-expect_fault upload_refused \
+klipper_cfg_is silent original
+expect_fault "$scenario" upload_refused \
     "the host refused the upload of printer.cfg (HTTP 400: Insufficient disk space) (printer.cfg was not changed)" \
-    original 'host_upload_refused = true'
-expect_fault edited \
+    'host_upload_refused = true'
+klipper_cfg_is upload_refused original
+expect_fault "$scenario" edited \
     "printer.cfg was changed on the host since the box read it; nothing was written (printer.cfg on the host is someone else's now: left as it is)" \
-    edited 'host_config_edited = true'
-expect_fault rejected \
+    'host_config_edited = true'
+klipper_cfg_is edited edited
+expect_fault "$scenario" rejected \
     "Klipper did not start with the new printer.cfg (error: Option 'position_endstop' in section 'stepper_a' must be below 400) (the previous printer.cfg was restored)" \
-    original 'host_new_config_rejected = true'
+    'host_new_config_rejected = true'
+klipper_cfg_is rejected original
 
 # The key is in no log, record or output of the whole run either.
 if grep -rqF "$key" "$work/box" "$work/run.out" "$work/run.err" "$work/revert.out" \
     "$work/revert.err" --exclude=twin-host.key; then
     fail "the API key is in a log or a record"
 fi
+
+# A Marlin delta behind OctoPrint (examples/octoprint_delta.toml): the same cycle through
+# OctoPrint's API; the printer's stored settings (its EEPROM, in the data directory) hold the
+# correction, and revert puts back the backup through the host.
+octoprint="$top/examples/octoprint_delta.toml"
+"$calbox" run --board sim --auto --scenario "$octoprint" --data "$work/octo" \
+    > "$work/octo.out" 2> "$work/octo.err" < /dev/null || fail "OctoPrint: calbox run --auto exited $?"
+octo_after=$(sed -nE 's/^after: XY rms ([0-9.]+) mm, max ([0-9.]+) mm$/\1 \2/p' "$work/octo.out")
+awk -v a="$octo_after" 'BEGIN { split(a, v, " "); exit !(v[1] <= 0.002 && v[2] <= 0.008) }' ||
+    fail "OctoPrint: after '$octo_after' misses 0.002 / 0.008"
+stored="$work/octo/twin-printer-settings.gcode"
+factory='M665 L250.000 R140.000 H300.107 X0.000 Y0.000 Z0.000 A0.000 B0.000 C0.000'
+grep -q '^M665 L251\.' "$stored" || fail "OctoPrint: the printer stored no correction"
+grep -qE 'cycle 1: pass 3: .*nothing sent: the printer holds$' "$work/octo.err" ||
+    fail "OctoPrint: the corrected printer did not hold"
+"$calbox" revert --scenario "$octoprint" --data "$work/octo" \
+    > "$work/octo-revert.out" 2> "$work/octo-revert.err" < /dev/null ||
+    fail "OctoPrint: calbox revert exited $?"
+grep -qx "$factory" "$stored" || fail "OctoPrint: revert did not restore the settings: $(cat "$stored")"
+if grep -rqF "$(cat "$work/octo/twin-host.key")" "$work/octo" "$work"/octo*.out "$work"/octo*.err \
+    --exclude=twin-host.key; then
+    fail "OctoPrint: the API key is in a log or a record"
+fi
+marlin_untouched() {  # name: the printer stores no settings but its factory ones
+    local stored="$work/$1/box/twin-printer-settings.gcode"
+    [ ! -e "$stored" ] || grep -qx "$factory" "$stored" || fail "$1: the printer's settings changed"
+}
+expect_fault "$octoprint" octo_wrong_key \
+    "machine: OctoPrint: the host refused the API key (HTTP 403: Invalid API key" 'host_wrong_key = true'
+marlin_untouched octo_wrong_key
+expect_fault "$octoprint" octo_not_ready \
+    "machine: OctoPrint: the printer is not operational (HTTP 409: Printer is not operational)" \
+    'host_printer_not_ready = true'
+marlin_untouched octo_not_ready
+expect_fault "$octoprint" octo_cancelled "machine: the print was cancelled on the host" \
+    'host_print_cancelled = true'
+marlin_untouched octo_cancelled
+expect_fault "$octoprint" octo_upload_refused \
+    "machine: the host refused the upload of calbox-target.gcode (HTTP 409: Insufficient disk space)" \
+    'host_upload_refused = true'
+marlin_untouched octo_upload_refused
+expect_fault "$octoprint" octo_restart "machine: OctoPrint: " 'host_restart_at_request = 5'
+marlin_untouched octo_restart
+expect_fault "$octoprint" octo_silent "machine: OctoPrint: http://127.0.0.1:" \
+    'host_silent_at_request = 4' 's/^reply_timeout_s = 30.0$/reply_timeout_s = 1.0/'
+marlin_untouched octo_silent
 
 # SIGTERM while the host prints the box's target: status 0, the print left to the host.
 mkdir -p "$work/stop/box"
@@ -136,4 +194,4 @@ wait $pid || status=$?
 [ $status -eq 0 ] || fail "SIGINT: exit $status"
 grep -qx 'calbox: stopped by signal 2; the machine link is closed' "$work/serial.err" ||
     fail "SIGINT: the log does not say the link is closed"
-echo "moonraker delta: after $after; revert restored printer.cfg; 8 host faults named; SIGTERM and SIGINT exit 0"
+echo "moonraker delta: after $after; octoprint delta: after $octo_after; revert restored both; 14 host faults named; SIGTERM and SIGINT exit 0"

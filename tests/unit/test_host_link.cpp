@@ -11,6 +11,7 @@
 #include <thread>
 
 #include "board/sim/moonraker_twin.hpp"
+#include "board/sim/octoprint_twin.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/sim_board.hpp"
 #include "core/models/delta_commands.hpp"
@@ -18,6 +19,7 @@
 #include "drivers/http.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/moonraker_link.hpp"
+#include "firmware/octoprint_link.hpp"
 
 using namespace calbox;
 using namespace std::chrono_literals;
@@ -418,4 +420,89 @@ TEST(MoonrakerLink, a_refused_upload_leaves_the_file_as_it_was) {
         "the host refused the upload of printer.cfg (HTTP 400: Insufficient disk space)",
         o.error.c_str());
     STRCMP_EQUAL(before.text.c_str(), host_config().c_str());
+}
+
+// The OctoPrint link against the twin's OctoPrint: Marlin's answers read between the markers it
+// echoes, a job uploaded with print=true and followed to its end, a key asked for through the
+// application keys plugin.
+TEST_GROUP(OctoPrintLink) {
+    fs::path dir;
+    std::shared_ptr<sim::TwinBench> bench;
+    std::unique_ptr<sim::OctoPrintTwin> host;
+    std::unique_ptr<firmware::OctoPrintLink> link;
+    firmware::EventLoop loop;
+    std::vector<std::string> log;
+
+    void setup() override {
+        dir = fs::temp_directory_path() / ("calbox-octoprint-" + std::to_string(::getpid()));
+        fs::remove_all(dir);
+        fs::create_directories(dir);
+        bench = std::make_shared<sim::TwinBench>(
+            sim::load_scenario(CALBOX_SOURCE_DIR "/examples/octoprint_delta.toml"));
+        host = std::make_unique<sim::OctoPrintTwin>(bench, dir / "host",
+                                                    sim::TwinHostSettings{"sesame", {}, 85, 0});
+        firmware::OctoPrintSettings s;
+        s.url = drivers::parse_url(host->url());
+        s.api_key = "sesame";
+        s.reply_timeout = 2000ms;
+        s.poll_interval = 20ms;
+        link = std::make_unique<firmware::OctoPrintLink>(
+            s, [this](const std::string& line) { log.push_back(line); });
+        link->attach(loop);
+    }
+    void teardown() override {
+        link->detach(loop);
+        link.reset();
+        host.reset();
+        fs::remove_all(dir);
+    }
+    template <class Start>
+    firmware::JobOutcome await(Start start_request) {
+        std::optional<firmware::JobOutcome> outcome;
+        start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
+        const auto deadline = std::chrono::steady_clock::now() + 60s;
+        while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
+        CHECK_TEXT(outcome.has_value(), "the request never ended");
+        return *outcome;
+    }
+};
+
+TEST(OctoPrintLink, marlins_answers_come_between_the_markers) {
+    auto o = await([&](auto done) { link->send_commands({"M503"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    // M503's delta lines, nothing of the markers or the oks.
+    bool m665 = false;
+    for (const auto& r : o.replies) {
+        CHECK(r.find("calbox-") == std::string::npos);
+        CHECK(r != "ok");
+        m665 = m665 || r.find("M665 L250.000 R140.000") != std::string::npos;
+    }
+    CHECK_TEXT(m665, "no M665 in the reply to M503");
+    // A second batch reads only its own answers.
+    o = await([&](auto done) { link->send_commands({"M665 L251 R140", "M503"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    bool changed = false;
+    for (const auto& r : o.replies)
+        changed = changed || r.find("M665 L251.000") != std::string::npos;
+    CHECK_TEXT(changed, "the second batch's M503 does not show its M665");
+    // Marlin refusing a line is the request's error.
+    o = await([&](auto done) { link->send_commands({"G1 X10"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("the printer: Error:", o.error.c_str());
+}
+
+TEST(OctoPrintLink, a_job_is_uploaded_printed_and_followed_to_its_end) {
+    const auto o = await([&](auto done) { link->run_job({"G28", "G1 X10 Y10 Z5 F3000"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    CHECK(fs::exists(dir / "host" / "uploads" / "calbox-target.gcode"));
+}
+
+TEST(OctoPrintLink, a_key_is_asked_for_through_the_application_keys_plugin) {
+    std::vector<std::string> said;
+    const auto key =
+        firmware::request_octoprint_key(drivers::parse_url(host->url()), "owner", 10s,
+                                        [&said](const std::string& line) { said.push_back(line); });
+    STRCMP_EQUAL("sesame", key.c_str());
+    CHECK_EQUAL(1u, said.size());
+    STRCMP_CONTAINS("allow calbox's access", said[0].c_str());
 }

@@ -190,13 +190,24 @@ struct Box {
     firmware::EventLoop& loop = appliance.loop;
 
     Box(const Args& args, const Common& common, firmware::CycleSettings settings,
-        const firmware::Cycle::Log& log = log_line)
-        : board(choose_board(args, common, *clock, log)),
+        const firmware::Cycle::Log& log = log_line, const firmware::LinkSettings& link = {})
+        : board(with_link(choose_board(args, common, *clock, log), link)),
           photo_files(args.get("--camera-files") ? board::photo_files(*args.get("--camera-files"))
                                                  : nullptr),
           data(board::data_directory(common.data_dir)),
           appliance(firmware::ApplianceDevices::of(board.devices(), photo_files.get()), *data,
                     *clock, {}, board.machine, with_board(std::move(settings)), log) {}
+
+    // The configuration's link.* over the machine file's [link].
+    static ChosenBoard with_link(ChosenBoard chosen, const firmware::LinkSettings& link) {
+        try {
+            chosen.machine.link = link.over(chosen.machine);
+        } catch (const firmware::ConfigError& e) {
+            throw UsageError(std::string("configuration: ") + e.what());
+        }
+        if (chosen.sim) chosen.sim->machine.link = chosen.machine.link;
+        return chosen;
+    }
 
     // The boards the sim board's person holds are the ones the box asks for.
     firmware::CycleSettings with_board(firmware::CycleSettings settings) const {
@@ -287,7 +298,7 @@ int run(const std::vector<std::string>& words) {
         log_line(line);
         log_book.add(line);
     };
-    Box box(args, common, settings_from(config), log);
+    Box box(args, common, settings_from(config), log, config.settings().link);
     firmware::EventLoop& loop = box.loop;
     firmware::Cycle& cycle = box.cycle;
     hal::Storage& data = *box.data;

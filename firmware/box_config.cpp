@@ -9,6 +9,7 @@
 
 #include "core/geometry/pattern_spec.hpp"
 #include "core/number_text.hpp"
+#include "drivers/http.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -100,6 +101,20 @@ std::string text_of(const std::optional<board::ModbusEndpoint>& e) {
 std::string decimal_text(double v) {
     return number_text("%.10g", v);
 }
+
+}  // namespace
+
+models::MachineLinkSettings LinkSettings::over(const models::MachineFile& machine) const {
+    models::MachineFile m = machine;
+    if (kind != "machine") m.link.kind = kind;
+    if (!url.empty()) m.link.url = url;
+    if (!key_file.empty()) m.link.key_file = key_file;
+    if (const auto why = models::link_mismatch(m); !why.empty())
+        throw ConfigError("link.kind: " + why);
+    return m.link;
+}
+
+namespace {
 
 // The schema, table by table in the order the file is written. Ranges are what the box can do
 // sensibly, each with its reason where it is not plain: a long press under 0.5 s is an accidental
@@ -333,6 +348,47 @@ const ConfigKey kSchema[] = {
      [](BoxSettings& s, const ConfigKey& k, std::string_view t) {
          s.modbus.timeouts.byte_ms = static_cast<std::uint32_t>(whole(k, t));
      }},
+    {"link.kind",
+     K::choice,
+     {},
+     0,
+     0,
+     "machine|serial|moonraker|octoprint",
+     true,
+     "how the box reaches the machine: machine (its machine file's [link]), its serial port, or "
+     "a host that owns the printer (docs/links.md)",
+     [](const BoxSettings& s) { return s.link.kind; },
+     [](BoxSettings& s, const ConfigKey& k, std::string_view t) { s.link.kind = choice(k, t); }},
+    {"link.url",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     true,
+     "the host's address, http://HOST:PORT (empty: the machine file's)",
+     [](const BoxSettings& s) { return s.link.url; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) {
+         const std::string url = one_line(t);
+         if (!url.empty()) {
+             try {
+                 (void)drivers::parse_url(url);
+             } catch (const std::invalid_argument& e) {
+                 throw ConfigError(e.what());
+             }
+         }
+         s.link.url = url;
+     }},
+    {"link.key_file",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     true,
+     "the file holding the host's API key, alone (empty: the machine file's)",
+     [](const BoxSettings& s) { return s.link.key_file; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) { s.link.key_file = one_line(t); }},
 };
 
 std::string_view table_of(std::string_view name) {

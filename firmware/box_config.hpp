@@ -35,11 +35,22 @@ struct ModbusSettings {
     board::ModbusTimeouts timeouts;
 };
 
+// The machine's link as the configuration sets it over the machine file's [link]: each value
+// left at its default keeps the machine file's.
+struct LinkSettings {
+    std::string kind = "machine";  // machine (the machine file's) | serial | moonraker | octoprint
+    std::string url;               // a host's
+    std::string key_file;          // the host's API key, alone in the file
+    // `machine`'s [link] with these over it; throws ConfigError when they do not fit its firmware.
+    models::MachineLinkSettings over(const models::MachineFile& machine) const;
+};
+
 // Everything the configuration sets, typed; a default-constructed one is the defaults.
 struct BoxSettings {
     CycleSettings cycle;
     ConsoleSettings console;
     ModbusSettings modbus;
+    LinkSettings link;
 };
 
 // "tcp:HOST:PORT" or "rtu:DEVICE:BAUD", as it is written.

@@ -216,12 +216,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         m.link.key_file = key_file.value_or("");
         m.link.reply_timeout_s = reply_timeout_s.value_or(m.link.reply_timeout_s);
         m.link.restart_timeout_s = restart_timeout_s.value_or(m.link.restart_timeout_s);
-        if (m.link.kind == "moonraker" && m.firmware != "klipper")
-            l.fail("kind", "Moonraker serves Klipper printers ([machine] firmware = \"klipper\")");
-        if (m.link.kind == "octoprint" && m.firmware != "marlin")
-            l.fail("kind",
-                   "the box speaks to Marlin printers through OctoPrint ([machine] firmware = "
-                   "\"marlin\")");
+        if (const auto why = link_mismatch(m); !why.empty()) l.fail("kind", why);
     }
     if (const auto* probe = subtable(file, root, "probe")) {
         if (!m.is_delta()) throw MachineFileError(file + ": [probe] on a " + m.kind + " machine");
@@ -306,6 +301,17 @@ double bed_scale_at_photo(const MachineFile& m, std::optional<double> photo_bed_
     }
     return 1.0 +
            bed_expansion_per_k(*m.bed_material) * (*photo_bed_temperature_c - *m.bed_temperature_c);
+}
+
+std::string link_mismatch(const MachineFile& m) {
+    if (m.link.kind == "moonraker" && m.firmware != "klipper")
+        return "Moonraker serves Klipper printers ([machine] firmware = \"klipper\", not \"" +
+               m.firmware + "\")";
+    if (m.link.kind == "octoprint" && m.firmware != "marlin")
+        return "the box speaks to Marlin printers through OctoPrint ([machine] firmware = "
+               "\"marlin\", not \"" +
+               m.firmware + "\")";
+    return {};
 }
 
 std::string fingerprint(const MachineFile& m) {

@@ -149,6 +149,11 @@ std::string fingerprint(const MachineFile& machine);
 // The same kind of digest of any canonical text ("fnv1a64:" and 16 hex digits).
 std::string digest(std::string_view canonical);
 
+// Why `machine`'s link cannot reach its firmware ("" when it can): Moonraker serves Klipper,
+// OctoPrint Marlin. The machine file's [link] is checked so, and so is one the box's
+// configuration overrides.
+std::string link_mismatch(const MachineFile& machine);
+
 // Parses a whole machine file; `source` names it in messages. Unknown sections and keys are
 // errors, except sections listed in `other_sections` (a twin scenario adds its own).
 MachineFile parse_machine_file(std::string_view toml_text, const std::string& source,

@@ -159,6 +159,22 @@ expect_fault "$octoprint" octo_silent "machine: OctoPrint: http://127.0.0.1:" \
     'host_silent_at_request = 4' 's/^reply_timeout_s = 30.0$/reply_timeout_s = 1.0/'
 marlin_untouched octo_silent
 
+# The configuration's link.* over the machine file's [link], checked against its firmware.
+printf '[link]\nkind = "moonraker"\n' > "$work/moonraker.toml"
+if "$calbox" run --board sim --scenario "$octoprint" --config "$work/moonraker.toml" \
+    --data "$work/cfg1" > "$work/cfg1.out" 2> "$work/cfg1.err" < /dev/null; then
+    fail "a Moonraker link to a Marlin printer was taken"
+fi
+grep -q 'configuration: link.kind: Moonraker serves Klipper printers (\[machine\] firmware = "klipper", not "marlin")' \
+    "$work/cfg1.err" || fail "the configuration's wrong link kind was not named: $(cat "$work/cfg1.err")"
+printf '[link]\nkey_file = "%s/no-such.key"\n' "$work" > "$work/nokey.toml"
+if "$calbox" run --board sim --scenario "$octoprint" --config "$work/nokey.toml" \
+    --data "$work/cfg2" > "$work/cfg2.out" 2> "$work/cfg2.err" < /dev/null; then
+    fail "a key file that is not there was taken"
+fi
+grep -q "\[link\] key_file $work/no-such.key: cannot be read" "$work/cfg2.err" ||
+    fail "the configuration's key file was not used: $(cat "$work/cfg2.err")"
+
 # SIGTERM while the host prints the box's target: status 0, the print left to the host.
 mkdir -p "$work/stop/box"
 cp "$work/box/camera.yaml" "$work/box/plane.yaml" "$work/box/reference.yaml" "$work/stop/box/"

@@ -335,7 +335,12 @@ void HttpServer::State::serve(tcp::socket socket) {
             serve_socket(std::move(socket), req, request);
             return;
         }
-        const ServerResponse answer = handlers.http(request);
+        ServerResponse answer;
+        try {
+            answer = handlers.http(request);
+        } catch (const std::exception& e) {
+            answer = {500, "text/plain", e.what()};
+        }
         http::response<http::string_body> res{static_cast<http::status>(answer.status), 11};
         res.set(http::field::content_type, answer.content_type);
         res.keep_alive(req.keep_alive());
@@ -399,7 +404,13 @@ void HttpServer::State::serve_socket(tcp::socket accepted,
             }
             const std::string message = beast::buffers_to_string(buffer.data());
             buffer.consume(buffer.size());
-            for (auto& out : handlers.message(request, message)) outbox.push_back(std::move(out));
+            try {
+                for (auto& out : handlers.message(request, message))
+                    outbox.push_back(std::move(out));
+            } catch (const std::exception&) {
+                ioc.stop();  // a handler that fails closes its socket
+                return;
+            }
             write_next();
             read_next();
         });

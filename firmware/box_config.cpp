@@ -353,7 +353,7 @@ const ConfigKey kSchema[] = {
      {},
      0,
      0,
-     "machine|serial|moonraker|octoprint",
+     "machine|serial|moonraker|octoprint|duet",
      true,
      "how the box reaches the machine: machine (its machine file's [link]), its serial port, or "
      "a host that owns the printer (docs/links.md)",

@@ -38,9 +38,10 @@ struct ModbusSettings {
 // The machine's link as the configuration sets it over the machine file's [link]: each value
 // left at its default keeps the machine file's.
 struct LinkSettings {
-    std::string kind = "machine";  // machine (the machine file's) | serial | moonraker | octoprint
-    std::string url;               // a host's
-    std::string key_file;          // the host's API key, alone in the file
+    std::string kind =
+        "machine";         // machine (the machine file's) | serial | moonraker | octoprint | duet
+    std::string url;       // a host's
+    std::string key_file;  // the host's API key, alone in the file
     // `machine`'s [link] with these over it; throws ConfigError when they do not fit its firmware.
     models::MachineLinkSettings over(const models::MachineFile& machine) const;
 };

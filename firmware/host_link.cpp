@@ -21,7 +21,7 @@ void HostLink::detach(EventLoop& loop) {
 }
 
 std::string HostLink::closing_note() const {
-    if (printing_)
+    if (printing_ || left_a_print_)
         return "the job in flight on " + describe() + " is left to the host (cancel it there)";
     return "the link to " + describe() + " is closed";
 }
@@ -31,6 +31,7 @@ void HostLink::start(std::function<JobOutcome()> request, Done done) {
     done_ = std::move(done);
     cancelled_.clear();
     stopping_ = false;
+    left_a_print_ = false;
     job_->start([request = std::move(request)] {
         try {
             return request();
@@ -58,7 +59,10 @@ void HostLink::cancel(const std::string& why) {
     if (!busy()) return;
     cancelled_ = why;
     stopping_ = true;
-    if (printing_) log_(describe() + ": the print goes on there; cancel it on the host if needed");
+    if (printing_) {
+        left_a_print_ = true;
+        log_(describe() + ": the print goes on there; cancel it on the host if needed");
+    }
 }
 
 void HostLink::check_stop() const {

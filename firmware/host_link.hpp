@@ -61,6 +61,7 @@ class HostLink : public MachineLink {
     std::string cancelled_;
     std::atomic<bool> stopping_{false};
     std::atomic<bool> printing_{false};
+    bool left_a_print_ = false;  // the last request was cancelled while the host printed
     std::unique_ptr<drivers::BackgroundJob<JobOutcome>> job_;
 };
 

@@ -2,6 +2,7 @@
 #include <sstream>
 
 #include "firmware/appliance.hpp"
+#include "firmware/duet_link.hpp"
 #include "firmware/moonraker_link.hpp"
 #include "firmware/octoprint_link.hpp"
 
@@ -65,6 +66,13 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings
                 "[link] OctoPrint needs key_file (`calbox link key` asks OctoPrint for one)");
         s.reply_timeout = milliseconds_of(link.reply_timeout_s);
         return std::make_unique<OctoPrintLink>(std::move(s), log);
+    }
+    if (link.kind == "duet") {
+        DuetSettings s;
+        s.url = url;
+        s.password = read_key_file(link.key_file);
+        s.reply_timeout = milliseconds_of(link.reply_timeout_s);
+        return std::make_unique<DuetLink>(std::move(s), log);
     }
     throw std::runtime_error("[link] kind '" + link.kind + "' is not one the box speaks");
 }

@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
+#include "board/sim/duet_twin.hpp"
 #include "board/sim/moonraker_twin.hpp"
 #include "board/sim/octoprint_twin.hpp"
 #include "board/sim/twin_kind.hpp"
@@ -562,8 +563,10 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
         const auto host_dir = settings.data_dir / kTwinHostDirectory;
         if (machine.link.kind == "moonraker")
             board.host = std::make_unique<MoonrakerTwin>(board.bench, host_dir, host);
-        else
+        else if (machine.link.kind == "octoprint")
             board.host = std::make_unique<OctoPrintTwin>(board.bench, host_dir, host);
+        else
+            board.host = std::make_unique<DuetTwin>(board.bench, host_dir, host);
         board.machine.link.url = board.host->url();
         board.machine.link.key_file = key_file.string();
     } else {

@@ -196,7 +196,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     }
     if (const auto* link = subtable(file, root, "link")) {
         TomlReader l(file, *link, "link");
-        l.text("kind", m.link.kind, {"serial", "moonraker", "octoprint"});
+        l.text("kind", m.link.kind, {"serial", "moonraker", "octoprint", "duet"});
         std::optional<std::string> url, key_file;
         std::optional<double> reply_timeout_s, restart_timeout_s;
         l.text("url", url);
@@ -206,7 +206,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         l.finish();
         // A serial link's timing is the box's own (its G-code host); these keys are a host's.
         if (!m.link.is_host()) {
-            const char* why = "is a host's (kind = \"moonraker\" or \"octoprint\")";
+            const char* why = "is a host's (kind = \"moonraker\", \"octoprint\" or \"duet\")";
             if (url) l.fail("url", why);
             if (key_file) l.fail("key_file", why);
             if (reply_timeout_s || restart_timeout_s)
@@ -310,6 +310,9 @@ std::string link_mismatch(const MachineFile& m) {
     if (m.link.kind == "octoprint" && m.firmware != "marlin")
         return "the box speaks to Marlin printers through OctoPrint ([machine] firmware = "
                "\"marlin\", not \"" +
+               m.firmware + "\")";
+    if (m.link.kind == "duet" && m.firmware != "rrf")
+        return "a Duet's web API serves RepRapFirmware ([machine] firmware = \"rrf\", not \"" +
                m.firmware + "\")";
     return {};
 }

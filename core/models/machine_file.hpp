@@ -82,9 +82,10 @@ struct DeltaLimits {
 
 // [link]: how the box reaches the machine. "serial": the port its board gives it, which it
 // owns. "moonraker": Klipper through its Moonraker host at `url`, which owns the printer's port;
-// "octoprint": Marlin through OctoPrint.
+// "octoprint": Marlin through OctoPrint; "duet": RepRapFirmware through a Duet's web API (its
+// key_file holds the board's password).
 struct MachineLinkSettings {
-    std::string kind = "serial";  // serial | moonraker | octoprint
+    std::string kind = "serial";  // serial | moonraker | octoprint | duet
     std::string url;              // a host's: "http://printer.local:7125" (the sim board's own)
     // A file holding the host's API key: the key itself is never in the machine file, which is
     // copied into records and shown.

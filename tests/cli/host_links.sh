@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# Printers behind a host, as a user runs them. A Klipper delta behind Moonraker
+# Printers behind a host, as a user runs them (a Marlin delta behind OctoPrint and a
+# RepRapFirmware one on a Duet further down). A Klipper delta behind Moonraker
 # (examples/moonraker_delta.toml):
 # calbox run --auto meets the delta goal by the twin's judgement, the host holds the printer.cfg
 # the box wrote (its SAVE_CONFIG block) and Klipper's settings in force were read back; calbox
@@ -159,6 +160,51 @@ expect_fault "$octoprint" octo_silent "machine: OctoPrint: http://127.0.0.1:" \
     'host_silent_at_request = 4' 's/^reply_timeout_s = 30.0$/reply_timeout_s = 1.0/'
 marlin_untouched octo_silent
 
+# A RepRapFirmware delta on a Duet (examples/duet_delta.toml): the same cycle through the board's
+# web API; its config-override.g (in the data directory) holds the correction, and revert puts
+# back the backup through the board.
+duet="$top/examples/duet_delta.toml"
+"$calbox" run --board sim --auto --scenario "$duet" --data "$work/duet" \
+    > "$work/duet.out" 2> "$work/duet.err" < /dev/null || fail "Duet: calbox run --auto exited $?"
+duet_after=$(sed -nE 's/^after: XY rms ([0-9.]+) mm, max ([0-9.]+) mm$/\1 \2/p' "$work/duet.out")
+awk -v a="$duet_after" 'BEGIN { split(a, v, " "); exit !(v[1] <= 0.002 && v[2] <= 0.008) }' ||
+    fail "Duet: after '$duet_after' misses 0.002 / 0.008"
+override="$work/duet/twin-printer-settings.gcode"
+rrf_factory='M665 L250.000:250.000:250.000 R140.000 H300.107 X0.000 Y0.000 Z0.000'
+grep -q '^M665 L25[01]\.[0-9]*:' "$override" || fail "Duet: the printer stored no correction"
+grep -qx "$rrf_factory" "$override" && fail "Duet: the correction was not stored"
+"$calbox" revert --scenario "$duet" --data "$work/duet" \
+    > "$work/duet-revert.out" 2> "$work/duet-revert.err" < /dev/null ||
+    fail "Duet: calbox revert exited $?"
+grep -qx "$rrf_factory" "$override" || fail "Duet: revert did not restore the settings: $(cat "$override")"
+if grep -rqF "$(cat "$work/duet/twin-host.key")" "$work/duet" "$work"/duet*.out "$work"/duet*.err \
+    --exclude=twin-host.key; then
+    fail "Duet: the password is in a log or a record"
+fi
+rrf_untouched() {
+    local stored="$work/$1/box/twin-printer-settings.gcode"
+    [ ! -e "$stored" ] || grep -qx "$rrf_factory" "$stored" || fail "$1: the printer's settings changed"
+}
+expect_fault "$duet" duet_wrong_password \
+    "machine: Duet: the board refused the password (is key_file's the board's M551?)" \
+    'host_wrong_key = true'
+rrf_untouched duet_wrong_password
+expect_fault "$duet" duet_not_ready "machine: RepRapFirmware is not ready (off)" \
+    'host_printer_not_ready = true'
+rrf_untouched duet_not_ready
+expect_fault "$duet" duet_cancelled "machine: the print was cancelled on the host" \
+    'host_print_cancelled = true'
+rrf_untouched duet_cancelled
+expect_fault "$duet" duet_upload_refused \
+    "machine: the host refused the upload of calbox-target.gcode (rr_upload: err 1)" \
+    'host_upload_refused = true'
+rrf_untouched duet_upload_refused
+expect_fault "$duet" duet_restart "machine: Duet: " 'host_restart_at_request = 6'
+rrf_untouched duet_restart
+expect_fault "$duet" duet_silent "machine: Duet: http://127.0.0.1:" \
+    'host_silent_at_request = 5' 's/^reply_timeout_s = 30.0$/reply_timeout_s = 1.0/'
+rrf_untouched duet_silent
+
 # The configuration's link.* over the machine file's [link], checked against its firmware.
 printf '[link]\nkind = "moonraker"\n' > "$work/moonraker.toml"
 if "$calbox" run --board sim --scenario "$octoprint" --config "$work/moonraker.toml" \
@@ -210,4 +256,4 @@ wait $pid || status=$?
 [ $status -eq 0 ] || fail "SIGINT: exit $status"
 grep -qx 'calbox: stopped by signal 2; the machine link is closed' "$work/serial.err" ||
     fail "SIGINT: the log does not say the link is closed"
-echo "moonraker delta: after $after; octoprint delta: after $octo_after; revert restored both; 14 host faults named; SIGTERM and SIGINT exit 0"
+echo "moonraker delta: after $after; octoprint delta: after $octo_after; duet delta: after $duet_after; revert restored each; 20 host faults named; SIGTERM and SIGINT exit 0"

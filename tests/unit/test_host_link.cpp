@@ -10,6 +10,7 @@
 #include <sstream>
 #include <thread>
 
+#include "board/sim/duet_twin.hpp"
 #include "board/sim/moonraker_twin.hpp"
 #include "board/sim/octoprint_twin.hpp"
 #include "board/sim/scenario.hpp"
@@ -17,6 +18,7 @@
 #include "core/models/delta_commands.hpp"
 #include "core/models/machine_file.hpp"
 #include "drivers/http.hpp"
+#include "firmware/duet_link.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/moonraker_link.hpp"
 #include "firmware/octoprint_link.hpp"
@@ -505,4 +507,78 @@ TEST(OctoPrintLink, a_key_is_asked_for_through_the_application_keys_plugin) {
     STRCMP_EQUAL("sesame", key.c_str());
     CHECK_EQUAL(1u, said.size());
     STRCMP_CONTAINS("allow calbox's access", said[0].c_str());
+}
+
+// The Duet link against the twin's Duet: the password for a session, replies read up to the
+// marker, a job uploaded with its CRC32 and started with M32.
+TEST_GROUP(DuetLink) {
+    fs::path dir;
+    std::shared_ptr<sim::TwinBench> bench;
+    std::unique_ptr<sim::DuetTwin> host;
+    std::unique_ptr<firmware::DuetLink> link;
+    firmware::EventLoop loop;
+
+    void setup() override {
+        dir = fs::temp_directory_path() / ("calbox-duet-" + std::to_string(::getpid()));
+        fs::remove_all(dir);
+        fs::create_directories(dir);
+        bench = std::make_shared<sim::TwinBench>(
+            sim::load_scenario(CALBOX_SOURCE_DIR "/examples/duet_delta.toml"));
+        host = std::make_unique<sim::DuetTwin>(bench, dir / "host",
+                                               sim::TwinHostSettings{"pass word", {}, 85, 0});
+    }
+    void connect(const std::string& password) {
+        firmware::DuetSettings s;
+        s.url = drivers::parse_url(host->url());
+        s.password = password;
+        s.reply_timeout = 2000ms;
+        s.poll_interval = 20ms;
+        link = std::make_unique<firmware::DuetLink>(s, [](const std::string&) {});
+        link->attach(loop);
+    }
+    void teardown() override {
+        if (link) link->detach(loop);
+        link.reset();
+        host.reset();
+        fs::remove_all(dir);
+    }
+    template <class Start>
+    firmware::JobOutcome await(Start start_request) {
+        std::optional<firmware::JobOutcome> outcome;
+        start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
+        const auto deadline = std::chrono::steady_clock::now() + 60s;
+        while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
+        CHECK_TEXT(outcome.has_value(), "the request never ended");
+        return *outcome;
+    }
+};
+
+TEST(DuetLink, query_values_are_percent_encoded) {
+    STRCMP_EQUAL("M665%20L250%3A250%3A250%20R140",
+                 firmware::url_encoded("M665 L250:250:250 R140").c_str());
+    STRCMP_EQUAL("M118%20S%22a-b_c.d~%22", firmware::url_encoded("M118 S\"a-b_c.d~\"").c_str());
+}
+
+TEST(DuetLink, rrf_reports_its_settings_through_the_board) {
+    connect("pass word");
+    auto o = await([&](auto done) { link->send_commands({"M665", "M666"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    CHECK_EQUAL(2u, o.replies.size());
+    STRCMP_CONTAINS("Diagonals 250.000:250.000:250.000, delta radius 140.000",
+                    o.replies[0].c_str());
+    STRCMP_CONTAINS("Endstop adjustments X0.00 Y0.00 Z0.00", o.replies[1].c_str());
+    o = await([&](auto done) { link->run_job({"G28", "G1 X10 Y10 Z5 F3000"}, done); });
+    CHECK_TEXT(o.ok, o.error.c_str());
+    CHECK(fs::exists(dir / "host" / "gcodes" / "calbox-target.gcode"));
+    o = await([&](auto done) { link->send_commands({"M999 P\"unknown\""}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("the printer: Error:", o.error.c_str());
+}
+
+TEST(DuetLink, a_wrong_password_is_named_and_never_shown) {
+    connect("guess");
+    const auto o = await([&](auto done) { link->send_commands({"M665"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_EQUAL("Duet: the board refused the password (is key_file's the board's M551?)",
+                 o.error.c_str());
 }

@@ -1,0 +1,219 @@
+#include "board/sim/duet_twin.hpp"
+
+#include <atomic>
+#include <boost/crc.hpp>
+#include <cctype>
+#include <chrono>
+#include <cstdio>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "board/sim/sim_board.hpp"
+#include "drivers/http.hpp"
+
+namespace calbox::sim {
+namespace {
+
+using json = nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+// A query string's parameters, percent-decoded.
+std::map<std::string, std::string> query_of(const std::string& target) {
+    std::map<std::string, std::string> out;
+    const auto q = target.find('?');
+    if (q == std::string::npos) return out;
+    std::string rest = target.substr(q + 1);
+    std::size_t at = 0;
+    while (at <= rest.size()) {
+        const auto amp = rest.find('&', at);
+        const std::string pair = rest.substr(at, amp == std::string::npos ? amp : amp - at);
+        const auto eq = pair.find('=');
+        std::string value;
+        const std::string raw = eq == std::string::npos ? "" : pair.substr(eq + 1);
+        for (std::size_t i = 0; i < raw.size(); ++i) {
+            if (raw[i] == '%' && i + 2 < raw.size() &&
+                std::isxdigit(static_cast<unsigned char>(raw[i + 1])) != 0 &&
+                std::isxdigit(static_cast<unsigned char>(raw[i + 2])) != 0) {
+                value += static_cast<char>(std::stoi(raw.substr(i + 1, 2), nullptr, 16));
+                i += 2;
+            } else {
+                value += raw[i] == '+' ? ' ' : raw[i];
+            }
+        }
+        out[pair.substr(0, eq)] = value;
+        if (amp == std::string::npos) break;
+        at = amp + 1;
+    }
+    return out;
+}
+
+std::string path_of(const std::string& target) {
+    return target.substr(0, target.find('?'));
+}
+
+drivers::ServerResponse json_reply(const json& j) {
+    return {200, "application/json", j.dump()};
+}
+
+}  // namespace
+
+struct DuetTwin::State {
+    std::shared_ptr<TwinBench> bench;
+    std::filesystem::path dir;
+    std::string password;
+    HostFaults faults;
+    double print_seconds = 0;
+    std::unique_ptr<TwinPrint> print;
+
+    std::mutex mutex;
+    std::atomic<int> requests{0};
+    std::atomic<bool> stopping{false};
+    Clock::time_point restarting_until{};
+    std::string session_key;
+    std::string reply;                            // what rr_reply hands out next
+    std::unique_ptr<drivers::HttpServer> server;  // last: its handlers use the above
+
+    std::string status() const {
+        if (faults.printer_not_ready) return "off";
+        return print->state() == TwinPrint::State::printing ? "processing" : "idle";
+    }
+
+    // One line of G-code from rr_gcode, under the mutex: its reply kept for rr_reply.
+    void run(const std::string& line) {
+        if (line.rfind("M118 ", 0) == 0) {
+            const auto q = line.find('"');
+            reply += line.substr(q + 1, line.rfind('"') - q - 1) + "\n";
+            return;
+        }
+        if (line.rfind("M32 ", 0) == 0) {
+            const auto q = line.find('"');
+            const std::string path = line.substr(q + 1, line.rfind('"') - q - 1);
+            const std::string name = path.substr(path.rfind('/') + 1);
+            try {
+                print->start(path, read_whole_file(dir / "gcodes" / name), print_seconds,
+                             faults.print_cancelled && print->started() == 0);
+            } catch (const std::exception& e) {
+                reply += "Error: M32: " + std::string(e.what()) + "\n";
+            }
+            return;
+        }
+        if (print->state() == TwinPrint::State::printing) {
+            reply += "Error: busy printing\n";
+            return;
+        }
+        try {
+            for (const auto& r : bench->run_printer_line(line)) reply += r + "\n";
+        } catch (const std::exception& e) {
+            reply += "Error: " + std::string(e.what()) + "\n";
+        }
+    }
+
+    drivers::ServerResponse http(const drivers::ServerRequest& r) {
+        const int n = ++requests;
+        if (faults.silent_at_request > 0 && n >= faults.silent_at_request) {
+            while (!stopping) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+            return {503, "text/plain", "stopping"};
+        }
+        if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
+            {
+                const std::lock_guard lock(mutex);
+                restarting_until = Clock::now() + std::chrono::milliseconds(1500);
+                session_key.clear();
+                print->stop();
+            }
+            server->drop_connections();
+            return {503, "text/plain", "restarting"};
+        }
+        const std::lock_guard lock(mutex);
+        if (Clock::now() < restarting_until) return {503, "text/plain", "starting"};
+        const std::string path = path_of(r.target);
+        const auto query = query_of(r.target);
+        if (path == "/rr_connect") {
+            const std::string wanted = faults.wrong_key ? password + "-changed" : password;
+            if (query.count("password") == 0 || query.at("password") != wanted)
+                return json_reply({{"err", 1}});
+            session_key = std::to_string(1000 + n);
+            return json_reply({{"err", 0},
+                               {"sessionTimeout", 8000},
+                               {"boardType", "duet3mb6hc102"},
+                               {"apiLevel", 1},
+                               {"sessionKey", std::stol(session_key)}});
+        }
+        const auto key = r.headers.find("x-session-key");
+        if (session_key.empty() || key == r.headers.end() || key->second != session_key)
+            return {401, "text/plain", ""};
+        if (path == "/rr_gcode") {
+            if (status() != "off") run(query.count("gcode") != 0 ? query.at("gcode") : "");
+            return json_reply({{"buff", 255}});
+        }
+        if (path == "/rr_reply") {
+            std::string out;
+            out.swap(reply);
+            return {200, "text/plain", out};
+        }
+        if (path == "/rr_upload" && r.method == "POST") {
+            if (faults.upload_refused) return json_reply({{"err", 1}});
+            boost::crc_32_type crc;
+            crc.process_bytes(r.body.data(), r.body.size());
+            char hex[16];
+            std::snprintf(hex, sizeof hex, "%08x", crc.checksum());
+            if (query.count("crc32") == 0 || query.at("crc32") != hex)
+                return json_reply({{"err", 1}});
+            const std::string name = query.count("name") != 0 ? query.at("name") : "";
+            const std::string file = name.substr(name.rfind('/') + 1);
+            if (name.rfind("0:/gcodes/", 0) != 0 || file.empty() || file[0] == '.')
+                return json_reply({{"err", 1}});
+            std::filesystem::create_directories(dir / "gcodes");
+            write_file_whole(dir / "gcodes" / file, r.body);
+            return json_reply({{"err", 0}});
+        }
+        if (path == "/rr_model") {
+            const std::string k = query.count("key") != 0 ? query.at("key") : "";
+            json result = json::object();
+            if (k == "state") {
+                result = {{"status", status()}};
+            } else if (k == "job") {
+                const auto s = print->state();
+                result = {{"lastFileName", print->started() > 0 ? json(print->name()) : json()},
+                          {"lastFileCancelled", s == TwinPrint::State::cancelled},
+                          {"lastFileAborted", s == TwinPrint::State::error}};
+            }
+            return json_reply({{"key", k}, {"flags", "d99f"}, {"result", result}});
+        }
+        return {404, "text/plain", "not found"};
+    }
+};
+
+DuetTwin::DuetTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_dir,
+                   TwinHostSettings settings)
+    : state_(std::make_unique<State>()) {
+    auto& s = *state_;
+    s.bench = std::move(bench);
+    s.dir = std::move(host_dir);
+    s.password = std::move(settings.api_key);
+    s.faults = settings.faults;
+    s.print_seconds = settings.print_seconds;
+    s.print = std::make_unique<TwinPrint>(s.bench);
+    std::filesystem::create_directories(s.dir);
+    s.server = std::make_unique<drivers::HttpServer>(
+        "127.0.0.1", 0,
+        drivers::HttpServer::Handlers{[&s](const drivers::ServerRequest& r) { return s.http(r); },
+                                      [](const drivers::ServerRequest&) { return 404; },
+                                      [](const drivers::ServerRequest&, const std::string&) {
+                                          return std::vector<std::string>{};
+                                      }});
+}
+
+DuetTwin::~DuetTwin() {
+    state_->stopping = true;
+    state_->server.reset();
+    state_->print->stop();
+}
+
+std::string DuetTwin::url() const {
+    return "http://127.0.0.1:" + std::to_string(state_->server->port());
+}
+
+}  // namespace calbox::sim

@@ -18,6 +18,7 @@
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/link_key.hpp"
 #include "firmware/plc_link.hpp"
 #include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
@@ -372,8 +373,13 @@ int run(const std::vector<std::string>& words) {
                                        r.text = "stopping";
                                    }}};
     }
-    firmware::Console console_commands(std::move(context));
     std::optional<firmware::ConsoleLink> console_link;
+    firmware::LinkKeyRequest link_key(loop, box.board.machine.link, [&](const std::string& line) {
+        log(line);
+        if (console_link) console_link->notice(line);
+    });
+    context.board_commands.insert(context.board_commands.begin(), link_key.command());
+    firmware::Console console_commands(std::move(context));
     if (console) {
         console_link.emplace(loop, std::move(console_port), console_commands, log,
                              std::move(reopen_console), &clock);

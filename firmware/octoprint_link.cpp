@@ -38,6 +38,9 @@ struct OctoPrintLink::Session {
 
     drivers::HttpResponse http(drivers::HttpRequest request) {
         link.check_stop();
+        if (settings.api_key.empty())
+            throw LinkError("OctoPrint: no API key in " + settings.key_file +
+                            " yet (`link key` on the console asks OctoPrint for one)");
         request.headers.emplace_back("X-Api-Key", settings.api_key);
         try {
             return drivers::http_request(settings.url, request, settings.reply_timeout);

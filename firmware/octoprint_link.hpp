@@ -19,7 +19,8 @@ namespace calbox::firmware {
 
 struct OctoPrintSettings {
     drivers::Url url;
-    std::string api_key;
+    std::string api_key;   // empty: none yet (every request says so)
+    std::string key_file;  // where it is kept, for that message
     std::chrono::milliseconds reply_timeout{30000};
     std::chrono::milliseconds poll_interval{250};
     std::string job_file_name = "calbox-target.gcode";

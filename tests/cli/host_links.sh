@@ -214,7 +214,7 @@ fi
 grep -q 'configuration: link.kind: Moonraker serves Klipper printers (\[machine\] firmware = "klipper", not "marlin")' \
     "$work/cfg1.err" || fail "the configuration's wrong link kind was not named: $(cat "$work/cfg1.err")"
 printf '[link]\nkey_file = "%s/no-such.key"\n' "$work" > "$work/nokey.toml"
-if "$calbox" run --board sim --scenario "$octoprint" --config "$work/nokey.toml" \
+if "$calbox" run --board sim --scenario "$scenario" --config "$work/nokey.toml" \
     --data "$work/cfg2" > "$work/cfg2.out" 2> "$work/cfg2.err" < /dev/null; then
     fail "a key file that is not there was taken"
 fi

@@ -140,12 +140,9 @@ DuetLink::~DuetLink() {
     finish_requests();
 }
 
-void DuetLink::start_session(std::function<JobOutcome(Session&)> request, Done done) {
-    start([this, request = std::move(request)] { return request(*session_); }, std::move(done));
-}
-
 void DuetLink::send_commands(const std::vector<std::string>& lines, Done done) {
-    start_session(
+    start_with<Session>(
+        *session_,
         [lines](Session& s) {
             return JobOutcome{true, {}, s.command(lines), {}};
         },
@@ -155,7 +152,8 @@ void DuetLink::send_commands(const std::vector<std::string>& lines, Done done) {
 void DuetLink::run_job(const std::vector<std::string>& lines, Done done) {
     std::string text;
     for (const auto& line : lines) text += line + "\n";
-    start_session(
+    start_with<Session>(
+        *session_,
         [this, text = std::move(text)](Session& s) {
             s.ensure_ready();
             const std::string path = "0:/gcodes/" + settings_.job_file_name;
@@ -176,11 +174,7 @@ void DuetLink::run_job(const std::vector<std::string>& lines, Done done) {
                                 (stored.is_discarded() ? std::string("?") : stored["err"].dump()) +
                                 ")");
             s.gcode("M32 \"" + path + "\"");
-            set_printing(true);
-            struct Clear {
-                DuetLink& link;
-                ~Clear() { link.set_printing(false); }
-            } clear{*this};
+            const PrintingOnHost printing(*this);
             bool seen_printing = false;
             const auto started = Clock::now();
             for (;;) {

@@ -37,8 +37,6 @@ class DuetLink final : public HostLink {
     struct Session;  // the session key and the markers' count, on the request thread only
 
   private:
-    void start_session(std::function<JobOutcome(Session&)> request, Done done);
-
     DuetSettings settings_;
     std::unique_ptr<Session> session_;
 };

@@ -46,8 +46,24 @@ class HostLink : public MachineLink {
     void check_stop() const;
     // Waits `how_long` unless cancelled meanwhile (then throws as check_stop).
     void pause(std::chrono::milliseconds how_long) const;
-    // While set, a stop leaves a print running on the host (closing_note says so).
-    void set_printing(bool printing) { printing_ = printing; }
+    // `request` given the link's session (the subclass's, used on the request thread only).
+    template <class Session>
+    void start_with(Session& session, std::function<JobOutcome(Session&)> request, Done done) {
+        start([&session, request = std::move(request)] { return request(session); },
+              std::move(done));
+    }
+    // While one lives, a print of the box's runs on the host: a stop leaves it there, and
+    // closing_note says so.
+    class PrintingOnHost {
+      public:
+        explicit PrintingOnHost(HostLink& link) : link_(link) { link_.printing_ = true; }
+        PrintingOnHost(const PrintingOnHost&) = delete;
+        PrintingOnHost& operator=(const PrintingOnHost&) = delete;
+        ~PrintingOnHost() { link_.printing_ = false; }
+
+      private:
+        HostLink& link_;
+    };
     const drivers::Url& url() const { return url_; }
     const Log& log() const { return log_; }
 

@@ -170,12 +170,9 @@ MoonrakerLink::~MoonrakerLink() {
     finish_requests();
 }
 
-void MoonrakerLink::start_session(std::function<JobOutcome(Session&)> request, Done done) {
-    start([this, request = std::move(request)] { return request(*session_); }, std::move(done));
-}
-
 void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done done) {
-    start_session(
+    start_with<Session>(
+        *session_,
         [lines](Session& s) {
             s.ensure_ready();
             JobOutcome outcome{true, {}, {}, {}};
@@ -188,16 +185,13 @@ void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done do
 }
 
 void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
-    start_session(
+    start_with<Session>(
+        *session_,
         [this, text = joined_lines(lines)](Session& s) {
             s.ensure_ready();
             s.upload("gcodes", settings_.job_file_name, text);
             s.call("printer.print.start", {{"filename", settings_.job_file_name}});
-            set_printing(true);
-            struct Clear {
-                MoonrakerLink& link;
-                ~Clear() { link.set_printing(false); }
-            } clear{*this};
+            const PrintingOnHost printing(*this);
             const json query = {{"objects", {{"print_stats", {"state", "message"}}}}};
             for (;;) {
                 s.pause();
@@ -222,7 +216,8 @@ void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
 }
 
 void MoonrakerLink::read_config_file(Done done) {
-    start_session(
+    start_with<Session>(
+        *session_,
         [](Session& s) {
             // The file API answers whatever Klipper's state (a printer.cfg it refused included).
             return JobOutcome{true, {}, {}, s.download("config/printer.cfg")};
@@ -232,7 +227,8 @@ void MoonrakerLink::read_config_file(Done done) {
 
 void MoonrakerLink::replace_config_file(const std::string& text, const std::string& expected_now,
                                         Done done) {
-    start_session(
+    start_with<Session>(
+        *session_,
         [this, text, expected_now](Session& s) {
             if (s.download("config/printer.cfg") != expected_now)
                 throw LinkError(
@@ -264,7 +260,8 @@ void MoonrakerLink::replace_config_file(const std::string& text, const std::stri
 }
 
 void MoonrakerLink::read_settings_in_force(Done done) {
-    start_session(
+    start_with<Session>(
+        *session_,
         [](Session& s) {
             s.ensure_ready();
             const json r =

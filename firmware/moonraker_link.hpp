@@ -45,8 +45,6 @@ class MoonrakerLink final : public HostLink {
     struct Session;  // the websocket and its request ids, on the request thread only
 
   private:
-    void start_session(std::function<JobOutcome(Session&)> request, Done done);
-
     MoonrakerSettings settings_;
     std::unique_ptr<Session> session_;
 };

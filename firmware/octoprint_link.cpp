@@ -155,12 +155,9 @@ OctoPrintLink::~OctoPrintLink() {
     finish_requests();
 }
 
-void OctoPrintLink::start_session(std::function<JobOutcome(Session&)> request, Done done) {
-    start([this, request = std::move(request)] { return request(*session_); }, std::move(done));
-}
-
 void OctoPrintLink::send_commands(const std::vector<std::string>& lines, Done done) {
-    start_session(
+    start_with<Session>(
+        *session_,
         [lines](Session& s) {
             JobOutcome outcome{true, {}, s.command(lines), {}};
             return outcome;
@@ -171,7 +168,8 @@ void OctoPrintLink::send_commands(const std::vector<std::string>& lines, Done do
 void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
     std::string text;
     for (const auto& line : lines) text += line + "\n";
-    start_session(
+    start_with<Session>(
+        *session_,
         [this, text = std::move(text)](Session& s) {
             const auto form = drivers::multipart_form("file", settings_.job_file_name, text,
                                                       {{"select", "true"}, {"print", "true"}});
@@ -180,11 +178,7 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
             if (up.status != 201 && up.status != 200)
                 throw LinkError("the host refused the upload of " + settings_.job_file_name + " (" +
                                 error_of(up) + ")");
-            set_printing(true);
-            struct Clear {
-                OctoPrintLink& link;
-                ~Clear() { link.set_printing(false); }
-            } clear{*this};
+            const PrintingOnHost printing(*this);
             bool seen_printing = false;
             const auto started = Clock::now();
             for (;;) {

@@ -39,8 +39,6 @@ class OctoPrintLink final : public HostLink {
     struct Session;  // the push socket and the markers' count, on the request thread only
 
   private:
-    void start_session(std::function<JobOutcome(Session&)> request, Done done);
-
     OctoPrintSettings settings_;
     std::unique_ptr<Session> session_;
 };

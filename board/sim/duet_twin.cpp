@@ -59,21 +59,12 @@ drivers::ServerResponse json_reply(const json& j) {
 
 }  // namespace
 
-struct DuetTwin::State {
-    std::shared_ptr<TwinBench> bench;
-    std::filesystem::path dir;
-    std::string password;
-    HostFaults faults;
-    double print_seconds = 0;
-    std::unique_ptr<TwinPrint> print;
-
+struct DuetTwin::State final : TwinHostCore {
+    using TwinHostCore::TwinHostCore;
     std::mutex mutex;
-    std::atomic<int> requests{0};
-    std::atomic<bool> stopping{false};
     Clock::time_point restarting_until{};
     std::string session_key;
-    std::string reply;                            // what rr_reply hands out next
-    std::unique_ptr<drivers::HttpServer> server;  // last: its handlers use the above
+    std::string reply;  // what rr_reply hands out next
 
     std::string status() const {
         if (faults.printer_not_ready) return "off";
@@ -111,11 +102,8 @@ struct DuetTwin::State {
     }
 
     drivers::ServerResponse http(const drivers::ServerRequest& r) {
-        const int n = ++requests;
-        if (faults.silent_at_request > 0 && n >= faults.silent_at_request) {
-            while (!stopping) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-            return {503, "text/plain", "stopping"};
-        }
+        const int n = count_request();
+        if (held_silent(n)) return {503, "text/plain", "stopping"};
         if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
             {
                 const std::lock_guard lock(mutex);
@@ -131,7 +119,8 @@ struct DuetTwin::State {
         const std::string path = path_of(r.target);
         const auto query = query_of(r.target);
         if (path == "/rr_connect") {
-            const std::string wanted = faults.wrong_key ? password + "-changed" : password;
+            // The board's password is the host's key.
+            const std::string wanted = faults.wrong_key ? key + "-changed" : key;
             if (query.count("password") == 0 || query.at("password") != wanted)
                 return json_reply({{"err", 1}});
             session_key = std::to_string(1000 + n);
@@ -188,15 +177,8 @@ struct DuetTwin::State {
 
 DuetTwin::DuetTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_dir,
                    TwinHostSettings settings)
-    : state_(std::make_unique<State>()) {
+    : state_(std::make_unique<State>(std::move(bench), std::move(host_dir), std::move(settings))) {
     auto& s = *state_;
-    s.bench = std::move(bench);
-    s.dir = std::move(host_dir);
-    s.password = std::move(settings.api_key);
-    s.faults = settings.faults;
-    s.print_seconds = settings.print_seconds;
-    s.print = std::make_unique<TwinPrint>(s.bench);
-    std::filesystem::create_directories(s.dir);
     s.server = std::make_unique<drivers::HttpServer>(
         "127.0.0.1", 0,
         drivers::HttpServer::Handlers{[&s](const drivers::ServerRequest& r) { return s.http(r); },
@@ -207,13 +189,11 @@ DuetTwin::DuetTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_
 }
 
 DuetTwin::~DuetTwin() {
-    state_->stopping = true;
-    state_->server.reset();
-    state_->print->stop();
+    state_->shut_down();
 }
 
 std::string DuetTwin::url() const {
-    return "http://127.0.0.1:" + std::to_string(state_->server->port());
+    return state_->url();
 }
 
 }  // namespace calbox::sim

@@ -185,22 +185,14 @@ std::string printer_cfg_of(const DeltaParams& p, double print_radius_mm) {
     return out;
 }
 
-struct MoonrakerTwin::State {
-    std::shared_ptr<TwinBench> bench;
-    std::filesystem::path dir;
-    std::string key;
-    HostFaults faults;
-    double print_seconds = 0;
+struct MoonrakerTwin::State final : TwinHostCore {
+    using TwinHostCore::TwinHostCore;
     std::string first_config;  // as the twin started: new_config_rejected refuses another
-
     std::mutex mutex;
     std::string klippy_state = "ready", state_message = "Printer is ready";
     Clock::time_point ready_at{};  // a restart in progress ends then
     json settings = json::object();
-    std::unique_ptr<TwinPrint> print;
-    std::atomic<int> requests{0};
     bool config_read_once = false;
-    std::unique_ptr<drivers::HttpServer> server;  // last: its handlers use the above
 
     // Klipper reads printer.cfg: ready, or its error.
     void load_config() {
@@ -303,7 +295,8 @@ struct MoonrakerTwin::State {
         const json id = request.value("id", json());
         const std::string method = request["method"];
         const json params = request.value("params", json::object());
-        const int n = ++requests;
+        const int n = count_request();
+        // Unanswered: the client's reply timeout ends its wait.
         if (faults.silent_at_request > 0 && n >= faults.silent_at_request) return {};
         if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
             {
@@ -388,18 +381,11 @@ struct MoonrakerTwin::State {
 
 MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_dir,
                              TwinHostSettings settings)
-    : state_(std::make_unique<State>()) {
+    : state_(std::make_unique<State>(std::move(bench), std::move(host_dir), std::move(settings))) {
     auto& s = *state_;
-    s.bench = std::move(bench);
-    s.dir = std::move(host_dir);
-    s.key = std::move(settings.api_key);
-    s.faults = settings.faults;
-    s.print_seconds = settings.print_seconds;
-    s.print = std::make_unique<TwinPrint>(s.bench);
-    std::filesystem::create_directories(s.dir);
     if (!std::filesystem::exists(s.dir / "printer.cfg"))
-        write_file_whole(s.dir / "printer.cfg", printer_cfg_of(s.bench->delta_printer_firmware(),
-                                                               settings.print_radius_mm));
+        write_file_whole(s.dir / "printer.cfg",
+                         printer_cfg_of(s.bench->delta_printer_firmware(), s.print_radius_mm));
     s.first_config = read_whole_file(s.dir / "printer.cfg");
     s.load_config();
     if (s.faults.printer_not_ready) {
@@ -415,12 +401,11 @@ MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
 }
 
 MoonrakerTwin::~MoonrakerTwin() {
-    state_->server.reset();
-    state_->print->stop();
+    state_->shut_down();
 }
 
 std::string MoonrakerTwin::url() const {
-    return "http://127.0.0.1:" + std::to_string(state_->server->port());
+    return state_->url();
 }
 
 }  // namespace calbox::sim

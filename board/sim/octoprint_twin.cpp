@@ -22,21 +22,12 @@ drivers::ServerResponse error_reply(int status, const std::string& message) {
 
 }  // namespace
 
-struct OctoPrintTwin::State {
-    std::shared_ptr<TwinBench> bench;
-    std::filesystem::path dir;
-    std::string key;
-    HostFaults faults;
-    double print_seconds = 0;
-    std::unique_ptr<TwinPrint> print;
-
+struct OctoPrintTwin::State final : TwinHostCore {
+    using TwinHostCore::TwinHostCore;
     std::mutex mutex;  // the printer's port: one command batch at a time
-    std::atomic<int> requests{0};
-    std::atomic<bool> stopping{false};
     Clock::time_point restarting_until{};
     int sessions = 0;
     Clock::time_point key_asked{};
-    std::unique_ptr<drivers::HttpServer> server;  // last: its handlers use the above
 
     bool authorised(const drivers::ServerRequest& r) const {
         const std::string wanted = faults.wrong_key ? key + "-rotated" : key;
@@ -79,11 +70,8 @@ struct OctoPrintTwin::State {
     }
 
     drivers::ServerResponse http(const drivers::ServerRequest& r) {
-        const int n = ++requests;
-        if (faults.silent_at_request > 0 && n >= faults.silent_at_request) {
-            while (!stopping) std::this_thread::sleep_for(std::chrono::milliseconds(20));
-            return error_reply(503, "stopping");
-        }
+        const int n = count_request();
+        if (held_silent(n)) return error_reply(503, "stopping");
         if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
             {
                 const std::lock_guard lock(mutex);
@@ -167,15 +155,8 @@ struct OctoPrintTwin::State {
 
 OctoPrintTwin::OctoPrintTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_dir,
                              TwinHostSettings settings)
-    : state_(std::make_unique<State>()) {
+    : state_(std::make_unique<State>(std::move(bench), std::move(host_dir), std::move(settings))) {
     auto& s = *state_;
-    s.bench = std::move(bench);
-    s.dir = std::move(host_dir);
-    s.key = std::move(settings.api_key);
-    s.faults = settings.faults;
-    s.print_seconds = settings.print_seconds;
-    s.print = std::make_unique<TwinPrint>(s.bench);
-    std::filesystem::create_directories(s.dir);
     s.server = std::make_unique<drivers::HttpServer>(
         "127.0.0.1", 0,
         drivers::HttpServer::Handlers{
@@ -190,13 +171,11 @@ OctoPrintTwin::OctoPrintTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
 }
 
 OctoPrintTwin::~OctoPrintTwin() {
-    state_->stopping = true;
-    state_->server.reset();
-    state_->print->stop();
+    state_->shut_down();
 }
 
 std::string OctoPrintTwin::url() const {
-    return "http://127.0.0.1:" + std::to_string(state_->server->port());
+    return state_->url();
 }
 
 }  // namespace calbox::sim

@@ -11,10 +11,10 @@
 #include "board/sim/galvo_twin.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
-#include "board/sim/twin_host.hpp"
 #include "board/sim/renderer.hpp"
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenes.hpp"
+#include "board/sim/twin_host.hpp"
 #include "core/models/machine_file.hpp"
 
 namespace calbox::sim {

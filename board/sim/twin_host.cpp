@@ -134,4 +134,32 @@ double TwinPrint::completion() const {
     return completion_;
 }
 
+TwinHostCore::TwinHostCore(std::shared_ptr<TwinBench> b, std::filesystem::path d,
+                           TwinHostSettings settings)
+    : bench(std::move(b)),
+      dir(std::move(d)),
+      key(std::move(settings.api_key)),
+      faults(settings.faults),
+      print_seconds(settings.print_seconds),
+      print_radius_mm(settings.print_radius_mm),
+      print(std::make_unique<TwinPrint>(bench)) {
+    std::filesystem::create_directories(dir);
+}
+
+bool TwinHostCore::held_silent(int n) const {
+    if (faults.silent_at_request <= 0 || n < faults.silent_at_request) return false;
+    while (!stopping) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    return true;
+}
+
+std::string TwinHostCore::url() const {
+    return "http://127.0.0.1:" + std::to_string(server->port());
+}
+
+void TwinHostCore::shut_down() {
+    stopping = true;
+    server.reset();
+    print->stop();
+}
+
 }  // namespace calbox::sim

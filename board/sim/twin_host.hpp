@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "drivers/http.hpp"
+
 namespace calbox::sim {
 
 class TwinBench;
@@ -85,6 +87,36 @@ class TwinPrint {
     int started_ = 0;
     std::atomic<bool> stop_{false};
     std::thread thread_;
+};
+
+// What every twin host holds: the bench it stands in front of, its disk, its key, its faults,
+// the print it runs, its request count and its server. Each twin's own state derives from it and
+// starts the server last (its handlers use the rest).
+struct TwinHostCore {
+    std::shared_ptr<TwinBench> bench;
+    std::filesystem::path dir;
+    std::string key;
+    HostFaults faults;
+    double print_seconds = 0;
+    double print_radius_mm = 85;
+    std::unique_ptr<TwinPrint> print;
+    std::atomic<int> requests{0};
+    std::atomic<bool> stopping{false};
+    std::unique_ptr<drivers::HttpServer> server;
+
+    TwinHostCore(std::shared_ptr<TwinBench> bench, std::filesystem::path dir,
+                 TwinHostSettings settings);
+    TwinHostCore(const TwinHostCore&) = delete;
+    TwinHostCore& operator=(const TwinHostCore&) = delete;
+    virtual ~TwinHostCore() = default;
+    // Counts a request: its number, from 1.
+    int count_request() { return ++requests; }
+    // Under host_silent_at_request, the n-th request and those after it get no answer until the
+    // host stops (the client's own timeout ends its wait): true when it was held so.
+    bool held_silent(int n) const;
+    std::string url() const;  // "http://127.0.0.1:PORT"
+    // Stops serving (every handler done) and the print, before the twin's own state goes.
+    void shut_down();
 };
 
 }  // namespace calbox::sim

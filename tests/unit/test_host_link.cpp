@@ -27,6 +27,21 @@ using namespace calbox;
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
 
+namespace {
+
+// Runs a link's request to its end on the loop.
+template <class Start>
+firmware::JobOutcome run_to_its_end(firmware::EventLoop& loop, Start start_request) {
+    std::optional<firmware::JobOutcome> outcome;
+    start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
+    const auto deadline = std::chrono::steady_clock::now() + 60s;
+    while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
+    CHECK_TEXT(outcome.has_value(), "the request never ended");
+    return *outcome;
+}
+
+}  // namespace
+
 TEST_GROUP(HttpDriver){};
 
 TEST(HttpDriver, parses_urls_and_refuses_what_it_cannot_reach) {
@@ -296,15 +311,9 @@ TEST_GROUP(MoonrakerLink) {
         link->attach(loop);
     }
 
-    // Runs a request to its end on the loop.
     template <class Start>
     firmware::JobOutcome await(Start start_request) {
-        std::optional<firmware::JobOutcome> outcome;
-        start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
-        const auto deadline = std::chrono::steady_clock::now() + 60s;
-        while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
-        CHECK_TEXT(outcome.has_value(), "the request never ended");
-        return *outcome;
+        return run_to_its_end(loop, start_request);
     }
 
     std::string host_config() const {
@@ -460,12 +469,7 @@ TEST_GROUP(OctoPrintLink) {
     }
     template <class Start>
     firmware::JobOutcome await(Start start_request) {
-        std::optional<firmware::JobOutcome> outcome;
-        start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
-        const auto deadline = std::chrono::steady_clock::now() + 60s;
-        while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
-        CHECK_TEXT(outcome.has_value(), "the request never ended");
-        return *outcome;
+        return run_to_its_end(loop, start_request);
     }
 };
 
@@ -544,12 +548,7 @@ TEST_GROUP(DuetLink) {
     }
     template <class Start>
     firmware::JobOutcome await(Start start_request) {
-        std::optional<firmware::JobOutcome> outcome;
-        start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
-        const auto deadline = std::chrono::steady_clock::now() + 60s;
-        while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
-        CHECK_TEXT(outcome.has_value(), "the request never ended");
-        return *outcome;
+        return run_to_its_end(loop, start_request);
     }
 };
 

@@ -7,6 +7,8 @@
 #include <optional>
 #include <sstream>
 
+#include "firmware/cycle_mode.hpp"
+
 namespace calbox::firmware {
 namespace {
 
@@ -150,8 +152,7 @@ void DuetLink::send_commands(const std::vector<std::string>& lines, Done done) {
 }
 
 void DuetLink::run_job(const std::vector<std::string>& lines, Done done) {
-    std::string text;
-    for (const auto& line : lines) text += line + "\n";
+    std::string text = joined(lines);
     start_with<Session>(
         *session_,
         [this, text = std::move(text)](Session& s) {

@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "firmware/cycle_mode.hpp"
 #include "firmware/event_loop.hpp"
 
 namespace calbox::firmware {
@@ -12,12 +13,6 @@ namespace {
 
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
-
-std::string joined_lines(const std::vector<std::string>& lines) {
-    std::string out;
-    for (const auto& line : lines) out += line + "\n";
-    return out;
-}
 
 // A value of configfile.settings as printer.cfg writes it.
 std::string config_value(const json& v) {
@@ -187,7 +182,7 @@ void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done do
 void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
     start_with<Session>(
         *session_,
-        [this, text = joined_lines(lines)](Session& s) {
+        [this, text = joined(lines)](Session& s) {
             s.ensure_ready();
             s.upload("gcodes", settings_.job_file_name, text);
             s.call("printer.print.start", {{"filename", settings_.job_file_name}});

@@ -5,6 +5,8 @@
 #include <optional>
 #include <thread>
 
+#include "firmware/cycle_mode.hpp"
+
 namespace calbox::firmware {
 namespace {
 
@@ -166,8 +168,7 @@ void OctoPrintLink::send_commands(const std::vector<std::string>& lines, Done do
 }
 
 void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
-    std::string text;
-    for (const auto& line : lines) text += line + "\n";
+    std::string text = joined(lines);
     start_with<Session>(
         *session_,
         [this, text = std::move(text)](Session& s) {

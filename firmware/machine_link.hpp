@@ -55,6 +55,13 @@ class MachineLink {
         (void)expected_now;
         done(not_a_host());
     }
+    // Settings the firmware itself writes into that file: `lines` change them (Klipper's SET_SKEW
+    // and SKEW_PROFILE SAVE), then the firmware saves them (SAVE_CONFIG) and restarts to take
+    // them; `done` once it is ready again.
+    virtual void save_config_after(const std::vector<std::string>& lines, Done done) {
+        (void)lines;
+        done(not_a_host());
+    }
     // The settings in force as the firmware read them (Klipper's configfile.settings), written
     // as a configuration file's sections (`done`'s text).
     virtual void read_settings_in_force(Done done) { done(not_a_host()); }

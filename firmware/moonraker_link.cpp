@@ -154,6 +154,29 @@ struct MoonrakerLink::Session {
     }
 
     void pause() const { link.pause(settings.poll_interval); }
+
+    // After a restart `what` asked for: ready again, or the reason Klipper gives for not
+    // starting with `taking`.
+    void await_ready(const std::string& what, const std::string& taking) {
+        const auto deadline = Clock::now() + settings.restart_timeout;
+        std::string state, message;
+        while (Clock::now() < deadline) {
+            pause();
+            try {
+                state = klippy_state(&message);
+            } catch (const LinkError&) {
+                state = "restarting";  // the host reconnects to Klipper meanwhile
+                continue;
+            }
+            if (state == "ready") return;
+            if (state == "error" || state == "shutdown")
+                throw LinkError("Klipper did not start with " + taking + " (" +
+                                state.append(": ").append(message) + ")");
+        }
+        throw LinkError("Klipper was not ready within " +
+                        std::to_string(settings.restart_timeout.count() / 1000) + " s of " + what +
+                        " (" + state + ")");
+    }
 };
 
 MoonrakerLink::MoonrakerLink(MoonrakerSettings settings, Log log)
@@ -231,25 +254,32 @@ void MoonrakerLink::replace_config_file(const std::string& text, const std::stri
                     "written");
             s.upload("config", "printer.cfg", text);
             s.call("printer.firmware_restart", json::object());
-            // Ready again, or the reason Klipper gives for not starting.
-            const auto deadline = Clock::now() + settings_.restart_timeout;
-            std::string state, message;
-            while (Clock::now() < deadline) {
-                s.pause();
-                try {
-                    state = s.klippy_state(&message);
-                } catch (const LinkError&) {
-                    state = "restarting";  // the host reconnects to Klipper meanwhile
-                    continue;
-                }
-                if (state == "ready") return JobOutcome{true, {}, {}, {}};
-                if (state == "error" || state == "shutdown")
-                    throw LinkError("Klipper did not start with the new printer.cfg (" +
-                                    state.append(": ").append(message) + ")");
+            s.await_ready("FIRMWARE_RESTART", "the new printer.cfg");
+            return JobOutcome{true, {}, {}, {}};
+        },
+        std::move(done));
+}
+
+void MoonrakerLink::save_config_after(const std::vector<std::string>& lines, Done done) {
+    start_with<Session>(
+        *session_,
+        [lines](Session& s) {
+            s.ensure_ready();
+            JobOutcome outcome{true, {}, {}, {}};
+            for (const auto& line : lines)
+                s.call("printer.gcode.script", {{"script", line}}, &outcome.replies);
+            // Klipper writes printer.cfg and restarts: the script's reply may be lost with the
+            // connection to klippy ("Klippy Disconnected", or none). A refusal is an error.
+            try {
+                s.call("printer.gcode.script", {{"script", "SAVE_CONFIG"}}, &outcome.replies);
+            } catch (const LinkError& e) {
+                const std::string why = e.what();
+                if (why.find("isconnected") == std::string::npos &&
+                    why.find("no reply") == std::string::npos && why.rfind("Moonraker:", 0) != 0)
+                    throw;
             }
-            throw LinkError("Klipper was not ready within " +
-                            std::to_string(settings_.restart_timeout.count() / 1000) +
-                            " s of FIRMWARE_RESTART (" + state + ")");
+            s.await_ready("SAVE_CONFIG", "the saved printer.cfg");
+            return outcome;
         },
         std::move(done));
 }

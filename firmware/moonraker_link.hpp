@@ -40,6 +40,7 @@ class MoonrakerLink final : public HostLink {
     void read_config_file(Done done) override;
     void replace_config_file(const std::string& text, const std::string& expected_now,
                              Done done) override;
+    void save_config_after(const std::vector<std::string>& lines, Done done) override;
     void read_settings_in_force(Done done) override;
 
     struct Session;  // the websocket and its request ids, on the request thread only

@@ -305,8 +305,11 @@ std::vector<std::string> marlin_delta_report(const DeltaParams& p) {
 Vec3 CartesianTwin::actual_position_mm(const Vec3& c) const {
     if (!homed_) throw MachineError("move before homing (G28)");
     const double lean = std::tan(radians(truth_.squareness_error_deg));
-    return {c.x * (1 + truth_.scale_error_x) + c.y * (1 + truth_.scale_error_y) * lean,
-            c.y * (1 + truth_.scale_error_y), c.z};
+    // The motors' commanded travel, then the machine's errors on it.
+    const double x = (c.x - firmware_.xy_skew * c.y) * firmware_.travel_x;
+    const double y = c.y * firmware_.travel_y;
+    return {x * (1 + truth_.scale_error_x) + y * (1 + truth_.scale_error_y) * lean,
+            y * (1 + truth_.scale_error_y), c.z};
 }
 
 std::optional<std::vector<std::string>> CartesianTwin::settings_command(const gcode::Line& line) {

@@ -99,9 +99,21 @@ struct CartesianErrors {
     double squareness_error_deg = 0;  // the Y axis leans towards +X by this angle
 };
 
+// What a Klipper cartesian printer's firmware holds, in the twin's terms: each axis's travel per
+// commanded mm (the rotation_distance its owner's printer.cfg had, which the truth's scale errors
+// are against, over the one in force), and the skew in force (Klipper moves x by -xy_skew per mm
+// of y before its kinematics). A Marlin twin keeps the identity.
+struct CartesianFirmware {
+    double travel_x = 1, travel_y = 1;
+    double xy_skew = 0;
+};
+
 class CartesianTwin final : public MachineTwin {
   public:
-    explicit CartesianTwin(const CartesianErrors& truth) : truth_(truth) {}
+    explicit CartesianTwin(const CartesianErrors& truth, const CartesianFirmware& firmware = {})
+        : truth_(truth), firmware_(firmware) {}
+    const CartesianFirmware& firmware() const { return firmware_; }
+    void set_skew(double xy_skew) { firmware_.xy_skew = xy_skew; }
     void home() override { homed_ = true; }
     bool homed() const override { return homed_; }
     Vec3 position_after_homing_mm() const override { return {0, 0, 0}; }
@@ -110,6 +122,7 @@ class CartesianTwin final : public MachineTwin {
 
   private:
     CartesianErrors truth_;
+    CartesianFirmware firmware_;
     bool homed_ = false;
 };
 

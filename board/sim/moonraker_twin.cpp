@@ -4,12 +4,14 @@
 #include <atomic>
 #include <cctype>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -113,6 +115,9 @@ json settings_of(const Sections& s) {
         }
         out[name] = section;
     }
+    if (s.count("printer") == 0 || s.at("printer").count("kinematics") == 0 ||
+        s.at("printer").at("kinematics") != "delta")
+        return out;
     const double arm_a = option(s, "stepper_a", "arm_length");
     const double endstop_a = option(s, "stepper_a", "position_endstop");
     for (std::size_t i = 0; i < 3; ++i) {
@@ -133,7 +138,119 @@ drivers::ServerResponse http_error(int status, const std::string& message) {
             json{{"error", {{"code", status}, {"message", message}}}}.dump()};
 }
 
+std::string first_word(const std::string& line) {
+    const auto t = trim(line);
+    return t.substr(0, t.find_first_of(" \t"));
+}
+
+// A klippy command's NAME=value parameters.
+std::map<std::string, std::string> parameters(const std::string& line) {
+    std::map<std::string, std::string> out;
+    std::istringstream in(line);
+    std::string word;
+    in >> word;
+    while (in >> word) {
+        const auto eq = word.find('=');
+        if (eq != std::string::npos) out[lower(word.substr(0, eq))] = word.substr(eq + 1);
+    }
+    return out;
+}
+
+std::string repr(double v) {
+    char b[40];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return b;
+}
+
+// Klipper's SAVE_CONFIG: the block at the file's end rewritten with the pending values over its
+// old ones, and the lines above it that the block now sets commented out.
+std::string saved_config(const std::string& text, const Sections& pending) {
+    const auto mark = text.find("#*# <");
+    std::string body = mark == std::string::npos ? text : text.substr(0, mark);
+    Sections block;
+    if (mark != std::string::npos) {
+        std::istringstream in(text.substr(mark));
+        std::string raw, section;
+        while (std::getline(in, raw)) {
+            const std::string line = trim(raw.substr(std::min<std::size_t>(3, raw.size())));
+            if (line.empty() || line.front() == '<' || line.rfind("DO NOT", 0) == 0) continue;
+            if (line.front() == '[') {
+                section = trim(line.substr(1, line.size() - 2));
+                continue;
+            }
+            const auto eq = line.find('=');
+            if (eq != std::string::npos)
+                block[section][trim(line.substr(0, eq))] = trim(line.substr(eq + 1));
+        }
+    }
+    for (const auto& [name, values] : pending)
+        for (const auto& [key, value] : values) block[name][key] = value;
+    std::istringstream in(body);
+    std::string raw, section, out;
+    while (std::getline(in, raw)) {
+        const std::string line = trim(raw.substr(0, raw.find('#')));
+        if (!line.empty() && line.front() == '[') {
+            section = lower(trim(line.substr(1, line.size() - 2)));
+        } else if (const auto sep = line.find_first_of(":=");
+                   sep != std::string::npos && block.count(section) != 0 &&
+                   block.at(section).count(lower(trim(line.substr(0, sep)))) != 0) {
+            raw = "#" + raw;
+        }
+        out += raw + "\n";
+    }
+    while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+    out +=
+        "\n\n#*# <---------------------- SAVE_CONFIG ---------------------->\n"
+        "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n";
+    for (const auto& [name, values] : block) {
+        out += "#*#\n#*# [" + name + "]\n";
+        for (const auto& [key, value] : values) out += "#*# " + key + " = " + value + "\n";
+    }
+    return out;
+}
+
 }  // namespace
+
+CartesianFirmware twin_cartesian_from_printer_cfg(const std::string& text) {
+    const Sections s = read_sections(text);
+    const auto printer = s.find("printer");
+    if (printer == s.end() || printer->second.count("kinematics") == 0 ||
+        printer->second.at("kinematics") != "cartesian")
+        throw std::runtime_error("the twin's Klipper printer is cartesian ([printer] kinematics)");
+    CartesianFirmware f;
+    const double x = option(s, "stepper_x", "rotation_distance");
+    const double y = option(s, "stepper_y", "rotation_distance");
+    if (!(x > 0) || !(y > 0))
+        throw std::runtime_error(
+            "Option 'rotation_distance' in section 'stepper_x' must be above 0");
+    f.travel_x = kOwnersRotationDistanceMm / x;
+    f.travel_y = kOwnersRotationDistanceMm / y;
+    return f;
+}
+
+std::string printer_cfg_of_cartesian(double bed_size_x_mm, double bed_size_y_mm) {
+    char b[600];
+    std::snprintf(b, sizeof b,
+                  "# The twin Klipper cartesian printer's printer.cfg, as its owner wrote it.\n"
+                  "[mcu]\nserial: /dev/serial/by-id/usb-Klipper_twin\n\n"
+                  "[printer]\nkinematics: cartesian\nmax_velocity: 300\nmax_accel: 3000\n\n"
+                  "[stepper_x]\nstep_pin: PF0\ndir_pin: PF1\nmicrosteps: 16\n"
+                  "rotation_distance: %.0f\nendstop_pin: ^PE5\nposition_endstop: 0\n"
+                  "position_max: %.0f\n\n"
+                  "[stepper_y]\nstep_pin: PF6\ndir_pin: PF7\nmicrosteps: 16\n"
+                  "rotation_distance: %.0f\nendstop_pin: ^PJ1\nposition_endstop: 0\n"
+                  "position_max: %.0f\n\n"
+                  "[skew_correction]\n",
+                  kOwnersRotationDistanceMm, bed_size_x_mm, kOwnersRotationDistanceMm,
+                  bed_size_y_mm);
+    return b;
+}
+
+double twin_skew_factor(double ac_mm, double bd_mm, double ad_mm) {
+    const double side = std::sqrt(2 * ac_mm * ac_mm + 2 * bd_mm * bd_mm - 4 * ad_mm * ad_mm) / 2;
+    return std::tan(M_PI / 2 -
+                    std::acos((ac_mm * ac_mm - side * side - ad_mm * ad_mm) / (2 * side * ad_mm)));
+}
 
 DeltaParams twin_params_from_printer_cfg(const std::string& text) {
     const Sections s = read_sections(text);
@@ -193,6 +310,8 @@ struct MoonrakerTwin::State final : TwinHostCore {
     Clock::time_point ready_at{};  // a restart in progress ends then
     json settings = json::object();
     bool config_read_once = false;
+    bool cartesian = false;  // else a delta
+    Sections pending;        // SAVE_CONFIG's to write (SKEW_PROFILE SAVE)
 
     // Klipper reads printer.cfg: ready, or its error.
     void load_config() {
@@ -201,9 +320,12 @@ struct MoonrakerTwin::State final : TwinHostCore {
             if (faults.new_config_rejected && text != first_config)
                 throw std::runtime_error(
                     "Option 'position_endstop' in section 'stepper_a' must be below 400");
-            const DeltaParams firmware = twin_params_from_printer_cfg(text);
+            if (cartesian)
+                bench->restart_cartesian_printer(twin_cartesian_from_printer_cfg(text));
+            else
+                bench->restart_delta_printer(twin_params_from_printer_cfg(text));
             settings = settings_of(read_sections(text));
-            bench->restart_delta_printer(firmware);
+            pending.clear();
             klippy_state = "ready";
             state_message = "Printer is ready";
         } catch (const std::exception& e) {
@@ -223,6 +345,55 @@ struct MoonrakerTwin::State final : TwinHostCore {
         klippy_state = "startup";
         state_message = "Klipper is restarting";
         ready_at = Clock::now() + takes;
+    }
+
+    // Klipper's own commands for a cartesian printer's skew (klippy's, not the MCU's), under the
+    // mutex: the responses, or nullopt for a line the printer runs. Throws as Klipper refuses.
+    std::optional<std::vector<std::string>> klippy_command(const std::string& line) {
+        const std::string name = first_word(line);
+        if (name != "SET_SKEW" && name != "SKEW_PROFILE" && name != "SAVE_CONFIG")
+            return std::nullopt;
+        if (name != "SAVE_CONFIG" && (!cartesian || !settings.contains("skew_correction")))
+            throw std::runtime_error("Unknown command:\"" + name + "\"");
+        auto p = parameters(line);
+        if (name == "SET_SKEW") {
+            if (p.count("clear") != 0 && p["clear"] == "1") {
+                bench->set_cartesian_skew(0);
+                return std::vector<std::string>{};
+            }
+            double l[3] = {0, 0, 0};
+            if (p.count("xy") == 0 ||
+                std::sscanf(p["xy"].c_str(), "%lf,%lf,%lf", &l[0], &l[1], &l[2]) != 3)
+                throw std::runtime_error(
+                    "skew_correction: improperly formatted entry for plane XY");
+            bench->set_cartesian_skew(twin_skew_factor(l[0], l[1], l[2]));
+            return std::vector<std::string>{};
+        }
+        if (name == "SKEW_PROFILE") {
+            if (p.count("save") != 0) {
+                const std::string section = "skew_correction " + p["save"];
+                pending[section]["xy_skew"] = repr(bench->cartesian_printer_firmware().xy_skew);
+                pending[section]["xz_skew"] = "0.0";
+                pending[section]["yz_skew"] = "0.0";
+                return std::vector<std::string>{
+                    "// Skew Correction state has been saved to profile [" + p["save"] + "]",
+                    "// for the current session.  The SAVE_CONFIG command will",
+                    "// update the printer config file and restart the printer."};
+            }
+            if (p.count("load") != 0) {
+                const std::string section = "skew_correction " + p["load"];
+                if (!settings.contains(section))
+                    throw std::runtime_error("skew_correction:  Load failed, unknown profile [" +
+                                             p["load"] + "]");
+                bench->set_cartesian_skew(settings[section].value("xy_skew", 0.0));
+                return std::vector<std::string>{};
+            }
+            throw std::runtime_error("skew_correction: SKEW_PROFILE needs SAVE= or LOAD=");
+        }
+        const std::string text = read_whole_file(dir / "printer.cfg");
+        write_file_whole(dir / "printer.cfg", saved_config(text, pending));
+        restart(std::chrono::milliseconds(300));
+        return std::vector<std::string>{};
     }
 
     // print_stats' state, as Klipper names it.
@@ -332,7 +503,12 @@ struct MoonrakerTwin::State final : TwinHostCore {
             std::string line;
             while (std::getline(script, line)) {
                 try {
-                    for (const auto& r : bench->run_printer_line(line))
+                    std::optional<std::vector<std::string>> klippy;
+                    {
+                        const std::lock_guard again(mutex);
+                        klippy = klippy_command(line);
+                    }
+                    for (const auto& r : klippy ? *klippy : bench->run_printer_line(line))
                         out.push_back(json{
                             {"jsonrpc", "2.0"},
                             {"method", "notify_gcode_response"},
@@ -383,9 +559,13 @@ MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
                              TwinHostSettings settings)
     : state_(std::make_unique<State>(std::move(bench), std::move(host_dir), std::move(settings))) {
     auto& s = *state_;
+    const auto& machine = s.bench->scenario().machine;
+    s.cartesian = machine.kind == "cartesian";
     if (!std::filesystem::exists(s.dir / "printer.cfg"))
-        write_file_whole(s.dir / "printer.cfg",
-                         printer_cfg_of(s.bench->delta_printer_firmware(), s.print_radius_mm));
+        write_file_whole(
+            s.dir / "printer.cfg",
+            s.cartesian ? printer_cfg_of_cartesian(machine.bed_size_x_mm, machine.bed_size_y_mm)
+                        : printer_cfg_of(s.bench->delta_printer_firmware(), s.print_radius_mm));
     s.first_config = read_whole_file(s.dir / "printer.cfg");
     s.load_config();
     if (s.faults.printer_not_ready) {

@@ -229,7 +229,11 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
 RouterVerdict judge_cartesian_fresh_points(const CartesianErrors& truth,
                                            const models::MachineFile& machine,
                                            const targets::Correction* correct) {
-    CartesianTwin twin(truth);
+    return judge_cartesian_fresh_points(CartesianTwin(truth), machine, correct);
+}
+
+RouterVerdict judge_cartesian_fresh_points(CartesianTwin twin, const models::MachineFile& machine,
+                                           const targets::Correction* correct) {
     twin.home();
     const auto points = fresh_points(targets::make_planar_target(machine));
     std::vector<Vec3> intended, before, after;

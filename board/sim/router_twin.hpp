@@ -98,5 +98,8 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
 RouterVerdict judge_cartesian_fresh_points(const CartesianErrors& truth,
                                            const models::MachineFile& machine,
                                            const targets::Correction* correct);
+// The same on a cartesian twin as its firmware is set (its truth and firmware copied).
+RouterVerdict judge_cartesian_fresh_points(CartesianTwin twin, const models::MachineFile& machine,
+                                           const targets::Correction* correct);
 
 }  // namespace calbox::sim

@@ -197,6 +197,27 @@ void TwinBench::restart_delta_printer(const DeltaParams& firmware) {
     replace_printer(std::make_unique<DeltaTwin>(scenario_.delta_truth, firmware, delta->dialect()));
 }
 
+CartesianFirmware TwinBench::cartesian_printer_firmware() const {
+    const std::lock_guard lock(mutex_);
+    const auto* cartesian = dynamic_cast<const CartesianTwin*>(machine_.get());
+    if (cartesian == nullptr) throw std::logic_error("the twin machine is not a cartesian printer");
+    return cartesian->firmware();
+}
+
+void TwinBench::restart_cartesian_printer(const CartesianFirmware& firmware) {
+    const std::lock_guard lock(mutex_);
+    if (dynamic_cast<const CartesianTwin*>(machine_.get()) == nullptr)
+        throw std::logic_error("the twin machine is not a cartesian printer");
+    replace_printer(std::make_unique<CartesianTwin>(scenario_.cartesian_truth, firmware));
+}
+
+void TwinBench::set_cartesian_skew(double xy_skew) {
+    const std::lock_guard lock(mutex_);
+    auto* cartesian = dynamic_cast<CartesianTwin*>(machine_.get());
+    if (cartesian == nullptr) throw std::logic_error("the twin machine is not a cartesian printer");
+    cartesian->set_skew(xy_skew);
+}
+
 void TwinBench::reset_printer() {
     const std::lock_guard lock(mutex_);
     // The settings the firmware stored survive; what it held in RAM and its homing do not.
@@ -309,6 +330,13 @@ DeltaJudgement TwinBench::judge_delta_printer() const {
     if (delta == nullptr) throw ScenarioError("the judge judges delta printers");
     DeltaTwin copy = *delta;
     return judge_delta(copy, {}, scenario_.machine.bed_radius_mm);
+}
+
+RouterVerdict TwinBench::judge_cartesian_printer(const targets::Correction* correct) const {
+    const std::lock_guard lock(mutex_);
+    const auto* cartesian = dynamic_cast<const CartesianTwin*>(machine_.get());
+    if (cartesian == nullptr) throw ScenarioError("the judge judges cartesian printers here");
+    return judge_cartesian_fresh_points(*cartesian, scenario_.machine, correct);
 }
 
 TwinPrinterLink::TwinPrinterLink(std::shared_ptr<TwinBench> bench)
@@ -541,9 +569,11 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
     board.machine = machine;
     std::unique_ptr<hal::SerialPort> port;
     if (machine.link.is_host()) {
-        if (machine.link.kind == "moonraker" && !machine.is_delta())
+        if (machine.link.kind == "moonraker" && machine.kind != "delta" &&
+            machine.kind != "cartesian")
             throw ScenarioError(settings.scenario_path +
-                                ": the twin's Moonraker host serves a Klipper delta printer");
+                                ": the twin's Moonraker host serves a Klipper delta or cartesian "
+                                "printer");
         // The host's key, made anew each run and handed to the box in its key file (the
         // scenario's own key_file, if any, is a real box's and not read).
         std::random_device random;

@@ -18,6 +18,7 @@
 #include "board/devices.hpp"
 #include "board/sim/delta_judge.hpp"
 #include "board/sim/galvo_twin.hpp"
+#include "board/sim/router_twin.hpp"
 #include "board/sim/scenario.hpp"
 #include "drivers/background_job.hpp"
 #include "drivers/notifier.hpp"
@@ -48,6 +49,11 @@ class TwinBench {
     // Throw std::logic_error on another machine.
     DeltaParams delta_printer_firmware() const;
     void restart_delta_printer(const DeltaParams& firmware);
+    // The same for a cartesian printer (Klipper's restart leaves no skew in force), and the skew
+    // Klipper's SET_SKEW or SKEW_PROFILE LOAD puts in force.
+    CartesianFirmware cartesian_printer_firmware() const;
+    void restart_cartesian_printer(const CartesianFirmware& firmware);
+    void set_cartesian_skew(double xy_skew);
 
     // What the camera sees now: the printed material, or a board, rendered with the scenario's
     // camera and photo settings; `frame` varies the sensor noise.
@@ -70,6 +76,9 @@ class TwinBench {
     // The judge, in the twin's truth (never called by the box's side): the delta printer as its
     // firmware is set now, over the printable area.
     DeltaJudgement judge_delta_printer() const;
+    // A cartesian printer as its firmware is set now: a fresh job half a pitch off the target's,
+    // as commanded and (with `correct`) through the correction the box keeps.
+    RouterVerdict judge_cartesian_printer(const targets::Correction* correct) const;
     // A galvo scanner: a fresh 30 x 30 grid of marks over `area_mm` (min x, min y, max x, max y)
     // commanded through `command_for` (the identity before a correction).
     GalvoJudgement judge_galvo_scanner(const std::function<Vec2(Vec2)>& command_for,

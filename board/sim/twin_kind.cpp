@@ -113,6 +113,41 @@ class PlanarJudge final : public TwinJudge {
     const TwinBench& bench_;
 };
 
+// A cartesian printer as its firmware is set now (Klipper's, behind its host, carries the
+// correction itself): a fresh job half a pitch off the target's, as commanded and through the
+// model the box keeps, if it keeps one.
+class CartesianJudge final : public TwinJudge {
+  public:
+    explicit CartesianJudge(const TwinBench& bench) : bench_(bench) {}
+    TwinVerdict before() const override {
+        const auto v = bench_.judge_cartesian_printer(nullptr);
+        char line[192];
+        std::snprintf(line, sizeof line,
+                      "%.4f mm mean, %.4f mm worst (the twin's truth, a fresh job of %zu points "
+                      "half a pitch off the target's)",
+                      v.before.mean_mm, v.before.max_mm, v.holes);
+        return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm}, line};
+    }
+    TwinVerdict after(const std::optional<targets::KeptCorrection>& kept) const override {
+        const auto v = bench_.judge_cartesian_printer(kept ? &kept->correct : nullptr);
+        char line[192];
+        if (!kept) {
+            std::snprintf(line, sizeof line,
+                          "as its firmware is set now %.5f mm mean, %.5f mm worst",
+                          v.before.mean_mm, v.before.max_mm);
+            return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm}, line};
+        }
+        const auto& a = *v.after;
+        std::snprintf(line, sizeof line,
+                      "through the error model %.5f mm mean, %.5f mm worst (%.1f %% less)",
+                      a.mean_mm, a.max_mm, 100 * (1 - a.mean_mm / v.before.mean_mm));
+        return {{a.mean_mm, a.rms_mm, a.max_mm}, line};
+    }
+
+  private:
+    const TwinBench& bench_;
+};
+
 // A planar machine's `sim verify`: a fresh job of holes half a pitch off the target's made as
 // commanded, and with a result through the compensated G-code.
 SimVerification verify_planar(const TwinKind& kind, const Scenario& s,
@@ -349,7 +384,7 @@ class CartesianKind final : public TwinKind {
         return std::make_unique<CartesianTwin>(s.cartesian_truth);
     }
     std::unique_ptr<TwinJudge> make_judge(const TwinBench& bench) const override {
-        return std::make_unique<PlanarJudge>(bench);
+        return std::make_unique<CartesianJudge>(bench);
     }
     ToolKind tool() const override {
         return on_the_sim_board_ ? ToolKind::extruder : ToolKind::laser;

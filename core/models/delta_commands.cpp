@@ -9,6 +9,7 @@
 #include <string_view>
 #include <utility>
 
+#include "core/models/klipper_config.hpp"
 #include "core/targets/gcode_line.hpp"
 
 namespace calbox::models {
@@ -57,93 +58,16 @@ std::vector<std::string> klipper_snippet(const DeltaGeometry& g) {
     return out;
 }
 
-namespace {
-
-constexpr std::string_view kSaveConfigMark = "#*#";
-constexpr const char* kSaveConfigHeader =
-    "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
-    "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n"
-    "#*#\n";
-
-std::string trimmed(std::string_view s) {
-    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-    return std::string(s);
-}
-
-// The SAVE_CONFIG block's sections in their order, each its keys and values in theirs.
-struct SavedSection {
-    std::string name;
-    std::vector<std::pair<std::string, std::string>> values;
-};
-
-void set_value(std::vector<SavedSection>& sections, const std::string& section,
-               const std::string& key, const std::string& value) {
-    auto it = std::find_if(sections.begin(), sections.end(),
-                           [&](const SavedSection& s) { return s.name == section; });
-    if (it == sections.end()) it = sections.insert(sections.end(), SavedSection{section, {}});
-    for (auto& [k, v] : it->values)
-        if (k == key) {
-            v = value;
-            return;
-        }
-    it->values.emplace_back(key, value);
-}
-
-}  // namespace
-
 std::string klipper_saved_config(const std::string& printer_cfg, const DeltaGeometry& g) {
-    // Above the block: kept byte for byte. The block: parsed, then written again.
-    std::string above;
-    std::vector<SavedSection> sections;
-    bool in_block = false;
-    std::size_t at = 0;
-    while (at < printer_cfg.size()) {
-        std::size_t end = printer_cfg.find('\n', at);
-        end = end == std::string::npos ? printer_cfg.size() : end + 1;
-        const std::string_view raw(printer_cfg.data() + at, end - at);
-        at = end;
-        if (!in_block && raw.substr(0, kSaveConfigMark.size()) != kSaveConfigMark) {
-            above.append(raw);
-            continue;
-        }
-        in_block = true;
-        if (raw.substr(0, kSaveConfigMark.size()) != kSaveConfigMark)
-            throw std::invalid_argument(
-                "printer.cfg: a line below the SAVE_CONFIG block's start does not begin with #*#");
-        const std::string line = trimmed(raw.substr(kSaveConfigMark.size()));
-        if (line.empty() || line.find("SAVE_CONFIG") != std::string::npos ||
-            line.rfind("DO NOT EDIT", 0) == 0)
-            continue;
-        if (line.front() == '[' && line.back() == ']') {
-            sections.push_back({trimmed(std::string_view(line).substr(1, line.size() - 2)), {}});
-            continue;
-        }
-        const std::size_t sep = line.find_first_of("=:");
-        if (sections.empty() || sep == std::string::npos)
-            throw std::invalid_argument("printer.cfg: SAVE_CONFIG block line '" + line +
-                                        "' is not a section or a key = value");
-        sections.back().values.emplace_back(trimmed(std::string_view(line).substr(0, sep)),
-                                            trimmed(std::string_view(line).substr(sep + 1)));
-    }
     const KlipperDelta k = to_klipper(in_gauge(g));
-    set_value(sections, "printer", "delta_radius", f3(k.delta_radius_mm));
+    std::vector<KlipperSavedValue> values{{"printer", "delta_radius", f3(k.delta_radius_mm)}};
     const char* steppers[3] = {"stepper_a", "stepper_b", "stepper_c"};
     for (std::size_t i = 0; i < 3; ++i) {
-        set_value(sections, steppers[i], "angle", f3(k.angle_deg[i]));
-        set_value(sections, steppers[i], "arm_length", f3(k.arm_length_mm[i]));
-        set_value(sections, steppers[i], "position_endstop", f3(k.position_endstop_mm[i]));
+        values.push_back({steppers[i], "angle", f3(k.angle_deg[i])});
+        values.push_back({steppers[i], "arm_length", f3(k.arm_length_mm[i])});
+        values.push_back({steppers[i], "position_endstop", f3(k.position_endstop_mm[i])});
     }
-    // SAVE_CONFIG leaves one blank line between the file's body and its block.
-    while (!above.empty() && (above.back() == '\n' || above.back() == ' ')) above.pop_back();
-    std::string out = above + (above.empty() ? "" : "\n\n") + kSaveConfigHeader;
-    for (std::size_t i = 0; i < sections.size(); ++i) {
-        if (i > 0) out += "#*#\n";
-        out += "#*# [" + sections[i].name + "]\n";
-        for (const auto& [key, value] : sections[i].values)
-            out.append("#*# ").append(key).append(" = ").append(value).append("\n");
-    }
-    return out;
+    return klipper_saved_values(printer_cfg, values);
 }
 
 std::string klipper_settings_mismatch(const DeltaGeometry& sent, const DeltaGeometry& in_force) {

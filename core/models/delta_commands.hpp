@@ -14,10 +14,8 @@ std::vector<std::string> rrf_commands(const DeltaGeometry& g);
 // Klipper: a printer.cfg snippet ([printer] delta_radius, [stepper_*] arm_length, angle,
 // position_endstop), one line per element.
 std::vector<std::string> klipper_snippet(const DeltaGeometry& g);
-// printer.cfg with `g` where Klipper's SAVE_CONFIG keeps what it saves: the "#*#" block at its
-// end, which Klipper reads over the sections above. The block's other values (a bed mesh,
-// DELTA_CALIBRATE's probe) and everything above it stay as they are; a file without the block
-// gets one, as SAVE_CONFIG would write it.
+// printer.cfg with `g` where Klipper's SAVE_CONFIG keeps what it saves (klipper_saved_values: the
+// block's other values, a bed mesh or DELTA_CALIBRATE's probe, stay).
 std::string klipper_saved_config(const std::string& printer_cfg, const DeltaGeometry& g);
 // Compares the geometry sent (klipper_saved_config) with the one Klipper took (its settings in
 // force, read back), in Klipper's own values to the 3 decimals sent: empty when they agree, else

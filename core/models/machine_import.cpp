@@ -252,7 +252,7 @@ ImportedMachine import_rrf(const std::vector<std::string>& files, const ImportOp
 
 namespace {
 
-using Sections = std::map<std::string, std::map<std::string, std::string>>;
+using Sections = KlipperSections;
 
 std::string folder_of(const std::string& path) {
     const auto slash = path.rfind('/');
@@ -308,6 +308,7 @@ void read_klipper_file(const std::string& path, const std::string& text, const R
                 continue;
             }
             section = name;
+            sections[section];  // a section with no options is there too ([skew_correction])
             continue;
         }
         if (const auto sep = line.find_first_of(":="); sep != std::string::npos)
@@ -318,14 +319,20 @@ void read_klipper_file(const std::string& path, const std::string& text, const R
 
 }  // namespace
 
-KlipperConfig read_klipper_config(const std::string& path, const std::string& text,
-                                  const ReadIncluded& read) {
+KlipperSections read_klipper_sections(const std::string& path, const std::string& text,
+                                      const ReadIncluded& read, std::vector<std::string>& notes) {
     Sections sections, saved;
-    KlipperConfig config;
     std::vector<std::string> chain;
-    read_klipper_file(path, text, read, chain, sections, saved, config.notes);
+    read_klipper_file(path, text, read, chain, sections, saved, notes);
     for (const auto& [name, keys] : saved)
         for (const auto& [key, value] : keys) sections[name][key] = value;
+    return sections;
+}
+
+KlipperConfig read_klipper_config(const std::string& path, const std::string& text,
+                                  const ReadIncluded& read) {
+    KlipperConfig config;
+    const Sections sections = read_klipper_sections(path, text, read, config.notes);
     const auto value = [&](const std::string& section, const std::string& key) {
         const auto s = sections.find(section);
         if (s == sections.end()) return std::optional<std::string>{};

@@ -4,6 +4,7 @@
 // with its SAVE_CONFIG block. What the files cannot tell is defaulted and said so.
 #include <array>
 #include <functional>
+#include <map>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -81,9 +82,14 @@ struct KlipperConfig {
     std::optional<std::array<double, 3>> steps_per_mm;
     std::vector<KlipperSavedProbe> saved_probe;  // heightN in order, empty without them
 };
-// Sections merged as Klipper reads them: includes in place, later values over earlier, the
-// SAVE_CONFIG block (#*# lines) over everything. Throws ImportError for an include loop, a
-// printer that is not a delta, missing keys or a malformed value.
+// printer.cfg's sections merged as Klipper reads them: includes in place (those not found noted
+// in `notes`), later values over earlier, the SAVE_CONFIG block (#*# lines) over everything.
+// Throws ImportError for an include loop.
+using KlipperSections = std::map<std::string, std::map<std::string, std::string>>;
+KlipperSections read_klipper_sections(const std::string& path, const std::string& text,
+                                      const ReadIncluded& read, std::vector<std::string>& notes);
+// The delta's settings in those sections. Throws ImportError as above, and for a printer that is
+// not a delta, missing keys or a malformed value.
 KlipperConfig read_klipper_config(const std::string& path, const std::string& text,
                                   const ReadIncluded& read);
 

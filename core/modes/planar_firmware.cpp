@@ -4,13 +4,13 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/models/klipper_config.hpp"
 #include "core/modes/planar.hpp"
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 
 namespace calbox::modes {
 
-using geometry::distance;
 using geometry::Point2;
 
 FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
@@ -94,14 +94,11 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
         out.emplace_back("; [stepper_x] rotation_distance: multiply by " +
                          number_text("%.6f", 1 + sx) + ", [stepper_y] by " +
                          number_text("%.6f", 1 + sy));
-        // The diagonals and side of a 100 mm square as this machine makes it, after the scales
-        // are set: Klipper's skew calibration takes them as measured.
-        const double side = 100;
-        const Point2 a{0, 0}, b{side, 0}, c{side + skew * side, side}, d{skew * side, side};
-        out.emplace_back("SET_SKEW XY=" + number_text("%.4f", distance(a, c)) + "," +
-                         number_text("%.4f", distance(b, d)) + "," +
-                         number_text("%.4f", distance(a, d)));
-        out.emplace_back("SKEW_PROFILE SAVE=calbox");
+        // The printer's own skew profile measured none: the lean is the one to save.
+        for (auto& line : models::klipper_skew_commands(
+                 *models::klipper_cartesian_corrected({1, 1, std::nullopt, true}, sx, sy, skew)
+                      .xy_skew))
+            out.push_back(std::move(line));
         out.emplace_back("SAVE_CONFIG");
     } else if (machine.firmware == "linuxcnc") {
         out.emplace_back(

@@ -36,6 +36,9 @@ PlanarCycleMode::PlanarCycleMode(models::MachineFile machine, CycleSteps& steps)
 void PlanarCycleMode::begin() {
     measured_.reset();
     solution_.reset();
+    firmware_.reset();
+    klipper_now_.reset();
+    klipper_sent_.reset();
 }
 
 void PlanarCycleMode::make_target(std::function<void(std::vector<std::string>)> then) {
@@ -74,17 +77,23 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
         },
         [this, solution, firmware, then = std::move(then)] {
             solution_ = *solution;
+            firmware_ = *firmware;
+            if (klipper_now_)
+                klipper_sent_ = models::klipper_cartesian_corrected(
+                    *klipper_now_, firmware->scale_x, firmware->scale_y, firmware->skew);
             if (!steps_.keep(steps_.record_name("result.json"),
                              modes::planar_result_to_json(*solution_, *firmware)))
                 return;
             // The firmware's own knobs, for a person who would rather set them: shown, not sent
-            // (the compensated jobs carry the whole model; both would correct twice).
+            // (the compensated jobs carry the whole model; both would correct twice). Klipper
+            // behind its host takes the review's instead.
             if (!steps_.keep(steps_.record_name("firmware.txt"), joined(firmware->lines))) return;
             then({SolveOutcome::Next::review, figures_of(*solution_)});
         });
 }
 
 ReviewText PlanarCycleMode::review() const {
+    if (klipper_sent_) return klipper_review();
     const auto& s = *solution_;
     ReviewText r;
     r.detail = "predicted after " + number_text("%.4f", s.after.mean_mm) + " mm mean";
@@ -113,7 +122,9 @@ void PlanarCycleMode::judge_verification(std::function<void(VerifyOutcome)> then
                     if (!steps_.keep(steps_.record_name("verify-measurements.json"),
                                      modes::planar_measurements_to_json(*measured_)))
                         return;
-                    steps_.log("verified on the grid drilled through the model: " +
+                    steps_.log(std::string(klipper_sent_ ? "verified on the grid made again: "
+                                                         : "verified on the grid drilled through "
+                                                           "the model: ") +
                                number_text("%.4f", *verified.mean_mm) + " mm mean, " +
                                number_text("%.4f", verified.max_mm) + " mm worst");
                     then({verified, false});

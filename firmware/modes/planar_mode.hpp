@@ -3,8 +3,12 @@
 // model, kept by the box (planar-result.json) and compensated into the jobs sent through it;
 // verified on the grid drilled through it. The firmware's own scale and skew settings are shown
 // beside it (firmware.txt), not sent: both would correct twice.
+// A Klipper printer behind its host is the exception: the jobs it prints do not pass through the
+// box, so its own settings carry the model's linear part (rotation_distance, a skew profile) and
+// the box keeps no model for it (planar_klipper.cpp).
 #include <optional>
 
+#include "core/models/klipper_config.hpp"
 #include "core/modes/planar.hpp"
 #include "firmware/modes/kept_correction.hpp"
 
@@ -20,10 +24,15 @@ class PlanarCycleMode final : public KeptCorrectionMode {
     modes::ModeGoal goal() const override { return modes::planar_goal(); }
     void begin() override;
     void make_target(std::function<void(std::vector<std::string>)> then) override;
-    void before_target(std::function<void()> then) override { then(); }
+    void before_target(std::function<void()> then) override;
     void measure(MeasureInput input, std::function<void()> then) override;
     void solve(std::function<void(SolveOutcome)> then) override;
     ReviewText review() const override;
+    void apply(std::function<void(bool verify)> then) override;
+    std::string verify_detail() const override;
+    void verification_job(const std::vector<std::string>& target,
+                          std::function<void(std::vector<std::string>)> then) override;
+    std::string revert(int number, std::function<void(std::string what)> then) override;
     void judge_verification(std::function<void(VerifyOutcome)> then) override;
     void describe_last(std::string&, nlohmann::json&) const override {}
     ModeResult result(bool) const override { return {}; }
@@ -37,7 +46,19 @@ class PlanarCycleMode final : public KeptCorrectionMode {
     targets::KeptCorrection correction_of(const std::string& kept_text) const override;
 
   private:
+    static constexpr const char* kKlipperBackup = "backup-printer.cfg";
+    // Klipper behind a host that keeps printer.cfg: its settings carry the correction.
+    bool klipper_on_host() const;
+    void read_klipper_settings(std::function<void(models::KlipperCartesian)> then);
+    void apply_on_klipper_host(std::function<void(bool verify)> then);
+    void save_klipper_skew(const std::string& backup, std::function<void(bool verify)> then);
+    void restore_klipper_config(const std::string& backup, const std::string& why);
+    std::string revert_on_klipper_host(int number, std::function<void(std::string what)> then);
+    ReviewText klipper_review() const;
+
     models::MachineFile machine_;
+    std::optional<models::KlipperCartesian> klipper_now_, klipper_sent_;
+    std::optional<modes::FirmwareSettings> firmware_;
     std::optional<modes::PlanarMeasurement> measured_;
     std::optional<modes::PlanarSolution> solution_;
 };

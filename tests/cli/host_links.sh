@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Printers behind a host, as a user runs them (a Marlin delta behind OctoPrint and a
-# RepRapFirmware one on a Duet further down). A Klipper delta behind Moonraker
+# Printers behind a host, as a user runs them (a Klipper cartesian printer's skew through
+# Moonraker, a Marlin delta behind OctoPrint and a RepRapFirmware one on a Duet further down). A
+# Klipper delta behind Moonraker
 # (examples/moonraker_delta.toml):
 # calbox run --auto meets the delta goal by the twin's judgement, the host holds the printer.cfg
 # the box wrote (its SAVE_CONFIG block) and Klipper's settings in force were read back; calbox
@@ -46,13 +47,15 @@ cmp -s "$host_cfg" "$original" || fail "the host's printer.cfg is not the backup
 key=$(cat "$work/box/twin-host.key")
 [ ${#key} -eq 32 ] || fail "the twin host's key is not 32 characters"
 
-# Each fault on a box already set up (its camera, bed plane and reference marks), with a fresh
-# host and printer: the cycle ends in error, its last line naming the fault; the key is nowhere.
+# Each fault on a box already set up (its camera, bed plane and reference marks: $set_up's), with a
+# fresh host and printer: the cycle ends in error, its last line naming the fault; the key is
+# nowhere.
+set_up="$work/box"
 expect_fault() {  # scenario, name, expected text, [faults] line, sed on the scenario
     local base="$1" name="$2" text="$3" fault="$4" edit="${5:-}"
     local d="$work/$name"
     mkdir -p "$d/box"
-    cp "$work/box/camera.yaml" "$work/box/plane.yaml" "$work/box/reference.yaml" "$d/box/"
+    cp "$set_up/camera.yaml" "$set_up/plane.yaml" "$set_up/reference.yaml" "$d/box/"
     { if [ -n "$edit" ]; then sed -e "$edit" "$base"; else cat "$base"; fi
       printf '\n[faults]\n%s\n' "$fault"; } > "$d/scenario.toml"
     if "$calbox" run --board sim --auto --scenario "$d/scenario.toml" --data "$d/box" \
@@ -107,6 +110,65 @@ expect_fault "$scenario" rejected \
     "Klipper did not start with the new printer.cfg (error: Option 'position_endstop' in section 'stepper_a' must be below 400) (the previous printer.cfg was restored)" \
     'host_new_config_rejected = true'
 klipper_cfg_is rejected original
+
+# A Klipper cartesian printer behind Moonraker (examples/moonraker_cartesian.toml): the planar
+# goal met by the printer's own settings, as Klipper took them (the box keeps no model for it).
+cartesian="$top/examples/moonraker_cartesian.toml"
+"$calbox" run --board sim --auto --scenario "$cartesian" --data "$work/cart" \
+    > "$work/cart.out" 2> "$work/cart.err" < /dev/null || fail "cartesian: calbox run --auto exited $?"
+cart_after=$(sed -nE 's/^after: as its firmware is set now ([0-9.]+) mm mean, ([0-9.]+) mm worst$/\1 \2/p' \
+    "$work/cart.out")
+[ -n "$cart_after" ] || fail "cartesian: no after line for the printer as its firmware is set"
+# The bar is the planar goal's (0.05 mm mean); the twin's printer with its new settings does far
+# better, and this asserts it.
+awk -v a="$cart_after" 'BEGIN { split(a, v, " "); exit !(v[1] <= 0.005 && v[2] <= 0.01) }' ||
+    fail "cartesian: after $cart_after misses 0.005 / 0.01"
+[ "$(cat "$work/cart/planar-result.json")" = "none" ] || [ ! -e "$work/cart/planar-result.json" ] ||
+    fail "cartesian: the box keeps a model for a printer that corrects itself"
+grep -q "cycle 1: the printer's settings in force: rotation_distance X 40.000000 Y 40.000000, skew profile calbox not saved" \
+    "$work/cart.err" || fail "cartesian: the settings in force were not read through the host"
+grep -q "Klipper puts a skew profile in force only when told: add SKEW_PROFILE LOAD=calbox to your PRINT_START macro" \
+    "$work/cart.err" || fail "cartesian: the owner was not told to load the profile"
+cart_cfg="$work/cart/twin-host/printer.cfg"
+# Klipper's SAVE_CONFIG wrote the profile over the box's rotation distances, commenting out the
+# lines above its block that the block now sets.
+grep -qE '^#\*# xy_skew = 0\.005[0-9]+$' "$cart_cfg" || fail "cartesian: no skew profile on the host"
+for axis in x y; do
+    line=$(grep -A1 "^#\*# \[stepper_$axis\]$" "$work/cart/cycle-0001-printer.cfg" | tail -n 1)
+    grep -qxF "$line" "$cart_cfg" || fail "cartesian: the host's printer.cfg lacks the box's '$line'"
+done
+[ "$(grep -c '^#rotation_distance: 40$' "$cart_cfg")" -eq 2 ] ||
+    fail "cartesian: SAVE_CONFIG did not comment out the old rotation distances"
+"$calbox" revert --scenario "$cartesian" --data "$work/cart" \
+    > "$work/cart-revert.out" 2> "$work/cart-revert.err" < /dev/null || fail "cartesian: calbox revert exited $?"
+cmp -s "$cart_cfg" "$work/cart/cycle-0001-backup-printer.cfg" ||
+    fail "cartesian: the host's printer.cfg is not the backup after revert"
+# Its faults: printer.cfg untouched, fully the backup, or someone else's edit left.
+set_up="$work/cart"
+original="$work/cart/cycle-0001-backup-printer.cfg"
+expect_fault "$cartesian" cart_rejected \
+    "Klipper did not start with the new printer.cfg (error: Option 'position_endstop' in section 'stepper_a' must be below 400) (the previous printer.cfg was restored)" \
+    'host_new_config_rejected = true'
+klipper_cfg_is cart_rejected original
+expect_fault "$cartesian" cart_edited \
+    "printer.cfg was changed on the host since the box read it; nothing was written (printer.cfg on the host is someone else's now: left as it is)" \
+    'host_config_edited = true'
+klipper_cfg_is cart_edited edited
+expect_fault "$cartesian" cart_upload_refused \
+    "the host refused the upload of printer.cfg (HTTP 400: Insufficient disk space) (printer.cfg was not changed)" \
+    'host_upload_refused = true'
+klipper_cfg_is cart_upload_refused original
+# The host restarting while Klipper saves the skew, the rotation distances already written: they
+# are taken back.
+expect_fault "$cartesian" cart_restart_saving \
+    "apply: Moonraker: http://127.0.0.1:" 'host_restart_at_request = 12'
+grep -q "saving the skew profile calbox" "$work/cart_restart_saving.err" ||
+    fail "cart_restart_saving: the host restarted before the skew was being saved"
+grep -q "(the previous printer.cfg was restored)$" "$work/cart_restart_saving.err" ||
+    fail "cart_restart_saving: the backup was not restored"
+klipper_cfg_is cart_restart_saving original
+set_up="$work/box"
+original="$work/box/cycle-0001-backup-printer.cfg"
 
 # The key is in no log, record or output of the whole run either.
 if grep -rqF "$key" "$work/box" "$work/run.out" "$work/run.err" "$work/revert.out" \
@@ -256,4 +318,4 @@ wait $pid || status=$?
 [ $status -eq 0 ] || fail "SIGINT: exit $status"
 grep -qx 'calbox: stopped by signal 2; the machine link is closed' "$work/serial.err" ||
     fail "SIGINT: the log does not say the link is closed"
-echo "moonraker delta: after $after; octoprint delta: after $octo_after; duet delta: after $duet_after; revert restored each; 20 host faults named; SIGTERM and SIGINT exit 0"
+echo "moonraker delta: after $after; moonraker cartesian: after $cart_after; octoprint delta: after $octo_after; duet delta: after $duet_after; revert restored each; 24 host faults named; SIGTERM and SIGINT exit 0"

@@ -4,6 +4,8 @@
 #include <CppUTest/TestHarness.h>
 
 #include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -16,7 +18,9 @@
 #include "board/sim/scenario.hpp"
 #include "board/sim/sim_board.hpp"
 #include "core/models/delta_commands.hpp"
+#include "core/models/klipper_config.hpp"
 #include "core/models/machine_file.hpp"
+#include "core/models/machine_import.hpp"
 #include "drivers/http.hpp"
 #include "firmware/duet_link.hpp"
 #include "firmware/event_loop.hpp"
@@ -244,6 +248,125 @@ TEST(KlipperConfig, the_twin_reads_printer_cfg_as_klipper_does) {
     }
 }
 
+// A cartesian printer's settings: the box's arithmetic against hand-worked values and against
+// the twin's own models (Klipper's skew formula, its printer's motion), never its own output.
+TEST_GROUP(KlipperSkew){};
+
+TEST(KlipperSkew, set_skew_gives_klipper_the_lean_it_computes_back) {
+    // A 100 mm square leaning 0.01: C (101, 100), D (1, 100).
+    const auto lines = models::klipper_skew_commands(0.01);
+    LONGS_EQUAL(2, lines.size());
+    STRCMP_EQUAL("SET_SKEW XY=142.130222,140.716026,100.005000", lines[0].c_str());
+    STRCMP_EQUAL("SKEW_PROFILE SAVE=calbox", lines[1].c_str());
+    // Klipper's calc_skew_factor, as the twin implements it, takes the lengths back to the lean.
+    for (const double lean : {-0.02, -0.0031, 0.0, 0.0047, 0.03}) {
+        double l[3];
+        CHECK(std::sscanf(models::klipper_skew_commands(lean)[0].c_str(), "SET_SKEW XY=%lf,%lf,%lf",
+                          &l[0], &l[1], &l[2]) == 3);
+        DOUBLES_EQUAL(lean, sim::twin_skew_factor(l[0], l[1], l[2]), 2e-8);
+    }
+}
+
+TEST(KlipperSkew, the_corrected_settings_compose_with_those_in_force) {
+    // Hand-worked: rotation distances scale by 1 + s; the lean is (skew + k0 (1 + sx)) / (1 + sy).
+    const models::KlipperCartesian now{40, 40, 0.002, true};
+    const auto c = models::klipper_cartesian_corrected(now, 0.01, -0.02, 0.003);
+    DOUBLES_EQUAL(40.4, c.rotation_distance_x_mm, 1e-12);
+    DOUBLES_EQUAL(39.2, c.rotation_distance_y_mm, 1e-12);
+    DOUBLES_EQUAL((0.003 + 0.002 * 1.01) / 0.98, *c.xy_skew, 1e-15);
+}
+
+TEST(KlipperSkew, the_twin_printer_with_the_corrected_settings_is_square_and_true) {
+    // The twin's printer (out of square, off in both axes) with settings already in force: its
+    // linear error read off the twin as a measurement would see it, corrected, and the twin's
+    // motion checked: each axis true to length, the two square.
+    sim::CartesianErrors truth{0.004, -0.003, 0.3};
+    const models::KlipperCartesian now{41, 39.5, 0.001, true};
+    const auto firmware_of = [](const models::KlipperCartesian& k) {
+        return sim::CartesianFirmware{sim::kOwnersRotationDistanceMm / k.rotation_distance_x_mm,
+                                      sim::kOwnersRotationDistanceMm / k.rotation_distance_y_mm,
+                                      k.xy_skew.value_or(0)};
+    };
+    sim::CartesianTwin before(truth, firmware_of(now));
+    before.home();
+    const auto x = before.actual_position_mm({100, 0, 0});
+    const auto y = before.actual_position_mm({0, 100, 0});
+    // e = (a x + b y, c x + d y): the twin's y axis stays on y, so c = 0 here.
+    const double a = x.x / 100 - 1, b = y.x / 100, d = y.y / 100 - 1;
+    DOUBLES_EQUAL(0.0, x.y, 1e-12);
+    const auto corrected = models::klipper_cartesian_corrected(now, a, d, b);
+    sim::CartesianTwin after(truth, firmware_of(corrected));
+    after.home();
+    const auto xa = after.actual_position_mm({100, 0, 0});
+    const auto ya = after.actual_position_mm({0, 100, 0});
+    DOUBLES_EQUAL(100, std::hypot(xa.x, xa.y), 1e-9);
+    DOUBLES_EQUAL(100, std::hypot(ya.x, ya.y), 1e-9);
+    DOUBLES_EQUAL(0, xa.x * ya.x + xa.y * ya.y, 1e-7);
+    // Before, it was neither.
+    CHECK(std::abs(std::hypot(x.x, x.y) - 100) > 0.1);
+    CHECK(std::abs(x.x * y.x + x.y * y.y) > 1);
+}
+
+TEST(KlipperSkew, printer_cfg_gives_the_travel_and_the_profile_and_refuses_other_kinematics) {
+    const std::string cfg =
+        "[printer]\nkinematics: cartesian\n[stepper_x]\nrotation_distance: 40\n"
+        "[stepper_y]\nrotation_distance: 32 ; GT2 16T\n[skew_correction]\n\n"
+        "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
+        "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n#*#\n"
+        "#*# [skew_correction calbox]\n#*# xy_skew = 0.0052\n#*# xz_skew = 0.0\n#*#\n"
+        "#*# [stepper_x]\n#*# rotation_distance = 40.16\n";
+    const auto k = models::read_klipper_cartesian("printer.cfg", cfg);
+    DOUBLES_EQUAL(40.16, k.rotation_distance_x_mm, 1e-12);
+    DOUBLES_EQUAL(32, k.rotation_distance_y_mm, 1e-12);
+    CHECK(k.xy_skew.has_value());
+    DOUBLES_EQUAL(0.0052, *k.xy_skew, 1e-15);
+    CHECK(k.takes_skew);
+    // The twin's own reader of the same file: the travel against its owner's 40 mm.
+    const auto f = sim::twin_cartesian_from_printer_cfg(cfg);
+    DOUBLES_EQUAL(40 / 40.16, f.travel_x, 1e-12);
+    DOUBLES_EQUAL(40.0 / 32, f.travel_y, 1e-12);
+    try {
+        models::read_klipper_cartesian(
+            "printer.cfg",
+            "[printer]\nkinematics: corexy\n[stepper_x]\n"
+            "rotation_distance: 40\n[stepper_y]\nrotation_distance: 40\n");
+        FAIL("a corexy printer was taken as cartesian");
+    } catch (const models::ImportError& e) {
+        STRCMP_CONTAINS("kinematics is 'corexy', not cartesian", e.what());
+    }
+    // What is sent and what is in force: the first difference named.
+    const models::KlipperCartesian sent{40.159141, 39.880736, 0.0052774, true};
+    STRCMP_EQUAL("", models::klipper_cartesian_mismatch(sent, sent).c_str());
+    auto off = sent;
+    off.xy_skew = 0.00528;
+    STRCMP_CONTAINS("xy_skew sent 0.005277", models::klipper_cartesian_mismatch(sent, off).c_str());
+    off = sent;
+    off.xy_skew.reset();
+    STRCMP_CONTAINS("[skew_correction calbox] is missing",
+                    models::klipper_cartesian_mismatch(sent, off).c_str());
+}
+
+TEST(KlipperSkew, only_a_file_the_box_changed_is_its_own_to_restore) {
+    const std::string before =
+        "# my printer\n[printer]\nkinematics: cartesian\n[stepper_x]\nrotation_distance: 40\n"
+        "[stepper_y]\nrotation_distance: 40\n[skew_correction]\n";
+    const std::string travel =
+        models::klipper_saved_values(before, {{"stepper_x", "rotation_distance", "40.2"}});
+    CHECK(models::klipper_changed_only_travel_and_skew(before, travel));
+    // SAVE_CONFIG's rewrite of it: the duplicate commented out, the profile added.
+    std::string saved = travel;
+    saved.replace(saved.find("rotation_distance: 40"), 0, "#");
+    saved += "#*#\n#*# [skew_correction calbox]\n#*# xy_skew = 0.004\n";
+    CHECK(models::klipper_changed_only_travel_and_skew(before, saved));
+    // Someone's edits: a comment, another setting in the block, a value above it.
+    CHECK_FALSE(models::klipper_changed_only_travel_and_skew(before, "# mine\n" + saved));
+    CHECK_FALSE(models::klipper_changed_only_travel_and_skew(
+        before, models::klipper_saved_values(travel, {{"printer", "max_accel", "5000"}})));
+    std::string edited = before;
+    edited.replace(edited.find("cartesian"), 9, "corexy");
+    CHECK_FALSE(models::klipper_changed_only_travel_and_skew(before, edited));
+}
+
 TEST(KlipperConfig, the_machine_files_link_says_how_the_box_reaches_the_machine) {
     const std::string base =
         "[machine]\nkind = \"delta\"\nfirmware = \"klipper\"\n[delta]\ndiagonal_rod_mm = 250\n"
@@ -295,8 +418,9 @@ TEST_GROUP(MoonrakerLink) {
     }
 
     void start(const sim::HostFaults& faults, const std::string& key = "sesame",
-               const std::string& link_key = "sesame") {
-        auto scenario = sim::load_scenario(CALBOX_SOURCE_DIR "/examples/moonraker_delta.toml");
+               const std::string& link_key = "sesame",
+               const char* example = CALBOX_SOURCE_DIR "/examples/moonraker_delta.toml") {
+        auto scenario = sim::load_scenario(example);
         bench = std::make_shared<sim::TwinBench>(scenario);
         host = std::make_unique<sim::MoonrakerTwin>(bench, dir / "host",
                                                     sim::TwinHostSettings{key, faults, 85, 0});
@@ -354,6 +478,32 @@ TEST(MoonrakerLink, commands_settings_and_printer_cfg_through_the_host) {
     const auto firmware = bench->delta_printer_firmware();
     DOUBLES_EQUAL(139.2, firmware.radius_mm, 1e-9);
     DOUBLES_EQUAL(251.5, firmware.diagonal_rod_mm + firmware.diagonal_rod_trim_mm[0], 1e-9);
+}
+
+// A cartesian printer's skew: saved by Klipper itself (SAVE_CONFIG and its restart awaited), in
+// force only once loaded, read back from configfile.settings.
+TEST(MoonrakerLink, klipper_saves_the_skew_and_puts_it_in_force_when_loaded) {
+    start({}, "sesame", "sesame", CALBOX_SOURCE_DIR "/examples/moonraker_cartesian.toml");
+    const auto saved = await(
+        [this](auto done) { link->save_config_after(models::klipper_skew_commands(0.004), done); });
+    CHECK_TEXT(saved.ok, saved.error.c_str());
+    STRCMP_CONTAINS("#*# [skew_correction calbox]\n#*# xy_skew = 0.00399999",
+                    host_config().c_str());
+    // Klipper starts with no skew in force.
+    DOUBLES_EQUAL(0, bench->cartesian_printer_firmware().xy_skew, 0);
+    const auto loaded =
+        await([this](auto done) { link->send_commands({"SKEW_PROFILE LOAD=calbox"}, done); });
+    CHECK_TEXT(loaded.ok, loaded.error.c_str());
+    DOUBLES_EQUAL(0.004, bench->cartesian_printer_firmware().xy_skew, 1e-8);
+    const auto in_force = await([this](auto done) { link->read_settings_in_force(done); });
+    CHECK_TEXT(in_force.ok, in_force.error.c_str());
+    const auto k = models::read_klipper_cartesian("settings", in_force.text);
+    DOUBLES_EQUAL(0.004, k.xy_skew.value_or(0), 1e-8);
+    DOUBLES_EQUAL(40, k.rotation_distance_x_mm, 0);
+    const auto unknown =
+        await([this](auto done) { link->send_commands({"SKEW_PROFILE LOAD=other"}, done); });
+    CHECK_FALSE(unknown.ok);
+    STRCMP_CONTAINS("unknown profile [other]", unknown.error.c_str());
 }
 
 TEST(MoonrakerLink, a_job_is_uploaded_started_and_followed_to_its_end) {

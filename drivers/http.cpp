@@ -121,7 +121,9 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
     });
     ioc.restart();
     ioc.run();
-    if (ec) throw NetworkError(where + ": sending " + request.target + ": " + ec.message());
+    // The path alone in what is said: a query may carry a password (rr_connect's).
+    const std::string path = request.target.substr(0, request.target.find('?'));
+    if (ec) throw NetworkError(where + ": sending " + path + ": " + ec.message());
 
     beast::flat_buffer buffer;
     http::response_parser<http::string_body> parser;
@@ -140,7 +142,7 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
         else if (ec == http::error::end_of_stream || ec == net::error::eof ||
                  ec == net::error::connection_reset)
             why = "the host closed the connection";
-        throw NetworkError(where + ": the reply to " + request.target + ": " + why);
+        throw NetworkError(where + ": the reply to " + path + ": " + why);
     }
     stream.socket().shutdown(tcp::socket::shutdown_both, ec);
     auto response = parser.release();

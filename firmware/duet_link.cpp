@@ -36,6 +36,9 @@ struct DuetLink::Session {
     const DuetSettings& settings;
     std::optional<std::string> session_key;
     long markers = 0;
+    // A standalone board serves the rr_ requests; one with an SBC, DuetSoftwareFramework's
+    // /machine API (as Duet Web Control finds out: rr_connect answered 404 there).
+    bool sbc = false;
 
     drivers::HttpResponse raw(drivers::HttpRequest request) {
         link.check_stop();
@@ -50,45 +53,120 @@ struct DuetLink::Session {
 
     void connect() {
         if (session_key) return;
-        const auto r = raw({"GET",
-                            "/rr_connect?password=" + url_encoded(settings.password) +
-                                "&time=2026-01-01T00%3A00%3A00",
-                            {},
-                            {},
-                            {}});
+        if (!sbc) {
+            const auto r = raw({"GET",
+                                "/rr_connect?password=" + url_encoded(settings.password) +
+                                    "&time=2026-01-01T00%3A00%3A00",
+                                {},
+                                {},
+                                {}});
+            if (r.status == 404) {
+                sbc = true;
+            } else {
+                const json j = json::parse(r.body, nullptr, false);
+                if (r.status != 200 || j.is_discarded() || !j.contains("err"))
+                    throw LinkError("Duet: rr_connect: HTTP " + std::to_string(r.status));
+                const int err = j["err"].get<int>();
+                if (err == 1) throw wrong_password();
+                if (err == 2) throw LinkError("Duet: the board has no free session");
+                if (err != 0) throw LinkError("Duet: rr_connect: err " + std::to_string(err));
+                session_key = j.contains("sessionKey") ? j["sessionKey"].dump() : std::string("0");
+                return;
+            }
+        }
+        const auto r =
+            raw({"GET", "/machine/connect?password=" + url_encoded(settings.password), {}, {}, {}});
+        if (r.status == 403) throw wrong_password();
         const json j = json::parse(r.body, nullptr, false);
-        if (r.status != 200 || j.is_discarded() || !j.contains("err"))
-            throw LinkError("Duet: rr_connect: HTTP " + std::to_string(r.status));
-        const int err = j["err"].get<int>();
-        if (err == 1)
-            throw LinkError(
-                "Duet: the board refused the password (is key_file's the board's M551?)");
-        if (err == 2) throw LinkError("Duet: the board has no free session");
-        if (err != 0) throw LinkError("Duet: rr_connect: err " + std::to_string(err));
-        session_key = j.contains("sessionKey") ? j["sessionKey"].dump() : std::string("0");
+        if (r.status != 200 || j.is_discarded() || !j.contains("sessionKey"))
+            throw LinkError("Duet: /machine/connect: HTTP " + std::to_string(r.status) +
+                            (r.status == 502 || r.status == 503
+                                 ? " (DuetControlServer is not running on the SBC)"
+                                 : ""));
+        session_key = j["sessionKey"].is_string() ? j["sessionKey"].get<std::string>()
+                                                  : j["sessionKey"].dump();
+    }
+
+    static LinkError wrong_password() {
+        return LinkError("Duet: the board refused the password (is key_file's the board's M551?)");
+    }
+
+    // The session closed when the box stops, so that the board's few sessions are not held until
+    // they time out; best effort.
+    void disconnect() noexcept {
+        if (!session_key) return;
+        try {
+            drivers::HttpRequest request{
+                "GET", sbc ? "/machine/disconnect" : "/rr_disconnect", {}, {}, {}};
+            request.headers.emplace_back("X-Session-Key", *session_key);
+            drivers::http_request(settings.url, request, std::chrono::milliseconds(1000));
+        } catch (const std::exception&) {
+        }
+        session_key.reset();
     }
 
     // A request in the session; one whose session expired (401) connects again, once.
     drivers::HttpResponse call(const drivers::HttpRequest& request) {
         connect();
         auto r = raw(request);
-        if (r.status == 401) {
+        if (r.status == 401 || (sbc && r.status == 403)) {
             session_key.reset();
             connect();
             r = raw(request);
         }
-        if (r.status != 200)
+        if (r.status != 200 && r.status != 201)
             throw LinkError("Duet: " + request.target.substr(0, request.target.find('?')) +
-                            ": HTTP " + std::to_string(r.status));
+                            ": HTTP " + std::to_string(r.status) +
+                            (r.body.empty() || r.body.size() > 200 ? "" : " (" + r.body + ")"));
         return r;
     }
 
     json model(const std::string& key) {
+        connect();  // which API the board serves
+        if (sbc) {
+            const json j =
+                json::parse(call({"GET", "/machine/model", {}, {}, {}}).body, nullptr, false);
+            if (j.is_discarded() || !j.contains(key))
+                throw LinkError("Duet: /machine/model has no " + key);
+            return j[key];
+        }
         const auto r = call({"GET", "/rr_model?key=" + key + "&flags=d99f", {}, {}, {}});
         const json j = json::parse(r.body, nullptr, false);
         if (j.is_discarded() || !j.contains("result"))
             throw LinkError("Duet: rr_model " + key + ": no result");
         return j["result"];
+    }
+
+    // The job's file on the board's SD card (0:/gcodes/...), whole.
+    void upload(const std::string& path, const std::string& text) {
+        connect();
+        if (sbc) {
+            const auto r = raw({"PUT",
+                                "/machine/file/" + url_encoded(path),
+                                {},
+                                "application/octet-stream",
+                                text});
+            if (r.status != 201 && r.status != 200)
+                throw LinkError("the host refused the upload of " + settings.job_file_name +
+                                " (/machine/file: HTTP " + std::to_string(r.status) +
+                                (r.body.empty() || r.body.size() > 200 ? "" : ": " + r.body) + ")");
+            return;
+        }
+        boost::crc_32_type crc;
+        crc.process_bytes(text.data(), text.size());
+        char crc_hex[16];
+        std::snprintf(crc_hex, sizeof crc_hex, "%08x", crc.checksum());
+        const auto up = call({"POST",
+                              "/rr_upload?name=" + url_encoded(path) +
+                                  "&time=2026-01-01T00%3A00%3A00&crc32=" + crc_hex,
+                              {},
+                              "application/octet-stream",
+                              text});
+        const json stored = json::parse(up.body, nullptr, false);
+        if (stored.is_discarded() || stored.value("err", 1) != 0)
+            throw LinkError(
+                "the host refused the upload of " + settings.job_file_name + " (rr_upload: err " +
+                (stored.is_discarded() ? std::string("?") : stored["err"].dump()) + ")");
     }
 
     std::string status() { return model("state").value("status", std::string()); }
@@ -99,7 +177,18 @@ struct DuetLink::Session {
             throw LinkError("RepRapFirmware is not ready (" + s + ")");
     }
 
+    // DuetSoftwareFramework runs a code and answers with its reply.
+    std::string sbc_code(const std::string& line) {
+        return call({"POST", "/machine/code", {}, "text/plain", line}).body;
+    }
+
     void gcode(const std::string& line) {
+        connect();
+        if (sbc) {
+            const std::string reply = sbc_code(line);
+            if (reply.rfind("Error:", 0) == 0) throw LinkError("the printer: " + reply);
+            return;
+        }
         const auto r = call({"GET", "/rr_gcode?gcode=" + url_encoded(line), {}, {}, {}});
         const json j = json::parse(r.body, nullptr, false);
         if (j.is_discarded() || j.value("err", 0) != 0)
@@ -109,6 +198,19 @@ struct DuetLink::Session {
     // The lines, then a marker the firmware echoes: the replies up to the marker.
     std::vector<std::string> command(const std::vector<std::string>& lines) {
         ensure_ready();
+        if (sbc) {
+            std::vector<std::string> replies;
+            for (const auto& line : lines) {
+                std::istringstream text(sbc_code(line));
+                for (std::string reply; std::getline(text, reply);) {
+                    if (!reply.empty() && reply.back() == '\r') reply.pop_back();
+                    if (reply.empty()) continue;
+                    if (reply.rfind("Error:", 0) == 0) throw LinkError("the printer: " + reply);
+                    replies.push_back(reply);
+                }
+            }
+            return replies;
+        }
         const std::string end = "calbox-" + std::to_string(++markers) + "-end";
         for (const auto& line : lines) gcode(line);
         gcode("M118 S\"" + end + "\"");
@@ -140,6 +242,7 @@ DuetLink::DuetLink(DuetSettings settings, Log log)
 
 DuetLink::~DuetLink() {
     finish_requests();
+    session_->disconnect();
 }
 
 void DuetLink::send_commands(const std::vector<std::string>& lines, Done done) {
@@ -158,22 +261,7 @@ void DuetLink::run_job(const std::vector<std::string>& lines, Done done) {
         [this, text = std::move(text)](Session& s) {
             s.ensure_ready();
             const std::string path = "0:/gcodes/" + settings_.job_file_name;
-            boost::crc_32_type crc;
-            crc.process_bytes(text.data(), text.size());
-            char crc_hex[16];
-            std::snprintf(crc_hex, sizeof crc_hex, "%08x", crc.checksum());
-            const auto up = s.call({"POST",
-                                    "/rr_upload?name=" + url_encoded(path) +
-                                        "&time=2026-01-01T00%3A00%3A00&crc32=" + crc_hex,
-                                    {},
-                                    "application/octet-stream",
-                                    text});
-            const json stored = json::parse(up.body, nullptr, false);
-            if (stored.is_discarded() || stored.value("err", 1) != 0)
-                throw LinkError("the host refused the upload of " + settings_.job_file_name +
-                                " (rr_upload: err " +
-                                (stored.is_discarded() ? std::string("?") : stored["err"].dump()) +
-                                ")");
+            s.upload(path, text);
             s.gcode("M32 \"" + path + "\"");
             const PrintingOnHost printing(*this);
             bool seen_printing = false;

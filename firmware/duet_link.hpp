@@ -1,10 +1,13 @@
 #pragma once
-// The machine link to a RepRapFirmware printer on the network through a Duet's own web API (a
-// standalone board, no SBC): rr_connect with the board's password for a session key,
-// rr_gcode and rr_reply for commands (a batch ended by a marker M118 echoes, so that the box
-// knows where its replies end), rr_upload with the file's CRC32 and M32 for a job, followed
-// through the object model's state and job. Settings go as over serial (M665, M666, M500 and
-// the read-back). The password is sent to rr_connect and nowhere else.
+// The machine link to a RepRapFirmware printer on the network through a Duet's own web API. A
+// standalone board: rr_connect with the board's password for a session key, rr_gcode and
+// rr_reply for commands (a batch ended by a marker M118 echoes, so that the box knows where its
+// replies end), rr_upload with the file's CRC32 and M32 for a job, followed through the object
+// model's state and job. A board with an SBC (rr_connect answers 404 there, as Duet Web Control
+// finds out): DuetSoftwareFramework's /machine/connect, /machine/code (which answers with the
+// code's reply), PUT /machine/file and /machine/model. Settings go as over serial (M665, M666,
+// M500 and the read-back). The password is sent to the connect request and nowhere else; the
+// session is closed when the link goes.
 #include <chrono>
 #include <functional>
 #include <memory>

@@ -46,8 +46,12 @@ struct MoonrakerLink::Session {
         drivers::Url url = settings.url;
         url.path = "/websocket";
         try {
-            socket =
-                std::make_unique<drivers::WebSocketClient>(url, auth(), settings.reply_timeout);
+            // The key goes with HTTP requests only: the long-lived socket is opened with a
+            // one-shot token the key fetches (single use, valid seconds), as Moonraker's web
+            // clients do. A host that trusts the box needs neither.
+            if (!settings.api_key.empty()) url.path += "?token=" + oneshot_token();
+            socket = std::make_unique<drivers::WebSocketClient>(url, drivers::Headers{},
+                                                                settings.reply_timeout);
         } catch (const drivers::NetworkError& e) {
             throw LinkError(std::string("Moonraker: ") + e.what() +
                             (std::string(e.what()).find("HTTP 401") != std::string::npos
@@ -117,6 +121,16 @@ struct MoonrakerLink::Session {
         } catch (const drivers::NetworkError& e) {
             throw LinkError(std::string("Moonraker: ") + e.what());
         }
+    }
+
+    std::string oneshot_token() {
+        const auto r = http({"GET", "/access/oneshot_token", {}, {}, {}});
+        const json j = json::parse(r.body, nullptr, false);
+        if (r.status != 200 || j.is_discarded() || !j.contains("result") ||
+            !j["result"].is_string())
+            throw LinkError("Moonraker: /access/oneshot_token: " + error_of(r) +
+                            (r.status == 401 ? " (is key_file's API key the host's?)" : ""));
+        return j["result"].get<std::string>();
     }
 
     static std::string error_of(const drivers::HttpResponse& r) {

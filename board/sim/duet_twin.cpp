@@ -8,6 +8,7 @@
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <thread>
 
 #include "board/sim/sim_board.hpp"
@@ -65,6 +66,7 @@ struct DuetTwin::State final : TwinHostCore {
     Clock::time_point restarting_until{};
     std::string session_key;
     std::string reply;  // what rr_reply hands out next
+    int disconnects = 0;
 
     std::string status() const {
         if (faults.printer_not_ready) return "off";
@@ -118,6 +120,7 @@ struct DuetTwin::State final : TwinHostCore {
         if (Clock::now() < restarting_until) return {503, "text/plain", "starting"};
         const std::string path = path_of(r.target);
         const auto query = query_of(r.target);
+        if (duet_sbc) return sbc_http(r, path, query, n);
         if (path == "/rr_connect") {
             // The board's password is the host's key.
             const std::string wanted = faults.wrong_key ? key + "-changed" : key;
@@ -133,6 +136,11 @@ struct DuetTwin::State final : TwinHostCore {
         const auto key = r.headers.find("x-session-key");
         if (session_key.empty() || key == r.headers.end() || key->second != session_key)
             return {401, "text/plain", ""};
+        if (path == "/rr_disconnect") {
+            session_key.clear();
+            ++disconnects;
+            return json_reply({{"err", 0}});
+        }
         if (path == "/rr_gcode") {
             if (status() != "off") run(query.count("gcode") != 0 ? query.at("gcode") : "");
             return json_reply({{"buff", 255}});
@@ -160,16 +168,63 @@ struct DuetTwin::State final : TwinHostCore {
         }
         if (path == "/rr_model") {
             const std::string k = query.count("key") != 0 ? query.at("key") : "";
-            json result = json::object();
-            if (k == "state") {
-                result = {{"status", status()}};
-            } else if (k == "job") {
-                const auto s = print->state();
-                result = {{"lastFileName", print->started() > 0 ? json(print->name()) : json()},
-                          {"lastFileCancelled", s == TwinPrint::State::cancelled},
-                          {"lastFileAborted", s == TwinPrint::State::error}};
-            }
+            const json model = object_model();
+            const json result = model.contains(k) ? model[k] : json::object();
             return json_reply({{"key", k}, {"flags", "d99f"}, {"result", result}});
+        }
+        return {404, "text/plain", "not found"};
+    }
+
+    json object_model() const {
+        const auto s = print->state();
+        return {{"state", {{"status", status()}}},
+                {"job",
+                 {{"lastFileName", print->started() > 0 ? json(print->name()) : json()},
+                  {"lastFileCancelled", s == TwinPrint::State::cancelled},
+                  {"lastFileAborted", s == TwinPrint::State::error}}}};
+    }
+
+    // DuetSoftwareFramework's HTTP API on the SBC (DuetWebServer), under the mutex: no rr_.
+    drivers::ServerResponse sbc_http(const drivers::ServerRequest& r, const std::string& path,
+                                     const std::map<std::string, std::string>& query, int n) {
+        if (path.rfind("/machine/", 0) != 0) return {404, "text/plain", "not found"};
+        if (path == "/machine/connect") {
+            const std::string wanted = faults.wrong_key ? key + "-changed" : key;
+            if (query.count("password") == 0 || query.at("password") != wanted)
+                return {403, "text/plain", "Invalid password"};
+            session_key = "dsf-" + std::to_string(1000 + n);
+            return json_reply({{"sessionKey", session_key}, {"sessionTimeout", 8000}});
+        }
+        const auto given = r.headers.find("x-session-key");
+        if (session_key.empty() || given == r.headers.end() || given->second != session_key)
+            return {401, "text/plain", ""};
+        if (path == "/machine/disconnect") {
+            session_key.clear();
+            ++disconnects;
+            return {204, "text/plain", ""};
+        }
+        if (path == "/machine/code" && r.method == "POST") {
+            reply.clear();
+            std::istringstream codes(r.body);
+            for (std::string line; std::getline(codes, line);)
+                if (status() != "off") run(line);
+            std::string out;
+            out.swap(reply);
+            return {200, "text/plain", out};
+        }
+        if (path == "/machine/model") return json_reply(object_model());
+        const std::string file_api = "/machine/file/";
+        if (path.rfind(file_api, 0) == 0 && r.method == "PUT") {
+            if (faults.upload_refused)
+                return {500, "text/plain", "Not enough space on the SD card"};
+            const auto decoded = query_of("?p=" + path.substr(file_api.size()));
+            const std::string name = decoded.count("p") != 0 ? decoded.at("p") : "";
+            const std::string file = name.substr(name.rfind('/') + 1);
+            if (name.rfind("0:/gcodes/", 0) != 0 || file.empty() || file[0] == '.')
+                return {400, "text/plain", "Invalid file name"};
+            std::filesystem::create_directories(dir / "gcodes");
+            write_file_whole(dir / "gcodes" / file, r.body);
+            return {201, "text/plain", ""};
         }
         return {404, "text/plain", "not found"};
     }
@@ -186,6 +241,11 @@ DuetTwin::DuetTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_
                                       [](const drivers::ServerRequest&, const std::string&) {
                                           return std::vector<std::string>{};
                                       }});
+}
+
+int DuetTwin::sessions_closed() const {
+    const std::lock_guard lock(state_->mutex);
+    return state_->disconnects;
 }
 
 DuetTwin::~DuetTwin() {

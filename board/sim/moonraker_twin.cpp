@@ -12,6 +12,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <random>
 #include <sstream>
 #include <stdexcept>
 #include <thread>
@@ -311,7 +312,10 @@ struct MoonrakerTwin::State final : TwinHostCore {
     json settings = json::object();
     bool config_read_once = false;
     bool cartesian = false;  // else a delta
-    Sections pending;        // SAVE_CONFIG's to write (SKEW_PROFILE SAVE)
+    // One-shot tokens handed out and not yet used, each with its expiry; those redeemed.
+    std::map<std::string, Clock::time_point> tokens;
+    int tokens_redeemed = 0;
+    Sections pending;  // SAVE_CONFIG's to write (SKEW_PROFILE SAVE)
 
     // Klipper reads printer.cfg: ready, or its error.
     void load_config() {
@@ -419,8 +423,31 @@ struct MoonrakerTwin::State final : TwinHostCore {
         return it != r.headers.end() && it->second == wanted;
     }
 
+    // The websocket's upgrade: the API key, or a one-shot token (single use, 5 s).
+    int upgrade(const drivers::ServerRequest& r) {
+        if (authorised(r)) return 101;
+        const auto at = r.target.find("?token=");
+        if (at == std::string::npos) return 401;
+        const std::lock_guard lock(mutex);
+        const auto token = tokens.find(r.target.substr(at + 7));
+        if (token == tokens.end()) return 401;
+        const bool valid = Clock::now() < token->second;
+        tokens.erase(token);
+        if (!valid) return 401;
+        ++tokens_redeemed;
+        return 101;
+    }
+
     drivers::ServerResponse http(const drivers::ServerRequest& r) {
         if (!authorised(r)) return http_error(401, "Unauthorized");
+        if (r.method == "GET" && r.target == "/access/oneshot_token") {
+            const std::lock_guard lock(mutex);
+            std::random_device random;
+            char token[17];
+            std::snprintf(token, sizeof token, "%08x%08x", random(), random());
+            tokens[token] = Clock::now() + std::chrono::seconds(5);
+            return {200, "application/json", json{{"result", token}}.dump()};
+        }
         if (r.method == "GET" && r.target == "/server/files/config/printer.cfg") {
             const std::lock_guard lock(mutex);
             std::string text = read_whole_file(dir / "printer.cfg");
@@ -576,12 +603,17 @@ MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
         "127.0.0.1", 0,
         drivers::HttpServer::Handlers{
             [&s](const drivers::ServerRequest& r) { return s.http(r); },
-            [&s](const drivers::ServerRequest& r) { return s.authorised(r) ? 101 : 401; },
+            [&s](const drivers::ServerRequest& r) { return s.upgrade(r); },
             [&s](const drivers::ServerRequest&, const std::string& m) { return s.message(m); }});
 }
 
 MoonrakerTwin::~MoonrakerTwin() {
     state_->shut_down();
+}
+
+int MoonrakerTwin::tokens_redeemed() const {
+    const std::lock_guard lock(state_->mutex);
+    return state_->tokens_redeemed;
 }
 
 std::string MoonrakerTwin::url() const {

@@ -44,6 +44,8 @@ class MoonrakerTwin final : public TwinHostServer {
     MoonrakerTwin& operator=(const MoonrakerTwin&) = delete;
     ~MoonrakerTwin() override;
     std::string url() const override;
+    // Websocket connections opened with a one-shot token (GET /access/oneshot_token).
+    int tokens_redeemed() const;
 
   private:
     struct State;

@@ -77,6 +77,8 @@ struct Scenario {
     // [twin] host_print_seconds: a print on a twin host lasts at least this long (a real one
     // takes minutes; the twin's runs at once unless told).
     double host_print_seconds = 0;
+    // [twin] duet_sbc: the twin Duet has an SBC (DuetSoftwareFramework's /machine API, no rr_).
+    bool duet_sbc = false;
     bool real_first_layer = true;  // [twin] first_layer = "real" (default) | "as_commanded"
     std::optional<ScenarioCamera> camera;
     PhotoSettings photo;

@@ -589,7 +589,7 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
             key_file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
         const auto& scenario = board.bench->scenario();
         const TwinHostSettings host{key, scenario.faults.host, machine.bed_radius_mm,
-                                    scenario.host_print_seconds};
+                                    scenario.host_print_seconds, scenario.duet_sbc};
         const auto host_dir = settings.data_dir / kTwinHostDirectory;
         if (machine.link.kind == "moonraker")
             board.host = std::make_unique<MoonrakerTwin>(board.bench, host_dir, host);

@@ -142,6 +142,7 @@ TwinHostCore::TwinHostCore(std::shared_ptr<TwinBench> b, std::filesystem::path d
       faults(settings.faults),
       print_seconds(settings.print_seconds),
       print_radius_mm(settings.print_radius_mm),
+      duet_sbc(settings.duet_sbc),
       print(std::make_unique<TwinPrint>(bench)) {
     std::filesystem::create_directories(dir);
 }

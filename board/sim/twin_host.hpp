@@ -42,6 +42,7 @@ struct TwinHostSettings {
     HostFaults faults;
     double print_radius_mm = 85;  // printer.cfg's, when a Klipper host writes it first
     double print_seconds = 0;     // a print lasts at least this long
+    bool duet_sbc = false;        // a Duet with an SBC: DuetSoftwareFramework's /machine API
 };
 
 // A twin host serving on loopback (each kind its own API in front of the same bench).
@@ -99,6 +100,7 @@ struct TwinHostCore {
     HostFaults faults;
     double print_seconds = 0;
     double print_radius_mm = 85;
+    bool duet_sbc = false;
     std::unique_ptr<TwinPrint> print;
     std::atomic<int> requests{0};
     std::atomic<bool> stopping{false};

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <sstream>
 #include <thread>
@@ -478,6 +479,31 @@ TEST(MoonrakerLink, commands_settings_and_printer_cfg_through_the_host) {
     const auto firmware = bench->delta_printer_firmware();
     DOUBLES_EQUAL(139.2, firmware.radius_mm, 1e-9);
     DOUBLES_EQUAL(251.5, firmware.diagonal_rod_mm + firmware.diagonal_rod_trim_mm[0], 1e-9);
+    // One websocket all along, opened with a one-shot token: the key never went over it.
+    LONGS_EQUAL(1, host->tokens_redeemed());
+}
+
+// A one-shot token opens one websocket: used again, or without the key that fetched it, refused.
+TEST(MoonrakerLink, a_one_shot_token_opens_one_websocket) {
+    start({});
+    const auto url = drivers::parse_url(host->url());
+    const auto fetched = drivers::http_request(
+        url, {"GET", "/access/oneshot_token", {{"X-Api-Key", "sesame"}}, {}, {}}, 2000ms);
+    LONGS_EQUAL(200, fetched.status);
+    const std::string token = nlohmann::json::parse(fetched.body)["result"];
+    auto socket_url = url;
+    socket_url.path = "/websocket?token=" + token;
+    drivers::WebSocketClient first(socket_url, {}, 2000ms);
+    try {
+        drivers::WebSocketClient again(socket_url, {}, 2000ms);
+        FAIL("a one-shot token opened a second websocket");
+    } catch (const drivers::NetworkError& e) {
+        STRCMP_CONTAINS("401", e.what());
+    }
+    const auto refused =
+        drivers::http_request(url, {"GET", "/access/oneshot_token", {}, {}, {}}, 2000ms);
+    LONGS_EQUAL(401, refused.status);
+    LONGS_EQUAL(1, host->tokens_redeemed());
 }
 
 // A cartesian printer's skew: saved by Klipper itself (SAVE_CONFIG and its restart awaited), in
@@ -554,6 +580,8 @@ TEST(MoonrakerLink, a_host_restarting_mid_request_is_named_and_the_next_request_
     std::this_thread::sleep_for(1600ms);  // the twin host's restart
     o = await([&](auto done) { link->send_commands({"G28"}, done); });
     CHECK_TEXT(o.ok, o.error.c_str());
+    // Each connection its own token.
+    LONGS_EQUAL(2, host->tokens_redeemed());
 }
 
 TEST(MoonrakerLink, a_print_cancelled_on_the_host_is_named) {
@@ -678,8 +706,13 @@ TEST_GROUP(DuetLink) {
         fs::create_directories(dir);
         bench = std::make_shared<sim::TwinBench>(
             sim::load_scenario(CALBOX_SOURCE_DIR "/examples/duet_delta.toml"));
-        host = std::make_unique<sim::DuetTwin>(bench, dir / "host",
-                                               sim::TwinHostSettings{"pass word", {}, 85, 0});
+        serve(false, {});
+    }
+    // The board: standalone, or with an SBC.
+    void serve(bool sbc, const sim::HostFaults& faults) {
+        host.reset();
+        host = std::make_unique<sim::DuetTwin>(
+            bench, dir / "host", sim::TwinHostSettings{"pass word", faults, 85, 0, sbc});
     }
     void connect(const std::string& password) {
         firmware::DuetSettings s;
@@ -722,6 +755,63 @@ TEST(DuetLink, rrf_reports_its_settings_through_the_board) {
     o = await([&](auto done) { link->send_commands({"M999 P\"unknown\""}, done); });
     CHECK_FALSE(o.ok);
     STRCMP_CONTAINS("the printer: Error:", o.error.c_str());
+}
+
+// The same requests to a board with an SBC: the link finds DuetSoftwareFramework's API (the board
+// answers no rr_connect) and closes its session when it goes, as on a standalone board.
+TEST(DuetLink, a_board_with_an_sbc_is_reached_through_its_machine_api) {
+    for (const bool sbc : {false, true}) {
+        serve(sbc, {});
+        connect("pass word");
+        auto o = await([&](auto done) { link->send_commands({"M665", "M666"}, done); });
+        CHECK_TEXT(o.ok, o.error.c_str());
+        CHECK_EQUAL(2u, o.replies.size());
+        STRCMP_CONTAINS("Diagonals 250.000:250.000:250.000, delta radius 140.000",
+                        o.replies[0].c_str());
+        o = await([&](auto done) { link->run_job({"G28", "G1 X10 Y10 Z5 F3000"}, done); });
+        CHECK_TEXT(o.ok, o.error.c_str());
+        STRCMP_EQUAL("G28\nG1 X10 Y10 Z5 F3000\n",
+                     sim::read_whole_file(dir / "host" / "gcodes" / "calbox-target.gcode").c_str());
+        o = await([&](auto done) { link->send_commands({"M999 P\"unknown\""}, done); });
+        CHECK_FALSE(o.ok);
+        STRCMP_CONTAINS("the printer: Error:", o.error.c_str());
+        LONGS_EQUAL(0, host->sessions_closed());
+        link->detach(loop);
+        link.reset();
+        LONGS_EQUAL(1, host->sessions_closed());
+        fs::remove(dir / "host" / "gcodes" / "calbox-target.gcode");
+    }
+    serve(true, {});
+    connect("guess");
+    auto o = await([&](auto done) { link->send_commands({"M665"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_EQUAL("Duet: the board refused the password (is key_file's the board's M551?)",
+                 o.error.c_str());
+    link->detach(loop);
+    link.reset();
+    sim::HostFaults refuse;
+    refuse.upload_refused = true;
+    serve(true, refuse);
+    connect("pass word");
+    o = await([&](auto done) { link->run_job({"G28"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_EQUAL(
+        "the host refused the upload of calbox-target.gcode (/machine/file: HTTP 500: Not enough "
+        "space on the SD card)",
+        o.error.c_str());
+}
+
+// A board that never answers rr_connect: the error names the request, not its query (which
+// carries the password).
+TEST(DuetLink, a_password_is_never_in_an_error) {
+    sim::HostFaults silent;
+    silent.silent_at_request = 1;
+    serve(false, silent);
+    connect("pass word");
+    const auto o = await([&](auto done) { link->send_commands({"M665"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_CONTAINS("the reply to /rr_connect: none within 2000 ms", o.error.c_str());
+    CHECK(o.error.find("pass") == std::string::npos);
 }
 
 TEST(DuetLink, a_wrong_password_is_named_and_never_shown) {

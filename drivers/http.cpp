@@ -1,12 +1,18 @@
 #include "drivers/http.hpp"
 
+#include <openssl/pem.h>
+#include <openssl/x509v3.h>
 #include <sys/socket.h>
 
+#include <array>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/ssl.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <boost/beast/ssl.hpp>
 #include <boost/beast/websocket.hpp>
+#include <boost/beast/websocket/ssl.hpp>
 #include <cctype>
 #include <deque>
 #include <map>
@@ -14,12 +20,14 @@
 #include <random>
 #include <set>
 #include <thread>
+#include <type_traits>
 
 namespace calbox::drivers {
 namespace beast = boost::beast;
 namespace http = beast::http;
 namespace websocket = beast::websocket;
 namespace net = boost::asio;
+namespace ssl = net::ssl;
 using tcp = net::ip::tcp;
 using Clock = std::chrono::steady_clock;
 
@@ -52,12 +60,8 @@ Url parse_url(const std::string& text) {
         throw std::invalid_argument("'" + text + "' is not a URL (http://HOST:PORT)");
     url.scheme = text.substr(0, colon);
     for (auto& c : url.scheme) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (url.scheme == "https" || url.scheme == "wss")
-        throw std::invalid_argument("'" + text +
-                                    "': TLS is not supported yet; reach the host over http on "
-                                    "the local network");
-    if (url.scheme != "http" && url.scheme != "ws")
-        throw std::invalid_argument("'" + text + "': the scheme must be http or ws");
+    if (url.scheme != "http" && url.scheme != "ws" && url.scheme != "https" && url.scheme != "wss")
+        throw std::invalid_argument("'" + text + "': the scheme must be http, https, ws or wss");
     std::string rest = text.substr(colon + 3);
     const std::size_t slash = rest.find('/');
     url.path = slash == std::string::npos ? "/" : rest.substr(slash);
@@ -70,7 +74,7 @@ Url parse_url(const std::string& text) {
         url.port = authority.substr(port_at + 1);
         authority.resize(port_at);
     } else {
-        url.port = "80";
+        url.port = url.tls() ? "443" : "80";
     }
     url.host = authority;
     if (url.host.empty()) throw std::invalid_argument("'" + text + "': no host");
@@ -86,24 +90,57 @@ Url parse_url(const std::string& text) {
     return url;
 }
 
-HttpResponse http_request(const Url& server, const HttpRequest& request,
-                          std::chrono::milliseconds timeout) {
-    net::io_context ioc;
-    beast::tcp_stream stream(ioc);
-    const std::string where = describe(server);
+namespace {
+
+// The TLS context of a client of `url`: the peer's certificate checked against the system's
+// certificate authorities, or against the url's ca_file alone (a host with a certificate of its
+// own making).
+std::unique_ptr<ssl::context> client_context(const Url& url) {
+    auto ctx = std::make_unique<ssl::context>(ssl::context::tls_client);
+    boost::system::error_code ec;
+    if (url.ca_file.empty())
+        ctx->set_default_verify_paths(ec);
+    else
+        ctx->load_verify_file(url.ca_file, ec);
+    if (ec)
+        throw NetworkError(url.origin() + ": the certificate authorities" +
+                           (url.ca_file.empty() ? "" : " in " + url.ca_file) + ": " + ec.message());
+    ctx->set_verify_mode(ssl::verify_peer);
+    return ctx;
+}
+
+// TLS over a connected stream: the host's name sent (SNI) and checked against its certificate.
+template <class TlsStream>
+void tls_handshake(net::io_context& ioc, TlsStream& stream, const Url& url,
+                   const std::string& where) {
+    if (SSL_set_tlsext_host_name(stream.native_handle(), url.host.c_str()) != 1)
+        throw NetworkError(where + ": the host name cannot be sent for TLS");
+    stream.set_verify_callback(ssl::host_name_verification(url.host));
+    boost::system::error_code ec;
+    stream.async_handshake(ssl::stream_base::client, [&](boost::system::error_code e) { ec = e; });
+    ioc.restart();
+    ioc.run();
+    if (ec) throw NetworkError(where + ": TLS: " + ec.message());
+}
+
+void connect(net::io_context& ioc, beast::tcp_stream& stream, const Url& server,
+             std::chrono::milliseconds timeout, const std::string& where) {
     boost::system::error_code ec;
     tcp::resolver resolver(ioc);
     const auto endpoints = resolver.resolve(server.host, server.port, ec);
     if (ec) throw NetworkError(where + ": " + ec.message());
     stream.expires_after(timeout);
-    bool done = false;
-    stream.async_connect(endpoints, [&](boost::system::error_code e, const tcp::endpoint&) {
-        ec = e;
-        done = true;
-    });
+    stream.async_connect(endpoints,
+                         [&](boost::system::error_code e, const tcp::endpoint&) { ec = e; });
     ioc.run();
     if (ec) throw NetworkError(where + ": " + ec.message());
+}
 
+template <class Stream>
+HttpResponse exchange(net::io_context& ioc, Stream& stream, const Url& server,
+                      const HttpRequest& request, std::chrono::milliseconds timeout,
+                      const std::string& where) {
+    boost::system::error_code ec;
     http::request<http::string_body> req{http::string_to_verb(request.method), request.target, 11};
     if (req.method() == http::verb::unknown)
         throw std::invalid_argument("HTTP method '" + request.method + "'");
@@ -113,12 +150,9 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
     if (!request.content_type.empty()) req.set(http::field::content_type, request.content_type);
     req.body() = request.body;
     req.prepare_payload();
-    stream.expires_after(timeout);
-    done = false;
-    http::async_write(stream, req, [&](boost::system::error_code e, std::size_t) {
-        ec = e;
-        done = true;
-    });
+    auto& lowest = beast::get_lowest_layer(stream);
+    lowest.expires_after(timeout);
+    http::async_write(stream, req, [&](boost::system::error_code e, std::size_t) { ec = e; });
     ioc.restart();
     ioc.run();
     // The path alone in what is said: a query may carry a password (rr_connect's).
@@ -128,11 +162,9 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
     beast::flat_buffer buffer;
     http::response_parser<http::string_body> parser;
     parser.body_limit(kBodyLimitBytes);
-    stream.expires_after(timeout);
-    http::async_read(stream, buffer, parser, [&](boost::system::error_code e, std::size_t) {
-        ec = e;
-        done = true;
-    });
+    lowest.expires_after(timeout);
+    http::async_read(stream, buffer, parser,
+                     [&](boost::system::error_code e, std::size_t) { ec = e; });
     ioc.restart();
     ioc.run();
     if (ec) {
@@ -140,13 +172,32 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
         if (ec == beast::error::timeout)
             why = "none within " + std::to_string(timeout.count()) + " ms";
         else if (ec == http::error::end_of_stream || ec == net::error::eof ||
-                 ec == net::error::connection_reset)
+                 ec == net::error::connection_reset || ec == ssl::error::stream_truncated)
             why = "the host closed the connection";
         throw NetworkError(where + ": the reply to " + path + ": " + why);
     }
-    stream.socket().shutdown(tcp::socket::shutdown_both, ec);
+    lowest.socket().shutdown(tcp::socket::shutdown_both, ec);
     auto response = parser.release();
     return {static_cast<int>(response.result_int()), std::move(response.body())};
+}
+
+}  // namespace
+
+HttpResponse http_request(const Url& server, const HttpRequest& request,
+                          std::chrono::milliseconds timeout) {
+    net::io_context ioc;
+    const std::string where = describe(server);
+    if (!server.tls()) {
+        beast::tcp_stream stream(ioc);
+        connect(ioc, stream, server, timeout, where);
+        return exchange(ioc, stream, server, request, timeout, where);
+    }
+    const auto ctx = client_context(server);
+    beast::ssl_stream<beast::tcp_stream> stream(ioc, *ctx);
+    connect(ioc, beast::get_lowest_layer(stream), server, timeout, where);
+    beast::get_lowest_layer(stream).expires_after(timeout);
+    tls_handshake(ioc, stream, server, where);
+    return exchange(ioc, stream, server, request, timeout, where);
 }
 
 FormBody multipart_form(const std::string& file_field, const std::string& file_name,
@@ -173,108 +224,136 @@ FormBody multipart_form(const std::string& file_field, const std::string& file_n
 }
 
 struct WebSocketClient::State {
+    virtual ~State() = default;
+    virtual void send(const std::string& text) = 0;
+    virtual std::optional<std::string> receive(std::chrono::milliseconds within) = 0;
+};
+
+namespace {
+
+// A websocket over TCP (Layer beast::tcp_stream) or over TLS on TCP
+// (beast::ssl_stream<beast::tcp_stream>).
+template <class Layer>
+struct SocketOver final : WebSocketClient::State {
+    static constexpr bool kTls = !std::is_same_v<Layer, beast::tcp_stream>;
     net::io_context ioc;
-    websocket::stream<beast::tcp_stream> ws{ioc};
+    std::unique_ptr<ssl::context> tls;  // before the stream that uses it
+    std::unique_ptr<websocket::stream<Layer>> ws;
     std::string where;
     beast::flat_buffer buffer;
     bool reading = false, read_done = false;
     boost::system::error_code read_error;
+
+    SocketOver(const Url& url, const Headers& headers, std::chrono::milliseconds timeout)
+        : where(describe(url)) {
+        if constexpr (kTls) {
+            tls = client_context(url);
+            ws = std::make_unique<websocket::stream<Layer>>(ioc, *tls);
+        } else {
+            ws = std::make_unique<websocket::stream<Layer>>(ioc);
+        }
+        auto& tcp_layer = beast::get_lowest_layer(*ws);
+        connect(ioc, tcp_layer, url, timeout, where);
+        if constexpr (kTls) {
+            tcp_layer.expires_after(timeout);
+            tls_handshake(ioc, ws->next_layer(), url, where);
+        }
+        ws->set_option(websocket::stream_base::decorator([headers](websocket::request_type& req) {
+            req.set(http::field::user_agent, "calbox");
+            for (const auto& [name, value] : headers) req.set(name, value);
+        }));
+        ws->read_message_max(kBodyLimitBytes);
+        websocket::response_type response;
+        boost::system::error_code ec;
+        tcp_layer.expires_after(timeout);
+        ws->async_handshake(response, url.host + ":" + url.port, url.path,
+                            [&](boost::system::error_code e) { ec = e; });
+        ioc.restart();
+        ioc.run();
+        if (ec) {
+            if (ec == websocket::error::upgrade_declined)
+                throw NetworkError(where + ": the host refused the connection (HTTP " +
+                                   std::to_string(response.result_int()) + ")");
+            throw NetworkError(where + ": " + ec.message());
+        }
+        // From here each call keeps its own deadline.
+        tcp_layer.expires_never();
+    }
+
+    ~SocketOver() override {
+        try {
+            boost::system::error_code ec;
+            beast::get_lowest_layer(*ws).socket().shutdown(tcp::socket::shutdown_both, ec);
+            beast::get_lowest_layer(*ws).socket().close(ec);
+            // Pending handlers end with operation_aborted; none outlives the state they touch.
+            ioc.restart();
+            ioc.poll();
+        } catch (...) {  // NOLINT(bugprone-empty-catch): a destructor's clean-up, nothing to tell
+        }
+    }
+
+    void send(const std::string& text) override {
+        bool done = false;
+        boost::system::error_code ec;
+        ws->text(true);
+        ws->async_write(net::buffer(text), [&](boost::system::error_code e, std::size_t) {
+            ec = e;
+            done = true;
+        });
+        if (!run_until(ioc, done, Clock::now() + std::chrono::seconds(30))) {
+            beast::get_lowest_layer(*ws).socket().close(ec);
+            ioc.restart();
+            ioc.poll();
+            throw NetworkError(where + ": a message could not be sent within 30 s");
+        }
+        if (ec) throw NetworkError(where + ": " + ec.message());
+    }
+
+    std::optional<std::string> receive(std::chrono::milliseconds within) override {
+        if (!reading) {
+            reading = true;
+            read_done = false;
+            ws->async_read(buffer, [this](boost::system::error_code e, std::size_t) {
+                read_error = e;
+                read_done = true;
+            });
+        }
+        if (!run_until(ioc, read_done, Clock::now() + within)) return std::nullopt;
+        reading = false;
+        if (read_error) {
+            const auto& e = read_error;
+            const bool closed = e == websocket::error::closed || e == net::error::eof ||
+                                e == net::error::connection_reset || e == beast::error::timeout ||
+                                e == ssl::error::stream_truncated;
+            throw NetworkError(
+                where + ": " +
+                (closed ? std::string("the host closed the connection") : e.message()));
+        }
+        std::string message = beast::buffers_to_string(buffer.data());
+        buffer.consume(buffer.size());
+        return message;
+    }
 };
 
+}  // namespace
+
 WebSocketClient::WebSocketClient(const Url& url, const Headers& headers,
-                                 std::chrono::milliseconds timeout)
-    : state_(std::make_unique<State>()) {
-    auto& s = *state_;
-    s.where = describe(url);
-    boost::system::error_code ec;
-    tcp::resolver resolver(s.ioc);
-    const auto endpoints = resolver.resolve(url.host, url.port, ec);
-    if (ec) throw NetworkError(s.where + ": " + ec.message());
-    auto& tcp_layer = beast::get_lowest_layer(s.ws);
-    tcp_layer.expires_after(timeout);
-    bool done = false;
-    tcp_layer.async_connect(endpoints, [&](boost::system::error_code e, const tcp::endpoint&) {
-        ec = e;
-        done = true;
-    });
-    s.ioc.run();
-    if (ec) throw NetworkError(s.where + ": " + ec.message());
-    s.ws.set_option(websocket::stream_base::decorator([headers](websocket::request_type& req) {
-        req.set(http::field::user_agent, "calbox");
-        for (const auto& [name, value] : headers) req.set(name, value);
-    }));
-    s.ws.read_message_max(kBodyLimitBytes);
-    websocket::response_type response;
-    done = false;
-    s.ws.async_handshake(response, url.host + ":" + url.port, url.path,
-                         [&](boost::system::error_code e) {
-                             ec = e;
-                             done = true;
-                         });
-    s.ioc.restart();
-    s.ioc.run();
-    if (ec) {
-        if (ec == websocket::error::upgrade_declined)
-            throw NetworkError(s.where + ": the host refused the connection (HTTP " +
-                               std::to_string(response.result_int()) + ")");
-        throw NetworkError(s.where + ": " + ec.message());
-    }
-    // From here each call keeps its own deadline.
-    tcp_layer.expires_never();
+                                 std::chrono::milliseconds timeout) {
+    if (url.tls())
+        state_ = std::make_unique<SocketOver<beast::ssl_stream<beast::tcp_stream>>>(url, headers,
+                                                                                    timeout);
+    else
+        state_ = std::make_unique<SocketOver<beast::tcp_stream>>(url, headers, timeout);
 }
 
-WebSocketClient::~WebSocketClient() {
-    try {
-        boost::system::error_code ec;
-        beast::get_lowest_layer(state_->ws).socket().shutdown(tcp::socket::shutdown_both, ec);
-        beast::get_lowest_layer(state_->ws).socket().close(ec);
-        // Pending handlers end with operation_aborted; none outlives the state they touch.
-        state_->ioc.restart();
-        state_->ioc.poll();
-    } catch (...) {  // NOLINT(bugprone-empty-catch): a destructor's clean-up, nothing to tell
-    }
-}
+WebSocketClient::~WebSocketClient() = default;
 
 void WebSocketClient::send(const std::string& text) {
-    auto& s = *state_;
-    bool done = false;
-    boost::system::error_code ec;
-    s.ws.text(true);
-    s.ws.async_write(net::buffer(text), [&](boost::system::error_code e, std::size_t) {
-        ec = e;
-        done = true;
-    });
-    if (!run_until(s.ioc, done, Clock::now() + std::chrono::seconds(30))) {
-        beast::get_lowest_layer(s.ws).socket().close(ec);
-        s.ioc.restart();
-        s.ioc.poll();
-        throw NetworkError(s.where + ": a message could not be sent within 30 s");
-    }
-    if (ec) throw NetworkError(s.where + ": " + ec.message());
+    state_->send(text);
 }
 
 std::optional<std::string> WebSocketClient::receive(std::chrono::milliseconds within) {
-    auto& s = *state_;
-    if (!s.reading) {
-        s.reading = true;
-        s.read_done = false;
-        s.ws.async_read(s.buffer, [&s](boost::system::error_code e, std::size_t) {
-            s.read_error = e;
-            s.read_done = true;
-        });
-    }
-    if (!run_until(s.ioc, s.read_done, Clock::now() + within)) return std::nullopt;
-    s.reading = false;
-    if (s.read_error) {
-        const auto& e = s.read_error;
-        const bool closed = e == websocket::error::closed || e == net::error::eof ||
-                            e == net::error::connection_reset || e == beast::error::timeout;
-        throw NetworkError(s.where + ": " +
-                           (closed ? std::string("the host closed the connection") : e.message()));
-    }
-    std::string message = beast::buffers_to_string(s.buffer.data());
-    s.buffer.consume(s.buffer.size());
-    return message;
+    return state_->receive(within);
 }
 
 struct HttpServer::State {
@@ -485,6 +564,179 @@ int HttpServer::port() const {
 void HttpServer::drop_connections() {
     const std::lock_guard lock(state_->mutex);
     for (int fd : state_->open_fds) ::shutdown(fd, SHUT_RDWR);
+}
+
+SelfSignedCertificate self_signed_certificate(const std::string& ip_address) {
+    // OpenSSL's objects, each freed with its own function.
+    const std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(EVP_EC_gen("P-256"),
+                                                                  EVP_PKEY_free);
+    const std::unique_ptr<X509, decltype(&X509_free)> cert(X509_new(), X509_free);
+    if (!key || !cert) throw NetworkError("a certificate cannot be made: out of memory");
+    const auto fail = [](const char* what) {
+        return NetworkError(std::string("a certificate cannot be made: ") + what);
+    };
+    std::random_device random;
+    if (X509_set_version(cert.get(), 2) != 1 ||
+        ASN1_INTEGER_set(X509_get_serialNumber(cert.get()), static_cast<long>(random() >> 1)) !=
+            1 ||
+        X509_gmtime_adj(X509_getm_notBefore(cert.get()), -3600) == nullptr ||
+        X509_gmtime_adj(X509_getm_notAfter(cert.get()), 24 * 3600) == nullptr ||
+        X509_set_pubkey(cert.get(), key.get()) != 1)
+        throw fail("its fields");
+    X509_NAME* name = X509_get_subject_name(cert.get());
+    if (X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_ASC,
+                                   reinterpret_cast<const unsigned char*>(ip_address.c_str()), -1,
+                                   -1, 0) != 1 ||
+        X509_set_issuer_name(cert.get(), name) != 1)
+        throw fail("its name");
+    X509V3_CTX v3;
+    X509V3_set_ctx_nodb(&v3);
+    X509V3_set_ctx(&v3, cert.get(), cert.get(), nullptr, nullptr, 0);
+    const std::string alt = "IP:" + ip_address;
+    X509_EXTENSION* extension =
+        X509V3_EXT_conf_nid(nullptr, &v3, NID_subject_alt_name, alt.c_str());
+    if (extension == nullptr) throw fail("its subjectAltName");
+    const int added = X509_add_ext(cert.get(), extension, -1);
+    X509_EXTENSION_free(extension);
+    if (added != 1 || X509_sign(cert.get(), key.get(), EVP_sha256()) == 0)
+        throw fail("its signature");
+    const auto pem = [](auto write) {
+        const std::unique_ptr<BIO, decltype(&BIO_free)> bio(BIO_new(BIO_s_mem()), BIO_free);
+        if (!bio || write(bio.get()) != 1) throw NetworkError("a certificate cannot be written");
+        char* data = nullptr;
+        const long size = BIO_get_mem_data(bio.get(), &data);
+        return std::string(data, static_cast<std::size_t>(size));
+    };
+    SelfSignedCertificate out;
+    out.certificate_pem = pem([&](BIO* b) { return PEM_write_bio_X509(b, cert.get()); });
+    out.private_key_pem = pem([&](BIO* b) {
+        return PEM_write_bio_PrivateKey(b, key.get(), nullptr, nullptr, 0, nullptr, nullptr);
+    });
+    return out;
+}
+
+struct TlsTerminator::State {
+    ssl::context tls{ssl::context::tls_server};
+    net::io_context ioc;
+    tcp::acceptor acceptor{ioc};
+    int port = 0, inner_port = 0;
+    std::mutex mutex;
+    std::set<int> open_fds;
+    std::vector<std::thread> connections;
+    std::thread accepting;
+    bool stopping = false;
+
+    void pass_through(tcp::socket accepted);
+};
+
+// One connection on an io_context of its own: the TLS handshake, a connection to the inner
+// server, then bytes both ways until either side ends.
+void TlsTerminator::State::pass_through(tcp::socket accepted) {
+    net::io_context own;
+    boost::system::error_code ec;
+    const int outer_fd = accepted.native_handle();
+    tcp::socket outer(own);
+    outer.assign(accepted.local_endpoint(ec).protocol(), accepted.release(ec), ec);
+    ssl::stream<tcp::socket> client(std::move(outer), tls);
+    tcp::socket inner(own);
+    struct Forget {
+        State& state;
+        std::vector<int> fds;
+        ~Forget() {
+            const std::lock_guard lock(state.mutex);
+            for (const int fd : fds) state.open_fds.erase(fd);
+        }
+    } forget{*this, {outer_fd}};
+    if (ec) return;
+    client.handshake(ssl::stream_base::server, ec);
+    if (ec) return;
+    inner.connect(
+        tcp::endpoint(net::ip::make_address("127.0.0.1"), static_cast<unsigned short>(inner_port)),
+        ec);
+    if (ec) return;
+    {
+        const std::lock_guard lock(mutex);
+        if (stopping) return;
+        open_fds.insert(inner.native_handle());
+        forget.fds.push_back(inner.native_handle());
+    }
+    std::array<char, 16384> up{}, down{};
+    const auto end = [&] {
+        boost::system::error_code ignored;
+        client.lowest_layer().shutdown(tcp::socket::shutdown_both, ignored);
+        inner.shutdown(tcp::socket::shutdown_both, ignored);
+        own.stop();
+    };
+    std::function<void()> upstream = [&] {
+        client.async_read_some(net::buffer(up), [&](boost::system::error_code e, std::size_t n) {
+            if (e) return end();
+            net::async_write(inner, net::buffer(up.data(), n),
+                             [&](boost::system::error_code w, std::size_t) {
+                                 if (w) return end();
+                                 upstream();
+                             });
+        });
+    };
+    std::function<void()> downstream = [&] {
+        inner.async_read_some(net::buffer(down), [&](boost::system::error_code e, std::size_t n) {
+            if (e) return end();
+            net::async_write(client, net::buffer(down.data(), n),
+                             [&](boost::system::error_code w, std::size_t) {
+                                 if (w) return end();
+                                 downstream();
+                             });
+        });
+    };
+    upstream();
+    downstream();
+    own.run();
+}
+
+TlsTerminator::TlsTerminator(const std::string& address, int inner_port,
+                             const SelfSignedCertificate& certificate)
+    : state_(std::make_unique<State>()) {
+    auto& s = *state_;
+    s.inner_port = inner_port;
+    boost::system::error_code ec;
+    s.tls.use_certificate_chain(net::buffer(certificate.certificate_pem), ec);
+    if (!ec) s.tls.use_private_key(net::buffer(certificate.private_key_pem), ssl::context::pem, ec);
+    if (ec) throw NetworkError("TLS: the certificate does not load: " + ec.message());
+    const tcp::endpoint at(net::ip::make_address(address, ec), static_cast<unsigned short>(0));
+    if (ec) throw NetworkError(address + ": " + ec.message());
+    s.acceptor.open(at.protocol(), ec);
+    if (!ec) s.acceptor.bind(at, ec);
+    if (!ec) s.acceptor.listen(net::socket_base::max_listen_connections, ec);
+    if (ec) throw NetworkError(address + ": cannot listen: " + ec.message());
+    s.port = s.acceptor.local_endpoint().port();
+    s.accepting = std::thread([&s] {
+        for (;;) {
+            boost::system::error_code e;
+            tcp::socket socket(s.ioc);
+            s.acceptor.accept(socket, e);
+            const std::lock_guard lock(s.mutex);
+            if (s.stopping) return;
+            if (e) continue;
+            s.open_fds.insert(socket.native_handle());
+            s.connections.emplace_back(
+                [&s, socket = std::move(socket)]() mutable { s.pass_through(std::move(socket)); });
+        }
+    });
+}
+
+TlsTerminator::~TlsTerminator() {
+    auto& s = *state_;
+    {
+        const std::lock_guard lock(s.mutex);
+        s.stopping = true;
+        ::shutdown(s.acceptor.native_handle(), SHUT_RDWR);
+        for (const int fd : s.open_fds) ::shutdown(fd, SHUT_RDWR);
+    }
+    s.accepting.join();
+    for (auto& t : s.connections) t.join();
+}
+
+int TlsTerminator::port() const {
+    return state_->port;
 }
 
 }  // namespace calbox::drivers

@@ -20,10 +20,14 @@ class NetworkError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-// "http://host:port/path" or "ws://...": parsed once. Throws std::invalid_argument naming what
-// is wrong (https and wss: not yet, said so).
+// "http://host:port/path", "https://...", "ws://..." or "wss://...": parsed once. Throws
+// std::invalid_argument naming what is wrong.
 struct Url {
     std::string scheme, host, port, path;
+    // Over TLS: the certificate authorities that vouch for the host, a PEM file (empty: the
+    // system's). The host's certificate must name the URL's host.
+    std::string ca_file;
+    bool tls() const { return scheme == "https" || scheme == "wss"; }
     std::string origin() const { return scheme + "://" + host + ":" + port; }
 };
 Url parse_url(const std::string& text);
@@ -66,8 +70,9 @@ class WebSocketClient {
     // NetworkError when the connection is gone.
     std::optional<std::string> receive(std::chrono::milliseconds within);
 
+    struct State;  // over TCP or TLS (drivers/http.cpp)
+
   private:
-    struct State;
     std::unique_ptr<State> state_;
 };
 
@@ -106,6 +111,33 @@ class HttpServer {
     void drop_connections();
     // Sends `message` on every open websocket (a host's push: OctoPrint's terminal logs).
     void push(const std::string& message);
+
+  private:
+    struct State;
+    std::unique_ptr<State> state_;
+};
+
+// A certificate of its own making for `ip_address` (subject and subjectAltName), valid a day:
+// PEM texts. For a server whose clients are given the certificate itself to trust (the twin's
+// hosts on loopback).
+struct SelfSignedCertificate {
+    std::string certificate_pem, private_key_pem;
+};
+SelfSignedCertificate self_signed_certificate(const std::string& ip_address);
+
+// TLS on a port of `address` in front of a plain server on 127.0.0.1:`inner_port`, as a reverse
+// proxy in front of a printer's host (nginx before Moonraker) serves it: each connection's bytes
+// passed through both ways, a connection the inner server drops dropped too.
+class TlsTerminator {
+  public:
+    // Port 0 takes a free one (port()). Throws NetworkError when it cannot listen or the
+    // certificate does not load.
+    TlsTerminator(const std::string& address, int inner_port,
+                  const SelfSignedCertificate& certificate);
+    TlsTerminator(const TlsTerminator&) = delete;
+    TlsTerminator& operator=(const TlsTerminator&) = delete;
+    ~TlsTerminator();  // closes every connection and waits for its thread
+    int port() const;
 
   private:
     struct State;

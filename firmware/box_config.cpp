@@ -109,6 +109,7 @@ models::MachineLinkSettings LinkSettings::over(const models::MachineFile& machin
     if (kind != "machine") m.link.kind = kind;
     if (!url.empty()) m.link.url = url;
     if (!key_file.empty()) m.link.key_file = key_file;
+    if (!ca_file.empty()) m.link.ca_file = ca_file;
     if (const auto why = models::link_mismatch(m); !why.empty())
         throw ConfigError("link.kind: " + why);
     return m.link;
@@ -366,7 +367,7 @@ const ConfigKey kSchema[] = {
      0,
      {},
      true,
-     "the host's address, http://HOST:PORT (empty: the machine file's)",
+     "the host's address, http://HOST:PORT or https://... (empty: the machine file's)",
      [](const BoxSettings& s) { return s.link.url; },
      [](BoxSettings& s, const ConfigKey&, std::string_view t) {
          const std::string url = one_line(t);
@@ -389,6 +390,17 @@ const ConfigKey kSchema[] = {
      "the file holding the host's API key, alone (empty: the machine file's)",
      [](const BoxSettings& s) { return s.link.key_file; },
      [](BoxSettings& s, const ConfigKey&, std::string_view t) { s.link.key_file = one_line(t); }},
+    {"link.ca_file",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     true,
+     "an https host's certificate authority, a PEM file (empty: the machine file's, else the "
+     "system's)",
+     [](const BoxSettings& s) { return s.link.ca_file; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) { s.link.ca_file = one_line(t); }},
 };
 
 std::string_view table_of(std::string_view name) {

@@ -42,6 +42,7 @@ struct LinkSettings {
         "machine";         // machine (the machine file's) | serial | moonraker | octoprint | duet
     std::string url;       // a host's
     std::string key_file;  // the host's API key, alone in the file
+    std::string ca_file;   // an https host's certificate authority (PEM)
     // `machine`'s [link] with these over it; throws ConfigError when they do not fit its firmware.
     models::MachineLinkSettings over(const models::MachineFile& machine) const;
 };

@@ -47,6 +47,7 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings
     drivers::Url url;
     try {
         url = drivers::parse_url(link.url);
+        url.ca_file = link.ca_file;
     } catch (const std::invalid_argument& e) {
         throw std::runtime_error(std::string("[link] url: ") + e.what());
     }

@@ -61,6 +61,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("segment_mm", s.segment_mm, 0.01, 10);
         r.number("host_print_seconds", s.host_print_seconds, 0, 3600);
         r.boolean("duet_sbc", s.duet_sbc);
+        r.boolean("host_tls", s.host_tls);
         std::string first_layer = s.real_first_layer ? "real" : "as_commanded";
         r.text("first_layer", first_layer, {"real", "as_commanded"});
         s.real_first_layer = first_layer == "real";

@@ -79,6 +79,9 @@ struct Scenario {
     double host_print_seconds = 0;
     // [twin] duet_sbc: the twin Duet has an SBC (DuetSoftwareFramework's /machine API, no rr_).
     bool duet_sbc = false;
+    // [twin] host_tls: the twin host serves https (and wss) behind a TLS terminator, with a
+    // certificate of its own making the box is given to trust (DATA/twin-host-ca.pem).
+    bool host_tls = false;
     bool real_first_layer = true;  // [twin] first_layer = "real" (default) | "as_commanded"
     std::optional<ScenarioCamera> camera;
     PhotoSettings photo;

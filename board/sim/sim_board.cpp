@@ -599,6 +599,15 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
             board.host = std::make_unique<DuetTwin>(board.bench, host_dir, host);
         board.machine.link.url = board.host->url();
         board.machine.link.key_file = key_file.string();
+        if (scenario.host_tls) {
+            const auto certificate = drivers::self_signed_certificate("127.0.0.1");
+            const auto ca_file = settings.data_dir / kTwinHostCertificateFile;
+            write_file_whole(ca_file, certificate.certificate_pem);
+            board.tls_front = std::make_unique<drivers::TlsTerminator>(
+                "127.0.0.1", std::stoi(drivers::parse_url(board.host->url()).port), certificate);
+            board.machine.link.url = "https://127.0.0.1:" + std::to_string(board.tls_front->port());
+            board.machine.link.ca_file = ca_file.string();
+        }
     } else {
         board.printer = std::make_unique<TwinPrinterLink>(board.bench);
         port = board::serial_port(board.printer->device_path(), settings.baud);

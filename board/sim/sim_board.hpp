@@ -21,6 +21,7 @@
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenario.hpp"
 #include "drivers/background_job.hpp"
+#include "drivers/http.hpp"
 #include "drivers/notifier.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
@@ -199,6 +200,9 @@ constexpr const char* kTwinSettingsFile = "twin-printer-settings.gcode";
 // box's key_file holds it.
 constexpr const char* kTwinHostDirectory = "twin-host";
 constexpr const char* kTwinHostKeyFile = "twin-host.key";
+// ... and, for a host serving https ([twin] host_tls), the certificate it made, for the box's
+// ca_file.
+constexpr const char* kTwinHostCertificateFile = "twin-host-ca.pem";
 
 struct SimSettings {
     std::string scenario_path;
@@ -210,8 +214,9 @@ struct SimSettings {
 // end of the link, the lines to press) stay reachable for the operator, the judge and tests.
 struct SimBoard {
     std::shared_ptr<TwinBench> bench;
-    std::unique_ptr<TwinPrinterLink> printer;  // a printer on a serial link: its pty's end
-    std::unique_ptr<TwinHostServer> host;      // a printer behind a host: the host
+    std::unique_ptr<TwinPrinterLink> printer;           // a printer on a serial link: its pty's end
+    std::unique_ptr<TwinHostServer> host;               // a printer behind a host: the host
+    std::unique_ptr<drivers::TlsTerminator> tls_front;  // in front of it, serving https
     // The scenario's machine file as the box is given it: a host's [link] pointed at the twin's
     // address and key file.
     models::MachineFile machine;

@@ -197,10 +197,11 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     if (const auto* link = subtable(file, root, "link")) {
         TomlReader l(file, *link, "link");
         l.text("kind", m.link.kind, {"serial", "moonraker", "octoprint", "duet"});
-        std::optional<std::string> url, key_file;
+        std::optional<std::string> url, key_file, ca_file;
         std::optional<double> reply_timeout_s, restart_timeout_s;
         l.text("url", url);
         l.text("key_file", key_file);
+        l.text("ca_file", ca_file);
         l.number("reply_timeout_s", reply_timeout_s, 0.1, 3600);
         l.number("restart_timeout_s", restart_timeout_s, 1, 3600);
         l.finish();
@@ -209,11 +210,13 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
             const char* why = "is a host's (kind = \"moonraker\", \"octoprint\" or \"duet\")";
             if (url) l.fail("url", why);
             if (key_file) l.fail("key_file", why);
+            if (ca_file) l.fail("ca_file", why);
             if (reply_timeout_s || restart_timeout_s)
                 l.fail(reply_timeout_s ? "reply_timeout_s" : "restart_timeout_s", why);
         }
         m.link.url = url.value_or("");
         m.link.key_file = key_file.value_or("");
+        m.link.ca_file = ca_file.value_or("");
         m.link.reply_timeout_s = reply_timeout_s.value_or(m.link.reply_timeout_s);
         m.link.restart_timeout_s = restart_timeout_s.value_or(m.link.restart_timeout_s);
         if (const auto why = link_mismatch(m); !why.empty()) l.fail("kind", why);

@@ -90,6 +90,9 @@ struct MachineLinkSettings {
     // A file holding the host's API key: the key itself is never in the machine file, which is
     // copied into records and shown.
     std::string key_file;
+    // An https host's certificate authority, a PEM file, for a host whose certificate it signed
+    // itself (empty: the system's authorities).
+    std::string ca_file;
     double reply_timeout_s = 30;    // a command's reply, a file's transfer
     double restart_timeout_s = 60;  // a firmware restart until the printer is ready again
     bool is_host() const { return kind != "serial"; }

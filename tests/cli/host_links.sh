@@ -171,6 +171,32 @@ klipper_cfg_is cart_restart_saving original
 set_up="$work/box"
 original="$work/box/cycle-0001-backup-printer.cfg"
 
+# The same Klipper delta behind a host that serves https ([twin] host_tls: a TLS terminator in
+# front of Moonraker, its certificate of its own making given to the box as [link] ca_file).
+mkdir -p "$work/tls/box"
+cp "$work/box/camera.yaml" "$work/box/plane.yaml" "$work/box/reference.yaml" "$work/tls/box/"
+sed -e 's/^segment_mm = 0.5$/segment_mm = 0.5\nhost_tls = true/' "$scenario" > "$work/tls/scenario.toml"
+"$calbox" run --board sim --auto --scenario "$work/tls/scenario.toml" --data "$work/tls/box" \
+    > "$work/tls.out" 2> "$work/tls.err" < /dev/null || fail "https: calbox run --auto exited $?"
+tls_after=$(sed -nE 's/^after: XY rms ([0-9.]+) mm, max ([0-9.]+) mm$/\1 \2/p' "$work/tls.out")
+awk -v a="$tls_after" 'BEGIN { split(a, v, " "); exit !(v[1] <= 0.002 && v[2] <= 0.008) }' ||
+    fail "https: after '$tls_after' misses 0.002 / 0.008"
+grep -q "backing up printer.cfg through moonraker https://127.0.0.1:" "$work/tls.err" ||
+    fail "https: the box did not reach the host over https"
+# A certificate the box was not told to trust (the last run's authority, not this run's): one
+# line naming TLS, nothing done.
+mkdir -p "$work/tls_untrusted/box"
+cp "$work/box/camera.yaml" "$work/box/plane.yaml" "$work/box/reference.yaml" "$work/tls_untrusted/box/"
+cp "$work/tls/box/twin-host-ca.pem" "$work/tls_untrusted/old-ca.pem"
+printf '[link]\nca_file = "%s"\n' "$work/tls_untrusted/old-ca.pem" > "$work/tls_untrusted/calbox.toml"
+if "$calbox" run --board sim --auto --scenario "$work/tls/scenario.toml" \
+    --config "$work/tls_untrusted/calbox.toml" --data "$work/tls_untrusted/box" \
+    > "$work/tls_untrusted.out" 2> "$work/tls_untrusted.err" < /dev/null; then
+    fail "https: a host whose certificate the box does not trust was taken"
+fi
+tail -n 1 "$work/tls_untrusted.err" | grep -qE "^calbox: the cycle did not complete: machine: Moonraker: https://127.0.0.1:[0-9]+: TLS: certificate verify failed" ||
+    fail "https: the untrusted certificate was not named: $(tail -n 1 "$work/tls_untrusted.err")"
+
 # The key is in no log, record or output of the whole run either.
 if grep -rqF "$key" "$work/box" "$work/run.out" "$work/run.err" "$work/revert.out" \
     "$work/revert.err" --exclude=twin-host.key; then
@@ -331,4 +357,4 @@ wait $pid || status=$?
 [ $status -eq 0 ] || fail "SIGINT: exit $status"
 grep -qx 'calbox: stopped by signal 2; the machine link is closed' "$work/serial.err" ||
     fail "SIGINT: the log does not say the link is closed"
-echo "moonraker delta: after $after; moonraker cartesian: after $cart_after; octoprint delta: after $octo_after; duet delta: after $duet_after; duet with an SBC: after $sbc_after; revert restored each; 24 host faults named; SIGTERM and SIGINT exit 0"
+echo "moonraker delta: after $after; moonraker delta over https: after $tls_after; moonraker cartesian: after $cart_after; octoprint delta: after $octo_after; duet delta: after $duet_after; duet with an SBC: after $sbc_after; revert restored each; 24 host faults named; SIGTERM and SIGINT exit 0"

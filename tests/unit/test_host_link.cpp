@@ -60,12 +60,67 @@ TEST(HttpDriver, parses_urls_and_refuses_what_it_cannot_reach) {
     CHECK_THROWS(std::invalid_argument, drivers::parse_url("ftp://printer.local"));
     CHECK_THROWS(std::invalid_argument, drivers::parse_url("http://printer.local:99999"));
     CHECK_THROWS(std::invalid_argument, drivers::parse_url("http://user:pw@printer.local"));
+    const auto tls = drivers::parse_url("https://printer.local/");
+    CHECK(tls.tls());
+    STRCMP_EQUAL("443", tls.port.c_str());
+    CHECK(drivers::parse_url("wss://printer.local:7125/websocket").tls());
+    CHECK_FALSE(u.tls());
+}
+
+// HTTPS and WSS to a server behind a TLS terminator (a host behind its reverse proxy): reached
+// when the client trusts the server's certificate, refused naming TLS when it does not, and when
+// the certificate names another host.
+TEST(HttpDriver, tls_reaches_a_host_whose_certificate_it_trusts_and_no_other) {
+    drivers::HttpServer server(
+        "127.0.0.1", 0,
+        {[](const drivers::ServerRequest& r) {
+             return drivers::ServerResponse{200, "text/plain", r.method + " " + r.target};
+         },
+         [](const drivers::ServerRequest&) { return 101; },
+         [](const drivers::ServerRequest&, const std::string& m) {
+             return std::vector<std::string>{"re:" + m};
+         }});
+    const auto certificate = drivers::self_signed_certificate("127.0.0.1");
+    STRCMP_CONTAINS("-----BEGIN CERTIFICATE-----", certificate.certificate_pem.c_str());
+    drivers::TlsTerminator front("127.0.0.1", server.port(), certificate);
+    const fs::path ca = fs::temp_directory_path() / ("calbox-ca-" + std::to_string(::getpid()));
+    { std::ofstream(ca) << certificate.certificate_pem; }
+    auto url = drivers::parse_url("https://127.0.0.1:" + std::to_string(front.port()));
+    url.ca_file = ca.string();
+    const auto r = drivers::http_request(url, {"GET", "/server/info", {}, {}, {}}, 2000ms);
+    CHECK_EQUAL(200, r.status);
+    STRCMP_EQUAL("GET /server/info", r.body.c_str());
+    auto socket_url = drivers::parse_url("wss://127.0.0.1:" + std::to_string(front.port()) + "/ws");
+    socket_url.ca_file = ca.string();
+    drivers::WebSocketClient ws(socket_url, {}, 2000ms);
+    ws.send("hello");
+    STRCMP_EQUAL("re:hello", ws.receive(2000ms).value().c_str());
+    // The inner server dropping its connections drops the TLS one too.
+    server.drop_connections();
+    CHECK_THROWS(drivers::NetworkError, ws.receive(2000ms));
+
+    // Without the certificate to trust (the system's authorities never signed it).
+    auto untrusted = url;
+    untrusted.ca_file.clear();
     try {
-        drivers::parse_url("https://printer.local");
-        FAIL("https was taken");
-    } catch (const std::invalid_argument& e) {
-        STRCMP_CONTAINS("TLS", e.what());
+        drivers::http_request(untrusted, {"GET", "/", {}, {}, {}}, 2000ms);
+        FAIL("a certificate nobody vouches for was taken");
+    } catch (const drivers::NetworkError& e) {
+        STRCMP_CONTAINS("TLS: certificate verify failed", e.what());
     }
+    // A certificate for another address.
+    const auto other = drivers::self_signed_certificate("127.0.0.2");
+    drivers::TlsTerminator elsewhere("127.0.0.1", server.port(), other);
+    { std::ofstream(ca) << other.certificate_pem; }
+    auto misnamed = drivers::parse_url("https://127.0.0.1:" + std::to_string(elsewhere.port()));
+    misnamed.ca_file = ca.string();
+    try {
+        drivers::http_request(misnamed, {"GET", "/", {}, {}, {}}, 2000ms);
+        FAIL("a certificate for another host was taken");
+    } catch (const drivers::NetworkError& e) {
+        STRCMP_CONTAINS("TLS: certificate verify failed", e.what());
+    }
+    fs::remove(ca);
 }
 
 // A request and a websocket exchange through the server, as the twin host and the link use

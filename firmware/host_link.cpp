@@ -1,10 +1,22 @@
 #include "firmware/host_link.hpp"
 
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "firmware/event_loop.hpp"
 
 namespace calbox::firmware {
+
+std::string http_error_line(const drivers::HttpResponse& reply) {
+    const std::string status = "HTTP " + std::to_string(reply.status);
+    const auto j = nlohmann::json::parse(reply.body, nullptr, false);
+    if (j.is_discarded() || !j.is_object() || !j.contains("error")) return status;
+    const auto& error = j["error"];
+    if (error.is_string()) return status + ": " + error.get<std::string>();
+    if (error.is_object() && error.contains("message") && error["message"].is_string())
+        return status + ": " + error["message"].get<std::string>();
+    return status;
+}
 
 HostLink::HostLink(std::string name, drivers::Url url, Log log)
     : name_(std::move(name)),

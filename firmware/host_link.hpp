@@ -22,6 +22,11 @@ class LinkError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+// A host's refusal as one line: "HTTP 400: Insufficient disk space", the message from the reply's
+// JSON as OctoPrint ({"error": "..."}) or Moonraker ({"error": {"message": "..."}}) gives it, or
+// the status alone.
+std::string http_error_line(const drivers::HttpResponse& reply);
+
 class HostLink : public MachineLink {
   public:
     using Log = std::function<void(const std::string&)>;

@@ -128,16 +128,9 @@ struct MoonrakerLink::Session {
         const json j = json::parse(r.body, nullptr, false);
         if (r.status != 200 || j.is_discarded() || !j.contains("result") ||
             !j["result"].is_string())
-            throw LinkError("Moonraker: /access/oneshot_token: " + error_of(r) +
+            throw LinkError("Moonraker: /access/oneshot_token: " + http_error_line(r) +
                             (r.status == 401 ? " (is key_file's API key the host's?)" : ""));
         return j["result"].get<std::string>();
-    }
-
-    static std::string error_of(const drivers::HttpResponse& r) {
-        const json j = json::parse(r.body, nullptr, false);
-        if (!j.is_discarded() && j.contains("error") && j["error"].contains("message"))
-            return "HTTP " + std::to_string(r.status) + ": " + config_value(j["error"]["message"]);
-        return "HTTP " + std::to_string(r.status);
     }
 
     std::string klippy_state(std::string* message = nullptr) {
@@ -154,16 +147,26 @@ struct MoonrakerLink::Session {
                             (message.empty() ? std::string() : ": " + message) + ")");
     }
 
+    // One script per line: each has its own deadline; what Klipper said, in order.
+    std::vector<std::string> commands(const std::vector<std::string>& lines) {
+        ensure_ready();
+        std::vector<std::string> replies;
+        for (const auto& line : lines) call("printer.gcode.script", {{"script", line}}, &replies);
+        return replies;
+    }
+
     void upload(const std::string& root, const std::string& name, const std::string& contents) {
         const auto form = drivers::multipart_form("file", name, contents, {{"root", root}});
         const auto r = http({"POST", "/server/files/upload", {}, form.content_type, form.body});
         if (r.status != 200 && r.status != 201)
-            throw LinkError("the host refused the upload of " + name + " (" + error_of(r) + ")");
+            throw LinkError("the host refused the upload of " + name + " (" + http_error_line(r) +
+                            ")");
     }
 
     std::string download(const std::string& path) {
         const auto r = http({"GET", "/server/files/" + path, {}, {}, {}});
-        if (r.status != 200) throw LinkError("reading " + path + " from the host: " + error_of(r));
+        if (r.status != 200)
+            throw LinkError("reading " + path + " from the host: " + http_error_line(r));
         return r.body;
     }
 
@@ -206,12 +209,7 @@ void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done do
     start_with<Session>(
         *session_,
         [lines](Session& s) {
-            s.ensure_ready();
-            JobOutcome outcome{true, {}, {}, {}};
-            // One script per line: each has its own deadline, its replies in order.
-            for (const auto& line : lines)
-                s.call("printer.gcode.script", {{"script", line}}, &outcome.replies);
-            return outcome;
+            return JobOutcome{true, {}, s.commands(lines), {}};
         },
         std::move(done));
 }
@@ -278,10 +276,7 @@ void MoonrakerLink::save_config_after(const std::vector<std::string>& lines, Don
     start_with<Session>(
         *session_,
         [lines](Session& s) {
-            s.ensure_ready();
-            JobOutcome outcome{true, {}, {}, {}};
-            for (const auto& line : lines)
-                s.call("printer.gcode.script", {{"script", line}}, &outcome.replies);
+            JobOutcome outcome{true, {}, s.commands(lines), {}};
             // Klipper writes printer.cfg and restarts: the script's reply may be lost with the
             // connection to klippy ("Klippy Disconnected", or none). A refusal is an error.
             try {

@@ -13,13 +13,6 @@ namespace {
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-std::string error_of(const drivers::HttpResponse& r) {
-    const json j = json::parse(r.body, nullptr, false);
-    if (!j.is_discarded() && j.is_object() && j.contains("error") && j["error"].is_string())
-        return "HTTP " + std::to_string(r.status) + ": " + j["error"].get<std::string>();
-    return "HTTP " + std::to_string(r.status);
-}
-
 // What Marlin said in a terminal log line, or nothing for what the box sent and plain "ok"s.
 std::optional<std::string> received(const std::string& log_line) {
     if (log_line.rfind("Recv: ", 0) != 0) return std::nullopt;
@@ -54,7 +47,7 @@ struct OctoPrintLink::Session {
 
     static void refused_key(const drivers::HttpResponse& r) {
         if (r.status == 401 || r.status == 403)
-            throw LinkError("OctoPrint: the host refused the API key (" + error_of(r) +
+            throw LinkError("OctoPrint: the host refused the API key (" + http_error_line(r) +
                             "; is key_file's key one of its application keys?)");
     }
 
@@ -64,7 +57,7 @@ struct OctoPrintLink::Session {
         const auto login =
             http({"POST", "/api/login", {}, "application/json", json{{"passive", true}}.dump()});
         refused_key(login);
-        if (login.status != 200) throw LinkError("OctoPrint: login: " + error_of(login));
+        if (login.status != 200) throw LinkError("OctoPrint: login: " + http_error_line(login));
         const json user = json::parse(login.body, nullptr, false);
         if (user.is_discarded() || !user.contains("name") || !user.contains("session"))
             throw LinkError("OctoPrint: login: no session in the host's reply");
@@ -116,9 +109,11 @@ struct OctoPrintLink::Session {
                              json{{"commands", commands}}.dump()});
         refused_key(r);
         if (r.status == 409)
-            throw LinkError("OctoPrint: the printer is not operational (" + error_of(r) + ")");
+            throw LinkError("OctoPrint: the printer is not operational (" + http_error_line(r) +
+                            ")");
         if (r.status != 204 && r.status != 200)
-            throw LinkError("OctoPrint: the host refused the commands (" + error_of(r) + ")");
+            throw LinkError("OctoPrint: the host refused the commands (" + http_error_line(r) +
+                            ")");
         std::vector<std::string> replies;
         bool inside = false;
         auto deadline = Clock::now() + settings.reply_timeout;
@@ -178,7 +173,7 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
             Session::refused_key(up);
             if (up.status != 201 && up.status != 200)
                 throw LinkError("the host refused the upload of " + settings_.job_file_name + " (" +
-                                error_of(up) + ")");
+                                http_error_line(up) + ")");
             const PrintingOnHost printing(*this);
             bool seen_printing = false;
             const auto started = Clock::now();
@@ -186,7 +181,7 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
                 pause(settings_.poll_interval);
                 const auto r = s.http({"GET", "/api/job", {}, {}, {}});
                 Session::refused_key(r);
-                if (r.status != 200) throw LinkError("OctoPrint: /api/job: " + error_of(r));
+                if (r.status != 200) throw LinkError("OctoPrint: /api/job: " + http_error_line(r));
                 const json job = json::parse(r.body, nullptr, false);
                 if (job.is_discarded() || !job.is_object())
                     throw LinkError("OctoPrint: /api/job: not JSON");
@@ -230,7 +225,7 @@ std::string request_octoprint_key(const drivers::Url& url, const std::string& us
     }
     if (r.status == 404)
         throw LinkError("OctoPrint: the host has no application keys plugin (HTTP 404)");
-    if (r.status != 201) throw LinkError("OctoPrint: asking for a key: " + error_of(r));
+    if (r.status != 201) throw LinkError("OctoPrint: asking for a key: " + http_error_line(r));
     const json token = json::parse(r.body, nullptr, false);
     if (token.is_discarded() || !token.contains("app_token"))
         throw LinkError("OctoPrint: asking for a key: no app_token in the reply");
@@ -250,7 +245,7 @@ std::string request_octoprint_key(const drivers::Url& url, const std::string& us
         if (r.status == 200 && !key.is_discarded() && key.contains("api_key") &&
             key["api_key"].is_string())
             return key["api_key"].get<std::string>();
-        throw LinkError("OctoPrint: waiting for the key: " + error_of(r));
+        throw LinkError("OctoPrint: waiting for the key: " + http_error_line(r));
     }
     throw LinkError("OctoPrint: nobody allowed calbox's access within " +
                     std::to_string(std::chrono::duration_cast<std::chrono::seconds>(wait).count()) +

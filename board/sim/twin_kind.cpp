@@ -84,29 +84,32 @@ class GalvoJudge final : public TwinJudge {
     const TwinBench& bench_;
 };
 
+// A planar machine's verdict on a fresh job half a pitch off the target's, as the before and
+// after lines say it.
+TwinVerdict fresh_job_before(const RouterVerdict& v) {
+    return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm},
+            printed("%.4f mm mean, %.4f mm worst (the twin's truth, a fresh job of %zu points "
+                    "half a pitch off the target's)",
+                    v.before.mean_mm, v.before.max_mm, v.holes)};
+}
+TwinVerdict fresh_job_through_model(const RouterVerdict& v) {
+    const auto& a = *v.after;
+    return {{a.mean_mm, a.rms_mm, a.max_mm},
+            printed("through the error model %.5f mm mean, %.5f mm worst (%.1f %% less)", a.mean_mm,
+                    a.max_mm, 100 * (1 - a.mean_mm / v.before.mean_mm))};
+}
+
 // A router, cartesian printer or gantry laser: a fresh job of holes half a pitch off the
 // target's, drilled as commanded, then through the model the box keeps.
 class PlanarJudge final : public TwinJudge {
   public:
     explicit PlanarJudge(const TwinBench& bench) : bench_(bench) {}
     TwinVerdict before() const override {
-        const auto v = judge_planar_machine(bench_.scenario(), nullptr);
-        char line[192];
-        std::snprintf(line, sizeof line,
-                      "%.4f mm mean, %.4f mm worst (the twin's truth, a fresh job of %zu points "
-                      "half a pitch off the target's)",
-                      v.before.mean_mm, v.before.max_mm, v.holes);
-        return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm}, line};
+        return fresh_job_before(judge_planar_machine(bench_.scenario(), nullptr));
     }
     TwinVerdict after(const std::optional<targets::KeptCorrection>& kept) const override {
         if (!kept) throw std::runtime_error("the cycle completed but the box keeps no error model");
-        const auto v = judge_planar_machine(bench_.scenario(), &kept->correct);
-        const auto& a = *v.after;
-        char line[192];
-        std::snprintf(line, sizeof line,
-                      "through the error model %.5f mm mean, %.5f mm worst (%.1f %% less)",
-                      a.mean_mm, a.max_mm, 100 * (1 - a.mean_mm / v.before.mean_mm));
-        return {{a.mean_mm, a.rms_mm, a.max_mm}, line};
+        return fresh_job_through_model(judge_planar_machine(bench_.scenario(), &kept->correct));
     }
 
   private:
@@ -120,28 +123,14 @@ class CartesianJudge final : public TwinJudge {
   public:
     explicit CartesianJudge(const TwinBench& bench) : bench_(bench) {}
     TwinVerdict before() const override {
-        const auto v = bench_.judge_cartesian_printer(nullptr);
-        char line[192];
-        std::snprintf(line, sizeof line,
-                      "%.4f mm mean, %.4f mm worst (the twin's truth, a fresh job of %zu points "
-                      "half a pitch off the target's)",
-                      v.before.mean_mm, v.before.max_mm, v.holes);
-        return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm}, line};
+        return fresh_job_before(bench_.judge_cartesian_printer(nullptr));
     }
     TwinVerdict after(const std::optional<targets::KeptCorrection>& kept) const override {
-        const auto v = bench_.judge_cartesian_printer(kept ? &kept->correct : nullptr);
-        char line[192];
-        if (!kept) {
-            std::snprintf(line, sizeof line,
-                          "as its firmware is set now %.5f mm mean, %.5f mm worst",
-                          v.before.mean_mm, v.before.max_mm);
-            return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm}, line};
-        }
-        const auto& a = *v.after;
-        std::snprintf(line, sizeof line,
-                      "through the error model %.5f mm mean, %.5f mm worst (%.1f %% less)",
-                      a.mean_mm, a.max_mm, 100 * (1 - a.mean_mm / v.before.mean_mm));
-        return {{a.mean_mm, a.rms_mm, a.max_mm}, line};
+        if (kept) return fresh_job_through_model(bench_.judge_cartesian_printer(&kept->correct));
+        const auto v = bench_.judge_cartesian_printer(nullptr);
+        return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm},
+                printed("as its firmware is set now %.5f mm mean, %.5f mm worst", v.before.mean_mm,
+                        v.before.max_mm)};
     }
 
   private:

@@ -11,6 +11,7 @@
 #include "core/targets/delta_target.hpp"
 #include "core/targets/job.hpp"
 #include "firmware/gcode_host.hpp"
+#include "firmware/modes/klipper_host.hpp"
 #include "firmware/modes/photos.hpp"
 #include "firmware/overlays.hpp"
 
@@ -321,41 +322,10 @@ void DeltaCycleMode::apply_on_klipper_host(std::function<void(bool verify)> then
         true);
 }
 
-// After a failed apply the host holds the old file, the box's new one, or someone else's: only
-// the box's is replaced by the backup, so the printer's configuration ends untouched or fully
-// the backup.
 void DeltaCycleMode::restore_klipper_config(const std::string& backup, const std::string& written,
                                             const std::string& why) {
-    steps_.log(why + "; checking printer.cfg on the host");
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
-        [this, backup, written, why](const JobOutcome& now) {
-            if (!now.ok) {
-                steps_.fail(why + "; printer.cfg could not be read to check it: " + now.error);
-                return;
-            }
-            if (now.text == backup) {
-                steps_.fail(why + " (printer.cfg was not changed)");
-                return;
-            }
-            if (now.text != written) {
-                steps_.fail(why +
-                            " (printer.cfg on the host is someone else's now: left as it is)");
-                return;
-            }
-            steps_.ask_machine(
-                [backup, written](MachineLink& m, MachineLink::Done done) {
-                    m.replace_config_file(backup, written, std::move(done));
-                },
-                [this, why](const JobOutcome& restored) {
-                    steps_.fail(restored.ok
-                                    ? why + " (the previous printer.cfg was restored)"
-                                    : why + "; restoring the previous printer.cfg failed too: " +
-                                          restored.error);
-                },
-                false);
-        },
-        false);
+    restore_printer_cfg(
+        steps_, backup, [written](const std::string& now) { return now == written; }, why);
 }
 
 void DeltaCycleMode::apply(std::function<void(bool verify)> then) {
@@ -471,29 +441,17 @@ std::string DeltaCycleMode::revert_on_klipper_host(int number,
     }
     steps_.enter(CycleState::apply,
                  "reverting printer.cfg to the one saved before cycle " + std::to_string(number));
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
-        [this, name, backup = *backup, backed_up, then = std::move(then)](const JobOutcome& now) {
-            steps_.ask_machine(
-                [backup, current = now.text](MachineLink& m, MachineLink::Done done) {
-                    m.replace_config_file(backup, current, std::move(done));
-                },
-                [this, name, backed_up, then](const JobOutcome&) {
-                    read_klipper_settings(
-                        [this, name, backed_up, then](const models::DeltaGeometry& in_force) {
-                            const std::string mismatch =
-                                models::klipper_settings_mismatch(backed_up, in_force);
-                            if (!mismatch.empty()) {
-                                steps_.fail("revert: read-back mismatch: " + mismatch);
-                                return;
-                            }
-                            machine_.delta = in_force;
-                            then("reverted to " + name);
-                        });
-                },
-                true);
-        },
-        true);
+    put_back_printer_cfg(steps_, *backup, [this, name, backed_up, then = std::move(then)] {
+        read_klipper_settings([this, name, backed_up, then](const models::DeltaGeometry& in_force) {
+            const std::string mismatch = models::klipper_settings_mismatch(backed_up, in_force);
+            if (!mismatch.empty()) {
+                steps_.fail("revert: read-back mismatch: " + mismatch);
+                return;
+            }
+            machine_.delta = in_force;
+            then("reverted to " + name);
+        });
+    });
     return {};
 }
 

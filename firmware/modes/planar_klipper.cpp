@@ -3,6 +3,7 @@
 // SET_SKEW, SKEW_PROFILE SAVE and SAVE_CONFIG), printer.cfg as it was is the cycle's backup, and
 // what Klipper took is read back.
 #include "core/number_text.hpp"
+#include "firmware/modes/klipper_host.hpp"
 #include "firmware/modes/planar_mode.hpp"
 
 namespace calbox::firmware {
@@ -142,7 +143,7 @@ void PlanarCycleMode::apply_on_klipper_host(std::function<void(bool verify)> the
 }
 
 void PlanarCycleMode::save_klipper_skew(const std::string& backup,
-                                        std::function<void(bool verify)> then) {
+                                        const std::function<void(bool verify)>& then) {
     steps_.log("saving the skew profile " + std::string(models::kKlipperSkewProfile) +
                " (SET_SKEW, SKEW_PROFILE SAVE, SAVE_CONFIG)");
     steps_.ask_machine(
@@ -178,46 +179,17 @@ void PlanarCycleMode::save_klipper_skew(const std::string& backup,
         false);
 }
 
-// After a failed apply the host holds the old file, one the box's apply changed, or someone
-// else's: only the box's is replaced by the backup, so that printer.cfg ends untouched or fully
-// the backup.
 void PlanarCycleMode::restore_klipper_config(const std::string& backup, const std::string& why) {
-    steps_.log(why + "; checking printer.cfg on the host");
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
-        [this, backup, why](const JobOutcome& now) {
-            if (!now.ok) {
-                steps_.fail(why + "; printer.cfg could not be read to check it: " + now.error);
-                return;
-            }
-            if (now.text == backup) {
-                steps_.fail(why + " (printer.cfg was not changed)");
-                return;
-            }
-            bool ours = false;
+    restore_printer_cfg(
+        steps_, backup,
+        [backup](const std::string& now) {
             try {
-                ours = models::klipper_changed_only_travel_and_skew(backup, now.text);
+                return models::klipper_changed_only_travel_and_skew(backup, now);
             } catch (const std::exception&) {
-                ours = false;  // a file the reader refuses is nobody's the box should overwrite
+                return false;  // a file the reader refuses is nobody's the box should overwrite
             }
-            if (!ours) {
-                steps_.fail(why +
-                            " (printer.cfg on the host is someone else's now: left as it is)");
-                return;
-            }
-            steps_.ask_machine(
-                [backup, current = now.text](MachineLink& m, MachineLink::Done done) {
-                    m.replace_config_file(backup, current, std::move(done));
-                },
-                [this, why](const JobOutcome& restored) {
-                    steps_.fail(restored.ok
-                                    ? why + " (the previous printer.cfg was restored)"
-                                    : why + "; restoring the previous printer.cfg failed too: " +
-                                          restored.error);
-                },
-                false);
         },
-        false);
+        why);
 }
 
 std::string PlanarCycleMode::revert(int number, std::function<void(std::string what)> then) {
@@ -239,32 +211,20 @@ std::string PlanarCycleMode::revert_on_klipper_host(int number,
     }
     steps_.enter(CycleState::apply,
                  "reverting printer.cfg to the one saved before cycle " + std::to_string(number));
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
-        [this, name, backup = *backup, backed_up, then = std::move(then)](const JobOutcome& now) {
-            steps_.ask_machine(
-                [backup, current = now.text](MachineLink& m, MachineLink::Done done) {
-                    m.replace_config_file(backup, current, std::move(done));
-                },
-                [this, name, backed_up, then](const JobOutcome&) {
-                    steps_.send_commands(
-                        {load_skew(backed_up)}, [this, name, backed_up, then](const JobOutcome&) {
-                            read_klipper_settings(
-                                [this, name, backed_up, then](const models::KlipperCartesian& k) {
-                                    const std::string mismatch =
-                                        models::klipper_cartesian_mismatch(backed_up, k);
-                                    if (!mismatch.empty()) {
-                                        steps_.fail("revert: read-back mismatch: " + mismatch);
-                                        return;
-                                    }
-                                    klipper_now_ = k;
-                                    then("reverted to " + name);
-                                });
-                        });
-                },
-                true);
-        },
-        true);
+    put_back_printer_cfg(steps_, *backup, [this, name, backed_up, then = std::move(then)] {
+        steps_.send_commands({load_skew(backed_up)}, [this, name, backed_up,
+                                                      then](const JobOutcome&) {
+            read_klipper_settings([this, name, backed_up, then](const models::KlipperCartesian& k) {
+                const std::string mismatch = models::klipper_cartesian_mismatch(backed_up, k);
+                if (!mismatch.empty()) {
+                    steps_.fail("revert: read-back mismatch: " + mismatch);
+                    return;
+                }
+                klipper_now_ = k;
+                then("reverted to " + name);
+            });
+        });
+    });
     return {};
 }
 

@@ -51,7 +51,7 @@ class PlanarCycleMode final : public KeptCorrectionMode {
     bool klipper_on_host() const;
     void read_klipper_settings(std::function<void(models::KlipperCartesian)> then);
     void apply_on_klipper_host(std::function<void(bool verify)> then);
-    void save_klipper_skew(const std::string& backup, std::function<void(bool verify)> then);
+    void save_klipper_skew(const std::string& backup, const std::function<void(bool verify)>& then);
     void restore_klipper_config(const std::string& backup, const std::string& why);
     std::string revert_on_klipper_host(int number, std::function<void(std::string what)> then);
     ReviewText klipper_review() const;

@@ -356,23 +356,103 @@ std::optional<std::string> WebSocketClient::receive(std::chrono::milliseconds wi
     return state_->receive(within);
 }
 
+namespace {
+
+// Listens on a port of `address` (0: a free one) and serves each connection it accepts on a
+// thread of its own, keeping the connections' descriptors so that they can be shut down (a host
+// restarting, the server going).
+class Listener {
+  public:
+    Listener(const std::string& address, int port) {
+        boost::system::error_code ec;
+        const tcp::endpoint at(net::ip::make_address(address, ec),
+                               static_cast<unsigned short>(port));
+        if (ec) throw NetworkError(address + ": " + ec.message());
+        acceptor_.open(at.protocol(), ec);
+        if (!ec) acceptor_.set_option(net::socket_base::reuse_address(true), ec);
+        if (!ec) acceptor_.bind(at, ec);
+        if (!ec) acceptor_.listen(net::socket_base::max_listen_connections, ec);
+        if (ec)
+            throw NetworkError(address + ":" + std::to_string(port) +
+                               ": cannot listen: " + ec.message());
+        port_ = acceptor_.local_endpoint().port();
+    }
+    Listener(const Listener&) = delete;
+    Listener& operator=(const Listener&) = delete;
+    ~Listener() { stop(); }
+
+    int port() const { return port_; }
+
+    // `serve` runs on each connection's thread; the connection's descriptor is tracked.
+    void start(std::function<void(tcp::socket)> serve) {
+        accepting_ = std::thread([this, serve = std::move(serve)] {
+            for (;;) {
+                boost::system::error_code e;
+                tcp::socket socket(ioc_);
+                acceptor_.accept(socket, e);
+                const std::lock_guard lock(mutex_);
+                if (stopping_) return;
+                if (e) continue;
+                open_fds_.insert(socket.native_handle());
+                connections_.emplace_back(
+                    [serve, socket = std::move(socket)]() mutable { serve(std::move(socket)); });
+            }
+        });
+    }
+    // Another descriptor a connection opened (false, and not tracked, once stopping).
+    bool track(int fd) {
+        const std::lock_guard lock(mutex_);
+        if (stopping_) return false;
+        open_fds_.insert(fd);
+        return true;
+    }
+    // A connection's descriptor, before it closes.
+    void forget(int fd) {
+        const std::lock_guard lock(mutex_);
+        open_fds_.erase(fd);
+    }
+    void drop_connections() {
+        const std::lock_guard lock(mutex_);
+        for (const int fd : open_fds_) ::shutdown(fd, SHUT_RDWR);
+    }
+    // No more connections; those open shut down and their threads joined.
+    void stop() {
+        {
+            const std::lock_guard lock(mutex_);
+            if (stopping_) return;
+            stopping_ = true;
+            // A blocked accept() returns once its socket is shut down.
+            ::shutdown(acceptor_.native_handle(), SHUT_RDWR);
+        }
+        if (accepting_.joinable()) accepting_.join();
+        drop_connections();
+        for (auto& t : connections_) t.join();
+    }
+
+  private:
+    net::io_context ioc_;
+    tcp::acceptor acceptor_{ioc_};
+    int port_ = 0;
+    std::mutex mutex_;
+    std::set<int> open_fds_;
+    std::vector<std::thread> connections_;
+    std::thread accepting_;
+    bool stopping_ = false;
+};
+
+}  // namespace
+
 struct HttpServer::State {
     Handlers handlers;
-    net::io_context ioc;
-    tcp::acceptor acceptor{ioc};
-    int port = 0;
-    std::mutex mutex;
-    std::set<int> open_fds;
-    std::vector<std::thread> connections;
-    std::thread accepting;
-    bool stopping = false;
+    std::mutex mutex;                                         // the pushers'
+    std::map<int, std::function<void(std::string)>> pushers;  // by socket, under the mutex
 
     void serve(tcp::socket socket);
     // An accepted websocket on an io_context of its own: one read always pending, writes queued
     // (the replies to each message, and whatever push() posts from other threads).
     void serve_socket(tcp::socket socket, const http::request<http::string_body>& upgrade,
                       const ServerRequest& request);
-    std::map<int, std::function<void(std::string)>> pushers;  // by socket, under the mutex
+    std::unique_ptr<Listener> listener;  // last: its threads use the rest
 };
 
 namespace {
@@ -430,8 +510,7 @@ void HttpServer::State::serve(tcp::socket socket) {
         http::write(socket, res, ec);
         if (ec || !req.keep_alive()) break;
     }
-    const std::lock_guard lock(mutex);
-    open_fds.erase(fd);
+    listener->forget(fd);
     // The socket (or the stream it moved into) closes as it goes out of scope.
 }
 
@@ -451,9 +530,11 @@ void HttpServer::State::serve_socket(tcp::socket accepted,
         State& state;
         int fd;
         ~Forget() {
-            const std::lock_guard lock(state.mutex);
-            state.pushers.erase(fd);
-            state.open_fds.erase(fd);
+            {
+                const std::lock_guard lock(state.mutex);
+                state.pushers.erase(fd);
+            }
+            state.listener->forget(fd);
         }
     } forget{*this, fd};
     if (ec) return;
@@ -518,52 +599,20 @@ HttpServer::HttpServer(const std::string& address, int port, Handlers handlers)
     : state_(std::make_unique<State>()) {
     auto& s = *state_;
     s.handlers = std::move(handlers);
-    boost::system::error_code ec;
-    const tcp::endpoint at(net::ip::make_address(address, ec), static_cast<unsigned short>(port));
-    if (ec) throw NetworkError(address + ": " + ec.message());
-    s.acceptor.open(at.protocol(), ec);
-    if (!ec) s.acceptor.set_option(net::socket_base::reuse_address(true), ec);
-    if (!ec) s.acceptor.bind(at, ec);
-    if (!ec) s.acceptor.listen(net::socket_base::max_listen_connections, ec);
-    if (ec)
-        throw NetworkError(address + ":" + std::to_string(port) +
-                           ": cannot listen: " + ec.message());
-    s.port = s.acceptor.local_endpoint().port();
-    s.accepting = std::thread([&s] {
-        for (;;) {
-            boost::system::error_code e;
-            tcp::socket socket(s.ioc);
-            s.acceptor.accept(socket, e);
-            const std::lock_guard lock(s.mutex);
-            if (s.stopping) return;
-            if (e) continue;
-            s.open_fds.insert(socket.native_handle());
-            s.connections.emplace_back(
-                [&s, socket = std::move(socket)]() mutable { s.serve(std::move(socket)); });
-        }
-    });
+    s.listener = std::make_unique<Listener>(address, port);
+    s.listener->start([&s](tcp::socket socket) { s.serve(std::move(socket)); });
 }
 
 HttpServer::~HttpServer() {
-    auto& s = *state_;
-    {
-        const std::lock_guard lock(s.mutex);
-        s.stopping = true;
-        // A blocked accept() returns once its socket is shut down.
-        ::shutdown(s.acceptor.native_handle(), SHUT_RDWR);
-    }
-    s.accepting.join();
-    drop_connections();
-    for (auto& t : s.connections) t.join();
+    state_->listener->stop();
 }
 
 int HttpServer::port() const {
-    return state_->port;
+    return state_->listener->port();
 }
 
 void HttpServer::drop_connections() {
-    const std::lock_guard lock(state_->mutex);
-    for (int fd : state_->open_fds) ::shutdown(fd, SHUT_RDWR);
+    state_->listener->drop_connections();
 }
 
 SelfSignedCertificate self_signed_certificate(const std::string& ip_address) {
@@ -617,14 +666,8 @@ SelfSignedCertificate self_signed_certificate(const std::string& ip_address) {
 
 struct TlsTerminator::State {
     ssl::context tls{ssl::context::tls_server};
-    net::io_context ioc;
-    tcp::acceptor acceptor{ioc};
-    int port = 0, inner_port = 0;
-    std::mutex mutex;
-    std::set<int> open_fds;
-    std::vector<std::thread> connections;
-    std::thread accepting;
-    bool stopping = false;
+    int inner_port = 0;
+    std::unique_ptr<Listener> listener;  // last: its threads use the rest
 
     void pass_through(tcp::socket accepted);
 };
@@ -640,13 +683,12 @@ void TlsTerminator::State::pass_through(tcp::socket accepted) {
     ssl::stream<tcp::socket> client(std::move(outer), tls);
     tcp::socket inner(own);
     struct Forget {
-        State& state;
+        Listener& listener;
         std::vector<int> fds;
         ~Forget() {
-            const std::lock_guard lock(state.mutex);
-            for (const int fd : fds) state.open_fds.erase(fd);
+            for (const int fd : fds) listener.forget(fd);
         }
-    } forget{*this, {outer_fd}};
+    } forget{*listener, {outer_fd}};
     if (ec) return;
     client.handshake(ssl::stream_base::server, ec);
     if (ec) return;
@@ -654,12 +696,8 @@ void TlsTerminator::State::pass_through(tcp::socket accepted) {
         tcp::endpoint(net::ip::make_address("127.0.0.1"), static_cast<unsigned short>(inner_port)),
         ec);
     if (ec) return;
-    {
-        const std::lock_guard lock(mutex);
-        if (stopping) return;
-        open_fds.insert(inner.native_handle());
-        forget.fds.push_back(inner.native_handle());
-    }
+    if (!listener->track(inner.native_handle())) return;
+    forget.fds.push_back(inner.native_handle());
     std::array<char, 16384> up{}, down{};
     const auto end = [&] {
         boost::system::error_code ignored;
@@ -701,42 +739,16 @@ TlsTerminator::TlsTerminator(const std::string& address, int inner_port,
     s.tls.use_certificate_chain(net::buffer(certificate.certificate_pem), ec);
     if (!ec) s.tls.use_private_key(net::buffer(certificate.private_key_pem), ssl::context::pem, ec);
     if (ec) throw NetworkError("TLS: the certificate does not load: " + ec.message());
-    const tcp::endpoint at(net::ip::make_address(address, ec), static_cast<unsigned short>(0));
-    if (ec) throw NetworkError(address + ": " + ec.message());
-    s.acceptor.open(at.protocol(), ec);
-    if (!ec) s.acceptor.bind(at, ec);
-    if (!ec) s.acceptor.listen(net::socket_base::max_listen_connections, ec);
-    if (ec) throw NetworkError(address + ": cannot listen: " + ec.message());
-    s.port = s.acceptor.local_endpoint().port();
-    s.accepting = std::thread([&s] {
-        for (;;) {
-            boost::system::error_code e;
-            tcp::socket socket(s.ioc);
-            s.acceptor.accept(socket, e);
-            const std::lock_guard lock(s.mutex);
-            if (s.stopping) return;
-            if (e) continue;
-            s.open_fds.insert(socket.native_handle());
-            s.connections.emplace_back(
-                [&s, socket = std::move(socket)]() mutable { s.pass_through(std::move(socket)); });
-        }
-    });
+    s.listener = std::make_unique<Listener>(address, 0);
+    s.listener->start([&s](tcp::socket socket) { s.pass_through(std::move(socket)); });
 }
 
 TlsTerminator::~TlsTerminator() {
-    auto& s = *state_;
-    {
-        const std::lock_guard lock(s.mutex);
-        s.stopping = true;
-        ::shutdown(s.acceptor.native_handle(), SHUT_RDWR);
-        for (const int fd : s.open_fds) ::shutdown(fd, SHUT_RDWR);
-    }
-    s.accepting.join();
-    for (auto& t : s.connections) t.join();
+    state_->listener->stop();
 }
 
 int TlsTerminator::port() const {
-    return state_->port;
+    return state_->listener->port();
 }
 
 }  // namespace calbox::drivers

@@ -63,7 +63,6 @@ drivers::ServerResponse json_reply(const json& j) {
 struct DuetTwin::State final : TwinHostCore {
     using TwinHostCore::TwinHostCore;
     std::mutex mutex;
-    Clock::time_point restarting_until{};
     std::string session_key;
     std::string reply;  // what rr_reply hands out next
     int disconnects = 0;
@@ -106,18 +105,13 @@ struct DuetTwin::State final : TwinHostCore {
     drivers::ServerResponse http(const drivers::ServerRequest& r) {
         const int n = count_request();
         if (held_silent(n)) return {503, "text/plain", "stopping"};
-        if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
-            {
-                const std::lock_guard lock(mutex);
-                restarting_until = Clock::now() + std::chrono::milliseconds(1500);
-                session_key.clear();
-                print->stop();
-            }
-            server->drop_connections();
+        if (restarts_at(n)) {
+            const std::lock_guard lock(mutex);
+            session_key.clear();
             return {503, "text/plain", "restarting"};
         }
         const std::lock_guard lock(mutex);
-        if (Clock::now() < restarting_until) return {503, "text/plain", "starting"};
+        if (restarting()) return {503, "text/plain", "starting"};
         const std::string path = path_of(r.target);
         const auto query = query_of(r.target);
         if (duet_sbc) return sbc_http(r, path, query, n);

@@ -496,12 +496,10 @@ struct MoonrakerTwin::State final : TwinHostCore {
         const int n = count_request();
         // Unanswered: the client's reply timeout ends its wait.
         if (faults.silent_at_request > 0 && n >= faults.silent_at_request) return {};
-        if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
-            {
-                const std::lock_guard lock(mutex);
-                restart(std::chrono::milliseconds(1500));
-            }
-            server->drop_connections();
+        if (restarts_at(n)) {
+            // Klipper comes back with its host.
+            const std::lock_guard lock(mutex);
+            restart(std::chrono::milliseconds(1500));
             return {};
         }
         const auto reply = [&id](json result) {

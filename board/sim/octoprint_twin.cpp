@@ -25,7 +25,6 @@ drivers::ServerResponse error_reply(int status, const std::string& message) {
 struct OctoPrintTwin::State final : TwinHostCore {
     using TwinHostCore::TwinHostCore;
     std::mutex mutex;  // the printer's port: one command batch at a time
-    Clock::time_point restarting_until{};
     int sessions = 0;
     Clock::time_point key_asked{};
 
@@ -72,16 +71,8 @@ struct OctoPrintTwin::State final : TwinHostCore {
     drivers::ServerResponse http(const drivers::ServerRequest& r) {
         const int n = count_request();
         if (held_silent(n)) return error_reply(503, "stopping");
-        if (faults.restart_at_request > 0 && n == faults.restart_at_request) {
-            {
-                const std::lock_guard lock(mutex);
-                restarting_until = Clock::now() + std::chrono::milliseconds(1500);
-                print->stop();
-            }
-            server->drop_connections();
-            return error_reply(503, "restarting");
-        }
-        if (Clock::now() < restarting_until) return error_reply(503, "OctoPrint is starting");
+        if (restarts_at(n)) return error_reply(503, "restarting");
+        if (restarting()) return error_reply(503, "OctoPrint is starting");
         // The application keys plugin: no key needed to ask for one.
         if (r.method == "POST" && r.target == "/plugin/appkeys/request") {
             const std::lock_guard lock(mutex);

@@ -153,6 +153,20 @@ bool TwinHostCore::held_silent(int n) const {
     return true;
 }
 
+bool TwinHostCore::restarts_at(int n) {
+    if (faults.restart_at_request <= 0 || n != faults.restart_at_request) return false;
+    restarting_until = (std::chrono::steady_clock::now() + std::chrono::milliseconds(1500))
+                           .time_since_epoch()
+                           .count();
+    print->stop();
+    server->drop_connections();
+    return true;
+}
+
+bool TwinHostCore::restarting() const {
+    return std::chrono::steady_clock::now().time_since_epoch().count() < restarting_until;
+}
+
 std::string TwinHostCore::url() const {
     return "http://127.0.0.1:" + std::to_string(server->port());
 }

@@ -105,6 +105,7 @@ struct TwinHostCore {
     std::atomic<int> requests{0};
     std::atomic<bool> stopping{false};
     std::unique_ptr<drivers::HttpServer> server;
+    std::atomic<std::chrono::steady_clock::rep> restarting_until{0};
 
     TwinHostCore(std::shared_ptr<TwinBench> bench, std::filesystem::path dir,
                  TwinHostSettings settings);
@@ -116,6 +117,10 @@ struct TwinHostCore {
     // Under host_silent_at_request, the n-th request and those after it get no answer until the
     // host stops (the client's own timeout ends its wait): true when it was held so.
     bool held_silent(int n) const;
+    // Under host_restart_at_request: whether the n-th request restarts the host. If it does, the
+    // print stops, every connection drops, and for 1.5 s the host is starting (restarting()).
+    bool restarts_at(int n);
+    bool restarting() const;
     std::string url() const;  // "http://127.0.0.1:PORT"
     // Stops serving (every handler done) and the print, before the twin's own state goes.
     void shut_down();

@@ -629,7 +629,7 @@ SelfSignedCertificate self_signed_certificate(const std::string& ip_address) {
         ASN1_INTEGER_set(X509_get_serialNumber(cert.get()), static_cast<long>(random() >> 1)) !=
             1 ||
         X509_gmtime_adj(X509_getm_notBefore(cert.get()), -3600) == nullptr ||
-        X509_gmtime_adj(X509_getm_notAfter(cert.get()), 24 * 3600) == nullptr ||
+        X509_gmtime_adj(X509_getm_notAfter(cert.get()), 24L * 3600) == nullptr ||
         X509_set_pubkey(cert.get(), key.get()) != 1)
         throw fail("its fields");
     X509_NAME* name = X509_get_subject_name(cert.get());

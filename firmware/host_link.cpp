@@ -8,7 +8,7 @@
 namespace calbox::firmware {
 
 std::string http_error_line(const drivers::HttpResponse& reply) {
-    const std::string status = "HTTP " + std::to_string(reply.status);
+    std::string status = "HTTP " + std::to_string(reply.status);
     const auto j = nlohmann::json::parse(reply.body, nullptr, false);
     if (j.is_discarded() || !j.is_object() || !j.contains("error")) return status;
     const auto& error = j["error"];

@@ -195,7 +195,7 @@ std::string saved_config(const std::string& text, const Sections& pending) {
         } else if (const auto sep = line.find_first_of(":=");
                    sep != std::string::npos && block.count(section) != 0 &&
                    block.at(section).count(lower(trim(line.substr(0, sep)))) != 0) {
-            raw = "#" + raw;
+            raw.insert(0, "#");
         }
         out += raw + "\n";
     }
@@ -204,8 +204,9 @@ std::string saved_config(const std::string& text, const Sections& pending) {
         "\n\n#*# <---------------------- SAVE_CONFIG ---------------------->\n"
         "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n";
     for (const auto& [name, values] : block) {
-        out += "#*#\n#*# [" + name + "]\n";
-        for (const auto& [key, value] : values) out += "#*# " + key + " = " + value + "\n";
+        out.append("#*#\n#*# [").append(name).append("]\n");
+        for (const auto& [key, value] : values)
+            out.append("#*# ").append(key).append(" = ").append(value).append("\n");
     }
     return out;
 }

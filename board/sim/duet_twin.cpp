@@ -66,6 +66,19 @@ struct DuetTwin::State final : TwinHostCore {
     std::string session_key;
     std::string reply;  // what rr_reply hands out next
     int disconnects = 0;
+    bool restarted_at_command = false;
+
+    // Under the mutex: host_restart_at_command's line arrived (the first time): the board
+    // restarts before running it.
+    bool restarts_on(const std::string& line) {
+        if (faults.restart_at_command.empty() || restarted_at_command ||
+            line.rfind(faults.restart_at_command, 0) != 0)
+            return false;
+        restarted_at_command = true;
+        session_key.clear();
+        restart_now();
+        return true;
+    }
 
     std::string status() const {
         if (faults.printer_not_ready) return "off";
@@ -136,7 +149,9 @@ struct DuetTwin::State final : TwinHostCore {
             return json_reply({{"err", 0}});
         }
         if (path == "/rr_gcode") {
-            if (status() != "off") run(query.count("gcode") != 0 ? query.at("gcode") : "");
+            const std::string line = query.count("gcode") != 0 ? query.at("gcode") : "";
+            if (restarts_on(line)) return {503, "text/plain", "restarting"};
+            if (status() != "off") run(line);
             return json_reply({{"buff", 255}});
         }
         if (path == "/rr_reply") {
@@ -200,8 +215,10 @@ struct DuetTwin::State final : TwinHostCore {
         if (path == "/machine/code" && r.method == "POST") {
             reply.clear();
             std::istringstream codes(r.body);
-            for (std::string line; std::getline(codes, line);)
+            for (std::string line; std::getline(codes, line);) {
+                if (restarts_on(line)) return {503, "text/plain", "restarting"};
                 if (status() != "off") run(line);
+            }
             std::string out;
             out.swap(reply);
             return {200, "text/plain", out};

@@ -140,11 +140,16 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.integer("host_silent_at_request", h.silent_at_request, 0, 1000000);
         r.boolean("host_config_edited", h.config_edited);
         r.boolean("host_new_config_rejected", h.new_config_rejected);
+        std::optional<std::string> restart_at_command;
+        r.text("host_restart_at_command", restart_at_command);
+        h.restart_at_command = restart_at_command.value_or("");
         r.finish();
-        const bool host_fault = h.wrong_key || h.printer_not_ready || h.print_cancelled ||
-                                h.upload_refused || h.restart_at_request > 0 ||
-                                h.silent_at_request > 0 || h.config_edited || h.new_config_rejected;
-        if (host_fault && !s.machine.link.is_host())
+        if (!h.restart_at_command.empty() && s.machine.link.kind != "duet")
+            throw ScenarioError(path +
+                                ": [faults] host_restart_at_command is a Duet's (each line its own "
+                                "request there): the machine's [link] is " +
+                                s.machine.link.kind);
+        if (h.any() && !s.machine.link.is_host())
             throw ScenarioError(path + ": [faults] host_* are a host's: the machine's [link] is " +
                                 s.machine.link.kind);
     }

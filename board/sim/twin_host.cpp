@@ -155,12 +155,16 @@ bool TwinHostCore::held_silent(int n) const {
 
 bool TwinHostCore::restarts_at(int n) {
     if (faults.restart_at_request <= 0 || n != faults.restart_at_request) return false;
+    restart_now();
+    return true;
+}
+
+void TwinHostCore::restart_now() {
     restarting_until = (std::chrono::steady_clock::now() + std::chrono::milliseconds(1500))
                            .time_since_epoch()
                            .count();
     print->stop();
     server->drop_connections();
-    return true;
 }
 
 bool TwinHostCore::restarting() const {

@@ -21,19 +21,22 @@ class TwinBench;
 
 // [faults] keys for a printer behind a host (zero and false: off).
 struct HostFaults {
-    bool wrong_key = false;            // the host takes another key than the box's file holds
-    bool printer_not_ready = false;    // the firmware behind the host is not ready (Klipper's
-                                       // start-up error, OctoPrint's printer not connected)
-    bool print_cancelled = false;      // someone cancels the box's first print on the host
-    bool upload_refused = false;       // the host refuses to store a file (its disk full)
-    int restart_at_request = 0;        // the host restarts at its n-th request
+    bool wrong_key = false;          // the host takes another key than the box's file holds
+    bool printer_not_ready = false;  // the firmware behind the host is not ready (Klipper's
+                                     // start-up error, OctoPrint's printer not connected)
+    bool print_cancelled = false;    // someone cancels the box's first print on the host
+    bool upload_refused = false;     // the host refuses to store a file (its disk full)
+    int restart_at_request = 0;      // the host restarts at its n-th request
+    // A Duet restarts on the first G-code line that starts so, before running it (a batch of
+    // settings cut off part way: "M666").
+    std::string restart_at_command;
     int silent_at_request = 0;         // from its n-th request on, it never replies
     bool config_edited = false;        // someone edits printer.cfg after the box first reads it
     bool new_config_rejected = false;  // Klipper refuses the printer.cfg the box writes
     bool any() const {
         return wrong_key || printer_not_ready || print_cancelled || upload_refused ||
                restart_at_request > 0 || silent_at_request > 0 || config_edited ||
-               new_config_rejected;
+               new_config_rejected || !restart_at_command.empty();
     }
 };
 
@@ -120,6 +123,7 @@ struct TwinHostCore {
     // Under host_restart_at_request: whether the n-th request restarts the host. If it does, the
     // print stops, every connection drops, and for 1.5 s the host is starting (restarting()).
     bool restarts_at(int n);
+    void restart_now();  // the same, now
     bool restarting() const;
     std::string url() const;  // "http://127.0.0.1:PORT"
     // Stops serving (every handler done) and the print, before the twin's own state goes.

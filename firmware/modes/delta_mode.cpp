@@ -143,15 +143,26 @@ void DeltaCycleMode::read_settings(std::function<void(std::vector<std::string>)>
 
 void DeltaCycleMode::send_and_read_back(
     const std::vector<std::string>& lines,
-    std::function<void(std::string, std::vector<std::string>)> then) {
-    steps_.send_commands(lines, [this, lines, then = std::move(then)](const JobOutcome&) {
-        read_settings(
-            [firmware = machine_.firmware, lines, then](std::vector<std::string> reported) {
-                // Compared before the report is moved on (argument order is unspecified).
-                std::string mismatch = models::settings_mismatch(firmware, lines, reported);
-                then(std::move(mismatch), std::move(reported));
-            });
-    });
+    std::function<void(std::string, std::vector<std::string>)> then,
+    std::function<void(const std::string&)> failed) {
+    const bool failure_is_error = !failed;
+    steps_.ask_machine(
+        [lines](MachineLink& m, MachineLink::Done done) {
+            m.send_commands(lines, std::move(done));
+        },
+        [this, lines, then = std::move(then), failed = std::move(failed)](const JobOutcome& sent) {
+            if (!sent.ok) {
+                failed(sent.error);
+                return;
+            }
+            read_settings(
+                [firmware = machine_.firmware, lines, then](std::vector<std::string> reported) {
+                    // Compared before the report is moved on (argument order is unspecified).
+                    std::string mismatch = models::settings_mismatch(firmware, lines, reported);
+                    then(std::move(mismatch), std::move(reported));
+                });
+        },
+        failure_is_error);
 }
 
 void DeltaCycleMode::measure(MeasureInput input, std::function<void()> then) {
@@ -355,15 +366,18 @@ void DeltaCycleMode::apply(std::function<void(bool verify)> then) {
         // Each pass backs up what it changes; revert goes back to before the cycle (pass 1's).
         if (!steps_.keep(pass_file("backup.gcode"), joined(backup_) + "M500\n")) return;
         steps_.log("sending " + std::to_string(solution_->commands.size()) + " lines");
-        send_and_read_back(solution_->commands, [this, then](const std::string& mismatch,
-                                                             const std::vector<std::string>&) {
-            if (mismatch.empty()) {
-                machine_.delta = solution_->after;
-                then(true);
-                return;
-            }
-            restore_backup("apply: read-back mismatch: " + mismatch);
-        });
+        // A batch cut off part way may have set some of its lines: what was there goes back.
+        send_and_read_back(
+            solution_->commands,
+            [this, then](const std::string& mismatch, const std::vector<std::string>&) {
+                if (mismatch.empty()) {
+                    machine_.delta = solution_->after;
+                    then(true);
+                    return;
+                }
+                restore_backup("apply: read-back mismatch: " + mismatch);
+            },
+            [this](const std::string& error) { restore_backup("apply: " + error); });
     });
 }
 
@@ -372,9 +386,16 @@ void DeltaCycleMode::restore_backup(const std::string& why) {
     auto restore = backup_;
     restore.emplace_back("M500");
     steps_.log(why + "; restoring the backup");
-    steps_.send_commands(restore, [this, why](const JobOutcome&) {
-        steps_.fail(why + " (the previous settings were restored)");
-    });
+    steps_.ask_machine(
+        [restore](MachineLink& m, MachineLink::Done done) {
+            m.send_commands(restore, std::move(done));
+        },
+        [this, why](const JobOutcome& restored) {
+            steps_.fail(restored.ok ? why + " (the previous settings were restored)"
+                                    : why + "; restoring the previous settings failed too: " +
+                                          restored.error);
+        },
+        false);
 }
 
 void DeltaCycleMode::judge_verification(std::function<void(VerifyOutcome)> then) {

@@ -65,9 +65,11 @@ class DeltaCycleMode final : public CycleMode {
     // The printer's settings report (settings_query), as the commands that set it again.
     void read_settings(std::function<void(std::vector<std::string>)> then);
     // Sends settings lines, reads the settings back and compares: `then(mismatch, reported)`,
-    // the mismatch empty when they agree.
+    // the mismatch empty when they agree. A send that fails (the link gone mid-batch) calls
+    // `failed` with why; without it the cycle is in error.
     void send_and_read_back(const std::vector<std::string>& lines,
-                            std::function<void(std::string, std::vector<std::string>)> then);
+                            std::function<void(std::string, std::vector<std::string>)> then,
+                            std::function<void(const std::string&)> failed = {});
     void restore_backup(const std::string& why);
     // Klipper through a host that keeps its printer.cfg (MachineLink::has_config_file).
     bool klipper_on_host() const;

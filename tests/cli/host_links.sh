@@ -305,6 +305,15 @@ rrf_untouched duet_restart
 expect_fault "$duet" duet_silent "machine: Duet: http://127.0.0.1:" \
     'host_silent_at_request = 5' 's/^reply_timeout_s = 30.0$/reply_timeout_s = 1.0/'
 rrf_untouched duet_silent
+# The board restarting in the middle of the correction's batch (M665 taken, M666 not): the box
+# tries to put the backup back and says what became of it; M500 ends the batch, so what the
+# printer stores was never half-written.
+expect_fault "$duet" duet_restart_applying \
+    "restoring the previous settings failed too: Duet: rr_connect: HTTP 503" \
+    'host_restart_at_command = "M666 X"'
+grep -q "cycle 1: apply: Duet: http://127.0.0.1:[0-9]*: the reply to /rr_gcode: the host closed the connection; restoring the backup" \
+    "$work/duet_restart_applying.err" || fail "duet_restart_applying: the backup was not tried"
+rrf_untouched duet_restart_applying
 
 # The configuration's link.* over the machine file's [link], checked against its firmware.
 printf '[link]\nkind = "moonraker"\n' > "$work/moonraker.toml"
@@ -357,4 +366,4 @@ wait $pid || status=$?
 [ $status -eq 0 ] || fail "SIGINT: exit $status"
 grep -qx 'calbox: stopped by signal 2; the machine link is closed' "$work/serial.err" ||
     fail "SIGINT: the log does not say the link is closed"
-echo "moonraker delta: after $after; moonraker delta over https: after $tls_after; moonraker cartesian: after $cart_after; octoprint delta: after $octo_after; duet delta: after $duet_after; duet with an SBC: after $sbc_after; revert restored each; 24 host faults named; SIGTERM and SIGINT exit 0"
+echo "moonraker delta: after $after; moonraker delta over https: after $tls_after; moonraker cartesian: after $cart_after; octoprint delta: after $octo_after; duet delta: after $duet_after; duet with an SBC: after $sbc_after; revert restored each; 25 host faults named; SIGTERM and SIGINT exit 0"

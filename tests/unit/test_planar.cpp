@@ -9,6 +9,7 @@
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/pattern_spec.hpp"
 #include "core/models/planar_errors.hpp"
+#include "core/modes/goal.hpp"
 #include "core/modes/planar.hpp"
 #include "core/solve/placement.hpp"
 #include "core/targets/compensate.hpp"
@@ -699,6 +700,20 @@ TEST(PlanarDesign,
 }
 
 TEST_GROUP(PlanarFirmware){};
+
+// The planar goal: under 0.05 mm mean and 95 % less; a machine already under the bar before the
+// cycle (a Klipper printer calibrated again) is judged by the bar alone.
+TEST(PlanarFirmware, the_goal_asks_a_share_less_only_of_a_machine_above_its_bar) {
+    const auto goal = modes::planar_goal();
+    const modes::ErrorFigures raw{0.30, 0.35, 0.5}, good{0.004, 0.005, 0.008},
+        part{0.04, 0.05, 0.08}, still_good{0.003, 0.004, 0.007}, worse{0.06, 0.07, 0.1};
+    CHECK(goal.met(raw, good));
+    STRCMP_CONTAINS("86.7 % less (goal 95 %)", goal.shortfall(raw, part).c_str());
+    STRCMP_CONTAINS("(goal under 0.05", goal.shortfall(raw, worse).c_str());
+    CHECK(goal.met(good, still_good));
+    CHECK(goal.met(good, good));
+    STRCMP_CONTAINS("(goal under 0.05", goal.shortfall(good, worse).c_str());
+}
 
 TEST(PlanarFirmware, scale_and_skew_settings_leave_what_the_result_says) {
     const auto machine = router_machine();

@@ -159,6 +159,10 @@ std::vector<std::string> DeltaTwin::probe_bed(const gcode::Line& line, Vec3& at)
     char reply[120];
     if (dialect_ == DeltaDialect::rrf)
         std::snprintf(reply, sizeof reply, "Stopped at height %.3f mm", touch_z);
+    else if (dialect_ == DeltaDialect::klipper)
+        // The toolhead's height when the probe, its z_offset above the nozzle, triggered.
+        std::snprintf(reply, sizeof reply, "// probe at %.3f,%.3f is z=%.6f", at.x, at.y,
+                      touch_z + klipper_probe_z_offset_mm_);
     else
         std::snprintf(reply, sizeof reply, "Bed X: %.2f Y: %.2f Z: %.2f", at.x, at.y, touch_z);
     at.z = touch_z + 5;  // raised after probing

@@ -61,6 +61,8 @@ class DeltaTwin final : public MachineTwin {
     const DeltaParams& firmware() const { return firmware_; }
     const DeltaParams& stored_firmware() const { return stored_; }  // as of the last M500
     DeltaDialect dialect() const { return dialect_; }
+    // Klipper's [probe] z_offset: its PROBE reports the toolhead's height at the trigger.
+    void set_klipper_probe_z_offset(double mm) { klipper_probe_z_offset_mm_ = mm; }
     // Shifts the firmware's height so that commanded Z = 0 touches the bed at its centre, as a
     // paper test does.
     void zero_height_at_centre();
@@ -86,6 +88,7 @@ class DeltaTwin final : public MachineTwin {
     std::optional<std::vector<std::string>> rrf_settings_command(const gcode::Line& line);
     DeltaParams truth_, firmware_, stored_;
     DeltaDialect dialect_;
+    double klipper_probe_z_offset_mm_ = 0;
     bool homed_ = false;
     std::array<double, 3> home_physical_mm_{};  // carriage heights in the true frame at home
     std::array<double, 3> home_logical_mm_{};   // what the firmware believes they are

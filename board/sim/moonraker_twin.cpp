@@ -254,6 +254,11 @@ double twin_skew_factor(double ac_mm, double bd_mm, double ad_mm) {
                     std::acos((ac_mm * ac_mm - side * side - ad_mm * ad_mm) / (2 * side * ad_mm)));
 }
 
+double twin_probe_z_offset(const std::string& text) {
+    constexpr double kNone = 0;
+    return option(read_sections(text), "probe", "z_offset", &kNone);
+}
+
 DeltaParams twin_params_from_printer_cfg(const std::string& text) {
     const Sections s = read_sections(text);
     const auto printer = s.find("printer");
@@ -301,6 +306,8 @@ std::string printer_cfg_of(const DeltaParams& p, double print_radius_mm) {
             kDefaultAngleDeg[i] + p.tower_angle_trim_deg[i], p.height_mm - p.endstop_offset_mm[i]);
         out += b;
     }
+    // A probe whose trigger sits 1.35 mm above the nozzle's tip.
+    out += "[probe]\npin: ^PA1\nz_offset: 1.350\n";
     return out;
 }
 
@@ -328,7 +335,8 @@ struct MoonrakerTwin::State final : TwinHostCore {
             if (cartesian)
                 bench->restart_cartesian_printer(twin_cartesian_from_printer_cfg(text));
             else
-                bench->restart_delta_printer(twin_params_from_printer_cfg(text));
+                bench->restart_delta_printer(twin_params_from_printer_cfg(text),
+                                             twin_probe_z_offset(text));
             settings = settings_of(read_sections(text));
             pending.clear();
             klippy_state = "ready";
@@ -356,6 +364,11 @@ struct MoonrakerTwin::State final : TwinHostCore {
     // mutex: the responses, or nullopt for a line the printer runs. Throws as Klipper refuses.
     std::optional<std::vector<std::string>> klippy_command(const std::string& line) {
         const std::string name = first_word(line);
+        // PROBE: the printer's probe at the toolhead's place (the twin's G30 answers as Klipper).
+        if (name == "PROBE") {
+            if (!settings.contains("probe")) throw std::runtime_error("Unknown command:\"PROBE\"");
+            return bench->run_printer_line("G30");
+        }
         if (name != "SET_SKEW" && name != "SKEW_PROFILE" && name != "SAVE_CONFIG")
             return std::nullopt;
         if (name != "SAVE_CONFIG" && (!cartesian || !settings.contains("skew_correction")))

@@ -21,7 +21,9 @@ namespace calbox::sim {
 // none, the angles default to 210, 330 and 90. Throws std::runtime_error as Klipper refuses a
 // config ("Option 'delta_radius' in section 'printer' must be specified").
 DeltaParams twin_params_from_printer_cfg(const std::string& text);
-// A printer.cfg for a twin delta (as its owner would have written it).
+// Its [probe] z_offset (0 without one): its PROBE reports the toolhead's height at the trigger.
+double twin_probe_z_offset(const std::string& text);
+// A printer.cfg for a twin delta (as its owner would have written it), with a probe.
 std::string printer_cfg_of(const DeltaParams& firmware, double print_radius_mm);
 
 // A cartesian Klipper printer's: each axis's travel per commanded mm from its rotation_distance

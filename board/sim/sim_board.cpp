@@ -189,12 +189,15 @@ DeltaParams TwinBench::delta_printer_firmware() const {
     return delta->firmware();
 }
 
-void TwinBench::restart_delta_printer(const DeltaParams& firmware) {
+void TwinBench::restart_delta_printer(const DeltaParams& firmware,
+                                      double klipper_probe_z_offset_mm) {
     const std::lock_guard lock(mutex_);
     const auto* delta = dynamic_cast<const DeltaTwin*>(machine_.get());
     if (delta == nullptr) throw std::logic_error("the twin machine is not a delta printer");
     scenario_.delta_firmware = firmware;
-    replace_printer(std::make_unique<DeltaTwin>(scenario_.delta_truth, firmware, delta->dialect()));
+    auto restarted = std::make_unique<DeltaTwin>(scenario_.delta_truth, firmware, delta->dialect());
+    restarted->set_klipper_probe_z_offset(klipper_probe_z_offset_mm);
+    replace_printer(std::move(restarted));
 }
 
 CartesianFirmware TwinBench::cartesian_printer_firmware() const {

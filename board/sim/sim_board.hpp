@@ -49,7 +49,7 @@ class TwinBench {
     // another (Klipper's FIRMWARE_RESTART with a new printer.cfg): unhomed, job state gone.
     // Throw std::logic_error on another machine.
     DeltaParams delta_printer_firmware() const;
-    void restart_delta_printer(const DeltaParams& firmware);
+    void restart_delta_printer(const DeltaParams& firmware, double klipper_probe_z_offset_mm = 0);
     // The same for a cartesian printer (Klipper's restart leaves no skew in force), and the skew
     // Klipper's SET_SKEW or SKEW_PROFILE LOAD puts in force.
     CartesianFirmware cartesian_printer_firmware() const;

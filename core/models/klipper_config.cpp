@@ -100,6 +100,25 @@ std::string klipper_saved_values(const std::string& printer_cfg,
     return out;
 }
 
+std::optional<double> klipper_probe_z_offset(const std::string& source, const std::string& text) {
+    std::vector<std::string> notes;
+    const auto sections = read_klipper_sections(
+        source, text, [](const std::string&) { return std::optional<std::string>{}; }, notes);
+    for (const char* name : {"probe", "bltouch"}) {
+        const auto s = sections.find(name);
+        if (s == sections.end()) continue;
+        const auto v = s->second.find("z_offset");
+        if (v == s->second.end()) continue;
+        char* end = nullptr;
+        const double z = std::strtod(v->second.c_str(), &end);
+        if (end == v->second.c_str() || *end != '\0' || !std::isfinite(z))
+            throw ImportError(source + ": [" + name + "] z_offset '" + v->second +
+                              "' is not a number");
+        return z;
+    }
+    return std::nullopt;
+}
+
 KlipperCartesian read_klipper_cartesian(const std::string& source, const std::string& text) {
     std::vector<std::string> notes;
     const auto sections = read_klipper_sections(

@@ -17,6 +17,11 @@ struct KlipperSavedValue {
 std::string klipper_saved_values(const std::string& printer_cfg,
                                  const std::vector<KlipperSavedValue>& values);
 
+// The probe's z_offset (its trigger's height above the bed with the nozzle touching it) from
+// printer.cfg or the settings in force: [probe], else [bltouch]; empty without either. Throws
+// ImportError for a value that is not a number.
+std::optional<double> klipper_probe_z_offset(const std::string& source, const std::string& text);
+
 // The skew profile the box saves and loads (SKEW_PROFILE SAVE=calbox).
 constexpr const char* kKlipperSkewProfile = "calbox";
 

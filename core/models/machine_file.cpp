@@ -223,13 +223,18 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     }
     if (const auto* probe = subtable(file, root, "probe")) {
         if (!m.is_delta()) throw MachineFileError(file + ": [probe] on a " + m.kind + " machine");
-        if (m.firmware != "marlin" && m.firmware != "rrf")
-            throw MachineFileError(
-                file + ": [probe] is read over the link from Marlin or RepRapFirmware, not " +
-                m.firmware +
-                (m.firmware == "klipper" ? " (its probe report lacks the z_offset in printer.cfg; "
-                                           "give its heights to `calbox solve delta --probe`)"
-                                         : std::string()));
+        // Klipper's PROBE report needs the probe's z_offset, in printer.cfg: read through
+        // Moonraker's settings in force.
+        if (m.firmware == "klipper" && m.link.kind != "moonraker")
+            throw MachineFileError(file +
+                                   ": [probe] on Klipper is read through Moonraker ([link] kind = "
+                                   "\"moonraker\"), which gives the probe's z_offset; else give "
+                                   "its heights to `calbox solve delta --probe`");
+        if (m.firmware != "marlin" && m.firmware != "rrf" && m.firmware != "klipper")
+            throw MachineFileError(file +
+                                   ": [probe] is read over the link from Marlin, "
+                                   "RepRapFirmware or Klipper, not " +
+                                   m.firmware);
         m.probe.emplace();
         TomlReader p(file, *probe, "probe");
         p.number("radius_mm", m.probe->radius_mm, 1, 1000);

@@ -41,6 +41,25 @@ std::optional<solve::ProbePoint> marlin_probe_point(const std::string& text, dou
     return solve::ProbePoint{*x, *y, -*z, sigma_mm};
 }
 
+// Klipper's "// probe at 10.000,-20.000 is z=1.234567": the toolhead's height when the probe
+// triggered, the probe's z_offset above the bed there; the gap at commanded Z = 0 is the offset
+// less that height.
+std::optional<solve::ProbePoint> klipper_probe_point(const std::string& text, double z_offset_mm,
+                                                     double sigma_mm) {
+    const std::string line = lower(text);
+    const auto at = line.find("probe at ");
+    if (at == std::string::npos || line.find(" is z=", at) == std::string::npos)
+        return std::nullopt;
+    char* end = nullptr;
+    const double x = std::strtod(line.c_str() + at + 9, &end);
+    const bool comma = end != nullptr && *end == ',';
+    const double y = comma ? std::strtod(end + 1, &end) : 0;
+    const auto z = number_after(line, " is z=", at);
+    if (!comma || !z || !std::isfinite(x) || !std::isfinite(y))
+        throw std::invalid_argument("a probe report line without its X, Y and Z: '" + text + "'");
+    return solve::ProbePoint{x, y, z_offset_mm - *z, sigma_mm};
+}
+
 }  // namespace
 
 std::vector<geometry::Point2> probe_points(const models::ProbeSettings& probe) {
@@ -67,9 +86,8 @@ std::vector<std::string> probe_job(const std::string& firmware,
             job.push_back("G1" + xy + " Z5 F6000");
             job.emplace_back("G30 S-1");
         } else if (firmware == "klipper") {
-            throw std::invalid_argument(
-                "Klipper's probe report lacks its z_offset, which lives in printer.cfg: give its "
-                "heights to `calbox solve delta --probe` instead");
+            job.push_back("G1" + xy + " Z5 F6000");
+            job.emplace_back("PROBE");
         } else {
             throw std::invalid_argument("no probe job for firmware '" + firmware + "'");
         }
@@ -81,13 +99,22 @@ std::vector<std::string> probe_job(const std::string& firmware,
 std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
                                                   const std::vector<geometry::Point2>& points,
                                                   const std::vector<std::string>& replies,
-                                                  double sigma_mm) {
-    if (firmware != "marlin" && firmware != "rrf")
+                                                  double sigma_mm,
+                                                  std::optional<double> klipper_z_offset_mm) {
+    if (firmware != "marlin" && firmware != "rrf" && firmware != "klipper")
         throw std::invalid_argument("no probe report for firmware '" + firmware + "'");
+    if (firmware == "klipper" && !klipper_z_offset_mm)
+        throw std::invalid_argument(
+            "Klipper's probe reports need its z_offset ([probe] or [bltouch] in printer.cfg)");
     std::vector<solve::ProbePoint> out;
     for (const auto& reply : replies) {
         if (firmware == "marlin") {
             if (const auto p = marlin_probe_point(reply, sigma_mm)) out.push_back(*p);
+            continue;
+        }
+        if (firmware == "klipper") {
+            if (const auto p = klipper_probe_point(reply, *klipper_z_offset_mm, sigma_mm))
+                out.push_back(*p);
             continue;
         }
         const std::string line = lower(reply);
@@ -107,7 +134,7 @@ std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
             got.x_mm = asked.x, got.y_mm = asked.y;  // its report says the height alone
             continue;
         }
-        // Marlin prints the point to 0.01 mm; one far from where the box asked is another
+        // Marlin and Klipper print the point; one far from where the box asked is another
         // command's report, or a probe moved by its offset.
         if (std::hypot(got.x_mm - asked.x, got.y_mm - asked.y) > 0.5)
             throw std::invalid_argument(

@@ -19,9 +19,9 @@ namespace calbox::modes {
 std::vector<geometry::Point2> probe_points(const models::ProbeSettings& probe);
 
 // The job that probes them: Marlin `G30 X Y` (it reports "Bed X: .. Y: .. Z: .."),
-// RepRapFirmware a move there and `G30 S-1` ("Stopped at height .. mm"). Homes first. Throws
-// std::invalid_argument for Klipper, whose PROBE reports where the probe triggered without its
-// z_offset, which lives in printer.cfg out of the link's reach.
+// RepRapFirmware a move there and `G30 S-1` ("Stopped at height .. mm"), Klipper a move there and
+// `PROBE` ("probe at X,Y is z=Z": where the toolhead was when the probe triggered, its z_offset
+// above the bed). Homes first.
 std::vector<std::string> probe_job(const std::string& firmware,
                                    const std::vector<geometry::Point2>& points);
 
@@ -29,12 +29,15 @@ std::vector<std::string> probe_job(const std::string& firmware,
 // them: the nozzle's gap over the bed when commanded to (x, y, 0), which is the reported bed
 // height negated. Marlin's lines carry their own X and Y (used, and checked against where the
 // box asked); RepRapFirmware's are paired with the points in order. `sigma_mm`: the probe's
-// repeatability. Throws std::invalid_argument with one line when the replies hold another
-// number of heights than points, or a Marlin height reported elsewhere than asked.
+// repeatability. Klipper's carry their X and Y too; its heights need the probe's z_offset
+// (printer.cfg's [probe] or [bltouch], `klipper_z_offset_mm`). Throws std::invalid_argument with
+// one line when the replies hold another number of heights than points, or a height reported
+// elsewhere than asked.
 std::vector<solve::ProbePoint> probe_from_replies(const std::string& firmware,
                                                   const std::vector<geometry::Point2>& points,
                                                   const std::vector<std::string>& replies,
-                                                  double sigma_mm);
+                                                  double sigma_mm,
+                                                  std::optional<double> klipper_z_offset_mm = {});
 
 // A probe file for `calbox solve delta --probe`: CSV `x,y,z` lines (the gap as above; a header
 // line starting with x and # comments are skipped), or a Marlin console log holding "Bed X: ..

@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/models/delta_commands.hpp"
+#include "core/models/klipper_config.hpp"
 #include "core/models/machine_import.hpp"
 #include "core/modes/delta_probe.hpp"
 #include "core/number_text.hpp"
@@ -114,7 +115,8 @@ void DeltaCycleMode::probe_printer(std::function<void()> then) {
         [this, points, then = std::move(then)](const JobOutcome& outcome) {
             try {
                 probe_ = modes::probe_from_replies(machine_.firmware, points, outcome.replies,
-                                                   machine_.probe->repeatability_mm);
+                                                   machine_.probe->repeatability_mm,
+                                                   klipper_probe_z_offset_mm_);
             } catch (const std::invalid_argument& e) {
                 steps_.fail(std::string("the printer's probe report: ") + e.what());
                 return;
@@ -278,6 +280,8 @@ void DeltaCycleMode::read_klipper_settings(std::function<void(models::DeltaGeome
             models::DeltaGeometry g;
             try {
                 g = klipper_geometry(outcome.text, "Klipper's settings in force");
+                klipper_probe_z_offset_mm_ =
+                    models::klipper_probe_z_offset("Klipper's settings in force", outcome.text);
             } catch (const std::exception& e) {
                 steps_.fail(e.what());
                 return;

@@ -74,6 +74,7 @@ class DeltaCycleMode final : public CycleMode {
     // Klipper through a host that keeps its printer.cfg (MachineLink::has_config_file).
     bool klipper_on_host() const;
     void read_klipper_settings(std::function<void(models::DeltaGeometry)> then);
+    std::optional<double> klipper_probe_z_offset_mm_;  // from the settings in force
     void apply_on_klipper_host(std::function<void(bool verify)> then);
     void restore_klipper_config(const std::string& backup, const std::string& written,
                                 const std::string& why);

@@ -41,7 +41,36 @@ TEST(DeltaProbe, each_firmware_gets_its_own_probing_command_between_homings) {
     CHECK_EQUAL(6u, rrf.size());
     STRCMP_EQUAL("G1 X-51.96 Y-30.00 Z5 F6000", rrf[3].c_str());
     STRCMP_EQUAL("G30 S-1", rrf[4].c_str());
-    CHECK_THROWS(std::invalid_argument, modes::probe_job("klipper", points));
+    const auto klipper = modes::probe_job("klipper", points);
+    CHECK_EQUAL(6u, klipper.size());
+    STRCMP_EQUAL("G1 X-51.96 Y-30.00 Z5 F6000", klipper[3].c_str());
+    STRCMP_EQUAL("PROBE", klipper[4].c_str());
+    STRCMP_EQUAL("G28", klipper[5].c_str());
+}
+
+// Klipper's PROBE says where the toolhead was when the probe triggered, its z_offset above the
+// bed: a trigger at z=1.650 with z_offset 1.350 is a bed 0.30 mm high, a gap of -0.30.
+TEST(DeltaProbe, klipper_reports_take_the_probes_z_offset_off) {
+    const std::vector<geometry::Point2> points{{0, 0}, {10, -20}};
+    const auto probe = modes::probe_from_replies(
+        "klipper", points,
+        {"// probe at 0.000,0.000 is z=1.650000", "ok", "// probe at 10.000,-20.000 is z=1.250000"},
+        0.01, 1.35);
+    CHECK_EQUAL(2u, probe.size());
+    DOUBLES_EQUAL(-0.30, probe[0].z_mm, 1e-12);
+    DOUBLES_EQUAL(0.10, probe[1].z_mm, 1e-12);
+    DOUBLES_EQUAL(-20, probe[1].y_mm, 0);
+    CHECK_THROWS(std::invalid_argument,
+                 modes::probe_from_replies("klipper", points,
+                                           {"// probe at 0.000,0.000 is z=1.650000",
+                                            "// probe at 30.000,-20.000 is z=1.250000"},
+                                           0.01, 1.35));
+    try {
+        modes::probe_from_replies("klipper", points, {}, 0.01);
+        FAIL("Klipper's reports were read without the probe's z_offset");
+    } catch (const std::invalid_argument& e) {
+        STRCMP_CONTAINS("z_offset", e.what());
+    }
 }
 
 TEST(DeltaProbe, marlin_reports_are_read_with_their_points_and_the_height_negated) {
@@ -136,6 +165,15 @@ TEST(DeltaProbe, the_twin_answers_g30_with_the_gap_a_hand_worked_height_error_gi
             name, points, test::replies_of_twin(twin, modes::probe_job(name, points)), 0.01);
         for (const auto& p : probe) DOUBLES_EQUAL(0.3, p.z_mm, 0.02);  // 0.004 noise, 0.01 print
     }
+    // Klipper's twin answers PROBE (its host's G30) with the trigger's height, its z_offset up.
+    sim::DeltaTwin klipper(truth, firmware, sim::DeltaDialect::klipper);
+    klipper.set_klipper_probe_z_offset(1.35);
+    auto job = modes::probe_job("klipper", points);
+    for (auto& line : job)
+        if (line == "PROBE") line = "G30";
+    const auto probe = modes::probe_from_replies("klipper", points,
+                                                 test::replies_of_twin(klipper, job), 0.01, 1.35);
+    for (const auto& p : probe) DOUBLES_EQUAL(0.3, p.z_mm, 0.02);
     // A machine without a probe says so.
     sim::CartesianTwin cartesian({});
     try {
@@ -169,8 +207,14 @@ TEST(DeltaProbe, the_machine_file_takes_a_probe_for_marlin_and_reprap_within_the
                     "kind = \"delta\"\nfirmware = \"klipper\"");
     try {
         models::parse_machine_file(klipper + "[probe]\nradius_mm = 70\n", "k.toml");
-        FAIL("accepted a probe read from Klipper");
+        FAIL("accepted a probe read from Klipper over a serial port");
     } catch (const models::MachineFileError& e) {
-        STRCMP_CONTAINS("not klipper", e.what());
+        STRCMP_CONTAINS("[probe] on Klipper is read through Moonraker", e.what());
     }
+    // Through Moonraker, which gives the probe's z_offset with the settings in force.
+    const auto through_host = models::parse_machine_file(
+        klipper +
+            "[link]\nkind = \"moonraker\"\nurl = \"http://p:7125\"\n[probe]\nradius_mm = 70\n",
+        "k.toml");
+    CHECK(through_host.probe.has_value());
 }

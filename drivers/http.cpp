@@ -5,6 +5,7 @@
 #include <sys/socket.h>
 
 #include <array>
+#include <atomic>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl.hpp>
@@ -15,6 +16,7 @@
 #include <boost/beast/websocket/ssl.hpp>
 #include <cctype>
 #include <deque>
+#include <list>
 #include <map>
 #include <mutex>
 #include <random>
@@ -52,6 +54,31 @@ std::string describe(const Url& url) {
 }
 
 }  // namespace
+
+HostPort parse_host_port(const std::string& text, bool names) {
+    const auto colon = text.rfind(':');
+    if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
+        throw std::invalid_argument("'" + text + "' is not HOST:PORT");
+    HostPort hp;
+    hp.host = text.substr(0, colon);
+    if (hp.host.size() > 2 && hp.host.front() == '[' && hp.host.back() == ']')
+        hp.host = hp.host.substr(1, hp.host.size() - 2);
+    const std::string port = text.substr(colon + 1);
+    if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoi(port) > 65535)
+        throw std::invalid_argument("'" + text + "': the port must be 0 to 65535");
+    hp.port = std::stoi(port);
+    if (hp.host == "localhost") hp.host = "127.0.0.1";
+    boost::system::error_code ec;
+    net::ip::make_address(hp.host, ec);
+    if (ec && !names)
+        throw std::invalid_argument("'" + text +
+                                    "': the host must be an IP address (0.0.0.0 for "
+                                    "every interface)");
+    if (ec && hp.host.find_first_of(" /\t") != std::string::npos)
+        throw std::invalid_argument("'" + text + "' is not HOST:PORT");
+    return hp;
+}
 
 Url parse_url(const std::string& text) {
     Url url;
@@ -383,21 +410,36 @@ class Listener {
 
     int port() const { return port_; }
 
-    // `serve` runs on each connection's thread; the connection's descriptor is tracked.
-    void start(std::function<void(tcp::socket)> serve) {
-        accepting_ = std::thread([this, serve = std::move(serve)] {
-            for (;;) {
-                boost::system::error_code e;
-                tcp::socket socket(ioc_);
-                acceptor_.accept(socket, e);
-                const std::lock_guard lock(mutex_);
-                if (stopping_) return;
-                if (e) continue;
-                open_fds_.insert(socket.native_handle());
-                connections_.emplace_back(
-                    [serve, socket = std::move(socket)]() mutable { serve(std::move(socket)); });
-            }
-        });
+    // `serve` runs on each connection's thread; the connection's descriptor is tracked. Past
+    // `max_connections` (0: no limit) a connection is handed to `refuse` on the accepting thread
+    // instead, and closed.
+    void start(std::function<void(tcp::socket)> serve, int max_connections = 0,
+               std::function<void(tcp::socket&)> refuse = {}) {
+        accepting_ = std::thread(
+            [this, serve = std::move(serve), max_connections, refuse = std::move(refuse)] {
+                for (;;) {
+                    boost::system::error_code e;
+                    tcp::socket socket(ioc_);
+                    acceptor_.accept(socket, e);
+                    const std::lock_guard lock(mutex_);
+                    if (stopping_) return;
+                    if (e) continue;
+                    reap();
+                    if (max_connections > 0 &&
+                        static_cast<int>(connections_.size()) >= max_connections) {
+                        if (refuse) refuse(socket);
+                        continue;
+                    }
+                    open_fds_.insert(socket.native_handle());
+                    auto done = std::make_shared<std::atomic<bool>>(false);
+                    connections_.push_back(
+                        {std::thread([serve, done, socket = std::move(socket)]() mutable {
+                             serve(std::move(socket));
+                             *done = true;
+                         }),
+                         done});
+                }
+            });
     }
     // Another descriptor a connection opened (false, and not tracked, once stopping).
     bool track(int fd) {
@@ -426,16 +468,33 @@ class Listener {
         }
         if (accepting_.joinable()) accepting_.join();
         drop_connections();
-        for (auto& t : connections_) t.join();
+        for (auto& c : connections_) c.thread.join();
+        connections_.clear();
     }
 
   private:
+    struct Connection {
+        std::thread thread;
+        std::shared_ptr<std::atomic<bool>> done;
+    };
+    // Joins the connections that ended: a box serving a page for months opens many. Under mutex_.
+    void reap() {
+        for (auto it = connections_.begin(); it != connections_.end();) {
+            if (*it->done) {
+                it->thread.join();
+                it = connections_.erase(it);
+            } else {
+                ++it;
+            }
+        }
+    }
+
     net::io_context ioc_;
     tcp::acceptor acceptor_{ioc_};
     int port_ = 0;
     std::mutex mutex_;
     std::set<int> open_fds_;
-    std::vector<std::thread> connections_;
+    std::list<Connection> connections_;
     std::thread accepting_;
     bool stopping_ = false;
 };
@@ -444,6 +503,7 @@ class Listener {
 
 struct HttpServer::State {
     Handlers handlers;
+    ServerLimits limits;
     std::mutex mutex;                                         // the pushers'
     std::map<int, std::function<void(std::string)>> pushers;  // by socket, under the mutex
 
@@ -457,8 +517,9 @@ struct HttpServer::State {
 
 namespace {
 
-ServerRequest server_request(const http::request<http::string_body>& req) {
+ServerRequest server_request(const http::request<http::string_body>& req, const std::string& peer) {
     ServerRequest r;
+    r.peer = peer;
     r.method = std::string(req.method_string());
     r.target = std::string(req.target());
     for (const auto& field : req) {
@@ -472,24 +533,77 @@ ServerRequest server_request(const http::request<http::string_body>& req) {
 
 }  // namespace
 
+namespace {
+
+void write_answer(tcp::socket& socket, const ServerResponse& answer, bool keep_alive,
+                  boost::system::error_code& ec) {
+    http::response<http::string_body> res{static_cast<http::status>(answer.status), 11};
+    res.set(http::field::content_type, answer.content_type);
+    for (const auto& [name, value] : answer.headers) res.set(name, value);
+    res.keep_alive(keep_alive);
+    res.body() = answer.body;
+    res.prepare_payload();
+    http::write(socket, res, ec);
+}
+
+// A request the parser refused: its status and why, for the client.
+ServerResponse refusal(const boost::system::error_code& ec, const ServerLimits& limits) {
+    if (ec == http::error::body_limit)
+        return {
+            413,
+            "text/plain",
+            "request body too large: at most " + std::to_string(limits.max_body_bytes) + " bytes\n",
+            {}};
+    if (ec == http::error::header_limit)
+        return {431,
+                "text/plain",
+                "request headers too large: at most " + std::to_string(limits.max_header_bytes) +
+                    " bytes\n",
+                {}};
+    return {400, "text/plain", "malformed request: " + ec.message() + "\n", {}};
+}
+
+bool parser_refused(const boost::system::error_code& ec) {
+    const boost::system::error_code parse_error = http::error::body_limit;
+    return ec.category() == parse_error.category() && ec != http::error::end_of_stream &&
+           ec != http::error::partial_message;
+}
+
+}  // namespace
+
 void HttpServer::State::serve(tcp::socket socket) {
     const int fd = socket.native_handle();
     boost::system::error_code ec;
+    if (limits.idle_timeout.count() > 0) {
+        // Blocking reads give up after it (EAGAIN): a silent client lets its thread go.
+        timeval tv{};
+        tv.tv_sec = static_cast<time_t>(limits.idle_timeout.count() / 1000);
+        tv.tv_usec = static_cast<suseconds_t>((limits.idle_timeout.count() % 1000) * 1000);
+        ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+        ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
+    }
+    const std::string peer = socket.remote_endpoint(ec).address().to_string();
     beast::flat_buffer buffer;
     for (;;) {
         http::request_parser<http::string_body> parser;
-        parser.body_limit(kBodyLimitBytes);
+        parser.body_limit(limits.max_body_bytes);
+        parser.header_limit(limits.max_header_bytes);
         http::read(socket, buffer, parser, ec);
-        if (ec) break;
+        if (ec) {
+            if (parser_refused(ec)) write_answer(socket, refusal(ec, limits), false, ec);
+            break;
+        }
         const auto req = parser.release();
-        const ServerRequest request = server_request(req);
+        const ServerRequest request = server_request(req, peer);
         if (websocket::is_upgrade(req)) {
             const int status = handlers.accept_socket ? handlers.accept_socket(request) : 404;
             if (status != 101) {
-                http::response<http::string_body> res{static_cast<http::status>(status), 11};
-                res.body() = "{\"error\": {\"code\": " + std::to_string(status) + "}}";
-                res.prepare_payload();
-                http::write(socket, res, ec);
+                write_answer(socket,
+                             {status,
+                              "application/json",
+                              "{\"error\": {\"code\": " + std::to_string(status) + "}}",
+                              {}},
+                             false, ec);
                 break;
             }
             // It closes the socket itself, once it is no longer among the open ones.
@@ -500,14 +614,9 @@ void HttpServer::State::serve(tcp::socket socket) {
         try {
             answer = handlers.http(request);
         } catch (const std::exception& e) {
-            answer = {500, "text/plain", e.what()};
+            answer = {500, "text/plain", e.what(), {}};
         }
-        http::response<http::string_body> res{static_cast<http::status>(answer.status), 11};
-        res.set(http::field::content_type, answer.content_type);
-        res.keep_alive(req.keep_alive());
-        res.body() = answer.body;
-        res.prepare_payload();
-        http::write(socket, res, ec);
+        write_answer(socket, answer, req.keep_alive(), ec);
         if (ec || !req.keep_alive()) break;
     }
     listener->forget(fd);
@@ -538,7 +647,7 @@ void HttpServer::State::serve_socket(tcp::socket accepted,
         }
     } forget{*this, fd};
     if (ec) return;
-    ws.read_message_max(kBodyLimitBytes);
+    ws.read_message_max(limits.max_body_bytes);
     ws.accept(upgrade, ec);
     if (ec) return;
     ws.text(true);
@@ -595,12 +704,23 @@ void HttpServer::push(const std::string& message) {
     for (auto& [fd, post] : state_->pushers) post(message);
 }
 
-HttpServer::HttpServer(const std::string& address, int port, Handlers handlers)
+HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, ServerLimits limits)
     : state_(std::make_unique<State>()) {
     auto& s = *state_;
     s.handlers = std::move(handlers);
+    s.limits = limits;
     s.listener = std::make_unique<Listener>(address, port);
-    s.listener->start([&s](tcp::socket socket) { s.serve(std::move(socket)); });
+    s.listener->start([&s](tcp::socket socket) { s.serve(std::move(socket)); },
+                      limits.max_connections,
+                      [](tcp::socket& socket) {
+                          boost::system::error_code ec;
+                          write_answer(socket,
+                                       {503,
+                                        "text/plain",
+                                        "too many connections: try again shortly\n",
+                                        {{"Retry-After", "2"}}},
+                                       false, ec);
+                      });
 }
 
 HttpServer::~HttpServer() {

@@ -3,6 +3,7 @@
 // compile): a client for the hosts that own a printer (Moonraker), and a small threaded server
 // for the twin that stands in for them on the sim board.
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <memory>
@@ -31,6 +32,15 @@ struct Url {
     std::string origin() const { return scheme + "://" + host + ":" + port; }
 };
 Url parse_url(const std::string& text);
+
+// "HOST:PORT" ("[::1]:8080" for IPv6), the port 0 to 65535. With `names` false the host must
+// be an IP address ("localhost" is 127.0.0.1): a server binds to one. Throws
+// std::invalid_argument naming what is wrong.
+struct HostPort {
+    std::string host;
+    int port = 0;
+};
+HostPort parse_host_port(const std::string& text, bool names);
 
 using Headers = std::vector<std::pair<std::string, std::string>>;
 
@@ -76,20 +86,33 @@ class WebSocketClient {
     std::unique_ptr<State> state_;
 };
 
-// What a server is asked: header names in lower case.
+// What a server is asked: header names in lower case; `peer` is the client's address.
 struct ServerRequest {
     std::string method, target;
     std::map<std::string, std::string> headers;
     std::string body;
+    std::string peer;
 };
 struct ServerResponse {
     int status = 200;
     std::string content_type = "application/json";
     std::string body;
+    Headers headers{};  // more than the content type and length
 };
 
-// Serves HTTP and WebSocket on one port of `address`, a thread per connection. Each handler is
-// called on the connection's thread (they must be thread-safe).
+// What one server takes before it refuses, each with its status: a body past max_body_bytes
+// (413), headers past max_header_bytes (431), a request that does not parse (400), a connection
+// past max_connections (503, closed at once). A connection silent for idle_timeout is closed, so
+// that a client that opens and never finishes holds no thread for long. Zero: no limit.
+struct ServerLimits {
+    std::uint64_t max_body_bytes = 64ull << 20;
+    std::uint32_t max_header_bytes = 16u << 10;
+    int max_connections = 0;
+    std::chrono::milliseconds idle_timeout{0};
+};
+
+// Serves HTTP and WebSocket on one port of `address`, a thread per connection (joined as soon as
+// it ends). Each handler is called on the connection's thread (they must be thread-safe).
 class HttpServer {
   public:
     struct Handlers {
@@ -102,7 +125,7 @@ class HttpServer {
             message;
     };
     // Port 0 takes a free one (port()). Throws NetworkError when it cannot listen.
-    HttpServer(const std::string& address, int port, Handlers handlers);
+    HttpServer(const std::string& address, int port, Handlers handlers, ServerLimits limits = {});
     HttpServer(const HttpServer&) = delete;
     HttpServer& operator=(const HttpServer&) = delete;
     ~HttpServer();  // closes every connection and waits for its thread

@@ -13,6 +13,8 @@
 #include "board/sim/twin_judge.hpp"
 #include "firmware/appliance.hpp"
 #include "firmware/box_config.hpp"
+#include "firmware/box_network.hpp"
+#include "firmware/box_news.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/console.hpp"
 #include "firmware/cycle.hpp"
@@ -38,7 +40,7 @@ constexpr const char* kRunHelp = R"(usage:
              [--board-file FILE] [--machine FILE]
              [--auto | --operator | --operator-hands] [--frames N] [--camera-files DIR|GLOB]
              [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
-             [--modbus-word-order ORDER]
+             [--modbus-word-order ORDER] [--web HOST:PORT] [--mqtt HOST:PORT]
       The appliance: waits for the button, then runs the calibration cycle of the scenario's
       machine (a delta printer, a galvo scanner or a router): the target made over the machine link, lit
       and photographed, measured, solved, shown for review (short press applies, long press
@@ -99,6 +101,14 @@ constexpr const char* kRunHelp = R"(usage:
       --modbus-word-order ORDER
                       the floats' word order on Modbus: abcd (default: 123456.0 is 0x47F1
                       0x2000), cdab, badc or dcba
+      --web HOST:PORT serve the box's web page there (docs/network.md; overrides web.listen):
+                      status, live view, pictures, records, configuration and the actions at /,
+                      /metrics for Prometheus, records under /records/. HOST is an IP address
+                      (0.0.0.0: every interface); port 0 takes a free one (logged). Whatever
+                      changes state needs the password set with the console's `web password`
+      --mqtt HOST:PORT
+                      report to that MQTT broker (overrides mqtt.broker): the state and each
+                      cycle's result, availability, and Home Assistant's discovery
       The console's commands: help, status, config list|get|set|save|reset, start, confirm,
       cancel, revert, last, log, version, camera calibrate|plane, capture; on the sim board also
       press, hold and quit.
@@ -222,7 +232,7 @@ int run(const std::vector<std::string>& words) {
     const Args args(words,
                     {"--board", "--scenario", "--data", "--config", "--console", "--frames",
                      "--camera-files", "--modbus-server", "--modbus-client", "--modbus-map",
-                     "--modbus-word-order", "--board-file", "--machine"},
+                     "--modbus-word-order", "--board-file", "--machine", "--web", "--mqtt"},
                     {"--auto", "--operator", "--operator-hands"});
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
     const bool automatic = args.flag("--auto");
@@ -287,6 +297,14 @@ int run(const std::vector<std::string>& words) {
                                read_input_file(modbus.client_map, "Modbus map"), modbus.client_map);
     }
 
+    // The network's windows: options over the configuration, checked as the console checks it.
+    try {
+        if (auto v = args.get("--web")) config.set("web.listen", *v);
+        if (auto v = args.get("--mqtt")) config.set("mqtt.broker", *v);
+    } catch (const firmware::ConfigError& e) {
+        throw UsageError(std::string("--web/--mqtt: ") + e.what());
+    }
+
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
     // The cycle's settings as the configuration says, the options over them.
     const auto settings_from = [&frames](const firmware::BoxConfig& c) {
@@ -295,9 +313,11 @@ int run(const std::vector<std::string>& words) {
         return s;
     };
     firmware::LogBook log_book;
-    const firmware::Cycle::Log log = [&log_book](const std::string& line) {
+    std::function<void()> on_log;  // the network's windows, once they are there
+    const firmware::Cycle::Log log = [&log_book, &on_log](const std::string& line) {
         log_line(line);
         log_book.add(line);
+        if (on_log) on_log();
     };
     Box box(args, common, settings_from(config), log, config.settings().link);
     firmware::EventLoop& loop = box.loop;
@@ -354,7 +374,12 @@ int run(const std::vector<std::string>& words) {
         cycle, config,   *config_home,   config_path.filename().string(),
         data,  log_book, CALBOX_VERSION, {},
         {}};
-    context.config_changed = [&] { cycle.set_settings(box.with_board(settings_from(config))); };
+    firmware::BoxNews news(data, CALBOX_VERSION, log);
+    news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
+    context.config_changed = [&] {
+        cycle.set_settings(box.with_board(settings_from(config)));
+        news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
+    };
     if (sim_board != nullptr) {
         using Words = std::vector<std::string>;
         context.board_commands = {{"press", "press", "the sim board: a short press of the button",
@@ -415,8 +440,23 @@ int run(const std::vector<std::string>& words) {
             if (stop_when_written && result_writer->idle()) loop.stop();
         });
     }
+    // The web page and MQTT, where the configuration or the options say.
+    firmware::BoxNetwork network({loop, cycle, console_commands, config, data, clock, log_book,
+                                  news, log, CALBOX_VERSION, [] {
+                                      return static_cast<std::int64_t>(
+                                          std::chrono::duration_cast<std::chrono::seconds>(
+                                              std::chrono::system_clock::now().time_since_epoch())
+                                              .count());
+                                  }});
+    on_log = [&network] { network.logged(); };
+    // Lines logged while the rest comes down go to standard error only.
+    const struct Quiet {
+        std::function<void()>& on_log;
+        ~Quiet() { on_log = nullptr; }
+    } quiet{on_log};
     cycle.on_state = [&](firmware::CycleState) {
         if (plc) plc->publish();
+        network.changed();
     };
     cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
         if (console_link && prompt != firmware::Prompt::none)
@@ -426,8 +466,10 @@ int run(const std::vector<std::string>& words) {
                                     !operator_hands);
         }
         if (plc) plc->publish();
+        network.changed();
     };
-    cycle.on_cycle_end = [&](bool) {
+    cycle.on_cycle_end = [&](bool completed) {
+        network.cycle_ended(completed);
         if (plc) plc->publish();
         if (result_writer && cycle.cycles_completed() > results_written_for) {
             results_written_for = cycle.cycles_completed();

@@ -10,6 +10,7 @@
 #include "core/geometry/pattern_spec.hpp"
 #include "core/number_text.hpp"
 #include "drivers/http.hpp"
+#include "drivers/password.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -92,6 +93,30 @@ std::optional<board::ModbusEndpoint> endpoint(std::string_view text) {
     } catch (const std::invalid_argument& e) {
         throw ConfigError(e.what());
     }
+}
+
+// HOST:PORT as the web server or the MQTT client takes it, or empty (off).
+std::string host_port(std::string_view text, bool names) {
+    const std::string value = one_line(text);
+    if (value.empty()) return value;
+    try {
+        (void)drivers::parse_host_port(value, names);
+    } catch (const std::invalid_argument& e) {
+        throw ConfigError(e.what());
+    }
+    return value;
+}
+
+// One MQTT topic level of our own: no wildcards, no separators, nothing a broker would read
+// otherwise.
+std::string topic_word(std::string_view text) {
+    const std::string value = one_line(text);
+    if (value.empty() || value.size() > 64 ||
+        value.find_first_not_of(
+            "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-") !=
+            std::string::npos)
+        throw ConfigError("'" + value + "': 1 to 64 letters, digits, _ or -");
+    return value;
 }
 
 std::string text_of(const std::optional<board::ModbusEndpoint>& e) {
@@ -401,6 +426,84 @@ const ConfigKey kSchema[] = {
      "system's)",
      [](const BoxSettings& s) { return s.link.ca_file; },
      [](BoxSettings& s, const ConfigKey&, std::string_view t) { s.link.ca_file = one_line(t); }},
+    {"report.needs_calibration_mm",
+     K::number,
+     "mm",
+     0.001,
+     10,
+     {},
+     false,
+     "a cycle's error before correction (its mean, a delta's RMS) past this: the machine needs "
+     "calibrating (the page, MQTT, /metrics)",
+     [](const BoxSettings& s) { return decimal_text(s.needs_calibration_mm); },
+     [](BoxSettings& s, const ConfigKey& k, std::string_view t) {
+         s.needs_calibration_mm = decimal(k, t);
+     }},
+    {"web.listen",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     true,
+     "serve the box's web page at HOST:PORT (an IP address; 0.0.0.0 for every interface); "
+     "empty: no web page",
+     [](const BoxSettings& s) { return s.web.listen; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) {
+         s.web.listen = host_port(t, false);
+     }},
+    {"web.password",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     false,
+     "the web page's password, as its hash (the console's `web password` sets it); empty: the "
+     "page changes nothing",
+     [](const BoxSettings& s) { return s.web.password_hash; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) {
+         const std::string hash = one_line(t);
+         if (!hash.empty() && !drivers::is_password_hash(hash))
+             throw ConfigError("not a password hash: set the password with `web password`");
+         s.web.password_hash = hash;
+     }},
+    {"mqtt.broker",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     true,
+     "report to the MQTT broker at HOST:PORT (Home Assistant's discovery included); empty: no "
+     "MQTT",
+     [](const BoxSettings& s) { return s.mqtt.broker; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) {
+         s.mqtt.broker = host_port(t, true);
+     }},
+    {"mqtt.node_id",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     true,
+     "this box's name in its topics (calbox/NODE/...) and in Home Assistant's ids: letters, "
+     "digits, _ and -",
+     [](const BoxSettings& s) { return s.mqtt.node_id; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) { s.mqtt.node_id = topic_word(t); }},
+    {"mqtt.discovery_prefix",
+     K::text,
+     {},
+     0,
+     0,
+     {},
+     true,
+     "Home Assistant's discovery prefix (its MQTT integration's setting)",
+     [](const BoxSettings& s) { return s.mqtt.discovery_prefix; },
+     [](BoxSettings& s, const ConfigKey&, std::string_view t) {
+         s.mqtt.discovery_prefix = topic_word(t);
+     }},
 };
 
 std::string_view table_of(std::string_view name) {
@@ -461,7 +564,7 @@ BoxConfig BoxConfig::from_toml(const std::string& text, const std::string& file)
         if (t == nullptr || !known_table) {
             throw ConfigError(where(table_node) + "[" + table +
                               "] is not a table calbox knows (cycle, setup, records, console, "
-                              "modbus)");
+                              "modbus, link, report, web, mqtt)");
         }
         for (const auto& [key, node] : *t) {
             const std::string name = table + "." + std::string(key.str());

@@ -47,12 +47,32 @@ struct LinkSettings {
     models::MachineLinkSettings over(const models::MachineFile& machine) const;
 };
 
+// The box's own web page (docs/network.md): off while `listen` is empty. Anything that changes
+// state needs the password, kept only as its hash (drivers/password.hpp).
+struct WebSettings {
+    std::string listen;  // HOST:PORT, an IP address to bind
+    std::string password_hash;
+};
+
+// The MQTT broker the box reports to, Home Assistant's discovery with it: off while `broker` is
+// empty. Topics: calbox/NODE/...; discovery: PREFIX/<component>/NODE/<object>/config.
+struct MqttSettings {
+    std::string broker;  // HOST:PORT
+    std::string node_id = "calbox";
+    std::string discovery_prefix = "homeassistant";
+};
+
 // Everything the configuration sets, typed; a default-constructed one is the defaults.
 struct BoxSettings {
     CycleSettings cycle;
     ConsoleSettings console;
     ModbusSettings modbus;
     LinkSettings link;
+    WebSettings web;
+    MqttSettings mqtt;
+    // A cycle's error before correction past this: the machine needs calibrating (MQTT, the page,
+    // /metrics).
+    double needs_calibration_mm = 0.05;
 };
 
 // "tcp:HOST:PORT" or "rtu:DEVICE:BAUD", as it is written.

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "core/number_text.hpp"
+#include "drivers/password.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -306,6 +307,35 @@ std::vector<ConsoleCommand> Console::commands() {
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 1, "capture");
              r.text = press_for_prompt(true);
+         }},
+        {"acknowledge", "acknowledge", "back to idle after an error (the button's press there)",
+         [this](const Words& words, std::string_view, ConsoleReply& r) {
+             need_words(words, 1, "acknowledge");
+             Cycle& cycle = c_.cycle;
+             if (cycle.prompt() != Prompt::acknowledge_error)
+                 throw Refused(std::string("no error to acknowledge: ") +
+                               state_name(cycle.state()));
+             cycle.acknowledge();
+             r.text = std::string("acknowledged: ") + state_name(cycle.state());
+         }},
+        {"web password", "web password PASSWORD|--clear",
+         "the web page's password (kept as its hash; config save keeps it)",
+         [this](const Words& words, std::string_view line, ConsoleReply& r) {
+             if (words.size() < 3) throw Refused("usage: web password PASSWORD|--clear");
+             const bool clear = words.size() == 3 && words[2] == "--clear";
+             std::string hash;
+             if (!clear) {
+                 try {
+                     hash = drivers::password_hash(rest_after(line, 2));
+                 } catch (const std::exception& e) {
+                     throw Refused(std::string("web password: ") + e.what());
+                 }
+             }
+             c_.config.set("web.password", hash);
+             if (c_.config_changed) c_.config_changed();
+             r.text = clear ? "web password cleared: the page changes nothing"
+                            : "web password set (config save keeps it)";
+             r.data = {{"password_set", !clear}};
          }},
     };
 }

@@ -358,15 +358,40 @@ void Cycle::capture(int frames, std::function<void(std::vector<hal::Frame>)> the
     const unsigned generation = generation_;
     d_.lines.set_light(true);
     phase_started_ = d_.clock.now();
-    d_.camera.start_capture({frames, {}, {}});
+    if (previewing_) {
+        capture_after_preview_ = frames;
+    } else {
+        d_.camera.start_capture({frames, {}, {}});
+    }
     // on_camera() continues; the continuation checks the generation.
     pending_capture_ = [this, generation, then = std::move(then)](std::vector<hal::Frame> f) {
         if (current(generation)) then(std::move(f));
     };
 }
 
+bool Cycle::preview() {
+    if (previewing_ || pending_capture_) return false;
+    d_.camera.start_capture({1, {}, {}});
+    previewing_ = true;
+    return true;
+}
+
 void Cycle::on_camera() {
     hal::CaptureResult result = d_.camera.take_frames();
+    if (previewing_) {
+        previewing_ = false;
+        if (capture_after_preview_ > 0) {
+            d_.camera.start_capture({capture_after_preview_, {}, {}});
+            capture_after_preview_ = 0;
+        }
+        if (!result.ok()) {
+            log("live view: " + result.error);
+        } else if (on_frame && !result.frames.empty()) {
+            on_frame(result.frames.front());
+        }
+        return;
+    }
+    if (on_frame && result.ok() && !result.frames.empty()) on_frame(result.frames.front());
     report_.camera_seconds += seconds(d_.clock.now() - phase_started_);
     d_.lines.set_light(false);
     auto then = std::move(pending_capture_);

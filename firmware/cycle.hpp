@@ -126,6 +126,12 @@ class Cycle final : private CycleSteps {
     std::string calibrate_camera();
     std::string take_plane();
     double setup_coverage() const { return setup_coverage_; }
+    // The set-up's board views so far (their corners: the live view's coverage).
+    const std::vector<geometry::ObservedView>& setup_views() const { return calibration_views_; }
+    // One frame for the live view, handed to on_frame. Only while the cycle's own capture is not
+    // under way (false then); a capture the cycle starts meanwhile waits for it, so the cycle's
+    // photos are never the live view's.
+    bool preview();
     // New settings (the console changed the configuration): in force at once in idle, else
     // from the next cycle, so that a running one keeps what it started with.
     void set_settings(CycleSettings settings);
@@ -151,6 +157,8 @@ class Cycle final : private CycleSteps {
     std::function<void(bool completed)> on_cycle_end;
     // What a person at the console should read now: each set-up view's result, the set-up's.
     std::function<void(const std::string&)> on_notice;
+    // Each frame the camera gives: a preview's, and the first of each of the cycle's captures.
+    std::function<void(const hal::Frame&)> on_frame;
 
   private:
     // CycleSteps: what the mode's steps ask of the cycle.
@@ -227,6 +235,8 @@ class Cycle final : private CycleSteps {
     double setup_coverage_ = 0;  // of the image, by the views taken so far
     bool setup_only_ = false;    // the set-up asked for on its own: back to idle after it
     std::function<void(std::vector<hal::Frame>)> pending_capture_;
+    bool previewing_ = false;        // the camera is taking a preview
+    int capture_after_preview_ = 0;  // frames the cycle's capture waits to take, 0 none
     std::vector<std::string> target_job_;
     CycleReport report_;
     std::chrono::nanoseconds phase_started_{0};

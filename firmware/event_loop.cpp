@@ -71,6 +71,32 @@ void EventLoop::run() {
     while (!stopped_) run_once(std::chrono::milliseconds(1000));
 }
 
+LoopInbox::LoopInbox(EventLoop& loop) : loop_(loop) {
+    loop_.watch(wakeup_.fd(), [this] { run_posted(); });
+}
+
+LoopInbox::~LoopInbox() {
+    loop_.unwatch(wakeup_.fd());
+}
+
+void LoopInbox::post(std::function<void()> job) {
+    {
+        const std::lock_guard lock(mutex_);
+        jobs_.push_back(std::move(job));
+    }
+    wakeup_.signal();
+}
+
+void LoopInbox::run_posted() {
+    wakeup_.take();
+    std::deque<std::function<void()>> jobs;
+    {
+        const std::lock_guard lock(mutex_);
+        jobs.swap(jobs_);
+    }
+    for (auto& job : jobs) job();
+}
+
 Wakeup::Wakeup() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
     if (fd_ < 0) throw os_error("eventfd");
 }

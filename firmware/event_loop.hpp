@@ -3,9 +3,13 @@
 // link, the console, the camera's and the worker's completions) is a readable file descriptor
 // with a handler. Handlers run on the loop's thread, one at a time, and never block.
 #include <chrono>
+#include <deque>
 #include <functional>
+#include <future>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <optional>
 #include <thread>
 
 namespace calbox::firmware {
@@ -47,6 +51,41 @@ class Wakeup {
 
   private:
     int fd_ = -1;
+};
+
+// Other threads' requests to the loop (the web server's connections, the MQTT client's): each job
+// runs on the loop's thread, in the order posted, so that the cycle, the console and the
+// configuration are only ever touched there.
+class LoopInbox {
+  public:
+    explicit LoopInbox(EventLoop& loop);
+    LoopInbox(const LoopInbox&) = delete;
+    LoopInbox& operator=(const LoopInbox&) = delete;
+    ~LoopInbox();  // jobs still queued are dropped; anyone waiting on call() gets nothing
+    void post(std::function<void()> job);  // from any thread
+    // Runs `job` on the loop's thread and waits up to `within` for its result: nothing when the
+    // loop did not run it in time (stopped, or the inbox going). From any thread but the loop's.
+    template <class T>
+    std::optional<T> call(std::function<T()> job, std::chrono::milliseconds within) {
+        auto promise = std::make_shared<std::promise<T>>();
+        auto result = promise->get_future();
+        post([promise, job = std::move(job)] {
+            try {
+                promise->set_value(job());
+            } catch (...) {
+                promise->set_exception(std::current_exception());
+            }
+        });
+        if (result.wait_for(within) != std::future_status::ready) return std::nullopt;
+        return result.get();  // the job's exception, rethrown here
+    }
+
+  private:
+    void run_posted();
+    EventLoop& loop_;
+    Wakeup wakeup_;
+    std::mutex mutex_;
+    std::deque<std::function<void()>> jobs_;  // under the mutex
 };
 
 // Runs slow work (measure, solve, calibrate) off the loop: `work` on the worker's thread, then

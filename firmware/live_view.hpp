@@ -1,0 +1,55 @@
+#pragma once
+// The live view a person aims and focuses the box by: the camera's frame, scaled down, with the
+// set-up guide drawn over it (the board views' coverage so far, the bed's expected outline) and
+// a sharpness figure. JPEG bytes, so that OpenCV stays out of this header.
+#include <condition_variable>
+#include <cstdint>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/geometry/calibration.hpp"
+#include "hal/camera.hpp"
+
+namespace calbox::firmware {
+
+struct LiveGuide {
+    // Both from the set-up (camera.yaml, plane.yaml); without them no outline is drawn.
+    std::optional<geometry::CameraModel> camera;
+    std::optional<geometry::BedPlane> plane;
+    // The bed as the machine file gives it: a delta's printable radius, else its work area.
+    double bed_radius_mm = 0;
+    double bed_size_x_mm = 0, bed_size_y_mm = 0;
+    // Each set-up view's board corners, and the image they cover together.
+    std::vector<std::vector<geometry::Point2>> views;
+    double coverage = 0;
+};
+
+struct LiveImage {
+    std::string jpeg;
+    // The variance of the Laplacian over the frame's middle, full resolution: higher is
+    // sharper; a figure to turn the focus ring by, not an absolute.
+    double sharpness = 0;
+    int width_px = 0, height_px = 0;
+    std::uint64_t sequence = 0;  // the frame's
+};
+
+// Throws std::invalid_argument for an empty frame.
+LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_width_px);
+
+// The newest frame, handed from the loop's thread (the camera) to the server's (the live view).
+class LatestFrame {
+  public:
+    void put(const hal::Frame& frame);
+    // A frame numbered past `after`, waiting up to `within`; else the newest there is (or none).
+    std::optional<hal::Frame> newer_than(std::uint64_t after, std::chrono::milliseconds within);
+
+  private:
+    std::mutex mutex_;
+    std::condition_variable arrived_;
+    std::optional<hal::Frame> frame_;
+    std::uint64_t count_ = 0;  // frames put: each frame's number here
+};
+
+}  // namespace calbox::firmware

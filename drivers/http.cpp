@@ -710,17 +710,24 @@ HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, 
     s.handlers = std::move(handlers);
     s.limits = limits;
     s.listener = std::make_unique<Listener>(address, port);
-    s.listener->start([&s](tcp::socket socket) { s.serve(std::move(socket)); },
-                      limits.max_connections,
-                      [](tcp::socket& socket) {
-                          boost::system::error_code ec;
-                          write_answer(socket,
-                                       {503,
-                                        "text/plain",
-                                        "too many connections: try again shortly\n",
-                                        {{"Retry-After", "2"}}},
-                                       false, ec);
-                      });
+    s.listener->start(
+        [&s](tcp::socket socket) { s.serve(std::move(socket)); }, limits.max_connections,
+        [](tcp::socket& socket) {
+            boost::system::error_code ec;
+            write_answer(socket,
+                         {503,
+                          "text/plain",
+                          "too many connections: try again shortly\n",
+                          {{"Retry-After", "2"}}},
+                         false, ec);
+            // A close with the client's request unread would reset the connection
+            // and lose the answer: say we are done, then read what came, briefly.
+            socket.shutdown(tcp::socket::shutdown_send, ec);
+            timeval tv{0, 100'000};
+            ::setsockopt(socket.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+            std::array<char, 4096> sink{};
+            for (int i = 0; i < 16 && !ec; ++i) socket.read_some(net::buffer(sink), ec);
+        });
 }
 
 HttpServer::~HttpServer() {

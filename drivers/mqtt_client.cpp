@@ -2,26 +2,84 @@
 
 #include <mosquitto.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <condition_variable>
+#include <cstring>
 #include <mutex>
 #include <stdexcept>
+#include <thread>
 
 namespace calbox::drivers {
 
 struct MqttClient::State {
     mosquitto* mosq = nullptr;
+    std::string address;  // host:port, for what is told
+    std::thread network;
+    std::mutex stop_mutex;
+    std::condition_variable stop_asked;
+    bool stopping = false;  // under stop_mutex
     Callbacks callbacks;
     MqttWill will;
     std::atomic<bool> connected{false};
-    std::mutex told_mutex;
-    std::string last_trouble;  // told once until it changes or the link is back
+    // One trouble told per spell without a session: the retries after it are silent until the
+    // broker takes the box again.
+    std::atomic<bool> told{false};
+
+    // The network thread: libmosquitto's loop while there is a socket; without one (the broker
+    // not there, gone, or refusing) a wait that doubles from 1 s to 60 s, then another try. Our
+    // own rather than mosquitto_loop_start's, which gives up after a first connect that fails.
+    void run(bool have_socket) {
+        int wait_s = 1;
+        for (;;) {
+            {
+                std::unique_lock lock(stop_mutex);
+                if (!have_socket)
+                    stop_asked.wait_for(lock, std::chrono::seconds(wait_s),
+                                        [&] { return stopping; });
+                if (stopping) break;
+            }
+            if (!have_socket) {
+                const int rc = mosquitto_reconnect(mosq);
+                have_socket = rc == MOSQ_ERR_SUCCESS;
+                if (!have_socket) {
+                    unreachable(rc);
+                    wait_s = std::min(60, 2 * wait_s);
+                }
+                continue;
+            }
+            const int rc = mosquitto_loop(mosq, 200, 1);
+            if (rc != MOSQ_ERR_SUCCESS) {
+                have_socket = false;
+                // Lost after a session: the disconnect callback told it. Never there: say so.
+                if (!connected) unreachable(rc);
+                wait_s = connected ? 1 : std::min(60, 2 * wait_s);
+                connected = false;
+            } else if (connected) {
+                wait_s = 1;
+            }
+        }
+        if (!connected) return;
+        // A goodbye that the will would otherwise say for us, then the disconnect, written out.
+        if (!will.goodbye.empty())
+            mosquitto_publish(mosq, nullptr, will.topic.c_str(),
+                              static_cast<int>(will.goodbye.size()), will.goodbye.data(), 1, true);
+        mosquitto_disconnect(mosq);
+        for (int i = 0; i < 20 && mosquitto_loop(mosq, 50, 1) == MOSQ_ERR_SUCCESS; ++i) {
+        }
+    }
+
+    void unreachable(int rc) {
+        trouble(
+            "cannot reach the broker at " + address + ": " +
+            (rc == MOSQ_ERR_ERRNO ? std::string(std::strerror(errno)) : mosquitto_strerror(rc)) +
+            " (retried with back-off)");
+    }
 
     void trouble(const std::string& why) {
-        {
-            const std::lock_guard lock(told_mutex);
-            if (why == last_trouble) return;
-            last_trouble = why;
-        }
+        if (told.exchange(true)) return;
         if (callbacks.trouble) callbacks.trouble(why);
     }
 };
@@ -53,7 +111,7 @@ MqttClient::MqttClient(const std::string& client_id, const std::string& host, in
     mosquitto_int_option(s.mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
     mosquitto_will_set(s.mosq, s.will.topic.c_str(), static_cast<int>(s.will.payload.size()),
                        s.will.payload.data(), 1, s.will.retain);
-    mosquitto_reconnect_delay_set(s.mosq, 1, 60, true);
+    mosquitto_threaded_set(s.mosq, true);
     mosquitto_connect_callback_set(s.mosq, [](mosquitto*, void* user, int rc) {
         auto& st = state_of(user);
         if (rc != 0) {
@@ -62,10 +120,7 @@ MqttClient::MqttClient(const std::string& client_id, const std::string& host, in
             return;
         }
         st.connected = true;
-        {
-            const std::lock_guard lock(st.told_mutex);
-            st.last_trouble.clear();
-        }
+        st.told = false;
         if (st.callbacks.connected) st.callbacks.connected();
     });
     mosquitto_disconnect_callback_set(s.mosq, [](mosquitto*, void* user, int rc) {
@@ -82,28 +137,20 @@ MqttClient::MqttClient(const std::string& client_id, const std::string& host, in
                                                    static_cast<std::size_t>(m->payloadlen)));
     });
     // A broker not there yet is tried again by the network thread, at the back-off's pace.
+    s.address = host + ":" + std::to_string(port);
     const int rc = mosquitto_connect_async(s.mosq, host.c_str(), port, 30);
-    if (rc != MOSQ_ERR_SUCCESS)
-        s.trouble(
-            "cannot reach the broker at " + host + ":" + std::to_string(port) + ": " +
-            (rc == MOSQ_ERR_ERRNO ? "connection refused or no route" : mosquitto_strerror(rc)) +
-            " (retried with back-off)");
-    if (mosquitto_loop_start(s.mosq) != MOSQ_ERR_SUCCESS) {
-        mosquitto_destroy(s.mosq);
-        throw std::runtime_error("libmosquitto: cannot start its network thread");
-    }
+    if (rc != MOSQ_ERR_SUCCESS) s.unreachable(rc);
+    s.network = std::thread([&s, rc] { s.run(rc == MOSQ_ERR_SUCCESS); });
 }
 
 MqttClient::~MqttClient() {
     auto& s = *state_;
-    const bool connected = s.connected;
-    if (connected && !closing_.empty())
-        mosquitto_publish(s.mosq, nullptr, s.will.topic.c_str(), static_cast<int>(closing_.size()),
-                          closing_.data(), 1, true);
-    mosquitto_disconnect(s.mosq);
-    // Connected: the network thread sends what is queued, then the disconnect, and ends. Not
-    // connected: it may sit in the back-off's wait, so it is stopped where it is.
-    mosquitto_loop_stop(s.mosq, !connected);
+    {
+        const std::lock_guard lock(s.stop_mutex);
+        s.stopping = true;
+    }
+    s.stop_asked.notify_all();
+    s.network.join();
     mosquitto_destroy(s.mosq);
 }
 

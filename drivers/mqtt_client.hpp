@@ -1,16 +1,19 @@
 #pragma once
-// An MQTT client over libmosquitto, on the library's own network thread: it connects in the
-// background with a last will, reconnects with back-off (1 s doubling to 60 s) whenever the broker
-// goes or refuses it, and never blocks its caller. Callbacks run on that thread.
+// An MQTT client over libmosquitto, on a network thread of its own: it connects in the background
+// with a last will, reconnects with back-off (1 s doubling to 60 s) whenever the broker is not
+// there, goes or refuses it, and never blocks its caller. Callbacks run on that thread.
 #include <functional>
 #include <memory>
 #include <string>
 
 namespace calbox::drivers {
 
+// Said for the client by the broker when it goes without a word; `goodbye` is said on the same
+// topic by the client itself when it is destroyed (empty: nothing).
 struct MqttWill {
     std::string topic, payload;
     bool retain = true;
+    std::string goodbye;
 };
 
 class MqttClient {
@@ -28,9 +31,8 @@ class MqttClient {
                Callbacks callbacks);
     MqttClient(const MqttClient&) = delete;
     MqttClient& operator=(const MqttClient&) = delete;
-    // Publishes `closing` (the will's topic, retained) if connected, disconnects, joins.
+    // Says the will's goodbye (retained) if connected, disconnects, joins.
     ~MqttClient();
-    void set_closing_message(std::string payload) { closing_ = std::move(payload); }
     // Queued by the library; dropped when not connected (a fresh connection republishes what is
     // retained). QoS 1.
     void publish(const std::string& topic, const std::string& payload, bool retain);
@@ -41,7 +43,6 @@ class MqttClient {
 
   private:
     std::unique_ptr<State> state_;
-    std::string closing_;
 };
 
 }  // namespace calbox::drivers

@@ -67,8 +67,7 @@ MqttReport::MqttReport(Context context, const MqttSettings& settings)
     };
     client_ = std::make_unique<drivers::MqttClient>(
         "calbox-" + settings_.node_id, broker.host, broker.port,
-        drivers::MqttWill{topic("availability"), "offline", true}, std::move(callbacks));
-    client_->set_closing_message("offline");
+        drivers::MqttWill{topic("availability"), "offline", true, "offline"}, std::move(callbacks));
     c_.log("mqtt: reporting to " + settings_.broker + " as " + topic(""));
 }
 

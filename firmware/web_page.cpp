@@ -223,6 +223,8 @@ async function liveLoop() {
         const old = $('live').src;
         $('live').src = URL.createObjectURL(await r.blob());
         if (old.startsWith('blob:')) URL.revokeObjectURL(old);
+        // A few frames a second aim and focus a box; more would only load it.
+        await new Promise((ok) => setTimeout(ok, 250));
       } else {
         await new Promise((ok) => setTimeout(ok, 1000));
       }
@@ -274,7 +276,8 @@ document.addEventListener('DOMContentLoaded', () => {
 }
 
 std::string_view web_page_style() {
-    return R"css(body { font-family: sans-serif; margin: 0; background: #f4f5f7; color: #1d2330; }
+    return R"css(* { box-sizing: border-box; }
+body { font-family: sans-serif; margin: 0; background: #f4f5f7; color: #1d2330; }
 header { display: flex; gap: 1em; align-items: center; padding: 0.6em 1em; background: #1d2330; color: #fff; }
 header h1 { font-size: 1.3em; margin: 0; }
 nav { display: flex; gap: 0.3em; padding: 0.5em 1em; }
@@ -291,7 +294,7 @@ h2 { font-size: 1.05em; margin: 0.6em 0 0.4em; }
 .badge.idle { background: #2f8f4e; } .badge.error { background: #c0392b; } .badge.review { background: #d68910; }
 .muted { color: #667; } .error { color: #c0392b; }
 .actions button, #btn-save { padding: 0.5em 1.1em; margin: 0.2em 0.3em 0.2em 0; font-size: 1em; }
-pre { max-height: 18em; overflow: auto; background: #f0f1f4; padding: 0.5em; font-size: 0.85em; }
+pre { max-height: 18em; overflow: auto; white-space: pre-wrap; background: #f0f1f4; padding: 0.5em; font-size: 0.85em; }
 #live { max-width: 100%; background: #000; min-height: 10em; }
 svg { width: 100%; max-width: 600px; height: auto; background: #fafbfc; }
 svg .axis { stroke: #889; } svg .label { font-size: 11px; fill: #667; }

@@ -228,7 +228,7 @@ ServerResponse WebWindow::route(const ServerRequest& request, const std::string&
     if (path == "/" || path == "/index.html") {
         ServerResponse r{200, "text/html; charset=utf-8", std::string(web_page_html()), {}};
         r.headers.emplace_back("Content-Security-Policy",
-                               "default-src 'self'; img-src 'self' data:; style-src 'self'; "
+                               "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; "
                                "script-src 'self'; connect-src 'self'; frame-ancestors 'none'");
         return r;
     }

@@ -1,0 +1,126 @@
+"""What the network tests share: a box on the sim board with its web page (and MQTT), a broker,
+and waiting with a deadline. The password's hash is made here with Python's own PBKDF2, not by
+the box."""
+import hashlib
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+
+PASSWORD = "correct horse"
+
+
+def password_hash(password, salt=bytes(range(16)), iterations=100000):
+    digest = hashlib.pbkdf2_hmac("sha256", password.encode(), salt, iterations)
+    return "pbkdf2-sha256:%d:%s:%s" % (iterations, salt.hex(), digest.hex())
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+class Run:
+    def __init__(self, work):
+        self.work = work
+        self.children = []
+
+    def fail(self, why):
+        print("FAIL: " + why)
+        err = os.path.join(self.work, "box.err")
+        if os.path.exists(err):
+            print("== box.err (last 40 lines)")
+            print("".join(open(err, errors="replace").readlines()[-40:]))
+        self.stop_all()
+        sys.exit(1)
+
+    def stop_all(self):
+        for child in self.children:
+            if child.poll() is None:
+                child.kill()
+                child.wait()
+
+    def wait_for(self, what, predicate, seconds, box=None):
+        give_up = time.monotonic() + seconds
+        while time.monotonic() < give_up:
+            value = predicate()
+            if value:
+                return value
+            if box is not None and box.poll() is not None:
+                self.fail("calbox exited %d while waiting for %s" % (box.returncode, what))
+            time.sleep(0.1)
+        self.fail("no %s within %d s" % (what, seconds))
+
+    def broker(self):
+        port = free_port()
+        conf = os.path.join(self.work, "mosquitto.conf")
+        with open(conf, "w") as f:
+            f.write("listener %d 127.0.0.1\nallow_anonymous true\npersistence false\n" % port)
+        broker = subprocess.Popen(["/usr/sbin/mosquitto", "-c", conf],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        self.children.append(broker)
+
+        def listening():
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=0.2).close()
+                return True
+            except OSError:
+                return False
+        self.wait_for("the broker", listening, 10)
+        return broker, port
+
+    def box(self, calbox, top, data, extra, config_text):
+        os.makedirs(data, exist_ok=True)
+        with open(os.path.join(data, "calbox.toml"), "w") as f:
+            f.write(config_text)
+        err = open(os.path.join(self.work, "box.err"), "w")
+        box = subprocess.Popen(
+            [calbox, "run", "--board", "sim", "--scenario",
+             os.path.join(top, "tests/scenarios/delta_cycle_small.toml"), "--data", data,
+             "--web", "127.0.0.1:0", "--console", ""] + extra,
+            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
+        self.children.append(box)
+
+        def page_port():
+            text = open(os.path.join(self.work, "box.err"), errors="replace").read()
+            m = re.search(r"web: the page at http://127\.0\.0\.1:(\d+)/", text)
+            return int(m.group(1)) if m else None
+        port = self.wait_for("the page's port in the log", page_port, 20, box)
+        return box, "http://127.0.0.1:%d" % port
+
+    def log(self):
+        return open(os.path.join(self.work, "box.err"), errors="replace").read()
+
+
+def request(url, method="GET", body=None, headers=None, password=None, timeout=15):
+    """(status, headers, body bytes) of one request; a refusal is an answer, not an error."""
+    headers = dict(headers or {})
+    data = None
+    if body is not None:
+        data = body if isinstance(body, bytes) else json.dumps(body).encode()
+        headers.setdefault("Content-Type", "application/json")
+    if password is not None:
+        import base64
+        headers["Authorization"] = "Basic " + base64.b64encode(
+            ("calbox:" + password).encode()).decode()
+    req = urllib.request.Request(url, data=data, method=method, headers=headers)
+    try:
+        with urllib.request.urlopen(req, timeout=timeout) as r:
+            return r.status, r.headers, r.read()
+    except urllib.error.HTTPError as e:
+        return e.code, e.headers, e.read()
+
+
+def get_json(url):
+    status, _, body = request(url)
+    if status != 200:
+        raise RuntimeError("%s: %d %s" % (url, status, body[:200]))
+    return json.loads(body)

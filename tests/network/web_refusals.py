@@ -1,0 +1,183 @@
+#!/usr/bin/python3
+"""The box's web page and MQTT refuse what they must, each with its status and a clear message,
+while a cycle runs and without disturbing it: a body too large, headers too large, a request that
+does not parse, paths that climb out of the records, malformed JSON, a configuration value out of
+range, no password, a wrong one (then a wait), a flood of requests, too many connections, a
+method or content type not served. A broker that refuses the box at the start is one log line,
+and the one that takes it in its place is reached at the back-off's next try; its going is one
+line more. The cycle then completes
+and meets the delta goal as if nobody had knocked. Usage: web_refusals.py CALBOX SOURCE_DIR"""
+import http.client
+import json
+import os
+import re
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import PASSWORD, Run, free_port, get_json, password_hash, request  # noqa: E402
+
+calbox, top = sys.argv[1], sys.argv[2]
+work = tempfile.mkdtemp(prefix="calbox-webno-")
+run = Run(work)
+# At the start a broker that refuses the box (no anonymous clients); later one that takes it.
+broker_port = free_port()
+conf = os.path.join(work, "mosquitto.conf")
+
+
+def start_broker(anonymous):
+    with open(conf, "w") as f:
+        f.write("listener %d 127.0.0.1\nallow_anonymous %s\npersistence false\n" % (
+            broker_port, "true" if anonymous else "false"))
+    b = subprocess.Popen(["/usr/sbin/mosquitto", "-c", conf], stdout=subprocess.DEVNULL,
+                         stderr=subprocess.DEVNULL)
+    run.children.append(b)
+    return b
+
+
+refusing = start_broker(False)
+time.sleep(0.5)
+config = '[web]\npassword = "%s"\n' % password_hash(PASSWORD)
+box, url = run.box(calbox, top, os.path.join(work, "data"),
+                   ["--mqtt", "127.0.0.1:%d" % broker_port, "--operator"], config)
+port = int(url.rsplit(":", 1)[1])
+
+
+def expect(what, got, status, message=None):
+    code, headers, body = got
+    if code != status:
+        run.fail("%s: %d, not %d (%s)" % (what, code, status, body[:200]))
+    if message is not None:
+        error = json.loads(body)["error"]
+        if not re.search(message, error):
+            run.fail("%s: %r does not say %r" % (what, error, message))
+    return headers
+
+
+def raw(data, source="127.0.0.1", read=True):
+    """What the server answers to bytes sent as they are (no client tidies them)."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=10, source_address=(source, 0))
+    s.sendall(data)
+    if not read:
+        return s
+    out = b""
+    while True:
+        chunk = s.recv(65536)
+        if not chunk:
+            break
+        out += chunk
+    s.close()
+    return out
+
+
+def from_peer(source, method, path, body=None, headers=None):
+    c = http.client.HTTPConnection("127.0.0.1", port, timeout=10, source_address=(source, 0))
+    c.request(method, path, body=body, headers=headers or {})
+    r = c.getresponse()
+    out = (r.status, r.headers, r.read())
+    c.close()
+    return out
+
+
+expect("start", request(url + "/api/action", "POST", {"action": "start"}, password=PASSWORD), 200)
+run.wait_for("the cycle under way", lambda: get_json(url + "/api/status")["state"] != "idle", 10, box)
+
+# While it runs, everything that must be refused.
+expect("a body past 64 KiB", request(url + "/api/config", "POST", b"{" + b" " * 100000 + b"}",
+                                     password=PASSWORD), 413)
+if not raw(b"GET / HTTP/1.1\r\nHost: x\r\nX-Big: " + b"a" * 20000 + b"\r\n\r\n").startswith(
+        b"HTTP/1.1 431"):
+    run.fail("headers past 16 KiB were not refused with 431")
+if not raw(b"NOT HTTP AT ALL\r\n\r\n").startswith(b"HTTP/1.1 400"):
+    run.fail("a request that does not parse was not refused with 400")
+for climb in ("/records/../calbox.toml", "/records/..%2Fcalbox.toml", "/records/%2e%2e/calbox.toml",
+              "/records/calbox.toml", "/records/.hidden", "/records//etc/passwd"):
+    expect("GET " + climb, from_peer("127.0.0.1", "GET", climb), 403, "not a record")
+expect("a record not there", request(url + "/records/cycle-9999-result.json"), 404)
+expect("malformed JSON", request(url + "/api/config", "POST", b'{"key": "cycle.', password=PASSWORD),
+       400, "malformed JSON")
+expect("JSON not an object", request(url + "/api/action", "POST", b'["start"]', password=PASSWORD),
+       400, "object")
+expect("an action not served", request(url + "/api/action", "POST", {"action": "format"},
+                                       password=PASSWORD), 400, "one of start")
+expect("a value out of range", request(url + "/api/config", "POST",
+                                       {"key": "cycle.frames_per_capture", "value": "99"},
+                                       password=PASSWORD), 409, r"1 to 16")
+expect("an unknown key", request(url + "/api/config", "POST", {"key": "cycle.nothing", "value": "1"},
+                                 password=PASSWORD), 409, "not a configuration key")
+expect("a value with a newline", request(url + "/api/config", "POST",
+                                         {"key": "console.device", "value": "a\nstart"},
+                                         password=PASSWORD), 400, "one line")
+expect("the password's hash through the page", request(url + "/api/config", "POST",
+                                                       {"key": "web.password", "value": ""},
+                                                       password=PASSWORD), 403, "console")
+expect("start while busy", request(url + "/api/action", "POST", {"action": "start"},
+                                   password=PASSWORD), 409, "busy")
+expect("no password", request(url + "/api/action", "POST", {"action": "cancel"}), 401, "password")
+expect("a form, not JSON", request(url + "/api/action", "POST", b"action=cancel",
+                                   headers={"Content-Type": "application/x-www-form-urlencoded"},
+                                   password=PASSWORD), 415)
+expect("DELETE", request(url + "/", "DELETE"), 405)
+expect("nothing there", request(url + "/nothing"), 404)
+if "web.password" in get_json(url + "/api/config")["config"]:
+    run.fail("the page's configuration shows the password's hash")
+
+# Wrong passwords from one client: five refused, then that client waits, the right one too.
+bad = {"Content-Type": "application/json",
+       "Authorization": "Basic " + __import__("base64").b64encode(b"calbox:guess").decode()}
+for i in range(5):
+    expect("wrong password %d" % (i + 1), from_peer("127.0.0.2", "POST", "/api/action",
+                                                    b'{"action": "cancel"}', bad), 401, "wrong")
+good = dict(bad, Authorization="Basic " + __import__("base64").b64encode(
+    ("calbox:" + PASSWORD).encode()).decode())
+headers = expect("the right password during the wait",
+                 from_peer("127.0.0.2", "POST", "/api/action", b'{"action": "cancel"}', good), 429,
+                 "wrong passwords")
+if headers["Retry-After"] != "30":
+    run.fail("no Retry-After on the wait")
+
+# A flood from one client: past its burst, refused with 429; other clients are still served.
+codes = [from_peer("127.0.0.3", "GET", "/api/status")[0] for _ in range(150)]
+if codes.count(429) < 50 or codes[0] != 200:
+    run.fail("a flood of 150 was refused %d times" % codes.count(429))
+expect("another client during the flood", request(url + "/api/status"), 200)
+
+# Too many connections: past 32 open, the next is told 503 and closed.
+held = [raw(b"", source="127.0.0.4", read=False) for _ in range(32)]
+time.sleep(0.3)
+extra = raw(b"GET / HTTP/1.1\r\nHost: x\r\n\r\n", source="127.0.0.4")
+for s in held:
+    s.close()
+if not extra.startswith(b"HTTP/1.1 503"):
+    run.fail("the 33rd connection was not refused with 503: %r" % extra[:40])
+run.wait_for("the page serving again after the connections closed",
+             lambda: request(url + "/api/status")[0] == 200, 10, box)
+
+# The refusing broker goes, one that takes the box comes: reached at the back-off's next try.
+run.wait_for("the refusal logged", lambda: "mqtt: the broker refused the box" in run.log(), 15, box)
+refusing.kill()
+refusing.wait()
+broker = start_broker(True)
+run.wait_for("the box connected to the late broker", lambda: "mqtt: connected" in run.log(), 90, box)
+broker.kill()
+broker.wait()
+run.wait_for("the broker's going logged", lambda: "mqtt: the broker went" in run.log(), 15, box)
+
+# The cycle went on through all of it.
+run.wait_for("the review", lambda: get_json(url + "/api/status")["state"] == "review", 120, box)
+expect("confirm", request(url + "/api/action", "POST", {"action": "confirm"}, password=PASSWORD), 200)
+run.wait_for("the cycle completed", lambda: get_json(url + "/api/status")["completed"] == 1, 120, box)
+last = get_json(url + "/api/status")["last"]
+if last["result"] != "applied" or not last["after"]["rms_mm"] <= 0.01 or not last["after"]["max_mm"] <= 0.03:
+    run.fail("the cycle under the knocking: %s" % last)
+log = run.log()
+troubles = re.findall(r"mqtt: (cannot reach|the broker refused|the broker went)", log)
+if troubles != ["the broker refused", "the broker went"]:
+    run.fail("the broker's troubles were told as %s, not once each" % troubles)
+run.stop_all()
+print("refusals: 413 431 400 403x6 404 409x3 401 415 405 429 503 all as expected; a flood refused "
+      "%d of 150; the cycle after them: %.4f mm RMS, %.4f mm worst" % (
+          codes.count(429), last["after"]["rms_mm"], last["after"]["max_mm"]))

@@ -104,7 +104,8 @@ BoxNews::BoxNews(hal::Storage& data, std::string version,
     const auto text = data_.read_file(kHistoryFile);
     if (!text) return;
     try {
-        for (const auto& j : json::parse(*text).at("cycles")) history_.push_back(entry_of(j));
+        const json kept = json::parse(*text);  // named: a range over a temporary's member dangles
+        for (const auto& j : kept.at("cycles")) history_.push_back(entry_of(j));
     } catch (const std::exception& e) {
         history_.clear();
         const std::string aside = std::string(kHistoryFile) + ".damaged";
@@ -132,6 +133,10 @@ std::string BoxNews::cycle_ended(const Cycle& cycle, bool completed, std::int64_
     e.before = report.measured;
     e.after = report.verified;
     e.seconds = report.box_seconds + report.camera_seconds + report.machine_seconds;
+    return add(std::move(e));
+}
+
+std::string BoxNews::add(HistoryEntry e) {
     ++cycles_[{e.mode, e.result}];
     history_.push_back(std::move(e));
     if (history_.size() > kHistoryKept)
@@ -194,14 +199,18 @@ json BoxNews::status(const Cycle& cycle) const {
 }
 
 std::string BoxNews::metrics(const Cycle& cycle) const {
+    return metrics(cycle.state(), cycle.report());
+}
+
+std::string BoxNews::metrics(CycleState now, const CycleReport& report) const {
     std::ostringstream out;
     family(out, "calbox_build_info", "gauge", "The firmware's version, as a label; always 1.");
     out << "calbox_build_info{version=\"" << label_value(version_) << "\"} 1\n";
     family(out, "calbox_state", "gauge", "The cycle's state: 1 for the one it is in.");
     for (int s = 0; s <= static_cast<int>(CycleState::error); ++s) {
         const auto state = static_cast<CycleState>(s);
-        out << "calbox_state{state=\"" << state_name(state) << "\"} "
-            << (state == cycle.state() ? 1 : 0) << '\n';
+        out << "calbox_state{state=\"" << state_name(state) << "\"} " << (state == now ? 1 : 0)
+            << '\n';
     }
     family(out, "calbox_cycles_total", "counter",
            "Calibration cycles ended since the box started, by mode and result.");
@@ -226,7 +235,6 @@ std::string BoxNews::metrics(const Cycle& cycle) const {
         figures("before", last->before);
         figures("after", last->after);
     }
-    const CycleReport& report = cycle.report();
     family(out, "calbox_last_cycle_duration_seconds", "gauge",
            "The last cycle's time by part: the box's own work, the camera, the machine.");
     if (report.number > 0) {

@@ -49,6 +49,8 @@ class BoxNews {
     // A cycle ended (Cycle::on_cycle_end): its line added to the history (and the file; a
     // failed write is returned as the reason, the line still kept in memory), the counters.
     std::string cycle_ended(const Cycle& cycle, bool completed, std::int64_t now_unix_s);
+    // One line added as cycle_ended adds it (its result counted, the file written).
+    std::string add(HistoryEntry entry);
     void set_needs_calibration_mm(double limit_mm) { needs_calibration_mm_ = limit_mm; }
 
     const std::vector<HistoryEntry>& history() const { return history_; }
@@ -65,6 +67,7 @@ class BoxNews {
     nlohmann::json history_json() const;
     // Prometheus' text exposition format 0.0.4: base units (metres, seconds), counters _total.
     std::string metrics(const Cycle& cycle) const;
+    std::string metrics(CycleState state, const CycleReport& last_report) const;
 
   private:
     hal::Storage& data_;

@@ -318,8 +318,8 @@ std::vector<ConsoleCommand> Console::commands() {
              cycle.acknowledge();
              r.text = std::string("acknowledged: ") + state_name(cycle.state());
          }},
-        {"web password", "web password PASSWORD|--clear",
-         "the web page's password (kept as its hash; config save keeps it)",
+        {"web password", "web password PASSWORD",
+         "the web page's password, kept as its hash (--clear: none; config save keeps it)",
          [this](const Words& words, std::string_view line, ConsoleReply& r) {
              if (words.size() < 3) throw Refused("usage: web password PASSWORD|--clear");
              const bool clear = words.size() == 3 && words[2] == "--clear";

@@ -7,7 +7,9 @@ untouched), an over-long line, a disconnect and a reconnect, the camera's set-up
 console and a whole cycle started and confirmed from it.
 """
 import json
+import hashlib
 import os
+import re
 import select
 import subprocess
 import sys
@@ -172,6 +174,26 @@ t.ask("config reset records.keep_cycles")
 if t.ask("config get records.keep_cycles")["value"] != "50":
     fail("reset")
 print("config: set, save, refusals (file untouched), reset")
+
+# The web page's password: kept as a PBKDF2 hash that Python's own hashlib confirms, never itself.
+t.ask("web password correct horse")
+t.ask("config save")
+stored = re.search(r'password = "(pbkdf2-sha256:(\d+):([0-9a-f]+):([0-9a-f]+))"', open(saved).read())
+if not stored or "correct horse" in open(saved).read():
+    fail("the saved web password is not a hash")
+if hashlib.pbkdf2_hmac("sha256", b"correct horse", bytes.fromhex(stored.group(3)),
+                       int(stored.group(2))).hex() != stored.group(4):
+    fail("the web password's hash does not verify")
+r = t.ask("config set web.password plain", ok=False)
+if "not a password hash" not in r["error"]:
+    fail(r["error"])
+t.ask("web password --clear")
+if t.ask("config get web.password")["value"] != "":
+    fail("web password --clear")
+r = t.ask("acknowledge", ok=False)
+if "no error to acknowledge" not in r["error"]:
+    fail(r["error"])
+print("web password: hashed, verified by hashlib, cleared")
 
 # an over-long line is refused whole, and the console goes on
 t.send("config set console.device " + "x" * 300 + "\n")

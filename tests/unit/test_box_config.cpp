@@ -99,6 +99,30 @@ TEST(BoxConfig, a_set_is_validated_before_it_takes_and_reset_gives_the_default) 
     STRCMP_EQUAL("1", config.get("cycle.frames_per_capture").c_str());
 }
 
+TEST(BoxConfig, the_network_keys_are_checked_as_the_console_checks_them) {
+    firmware::BoxConfig config;
+    config.set("web.listen", "0.0.0.0:8080");
+    config.set("mqtt.broker", "broker.lan:1883");
+    config.set("mqtt.node_id", "bench-2_a");
+    config.set("report.needs_calibration_mm", "0.02");
+    const firmware::BoxConfig before = config;
+    for (const auto& [key, value] :
+         std::vector<std::pair<std::string, std::string>>{{"web.listen", "box.local:8080"},
+                                                          {"web.listen", "0.0.0.0:99999"},
+                                                          {"mqtt.broker", "broker.lan"},
+                                                          {"mqtt.node_id", "a/b"},
+                                                          {"mqtt.node_id", "+"},
+                                                          {"mqtt.discovery_prefix", "home#"},
+                                                          {"web.password", "plain text"},
+                                                          {"report.needs_calibration_mm", "0"}})
+        CHECK_THROWS(firmware::ConfigError, config.set(key, value));
+    CHECK_TRUE(config == before);
+    const auto again = firmware::BoxConfig::from_toml(config.to_toml(), "saved.toml");
+    STRCMP_EQUAL("0.0.0.0:8080", again.settings().web.listen.c_str());
+    STRCMP_EQUAL("bench-2_a", again.settings().mqtt.node_id.c_str());
+    DOUBLES_EQUAL(0.02, again.settings().needs_calibration_mm, 0);
+}
+
 TEST(BoxConfig, the_readme_documents_every_key) {
     std::ifstream in(std::string(CALBOX_SOURCE_DIR) + "/docs/appliance.md");
     const std::string readme((std::istreambuf_iterator<char>(in)),

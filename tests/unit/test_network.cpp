@@ -1,0 +1,358 @@
+// The box's windows on the network, piece by piece: the password's hash against Python's PBKDF2,
+// HTTP Basic decoding, HOST:PORT, the server's limits as a client meets them, the drift history
+// and /metrics against hand-worked figures, the live view's guide where the geometry puts it, and
+// the loop's inbox. The whole (a browser, a broker) is tests/network.
+#include <CppUTest/TestHarness.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <thread>
+
+#include "drivers/file_storage.hpp"
+#include "drivers/http.hpp"
+#include "drivers/password.hpp"
+#include "firmware/box_news.hpp"
+#include "firmware/event_loop.hpp"
+#include "firmware/live_view.hpp"
+
+using namespace calbox;
+using namespace std::chrono_literals;
+
+namespace {
+
+// hashlib.pbkdf2_hmac("sha256", b"correct horse", bytes(range(16)), 100000), in Python.
+constexpr const char* kPythonHash =
+    "pbkdf2-sha256:100000:000102030405060708090a0b0c0d0e0f:"
+    "57f2c2f0739748d516419b062a884666323c583ea4ae165504a81f7b53c62a09";
+
+std::filesystem::path fresh_directory() {
+    char pattern[] = "/tmp/calbox-network-XXXXXX";
+    return ::mkdtemp(pattern);
+}
+
+// A TCP connection to 127.0.0.1:port that sends `bytes` and reads what comes until the server
+// closes or `within` passes.
+std::string exchange(int port, const std::string& bytes, std::chrono::milliseconds within = 3s) {
+    const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in at{};
+    at.sin_family = AF_INET;
+    at.sin_port = htons(static_cast<std::uint16_t>(port));
+    at.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (::connect(fd, reinterpret_cast<sockaddr*>(&at), sizeof at) != 0) {
+        ::close(fd);
+        return "connect failed";
+    }
+    timeval tv{static_cast<time_t>(within.count() / 1000),
+               static_cast<suseconds_t>((within.count() % 1000) * 1000)};
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
+    if (!bytes.empty()) (void)::write(fd, bytes.data(), bytes.size());
+    std::string out;
+    char buffer[4096];
+    for (;;) {
+        const ssize_t n = ::read(fd, buffer, sizeof buffer);
+        if (n <= 0) break;
+        out.append(buffer, static_cast<std::size_t>(n));
+    }
+    ::close(fd);
+    return out;
+}
+
+firmware::HistoryEntry entry(int cycle, const std::string& result, std::optional<double> before_rms,
+                             std::optional<double> after_rms, std::int64_t at,
+                             std::optional<double> before_mean = {}) {
+    firmware::HistoryEntry e;
+    e.cycle = cycle;
+    e.mode = "delta";
+    e.result = result;
+    e.finished_unix_s = at;
+    if (before_rms) e.before = modes::ErrorFigures{before_mean, *before_rms, 2 * *before_rms};
+    if (after_rms) e.after = modes::ErrorFigures{{}, *after_rms, 2 * *after_rms};
+    e.seconds = 60;
+    return e;
+}
+
+}  // namespace
+
+TEST_GROUP(Password){};
+
+TEST(Password, matches_a_hash_python_made_and_nothing_else) {
+    CHECK_TRUE(drivers::is_password_hash(kPythonHash));
+    CHECK_TRUE(drivers::password_matches("correct horse", kPythonHash));
+    CHECK_FALSE(drivers::password_matches("correct horsE", kPythonHash));
+    CHECK_FALSE(drivers::password_matches("", kPythonHash));
+    // Its own hashes: a fresh salt each time, each verifying.
+    const std::string a = drivers::password_hash("battery staple");
+    const std::string b = drivers::password_hash("battery staple");
+    CHECK_TRUE(a != b);
+    CHECK_TRUE(drivers::password_matches("battery staple", a));
+    CHECK_TRUE(drivers::password_matches("battery staple", b));
+    CHECK_EQUAL(0u, a.rfind("pbkdf2-sha256:100000:", 0));
+}
+
+TEST(Password, refuses_malformed_hashes_and_passwords) {
+    for (const char* bad : {"", "plain", "pbkdf2-sha256:100000:0001020304050607",
+                            "pbkdf2-sha256:999:000102030405060708090a0b0c0d0e0f:"
+                            "57f2c2f0739748d516419b062a884666323c583ea4ae165504a81f7b53c62a09",
+                            "pbkdf2-sha1:100000:000102030405060708090a0b0c0d0e0f:"
+                            "57f2c2f0739748d516419b062a884666323c583ea4ae165504a81f7b53c62a09",
+                            "pbkdf2-sha256:100000:000102030405060708090a0b0c0d0e0f:57f2"}) {
+        CHECK_FALSE(drivers::is_password_hash(bad));
+        CHECK_FALSE(drivers::password_matches("correct horse", bad));
+    }
+    CHECK_THROWS(std::invalid_argument, drivers::password_hash(""));
+    CHECK_THROWS(std::invalid_argument, drivers::password_hash(std::string(257, 'x')));
+}
+
+TEST(Password, reads_http_basic_authorization) {
+    // base64.b64encode(b"calbox:correct horse"), b"x:ab", b"x:a" in Python: no, two, one '='.
+    STRCMP_EQUAL("correct horse",
+                 drivers::basic_auth_password("Basic Y2FsYm94OmNvcnJlY3QgaG9yc2U=")->c_str());
+    STRCMP_EQUAL("ab", drivers::basic_auth_password("Basic eDphYg==")->c_str());
+    STRCMP_EQUAL("a", drivers::basic_auth_password("Basic eDph")->c_str());
+    CHECK_FALSE(drivers::basic_auth_password("Bearer eDph").has_value());
+    CHECK_FALSE(drivers::basic_auth_password("Basic !!!!").has_value());
+    CHECK_FALSE(drivers::basic_auth_password("Basic YWJj").has_value());  // "abc": no colon
+    CHECK_FALSE(drivers::basic_auth_password("Basic ").has_value());
+}
+
+TEST_GROUP(HostPort){};
+
+TEST(HostPort, reads_addresses_and_names_where_they_are_allowed) {
+    auto hp = drivers::parse_host_port("127.0.0.1:8080", false);
+    STRCMP_EQUAL("127.0.0.1", hp.host.c_str());
+    LONGS_EQUAL(8080, hp.port);
+    hp = drivers::parse_host_port("[::1]:9", false);
+    STRCMP_EQUAL("::1", hp.host.c_str());
+    STRCMP_EQUAL("127.0.0.1", drivers::parse_host_port("localhost:1", false).host.c_str());
+    STRCMP_EQUAL("broker.lan", drivers::parse_host_port("broker.lan:1883", true).host.c_str());
+    CHECK_THROWS(std::invalid_argument, drivers::parse_host_port("broker.lan:1883", false));
+    for (const char* bad : {"1.2.3.4:70000", "1.2.3.4", ":80", "1.2.3.4:", "1.2.3.4:8a", "a b:1"})
+        CHECK_THROWS(std::invalid_argument, drivers::parse_host_port(bad, true));
+}
+
+TEST_GROUP(ServerLimits){};
+
+TEST(ServerLimits, refuses_each_excess_with_its_status_and_lets_idle_clients_go) {
+    drivers::ServerLimits limits;
+    limits.max_body_bytes = 1000;
+    limits.max_header_bytes = 2000;
+    limits.max_connections = 2;
+    limits.idle_timeout = 300ms;
+    std::atomic<int> served{0};
+    drivers::HttpServer server(
+        "127.0.0.1", 0,
+        {[&](const drivers::ServerRequest& r) {
+             ++served;
+             return drivers::ServerResponse{
+                 200, "text/plain", std::to_string(r.body.size()), {{"X-Peer", r.peer}}};
+         },
+         {},
+         {}},
+        limits);
+    const auto url = drivers::parse_url("http://127.0.0.1:" + std::to_string(server.port()) + "/");
+    drivers::HttpRequest post{"POST", "/", {}, "text/plain", std::string(1000, 'a')};
+    const auto fits = drivers::http_request(url, post, 3s);
+    LONGS_EQUAL(200, fits.status);
+    STRCMP_EQUAL("1000", fits.body.c_str());
+    post.body += "a";
+    const auto over = drivers::http_request(url, post, 3s);
+    LONGS_EQUAL(413, over.status);
+    CHECK_TRUE(over.body.find("at most 1000 bytes") != std::string::npos);
+    drivers::HttpRequest big_header{"GET", "/", {{"X-Big", std::string(3000, 'b')}}, "", ""};
+    LONGS_EQUAL(431, drivers::http_request(url, big_header, 3s).status);
+    CHECK_EQUAL(0u, exchange(server.port(), "NOT HTTP\r\n\r\n").rfind("HTTP/1.1 400", 0));
+    LONGS_EQUAL(1, served.load());
+
+    // Two silent clients hold both connections: a third is told 503; the silent ones are let go
+    // after the idle timeout, and then a request is served again.
+    std::string first, second;
+    std::thread a([&] { first = exchange(server.port(), "", 2s); });
+    std::thread b([&] { second = exchange(server.port(), "", 2s); });
+    std::this_thread::sleep_for(100ms);
+    const std::string third = exchange(server.port(), "GET / HTTP/1.1\r\nHost: x\r\n\r\n");
+    a.join();
+    b.join();
+    CHECK_EQUAL(0u, third.rfind("HTTP/1.1 503", 0));
+    CHECK_TRUE(third.find("Retry-After: 2") != std::string::npos);
+    STRCMP_EQUAL("", first.c_str());  // closed by the server, before the client's 2 s
+    STRCMP_EQUAL("", second.c_str());
+    const auto again = drivers::http_request(url, {"GET", "/", {}, "", ""}, 3s);
+    LONGS_EQUAL(200, again.status);
+}
+
+TEST_GROUP(BoxNews) {
+    std::filesystem::path dir;
+    void setup() override {
+        dir = fresh_directory();
+    }
+    void teardown() override {
+        std::filesystem::remove_all(dir);
+    }
+};
+
+TEST(BoxNews, keeps_the_history_and_works_out_the_drift_and_the_need) {
+    drivers::FileStorage data(dir);
+    firmware::BoxNews news(data, "1.2.3", {});
+    CHECK_FALSE(news.drift_mm().has_value());
+    CHECK_FALSE(news.needs_calibration().has_value());
+    STRCMP_EQUAL("", news.add(entry(1, "applied", 0.2, 0.002, 1'700'000'000)).c_str());
+    CHECK_FALSE(news.drift_mm().has_value());  // nothing calibrated before it
+    news.add(entry(2, "cancelled", {}, {}, 1'700'000'100));
+    news.add(entry(3, "applied", 0.03, 0.001, 1'700'086'400));
+    // Cycle 3 measured 0.03 before its correction; cycle 1 had left 0.002: 0.028 of drift.
+    DOUBLES_EQUAL(0.028, *news.drift_mm(), 1e-12);
+    LONGS_EQUAL(1'700'086'400, *news.last_calibrated_unix_s());
+    CHECK_FALSE(*news.needs_calibration());  // 0.03 is within the default 0.05
+    news.set_needs_calibration_mm(0.02);
+    CHECK_TRUE(*news.needs_calibration());
+    // A mode with a mean is judged by its mean.
+    news.add(entry(4, "applied", 0.5, 0.001, 1'700'090'000, 0.01));
+    CHECK_FALSE(*news.needs_calibration());
+    DOUBLES_EQUAL(0.01 - 0.001, *news.drift_mm(), 1e-12);
+    STRCMP_EQUAL("2023-11-15T22:40:00Z", firmware::utc_text(1'700'088'000).c_str());
+
+    // Read back by the next start, line for line.
+    firmware::BoxNews again(data, "1.2.3", [](const std::string& why) { FAIL(why.c_str()); });
+    LONGS_EQUAL(4, static_cast<long>(again.history().size()));
+    CHECK_TRUE(again.history() == news.history());
+}
+
+TEST(BoxNews, sets_a_damaged_history_aside_and_begins_anew) {
+    drivers::FileStorage data(dir);
+    data.replace_file("history.json", "{\"cycles\": [{\"cycle\": ");
+    std::string told;
+    firmware::BoxNews news(data, "1.2.3", [&](const std::string& why) { told = why; });
+    CHECK_TRUE(told.find("history.json does not parse") != std::string::npos);
+    CHECK_TRUE(news.history().empty());
+    STRCMP_EQUAL("{\"cycles\": [{\"cycle\": ", data.read_file("history.json.damaged")->c_str());
+    CHECK_FALSE(data.read_file("history.json").has_value());
+}
+
+TEST(BoxNews, keeps_the_last_thousand_lines) {
+    drivers::FileStorage data(dir);
+    firmware::BoxNews news(data, "1.2.3", {});
+    for (int i = 1; i <= 1005; ++i) news.add(entry(i, "applied", 0.1, 0.001, 1'700'000'000 + i));
+    LONGS_EQUAL(1000, static_cast<long>(news.history().size()));
+    LONGS_EQUAL(6, news.history().front().cycle);
+    LONGS_EQUAL(1000, static_cast<long>(firmware::BoxNews(data, "1.2.3", {}).history().size()));
+}
+
+TEST(BoxNews, metrics_in_base_units_with_their_types) {
+    drivers::FileStorage data(dir);
+    firmware::BoxNews news(data, "1.2.3", {});
+    news.add(entry(1, "applied", 0.2, 0.002, 1'700'000'000));
+    news.add(entry(2, "failed", {}, {}, 1'700'000'100));
+    news.add(entry(3, "applied", 0.03, 0.001, 1'700'086'400));
+    firmware::CycleReport report;
+    report.number = 3;
+    report.box_seconds = 1.5;
+    report.camera_seconds = 20;
+    report.machine_seconds = 600;
+    const std::string text = news.metrics(firmware::CycleState::review, report);
+    for (const char* line :
+         {"# TYPE calbox_cycles_total counter\n",
+          "calbox_cycles_total{mode=\"delta\",result=\"applied\"} 2\n",
+          "calbox_cycles_total{mode=\"delta\",result=\"failed\"} 1\n",
+          "calbox_build_info{version=\"1.2.3\"} 1\n", "calbox_state{state=\"review\"} 1\n",
+          "calbox_state{state=\"idle\"} 0\n",
+          // 0.03 mm before, 0.06 worst; 0.001 mm after, 0.002 worst: in metres.
+          "calbox_last_error_metres{stage=\"before\",figure=\"rms\"} 3e-05\n",
+          "calbox_last_error_metres{stage=\"before\",figure=\"max\"} 6e-05\n",
+          "calbox_last_error_metres{stage=\"after\",figure=\"rms\"} 1e-06\n",
+          "calbox_last_error_metres{stage=\"after\",figure=\"max\"} 2e-06\n",
+          "calbox_last_cycle_duration_seconds{part=\"machine\"} 600\n",
+          "calbox_drift_metres 2.8e-05\n", "calbox_last_calibration_timestamp_seconds 1700086400\n",
+          "calbox_needs_calibration 0\n"}) {
+        if (text.find(line) == std::string::npos)
+            FAIL(("no line: " + std::string(line) + text).c_str());
+    }
+    CHECK_TRUE(text.find("figure=\"mean\"") == std::string::npos);  // a delta measures none
+}
+
+TEST_GROUP(LiveView){};
+
+TEST(LiveView, draws_the_bed_where_the_camera_sees_it_and_judges_sharpness) {
+    // A camera 400 mm over the bed looking straight down (turned half round x: the bed's z up is
+    // the camera's z into the scene negated), f 500 px: a bed of radius 100 mm is a circle of
+    // 500 * 100 / 400 = 125 px round the image's centre.
+    hal::Frame frame;
+    frame.width_px = 400;
+    frame.height_px = 300;
+    frame.stride_bytes = 400;
+    frame.pixels.assign(400 * 300, 60);
+    for (int y = 0; y < 300; ++y)
+        for (int x = 0; x < 400; ++x)
+            if (((x / 8) + (y / 8)) % 2 == 0)
+                frame.pixels[static_cast<std::size_t>(y * 400 + x)] = 120;
+    firmware::LiveGuide guide;
+    geometry::CameraModel camera;
+    camera.image_width = 400;
+    camera.image_height = 300;
+    camera.camera_matrix = {500, 0, 200, 0, 500, 150, 0, 0, 1};
+    camera.distortion = {0, 0, 0, 0, 0};
+    geometry::BedPlane plane;
+    plane.bed_to_camera.rvec = {M_PI, 0, 0};
+    plane.bed_to_camera.tvec_mm = {0, 0, 400};
+    guide.camera = camera;
+    guide.plane = plane;
+    guide.bed_radius_mm = 100;
+    const auto sharp = firmware::live_view(frame, guide, 960);
+    LONGS_EQUAL(400, sharp.width_px);  // never scaled up
+    const cv::Mat image = cv::imdecode(
+        std::vector<unsigned char>(sharp.jpeg.begin(), sharp.jpeg.end()), cv::IMREAD_COLOR);
+    LONGS_EQUAL(300, image.rows);
+    const auto orange = [&](int x, int y) {
+        const auto p = image.at<cv::Vec3b>(y, x);  // BGR
+        return p[2] > 180 && p[1] > 120 && p[0] < 110;
+    };
+    CHECK_TRUE(orange(325, 150));  // the circle's right, bottom and left
+    CHECK_TRUE(orange(200, 275));
+    CHECK_TRUE(orange(75, 150));
+    CHECK_FALSE(orange(300, 150));  // inside it, the bed's own grey
+    // The same pattern blurred: lower sharpness.
+    hal::Frame soft = frame;
+    for (int y = 1; y < 299; ++y)
+        for (int x = 1; x < 399; ++x) {
+            int sum = 0;
+            for (int dy = -1; dy <= 1; ++dy)
+                for (int dx = -1; dx <= 1; ++dx)
+                    sum += frame.pixels[static_cast<std::size_t>((y + dy) * 400 + x + dx)];
+            soft.pixels[static_cast<std::size_t>(y * 400 + x)] = static_cast<std::uint8_t>(sum / 9);
+        }
+    CHECK_TRUE(firmware::live_view(soft, guide, 200).sharpness < sharp.sharpness / 2);
+    LONGS_EQUAL(200, firmware::live_view(soft, guide, 200).width_px);
+    CHECK_THROWS(std::invalid_argument, firmware::live_view(hal::Frame{}, guide, 200));
+}
+
+TEST_GROUP(LoopInbox){};
+
+TEST(LoopInbox, runs_other_threads_jobs_on_the_loops_thread) {
+    firmware::EventLoop loop;
+    firmware::LoopInbox inbox(loop);
+    const auto loop_thread = std::this_thread::get_id();
+    std::optional<bool> on_loop;
+    std::optional<int> refused;
+    bool threw = false;
+    std::thread other([&] {
+        on_loop = inbox.call<bool>([&] { return std::this_thread::get_id() == loop_thread; }, 5s);
+        try {
+            inbox.call<int>([]() -> int { throw std::runtime_error("no"); }, 5s);
+        } catch (const std::runtime_error&) {
+            threw = true;
+        }
+        loop.stop();
+    });
+    loop.run();
+    other.join();
+    CHECK_TRUE(on_loop.has_value() && *on_loop);
+    CHECK_TRUE(threw);
+    // A loop that does not run: the caller gives up after its wait.
+    std::thread late([&] { refused = inbox.call<int>([] { return 1; }, 50ms); });
+    late.join();
+    CHECK_FALSE(refused.has_value());
+}

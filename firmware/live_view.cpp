@@ -90,6 +90,7 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
     cv::Mat covered = view.clone();
     for (const auto& corners : guide.views) {
         std::vector<cv::Point> pts;
+        pts.reserve(corners.size());
         for (const auto& p : corners) pts.push_back(at(p));
         if (pts.size() < 3) continue;
         std::vector<cv::Point> hull;
@@ -113,6 +114,7 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
             const auto pixels =
                 geometry::project_points(*guide.camera, guide.plane->bed_to_camera, outline);
             std::vector<cv::Point> pts;
+            pts.reserve(pixels.size());
             for (const auto& p : pixels) pts.push_back(at(p));
             cv::polylines(view, std::vector<std::vector<cv::Point>>{pts}, false,
                           cv::Scalar(0, 200, 255), 2, cv::LINE_AA);

@@ -368,10 +368,11 @@ grep -qE "^calbox: stopped by signal 15; the job in flight on moonraker http://1
 "$calbox" run --board sim --scenario "$top/tests/scenarios/delta_cycle_small.toml" \
     --data "$work/serial" > "$work/serial.out" 2> "$work/serial.err" < /dev/null &
 pid=$!
-for _ in $(seq 1 100); do
+for _ in $(seq 1 300); do
     grep -q 'waiting for the button' "$work/serial.err" && break
     sleep 0.1
 done
+grep -q 'waiting for the button' "$work/serial.err" || { kill -9 $pid; fail "SIGINT: the box never waited"; }
 kill -INT $pid
 status=0
 wait $pid || status=$?

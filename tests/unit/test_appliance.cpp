@@ -1097,3 +1097,38 @@ TEST(AppliancePlc, a_galvo_missing_its_goal_reads_fail) {
                     }()
                         .c_str());
 }
+
+// The live view shares the camera with the cycle: a preview while the cycle's own capture runs is
+// refused, and a capture the cycle asks for while a preview runs waits for it, so that every
+// photo the cycle measures is its own; each frame reaches on_frame.
+TEST(ApplianceLink, the_live_views_frames_never_take_the_cycles_place) {
+    Rig rig(fresh_dir("preview"), kScenario.string(), {});
+    std::vector<std::uint64_t> frames;
+    rig.cycle.on_frame = [&](const hal::Frame& f) { frames.push_back(f.metadata.sequence); };
+    CHECK_TRUE(rig.cycle.preview());
+    CHECK_FALSE(rig.cycle.preview());  // one at a time
+    rig.run_until([&] { return frames.size() == 1; });
+    // A preview asked for, then the set-up's first view pressed at once: its capture waits.
+    bool pressed = false;
+    rig.intercept = [&](firmware::Prompt p) {
+        if (p != firmware::Prompt::hold_calibration_board || pressed) return false;
+        pressed = true;
+        CHECK_TRUE(rig.cycle.preview());
+        firmware::act_on_prompt(*rig.board.bench, *rig.board.lines, p, 0);
+        return true;
+    };
+    CHECK_EQUAL(std::string(), rig.cycle.calibrate_camera());
+    rig.run_until([&] {
+        return std::any_of(rig.log.begin(), rig.log.end(), [](const std::string& l) {
+            return l.find("view 1/") != std::string::npos && l.find("corners") != std::string::npos;
+        });
+    });
+    // The preview's frame, then the cycle's: two more, and the view measured the cycle's.
+    CHECK_EQUAL(3u, frames.size());
+    const auto view = std::find_if(rig.log.begin(), rig.log.end(), [](const std::string& l) {
+        return l.find("view 1/") != std::string::npos && l.find("corners") != std::string::npos;
+    });
+    STRCMP_CONTAINS("88 corners", view->c_str());
+    rig.intercept = nullptr;
+    rig.cycle.cancel("test over");
+}

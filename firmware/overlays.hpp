@@ -29,4 +29,13 @@ std::string planar_overlay_png(const vision::GrayView& photo,
                                const geometry::CameraModel& camera,
                                const geometry::BedPlane& plane);
 
+// The error field on a plain map of the machine's frame (x right, y up): each point's error as
+// an arrow, magnified by a round factor that makes the largest about a twelfth of the map, with
+// the factor, the largest error and a scale bar printed. Each cycle's record
+// (cycle-NNNN-error-field.png), for the page. Throws std::invalid_argument without a point.
+struct FieldArrow {
+    geometry::Point2 at_mm, error_mm;
+};
+std::string error_field_png(const std::vector<FieldArrow>& arrows, const std::string& title);
+
 }  // namespace calbox::firmware

@@ -175,8 +175,26 @@ void DeltaCycleMode::measure(MeasureInput input, std::function<void()> then) {
                 modes::measure_delta(machine, photos.camera, photos.plane, photos.views);
             overlay =
                 delta_overlay_png(photos.views.front(), measured, photos.camera, photos.plane);
-            return [this, record = modes::record_of(measured, machine, photos.names)] {
+            // The placement errors on the machine's map: where each corner was commanded.
+            const auto placed = modes::placement_errors(measured.features);
+            std::vector<FieldArrow> arrows;
+            arrows.reserve(placed.error_mm.size());
+            for (std::size_t i = 0; i < placed.error_mm.size(); ++i)
+                arrows.push_back(
+                    {{measured.features[i].commanded_mm.x, measured.features[i].commanded_mm.y},
+                     placed.error_mm[i]});
+            std::string field = error_field_png(arrows, "delta: each corner's placement error");
+            return [this, record = modes::record_of(measured, machine, photos.names),
+                    field = std::move(field)] {
                 measurements_ = record;
+                // Named by the pass it opens, as that pass's result is: the first measurement's
+                // plain, the one after n corrections pass-(n+1)'s.
+                const std::size_t pass = passes_.size() + 1;
+                (void)steps_.keep(
+                    steps_.record_name(
+                        (pass == 1 ? std::string() : "pass-" + std::to_string(pass) + "-") +
+                        "error-field.png"),
+                    field);
             };
         },
         std::move(then));

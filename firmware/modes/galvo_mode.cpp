@@ -62,18 +62,33 @@ void GalvoCycleMode::solve(std::function<void(SolveOutcome)> then) {
     steps_.enter(CycleState::solve, std::to_string(measured_->nodes.size()) + " marks, " +
                                         std::to_string(measured_->missing.size()) + " missing");
     auto solution = std::make_shared<modes::GalvoSolution>();
-    steps_.work([machine = machine_, measured = *measured_,
-                 solution] { *solution = modes::solve_galvo(machine, measured, std::nullopt); },
-                [this, solution, then = std::move(then)] {
-                    solution_ = *solution;
-                    if (!steps_.keep(steps_.record_name("result.json"),
-                                     modes::galvo_result_to_json(*solution_)))
-                        return;
-                    if (!steps_.keep(steps_.record_name("table.csv"),
-                                     models::table_to_csv(solution_->fit.table)))
-                        return;
-                    then({SolveOutcome::Next::review, figures_of(solution_->fit.before)});
-                });
+    auto field = std::make_shared<std::string>();
+    steps_.work(
+        [machine = machine_, measured = *measured_, solution, field] {
+            *solution = modes::solve_galvo(machine, measured, std::nullopt);
+            // Where each measured mark landed against the grid it was meant for.
+            const auto& fit = solution->fit;
+            std::vector<FieldArrow> arrows;
+            for (std::size_t i = 0; i < fit.landed_mm.size() && i < solution->intended_mm.size();
+                 ++i) {
+                if (fit.filled[i]) continue;
+                const auto& intended = solution->intended_mm[i];
+                arrows.push_back(
+                    {intended, {fit.landed_mm[i].x - intended.x, fit.landed_mm[i].y - intended.y}});
+            }
+            *field = error_field_png(arrows, "galvo: each mark, landed - intended");
+        },
+        [this, solution, field, then = std::move(then)] {
+            solution_ = *solution;
+            if (!steps_.keep(steps_.record_name("error-field.png"), *field)) return;
+            if (!steps_.keep(steps_.record_name("result.json"),
+                             modes::galvo_result_to_json(*solution_)))
+                return;
+            if (!steps_.keep(steps_.record_name("table.csv"),
+                             models::table_to_csv(solution_->fit.table)))
+                return;
+            then({SolveOutcome::Next::review, figures_of(solution_->fit.before)});
+        });
 }
 
 ReviewText GalvoCycleMode::review() const {

@@ -70,12 +70,18 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
                                         std::to_string(measured_->missing.size()) + " missing");
     auto solution = std::make_shared<modes::PlanarSolution>();
     auto firmware = std::make_shared<modes::FirmwareSettings>();
+    auto field = std::make_shared<std::string>();
     steps_.work(
-        [machine = machine_, measured = *measured_, solution, firmware] {
+        [machine = machine_, measured = *measured_, solution, firmware, field] {
             *solution = modes::solve_planar(machine, measured);
             *firmware = modes::planar_firmware_settings(machine, *solution);
+            std::vector<FieldArrow> arrows;
+            arrows.reserve(solution->error_mm.size());
+            for (std::size_t i = 0; i < solution->error_mm.size(); ++i)
+                arrows.push_back({solution->commanded_mm[i], solution->error_mm[i]});
+            *field = error_field_png(arrows, "planar: each hole's error, seen - commanded");
         },
-        [this, solution, firmware, then = std::move(then)] {
+        [this, solution, firmware, field, then = std::move(then)] {
             solution_ = *solution;
             firmware_ = *firmware;
             if (klipper_now_)
@@ -88,6 +94,7 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
             // (the compensated jobs carry the whole model; both would correct twice). Klipper
             // behind its host takes the review's instead.
             if (!steps_.keep(steps_.record_name("firmware.txt"), joined(firmware->lines))) return;
+            if (!steps_.keep(steps_.record_name("error-field.png"), *field)) return;
             then({SolveOutcome::Next::review, figures_of(*solution_)});
         });
 }

@@ -172,6 +172,10 @@ try:
     pictures = run.wait_for("the cycle's pictures", lambda: driver.execute_script(
         "const i = [...document.querySelectorAll('#pictures img')];"
         "return i.length > 0 && i.every((x) => x.complete && x.naturalWidth > 0) ? i.length : 0;"), 30, box)
+    names = driver.execute_script("return [...document.querySelectorAll('#pictures img')].map((i) => i.alt);")
+    for wanted in ("cycle-0001-overlay.png", "cycle-0001-error-field.png", "cycle-0001-screen-01.png"):
+        if wanted not in names:
+            run.fail("the result view lacks %s: %s" % (wanted, names))
     driver.save_screenshot(os.path.join(shots, "web-result.png"))
     page_after_rms = float(cell("result-after-rms").split()[0])
     page_before_rms = float(cell("result-before-rms").split()[0])

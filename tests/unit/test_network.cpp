@@ -19,6 +19,7 @@
 #include "firmware/box_news.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/live_view.hpp"
+#include "firmware/overlays.hpp"
 
 using namespace calbox;
 using namespace std::chrono_literals;
@@ -355,4 +356,28 @@ TEST(LoopInbox, runs_other_threads_jobs_on_the_loops_thread) {
     std::thread late([&] { refused = inbox.call<int>([] { return 1; }, 50ms); });
     late.join();
     CHECK_FALSE(refused.has_value());
+}
+
+TEST_GROUP(ErrorField){};
+
+TEST(ErrorField, draws_each_error_magnified_by_a_round_factor_where_it_was_measured) {
+    // Two points 100 mm apart each way, errors of 1 mm and 0.5 mm: a twelfth of the span over
+    // the largest is 8.3, rounded down to 5. The map's 660 px cover 100 mm: 6.6 px a mm; the
+    // point at (0, 0) sits at (70, 730) px and its 1 mm arrow reaches 70 + 5 x 6.6 = 103 px.
+    const std::string png =
+        firmware::error_field_png({{{0, 0}, {1, 0}}, {{100, 100}, {0, 0.5}}}, "test: two arrows");
+    const cv::Mat image =
+        cv::imdecode(std::vector<unsigned char>(png.begin(), png.end()), cv::IMREAD_COLOR);
+    LONGS_EQUAL(800, image.cols);
+    LONGS_EQUAL(800, image.rows);
+    const auto red = [&](int x, int y) {
+        const auto p = image.at<cv::Vec3b>(y, x);  // BGR
+        return p[2] > 150 && p[0] < 120 && p[1] < 120;
+    };
+    CHECK_TRUE(red(90, 730));
+    CHECK_FALSE(red(115, 730));  // past the tip
+    // The second: from (730, 70) up by 0.5 x 5 x 6.6 = 16.5 px.
+    CHECK_TRUE(red(730, 60));
+    CHECK_FALSE(red(730, 45));
+    CHECK_THROWS(std::invalid_argument, firmware::error_field_png({}, "none"));
 }

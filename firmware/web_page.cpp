@@ -124,7 +124,14 @@ function showStatus(s) {
   $('needs').textContent = s.needs_calibration === null ? '' :
       (s.needs_calibration ? 'Needs calibrating: the last error before correction is over '
                             : 'Within the limit of ') + s.needs_calibration_mm + ' mm';
-  if (s.log) $('log').textContent = s.log.join('\n');
+  if (s.log) {
+    // The newest line in view, unless the reader has scrolled up to read an older one.
+    const log = $('log');
+    const atEnd = log.scrollTop + log.clientHeight >= log.scrollHeight - 4;
+    log.textContent = s.log.join('\n');
+    if (atEnd || !log.dataset.seen) log.scrollTop = log.scrollHeight;
+    log.dataset.seen = '1';
+  }
   const ids = {start: s.state === 'idle', confirm: !!s.waiting && s.state !== 'idle',
                cancel: s.state !== 'idle', acknowledge: s.state === 'error', revert: s.state === 'idle'};
   for (const [k, on] of Object.entries(ids)) $('btn-' + k).disabled = !on;

@@ -15,6 +15,7 @@
 #include <boost/beast/websocket.hpp>
 #include <boost/beast/websocket/ssl.hpp>
 #include <cctype>
+#include <condition_variable>
 #include <deque>
 #include <list>
 #include <map>
@@ -504,6 +505,36 @@ class Listener {
 struct HttpServer::State {
     Handlers handlers;
     ServerLimits limits;
+    // The idle limit: asio retries a blocking read that SO_RCVTIMEO ends (it polls again), so a
+    // watchdog shuts down each connection that has waited longer than it for a whole request.
+    std::mutex idle_mutex;
+    std::condition_variable idle_stop;
+    bool stopping = false;                     // under idle_mutex
+    std::map<int, Clock::time_point> waiting;  // by socket: since when, under idle_mutex
+    std::thread watchdog;
+    void waits(int fd, bool yes) {
+        if (limits.idle_timeout.count() <= 0) return;
+        const std::lock_guard lock(idle_mutex);
+        if (yes)
+            waiting[fd] = Clock::now();
+        else
+            waiting.erase(fd);
+    }
+    void watch_idle() {
+        std::unique_lock lock(idle_mutex);
+        while (!idle_stop.wait_for(lock, std::chrono::milliseconds(100),
+                                   [this] { return stopping; })) {
+            const auto now = Clock::now();
+            for (auto it = waiting.begin(); it != waiting.end();) {
+                if (now - it->second > limits.idle_timeout) {
+                    ::shutdown(it->first, SHUT_RDWR);
+                    it = waiting.erase(it);
+                } else {
+                    ++it;
+                }
+            }
+        }
+    }
     std::mutex mutex;                                         // the pushers'
     std::map<int, std::function<void(std::string)>> pushers;  // by socket, under the mutex
 
@@ -574,21 +605,15 @@ bool parser_refused(const boost::system::error_code& ec) {
 void HttpServer::State::serve(tcp::socket socket) {
     const int fd = socket.native_handle();
     boost::system::error_code ec;
-    if (limits.idle_timeout.count() > 0) {
-        // Blocking reads give up after it (EAGAIN): a silent client lets its thread go.
-        timeval tv{};
-        tv.tv_sec = static_cast<time_t>(limits.idle_timeout.count() / 1000);
-        tv.tv_usec = static_cast<suseconds_t>((limits.idle_timeout.count() % 1000) * 1000);
-        ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-        ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof tv);
-    }
     const std::string peer = socket.remote_endpoint(ec).address().to_string();
     beast::flat_buffer buffer;
     for (;;) {
         http::request_parser<http::string_body> parser;
         parser.body_limit(limits.max_body_bytes);
         parser.header_limit(limits.max_header_bytes);
+        waits(fd, true);
         http::read(socket, buffer, parser, ec);
+        waits(fd, false);
         if (ec) {
             if (parser_refused(ec)) write_answer(socket, refusal(ec, limits), false, ec);
             break;
@@ -619,6 +644,7 @@ void HttpServer::State::serve(tcp::socket socket) {
         write_answer(socket, answer, req.keep_alive(), ec);
         if (ec || !req.keep_alive()) break;
     }
+    waits(fd, false);
     listener->forget(fd);
     // The socket (or the stream it moved into) closes as it goes out of scope.
 }
@@ -710,6 +736,7 @@ HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, 
     s.handlers = std::move(handlers);
     s.limits = limits;
     s.listener = std::make_unique<Listener>(address, port);
+    if (limits.idle_timeout.count() > 0) s.watchdog = std::thread([&s] { s.watch_idle(); });
     s.listener->start(
         [&s](tcp::socket socket) { s.serve(std::move(socket)); }, limits.max_connections,
         [](tcp::socket& socket) {
@@ -731,7 +758,14 @@ HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, 
 }
 
 HttpServer::~HttpServer() {
-    state_->listener->stop();
+    auto& s = *state_;
+    {
+        const std::lock_guard lock(s.idle_mutex);
+        s.stopping = true;
+    }
+    s.idle_stop.notify_all();
+    if (s.watchdog.joinable()) s.watchdog.join();
+    s.listener->stop();
 }
 
 int HttpServer::port() const {

@@ -140,9 +140,15 @@ if headers["Retry-After"] != "30":
     run.fail("no Retry-After on the wait")
 
 # A flood from one client: past its burst, refused with 429; other clients are still served.
+# It may take 60 at once and 20 a second after: on a loaded machine the flood is slower and more
+# of it is served, so what may pass is worked out from how long it took.
+flood_began = time.monotonic()
 codes = [from_peer("127.0.0.3", "GET", "/api/status")[0] for _ in range(150)]
-if codes.count(429) < 50 or codes[0] != 200:
-    run.fail("a flood of 150 was refused %d times" % codes.count(429))
+flood_s = time.monotonic() - flood_began
+may_pass = 60 + 20 * flood_s + 1
+if codes[0] != 200 or codes.count(429) == 0 or codes.count(200) > may_pass:
+    run.fail("a flood of 150 in %.1f s: %d served, %d refused (at most %.0f may pass)" % (
+        flood_s, codes.count(200), codes.count(429), may_pass))
 expect("another client during the flood", request(url + "/api/status"), 200)
 
 # Too many connections: past 32 open, the next is told 503 and closed.

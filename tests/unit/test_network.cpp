@@ -143,7 +143,8 @@ TEST(ServerLimits, refuses_each_excess_with_its_status_and_lets_idle_clients_go)
     limits.max_body_bytes = 1000;
     limits.max_header_bytes = 2000;
     limits.max_connections = 2;
-    limits.idle_timeout = 300ms;
+    // Long enough that a loaded machine's third client comes well inside it.
+    limits.idle_timeout = 1500ms;
     std::atomic<int> served{0};
     drivers::HttpServer server(
         "127.0.0.1", 0,
@@ -172,15 +173,18 @@ TEST(ServerLimits, refuses_each_excess_with_its_status_and_lets_idle_clients_go)
     // Two silent clients hold both connections: a third is told 503; the silent ones are let go
     // after the idle timeout, and then a request is served again.
     std::string first, second;
-    std::thread a([&] { first = exchange(server.port(), "", 2s); });
-    std::thread b([&] { second = exchange(server.port(), "", 2s); });
-    std::this_thread::sleep_for(100ms);
+    std::thread a([&] { first = exchange(server.port(), "", 4s); });
+    std::thread b([&] { second = exchange(server.port(), "", 4s); });
+    std::this_thread::sleep_for(200ms);
     const std::string third = exchange(server.port(), "GET / HTTP/1.1\r\nHost: x\r\n\r\n");
+    const auto waited = std::chrono::steady_clock::now();
     a.join();
     b.join();
+    // Let go by the server at its 1.5 s, not by their own 4 s timeout.
+    CHECK_TRUE(std::chrono::steady_clock::now() - waited < 3s);
     CHECK_EQUAL(0u, third.rfind("HTTP/1.1 503", 0));
     CHECK_TRUE(third.find("Retry-After: 2") != std::string::npos);
-    STRCMP_EQUAL("", first.c_str());  // closed by the server, before the client's 2 s
+    STRCMP_EQUAL("", first.c_str());  // closed by the server, before the client's 4 s
     STRCMP_EQUAL("", second.c_str());
     const auto again = drivers::http_request(url, {"GET", "/", {}, "", ""}, 3s);
     LONGS_EQUAL(200, again.status);

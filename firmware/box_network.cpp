@@ -67,10 +67,8 @@ json BoxNetwork::status(bool for_page) const {
     json j = p_.news.status(p_.cycle);
     if (!for_page) return j;
     j["log"] = p_.log_book.last(kPageLogLines);
-    json cycles = p_.news.history_json()["cycles"];
-    if (cycles.size() > kPageHistory)
-        cycles.erase(cycles.begin(), cycles.end() - static_cast<std::ptrdiff_t>(kPageHistory));
-    j["history"] = cycles;
+    // Built on every status push (each log line): only the lines the page plots.
+    j["history"] = p_.news.history_json(kPageHistory)["cycles"];
     return j;
 }
 
@@ -87,7 +85,7 @@ void BoxNetwork::cycle_ended(bool completed) {
     if (const auto why = p_.news.cycle_ended(p_.cycle, completed, p_.unix_now()); !why.empty())
         p_.log(why);
     if (mqtt_ && !p_.news.history().empty())
-        mqtt_->publish_result(p_.news.history_json()["cycles"].back());
+        mqtt_->publish_result(p_.news.history_json(1)["cycles"].back());
     changed();
 }
 

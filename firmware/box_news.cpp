@@ -173,9 +173,10 @@ std::optional<bool> BoxNews::needs_calibration() const {
     return std::nullopt;
 }
 
-json BoxNews::history_json() const {
+json BoxNews::history_json(std::size_t last) const {
     json cycles = json::array();
-    for (const auto& e : history_) cycles.push_back(entry_json(e));
+    const std::size_t first = history_.size() > last ? history_.size() - last : 0;
+    for (std::size_t k = first; k < history_.size(); ++k) cycles.push_back(entry_json(history_[k]));
     return {{"cycles", cycles}};
 }
 

@@ -64,7 +64,8 @@ class BoxNews {
     // {"state","waiting","cycle","completed","error","setup_coverage","mode","last":{...},
     //  "drift_mm","last_calibrated","needs_calibration","history":[...]}
     nlohmann::json status(const Cycle& cycle) const;
-    nlohmann::json history_json() const;
+    // {"cycles": [...]}: every line kept, or only the newest `last`.
+    nlohmann::json history_json(std::size_t last = kHistoryKept) const;
     // Prometheus' text exposition format 0.0.4: base units (metres, seconds), counters _total.
     std::string metrics(const Cycle& cycle) const;
     std::string metrics(CycleState state, const CycleReport& last_report) const;

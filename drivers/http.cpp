@@ -426,19 +426,19 @@ class Listener {
                     if (stopping_) return;
                     if (e) continue;
                     reap();
-                    if (max_connections > 0 &&
-                        static_cast<int>(connections_.size()) >= max_connections) {
+                    if (max_connections > 0 && serving() >= max_connections) {
                         if (refuse) refuse(socket);
                         continue;
                     }
-                    open_fds_.insert(socket.native_handle());
+                    const int fd = socket.native_handle();
+                    open_fds_.insert(fd);
                     auto done = std::make_shared<std::atomic<bool>>(false);
                     connections_.push_back(
                         {std::thread([serve, done, socket = std::move(socket)]() mutable {
                              serve(std::move(socket));
                              *done = true;
                          }),
-                         done});
+                         done, fd});
                 }
             });
     }
@@ -453,6 +453,19 @@ class Listener {
     void forget(int fd) {
         const std::lock_guard lock(mutex_);
         open_fds_.erase(fd);
+    }
+    // Shuts a connection down and frees its place at once: its client sees the close before its
+    // thread has woken to end, and a request that follows must not find the server still full.
+    void let_go(int fd) {
+        const std::lock_guard lock(mutex_);
+        ::shutdown(fd, SHUT_RDWR);
+        // The newest with this descriptor: an older one may have closed it and not yet ended.
+        for (auto it = connections_.rbegin(); it != connections_.rend(); ++it) {
+            if (it->fd == fd) {
+                it->let_go = true;
+                break;
+            }
+        }
     }
     void drop_connections() {
         const std::lock_guard lock(mutex_);
@@ -477,7 +490,15 @@ class Listener {
     struct Connection {
         std::thread thread;
         std::shared_ptr<std::atomic<bool>> done;
+        int fd = -1;
+        bool let_go = false;  // shut down by the server: no longer holds a place
     };
+    // The connections that hold a place. Under mutex_.
+    int serving() const {
+        int n = 0;
+        for (const auto& c : connections_) n += (!*c.done && !c.let_go) ? 1 : 0;
+        return n;
+    }
     // Joins the connections that ended: a box serving a page for months opens many. Under mutex_.
     void reap() {
         for (auto it = connections_.begin(); it != connections_.end();) {
@@ -527,7 +548,7 @@ struct HttpServer::State {
             const auto now = Clock::now();
             for (auto it = waiting.begin(); it != waiting.end();) {
                 if (now - it->second > limits.idle_timeout) {
-                    ::shutdown(it->first, SHUT_RDWR);
+                    listener->let_go(it->first);
                     it = waiting.erase(it);
                 } else {
                     ++it;

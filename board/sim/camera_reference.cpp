@@ -108,7 +108,9 @@ Vec2 undistort_pixel(const CameraIntrinsics& c, double u, double v) {
         const Vec2 f = distort(c, p.x, p.y);
         const double ex = f.x - target.x, ey = f.y - target.y;
         if (std::abs(ex) + std::abs(ey) < 1e-15) break;
-        const double h = 1e-7 * std::max(1.0, std::hypot(p.x, p.y));
+        // Within the unit circle the step is 1e-7 (hypot, the costly part, is not needed).
+        const double h =
+            1e-7 * (p.x * p.x + p.y * p.y < 0.99 ? 1.0 : std::max(1.0, std::hypot(p.x, p.y)));
         const Vec2 fx = distort(c, p.x + h, p.y), fy = distort(c, p.x, p.y + h);
         const double a = (fx.x - f.x) / h, b = (fy.x - f.x) / h, cc = (fx.y - f.y) / h,
                      d = (fy.y - f.y) / h;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -17,11 +19,68 @@ struct Ray {
     bool hits = false;
 };
 
-void trace_row(const CameraIntrinsics& camera, const Mat3& camera_to_plane, const Vec3& origin,
-               int v, std::vector<Ray>& row) {
-    row.resize(static_cast<std::size_t>(camera.width_px) + 1);
-    for (int u = 0; u <= camera.width_px; ++u) {
-        const Vec2 n = undistort_pixel(camera, u, v);
+// Every pixel corner's ray direction in the camera (normalized x/z, y/z): (width + 1) by
+// (height + 1), row by row. It depends on the lens alone, and undistorting each corner (Newton's
+// method) was half of a board photo's time, so it is worked out once per lens.
+struct LensRays {
+    CameraIntrinsics camera;
+    std::vector<Vec2> normalized;
+    const Vec2* row(int v) const {
+        return normalized.data() + static_cast<std::size_t>(v) * (camera.width_px + 1);
+    }
+};
+
+bool same_lens(const CameraIntrinsics& a, const CameraIntrinsics& b) {
+    return a.model == b.model && a.width_px == b.width_px && a.height_px == b.height_px &&
+           a.fx == b.fx && a.fy == b.fy && a.cx == b.cx && a.cy == b.cy &&
+           a.distortion == b.distortion;
+}
+
+// Runs `rows(first, end)` over [0, count) split among the machine's cores.
+template <typename Rows>
+void on_all_cores(int count, const Rows& rows) {
+    const int workers = std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 8);
+    const int each = (count + workers - 1) / workers;
+    std::vector<std::thread> threads;
+    for (int w = 0; w < workers; ++w) {
+        const int first = w * each, end = std::min(count, first + each);
+        if (first >= end) break;
+        threads.emplace_back([&rows, first, end] { rows(first, end); });
+    }
+    for (auto& t : threads) t.join();
+}
+
+// The last lens's rays, kept: a twin photographs with one camera, many times (a 12 MP camera's
+// take 200 MB, so only the last is kept).
+std::shared_ptr<const LensRays> rays_of(const CameraIntrinsics& camera) {
+    static std::mutex mutex;
+    static std::shared_ptr<const LensRays> last;
+    {
+        const std::lock_guard lock(mutex);
+        if (last && same_lens(last->camera, camera)) return last;
+    }
+    auto rays = std::make_shared<LensRays>();
+    rays->camera = camera;
+    rays->normalized.resize(static_cast<std::size_t>(camera.width_px + 1) * (camera.height_px + 1));
+    on_all_cores(camera.height_px + 1, [&](int first, int end) {
+        for (int v = first; v < end; ++v) {
+            Vec2* out =
+                rays->normalized.data() + static_cast<std::size_t>(v) * (camera.width_px + 1);
+            for (int u = 0; u <= camera.width_px; ++u) out[u] = undistort_pixel(camera, u, v);
+        }
+    });
+    const std::lock_guard lock(mutex);
+    last = rays;
+    return last;
+}
+
+void trace_row(const LensRays& rays, const Mat3& camera_to_plane, const Vec3& origin, int v,
+               std::vector<Ray>& row) {
+    const int width = rays.camera.width_px;
+    row.resize(static_cast<std::size_t>(width) + 1);
+    const Vec2* normalized = rays.row(v);
+    for (int u = 0; u <= width; ++u) {
+        const Vec2 n = normalized[u];
         const Vec3 d = camera_to_plane * Vec3{n.x, n.y, 1.0};
         Ray& r = row[static_cast<std::size_t>(u)];
         r.hits = d.z * origin.z < 0;  // the ray heads towards the plane
@@ -32,16 +91,16 @@ void trace_row(const CameraIntrinsics& camera, const Mat3& camera_to_plane, cons
     }
 }
 
-void render_rows(const CameraIntrinsics& camera, const Pose& pose, const Scene& scene,
-                 int first_row, int end_row, std::vector<float>& albedo) {
+void render_rows(const LensRays& rays, const Pose& pose, const Scene& scene, int first_row,
+                 int end_row, std::vector<float>& albedo) {
     const Mat3 camera_to_plane = pose.rotation.transposed();
     const Vec3 origin = pose.camera_centre_in_plane();
     std::vector<Ray> here, below;
-    trace_row(camera, camera_to_plane, origin, first_row, here);
+    trace_row(rays, camera_to_plane, origin, first_row, here);
     for (int v = first_row; v < end_row; ++v) {
-        trace_row(camera, camera_to_plane, origin, v + 1, below);
-        float* out = albedo.data() + static_cast<std::size_t>(v) * camera.width_px;
-        for (int u = 0; u < camera.width_px; ++u) {
+        trace_row(rays, camera_to_plane, origin, v + 1, below);
+        float* out = albedo.data() + static_cast<std::size_t>(v) * rays.camera.width_px;
+        for (int u = 0; u < rays.camera.width_px; ++u) {
             const Ray& r = here[static_cast<std::size_t>(u)];
             const Ray& right = here[static_cast<std::size_t>(u) + 1];
             const Ray& down = below[static_cast<std::size_t>(u)];
@@ -89,16 +148,10 @@ std::vector<float> render_albedo(const CameraIntrinsics& camera, const Pose& pla
         throw std::invalid_argument("camera size must be 1..20000 px on each side");
     }
     std::vector<float> albedo(static_cast<std::size_t>(camera.width_px) * camera.height_px);
-    const int workers = std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 8);
-    std::vector<std::thread> threads;
-    const int rows_each = (camera.height_px + workers - 1) / workers;
-    for (int w = 0; w < workers; ++w) {
-        const int first = w * rows_each, end = std::min(camera.height_px, first + rows_each);
-        if (first >= end) break;
-        threads.emplace_back(
-            [&, first, end] { render_rows(camera, plane_to_camera, scene, first, end, albedo); });
-    }
-    for (auto& t : threads) t.join();
+    const auto rays = rays_of(camera);
+    on_all_cores(camera.height_px, [&](int first, int end) {
+        render_rows(*rays, plane_to_camera, scene, first, end, albedo);
+    });
     return albedo;
 }
 

@@ -174,6 +174,26 @@ TEST(BoardRender, chessboard_corners_agree_with_projectpoints_pinhole_tilted_10_
     CHECK_TEXT(rms < 0.02, ("pinhole corner RMS " + std::to_string(rms) + " px").c_str());
 }
 
+// The rays of the last lens are kept between photos: a lens that differs only in its distortion,
+// or only by a thousandth of a pixel in its centre, is traced afresh (its corners land where OpenCV
+// puts them, not where the kept lens would), and the kept lens's photo, made again after it, is bit
+// for bit the first.
+TEST(BoardRender, a_photo_is_traced_through_its_own_lens_whatever_lens_came_before) {
+    const auto spec = geometry::parse_pattern_spec("chessboard:9x6@20");
+    const BoardScene scene(spec, 4);
+    const Pose pose = board_pose(80, 50, 10, 400);
+    const CameraIntrinsics kept = pinhole_1080p();
+    const auto first = render_albedo(kept, pose, scene);
+    CameraIntrinsics other = kept;
+    other.distortion = {0.05, -0.02, 0, 0, 0};  // corners several pixels from the kept lens's
+    const double rms = chessboard_corner_rms(other);
+    CHECK_TEXT(rms < 0.02, ("another lens's corner RMS " + std::to_string(rms) + " px").c_str());
+    CameraIntrinsics shifted = kept;
+    shifted.cx += 0.001;
+    CHECK(render_albedo(shifted, pose, scene) != first);
+    CHECK(render_albedo(kept, pose, scene) == first);
+}
+
 TEST(BoardRender, chessboard_corners_agree_with_projectpoints_fisheye_tilted_10_degrees) {
     const double rms = chessboard_corner_rms(fisheye_1080p());
     CHECK_TEXT(rms < 0.02, ("fisheye corner RMS " + std::to_string(rms) + " px").c_str());

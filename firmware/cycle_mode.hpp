@@ -61,6 +61,32 @@ class CycleSteps {
                     std::move(then), true);
     }
     virtual const MachineLink& machine_link() const = 0;
+    // Klipper through a host that keeps its printer.cfg (MachineLink::has_config_file): the
+    // correction goes into that file, and the settings Klipper took are read back from the host.
+    bool klipper_on_host(const models::MachineFile& machine) const {
+        return machine.firmware == "klipper" && machine_link().has_config_file();
+    }
+    // The settings the printer has in force, as `parse` reads them; a text `parse` refuses (it
+    // throws) puts the cycle in error with its message, and `then` is not called.
+    template <typename Settings>
+    void read_settings_in_force(std::function<Settings(const std::string&)> parse,
+                                std::function<void(Settings)> then) {
+        ask_machine(
+            [](MachineLink& m, MachineLink::Done done) {
+                m.read_settings_in_force(std::move(done));
+            },
+            [this, parse = std::move(parse), then = std::move(then)](const JobOutcome& outcome) {
+                std::optional<Settings> settings;
+                try {
+                    settings = parse(outcome.text);
+                } catch (const std::exception& e) {
+                    fail(e.what());
+                    return;
+                }
+                then(std::move(*settings));
+            },
+            true);
+    }
     // A file in the data directory; false (and the cycle in error) when it could not be kept.
     virtual bool keep(const std::string& name, const std::string& contents) = 0;
     virtual std::optional<std::string> read(const std::string& name) const = 0;

@@ -75,7 +75,7 @@ void DeltaCycleMode::before_target(std::function<void()> then) {
 // link's reach, and the machine file's stand.
 void DeltaCycleMode::read_printer_settings(std::function<void()> then) {
     if (machine_.firmware == "klipper") {
-        if (!klipper_on_host()) {
+        if (!steps_.klipper_on_host(machine_)) {
             then();
             return;
         }
@@ -287,26 +287,15 @@ ReviewText DeltaCycleMode::review() const {
     return r;
 }
 
-bool DeltaCycleMode::klipper_on_host() const {
-    return machine_.firmware == "klipper" && steps_.machine_link().has_config_file();
-}
-
 void DeltaCycleMode::read_klipper_settings(std::function<void(models::DeltaGeometry)> then) {
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_settings_in_force(std::move(done)); },
-        [this, then = std::move(then)](const JobOutcome& outcome) {
-            models::DeltaGeometry g;
-            try {
-                g = klipper_geometry(outcome.text, "Klipper's settings in force");
-                klipper_probe_z_offset_mm_ =
-                    models::klipper_probe_z_offset("Klipper's settings in force", outcome.text);
-            } catch (const std::exception& e) {
-                steps_.fail(e.what());
-                return;
-            }
-            then(g);
+    steps_.read_settings_in_force<models::DeltaGeometry>(
+        [this](const std::string& text) {
+            auto g = klipper_geometry(text, "Klipper's settings in force");
+            klipper_probe_z_offset_mm_ =
+                models::klipper_probe_z_offset("Klipper's settings in force", text);
+            return g;
         },
-        true);
+        std::move(then));
 }
 
 // Klipper takes printer.cfg as a whole: the fitted values go where SAVE_CONFIG keeps them, the
@@ -363,7 +352,7 @@ void DeltaCycleMode::restore_klipper_config(const std::string& backup, const std
 
 void DeltaCycleMode::apply(std::function<void(bool verify)> then) {
     const auto& s = *solution_;
-    if (klipper_on_host()) {
+    if (steps_.klipper_on_host(machine_)) {
         apply_on_klipper_host(std::move(then));
         return;
     }
@@ -445,7 +434,7 @@ void DeltaCycleMode::judge_verification(std::function<void(VerifyOutcome)> then)
 }
 
 std::string DeltaCycleMode::revert(int number, std::function<void(std::string what)> then) {
-    if (klipper_on_host()) return revert_on_klipper_host(number, std::move(then));
+    if (steps_.klipper_on_host(machine_)) return revert_on_klipper_host(number, std::move(then));
     if (machine_.firmware == "klipper")
         return "revert: Klipper's settings live in printer.cfg; the box never changed them";
     const std::string name = steps_.record_name("backup.gcode");

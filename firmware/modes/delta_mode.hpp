@@ -71,8 +71,6 @@ class DeltaCycleMode final : public CycleMode {
                             std::function<void(std::string, std::vector<std::string>)> then,
                             std::function<void(const std::string&)> failed = {});
     void restore_backup(const std::string& why);
-    // Klipper through a host that keeps its printer.cfg (MachineLink::has_config_file).
-    bool klipper_on_host() const;
     void read_klipper_settings(std::function<void(models::DeltaGeometry)> then);
     std::optional<double> klipper_probe_z_offset_mm_;  // from the settings in force
     void apply_on_klipper_host(std::function<void(bool verify)> then);

@@ -24,29 +24,17 @@ std::string load_skew(const models::KlipperCartesian& k) {
 
 }  // namespace
 
-bool PlanarCycleMode::klipper_on_host() const {
-    return machine_.firmware == "klipper" && steps_.machine_link().has_config_file();
-}
-
 void PlanarCycleMode::read_klipper_settings(std::function<void(models::KlipperCartesian)> then) {
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_settings_in_force(std::move(done)); },
-        [this, then = std::move(then)](const JobOutcome& outcome) {
-            models::KlipperCartesian k;
-            try {
-                k = models::read_klipper_cartesian("Klipper's settings in force", outcome.text);
-            } catch (const std::exception& e) {
-                steps_.fail(e.what());
-                return;
-            }
-            then(k);
+    steps_.read_settings_in_force<models::KlipperCartesian>(
+        [](const std::string& text) {
+            return models::read_klipper_cartesian("Klipper's settings in force", text);
         },
-        true);
+        std::move(then));
 }
 
 // The target is made with the printer's settings in force known: its profile loaded, or none.
 void PlanarCycleMode::before_target(std::function<void()> then) {
-    if (!klipper_on_host()) {
+    if (!steps_.klipper_on_host(machine_)) {
         then();
         return;
     }
@@ -84,20 +72,20 @@ ReviewText PlanarCycleMode::klipper_review() const {
 }
 
 void PlanarCycleMode::apply(std::function<void(bool verify)> then) {
-    if (klipper_on_host())
+    if (steps_.klipper_on_host(machine_))
         apply_on_klipper_host(std::move(then));
     else
         KeptCorrectionMode::apply(std::move(then));
 }
 
 std::string PlanarCycleMode::verify_detail() const {
-    return klipper_on_host() ? "printing the grid again with Klipper's new settings"
-                             : KeptCorrectionMode::verify_detail();
+    return steps_.klipper_on_host(machine_) ? "printing the grid again with Klipper's new settings"
+                                            : KeptCorrectionMode::verify_detail();
 }
 
 void PlanarCycleMode::verification_job(const std::vector<std::string>& target,
                                        std::function<void(std::vector<std::string>)> then) {
-    if (klipper_on_host())
+    if (steps_.klipper_on_host(machine_))
         then(target);  // the printer corrects itself now
     else
         KeptCorrectionMode::verification_job(target, std::move(then));
@@ -193,7 +181,7 @@ void PlanarCycleMode::restore_klipper_config(const std::string& backup, const st
 }
 
 std::string PlanarCycleMode::revert(int number, std::function<void(std::string what)> then) {
-    if (klipper_on_host()) return revert_on_klipper_host(number, std::move(then));
+    if (steps_.klipper_on_host(machine_)) return revert_on_klipper_host(number, std::move(then));
     return KeptCorrectionMode::revert(number, std::move(then));
 }
 

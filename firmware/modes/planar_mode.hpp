@@ -47,8 +47,6 @@ class PlanarCycleMode final : public KeptCorrectionMode {
 
   private:
     static constexpr const char* kKlipperBackup = "backup-printer.cfg";
-    // Klipper behind a host that keeps printer.cfg: its settings carry the correction.
-    bool klipper_on_host() const;
     void read_klipper_settings(std::function<void(models::KlipperCartesian)> then);
     void apply_on_klipper_host(std::function<void(bool verify)> then);
     void save_klipper_skew(const std::string& backup, const std::function<void(bool verify)>& then);

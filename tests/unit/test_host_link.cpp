@@ -23,6 +23,7 @@
 #include "core/models/machine_file.hpp"
 #include "core/models/machine_import.hpp"
 #include "drivers/http.hpp"
+#include "firmware/cycle_mode.hpp"
 #include "firmware/duet_link.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/moonraker_link.hpp"
@@ -539,6 +540,84 @@ TEST(MoonrakerLink, commands_settings_and_printer_cfg_through_the_host) {
 }
 
 // A one-shot token opens one websocket: used again, or without the key that fetched it, refused.
+namespace {
+
+// The cycle's side of a mode's request, as the cycle does it: through the link, on the loop; a
+// failure only recorded.
+class StepsOverLink : public firmware::CycleSteps {
+  public:
+    StepsOverLink(firmware::MachineLink& link, firmware::EventLoop& loop)
+        : link_(link), loop_(loop) {}
+    std::vector<std::string> failures;
+
+    void work(std::function<void()> job, std::function<void()> then) override {
+        job();
+        then();
+    }
+    void run_job(const std::vector<std::string>& lines,
+                 std::function<void(const firmware::JobOutcome&)> then) override {
+        send_commands(lines, std::move(then));
+    }
+    void ask_machine(std::function<void(firmware::MachineLink&, firmware::MachineLink::Done)> start,
+                     std::function<void(const firmware::JobOutcome&)> then,
+                     bool failure_is_error) override {
+        const auto o = run_to_its_end(loop_, [&](auto done) { start(link_, done); });
+        if (!o.ok && failure_is_error) return fail(o.error);
+        then(o);
+    }
+    const firmware::MachineLink& machine_link() const override { return link_; }
+    bool keep(const std::string&, const std::string&) override { return true; }
+    std::optional<std::string> read(const std::string&) const override { return std::nullopt; }
+    std::string record_name(const std::string& what) const override { return what; }
+    void enter(firmware::CycleState, const std::string&) override {}
+    void log(const std::string&) override {}
+    void log_detail(const std::string&) override {}
+    void notice(const std::string&) override {}
+    void fail(const std::string& message) override { failures.push_back(message); }
+
+  private:
+    firmware::MachineLink& link_;
+    firmware::EventLoop& loop_;
+};
+
+}  // namespace
+
+// What both Klipper modes share: a Klipper printer behind Moonraker is recognised, its settings in
+// force reach the mode as the mode reads them, and settings the mode cannot read (a delta's, read
+// as a cartesian printer's) put the cycle in error with the reader's line, the mode never called.
+TEST(MoonrakerLink, the_modes_read_klippers_settings_in_force_or_fail_the_cycle_with_why) {
+    start({});
+    StepsOverLink steps(*link, loop);
+    auto machine = sim::load_scenario(CALBOX_SOURCE_DIR "/examples/moonraker_delta.toml").machine;
+    CHECK_TRUE(steps.klipper_on_host(machine));
+    machine.firmware = "marlin";
+    CHECK_FALSE(steps.klipper_on_host(machine));
+
+    std::optional<models::DeltaGeometry> read;
+    steps.read_settings_in_force<models::DeltaGeometry>(
+        [](const std::string& text) {
+            return models::from_klipper(
+                models::read_klipper_config("in force", text, [](const std::string&) {
+                    return std::optional<std::string>();
+                }).delta);
+        },
+        [&](models::DeltaGeometry g) { read = g; });
+    CHECK_TRUE(read.has_value());
+    // The printer's settings in examples/moonraker_delta.toml, as Klipper holds them.
+    DOUBLES_EQUAL(300.1069, read->height_mm, 1e-6);
+    DOUBLES_EQUAL(250.0, read->diagonal_rod_mm, 1e-9);
+    CHECK_TRUE(steps.failures.empty());
+
+    bool called = false;
+    steps.read_settings_in_force<models::KlipperCartesian>(
+        [](const std::string& text) { return models::read_klipper_cartesian("in force", text); },
+        [&](models::KlipperCartesian) { called = true; });
+    CHECK_FALSE(called);
+    LONGS_EQUAL(1, static_cast<long>(steps.failures.size()));
+    STRCMP_CONTAINS("in force", steps.failures[0].c_str());
+    STRCMP_CONTAINS("cartesian", steps.failures[0].c_str());
+}
+
 TEST(MoonrakerLink, a_one_shot_token_opens_one_websocket) {
     start({});
     const auto url = drivers::parse_url(host->url());

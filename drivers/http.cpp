@@ -665,7 +665,6 @@ void HttpServer::State::serve(tcp::socket socket) {
         write_answer(socket, answer, req.keep_alive(), ec);
         if (ec || !req.keep_alive()) break;
     }
-    waits(fd, false);
     listener->forget(fd);
     // The socket (or the stream it moved into) closes as it goes out of scope.
 }

@@ -133,6 +133,11 @@ double closest_parameter(const StrokeSegment& s, double x, double y) {
     return std::clamp(((x - s.a_mm.x) * dx + (y - s.a_mm.y) * dy) / l2, 0.0, 1.0);
 }
 
+// From the stroke's centreline at parameter t to (x, y).
+Vec2 offset_from_centreline(const StrokeSegment& s, double t, double x, double y) {
+    return {x - (s.a_mm.x + t * (s.b_mm.x - s.a_mm.x)), y - (s.a_mm.y + t * (s.b_mm.y - s.a_mm.y))};
+}
+
 }  // namespace
 
 StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
@@ -199,10 +204,8 @@ StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
             for (int i = std::max(0, i0); i <= std::min(ix.nx - 1, i1); ++i) {
                 const double cx = ix.x0 + (i + 0.5) * ix.cell_mm,
                              cy = ix.y0 + (k + 0.5) * ix.cell_mm;
-                const double t = closest_parameter(s, cx, cy);
-                const double dx = cx - (s.a_mm.x + t * (s.b_mm.x - s.a_mm.x));
-                const double dy = cy - (s.a_mm.y + t * (s.b_mm.y - s.a_mm.y));
-                if (dx * dx + dy * dy <= reach * reach) {
+                const Vec2 e = offset_from_centreline(s, closest_parameter(s, cx, cy), cx, cy);
+                if (e.x * e.x + e.y * e.y <= reach * reach) {
                     ix.cells[static_cast<std::size_t>(k) * ix.nx + i].push_back(n);
                 }
             }
@@ -228,6 +231,14 @@ double StrokeScene::albedo(const Footprint& f) const {
     const Index& ix = *index_;
     const auto nearest = [&](Vec2 p) {
         Nearest best;
+        // A stroke whose centreline is `e` away, give or take `slack`, clearly farther than the
+        // best so far: the square settles it without hypot (a third of a render's time), and the
+        // nanometre of margin, far above rounding, leaves every close call to the exact
+        // comparison, so the photos are bit for bit what they were without it.
+        const auto clearly_farther = [&best](const StrokeSegment& s, Vec2 e, double slack) {
+            const double beats = best.signed_distance_mm + s.width_mm / 2 + slack + 1e-6;
+            return beats <= 0 || e.x * e.x + e.y * e.y > beats * beats;
+        };
         const double zr = ix.reference_height_mm;
         // At least the ray's drift per mm of height (hypot's bound, without its cost).
         const double shift_bound = std::abs(f.shift_per_height.x) + std::abs(f.shift_per_height.y);
@@ -239,32 +250,21 @@ double StrokeScene::albedo(const Footprint& f) const {
             // move along the ray to it, and measure again.
             double qx = p.x + f.shift_per_height.x * zr, qy = p.y + f.shift_per_height.y * zr;
             double t = closest_parameter(s, qx, qy);
-            {
-                // Distance to a segment moves no faster than the point does: along the ray,
-                // between the reference height and any of this stroke's, by at most `slack`. A
-                // stroke that far beyond the best so far cannot become it, so its refinement is
-                // skipped; the margin leaves close calls to the exact test below.
-                const double slack =
-                    shift_bound * std::max(std::abs(s.a_mm.z - zr), std::abs(s.b_mm.z - zr));
-                const double ex = qx - (s.a_mm.x + t * (s.b_mm.x - s.a_mm.x));
-                const double ey = qy - (s.a_mm.y + t * (s.b_mm.y - s.a_mm.y));
-                const double beats = best.signed_distance_mm + s.width_mm / 2 + slack + 1e-6;
-                if (beats <= 0 || ex * ex + ey * ey > beats * beats) continue;
-            }
+            // Distance to a segment moves no faster than the point does: along the ray, between
+            // the reference height and any of this stroke's, by at most this. A stroke that far
+            // beyond the best so far cannot become it: its refinement is skipped.
+            const double slack =
+                shift_bound * std::max(std::abs(s.a_mm.z - zr), std::abs(s.b_mm.z - zr));
+            if (clearly_farther(s, offset_from_centreline(s, t, qx, qy), slack)) continue;
             for (int pass = 0; pass < 2; ++pass) {
                 const double z = s.a_mm.z + t * (s.b_mm.z - s.a_mm.z);
                 qx = p.x + f.shift_per_height.x * z;
                 qy = p.y + f.shift_per_height.y * z;
                 t = closest_parameter(s, qx, qy);
             }
-            const double dx = qx - (s.a_mm.x + t * (s.b_mm.x - s.a_mm.x));
-            const double dy = qy - (s.a_mm.y + t * (s.b_mm.y - s.a_mm.y));
-            // Most strokes in a cell are clearly farther than the best so far: the square settles
-            // it without hypot (a third of a render's time). The nanometre of margin, far above
-            // rounding, leaves every close call to the exact comparison below, so the photos are
-            // bit for bit what they were.
-            const double beats = best.signed_distance_mm + s.width_mm / 2 + 1e-6;
-            if (beats <= 0 || dx * dx + dy * dy > beats * beats) continue;
+            const Vec2 e = offset_from_centreline(s, t, qx, qy);
+            if (clearly_farther(s, e, 0)) continue;
+            const double dx = e.x, dy = e.y;
             const double d = std::hypot(dx, dy);
             const double sd = d - s.width_mm / 2;
             if (sd < best.signed_distance_mm) {

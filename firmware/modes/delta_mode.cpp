@@ -31,6 +31,11 @@ modes::ErrorFigures placement_figures(const modes::DeltaMeasurementsRecord& meas
     return {std::nullopt, errors.rms_mm, errors.largest_mm};
 }
 
+// A pass's files: the first pass's plain, a later one's "pass-N-".
+std::string prefix_of_pass(std::size_t pass) {
+    return pass == 1 ? std::string() : "pass-" + std::to_string(pass) + "-";
+}
+
 // The delta geometry a printer.cfg (or Klipper's settings in force, written as one) gives.
 models::DeltaGeometry klipper_geometry(const std::string& text, const std::string& source) {
     const auto config = models::read_klipper_config(
@@ -189,11 +194,8 @@ void DeltaCycleMode::measure(MeasureInput input, std::function<void()> then) {
                 measurements_ = record;
                 // Named by the pass it opens, as that pass's result is: the first measurement's
                 // plain, the one after n corrections pass-(n+1)'s.
-                const std::size_t pass = passes_.size() + 1;
                 (void)steps_.keep(
-                    steps_.record_name(
-                        (pass == 1 ? std::string() : "pass-" + std::to_string(pass) + "-") +
-                        "error-field.png"),
+                    steps_.record_name(prefix_of_pass(passes_.size() + 1) + "error-field.png"),
                     field);
             };
         },
@@ -256,8 +258,7 @@ void DeltaCycleMode::solve(std::function<void(SolveOutcome)> then) {
 }
 
 std::string DeltaCycleMode::pass_prefix() const {
-    const std::size_t pass = std::max<std::size_t>(passes_.size(), 1);
-    return pass == 1 ? std::string() : "pass-" + std::to_string(pass) + "-";
+    return prefix_of_pass(std::max<std::size_t>(passes_.size(), 1));
 }
 
 std::string DeltaCycleMode::pass_file(const std::string& what) const {

@@ -911,7 +911,8 @@ TEST(ApplianceFiles, each_cycle_leaves_a_record_and_old_ones_are_pruned) {
          {"measurements.json", "result.json", "backup.gcode", "verify-measurements.json",
           "target-photo-1.png", "verify-photo-1.png", "overlay.png", "verify-overlay.png",
           "pass-2-result.json", "pass-2-backup.gcode", "pass-2-verify-measurements.json",
-          "pass-2-verify-photo-1.png", "pass-2-verify-overlay.png"})
+          "pass-2-verify-photo-1.png", "pass-2-verify-overlay.png", "error-field.png",
+          "pass-2-error-field.png"})
         CHECK_TEXT(fs::exists(dir / ("cycle-0004-" + std::string(f))), f);
     const cv::Mat photo =
         cv::imread((dir / "cycle-0004-target-photo-1.png").string(), cv::IMREAD_UNCHANGED);

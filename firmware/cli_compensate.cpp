@@ -1,92 +1,76 @@
-// calbox compensate: a job sent through a solve's correction.
-#include <cmath>
-#include <cstdio>
-#include <filesystem>
+// calbox compensate: a job sent through a solve's correction, where the machine really is.
+#include <ctime>
 #include <iostream>
-#include <nlohmann/json.hpp>
-#include <optional>
+#include <string>
 
-#include "core/modes/galvo.hpp"
-#include "core/modes/planar.hpp"
-#include "core/targets/compensate.hpp"
+#include "core/modes/compensate_job.hpp"
 #include "firmware/cli_args.hpp"
 
 namespace calbox::cli {
 namespace {
 
 constexpr const char* kCompensateHelp = R"(usage:
-  calbox compensate --result result.json IN -o OUT [--segment MM]
+  calbox compensate --result result.json IN -o OUT [--work-zero X,Y|measured|"G54=X,Y G55=X,Y"]
+                    [--again REASON] [--segment MM]
       Sends every XY position of a job through the correction a solve found, so that the
       machine marks where the job meant: a galvo result (calbox solve galvo), whose table gives
       the scanner command for each intended point, or a planar result (calbox solve planar),
       whose error model e gives X_c = X_t - e(X_c) (the rigid part of e left to the work's zero
-      and heading). IN is G-code as slicers and CAM write it (modal words alone on a line,
-      either comment, % delimiters; inches G20, relative G91, G92 offsets, arcs in G17/G18/G19
-      and helices, numbered and checksummed lines renumbered: each carried and written back as
-      the job had it) or a plain scanner job (its first line x_mm,y_mm,power). Moves are split
-      into pieces of at most --segment mm (default 1: the table's bilinear correction then
-      bends less than 0.0001 mm between pieces on scanners of the size tested) and arcs are
-      traced by chords within 0.002 mm; every other word, comment and line is kept as written.
-      Points outside the table's area take the edge's correction (a planar model extrapolates
-      beyond its measured holes) and are counted on standard error. Refused, naming the line,
-      nothing written: cutter compensation (G41/G42), canned cycles (G73, G76, G81-G89), work
-      offsets held by the controller (G55-G59, G10), G53 moves with X or Y, moves under block
-      delete, absolute arc centres (G90.1), LinuxCNC parameters and O-words, polar words.
+      and heading).
+      The frame: a planar result records the machine coordinates of the work zero its target
+      ran with, and the machine's travel. A printer's job is in machine coordinates (its G92
+      tracked). A router's or laser's job is written around its own work zero: --work-zero X,Y
+      gives G54's zero in machine coordinates, --work-zero measured says it is the frame the
+      result was measured in, "G55=X,Y ..." gives other work systems; without it the job is
+      refused. G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
+      travel is refused, naming the line; between the measured area and the travel a point
+      takes the correction at the area's nearest edge (held, never extrapolated), counted on
+      standard error. One line says which frame was used.
+      IN is G-code as slicers, CAM and LinuxCNC write it (inches, relative moves, G92, arcs and
+      helices, numbered and checksummed lines, canned cycles G73 and G81-G89 with G98/G99 and L
+      repeats: kept for LinuxCNC, written out as moves for grbl and printers; LinuxCNC's
+      parameters, expressions, O-word subroutines and loops, and polar words, evaluated into
+      plain G-code) or a plain scanner job (its first line x_mm,y_mm,power). Moves are split into
+      pieces of at most --segment mm (default 1) and arcs traced by chords within 0.002 mm; an R
+      arc short of its half chord by no more than the file's written precision is a half circle.
+      On printers G10 / G11 are firmware retraction, passed as written.
+      The output's first line names the result it went through (its digest and date); a job
+      carrying that line is refused unless --again gives the reason.
+      Refused, naming the line and the figure, nothing written: cutter compensation (G41/G42),
+      a lathe job (G7, G8, G76), an arc no controller could cut, a point beyond the travel, a
+      move in a work system whose zero is not given, moves under block delete.
 )";
 
+std::string today() {
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&now, &utc);
+    char text[32];
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+    return text;
+}
+
 int compensate(const std::vector<std::string>& words) {
-    const Args args(words, {"--result", "-o", "--segment"}, {});
+    const Args args(words, {"--result", "-o", "--segment", "--work-zero", "--again"}, {});
     if (args.positional().size() != 1) throw UsageError("compensate takes one job file");
-    const std::string in = args.positional()[0];
+    modes::JobRequest request;
+    request.job_name = args.positional()[0];
     const std::string out = args.require("-o");
-    const std::string result_path = args.require("--result");
-    targets::CompensateSettings settings;
-    settings.max_segment_mm = args.number("--segment", 1.0);
-    if (!(settings.max_segment_mm >= 0.01 && settings.max_segment_mm <= 100))
+    request.result_name = args.require("--result");
+    request.settings.max_segment_mm = args.number("--segment", 1.0);
+    if (!(request.settings.max_segment_mm >= 0.01 && request.settings.max_segment_mm <= 100))
         throw UsageError("--segment must be 0.01 to 100 mm");
-    const std::string result_text = read_input_file(result_path, "result");
-    // Which mode's result it is: its schema says.
-    std::string schema;
-    try {
-        const auto j = nlohmann::json::parse(result_text);
-        if (j.is_object() && j.contains("schema") && j["schema"].is_string())
-            schema = j["schema"].get<std::string>();
-    } catch (const nlohmann::json::exception&) {
-        throw std::runtime_error(result_path + ": not a result file (malformed JSON)");
-    }
-    targets::Correction correct;
-    targets::Covers covers;
-    std::optional<modes::GalvoSolution> galvo;
-    std::optional<modes::PlanarSolution> planar;
-    if (schema.rfind("calbox.planar-result/", 0) == 0) {
-        planar = modes::planar_result_from_json(result_text, result_path);
-        correct = [&](geometry::Point2 p) { return modes::planar_command_for(*planar, p); };
-        covers = [&](geometry::Point2 p) { return modes::planar_covers(*planar, p); };
-    } else {
-        galvo = modes::galvo_result_from_json(result_text, result_path);
-        const auto& table = galvo->fit.table;
-        correct = [&table](geometry::Point2 p) { return table.command_for(p); };
-        covers = [&table](geometry::Point2 p) { return table.covers(p); };
-    }
-    const std::string job = read_input_file(in, "job");
-    targets::CompensateReport report;
-    std::string compensated;
-    try {
-        compensated = job.rfind("x_mm,y_mm,power", 0) == 0
-                          ? targets::compensate_scanner_csv(job, correct, covers, settings, report)
-                          : targets::compensate_gcode(job, correct, covers, settings, report);
-    } catch (const targets::CompensateError& e) {
-        throw std::runtime_error(in + ": " + e.what());
-    }
-    write_output_file(out, compensated);
-    std::printf("%s: %ld lines, %ld moves corrected as %ld pieces, %ld arcs traced\n", out.c_str(),
-                report.lines, report.moves, report.pieces, report.arcs);
-    if (report.outside > 0)
-        std::cerr << "calbox: " << in << ": " << report.outside
-                  << (planar ? " points lie outside the measured holes' area (the model "
-                               "extrapolates there)\n"
-                             : " points lie outside the table's area and took its edge's "
-                               "correction\n");
+    request.work_zero = args.get("--work-zero");
+    request.again_because = args.get("--again");
+    if (request.again_because && request.again_because->empty())
+        throw UsageError("--again needs the reason");
+    request.result_text = read_input_file(request.result_name, "result");
+    request.job_text = read_input_file(request.job_name, "job");
+    request.date = today();
+    const auto done = modes::compensate_job(request);
+    write_output_file(out, done.text);
+    std::cout << out << ": " << done.summary << "\n" << done.frame_line << "\n";
+    if (!done.held_line.empty()) std::cerr << "calbox: " << request.job_name << ": " << done.held_line << "\n";
     return 0;
 }
 

@@ -219,8 +219,11 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
     v.before = judge_router(truth, intended, job);
     if (correct != nullptr) {
         targets::CompensateReport report;
-        const std::string compensated = targets::compensate_gcode(
-            job, *correct, [](geometry::Point2) { return true; }, {}, report);
+        // The fresh holes lie inside the measured area: the correction is the model's there.
+        const targets::JobFrame frame{targets::flavour_of_firmware(machine.firmware),
+                                      {geometry::Point2{}}, {}};
+        const std::string compensated =
+            targets::compensate_gcode(job, {*correct, {}}, frame, {}, report);
         v.after = judge_router(truth, intended, compensated);
     }
     return v;

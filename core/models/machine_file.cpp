@@ -160,6 +160,12 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     r.number("bed_radius_mm", m.bed_radius_mm, 10, 1000);
     r.number("bed_size_x_mm", m.bed_size_x_mm, 10, 5000);
     r.number("bed_size_y_mm", m.bed_size_y_mm, 10, 5000);
+    r.number("travel_min_x_mm", m.travel_min_x_mm, -10000, 10000);
+    r.number("travel_max_x_mm", m.travel_max_x_mm, -10000, 10000);
+    r.number("travel_min_y_mm", m.travel_min_y_mm, -10000, 10000);
+    r.number("travel_max_y_mm", m.travel_max_y_mm, -10000, 10000);
+    r.number("work_zero_x_mm", m.work_zero_x_mm, -10000, 10000);
+    r.number("work_zero_y_mm", m.work_zero_y_mm, -10000, 10000);
     r.number("line_width_mm", m.line_width_mm, 0.05, 5);
     r.number("layer_height_mm", m.layer_height_mm, 0.01, 5);
     r.number("filament_diameter_mm", m.filament_diameter_mm, 0.5, 5);
@@ -181,6 +187,12 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     r.text("start_gcode", m.start_gcode);
     r.text("end_gcode", m.end_gcode);
     r.finish();
+    {
+        const auto t = planar_travel_mm(m);
+        if (!(t[2] > t[0]) || !(t[3] > t[1]))
+            throw MachineFileError(file + ": [machine] travel_max_x_mm and travel_max_y_mm must "
+                                          "exceed travel_min_x_mm and travel_min_y_mm");
+    }
     if (m.photo_bed_temperature_c && (!m.bed_material || !m.bed_temperature_c)) {
         throw MachineFileError(file +
                                ": [machine] photo_bed_temperature_c needs bed_material and "
@@ -323,6 +335,11 @@ std::string link_mismatch(const MachineFile& m) {
         return "a Duet's web API serves RepRapFirmware ([machine] firmware = \"rrf\", not \"" +
                m.firmware + "\")";
     return {};
+}
+
+std::array<double, 4> planar_travel_mm(const MachineFile& m) {
+    return {m.travel_min_x_mm.value_or(0), m.travel_min_y_mm.value_or(0),
+            m.travel_max_x_mm.value_or(m.bed_size_x_mm), m.travel_max_y_mm.value_or(m.bed_size_y_mm)};
 }
 
 std::string fingerprint(const MachineFile& m) {

@@ -104,6 +104,11 @@ struct MachineFile {
     double bed_radius_mm = 85;   // delta: the printable radius around the origin
     double bed_size_x_mm = 200;  // others: the work area from the origin
     double bed_size_y_mm = 200;
+    // Planar machines: the machine's XY travel in machine coordinates (a job point beyond it is
+    // refused), by default the work area from the origin; and the machine coordinates of the
+    // work zero in force while the box's target runs (grbl's G54), by default the origin.
+    std::optional<double> travel_min_x_mm, travel_max_x_mm, travel_min_y_mm, travel_max_y_mm;
+    std::optional<double> work_zero_x_mm, work_zero_y_mm;
     double line_width_mm = 0.45;              // printers
     double layer_height_mm = 0.2;             // printers
     double filament_diameter_mm = 1.75;       // printers
@@ -134,6 +139,9 @@ struct MachineFile {
     bool is_galvo() const { return kind == "galvo"; }
     bool is_planar() const { return kind == "router" || kind == "cartesian" || kind == "laser"; }
 };
+
+// A planar machine's travel in machine coordinates: [min x, min y, max x, max y].
+std::array<double, 4> planar_travel_mm(const MachineFile& machine);
 
 // The bed plate is fixed at its centre and grows with temperature; a print sticks to it and
 // goes along. Linear expansion per kelvin of a bed material; throws MachineFileError.

@@ -95,6 +95,19 @@ struct PlanarSolveOptions {
     double max_error_mm = 10;
 };
 
+// Where a planar result was measured: the machine coordinates of the work zero in force while
+// the target ran (commanded positions are in that work frame), where that figure came from, the
+// machine's travel in machine coordinates, and its firmware (what a job's words mean).
+struct PlanarFrame {
+    geometry::Point2 work_zero_mm;
+    std::string work_zero_from;  // "the machine file", "the controller's G54 ($#)"
+    double travel_min_x_mm = 0, travel_min_y_mm = 0, travel_max_x_mm = 0, travel_max_y_mm = 0;
+    std::string firmware;
+    std::string kind;
+};
+// The frame a machine file states (work zero, travel, firmware).
+PlanarFrame planar_frame_of(const models::MachineFile& machine);
+
 struct PlanarSolution {
     std::string machine_fingerprint;
     double tool_length_mm = 0;
@@ -110,8 +123,12 @@ struct PlanarSolution {
     // The drives' slack along x and y: where the hole drilled from the other side lies against
     // the model (not part of the model: the target takes it up the same way at every hole).
     std::optional<geometry::Point2> backlash_mm;
-    // The work area the correction is valid over (the measured holes' extent).
+    // The work area the correction is valid over (the measured holes' extent), in the frame
+    // the target ran in.
     double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;
+    // The frame it was measured in. Results written before calbox recorded it have none, and
+    // compensate nothing.
+    std::optional<PlanarFrame> frame;
 };
 
 // Throws PlanarError (or models::PlanarModelError) with one line; nothing is returned for a
@@ -121,7 +138,6 @@ PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeas
 
 // Where to command so that the tool lands on `intended` (X_c = X_t - e(X_c)).
 geometry::Point2 planar_command_for(const PlanarSolution& solution, geometry::Point2 intended_mm);
-bool planar_covers(const PlanarSolution& solution, geometry::Point2 intended_mm);
 
 // The firmware's own knobs for the part of the error they can carry: lines to send or to put in
 // a configuration, each with what it leaves uncorrected.

@@ -35,6 +35,32 @@ models::NormStatistics statistics_from(const json& j) {
     return s;
 }
 
+json frame_json(const std::optional<PlanarFrame>& f) {
+    if (!f) return nullptr;
+    return {{"work_zero_mm", point_json(f->work_zero_mm)},
+            {"work_zero_from", f->work_zero_from},
+            {"travel_mm",
+             {f->travel_min_x_mm, f->travel_min_y_mm, f->travel_max_x_mm, f->travel_max_y_mm}},
+            {"firmware", f->firmware},
+            {"kind", f->kind}};
+}
+
+PlanarFrame frame_from(const json& j, const std::string& source) {
+    PlanarFrame f;
+    f.work_zero_mm = point_from(j.at("work_zero_mm"));
+    f.work_zero_from = j.at("work_zero_from").get<std::string>();
+    const auto travel = j.at("travel_mm").get<std::vector<double>>();
+    if (travel.size() != 4 || !(travel[2] > travel[0] && travel[3] > travel[1]))
+        throw RecordError(source + ": frame.travel_mm is [min x, min y, max x, max y]");
+    f.travel_min_x_mm = travel[0], f.travel_min_y_mm = travel[1];
+    f.travel_max_x_mm = travel[2], f.travel_max_y_mm = travel[3];
+    f.firmware = j.at("firmware").get<std::string>();
+    f.kind = j.at("kind").get<std::string>();
+    if (!std::isfinite(f.work_zero_mm.x) || !std::isfinite(f.work_zero_mm.y))
+        throw RecordError(source + ": frame.work_zero_mm is not finite");
+    return f;
+}
+
 }  // namespace
 
 std::string planar_measurements_to_json(const PlanarMeasurement& m) {
@@ -152,6 +178,7 @@ std::string planar_result_to_json(const PlanarSolution& s, const FirmwareSetting
                  {"before", statistics_json(s.before)},
                  {"after", statistics_json(s.after)},
                  {"valid_area_mm", {s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm}},
+                 {"frame", frame_json(s.frame)},
                  {"backlash_mm", s.backlash_mm ? point_json(*s.backlash_mm) : json(nullptr)},
                  {"firmware",
                   {{"lines", firmware.lines},
@@ -199,6 +226,7 @@ PlanarSolution planar_result_from_json(const std::string& text, const std::strin
             throw RecordError(source + ": valid_area_mm is [min x, min y, max x, max y]");
         s.min_x_mm = area[0], s.min_y_mm = area[1], s.max_x_mm = area[2], s.max_y_mm = area[3];
         if (const auto& b = j.at("backlash_mm"); !b.is_null()) s.backlash_mm = point_from(b);
+        if (j.contains("frame") && !j.at("frame").is_null()) s.frame = frame_from(j.at("frame"), source);
         for (const auto& h : j.at("holes")) {
             s.commanded_mm.push_back(point_from(h.at("commanded_mm")));
             s.error_mm.push_back(point_from(h.at("error_mm")));

@@ -30,6 +30,7 @@ PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeas
                           " x " + std::to_string(target.rows));
     PlanarSolution s;
     s.machine_fingerprint = measured.machine_fingerprint;
+    s.frame = planar_frame_of(machine);
     s.tool_length_mm = machine.planar->tool_length_mm;
     std::vector<models::PlanarObservation> observations;
     std::vector<Point2> seen;
@@ -113,15 +114,24 @@ PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeas
     return s;
 }
 
+PlanarFrame planar_frame_of(const models::MachineFile& machine) {
+    PlanarFrame f;
+    f.work_zero_mm = {machine.work_zero_x_mm.value_or(0), machine.work_zero_y_mm.value_or(0)};
+    f.work_zero_from = machine.work_zero_x_mm || machine.work_zero_y_mm
+                           ? "the machine file"
+                           : "the machine file (by default the machine's origin)";
+    const auto travel = models::planar_travel_mm(machine);
+    f.travel_min_x_mm = travel[0], f.travel_min_y_mm = travel[1];
+    f.travel_max_x_mm = travel[2], f.travel_max_y_mm = travel[3];
+    f.firmware = machine.firmware;
+    f.kind = machine.kind;
+    return f;
+}
+
 Point2 planar_command_for(const PlanarSolution& s, Point2 intended_mm) {
     return models::planar_command_for(s.fit.parameters, intended_mm, s.tool_length_mm,
                                       s.rigid_part);
 }
 
-bool planar_covers(const PlanarSolution& s, Point2 p) {
-    // Half a pitch's grace is not taken: outside the measured holes the model extrapolates.
-    return p.x >= s.min_x_mm - 1e-9 && p.x <= s.max_x_mm + 1e-9 && p.y >= s.min_y_mm - 1e-9 &&
-           p.y <= s.max_y_mm + 1e-9;
-}
 
 }  // namespace calbox::modes

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +18,9 @@ namespace {
 using geometry::Point2;
 
 constexpr double kPi = 3.14159265358979323846;
+// LinuxCNC's bound on how far a centre-format arc's end may lie off the circle through its start
+// (0.0028 inch): beyond it, and beyond 0.1 % of the radius, no controller cuts the arc.
+constexpr double kArcRadiusToleranceMm = 2 * 0.001 * 1.41421356237309504880 * 25.4;
 // No slicer or CAM program writes a line near this (PrusaSlicer's longest, its settings and
 // thumbnail lines, stay under a few thousand characters); past it the file is not G-code.
 constexpr std::size_t kLongestLine = 65536;
@@ -42,22 +46,6 @@ std::string comment_of(std::string_view raw) {
     while (!c.empty() && (c.back() == '\r' || c.back() == '\n')) c.pop_back();
     return c;
 }
-
-class Writer {
-  public:
-    Writer(const Correction& correct, const Covers& covers, CompensateReport& report)
-        : correct_(correct), covers_(covers), report_(report) {}
-
-    Point2 corrected(Point2 p) {
-        if (!covers_(p)) ++report_.outside;
-        return correct_(p);
-    }
-
-  private:
-    const Correction& correct_;
-    const Covers& covers_;
-    CompensateReport& report_;
-};
 
 // A G word's number and its decimal (92.1 -> 92, 1; 90 -> 90, -1).
 struct Code {
@@ -98,15 +86,17 @@ bool has_m(const gcode::Line& line, int number) {
     return false;
 }
 
-// What the controller holds between lines, as the job's lines set it. XY are kept on the frame
-// the correction was measured on (the job's frame without a G92 offset, G54), in mm; Z in the
-// job's own frame, in mm (the correction does not move it; a move's pieces share it).
+// What the controller holds between lines, as the job's lines set it. XY are kept in machine
+// coordinates (the work system's zero and G92 applied), in mm; Z in the job's own frame, in mm
+// (the correction does not move it; a move's pieces share it).
 struct Modal {
-    int motion = -1;  // 0..3, or -1 before any motion command and after G80
+    int motion = -1;  // 0..3, a canned cycle (73, 81..89), -1 before any and after G80
     bool absolute = true, absolute_e = true;
     double unit_mm = 1;  // 25.4 after G20
     int plane = 17;
-    Point2 g92_offset_mm;  // the calibrated frame's point minus the job's, for XY
+    std::size_t work_system = 0;  // G54
+    std::array<std::optional<Point2>, kWorkSystems> work_zero_mm;
+    Point2 g92_offset_mm;
     Point2 xy_mm;
     bool xy_known = false;  // not until a move gives both axes (and not after G28)
     std::optional<double> z_mm;
@@ -115,6 +105,18 @@ struct Modal {
     // differences of it, so that rounding never accumulates.
     Point2 written_xy;
     std::optional<double> written_z;
+    // Canned cycles: G99 retracts to R, G98 to the height before the series of cycles (or R,
+    // when that is lower); their R, Z, Q and P stay in force from block to block.
+    bool retract_to_r = false;
+    std::optional<double> cycle_start_z_mm;
+    std::optional<double> cycle_r, cycle_z, cycle_q, cycle_p;  // the job's units
+
+    // Machine = job * unit + offset, where the work system's zero is known.
+    std::optional<Point2> offset_mm() const {
+        const auto& zero = work_zero_mm[work_system];
+        if (!zero) return std::nullopt;
+        return Point2{zero->x + g92_offset_mm.x, zero->y + g92_offset_mm.y};
+    }
 };
 
 struct PathPoint {
@@ -144,7 +146,8 @@ std::vector<PathPoint> line_path(bool start_known, Point2 from, Point2 to,
 template <typename Fail>
 std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 from, Point2 to,
                                 std::optional<double> z_from, std::optional<double> z_to,
-                                const CompensateSettings& settings, const Fail& fail) {
+                                const CompensateSettings& settings, double r_tolerance_mm,
+                                const Fail& fail) {
     if (!m.xy_known) throw fail("an arc needs a known start");
     if (m.plane != 17 && (!z_from || !z_to))
         throw fail("an arc in the XZ or YZ plane needs a known Z");
@@ -169,8 +172,17 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
     if (line.has('R')) {
         const double r = line.value('R').value_or(0) * m.unit_mm;
         const double da = t[0] - f[0], db = t[1] - f[1], chord = std::hypot(da, db);
-        if (!(std::abs(r) >= chord / 2 - 1e-9) || chord == 0)
-            throw fail("the arc's radius R is shorter than half its chord");
+        if (chord == 0)
+            throw fail("an R arc that ends where it starts: its centre is not defined (write it "
+                       "with I J K)");
+        // Short by no more than the file's written precision, it is the half circle its rounding
+        // hid, as LinuxCNC and Mach3 cut it.
+        const double shortfall = chord / 2 - std::abs(r);
+        if (!(shortfall <= r_tolerance_mm))
+            throw fail("an R arc no controller could cut: radius " + number(std::abs(r), 5) +
+                       " mm, chord " + number(chord, 5) + " mm, so R is " + number(shortfall, 5) +
+                       " mm short of half the chord, past the file's written precision of " +
+                       number(r_tolerance_mm, 6) + " mm; have the CAM write the arc again");
         const double h = std::sqrt(std::max(0.0, r * r - chord * chord / 4));
         // Clockwise with R > 0 takes the short way: the centre to the chord's right.
         const double side = (clockwise ? 1 : -1) * (r > 0 ? 1 : -1);
@@ -184,6 +196,13 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
     }
     const double radius = std::hypot(f[0] - ca, f[1] - cb);
     const double end_radius = std::hypot(t[0] - ca, t[1] - cb);
+    // LinuxCNC's own bound on a centre-format arc whose end is off the start's circle: past
+    // both, it refuses the arc, and so does calbox.
+    const double radius_step = std::abs(end_radius - radius);
+    if (radius_step > kArcRadiusToleranceMm && radius_step > 0.001 * radius)
+        throw fail("an arc no controller could cut: its end is " + number(radius_step, 5) +
+                   " mm off the circle through its start (radius " + number(radius, 5) +
+                   " mm about its centre); have the CAM write the arc again");
     const double a0 = std::atan2(f[1] - cb, f[0] - ca);
     const double a1 = std::atan2(t[1] - cb, t[0] - ca);
     double sweep = a1 - a0;
@@ -260,268 +279,760 @@ std::string body_of(std::string_view raw) {
     return out;
 }
 
-// LinuxCNC's programming words and polar coordinates, which a plain G-code reader cannot
-// evaluate: the reason, or empty.
-std::string unplain_words(std::string_view raw) {
-    const std::string words = gcode::strip_comments(gcode::without_checksum(raw));
-    const auto first = words.find_first_not_of(" \t/");
-    if (words.find_first_of("#[") != std::string::npos ||
-        (first != std::string::npos && (words[first] == 'o' || words[first] == 'O')))
-        return "parameters, expressions or O-word subroutines (LinuxCNC's '#', '[ ]', 'o'): calbox "
-               "reads plain G-code; have the CAM post-processor write plain numbers";
-    if (words.find_first_of("@^") != std::string::npos)
-        return "polar coordinates ('@', '^'): have the CAM write X and Y";
+bool is_cycle(int motion) {
+    return motion == 73 || (motion >= 81 && motion <= 89);
+}
+
+// The polar words of a line (LinuxCNC's '@' distance and '^' angle in degrees), taken out of it.
+struct Polar {
+    std::optional<double> distance, angle_deg;
+    bool any() const { return distance || angle_deg; }
+};
+
+Polar take_polar_words(std::string& raw) {
+    Polar polar;
+    bool in_paren = false;
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+        const char c = raw[i];
+        if (in_paren) {
+            in_paren = c != ')';
+            continue;
+        }
+        if (c == '(') {
+            in_paren = true;
+            continue;
+        }
+        if (c == ';' || c == '*') break;
+        if (c != '@' && c != '^') continue;
+        std::size_t j = i + 1;
+        while (j < raw.size() && (raw[j] == ' ' || raw[j] == '\t')) ++j;
+        std::size_t k = j;
+        if (k < raw.size() && (raw[k] == '-' || raw[k] == '+')) ++k;
+        while (k < raw.size() &&
+               (std::isdigit(static_cast<unsigned char>(raw[k])) != 0 || raw[k] == '.'))
+            ++k;
+        double v = 0;
+        const char* first = raw.data() + j + (j < raw.size() && raw[j] == '+' ? 1 : 0);
+        const auto [end, ec] = std::from_chars(first, raw.data() + k, v);
+        if (ec != std::errc() || end != raw.data() + k)
+            throw gcode::SyntaxError(std::string("bad number after '") + c + "'");
+        (c == '@' ? polar.distance : polar.angle_deg) = v;
+        raw.erase(i, k - i);
+        --i;
+    }
+    return polar;
+}
+
+// The most decimals written in the line's words `letters`: the file's written precision there.
+int written_decimals(std::string_view raw, std::string_view letters) {
+    const std::string body = gcode::strip_comments(gcode::without_checksum(raw));
+    int most = 0;
+    for (std::size_t i = 0; i < body.size(); ++i) {
+        const char c = static_cast<char>(std::toupper(static_cast<unsigned char>(body[i])));
+        if (letters.find(c) == std::string_view::npos) continue;
+        std::size_t j = i + 1;
+        while (j < body.size() && (body[j] == '-' || body[j] == '+' || body[j] == ' ')) ++j;
+        while (j < body.size() && std::isdigit(static_cast<unsigned char>(body[j])) != 0) ++j;
+        if (j < body.size() && body[j] == '.') {
+            int d = 0;
+            while (++j < body.size() && std::isdigit(static_cast<unsigned char>(body[j])) != 0) ++d;
+            most = std::max(most, d);
+        }
+    }
+    return most;
+}
+
+// A word that changes what a job's coordinates mean, or names a machine calbox does not
+// compensate: why it is refused, or "".
+bool is_lathe_word(const Code& c) {
+    return c.is(7) || c.is(8) || c.is(76) || (c.number >= 70 && c.number <= 72 && c.subcode < 0);
+}
+
+std::string refused_word(const Code& c, const gcode::Line& line) {
+    if (is_lathe_word(c))
+        return "a lathe job (" + c.text() +
+               "): calbox compensates mills, routers, lasers and printers, not lathes";
+    if (c.number == 41 || c.number == 42)
+        return "cutter radius compensation (" + c.text() +
+               "): the cutter's path is not in the file; have the CAM write the compensated path";
+    if (c.number == 90 && c.subcode == 1)
+        return "absolute arc centres (G90.1): have the CAM write I J K relative";
+    if (c.is(52)) return "a local offset (G52): have the CAM write the job in one work system";
+    if (c.is(68)) return "coordinate rotation (G68): have the CAM write the rotated job";
+    if (c.is(51)) return "scaling (G51): have the CAM write the scaled job";
+    if (c.number == 5 && (c.subcode < 0 || c.subcode <= 3))
+        return "a spline (" + c.text() + "): have the CAM write arcs or lines";
+    if (c.number == 43 && c.subcode >= 1 && (line.has('X') || line.has('Y')))
+        return "a tool offset in X or Y (" + c.text() + "): the tool's place is not in the file";
+    if (c.number == 33 && (line.has('X') || line.has('Y')))
+        return "a spindle-synchronised move in X or Y (" + c.text() + "): threading on a lathe";
     return {};
 }
 
-}  // namespace
+class Compensator {
+  public:
+    Compensator(const MachineCorrection& correction, const JobFrame& frame,
+                const CompensateSettings& settings, CompensateReport& report)
+        : correction_(correction), frame_(frame), settings_(settings), report_(report) {
+        m_.work_zero_mm = frame.work_zero_mm;
+    }
 
-std::string compensate_gcode(std::string_view job, const Correction& correct, const Covers& covers,
-                             const CompensateSettings& settings, CompensateReport& report) {
-    if (!(settings.max_segment_mm > 0) || !(settings.arc_tolerance_mm > 0))
-        throw CompensateError("the segment length and arc tolerance must be positive");
-    Writer writer(correct, covers, report);
-    Modal m;
-    Numbering numbering;
-    std::string out;
-    std::size_t start = 0;
-    long number_of_line = 0;
-    while (start <= job.size()) {
-        const auto end = job.find('\n', start);
-        const bool last = end == std::string_view::npos;
-        std::string_view raw = job.substr(start, last ? std::string_view::npos : end - start);
-        start = last ? job.size() + 1 : end + 1;
-        if (last && raw.empty()) break;
-        ++number_of_line;
-        ++report.lines;
-        const auto fail = [&](const std::string& why) -> CompensateError {
-            return CompensateError("line " + std::to_string(number_of_line) + ": " + why);
-        };
-        if (raw.size() > kLongestLine)
-            throw CompensateError("line " + std::to_string(number_of_line) + " is " +
-                                  std::to_string(raw.size()) +
-                                  " characters long: not G-code (a line holds at most " +
-                                  std::to_string(kLongestLine) + ")");
-        gcode::Line line;
-        std::vector<Code> codes;
-        try {
-            if (const auto why = unplain_words(raw); !why.empty()) throw fail(why);
-            line = gcode::parse_line(raw);
-            codes = g_codes_of(line);
-        } catch (const gcode::SyntaxError& e) {
-            throw fail(e.what());
-        }
-        const bool numbered = line.line_number.has_value();
-        const bool checksummed = gcode::without_checksum(raw).size() != raw.size();
-        if (numbered) numbering.saw(*line.line_number);
-        const auto emit = [&](const std::string& text) {
-            out += numbered ? numbering.line(text, checksummed) : text;
-            out += '\n';
-        };
-        const auto verbatim = [&] {
-            if (numbered) {
-                emit(body_of(raw));
-            } else {
-                out += raw;
-                out += '\n';
+    std::string run(std::string_view job) {
+        std::vector<std::pair<std::string, long>> lines;
+        if (gcode::uses_ngc_language(job)) {
+            report_.ran_program = true;
+            try {
+                for (auto& l : gcode::run_ngc_program(job, settings_.program))
+                    lines.emplace_back(std::move(l.text), l.source_line);
+            } catch (const gcode::ProgramError& e) {
+                throw CompensateError(e.what());
             }
-        };
-        // G92, G28 / G30, G4, G53 and probing take axis words that are not a move.
-        bool axis_words_not_a_move = false;
-        std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move
+        } else {
+            std::size_t start = 0;
+            long number = 0;
+            while (start <= job.size()) {
+                const auto end = job.find('\n', start);
+                const bool last = end == std::string_view::npos;
+                const std::string_view raw =
+                    job.substr(start, last ? std::string_view::npos : end - start);
+                start = last ? job.size() + 1 : end + 1;
+                if (last && raw.empty()) break;
+                ++number;
+                if (raw.size() > kLongestLine)
+                    throw CompensateError("line " + std::to_string(number) + " is " +
+                                          std::to_string(raw.size()) +
+                                          " characters long: not G-code (a line holds at most " +
+                                          std::to_string(kLongestLine) + ")");
+                lines.emplace_back(std::string(raw), number);
+            }
+        }
+        // A lathe job is refused as one, wherever its first lathe word stands; and the file's
+        // written precision is the most decimals its coordinates carry.
+        int decimals = 0;
+        for (const auto& [raw, number] : lines) {
+            decimals = std::max(decimals, written_decimals(raw, "XYZIJKR"));
+            gcode::Line parsed;
+            try {
+                std::string text = raw;
+                take_polar_words(text);
+                parsed = gcode::parse_line(text);
+                for (const Code c : g_codes_of(parsed))
+                    if (is_lathe_word(c)) {
+                        line_number_ = number;
+                        throw fail(refused_word(c, parsed));
+                    }
+            } catch (const gcode::SyntaxError&) {
+                continue;  // named where the line is read
+            }
+        }
+        written_precision_ = std::pow(10.0, -std::min(decimals, 6));
+        for (auto& [raw, number] : lines) {
+            ++report_.lines;
+            line_number_ = number;
+            line(raw);
+        }
+        return std::move(out_);
+    }
+
+  private:
+    CompensateError fail(const std::string& why) const {
+        return CompensateError("line " + std::to_string(line_number_) + ": " + why);
+    }
+
+    // A point in the job's frame and units as the machine's, and back.
+    Point2 offset_or_fail(const char* doing) const {
+        const auto offset = m_.offset_mm();
+        if (!offset) {
+            static const char* names[] = {"G54", "G55", "G56", "G57", "G58",
+                                          "G59", "G59.1", "G59.2", "G59.3"};
+            const std::string name = names[m_.work_system];
+            throw fail(std::string(doing) + " in " + name +
+                       ", whose zero the controller holds and the file does not set: give it "
+                       "(calbox compensate --work-zero " +
+                       name + "=X,Y, machine coordinates) or set it in the job (G10 L2)");
+        }
+        return *offset;
+    }
+    Point2 machine_of(Point2 job, Point2 offset) const {
+        return {job.x * m_.unit_mm + offset.x, job.y * m_.unit_mm + offset.y};
+    }
+    Point2 job_of(Point2 machine, Point2 offset) const {
+        return {(machine.x - offset.x) / m_.unit_mm, (machine.y - offset.y) / m_.unit_mm};
+    }
+
+    // Whatever changes the job's frame (units, work system, offsets) keeps the written
+    // position where it is on the machine.
+    template <typename Change>
+    void reframe(const Change& change) {
+        const auto before = m_.offset_mm();
+        const Point2 at = before ? machine_of(m_.written_xy, *before) : Point2{};
+        change();
+        if (const auto after = m_.offset_mm(); before && after) m_.written_xy = job_of(at, *after);
+    }
+
+    void inside_travel(Point2 p, Point2 offset) const {
+        if (frame_.travel_mm.contains(p)) return;
+        const Point2 job = job_of(p, offset);
+        const auto& t = frame_.travel_mm;
+        throw fail("the point X" + number(job.x, 4) + " Y" + number(job.y, 4) +
+                   " is at machine X" + number(p.x, 3) + " Y" + number(p.y, 3) +
+                   " mm, beyond the machine's travel (X " + number(t.min_x_mm, 3) + ".." +
+                   number(t.max_x_mm, 3) + ", Y " + number(t.min_y_mm, 3) + ".." +
+                   number(t.max_y_mm, 3) +
+                   " mm): check the job's work zero, or the travel in the machine file");
+    }
+
+    // Where to command for the tool to land on machine point `p`: the correction inside the
+    // measured area, and its edge's correction beyond it.
+    Point2 corrected(Point2 p) {
+        const auto& area = correction_.measured_mm;
+        if (area.contains(p)) return correction_.correct(p);
+        const Point2 q = area.nearest(p);
+        const Point2 c = correction_.correct(q);
+        ++report_.held;
+        report_.held_farthest_mm =
+            std::max(report_.held_farthest_mm, std::hypot(p.x - q.x, p.y - q.y));
+        return {p.x + c.x - q.x, p.y + c.y - q.y};
+    }
+
+    void emit(const std::string& text) {
+        out_ += numbered_ ? numbering_.line(text, checksummed_) : text;
+        out_ += '\n';
+    }
+    void verbatim(std::string_view raw) {
+        if (numbered_) {
+            emit(body_of(raw));
+        } else {
+            out_ += raw;
+            out_ += '\n';
+        }
+    }
+
+    // The end of an XY move on the machine: X Y words (or polar words) in the job's frame.
+    Point2 end_of(const gcode::Line& line, const Polar& polar, Point2 offset) const {
+        const Point2 from = m_.xy_mm;
+        if (polar.any()) {
+            const Point2 now = job_of(from, offset);
+            const double r_now = std::hypot(now.x, now.y);
+            const double a_now = std::atan2(now.y, now.x) * 180 / kPi;
+            const double r = m_.absolute ? polar.distance.value_or(r_now)
+                                         : r_now + polar.distance.value_or(0);
+            const double a = (m_.absolute ? polar.angle_deg.value_or(a_now)
+                                          : a_now + polar.angle_deg.value_or(0)) *
+                             kPi / 180;
+            return machine_of({r * std::cos(a), r * std::sin(a)}, offset);
+        }
+        Point2 to = from;
+        if (auto x = line.value('X'))
+            to.x = m_.absolute ? *x * m_.unit_mm + offset.x : from.x + *x * m_.unit_mm;
+        if (auto y = line.value('Y'))
+            to.y = m_.absolute ? *y * m_.unit_mm + offset.y : from.y + *y * m_.unit_mm;
+        return to;
+    }
+
+    // X Y of a corrected machine point as the job writes them (absolute, or relative to what
+    // was written last), the written position moved on.
+    std::string xy_words(Point2 corrected_mm, Point2 offset, int decimals) {
+        const Point2 job_xy = job_of(corrected_mm, offset);
+        if (m_.absolute) {
+            m_.written_xy = job_xy;
+            return " X" + number(job_xy.x, decimals) + " Y" + number(job_xy.y, decimals);
+        }
+        const double dx = std::stod(number(job_xy.x - m_.written_xy.x, decimals));
+        const double dy = std::stod(number(job_xy.y - m_.written_xy.y, decimals));
+        m_.written_xy = {m_.written_xy.x + dx, m_.written_xy.y + dy};
+        return " X" + number(dx, decimals) + " Y" + number(dy, decimals);
+    }
+    int decimals() const { return m_.unit_mm > 1 ? 5 : 4; }  // a tenth of a micron either way
+
+    void work_offsets(const gcode::Line& line) {
+        const auto l = line.value('L');
+        const bool printer = frame_.flavour == Flavour::printer;
+        if (!l) {
+            if (printer) {
+                // Marlin, RepRapFirmware and Klipper: firmware retraction. RepRapFirmware's
+                // G10 P sets a tool's offsets or temperatures; offsets move the tool in XY.
+                if (line.has('P') && (line.has('X') || line.has('Y')))
+                    throw fail("G10 P with X or Y sets a tool's offset in the controller: the "
+                               "tool's place is not in the file");
+                return;
+            }
+            throw fail("G10 without L: set a work offset with G10 L2 or G10 L20");
+        }
+        if (*l == 1 || *l == 10 || *l == 11) return;  // the tool table: lengths, not XY
+        if (*l != 2 && *l != 20)
+            throw fail("G10 L" + number(*l, 3) + ": calbox tracks work offsets set by L2 and L20");
+        if (line.value('R').value_or(0) != 0)
+            throw fail("G10 with R rotates a work system: have the CAM write the rotated job");
+        const double p = line.value('P').value_or(0);
+        if (!(p >= 0 && p <= 9 && p == std::floor(p)))
+            throw fail("G10 L" + number(*l, 0) + " P" + number(p, 3) +
+                       ": P is 0 (the system in use) or 1 to 9 (G54 to G59.3)");
+        const std::size_t system =
+            p == 0 ? m_.work_system : static_cast<std::size_t>(p) - 1;
+        const auto x = line.value('X'), y = line.value('Y');
+        if (!x && !y) return;
+        reframe([&] {
+            auto& zero = m_.work_zero_mm[system];
+            if (*l == 2) {
+                // Machine coordinates of the system's zero (G91 has no effect on L2).
+                if ((!x || !y) && !zero)
+                    throw fail("G10 L2 sets one axis of a work system whose zero is not known");
+                Point2 z = zero.value_or(Point2{});
+                if (x) z.x = *x * m_.unit_mm;
+                if (y) z.y = *y * m_.unit_mm;
+                zero = z;
+            } else {
+                // The zero that makes the current position read X Y in that system.
+                if (!m_.xy_known)
+                    throw fail("G10 L20 before the position is known (after G28 or at the "
+                               "start)");
+                if ((!x || !y) && !zero)
+                    throw fail("G10 L20 sets one axis of a work system whose zero is not known");
+                Point2 z = zero.value_or(Point2{});
+                if (x) z.x = m_.xy_mm.x - m_.g92_offset_mm.x - *x * m_.unit_mm;
+                if (y) z.y = m_.xy_mm.y - m_.g92_offset_mm.y - *y * m_.unit_mm;
+                zero = z;
+            }
+        });
+    }
+
+    // The G words of a line that set the controller's state (not motion); `not_a_move` when
+    // the line's axis words are not a move.
+    void state_words(const gcode::Line& line, const std::vector<Code>& codes, bool& not_a_move,
+                     std::vector<Code>& kept_codes) {
         for (const Code c : codes) {
-            if (c.is_motion()) {
-                m.motion = c.number;
+            if (const auto why = refused_word(c, line); !why.empty()) throw fail(why);
+            if (c.is_motion() || (c.subcode < 0 && is_cycle(c.number))) {
+                if (is_cycle(c.number) && !is_cycle(m_.motion)) m_.cycle_start_z_mm = m_.z_mm;
+                m_.motion = c.number;
                 continue;
             }
             kept_codes.push_back(c);
-            if (c.is(20)) {
-                m.unit_mm = 25.4;
-            } else if (c.is(21)) {
-                m.unit_mm = 1;
+            if (c.is(20) || c.is(21)) {
+                reframe([&] { m_.unit_mm = c.is(20) ? 25.4 : 1; });
             } else if (c.is(90)) {
-                m.absolute = true;
+                m_.absolute = true;
             } else if (c.is(91)) {
-                m.absolute = false;
-            } else if (c.number == 90 && c.subcode == 1) {
-                throw fail("absolute arc centres (G90.1): have the CAM write I J K relative");
+                m_.absolute = false;
             } else if (c.is(17) || c.is(18) || c.is(19)) {
-                m.plane = c.number;
+                m_.plane = c.number;
             } else if (c.is(80)) {
-                m.motion = -1;
-            } else if (c.number == 41 || c.number == 42) {
-                throw fail("cutter radius compensation (" + c.text() +
-                           "): the cutter's path is not in the file; have the CAM write the "
-                           "compensated path");
-            } else if (c.is(73) || c.is(76) || (c.number >= 81 && c.number <= 89)) {
-                throw fail("canned cycle " + c.text() +
-                           ": have the CAM post-processor expand cycles into moves");
-            } else if (c.number >= 55 && c.number <= 59) {
-                throw fail("work offset " + c.text() +
-                           " is held by the controller, not the file: calbox compensates jobs in "
-                           "G54, the frame it measured");
+                m_.motion = -1;
+            } else if (c.is(98) || c.is(99)) {
+                m_.retract_to_r = c.is(99);
+            } else if ((c.number >= 54 && c.number <= 58 && c.subcode < 0) ||
+                       (c.number == 59 && c.subcode <= 3)) {
+                const std::size_t system = c.number == 59 && c.subcode > 0
+                                               ? static_cast<std::size_t>(5 + c.subcode)
+                                               : static_cast<std::size_t>(c.number - 54);
+                reframe([&] { m_.work_system = system; });
             } else if (c.is(10)) {
-                throw fail("G10 sets offsets in the controller: not in a compensated job");
+                not_a_move = true;
+                work_offsets(line);
+            } else if (c.is(11)) {
+                not_a_move = true;
             } else if (c.is(53)) {
-                if (line.has('X') || line.has('Y'))
-                    throw fail(
-                        "a move in machine coordinates (G53) with X or Y: their place "
-                        "against the job's is not in the file");
-                axis_words_not_a_move = true;
+                // Machine coordinates for this line: the controller's own places (parking,
+                // tool change), passed as written.
+                machine_move_ = line.has('X') || line.has('Y');
             } else if (c.is(92)) {
-                axis_words_not_a_move = true;
+                not_a_move = true;
                 if (line.has('X') || line.has('Y')) {
-                    if (!m.xy_known) throw fail("G92 with X or Y before the position is known");
-                    if (auto x = line.value('X')) {
-                        m.g92_offset_mm.x = m.xy_mm.x - *x * m.unit_mm;
-                        m.written_xy.x = *x;
-                    }
-                    if (auto y = line.value('Y')) {
-                        m.g92_offset_mm.y = m.xy_mm.y - *y * m.unit_mm;
-                        m.written_xy.y = *y;
-                    }
+                    if (!m_.xy_known) throw fail("G92 with X or Y before the position is known");
+                    offset_or_fail("G92");
+                    const Point2 zero = *m_.work_zero_mm[m_.work_system];
+                    reframe([&] {
+                        if (auto x = line.value('X'))
+                            m_.g92_offset_mm.x = m_.xy_mm.x - zero.x - *x * m_.unit_mm;
+                        if (auto y = line.value('Y'))
+                            m_.g92_offset_mm.y = m_.xy_mm.y - zero.y - *y * m_.unit_mm;
+                    });
                 }
-                if (auto e = line.value('E')) m.e = *e;
-                if (auto z = line.value('Z')) m.z_mm = *z * m.unit_mm, m.written_z = *z;
+                if (auto e = line.value('E')) m_.e = *e;
+                if (auto z = line.value('Z')) m_.z_mm = *z * m_.unit_mm, m_.written_z = *z;
             } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2)) {
-                axis_words_not_a_move = true;
-                m.written_xy = {m.written_xy.x + m.g92_offset_mm.x / m.unit_mm,
-                                m.written_xy.y + m.g92_offset_mm.y / m.unit_mm};
-                m.g92_offset_mm = {};
+                not_a_move = true;
+                reframe([&] { m_.g92_offset_mm = {}; });
             } else if (c.number == 92) {
                 throw fail("G92.3 restores an offset the file did not set");
             } else if (c.is(28) || c.is(30)) {
-                axis_words_not_a_move = true;
-                m.xy_known = false, m.z_mm.reset(), m.written_z.reset();
+                not_a_move = true;
+                m_.xy_known = false, m_.z_mm.reset(), m_.written_z.reset();
             } else if (c.is(4)) {
-                axis_words_not_a_move = true;
+                not_a_move = true;
             } else if (c.number == 38) {
                 if (line.has('X') || line.has('Y'))
                     throw fail("a probing move (" + c.text() +
                                ") with X or Y: where it stops is not known");
-                axis_words_not_a_move = true;
+                not_a_move = true;
             }
         }
-        if (has_m(line, 82)) m.absolute_e = true;
-        if (has_m(line, 83)) m.absolute_e = false;
+    }
 
-        const bool axes = line.has('X') || line.has('Y') || line.has('Z');
-        const bool arc_words = line.has('I') || line.has('J') || line.has('K') || line.has('R');
-        const bool commanded_motion =
-            std::any_of(codes.begin(), codes.end(), [](Code c) { return c.is_motion(); });
-        const bool is_arc_mode = m.motion == 2 || m.motion == 3;
-        const bool moves = !axis_words_not_a_move && m.motion >= 0 && line.command_letter != 'M' &&
-                           line.command_letter != 'T' &&
+    void line(std::string raw) {
+        gcode::Line line;
+        std::vector<Code> codes;
+        Polar polar;
+        std::string parsed = raw;
+        try {
+            polar = take_polar_words(parsed);
+            line = gcode::parse_line(parsed);
+            codes = g_codes_of(line);
+        } catch (const gcode::SyntaxError& e) {
+            throw fail(e.what());
+        }
+        numbered_ = line.line_number.has_value();
+        checksummed_ = gcode::without_checksum(raw).size() != raw.size();
+        if (numbered_) numbering_.saw(*line.line_number);
+        bool not_a_move = false;
+        machine_move_ = false;
+        std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move
+        state_words(line, codes, not_a_move, kept_codes);
+        if (has_m(line, 82)) m_.absolute_e = true;
+        if (has_m(line, 83)) m_.absolute_e = false;
+
+        const bool axes = line.has('X') || line.has('Y') || line.has('Z') || polar.any();
+        const bool commanded_motion = std::any_of(codes.begin(), codes.end(), [](Code c) {
+            return c.is_motion() || (c.subcode < 0 && is_cycle(c.number));
+        });
+        const bool not_a_command = line.command_letter == 'M' || line.command_letter == 'T';
+        if (machine_move_) return machine_move(raw, line);
+        if (!not_a_move && !not_a_command && is_cycle(m_.motion) &&
+            (axes || line.has('R') || commanded_motion))
+            return cycle(raw, line, polar, kept_codes);
+        const bool arc_words =
+            line.has('I') || line.has('J') || line.has('K') || line.has('R');
+        const bool is_arc_mode = m_.motion == 2 || m_.motion == 3;
+        const bool moves = !not_a_move && m_.motion >= 0 && m_.motion <= 3 && !not_a_command &&
                            (axes || (is_arc_mode && (arc_words || commanded_motion)));
-        const bool moves_xy = moves && (is_arc_mode || line.has('X') || line.has('Y'));
+        const bool moves_xy =
+            moves && (is_arc_mode || line.has('X') || line.has('Y') || polar.any());
         if (!moves_xy) {
+            if (polar.any())
+                throw fail("polar words ('@', '^') where no move takes them");
             if (moves && line.has('Z')) {
                 if (auto z = line.value('Z')) {
-                    m.z_mm = m.absolute ? *z * m.unit_mm : m.z_mm.value_or(0) + *z * m.unit_mm;
-                    m.written_z = m.absolute ? *z : m.written_z.value_or(0) + *z;
+                    m_.z_mm = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
+                    m_.written_z = m_.absolute ? *z : m_.written_z.value_or(0) + *z;
                 }
             }
             if (moves && line.has('E')) {
-                if (auto e = line.value('E')) m.e = m.absolute_e ? *e : m.e + *e;
+                if (auto e = line.value('E')) m_.e = m_.absolute_e ? *e : m_.e + *e;
             }
-            verbatim();
-            continue;
+            verbatim(raw);
+            return;
         }
+        move(raw, line, polar, kept_codes, is_arc_mode);
+    }
+
+    void machine_move(const std::string& raw, const gcode::Line& line) {
+        if (!m_.absolute) throw fail("G53 in incremental mode (G91): LinuxCNC refuses it too");
+        Point2 to = m_.xy_mm;
+        if (!m_.xy_known && !(line.has('X') && line.has('Y'))) {
+            verbatim(raw);  // one axis of a place the file does not give: still unknown
+            m_.xy_known = false;
+            return;
+        }
+        if (auto x = line.value('X')) to.x = *x * m_.unit_mm;
+        if (auto y = line.value('Y')) to.y = *y * m_.unit_mm;
+        if (!frame_.travel_mm.contains(to))
+            throw fail("the machine-coordinate move (G53) to X" + number(to.x, 3) + " Y" +
+                       number(to.y, 3) + " mm is beyond the machine's travel");
+        if (auto z = line.value('Z')) {
+            // G53's Z is the machine's, not the job's: the job's height is not known after it.
+            (void)z;
+            m_.z_mm.reset();
+            m_.written_z.reset();
+        }
+        reframe([&] {
+            m_.xy_mm = to;
+            m_.xy_known = true;
+        });
+        if (const auto offset = m_.offset_mm()) m_.written_xy = job_of(to, *offset);
+        verbatim(raw);
+    }
+
+    void move(const std::string& raw, const gcode::Line& line, const Polar& polar,
+              const std::vector<Code>& kept_codes, bool is_arc_mode) {
         if (line.block_delete)
             throw fail("a move under block delete ('/'): whether it runs is the operator's switch");
-        if (!m.xy_known && !(m.absolute && line.has('X') && line.has('Y')))
+        if (!m_.xy_known && !(m_.absolute && line.has('X') && line.has('Y') && !polar.any()))
             throw fail(
                 "a move that gives one axis where the other's position is unknown (after G28 or at "
                 "the start)");
-        // The move's end on the calibrated frame, in mm.
-        const Point2 from = m.xy_mm;
-        Point2 to = from;
-        if (auto x = line.value('X'))
-            to.x = m.absolute ? *x * m.unit_mm + m.g92_offset_mm.x : from.x + *x * m.unit_mm;
-        if (auto y = line.value('Y'))
-            to.y = m.absolute ? *y * m.unit_mm + m.g92_offset_mm.y : from.y + *y * m.unit_mm;
-        const std::optional<double> z_from = m.z_mm;
-        std::optional<double> z_to = m.z_mm;
+        const Point2 offset = offset_or_fail("a move");
+        const Point2 from = m_.xy_mm;
+        const Point2 to = end_of(line, polar, offset);
+        const std::optional<double> z_from = m_.z_mm;
+        std::optional<double> z_to = m_.z_mm;
         if (auto z = line.value('Z'))
-            z_to = m.absolute ? *z * m.unit_mm : m.z_mm.value_or(0) + *z * m.unit_mm;
+            z_to = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
         const std::optional<double> e_word = line.value('E');
+        const double r_tolerance_mm = written_precision_ * m_.unit_mm;
+        const auto failing = [this](const std::string& why) { return fail(why); };
         const std::vector<PathPoint> path =
-            is_arc_mode ? arc_path(line, m, from, to, z_from, z_to, settings, fail)
-                        : line_path(m.xy_known, from, to, z_from, z_to, settings);
-        if (is_arc_mode) ++report.arcs;
-        ++report.moves;
-        const bool moves_z = z_to.has_value() && (line.has('Z') || (is_arc_mode && m.plane != 17));
-        const std::string command = m.motion == 0 ? "G0" : "G1";
-        // A tenth of a micron either way: 4 decimals of a mm, 5 of an inch.
-        const int decimals = m.unit_mm > 1 ? 5 : 4;
-        const double e_from = m.e;
-        const double e_total = e_word ? (m.absolute_e ? *e_word - m.e : *e_word) : 0;
+            is_arc_mode
+                ? arc_path(line, m_, from, to, z_from, z_to, settings_, r_tolerance_mm, failing)
+                : line_path(m_.xy_known, from, to, z_from, z_to, settings_);
+        for (const auto& p : path) inside_travel(p.xy, offset);
+        if (is_arc_mode) ++report_.arcs;
+        ++report_.moves;
+        const bool moves_z = z_to.has_value() && (line.has('Z') || (is_arc_mode && m_.plane != 17));
+        const std::string command = m_.motion == 0 ? "G0" : "G1";
+        const double e_from = m_.e;
+        const double e_total = e_word ? (m_.absolute_e ? *e_word - m_.e : *e_word) : 0;
         const std::size_t n = path.size();
         for (std::size_t k = 0; k < n; ++k) {
             const double share = static_cast<double>(k + 1) / static_cast<double>(n);
-            const Point2 c = writer.corrected(path[k].xy);
-            // Back to the job's frame and units.
-            const Point2 job_xy{(c.x - m.g92_offset_mm.x) / m.unit_mm,
-                                (c.y - m.g92_offset_mm.y) / m.unit_mm};
+            const Point2 c = corrected(path[k].xy);
             std::string text;
             if (k == 0)
                 for (const Code code : kept_codes) text += code.text() + " ";
             text += command;
-            if (m.absolute) {
-                text += " X" + number(job_xy.x, decimals) + " Y" + number(job_xy.y, decimals);
-                m.written_xy = job_xy;
-            } else {
-                const double dx = std::stod(number(job_xy.x - m.written_xy.x, decimals));
-                const double dy = std::stod(number(job_xy.y - m.written_xy.y, decimals));
-                text += " X" + number(dx, decimals) + " Y" + number(dy, decimals);
-                m.written_xy = {m.written_xy.x + dx, m.written_xy.y + dy};
-            }
-            if (moves_z && path[k].z_mm) {
-                const double z_job = *path[k].z_mm / m.unit_mm;
-                if (m.absolute || !m.written_z) {
-                    text += " Z" + number(z_job, decimals);
-                    m.written_z = z_job;
-                } else {
-                    const double dz = std::stod(number(z_job - *m.written_z, decimals));
-                    text += " Z" + number(dz, decimals);
-                    *m.written_z += dz;
-                }
-            }
+            text += xy_words(c, offset, decimals());
+            if (moves_z && path[k].z_mm) text += z_word(*path[k].z_mm);
             if (e_word) {
-                text += " E" + number(m.absolute_e ? e_from + e_total * share
-                                                   : e_total / static_cast<double>(n),
+                text += " E" + number(m_.absolute_e ? e_from + e_total * share
+                                                    : e_total / static_cast<double>(n),
                                       5);
             }
-            if (k == 0) {
-                for (const auto& w : line.parameters) {
-                    if (std::string_view("XYZEIJKRG").find(w.letter) != std::string_view::npos)
-                        continue;
-                    text += ' ';
-                    text += w.letter;
-                    if (w.value) text += number(*w.value, 6);
+            if (k == 0) text += other_words(line, "XYZEIJKRG");
+            if (k + 1 == n) text += trailing_comment(raw);
+            emit(text);
+            ++report_.pieces;
+        }
+        m_.xy_mm = to;
+        m_.xy_known = true;
+        m_.z_mm = z_to;
+        if (e_word) m_.e = m_.absolute_e ? *e_word : m_.e + *e_word;
+    }
+
+    std::string z_word(double z_mm) {
+        const double z_job = z_mm / m_.unit_mm;
+        if (m_.absolute || !m_.written_z) {
+            m_.written_z = z_job;
+            return " Z" + number(z_job, decimals());
+        }
+        const double dz = std::stod(number(z_job - *m_.written_z, decimals()));
+        *m_.written_z += dz;
+        return " Z" + number(dz, decimals());
+    }
+
+    static std::string other_words(const gcode::Line& line, std::string_view left_out) {
+        std::string text;
+        for (const auto& w : line.parameters) {
+            if (left_out.find(w.letter) != std::string_view::npos) continue;
+            text += ' ';
+            text += w.letter;
+            if (w.value) text += number(*w.value, 6);
+        }
+        return text;
+    }
+    static std::string trailing_comment(const std::string& raw) {
+        const std::string comment = comment_of(gcode::without_checksum(raw));
+        return comment.empty() ? std::string() : " " + comment;
+    }
+
+    // A canned cycle's block: each hole (L repeats of it) placed through the correction; the
+    // cycle kept for LinuxCNC, written out as moves for controllers without cycles.
+    void cycle(const std::string& raw, const gcode::Line& line, const Polar& polar,
+               const std::vector<Code>& kept_codes) {
+        if (line.block_delete)
+            throw fail("a drilling cycle under block delete ('/'): whether it runs is the "
+                       "operator's switch");
+        if (m_.plane != 17)
+            throw fail("a drilling cycle in the XZ or YZ plane (G18, G19): holes along X or Y");
+        if (auto r = line.value('R')) m_.cycle_r = *r;
+        if (auto z = line.value('Z')) m_.cycle_z = *z;
+        if (auto q = line.value('Q')) m_.cycle_q = *q;
+        if (auto p = line.value('P')) m_.cycle_p = *p;
+        const Code code{m_.motion, -1};
+        if (!m_.cycle_r || !m_.cycle_z)
+            throw fail("canned cycle " + code.text() + " without its R or Z (retract plane and "
+                       "bottom of the hole)");
+        const double repeats = line.value('L').value_or(1);
+        if (!(repeats >= 0 && repeats <= 10000 && repeats == std::floor(repeats)))
+            throw fail("canned cycle " + code.text() + " L" + number(repeats, 3) +
+                       ": L repeats a hole 0 to 10000 times");
+        const bool keep = frame_.flavour == Flavour::linuxcnc;
+        if (!keep && !m_.absolute)
+            throw fail("canned cycle " + code.text() +
+                       " in incremental mode (G91): this controller has no cycles and calbox "
+                       "writes them out in absolute coordinates only; have the CAM write G90");
+        if (!m_.xy_known && !(m_.absolute && line.has('X') && line.has('Y') && !polar.any()))
+            throw fail("a drilling cycle where the position is unknown (after G28 or at the start)");
+        const Point2 offset = offset_or_fail("a drilling cycle");
+        for (long k = 0; k < static_cast<long>(repeats); ++k) {
+            const Point2 hole = end_of(line, polar, offset);
+            inside_travel(hole, offset);
+            const Point2 c = corrected(hole);
+            // The planes in the job's frame, mm: G91 takes R from the height now, Z from R.
+            const std::optional<double> z_now = m_.z_mm;
+            std::optional<double> r_mm, bottom_mm;
+            if (m_.absolute) {
+                r_mm = *m_.cycle_r * m_.unit_mm;
+                bottom_mm = *m_.cycle_z * m_.unit_mm;
+            } else if (z_now) {
+                r_mm = *z_now + *m_.cycle_r * m_.unit_mm;
+                bottom_mm = *r_mm + *m_.cycle_z * m_.unit_mm;
+            }
+            std::optional<double> clear_mm = r_mm;
+            if (!m_.retract_to_r)
+                clear_mm = m_.cycle_start_z_mm && r_mm
+                               ? std::optional<double>(std::max(*m_.cycle_start_z_mm, *r_mm))
+                               : std::nullopt;
+            if (keep) {
+                std::string text;
+                if (k == 0)
+                    for (const Code kc : kept_codes) text += kc.text() + " ";
+                text += code.text();
+                text += xy_words(c, offset, decimals());
+                std::string others = other_words(line, "XYRLG");
+                if (!m_.absolute && k > 0) {
+                    // Each repeat starts where the last left the tool: R again from there.
+                    if (!r_mm || !z_now)
+                        throw fail("repeats (L) of an incremental cycle from an unknown height");
+                    text += " R" + number((*first_r_mm_ - *z_now) / m_.unit_mm, decimals());
+                } else if (line.has('R')) {
+                    text += " R" + number(*line.value('R'), 6);
+                }
+                if (k == 0) {
+                    if (!m_.absolute) first_r_mm_ = r_mm;
+                    text += others;
+                } else {
+                    text += other_words(line, "XYRLGF");
+                }
+                if (k + 1 == static_cast<long>(repeats)) text += trailing_comment(raw);
+                emit(text);
+            } else {
+                written_out_cycle(c, offset, *r_mm, *bottom_mm, clear_mm, line, kept_codes, k == 0);
+                if (k + 1 == static_cast<long>(repeats)) {
+                    const std::string comment = comment_of(gcode::without_checksum(raw));
+                    if (!comment.empty()) emit(comment);
                 }
             }
-            if (k + 1 == n) {
-                const std::string comment = comment_of(gcode::without_checksum(raw));
-                if (!comment.empty()) text += " " + comment;
-            }
-            emit(text);
-            ++report.pieces;
+            ++report_.holes;
+            ++report_.pieces;
+            m_.xy_mm = hole;
+            m_.xy_known = true;
+            m_.z_mm = clear_mm;
+            m_.written_z.reset();
         }
-        m.xy_mm = to;
-        m.xy_known = true;
-        m.z_mm = z_to;
-        if (e_word) m.e = m.absolute_e ? *e_word : m.e + *e_word;
+        if (repeats == 0) verbatim(raw);
     }
-    return out;
+
+    // A hole as moves, for a controller without canned cycles (grbl, printers' firmware).
+    void written_out_cycle(Point2 c, Point2 offset, double r_mm, double bottom_mm,
+                           std::optional<double> clear_mm, const gcode::Line& line,
+                           const std::vector<Code>& kept_codes, bool first) {
+        const Code code{m_.motion, -1};
+        if (!clear_mm)
+            throw fail("canned cycle " + code.text() +
+                       " under G98 returns to the height before the cycles, which the file does "
+                       "not give: have the CAM write G99, or a Z move before it");
+        const int d = decimals();
+        const auto z = [&](double mm) { return " Z" + number(mm / m_.unit_mm, d); };
+        std::string head;
+        if (first)
+            for (const Code kc : kept_codes)
+                if (!kc.is(98) && !kc.is(99)) head += kc.text() + " ";
+        if (m_.z_mm && *m_.z_mm < r_mm) emit(head + "G0" + z(r_mm)), head.clear();
+        emit(head + "G0" + xy_words(c, offset, d));
+        emit("G0" + z(r_mm));
+        std::string feed;
+        if (auto f = line.value('F')) feed = " F" + number(*f, 6);
+        const auto down = [&](double to_mm) {
+            emit("G1" + z(to_mm) + feed);
+            feed.clear();
+        };
+        const double peck_clearance_mm = 0.254;  // LinuxCNC's: 0.010 inch
+        switch (m_.motion) {
+            case 81:
+                down(bottom_mm);
+                break;
+            case 82:
+            case 89:
+                down(bottom_mm);
+                emit("G4 P" + number(m_.cycle_p.value_or(0), 4));
+                if (m_.motion == 89) emit("G1" + z(r_mm));
+                break;
+            case 85:
+                down(bottom_mm);
+                emit("G1" + z(r_mm));
+                break;
+            case 73:
+            case 83: {
+                const double q_mm = m_.cycle_q.value_or(0) * m_.unit_mm;
+                if (!(q_mm > 0))
+                    throw fail("canned cycle " + code.text() + " needs a peck depth Q above 0");
+                double depth = r_mm;
+                while (depth > bottom_mm + 1e-9) {
+                    const double next = std::max(depth - q_mm, bottom_mm);
+                    if (depth < r_mm && m_.motion == 83) emit("G0" + z(depth + peck_clearance_mm));
+                    down(next);
+                    depth = next;
+                    if (depth > bottom_mm + 1e-9)
+                        emit("G0" + z(m_.motion == 83 ? r_mm : depth + peck_clearance_mm));
+                }
+                break;
+            }
+            default:
+                throw fail("canned cycle " + code.text() +
+                           " (tapping, boring with a spindle stop, back boring or a manual "
+                           "retract) on a controller without cycles: have the CAM write it out");
+        }
+        emit("G0" + z(*clear_mm));
+    }
+
+    const MachineCorrection& correction_;
+    const JobFrame& frame_;
+    const CompensateSettings& settings_;
+    CompensateReport& report_;
+    Modal m_;
+    Numbering numbering_;
+    std::string out_;
+    long line_number_ = 0;
+    bool numbered_ = false, checksummed_ = false, machine_move_ = false;
+    std::optional<double> first_r_mm_;
+    double written_precision_ = 1;  // the job's units: 0.001 for a file written to 3 decimals
+};
+
+}  // namespace
+
+Flavour flavour_of_firmware(std::string_view firmware) {
+    if (firmware == "marlin" || firmware == "rrf" || firmware == "klipper") return Flavour::printer;
+    if (firmware == "grbl") return Flavour::grbl;
+    if (firmware == "linuxcnc") return Flavour::linuxcnc;
+    throw CompensateError("no job flavour for firmware '" + std::string(firmware) + "'");
 }
 
-std::string compensate_scanner_csv(std::string_view job, const Correction& correct,
-                                   const Covers& covers, const CompensateSettings& settings,
+bool Area::contains(Point2 p) const {
+    const double slack = 1e-9;
+    return p.x >= min_x_mm - slack && p.x <= max_x_mm + slack && p.y >= min_y_mm - slack &&
+           p.y <= max_y_mm + slack;
+}
+
+Point2 Area::nearest(Point2 p) const {
+    return {std::clamp(p.x, min_x_mm, max_x_mm), std::clamp(p.y, min_y_mm, max_y_mm)};
+}
+
+std::string compensate_gcode(std::string_view job, const MachineCorrection& correction,
+                             const JobFrame& frame, const CompensateSettings& settings,
+                             CompensateReport& report) {
+    if (!(settings.max_segment_mm > 0) || !(settings.arc_tolerance_mm > 0))
+        throw CompensateError("the segment length and arc tolerance must be positive");
+    return Compensator(correction, frame, settings, report).run(job);
+}
+
+std::string compensate_scanner_csv(std::string_view job, const MachineCorrection& correction,
+                                   const JobFrame& frame, const CompensateSettings& settings,
                                    CompensateReport& report) {
     if (!(settings.max_segment_mm > 0))
         throw CompensateError("the segment length must be positive");
-    Writer writer(correct, covers, report);
+    if (!frame.work_zero_mm[0])
+        throw CompensateError("the scanner job's zero on the machine is not known");
+    const Point2 zero = *frame.work_zero_mm[0];
     std::istringstream in{std::string(job)};
     std::string raw, out;
     long number_of_line = 0;
@@ -548,7 +1059,11 @@ std::string compensate_scanner_csv(std::string_view job, const Correction& corre
             !std::isfinite(x) || !std::isfinite(y) || !(power >= 0 && power <= 1))
             throw CompensateError("line " + std::to_string(number_of_line) +
                                   ": expected x_mm,y_mm,power with power from 0 to 1");
-        const Point2 to{x, y};
+        const Point2 to{x + zero.x, y + zero.y};
+        if (!frame.travel_mm.contains(to))
+            throw CompensateError("line " + std::to_string(number_of_line) + ": the point " +
+                                  number(x, 4) + "," + number(y, 4) +
+                                  " is beyond the field the machine reaches");
         int pieces = 1;
         if (power > 0 && at) {
             pieces = std::max(1, static_cast<int>(std::ceil(std::hypot(to.x - at->x, to.y - at->y) /
@@ -559,14 +1074,66 @@ std::string compensate_scanner_csv(std::string_view job, const Correction& corre
             const Point2 p = k == pieces ? to
                                          : Point2{at->x + (to.x - at->x) * k / pieces,
                                                   at->y + (to.y - at->y) * k / pieces};
-            const Point2 c = writer.corrected(p);
-            std::snprintf(line, sizeof line, "%.4f,%.4f,%s\n", c.x, c.y, number(power, 3).c_str());
+            Point2 c;
+            if (correction.measured_mm.contains(p)) {
+                c = correction.correct(p);
+            } else {
+                const Point2 q = correction.measured_mm.nearest(p);
+                const Point2 cq = correction.correct(q);
+                c = {p.x + cq.x - q.x, p.y + cq.y - q.y};
+                ++report.held;
+                report.held_farthest_mm =
+                    std::max(report.held_farthest_mm, std::hypot(p.x - q.x, p.y - q.y));
+            }
+            std::snprintf(line, sizeof line, "%.4f,%.4f,%s\n", c.x - zero.x, c.y - zero.y,
+                          number(power, 3).c_str());
             out += line;
             ++report.pieces;
         }
         at = to;
     }
     if (number_of_line == 0) throw CompensateError("the scanner job is empty");
+    return out;
+}
+
+namespace {
+constexpr std::string_view kMarkStart = "calbox: compensated through result ";
+}  // namespace
+
+std::string compensated_mark(std::string_view result_digest, std::string_view date) {
+    std::string mark(kMarkStart);
+    mark += result_digest;
+    mark += " on ";
+    mark += date;
+    return mark;
+}
+
+std::string compensated_mark_in(std::string_view job) {
+    const auto at = job.find(kMarkStart);
+    if (at == std::string_view::npos) return {};
+    const auto end = job.find_first_of("\r\n)", at);
+    return std::string(job.substr(at, end == std::string_view::npos ? end : end - at));
+}
+
+std::string with_compensated_mark(std::string_view job, std::string_view mark) {
+    if (job.rfind("x_mm,y_mm,power", 0) == 0) {
+        const auto end = job.find('\n');
+        if (end == std::string_view::npos) return std::string(job) + "\n# " + std::string(mark) + "\n";
+        return std::string(job.substr(0, end + 1)) + "# " + std::string(mark) + "\n" +
+               std::string(job.substr(end + 1));
+    }
+    // A program's opening '%' stays its first line.
+    std::size_t first = 0;
+    const auto end = job.find('\n');
+    const std::string_view opening = job.substr(0, end);
+    if (opening.find_first_not_of(" \t\r") != std::string_view::npos &&
+        opening.substr(opening.find_first_not_of(" \t\r"), 1) == "%" &&
+        opening.find_first_not_of(" \t\r%") == std::string_view::npos)
+        first = end == std::string_view::npos ? job.size() : end + 1;
+    std::string out(job.substr(0, first));
+    if (first == job.size() && !out.empty() && out.back() != '\n') out += '\n';
+    out += "; " + std::string(mark) + "\n";
+    out += job.substr(first);
     return out;
 }
 

@@ -1,14 +1,20 @@
 #pragma once
-// Jobs compensated for a machine's measured error: every XY position a job commands goes through
-// a correction (X_c = correct(X)), moves are split so that the correction follows the error
-// field along them, and arcs become the straight moves that trace them. Everything else in the
-// job (other words, comments, blank lines) is kept as written.
+// Jobs compensated for a machine's measured error, where the machine really is: every XY position
+// a job commands is placed on the machine (its work zero and offsets applied), refused beyond the
+// travel, and goes through the correction (held at the measured area's edge beyond it); moves
+// are split so that the correction follows the error field along them, arcs become the straight
+// moves that trace them, canned cycles keep their holes. Everything else in the job (other
+// words, comments, blank lines) is kept as written.
+#include <array>
+#include <cstddef>
 #include <functional>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 
 #include "core/geometry/types.hpp"
+#include "core/targets/ngc_program.hpp"
 
 namespace calbox::targets {
 
@@ -17,12 +23,41 @@ class CompensateError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+// Which controller runs the job: what its words mean where controllers differ (G10, canned
+// cycles). Printers (Marlin, RepRapFirmware, Klipper) take G10 / G11 as firmware retraction;
+// grbl has no canned cycles, so the compensator writes them out as moves; LinuxCNC runs them.
+enum class Flavour { printer, grbl, linuxcnc };
+// The machine file's firmware ("marlin", "rrf", "klipper", "grbl", "linuxcnc"); throws
+// CompensateError for another.
+Flavour flavour_of_firmware(std::string_view firmware);
+
+// A rectangle of the machine's XY, in machine coordinates.
+struct Area {
+    double min_x_mm = -1e300, min_y_mm = -1e300, max_x_mm = 1e300, max_y_mm = 1e300;
+    bool contains(geometry::Point2 p) const;
+    geometry::Point2 nearest(geometry::Point2 p) const;  // p itself when inside
+};
+
+// The work coordinate systems a job may select: G54..G59, then LinuxCNC's G59.1..G59.3.
+constexpr std::size_t kWorkSystems = 9;
+
+// Where a job's points are on the machine: the machine coordinates of each work system's zero
+// that is known (a job that moves in one that is not is refused), and the machine's travel
+// (a point beyond it is refused).
+struct JobFrame {
+    Flavour flavour = Flavour::printer;
+    std::array<std::optional<geometry::Point2>, kWorkSystems> work_zero_mm{geometry::Point2{}};
+    Area travel_mm;
+};
+
 struct CompensateSettings {
     // Moves are split into pieces no longer than this, so that a correction that changes along
     // a move is followed within (piece length)^2 / 8 times its curvature.
     double max_segment_mm = 1.0;
     // Arcs are traced by chords that stray at most this far from the arc.
     double arc_tolerance_mm = 0.002;
+    // LinuxCNC's language: runaway loops and recursion stop here.
+    gcode::ProgramLimits program;
 };
 
 struct CompensateReport {
@@ -30,11 +65,21 @@ struct CompensateReport {
     long moves = 0;    // moves whose XY went through the correction
     long pieces = 0;   // moves written after splitting
     long arcs = 0;     // G2 / G3 traced by straight moves
-    long outside = 0;  // points the correction does not cover (continued from its edge)
+    long holes = 0;    // canned-cycle holes placed through the correction
+    long held = 0;     // points outside the measured area, given its edge's correction
+    double held_farthest_mm = 0;  // the farthest of them from the measured area
+    bool ran_program = false;     // LinuxCNC's parameters, expressions or O-words evaluated
 };
 
 using Correction = std::function<geometry::Point2(geometry::Point2)>;
-using Covers = std::function<bool(geometry::Point2)>;
+
+// A correction in machine coordinates: where to command so that the tool lands on a point. It
+// is used only inside the measured area: a point beyond takes the correction of the area's
+// nearest point (held at the edge, never extrapolated).
+struct MachineCorrection {
+    Correction correct;
+    Area measured_mm;
+};
 
 // A correction a box keeps and sends jobs through, with the rectangle it holds over.
 struct KeptCorrection {
@@ -42,16 +87,28 @@ struct KeptCorrection {
     double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;
 };
 
-// G-code in absolute XY (G90), millimetres (G21). Throws CompensateError("line N: ...") for what
-// it cannot carry through faithfully: relative XY moves (G91), inches (G20), G92 with X or Y,
-// arcs off the XY plane (G18, G19), numbered or checksummed lines, or a syntax error.
-std::string compensate_gcode(std::string_view job, const Correction& correct, const Covers& covers,
-                             const CompensateSettings& settings, CompensateReport& report);
+// G-code as slicers, CAM and LinuxCNC write it: absolute or relative, millimetres or inches,
+// G92 and work offsets tracked, arcs and helices traced, canned cycles' holes placed, LinuxCNC's
+// parameters, expressions, O-words and polar words evaluated. Throws CompensateError("line N:
+// ...") naming the word and what to do for what it cannot carry through faithfully: cutter
+// radius compensation, a lathe job, an arc no controller could cut, a point beyond the travel, a
+// move in a work system whose zero is not known.
+std::string compensate_gcode(std::string_view job, const MachineCorrection& correction,
+                             const JobFrame& frame, const CompensateSettings& settings,
+                             CompensateReport& report);
 
 // The plain scanner job ("x_mm,y_mm,power" lines after that header; power 0 jumps, more marks):
-// each point corrected, marked lines split like moves.
-std::string compensate_scanner_csv(std::string_view job, const Correction& correct,
-                                   const Covers& covers, const CompensateSettings& settings,
+// each point corrected (in G54's frame), marked lines split like moves.
+std::string compensate_scanner_csv(std::string_view job, const MachineCorrection& correction,
+                                   const JobFrame& frame, const CompensateSettings& settings,
                                    CompensateReport& report);
+
+// A compensated job's first line (after a leading '%'), naming the result it went through, so
+// that it is never compensated twice.
+std::string compensated_mark(std::string_view result_digest, std::string_view date);
+// The mark's text when `job` carries one ("" when not).
+std::string compensated_mark_in(std::string_view job);
+// `job` with its mark added (a '#' comment for the scanner job, ';' for G-code).
+std::string with_compensated_mark(std::string_view job, std::string_view mark);
 
 }  // namespace calbox::targets

@@ -158,8 +158,14 @@ targets::Correction GalvoCycleMode::correction() const {
     return through_table(solution_->fit.table);
 }
 
-targets::Covers GalvoCycleMode::covers() const {
-    return [table = solution_->fit.table](geometry::Point2 p) { return table.covers(p); };
+targets::Area GalvoCycleMode::measured_area() const {
+    const auto& t = solution_->fit.table;
+    return {t.min_x_mm, t.min_y_mm, t.max_x_mm, t.max_y_mm};
+}
+
+// A scanner's jobs are in its field's coordinates: the machine's own.
+targets::JobFrame GalvoCycleMode::target_frame() const {
+    return {targets::Flavour::grbl, {geometry::Point2{}}, {}};
 }
 
 targets::KeptCorrection GalvoCycleMode::correction_of(const std::string& kept_text) const {

@@ -19,9 +19,10 @@ void KeptCorrectionMode::verification_job(const std::vector<std::string>& target
                                           std::function<void(std::vector<std::string>)> then) {
     work_out<std::vector<std::string>>(
         steps_,
-        [text = joined(target), correct = correction(), covers = this->covers()] {
+        [text = joined(target), correction = targets::MachineCorrection{correction(), measured_area()},
+         frame = target_frame()] {
             targets::CompensateReport ignored;
-            return lines_of(targets::compensate_gcode(text, correct, covers, {}, ignored));
+            return lines_of(targets::compensate_gcode(text, correction, frame, {}, ignored));
         },
         std::move(then));
 }

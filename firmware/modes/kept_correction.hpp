@@ -32,7 +32,10 @@ class KeptCorrectionMode : public CycleMode {
     // The solved correction as the box keeps it, and as jobs go through it.
     virtual std::string kept_text() const = 0;
     virtual targets::Correction correction() const = 0;
-    virtual targets::Covers covers() const = 0;
+    // Where the correction was measured, in machine coordinates (held at its edge beyond), and
+    // the frame the target ran in.
+    virtual targets::Area measured_area() const = 0;
+    virtual targets::JobFrame target_frame() const = 0;
     // A kept file read back (throws when it does not parse).
     virtual targets::KeptCorrection correction_of(const std::string& kept_text) const = 0;
 

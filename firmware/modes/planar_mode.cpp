@@ -147,9 +147,15 @@ targets::Correction PlanarCycleMode::correction() const {
     return through_model(*solution_);
 }
 
-targets::Covers PlanarCycleMode::covers() const {
-    return
-        [solution = *solution_](geometry::Point2 p) { return modes::planar_covers(solution, p); };
+targets::Area PlanarCycleMode::measured_area() const {
+    const auto& s = *solution_;
+    return {s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm};
+}
+
+// The verification job is the target again, in the frame the target ran in: its work frame is
+// the measured one, so the correction is taken in that frame as it is.
+targets::JobFrame PlanarCycleMode::target_frame() const {
+    return {targets::flavour_of_firmware(machine_.firmware), {geometry::Point2{}}, {}};
 }
 
 targets::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_text) const {

@@ -42,7 +42,8 @@ class PlanarCycleMode final : public KeptCorrectionMode {
   protected:
     std::string kept_text() const override;
     targets::Correction correction() const override;
-    targets::Covers covers() const override;
+    targets::Area measured_area() const override;
+    targets::JobFrame target_frame() const override;
     targets::KeptCorrection correction_of(const std::string& kept_text) const override;
 
   private:

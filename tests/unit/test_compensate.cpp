@@ -15,7 +15,8 @@ using geometry::Point2;
 namespace {
 
 const targets::Correction kIdentity = [](Point2 p) { return p; };
-const targets::Covers kEverywhere = [](Point2) { return true; };
+// A router's job whose work zero is the machine's origin, no travel limit, corrected everywhere.
+const targets::JobFrame kMachineFrame{targets::Flavour::linuxcnc, {Point2{}}, {}};
 
 std::vector<std::string> lines_of(const std::string& text) {
     std::vector<std::string> out;
@@ -29,7 +30,7 @@ std::string compensated(const std::string& job, const targets::Correction& c = k
     targets::CompensateReport report;
     targets::CompensateSettings s;
     s.max_segment_mm = segment;
-    return targets::compensate_gcode(job, c, kEverywhere, s, report);
+    return targets::compensate_gcode(job, {c, {}}, kMachineFrame, s, report);
 }
 
 }  // namespace
@@ -107,14 +108,14 @@ TEST(Compensate, what_cannot_be_carried_through_is_refused_naming_the_line) {
         FAIL(("not refused: " + job).c_str());
     };
     refused("G1 X1\n", "line 1: a move that gives one axis");
-    refused("G1 X0 Y0\nG2 X10 Y0 R4\n", "shorter than half its chord");
+    refused("G1 X0 Y0\nG2 X10 Y0 R4.98\n",
+            "line 2: an R arc no controller could cut: radius 4.98 mm, chord 10 mm, so R is "
+            "0.02 mm short of half the chord, past the file's written precision of 0.01 mm");
     refused("G1 X0 Y0\nG41 D1 X5 Y5\n", "line 2: cutter radius compensation (G41)");
-    refused("G1 X0 Y0\nG81 X5 Y5 Z-1 R1\n", "line 2: canned cycle G81");
-    refused("G55\n", "line 1: work offset G55 is held by the controller");
-    refused("#1 = 5\n", "line 1: parameters, expressions or O-word");
-    refused("G1 X0 Y0\nG1 X[1+2] Y0\n", "line 2: parameters");
-    refused("o100 sub\n", "line 1: parameters");
-    refused("G1 X0 Y0\nG53 G0 X10 Y10\n", "line 2: a move in machine coordinates (G53)");
+    refused("G1 X0 Y0\nG81 X5 Y5 Z-1\n", "line 2: canned cycle G81 without its R or Z");
+    refused("G55\nG1 X1 Y1\n", "line 2: a move in G55, whose zero the controller holds");
+    refused("o100 call\n", "line 1: o100 call: the subroutine is not in this file");
+    refused("G1 X0 Y0\nG1 X[1+] Y0\n", "line 2:");
     refused("G1 X0 Y0\n/G1 X5 Y5\n", "line 2: a move under block delete");
     refused("G90.1\n", "line 1: absolute arc centres");
     refused("G1 X0 Y0\nG90 G1.55 X1 Y1\n", "line 2: bad command number after G");
@@ -238,18 +239,22 @@ TEST(Compensate, scanner_jobs_are_corrected_point_by_point) {
     targets::CompensateReport report;
     const auto out = lines_of(targets::compensate_scanner_csv(
         "x_mm,y_mm,power\n0,0,0\n2,0,0.8\n",
-        [](Point2 p) {
-            return Point2{p.x * 2, p.y};
-        },
-        [](Point2 p) { return p.x < 1.5; }, {}, report));
+        {[](Point2 p) {
+             return Point2{p.x * 2, p.y};
+         },
+         {-10, -10, 1.5, 10}},
+        kMachineFrame, {}, report));
     CHECK_EQUAL(std::string("x_mm,y_mm,power"), out[0]);
     CHECK_EQUAL(std::string("0.0000,0.0000,0"), out[1]);
     CHECK_EQUAL(std::string("2.0000,0.0000,0.8"), out[2]);
-    CHECK_EQUAL(std::string("4.0000,0.0000,0.8"), out[3]);
-    CHECK_EQUAL(1, report.outside);
+    // Half a millimetre past the measured area: its edge's correction (+1.5 mm) held, not the
+    // model's +2 mm there.
+    CHECK_EQUAL(std::string("3.5000,0.0000,0.8"), out[3]);
+    CHECK_EQUAL(1, report.held);
+    DOUBLES_EQUAL(0.5, report.held_farthest_mm, 1e-12);
     CHECK_THROWS(targets::CompensateError,
-                 targets::compensate_scanner_csv("x,y\n", kIdentity, kEverywhere, {}, report));
+                 targets::compensate_scanner_csv("x,y\n", {kIdentity, {}}, kMachineFrame, {}, report));
     CHECK_THROWS(targets::CompensateError,
-                 targets::compensate_scanner_csv("x_mm,y_mm,power\n1,2,3\n", kIdentity, kEverywhere,
-                                                 {}, report));
+                 targets::compensate_scanner_csv("x_mm,y_mm,power\n1,2,3\n", {kIdentity, {}},
+                                                 kMachineFrame, {}, report));
 }

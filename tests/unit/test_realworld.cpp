@@ -153,6 +153,17 @@ const targets::Correction kSlightlyOff = [](geometry::Point2 p) {
     return geometry::Point2{1.001 * p.x + 0.0005 * p.y + 0.1, -0.0004 * p.x + 0.999 * p.y - 0.05};
 };
 
+// Each file in its controller's flavour, its work zero at the machine's origin (the frame
+// measured), no travel limit, the correction everywhere.
+targets::JobFrame frame_of_file(const std::string& file) {
+    const bool printer = file.rfind("printer/", 0) == 0;
+    const bool ngc = file.size() > 4 && file.substr(file.size() - 4) == ".ngc";
+    return {printer ? targets::Flavour::printer
+                    : (ngc ? targets::Flavour::linuxcnc : targets::Flavour::grbl),
+            {geometry::Point2{}},
+            {}};
+}
+
 // A line the compensator moves: one with X or Y (or an arc's words) under a motion command.
 // Everything else must come out as it went in, in order (line numbers aside).
 bool is_xy_motion(const std::string& raw) {
@@ -214,8 +225,8 @@ TEST(RealGcode, every_file_is_compensated_or_refused_for_a_reason_a_cam_user_rea
         {"cnc/fusion360/1070_wall_27bit.nc", ""},
         {"cnc/jsdc.gcode", ""},
         {"cnc/linuxcnc/arcspiral.ngc", ""},
-        {"cnc/linuxcnc/g76.ngc", "position is unknown"},
-        {"cnc/linuxcnc/hole-circle.ngc", "polar coordinates"},
+        {"cnc/linuxcnc/g76.ngc", "a lathe job"},
+        {"cnc/linuxcnc/hole-circle.ngc", ""},
         {"cnc/linuxcnc/tort.ngc", ""},
         {"cnc/ugs/ShapeOko_Calibration_Pattern_01b.ngc", ""},
         {"cnc/ugs/arc_rword_test.gcode", ""},
@@ -230,8 +241,8 @@ TEST(RealGcode, every_file_is_compensated_or_refused_for_a_reason_a_cam_user_rea
         targets::CompensateReport report;
         std::string out, why;
         try {
-            out = targets::compensate_gcode(
-                job, kSlightlyOff, [](geometry::Point2) { return true; }, {}, report);
+            out = targets::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file), {},
+                                            report);
         } catch (const targets::CompensateError& e) {
             why = e.what();
         }
@@ -243,7 +254,9 @@ TEST(RealGcode, every_file_is_compensated_or_refused_for_a_reason_a_cam_user_rea
         if (why.empty()) {
             ++compensated;
             CHECK_TEXT(refusal.empty(), file.c_str());
-            // Every non-motion line kept, in order.
+            // Every non-motion line kept, in order (a program LinuxCNC evaluates, or one whose
+            // drilling cycles repeat, is checked hole by hole on its own).
+            if (report.ran_program || report.holes > 0) continue;
             const auto in = kept_lines(job, false), kept = kept_lines(out, true);
             CHECK_TEXT(in == kept, (file + ": " + std::to_string(in.size()) + " lines in, " +
                                     std::to_string(kept.size()) + " kept")
@@ -648,8 +661,8 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
           "printer/gcode-preview_vase_prusaslicer274.gcode"}) {
         const std::string job = test::read_test_data(std::string("realworld/gcode/") + file);
         targets::CompensateReport report;
-        const std::string out = targets::compensate_gcode(
-            job, kSlightlyOff, [](geometry::Point2) { return true; }, {}, report);
+        const std::string out = targets::compensate_gcode(job, {kSlightlyOff, {}},
+                                                          frame_of_file(file), {}, report);
         const auto in_moves = test::reference_motion(job);
         const auto out_moves = test::reference_motion(out);
         const PathIndex input_corrected(segments_of(in_moves, kSlightlyOff));

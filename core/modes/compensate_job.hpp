@@ -1,0 +1,46 @@
+#pragma once
+// A job compensated through a kept result (a planar error model or a galvo table), where the
+// machine really is: the command line and the box's console call this one function. It places
+// the job on the machine (the job's work zero, the frame the result was measured in), refuses
+// what it cannot place, marks the output with the result it went through, and refuses a job
+// that already carries such a mark.
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include "core/targets/compensate.hpp"
+
+namespace calbox::modes {
+
+class JobError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+struct JobRequest {
+    std::string result_text, result_name;  // the result file's text, and its name for messages
+    std::string job_text, job_name;
+    // --work-zero: "X,Y" (G54's zero in machine coordinates), "measured" (the frame the result
+    // was measured in), or entries "G54=X,Y G55=X,Y ..." separated by blanks.
+    std::optional<std::string> work_zero;
+    std::optional<std::string> again_because;  // compensate a marked job again, for this reason
+    std::string date;                          // for the mark: the caller's clock
+    targets::CompensateSettings settings;
+};
+
+struct CompensatedJob {
+    std::string text;  // the compensated job, its mark first
+    targets::CompensateReport report;
+    std::string frame_line;  // which frame it was placed in, in one line
+    std::string summary;     // lines, moves, pieces, arcs, holes
+    std::string held_line;   // "" or how many points took the measured area's edge correction
+};
+
+// Throws JobError with one line naming the job or the result, the place and the figure.
+CompensatedJob compensate_job(const JobRequest& request);
+
+// "X,Y" -> G54's zero; "G55=X,Y ..." -> each; "measured" -> `measured_mm`. Throws JobError.
+std::array<std::optional<geometry::Point2>, targets::kWorkSystems> parse_work_zero(
+    const std::string& spec, geometry::Point2 measured_mm);
+
+}  // namespace calbox::modes

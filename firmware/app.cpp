@@ -17,6 +17,7 @@
 #include "firmware/box_news.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/console.hpp"
+#include "firmware/job_desk.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
 #include "firmware/gcode_host.hpp"
@@ -404,6 +405,19 @@ int run(const std::vector<std::string>& words) {
         if (console_link) console_link->notice(line);
     });
     context.board_commands.insert(context.board_commands.begin(), link_key.command());
+    // Jobs compensated through the correction the box keeps (the console's `compensate`).
+    firmware::JobDesk job_desk(
+        loop, cycle, *box.appliance.link, data,
+        [] {
+            return firmware::utc_text(std::chrono::duration_cast<std::chrono::seconds>(
+                                          std::chrono::system_clock::now().time_since_epoch())
+                                          .count());
+        },
+        [&](const std::string& line) {
+            log(line);
+            if (console_link) console_link->notice(line);
+        });
+    context.board_commands.insert(context.board_commands.begin(), job_desk.command());
     firmware::Console console_commands(std::move(context));
     if (console) {
         console_link.emplace(loop, std::move(console_port), console_commands, log,

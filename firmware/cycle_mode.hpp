@@ -175,6 +175,8 @@ class CycleMode {
     // The correction the box sends jobs through, as kept in its data directory (none for a
     // machine whose own settings were corrected).
     virtual std::optional<targets::KeptCorrection> kept_correction() const { return std::nullopt; }
+    // The result file of that correction, as kept (for jobs compensated through the box).
+    virtual std::optional<std::string> kept_result_text() const { return std::nullopt; }
 
     // The last cycle's own figures: for the console's `last` (text lines and JSON keys) and a
     // controller.

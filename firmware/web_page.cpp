@@ -68,6 +68,13 @@ std::string_view web_page_html() {
     <div id="pictures"></div>
   </div>
   <div class="card wide">
+    <h2>Jobs through the correction</h2>
+    <p class="muted">A job in the box's data directory (job-NAME.gcode, .nc, .ngc, .tap, .g, .csv) sent through the correction the box keeps, placed at its work zero: X,Y (machine coordinates), measured (the frame the correction was measured in), controller (grbl's offsets, read over the link) or G54=X,Y G55=X,Y. The compensated job appears in the records as job-NAME-compensated.</p>
+    <p><label>Job <input id="job-name" placeholder="job-part.nc"></label>
+      <label>Work zero <input id="job-zero" placeholder="measured"></label>
+      <button id="btn-compensate">Compensate</button> <span id="job-reply" class="muted"></span></p>
+  </div>
+  <div class="card wide">
     <h2>Records</h2>
     <ul id="records"></ul>
   </div>
@@ -267,6 +274,8 @@ document.addEventListener('DOMContentLoaded', () => {
   for (const a of ['start', 'confirm', 'cancel', 'acknowledge', 'revert'])
     $('btn-' + a).onclick = () => send('/api/action', {action: a}, 'action-reply');
   $('btn-save').onclick = () => send('/api/config', {save: true}, 'config-reply');
+  $('btn-compensate').onclick = () => send('/api/action',
+    {action: 'compensate', job: $('job-name').value, work_zero: $('job-zero').value}, 'job-reply');
   for (const tab of document.querySelectorAll('nav .tab')) {
     tab.onclick = () => {
       for (const t of document.querySelectorAll('nav .tab')) t.classList.toggle('on', t === tab);

@@ -63,7 +63,7 @@ bool is_record_name(const std::string& name) {
             "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
         std::string::npos)
         return false;
-    if (name.rfind("cycle-", 0) == 0) return true;
+    if (name.rfind("cycle-", 0) == 0 || name.rfind("job-", 0) == 0) return true;
     return std::find(std::begin(setup), std::end(setup), name) != std::end(setup);
 }
 
@@ -311,6 +311,22 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
         return error(400, std::string("malformed JSON: ") + e.what());
     }
     if (!body.is_object()) return error(400, "the body must be a JSON object");
+    if (path == "/api/action" && body.value("action", std::string()) == "compensate") {
+        // The console's `compensate`, one line built from plain words.
+        const std::string job = body.value("job", std::string());
+        const std::string zero = body.value("work_zero", std::string());
+        const auto word_chars = [](const std::string& s) {
+            return s.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                                       "0123456789._-,= ") == std::string::npos;
+        };
+        if (job.empty() || job.size() > 100 || zero.size() > 120 || !word_chars(job) ||
+            job.find(' ') != std::string::npos || !word_chars(zero) ||
+            zero.find("--") != std::string::npos || body.size() > 3)
+            return error(400,
+                         "compensate: {\"action\": \"compensate\", \"job\": \"job-NAME.nc\", "
+                         "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}");
+        return console_answer("compensate " + job + (zero.empty() ? "" : " " + zero) + " --json");
+    }
     if (path == "/api/action") {
         const auto action = body.find("action");
         static const char* const actions[] = {"start", "confirm", "cancel", "acknowledge",

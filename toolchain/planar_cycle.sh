@@ -29,5 +29,6 @@ echo "== the sheet drilled as commanded, photographed, measured, solved"
 "$calbox" solve planar --machine "$machine" --measurements "$out/measurements.json" -o "$out/result.json" \
     --error-map "$out/error_map.png" --firmware "$out/firmware.txt"
 echo "== a job compensated, and a fresh job judged in the twin's truth"
-"$calbox" compensate --result "$out/result.json" "$out/holes.gcode" -o "$out/holes_compensated.gcode"
+"$calbox" compensate --result "$out/result.json" "$out/holes.gcode" -o "$out/holes_compensated.gcode" \
+    --work-zero measured
 "$calbox" sim verify --scenario "$scenario" --result "$out/result.json" -o "$out/verify.json"

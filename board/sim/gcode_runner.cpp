@@ -35,6 +35,27 @@ void GcodeRunner::run(std::istream& job) {
 void GcodeRunner::run_line(std::string_view text) {
     ++line_number_;
     try {
+        // A system command ("$#"), numbered and checksummed like any line the host sends.
+        std::string_view command = gcode::without_checksum(text);
+        if (const auto first = command.find_first_not_of(" \t");
+            first != std::string_view::npos && (command[first] == 'N' || command[first] == 'n')) {
+            const auto space = command.find(' ', first);
+            command = space == std::string_view::npos ? std::string_view() : command.substr(space);
+        }
+        if (const auto first = command.find_first_not_of(" \t");
+            first != std::string_view::npos && command[first] == '$') {
+            command = command.substr(first);
+            while (!command.empty() && (command.back() == '\r' || command.back() == ' '))
+                command.remove_suffix(1);
+            auto reply = machine_.system_command(command);
+            if (!reply)
+                throw JobError("line " + std::to_string(line_number_) + ": unknown command " +
+                               std::string(command));
+            for (auto& r : *reply)
+                if (r != "ok") result_.replies.push_back(std::move(r));
+            ++result_.lines_run;
+            return;
+        }
         const gcode::Line line = gcode::parse_line(text);
         if (line.command_letter != 0) execute(line);
         ++result_.lines_run;

@@ -5,6 +5,7 @@
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "board/sim/delta_reference.hpp"
@@ -28,6 +29,11 @@ class MachineTwin {
     // Machine-specific settings commands (M665, M666, M500, M503): the reply lines, or empty
     // when the command is not one of them.
     virtual std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) = 0;
+    // A grbl system command ("$#"): its reply lines, or empty when the machine has none such.
+    virtual std::optional<std::vector<std::string>> system_command(std::string_view text) {
+        (void)text;
+        return std::nullopt;
+    }
     // G30: probes the bed at the commanded position `at` (its X and Y; Z is where the nozzle
     // ends up after) and returns the reply lines. Throws MachineError when the machine has no
     // probe or does not take the command so.

@@ -1,5 +1,7 @@
 #include "board/sim/router_twin.hpp"
 
+#include <cstdio>
+
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -121,6 +123,18 @@ Vec3 RouterTwin::actual_position_mm(const Vec3& commanded) const {
 std::optional<std::vector<std::string>> RouterTwin::settings_command(const gcode::Line& line) {
     if (line.is('G', 17) || line.is('M', 2) || line.is('M', 30)) return std::vector<std::string>{};
     return std::nullopt;
+}
+
+std::optional<std::vector<std::string>> RouterTwin::system_command(std::string_view text) {
+    if (text != "$#") return std::nullopt;
+    char line[96];
+    std::snprintf(line, sizeof line, "[G54:%.3f,%.3f,0.000]", truth_.g54_x_mm, truth_.g54_y_mm);
+    std::vector<std::string> report{line};
+    for (const char* other : {"G55", "G56", "G57", "G58", "G59", "G28", "G30"})
+        report.push_back(std::string("[") + other + ":0.000,0.000,0.000]");
+    report.insert(report.end(), {"[G92:0.000,0.000,0.000]", "[TLO:0.000]",
+                                 "[PRB:0.000,0.000,0.000:0]", "ok"});
+    return report;
 }
 
 std::vector<Vec2> drilled_hole_centres_mm(RouterTwin& twin, const std::string& job) {

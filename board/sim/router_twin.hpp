@@ -30,6 +30,10 @@ struct RouterTruth {
     double screw_error_mm = 0;   // amplitude of each lead screw's cyclic error
     double screw_lead_mm = 5;
     double backlash_x_mm = 0, backlash_y_mm = 0;
+    // Where the operator touched off G54, in grbl's machine coordinates (after homing to the
+    // back right corner they are negative): the controller reports it to `$#`. The errors above
+    // are in the work frame, so it moves nothing the twin makes.
+    double g54_x_mm = 0, g54_y_mm = 0;
 };
 
 // A seeded router with errors of the seed paper's size: around 1.5 mm mean error norm over a
@@ -51,6 +55,8 @@ class RouterTwin final : public MachineTwin {
     // machine moves through them.
     Vec3 actual_position_mm(const Vec3& commanded) const override;
     std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) override;
+    // grbl's `$#`: the work coordinate systems' zeros in machine coordinates.
+    std::optional<std::vector<std::string>> system_command(std::string_view text) override;
     const RouterTruth& truth() const { return truth_; }
 
   private:

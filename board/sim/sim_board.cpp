@@ -86,6 +86,15 @@ std::vector<ReferenceMark> reference_marks_of(const Scenario& s, const Pose& bed
     return marks;
 }
 
+// grbl's "$#" and its kin, however the host numbered it: no G-code word.
+bool is_system_command(std::string_view line) {
+    try {
+        return gcode::strip_comments(gcode::without_checksum(line)).find('$') != std::string::npos;
+    } catch (const gcode::SyntaxError&) {
+        return false;  // the printer's own reading reports it
+    }
+}
+
 bool sets_delta_settings(const std::string& text) {
     try {
         const gcode::Line line = gcode::parse_line(text);
@@ -173,7 +182,7 @@ std::vector<std::string> TwinBench::run_printer_line(std::string_view line) {
     const std::lock_guard lock(mutex_);
     const std::size_t replies_before = runner_->result().replies.size();
     runner_->run_line(line);
-    if (gcode::parse_line(line).is('M', 500)) store_settings();
+    if (!is_system_command(line) && gcode::parse_line(line).is('M', 500)) store_settings();
     // The settings commands' own "ok" is the link's business: the printer link adds one per line.
     const auto& replies = runner_->result().replies;
     std::vector<std::string> out;

@@ -327,6 +327,8 @@ class RouterKind final : public TwinKind {
         reader.number("screw_error_mm", t.screw_error_mm, 0, 1);
         reader.number("backlash_x_mm", t.backlash_x_mm, 0, 2);
         reader.number("backlash_y_mm", t.backlash_y_mm, 0, 2);
+        reader.number("g54_x_mm", t.g54_x_mm, -10000, 10000);
+        reader.number("g54_y_mm", t.g54_y_mm, -10000, 10000);
         reader.finish();
     }
     std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {

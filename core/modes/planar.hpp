@@ -107,6 +107,9 @@ struct PlanarFrame {
 };
 // The frame a machine file states (work zero, travel, firmware).
 PlanarFrame planar_frame_of(const models::MachineFile& machine);
+// grbl's `$#` report ("[G54:-300.000,-300.000,0.000]" among its lines): G54's zero in machine
+// coordinates, when the replies carry it.
+std::optional<geometry::Point2> grbl_g54_of(const std::vector<std::string>& replies);
 
 struct PlanarSolution {
     std::string machine_fingerprint;

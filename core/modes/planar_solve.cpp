@@ -5,6 +5,8 @@
 #include <cmath>
 
 #include "core/modes/planar.hpp"
+
+#include <cstdio>
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 
@@ -126,6 +128,19 @@ PlanarFrame planar_frame_of(const models::MachineFile& machine) {
     f.firmware = machine.firmware;
     f.kind = machine.kind;
     return f;
+}
+
+std::optional<Point2> grbl_g54_of(const std::vector<std::string>& replies) {
+    for (const auto& reply : replies) {
+        const auto at = reply.find("[G54:");
+        if (at == std::string::npos) continue;
+        double x = 0, y = 0;
+        char close = 0;
+        if (std::sscanf(reply.c_str() + at + 5, "%lf,%lf,%*f%c", &x, &y, &close) == 3 &&
+            close == ']' && std::isfinite(x) && std::isfinite(y))
+            return Point2{x, y};
+    }
+    return std::nullopt;
 }
 
 Point2 planar_command_for(const PlanarSolution& s, Point2 intended_mm) {

@@ -775,6 +775,9 @@ class Compensator {
             is_arc_mode
                 ? arc_path(line, m_, from, to, z_from, z_to, settings_, r_tolerance_mm, failing)
                 : line_path(m_.xy_known, from, to, z_from, z_to, settings_);
+        // The move's end as the job writes it; then, for an arc, every chord's end (an arc
+        // bulges past the rectangle its ends lie in).
+        inside_travel(to, offset);
         for (const auto& p : path) inside_travel(p.xy, offset);
         if (is_arc_mode) ++report_.arcs;
         ++report_.moves;
@@ -863,25 +866,26 @@ class Compensator {
         if (!m_.xy_known && !(m_.absolute && line.has('X') && line.has('Y') && !polar.any()))
             throw fail("a drilling cycle where the position is unknown (after G28 or at the start)");
         const Point2 offset = offset_or_fail("a drilling cycle");
+        // The planes in the job's frame, mm, fixed for the block: G91 takes R from the height
+        // the block starts at, Z from R.
+        std::optional<double> r_mm, bottom_mm;
+        if (m_.absolute) {
+            r_mm = *m_.cycle_r * m_.unit_mm;
+            bottom_mm = *m_.cycle_z * m_.unit_mm;
+        } else if (m_.z_mm) {
+            r_mm = *m_.z_mm + *m_.cycle_r * m_.unit_mm;
+            bottom_mm = *r_mm + *m_.cycle_z * m_.unit_mm;
+        }
+        std::optional<double> clear_mm = r_mm;
+        if (!m_.retract_to_r)
+            clear_mm = m_.cycle_start_z_mm && r_mm
+                           ? std::optional<double>(std::max(*m_.cycle_start_z_mm, *r_mm))
+                           : std::nullopt;
         for (long k = 0; k < static_cast<long>(repeats); ++k) {
             const Point2 hole = end_of(line, polar, offset);
             inside_travel(hole, offset);
             const Point2 c = corrected(hole);
-            // The planes in the job's frame, mm: G91 takes R from the height now, Z from R.
             const std::optional<double> z_now = m_.z_mm;
-            std::optional<double> r_mm, bottom_mm;
-            if (m_.absolute) {
-                r_mm = *m_.cycle_r * m_.unit_mm;
-                bottom_mm = *m_.cycle_z * m_.unit_mm;
-            } else if (z_now) {
-                r_mm = *z_now + *m_.cycle_r * m_.unit_mm;
-                bottom_mm = *r_mm + *m_.cycle_z * m_.unit_mm;
-            }
-            std::optional<double> clear_mm = r_mm;
-            if (!m_.retract_to_r)
-                clear_mm = m_.cycle_start_z_mm && r_mm
-                               ? std::optional<double>(std::max(*m_.cycle_start_z_mm, *r_mm))
-                               : std::nullopt;
             if (keep) {
                 std::string text;
                 if (k == 0)
@@ -893,12 +897,11 @@ class Compensator {
                     // Each repeat starts where the last left the tool: R again from there.
                     if (!r_mm || !z_now)
                         throw fail("repeats (L) of an incremental cycle from an unknown height");
-                    text += " R" + number((*first_r_mm_ - *z_now) / m_.unit_mm, decimals());
+                    text += " R" + number((*r_mm - *z_now) / m_.unit_mm, decimals());
                 } else if (line.has('R')) {
                     text += " R" + number(*line.value('R'), 6);
                 }
                 if (k == 0) {
-                    if (!m_.absolute) first_r_mm_ = r_mm;
                     text += others;
                 } else {
                     text += other_words(line, "XYRLGF");
@@ -994,7 +997,6 @@ class Compensator {
     std::string out_;
     long line_number_ = 0;
     bool numbered_ = false, checksummed_ = false, machine_move_ = false;
-    std::optional<double> first_r_mm_;
     double written_precision_ = 1;  // the job's units: 0.001 for a file written to 3 decimals
 };
 

@@ -40,6 +40,12 @@ std::string KeptCorrectionMode::revert(int number, std::function<void(std::strin
     return {};
 }
 
+std::optional<std::string> KeptCorrectionMode::kept_result_text() const {
+    auto kept = steps_.read(files_.kept);
+    if (!kept || *kept == files_.none) return std::nullopt;
+    return kept;
+}
+
 std::optional<targets::KeptCorrection> KeptCorrectionMode::kept_correction() const {
     const auto kept = steps_.read(files_.kept);
     if (!kept || *kept == files_.none) return std::nullopt;

@@ -25,6 +25,7 @@ class KeptCorrectionMode : public CycleMode {
                           std::function<void(std::vector<std::string>)> then) override;
     std::string revert(int number, std::function<void(std::string what)> then) override;
     std::optional<targets::KeptCorrection> kept_correction() const override;
+    std::optional<std::string> kept_result_text() const override;
 
   protected:
     KeptCorrectionMode(CycleSteps& steps, KeptCorrectionFiles files)

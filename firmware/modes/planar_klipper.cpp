@@ -34,6 +34,22 @@ void PlanarCycleMode::read_klipper_settings(std::function<void(models::KlipperCa
 
 // The target is made with the printer's settings in force known: its profile loaded, or none.
 void PlanarCycleMode::before_target(std::function<void()> then) {
+    controller_work_zero_.reset();
+    if (machine_.firmware == "grbl") {
+        // The frame the target runs in: grbl tells its G54 zero.
+        steps_.send_commands({"$#"}, [this, then = std::move(then)](const JobOutcome& o) {
+            controller_work_zero_ = modes::grbl_g54_of(o.replies);
+            if (controller_work_zero_)
+                steps_.log("the controller's G54 zero ($#): machine X" +
+                           number_text("%.3f", controller_work_zero_->x) + " Y" +
+                           number_text("%.3f", controller_work_zero_->y) + " mm");
+            else
+                steps_.log("the controller did not report its G54 zero ($#): the machine file's "
+                           "is recorded as the frame");
+            then();
+        });
+        return;
+    }
     if (!steps_.klipper_on_host(machine_)) {
         then();
         return;

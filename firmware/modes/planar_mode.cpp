@@ -72,8 +72,13 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
     auto firmware = std::make_shared<modes::FirmwareSettings>();
     auto field = std::make_shared<std::string>();
     steps_.work(
-        [machine = machine_, measured = *measured_, solution, firmware, field] {
+        [machine = machine_, measured = *measured_, solution, firmware, field,
+         zero = controller_work_zero_] {
             *solution = modes::solve_planar(machine, measured);
+            if (zero && solution->frame) {
+                solution->frame->work_zero_mm = *zero;
+                solution->frame->work_zero_from = "the controller's G54 ($#)";
+            }
             *firmware = modes::planar_firmware_settings(machine, *solution);
             std::vector<FieldArrow> arrows;
             arrows.reserve(solution->error_mm.size());

@@ -60,6 +60,8 @@ class PlanarCycleMode final : public KeptCorrectionMode {
     std::optional<modes::FirmwareSettings> firmware_;
     std::optional<modes::PlanarMeasurement> measured_;
     std::optional<modes::PlanarSolution> solution_;
+    // G54's zero as the controller reported it before the target ran (grbl's $#).
+    std::optional<geometry::Point2> controller_work_zero_;
 };
 
 }  // namespace calbox::firmware

@@ -168,7 +168,7 @@ expect_error "the photo is .*, the camera was calibrated at 2748x1836" measure g
 expect_error "not a galvo measurements file" solve galvo --machine "$galvo" --measurements "$work/wrong.json" -o "$work/result"
 printf '{"schema": "calbox.galvo-measurements/1", "machine_fingerprint": "fnv1a64:0", "target_fingerprint": "x", "photos": [], "grid_count": 31, "pitch_mm": 3.5, "symmetry": 0, "dark_marks": true, "nodes": [], "missing": [], "extra_mm": []}' > "$work/other_galvo.json"
 expect_error "made for another machine file" solve galvo --machine "$galvo" --measurements "$work/other_galvo.json" -o "$work/result"
-expect_error "not a galvo result file" compensate --result "$work/wrong.json" "$work/ok.gcode" -o "$work/result"
+expect_error "wrong.json: not a planar or galvo result \(schema something else\)" compensate --result "$work/wrong.json" "$work/ok.gcode" -o "$work/result"
 printf '{"schema": "calbox.galvo-result/1", "machine_fingerprint": "x", "pass": 1, "before": {"mean_mm": 0, "rms_mm": 0, "max_mm": 0, "points": 0}, "measurement_sigma_mm": 0, "predicted_rms_mm": 0, "table_interpolation_max_mm": 0, "table_interpolation_rms_mm": 0, "intended_mm": [], "landed_mm": [], "filled_nodes": [], "table": {"nodes": 2, "min_x_mm": -1, "min_y_mm": -1, "max_x_mm": 1, "max_y_mm": 1, "command_mm": [[-1,-1],[1,-1],[-1,1],[1,1]]}}' > "$work/identity_result.json"
 printf 'G1 X0 Y0\nG41 D1 X5 Y5\n' > "$work/cutter.gcode"
 expect_error "cutter.gcode: line 2: cutter radius compensation \(G41\)" compensate --result "$work/identity_result.json" "$work/cutter.gcode" -o "$work/result"

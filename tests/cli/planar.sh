@@ -31,6 +31,26 @@ for pattern in "^M3 S" "^G4 P" "^M5" "Z-2.000"; do
     [ "$(grep -c -- "$pattern" "$work/holes.gcode")" -eq "$(grep -c -- "$pattern" "$work/holes_compensated.gcode")" ] \
         || { echo "compensated job lost lines matching $pattern"; exit 1; }
 done
+# Where the job is: the frame stated, the output marked; a router's job without its work zero, a
+# point past the travel and a job compensated already are refused, nothing written.
+grep -q "^frame: job placed with --work-zero measured (G54 zero at machine X-300.000 Y-300.000 mm); the result measured with its zero at machine X-300.000 Y-300.000 mm (from the machine file)" "$work/log"
+head -n 1 "$work/holes_compensated.gcode" | grep -q "^; calbox: compensated through result fnv1a64:[0-9a-f]\{16\} on 20"
+refused() {  # refused WHAT-TO-SEE ARGS...: exit non-zero, that line on stderr, no output file
+    local see="$1"; shift
+    if "$calbox" compensate --result "$work/result.json" "$@" -o "$work/refused.gcode" 2> "$work/err"; then
+        echo "compensated: $*"; exit 1
+    fi
+    grep -q -- "$see" "$work/err" || { cat "$work/err"; exit 1; }
+    [ ! -e "$work/refused.gcode" ] || { echo "refused, yet wrote its output"; exit 1; }
+}
+refused "holes.gcode: a router's job is written around its work zero, which calbox cannot see: give --work-zero X,Y" "$work/holes.gcode"
+printf 'G90\nG0 X0 Y0\nG1 X1000 Y-1000\n' > "$work/far.gcode"
+refused "far.gcode: line 3: the point X1000 Y-1000 is at machine X700 Y-1300 mm, beyond the machine's travel (X -300..0, Y -300..0 mm)" "$work/far.gcode" --work-zero measured
+refused "holes_compensated.gcode: already compensated" "$work/holes_compensated.gcode" --work-zero measured
+# A job written around a stock corner at machine (-250, -200): placed there, inside the travel.
+printf 'G21 G90\nG0 X0 Y0\nG1 X100 Y50 F600\n' > "$work/stock.gcode"
+"$calbox" compensate --result "$work/result.json" "$work/stock.gcode" --work-zero -250,-200 -o "$work/stock_compensated.gcode" > "$work/stock.out"
+grep -q "G54 zero at machine X-250.000 Y-200.000 mm" "$work/stock.out"
 echo "planar cycle complete"
 
 # The appliance: one cycle on the router, the box keeping the error model; revert puts back
@@ -48,6 +68,12 @@ for f in planar-result.json cycle-0001-result.json cycle-0001-measurements.json 
 done
 [ "$(cat "$data/cycle-0001-backup-result.json")" = "none" ]
 grep -q '"schema": "calbox.planar-result/1"' "$data/planar-result.json"
+# The frame the box measured in, as grbl reported it before the sheet was drilled.
+grep -q "the controller's G54 zero (\$#): machine X-300.000 Y-300.000 mm" "$work/run.err"
+/usr/bin/python3 -c "
+import json, sys
+f = json.load(open('$data/planar-result.json'))['frame']
+sys.exit(0 if f['work_zero_mm'] == [-300, -300] and f['work_zero_from'] == \"the controller's G54 (\$#)\" and f['travel_mm'] == [-300, -300, 0, 0] else 'frame: %s' % f)"
 "$calbox" revert --board sim --scenario "$top/tests/scenarios/planar_small.toml" --data "$data" 2> "$work/revert.err" < /dev/null
 [ "$(cat "$data/planar-result.json")" = "none" ] || { echo "revert left the model in force"; exit 1; }
 echo "planar appliance cycle and revert complete"

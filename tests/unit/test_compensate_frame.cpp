@@ -1,0 +1,392 @@
+// Jobs compensated where the machine really is: the work zero placed, the travel refused beyond,
+// the correction held at the measured area's edge; canned cycles' holes; R arcs as controllers
+// take them; words by flavour; LinuxCNC's language; the mark that stops a second pass. Every
+// expected figure below is worked by hand from the correction and the job.
+#include <CppUTest/TestHarness.h>
+
+#include <cmath>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "core/modes/compensate_job.hpp"
+#include "core/modes/planar.hpp"
+#include "core/targets/compensate.hpp"
+#include "core/targets/gcode_line.hpp"
+#include "core/targets/ngc_program.hpp"
+
+using namespace calbox;
+using geometry::Point2;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// 1 % long in x about the machine's origin, and y shifted by a thousandth of x: a correction
+// that is not the same everywhere, so that a job placed at the wrong spot comes out wrong.
+const targets::Correction kStretched = [](Point2 p) {
+    return Point2{1.01 * p.x, p.y + 0.001 * p.x};
+};
+// Measured over X 10..290, Y 10..290 on a 300 x 300 machine.
+const targets::Area kMeasured{10, 10, 290, 290};
+const targets::Area kTravel{0, 0, 300, 300};
+
+std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> out;
+    std::istringstream in(text);
+    for (std::string l; std::getline(in, l);) out.push_back(l);
+    return out;
+}
+
+std::string compensated(const std::string& job, const targets::JobFrame& frame,
+                        targets::CompensateReport& report,
+                        const targets::Correction& c = kStretched) {
+    targets::CompensateSettings s;
+    s.max_segment_mm = 1000;  // one piece a move: the end points are what these tests read
+    return targets::compensate_gcode(job, {c, kMeasured}, frame, s, report);
+}
+std::string compensated(const std::string& job, const targets::JobFrame& frame) {
+    targets::CompensateReport report;
+    return compensated(job, frame, report);
+}
+
+targets::JobFrame router_at(Point2 work_zero) {
+    return {targets::Flavour::linuxcnc, {work_zero}, kTravel};
+}
+
+std::string refusal_of(const std::string& job, const targets::JobFrame& frame) {
+    try {
+        compensated(job, frame);
+    } catch (const targets::CompensateError& e) {
+        return e.what();
+    }
+    return "not refused";
+}
+
+Point2 xy_of(const std::string& line) {
+    const auto l = gcode::parse_line(line);
+    return {*l.value('X'), *l.value('Y')};
+}
+
+}  // namespace
+
+TEST_GROUP(CompensateFrame){};
+
+TEST(CompensateFrame, the_job_is_corrected_at_its_place_on_the_machine) {
+    // G54 at machine (100, 150): the job's X0 Y0 is the machine's (100, 150), corrected to
+    // (101, 150.1): the job's (1, 0.1). At the machine's origin the same line would be (0, 0).
+    const auto out = lines_of(compensated("G90\nG0 X0 Y0\nG0 X20 Y-40\n", router_at({100, 150})));
+    const Point2 a = xy_of(out[1]), b = xy_of(out[2]);
+    DOUBLES_EQUAL(1, a.x, 1e-9);
+    DOUBLES_EQUAL(0.1, a.y, 1e-9);
+    // (120, 110) -> (121.2, 110.12) -> the job's (21.2, -39.88).
+    DOUBLES_EQUAL(21.2, b.x, 1e-9);
+    DOUBLES_EQUAL(-39.88, b.y, 1e-9);
+}
+
+TEST(CompensateFrame, inside_at_the_edge_beyond_it_and_past_the_travel) {
+    targets::CompensateReport report;
+    const auto out = lines_of(compensated(
+        "G90\nG0 X100 Y100\nG0 X290 Y100\nG0 X295 Y100\nG0 X5 Y295\n", router_at({0, 0}), report));
+    // Inside: the model's value.
+    DOUBLES_EQUAL(101, xy_of(out[1]).x, 1e-9);
+    // At the edge: still the model's, 2.9 mm more.
+    DOUBLES_EQUAL(292.9, xy_of(out[2]).x, 1e-9);
+    DOUBLES_EQUAL(100.29, xy_of(out[2]).y, 1e-9);
+    // 5 mm beyond: the edge's correction (+2.9, +0.29) held, not the model's (+2.95, +0.295).
+    DOUBLES_EQUAL(297.9, xy_of(out[3]).x, 1e-9);
+    DOUBLES_EQUAL(100.29, xy_of(out[3]).y, 1e-9);
+    // Beyond two edges: the corner (10, 290)'s correction (+0.1, +0.01).
+    DOUBLES_EQUAL(5.1, xy_of(out[4]).x, 1e-9);
+    DOUBLES_EQUAL(295.01, xy_of(out[4]).y, 1e-9);
+    CHECK_EQUAL(2, report.held);
+    DOUBLES_EQUAL(std::hypot(5.0, 5.0), report.held_farthest_mm, 1e-9);
+    // Past the travel: refused, naming the line, the point and the travel.
+    const std::string far = refusal_of("G90\nG0 X100 Y100\nG1 X1000 Y-1000\n", router_at({0, 0}));
+    CHECK_TEXT(far.find("line 3: the point X1000 Y-1000 is at machine X1000 Y-1000 mm, beyond "
+                        "the machine's travel (X 0..300, Y 0..300 mm)") != std::string::npos,
+               far.c_str());
+    // The same job placed with its zero at (250, 250): X60 is machine 310, past the travel.
+    const std::string placed = refusal_of("G90\nG0 X60 Y0\n", router_at({250, 250}));
+    CHECK_TEXT(placed.find("line 2: the point X60 Y0 is at machine X310 Y250 mm") !=
+                   std::string::npos,
+               placed.c_str());
+    // An arc that bulges past the travel, though both its ends are inside.
+    const std::string bulge = refusal_of("G90\nG0 X290 Y100\nG3 X290 Y120 I0 J10\n",
+                                         router_at({5, 0}));
+    CHECK_TEXT(bulge.find("beyond the machine's travel") != std::string::npos, bulge.c_str());
+}
+
+TEST(CompensateFrame, work_offsets_set_in_the_job_and_given_are_tracked) {
+    // G10 L2 P1 sets G54's zero to machine (50, 60); G10 L20 P2 makes the current machine point
+    // (70, 60) read X0 Y0 in G55.
+    const auto out = lines_of(compensated(
+        "G90\nG10 L2 P1 X50 Y60\nG0 X0 Y0\nG0 X20 Y0\nG10 L20 P2 X0 Y0\nG55\nG0 X10 Y0\n",
+        router_at({0, 0})));
+    // Machine (50, 60) -> (50.5, 60.05): the job's (0.5, 0.05).
+    DOUBLES_EQUAL(0.5, xy_of(out[2]).x, 1e-9);
+    DOUBLES_EQUAL(0.05, xy_of(out[2]).y, 1e-9);
+    // In G55 X10 is machine 80 -> 80.8, 60.08: the job's 10.8, 0.08.
+    DOUBLES_EQUAL(10.8, xy_of(out.back()).x, 1e-9);
+    DOUBLES_EQUAL(0.08, xy_of(out.back()).y, 1e-9);
+    // A move in a system whose zero nothing gives is refused, saying how to give it.
+    const std::string unknown = refusal_of("G56\nG0 X1 Y1\n", router_at({0, 0}));
+    CHECK_TEXT(unknown.find("line 2: a move in G56, whose zero the controller holds and the file "
+                            "does not set: give it (calbox compensate --work-zero G56=X,Y") !=
+                   std::string::npos,
+               unknown.c_str());
+}
+
+TEST(CompensateFrame, printers_retract_with_g10_routers_set_offsets_with_it) {
+    const targets::JobFrame printer{targets::Flavour::printer, {Point2{}}, kTravel};
+    // FullControl's firmware retraction: passed as written.
+    const auto out = lines_of(compensated("G90\nG1 X100 Y100\nG10 ; retract\nG11\n", printer));
+    CHECK_EQUAL(std::string("G10 ; retract"), out[2]);
+    CHECK_EQUAL(std::string("G11"), out[3]);
+    // RepRapFirmware's tool offset is refused; on a router a bare G10 is.
+    CHECK(refusal_of("G10 P0 X5 Y0\n", printer).find("line 1: G10 P with X or Y sets a tool's "
+                                                      "offset") != std::string::npos);
+    CHECK(refusal_of("G10 ; retract\n", router_at({0, 0})).find("line 1: G10 without L") !=
+          std::string::npos);
+}
+
+TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circle) {
+    // Fusion 360 writes 3 decimals: from (0.257, 16.041) to (0.257, 19.058) the half chord is
+    // 1.5085 and R 1.508 is 0.0005 short: the half circle its rounding hid.
+    const targets::Correction none = [](Point2 p) { return p; };
+    targets::CompensateReport report;
+    targets::CompensateSettings s;
+    const targets::JobFrame frame{targets::Flavour::grbl, {Point2{}}, {}};
+    const auto out = lines_of(targets::compensate_gcode(
+        "G90\nG0 X0.257 Y16.041\nG3 X0.257 Y19.058 Z2.38 R1.508\n", {none, {}}, frame, s, report));
+    double farthest = 0;
+    for (std::size_t i = 2; i < out.size(); ++i) {
+        const Point2 p = xy_of(out[i]);
+        DOUBLES_EQUAL(1.5085, std::hypot(p.x - 0.257, p.y - 17.5495), 0.0002);
+        farthest = std::max(farthest, p.x - 0.257);
+    }
+    // Anticlockwise from the lower end to the upper: the half circle on the +x side.
+    DOUBLES_EQUAL(1.5085, farthest, 0.002);
+    // 0.002 short in a 3-decimal file: refused with its figures.
+    const auto refused = [&] {
+        try {
+            targets::compensate_gcode("G90\nG0 X0 Y0\nG2 X3 Y0 R1.498\n", {none, {}}, frame, s,
+                                      report);
+        } catch (const targets::CompensateError& e) {
+            return std::string(e.what());
+        }
+        return std::string("not refused");
+    }();
+    CHECK_TEXT(refused.find("line 3: an R arc no controller could cut: radius 1.498 mm, chord 3 mm, "
+                            "so R is 0.002 mm short of half the chord, past the file's written "
+                            "precision of 0.001 mm") != std::string::npos,
+               refused.c_str());
+}
+
+TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
+    targets::CompensateReport report;
+    // LinuxCNC keeps the cycle: each hole's XY corrected, its other words as written.
+    const auto kept = lines_of(compensated(
+        "G90 G0 X0 Y0 Z10\nG99 G81 X100 Y50 Z-2 R1 F300\nX200 Y50\nG80\n", router_at({0, 0}), report));
+    CHECK_EQUAL(std::string("G99 G81 X101 Y50.1 R1 Z-2 F300"), kept[1]);
+    CHECK_EQUAL(std::string("G81 X202 Y50.2"), kept[2]);
+    CHECK_EQUAL(std::string("G80"), kept[3]);
+    CHECK_EQUAL(2, report.holes);
+    // Incremental repeats: L3 holes 10 mm apart from x = 100, each its own line, written as
+    // differences of the corrected holes (111.1, 121.2, 131.3). R is taken from the height each
+    // repeat starts at: under G98 that is Z 10 again (R -9 each time); under G99 the R plane the
+    // last one left (R 0 after the first).
+    for (const bool to_r : {false, true}) {
+        const auto repeats = lines_of(compensated(
+            std::string("G90 G0 X100 Y100 Z10\nG91 ") + (to_r ? "G99" : "G98") +
+                " G81 X10 Y0 Z-3 R-9 L3\n",
+            router_at({0, 0})));
+        CHECK_EQUAL(4u, repeats.size());
+        double x = 100 * 1.01;
+        for (std::size_t k = 1; k <= 3; ++k) {
+            const auto l = gcode::parse_line(repeats[k]);
+            x += *l.value('X');
+            DOUBLES_EQUAL(1.01 * (100 + 10 * k), x, 1e-4);
+            DOUBLES_EQUAL(to_r && k > 1 ? 0 : -9, *l.value('R'), 1e-9);
+            DOUBLES_EQUAL(-3, *l.value('Z'), 1e-9);
+        }
+    }
+    // grbl has no cycles: G83 written out as pecks of 1 mm to Z-2.5, back to R between them,
+    // down to 0.254 mm above the last depth, then back to where it started (G98: Z 5).
+    const targets::JobFrame grbl{targets::Flavour::grbl, {Point2{}}, kTravel};
+    const auto pecks =
+        lines_of(compensated("G90 G0 X0 Y0 Z5\nG98 G83 X100 Y100 Z-2.5 R0.5 Q1 F200\n", grbl));
+    const std::vector<std::string> expected{
+        "G90 G0 X0 Y0 Z5", "G98 G0 X101 Y100.1", "G0 Z0.5",      "G1 Z-0.5 F200", "G0 Z0.5",
+        "G0 Z-0.246",      "G1 Z-1.5",           "G0 Z0.5",      "G0 Z-1.246",    "G1 Z-2.5",
+        "G0 Z5"};
+    CHECK_EQUAL(expected.size(), pecks.size());
+    for (std::size_t i = 0; i < expected.size() && i < pecks.size(); ++i)
+        CHECK_EQUAL(expected[i], pecks[i]);
+    // A tapping cycle cannot be written out as moves: refused, saying so.
+    CHECK(refusal_of("G90 G0 X0 Y0 Z5\nG84 X10 Y10 Z-2 R1\n", grbl)
+              .find("line 2: canned cycle G84") != std::string::npos);
+}
+
+TEST(CompensateFrame, linuxcnc_programs_run_into_the_moves_linuxcnc_makes) {
+    // A subroutine called in a loop with numbered, named and global parameters and expressions:
+    // holes at x = 10, 20, 30 (y = 2 x - 5 by the expression), then a polar move.
+    const std::string program =
+        "#<_pitch> = 10\n"
+        "o100 sub\n"
+        "  G1 X#1 Y[#1 * 2 - 5]\n"
+        "o100 endsub\n"
+        "#<n> = 1\n"
+        "G90 G0 X0 Y0\n"
+        "o101 while [#<n> LE 3]\n"
+        "  o100 call [#<n> * #<_pitch>]\n"
+        "  #<n> = [#<n> + 1]\n"
+        "o101 endwhile\n"
+        "o102 if [EXISTS[#<n>] AND [#<n> EQ 4]]\n"
+        "  G1 @50 ^30\n"
+        "o102 else\n"
+        "  G1 X0 Y0\n"
+        "o102 endif\n"
+        "M2\n"
+        "G1 X299 Y299 (after the end: never run)\n";
+    targets::CompensateReport report;
+    const auto out = lines_of(compensated(program, router_at({100, 100}), report));
+    CHECK(report.ran_program);
+    std::vector<Point2> moves;
+    for (const auto& l : out) {
+        const auto parsed = gcode::parse_line(l);
+        if (parsed.is('G', 1)) moves.push_back(xy_of(l));
+    }
+    CHECK_EQUAL(4u, moves.size());
+    for (std::size_t k = 0; k < 3; ++k) {
+        const double jx = 10.0 * (k + 1), jy = 2 * jx - 5;
+        const Point2 machine{jx + 100, jy + 100};
+        DOUBLES_EQUAL(1.01 * machine.x - 100, moves[k].x, 1e-4);
+        DOUBLES_EQUAL(machine.y + 0.001 * machine.x - 100, moves[k].y, 1e-4);
+    }
+    // @50 ^30 from the work zero: (43.3013, 25), corrected at machine (143.3013, 125).
+    const Point2 polar{50 * std::cos(kPi / 6), 50 * std::sin(kPi / 6)};
+    DOUBLES_EQUAL(1.01 * (polar.x + 100) - 100, moves[3].x, 1e-4);
+    DOUBLES_EQUAL(polar.y + 0.001 * (polar.x + 100), moves[3].y, 1e-4);
+    CHECK_EQUAL(std::string("M2"), out.back());
+    // Runaway loops and reads of the controller's own parameters are refused.
+    gcode::ProgramLimits small;
+    small.max_loop_turns = 1000;
+    CHECK_THROWS(gcode::ProgramError,
+                 gcode::run_ngc_program("o1 while [1]\nG0 X0 Y0\no1 endwhile\n", small));
+    const std::string system = refusal_of("G0 X#5221 Y0\n", router_at({0, 0}));
+    CHECK_TEXT(system.find("line 1: #5221 is the controller's own") != std::string::npos,
+               system.c_str());
+    const std::string unset = refusal_of("G0 X#<nowhere> Y0\n", router_at({0, 0}));
+    CHECK_TEXT(unset.find("line 1: named parameter #<nowhere> is read before it is set") !=
+                   std::string::npos,
+               unset.c_str());
+}
+
+TEST(CompensateFrame, expressions_follow_linuxcncs_precedence_and_functions) {
+    const auto value_of = [](const std::string& expression) {
+        const auto lines = gcode::run_ngc_program("G0 X" + expression + " Y0\n");
+        return *gcode::parse_line(lines.at(0).text).value('X');
+    };
+    DOUBLES_EQUAL(7, value_of("[1 + 2 * 3]"), 1e-12);
+    DOUBLES_EQUAL(-7, value_of("[1 - 2 ** 3]"), 1e-12);
+    DOUBLES_EQUAL(2, value_of("[-7 MOD 3]"), 1e-12);  // LinuxCNC's MOD is never negative
+    DOUBLES_EQUAL(1, value_of("[2 GT 1 AND 3 LE 3]"), 1e-12);
+    DOUBLES_EQUAL(0.5, value_of("SIN[30]"), 1e-9);
+    DOUBLES_EQUAL(135, value_of("ATAN[1]/[-1]"), 1e-9);
+    DOUBLES_EQUAL(3, value_of("FUP[2.1]"), 1e-12);
+    DOUBLES_EQUAL(-3, value_of("FIX[-2.1]"), 1e-12);
+    // Assignments take effect after the line is read, as LinuxCNC reads it.
+    const auto lines = gcode::run_ngc_program("#1 = 5\n#1 = 7 G0 X#1 Y0\nG0 X#1 Y0\n");
+    CHECK_EQUAL(std::string("G0 X5 Y0"), lines.at(1).text);
+    CHECK_EQUAL(std::string("G0 X7 Y0"), lines.at(2).text);
+}
+
+TEST(CompensateFrame, lathe_jobs_and_cutter_compensation_are_refused_as_such) {
+    CHECK(refusal_of("G18 G7\nG0 X1 Z0\n", router_at({0, 0})).find("line 1: a lathe job (G7)") !=
+          std::string::npos);
+    CHECK(refusal_of("G0 X1 Y1\nG76 P0.05 Z-1 I-.075 J0.008 K0.045\n", router_at({0, 0}))
+              .find("line 2: a lathe job (G76)") != std::string::npos);
+}
+
+namespace {
+
+// A planar result with no error (the model zero) measured over X 12.5..287.5 Y 12.5..287.5 with
+// its work zero at machine (5, 5) on a grbl router of 300 x 300 mm travel.
+std::string planar_result_text(const std::string& firmware, const std::string& kind) {
+    modes::PlanarSolution s;
+    s.machine_fingerprint = "fnv1a64:0000000000000000";
+    s.min_x_mm = s.min_y_mm = 12.5;
+    s.max_x_mm = s.max_y_mm = 287.5;
+    modes::PlanarFrame f;
+    f.work_zero_mm = {5, 5};
+    f.work_zero_from = "the machine file";
+    f.travel_max_x_mm = f.travel_max_y_mm = 300;
+    f.firmware = firmware;
+    f.kind = kind;
+    s.frame = f;
+    return modes::planar_result_to_json(s, {});
+}
+
+modes::JobRequest request_for(const std::string& job) {
+    modes::JobRequest r;
+    r.result_text = planar_result_text("grbl", "router");
+    r.result_name = "result.json";
+    r.job_text = job;
+    r.job_name = "job.nc";
+    r.date = "2026-11-26T12:00:00Z";
+    return r;
+}
+
+std::string job_refusal(const modes::JobRequest& r) {
+    try {
+        modes::compensate_job(r);
+    } catch (const modes::JobError& e) {
+        return e.what();
+    }
+    return "not refused";
+}
+
+}  // namespace
+
+TEST(CompensateFrame, a_routers_job_needs_its_work_zero_and_is_compensated_once) {
+    auto r = request_for("G90\nG0 X0 Y0\nG1 X10 Y-5\n");
+    const std::string no_zero = job_refusal(r);
+    CHECK_TEXT(no_zero.find("job.nc: a router's job is written around its work zero, which "
+                            "calbox cannot see: give --work-zero X,Y") != std::string::npos,
+               no_zero.c_str());
+    CHECK_TEXT(no_zero.find("zero at machine X5.000 Y5.000") != std::string::npos,
+               no_zero.c_str());
+    r.work_zero = "100,150";
+    const auto done = modes::compensate_job(r);
+    CHECK_TEXT(done.frame_line.find("G54 zero at machine X100.000 Y150.000 mm") !=
+                   std::string::npos,
+               done.frame_line.c_str());
+    const auto out = lines_of(done.text);
+    CHECK_TEXT(out[0].rfind("; calbox: compensated through result fnv1a64:", 0) == 0,
+               out[0].c_str());
+    CHECK(out[0].find("on 2026-11-26T12:00:00Z") != std::string::npos);
+    // Measured X is machine - 5: the model is zero, so the job comes out as it went in.
+    CHECK_EQUAL(std::string("G1 X10 Y-5"), out.back());
+    // Again: refused, unless the owner says why.
+    auto again = request_for(done.text);
+    again.work_zero = "measured";
+    const std::string twice = job_refusal(again);
+    CHECK_TEXT(twice.find("job.nc: already compensated (its line 'calbox: compensated through "
+                          "result fnv1a64:") != std::string::npos,
+               twice.c_str());
+    again.again_because = "a second machine of the same build";
+    CHECK(modes::compensate_job(again).text.find("(again: a second machine") != std::string::npos);
+    // A printer's job is in machine coordinates; --work-zero is refused there.
+    auto printer = request_for("G90\nG1 X10 Y10\n");
+    printer.result_text = planar_result_text("marlin", "cartesian");
+    CHECK(modes::compensate_job(printer).frame_line.find("machine coordinates") !=
+          std::string::npos);
+    printer.work_zero = "1,1";
+    CHECK(job_refusal(printer).find("a printer's job is in machine coordinates") !=
+          std::string::npos);
+    // A bad --work-zero names itself.
+    r.work_zero = "G60=1,2";
+    CHECK(job_refusal(r).find("--work-zero 'G60=1,2': 'G60' is no work system") !=
+          std::string::npos);
+}

@@ -74,6 +74,12 @@ std::string JobDesk::start(DeskOrder order) {
         return "compensate: " + order.job_name + ": " + e.what();
     }
     if (!job) return "compensate: no " + order.job_name + " in the data directory";
+    const auto& machine = cycle_.machine();
+    if (!order.work_zero && (machine.kind == "router" || machine.kind == "laser"))
+        return "compensate: a " + machine.kind +
+               "'s job is written around its work zero, which calbox cannot see: give X,Y (its "
+               "machine coordinates), measured (the frame the correction was measured in) or "
+               "controller (read over the link)";
     busy_ = true;
     if (order.work_zero == "controller") {
         if (cycle_.machine().firmware != "grbl") {
@@ -99,6 +105,7 @@ std::string JobDesk::start(DeskOrder order) {
                 return;
             }
             o.work_zero = *spec;
+            o.work_zero_from = "the controller's work offsets ($#: " + *spec + ")";
             compensate(std::move(o), kept, job);
         });
         return {};
@@ -114,6 +121,7 @@ void JobDesk::compensate(DeskOrder order, std::string result_text, std::string j
     request->job_text = std::move(job_text);
     request->job_name = order.job_name;
     request->work_zero = order.work_zero;
+    request->work_zero_from = order.work_zero_from;
     request->again_because = order.again_because;
     request->date = today_();
     auto done = std::make_shared<modes::CompensatedJob>();
@@ -135,14 +143,15 @@ void JobDesk::compensate(DeskOrder order, std::string result_text, std::string j
 }
 
 ConsoleCommand JobDesk::command() {
-    return {"compensate", "compensate JOB [X,Y|measured|controller|G5N=X,Y ...] [again REASON]",
+    return {"compensate", "compensate JOB [WORK_ZERO] [again REASON]",
             "a job in the data directory (job-NAME.EXT) through the correction in force, placed "
-            "at its work zero; written as job-NAME-compensated.EXT",
+            "at its work zero (X,Y, measured, controller, G54=X,Y ...); written as "
+            "job-NAME-compensated.EXT",
             [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
                 if (words.size() < 2)
                     throw ConsoleRefused(
-                        "usage: compensate JOB [X,Y|measured|controller|G5N=X,Y ...] [again "
-                        "REASON]");
+                        "usage: compensate JOB [WORK_ZERO] [again REASON] (WORK_ZERO: X,Y, "
+                        "measured, controller or G54=X,Y G55=X,Y ...)");
                 DeskOrder order;
                 order.job_name = words[1];
                 std::string zero, because;

@@ -23,6 +23,7 @@ class Cycle;
 struct DeskOrder {
     std::string job_name;  // job-NAME.EXT in the data directory
     std::optional<std::string> work_zero;
+    std::string work_zero_from;  // "" for one the owner gave
     std::optional<std::string> again_because;
 };
 

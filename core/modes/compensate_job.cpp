@@ -135,7 +135,7 @@ CompensatedJob compensate_job(const JobRequest& r) {
                                "measured in: zero at machine X" +
                                mm(zm.x) + " Y" + mm(zm.y) + ")");
             frame.work_zero_mm = parse_work_zero(*r.work_zero, zm);
-            zero_from = "--work-zero " + *r.work_zero;
+            zero_from = r.work_zero_from.empty() ? "--work-zero " + *r.work_zero : r.work_zero_from;
         }
         done.frame_line = "frame: job placed with " + zero_from;
         if (frame.work_zero_mm[0])

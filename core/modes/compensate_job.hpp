@@ -23,6 +23,7 @@ struct JobRequest {
     // --work-zero: "X,Y" (G54's zero in machine coordinates), "measured" (the frame the result
     // was measured in), or entries "G54=X,Y G55=X,Y ..." separated by blanks.
     std::optional<std::string> work_zero;
+    std::string work_zero_from;  // where the work zero came from, when not the owner's option
     std::optional<std::string> again_because;  // compensate a marked job again, for this reason
     std::string date;                          // for the mark: the caller's clock
     targets::CompensateSettings settings;

@@ -108,6 +108,8 @@ struct Modal {
     // Canned cycles: G99 retracts to R, G98 to the height before the series of cycles (or R,
     // when that is lower); their R, Z, Q and P stay in force from block to block.
     bool retract_to_r = false;
+    // G93: F is each move's inverse time (1 / minutes), so a move split in n pieces takes n F.
+    bool inverse_time = false;
     std::optional<double> cycle_start_z_mm;
     std::optional<double> cycle_r, cycle_z, cycle_q, cycle_p;  // the job's units
 
@@ -619,6 +621,8 @@ class Compensator {
                 m_.plane = c.number;
             } else if (c.is(80)) {
                 m_.motion = -1;
+            } else if (c.is(93) || c.is(94) || c.is(95)) {
+                m_.inverse_time = c.is(93);
             } else if (c.is(98) || c.is(99)) {
                 m_.retract_to_r = c.is(99);
             } else if ((c.number >= 54 && c.number <= 58 && c.subcode < 0) ||
@@ -800,7 +804,10 @@ class Compensator {
                                                     : e_total / static_cast<double>(n),
                                       5);
             }
-            if (k == 0) text += other_words(line, "XYZEIJKRG");
+            const auto feed = line.value('F');
+            const bool per_piece_feed = m_.inverse_time && feed && m_.motion != 0;
+            if (k == 0) text += other_words(line, per_piece_feed ? "XYZEIJKRGF" : "XYZEIJKRG");
+            if (per_piece_feed) text += " F" + number(*feed * static_cast<double>(n), 6);
             if (k + 1 == n) text += trailing_comment(raw);
             emit(text);
             ++report_.pieces;

@@ -177,7 +177,10 @@ class Machine {
                 continue;
             }
             const std::string text = evaluated(at);
-            out_.push_back({text, static_cast<long>(at + 1)});
+            // A line of assignments alone leaves nothing to run; a blank line stays blank.
+            const bool only_assignments =
+                text.empty() && split_[at].code.find_first_not_of(" \t") != std::string::npos;
+            if (!only_assignments) out_.push_back({text, static_cast<long>(at + 1)});
             if (ends_program(at)) break;
         }
         return std::move(out_);

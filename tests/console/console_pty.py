@@ -259,6 +259,28 @@ if last["cycle"] != 1 or not last["applied"] or not (last["after"]["rms_mm"] < 0
 # passes are a delta printer's (test_appliance reads them): a router's cycle has none
 if "passes" in last:
     fail(f"last: a router's cycle with passes: {last}")
+# A job through the correction the box keeps, placed at its work zero: the controller's (grbl's
+# $#, G54 at machine -300, -300 in this scenario) or one given; a compensated job is not taken
+# again; a router's job without its work zero is refused at once.
+with open(os.path.join(data, "job-part.nc"), "w") as f:
+    f.write("G21 G90\nG0 X0 Y0 Z5\nG1 X100 Y50 F600\nG99 G81 X20 Y20 Z-2 R1 F300\nG80\nM2\n")
+if "work zero" not in t.ask("compensate job-part.nc", ok=False)["error"]:
+    fail("compensate without a work zero")
+t.ask("compensate job-part.nc controller")
+done = t.wait_notice("compensate: job-part-compensated.nc: ")
+if ("the controller's work offsets ($#: G54=-300.000,-300.000" not in done or
+        "G54 zero at machine X-300.000 Y-300.000 mm" not in done or "1 holes placed" not in done):
+    fail("compensate from the controller: " + done)
+out = open(os.path.join(data, "job-part-compensated.nc")).read().splitlines()
+if not out[0].startswith("; calbox: compensated through result fnv1a64:") or not any(
+        line.startswith("G1 Z-2 F300") for line in out):
+    fail("the compensated job: " + repr(out[:12]))
+t.ask("compensate job-part.nc -250,-200")
+if "G54 zero at machine X-250.000 Y-200.000 mm" not in t.wait_notice("compensate: job-part-compensated.nc: "):
+    fail("compensate at a given work zero")
+t.ask("compensate job-part-compensated.nc measured")
+if "already compensated" not in t.wait_notice("compensate: "):
+    fail("a compensated job taken again")
 log = t.ask("log 5")["log"]
 if len(log) != 5:
     fail("log 5")

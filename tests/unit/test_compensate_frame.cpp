@@ -211,13 +211,15 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
             DOUBLES_EQUAL(-3, *l.value('Z'), 1e-9);
         }
     }
-    // grbl has no cycles: G83 written out as pecks of 1 mm to Z-2.5, back to R between them,
-    // down to 0.254 mm above the last depth, then back to where it started (G98: Z 5).
+    // grbl has no cycles (nor G98 / G99): G83 written out as pecks of 1 mm to Z-2.5, back to R
+    // between them, down to 0.254 mm above the last depth, then back to where it started (G98:
+    // Z 5).
     const targets::JobFrame grbl{targets::Flavour::grbl, {Point2{}}, kTravel};
     const auto pecks =
         lines_of(compensated("G90 G0 X0 Y0 Z5\nG98 G83 X100 Y100 Z-2.5 R0.5 Q1 F200\n", grbl));
     const std::vector<std::string> expected{
-        "G90 G0 X0 Y0 Z5", "G98 G0 X101 Y100.1", "G0 Z0.5",      "G1 Z-0.5 F200", "G0 Z0.5",
+        // (0, 0) lies beyond the measured area: its corner's correction (+0.1, +0.01), held.
+        "G90 G0 X0.1 Y0.01 Z5", "G0 X101 Y100.1", "G0 Z0.5", "G1 Z-0.5 F200", "G0 Z0.5",
         "G0 Z-0.246",      "G1 Z-1.5",           "G0 Z0.5",      "G0 Z-1.246",    "G1 Z-2.5",
         "G0 Z5"};
     CHECK_EQUAL(expected.size(), pecks.size());
@@ -296,10 +298,26 @@ TEST(CompensateFrame, expressions_follow_linuxcncs_precedence_and_functions) {
     DOUBLES_EQUAL(135, value_of("ATAN[1]/[-1]"), 1e-9);
     DOUBLES_EQUAL(3, value_of("FUP[2.1]"), 1e-12);
     DOUBLES_EQUAL(-3, value_of("FIX[-2.1]"), 1e-12);
-    // Assignments take effect after the line is read, as LinuxCNC reads it.
+    // Assignments take effect after the line is read, as LinuxCNC reads it; a line of
+    // assignments alone leaves nothing to run.
     const auto lines = gcode::run_ngc_program("#1 = 5\n#1 = 7 G0 X#1 Y0\nG0 X#1 Y0\n");
-    CHECK_EQUAL(std::string("G0 X5 Y0"), lines.at(1).text);
-    CHECK_EQUAL(std::string("G0 X7 Y0"), lines.at(2).text);
+    CHECK_EQUAL(2u, lines.size());
+    CHECK_EQUAL(std::string("G0 X5 Y0"), lines.at(0).text);
+    CHECK_EQUAL(2, lines.at(0).source_line);
+    CHECK_EQUAL(std::string("G0 X7 Y0"), lines.at(1).text);
+}
+
+TEST(CompensateFrame, inverse_time_feed_is_shared_among_a_moves_pieces) {
+    // G93: F2 finishes the 4 mm move in half a minute; split in four pieces, each takes an eighth
+    // (F8), so the whole still takes half a minute.
+    targets::CompensateReport report;
+    targets::CompensateSettings s;
+    const auto out = lines_of(targets::compensate_gcode(
+        "G90 G0 X100 Y100\nG93 G1 X104 Y100 F2\n", {kStretched, kMeasured}, router_at({0, 0}), s,
+        report));
+    CHECK_EQUAL(5u, out.size());
+    for (std::size_t i = 1; i < out.size(); ++i)
+        DOUBLES_EQUAL(8, *gcode::parse_line(out[i]).value('F'), 1e-12);
 }
 
 TEST(CompensateFrame, lathe_jobs_and_cutter_compensation_are_refused_as_such) {

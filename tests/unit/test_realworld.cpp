@@ -153,14 +153,14 @@ const targets::Correction kSlightlyOff = [](geometry::Point2 p) {
     return geometry::Point2{1.001 * p.x + 0.0005 * p.y + 0.1, -0.0004 * p.x + 0.999 * p.y - 0.05};
 };
 
-// Each file in its controller's flavour, its work zero at the machine's origin (the frame
-// measured), no travel limit, the correction everywhere.
-targets::JobFrame frame_of_file(const std::string& file) {
+// Each file in its controller's flavour, its work zero at `work_zero_mm` on the machine, no
+// travel limit, the correction everywhere.
+targets::JobFrame frame_of_file(const std::string& file, geometry::Point2 work_zero_mm = {}) {
     const bool printer = file.rfind("printer/", 0) == 0;
     const bool ngc = file.size() > 4 && file.substr(file.size() - 4) == ".ngc";
     return {printer ? targets::Flavour::printer
                     : (ngc ? targets::Flavour::linuxcnc : targets::Flavour::grbl),
-            {geometry::Point2{}},
+            {work_zero_mm},
             {}};
 }
 
@@ -651,6 +651,14 @@ std::vector<std::pair<geometry::Point2, geometry::Point2>> segments_of(
 // output's, within the compensator's own arc tolerance of 0.002 mm (and its 0.0001 mm digits).
 TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction) {
     const targets::Correction identity = [](geometry::Point2 p) { return p; };
+    // Each job placed with its work zero at machine (40, -25): the correction is the machine's,
+    // so the job's point p goes to kSlightlyOff(p + W) - W (not kSlightlyOff(p), which a job
+    // compensated in the wrong frame would show, up to 0.05 mm off here).
+    const geometry::Point2 w{40, -25};
+    const targets::Correction through_machine = [w](geometry::Point2 p) {
+        const auto c = kSlightlyOff({p.x + w.x, p.y + w.y});
+        return geometry::Point2{c.x - w.x, c.y - w.y};
+    };
     double worst = 0;
     for (const char* file :
          {"cnc/fusion360/1070_wall_27bit.nc", "cnc/jsdc.gcode", "cnc/linuxcnc/arcspiral.ngc",
@@ -662,10 +670,10 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
         const std::string job = test::read_test_data(std::string("realworld/gcode/") + file);
         targets::CompensateReport report;
         const std::string out = targets::compensate_gcode(job, {kSlightlyOff, {}},
-                                                          frame_of_file(file), {}, report);
+                                                          frame_of_file(file, w), {}, report);
         const auto in_moves = test::reference_motion(job);
         const auto out_moves = test::reference_motion(out);
-        const PathIndex input_corrected(segments_of(in_moves, kSlightlyOff));
+        const PathIndex input_corrected(segments_of(in_moves, through_machine));
         const PathIndex output(segments_of(out_moves, identity));
         double off_input = 0, off_output = 0;
         for (const auto& m : out_moves)
@@ -673,7 +681,7 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
                 off_input = std::max(off_input, input_corrected.distance(m.path_mm[k]));
         for (const auto& m : in_moves)
             for (std::size_t k = m.start_known ? 0 : 1; k < m.path_mm.size(); ++k)
-                off_output = std::max(off_output, output.distance(kSlightlyOff(m.path_mm[k])));
+                off_output = std::max(off_output, output.distance(through_machine(m.path_mm[k])));
         UT_PRINT((std::string(file) + ": " + std::to_string(in_moves.size()) + " moves in, " +
                   std::to_string(out_moves.size()) + " out; the output off the corrected input " +
                   number_text("%.5f", off_input) + " mm, the corrected input off the output " +
@@ -683,6 +691,47 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
         CHECK_TEXT(off_input <= 0.0021 && off_output <= 0.0021, file);
     }
     UT_PRINT(("worst " + number_text("%.5f", worst) + " mm").c_str());
+}
+
+// LinuxCNC's hole-circle.ngc: six holes drilled round a 1.5 inch radius by an incremental G81
+// repeated with polar words (G91 ... ^60 L6). Each hole, worked by hand at 60 k degrees on that
+// circle about the work zero, comes out through the correction as LinuxCNC keeps the cycle.
+TEST(RealGcode, a_bolt_circle_in_polar_words_drills_each_hole_through_the_correction) {
+    const std::string job = test::read_test_data("realworld/gcode/cnc/linuxcnc/hole-circle.ngc");
+    const geometry::Point2 w{150, 150};
+    targets::CompensateReport report;
+    const std::string out = targets::compensate_gcode(
+        job, {kSlightlyOff, {}}, frame_of_file("cnc/linuxcnc/hole-circle.ngc", w), {}, report);
+    CHECK_EQUAL(6, report.holes);
+    std::istringstream lines(out);
+    geometry::Point2 at_in{};  // the written position, inches, in the job's frame
+    bool incremental = false;
+    int hole = 0;
+    for (std::string raw; std::getline(lines, raw);) {
+        const auto line = gcode::parse_line(raw);
+        bool g91 = line.is('G', 91), g90 = line.is('G', 90), g81 = line.is('G', 81);
+        for (const auto& word : line.parameters)
+            if (word.letter == 'G' && word.value) {
+                g91 = g91 || *word.value == 91;
+                g90 = g90 || *word.value == 90;
+                g81 = g81 || *word.value == 81;
+            }
+        if (g91) incremental = true;
+        if (g90) incremental = false;
+        if (!line.has('X') && !line.has('Y')) continue;
+        const double x = line.value('X').value_or(incremental ? 0 : at_in.x);
+        const double y = line.value('Y').value_or(incremental ? 0 : at_in.y);
+        at_in = incremental ? geometry::Point2{at_in.x + x, at_in.y + y} : geometry::Point2{x, y};
+        if (!g81) continue;
+        ++hole;
+        const double a = hole * 60 * 3.14159265358979323846 / 180;
+        const geometry::Point2 machine{1.5 * 25.4 * std::cos(a) + w.x,
+                                       1.5 * 25.4 * std::sin(a) + w.y};
+        const auto c = kSlightlyOff(machine);
+        DOUBLES_EQUAL(c.x - w.x, at_in.x * 25.4, 0.002);
+        DOUBLES_EQUAL(c.y - w.y, at_in.y * 25.4, 0.002);
+    }
+    CHECK_EQUAL(6, hole);
 }
 
 // Klipper's saved [delta_calibrate] probe (FLSUN Q5): its seven stepper positions (80 steps a mm,

@@ -17,6 +17,7 @@
 #include "firmware/box_news.hpp"
 #include "firmware/cli_args.hpp"
 #include "firmware/console.hpp"
+#include "firmware/version.hpp"
 #include "firmware/job_desk.hpp"
 #include "firmware/cycle.hpp"
 #include "firmware/event_loop.hpp"
@@ -26,9 +27,6 @@
 #include "firmware/sim_appliance.hpp"
 #include "firmware/sim_operator.hpp"
 
-#ifndef CALBOX_VERSION
-#define CALBOX_VERSION "0.1.0"
-#endif
 #ifndef CALBOX_EXAMPLES_DIR
 #define CALBOX_EXAMPLES_DIR "examples"
 #endif
@@ -373,9 +371,9 @@ int run(const std::vector<std::string>& words) {
         config_path.parent_path().empty() ? std::filesystem::path(".") : config_path.parent_path());
     firmware::ConsoleContext context{
         cycle, config,   *config_home,   config_path.filename().string(),
-        data,  log_book, CALBOX_VERSION, {},
+        data,  log_book, calbox::build_version(), {},
         {}};
-    firmware::BoxNews news(data, CALBOX_VERSION, log);
+    firmware::BoxNews news(data, calbox::build_version(), log);
     news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
     context.config_changed = [&] {
         cycle.set_settings(box.with_board(settings_from(config)));
@@ -456,7 +454,7 @@ int run(const std::vector<std::string>& words) {
     }
     // The web page and MQTT, where the configuration or the options say.
     firmware::BoxNetwork network({loop, cycle, console_commands, config, data, clock, log_book,
-                                  news, log, CALBOX_VERSION, [] {
+                                  news, log, calbox::build_version(), [] {
                                       return static_cast<std::int64_t>(
                                           std::chrono::duration_cast<std::chrono::seconds>(
                                               std::chrono::system_clock::now().time_since_epoch())

@@ -5,6 +5,7 @@
 
 #include "core/geometry/pattern_spec.hpp"
 #include "firmware/cli_args.hpp"
+#include "firmware/version.hpp"
 
 namespace {
 
@@ -72,7 +73,7 @@ int main(int argc, char** argv) {
             return 0;
         }
         if (words[0] == "--version") {
-            std::cout << "calbox 0.1.0\n";
+            std::cout << "calbox " << calbox::build_version() << "\n";
             return 0;
         }
         const std::vector<std::string> rest(words.begin() + 1, words.end());

@@ -2,15 +2,17 @@
 # calbox developer entry point: installs what is missing (Debian packages from
 # toolchain/packages.txt), configures and builds with a CMake preset, then runs what was asked.
 #
-#   toolchain/calbox.sh run   [--preset P]   the main job: calbox run --board sim --auto (release)
-#   toolchain/calbox.sh test  [--preset P]   every test under ctest (default preset: dev)
+#   toolchain/calbox.sh run   [--preset P]   the main job: calbox run --board sim --auto (only the
+#                                             calbox binary, and only the packages the box needs)
+#   toolchain/calbox.sh test  [--preset P]   every test under ctest (default preset for both: dev,
+#                                             so the main job runs what CI compiled)
 #   toolchain/calbox.sh build [--preset P]   configure and build only
 # Presets: dev, asan, release, fuzz, and arm64 (cross-built for the Raspberry Pi, run under qemu).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 top="$(dirname "$here")"
 
-usage() { sed -n '2,8p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,10p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 
 action="${1:-}"
 [ -n "$action" ] || { usage >&2; exit 2; }
@@ -24,7 +26,7 @@ while [ $# -gt 0 ]; do
     esac
 done
 case "$action" in
-    run) preset="${preset:-release}" ;;
+    run) preset="${preset:-dev}" ;;
     test|build) preset="${preset:-dev}" ;;
     -h|--help|help) usage; exit 0 ;;
     *) echo "calbox.sh: unknown action '$action' (run, test or build)" >&2; exit 2 ;;
@@ -38,7 +40,11 @@ install_missing() {
         case "$first" in ''|'#'*) continue ;; esac
         local pkg="$first"
         if [ -n "$second" ]; then
-            [ "$first" = arm64-host ] && [ "$preset" = arm64 ] || continue
+            case "$first" in
+                arm64-host) [ "$preset" = arm64 ] || continue ;;
+                test) [ "$action" != run ] || continue ;;
+                *) continue ;;
+            esac
             pkg="$second"
         fi
         if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q 'install ok installed'; then
@@ -61,10 +67,13 @@ build() {
     if [ "$preset" = arm64 ]; then
         bash "$here/arm64_sysroot.sh" "$top/build/arm64-sysroot"
     fi
-    if [ ! -f "build/$preset/CMakeCache.txt" ]; then
-        cmake --preset "$preset"
+    # Configured every time (quick when nothing changed): the tests appear once CppUTest is there.
+    cmake --preset "$preset" > /dev/null
+    if [ "$action" = run ]; then
+        cmake --build "build/$preset" -j 2 --target calbox
+    else
+        cmake --build "build/$preset" -j 2
     fi
-    cmake --build "build/$preset" -j 2
 }
 
 install_missing

@@ -128,7 +128,12 @@ class Terminal:
 
 t = Terminal()
 # version, help, status
-if t.ask("version")["version"] != "0.1.0":
+# The version is the build's: the project's, then git's commit count and hash in a checkout.
+version = subprocess.run([calbox, "--version"], capture_output=True, text=True).stdout.split()[-1]
+if not re.fullmatch(r"0\.1\.0(\+git\.\d+\.[0-9a-f]{7,}(\.dirty)?)?", version) or (
+        os.path.isdir(os.path.join(top, ".git")) and "+git." not in version):
+    fail("calbox --version: " + version)
+if t.ask("version")["version"] != version:
     fail("version")
 help_lines = "\n".join(t.text("help"))
 for command in ["status", "config list", "config get KEY", "config set KEY VALUE", "config save",

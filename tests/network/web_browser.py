@@ -11,6 +11,7 @@ import json
 import os
 import re
 import signal
+import subprocess
 import sys
 import tempfile
 import threading
@@ -94,6 +95,9 @@ for key, (payload, retained) in configs.items():
             run.fail("the start button's config: %s" % payload)
     elif c["state_topic"] != "calbox/%s/state" % NODE or "value_json." not in c["value_template"]:
         run.fail("discovery %s: %s" % (key, payload))
+build = subprocess.run([calbox, "--version"], capture_output=True, text=True).stdout.split()[-1]
+if any(json.loads(payload)["device"].get("sw_version") != build for payload, _ in configs.values()):
+    run.fail("discovery: the device's sw_version is not the build's " + build)
 if json.loads(configs["sensor/%s/last_error" % NODE][0])["unit_of_measurement"] != "mm":
     run.fail("the last error's unit is not mm")
 run.wait_for("availability online", lambda: seen(
@@ -223,8 +227,9 @@ if abs(time.time() - history[-1]["finished_unix_s"]) > 300:
 for part in ("box", "camera", "machine"):
     if not samples[("calbox_last_cycle_duration_seconds", (("part", part),))] > 0:
         run.fail("no %s duration" % part)
-if ("calbox_build_info", (("version", "0.1.0"),)) not in samples:
-    run.fail("no build info")
+version = subprocess.run([calbox, "--version"], capture_output=True, text=True).stdout.split()[-1]
+if ("calbox_build_info", (("version", version),)) not in samples:
+    run.fail("no build info of version " + version)
 
 # MQTT through the cycle: the states in order, the result with its figures.
 states = [json.loads(p)["state"] for t, p, _ in seen(lambda m: m[0] == "calbox/%s/state" % NODE)]

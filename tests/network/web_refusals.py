@@ -103,6 +103,13 @@ expect("JSON not an object", request(url + "/api/action", "POST", b'["start"]', 
        400, "object")
 expect("an action not served", request(url + "/api/action", "POST", {"action": "format"},
                                        password=PASSWORD), 400, "one of start")
+expect("a job name that climbs", request(url + "/api/action", "POST",
+                                        {"action": "compensate", "job": "../calbox.toml"},
+                                        password=PASSWORD), 400, "compensate")
+expect("a job through no correction", request(url + "/api/action", "POST",
+                                              {"action": "compensate", "job": "job-part.nc",
+                                               "work_zero": "measured"},
+                                              password=PASSWORD), 409, "no correction in force")
 expect("a value out of range", request(url + "/api/config", "POST",
                                        {"key": "cycle.frames_per_capture", "value": "99"},
                                        password=PASSWORD), 409, r"1 to 16")
@@ -184,6 +191,6 @@ troubles = re.findall(r"mqtt: (cannot reach|the broker refused|the broker went)"
 if troubles != ["the broker refused", "the broker went"]:
     run.fail("the broker's troubles were told as %s, not once each" % troubles)
 run.stop_all()
-print("refusals: 413 431 400 403x6 404 409x3 401 415 405 429 503 all as expected; a flood refused "
+print("refusals: 413 431 400 403x6 404 409x4 401 415 405 429 503 all as expected; a flood refused "
       "%d of 150; the cycle after them: %.4f mm RMS, %.4f mm worst" % (
           codes.count(429), last["after"]["rms_mm"], last["after"]["max_mm"]))

@@ -25,7 +25,7 @@ endfunction()
 
 if(CMAKE_SCRIPT_MODE_FILE AND OUT)
   calbox_version("${SOURCE_DIR}" "${PROJECT_VERSION}" version)
-  set(text "// Generated at build time by cmake/version.cmake.\n#include \"firmware/version.hpp\"\n\nconst char* calbox::build_version() {\n    return \"${version}\";\n}\n")
+  set(text "// Generated at build time by cmake/version.cmake.\n#include \"firmware/cli/version.hpp\"\n\nconst char* calbox::build_version() {\n    return \"${version}\";\n}\n")
   if(EXISTS "${OUT}")
     file(READ "${OUT}" old)
   endif()

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Writes firmware/font_6x12.inc: the display's font table, ASCII 32..126, from Terminus 6x12.
+"""Writes firmware/cycle/font_6x12.inc: the display's font table, ASCII 32..126, from Terminus 6x12.
 
 The glyphs are Terminus (Dimitar Zhekov, SIL Open Font License 1.1) as Debian's
 console-setup-linux package ships it: /usr/share/consolefonts/Lat15-Terminus12x6.psf.gz.
@@ -38,4 +38,4 @@ for code in range(32, 127):
     rows = glyphs[g * glyph_bytes:(g + 1) * glyph_bytes]
     shown = chr(code) if code not in (92,) else "backslash"
     lines.append("{" + ", ".join(f"0x{r:02x}" for r in rows) + "},  // " + shown)
-open("firmware/font_6x12.inc", "w").write("\n".join(lines) + "\n")
+open("firmware/cycle/font_6x12.inc", "w").write("\n".join(lines) + "\n")

@@ -11,10 +11,9 @@
 #include "core/number_text.hpp"
 #include "core/targets/delta_target.hpp"
 #include "core/targets/job.hpp"
-#include "firmware/gcode_host.hpp"
+#include "firmware/cycle/overlays.hpp"
+#include "firmware/cycle/photos.hpp"
 #include "firmware/modes/klipper_host.hpp"
-#include "firmware/modes/photos.hpp"
-#include "firmware/overlays.hpp"
 
 namespace calbox::firmware {
 namespace {

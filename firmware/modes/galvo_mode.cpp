@@ -3,8 +3,8 @@
 #include "core/number_text.hpp"
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
-#include "firmware/modes/photos.hpp"
-#include "firmware/overlays.hpp"
+#include "firmware/cycle/overlays.hpp"
+#include "firmware/cycle/photos.hpp"
 
 namespace calbox::firmware {
 namespace {

@@ -5,7 +5,7 @@
 // target sent through the new correction.
 #include <string>
 
-#include "firmware/cycle_mode.hpp"
+#include "firmware/cycle/cycle_mode.hpp"
 
 namespace calbox::firmware {
 

@@ -5,7 +5,7 @@
 #include <functional>
 #include <string>
 
-#include "firmware/cycle_mode.hpp"
+#include "firmware/cycle/cycle_mode.hpp"
 
 namespace calbox::firmware {
 

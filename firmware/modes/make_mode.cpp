@@ -1,5 +1,4 @@
 // The one place on the box's side that reads the machine's kind.
-#include <sstream>
 #include <stdexcept>
 
 #include "firmware/modes/delta_mode.hpp"
@@ -14,19 +13,6 @@ std::unique_ptr<CycleMode> make_cycle_mode(const models::MachineFile& machine, C
     if (machine.is_planar()) return std::make_unique<PlanarCycleMode>(machine, steps);
     throw std::invalid_argument("the cycle runs the delta, galvo and planar modes, not a " +
                                 machine.kind);
-}
-
-std::vector<std::string> lines_of(const std::string& text) {
-    std::vector<std::string> lines;
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);) lines.push_back(line);
-    return lines;
-}
-
-std::string joined(const std::vector<std::string>& lines) {
-    std::string out;
-    for (const auto& l : lines) out += l + "\n";
-    return out;
 }
 
 }  // namespace calbox::firmware

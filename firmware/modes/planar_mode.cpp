@@ -5,8 +5,8 @@
 
 #include "core/number_text.hpp"
 #include "core/targets/planar_target.hpp"
-#include "firmware/modes/photos.hpp"
-#include "firmware/overlays.hpp"
+#include "firmware/cycle/overlays.hpp"
+#include "firmware/cycle/photos.hpp"
 
 namespace calbox::firmware {
 namespace {

@@ -16,8 +16,8 @@
 #include <string>
 
 #include "drivers/timerfd_clock.hpp"
-#include "firmware/sim_appliance.hpp"
-#include "firmware/sim_operator.hpp"
+#include "firmware/app/sim_appliance.hpp"
+#include "firmware/app/sim_operator.hpp"
 #include "tests/bench/bench_support.hpp"
 
 using namespace calbox;

@@ -15,7 +15,7 @@
 
 #include "drivers/durable_file.hpp"
 #include "drivers/file_storage.hpp"
-#include "firmware/box_config.hpp"
+#include "firmware/console/box_config.hpp"
 #include "tests/support/device_errors.hpp"
 
 using namespace calbox;

@@ -5,7 +5,7 @@
 
 #include <optional>
 
-#include "firmware/gcode_host.hpp"
+#include "firmware/links/gcode_host.hpp"
 #include "tests/mocks/hal_mocks.hpp"
 #include "tests/support/fake_clock.hpp"
 

@@ -10,7 +10,7 @@
 #include "drivers/button_debounce.hpp"
 #include "drivers/gpio_lines.hpp"
 #include "drivers/timerfd_clock.hpp"
-#include "firmware/button_press.hpp"
+#include "firmware/cycle/button_press.hpp"
 #include "tests/support/device_errors.hpp"
 
 using namespace calbox;

@@ -23,11 +23,11 @@
 #include "core/models/machine_file.hpp"
 #include "core/models/machine_import.hpp"
 #include "drivers/http.hpp"
-#include "firmware/cycle_mode.hpp"
-#include "firmware/duet_link.hpp"
-#include "firmware/event_loop.hpp"
-#include "firmware/moonraker_link.hpp"
-#include "firmware/octoprint_link.hpp"
+#include "firmware/cycle/cycle_mode.hpp"
+#include "firmware/links/duet_link.hpp"
+#include "firmware/links/moonraker_link.hpp"
+#include "firmware/links/octoprint_link.hpp"
+#include "firmware/loop/event_loop.hpp"
 
 using namespace calbox;
 using namespace std::chrono_literals;

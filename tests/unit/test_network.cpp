@@ -16,10 +16,10 @@
 #include "drivers/file_storage.hpp"
 #include "drivers/http.hpp"
 #include "drivers/password.hpp"
-#include "firmware/box_news.hpp"
-#include "firmware/event_loop.hpp"
-#include "firmware/live_view.hpp"
-#include "firmware/overlays.hpp"
+#include "firmware/cycle/overlays.hpp"
+#include "firmware/loop/event_loop.hpp"
+#include "firmware/net/box_news.hpp"
+#include "firmware/net/live_view.hpp"
 
 using namespace calbox;
 using namespace std::chrono_literals;

@@ -7,7 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "firmware/screens.hpp"
+#include "firmware/cycle/screens.hpp"
 
 using namespace calbox;
 using firmware::draw_screen;

@@ -1,0 +1,605 @@
+// calbox run: the appliance. The composition root: reads the options, asks a board for its
+// devices, wires them to the event loop and the cycle. calbox revert: the last backup, sent.
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+
+#include "board/devices.hpp"
+#include "board/rpi/rpi_board.hpp"
+#include "board/sim/sim_board.hpp"
+#include "board/sim/twin_judge.hpp"
+#include "firmware/app/appliance.hpp"
+#include "firmware/app/sim_appliance.hpp"
+#include "firmware/app/sim_operator.hpp"
+#include "firmware/cli/cli_args.hpp"
+#include "firmware/cli/version.hpp"
+#include "firmware/console/box_config.hpp"
+#include "firmware/console/console.hpp"
+#include "firmware/console/job_desk.hpp"
+#include "firmware/console/link_key.hpp"
+#include "firmware/cycle/cycle.hpp"
+#include "firmware/links/gcode_host.hpp"
+#include "firmware/loop/event_loop.hpp"
+#include "firmware/net/box_network.hpp"
+#include "firmware/net/box_news.hpp"
+#include "firmware/plc/plc_link.hpp"
+
+#ifndef CALBOX_EXAMPLES_DIR
+#define CALBOX_EXAMPLES_DIR "examples"
+#endif
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kRunHelp = R"(usage:
+  calbox run [--board sim|rpi] [--scenario FILE] [--data DIR] [--config FILE] [--console DEVICE]
+             [--board-file FILE] [--machine FILE]
+             [--auto | --operator | --operator-hands] [--frames N] [--camera-files DIR|GLOB]
+             [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
+             [--modbus-word-order ORDER] [--web HOST:PORT] [--mqtt HOST:PORT]
+      The appliance: waits for the button, then runs the calibration cycle of the scenario's
+      machine (a delta printer, a galvo scanner or a router): the target made over the machine link, lit
+      and photographed, measured, solved, shown for review (short press applies, long press
+      cancels), applied, and verified by making the target again. A delta printer's settings
+      are sent with a backup and a read-back; a galvo scanner's correction is a table the box
+      keeps (DIR/galvo-table.json) and sends jobs through, the grid burned through it to verify;
+      a router's or cartesian printer's is an error model the box keeps (DIR/planar-result.json, with the firmware's
+      own scale and skew settings beside it in the cycle's firmware.txt) and compensates jobs
+      through, the holes drilled through it to verify. The correction starts from the settings the printer reports
+      (M503; RepRapFirmware: M665, M666), not the scenario's. The first time (no camera.yaml / plane.yaml in DIR) it first
+      asks for views of a chessboard held in front of the camera and for one on the bed (the
+      scenario's [setup]: chessboard:11x8@20 and 9x6@20 unless it says otherwise). Every state
+      change is one line on standard error.
+      --board rpi     a Raspberry Pi 4 or 5 with its camera (V4L2), button, LEDs and light
+                      (GPIO), display (I2C) and the machine's serial port, where --board-file
+                      FILE (default /etc/calbox/board.toml when it exists; docs/devices.md, The
+                      Raspberry Pi board) says; --machine FILE is the machine beside the box.
+                      A device that is not there stops it with one line naming it
+      --board sim     the digital twin (the default): --scenario FILE (default
+                      examples/delta_cycle.toml; examples/galvo_cycle.toml is a galvo scanner,
+                      examples/planar_cycle.toml a router, tests/scenarios/
+                      planar_printer_small.toml a cartesian printer) is
+                      the machine, its hidden errors, the camera and the set-up boards
+      --data DIR      set-up and cycle records (default $XDG_STATE_HOME/calbox, else
+                      ~/.local/state/calbox)
+      --auto          no person: the sim board's operator does what each prompt asks and
+                      presses the button; one cycle, then exit. Prints the twin's judgement
+                      before and after, and exits 0 only if the goal is met: a delta's XY RMS <=
+                      0.01 mm, worst <= 0.03 mm over the printable area; a galvo's marks through
+                      the table <= 0.008 mm mean, <= 0.03 mm worst; a router's (or printer's) fresh points
+                      through the model under 0.05 mm mean and 95 % less than before.
+      --config FILE   the box's configuration (TOML; docs/appliance.md, Configuration; default
+                      DIR/calbox.toml when it exists): [cycle], [setup], [records], [console] and
+                      [modbus]; the options override it. The console's `config save` writes it
+      --console DEVICE
+                      the console (docs/appliance.md, Console): a serial device, "pty" (a pseudo-terminal,
+                      linked as DIR/console), "stdin" (the default: standard input when it is a
+                      terminal) or "" for none; overrides console.device
+      --operator      the sim board's operator does what the set-up and bed prompts ask, but
+                      the start and the review are left to the button, the console or a PLC
+      --operator-hands
+                      the operator does what each prompt asks but presses nothing: every press
+                      comes from the console or the button
+      --frames N      photos averaged per capture (default: cycle.frames_per_capture, 1)
+      --camera-files DIR|GLOB
+                      photos from image files (name order, one per frame) instead of the
+                      camera: a cycle re-run on saved photos, or photos from another camera.
+                      Their size must be the calibration's (camera.yaml), else one error line
+      --modbus-server ENDPOINT
+                      serve the PLC map (docs/devices.md, Modbus): trigger, confirm, cancel and
+                      acknowledge coils; ready, busy, review, done, pass, error and person inputs;
+                      state, error code, result counter and the result block in input registers.
+                      ENDPOINT is tcp:HOST:PORT (0.0.0.0 for all interfaces) or rtu:DEVICE:BAUD
+      --modbus-client ENDPOINT
+                      after each completed cycle, write its result into that controller's holding
+                      registers: the whole result block from register 0, or as --modbus-map FILE
+                      says (TOML lines: value_name = register)
+      --modbus-word-order ORDER
+                      the floats' word order on Modbus: abcd (default: 123456.0 is 0x47F1
+                      0x2000), cdab, badc or dcba
+      --web HOST:PORT serve the box's web page there (docs/network.md; overrides web.listen):
+                      status, live view, pictures, records, configuration and the actions at /,
+                      /metrics for Prometheus, records under /records/. HOST is an IP address
+                      (0.0.0.0: every interface); port 0 takes a free one (logged). Whatever
+                      changes state needs the password set with the console's `web password`
+      --mqtt HOST:PORT
+                      report to that MQTT broker (overrides mqtt.broker): the state and each
+                      cycle's result, availability, and Home Assistant's discovery
+      The console's commands: help, status, config list|get|set|save|reset, start, confirm,
+      cancel, revert, last, log, version, camera calibrate|plane, capture; on the sim board also
+      press, hold and quit.
+  calbox revert [--board sim|rpi] [--scenario FILE] [--data DIR] [--board-file FILE]
+                [--machine FILE]
+      Sends the settings backed up before the last completed cycle applied its correction
+      (DIR/cycle-NNNN-backup.gcode), then M500, and reads them back from the printer (M503;
+      RepRapFirmware: M665, M666); exits 1 if the printer reports anything else. The sim
+      board's printer keeps what it stores in DIR/twin-printer-settings.gcode, as an EEPROM.
+)";
+
+std::filesystem::path default_data_dir() {
+    if (const char* state = std::getenv("XDG_STATE_HOME"); state != nullptr && *state != 0)
+        return std::filesystem::path(state) / "calbox";
+    if (const char* home = std::getenv("HOME"); home != nullptr && *home != 0)
+        return std::filesystem::path(home) / ".local" / "state" / "calbox";
+    throw std::runtime_error(
+        "no --data directory given and neither XDG_STATE_HOME nor HOME is set");
+}
+
+void log_line(const std::string& line) {
+    std::fprintf(stderr, "calbox: %s\n", line.c_str());
+}
+
+struct Common {
+    std::string scenario;
+    std::filesystem::path data_dir;
+};
+
+Common common_options(const Args& args, bool rpi_allowed = false) {
+    const std::string board = args.get("--board").value_or("sim");
+    if (board != "sim" && !(rpi_allowed && board == "rpi"))
+        throw UsageError("unknown board '" + board + "': " + (rpi_allowed ? "sim or rpi" : "sim"));
+    if (board == "rpi" && args.get("--scenario")) throw UsageError("--scenario is the sim board's");
+    Common c;
+    c.scenario = args.get("--scenario").value_or(CALBOX_EXAMPLES_DIR "/delta_cycle.toml");
+    c.data_dir =
+        args.get("--data") ? std::filesystem::path(*args.get("--data")) : default_data_dir();
+    std::error_code ec;
+    std::filesystem::create_directories(c.data_dir, ec);
+    if (ec) throw std::runtime_error(c.data_dir.string() + ": cannot create: " + ec.message());
+    return c;
+}
+
+// The board --board chose: its devices (one type, whichever board), the machine beside them,
+// and on the sim board the twin (its bench for the operator and the judge, its own commands).
+struct ChosenBoard {
+    std::unique_ptr<sim::SimBoard> sim;
+    board::Devices own;  // a real board's devices
+    models::MachineFile machine;
+    board::Devices& devices() { return sim ? sim->devices : own; }
+};
+
+board::RpiSettings rpi_board_settings(const Args& args) {
+    const auto given = args.get("--board-file");
+    const std::string path = given.value_or("/etc/calbox/board.toml");
+    std::error_code ec;
+    if (!given && !std::filesystem::exists(path, ec)) return board::default_rpi_settings();
+    return board::read_rpi_settings(path);
+}
+
+// A real board's devices are opened in order: the first one that is not there stops the box
+// with one line naming it.
+ChosenBoard choose_board(const Args& args, const Common& common, hal::Clock& clock,
+                         const firmware::Cycle::Log& log) {
+    ChosenBoard chosen;
+    if (args.get("--board").value_or("sim") == "rpi") {
+        const auto path = args.get("--machine");
+        if (!path) throw UsageError("--board rpi needs --machine FILE: the machine beside the box");
+        chosen.machine = models::parse_machine_file(read_input_file(*path, "machine file"), *path);
+        chosen.own = board::open_rpi_devices(rpi_board_settings(args), clock);
+        return chosen;
+    }
+    chosen.sim = std::make_unique<sim::SimBoard>(
+        sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log));
+    chosen.machine = chosen.sim->machine;
+    return chosen;
+}
+
+// The appliance on the real clock, built from the chosen board's devices as calbox run and
+// calbox revert both use it. With --camera-files the photos come from files, not the board's
+// camera.
+struct Box {
+    std::unique_ptr<hal::Clock> clock = board::monotonic_clock();
+    ChosenBoard board;
+    std::unique_ptr<hal::Camera> photo_files;
+    std::unique_ptr<hal::Storage> data = nullptr;
+    firmware::Appliance appliance;
+    firmware::Cycle& cycle = appliance.cycle;
+    firmware::EventLoop& loop = appliance.loop;
+
+    Box(const Args& args, const Common& common, firmware::CycleSettings settings,
+        const firmware::Cycle::Log& log = log_line, const firmware::LinkSettings& link = {})
+        : board(with_link(choose_board(args, common, *clock, log), link)),
+          photo_files(args.get("--camera-files") ? board::photo_files(*args.get("--camera-files"))
+                                                 : nullptr),
+          data(board::data_directory(common.data_dir)),
+          appliance(firmware::ApplianceDevices::of(board.devices(), photo_files.get()), *data,
+                    *clock, {}, board.machine, with_board(std::move(settings)), log) {}
+
+    // The configuration's link.* over the machine file's [link].
+    static ChosenBoard with_link(ChosenBoard chosen, const firmware::LinkSettings& link) {
+        try {
+            chosen.machine.link = link.over(chosen.machine);
+        } catch (const firmware::ConfigError& e) {
+            throw UsageError(std::string("configuration: ") + e.what());
+        }
+        if (chosen.sim) chosen.sim->machine.link = chosen.machine.link;
+        return chosen;
+    }
+
+    // The boards the sim board's person holds are the ones the box asks for.
+    firmware::CycleSettings with_board(firmware::CycleSettings settings) const {
+        if (!board.sim) return settings;
+        return firmware::SimAppliance::with_setup_boards(std::move(settings),
+                                                         board.sim->bench->scenario().setup);
+    }
+};
+
+int run(const std::vector<std::string>& words) {
+    const Args args(words,
+                    {"--board", "--scenario", "--data", "--config", "--console", "--frames",
+                     "--camera-files", "--modbus-server", "--modbus-client", "--modbus-map",
+                     "--modbus-word-order", "--board-file", "--machine", "--web", "--mqtt"},
+                    {"--auto", "--operator", "--operator-hands"});
+    if (!args.positional().empty()) throw UsageError("run takes no positional argument");
+    const bool automatic = args.flag("--auto");
+    if (automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
+    const bool operator_hands = args.flag("--operator-hands");
+    if (operator_hands && (automatic || args.flag("--operator")))
+        throw UsageError("--operator-hands is instead of --auto or --operator");
+    const bool operator_acts = automatic || args.flag("--operator") || operator_hands;
+    const std::optional<int> frames =
+        args.get("--frames") ? std::optional<int>(static_cast<int>(args.number("--frames", 1)))
+                             : std::nullopt;
+    if (frames && (*frames < 1 || *frames > 16)) throw UsageError("--frames must be 1 to 16");
+    const Common common = common_options(args, true);
+    const bool on_rpi = args.get("--board").value_or("sim") == "rpi";
+    if (!on_rpi && (args.get("--board-file") || args.get("--machine")))
+        throw UsageError(
+            "--board-file and --machine are the rpi board's (the sim board's machine "
+            "is its scenario's)");
+    if (on_rpi && (operator_acts || args.get("--camera-files")))
+        throw UsageError(
+            "--auto, --operator, --operator-hands and --camera-files are the sim "
+            "board's");
+    // The configuration: --config FILE, else DATA/calbox.toml when it exists; `config save` on
+    // the console writes it back there. Options win over it.
+    const std::filesystem::path config_path = args.get("--config")
+                                                  ? std::filesystem::path(*args.get("--config"))
+                                                  : common.data_dir / "calbox.toml";
+    firmware::BoxConfig config;
+    if (args.get("--config") || std::filesystem::exists(config_path)) {
+        try {
+            config = firmware::BoxConfig::from_toml(
+                read_input_file(config_path.string(), "configuration"), config_path.string());
+        } catch (const firmware::ConfigError& e) {
+            throw UsageError(e.what());
+        }
+    }
+    // The options win over the configuration, each parsed once into its typed value.
+    firmware::ModbusSettings modbus = config.settings().modbus;
+    try {
+        if (auto v = args.get("--modbus-server")) modbus.server = board::parse_modbus_endpoint(*v);
+        if (auto v = args.get("--modbus-client")) modbus.client = board::parse_modbus_endpoint(*v);
+    } catch (const std::invalid_argument& e) {
+        throw UsageError(e.what());
+    }
+    if (auto v = args.get("--modbus-map")) modbus.client_map = *v;
+    if (auto v = args.get("--modbus-word-order")) {
+        try {
+            modbus.word_order = models::parse_word_order(*v);
+        } catch (const std::invalid_argument& e) {
+            throw UsageError(std::string("--modbus-word-order: ") + e.what());
+        }
+    }
+    if (!modbus.client_map.empty() && !modbus.client)
+        throw UsageError("--modbus-map needs --modbus-client");
+    const models::WordOrder word_order = modbus.word_order;
+    const board::ModbusTimeouts modbus_timeouts = modbus.timeouts;
+    std::optional<firmware::ResultRegisterMap> result_map;
+    if (modbus.client) {
+        result_map = modbus.client_map.empty()
+                         ? firmware::ResultRegisterMap::whole_block(0)
+                         : firmware::ResultRegisterMap::from_toml(
+                               read_input_file(modbus.client_map, "Modbus map"), modbus.client_map);
+    }
+
+    // The network's windows: options over the configuration, checked as the console checks it.
+    try {
+        if (auto v = args.get("--web")) config.set("web.listen", *v);
+        if (auto v = args.get("--mqtt")) config.set("mqtt.broker", *v);
+    } catch (const firmware::ConfigError& e) {
+        throw UsageError(std::string("--web/--mqtt: ") + e.what());
+    }
+
+    firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
+    // The cycle's settings as the configuration says, the options over them.
+    const auto settings_from = [&frames](const firmware::BoxConfig& c) {
+        auto s = c.settings().cycle;
+        if (frames) s.frames_per_capture = *frames;
+        return s;
+    };
+    firmware::LogBook log_book;
+    std::function<void()> on_log;  // the network's windows, once they are there
+    const firmware::Cycle::Log log = [&log_book, &on_log](const std::string& line) {
+        log_line(line);
+        log_book.add(line);
+        if (on_log) on_log();
+    };
+    Box box(args, common, settings_from(config), log, config.settings().link);
+    firmware::EventLoop& loop = box.loop;
+    firmware::Cycle& cycle = box.cycle;
+    hal::Storage& data = *box.data;
+    hal::Clock& clock = *box.clock;
+    sim::SimBoard* sim_board = box.board.sim.get();
+
+    int stopped_by = 0;
+    loop.watch(signals.fd(), [&] {
+        stopped_by = signals.take();
+        cycle.cancel("stopped by signal " + std::to_string(stopped_by));
+        loop.stop();
+    });
+
+    // The console: --console DEVICE, else the configuration's console.device.
+    // On the rpi board its file's console UART when neither says one.
+    std::string console_device = args.get("--console").value_or(config.settings().console.device);
+    if (on_rpi && !args.get("--console") && console_device == "stdin")
+        console_device = rpi_board_settings(args).console_device;
+    std::unique_ptr<hal::SerialPort> console_port;
+    firmware::ConsoleLink::Reopen reopen_console;
+    if (console_device == "pty") {
+        auto pty = board::pseudo_terminal();
+        const auto link = common.data_dir / "console";
+        std::error_code ec;
+        std::filesystem::remove(link, ec);
+        std::filesystem::create_symlink(pty.path, link, ec);
+        log("console on " + pty.path + (ec ? "" : " (" + link.string() + ")"));
+        console_port = std::move(pty.port);
+    } else if (console_device == "stdin") {
+        // Standard input when it is a terminal; /dev/null (as under CI) leaves it off.
+        if (::isatty(STDIN_FILENO) == 1) console_port = board::standard_io();
+    } else if (!console_device.empty()) {
+        // A UART, often a USB adapter: unplugged and plugged in again, or not there yet at the
+        // start, it is opened again when it is back.
+        reopen_console = [console_device, baud = config.settings().console.baud] {
+            return board::serial_port(console_device, baud);
+        };
+        // A path that is there but cannot be opened (not a serial device, no permission) is a
+        // set-up mistake that waiting does not mend: it stops the box with its reason.
+        std::error_code ec;
+        if (std::filesystem::exists(console_device, ec)) {
+            console_port = reopen_console();
+            log("console on " + console_device);
+        } else {
+            log("console: " + console_device + " is not there (opened when it is)");
+        }
+    }
+    const bool console = console_port != nullptr || reopen_console;
+    const auto config_home = board::data_directory(
+        config_path.parent_path().empty() ? std::filesystem::path(".") : config_path.parent_path());
+    firmware::ConsoleContext context{cycle,
+                                     config,
+                                     *config_home,
+                                     config_path.filename().string(),
+                                     data,
+                                     log_book,
+                                     calbox::build_version(),
+                                     {},
+                                     {}};
+    firmware::BoxNews news(data, calbox::build_version(), log);
+    news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
+    context.config_changed = [&] {
+        cycle.set_settings(box.with_board(settings_from(config)));
+        news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
+    };
+    if (sim_board != nullptr) {
+        using Words = std::vector<std::string>;
+        context.board_commands = {{"press", "press", "the sim board: a short press of the button",
+                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                                       sim_board->lines->press(std::chrono::milliseconds(100));
+                                       r.text = "pressed";
+                                   }},
+                                  {"hold", "hold", "the sim board: a long press of the button",
+                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                                       sim_board->lines->press(std::chrono::milliseconds(2000));
+                                       r.text = "held";
+                                   }},
+                                  {"quit", "quit", "the sim board: stop the box",
+                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                                       loop.stop();
+                                       r.text = "stopping";
+                                   }}};
+    }
+    std::optional<firmware::ConsoleLink> console_link;
+    firmware::LinkKeyRequest link_key(loop, box.board.machine.link, [&](const std::string& line) {
+        log(line);
+        if (console_link) console_link->notice(line);
+    });
+    context.board_commands.insert(context.board_commands.begin(), link_key.command());
+    // Jobs compensated through the correction the box keeps (the console's `compensate`).
+    firmware::JobDesk job_desk(
+        loop, cycle, *box.appliance.link, data,
+        [] {
+            return firmware::utc_text(std::chrono::duration_cast<std::chrono::seconds>(
+                                          std::chrono::system_clock::now().time_since_epoch())
+                                          .count());
+        },
+        [&](const std::string& line) {
+            log(line);
+            if (console_link) console_link->notice(line);
+        });
+    context.board_commands.insert(context.board_commands.begin(), job_desk.command());
+    firmware::Console console_commands(std::move(context));
+    if (console) {
+        console_link.emplace(loop, std::move(console_port), console_commands, log,
+                             std::move(reopen_console), &clock);
+    }
+    cycle.on_notice = [&](const std::string& line) {
+        if (console_link) console_link->notice(line);
+    };
+
+    board::RegisterServer modbus_server;
+    std::optional<firmware::PlcServer> plc;
+    if (modbus.server) {
+        namespace plc_map = firmware::plc;
+        modbus_server = board::register_server(*modbus.server,
+                                               {plc_map::kCoilCount, plc_map::kDiscreteInputCount,
+                                                0, firmware::input_register_count()},
+                                               modbus_timeouts, log_line);
+        plc.emplace(*modbus_server.server, cycle, word_order, log_line);
+        loop.watch(modbus_server.server->written_fd(), [&] { plc->on_coils_written(); });
+        log_line(modbus.server->describe() + ": serving the PLC map" +
+                 (modbus.server->kind == board::ModbusEndpoint::Kind::tcp
+                      ? " on port " + std::to_string(modbus_server.port)
+                      : std::string()));
+    }
+    std::unique_ptr<hal::RegisterLink> modbus_client;
+    std::optional<firmware::ResultWriter> result_writer;
+    int results_written_for = cycle.cycles_completed();
+    bool stop_when_written = false;
+    if (modbus.client) {
+        modbus_client = board::register_client(*modbus.client, modbus_timeouts);
+        result_writer.emplace(*modbus_client, *result_map, word_order, log_line);
+        loop.watch(modbus_client->completion_fd(), [&] {
+            result_writer->on_completion();
+            if (stop_when_written && result_writer->idle()) loop.stop();
+        });
+    }
+    // The web page and MQTT, where the configuration or the options say.
+    firmware::BoxNetwork network({loop, cycle, console_commands, config, data, clock, log_book,
+                                  news, log, calbox::build_version(), [] {
+                                      return static_cast<std::int64_t>(
+                                          std::chrono::duration_cast<std::chrono::seconds>(
+                                              std::chrono::system_clock::now().time_since_epoch())
+                                              .count());
+                                  }});
+    on_log = [&network] { network.logged(); };
+    // Lines logged while the rest comes down go to standard error only.
+    const struct Quiet {
+        std::function<void()>& on_log;
+        ~Quiet() { on_log = nullptr; }
+    } quiet{on_log};
+    cycle.on_state = [&](firmware::CycleState) {
+        if (plc) plc->publish();
+        network.changed();
+    };
+    cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
+        if (console_link && prompt != firmware::Prompt::none)
+            console_link->notice(std::string("waiting: ") + firmware::prompt_text(prompt));
+        if (operator_acts) {
+            firmware::act_on_prompt(*sim_board->bench, *sim_board->lines, prompt, step, automatic,
+                                    !operator_hands);
+        }
+        if (plc) plc->publish();
+        network.changed();
+    };
+    cycle.on_cycle_end = [&](bool completed) {
+        network.cycle_ended(completed);
+        if (plc) plc->publish();
+        if (result_writer && cycle.cycles_completed() > results_written_for) {
+            results_written_for = cycle.cycles_completed();
+            result_writer->write(cycle.report(), cycle.mode().result(cycle.report().applied));
+        }
+        if (!automatic) return;
+        if (result_writer && !result_writer->idle()) {
+            stop_when_written = true;  // the controller gets the whole result before the exit
+        } else {
+            loop.stop();
+        }
+    };
+    std::unique_ptr<sim::TwinJudge> judge;
+    std::optional<sim::TwinVerdict> before;
+    if (automatic) {
+        // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
+        judge = sim::make_twin_judge(*sim_board->bench);
+        before = judge->before();
+        std::printf("before: %s\n", before->line.c_str());
+        std::fflush(stdout);
+        sim_board->lines->press(std::chrono::milliseconds(100));
+    } else if (!console) {
+        log("waiting for the button (no console)");
+    }
+    loop.run();
+    // systemctl stop (SIGTERM) and Ctrl-C (SIGINT) are how a box is meant to be stopped: a clean
+    // stop, status 0, whatever the cycle was doing (cancelled: nothing half-sent stays in flight).
+    if (stopped_by != 0) {
+        log_line("stopped by signal " + std::to_string(stopped_by) + "; " +
+                 box.appliance.link->closing_note());
+        return 0;
+    }
+    if (!automatic) return 0;
+    const auto& report = cycle.report();
+    std::printf("box: %.2f s of its own work (measure, solve%s), camera %.2f s, machine %.2f s\n",
+                report.box_seconds, report.number == 1 ? ", set-up" : "", report.camera_seconds,
+                report.machine_seconds);
+    if (cycle.cycles_completed() == 0)
+        throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
+                                                                       ? std::string("cancelled")
+                                                                       : cycle.error()));
+    // The machine as the cycle left it, judged on a fresh job (through the correction the box
+    // keeps, when it keeps one) against the mode's goal.
+    const auto after = judge->after(cycle.mode().kept_correction());
+    std::printf("after: %s\n", after.line.c_str());
+    const auto goal = cycle.mode().goal();
+    if (const auto shortfall = goal.shortfall(before->figures, after.figures); !shortfall.empty())
+        throw std::runtime_error("the " + goal.mode + " goal is not met: " + shortfall + " (goal " +
+                                 goal.describe() + ")");
+    return 0;
+}
+
+int revert(const std::vector<std::string>& words) {
+    const Args args(words, {"--board", "--scenario", "--data", "--board-file", "--machine"}, {});
+    if (!args.positional().empty()) throw UsageError("revert takes no positional argument");
+    const Common common = common_options(args, true);
+    firmware::SignalWatch signals;
+    Box box(args, common, {});
+    bool finished = false;
+    box.cycle.on_state = [&box, &finished](firmware::CycleState state) {
+        if (state == firmware::CycleState::idle || state == firmware::CycleState::error) {
+            finished = true;
+            box.loop.stop();
+        }
+    };
+    const std::string refused = box.cycle.revert();
+    if (!refused.empty()) throw std::runtime_error(refused);
+    if (finished) {
+        // A galvo's or router's correction is the box's own file, put back at once: nothing to
+        // wait for.
+        std::printf("reverted: the correction in force before cycle %d is back\n",
+                    box.cycle.report().number);
+        return 0;
+    }
+    int stopped_by = 0;
+    box.loop.watch(signals.fd(), [&] {
+        stopped_by = signals.take();
+        box.cycle.cancel("stopped by signal " + std::to_string(stopped_by));
+        box.loop.stop();
+    });
+    box.loop.run();
+    if (stopped_by != 0)
+        throw std::runtime_error("revert: stopped by signal " + std::to_string(stopped_by) +
+                                 " before the printer confirmed the settings");
+    if (box.cycle.state() == firmware::CycleState::error)
+        throw std::runtime_error(box.cycle.error());
+    std::printf("reverted: the printer reports the settings saved before cycle %d\n",
+                box.cycle.report().number);
+    return 0;
+}
+
+bool wants_help(const std::vector<std::string>& words) {
+    for (const auto& w : words)
+        if (w == "--help" || w == "-h") return true;
+    return false;
+}
+
+}  // namespace
+
+int run_appliance(const std::vector<std::string>& words) {
+    if (wants_help(words)) {
+        std::cout << kRunHelp;
+        return 0;
+    }
+    return run(words);
+}
+
+int run_revert(const std::vector<std::string>& words) {
+    if (wants_help(words)) {
+        std::cout << kRunHelp;
+        return 0;
+    }
+    return revert(words);
+}
+
+}  // namespace calbox::cli

@@ -1,0 +1,93 @@
+// calbox compensate: a job sent through a solve's correction, where the machine really is.
+#include <ctime>
+#include <iostream>
+#include <string>
+
+#include "core/modes/compensate_job.hpp"
+#include "firmware/cli/cli_args.hpp"
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kCompensateHelp = R"(usage:
+  calbox compensate --result result.json IN -o OUT [--work-zero X,Y|measured|"G54=X,Y G55=X,Y"]
+                    [--again REASON] [--segment MM]
+      Sends every XY position of a job through the correction a solve found, so that the
+      machine marks where the job meant: a galvo result (calbox solve galvo), whose table gives
+      the scanner command for each intended point, or a planar result (calbox solve planar),
+      whose error model e gives X_c = X_t - e(X_c) (the rigid part of e left to the work's zero
+      and heading).
+      The frame: a planar result records the machine coordinates of the work zero its target
+      ran with, and the machine's travel. A printer's job is in machine coordinates (its G92
+      tracked). A router's or laser's job is written around its own work zero: --work-zero X,Y
+      gives G54's zero in machine coordinates, --work-zero measured says it is the frame the
+      result was measured in, "G55=X,Y ..." gives other work systems; without it the job is
+      refused. G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
+      travel is refused, naming the line; between the measured area and the travel a point
+      takes the correction at the area's nearest edge (held, never extrapolated), counted on
+      standard error. One line says which frame was used.
+      IN is G-code as slicers, CAM and LinuxCNC write it (inches, relative moves, G92, arcs and
+      helices, numbered and checksummed lines, canned cycles G73 and G81-G89 with G98/G99 and L
+      repeats: kept for LinuxCNC, written out as moves for grbl and printers; LinuxCNC's
+      parameters, expressions, O-word subroutines and loops, and polar words, evaluated into
+      plain G-code) or a plain scanner job (its first line x_mm,y_mm,power). Moves are split into
+      pieces of at most --segment mm (default 1) and arcs traced by chords within 0.002 mm; an R
+      arc short of its half chord by no more than the file's written precision is a half circle.
+      On printers G10 / G11 are firmware retraction, passed as written.
+      The output's first line names the result it went through (its digest and date); a job
+      carrying that line is refused unless --again gives the reason.
+      Refused, naming the line and the figure, nothing written: cutter compensation (G41/G42),
+      a lathe job (G7, G8, G76), an arc no controller could cut, a point beyond the travel, a
+      move in a work system whose zero is not given, moves under block delete.
+)";
+
+std::string today() {
+    const std::time_t now = std::time(nullptr);
+    std::tm utc{};
+    gmtime_r(&now, &utc);
+    char text[32];
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+    return text;
+}
+
+int compensate(const std::vector<std::string>& words) {
+    const Args args(words, {"--result", "-o", "--segment", "--work-zero", "--again"}, {});
+    if (args.positional().size() != 1) throw UsageError("compensate takes one job file");
+    modes::JobRequest request;
+    request.job_name = args.positional()[0];
+    const std::string out = args.require("-o");
+    request.result_name = args.require("--result");
+    request.settings.max_segment_mm = args.number("--segment", 1.0);
+    if (!(request.settings.max_segment_mm >= 0.01 && request.settings.max_segment_mm <= 100))
+        throw UsageError("--segment must be 0.01 to 100 mm");
+    request.work_zero = args.get("--work-zero");
+    request.again_because = args.get("--again");
+    if (request.again_because && request.again_because->empty())
+        throw UsageError("--again needs the reason");
+    request.result_text = read_input_file(request.result_name, "result");
+    request.job_text = read_input_file(request.job_name, "job");
+    request.date = today();
+    const auto done = modes::compensate_job(request);
+    write_output_file(out, done.text);
+    std::cout << out << ": " << done.summary << "\n" << done.frame_line << "\n";
+    if (!done.held_line.empty())
+        std::cerr << "calbox: " << request.job_name << ": " << done.held_line << "\n";
+    return 0;
+}
+
+}  // namespace
+
+int run_compensate(const std::vector<std::string>& words) {
+    for (const auto& w : words)
+        if (w == "--help" || w == "-h") {
+            std::cout << kCompensateHelp;
+            return 0;
+        }
+    if (words.empty()) {
+        std::cerr << kCompensateHelp;
+        return 2;
+    }
+    return compensate(words);
+}
+
+}  // namespace calbox::cli

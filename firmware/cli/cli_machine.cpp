@@ -1,0 +1,78 @@
+// calbox machine import
+#include <cstdio>
+#include <optional>
+#include <stdexcept>
+
+#include "core/models/machine_import.hpp"
+#include "firmware/cli/cli_args.hpp"
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kMachineHelp = R"(usage:
+  calbox machine import --marlin LOG | --rrf CONFIG.g... | --klipper printer.cfg
+                        [--diagonal-rod MM] [--bed-radius MM] -o machine.toml
+      A machine file from the printer's own files, its geometry as the firmware holds it:
+      --marlin: a console capture from any host (M503's reply: M665, M666, M92; or G33's
+      report, which leaves out the rod: give --diagonal-rod); --rrf: config.g then
+      config-override.g (a later M665 or M666 replaces an earlier one); --klipper: printer.cfg
+      with its includes and its SAVE_CONFIG block over the sections above it, as Klipper reads
+      it. What the files cannot tell (the printable radius, the bed's material, the line
+      width) is defaulted and said so, on standard output and at the file's top. A capture
+      without a delta's geometry but with M92 gives a cartesian printer.
+)";
+
+// An included file Klipper's config names: empty where it is not there (said, not fatal).
+std::optional<std::string> read_if_there(const std::string& path) {
+    try {
+        return read_input_file(path, "included file");
+    } catch (const std::runtime_error&) {
+        return std::nullopt;
+    }
+}
+
+int import_machine(const std::vector<std::string>& words) {
+    const Args args(words, {"--marlin", "--klipper", "--diagonal-rod", "--bed-radius", "-o"},
+                    {"--rrf"});
+    const std::string out = args.require("-o");
+    models::ImportOptions options;
+    if (args.get("--diagonal-rod")) options.diagonal_rod_mm = args.number("--diagonal-rod", 0);
+    if (args.get("--bed-radius")) options.bed_radius_mm = args.number("--bed-radius", 0);
+    const int sources = (args.get("--marlin") ? 1 : 0) + (args.get("--klipper") ? 1 : 0) +
+                        (args.flag("--rrf") ? 1 : 0);
+    if (sources != 1) throw UsageError("machine import takes one of --marlin, --rrf, --klipper");
+    models::ImportedMachine imported;
+    try {
+        if (const auto log = args.get("--marlin")) {
+            imported = models::import_marlin(read_input_file(*log, "console capture"), options);
+        } else if (const auto cfg = args.get("--klipper")) {
+            imported = models::import_klipper(*cfg, read_input_file(*cfg, "printer.cfg"),
+                                              read_if_there, options);
+        } else {
+            if (args.positional().empty())
+                throw UsageError("--rrf needs config.g (and config-override.g)");
+            std::vector<std::string> files;
+            for (const auto& path : args.positional())
+                files.push_back(read_input_file(path, "RepRapFirmware configuration"));
+            imported = models::import_rrf(files, options);
+        }
+    } catch (const models::ImportError& e) {
+        throw std::runtime_error(e.what());
+    }
+    const std::string text = models::machine_file_text(imported);
+    // What is written must read back as a machine file.
+    models::parse_machine_file(text, out);
+    write_output_file(out, text);
+    for (const auto& note : imported.notes) std::printf("%s\n", note.c_str());
+    std::printf("%s: a %s printer (%s)\n", out.c_str(), imported.machine.kind.c_str(),
+                imported.machine.firmware.c_str());
+    return 0;
+}
+
+}  // namespace
+
+int run_machine(const std::vector<std::string>& words) {
+    return dispatch(words, kMachineHelp, "machine", {{"import", import_machine}});
+}
+
+}  // namespace calbox::cli

@@ -1,0 +1,354 @@
+// calbox sim print|photo: the digital twin on the command line.
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <sstream>
+
+#include "board/sim/delta_judge.hpp"
+#include "board/sim/print_json.hpp"
+#include "board/sim/renderer.hpp"
+#include "board/sim/scenario.hpp"
+#include "board/sim/scenes.hpp"
+#include "board/sim/twin_kind.hpp"
+#include "core/geometry/camera_model.hpp"
+#include "core/models/machine_file.hpp"
+#include "core/modes/delta_records.hpp"
+#include "core/modes/galvo.hpp"
+#include "core/modes/planar.hpp"
+#include "firmware/cli/cli_args.hpp"
+
+namespace calbox::cli {
+namespace {
+
+constexpr const char* kSimHelp = R"(usage:
+  calbox sim print --scenario FILE JOB.gcode -o print.json
+      Runs the G-code job on the scenario's machine (true geometry, firmware belief) and writes
+      every stroke of material as it really landed. Prints the machine's replies (M503) and a
+      summary on standard output.
+  calbox sim photo --scenario FILE --print print.json -o photo.png [--truth truth.json]
+  calbox sim photo --scenario FILE --board SPEC (--pose RX,RY,RZ,TX,TY,TZ | --on-bed X,Y,ANGLE)
+                   [--thickness MM] -o photo.png [--truth truth.json]
+      Renders what the scenario's camera sees of a print, or of a calibration board:
+        SPEC  chessboard:COLSxROWS@SQUARE_MM (inner corners) or
+              charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares)
+        --pose    board -> camera: rotation vector in degrees (axis times angle), then mm
+        --on-bed  the board lying face up on the bed at X,Y mm, turned ANGLE degrees,
+                  its surface --thickness mm above the bed (default 0)
+      --truth writes the true pixel position of every board corner and marker corner, or of
+      every stroke end, with the true camera and plane pose.
+  calbox sim camera --scenario FILE -o camera.yaml
+      The scenario's true camera as camera.yaml, for runs where calibration is not the point.
+  calbox sim measurements --scenario FILE [--features N] [--noise MM] [--seed N] -o measurements.json
+                          [--probe heights.csv]
+      Synthetic measurements of a delta scenario, straight from the twin's truth: N features
+      (default 150) commanded over the bed at z = 0.2 and where they really landed, with Gaussian
+      noise (default 0.01 mm), three 60 mm bars along the towers, and with --probe the nozzle's
+      height over the bed at 37 points. For testing calbox solve without photos.
+  calbox sim verify --scenario FILE [--result result.json] [-o verify.json]
+      Judges a delta scenario's printer in the twin's truth, over the printable area: commanded
+      against actual XY (after the best rotation and translation) and the bed's height range;
+      with --result, again after sending that solve result's firmware lines and homing. A galvo
+      scenario's scanner: a fresh 30 x 30 grid of marks over the table's area (without --result,
+      the field less a pitch) burned as commanded, and with --result through its table: where
+      they land against where they were meant (rotation and translation taken out). A router
+      scenario: a fresh job of holes half a pitch off its target's, drilled as commanded and
+      with --result through the compensated G-code (calbox compensate's correction), each hole
+      against where it was meant (the work's zero and heading taken out).
+)";
+
+std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text,
+                                    std::size_t count) {
+    const auto refuse = [&] {
+        std::string message = flag;
+        message += " needs " + std::to_string(count) + " comma-separated numbers, not '";
+        message += text;
+        message += "'";
+        throw UsageError(message);
+    };
+    std::array<double, 6> out{};
+    std::stringstream in(text);
+    std::string part;
+    std::size_t n = 0;
+    while (std::getline(in, part, ',')) {
+        if (n >= count) refuse();
+        std::size_t used = 0;
+        double v = 0;
+        try {
+            v = std::stod(part, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used != part.size() || part.empty() || !std::isfinite(v)) refuse();
+        out[n++] = v;
+    }
+    if (n != count) refuse();
+    return out;
+}
+
+sim::Scenario scenario_from(const Args& args) {
+    return sim::load_scenario(args.require("--scenario"));
+}
+
+int sim_print(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "-o"}, {});
+    if (args.positional().size() != 1) throw UsageError("sim print takes one job file");
+    const std::string job_path = args.positional()[0];
+    const std::string out = args.require("-o");
+    const auto scenario = scenario_from(args);
+    auto machine = sim::make_machine_twin(scenario);
+    sim::GcodeRunner runner(*machine, sim::tool_settings_of(scenario));
+    std::istringstream job(read_input_file(job_path, "job"));
+    try {
+        runner.run(job);
+    } catch (const sim::JobError& e) {
+        throw std::runtime_error(job_path + ": " + e.what());
+    }
+    sim::PrintRecord record{scenario.path, job_path, scenario.machine.kind, runner.result()};
+    write_output_file(out, sim::print_to_json(record));
+    for (const auto& reply : record.result.replies) std::cout << reply << "\n";
+    double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
+    double cxmin = 1e300, cxmax = -1e300, cymin = 1e300, cymax = -1e300;
+    for (const auto& s : record.result.strokes) {
+        for (const auto& p : {s.a_mm, s.b_mm}) {
+            xmin = std::min(xmin, p.x), xmax = std::max(xmax, p.x);
+            ymin = std::min(ymin, p.y), ymax = std::max(ymax, p.y);
+        }
+        for (const auto& p : {s.commanded_a_mm, s.commanded_b_mm}) {
+            cxmin = std::min(cxmin, p.x), cxmax = std::max(cxmax, p.x);
+            cymin = std::min(cymin, p.y), cymax = std::max(cymax, p.y);
+        }
+    }
+    std::cout << "printed " << record.result.strokes.size() << " strokes from "
+              << record.result.lines_run << " lines";
+    if (!record.result.strokes.empty()) {
+        char summary[256];
+        std::snprintf(summary, sizeof summary,
+                      "; nozzle path extent commanded %.4f x %.4f mm, actual %.4f x %.4f mm",
+                      cxmax - cxmin, cymax - cymin, xmax - xmin, ymax - ymin);
+        std::cout << summary;
+    }
+    std::cout << "\n";
+    return 0;
+}
+
+nlohmann::json pose_json(const sim::Pose& pose) {
+    const sim::Vec3 r = sim::vector_from_rotation(pose.rotation);
+    return {{"rvec", {r.x, r.y, r.z}},
+            {"tvec_mm", {pose.translation_mm.x, pose.translation_mm.y, pose.translation_mm.z}}};
+}
+
+nlohmann::json camera_json(const sim::CameraIntrinsics& c) {
+    return {{"model", c.model == sim::LensModel::fisheye ? "fisheye" : "pinhole"},
+            {"image_width", c.width_px},
+            {"image_height", c.height_px},
+            {"camera_matrix", {{c.fx, 0, c.cx}, {0, c.fy, c.cy}, {0, 0, 1}}},
+            {"distortion_coefficients", c.distortion}};
+}
+
+nlohmann::json pixel_json(const sim::CameraIntrinsics& c, const sim::Pose& pose,
+                          const sim::Vec3& p) {
+    const sim::Vec3 q = pose.apply(p);
+    if (q.z <= 0) return nullptr;
+    const sim::Vec2 px = sim::project_point(c, pose, p);
+    return {px.x, px.y};
+}
+
+int sim_photo(const std::vector<std::string>& words) {
+    const Args args(
+        words,
+        {"--scenario", "--print", "--board", "--pose", "--on-bed", "--thickness", "-o", "--truth"},
+        {});
+    if (!args.positional().empty())
+        throw UsageError("sim photo takes no positional argument '" + args.positional()[0] + "'");
+    const std::string out = args.require("-o");
+    const auto scenario = scenario_from(args);
+    if (!scenario.camera)
+        throw std::runtime_error(scenario.path + ": no [camera] section to take a photo with");
+    const auto& camera = *scenario.camera;
+    const sim::Pose bed_to_camera =
+        sim::look_at_pose(camera.position_mm, camera.look_at_mm, camera.roll_deg);
+    nlohmann::json truth{{"schema", "calbox.photo-truth/1"},
+                         {"camera", camera_json(camera.intrinsics)},
+                         {"bed_to_camera", pose_json(bed_to_camera)}};
+    sim::GrayImage image;
+    const bool has_print = args.get("--print").has_value();
+    const bool has_board = args.get("--board").has_value();
+    if (has_print == has_board) throw UsageError("sim photo needs either --print or --board");
+    if (has_print) {
+        if (args.get("--pose") || args.get("--on-bed") || args.get("--thickness")) {
+            throw UsageError("--pose, --on-bed and --thickness go with --board");
+        }
+        const auto record =
+            sim::print_from_json(read_input_file(*args.get("--print"), "print record"));
+        std::vector<sim::StrokeSegment> strokes;
+        nlohmann::json stroke_truth = nlohmann::json::array();
+        for (const auto& s : record.result.strokes) {
+            strokes.push_back(sim::material_of(s));
+            stroke_truth.push_back({{"a_mm", {s.a_mm.x, s.a_mm.y, s.a_mm.z}},
+                                    {"b_mm", {s.b_mm.x, s.b_mm.y, s.b_mm.z}},
+                                    {"a_px", pixel_json(camera.intrinsics, bed_to_camera, s.a_mm)},
+                                    {"b_px", pixel_json(camera.intrinsics, bed_to_camera, s.b_mm)},
+                                    {"width_mm", s.width_mm},
+                                    {"top_mm", {s.top_a_mm, s.top_b_mm}}});
+        }
+        // Photographed with the bed at another temperature than it was printed at, the print
+        // has grown or shrunk with the bed; the truth keeps where the nozzle laid it.
+        const double growth = sim::bed_growth_at_photo(scenario);
+        strokes = sim::as_photographed(scenario, std::move(strokes));
+        truth["bed_growth_at_photo"] = growth;
+        const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
+                                     scenario.material_albedo, scenario.photo.supersample,
+                                     sim::stroke_footprint_mm(scenario));
+        image = sim::render_photo(camera.intrinsics, bed_to_camera, scene, scenario.photo);
+        truth["strokes"] = stroke_truth;
+    } else {
+        const auto spec = geometry::parse_pattern_spec(*args.get("--board"));
+        sim::Pose board_to_camera;
+        if (args.get("--pose").has_value() == args.get("--on-bed").has_value()) {
+            throw UsageError("--board needs either --pose or --on-bed");
+        }
+        if (const auto pose = args.get("--pose")) {
+            if (args.get("--thickness")) throw UsageError("--thickness goes with --on-bed");
+            const auto v = parse_numbers("--pose", *pose, 6);
+            board_to_camera.rotation =
+                sim::rotation_from_vector(sim::Vec3{v[0], v[1], v[2]} * (sim::kPi / 180));
+            board_to_camera.translation_mm = {v[3], v[4], v[5]};
+        } else {
+            const auto v = parse_numbers("--on-bed", *args.get("--on-bed"), 3);
+            const double thickness = args.number("--thickness", 0);
+            if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
+            const sim::Pose board_to_bed = sim::board_lying_on_bed({v[0], v[1], thickness}, v[2]);
+            board_to_camera = sim::compose(bed_to_camera, board_to_bed);
+            truth["board_to_bed"] = pose_json(board_to_bed);
+        }
+        const sim::BoardScene scene(spec, scenario.photo.supersample);
+        image = sim::render_photo(camera.intrinsics, board_to_camera, scene, scenario.photo);
+        nlohmann::json features = nlohmann::json::array();
+        for (const auto& f : scene.features()) {
+            nlohmann::json j{
+                {"id", f.id},
+                {"board_mm", {f.position_mm.x, f.position_mm.y, f.position_mm.z}},
+                {"pixel", pixel_json(camera.intrinsics, board_to_camera, f.position_mm)}};
+            if (f.corner >= 0) j["corner"] = f.corner;
+            features.push_back(j);
+        }
+        truth["board"] = *args.get("--board");
+        truth["board_to_camera"] = pose_json(board_to_camera);
+        truth["features"] = features;
+    }
+    const cv::Mat view(image.height_px, image.width_px, CV_8UC1, image.pixels.data());
+    std::vector<unsigned char> png;
+    if (!cv::imencode(".png", view, png))
+        throw std::runtime_error("cannot encode the photo as PNG");
+    write_output_file(out, std::string(png.begin(), png.end()));
+    if (const auto t = args.get("--truth")) write_output_file(*t, truth.dump(1) + "\n");
+    return 0;
+}
+
+int sim_measurements(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "--features", "--noise", "--seed", "-o", "--probe"}, {});
+    if (!args.positional().empty())
+        throw UsageError("sim measurements takes no positional argument");
+    const auto scenario = scenario_from(args);
+    auto machine = sim::make_machine_twin(scenario);
+    const auto* delta = dynamic_cast<const sim::DeltaTwin*>(machine.get());
+    if (delta == nullptr)
+        throw std::runtime_error(scenario.path + ": measurements are made for delta scenarios");
+    const int count = static_cast<int>(args.number("--features", 150));
+    const double noise_mm = args.number("--noise", 0.01);
+    if (count < 1 || count > 100000) throw UsageError("--features must be 1 to 100000");
+    if (noise_mm < 0 || noise_mm > 5) throw UsageError("--noise must be 0 to 5 mm");
+    const std::string out = args.require("-o");
+    machine->home();
+    std::mt19937_64 rng(static_cast<std::uint64_t>(args.number("--seed", 1)));
+    std::normal_distribution<double> noise(0, noise_mm);
+    const double radius = scenario.machine.bed_radius_mm * 0.92;
+    nlohmann::json features = nlohmann::json::array();
+    for (int k = 0; k < count; ++k) {
+        const double r = radius * std::sqrt((k + 0.5) / count),
+                     a = k * 2.399963229728653;  // a sunflower
+        const sim::Vec3 commanded{r * std::cos(a), r * std::sin(a), 0.2};
+        const sim::Vec3 actual = machine->actual_position_mm(commanded);
+        std::string id = "f";  // appended: GCC 12's -O3 -Wrestrict misfires on "f" + string
+        id += std::to_string(k);
+        features.push_back({{"id", id},
+                            {"commanded_mm", {commanded.x, commanded.y, commanded.z}},
+                            {"measured_mm", {actual.x + noise(rng), actual.y + noise(rng)}},
+                            {"sigma_mm", std::max(noise_mm, 1e-4)}});
+    }
+    nlohmann::json bars = nlohmann::json::array();
+    for (const double angle : {210.0, 330.0, 90.0}) {
+        const double t = sim::radians(angle);
+        const sim::Vec3 a = machine->actual_position_mm({0, 0, 0.2}),
+                        b = machine->actual_position_mm({60 * std::cos(t), 60 * std::sin(t), 0.2});
+        bars.push_back({{"commanded_from_mm", 0.0},
+                        {"commanded_to_mm", 60.0},
+                        {"measured_mm", std::hypot(b.x - a.x, b.y - a.y)}});
+    }
+    // The firmware's belief as the twin holds it (its height zeroed at the centre, if asked).
+    models::MachineFile believed = scenario.machine;
+    believed.delta = sim::machine_settings(delta->firmware());
+    const nlohmann::json j{{"schema", "calbox.measurements/1"},
+                           {"machine_fingerprint", models::fingerprint(believed)},
+                           {"source", "calbox sim measurements " + scenario.path},
+                           {"features", features},
+                           {"bars", bars}};
+    write_output_file(out, j.dump(1) + "\n");
+    if (const auto probe = args.get("--probe")) {
+        std::string csv = "x,y,z\n";
+        for (int k = 0; k < 37; ++k) {
+            const int ring = k == 0 ? 0 : (k - 1) / 12 + 1;  // the centre, then three rings of 12
+            const double r = radius * ring / 3.0, a = k * sim::kPi / 6;
+            const sim::Vec3 at = machine->actual_position_mm({r * std::cos(a), r * std::sin(a), 0});
+            char row[96];
+            std::snprintf(row, sizeof row, "%.4f,%.4f,%.5f\n", r * std::cos(a), r * std::sin(a),
+                          at.z + noise(rng) / 2);
+            csv += row;
+        }
+        write_output_file(*probe, csv);
+    }
+    std::printf("%s: %d features, 3 bars, machine %s\n", out.c_str(), count,
+                models::fingerprint(believed).c_str());
+    return 0;
+}
+
+}  // namespace
+
+// The twin judges a solve's result in its truth, each kind of machine its own way
+// (board/sim/twin_kind).
+int sim_verify(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "--result", "-o"}, {});
+    if (!args.positional().empty()) throw UsageError("sim verify takes no positional argument");
+    const auto scenario = scenario_from(args);
+    std::optional<sim::ResultFile> result;
+    if (const auto path = args.get("--result"))
+        result = sim::ResultFile{*path, read_input_file(*path, "result")};
+    const auto verdict = sim::twin_kind_of(scenario.machine).verify(scenario, result);
+    for (const auto& line : verdict.lines) std::printf("%s\n", line.c_str());
+    if (const auto out = args.get("-o")) write_output_file(*out, verdict.json);
+    return 0;
+}
+
+int sim_camera(const std::vector<std::string>& words) {
+    const Args args(words, {"--scenario", "-o"}, {});
+    if (!args.positional().empty()) throw UsageError("sim camera takes no positional argument");
+    const auto scenario = scenario_from(args);
+    if (!scenario.camera) throw std::runtime_error(scenario.path + ": no [camera] section");
+    const auto model = sim::as_camera_model(scenario.camera->intrinsics);
+    write_output_file(args.require("-o"), geometry::camera_to_yaml(model));
+    return 0;
+}
+
+int run_sim(const std::vector<std::string>& words) {
+    return dispatch(words, kSimHelp, "sim",
+                    {{"print", sim_print},
+                     {"photo", sim_photo},
+                     {"measurements", sim_measurements},
+                     {"camera", sim_camera},
+                     {"verify", sim_verify}});
+}
+
+}  // namespace calbox::cli

@@ -1,0 +1,146 @@
+#pragma once
+// The box's line console: the same commands over a UART, the sim board's pseudo-terminal or
+// standard input. Console turns one line into its reply and knows nothing of the device;
+// ConsoleLink reads lines from a device on the event loop and writes the replies and the box's
+// notices back.
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "firmware/console/box_config.hpp"
+#include "firmware/cycle/cycle.hpp"
+#include "firmware/loop/event_loop.hpp"
+#include "hal/clock.hpp"
+#include "hal/serial_port.hpp"
+#include "hal/storage.hpp"
+
+namespace calbox::firmware {
+
+// A line longer than this is refused whole, never cut: a cut line could be a different
+// command (`config set records.keep_cycles 1000` cut to `... 1`).
+constexpr std::size_t kConsoleLineLimitBytes = 256;
+
+// Bytes to lines; "\n", "\r" or "\r\n" end one (terminal programs send "\r" for Enter).
+class LineAssembler {
+  public:
+    explicit LineAssembler(std::size_t limit_bytes) : limit_(limit_bytes) {}
+    struct Line {
+        std::string text;
+        bool too_long = false;  // the text is its first limit bytes
+    };
+    std::vector<Line> feed(std::string_view bytes);
+
+  private:
+    std::size_t limit_;
+    std::string pending_;
+    bool overflowed_ = false;
+    bool after_cr_ = false;
+};
+
+// The box's recent log lines, for the console's `log`.
+class LogBook {
+  public:
+    explicit LogBook(std::size_t keep = 200) : keep_(keep) {}
+    void add(const std::string& line);
+    std::vector<std::string> last(std::size_t count) const;
+
+  private:
+    std::size_t keep_;
+    std::deque<std::string> lines_;
+};
+
+// A command's reply: the human form (without the final newline) and the --json one.
+struct ConsoleReply {
+    std::string text;
+    nlohmann::json data = nlohmann::json::object();
+};
+
+// A command refused: one line, and nothing was done.
+class ConsoleRefused : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+// One row of the console's table: the words that name it ("config set"), its usage and help
+// line, and what it does (throwing ConsoleRefused to refuse).
+struct ConsoleCommand {
+    std::string name;
+    std::string usage;
+    std::string help;
+    std::function<void(const std::vector<std::string>& words, std::string_view line,
+                       ConsoleReply& reply)>
+        run;
+};
+
+struct ConsoleContext {
+    Cycle& cycle;
+    BoxConfig& config;       // the configuration in force
+    hal::Storage& settings;  // where `config save` writes
+    std::string settings_name;
+    hal::Storage& data;  // the cycles' records, for `last`
+    const LogBook& log;
+    std::string version;
+    // Called after the configuration changed (set or reset), to put it in force.
+    std::function<void()> config_changed;
+    // The board's own commands (the sim board: press, hold, quit), listed after the box's.
+    std::vector<ConsoleCommand> board_commands;
+};
+
+class Console {
+  public:
+    explicit Console(ConsoleContext context);
+    // The reply to one line, newline-terminated; "" for an empty line. With --json anywhere on
+    // the line the reply is one JSON object: {"ok":true,...} or {"ok":false,"error":"..."}.
+    std::string reply_to(std::string_view line);
+    std::string refuse_too_long(const LineAssembler::Line& line) const;
+
+  private:
+    std::vector<ConsoleCommand> commands();
+    std::string press_for_prompt(bool setup_view_only);
+    void start_setup(const std::string& refused, ConsoleReply& reply);
+    void describe_last(ConsoleReply& reply);
+    ConsoleContext c_;
+    std::vector<ConsoleCommand> table_;
+};
+
+class ConsoleLink {
+  public:
+    using Log = std::function<void(const std::string&)>;
+    // Opens the console's device again: a UART whose USB adapter was unplugged comes back under
+    // the same (by-id) path. Throws std::runtime_error while it is not there.
+    using Reopen = std::function<std::unique_ptr<hal::SerialPort>()>;
+    // Watches the port on the loop until it is gone (standard input closed, a UART unplugged).
+    // With `reopen` (and `clock` for its timer) a port that is gone, or null at the start (the
+    // device not there when the box started), is tried again every second.
+    ConsoleLink(EventLoop& loop, std::unique_ptr<hal::SerialPort> port, Console& console, Log log,
+                Reopen reopen = {}, hal::Clock* clock = nullptr);
+    ConsoleLink(const ConsoleLink&) = delete;
+    ConsoleLink& operator=(const ConsoleLink&) = delete;
+    ~ConsoleLink();
+    // An unsolicited line (a set-up view's result, a prompt): "notice: ..." on the console.
+    void notice(const std::string& line);
+
+  private:
+    void on_readable();
+    void send(const std::string& text);
+    void lost(const std::string& why);
+    void try_reopen();
+    EventLoop& loop_;
+    std::unique_ptr<hal::SerialPort> port_;
+    Console& console_;
+    Log log_;
+    Reopen reopen_;
+    std::unique_ptr<hal::Timer> retry_;
+    LineAssembler lines_{kConsoleLineLimitBytes};
+    bool watching_ = false;
+    bool dropped_told_ = false;
+};
+
+}  // namespace calbox::firmware

@@ -1,0 +1,181 @@
+#include "firmware/console/job_desk.hpp"
+
+#include <array>
+#include <memory>
+
+#include "core/modes/compensate_job.hpp"
+#include "core/modes/planar.hpp"
+#include "core/number_text.hpp"
+#include "firmware/cycle/cycle.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+constexpr std::array<const char*, 7> kJobExtensions = {".gcode", ".nc",  ".ngc", ".tap",
+                                                       ".g",     ".csv", ".txt"};
+
+// grbl's `$#`: every work system's zero it reports, as --work-zero's entries.
+std::optional<std::string> work_zeros_reported(const std::vector<std::string>& replies) {
+    std::string spec;
+    for (const char* system : {"G54", "G55", "G56", "G57", "G58", "G59"}) {
+        for (const auto& reply : replies) {
+            const std::string head = std::string("[") + system + ":";
+            if (reply.rfind(head, 0) != 0) continue;
+            const auto zero = modes::grbl_g54_of({"[G54:" + reply.substr(head.size())});
+            if (!zero) continue;
+            spec += (spec.empty() ? "" : " ") + std::string(system) + "=" +
+                    number_text("%.3f", zero->x) + "," + number_text("%.3f", zero->y);
+        }
+    }
+    if (spec.empty()) return std::nullopt;
+    return spec;
+}
+
+}  // namespace
+
+std::string compensated_job_name(const std::string& job_name) {
+    if (job_name.rfind("job-", 0) != 0 || job_name.size() > 100 ||
+        job_name.find_first_not_of(
+            "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
+            std::string::npos)
+        return {};
+    for (const char* ext : kJobExtensions) {
+        const std::string e(ext);
+        if (job_name.size() > e.size() + 4 &&
+            job_name.compare(job_name.size() - e.size(), e.size(), e) == 0)
+            return job_name.substr(0, job_name.size() - e.size()) + "-compensated" + e;
+    }
+    return {};
+}
+
+JobDesk::JobDesk(EventLoop& loop, Cycle& cycle, MachineLink& link, hal::Storage& data, Today today,
+                 Notice notice)
+    : cycle_(cycle),
+      link_(link),
+      data_(data),
+      today_(std::move(today)),
+      notice_(std::move(notice)),
+      worker_(loop) {}
+
+std::string JobDesk::start(DeskOrder order) {
+    const std::string out = compensated_job_name(order.job_name);
+    if (out.empty())
+        return "compensate: '" + order.job_name +
+               "' is not a job's name: put the job in the data directory as job-NAME.gcode (or "
+               ".nc, .ngc, .tap, .g, .csv, .txt)";
+    if (busy_) return "compensate: already compensating a job";
+    const auto kept = cycle_.mode().kept_result_text();
+    if (!kept)
+        return "compensate: no correction in force: the box keeps none for this machine yet "
+               "(calibrate it first)";
+    std::optional<std::string> job;
+    try {
+        job = data_.read_file(order.job_name);
+    } catch (const std::exception& e) {
+        return "compensate: " + order.job_name + ": " + e.what();
+    }
+    if (!job) return "compensate: no " + order.job_name + " in the data directory";
+    const auto& machine = cycle_.machine();
+    if (!order.work_zero && (machine.kind == "router" || machine.kind == "laser"))
+        return "compensate: a " + machine.kind +
+               "'s job is written around its work zero, which calbox cannot see: give X,Y (its "
+               "machine coordinates), measured (the frame the correction was measured in) or "
+               "controller (read over the link)";
+    busy_ = true;
+    if (order.work_zero == "controller") {
+        if (cycle_.machine().firmware != "grbl") {
+            busy_ = false;
+            return "compensate: the controller's work offsets are read from grbl ($#); this "
+                   "machine's firmware is " +
+                   cycle_.machine().firmware + ": give X,Y or measured";
+        }
+        if (cycle_.state() != CycleState::idle || link_.busy()) {
+            busy_ = false;
+            return "compensate: the machine link is busy with the cycle: try again when it is "
+                   "idle, or give the work zero";
+        }
+        link_.send_commands({"$#"}, [this, order, kept = *kept, job = *job](JobOutcome outcome) {
+            auto o = order;
+            const auto spec = outcome.ok ? work_zeros_reported(outcome.replies) : std::nullopt;
+            if (!spec) {
+                busy_ = false;
+                notice_("compensate: " + o.job_name +
+                        ": the controller did not report its work offsets ($#)" +
+                        (outcome.ok ? std::string() : ": " + outcome.error) + "; nothing written");
+                return;
+            }
+            o.work_zero = *spec;
+            o.work_zero_from = "the controller's work offsets ($#: " + *spec + ")";
+            compensate(std::move(o), kept, job);
+        });
+        return {};
+    }
+    compensate(std::move(order), *kept, *job);
+    return {};
+}
+
+void JobDesk::compensate(DeskOrder order, std::string result_text, std::string job_text) {
+    auto request = std::make_shared<modes::JobRequest>();
+    request->result_text = std::move(result_text);
+    request->result_name = "the correction in force";
+    request->job_text = std::move(job_text);
+    request->job_name = order.job_name;
+    request->work_zero = order.work_zero;
+    request->work_zero_from = order.work_zero_from;
+    request->again_because = order.again_because;
+    request->date = today_();
+    auto done = std::make_shared<modes::CompensatedJob>();
+    worker_.start([request, done] { *done = modes::compensate_job(*request); },
+                  [this, order, done](std::exception_ptr error) {
+                      busy_ = false;
+                      const std::string out = compensated_job_name(order.job_name);
+                      try {
+                          if (error) std::rethrow_exception(error);
+                          data_.replace_file(out, done->text);
+                      } catch (const std::exception& e) {
+                          notice_(std::string("compensate: ") + e.what() + "; nothing written");
+                          return;
+                      }
+                      notice_("compensate: " + out + ": " + done->summary + "; " +
+                              done->frame_line +
+                              (done->held_line.empty() ? std::string() : "; " + done->held_line));
+                  });
+}
+
+ConsoleCommand JobDesk::command() {
+    return {"compensate", "compensate JOB [WORK_ZERO] [again REASON]",
+            "a job in the data directory (job-NAME.EXT) through the correction in force, placed "
+            "at its work zero (X,Y, measured, controller, G54=X,Y ...); written as "
+            "job-NAME-compensated.EXT",
+            [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
+                if (words.size() < 2)
+                    throw ConsoleRefused(
+                        "usage: compensate JOB [WORK_ZERO] [again REASON] (WORK_ZERO: X,Y, "
+                        "measured, controller or G54=X,Y G55=X,Y ...)");
+                DeskOrder order;
+                order.job_name = words[1];
+                std::string zero, because;
+                bool in_reason = false;
+                for (std::size_t i = 2; i < words.size(); ++i) {
+                    if (words[i] == "--json") continue;
+                    if (!in_reason && words[i] == "again") {
+                        in_reason = true;
+                        continue;
+                    }
+                    std::string& into = in_reason ? because : zero;
+                    into += (into.empty() ? "" : " ") + words[i];
+                }
+                if (in_reason && because.empty())
+                    throw ConsoleRefused("compensate: again needs the reason");
+                if (!zero.empty()) order.work_zero = zero;
+                if (in_reason) order.again_because = because;
+                const std::string refused = start(order);
+                if (!refused.empty()) throw ConsoleRefused(refused);
+                reply.text = "compensating " + order.job_name + " -> " +
+                             compensated_job_name(order.job_name);
+                reply.data = {{"job", order.job_name},
+                              {"output", compensated_job_name(order.job_name)}};
+            }};
+}
+
+}  // namespace calbox::firmware

@@ -1,0 +1,58 @@
+#pragma once
+// The box's job desk: a job compensated through the correction the box keeps, where the machine
+// really is (core/modes/compensate_job). A job is a file in the data directory named
+// `job-NAME.EXT` (G-code or a scanner job); the compensated one is written beside it as
+// `job-NAME-compensated.EXT`. The work zero is given ("X,Y", "measured", "G55=X,Y ...") or, with
+// "controller", read from the controller over the machine link (grbl's `$#`: every work system's
+// zero) when the link is free. The console's `compensate` row is the desk's; the web page sends
+// the same command.
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "firmware/console/console.hpp"
+#include "firmware/links/machine_link.hpp"
+#include "firmware/loop/event_loop.hpp"
+#include "hal/storage.hpp"
+
+namespace calbox::firmware {
+
+class Cycle;
+
+struct DeskOrder {
+    std::string job_name;  // job-NAME.EXT in the data directory
+    std::optional<std::string> work_zero;
+    std::string work_zero_from;  // "" for one the owner gave
+    std::optional<std::string> again_because;
+};
+
+class JobDesk {
+  public:
+    using Notice = std::function<void(const std::string&)>;
+    using Today = std::function<std::string()>;  // the wall clock's date, for the job's mark
+    JobDesk(EventLoop& loop, Cycle& cycle, MachineLink& link, hal::Storage& data, Today today,
+            Notice notice);
+    JobDesk(const JobDesk&) = delete;
+    JobDesk& operator=(const JobDesk&) = delete;
+    // Starts the order: "" when it started (its outcome is a notice), else why not.
+    std::string start(DeskOrder order);
+    bool busy() const { return busy_; }
+    // The console's row: `compensate JOB [ZERO ...] [again REASON ...]`.
+    ConsoleCommand command();
+
+  private:
+    void compensate(DeskOrder order, std::string result_text, std::string job_text);
+    Cycle& cycle_;
+    MachineLink& link_;
+    hal::Storage& data_;
+    Today today_;
+    Notice notice_;
+    Worker worker_;
+    bool busy_ = false;
+};
+
+// `job-NAME.EXT` -> `job-NAME-compensated.EXT`; "" when the name is not a job's.
+std::string compensated_job_name(const std::string& job_name);
+
+}  // namespace calbox::firmware

@@ -1,0 +1,37 @@
+#pragma once
+// The console's `link key`: asks OctoPrint for an API key for the box through its application
+// keys plugin (the owner clicks Allow in OctoPrint's page), off the loop, and keeps it in the
+// link's key_file (mode 0600), so that nobody copies a key by hand. The key is never shown: the
+// console is told where it went. The link reads the file when the box starts.
+#include <functional>
+#include <string>
+#include <utility>
+
+#include "core/models/machine_file.hpp"
+#include "drivers/background_job.hpp"
+#include "firmware/console/console.hpp"
+
+namespace calbox::firmware {
+
+class EventLoop;
+
+class LinkKeyRequest {
+  public:
+    using Notice = std::function<void(const std::string&)>;
+    LinkKeyRequest(EventLoop& loop, models::MachineLinkSettings link, Notice notice);
+    LinkKeyRequest(const LinkKeyRequest&) = delete;
+    LinkKeyRequest& operator=(const LinkKeyRequest&) = delete;
+    ~LinkKeyRequest();
+    // The console's row: `link key [USER]`.
+    ConsoleCommand command();
+
+  private:
+    void finished();
+    EventLoop& loop_;
+    models::MachineLinkSettings link_;
+    Notice notice_;
+    // The key, or why there is none.
+    drivers::BackgroundJob<std::pair<bool, std::string>> request_;
+};
+
+}  // namespace calbox::firmware

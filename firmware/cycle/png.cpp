@@ -1,0 +1,30 @@
+#include "firmware/cycle/png.hpp"
+
+#include <opencv2/imgcodecs.hpp>
+#include <stdexcept>
+
+#include "firmware/cycle/png_picture.hpp"
+
+namespace calbox::firmware {
+std::string png_of_picture(const cv::Mat& picture) {
+    std::vector<std::uint8_t> bytes;
+    if (!cv::imencode(".png", picture, bytes)) throw std::runtime_error("PNG encoding failed");
+    return {bytes.begin(), bytes.end()};
+}
+
+std::string png_of(const hal::Frame& frame) {
+    const cv::Mat view(frame.height_px, frame.width_px, CV_8UC1,
+                       const_cast<std::uint8_t*>(frame.pixels.data()),
+                       static_cast<std::size_t>(frame.stride_bytes));
+    return png_of_picture(view);
+}
+
+std::string png_of(const hal::MonoBitmap& bitmap) {
+    cv::Mat image(bitmap.height_px(), bitmap.width_px(), CV_8UC1);
+    for (int y = 0; y < bitmap.height_px(); ++y)
+        for (int x = 0; x < bitmap.width_px(); ++x)
+            image.at<std::uint8_t>(y, x) = bitmap.at(x, y) ? 255 : 0;
+    return png_of_picture(image);
+}
+
+}  // namespace calbox::firmware

@@ -1,0 +1,50 @@
+#pragma once
+// The machine link to a RepRapFirmware printer on the network through a Duet's own web API. A
+// standalone board: rr_connect with the board's password for a session key, rr_gcode and
+// rr_reply for commands (a batch ended by a marker M118 echoes, so that the box knows where its
+// replies end), rr_upload with the file's CRC32 and M32 for a job, followed through the object
+// model's state and job. A board with an SBC (rr_connect answers 404 there, as Duet Web Control
+// finds out): DuetSoftwareFramework's /machine/connect, /machine/code (which answers with the
+// code's reply), PUT /machine/file and /machine/model. Settings go as over serial (M665, M666,
+// M500 and the read-back). The password is sent to the connect request and nowhere else; the
+// session is closed when the link goes.
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "drivers/http.hpp"
+#include "firmware/links/host_link.hpp"
+
+namespace calbox::firmware {
+
+struct DuetSettings {
+    drivers::Url url;
+    std::string password;  // the board's (M551); empty: a board without one
+    std::chrono::milliseconds reply_timeout{30000};
+    std::chrono::milliseconds poll_interval{250};
+    std::string job_file_name = "calbox-target.gcode";
+};
+
+class DuetLink final : public HostLink {
+  public:
+    DuetLink(DuetSettings settings, Log log);
+    ~DuetLink() override;
+    DuetLink(const DuetLink&) = delete;
+    DuetLink& operator=(const DuetLink&) = delete;
+
+    void run_job(const std::vector<std::string>& lines, Done done) override;
+    void send_commands(const std::vector<std::string>& lines, Done done) override;
+
+    struct Session;  // the session key and the markers' count, on the request thread only
+
+  private:
+    DuetSettings settings_;
+    std::unique_ptr<Session> session_;
+};
+
+// A query parameter's value, percent-encoded (RFC 3986's unreserved characters as they are).
+std::string url_encoded(const std::string& text);
+
+}  // namespace calbox::firmware

@@ -1,0 +1,89 @@
+#pragma once
+// What every link to a printer's host shares (Moonraker, OctoPrint, Duet): each request runs on
+// a thread of its own, blocking on the host's API; its `done` comes back through the event loop.
+// A cancel or the box stopping ends the request at its next wait; a print running on the host is
+// left to the host, and said so.
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <stdexcept>
+#include <string>
+
+#include "drivers/background_job.hpp"
+#include "drivers/http.hpp"
+#include "firmware/links/machine_link.hpp"
+
+namespace calbox::firmware {
+
+// What ends a request to a host: its text is the outcome's one line.
+class LinkError : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
+// A host's refusal as one line: "HTTP 400: Insufficient disk space", the message from the reply's
+// JSON as OctoPrint ({"error": "..."}) or Moonraker ({"error": {"message": "..."}}) gives it, or
+// the status alone.
+std::string http_error_line(const drivers::HttpResponse& reply);
+
+class HostLink : public MachineLink {
+  public:
+    using Log = std::function<void(const std::string&)>;
+    // `name`: "moonraker", "octoprint", "duet", for the log.
+    HostLink(std::string name, drivers::Url url, Log log);
+
+    void attach(EventLoop& loop) final;
+    void detach(EventLoop& loop) final;
+    std::string describe() const final { return name_ + " " + url_.origin(); }
+    bool busy() const final { return static_cast<bool>(done_); }
+    void cancel(const std::string& why) final;
+    std::string closing_note() const final;
+
+  protected:
+    // Runs `request` on the request thread: a LinkError (or any exception) ends it with its
+    // text. Throws std::logic_error while another request runs.
+    void start(std::function<JobOutcome()> request, Done done);
+    // Each subclass's destructor calls it first: the request thread is joined while the
+    // subclass's members are still there.
+    void finish_requests();
+    // On the request thread: throws LinkError("stopped") once cancelled or stopping.
+    void check_stop() const;
+    // Waits `how_long` unless cancelled meanwhile (then throws as check_stop).
+    void pause(std::chrono::milliseconds how_long) const;
+    // `request` given the link's session (the subclass's, used on the request thread only).
+    template <class Session>
+    void start_with(Session& session, std::function<JobOutcome(Session&)> request, Done done) {
+        start([&session, request = std::move(request)] { return request(session); },
+              std::move(done));
+    }
+    // While one lives, a print of the box's runs on the host: a stop leaves it there, and
+    // closing_note says so.
+    class PrintingOnHost {
+      public:
+        explicit PrintingOnHost(HostLink& link) : link_(link) { link_.printing_ = true; }
+        PrintingOnHost(const PrintingOnHost&) = delete;
+        PrintingOnHost& operator=(const PrintingOnHost&) = delete;
+        ~PrintingOnHost() { link_.printing_ = false; }
+
+      private:
+        HostLink& link_;
+    };
+    const drivers::Url& url() const { return url_; }
+    const Log& log() const { return log_; }
+
+  private:
+    void finished();
+
+    std::string name_;
+    drivers::Url url_;
+    Log log_;
+    Done done_;
+    std::string cancelled_;
+    std::atomic<bool> stopping_{false};
+    std::atomic<bool> printing_{false};
+    bool left_a_print_ = false;  // the last request was cancelled while the host printed
+    std::unique_ptr<drivers::BackgroundJob<JobOutcome>> job_;
+};
+
+}  // namespace calbox::firmware

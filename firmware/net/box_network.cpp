@@ -1,0 +1,120 @@
+#include "firmware/net/box_network.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include "core/geometry/camera_model.hpp"
+#include "drivers/http.hpp"
+#include "firmware/net/mqtt_report.hpp"
+#include "firmware/net/web_window.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+using json = nlohmann::json;
+
+// What the page's log and plot show at most; /api/history has every line kept.
+constexpr std::size_t kPageLogLines = 40;
+constexpr std::size_t kPageHistory = 100;
+
+}  // namespace
+
+BoxNetwork::BoxNetwork(BoxNetworkParts parts) : BoxNetwork(std::move(parts), WebLimits{}) {}
+
+BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
+    : p_(std::move(parts)), inbox_(p_.loop) {
+    const BoxSettings& settings = p_.config.settings();
+    if (!settings.web.listen.empty()) {
+        const auto at = drivers::parse_host_port(settings.web.listen, false);
+        p_.cycle.on_frame = [this](const hal::Frame& frame) { frames_.put(frame); };
+        web_ = std::make_unique<WebWindow>(
+            WebWindowContext{inbox_, p_.data, p_.clock, frames_,
+                             [this](const std::string& line) { return p_.console.reply_to(line); },
+                             [this] { return status(true); },
+                             [this] { return p_.news.history_json(); },
+                             [this] { return p_.news.metrics(p_.cycle); },
+                             [this] { return p_.config.settings().web.password_hash; },
+                             [this] { return p_.cycle.preview(); }, [this] { return guide(); }},
+            at.host, at.port, limits);
+        const std::string host =
+            at.host.find(':') != std::string::npos ? "[" + at.host + "]" : at.host;
+        p_.log("web: the page at http://" + host + ":" + std::to_string(web_->port()) + "/" +
+               (settings.web.password_hash.empty()
+                    ? " (no web password: it changes nothing until the console's `web password`)"
+                    : ""));
+    }
+    if (!settings.mqtt.broker.empty()) {
+        mqtt_ = std::make_unique<MqttReport>(
+            MqttReport::Context{
+                inbox_, [this] { return status(false); },
+                [this](const std::string& line) { return p_.console.reply_to(line); }, p_.log,
+                p_.version},
+            settings.mqtt);
+    }
+}
+
+BoxNetwork::~BoxNetwork() {
+    // The servers' threads first: they post to the inbox and read the frames.
+    web_.reset();
+    mqtt_.reset();
+    p_.cycle.on_frame = nullptr;
+}
+
+int BoxNetwork::web_port() const {
+    return web_ ? web_->port() : 0;
+}
+
+json BoxNetwork::status(bool for_page) const {
+    json j = p_.news.status(p_.cycle);
+    if (!for_page) return j;
+    j["log"] = p_.log_book.last(kPageLogLines);
+    // Built on every status push (each log line): only the lines the page plots.
+    j["history"] = p_.news.history_json(kPageHistory)["cycles"];
+    return j;
+}
+
+void BoxNetwork::changed() {
+    if (web_) web_->push(json{{"type", "status"}, {"status", status(true)}}.dump());
+    if (mqtt_) mqtt_->publish_status(status(false));
+}
+
+void BoxNetwork::logged() {
+    if (web_) web_->push(json{{"type", "status"}, {"status", status(true)}}.dump());
+}
+
+void BoxNetwork::cycle_ended(bool completed) {
+    if (const auto why = p_.news.cycle_ended(p_.cycle, completed, p_.unix_now()); !why.empty())
+        p_.log(why);
+    if (mqtt_ && !p_.news.history().empty())
+        mqtt_->publish_result(p_.news.history_json(1)["cycles"].back());
+    changed();
+}
+
+LiveGuide BoxNetwork::guide() const {
+    LiveGuide g;
+    // A set-up file that does not read leaves the outline off; the cycle says why when it runs.
+    try {
+        if (const auto camera = p_.data.read_file("camera.yaml"))
+            g.camera = geometry::camera_from_yaml(*camera);
+        if (const auto plane = p_.data.read_file("plane.yaml"))
+            g.plane = geometry::plane_from_yaml(*plane);
+    } catch (const std::exception&) {
+        g.camera.reset();
+        g.plane.reset();
+    }
+    const models::MachineFile& machine = p_.cycle.machine();
+    if (p_.cycle.mode().goal().mode == "delta") {
+        g.bed_radius_mm = machine.bed_radius_mm;
+    } else {
+        g.bed_size_x_mm = machine.bed_size_x_mm;
+        g.bed_size_y_mm = machine.bed_size_y_mm;
+    }
+    for (const auto& view : p_.cycle.setup_views()) {
+        std::vector<geometry::Point2> corners(view.board.image_points.begin(),
+                                              view.board.image_points.end());
+        g.views.push_back(std::move(corners));
+    }
+    g.coverage = p_.cycle.setup_coverage();
+    return g;
+}
+
+}  // namespace calbox::firmware

@@ -1,0 +1,66 @@
+#pragma once
+// The box's windows on the network, wired to the cycle as `calbox run` wires them: the web page
+// and MQTT where the configuration (or --web / --mqtt) says, both fed by BoxNews and acting only
+// through the console's commands, from their own threads through the loop's inbox.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "firmware/console/box_config.hpp"
+#include "firmware/console/console.hpp"
+#include "firmware/cycle/cycle.hpp"
+#include "firmware/loop/event_loop.hpp"
+#include "firmware/net/box_news.hpp"
+#include "firmware/net/live_view.hpp"
+#include "hal/clock.hpp"
+#include "hal/storage.hpp"
+
+namespace calbox::firmware {
+
+class WebWindow;
+class MqttReport;
+struct WebLimits;
+
+struct BoxNetworkParts {
+    EventLoop& loop;
+    Cycle& cycle;
+    Console& console;
+    const BoxConfig& config;  // the configuration in force (web.password is read from it)
+    hal::Storage& data;       // the records the page serves
+    hal::Clock& clock;
+    const LogBook& log_book;
+    BoxNews& news;
+    Cycle::Log log;
+    std::string version;
+    std::function<std::int64_t()> unix_now;  // the wall clock, for the history
+};
+
+class BoxNetwork {
+  public:
+    // Starts what the configuration asks for. Throws drivers::NetworkError when the page cannot
+    // listen where it is told; a broker that is not there is only logged (and retried).
+    explicit BoxNetwork(BoxNetworkParts parts);
+    BoxNetwork(BoxNetworkParts parts, const WebLimits& limits);
+    BoxNetwork(const BoxNetwork&) = delete;
+    BoxNetwork& operator=(const BoxNetwork&) = delete;
+    ~BoxNetwork();
+
+    // The cycle's events, from its handlers: the state or prompt changed, a log line, a cycle
+    // ended (its line in the history first).
+    void changed();
+    void logged();  // the page's log only: MQTT carries the state, not every line
+    void cycle_ended(bool completed);
+    int web_port() const;  // 0 without a page
+
+  private:
+    nlohmann::json status(bool for_page) const;
+    LiveGuide guide() const;
+    BoxNetworkParts p_;
+    LoopInbox inbox_;
+    LatestFrame frames_;
+    std::unique_ptr<WebWindow> web_;
+    std::unique_ptr<MqttReport> mqtt_;
+};
+
+}  // namespace calbox::firmware

@@ -1,0 +1,154 @@
+#include "firmware/net/live_view.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "core/geometry/camera_model.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+cv::Mat gray_of(const hal::Frame& frame) {
+    if (frame.format == hal::PixelFormat::gray8) {
+        return cv::Mat(frame.height_px, frame.width_px, CV_8UC1,
+                       const_cast<std::uint8_t*>(frame.pixels.data()),
+                       static_cast<std::size_t>(frame.stride_bytes));
+    }
+    const cv::Mat rgb(frame.height_px, frame.width_px, CV_8UC3,
+                      const_cast<std::uint8_t*>(frame.pixels.data()),
+                      static_cast<std::size_t>(frame.stride_bytes));
+    cv::Mat gray;
+    cv::cvtColor(rgb, gray, cv::COLOR_RGB2GRAY);
+    return gray;
+}
+
+double laplacian_variance(const cv::Mat& gray) {
+    // The middle half each way: the bed, where focus matters, not the box's own frame.
+    const cv::Rect middle(gray.cols / 4, gray.rows / 4, std::max(1, gray.cols / 2),
+                          std::max(1, gray.rows / 2));
+    cv::Mat lap;
+    cv::Laplacian(gray(middle), lap, CV_32F);
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(lap, mean, stddev);
+    return stddev[0] * stddev[0];
+}
+
+// The bed's outline in the bed frame, centred where the camera's axis meets the bed: where the
+// bed should lie for the box to see it whole.
+std::vector<geometry::Point3> bed_outline(const LiveGuide& g) {
+    cv::Matx33d r;
+    cv::Rodrigues(cv::Vec3d(g.plane->bed_to_camera.rvec[0], g.plane->bed_to_camera.rvec[1],
+                            g.plane->bed_to_camera.rvec[2]),
+                  r);
+    const cv::Vec3d t(g.plane->bed_to_camera.tvec_mm[0], g.plane->bed_to_camera.tvec_mm[1],
+                      g.plane->bed_to_camera.tvec_mm[2]);
+    const cv::Vec3d centre = -(r.t() * t);              // the camera in the bed frame
+    const cv::Vec3d axis = r.t() * cv::Vec3d(0, 0, 1);  // its optical axis there
+    std::vector<geometry::Point3> out;
+    if (std::abs(axis[2]) < 1e-6) return out;  // looking along the bed: no point to centre on
+    const double s = -centre[2] / axis[2];
+    const double cx = centre[0] + s * axis[0], cy = centre[1] + s * axis[1];
+    if (g.bed_radius_mm > 0) {
+        for (int i = 0; i <= 72; ++i) {
+            const double a = 2 * M_PI * i / 72;
+            out.push_back(
+                {cx + g.bed_radius_mm * std::cos(a), cy + g.bed_radius_mm * std::sin(a), 0});
+        }
+    } else {
+        const double hx = g.bed_size_x_mm / 2, hy = g.bed_size_y_mm / 2;
+        for (int i = 0; i <= 4; ++i) {
+            const int c = i % 4;
+            out.push_back({cx + ((c == 1 || c == 2) ? hx : -hx), cy + (c >= 2 ? hy : -hy), 0});
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_width_px) {
+    if (frame.width_px <= 0 || frame.height_px <= 0 || frame.pixels.empty())
+        throw std::invalid_argument("live view: an empty frame");
+    const cv::Mat gray = gray_of(frame);
+    LiveImage image;
+    image.sharpness = laplacian_variance(gray);
+    image.sequence = frame.metadata.sequence;
+    const double scale = std::min(1.0, static_cast<double>(max_width_px) / frame.width_px);
+    cv::Mat small;
+    cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
+    cv::Mat view;
+    cv::cvtColor(small, view, cv::COLOR_GRAY2BGR);
+    const auto at = [scale](const geometry::Point2& p) {
+        return cv::Point(static_cast<int>(std::lround(p.x * scale)),
+                         static_cast<int>(std::lround(p.y * scale)));
+    };
+    // The set-up's coverage: each view's board, filled faintly, so the gaps show.
+    cv::Mat covered = view.clone();
+    for (const auto& corners : guide.views) {
+        std::vector<cv::Point> pts;
+        pts.reserve(corners.size());
+        for (const auto& p : corners) pts.push_back(at(p));
+        if (pts.size() < 3) continue;
+        std::vector<cv::Point> hull;
+        cv::convexHull(pts, hull);
+        cv::fillConvexPoly(covered, hull, cv::Scalar(0, 200, 0));
+        cv::polylines(view, std::vector<std::vector<cv::Point>>{hull}, true, cv::Scalar(0, 160, 0),
+                      1, cv::LINE_AA);
+    }
+    if (!guide.views.empty()) cv::addWeighted(covered, 0.3, view, 0.7, 0, view);
+    const int font = cv::FONT_HERSHEY_SIMPLEX;
+    const double text_scale = std::max(0.4, view.cols / 1200.0);
+    int line = 1;
+    const auto text = [&](const std::string& s, const cv::Scalar& colour) {
+        const cv::Point org(8, static_cast<int>(line++ * 26 * text_scale / 0.6));
+        cv::putText(view, s, org, font, text_scale, cv::Scalar(0, 0, 0), 3, cv::LINE_AA);
+        cv::putText(view, s, org, font, text_scale, colour, 1, cv::LINE_AA);
+    };
+    if (guide.camera && guide.plane) {
+        const auto outline = bed_outline(guide);
+        if (!outline.empty()) {
+            const auto pixels =
+                geometry::project_points(*guide.camera, guide.plane->bed_to_camera, outline);
+            std::vector<cv::Point> pts;
+            pts.reserve(pixels.size());
+            for (const auto& p : pixels) pts.push_back(at(p));
+            cv::polylines(view, std::vector<std::vector<cv::Point>>{pts}, false,
+                          cv::Scalar(0, 200, 255), 2, cv::LINE_AA);
+        }
+        text("bed outline (orange): the machine's bed belongs inside it", cv::Scalar(0, 200, 255));
+    } else {
+        text("bed outline after the set-up (camera and plane)", cv::Scalar(200, 200, 200));
+    }
+    char figures[96];
+    std::snprintf(figures, sizeof figures, "sharpness %.0f   set-up coverage %.0f %%",
+                  image.sharpness, 100 * guide.coverage);
+    text(figures, cv::Scalar(255, 255, 255));
+    std::vector<unsigned char> jpeg;
+    cv::imencode(".jpg", view, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
+    image.jpeg.assign(jpeg.begin(), jpeg.end());
+    image.width_px = view.cols;
+    image.height_px = view.rows;
+    return image;
+}
+
+void LatestFrame::put(const hal::Frame& frame) {
+    {
+        const std::lock_guard lock(mutex_);
+        frame_ = frame;
+        frame_->metadata.sequence = ++count_;
+    }
+    arrived_.notify_all();
+}
+
+std::optional<hal::Frame> LatestFrame::newer_than(std::uint64_t after,
+                                                  std::chrono::milliseconds within) {
+    std::unique_lock lock(mutex_);
+    arrived_.wait_for(lock, within, [&] { return count_ > after; });
+    return frame_;
+}
+
+}  // namespace calbox::firmware

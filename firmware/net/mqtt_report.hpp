@@ -1,0 +1,54 @@
+#pragma once
+// The box on an MQTT broker, for Home Assistant (docs/network.md): its state and each cycle's
+// result as JSON, its availability with a last will, and Home Assistant's discovery (retained,
+// published again whenever Home Assistant says it is back online): sensors for the last measured
+// error, the drift and when it was calibrated, a binary sensor "needs calibrating", and a button
+// that starts a cycle through the console's `start`. Everything it does on the box runs on the
+// loop's thread, posted there from the client's.
+#include <functional>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "drivers/mqtt_client.hpp"
+#include "firmware/console/box_config.hpp"
+#include "firmware/loop/event_loop.hpp"
+
+namespace calbox::firmware {
+
+class MqttReport {
+  public:
+    struct Context {
+        LoopInbox& inbox;
+        // On the loop's thread:
+        std::function<nlohmann::json()> status;  // BoxNews::status
+        std::function<std::string(const std::string& line)> console;
+        std::function<void(const std::string&)> log;
+        std::string version;
+    };
+    // Starts connecting; a broker not there is one log line, and tried again with back-off.
+    MqttReport(Context context, const MqttSettings& settings);
+    MqttReport(const MqttReport&) = delete;
+    MqttReport& operator=(const MqttReport&) = delete;
+    ~MqttReport();  // "offline" on the availability topic, then disconnects
+
+    // On the loop's thread: the status changed; a cycle ended (its history line).
+    void publish_status(const nlohmann::json& status);
+    void publish_result(const nlohmann::json& history_entry);
+
+    std::string topic(const std::string& leaf) const {
+        return "calbox/" + settings_.node_id + "/" + leaf;
+    }
+    // Home Assistant's discovery messages: (topic, retained JSON config).
+    std::vector<std::pair<std::string, std::string>> discovery() const;
+
+  private:
+    // On the loop's thread: a fresh session, or Home Assistant back online (discovery again).
+    void on_connected(bool fresh);
+    Context c_;
+    MqttSettings settings_;
+    std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);  // posted jobs check it
+    std::unique_ptr<drivers::MqttClient> client_;
+};
+
+}  // namespace calbox::firmware

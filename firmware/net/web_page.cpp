@@ -1,0 +1,332 @@
+#include "firmware/net/web_page.hpp"
+
+namespace calbox::firmware {
+
+std::string_view web_page_html() {
+    return R"html(<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>calbox</title>
+<link rel="stylesheet" href="/style.css">
+<script src="/app.js" defer></script>
+</head>
+<body>
+<header>
+  <h1>calbox</h1>
+  <span id="state" class="badge">…</span>
+  <span id="link" class="muted">connecting</span>
+</header>
+<nav>
+  <button data-view="status" class="tab on">Status</button>
+  <button data-view="setup" class="tab">Set-up</button>
+  <button data-view="result" class="tab">Result</button>
+  <button data-view="config" class="tab">Configuration</button>
+</nav>
+<main>
+<section id="view-status" class="view">
+  <div class="card">
+    <p class="big">Waiting for: <b id="waiting">nothing</b></p>
+    <p>Cycle <span id="cycle">0</span> (<span id="completed">0</span> completed since start) · mode <span id="mode">–</span></p>
+    <p id="error" class="error"></p>
+    <div class="actions">
+      <button id="btn-start">Start</button>
+      <button id="btn-confirm">Confirm</button>
+      <button id="btn-cancel">Cancel</button>
+      <button id="btn-acknowledge">Acknowledge</button>
+      <button id="btn-revert">Revert</button>
+    </div>
+    <p><label>Web password <input id="password" type="password" autocomplete="current-password"></label>
+      <span id="action-reply" class="muted"></span></p>
+  </div>
+  <div class="card">
+    <h2>Machine</h2>
+    <p>Last error before correction: <b id="last-before">–</b> · after: <b id="last-after">–</b></p>
+    <p>Drift since the last calibration: <b id="drift">–</b> · calibrated <span id="calibrated">never</span></p>
+    <p id="needs" class="muted"></p>
+    <h2>Drift history</h2>
+    <svg id="history" viewBox="0 0 600 160" role="img" aria-label="each cycle's error before and after its correction"></svg>
+    <p class="muted"><span class="key before"></span> before correction <span class="key after"></span> after</p>
+  </div>
+  <div class="card wide">
+    <h2>Log</h2>
+    <pre id="log"></pre>
+  </div>
+</section>
+<section id="view-setup" class="view" hidden>
+  <div class="card wide">
+    <h2>Live view</h2>
+    <img id="live" alt="the camera's live view">
+    <p class="muted">Frame <span id="frame">–</span> · sharpness <b id="sharpness">–</b> (turn the focus for the highest)</p>
+  </div>
+</section>
+<section id="view-result" class="view" hidden>
+  <div class="card wide">
+    <h2>Last cycle</h2>
+    <table id="result"><tbody></tbody></table>
+    <div id="pictures"></div>
+  </div>
+  <div class="card wide">
+    <h2>Jobs through the correction</h2>
+    <p class="muted">A job in the box's data directory (job-NAME.gcode, .nc, .ngc, .tap, .g, .csv) sent through the correction the box keeps, placed at its work zero: X,Y (machine coordinates), measured (the frame the correction was measured in), controller (grbl's offsets, read over the link) or G54=X,Y G55=X,Y. The compensated job appears in the records as job-NAME-compensated.</p>
+    <p><label>Job <input id="job-name" placeholder="job-part.nc"></label>
+      <label>Work zero <input id="job-zero" placeholder="measured"></label>
+      <button id="btn-compensate">Compensate</button> <span id="job-reply" class="muted"></span></p>
+  </div>
+  <div class="card wide">
+    <h2>Records</h2>
+    <ul id="records"></ul>
+  </div>
+</section>
+<section id="view-config" class="view" hidden>
+  <div class="card wide">
+    <h2>Configuration</h2>
+    <p class="muted">The console's keys, checked as the console checks them. Changes need the web password; Save keeps them.</p>
+    <table id="config"><tbody></tbody></table>
+    <button id="btn-save">Save</button> <span id="config-reply" class="muted"></span>
+  </div>
+</section>
+</main>
+</body>
+</html>
+)html";
+}
+
+std::string_view web_page_script() {
+    return R"js('use strict';
+const $ = (id) => document.getElementById(id);
+const mm = (v) => (v === null || v === undefined) ? '–' : v.toFixed(4) + ' mm';
+const headline = (f) => f ? (f.mean_mm !== null ? f.mean_mm : f.rms_mm) : null;
+let status = null;
+let shownCycle = -1;
+
+function auth() {
+  return {'Content-Type': 'application/json',
+          'Authorization': 'Basic ' + btoa('calbox:' + $('password').value)};
+}
+async function send(path, body, replyId) {
+  sessionStorage.setItem('calbox-password', $('password').value);
+  const r = await fetch(path, {method: 'POST', headers: auth(), body: JSON.stringify(body)});
+  const j = await r.json().catch(() => ({error: r.statusText}));
+  $(replyId).textContent = r.ok ? 'done' : (r.status + ': ' + j.error);
+  $(replyId).className = r.ok ? 'muted' : 'error';
+  return r.ok;
+}
+
+function showStatus(s) {
+  status = s;
+  $('state').textContent = s.state;
+  $('state').className = 'badge ' + s.state;
+  $('waiting').textContent = s.waiting || 'nothing';
+  $('cycle').textContent = s.cycle;
+  $('completed').textContent = s.completed;
+  $('mode').textContent = s.mode;
+  $('error').textContent = s.error ? 'Last error: ' + s.error : '';
+  const last = s.last;
+  $('last-before').textContent = last ? mm(headline(last.before)) : '–';
+  $('last-after').textContent = last ? mm(headline(last.after)) : '–';
+  $('drift').textContent = mm(s.drift_mm);
+  $('calibrated').textContent = s.last_calibrated || 'never';
+  $('needs').textContent = s.needs_calibration === null ? '' :
+      (s.needs_calibration ? 'Needs calibrating: the last error before correction is over '
+                            : 'Within the limit of ') + s.needs_calibration_mm + ' mm';
+  if (s.log) {
+    // The newest line in view, unless the reader has scrolled up to read an older one.
+    const log = $('log');
+    const atEnd = log.scrollTop + log.clientHeight >= log.scrollHeight - 4;
+    log.textContent = s.log.join('\n');
+    if (atEnd || !log.dataset.seen) log.scrollTop = log.scrollHeight;
+    log.dataset.seen = '1';
+  }
+  const ids = {start: s.state === 'idle', confirm: !!s.waiting && s.state !== 'idle',
+               cancel: s.state !== 'idle', acknowledge: s.state === 'error', revert: s.state === 'idle'};
+  for (const [k, on] of Object.entries(ids)) $('btn-' + k).disabled = !on;
+  if (last && last.cycle !== shownCycle) { shownCycle = last.cycle; showResult(last); }
+  if (s.history) drawHistory(s.history);
+}
+
+function drawHistory(cycles) {
+  const svg = $('history');
+  const pts = cycles.filter((c) => c.before || c.after);
+  const w = 600, h = 160, pad = 30;
+  const top = Math.max(0.001, ...pts.flatMap((c) => [headline(c.before) || 0, headline(c.after) || 0]));
+  const x = (i) => pad + (pts.length < 2 ? (w - 2 * pad) / 2 : i * (w - 2 * pad) / (pts.length - 1));
+  const y = (v) => h - pad - v / top * (h - 2 * pad);
+  let out = `<line x1="${pad}" y1="${h - pad}" x2="${w - pad}" y2="${h - pad}" class="axis"/>` +
+            `<text x="2" y="${pad - 8}" class="label">${top.toFixed(3)} mm</text>` +
+            `<text x="2" y="${h - pad + 4}" class="label">0</text>`;
+  for (const [key, cls] of [['before', 'before'], ['after', 'after']]) {
+    const line = pts.map((c, i) => [i, headline(c[key])]).filter((p) => p[1] !== null);
+    if (line.length > 1)
+      out += `<polyline class="${cls}" points="${line.map((p) => x(p[0]) + ',' + y(p[1])).join(' ')}"/>`;
+    for (const p of line) out += `<circle class="${cls}" cx="${x(p[0])}" cy="${y(p[1])}" r="3"><title>cycle ${pts[p[0]].cycle}, ${pts[p[0]].finished}: ${p[1].toFixed(4)} mm</title></circle>`;
+  }
+  svg.innerHTML = out;
+}
+
+function showResult(last) {
+  const rows = [['Cycle', last.cycle], ['Mode', last.mode], ['Result', last.result], ['Finished', last.finished],
+                ['Before: mean', mm(last.before && last.before.mean_mm)], ['Before: RMS', mm(last.before && last.before.rms_mm)],
+                ['Before: worst', mm(last.before && last.before.max_mm)], ['After: mean', mm(last.after && last.after.mean_mm)],
+                ['After: RMS', mm(last.after && last.after.rms_mm)], ['After: worst', mm(last.after && last.after.max_mm)],
+                ['Time', last.seconds.toFixed(1) + ' s']];
+  const body = $('result').tBodies[0];
+  body.replaceChildren(...rows.map(([k, v]) => {
+    const tr = document.createElement('tr');
+    tr.innerHTML = `<th></th><td></td>`;
+    tr.cells[0].textContent = k; tr.cells[1].textContent = v;
+    tr.id = 'result-' + k.toLowerCase().replace(/[^a-z]+/g, '-');
+    return tr;
+  }));
+  loadRecords(last.cycle);
+}
+
+async function loadRecords(cycle) {
+  const r = await fetch('/records/');
+  if (!r.ok) return;
+  const list = (await r.json()).records;
+  $('records').replaceChildren(...list.map((e) => {
+    const li = document.createElement('li');
+    const a = document.createElement('a');
+    a.href = '/records/' + encodeURIComponent(e.name) + '?download=1';
+    a.textContent = e.name;
+    li.append(a, ` (${e.bytes} bytes)`);
+    return li;
+  }));
+  const prefix = 'cycle-' + String(cycle).padStart(4, '0') + '-';
+  const pictures = list.filter((e) => e.name.startsWith(prefix) && e.name.endsWith('.png') && !e.name.includes('-photo-'));
+  $('pictures').replaceChildren(...pictures.map((e) => {
+    const fig = document.createElement('figure');
+    const img = document.createElement('img');
+    img.src = '/records/' + encodeURIComponent(e.name);
+    img.alt = e.name;
+    const cap = document.createElement('figcaption');
+    cap.textContent = e.name;
+    fig.append(img, cap);
+    fig.className = e.name.includes('screen-') ? 'screen' : 'picture';
+    return fig;
+  }));
+}
+
+async function refresh() {
+  const r = await fetch('/api/status');
+  if (r.ok) showStatus(await r.json());
+}
+
+function listen() {
+  const ws = new WebSocket((location.protocol === 'https:' ? 'wss://' : 'ws://') + location.host + '/events');
+  ws.onopen = () => { $('link').textContent = 'live'; refresh(); };
+  ws.onmessage = (m) => {
+    const e = JSON.parse(m.data);
+    if (e.type === 'status') showStatus(e.status);
+  };
+  ws.onclose = () => { $('link').textContent = 'reconnecting'; setTimeout(listen, 2000); };
+}
+
+let frame = 0;
+async function liveLoop() {
+  for (;;) {
+    if ($('view-setup').hidden) { await new Promise((ok) => setTimeout(ok, 500)); continue; }
+    try {
+      const r = await fetch('/live.jpg?after=' + frame);
+      if (r.ok) {
+        frame = Number(r.headers.get('X-Frame'));
+        $('frame').textContent = frame;
+        $('sharpness').textContent = r.headers.get('X-Sharpness');
+        const old = $('live').src;
+        $('live').src = URL.createObjectURL(await r.blob());
+        if (old.startsWith('blob:')) URL.revokeObjectURL(old);
+        // A few frames a second aim and focus a box; more would only load it.
+        await new Promise((ok) => setTimeout(ok, 250));
+      } else {
+        await new Promise((ok) => setTimeout(ok, 1000));
+      }
+    } catch (e) {
+      await new Promise((ok) => setTimeout(ok, 1000));
+    }
+  }
+}
+
+async function loadConfig() {
+  const r = await fetch('/api/config');
+  if (!r.ok) return;
+  const j = await r.json();
+  const body = $('config').tBodies[0];
+  body.replaceChildren(...Object.entries(j.config).map(([key, k]) => {
+    const tr = document.createElement('tr');
+    tr.innerHTML = '<th></th><td><input></td><td class="muted"></td>';
+    tr.cells[0].textContent = key;
+    const input = tr.querySelector('input');
+    input.value = k.value;
+    input.id = 'config-' + key;
+    input.onchange = async () => {
+      if (!await send('/api/config', {key, value: input.value}, 'config-reply')) input.value = k.value;
+      else k.value = input.value;
+    };
+    tr.cells[2].textContent = (k.unit ? k.unit + ' · ' : '') + k.doc + (k.at_start ? ' [at start]' : '');
+    return tr;
+  }));
+}
+
+document.addEventListener('DOMContentLoaded', () => {
+  $('password').value = sessionStorage.getItem('calbox-password') || '';
+  for (const a of ['start', 'confirm', 'cancel', 'acknowledge', 'revert'])
+    $('btn-' + a).onclick = () => send('/api/action', {action: a}, 'action-reply');
+  $('btn-save').onclick = () => send('/api/config', {save: true}, 'config-reply');
+  $('btn-compensate').onclick = () => send('/api/action',
+    {action: 'compensate', job: $('job-name').value, work_zero: $('job-zero').value}, 'job-reply');
+  for (const tab of document.querySelectorAll('nav .tab')) {
+    tab.onclick = () => {
+      for (const t of document.querySelectorAll('nav .tab')) t.classList.toggle('on', t === tab);
+      for (const v of document.querySelectorAll('.view')) v.hidden = v.id !== 'view-' + tab.dataset.view;
+      if (tab.dataset.view === 'config') loadConfig();
+      if (tab.dataset.view === 'result' && status && status.last) loadRecords(status.last.cycle);
+    };
+  }
+  refresh();
+  listen();
+  liveLoop();
+});
+)js";
+}
+
+std::string_view web_page_style() {
+    return R"css(* { box-sizing: border-box; }
+body { font-family: sans-serif; margin: 0; background: #f4f5f7; color: #1d2330; }
+header { display: flex; gap: 1em; align-items: center; padding: 0.6em 1em; background: #1d2330; color: #fff; }
+header h1 { font-size: 1.3em; margin: 0; }
+nav { display: flex; gap: 0.3em; padding: 0.5em 1em; }
+.tab { border: 0; padding: 0.5em 1em; background: #dde1e8; border-radius: 4px; cursor: pointer; }
+.tab.on { background: #2d6cdf; color: #fff; }
+main { padding: 0 1em 1em; }
+.view { display: flex; flex-wrap: wrap; gap: 1em; }
+.view[hidden] { display: none; }
+.card { background: #fff; border-radius: 6px; padding: 0.8em 1.2em; flex: 1 1 22em; box-shadow: 0 1px 3px #0002; }
+.card.wide { flex-basis: 100%; }
+h2 { font-size: 1.05em; margin: 0.6em 0 0.4em; }
+.big { font-size: 1.2em; }
+.badge { padding: 0.2em 0.6em; border-radius: 4px; background: #556; }
+.badge.idle { background: #2f8f4e; } .badge.error { background: #c0392b; } .badge.review { background: #d68910; }
+.muted { color: #667; } .error { color: #c0392b; }
+.actions button, #btn-save { padding: 0.5em 1.1em; margin: 0.2em 0.3em 0.2em 0; font-size: 1em; }
+pre { max-height: 18em; overflow: auto; white-space: pre-wrap; background: #f0f1f4; padding: 0.5em; font-size: 0.85em; }
+#live { max-width: 100%; background: #000; min-height: 10em; }
+svg { width: 100%; max-width: 600px; height: auto; background: #fafbfc; }
+svg .axis { stroke: #889; } svg .label { font-size: 11px; fill: #667; }
+svg polyline { fill: none; stroke-width: 2; }
+svg .before { stroke: #c0392b; fill: #c0392b; } svg .after { stroke: #2f8f4e; fill: #2f8f4e; }
+svg polyline.before, svg polyline.after { fill: none; }
+.key { display: inline-block; width: 1em; height: 0.6em; }
+.key.before { background: #c0392b; } .key.after { background: #2f8f4e; }
+table { border-collapse: collapse; } th { text-align: left; padding-right: 1em; font-weight: normal; color: #445; }
+td, th { padding: 0.2em 0.6em 0.2em 0; vertical-align: top; }
+#config input { width: 16em; }
+#pictures { display: flex; flex-wrap: wrap; gap: 1em; }
+figure { margin: 0; } figure.picture img { max-width: 100%; width: 640px; }
+figure.screen img { width: 256px; image-rendering: pixelated; border: 1px solid #889; }
+figcaption { font-size: 0.8em; color: #667; }
+)css";
+}
+
+}  // namespace calbox::firmware

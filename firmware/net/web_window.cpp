@@ -1,0 +1,364 @@
+#include "firmware/net/web_window.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <nlohmann/json.hpp>
+#include <stdexcept>
+
+#include "drivers/password.hpp"
+#include "firmware/net/web_page.hpp"
+
+namespace calbox::firmware {
+namespace {
+
+using drivers::ServerRequest;
+using drivers::ServerResponse;
+using json = nlohmann::json;
+
+// The loop did not answer in time (stopped, or the inbox going).
+struct Busy {};
+
+ServerResponse error(int status, const std::string& message, drivers::Headers headers = {}) {
+    return {status, "application/json", json{{"error", message}}.dump() + "\n", std::move(headers)};
+}
+
+ServerResponse json_answer(const json& j) {
+    return {200, "application/json", j.dump() + "\n", {}};
+}
+
+std::string percent_decoded(const std::string& text) {
+    std::string out;
+    for (std::size_t i = 0; i < text.size(); ++i) {
+        if (text[i] == '%' && i + 2 < text.size() &&
+            std::isxdigit(static_cast<unsigned char>(text[i + 1])) &&
+            std::isxdigit(static_cast<unsigned char>(text[i + 2]))) {
+            out += static_cast<char>(std::stoi(text.substr(i + 1, 2), nullptr, 16));
+            i += 2;
+        } else {
+            out += text[i];
+        }
+    }
+    return out;
+}
+
+// One query parameter's value ("after=12&x=1"), or empty.
+std::string query_value(const std::string& query, const std::string& name) {
+    std::size_t at = 0;
+    while (at <= query.size()) {
+        const auto end = std::min(query.find('&', at), query.size());
+        const std::string pair = query.substr(at, end - at);
+        if (pair.rfind(name + "=", 0) == 0) return percent_decoded(pair.substr(name.size() + 1));
+        at = end + 1;
+    }
+    return {};
+}
+
+// The records a page may read: each cycle's, and the set-up's. Not the configuration (it holds
+// the password's hash), nor anything else the data directory gathers.
+bool is_record_name(const std::string& name) {
+    static const char* const setup[] = {"camera.yaml",  "plane.yaml",       "reference.yaml",
+                                        "history.json", "galvo-table.json", "planar-result.json"};
+    if (name.empty() || name.size() > 128 || name.front() == '.') return false;
+    if (name.find_first_not_of(
+            "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
+        std::string::npos)
+        return false;
+    if (name.rfind("cycle-", 0) == 0 || name.rfind("job-", 0) == 0) return true;
+    return std::find(std::begin(setup), std::end(setup), name) != std::end(setup);
+}
+
+std::string content_type_of(const std::string& name) {
+    const auto dot = name.rfind('.');
+    const std::string ext = dot == std::string::npos ? "" : name.substr(dot + 1);
+    if (ext == "png") return "image/png";
+    if (ext == "jpg" || ext == "jpeg") return "image/jpeg";
+    if (ext == "json") return "application/json";
+    if (ext == "csv") return "text/csv; charset=utf-8";
+    if (ext == "yaml" || ext == "gcode" || ext == "txt" || ext == "cfg")
+        return "text/plain; charset=utf-8";
+    return "application/octet-stream";
+}
+
+// What every answer carries: nothing cached, nothing sniffed, not framed by another site.
+void secure(ServerResponse& r) {
+    r.headers.emplace_back("X-Content-Type-Options", "nosniff");
+    r.headers.emplace_back("X-Frame-Options", "DENY");
+    r.headers.emplace_back("Referrer-Policy", "no-referrer");
+    if (std::none_of(r.headers.begin(), r.headers.end(),
+                     [](const auto& h) { return h.first == "Cache-Control"; }))
+        r.headers.emplace_back("Cache-Control", "no-store");
+}
+
+}  // namespace
+
+WebWindow::WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits)
+    : c_(std::move(context)), limits_(limits) {
+    drivers::ServerLimits server;
+    server.max_body_bytes = limits_.max_body_bytes;
+    server.max_connections = limits_.max_connections;
+    server.idle_timeout = limits_.idle_timeout;
+    server_ = std::make_unique<drivers::HttpServer>(
+        host, port,
+        drivers::HttpServer::Handlers{
+            [this](const ServerRequest& r) {
+                ServerResponse answer = this->answer(r);
+                secure(answer);
+                return answer;
+            },
+            [this](const ServerRequest& r) {
+                if (!take_token(r.peer)) return 429;
+                return r.target == "/events" ? 101 : 404;
+            },
+            [](const ServerRequest&, const std::string&) { return std::vector<std::string>{}; }},
+        server);
+}
+
+WebWindow::~WebWindow() = default;
+
+int WebWindow::port() const {
+    return server_->port();
+}
+
+void WebWindow::push(const std::string& event_json) {
+    server_->push(event_json);
+}
+
+template <class T>
+T WebWindow::on_loop(std::function<T()> job) {
+    std::optional<T> result;
+    try {
+        result = c_.inbox.call<T>(std::move(job), limits_.loop_answer);
+    } catch (const std::future_error&) {
+        throw Busy{};
+    }
+    if (!result) throw Busy{};
+    return std::move(*result);
+}
+
+bool WebWindow::take_token(const std::string& peer) {
+    const auto now = c_.clock.now();
+    const std::lock_guard lock(peers_mutex_);
+    // A flood from many addresses must not grow the table without end: the quiet ones go.
+    if (peers_.size() > 1024) {
+        for (auto it = peers_.begin(); it != peers_.end();) {
+            if (now - it->second.refilled > std::chrono::seconds(60) &&
+                it->second.locked_until < now)
+                it = peers_.erase(it);
+            else
+                ++it;
+        }
+    }
+    auto [it, fresh] = peers_.try_emplace(peer);
+    Peer& p = it->second;
+    if (fresh) {
+        p.tokens = limits_.burst;
+        p.refilled = now;
+    }
+    const double seconds = std::chrono::duration<double>(now - p.refilled).count();
+    p.tokens = std::min(limits_.burst, p.tokens + seconds * limits_.requests_per_second);
+    p.refilled = now;
+    if (p.tokens < 1) return false;
+    p.tokens -= 1;
+    return true;
+}
+
+std::optional<ServerResponse> WebWindow::refuse_password(const ServerRequest& request) {
+    const std::string hash = on_loop<std::string>(c_.password_hash);
+    if (hash.empty())
+        return error(403,
+                     "no web password is set on the box: the page changes nothing until one is "
+                     "(the console's `web password`)");
+    const auto now = c_.clock.now();
+    {
+        const std::lock_guard lock(peers_mutex_);
+        const Peer& p = peers_[request.peer];
+        if (p.locked_until > now)
+            return error(429, "too many wrong passwords: wait and try again",
+                         {{"Retry-After", std::to_string(limits_.wrong_password_wait.count())}});
+    }
+    const auto header = request.headers.find("authorization");
+    const auto password = header == request.headers.end()
+                              ? std::nullopt
+                              : drivers::basic_auth_password(header->second);
+    if (!password)
+        return error(401, "this needs the box's web password (HTTP Basic authorization)");
+    const bool right = drivers::password_matches(*password, hash);
+    const std::lock_guard lock(peers_mutex_);
+    Peer& p = peers_[request.peer];
+    if (right) {
+        p.wrong_passwords = 0;
+        return std::nullopt;
+    }
+    if (++p.wrong_passwords >= limits_.wrong_passwords) {
+        p.wrong_passwords = 0;
+        p.locked_until = now + limits_.wrong_password_wait;
+    }
+    return error(401, "wrong web password");
+}
+
+ServerResponse WebWindow::console_answer(const std::string& line) {
+    const std::string reply = on_loop<std::string>([this, line] { return c_.console(line); });
+    json j = json::parse(reply);
+    if (!j.value("ok", false)) return error(409, j.value("error", std::string("refused")));
+    return json_answer(j);
+}
+
+ServerResponse WebWindow::answer(const ServerRequest& request) {
+    if (!take_token(request.peer))
+        return error(429,
+                     "too many requests: at most " +
+                         std::to_string(static_cast<int>(limits_.requests_per_second)) +
+                         " a second",
+                     {{"Retry-After", "1"}});
+    const auto q = request.target.find('?');
+    const std::string path = request.target.substr(0, q);
+    const std::string query = q == std::string::npos ? "" : request.target.substr(q + 1);
+    try {
+        return route(request, path, query);
+    } catch (const Busy&) {
+        return error(503, "the box did not answer in time: try again", {{"Retry-After", "2"}});
+    }
+}
+
+ServerResponse WebWindow::route(const ServerRequest& request, const std::string& path,
+                                const std::string& query) {
+    if (request.method == "POST") return post(request, path);
+    if (request.method != "GET")
+        return error(405, request.method + " is not served here", {{"Allow", "GET, POST"}});
+    if (path == "/" || path == "/index.html") {
+        ServerResponse r{200, "text/html; charset=utf-8", std::string(web_page_html()), {}};
+        r.headers.emplace_back("Content-Security-Policy",
+                               "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; "
+                               "script-src 'self'; connect-src 'self'; frame-ancestors 'none'");
+        return r;
+    }
+    if (path == "/app.js")
+        return {200, "text/javascript; charset=utf-8", std::string(web_page_script()), {}};
+    if (path == "/style.css")
+        return {200, "text/css; charset=utf-8", std::string(web_page_style()), {}};
+    if (path == "/api/status") return json_answer(on_loop<json>(c_.status));
+    if (path == "/api/history") return json_answer(on_loop<json>(c_.history));
+    if (path == "/api/config") {
+        const ServerResponse r = console_answer("config list --json");
+        json j = json::parse(r.body);
+        // Its hash is the box's alone: the page shows only whether one is set.
+        auto& config = j["config"];
+        const bool set = !config["web.password"]["value"].get<std::string>().empty();
+        config.erase("web.password");
+        return json_answer({{"config", config}, {"web_password_set", set}});
+    }
+    if (path == "/metrics") {
+        return {
+            200, "text/plain; version=0.0.4; charset=utf-8", on_loop<std::string>(c_.metrics), {}};
+    }
+    if (path == "/live.jpg") return live(query);
+    if (path == "/records" || path == "/records/") {
+        json list = json::array();
+        for (const auto& e : c_.records.list_files())
+            if (is_record_name(e.name)) list.push_back({{"name", e.name}, {"bytes", e.size_bytes}});
+        std::sort(list.begin(), list.end(),
+                  [](const json& a, const json& b) { return a["name"] < b["name"]; });
+        return json_answer({{"records", list}});
+    }
+    if (path.rfind("/records/", 0) == 0) return record(percent_decoded(path.substr(9)), query);
+    return error(404, "nothing at " + path);
+}
+
+ServerResponse WebWindow::record(const std::string& name, const std::string& query) {
+    if (!is_record_name(name))
+        return error(403,
+                     "not a record: /records/ serves the cycles' records and the set-up's "
+                     "files by their plain names");
+    const auto contents = c_.records.read_file(name);
+    if (!contents) return error(404, "no record " + name);
+    ServerResponse r{200, content_type_of(name), *contents, {}};
+    if (query_value(query, "download") == "1")
+        r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + name + "\"");
+    return r;
+}
+
+ServerResponse WebWindow::live(const std::string& query) {
+    std::uint64_t after = 0;
+    const std::string after_text = query_value(query, "after");
+    if (!after_text.empty()) {
+        if (after_text.size() > 19 ||
+            after_text.find_first_not_of("0123456789") != std::string::npos)
+            return error(400, "after: a frame number");
+        after = std::stoull(after_text);
+    }
+    // A fresh frame when the camera is free; while the cycle uses it, its own photos show.
+    (void)on_loop<bool>(c_.preview);
+    const auto frame = c_.frames.newer_than(after, std::chrono::seconds(10));
+    if (!frame) return error(503, "no frame from the camera yet", {{"Retry-After", "1"}});
+    const LiveGuide guide = on_loop<LiveGuide>(c_.guide);
+    const LiveImage image = live_view(*frame, guide, limits_.live_width_px);
+    ServerResponse r{200, "image/jpeg", image.jpeg, {}};
+    r.headers.emplace_back("X-Frame", std::to_string(frame->metadata.sequence));
+    r.headers.emplace_back("X-Sharpness", std::to_string(static_cast<long>(image.sharpness)));
+    return r;
+}
+
+ServerResponse WebWindow::post(const ServerRequest& request, const std::string& path) {
+    if (path != "/api/action" && path != "/api/config") return error(404, "nothing at " + path);
+    const auto type = request.headers.find("content-type");
+    if (type == request.headers.end() || type->second.rfind("application/json", 0) != 0)
+        return error(415, "the body must be JSON (Content-Type: application/json)");
+    if (auto refused = refuse_password(request)) return *refused;
+    json body;
+    try {
+        body = json::parse(request.body);
+    } catch (const json::parse_error& e) {
+        return error(400, std::string("malformed JSON: ") + e.what());
+    }
+    if (!body.is_object()) return error(400, "the body must be a JSON object");
+    if (path == "/api/action" && body.value("action", std::string()) == "compensate") {
+        // The console's `compensate`, one line built from plain words.
+        const std::string job = body.value("job", std::string());
+        const std::string zero = body.value("work_zero", std::string());
+        const auto word_chars = [](const std::string& s) {
+            return s.find_first_not_of(
+                       "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                       "0123456789._-,= ") == std::string::npos;
+        };
+        if (job.empty() || job.size() > 100 || zero.size() > 120 || !word_chars(job) ||
+            job.find(' ') != std::string::npos || !word_chars(zero) ||
+            zero.find("--") != std::string::npos || body.size() > 3)
+            return error(400,
+                         "compensate: {\"action\": \"compensate\", \"job\": \"job-NAME.nc\", "
+                         "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}");
+        return console_answer("compensate " + job + (zero.empty() ? "" : " " + zero) + " --json");
+    }
+    if (path == "/api/action") {
+        const auto action = body.find("action");
+        static const char* const actions[] = {"start", "confirm", "cancel", "acknowledge",
+                                              "revert"};
+        if (action == body.end() || !action->is_string() ||
+            std::find(std::begin(actions), std::end(actions), action->get<std::string>()) ==
+                std::end(actions))
+            return error(400, "action: one of start, confirm, cancel, acknowledge, revert");
+        return console_answer(action->get<std::string>() + " --json");
+    }
+    if (body.contains("save")) {
+        if (body.size() != 1 || body["save"] != true) return error(400, "save: true, alone");
+        return console_answer("config save --json");
+    }
+    const auto key = body.find("key");
+    const auto value = body.find("value");
+    if (key == body.end() || !key->is_string() || value == body.end() || !value->is_string() ||
+        body.size() != 2)
+        return error(400,
+                     "a configuration change is {\"key\": \"table.key\", \"value\": \"text\"}");
+    const std::string k = key->get<std::string>(), v = value->get<std::string>();
+    const auto plain = [](const std::string& s) {
+        return std::none_of(s.begin(), s.end(), [](char ch) {
+            return static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f;
+        });
+    };
+    if (k.empty() || k.size() > 64 || v.size() > 200 || !plain(k) || !plain(v) ||
+        k.find_first_of(" \t") != std::string::npos || v.find("--json") != std::string::npos)
+        return error(400, "a key is one word, a value one line without control characters");
+    if (k == "web.password") return error(403, "the web password is set on the console only");
+    return console_answer("config set " + k + " " + (v.empty() ? "\"\"" : v) + " --json");
+}
+
+}  // namespace calbox::firmware

@@ -1,0 +1,92 @@
+#pragma once
+// The box's own web page (docs/network.md): status updated live over a websocket, the live view
+// with the set-up guide, the last cycle's pictures and every record, the configuration, the
+// button's actions, the drift history and /metrics. A window on the cycle like the display: it
+// reads through the loop's inbox and acts only through the console's commands, so that the page,
+// the button and the console do one thing one way. Served by drivers::HttpServer (Boost.Beast).
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+
+#include "drivers/http.hpp"
+#include "firmware/loop/event_loop.hpp"
+#include "firmware/net/live_view.hpp"
+#include "hal/clock.hpp"
+#include "hal/storage.hpp"
+
+namespace calbox::firmware {
+
+// What one client may ask before it is refused (429), and the server's own limits.
+struct WebLimits {
+    double requests_per_second = 20;  // each client's steady rate
+    double burst = 60;                // and what it may ask at once
+    int wrong_passwords = 5;          // in a row, then the client waits
+    std::chrono::seconds wrong_password_wait{30};
+    std::uint64_t max_body_bytes = 64 << 10;  // a configuration change is a few dozen bytes
+    int max_connections = 32;
+    std::chrono::milliseconds idle_timeout{15000};
+    std::chrono::milliseconds loop_answer{5000};  // the loop answers within it, else 503
+    int live_width_px = 960;
+};
+
+struct WebWindowContext {
+    LoopInbox& inbox;
+    hal::Storage& records;  // the data directory: read from the server's threads
+    hal::Clock& clock;      // the flood limit's
+    LatestFrame& frames;    // the camera's newest frame (Cycle::on_frame)
+    // Each called on the loop's thread:
+    std::function<std::string(const std::string& line)> console;  // a console line's reply
+    std::function<nlohmann::json()> status;                       // BoxNews::status, the log
+    std::function<nlohmann::json()> history;
+    std::function<std::string()> metrics;
+    std::function<std::string()> password_hash;  // the configuration's web.password
+    std::function<bool()> preview;               // Cycle::preview
+    std::function<LiveGuide()> guide;
+};
+
+class WebWindow {
+  public:
+    // Listens at host:port (port 0: a free one); throws drivers::NetworkError when it cannot.
+    WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits = {});
+    WebWindow(const WebWindow&) = delete;
+    WebWindow& operator=(const WebWindow&) = delete;
+    ~WebWindow();
+    int port() const;
+    // An event to every page open (the status changed, a log line): any thread.
+    void push(const std::string& event_json);
+
+  private:
+    struct Peer {
+        double tokens = 0;
+        std::chrono::nanoseconds refilled{0};
+        int wrong_passwords = 0;
+        std::chrono::nanoseconds locked_until{0};
+    };
+    drivers::ServerResponse answer(const drivers::ServerRequest& request);
+    drivers::ServerResponse route(const drivers::ServerRequest& request, const std::string& path,
+                                  const std::string& query);
+    drivers::ServerResponse post(const drivers::ServerRequest& request, const std::string& path);
+    drivers::ServerResponse live(const std::string& query);
+    drivers::ServerResponse record(const std::string& name, const std::string& query);
+    // Empty when the request may change state; else the refusal.
+    std::optional<drivers::ServerResponse> refuse_password(const drivers::ServerRequest& request);
+    bool take_token(const std::string& peer);
+    // On the loop's thread, within limits_.loop_answer; throws Busy otherwise.
+    template <class T>
+    T on_loop(std::function<T()> job);
+    // A console line's reply on the loop, as HTTP: 200 with its JSON, or 409 with its error.
+    drivers::ServerResponse console_answer(const std::string& line);
+
+    WebWindowContext c_;
+    WebLimits limits_;
+    std::mutex peers_mutex_;
+    std::map<std::string, Peer> peers_;            // under peers_mutex_
+    std::unique_ptr<drivers::HttpServer> server_;  // last: its threads use the rest
+};
+
+}  // namespace calbox::firmware

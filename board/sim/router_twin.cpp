@@ -1,8 +1,7 @@
 #include "board/sim/router_twin.hpp"
 
-#include <cstdio>
-
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <sstream>
 
@@ -132,8 +131,8 @@ std::optional<std::vector<std::string>> RouterTwin::system_command(std::string_v
     std::vector<std::string> report{line};
     for (const char* other : {"G55", "G56", "G57", "G58", "G59", "G28", "G30"})
         report.push_back(std::string("[") + other + ":0.000,0.000,0.000]");
-    report.insert(report.end(), {"[G92:0.000,0.000,0.000]", "[TLO:0.000]",
-                                 "[PRB:0.000,0.000,0.000:0]", "ok"});
+    report.insert(report.end(),
+                  {"[G92:0.000,0.000,0.000]", "[TLO:0.000]", "[PRB:0.000,0.000,0.000:0]", "ok"});
     return report;
 }
 
@@ -234,8 +233,8 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
     if (correct != nullptr) {
         targets::CompensateReport report;
         // The fresh holes lie inside the measured area: the correction is the model's there.
-        const targets::JobFrame frame{targets::flavour_of_firmware(machine.firmware),
-                                      {geometry::Point2{}}, {}};
+        const targets::JobFrame frame{
+            targets::flavour_of_firmware(machine.firmware), {geometry::Point2{}}, {}};
         const std::string compensated =
             targets::compensate_gcode(job, {*correct, {}}, frame, {}, report);
         v.after = judge_router(truth, intended, compensated);

@@ -190,8 +190,9 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     {
         const auto t = planar_travel_mm(m);
         if (!(t[2] > t[0]) || !(t[3] > t[1]))
-            throw MachineFileError(file + ": [machine] travel_max_x_mm and travel_max_y_mm must "
-                                          "exceed travel_min_x_mm and travel_min_y_mm");
+            throw MachineFileError(file +
+                                   ": [machine] travel_max_x_mm and travel_max_y_mm must "
+                                   "exceed travel_min_x_mm and travel_min_y_mm");
     }
     if (m.photo_bed_temperature_c && (!m.bed_material || !m.bed_temperature_c)) {
         throw MachineFileError(file +
@@ -339,7 +340,8 @@ std::string link_mismatch(const MachineFile& m) {
 
 std::array<double, 4> planar_travel_mm(const MachineFile& m) {
     return {m.travel_min_x_mm.value_or(0), m.travel_min_y_mm.value_or(0),
-            m.travel_max_x_mm.value_or(m.bed_size_x_mm), m.travel_max_y_mm.value_or(m.bed_size_y_mm)};
+            m.travel_max_x_mm.value_or(m.bed_size_x_mm),
+            m.travel_max_y_mm.value_or(m.bed_size_y_mm)};
 }
 
 std::string fingerprint(const MachineFile& m) {

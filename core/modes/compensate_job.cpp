@@ -17,7 +17,7 @@ namespace {
 using geometry::Point2;
 
 constexpr const char* kSystemNames[targets::kWorkSystems] = {"G54", "G55",   "G56",   "G57",  "G58",
-                                                              "G59", "G59.1", "G59.2", "G59.3"};
+                                                             "G59", "G59.1", "G59.2", "G59.3"};
 
 std::string mm(double v) {
     return number_text("%.3f", v);
@@ -91,7 +91,8 @@ std::array<std::optional<Point2>, targets::kWorkSystems> parse_work_zero(const s
 }
 
 CompensatedJob compensate_job(const JobRequest& r) {
-    if (const auto mark = targets::compensated_mark_in(r.job_text); !mark.empty() && !r.again_because)
+    if (const auto mark = targets::compensated_mark_in(r.job_text);
+        !mark.empty() && !r.again_because)
         throw JobError(r.job_name + ": already compensated (its line '" + mark +
                        "'): compensating it again would correct twice; give --again REASON if "
                        "that is meant");
@@ -141,14 +142,13 @@ CompensatedJob compensate_job(const JobRequest& r) {
         if (frame.work_zero_mm[0])
             done.frame_line += " (G54 zero at machine X" + mm(frame.work_zero_mm[0]->x) + " Y" +
                                mm(frame.work_zero_mm[0]->y) + " mm)";
-        done.frame_line += "; the result measured with its zero at machine X" + mm(zm.x) + " Y" +
-                           mm(zm.y) + " mm (from " + f.work_zero_from + "), over X " +
-                           mm(correction.measured_mm.min_x_mm) + ".." +
-                           mm(correction.measured_mm.max_x_mm) + " Y " +
-                           mm(correction.measured_mm.min_y_mm) + ".." +
-                           mm(correction.measured_mm.max_y_mm) + " mm; travel X " +
-                           mm(f.travel_min_x_mm) + ".." + mm(f.travel_max_x_mm) + " Y " +
-                           mm(f.travel_min_y_mm) + ".." + mm(f.travel_max_y_mm) + " mm";
+        done.frame_line +=
+            "; the result measured with its zero at machine X" + mm(zm.x) + " Y" + mm(zm.y) +
+            " mm (from " + f.work_zero_from + "), over X " + mm(correction.measured_mm.min_x_mm) +
+            ".." + mm(correction.measured_mm.max_x_mm) + " Y " +
+            mm(correction.measured_mm.min_y_mm) + ".." + mm(correction.measured_mm.max_y_mm) +
+            " mm; travel X " + mm(f.travel_min_x_mm) + ".." + mm(f.travel_max_x_mm) + " Y " +
+            mm(f.travel_min_y_mm) + ".." + mm(f.travel_max_y_mm) + " mm";
     } else if (schema.rfind("calbox.galvo-result/", 0) == 0) {
         galvo = galvo_result_from_json(r.result_text, r.result_name);
         const auto table = galvo->fit.table;
@@ -168,10 +168,10 @@ CompensatedJob compensate_job(const JobRequest& r) {
     try {
         const bool scanner = r.job_text.rfind("x_mm,y_mm,power", 0) == 0;
         const std::string compensated =
-            scanner ? targets::compensate_scanner_csv(r.job_text, correction, frame, r.settings,
-                                                      done.report)
-                    : targets::compensate_gcode(r.job_text, correction, frame, r.settings,
-                                                done.report);
+            scanner
+                ? targets::compensate_scanner_csv(r.job_text, correction, frame, r.settings,
+                                                  done.report)
+                : targets::compensate_gcode(r.job_text, correction, frame, r.settings, done.report);
         std::string mark = targets::compensated_mark(models::digest(r.result_text), r.date);
         if (r.again_because) mark += " (again: " + *r.again_because + ")";
         done.text = targets::with_compensated_mark(compensated, mark);
@@ -181,12 +181,11 @@ CompensatedJob compensate_job(const JobRequest& r) {
     const auto& rep = done.report;
     done.summary = std::to_string(rep.lines) + " lines" +
                    (rep.ran_program ? " (LinuxCNC's program evaluated)" : std::string()) + ", " +
-                   std::to_string(rep.moves) + " moves corrected as " +
-                   std::to_string(rep.pieces) + " pieces, " + std::to_string(rep.arcs) +
-                   " arcs traced, " + std::to_string(rep.holes) + " holes placed";
+                   std::to_string(rep.moves) + " moves corrected as " + std::to_string(rep.pieces) +
+                   " pieces, " + std::to_string(rep.arcs) + " arcs traced, " +
+                   std::to_string(rep.holes) + " holes placed";
     if (rep.held > 0)
-        done.held_line = std::to_string(rep.held) +
-                         " points lie beyond the measured area, up to " +
+        done.held_line = std::to_string(rep.held) + " points lie beyond the measured area, up to " +
                          number_text("%.1f", rep.held_farthest_mm) +
                          " mm: each took the correction at the area's nearest edge (held, not "
                          "extrapolated)";

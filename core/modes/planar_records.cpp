@@ -226,7 +226,8 @@ PlanarSolution planar_result_from_json(const std::string& text, const std::strin
             throw RecordError(source + ": valid_area_mm is [min x, min y, max x, max y]");
         s.min_x_mm = area[0], s.min_y_mm = area[1], s.max_x_mm = area[2], s.max_y_mm = area[3];
         if (const auto& b = j.at("backlash_mm"); !b.is_null()) s.backlash_mm = point_from(b);
-        if (j.contains("frame") && !j.at("frame").is_null()) s.frame = frame_from(j.at("frame"), source);
+        if (j.contains("frame") && !j.at("frame").is_null())
+            s.frame = frame_from(j.at("frame"), source);
         for (const auto& h : j.at("holes")) {
             s.commanded_mm.push_back(point_from(h.at("commanded_mm")));
             s.error_mm.push_back(point_from(h.at("error_mm")));

@@ -3,10 +3,9 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 #include "core/modes/planar.hpp"
-
-#include <cstdio>
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 
@@ -147,6 +146,5 @@ Point2 planar_command_for(const PlanarSolution& s, Point2 intended_mm) {
     return models::planar_command_for(s.fit.parameters, intended_mm, s.tool_length_mm,
                                       s.rigid_part);
 }
-
 
 }  // namespace calbox::modes

@@ -2,8 +2,8 @@
 
 #include <algorithm>
 #include <array>
-#include <charconv>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <optional>
@@ -175,8 +175,9 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
         const double r = line.value('R').value_or(0) * m.unit_mm;
         const double da = t[0] - f[0], db = t[1] - f[1], chord = std::hypot(da, db);
         if (chord == 0)
-            throw fail("an R arc that ends where it starts: its centre is not defined (write it "
-                       "with I J K)");
+            throw fail(
+                "an R arc that ends where it starts: its centre is not defined (write it "
+                "with I J K)");
         // Short by no more than the file's written precision, it is the half circle its rounding
         // hid, as LinuxCNC and Mach3 cut it.
         const double shortfall = chord / 2 - std::abs(r);
@@ -445,7 +446,7 @@ class Compensator {
     Point2 offset_or_fail(const char* doing) const {
         const auto offset = m_.offset_mm();
         if (!offset) {
-            static const char* names[] = {"G54", "G55", "G56", "G57", "G58",
+            static const char* names[] = {"G54", "G55",   "G56",   "G57",  "G58",
                                           "G59", "G59.1", "G59.2", "G59.3"};
             const std::string name = names[m_.work_system];
             throw fail(std::string(doing) + " in " + name +
@@ -476,11 +477,10 @@ class Compensator {
         if (frame_.travel_mm.contains(p)) return;
         const Point2 job = job_of(p, offset);
         const auto& t = frame_.travel_mm;
-        throw fail("the point X" + number(job.x, 4) + " Y" + number(job.y, 4) +
-                   " is at machine X" + number(p.x, 3) + " Y" + number(p.y, 3) +
-                   " mm, beyond the machine's travel (X " + number(t.min_x_mm, 3) + ".." +
-                   number(t.max_x_mm, 3) + ", Y " + number(t.min_y_mm, 3) + ".." +
-                   number(t.max_y_mm, 3) +
+        throw fail("the point X" + number(job.x, 4) + " Y" + number(job.y, 4) + " is at machine X" +
+                   number(p.x, 3) + " Y" + number(p.y, 3) + " mm, beyond the machine's travel (X " +
+                   number(t.min_x_mm, 3) + ".." + number(t.max_x_mm, 3) + ", Y " +
+                   number(t.min_y_mm, 3) + ".." + number(t.max_y_mm, 3) +
                    " mm): check the job's work zero, or the travel in the machine file");
     }
 
@@ -517,8 +517,8 @@ class Compensator {
             const Point2 now = job_of(from, offset);
             const double r_now = std::hypot(now.x, now.y);
             const double a_now = std::atan2(now.y, now.x) * 180 / kPi;
-            const double r = m_.absolute ? polar.distance.value_or(r_now)
-                                         : r_now + polar.distance.value_or(0);
+            const double r =
+                m_.absolute ? polar.distance.value_or(r_now) : r_now + polar.distance.value_or(0);
             const double a = (m_.absolute ? polar.angle_deg.value_or(a_now)
                                           : a_now + polar.angle_deg.value_or(0)) *
                              kPi / 180;
@@ -555,8 +555,9 @@ class Compensator {
                 // Marlin, RepRapFirmware and Klipper: firmware retraction. RepRapFirmware's
                 // G10 P sets a tool's offsets or temperatures; offsets move the tool in XY.
                 if (line.has('P') && (line.has('X') || line.has('Y')))
-                    throw fail("G10 P with X or Y sets a tool's offset in the controller: the "
-                               "tool's place is not in the file");
+                    throw fail(
+                        "G10 P with X or Y sets a tool's offset in the controller: the "
+                        "tool's place is not in the file");
                 return;
             }
             throw fail("G10 without L: set a work offset with G10 L2 or G10 L20");
@@ -570,8 +571,7 @@ class Compensator {
         if (!(p >= 0 && p <= 9 && p == std::floor(p)))
             throw fail("G10 L" + number(*l, 0) + " P" + number(p, 3) +
                        ": P is 0 (the system in use) or 1 to 9 (G54 to G59.3)");
-        const std::size_t system =
-            p == 0 ? m_.work_system : static_cast<std::size_t>(p) - 1;
+        const std::size_t system = p == 0 ? m_.work_system : static_cast<std::size_t>(p) - 1;
         const auto x = line.value('X'), y = line.value('Y');
         if (!x && !y) return;
         reframe([&] {
@@ -587,8 +587,9 @@ class Compensator {
             } else {
                 // The zero that makes the current position read X Y in that system.
                 if (!m_.xy_known)
-                    throw fail("G10 L20 before the position is known (after G28 or at the "
-                               "start)");
+                    throw fail(
+                        "G10 L20 before the position is known (after G28 or at the "
+                        "start)");
                 if ((!x || !y) && !zero)
                     throw fail("G10 L20 sets one axis of a work system whose zero is not known");
                 Point2 z = zero.value_or(Point2{});
@@ -705,16 +706,14 @@ class Compensator {
         if (!not_a_move && !not_a_command && is_cycle(m_.motion) &&
             (axes || line.has('R') || commanded_motion))
             return cycle(raw, line, polar, kept_codes);
-        const bool arc_words =
-            line.has('I') || line.has('J') || line.has('K') || line.has('R');
+        const bool arc_words = line.has('I') || line.has('J') || line.has('K') || line.has('R');
         const bool is_arc_mode = m_.motion == 2 || m_.motion == 3;
         const bool moves = !not_a_move && m_.motion >= 0 && m_.motion <= 3 && !not_a_command &&
                            (axes || (is_arc_mode && (arc_words || commanded_motion)));
         const bool moves_xy =
             moves && (is_arc_mode || line.has('X') || line.has('Y') || polar.any());
         if (!moves_xy) {
-            if (polar.any())
-                throw fail("polar words ('@', '^') where no move takes them");
+            if (polar.any()) throw fail("polar words ('@', '^') where no move takes them");
             if (moves && line.has('Z')) {
                 if (auto z = line.value('Z')) {
                     m_.z_mm = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
@@ -849,8 +848,9 @@ class Compensator {
     void cycle(const std::string& raw, const gcode::Line& line, const Polar& polar,
                const std::vector<Code>& kept_codes) {
         if (line.block_delete)
-            throw fail("a drilling cycle under block delete ('/'): whether it runs is the "
-                       "operator's switch");
+            throw fail(
+                "a drilling cycle under block delete ('/'): whether it runs is the "
+                "operator's switch");
         if (m_.plane != 17)
             throw fail("a drilling cycle in the XZ or YZ plane (G18, G19): holes along X or Y");
         if (auto r = line.value('R')) m_.cycle_r = *r;
@@ -859,7 +859,8 @@ class Compensator {
         if (auto p = line.value('P')) m_.cycle_p = *p;
         const Code code{m_.motion, -1};
         if (!m_.cycle_r || !m_.cycle_z)
-            throw fail("canned cycle " + code.text() + " without its R or Z (retract plane and "
+            throw fail("canned cycle " + code.text() +
+                       " without its R or Z (retract plane and "
                        "bottom of the hole)");
         const double repeats = line.value('L').value_or(1);
         if (!(repeats >= 0 && repeats <= 10000 && repeats == std::floor(repeats)))
@@ -871,7 +872,8 @@ class Compensator {
                        " in incremental mode (G91): this controller has no cycles and calbox "
                        "writes them out in absolute coordinates only; have the CAM write G90");
         if (!m_.xy_known && !(m_.absolute && line.has('X') && line.has('Y') && !polar.any()))
-            throw fail("a drilling cycle where the position is unknown (after G28 or at the start)");
+            throw fail(
+                "a drilling cycle where the position is unknown (after G28 or at the start)");
         const Point2 offset = offset_or_fail("a drilling cycle");
         // The planes in the job's frame, mm, fixed for the block: G91 takes R from the height
         // the block starts at, Z from R.
@@ -1127,7 +1129,8 @@ std::string compensated_mark_in(std::string_view job) {
 std::string with_compensated_mark(std::string_view job, std::string_view mark) {
     if (job.rfind("x_mm,y_mm,power", 0) == 0) {
         const auto end = job.find('\n');
-        if (end == std::string_view::npos) return std::string(job) + "\n# " + std::string(mark) + "\n";
+        if (end == std::string_view::npos)
+            return std::string(job) + "\n# " + std::string(mark) + "\n";
         return std::string(job.substr(0, end + 1)) + "# " + std::string(mark) + "\n" +
                std::string(job.substr(end + 1));
     }

@@ -61,12 +61,12 @@ struct CompensateSettings {
 };
 
 struct CompensateReport {
-    long lines = 0;    // lines read
-    long moves = 0;    // moves whose XY went through the correction
-    long pieces = 0;   // moves written after splitting
-    long arcs = 0;     // G2 / G3 traced by straight moves
-    long holes = 0;    // canned-cycle holes placed through the correction
-    long held = 0;     // points outside the measured area, given its edge's correction
+    long lines = 0;               // lines read
+    long moves = 0;               // moves whose XY went through the correction
+    long pieces = 0;              // moves written after splitting
+    long arcs = 0;                // G2 / G3 traced by straight moves
+    long holes = 0;               // canned-cycle holes placed through the correction
+    long held = 0;                // points outside the measured area, given its edge's correction
     double held_farthest_mm = 0;  // the farthest of them from the measured area
     bool ran_program = false;     // LinuxCNC's parameters, expressions or O-words evaluated
 };

@@ -279,7 +279,9 @@ class Machine {
             if (loops_.empty() || loops_.back().label != o.label)
                 throw fail(at, "o" + o.label + " " + k + " outside its loop");
             const auto& head = o_words_[loops_.back().start]->keyword;
-            const char* closer = head == "repeat" ? "endrepeat" : head == "do" ? "while" : "endwhile";
+            const char* closer = head == "repeat" ? "endrepeat"
+                                 : head == "do"   ? "while"
+                                                  : "endwhile";
             const std::size_t end = find_after(loops_.back().start, o.label, {closer});
             if (k == "break") {
                 pop_loop();
@@ -308,8 +310,7 @@ class Machine {
             if (rest[i] != '[')
                 throw fail(at, "o" + o.label + " call takes its arguments in '[ ]'");
             const double v = value(at, rest, i);
-            if (++argument > kLocalParameters)
-                throw fail(at, "a call takes at most 30 arguments");
+            if (++argument > kLocalParameters) throw fail(at, "a call takes at most 30 arguments");
             f.numbered[static_cast<std::size_t>(argument)] = v;
         }
         f.return_to = at + 1;
@@ -526,8 +527,8 @@ class Machine {
     double apply(std::size_t at, const std::string& op, double a, double b) const {
         if (op == "**") {
             const double r = std::pow(a, b);
-            if (!std::isfinite(r)) throw fail(at, plain_number(a) + " ** " + plain_number(b) +
-                                                      " is undefined");
+            if (!std::isfinite(r))
+                throw fail(at, plain_number(a) + " ** " + plain_number(b) + " is undefined");
             return r;
         }
         if (op == "*") return a * b;

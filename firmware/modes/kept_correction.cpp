@@ -19,7 +19,8 @@ void KeptCorrectionMode::verification_job(const std::vector<std::string>& target
                                           std::function<void(std::vector<std::string>)> then) {
     work_out<std::vector<std::string>>(
         steps_,
-        [text = joined(target), correction = targets::MachineCorrection{correction(), measured_area()},
+        [text = joined(target),
+         correction = targets::MachineCorrection{correction(), measured_area()},
          frame = target_frame()] {
             targets::CompensateReport ignored;
             return lines_of(targets::compensate_gcode(text, correction, frame, {}, ignored));

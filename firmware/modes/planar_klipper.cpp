@@ -44,8 +44,9 @@ void PlanarCycleMode::before_target(std::function<void()> then) {
                            number_text("%.3f", controller_work_zero_->x) + " Y" +
                            number_text("%.3f", controller_work_zero_->y) + " mm");
             else
-                steps_.log("the controller did not report its G54 zero ($#): the machine file's "
-                           "is recorded as the frame");
+                steps_.log(
+                    "the controller did not report its G54 zero ($#): the machine file's "
+                    "is recorded as the frame");
             then();
         });
         return;

@@ -237,13 +237,12 @@ TEST(Compensate, numbered_and_checksummed_lines_are_renumbered) {
 
 TEST(Compensate, scanner_jobs_are_corrected_point_by_point) {
     targets::CompensateReport report;
-    const auto out = lines_of(targets::compensate_scanner_csv(
-        "x_mm,y_mm,power\n0,0,0\n2,0,0.8\n",
-        {[](Point2 p) {
-             return Point2{p.x * 2, p.y};
-         },
-         {-10, -10, 1.5, 10}},
-        kMachineFrame, {}, report));
+    const auto out = lines_of(targets::compensate_scanner_csv("x_mm,y_mm,power\n0,0,0\n2,0,0.8\n",
+                                                              {[](Point2 p) {
+                                                                   return Point2{p.x * 2, p.y};
+                                                               },
+                                                               {-10, -10, 1.5, 10}},
+                                                              kMachineFrame, {}, report));
     CHECK_EQUAL(std::string("x_mm,y_mm,power"), out[0]);
     CHECK_EQUAL(std::string("0.0000,0.0000,0"), out[1]);
     CHECK_EQUAL(std::string("2.0000,0.0000,0.8"), out[2]);
@@ -252,8 +251,9 @@ TEST(Compensate, scanner_jobs_are_corrected_point_by_point) {
     CHECK_EQUAL(std::string("3.5000,0.0000,0.8"), out[3]);
     CHECK_EQUAL(1, report.held);
     DOUBLES_EQUAL(0.5, report.held_farthest_mm, 1e-12);
-    CHECK_THROWS(targets::CompensateError,
-                 targets::compensate_scanner_csv("x,y\n", {kIdentity, {}}, kMachineFrame, {}, report));
+    CHECK_THROWS(
+        targets::CompensateError,
+        targets::compensate_scanner_csv("x,y\n", {kIdentity, {}}, kMachineFrame, {}, report));
     CHECK_THROWS(targets::CompensateError,
                  targets::compensate_scanner_csv("x_mm,y_mm,power\n1,2,3\n", {kIdentity, {}},
                                                  kMachineFrame, {}, report));

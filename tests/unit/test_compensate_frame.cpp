@@ -108,12 +108,12 @@ TEST(CompensateFrame, inside_at_the_edge_beyond_it_and_past_the_travel) {
                far.c_str());
     // The same job placed with its zero at (250, 250): X60 is machine 310, past the travel.
     const std::string placed = refusal_of("G90\nG0 X60 Y0\n", router_at({250, 250}));
-    CHECK_TEXT(placed.find("line 2: the point X60 Y0 is at machine X310 Y250 mm") !=
-                   std::string::npos,
-               placed.c_str());
+    CHECK_TEXT(
+        placed.find("line 2: the point X60 Y0 is at machine X310 Y250 mm") != std::string::npos,
+        placed.c_str());
     // An arc that bulges past the travel, though both its ends are inside.
-    const std::string bulge = refusal_of("G90\nG0 X290 Y100\nG3 X290 Y120 I0 J10\n",
-                                         router_at({5, 0}));
+    const std::string bulge =
+        refusal_of("G90\nG0 X290 Y100\nG3 X290 Y120 I0 J10\n", router_at({5, 0}));
     CHECK_TEXT(bulge.find("beyond the machine's travel") != std::string::npos, bulge.c_str());
 }
 
@@ -144,8 +144,9 @@ TEST(CompensateFrame, printers_retract_with_g10_routers_set_offsets_with_it) {
     CHECK_EQUAL(std::string("G10 ; retract"), out[2]);
     CHECK_EQUAL(std::string("G11"), out[3]);
     // RepRapFirmware's tool offset is refused; on a router a bare G10 is.
-    CHECK(refusal_of("G10 P0 X5 Y0\n", printer).find("line 1: G10 P with X or Y sets a tool's "
-                                                      "offset") != std::string::npos);
+    CHECK(refusal_of("G10 P0 X5 Y0\n", printer)
+              .find("line 1: G10 P with X or Y sets a tool's "
+                    "offset") != std::string::npos);
     CHECK(refusal_of("G10 ; retract\n", router_at({0, 0})).find("line 1: G10 without L") !=
           std::string::npos);
 }
@@ -177,17 +178,19 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
         }
         return std::string("not refused");
     }();
-    CHECK_TEXT(refused.find("line 3: an R arc no controller could cut: radius 1.498 mm, chord 3 mm, "
-                            "so R is 0.002 mm short of half the chord, past the file's written "
-                            "precision of 0.001 mm") != std::string::npos,
-               refused.c_str());
+    CHECK_TEXT(
+        refused.find("line 3: an R arc no controller could cut: radius 1.498 mm, chord 3 mm, "
+                     "so R is 0.002 mm short of half the chord, past the file's written "
+                     "precision of 0.001 mm") != std::string::npos,
+        refused.c_str());
 }
 
 TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
     targets::CompensateReport report;
     // LinuxCNC keeps the cycle: each hole's XY corrected, its other words as written.
-    const auto kept = lines_of(compensated(
-        "G90 G0 X0 Y0 Z10\nG99 G81 X100 Y50 Z-2 R1 F300\nX200 Y50\nG80\n", router_at({0, 0}), report));
+    const auto kept =
+        lines_of(compensated("G90 G0 X0 Y0 Z10\nG99 G81 X100 Y50 Z-2 R1 F300\nX200 Y50\nG80\n",
+                             router_at({0, 0}), report));
     CHECK_EQUAL(std::string("G99 G81 X101 Y50.1 R1 Z-2 F300"), kept[1]);
     CHECK_EQUAL(std::string("G81 X202 Y50.2"), kept[2]);
     CHECK_EQUAL(std::string("G80"), kept[3]);
@@ -197,10 +200,10 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
     // repeat starts at: under G98 that is Z 10 again (R -9 each time); under G99 the R plane the
     // last one left (R 0 after the first).
     for (const bool to_r : {false, true}) {
-        const auto repeats = lines_of(compensated(
-            std::string("G90 G0 X100 Y100 Z10\nG91 ") + (to_r ? "G99" : "G98") +
-                " G81 X10 Y0 Z-3 R-9 L3\n",
-            router_at({0, 0})));
+        const auto repeats =
+            lines_of(compensated(std::string("G90 G0 X100 Y100 Z10\nG91 ") +
+                                     (to_r ? "G99" : "G98") + " G81 X10 Y0 Z-3 R-9 L3\n",
+                                 router_at({0, 0})));
         CHECK_EQUAL(4u, repeats.size());
         double x = 100 * 1.01;
         for (std::size_t k = 1; k <= 3; ++k) {
@@ -219,8 +222,16 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
         lines_of(compensated("G90 G0 X0 Y0 Z5\nG98 G83 X100 Y100 Z-2.5 R0.5 Q1 F200\n", grbl));
     const std::vector<std::string> expected{
         // (0, 0) lies beyond the measured area: its corner's correction (+0.1, +0.01), held.
-        "G90 G0 X0.1 Y0.01 Z5", "G0 X101 Y100.1", "G0 Z0.5", "G1 Z-0.5 F200", "G0 Z0.5",
-        "G0 Z-0.246",      "G1 Z-1.5",           "G0 Z0.5",      "G0 Z-1.246",    "G1 Z-2.5",
+        "G90 G0 X0.1 Y0.01 Z5",
+        "G0 X101 Y100.1",
+        "G0 Z0.5",
+        "G1 Z-0.5 F200",
+        "G0 Z0.5",
+        "G0 Z-0.246",
+        "G1 Z-1.5",
+        "G0 Z0.5",
+        "G0 Z-1.246",
+        "G1 Z-2.5",
         "G0 Z5"};
     CHECK_EQUAL(expected.size(), pecks.size());
     for (std::size_t i = 0; i < expected.size() && i < pecks.size(); ++i)
@@ -312,9 +323,9 @@ TEST(CompensateFrame, inverse_time_feed_is_shared_among_a_moves_pieces) {
     // (F8), so the whole still takes half a minute.
     targets::CompensateReport report;
     targets::CompensateSettings s;
-    const auto out = lines_of(targets::compensate_gcode(
-        "G90 G0 X100 Y100\nG93 G1 X104 Y100 F2\n", {kStretched, kMeasured}, router_at({0, 0}), s,
-        report));
+    const auto out =
+        lines_of(targets::compensate_gcode("G90 G0 X100 Y100\nG93 G1 X104 Y100 F2\n",
+                                           {kStretched, kMeasured}, router_at({0, 0}), s, report));
     CHECK_EQUAL(5u, out.size());
     for (std::size_t i = 1; i < out.size(); ++i)
         DOUBLES_EQUAL(8, *gcode::parse_line(out[i]).value('F'), 1e-12);
@@ -373,13 +384,12 @@ TEST(CompensateFrame, a_routers_job_needs_its_work_zero_and_is_compensated_once)
     CHECK_TEXT(no_zero.find("job.nc: a router's job is written around its work zero, which "
                             "calbox cannot see: give --work-zero X,Y") != std::string::npos,
                no_zero.c_str());
-    CHECK_TEXT(no_zero.find("zero at machine X5.000 Y5.000") != std::string::npos,
-               no_zero.c_str());
+    CHECK_TEXT(no_zero.find("zero at machine X5.000 Y5.000") != std::string::npos, no_zero.c_str());
     r.work_zero = "100,150";
     const auto done = modes::compensate_job(r);
-    CHECK_TEXT(done.frame_line.find("G54 zero at machine X100.000 Y150.000 mm") !=
-                   std::string::npos,
-               done.frame_line.c_str());
+    CHECK_TEXT(
+        done.frame_line.find("G54 zero at machine X100.000 Y150.000 mm") != std::string::npos,
+        done.frame_line.c_str());
     const auto out = lines_of(done.text);
     CHECK_TEXT(out[0].rfind("; calbox: compensated through result fnv1a64:", 0) == 0,
                out[0].c_str());

@@ -241,8 +241,8 @@ TEST(RealGcode, every_file_is_compensated_or_refused_for_a_reason_a_cam_user_rea
         targets::CompensateReport report;
         std::string out, why;
         try {
-            out = targets::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file), {},
-                                            report);
+            out =
+                targets::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file), {}, report);
         } catch (const targets::CompensateError& e) {
             why = e.what();
         }
@@ -669,8 +669,8 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
           "printer/gcode-preview_vase_prusaslicer274.gcode"}) {
         const std::string job = test::read_test_data(std::string("realworld/gcode/") + file);
         targets::CompensateReport report;
-        const std::string out = targets::compensate_gcode(job, {kSlightlyOff, {}},
-                                                          frame_of_file(file, w), {}, report);
+        const std::string out =
+            targets::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file, w), {}, report);
         const auto in_moves = test::reference_motion(job);
         const auto out_moves = test::reference_motion(out);
         const PathIndex input_corrected(segments_of(in_moves, through_machine));

@@ -391,15 +391,8 @@ class Compensator {
                 throw CompensateError(e.what());
             }
         } else {
-            std::size_t start = 0;
             long number = 0;
-            while (start <= job.size()) {
-                const auto end = job.find('\n', start);
-                const bool last = end == std::string_view::npos;
-                const std::string_view raw =
-                    job.substr(start, last ? std::string_view::npos : end - start);
-                start = last ? job.size() + 1 : end + 1;
-                if (last && raw.empty()) break;
+            for (const std::string_view raw : gcode::lines_of_job(job)) {
                 ++number;
                 if (raw.size() > kLongestLine)
                     throw CompensateError("line " + std::to_string(number) + " is " +

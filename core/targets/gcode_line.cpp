@@ -26,6 +26,21 @@ std::optional<CommandNumber> command_number_of(char letter, double value) {
     return CommandNumber{static_cast<int>(whole), tenths > 0 ? static_cast<int>(tenths) : -1};
 }
 
+std::vector<std::string_view> lines_of_job(std::string_view job) {
+    std::vector<std::string_view> lines;
+    std::size_t start = 0;
+    while (start < job.size()) {
+        const auto end = job.find('\n', start);
+        if (end == std::string_view::npos) {
+            lines.push_back(job.substr(start));
+            break;
+        }
+        lines.push_back(job.substr(start, end - start));
+        start = end + 1;
+    }
+    return lines;
+}
+
 std::string strip_comments(std::string_view raw) {
     std::string out;
     out.reserve(raw.size());

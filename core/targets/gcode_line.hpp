@@ -50,6 +50,10 @@ struct CommandNumber {
 // reach it; Marlin's highest is M9xx), a decimal on an M or T, or more than one decimal.
 std::optional<CommandNumber> command_number_of(char letter, double value);
 
+// A job's lines, without their '\n' (a last line without one counts; nothing follows a final
+// '\n'). Views into `job`.
+std::vector<std::string_view> lines_of_job(std::string_view job);
+
 // Removes comments ('(' to ')', ';' to the end of the line); throws SyntaxError for an unclosed
 // '('. A line of only '%' (a program's start and end, as CAM writes them) is blank.
 std::string strip_comments(std::string_view raw);

@@ -9,6 +9,8 @@
 #include <map>
 #include <optional>
 
+#include "core/targets/gcode_line.hpp"
+
 namespace calbox::gcode {
 namespace {
 
@@ -142,14 +144,7 @@ struct Loop {
 class Machine {
   public:
     Machine(std::string_view job, const ProgramLimits& limits) : limits_(limits) {
-        std::size_t start = 0;
-        while (start <= job.size()) {
-            const auto end = job.find('\n', start);
-            const bool last = end == std::string_view::npos;
-            const std::string_view raw =
-                job.substr(start, last ? std::string_view::npos : end - start);
-            start = last ? job.size() + 1 : end + 1;
-            if (last && raw.empty()) break;
+        for (const std::string_view raw : lines_of_job(job)) {
             raw_.emplace_back(raw);
             split_.push_back(split_comments(raw, static_cast<long>(raw_.size())));
             o_words_.push_back(o_word_of(split_.back().code));
@@ -674,18 +669,15 @@ class Machine {
 }  // namespace
 
 bool uses_ngc_language(std::string_view job) {
-    std::size_t start = 0;
     long number = 0;
-    while (start < job.size()) {
-        const auto end = std::min(job.find('\n', start), job.size());
+    for (const std::string_view raw : lines_of_job(job)) {
         try {
-            const auto line = split_comments(job.substr(start, end - start), ++number);
+            const auto line = split_comments(raw, ++number);
             if (line.code.find_first_of("#[") != std::string::npos || o_word_of(line.code))
                 return true;
         } catch (const ProgramError&) {
             return false;  // an unclosed comment: the plain reader names it
         }
-        start = end + 1;
     }
     return false;
 }

@@ -6,6 +6,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <vector>
@@ -101,6 +102,9 @@ struct Modal {
     bool xy_known = false;  // not until a move gives both axes (and not after G28)
     std::optional<double> z_mm;
     double e = 0;
+    // The other axes' positions (rotary A B C, linear U V W), in the job's units, where known:
+    // a move that drives one is shared along its pieces as Z is.
+    std::map<char, double> other_axes;
     // The position last written, in the job's units and frame: relative moves are written as
     // differences of it, so that rounding never accumulates.
     Point2 written_xy;
@@ -216,6 +220,13 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
     }
     if (std::hypot(t[0] - f[0], t[1] - f[1]) < 1e-9 && !line.has('R'))
         sweep = clockwise ? -2 * kPi : 2 * kPi;  // a whole circle
+    // LinuxCNC's P: the arc goes round P times (P - 1 whole turns more).
+    if (const auto turns = line.value('P')) {
+        if (!(*turns >= 1 && *turns <= 1000 && *turns == std::floor(*turns)))
+            throw fail("an arc's P (its turns) is a whole number from 1 to 1000, not " +
+                       number(*turns, 4));
+        sweep += (clockwise ? -2 * kPi : 2 * kPi) * (*turns - 1);
+    }
     const double by_tolerance = radius > settings.arc_tolerance_mm
                                     ? 2 * std::acos(1 - settings.arc_tolerance_mm / radius)
                                     : kPi;
@@ -281,6 +292,8 @@ std::string body_of(std::string_view raw) {
     while (!out.empty() && (out.back() == '\r' || out.back() == ' ')) out.pop_back();
     return out;
 }
+
+constexpr std::string_view kOtherAxes = "ABCUVW";
 
 bool is_cycle(int motion) {
     return motion == 73 || (motion >= 81 && motion <= 89);
@@ -649,6 +662,8 @@ class Compensator {
                 }
                 if (auto e = line.value('E')) m_.e = *e;
                 if (auto z = line.value('Z')) m_.z_mm = *z * m_.unit_mm, m_.written_z = *z;
+                for (const char a : kOtherAxes)
+                    if (auto v = line.value(a)) m_.other_axes[a] = *v;
             } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2)) {
                 not_a_move = true;
                 reframe([&] { m_.g92_offset_mm = {}; });
@@ -657,6 +672,7 @@ class Compensator {
             } else if (c.is(28) || c.is(30)) {
                 not_a_move = true;
                 m_.xy_known = false, m_.z_mm.reset(), m_.written_z.reset();
+                m_.other_axes.clear();
             } else if (c.is(4)) {
                 not_a_move = true;
             } else if (c.number == 38) {
@@ -687,6 +703,10 @@ class Compensator {
         machine_move_ = false;
         std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move
         state_words(line, codes, not_a_move, kept_codes);
+        if (has_m(line, 98) || has_m(line, 99))
+            throw fail(
+                "a subprogram call or return (M98, M99): have the CAM write the program "
+                "flat");
         if (has_m(line, 82)) m_.absolute_e = true;
         if (has_m(line, 83)) m_.absolute_e = false;
 
@@ -716,6 +736,15 @@ class Compensator {
             if (moves && line.has('E')) {
                 if (auto e = line.value('E')) m_.e = m_.absolute_e ? *e : m_.e + *e;
             }
+            if (!not_a_move && !not_a_command && m_.motion >= 0 && m_.motion <= 3)
+                for (const char a : kOtherAxes)
+                    if (auto v = line.value(a)) {
+                        const auto now = m_.other_axes.find(a);
+                        if (m_.absolute)
+                            m_.other_axes[a] = *v;
+                        else if (now != m_.other_axes.end())
+                            now->second += *v;
+                    }
             verbatim(raw);
             return;
         }
@@ -782,6 +811,27 @@ class Compensator {
         const double e_from = m_.e;
         const double e_total = e_word ? (m_.absolute_e ? *e_word - m_.e : *e_word) : 0;
         const std::size_t n = path.size();
+        // The other axes this move drives, from where they are to where it sends them.
+        struct OtherAxis {
+            char letter;
+            double from, to;
+        };
+        std::vector<OtherAxis> others;
+        for (const char a : kOtherAxes) {
+            const auto v = line.value(a);
+            if (!v) continue;
+            const auto now = m_.other_axes.find(a);
+            if (now == m_.other_axes.end()) {
+                if (n > 1)
+                    throw fail(std::string("a move that drives ") + a +
+                               " from where the file has not said: it cannot be shared along "
+                               "the move's pieces (give " +
+                               a + " on an earlier move, or G92 " + a + ")");
+                if (m_.absolute) m_.other_axes[a] = *v;
+                continue;
+            }
+            others.push_back({a, now->second, m_.absolute ? *v : now->second + *v});
+        }
         for (std::size_t k = 0; k < n; ++k) {
             const double share = static_cast<double>(k + 1) / static_cast<double>(n);
             const Point2 c = corrected(path[k].xy);
@@ -796,9 +846,19 @@ class Compensator {
                                                     : e_total / static_cast<double>(n),
                                       5);
             }
+            for (const auto& a : others) {
+                text += ' ';
+                text += a.letter;
+                text += number(m_.absolute ? a.from + (a.to - a.from) * share
+                                           : (a.to - a.from) / static_cast<double>(n),
+                               6);
+            }
             const auto feed = line.value('F');
             const bool per_piece_feed = m_.inverse_time && feed && m_.motion != 0;
-            if (k == 0) text += other_words(line, per_piece_feed ? "XYZEIJKRGF" : "XYZEIJKRG");
+            std::string left_out = per_piece_feed ? "XYZEIJKRGF" : "XYZEIJKRG";
+            for (const auto& a : others) left_out += a.letter;
+            if (is_arc_mode) left_out += 'P';  // the turns, traced
+            if (k == 0) text += other_words(line, left_out);
             if (per_piece_feed) text += " F" + number(*feed * static_cast<double>(n), 6);
             if (k + 1 == n) text += trailing_comment(raw);
             emit(text);
@@ -808,6 +868,7 @@ class Compensator {
         m_.xy_known = true;
         m_.z_mm = z_to;
         if (e_word) m_.e = m_.absolute_e ? *e_word : m_.e + *e_word;
+        for (const auto& a : others) m_.other_axes[a.letter] = a.to;
     }
 
     std::string z_word(double z_mm) {

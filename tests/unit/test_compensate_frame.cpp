@@ -331,6 +331,43 @@ TEST(CompensateFrame, inverse_time_feed_is_shared_among_a_moves_pieces) {
         DOUBLES_EQUAL(8, *gcode::parse_line(out[i]).value('F'), 1e-12);
 }
 
+TEST(CompensateFrame, a_rotary_axis_is_shared_along_the_pieces_and_arcs_take_their_turns) {
+    // A 4 mm move turning A from 0 to 40 degrees: each 1 mm piece turns it 10 more.
+    targets::CompensateReport report;
+    targets::CompensateSettings s;
+    const auto out =
+        lines_of(targets::compensate_gcode("G90 G0 X100 Y100 A0\nG1 X104 Y100 A40 F300\n",
+                                           {kStretched, kMeasured}, router_at({0, 0}), s, report));
+    CHECK_EQUAL(5u, out.size());
+    for (std::size_t k = 1; k <= 4; ++k)
+        DOUBLES_EQUAL(10.0 * k, *gcode::parse_line(out[k]).value('A'), 1e-9);
+    // Driving A from where the file never said is refused: the share is unknown.
+    std::string unknown_a;
+    try {
+        targets::compensate_gcode("G90 G0 X100 Y100\nG1 X104 Y100 A40\n", {kStretched, kMeasured},
+                                  router_at({0, 0}), s, report);
+    } catch (const targets::CompensateError& e) {
+        unknown_a = e.what();
+    }
+    CHECK_TEXT(unknown_a.find("line 2: a move that drives A from where the file has not said") !=
+                   std::string::npos,
+               unknown_a.c_str());
+    // LinuxCNC's P: three whole turns round a 1 mm circle, about three times the chords of one.
+    const targets::Correction none = [](Point2 p) { return p; };
+    targets::CompensateSettings fine;
+    fine.max_segment_mm = 0.1;
+    const auto one = targets::compensate_gcode("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0\n",
+                                               {none, {}}, router_at({0, 0}), fine, report);
+    const auto three = targets::compensate_gcode("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0 P3\n",
+                                                 {none, {}}, router_at({0, 0}), fine, report);
+    const double ratio = static_cast<double>(lines_of(three).size() - 1) /
+                         static_cast<double>(lines_of(one).size() - 1);
+    DOUBLES_EQUAL(3, ratio, 0.05);
+    // A subprogram call is refused: its lines would run out of the file's order.
+    CHECK(refusal_of("G0 X1 Y1\nM98 P1000\n", router_at({0, 0})).find("line 2: a subprogram") !=
+          std::string::npos);
+}
+
 TEST(CompensateFrame, lathe_jobs_and_cutter_compensation_are_refused_as_such) {
     CHECK(refusal_of("G18 G7\nG0 X1 Z0\n", router_at({0, 0})).find("line 1: a lathe job (G7)") !=
           std::string::npos);

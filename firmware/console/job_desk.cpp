@@ -76,11 +76,14 @@ std::string JobDesk::start(DeskOrder order) {
     }
     if (!job) return "compensate: no " + order.job_name + " in the data directory";
     const auto& machine = cycle_.machine();
+    // A controller that tells its work offsets is asked; another's job needs its zero given.
+    if (!order.work_zero && machine.firmware == "grbl") order.work_zero = "controller";
     if (!order.work_zero && (machine.kind == "router" || machine.kind == "laser"))
         return "compensate: a " + machine.kind +
-               "'s job is written around its work zero, which calbox cannot see: give X,Y (its "
-               "machine coordinates), measured (the frame the correction was measured in) or "
-               "controller (read over the link)";
+               "'s job is written around its work zero, which calbox cannot see (its " +
+               machine.firmware +
+               " does not report it over the link): give X,Y (its machine coordinates) or "
+               "measured (the frame the correction was measured in)";
     busy_ = true;
     if (order.work_zero == "controller") {
         if (cycle_.machine().firmware != "grbl") {

@@ -69,9 +69,9 @@ std::string_view web_page_html() {
   </div>
   <div class="card wide">
     <h2>Jobs through the correction</h2>
-    <p class="muted">A job in the box's data directory (job-NAME.gcode, .nc, .ngc, .tap, .g, .csv) sent through the correction the box keeps, placed at its work zero: X,Y (machine coordinates), measured (the frame the correction was measured in), controller (grbl's offsets, read over the link) or G54=X,Y G55=X,Y. The compensated job appears in the records as job-NAME-compensated.</p>
+    <p class="muted">A job in the box's data directory (job-NAME.gcode, .nc, .ngc, .tap, .g, .csv) sent through the correction the box keeps, placed at its work zero: X,Y (machine coordinates), measured (the frame the correction was measured in), controller (grbl's offsets, read over the link; what an empty field means on grbl) or G54=X,Y G55=X,Y. The compensated job appears in the records as job-NAME-compensated.</p>
     <p><label>Job <input id="job-name" placeholder="job-part.nc"></label>
-      <label>Work zero <input id="job-zero" placeholder="measured"></label>
+      <label>Work zero <input id="job-zero" placeholder="controller"></label>
       <button id="btn-compensate">Compensate</button> <span id="job-reply" class="muted"></span></p>
   </div>
   <div class="card wide">

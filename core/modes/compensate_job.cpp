@@ -40,6 +40,10 @@ std::optional<Point2> pair_of(std::string_view text) {
 }
 
 std::string schema_of(const std::string& text, const std::string& name) {
+    // What the box keeps when no correction is in force (never one, or reverted).
+    if (text == "none\n" || text == "none")
+        throw JobError(name + ": no correction in force (the box keeps none: reverted, or never "
+                              "calibrated)");
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(text);

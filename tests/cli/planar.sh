@@ -76,6 +76,11 @@ f = json.load(open('$data/planar-result.json'))['frame']
 sys.exit(0 if f['work_zero_mm'] == [-300, -300] and f['work_zero_from'] == \"the controller's G54 (\$#)\" and f['travel_mm'] == [-300, -300, 0, 0] else 'frame: %s' % f)"
 "$calbox" revert --board sim --scenario "$top/tests/scenarios/planar_small.toml" --data "$data" 2> "$work/revert.err" < /dev/null
 [ "$(cat "$data/planar-result.json")" = "none" ] || { echo "revert left the model in force"; exit 1; }
+# A job through the reverted correction: none is in force, said so.
+if "$calbox" compensate --result "$data/planar-result.json" "$work/stock.gcode" --work-zero -250,-200 -o "$work/none.gcode" 2> "$work/err"; then
+    echo "compensated through a reverted correction"; exit 1
+fi
+grep -q "planar-result.json: no correction in force" "$work/err" || { cat "$work/err"; exit 1; }
 echo "planar appliance cycle and revert complete"
 
 # A cartesian printer in the appliance: printed dots, the same cycle and goal.

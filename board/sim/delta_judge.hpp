@@ -36,6 +36,33 @@ inline std::vector<Vec3> rigidly_onto(const std::vector<Vec3>& from, const std::
     return out;
 }
 
+// Each point against where it was meant, the best rotation and translation taken out (the
+// work's zero and heading are set by hand): the error norms' mean, RMS and worst. Throws
+// MachineError for no points.
+struct PlacedJudgement {
+    double mean_mm = 0, rms_mm = 0, max_mm = 0;
+    std::size_t points = 0;
+};
+inline PlacedJudgement judge_placed(const std::vector<Vec3>& reached,
+                                    const std::vector<Vec3>& intended) {
+    if (reached.empty() || reached.size() != intended.size())
+        throw MachineError("judge: " + std::to_string(reached.size()) + " points reached for " +
+                           std::to_string(intended.size()) + " meant");
+    const auto placed = rigidly_onto(reached, intended);
+    PlacedJudgement j;
+    j.points = placed.size();
+    double sum = 0, sum2 = 0;
+    for (std::size_t i = 0; i < placed.size(); ++i) {
+        const double e = std::hypot(placed[i].x - intended[i].x, placed[i].y - intended[i].y);
+        sum += e;
+        sum2 += e * e;
+        j.max_mm = std::max(j.max_mm, e);
+    }
+    j.mean_mm = sum / static_cast<double>(j.points);
+    j.rms_mm = std::sqrt(sum2 / static_cast<double>(j.points));
+    return j;
+}
+
 struct DeltaJudgement {
     double xy_rms_before = 0, xy_max_before = 0;  // the printer as it was
     double xy_rms = 0, xy_max = 0;                // after the commands

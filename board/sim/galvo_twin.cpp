@@ -76,20 +76,7 @@ GalvoJudgement judge_galvo(const GalvoTruth& truth, const std::vector<Vec2>& int
         marked.push_back({m.x, m.y, 0});
         intended.push_back({p.x, p.y, 0});
     }
-    const auto placed = rigidly_onto(marked, intended);
-    GalvoJudgement j;
-    j.points = placed.size();
-    double sum = 0, sum2 = 0;
-    for (std::size_t i = 0; i < placed.size(); ++i) {
-        const double e = std::hypot(placed[i].x - intended[i].x, placed[i].y - intended[i].y);
-        sum += e;
-        sum2 += e * e;
-        j.max_mm = std::max(j.max_mm, e);
-    }
-    const double n = static_cast<double>(std::max<std::size_t>(1, placed.size()));
-    j.mean_mm = sum / n;
-    j.rms_mm = std::sqrt(sum2 / n);
-    return j;
+    return judge_placed(marked, intended);
 }
 
 std::vector<Vec2> fresh_grid(const std::array<double, 4>& area_mm, int count) {

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "board/sim/delta_judge.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/scenes.hpp"
@@ -59,10 +60,7 @@ class GalvoTwin final : public MachineTwin {
 // `command_for(point)` (identity before a correction, the correction after), and the marks land
 // where the field puts them. Rotation and translation are taken out (the camera's frame has no
 // preferred origin or heading); scale, skew and every distortion stay in.
-struct GalvoJudgement {
-    double mean_mm = 0, rms_mm = 0, max_mm = 0;
-    std::size_t points = 0;
-};
+using GalvoJudgement = PlacedJudgement;
 GalvoJudgement judge_galvo(const GalvoTruth& truth, const std::vector<Vec2>& intended_mm,
                            const std::function<Vec2(Vec2)>& command_for);
 

@@ -184,23 +184,6 @@ std::vector<targets::PlanarHole> fresh_points(const targets::PlanarTarget& targe
     return holes;
 }
 
-// Mean, RMS and worst distance of `reached` from `intended`, the placement taken out.
-RouterJudgement judged(const std::vector<Vec3>& reached, const std::vector<Vec3>& intended) {
-    const auto placed = rigidly_onto(reached, intended);
-    RouterJudgement j;
-    j.points = placed.size();
-    double sum = 0, sum2 = 0;
-    for (std::size_t i = 0; i < placed.size(); ++i) {
-        const double e = std::hypot(placed[i].x - intended[i].x, placed[i].y - intended[i].y);
-        sum += e;
-        sum2 += e * e;
-        j.max_mm = std::max(j.max_mm, e);
-    }
-    j.mean_mm = sum / static_cast<double>(j.points);
-    j.rms_mm = std::sqrt(sum2 / static_cast<double>(j.points));
-    return j;
-}
-
 }  // namespace
 
 RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& intended_mm,
@@ -215,7 +198,7 @@ RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& 
         drilled.push_back({holes[i].x, holes[i].y, 0});
         intended.push_back({intended_mm[i].x, intended_mm[i].y, 0});
     }
-    return judged(drilled, intended);
+    return judge_placed(drilled, intended);
 }
 
 RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::MachineFile& machine,
@@ -263,8 +246,8 @@ RouterVerdict judge_cartesian_fresh_points(CartesianTwin twin, const models::Mac
     }
     RouterVerdict v;
     v.holes = points.size();
-    v.before = judged(before, intended);
-    if (correct != nullptr) v.after = judged(after, intended);
+    v.before = judge_placed(before, intended);
+    if (correct != nullptr) v.after = judge_placed(after, intended);
     return v;
 }
 

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "board/sim/delta_judge.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/scenes.hpp"
@@ -77,10 +78,7 @@ std::vector<StrokeSegment> holes_on_the_sheet(const std::vector<Stroke>& cuts,
 // How well a drilling job lands on the points it was meant to drill, in the twin's truth: the
 // job (compensated or not) run on the router, each hole against its intended point, the
 // machine's placement taken out (the work's zero and heading are set by hand).
-struct RouterJudgement {
-    double mean_mm = 0, rms_mm = 0, max_mm = 0;
-    std::size_t points = 0;
-};
+using RouterJudgement = PlacedJudgement;
 RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& intended_mm,
                              const std::string& job);
 

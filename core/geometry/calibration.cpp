@@ -496,12 +496,9 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
     if (!(board_thickness_mm >= 0 && board_thickness_mm < 100)) {
         throw CalibrationError("board thickness must be 0..100 mm");
     }
-    if (image.width_px != camera.image_width || image.height_px != camera.image_height) {
-        throw CalibrationError(
-            "the image is " + std::to_string(image.width_px) + "x" +
-            std::to_string(image.height_px) + " but the camera was calibrated at " +
-            std::to_string(camera.image_width) + "x" + std::to_string(camera.image_height));
-    }
+    if (const auto size = photo_size_mismatch(camera, image.width_px, image.height_px);
+        !size.empty())
+        throw CalibrationError("the image is " + size);
     const auto obs = find_board(pattern, image);
     if (!obs)
         throw CalibrationError("the board " +

@@ -59,6 +59,13 @@ const char* lens_model_name(LensModel model) {
     return model == LensModel::fisheye ? "fisheye" : "pinhole";
 }
 
+std::string photo_size_mismatch(const CameraModel& camera, int width_px, int height_px) {
+    if (width_px == camera.image_width && height_px == camera.image_height) return {};
+    return std::to_string(width_px) + "x" + std::to_string(height_px) +
+           ", the camera was calibrated at " + std::to_string(camera.image_width) + "x" +
+           std::to_string(camera.image_height);
+}
+
 std::string camera_to_yaml(const CameraModel& camera, const std::vector<double>& per_view_rms_px) {
     cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
     fs << "model" << lens_model_name(camera.model);

@@ -42,6 +42,10 @@ std::vector<Point2> distort_from_normalized(const CameraModel& camera,
 std::vector<Point2> project_points(const CameraModel& camera, const RigidPose& pose,
                                    const std::vector<Point3>& points);
 
+// "" when a photo of `width_px` x `height_px` is the size the camera was calibrated at, else
+// "W x H, the camera was calibrated at W x H": every place a photo meets the camera says it so.
+std::string photo_size_mismatch(const CameraModel& camera, int width_px, int height_px);
+
 std::string camera_to_yaml(const CameraModel& camera,
                            const std::vector<double>& per_view_rms_px = {});
 // Throws FileFormatError naming the missing or malformed key.

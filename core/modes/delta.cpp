@@ -344,12 +344,10 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     std::map<std::pair<int, int>, CornerSightings> seen;
     for (std::size_t f = 0; f < frames.size(); ++f) {
         const auto& frame = frames[f];
-        if (frame.width_px != camera.image_width || frame.height_px != camera.image_height) {
-            throw MeasureError(
-                "photo " + std::to_string(f + 1) + " is " + std::to_string(frame.width_px) + "x" +
-                std::to_string(frame.height_px) + ", the camera was calibrated at " +
-                std::to_string(camera.image_width) + "x" + std::to_string(camera.image_height));
-        }
+        if (const auto size =
+                geometry::photo_size_mismatch(camera, frame.width_px, frame.height_px);
+            !size.empty())
+            throw MeasureError("photo " + std::to_string(f + 1) + " is " + size);
         check_exposure(frame, f);
         auto found = vision::detect_markers(frame, options);
         if (found.empty())

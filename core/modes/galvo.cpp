@@ -25,11 +25,9 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
     const auto target = targets::make_galvo_target(machine, settings.target);
     const double pitch = target.pitch_mm;
     const int n = target.grid_count;
-    if (photo.width_px != camera.image_width || photo.height_px != camera.image_height)
-        throw GalvoError("measure: the photo is " + std::to_string(photo.width_px) + "x" +
-                         std::to_string(photo.height_px) + ", the camera was calibrated at " +
-                         std::to_string(camera.image_width) + "x" +
-                         std::to_string(camera.image_height));
+    if (const auto size = geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
+        !size.empty())
+        throw GalvoError("measure: the photo is " + size);
     vision::SpotSettings spots = settings.spots;
     spots.polarity =
         machine.galvo->marks == "light" ? vision::MarkPolarity::light : vision::MarkPolarity::dark;

@@ -115,11 +115,9 @@ std::vector<MarkCandidate> holes_in_photo(const models::MachineFile& machine,
                                           const targets::PlanarTarget& target,
                                           const PlanarMeasureSettings& settings,
                                           std::vector<Point2>& extra_mm) {
-    if (photo.width_px != camera.image_width || photo.height_px != camera.image_height)
-        throw PlanarError("measure: the photo is " + std::to_string(photo.width_px) + "x" +
-                          std::to_string(photo.height_px) + ", the camera was calibrated at " +
-                          std::to_string(camera.image_width) + "x" +
-                          std::to_string(camera.image_height));
+    if (const auto size = geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
+        !size.empty())
+        throw PlanarError("measure: the photo is " + size);
     vision::SpotSettings spots = settings.spots;
     spots.polarity =
         machine.planar->holes == "light" ? vision::MarkPolarity::light : vision::MarkPolarity::dark;

@@ -57,12 +57,9 @@ int markers(const Args& args, const std::string& image_path) {
     std::optional<geometry::CameraModel> camera;
     if (const auto path = args.get("--camera")) {
         camera = geometry::camera_from_yaml(read_input_file(*path, "camera file"));
-        if (camera->image_width != gray.cols || camera->image_height != gray.rows) {
-            throw std::runtime_error(
-                "the image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                " but the camera was calibrated at " + std::to_string(camera->image_width) + "x" +
-                std::to_string(camera->image_height));
-        }
+        if (const auto size = geometry::photo_size_mismatch(*camera, gray.cols, gray.rows);
+            !size.empty())
+            throw std::runtime_error("the image is " + size);
         options.camera = &*camera;
     }
     const auto found = vision::detect_markers(view_of(gray), options);

@@ -9,13 +9,9 @@ vision::GrayView view_of(const hal::Frame& f) {
 }
 
 vision::GrayView calibrated_view_of(const hal::Frame& frame, const geometry::CameraModel& camera) {
-    if (frame.width_px != camera.image_width || frame.height_px != camera.image_height) {
-        throw std::runtime_error("the photo is " + std::to_string(frame.width_px) + "x" +
-                                 std::to_string(frame.height_px) +
-                                 ", the camera was calibrated at " +
-                                 std::to_string(camera.image_width) + "x" +
-                                 std::to_string(camera.image_height) + " (camera.yaml)");
-    }
+    if (const auto size = geometry::photo_size_mismatch(camera, frame.width_px, frame.height_px);
+        !size.empty())
+        throw std::runtime_error("the photo is " + size + " (camera.yaml)");
     return view_of(frame);
 }
 

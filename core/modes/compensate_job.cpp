@@ -42,8 +42,9 @@ std::optional<Point2> pair_of(std::string_view text) {
 std::string schema_of(const std::string& text, const std::string& name) {
     // What the box keeps when no correction is in force (never one, or reverted).
     if (text == "none\n" || text == "none")
-        throw JobError(name + ": no correction in force (the box keeps none: reverted, or never "
-                              "calibrated)");
+        throw JobError(name +
+                       ": no correction in force (the box keeps none: reverted, or never "
+                       "calibrated)");
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(text);
@@ -158,9 +159,14 @@ CompensatedJob compensate_job(const JobRequest& r) {
         const auto table = galvo->fit.table;
         correction.correct = [table](Point2 p) { return table.command_for(p); };
         correction.measured_mm = {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm};
-        // A scanner's job is in its field's coordinates, the machine's own.
+        // A scanner's job is in its field's coordinates, the machine's own; the field is its
+        // travel.
         frame.flavour = targets::Flavour::grbl;
         frame.work_zero_mm = {Point2{}};
+        if (galvo->field_size_mm) {
+            const double half = *galvo->field_size_mm / 2;
+            frame.travel_mm = {-half, -half, half, half};
+        }
         if (r.work_zero) frame.work_zero_mm = parse_work_zero(*r.work_zero, Point2{});
         done.frame_line = "frame: the scanner's field coordinates" +
                           (r.work_zero ? " moved by --work-zero " + *r.work_zero : std::string()) +

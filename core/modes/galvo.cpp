@@ -156,6 +156,7 @@ GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasure
     s.machine_fingerprint = measured.machine_fingerprint;
     s.fit = models::fit_galvo_field(grid, landed, through, options.table_nodes);
     s.pass = burned_through ? burned_through->pass + 1 : 1;
+    s.field_size_mm = machine.galvo->field_size_mm;
     for (int r = 0; r < n; ++r)
         for (int c = 0; c < n; ++c) s.intended_mm.push_back(grid.node_mm(c, r));
     s.measurement_sigma_mm =
@@ -279,6 +280,7 @@ std::string galvo_result_to_json(const GalvoSolution& s) {
     const json j{{"schema", kResultSchema},
                  {"machine_fingerprint", s.machine_fingerprint},
                  {"pass", s.pass},
+                 {"field_size_mm", s.field_size_mm ? json(*s.field_size_mm) : json(nullptr)},
                  {"before", statistics_json(s.fit.before)},
                  {"measurement_sigma_mm", s.measurement_sigma_mm},
                  {"predicted_rms_mm", s.predicted_rms_mm},
@@ -303,6 +305,11 @@ GalvoSolution galvo_result_from_json(const std::string& text, const std::string&
         GalvoSolution s;
         s.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
         s.pass = j.at("pass").get<int>();
+        if (j.contains("field_size_mm") && !j.at("field_size_mm").is_null()) {
+            s.field_size_mm = j.at("field_size_mm").get<double>();
+            if (!(*s.field_size_mm > 0))
+                throw RecordError(source + ": field_size_mm must be above 0");
+        }
         s.fit.before = statistics_from(j.at("before"));
         s.measurement_sigma_mm = j.at("measurement_sigma_mm").get<double>();
         s.predicted_rms_mm = j.at("predicted_rms_mm").get<double>();

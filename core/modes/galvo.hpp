@@ -79,6 +79,9 @@ struct GalvoSolution {
     double measurement_sigma_mm = 0;            // RMS of the nodes' uncertainties
     double predicted_rms_mm = 0;  // what the table should leave: measurement and table resolution
     int pass = 1;                 // 1 from the uncorrected scanner, n after n - 1 tables
+    // The scanner's square field's side: a job's point beyond it is refused. Results written
+    // before calbox recorded it have none.
+    std::optional<double> field_size_mm;
 };
 
 // `burned_through` is the table the grid was burned through (none on the first pass): the new

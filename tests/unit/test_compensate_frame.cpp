@@ -455,3 +455,23 @@ TEST(CompensateFrame, a_routers_job_needs_its_work_zero_and_is_compensated_once)
     CHECK(job_refusal(r).find("--work-zero 'G60=1,2': 'G60' is no work system") !=
           std::string::npos);
 }
+
+TEST(CompensateFrame, a_scanners_job_stays_in_its_field) {
+    // An identity table over X, Y -1..1 of a 10 mm field: a point at X 4 takes the table's edge
+    // correction (none), one at X 6 is past the field and refused.
+    auto r = request_for("x_mm,y_mm,power\n0,0,0\n4,0,0.5\n");
+    r.result_text =
+        R"({"schema": "calbox.galvo-result/1", "machine_fingerprint": "x", "pass": 1,
+            "field_size_mm": 10,
+            "before": {"mean_mm": 0, "rms_mm": 0, "max_mm": 0, "points": 0},
+            "measurement_sigma_mm": 0, "predicted_rms_mm": 0, "table_interpolation_max_mm": 0,
+            "table_interpolation_rms_mm": 0, "intended_mm": [], "landed_mm": [],
+            "filled_nodes": [],
+            "table": {"nodes": 2, "min_x_mm": -1, "min_y_mm": -1, "max_x_mm": 1, "max_y_mm": 1,
+                      "command_mm": [[-1, -1], [1, -1], [-1, 1], [1, 1]]}})";
+    const auto done = modes::compensate_job(r);
+    CHECK(done.text.find("4.0000,0.0000,0.5") != std::string::npos);
+    r.job_text = "x_mm,y_mm,power\n0,0,0\n6,0,0.5\n";
+    CHECK(job_refusal(r).find("job.nc: line 3: the point 6,0 is beyond the field the machine "
+                              "reaches") != std::string::npos);
+}

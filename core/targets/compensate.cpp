@@ -385,6 +385,19 @@ std::string refused_word(const Code& c, const gcode::Line& line) {
     return {};
 }
 
+// Where to command for the tool to land on machine point `p`: the correction inside the
+// measured area, and its nearest edge point's correction beyond it (held, never extrapolated),
+// each held point counted in `report`.
+Point2 held_correction(const MachineCorrection& correction, Point2 p, CompensateReport& report) {
+    const auto& area = correction.measured_mm;
+    if (area.contains(p)) return correction.correct(p);
+    const Point2 q = area.nearest(p);
+    const Point2 c = correction.correct(q);
+    ++report.held;
+    report.held_farthest_mm = std::max(report.held_farthest_mm, std::hypot(p.x - q.x, p.y - q.y));
+    return {p.x + c.x - q.x, p.y + c.y - q.y};
+}
+
 class Compensator {
   public:
     Compensator(const MachineCorrection& correction, const JobFrame& frame,
@@ -490,18 +503,7 @@ class Compensator {
                    " mm): check the job's work zero, or the travel in the machine file");
     }
 
-    // Where to command for the tool to land on machine point `p`: the correction inside the
-    // measured area, and its edge's correction beyond it.
-    Point2 corrected(Point2 p) {
-        const auto& area = correction_.measured_mm;
-        if (area.contains(p)) return correction_.correct(p);
-        const Point2 q = area.nearest(p);
-        const Point2 c = correction_.correct(q);
-        ++report_.held;
-        report_.held_farthest_mm =
-            std::max(report_.held_farthest_mm, std::hypot(p.x - q.x, p.y - q.y));
-        return {p.x + c.x - q.x, p.y + c.y - q.y};
-    }
+    Point2 corrected(Point2 p) { return held_correction(correction_, p, report_); }
 
     void emit(const std::string& text) {
         out_ += numbered_ ? numbering_.line(text, checksummed_) : text;
@@ -764,9 +766,8 @@ class Compensator {
         if (!frame_.travel_mm.contains(to))
             throw fail("the machine-coordinate move (G53) to X" + number(to.x, 3) + " Y" +
                        number(to.y, 3) + " mm is beyond the machine's travel");
-        if (auto z = line.value('Z')) {
+        if (line.has('Z')) {
             // G53's Z is the machine's, not the job's: the job's height is not known after it.
-            (void)z;
             m_.z_mm.reset();
             m_.written_z.reset();
         }
@@ -1139,17 +1140,7 @@ std::string compensate_scanner_csv(std::string_view job, const MachineCorrection
             const Point2 p = k == pieces ? to
                                          : Point2{at->x + (to.x - at->x) * k / pieces,
                                                   at->y + (to.y - at->y) * k / pieces};
-            Point2 c;
-            if (correction.measured_mm.contains(p)) {
-                c = correction.correct(p);
-            } else {
-                const Point2 q = correction.measured_mm.nearest(p);
-                const Point2 cq = correction.correct(q);
-                c = {p.x + cq.x - q.x, p.y + cq.y - q.y};
-                ++report.held;
-                report.held_farthest_mm =
-                    std::max(report.held_farthest_mm, std::hypot(p.x - q.x, p.y - q.y));
-            }
+            const Point2 c = held_correction(correction, p, report);
             std::snprintf(line, sizeof line, "%.4f,%.4f,%s\n", c.x - zero.x, c.y - zero.y,
                           number(power, 3).c_str());
             out += line;

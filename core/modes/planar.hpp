@@ -107,9 +107,10 @@ struct PlanarFrame {
 };
 // The frame a machine file states (work zero, travel, firmware).
 PlanarFrame planar_frame_of(const models::MachineFile& machine);
-// grbl's `$#` report ("[G54:-300.000,-300.000,0.000]" among its lines): G54's zero in machine
-// coordinates, when the replies carry it.
-std::optional<geometry::Point2> grbl_g54_of(const std::vector<std::string>& replies);
+// grbl's `$#` report ("[G54:-300.000,-300.000,0.000]" among its lines): the zero of `system`
+// ("G54" .. "G59") in machine coordinates, when the replies carry it.
+std::optional<geometry::Point2> grbl_work_zero_of(const std::vector<std::string>& replies,
+                                                  const std::string& system);
 
 struct PlanarSolution {
     std::string machine_fingerprint;

@@ -129,13 +129,15 @@ PlanarFrame planar_frame_of(const models::MachineFile& machine) {
     return f;
 }
 
-std::optional<Point2> grbl_g54_of(const std::vector<std::string>& replies) {
+std::optional<Point2> grbl_work_zero_of(const std::vector<std::string>& replies,
+                                        const std::string& system) {
+    const std::string head = "[" + system + ":";
     for (const auto& reply : replies) {
-        const auto at = reply.find("[G54:");
+        const auto at = reply.find(head);
         if (at == std::string::npos) continue;
         double x = 0, y = 0;
         char close = 0;
-        if (std::sscanf(reply.c_str() + at + 5, "%lf,%lf,%*f%c", &x, &y, &close) == 3 &&
+        if (std::sscanf(reply.c_str() + at + head.size(), "%lf,%lf,%*f%c", &x, &y, &close) == 3 &&
             close == ']' && std::isfinite(x) && std::isfinite(y))
             return Point2{x, y};
     }

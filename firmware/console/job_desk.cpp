@@ -18,14 +18,10 @@ constexpr std::array<const char*, 7> kJobExtensions = {".gcode", ".nc",  ".ngc",
 std::optional<std::string> work_zeros_reported(const std::vector<std::string>& replies) {
     std::string spec;
     for (const char* system : {"G54", "G55", "G56", "G57", "G58", "G59"}) {
-        for (const auto& reply : replies) {
-            const std::string head = std::string("[") + system + ":";
-            if (reply.rfind(head, 0) != 0) continue;
-            const auto zero = modes::grbl_g54_of({"[G54:" + reply.substr(head.size())});
-            if (!zero) continue;
-            spec += (spec.empty() ? "" : " ") + std::string(system) + "=" +
-                    number_text("%.3f", zero->x) + "," + number_text("%.3f", zero->y);
-        }
+        const auto zero = modes::grbl_work_zero_of(replies, system);
+        if (!zero) continue;
+        spec += (spec.empty() ? "" : " ") + std::string(system) + "=" +
+                number_text("%.3f", zero->x) + "," + number_text("%.3f", zero->y);
     }
     if (spec.empty()) return std::nullopt;
     return spec;

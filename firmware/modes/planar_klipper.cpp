@@ -38,7 +38,7 @@ void PlanarCycleMode::before_target(std::function<void()> then) {
     if (machine_.firmware == "grbl") {
         // The frame the target runs in: grbl tells its G54 zero.
         steps_.send_commands({"$#"}, [this, then = std::move(then)](const JobOutcome& o) {
-            controller_work_zero_ = modes::grbl_g54_of(o.replies);
+            controller_work_zero_ = modes::grbl_work_zero_of(o.replies, "G54");
             if (controller_work_zero_)
                 steps_.log("the controller's G54 zero ($#): machine X" +
                            number_text("%.3f", controller_work_zero_->x) + " Y" +

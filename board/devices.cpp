@@ -3,6 +3,7 @@
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
 #include "drivers/modbus_link.hpp"
+#include "drivers/network.hpp"
 #include "drivers/pty_port.hpp"
 #include "drivers/termios_port.hpp"
 #include "drivers/timerfd_clock.hpp"
@@ -21,6 +22,10 @@ std::unique_ptr<hal::Camera> photo_files(const std::string& source) {
     return std::make_unique<drivers::FileCamera>(source);
 }
 
+std::unique_ptr<hal::Network> network() {
+    return drivers::system_network();
+}
+
 std::unique_ptr<hal::SerialPort> serial_port(const std::string& device, int baud) {
     return std::make_unique<drivers::TermiosPort>(device, baud);
 }
@@ -35,8 +40,8 @@ std::unique_ptr<hal::SerialPort> standard_io() {
     return std::make_unique<drivers::StdioPort>();
 }
 
-RegisterServer register_server(const ModbusEndpoint& endpoint, RegisterTables tables,
-                               const ModbusTimeouts& timeouts,
+RegisterServer register_server(const net::ModbusEndpoint& endpoint, RegisterTables tables,
+                               const hal::ModbusTimeouts& timeouts,
                                std::function<void(const std::string&)> log) {
     auto server = std::make_unique<drivers::ModbusServer>(
         endpoint,
@@ -47,8 +52,8 @@ RegisterServer register_server(const ModbusEndpoint& endpoint, RegisterTables ta
     return {std::move(server), port};
 }
 
-std::unique_ptr<hal::RegisterLink> register_client(const ModbusEndpoint& endpoint,
-                                                   const ModbusTimeouts& timeouts) {
+std::unique_ptr<hal::RegisterLink> register_client(const net::ModbusEndpoint& endpoint,
+                                                   const hal::ModbusTimeouts& timeouts) {
     return std::make_unique<drivers::ModbusClient>(endpoint, timeouts);
 }
 

@@ -8,11 +8,12 @@
 #include <memory>
 #include <string>
 
-#include "drivers/modbus_link.hpp"
+#include "core/net/endpoints.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
 #include "hal/lines.hpp"
+#include "hal/network.hpp"
 #include "hal/register_link.hpp"
 #include "hal/serial_port.hpp"
 #include "hal/storage.hpp"
@@ -24,6 +25,7 @@ struct Devices {
     std::unique_ptr<hal::Lines> lines;
     std::unique_ptr<hal::Display> display;
     std::unique_ptr<hal::SerialPort> machine;  // the machine's link
+    std::unique_ptr<hal::Network> network;
 };
 
 // CLOCK_MONOTONIC, its timers timerfds.
@@ -43,11 +45,8 @@ struct Pty {
 Pty pseudo_terminal();
 std::unique_ptr<hal::SerialPort> standard_io();
 
-// Where a Modbus peer is ("tcp:HOST:PORT", "rtu:DEVICE:BAUD"), parsed once into a typed value
-// (parse_modbus_endpoint throws std::invalid_argument naming what is wrong).
-using drivers::ModbusEndpoint;
-using drivers::ModbusTimeouts;
-using drivers::parse_modbus_endpoint;
+// The network: HTTP clients and listeners, MQTT sessions, the password hasher.
+std::unique_ptr<hal::Network> network();
 
 // The box's Modbus roles over an endpoint: its own registers for a PLC, and a controller's it
 // writes its results to. Throw std::runtime_error naming the endpoint.
@@ -58,10 +57,10 @@ struct RegisterServer {
     std::unique_ptr<hal::RegisterServer> server;
     int port = 0;  // the TCP port it listens on (useful with port 0)
 };
-RegisterServer register_server(const ModbusEndpoint& endpoint, RegisterTables tables,
-                               const ModbusTimeouts& timeouts,
+RegisterServer register_server(const net::ModbusEndpoint& endpoint, RegisterTables tables,
+                               const hal::ModbusTimeouts& timeouts,
                                std::function<void(const std::string&)> log);
-std::unique_ptr<hal::RegisterLink> register_client(const ModbusEndpoint& endpoint,
-                                                   const ModbusTimeouts& timeouts);
+std::unique_ptr<hal::RegisterLink> register_client(const net::ModbusEndpoint& endpoint,
+                                                   const hal::ModbusTimeouts& timeouts);
 
 }  // namespace calbox::board

@@ -1,6 +1,7 @@
 #include "drivers/durable_file.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -16,9 +17,16 @@ std::runtime_error os_error(const std::string& what, const std::filesystem::path
 
 class PosixFileSystem final : public FileSystemCalls {
   public:
-    int create_truncated(const std::filesystem::path& path) override {
-        const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    int create_truncated(const std::filesystem::path& path, FileAccess access) override {
+        const mode_t mode = access == FileAccess::owner_only ? 0600 : 0644;
+        const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, mode);
         if (fd < 0) throw os_error("cannot create", path);
+        // A sibling left by an earlier cut keeps its own mode through open(): set it.
+        if (::fchmod(fd, mode) != 0) {
+            const auto error = os_error("cannot restrict", path);
+            ::close(fd);
+            throw error;
+        }
         return fd;
     }
     void write_all(int fd, std::string_view bytes) override {
@@ -71,11 +79,11 @@ FileSystemCalls& posix_file_system() {
 }
 
 void replace_file_durably(FileSystemCalls& fs, const std::filesystem::path& directory,
-                          const std::string& name, std::string_view contents) {
+                          const std::string& name, std::string_view contents, FileAccess access) {
     const auto path = directory / name;
     auto sibling = path;
     sibling += ".tmp";
-    const int handle = fs.create_truncated(sibling);
+    const int handle = fs.create_truncated(sibling, access);
     try {
         try {
             fs.write_all(handle, contents);

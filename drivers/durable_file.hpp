@@ -10,11 +10,15 @@
 
 namespace calbox::drivers {
 
+// Who may read a file the box writes: anyone (its records), or its own user alone (a key).
+enum class FileAccess { shared, owner_only };
+
 class FileSystemCalls {
   public:
     virtual ~FileSystemCalls() = default;
     // Each throws std::runtime_error naming the path and the system's reason.
-    virtual int create_truncated(const std::filesystem::path& path) = 0;  // a handle
+    // A handle; an owner_only file is mode 0600 from its first byte.
+    virtual int create_truncated(const std::filesystem::path& path, FileAccess access) = 0;
     virtual void write_all(int handle, std::string_view bytes) = 0;
     virtual void flush(int handle) = 0;  // fsync
     virtual void close(int handle) = 0;
@@ -29,6 +33,7 @@ FileSystemCalls& posix_file_system();
 // The sibling is `name` + ".tmp" in the same directory (a rename across directories is not
 // atomic). On failure the sibling is removed and the old file is untouched.
 void replace_file_durably(FileSystemCalls& fs, const std::filesystem::path& directory,
-                          const std::string& name, std::string_view contents);
+                          const std::string& name, std::string_view contents,
+                          FileAccess access = FileAccess::shared);
 
 }  // namespace calbox::drivers

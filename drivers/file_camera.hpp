@@ -5,7 +5,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/background_job.hpp"
+#include "hal/background_job.hpp"
 #include "hal/camera.hpp"
 
 namespace calbox::drivers {
@@ -27,7 +27,7 @@ class FileCamera final : public hal::Camera {
     std::vector<std::filesystem::path> files_;
     std::size_t next_ = 0;
     int width_px_ = 0, height_px_ = 0;  // the first photo's
-    BackgroundJob<hal::CaptureResult> capture_;
+    hal::BackgroundJob<hal::CaptureResult> capture_;
 };
 
 // A grey frame as an 8-bit PNG (lossless, so a re-run sees the same pixels); throws

@@ -49,6 +49,12 @@ void FileStorage::replace_file(const std::string& name, const std::string& conte
     replace_file_durably(fs_, directory_, path.filename().string(), contents);
 }
 
+void FileStorage::replace_private_file(const std::string& name, const std::string& contents) {
+    const auto path = path_of(name);
+    replace_file_durably(fs_, directory_, path.filename().string(), contents,
+                         FileAccess::owner_only);
+}
+
 std::vector<hal::Storage::Entry> FileStorage::list_files() {
     std::vector<Entry> files;
     std::error_code ec;

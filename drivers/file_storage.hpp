@@ -13,6 +13,7 @@ class FileStorage final : public hal::Storage {
                          FileSystemCalls& fs = posix_file_system());
     std::optional<std::string> read_file(const std::string& name) override;
     void replace_file(const std::string& name, const std::string& contents) override;
+    void replace_private_file(const std::string& name, const std::string& contents) override;
     std::vector<Entry> list_files() override;
     void remove_file(const std::string& name) override;
     const std::filesystem::path& directory() const { return directory_; }

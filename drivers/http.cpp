@@ -56,68 +56,6 @@ std::string describe(const Url& url) {
 
 }  // namespace
 
-HostPort parse_host_port(const std::string& text, bool names) {
-    const auto colon = text.rfind(':');
-    if (colon == std::string::npos || colon == 0 || colon + 1 == text.size())
-        throw std::invalid_argument("'" + text + "' is not HOST:PORT");
-    HostPort hp;
-    hp.host = text.substr(0, colon);
-    if (hp.host.size() > 2 && hp.host.front() == '[' && hp.host.back() == ']')
-        hp.host = hp.host.substr(1, hp.host.size() - 2);
-    const std::string port = text.substr(colon + 1);
-    if (port.size() > 5 || port.find_first_not_of("0123456789") != std::string::npos ||
-        std::stoi(port) > 65535)
-        throw std::invalid_argument("'" + text + "': the port must be 0 to 65535");
-    hp.port = std::stoi(port);
-    if (hp.host == "localhost") hp.host = "127.0.0.1";
-    boost::system::error_code ec;
-    net::ip::make_address(hp.host, ec);
-    if (ec && !names)
-        throw std::invalid_argument("'" + text +
-                                    "': the host must be an IP address (0.0.0.0 for "
-                                    "every interface)");
-    if (ec && hp.host.find_first_of(" /\t") != std::string::npos)
-        throw std::invalid_argument("'" + text + "' is not HOST:PORT");
-    return hp;
-}
-
-Url parse_url(const std::string& text) {
-    Url url;
-    const std::size_t colon = text.find("://");
-    if (colon == std::string::npos)
-        throw std::invalid_argument("'" + text + "' is not a URL (http://HOST:PORT)");
-    url.scheme = text.substr(0, colon);
-    for (auto& c : url.scheme) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (url.scheme != "http" && url.scheme != "ws" && url.scheme != "https" && url.scheme != "wss")
-        throw std::invalid_argument("'" + text + "': the scheme must be http, https, ws or wss");
-    std::string rest = text.substr(colon + 3);
-    const std::size_t slash = rest.find('/');
-    url.path = slash == std::string::npos ? "/" : rest.substr(slash);
-    std::string authority = slash == std::string::npos ? rest : rest.substr(0, slash);
-    if (authority.find('@') != std::string::npos)
-        throw std::invalid_argument("'" + text +
-                                    "': no user or password in the URL (the key goes in its file)");
-    const std::size_t port_at = authority.rfind(':');
-    if (port_at != std::string::npos && authority.find(']') == std::string::npos) {
-        url.port = authority.substr(port_at + 1);
-        authority.resize(port_at);
-    } else {
-        url.port = url.tls() ? "443" : "80";
-    }
-    url.host = authority;
-    if (url.host.empty()) throw std::invalid_argument("'" + text + "': no host");
-    int port = 0;
-    for (char c : url.port) {
-        if (!std::isdigit(static_cast<unsigned char>(c)))
-            throw std::invalid_argument("'" + text + "': the port is not a number");
-        port = port * 10 + (c - '0');
-        if (port > 65535) break;
-    }
-    if (url.port.empty() || port < 1 || port > 65535)
-        throw std::invalid_argument("'" + text + "': the port must be 1 to 65535");
-    return url;
-}
-
 namespace {
 
 // The TLS context of a client of `url`: the peer's certificate checked against the system's
@@ -226,29 +164,6 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
     beast::get_lowest_layer(stream).expires_after(timeout);
     tls_handshake(ioc, stream, server, where);
     return exchange(ioc, stream, server, request, timeout, where);
-}
-
-FormBody multipart_form(const std::string& file_field, const std::string& file_name,
-                        const std::string& file_contents, const Headers& fields) {
-    // A boundary that the contents do not hold.
-    std::mt19937_64 random(std::random_device{}());
-    std::string boundary;
-    do {
-        boundary = "calbox-" + std::to_string(random());
-    } while (file_contents.find(boundary) != std::string::npos);
-    std::string body;
-    const auto part = [&body, &boundary](const std::string& disposition) {
-        body.append("--").append(boundary).append("\r\nContent-Disposition: form-data; ");
-        body.append(disposition);
-    };
-    for (const auto& [name, value] : fields) {
-        part("name=\"" + name + "\"\r\n\r\n");
-        body.append(value).append("\r\n");
-    }
-    part("name=\"" + file_field + "\"; filename=\"" + file_name +
-         "\"\r\nContent-Type: application/octet-stream\r\n\r\n");
-    body.append(file_contents).append("\r\n--").append(boundary).append("--\r\n");
-    return {"multipart/form-data; boundary=" + boundary, std::move(body)};
 }
 
 struct WebSocketClient::State {

@@ -11,7 +11,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "drivers/notifier.hpp"
+#include "hal/notifier.hpp"
 
 namespace calbox::drivers {
 namespace {
@@ -66,7 +66,7 @@ class LibcameraCamera final : public hal::Camera {
     std::vector<std::unique_ptr<libcamera::Request>> requests_;
     bool started_ = false;
 
-    Notifier done_;
+    hal::Notifier done_;
     std::mutex mutex_;
     bool running_ = false;
     hal::CaptureRequest asked_;

@@ -10,8 +10,9 @@
 #include <thread>
 #include <vector>
 
-#include "drivers/background_job.hpp"
-#include "drivers/notifier.hpp"
+#include "core/net/endpoints.hpp"
+#include "hal/background_job.hpp"
+#include "hal/notifier.hpp"
 #include "hal/register_link.hpp"
 
 typedef struct _modbus modbus_t;
@@ -19,23 +20,8 @@ typedef struct _modbus_mapping_t modbus_mapping_t;
 
 namespace calbox::drivers {
 
-// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD" (8 data bits, no parity, one stop bit).
-struct ModbusEndpoint {
-    enum class Kind { tcp, rtu };
-    Kind kind = Kind::tcp;
-    std::string host;    // tcp
-    int port = 502;      // tcp
-    std::string device;  // rtu
-    int baud = 19200;    // rtu
-    int unit_id = 1;     // rtu: the server's address; tcp: the unit identifier sent
-    std::string describe() const;
-};
-ModbusEndpoint parse_modbus_endpoint(const std::string& text);  // throws std::invalid_argument
-
-struct ModbusTimeouts {
-    std::uint32_t response_ms = 1000;  // the whole reply (client) or a frame once begun (both)
-    std::uint32_t byte_ms = 500;       // between two bytes of one frame
-};
+using hal::ModbusTimeouts;
+using net::ModbusEndpoint;
 
 // The box as a Modbus server (a PLC reads and drives it): coils and holding registers the
 // client may write, discrete inputs and input registers it reads. Serves on its own thread;
@@ -72,8 +58,8 @@ class ModbusServer final : public hal::RegisterServer {
     modbus_mapping_t* map_ = nullptr;
     int listen_fd_ = -1;
     int port_ = 0;
-    Notifier stop_;
-    Notifier written_;
+    hal::Notifier stop_;
+    hal::Notifier written_;
     mutable std::mutex mutex_;
     std::vector<int> coils_set_;
     std::thread thread_;
@@ -97,7 +83,7 @@ class ModbusClient final : public hal::RegisterLink {
 
     ModbusEndpoint endpoint_;
     ModbusTimeouts timeouts_;
-    BackgroundJob<hal::RegisterResult>
+    hal::BackgroundJob<hal::RegisterResult>
         request_;  // joined first: a request ends within its timeouts
 };
 

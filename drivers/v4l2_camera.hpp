@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "drivers/background_job.hpp"
+#include "hal/background_job.hpp"
 #include "hal/camera.hpp"
 
 namespace calbox::drivers {
@@ -76,7 +76,7 @@ class V4l2Camera final : public hal::Camera {
     std::uint32_t fourcc_ = 0;
     int width_px_ = 0, height_px_ = 0, stride_bytes_ = 0;
     std::vector<Buffer> buffers_;
-    BackgroundJob<hal::CaptureResult> capture_;
+    hal::BackgroundJob<hal::CaptureResult> capture_;
 };
 
 }  // namespace calbox::drivers

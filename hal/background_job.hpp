@@ -9,9 +9,9 @@
 #include <thread>
 #include <utility>
 
-#include "drivers/notifier.hpp"
+#include "hal/notifier.hpp"
 
-namespace calbox::drivers {
+namespace calbox::hal {
 
 template <class Result>
 class BackgroundJob {
@@ -62,4 +62,4 @@ class BackgroundJob {
     std::thread thread_;
 };
 
-}  // namespace calbox::drivers
+}  // namespace calbox::hal

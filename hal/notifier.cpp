@@ -1,4 +1,4 @@
-#include "drivers/notifier.hpp"
+#include "hal/notifier.hpp"
 
 #include <sys/eventfd.h>
 #include <unistd.h>
@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace calbox::drivers {
+namespace calbox::hal {
 
 Notifier::Notifier() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
     if (fd_ < 0) throw std::runtime_error(std::string("eventfd: ") + std::strerror(errno));
@@ -30,4 +30,4 @@ std::uint64_t Notifier::take() {
     return count;
 }
 
-}  // namespace calbox::drivers
+}  // namespace calbox::hal

@@ -3,7 +3,7 @@
 // the count. How asynchronous devices (a camera, a worker, a simulated button) report back.
 #include <cstdint>
 
-namespace calbox::drivers {
+namespace calbox::hal {
 
 class Notifier {
   public:
@@ -19,4 +19,4 @@ class Notifier {
     int fd_ = -1;
 };
 
-}  // namespace calbox::drivers
+}  // namespace calbox::hal

@@ -8,6 +8,12 @@
 
 namespace calbox::hal {
 
+// How long a Modbus peer has, whichever its role.
+struct ModbusTimeouts {
+    std::uint32_t response_ms = 1000;  // the whole reply (client) or a frame once begun (both)
+    std::uint32_t byte_ms = 500;       // between two bytes of one frame
+};
+
 struct RegisterResult {
     std::vector<std::uint16_t> values;  // for reads
     std::string error;                  // empty on success

@@ -15,6 +15,8 @@ class Storage {
     // Replaces the whole file atomically; throws std::runtime_error and leaves the old file
     // untouched on failure.
     virtual void replace_file(const std::string& name, const std::string& contents) = 0;
+    // As replace_file, readable by the box's own user alone from its first byte (a key).
+    virtual void replace_private_file(const std::string& name, const std::string& contents) = 0;
     // The files there, by name, with their sizes (records are pruned by both).
     struct Entry {
         std::string name;

@@ -145,6 +145,7 @@ Devices open_rpi_devices(const RpiSettings& settings, hal::Clock& clock) {
         return std::make_unique<drivers::TermiosPort>(settings.machine_device,
                                                       settings.machine_baud);
     });
+    d.network = network();
     return d;
 }
 

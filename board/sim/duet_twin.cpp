@@ -54,7 +54,7 @@ std::string path_of(const std::string& target) {
     return target.substr(0, target.find('?'));
 }
 
-drivers::ServerResponse json_reply(const json& j) {
+hal::ServerResponse json_reply(const json& j) {
     return {200, "application/json", j.dump()};
 }
 
@@ -115,7 +115,7 @@ struct DuetTwin::State final : TwinHostCore {
         }
     }
 
-    drivers::ServerResponse http(const drivers::ServerRequest& r) {
+    hal::ServerResponse http(const hal::ServerRequest& r) {
         const int n = count_request();
         if (held_silent(n)) return {503, "text/plain", "stopping"};
         if (restarts_at(n)) {
@@ -194,8 +194,8 @@ struct DuetTwin::State final : TwinHostCore {
     }
 
     // DuetSoftwareFramework's HTTP API on the SBC (DuetWebServer), under the mutex: no rr_.
-    drivers::ServerResponse sbc_http(const drivers::ServerRequest& r, const std::string& path,
-                                     const std::map<std::string, std::string>& query, int n) {
+    hal::ServerResponse sbc_http(const hal::ServerRequest& r, const std::string& path,
+                                 const std::map<std::string, std::string>& query, int n) {
         if (path.rfind("/machine/", 0) != 0) return {404, "text/plain", "not found"};
         if (path == "/machine/connect") {
             const std::string wanted = faults.wrong_key ? key + "-changed" : key;
@@ -247,9 +247,9 @@ DuetTwin::DuetTwin(std::shared_ptr<TwinBench> bench, std::filesystem::path host_
     auto& s = *state_;
     s.server = std::make_unique<drivers::HttpServer>(
         "127.0.0.1", 0,
-        drivers::HttpServer::Handlers{[&s](const drivers::ServerRequest& r) { return s.http(r); },
-                                      [](const drivers::ServerRequest&) { return 404; },
-                                      [](const drivers::ServerRequest&, const std::string&) {
+        drivers::HttpServer::Handlers{[&s](const hal::ServerRequest& r) { return s.http(r); },
+                                      [](const hal::ServerRequest&) { return 404; },
+                                      [](const hal::ServerRequest&, const std::string&) {
                                           return std::vector<std::string>{};
                                       }});
 }

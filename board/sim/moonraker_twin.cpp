@@ -134,7 +134,7 @@ json rpc_error(const json& id, int code, const std::string& message) {
     return {{"jsonrpc", "2.0"}, {"error", {{"code", code}, {"message", message}}}, {"id", id}};
 }
 
-drivers::ServerResponse http_error(int status, const std::string& message) {
+hal::ServerResponse http_error(int status, const std::string& message) {
     return {status, "application/json",
             json{{"error", {{"code", status}, {"message", message}}}}.dump()};
 }
@@ -431,14 +431,14 @@ struct MoonrakerTwin::State final : TwinHostCore {
         return "standby";
     }
 
-    bool authorised(const drivers::ServerRequest& r) const {
+    bool authorised(const hal::ServerRequest& r) const {
         const std::string wanted = faults.wrong_key ? key + "-rotated" : key;
         const auto it = r.headers.find("x-api-key");
         return it != r.headers.end() && it->second == wanted;
     }
 
     // The websocket's upgrade: the API key, or a one-shot token (single use, 5 s).
-    int upgrade(const drivers::ServerRequest& r) {
+    int upgrade(const hal::ServerRequest& r) {
         if (authorised(r)) return 101;
         const auto at = r.target.find("?token=");
         if (at == std::string::npos) return 401;
@@ -452,7 +452,7 @@ struct MoonrakerTwin::State final : TwinHostCore {
         return 101;
     }
 
-    drivers::ServerResponse http(const drivers::ServerRequest& r) {
+    hal::ServerResponse http(const hal::ServerRequest& r) {
         if (!authorised(r)) return http_error(401, "Unauthorized");
         if (r.method == "GET" && r.target == "/access/oneshot_token") {
             const std::lock_guard lock(mutex);
@@ -614,9 +614,9 @@ MoonrakerTwin::MoonrakerTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
     s.server = std::make_unique<drivers::HttpServer>(
         "127.0.0.1", 0,
         drivers::HttpServer::Handlers{
-            [&s](const drivers::ServerRequest& r) { return s.http(r); },
-            [&s](const drivers::ServerRequest& r) { return s.upgrade(r); },
-            [&s](const drivers::ServerRequest&, const std::string& m) { return s.message(m); }});
+            [&s](const hal::ServerRequest& r) { return s.http(r); },
+            [&s](const hal::ServerRequest& r) { return s.upgrade(r); },
+            [&s](const hal::ServerRequest&, const std::string& m) { return s.message(m); }});
 }
 
 MoonrakerTwin::~MoonrakerTwin() {

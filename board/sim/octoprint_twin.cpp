@@ -16,7 +16,7 @@ namespace {
 using json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
-drivers::ServerResponse error_reply(int status, const std::string& message) {
+hal::ServerResponse error_reply(int status, const std::string& message) {
     return {status, "application/json", json{{"error", message}}.dump()};
 }
 
@@ -28,7 +28,7 @@ struct OctoPrintTwin::State final : TwinHostCore {
     int sessions = 0;
     Clock::time_point key_asked{};
 
-    bool authorised(const drivers::ServerRequest& r) const {
+    bool authorised(const hal::ServerRequest& r) const {
         const std::string wanted = faults.wrong_key ? key + "-rotated" : key;
         const auto it = r.headers.find("x-api-key");
         return it != r.headers.end() && it->second == wanted;
@@ -68,7 +68,7 @@ struct OctoPrintTwin::State final : TwinHostCore {
         }
     }
 
-    drivers::ServerResponse http(const drivers::ServerRequest& r) {
+    hal::ServerResponse http(const hal::ServerRequest& r) {
         const int n = count_request();
         if (held_silent(n)) return error_reply(503, "stopping");
         if (restarts_at(n)) return error_reply(503, "restarting");
@@ -151,12 +151,10 @@ OctoPrintTwin::OctoPrintTwin(std::shared_ptr<TwinBench> bench, std::filesystem::
     s.server = std::make_unique<drivers::HttpServer>(
         "127.0.0.1", 0,
         drivers::HttpServer::Handlers{
-            [&s](const drivers::ServerRequest& r) { return s.http(r); },
+            [&s](const hal::ServerRequest& r) { return s.http(r); },
             // OctoPrint's socket takes anyone; what it pushes follows an auth message.
-            [](const drivers::ServerRequest& r) {
-                return r.target == "/sockjs/websocket" ? 101 : 404;
-            },
-            [](const drivers::ServerRequest&, const std::string&) {
+            [](const hal::ServerRequest& r) { return r.target == "/sockjs/websocket" ? 101 : 404; },
+            [](const hal::ServerRequest&, const std::string&) {
                 return std::vector<std::string>{};
             }});
 }

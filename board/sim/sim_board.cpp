@@ -616,7 +616,7 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
             const auto ca_file = settings.data_dir / kTwinHostCertificateFile;
             write_file_whole(ca_file, certificate.certificate_pem);
             board.tls_front = std::make_unique<drivers::TlsTerminator>(
-                "127.0.0.1", std::stoi(drivers::parse_url(board.host->url()).port), certificate);
+                "127.0.0.1", std::stoi(net::parse_url(board.host->url()).port), certificate);
             board.machine.link.url = "https://127.0.0.1:" + std::to_string(board.tls_front->port());
             board.machine.link.ca_file = ca_file.string();
         }
@@ -630,7 +630,8 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines
     board.camera = camera.get();
     board.lines = lines.get();
     board.display = display.get();
-    board.devices = {std::move(camera), std::move(lines), std::move(display), std::move(port)};
+    board.devices = {std::move(camera), std::move(lines), std::move(display), std::move(port),
+                     board::network()};
     return board;
 }
 

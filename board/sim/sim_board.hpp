@@ -20,13 +20,13 @@
 #include "board/sim/galvo_twin.hpp"
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenario.hpp"
-#include "drivers/background_job.hpp"
 #include "drivers/http.hpp"
-#include "drivers/notifier.hpp"
+#include "hal/background_job.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
 #include "hal/lines.hpp"
+#include "hal/notifier.hpp"
 #include "hal/serial_port.hpp"
 
 namespace calbox::sim {
@@ -151,7 +151,7 @@ class TwinCamera final : public hal::Camera {
     std::shared_ptr<TwinBench> bench_;
     int captures_ = 0;
     std::uint64_t frames_taken_ = 0;
-    drivers::BackgroundJob<hal::CaptureResult> capture_;  // last: joined before the rest goes
+    hal::BackgroundJob<hal::CaptureResult> capture_;  // last: joined before the rest goes
 };
 
 // The button pressed by whoever drives the sim (--auto, the console, a test); LEDs and the light
@@ -172,7 +172,7 @@ class SimLines final : public hal::Lines {
   private:
     hal::Clock& clock_;
     Log log_;
-    drivers::Notifier edges_;
+    hal::Notifier edges_;
     std::mutex mutex_;
     std::vector<hal::ButtonEvent> pending_;
     std::array<bool, 3> leds_{};

@@ -25,6 +25,7 @@
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/net/box_network.hpp"
 #include "firmware/net/box_news.hpp"
+#include "firmware/net/web_password.hpp"
 #include "firmware/plc/plc_link.hpp"
 
 #ifndef CALBOX_EXAMPLES_DIR
@@ -227,52 +228,70 @@ struct Box {
     }
 };
 
-int run(const std::vector<std::string>& words) {
-    const Args args(words,
-                    {"--board", "--scenario", "--data", "--config", "--console", "--frames",
-                     "--camera-files", "--modbus-server", "--modbus-client", "--modbus-map",
-                     "--modbus-word-order", "--board-file", "--machine", "--web", "--mqtt"},
-                    {"--auto", "--operator", "--operator-hands"});
+// The board's network: every board has one.
+hal::Network& network_of(Box& box) {
+    if (!box.board.devices().network) throw std::logic_error("the board opened no network");
+    return *box.board.devices().network;
+}
+
+// What `calbox run` was asked, checked together.
+struct RunOptions {
+    bool automatic = false;       // --auto
+    bool operator_hands = false;  // --operator-hands
+    bool operator_acts = false;   // the sim board's operator does what the prompts ask
+    bool on_rpi = false;
+    std::optional<int> frames;
+};
+
+RunOptions run_options(const Args& args) {
     if (!args.positional().empty()) throw UsageError("run takes no positional argument");
-    const bool automatic = args.flag("--auto");
-    if (automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
-    const bool operator_hands = args.flag("--operator-hands");
-    if (operator_hands && (automatic || args.flag("--operator")))
+    RunOptions o;
+    o.automatic = args.flag("--auto");
+    if (o.automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
+    o.operator_hands = args.flag("--operator-hands");
+    if (o.operator_hands && (o.automatic || args.flag("--operator")))
         throw UsageError("--operator-hands is instead of --auto or --operator");
-    const bool operator_acts = automatic || args.flag("--operator") || operator_hands;
-    const std::optional<int> frames =
-        args.get("--frames") ? std::optional<int>(static_cast<int>(args.number("--frames", 1)))
-                             : std::nullopt;
-    if (frames && (*frames < 1 || *frames > 16)) throw UsageError("--frames must be 1 to 16");
-    const Common common = common_options(args, true);
-    const bool on_rpi = args.get("--board").value_or("sim") == "rpi";
-    if (!on_rpi && (args.get("--board-file") || args.get("--machine")))
+    o.operator_acts = o.automatic || args.flag("--operator") || o.operator_hands;
+    if (args.get("--frames")) o.frames = static_cast<int>(args.number("--frames", 1));
+    if (o.frames && (*o.frames < 1 || *o.frames > 16)) throw UsageError("--frames must be 1 to 16");
+    o.on_rpi = args.get("--board").value_or("sim") == "rpi";
+    if (!o.on_rpi && (args.get("--board-file") || args.get("--machine")))
         throw UsageError(
             "--board-file and --machine are the rpi board's (the sim board's machine "
             "is its scenario's)");
-    if (on_rpi && (operator_acts || args.get("--camera-files")))
+    if (o.on_rpi && (o.operator_acts || args.get("--camera-files")))
         throw UsageError(
             "--auto, --operator, --operator-hands and --camera-files are the sim "
             "board's");
-    // The configuration: --config FILE, else DATA/calbox.toml when it exists; `config save` on
-    // the console writes it back there. Options win over it.
-    const std::filesystem::path config_path = args.get("--config")
-                                                  ? std::filesystem::path(*args.get("--config"))
-                                                  : common.data_dir / "calbox.toml";
+    return o;
+}
+
+// The configuration: --config FILE, else DATA/calbox.toml when it exists (`config save` on the
+// console writes it back there), with the options over it, each parsed once into its typed value
+// and checked as the console checks it.
+firmware::BoxConfig run_config(const Args& args, const std::filesystem::path& path) {
     firmware::BoxConfig config;
-    if (args.get("--config") || std::filesystem::exists(config_path)) {
+    if (args.get("--config") || std::filesystem::exists(path)) {
         try {
-            config = firmware::BoxConfig::from_toml(
-                read_input_file(config_path.string(), "configuration"), config_path.string());
+            config = firmware::BoxConfig::from_toml(read_input_file(path.string(), "configuration"),
+                                                    path.string());
         } catch (const firmware::ConfigError& e) {
             throw UsageError(e.what());
         }
     }
-    // The options win over the configuration, each parsed once into its typed value.
-    firmware::ModbusSettings modbus = config.settings().modbus;
     try {
-        if (auto v = args.get("--modbus-server")) modbus.server = board::parse_modbus_endpoint(*v);
-        if (auto v = args.get("--modbus-client")) modbus.client = board::parse_modbus_endpoint(*v);
+        if (auto v = args.get("--web")) config.set("web.listen", *v);
+        if (auto v = args.get("--mqtt")) config.set("mqtt.broker", *v);
+    } catch (const firmware::ConfigError& e) {
+        throw UsageError(std::string("--web/--mqtt: ") + e.what());
+    }
+    return config;
+}
+
+firmware::ModbusSettings modbus_settings(const Args& args, firmware::ModbusSettings modbus) {
+    try {
+        if (auto v = args.get("--modbus-server")) modbus.server = net::parse_modbus_endpoint(*v);
+        if (auto v = args.get("--modbus-client")) modbus.client = net::parse_modbus_endpoint(*v);
     } catch (const std::invalid_argument& e) {
         throw UsageError(e.what());
     }
@@ -286,29 +305,256 @@ int run(const std::vector<std::string>& words) {
     }
     if (!modbus.client_map.empty() && !modbus.client)
         throw UsageError("--modbus-map needs --modbus-client");
-    const models::WordOrder word_order = modbus.word_order;
-    const board::ModbusTimeouts modbus_timeouts = modbus.timeouts;
-    std::optional<firmware::ResultRegisterMap> result_map;
-    if (modbus.client) {
-        result_map = modbus.client_map.empty()
-                         ? firmware::ResultRegisterMap::whole_block(0)
-                         : firmware::ResultRegisterMap::from_toml(
-                               read_input_file(modbus.client_map, "Modbus map"), modbus.client_map);
+    return modbus;
+}
+
+// The console's port: --console DEVICE, else the configuration's console.device (on the rpi
+// board its file's console UART when neither says one). Null with `reopen` empty: no console.
+struct ConsolePort {
+    std::unique_ptr<hal::SerialPort> port;
+    firmware::ConsoleLink::Reopen reopen;
+    bool wanted() const { return port != nullptr || static_cast<bool>(reopen); }
+};
+
+ConsolePort open_console_port(const Args& args, const firmware::BoxConfig& config, bool on_rpi,
+                              const std::filesystem::path& data_dir,
+                              const firmware::Cycle::Log& log) {
+    std::string device = args.get("--console").value_or(config.settings().console.device);
+    if (on_rpi && !args.get("--console") && device == "stdin")
+        device = rpi_board_settings(args).console_device;
+    ConsolePort console;
+    if (device == "pty") {
+        auto pty = board::pseudo_terminal();
+        const auto link = data_dir / "console";
+        std::error_code ec;
+        std::filesystem::remove(link, ec);
+        std::filesystem::create_symlink(pty.path, link, ec);
+        log("console on " + pty.path + (ec ? "" : " (" + link.string() + ")"));
+        console.port = std::move(pty.port);
+    } else if (device == "stdin") {
+        // Standard input when it is a terminal; /dev/null (as under CI) leaves it off.
+        if (::isatty(STDIN_FILENO) == 1) console.port = board::standard_io();
+    } else if (!device.empty()) {
+        // A UART, often a USB adapter: unplugged and plugged in again, or not there yet at the
+        // start, it is opened again when it is back.
+        console.reopen = [device, baud = config.settings().console.baud] {
+            return board::serial_port(device, baud);
+        };
+        // A path that is there but cannot be opened (not a serial device, no permission) is a
+        // set-up mistake that waiting does not mend: it stops the box with its reason.
+        std::error_code ec;
+        if (std::filesystem::exists(device, ec)) {
+            console.port = console.reopen();
+            log("console on " + device);
+        } else {
+            log("console: " + device + " is not there (opened when it is)");
+        }
+    }
+    return console;
+}
+
+// The sim board's own console rows: press, hold, quit.
+std::vector<firmware::ConsoleCommand> sim_board_commands(sim::SimBoard& board,
+                                                         firmware::EventLoop& loop) {
+    using Words = std::vector<std::string>;
+    return {{"press", "press", "the sim board: a short press of the button",
+             [&board](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                 board.lines->press(std::chrono::milliseconds(100));
+                 r.text = "pressed";
+             }},
+            {"hold", "hold", "the sim board: a long press of the button",
+             [&board](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                 board.lines->press(std::chrono::milliseconds(2000));
+                 r.text = "held";
+             }},
+            {"quit", "quit", "the sim board: stop the box",
+             [&loop](const Words&, std::string_view, firmware::ConsoleReply& r) {
+                 loop.stop();
+                 r.text = "stopping";
+             }}};
+}
+
+std::string utc_now_text() {
+    return firmware::utc_text(std::chrono::duration_cast<std::chrono::seconds>(
+                                  std::chrono::system_clock::now().time_since_epoch())
+                                  .count());
+}
+
+std::int64_t unix_now_s() {
+    return static_cast<std::int64_t>(std::chrono::duration_cast<std::chrono::seconds>(
+                                         std::chrono::system_clock::now().time_since_epoch())
+                                         .count());
+}
+
+// The console and the parts with rows of their own on it (the web page's password, the job
+// desk, OctoPrint's key, the sim board's button), read on its port; it tells the console what
+// the cycle's prompts and notices say.
+struct BoxConsole {
+    bool wanted;
+    std::unique_ptr<hal::Storage> config_home, key_directory;
+    std::optional<firmware::ConsoleLink> link;
+    firmware::LinkKeyRequest link_key;
+    firmware::JobDesk job_desk;  // jobs compensated through the correction the box keeps
+    firmware::Console commands;
+    firmware::CycleSubscription listening;
+
+    BoxConsole(ConsolePort port, const std::filesystem::path& config_path,
+               firmware::BoxConfig& config, Box& box, const firmware::LogBook& log_book,
+               const firmware::Cycle::Log& log, std::function<void()> config_changed)
+        : wanted(port.wanted()),
+          config_home(board::data_directory(directory_of(config_path))),
+          key_directory(board::data_directory(directory_of(box.board.machine.link.key_file))),
+          link_key(box.loop, box.board.machine.link, network_of(box).http(), *key_directory,
+                   logged_notice(log)),
+          job_desk(box.loop, box.cycle, *box.appliance.link, *box.data, utc_now_text,
+                   logged_notice(log)),
+          commands(firmware::ConsoleContext{box.cycle, config, *config_home,
+                                            config_path.filename().string(), *box.data, log_book,
+                                            calbox::build_version(), config_changed,
+                                            rows(config, box, std::move(config_changed))}) {
+        if (wanted) {
+            link.emplace(box.loop, std::move(port.port), commands, log, std::move(port.reopen),
+                         box.clock.get());
+        }
+        listening = box.cycle.subscribe({[this](firmware::Prompt prompt, int) {
+                                             if (prompt != firmware::Prompt::none)
+                                                 notice(std::string("waiting: ") +
+                                                        firmware::prompt_text(prompt));
+                                         },
+                                         {},
+                                         {},
+                                         [this](const std::string& line) { notice(line); },
+                                         {}});
+    }
+    void notice(const std::string& line) {
+        if (link) link->notice(line);
     }
 
-    // The network's windows: options over the configuration, checked as the console checks it.
-    try {
-        if (auto v = args.get("--web")) config.set("web.listen", *v);
-        if (auto v = args.get("--mqtt")) config.set("mqtt.broker", *v);
-    } catch (const firmware::ConfigError& e) {
-        throw UsageError(std::string("--web/--mqtt: ") + e.what());
+  private:
+    static std::filesystem::path directory_of(const std::filesystem::path& file) {
+        return file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
     }
+    std::function<void(const std::string&)> logged_notice(const firmware::Cycle::Log& log) {
+        return [this, log](const std::string& line) {
+            log(line);
+            notice(line);
+        };
+    }
+    std::vector<firmware::ConsoleCommand> rows(firmware::BoxConfig& config, Box& box,
+                                               std::function<void()> config_changed) {
+        std::vector<firmware::ConsoleCommand> more = {
+            firmware::web_password_row(config, network_of(box).passwords(),
+                                       std::move(config_changed)),
+            job_desk.command(), link_key.command()};
+        if (box.board.sim) {
+            for (auto& row : sim_board_commands(*box.board.sim, box.loop))
+                more.push_back(std::move(row));
+        }
+        return more;
+    }
+};
+
+// The map of the results written to a controller: the whole block from register 0, or the
+// --modbus-map file's. Read before the board starts, so that a bad file stops nothing half-open.
+std::optional<firmware::ResultRegisterMap> result_map_of(const firmware::ModbusSettings& modbus) {
+    if (!modbus.client) return std::nullopt;
+    if (modbus.client_map.empty()) return firmware::ResultRegisterMap::whole_block(0);
+    return firmware::ResultRegisterMap::from_toml(read_input_file(modbus.client_map, "Modbus map"),
+                                                  modbus.client_map);
+}
+
+// The box's Modbus roles where the configuration or the options say: the PLC map it serves
+// (listening to the cycle itself), and the controller it writes each completed cycle's result
+// to. `written` is called when the last result queued has gone.
+struct ModbusRoles {
+    board::RegisterServer server;
+    std::optional<firmware::PlcServer> plc;
+    std::unique_ptr<hal::RegisterLink> client;
+    std::optional<firmware::ResultWriter> writer;
+    int results_written_for = 0;
+    firmware::CycleSubscription listening;
+
+    ModbusRoles(const firmware::ModbusSettings& modbus,
+                const std::optional<firmware::ResultRegisterMap>& result_map,
+                firmware::EventLoop& loop, firmware::Cycle& cycle, std::function<void()> written) {
+        if (modbus.server) {
+            namespace plc_map = firmware::plc;
+            server = board::register_server(*modbus.server,
+                                            {plc_map::kCoilCount, plc_map::kDiscreteInputCount, 0,
+                                             firmware::input_register_count()},
+                                            modbus.timeouts, log_line);
+            plc.emplace(*server.server, cycle, modbus.word_order, log_line);
+            loop.watch(server.server->written_fd(), [this] { plc->on_coils_written(); });
+            log_line(modbus.server->describe() + ": serving the PLC map" +
+                     (modbus.server->kind == net::ModbusEndpoint::Kind::tcp
+                          ? " on port " + std::to_string(server.port)
+                          : std::string()));
+        }
+        if (!modbus.client) return;
+        client = board::register_client(*modbus.client, modbus.timeouts);
+        writer.emplace(*client, *result_map, modbus.word_order, log_line);
+        loop.watch(client->completion_fd(), [this, written = std::move(written)] {
+            writer->on_completion();
+            if (writer->idle()) written();
+        });
+        results_written_for = cycle.cycles_completed();
+        listening = cycle.subscribe({{},
+                                     {},
+                                     [this, &cycle](bool) {
+                                         if (cycle.cycles_completed() <= results_written_for)
+                                             return;
+                                         results_written_for = cycle.cycles_completed();
+                                         writer->write(cycle.report(),
+                                                       cycle.mode().result(cycle.report().applied));
+                                     },
+                                     {},
+                                     {}});
+    }
+    bool idle() const { return !writer || writer->idle(); }
+};
+
+// After `calbox run --auto`: the box's own time, then the machine as the cycle left it, judged
+// on a fresh job (through the correction the box keeps, when it keeps one) against the mode's
+// goal.
+int judged_run_end(Box& box, sim::TwinJudge& judge, const sim::TwinVerdict& before) {
+    const auto& cycle = box.cycle;
+    const auto& report = cycle.report();
+    std::printf("box: %.2f s of its own work (measure, solve%s), camera %.2f s, machine %.2f s\n",
+                report.box_seconds, report.number == 1 ? ", set-up" : "", report.camera_seconds,
+                report.machine_seconds);
+    if (cycle.cycles_completed() == 0)
+        throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
+                                                                       ? std::string("cancelled")
+                                                                       : cycle.error()));
+    const auto after = judge.after(cycle.mode().kept_correction());
+    std::printf("after: %s\n", after.line.c_str());
+    const auto goal = cycle.mode().goal();
+    if (const auto shortfall = goal.shortfall(before.figures, after.figures); !shortfall.empty())
+        throw std::runtime_error("the " + goal.mode + " goal is not met: " + shortfall + " (goal " +
+                                 goal.describe() + ")");
+    return 0;
+}
+
+int run(const std::vector<std::string>& words) {
+    const Args args(words,
+                    {"--board", "--scenario", "--data", "--config", "--console", "--frames",
+                     "--camera-files", "--modbus-server", "--modbus-client", "--modbus-map",
+                     "--modbus-word-order", "--board-file", "--machine", "--web", "--mqtt"},
+                    {"--auto", "--operator", "--operator-hands"});
+    const RunOptions options = run_options(args);
+    const Common common = common_options(args, true);
+    const std::filesystem::path config_path = args.get("--config")
+                                                  ? std::filesystem::path(*args.get("--config"))
+                                                  : common.data_dir / "calbox.toml";
+    firmware::BoxConfig config = run_config(args, config_path);
+    const firmware::ModbusSettings modbus = modbus_settings(args, config.settings().modbus);
+    const auto result_map = result_map_of(modbus);
 
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
     // The cycle's settings as the configuration says, the options over them.
-    const auto settings_from = [&frames](const firmware::BoxConfig& c) {
+    const auto settings_from = [&options](const firmware::BoxConfig& c) {
         auto s = c.settings().cycle;
-        if (frames) s.frames_per_capture = *frames;
+        if (options.frames) s.frames_per_capture = *options.frames;
         return s;
     };
     firmware::LogBook log_book;
@@ -321,8 +567,6 @@ int run(const std::vector<std::string>& words) {
     Box box(args, common, settings_from(config), log, config.settings().link);
     firmware::EventLoop& loop = box.loop;
     firmware::Cycle& cycle = box.cycle;
-    hal::Storage& data = *box.data;
-    hal::Clock& clock = *box.clock;
     sim::SimBoard* sim_board = box.board.sim.get();
 
     int stopped_by = 0;
@@ -332,183 +576,62 @@ int run(const std::vector<std::string>& words) {
         loop.stop();
     });
 
-    // The console: --console DEVICE, else the configuration's console.device.
-    // On the rpi board its file's console UART when neither says one.
-    std::string console_device = args.get("--console").value_or(config.settings().console.device);
-    if (on_rpi && !args.get("--console") && console_device == "stdin")
-        console_device = rpi_board_settings(args).console_device;
-    std::unique_ptr<hal::SerialPort> console_port;
-    firmware::ConsoleLink::Reopen reopen_console;
-    if (console_device == "pty") {
-        auto pty = board::pseudo_terminal();
-        const auto link = common.data_dir / "console";
-        std::error_code ec;
-        std::filesystem::remove(link, ec);
-        std::filesystem::create_symlink(pty.path, link, ec);
-        log("console on " + pty.path + (ec ? "" : " (" + link.string() + ")"));
-        console_port = std::move(pty.port);
-    } else if (console_device == "stdin") {
-        // Standard input when it is a terminal; /dev/null (as under CI) leaves it off.
-        if (::isatty(STDIN_FILENO) == 1) console_port = board::standard_io();
-    } else if (!console_device.empty()) {
-        // A UART, often a USB adapter: unplugged and plugged in again, or not there yet at the
-        // start, it is opened again when it is back.
-        reopen_console = [console_device, baud = config.settings().console.baud] {
-            return board::serial_port(console_device, baud);
-        };
-        // A path that is there but cannot be opened (not a serial device, no permission) is a
-        // set-up mistake that waiting does not mend: it stops the box with its reason.
-        std::error_code ec;
-        if (std::filesystem::exists(console_device, ec)) {
-            console_port = reopen_console();
-            log("console on " + console_device);
-        } else {
-            log("console: " + console_device + " is not there (opened when it is)");
-        }
-    }
-    const bool console = console_port != nullptr || reopen_console;
-    const auto config_home = board::data_directory(
-        config_path.parent_path().empty() ? std::filesystem::path(".") : config_path.parent_path());
-    firmware::ConsoleContext context{cycle,
-                                     config,
-                                     *config_home,
-                                     config_path.filename().string(),
-                                     data,
-                                     log_book,
-                                     calbox::build_version(),
-                                     {},
-                                     {}};
-    firmware::BoxNews news(data, calbox::build_version(), log);
+    firmware::BoxNews news(*box.data, calbox::build_version(), log);
     news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
-    context.config_changed = [&] {
-        cycle.set_settings(box.with_board(settings_from(config)));
-        news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
-    };
-    if (sim_board != nullptr) {
-        using Words = std::vector<std::string>;
-        context.board_commands = {{"press", "press", "the sim board: a short press of the button",
-                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
-                                       sim_board->lines->press(std::chrono::milliseconds(100));
-                                       r.text = "pressed";
-                                   }},
-                                  {"hold", "hold", "the sim board: a long press of the button",
-                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
-                                       sim_board->lines->press(std::chrono::milliseconds(2000));
-                                       r.text = "held";
-                                   }},
-                                  {"quit", "quit", "the sim board: stop the box",
-                                   [&](const Words&, std::string_view, firmware::ConsoleReply& r) {
-                                       loop.stop();
-                                       r.text = "stopping";
-                                   }}};
-    }
-    std::optional<firmware::ConsoleLink> console_link;
-    firmware::LinkKeyRequest link_key(loop, box.board.machine.link, [&](const std::string& line) {
-        log(line);
-        if (console_link) console_link->notice(line);
-    });
-    context.board_commands.insert(context.board_commands.begin(), link_key.command());
-    // Jobs compensated through the correction the box keeps (the console's `compensate`).
-    firmware::JobDesk job_desk(
-        loop, cycle, *box.appliance.link, data,
-        [] {
-            return firmware::utc_text(std::chrono::duration_cast<std::chrono::seconds>(
-                                          std::chrono::system_clock::now().time_since_epoch())
-                                          .count());
-        },
-        [&](const std::string& line) {
-            log(line);
-            if (console_link) console_link->notice(line);
-        });
-    context.board_commands.insert(context.board_commands.begin(), job_desk.command());
-    firmware::Console console_commands(std::move(context));
-    if (console) {
-        console_link.emplace(loop, std::move(console_port), console_commands, log,
-                             std::move(reopen_console), &clock);
-    }
-    cycle.on_notice = [&](const std::string& line) {
-        if (console_link) console_link->notice(line);
-    };
+    BoxConsole console(open_console_port(args, config, options.on_rpi, common.data_dir, log),
+                       config_path, config, box, log_book, log, [&] {
+                           cycle.set_settings(box.with_board(settings_from(config)));
+                           news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
+                       });
 
-    board::RegisterServer modbus_server;
-    std::optional<firmware::PlcServer> plc;
-    if (modbus.server) {
-        namespace plc_map = firmware::plc;
-        modbus_server = board::register_server(*modbus.server,
-                                               {plc_map::kCoilCount, plc_map::kDiscreteInputCount,
-                                                0, firmware::input_register_count()},
-                                               modbus_timeouts, log_line);
-        plc.emplace(*modbus_server.server, cycle, word_order, log_line);
-        loop.watch(modbus_server.server->written_fd(), [&] { plc->on_coils_written(); });
-        log_line(modbus.server->describe() + ": serving the PLC map" +
-                 (modbus.server->kind == board::ModbusEndpoint::Kind::tcp
-                      ? " on port " + std::to_string(modbus_server.port)
-                      : std::string()));
-    }
-    std::unique_ptr<hal::RegisterLink> modbus_client;
-    std::optional<firmware::ResultWriter> result_writer;
-    int results_written_for = cycle.cycles_completed();
     bool stop_when_written = false;
-    if (modbus.client) {
-        modbus_client = board::register_client(*modbus.client, modbus_timeouts);
-        result_writer.emplace(*modbus_client, *result_map, word_order, log_line);
-        loop.watch(modbus_client->completion_fd(), [&] {
-            result_writer->on_completion();
-            if (stop_when_written && result_writer->idle()) loop.stop();
-        });
-    }
+    ModbusRoles modbus_roles(modbus, result_map, loop, cycle, [&] {
+        if (stop_when_written) loop.stop();
+    });
     // The web page and MQTT, where the configuration or the options say.
-    firmware::BoxNetwork network({loop, cycle, console_commands, config, data, clock, log_book,
-                                  news, log, calbox::build_version(), [] {
-                                      return static_cast<std::int64_t>(
-                                          std::chrono::duration_cast<std::chrono::seconds>(
-                                              std::chrono::system_clock::now().time_since_epoch())
-                                              .count());
-                                  }});
+    firmware::BoxNetwork network({loop, cycle, console.commands, config, *box.data, *box.clock,
+                                  network_of(box), log_book, news, log, calbox::build_version(),
+                                  unix_now_s});
     on_log = [&network] { network.logged(); };
     // Lines logged while the rest comes down go to standard error only.
     const struct Quiet {
         std::function<void()>& on_log;
         ~Quiet() { on_log = nullptr; }
     } quiet{on_log};
-    cycle.on_state = [&](firmware::CycleState) {
-        if (plc) plc->publish();
-        network.changed();
-    };
-    cycle.on_prompt = [&](firmware::Prompt prompt, int step) {
-        if (console_link && prompt != firmware::Prompt::none)
-            console_link->notice(std::string("waiting: ") + firmware::prompt_text(prompt));
-        if (operator_acts) {
-            firmware::act_on_prompt(*sim_board->bench, *sim_board->lines, prompt, step, automatic,
-                                    !operator_hands);
-        }
-        if (plc) plc->publish();
-        network.changed();
-    };
-    cycle.on_cycle_end = [&](bool completed) {
-        network.cycle_ended(completed);
-        if (plc) plc->publish();
-        if (result_writer && cycle.cycles_completed() > results_written_for) {
-            results_written_for = cycle.cycles_completed();
-            result_writer->write(cycle.report(), cycle.mode().result(cycle.report().applied));
-        }
-        if (!automatic) return;
-        if (result_writer && !result_writer->idle()) {
-            stop_when_written = true;  // the controller gets the whole result before the exit
-        } else {
-            loop.stop();
-        }
-    };
+    firmware::CycleSubscription operator_news;
+    if (options.operator_acts) {
+        operator_news = cycle.subscribe({[&](firmware::Prompt prompt, int step) {
+                                             firmware::act_on_prompt(
+                                                 *sim_board->bench, *sim_board->lines, prompt, step,
+                                                 options.automatic, !options.operator_hands);
+                                         },
+                                         {},
+                                         {},
+                                         {},
+                                         {}});
+    }
     std::unique_ptr<sim::TwinJudge> judge;
     std::optional<sim::TwinVerdict> before;
-    if (automatic) {
+    firmware::CycleSubscription one_cycle;
+    if (options.automatic) {
+        // One cycle, then out (once the controller has the whole result).
+        one_cycle = cycle.subscribe({{},
+                                     {},
+                                     [&](bool) {
+                                         if (modbus_roles.idle())
+                                             loop.stop();
+                                         else
+                                             stop_when_written = true;
+                                     },
+                                     {},
+                                     {}});
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
         judge = sim::make_twin_judge(*sim_board->bench);
         before = judge->before();
         std::printf("before: %s\n", before->line.c_str());
         std::fflush(stdout);
         sim_board->lines->press(std::chrono::milliseconds(100));
-    } else if (!console) {
+    } else if (!console.wanted) {
         log("waiting for the button (no console)");
     }
     loop.run();
@@ -519,24 +642,8 @@ int run(const std::vector<std::string>& words) {
                  box.appliance.link->closing_note());
         return 0;
     }
-    if (!automatic) return 0;
-    const auto& report = cycle.report();
-    std::printf("box: %.2f s of its own work (measure, solve%s), camera %.2f s, machine %.2f s\n",
-                report.box_seconds, report.number == 1 ? ", set-up" : "", report.camera_seconds,
-                report.machine_seconds);
-    if (cycle.cycles_completed() == 0)
-        throw std::runtime_error("the cycle did not complete: " + (cycle.error().empty()
-                                                                       ? std::string("cancelled")
-                                                                       : cycle.error()));
-    // The machine as the cycle left it, judged on a fresh job (through the correction the box
-    // keeps, when it keeps one) against the mode's goal.
-    const auto after = judge->after(cycle.mode().kept_correction());
-    std::printf("after: %s\n", after.line.c_str());
-    const auto goal = cycle.mode().goal();
-    if (const auto shortfall = goal.shortfall(before->figures, after.figures); !shortfall.empty())
-        throw std::runtime_error("the " + goal.mode + " goal is not met: " + shortfall + " (goal " +
-                                 goal.describe() + ")");
-    return 0;
+    if (!options.automatic) return 0;
+    return judged_run_end(box, *judge, *before);
 }
 
 int revert(const std::vector<std::string>& words) {
@@ -546,12 +653,17 @@ int revert(const std::vector<std::string>& words) {
     firmware::SignalWatch signals;
     Box box(args, common, {});
     bool finished = false;
-    box.cycle.on_state = [&box, &finished](firmware::CycleState state) {
-        if (state == firmware::CycleState::idle || state == firmware::CycleState::error) {
-            finished = true;
-            box.loop.stop();
-        }
-    };
+    const auto until_settled = box.cycle.subscribe({{},
+                                                    [&box, &finished](firmware::CycleState state) {
+                                                        if (state == firmware::CycleState::idle ||
+                                                            state == firmware::CycleState::error) {
+                                                            finished = true;
+                                                            box.loop.stop();
+                                                        }
+                                                    },
+                                                    {},
+                                                    {},
+                                                    {}});
     const std::string refused = box.cycle.revert();
     if (!refused.empty()) throw std::runtime_error(refused);
     if (finished) {

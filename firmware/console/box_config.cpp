@@ -8,9 +8,9 @@
 #include <sstream>
 
 #include "core/geometry/pattern_spec.hpp"
+#include "core/net/endpoints.hpp"
+#include "core/net/http_text.hpp"
 #include "core/number_text.hpp"
-#include "drivers/http.hpp"
-#include "drivers/password.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -86,10 +86,10 @@ std::string pattern(std::string_view text) {
     return std::string(text);
 }
 
-std::optional<board::ModbusEndpoint> endpoint(std::string_view text) {
+std::optional<net::ModbusEndpoint> endpoint(std::string_view text) {
     if (one_line(text).empty()) return std::nullopt;
     try {
-        return board::parse_modbus_endpoint(std::string(text));
+        return net::parse_modbus_endpoint(std::string(text));
     } catch (const std::invalid_argument& e) {
         throw ConfigError(e.what());
     }
@@ -100,7 +100,7 @@ std::string host_port(std::string_view text, bool names) {
     const std::string value = one_line(text);
     if (value.empty()) return value;
     try {
-        (void)drivers::parse_host_port(value, names);
+        (void)net::parse_host_port(value, names);
     } catch (const std::invalid_argument& e) {
         throw ConfigError(e.what());
     }
@@ -119,7 +119,7 @@ std::string topic_word(std::string_view text) {
     return value;
 }
 
-std::string text_of(const std::optional<board::ModbusEndpoint>& e) {
+std::string text_of(const std::optional<net::ModbusEndpoint>& e) {
     return e ? endpoint_text(*e) : std::string();
 }
 
@@ -398,7 +398,7 @@ const ConfigKey kSchema[] = {
          const std::string url = one_line(t);
          if (!url.empty()) {
              try {
-                 (void)drivers::parse_url(url);
+                 (void)net::parse_url(url);
              } catch (const std::invalid_argument& e) {
                  throw ConfigError(e.what());
              }
@@ -464,7 +464,7 @@ const ConfigKey kSchema[] = {
      [](const BoxSettings& s) { return s.web.password_hash; },
      [](BoxSettings& s, const ConfigKey&, std::string_view t) {
          const std::string hash = one_line(t);
-         if (!hash.empty() && !drivers::is_password_hash(hash))
+         if (!hash.empty() && !net::is_password_hash(hash))
              throw ConfigError("not a password hash: set the password with `web password`");
          s.web.password_hash = hash;
      }},
@@ -524,8 +524,8 @@ const ConfigKey& key_or_throw(std::string_view name) {
 
 }  // namespace
 
-std::string endpoint_text(const board::ModbusEndpoint& e) {
-    if (e.kind == board::ModbusEndpoint::Kind::tcp)
+std::string endpoint_text(const net::ModbusEndpoint& e) {
+    if (e.kind == net::ModbusEndpoint::Kind::tcp)
         return "tcp:" + e.host + ":" + std::to_string(e.port);
     return "rtu:" + e.device + ":" + std::to_string(e.baud);
 }

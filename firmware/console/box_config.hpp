@@ -11,9 +11,10 @@
 #include <string>
 #include <string_view>
 
-#include "board/devices.hpp"
 #include "core/models/register_words.hpp"
+#include "core/net/endpoints.hpp"
 #include "firmware/cycle/cycle.hpp"
+#include "hal/register_link.hpp"
 
 namespace calbox::firmware {
 
@@ -28,11 +29,11 @@ struct ConsoleSettings {
 };
 
 struct ModbusSettings {
-    std::optional<board::ModbusEndpoint> server;  // serve the PLC map
-    std::optional<board::ModbusEndpoint> client;  // the controller the results are written to
+    std::optional<net::ModbusEndpoint> server;  // serve the PLC map
+    std::optional<net::ModbusEndpoint> client;  // the controller the results are written to
     std::string client_map;  // a map file (value_name = register); empty: the whole block from 0
     models::WordOrder word_order = models::WordOrder::abcd;
-    board::ModbusTimeouts timeouts;
+    hal::ModbusTimeouts timeouts;
 };
 
 // The machine's link as the configuration sets it over the machine file's [link]: each value
@@ -48,7 +49,7 @@ struct LinkSettings {
 };
 
 // The box's own web page (docs/network.md): off while `listen` is empty. Anything that changes
-// state needs the password, kept only as its hash (drivers/password.hpp).
+// state needs the password, kept only as its hash (hal/password.hpp).
 struct WebSettings {
     std::string listen;  // HOST:PORT, an IP address to bind
     std::string password_hash;
@@ -76,7 +77,7 @@ struct BoxSettings {
 };
 
 // "tcp:HOST:PORT" or "rtu:DEVICE:BAUD", as it is written.
-std::string endpoint_text(const board::ModbusEndpoint& endpoint);
+std::string endpoint_text(const net::ModbusEndpoint& endpoint);
 
 enum class ConfigKind { integer, number, text, choice, flag };
 

@@ -6,7 +6,6 @@
 #include <sstream>
 
 #include "core/number_text.hpp"
-#include "drivers/password.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -23,8 +22,9 @@ std::vector<std::string> words_of(std::string_view line) {
     return words;
 }
 
-// What follows the first `skip` words, trimmed; a value in double quotes loses them.
-std::string rest_after(std::string_view line, std::size_t skip) {
+}  // namespace
+
+std::string console_words_after(std::string_view line, std::size_t skip) {
     std::size_t at = 0;
     for (std::size_t i = 0; i < skip; ++i) {
         at = line.find_first_not_of(" \t", at);
@@ -38,6 +38,8 @@ std::string rest_after(std::string_view line, std::size_t skip) {
         rest = rest.substr(1, rest.size() - 2);
     return rest;
 }
+
+namespace {
 
 const char* kind_name(ConfigKind k) {
     switch (k) {
@@ -112,6 +114,15 @@ void need_words(const Words& words, std::size_t n, const std::string& usage) {
 
 std::vector<ConsoleCommand> Console::commands() {
     // The order `help` lists them in (docs/appliance.md's Console section follows it).
+    std::vector<ConsoleCommand> rows;
+    for (auto part : {&Console::status_rows, &Console::config_rows, &Console::cycle_rows,
+                      &Console::record_rows, &Console::setup_rows})
+        for (auto& row : (this->*part)()) rows.push_back(std::move(row));
+    return rows;
+}
+
+// help and status.
+std::vector<ConsoleCommand> Console::status_rows() {
     return {
         {"help", "help", "this list",
          [this](const Words&, std::string_view, ConsoleReply& r) {
@@ -149,6 +160,12 @@ std::vector<ConsoleCommand> Console::commands() {
                        {"error", cycle.error()},
                        {"setup_coverage", cycle.setup_coverage()}};
          }},
+    };
+}
+
+// The configuration: list, get, set, save, reset.
+std::vector<ConsoleCommand> Console::config_rows() {
+    return {
         {"config list", "config list", "every key with its value, unit, range and default",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 2, "config list");
@@ -188,7 +205,7 @@ std::vector<ConsoleCommand> Console::commands() {
          "change a key (validated; in force from the next cycle)",
          [this](const Words& words, std::string_view line, ConsoleReply& r) {
              if (words.size() < 3) throw Refused("usage: config set KEY VALUE");
-             const std::string value = rest_after(line, 3);
+             const std::string value = console_words_after(line, 3);
              try {
                  c_.config.set(words[2], value);
              } catch (const ConfigError& e) {
@@ -231,6 +248,12 @@ std::vector<ConsoleCommand> Console::commands() {
              }
              if (c_.config_changed) c_.config_changed();
          }},
+    };
+}
+
+// The cycle's verbs: start, confirm, cancel, revert.
+std::vector<ConsoleCommand> Console::cycle_rows() {
+    return {
         {"start", "start", "start a calibration cycle (the button's short press in idle)",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 1, "start");
@@ -263,6 +286,12 @@ std::vector<ConsoleCommand> Console::commands() {
              r.text = "reverting to the settings before cycle " +
                       std::to_string(c_.cycle.report().number);
          }},
+    };
+}
+
+// What the box keeps: the last cycle, the log, its version.
+std::vector<ConsoleCommand> Console::record_rows() {
+    return {
         {"last", "last", "the last completed cycle's result",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 1, "last");
@@ -291,6 +320,12 @@ std::vector<ConsoleCommand> Console::commands() {
              r.text = "calbox " + c_.version;
              r.data["version"] = c_.version;
          }},
+    };
+}
+
+// The set-up on its own, and the button's other presses.
+std::vector<ConsoleCommand> Console::setup_rows() {
+    return {
         {"camera calibrate", "camera calibrate",
          "set-up: calibrate the camera from board views, then take the plane",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
@@ -318,31 +353,12 @@ std::vector<ConsoleCommand> Console::commands() {
              cycle.acknowledge();
              r.text = std::string("acknowledged: ") + state_name(cycle.state());
          }},
-        {"web password", "web password PASSWORD",
-         "the web page's password, kept as its hash (--clear: none; config save keeps it)",
-         [this](const Words& words, std::string_view line, ConsoleReply& r) {
-             if (words.size() < 3) throw Refused("usage: web password PASSWORD|--clear");
-             const bool clear = words.size() == 3 && words[2] == "--clear";
-             std::string hash;
-             if (!clear) {
-                 try {
-                     hash = drivers::password_hash(rest_after(line, 2));
-                 } catch (const std::exception& e) {
-                     throw Refused(std::string("web password: ") + e.what());
-                 }
-             }
-             c_.config.set("web.password", hash);
-             if (c_.config_changed) c_.config_changed();
-             r.text = clear ? "web password cleared: the page changes nothing"
-                            : "web password set (config save keeps it)";
-             r.data = {{"password_set", !clear}};
-         }},
     };
 }
 
 Console::Console(ConsoleContext context) : c_(std::move(context)), table_(commands()) {
-    for (auto& c : c_.board_commands) table_.push_back(std::move(c));
-    c_.board_commands.clear();
+    for (auto& c : c_.more_rows) table_.push_back(std::move(c));
+    c_.more_rows.clear();
 }
 
 std::string Console::press_for_prompt(bool setup_view_only) {

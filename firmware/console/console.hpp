@@ -79,6 +79,10 @@ struct ConsoleCommand {
         run;
 };
 
+// What follows a line's first `skip` words, trimmed; a value in double quotes loses them (a
+// row's free text: `config set KEY VALUE`, `web password PASSWORD`).
+std::string console_words_after(std::string_view line, std::size_t skip);
+
 struct ConsoleContext {
     Cycle& cycle;
     BoxConfig& config;       // the configuration in force
@@ -89,8 +93,9 @@ struct ConsoleContext {
     std::string version;
     // Called after the configuration changed (set or reset), to put it in force.
     std::function<void()> config_changed;
-    // The board's own commands (the sim board: press, hold, quit), listed after the box's.
-    std::vector<ConsoleCommand> board_commands;
+    // Other parts' own rows (the job desk's, OctoPrint's key, the web page's password, the sim
+    // board's press, hold and quit), listed after the console's own, in this order.
+    std::vector<ConsoleCommand> more_rows;
 };
 
 class Console {
@@ -103,6 +108,11 @@ class Console {
 
   private:
     std::vector<ConsoleCommand> commands();
+    std::vector<ConsoleCommand> status_rows();
+    std::vector<ConsoleCommand> config_rows();
+    std::vector<ConsoleCommand> cycle_rows();
+    std::vector<ConsoleCommand> record_rows();
+    std::vector<ConsoleCommand> setup_rows();
     std::string press_for_prompt(bool setup_view_only);
     void start_setup(const std::string& refused, ConsoleReply& reply);
     void describe_last(ConsoleReply& reply);

@@ -2,15 +2,18 @@
 
 #include <filesystem>
 
-#include "drivers/durable_file.hpp"
-#include "drivers/http.hpp"
 #include "firmware/links/octoprint_link.hpp"
 #include "firmware/loop/event_loop.hpp"
 
 namespace calbox::firmware {
 
-LinkKeyRequest::LinkKeyRequest(EventLoop& loop, models::MachineLinkSettings link, Notice notice)
-    : loop_(loop), link_(std::move(link)), notice_(std::move(notice)) {
+LinkKeyRequest::LinkKeyRequest(EventLoop& loop, models::MachineLinkSettings link,
+                               hal::HttpClient& http, hal::Storage& key_directory, Notice notice)
+    : loop_(loop),
+      link_(std::move(link)),
+      http_(http),
+      key_directory_(key_directory),
+      notice_(std::move(notice)) {
     loop_.watch(request_.fd(), [this] { finished(); });
 }
 
@@ -33,17 +36,17 @@ ConsoleCommand LinkKeyRequest::command() {
                 throw ConsoleRefused("link key: set link.key_file (where the key is kept) first");
             if (words.size() > 3) throw ConsoleRefused("link key takes one user name at most");
             if (request_.busy()) throw ConsoleRefused("link key: already waiting for OctoPrint");
-            drivers::Url url;
+            net::Url url;
             try {
-                url = drivers::parse_url(link_.url);
+                url = net::parse_url(link_.url);
             } catch (const std::invalid_argument& e) {
                 throw ConsoleRefused(std::string("link key: ") + e.what());
             }
             const std::string user = words.size() == 3 ? words[2] : std::string();
-            request_.start([url, user] {
+            request_.start([this, url, user] {
                 try {
                     return std::pair<bool, std::string>{
-                        true, request_octoprint_key(url, user, std::chrono::minutes(5),
+                        true, request_octoprint_key(http_, url, user, std::chrono::minutes(5),
                                                     [](const std::string&) {})};
                 } catch (const std::exception& e) {
                     return std::pair<bool, std::string>{false, e.what()};
@@ -62,13 +65,9 @@ void LinkKeyRequest::finished() {
         notice_("link key: " + result->second);
         return;
     }
-    const std::filesystem::path file(link_.key_file);
     try {
-        drivers::replace_file_durably(drivers::posix_file_system(),
-                                      file.parent_path().empty() ? "." : file.parent_path(),
-                                      file.filename().string(), result->second + "\n");
-        std::filesystem::permissions(
-            file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+        key_directory_.replace_private_file(std::filesystem::path(link_.key_file).filename(),
+                                            result->second + "\n");
     } catch (const std::exception& e) {
         notice_("link key: OctoPrint gave a key, but it could not be kept: " +
                 std::string(e.what()));

@@ -8,8 +8,10 @@
 #include <utility>
 
 #include "core/models/machine_file.hpp"
-#include "drivers/background_job.hpp"
 #include "firmware/console/console.hpp"
+#include "hal/background_job.hpp"
+#include "hal/http.hpp"
+#include "hal/storage.hpp"
 
 namespace calbox::firmware {
 
@@ -18,7 +20,9 @@ class EventLoop;
 class LinkKeyRequest {
   public:
     using Notice = std::function<void(const std::string&)>;
-    LinkKeyRequest(EventLoop& loop, models::MachineLinkSettings link, Notice notice);
+    // `key_directory` is the key_file's directory.
+    LinkKeyRequest(EventLoop& loop, models::MachineLinkSettings link, hal::HttpClient& http,
+                   hal::Storage& key_directory, Notice notice);
     LinkKeyRequest(const LinkKeyRequest&) = delete;
     LinkKeyRequest& operator=(const LinkKeyRequest&) = delete;
     ~LinkKeyRequest();
@@ -29,9 +33,11 @@ class LinkKeyRequest {
     void finished();
     EventLoop& loop_;
     models::MachineLinkSettings link_;
+    hal::HttpClient& http_;
+    hal::Storage& key_directory_;
     Notice notice_;
     // The key, or why there is none.
-    drivers::BackgroundJob<std::pair<bool, std::string>> request_;
+    hal::BackgroundJob<std::pair<bool, std::string>> request_;
 };
 
 }  // namespace calbox::firmware

@@ -130,7 +130,7 @@ void Cycle::enter(CycleState next, const std::string& detail) {
         show(draw_screen(idle_screen()));
     else
         show(draw_screen(progress_screen(detail)));
-    if (on_state) on_state(next);
+    tell(&CycleNews::state, next);
 }
 
 // LEDs per state: ready steady in idle, busy blinking while working, busy steady while waiting
@@ -281,7 +281,7 @@ void Cycle::ask(Prompt prompt, int step, std::function<void()> then) {
         }
         show(draw_screen(screen));
     }
-    if (on_prompt) on_prompt(prompt, step);
+    tell(&CycleNews::prompt, prompt, step);
 }
 
 void Cycle::on_button() {
@@ -327,7 +327,7 @@ void Cycle::cancel(const std::string& why) {
     log_("cycle " + std::to_string(report_.number) + ": " + why);
     enter(CycleState::idle, why);
     close_record();
-    if (on_cycle_end) on_cycle_end(false);
+    tell(&CycleNews::cycle_end, false);
 }
 
 void Cycle::acknowledge() {
@@ -347,10 +347,10 @@ void Cycle::fail(const std::string& message, const std::string& hint) {
     set_leds();
     show(draw_screen(ErrorScreen{static_cast<int>(failed_in_),
                                  hint.empty() ? hint_for(failed_in_) : hint, message}));
-    if (on_state) on_state(state_);
+    tell(&CycleNews::state, state_);
     close_record();
-    if (on_cycle_end) on_cycle_end(false);
-    if (on_prompt) on_prompt(prompt_, 0);
+    tell(&CycleNews::cycle_end, false);
+    tell(&CycleNews::prompt, prompt_, 0);
 }
 
 void Cycle::capture(int frames, std::function<void(std::vector<hal::Frame>)> then) {
@@ -385,12 +385,12 @@ void Cycle::on_camera() {
         }
         if (!result.ok()) {
             log("live view: " + result.error);
-        } else if (on_frame && !result.frames.empty()) {
-            on_frame(result.frames.front());
+        } else if (!result.frames.empty()) {
+            tell(&CycleNews::frame, result.frames.front());
         }
         return;
     }
-    if (on_frame && result.ok() && !result.frames.empty()) on_frame(result.frames.front());
+    if (result.ok() && !result.frames.empty()) tell(&CycleNews::frame, result.frames.front());
     report_.camera_seconds += seconds(d_.clock.now() - phase_started_);
     d_.lines.set_light(false);
     auto then = std::move(pending_capture_);
@@ -470,13 +470,18 @@ std::string Cycle::record_name(const std::string& what) const {
     return record_file_name(report_.number, what);
 }
 
+CycleSubscription Cycle::subscribe(CycleNews news) {
+    listeners_->push_back(std::move(news));
+    return {listeners_, std::prev(listeners_->end())};
+}
+
 void Cycle::log(const std::string& line) {
     log_("cycle " + std::to_string(report_.number) + ": " + line);
 }
 
 void Cycle::notice(const std::string& what) {
     log(what);
-    if (on_notice) on_notice(what);
+    tell(&CycleNews::notice, what);
 }
 
 void Cycle::begin_cycle() {
@@ -627,7 +632,7 @@ std::string Cycle::revert() {
     mode_->begin();
     std::string refused = mode_->revert(number, [this](const std::string& what) {
         enter(CycleState::idle, what);
-        if (on_cycle_end) on_cycle_end(true);
+        tell(&CycleNews::cycle_end, true);
     });
     if (!refused.empty()) return refused;
     return state_ == CycleState::error ? error_ : std::string();
@@ -654,7 +659,7 @@ void Cycle::finish_cycle() {
         show(draw_screen(DoneScreen{number_text("%.4f", report_.measured->rms_mm) + " mm",
                                     number_text("%.4f", report_.verified->rms_mm) + " mm"}));
     close_record();
-    if (on_cycle_end) on_cycle_end(true);
+    tell(&CycleNews::cycle_end, true);
 }
 
 void watch_cycle(EventLoop& loop, Cycle& cycle, MachineLink& machine, hal::Camera& camera,

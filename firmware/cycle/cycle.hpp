@@ -4,13 +4,16 @@
 //   -> review -> apply -> verify -> idle, with error reachable from every state and cancel (a
 // long press, or the console) from every waiting one. It never blocks: the machine link, the
 // camera and the worker report back through the loop.
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <list>
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/geometry/calibration.hpp"
@@ -95,6 +98,45 @@ struct CycleReport {
     double machine_seconds = 0;  // waiting for the machine
 };
 
+// What a listener hears of the cycle; each part may be left empty.
+struct CycleNews {
+    std::function<void(Prompt, int step)> prompt;   // every prompt (the operator acts on them)
+    std::function<void(CycleState)> state;          // every state change
+    std::function<void(bool completed)> cycle_end;  // a cycle ended, done or not
+    // What a person at the console should read now: each set-up view's result, the set-up's.
+    std::function<void(const std::string&)> notice;
+    // Each frame the camera gives: a preview's, and the first of each of the cycle's captures.
+    std::function<void(const hal::Frame&)> frame;
+};
+
+// One listener's subscription: it ends when destroyed (move it where the listener lives).
+class CycleSubscription {
+  public:
+    CycleSubscription() = default;
+    CycleSubscription(std::shared_ptr<std::list<CycleNews>> listeners,
+                      std::list<CycleNews>::iterator at)
+        : listeners_(std::move(listeners)), at_(at) {}
+    CycleSubscription(CycleSubscription&& other) noexcept { *this = std::move(other); }
+    CycleSubscription& operator=(CycleSubscription&& other) noexcept {
+        if (this != &other) {
+            end();
+            listeners_ = std::exchange(other.listeners_, nullptr);
+            at_ = other.at_;
+        }
+        return *this;
+    }
+    CycleSubscription(const CycleSubscription&) = delete;
+    CycleSubscription& operator=(const CycleSubscription&) = delete;
+    ~CycleSubscription() { end(); }
+    void end() {
+        if (const auto listeners = std::exchange(listeners_, nullptr)) listeners->erase(at_);
+    }
+
+  private:
+    std::shared_ptr<std::list<CycleNews>> listeners_;
+    std::list<CycleNews>::iterator at_;
+};
+
 class Cycle final : private CycleSteps {
   public:
     using Log = std::function<void(const std::string&)>;
@@ -150,15 +192,10 @@ class Cycle final : private CycleSteps {
     // The last cycle completed and its own verification met the mode's goal.
     bool goal_met() const;
 
-    // Called on every prompt (the sim board's operator acts on them), every state change, and
-    // when a cycle ends (done or not).
-    std::function<void(Prompt, int step)> on_prompt;
-    std::function<void(CycleState)> on_state;
-    std::function<void(bool completed)> on_cycle_end;
-    // What a person at the console should read now: each set-up view's result, the set-up's.
-    std::function<void(const std::string&)> on_notice;
-    // Each frame the camera gives: a preview's, and the first of each of the cycle's captures.
-    std::function<void(const hal::Frame&)> on_frame;
+    // What the cycle tells its listeners (the PLC, the network's windows, the console, the sim
+    // board's operator), each subscribing itself; told in the order they subscribed. The
+    // subscription ends with its token.
+    [[nodiscard]] CycleSubscription subscribe(CycleNews news);
 
   private:
     // CycleSteps: what the mode's steps ask of the cycle.
@@ -235,6 +272,20 @@ class Cycle final : private CycleSteps {
     double setup_coverage_ = 0;  // of the image, by the views taken so far
     bool setup_only_ = false;    // the set-up asked for on its own: back to idle after it
     std::function<void(std::vector<hal::Frame>)> pending_capture_;
+    // Told in subscription order. A listener may end any subscription while being told: each
+    // is looked up again before it is told, so none ended meanwhile is.
+    template <class Part, class... Args>
+    void tell(Part CycleNews::*part, const Args&... args) {
+        const auto listeners = listeners_;
+        std::vector<const CycleNews*> round;
+        for (const auto& news : *listeners) round.push_back(&news);
+        for (const CycleNews* news : round) {
+            const bool still_there = std::any_of(listeners->begin(), listeners->end(),
+                                                 [news](const CycleNews& n) { return &n == news; });
+            if (still_there && news->*part) (news->*part)(args...);
+        }
+    }
+    std::shared_ptr<std::list<CycleNews>> listeners_ = std::make_shared<std::list<CycleNews>>();
     bool previewing_ = false;        // the camera is taking a preview
     int capture_after_preview_ = 0;  // frames the cycle's capture waits to take, 0 none
     std::vector<std::string> target_job_;

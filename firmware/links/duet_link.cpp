@@ -40,12 +40,12 @@ struct DuetLink::Session {
     // /machine API (as Duet Web Control finds out: rr_connect answered 404 there).
     bool sbc = false;
 
-    drivers::HttpResponse raw(drivers::HttpRequest request) {
+    hal::HttpResponse raw(hal::HttpRequest request) {
         link.check_stop();
         if (session_key) request.headers.emplace_back("X-Session-Key", *session_key);
         try {
-            return drivers::http_request(settings.url, request, settings.reply_timeout);
-        } catch (const drivers::NetworkError& e) {
+            return link.http_client().request(settings.url, request, settings.reply_timeout);
+        } catch (const hal::NetworkError& e) {
             session_key.reset();
             throw LinkError(std::string("Duet: ") + e.what());
         }
@@ -96,17 +96,17 @@ struct DuetLink::Session {
     void disconnect() noexcept {
         if (!session_key) return;
         try {
-            drivers::HttpRequest request{
+            hal::HttpRequest request{
                 "GET", sbc ? "/machine/disconnect" : "/rr_disconnect", {}, {}, {}};
             request.headers.emplace_back("X-Session-Key", *session_key);
-            drivers::http_request(settings.url, request, std::chrono::milliseconds(1000));
+            link.http_client().request(settings.url, request, std::chrono::milliseconds(1000));
         } catch (const std::exception&) {
         }
         session_key.reset();
     }
 
     // A request in the session; one whose session expired (401) connects again, once.
-    drivers::HttpResponse call(const drivers::HttpRequest& request) {
+    hal::HttpResponse call(const hal::HttpRequest& request) {
         connect();
         auto r = raw(request);
         if (r.status == 401 || (sbc && r.status == 403)) {
@@ -235,8 +235,8 @@ struct DuetLink::Session {
     }
 };
 
-DuetLink::DuetLink(DuetSettings settings, Log log)
-    : HostLink("duet", settings.url, std::move(log)),
+DuetLink::DuetLink(DuetSettings settings, hal::HttpClient& http, Log log)
+    : HostLink("duet", settings.url, http, std::move(log)),
       settings_(std::move(settings)),
       session_(std::make_unique<Session>(Session{*this, settings_, std::nullopt, 0})) {}
 

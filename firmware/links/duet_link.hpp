@@ -14,13 +14,13 @@
 #include <string>
 #include <vector>
 
-#include "drivers/http.hpp"
 #include "firmware/links/host_link.hpp"
+#include "hal/http.hpp"
 
 namespace calbox::firmware {
 
 struct DuetSettings {
-    drivers::Url url;
+    net::Url url;
     std::string password;  // the board's (M551); empty: a board without one
     std::chrono::milliseconds reply_timeout{30000};
     std::chrono::milliseconds poll_interval{250};
@@ -29,7 +29,7 @@ struct DuetSettings {
 
 class DuetLink final : public HostLink {
   public:
-    DuetLink(DuetSettings settings, Log log);
+    DuetLink(DuetSettings settings, hal::HttpClient& http, Log log);
     ~DuetLink() override;
     DuetLink(const DuetLink&) = delete;
     DuetLink& operator=(const DuetLink&) = delete;

@@ -7,7 +7,7 @@
 
 namespace calbox::firmware {
 
-std::string http_error_line(const drivers::HttpResponse& reply) {
+std::string http_error_line(const hal::HttpResponse& reply) {
     std::string status = "HTTP " + std::to_string(reply.status);
     const auto j = nlohmann::json::parse(reply.body, nullptr, false);
     if (j.is_discarded() || !j.is_object() || !j.contains("error")) return status;
@@ -18,11 +18,12 @@ std::string http_error_line(const drivers::HttpResponse& reply) {
     return status;
 }
 
-HostLink::HostLink(std::string name, drivers::Url url, Log log)
+HostLink::HostLink(std::string name, net::Url url, hal::HttpClient& http, Log log)
     : name_(std::move(name)),
       url_(std::move(url)),
+      http_(http),
       log_(std::move(log)),
-      job_(std::make_unique<drivers::BackgroundJob<JobOutcome>>()) {}
+      job_(std::make_unique<hal::BackgroundJob<JobOutcome>>()) {}
 
 void HostLink::attach(EventLoop& loop) {
     loop.watch(job_->fd(), [this] { finished(); });

@@ -10,9 +10,9 @@
 #include <stdexcept>
 #include <string>
 
-#include "drivers/background_job.hpp"
-#include "drivers/http.hpp"
 #include "firmware/links/machine_link.hpp"
+#include "hal/background_job.hpp"
+#include "hal/http.hpp"
 
 namespace calbox::firmware {
 
@@ -25,13 +25,13 @@ class LinkError : public std::runtime_error {
 // A host's refusal as one line: "HTTP 400: Insufficient disk space", the message from the reply's
 // JSON as OctoPrint ({"error": "..."}) or Moonraker ({"error": {"message": "..."}}) gives it, or
 // the status alone.
-std::string http_error_line(const drivers::HttpResponse& reply);
+std::string http_error_line(const hal::HttpResponse& reply);
 
 class HostLink : public MachineLink {
   public:
     using Log = std::function<void(const std::string&)>;
     // `name`: "moonraker", "octoprint", "duet", for the log.
-    HostLink(std::string name, drivers::Url url, Log log);
+    HostLink(std::string name, net::Url url, hal::HttpClient& http, Log log);
 
     void attach(EventLoop& loop) final;
     void detach(EventLoop& loop) final;
@@ -69,21 +69,23 @@ class HostLink : public MachineLink {
       private:
         HostLink& link_;
     };
-    const drivers::Url& url() const { return url_; }
+    const net::Url& url() const { return url_; }
+    hal::HttpClient& http_client() const { return http_; }
     const Log& log() const { return log_; }
 
   private:
     void finished();
 
     std::string name_;
-    drivers::Url url_;
+    net::Url url_;
+    hal::HttpClient& http_;
     Log log_;
     Done done_;
     std::string cancelled_;
     std::atomic<bool> stopping_{false};
     std::atomic<bool> printing_{false};
     bool left_a_print_ = false;  // the last request was cancelled while the host printed
-    std::unique_ptr<drivers::BackgroundJob<JobOutcome>> job_;
+    std::unique_ptr<hal::BackgroundJob<JobOutcome>> job_;
 };
 
 }  // namespace calbox::firmware

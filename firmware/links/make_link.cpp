@@ -34,8 +34,8 @@ std::chrono::milliseconds milliseconds_of(double seconds) {
 }  // namespace
 
 std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings& link,
-                                               hal::SerialPort* port, hal::Clock& clock,
-                                               GcodeHostSettings serial,
+                                               hal::SerialPort* port, hal::HttpClient* http,
+                                               hal::Clock& clock, GcodeHostSettings serial,
                                                const GcodeHost::Log& log) {
     if (link.kind == "serial") {
         if (port == nullptr)
@@ -45,9 +45,12 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings
     }
     if (link.url.empty())
         throw std::runtime_error("[link] kind = \"" + link.kind + "\" needs the host's url");
-    drivers::Url url;
+    if (http == nullptr)
+        throw std::runtime_error("the machine's link is " + link.kind +
+                                 " but the board has no network for it");
+    net::Url url;
     try {
-        url = drivers::parse_url(link.url);
+        url = net::parse_url(link.url);
         url.ca_file = link.ca_file;
     } catch (const std::invalid_argument& e) {
         throw std::runtime_error(std::string("[link] url: ") + e.what());
@@ -58,7 +61,7 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings
         s.api_key = read_key_file(link.key_file);
         s.reply_timeout = milliseconds_of(link.reply_timeout_s);
         s.restart_timeout = milliseconds_of(link.restart_timeout_s);
-        return std::make_unique<MoonrakerLink>(std::move(s), log);
+        return std::make_unique<MoonrakerLink>(std::move(s), *http, log);
     }
     if (link.kind == "octoprint") {
         OctoPrintSettings s;
@@ -73,14 +76,14 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings
         if (std::filesystem::exists(link.key_file, ec)) s.api_key = read_key_file(link.key_file);
         s.key_file = link.key_file;
         s.reply_timeout = milliseconds_of(link.reply_timeout_s);
-        return std::make_unique<OctoPrintLink>(std::move(s), log);
+        return std::make_unique<OctoPrintLink>(std::move(s), *http, log);
     }
     if (link.kind == "duet") {
         DuetSettings s;
         s.url = url;
         s.password = read_key_file(link.key_file);
         s.reply_timeout = milliseconds_of(link.reply_timeout_s);
-        return std::make_unique<DuetLink>(std::move(s), log);
+        return std::make_unique<DuetLink>(std::move(s), *http, log);
     }
     throw std::runtime_error("[link] kind '" + link.kind + "' is not one the box speaks");
 }

@@ -31,10 +31,10 @@ std::string config_value(const json& v) {
 struct MoonrakerLink::Session {
     const MoonrakerLink& link;
     const MoonrakerSettings& settings;
-    std::unique_ptr<drivers::WebSocketClient> socket;
+    std::unique_ptr<hal::WebSocket> socket;
     long next_id = 1;
 
-    drivers::Headers auth() const {
+    hal::Headers auth() const {
         if (settings.api_key.empty()) return {};
         return {{"X-Api-Key", settings.api_key}};
     }
@@ -43,16 +43,15 @@ struct MoonrakerLink::Session {
 
     void connect() {
         if (socket) return;
-        drivers::Url url = settings.url;
+        net::Url url = settings.url;
         url.path = "/websocket";
         try {
             // The key goes with HTTP requests only: the long-lived socket is opened with a
             // one-shot token the key fetches (single use, valid seconds), as Moonraker's web
             // clients do. A host that trusts the box needs neither.
             if (!settings.api_key.empty()) url.path += "?token=" + oneshot_token();
-            socket = std::make_unique<drivers::WebSocketClient>(url, drivers::Headers{},
-                                                                settings.reply_timeout);
-        } catch (const drivers::NetworkError& e) {
+            socket = link.http_client().open_socket(url, hal::Headers{}, settings.reply_timeout);
+        } catch (const hal::NetworkError& e) {
             throw LinkError(std::string("Moonraker: ") + e.what() +
                             (std::string(e.what()).find("HTTP 401") != std::string::npos
                                  ? " (is key_file's API key the host's?)"
@@ -107,18 +106,18 @@ struct MoonrakerLink::Session {
                 }
                 return j.contains("result") ? j["result"] : json();
             }
-        } catch (const drivers::NetworkError& e) {
+        } catch (const hal::NetworkError& e) {
             socket.reset();  // the next request connects again
             throw LinkError(std::string("Moonraker: ") + e.what());
         }
     }
 
-    drivers::HttpResponse http(drivers::HttpRequest request) {
+    hal::HttpResponse http(hal::HttpRequest request) {
         check_stop();
         for (auto& h : auth()) request.headers.push_back(std::move(h));
         try {
-            return drivers::http_request(settings.url, request, settings.reply_timeout);
-        } catch (const drivers::NetworkError& e) {
+            return link.http_client().request(settings.url, request, settings.reply_timeout);
+        } catch (const hal::NetworkError& e) {
             throw LinkError(std::string("Moonraker: ") + e.what());
         }
     }
@@ -156,7 +155,7 @@ struct MoonrakerLink::Session {
     }
 
     void upload(const std::string& root, const std::string& name, const std::string& contents) {
-        const auto form = drivers::multipart_form("file", name, contents, {{"root", root}});
+        const auto form = net::multipart_form("file", name, contents, {{"root", root}});
         const auto r = http({"POST", "/server/files/upload", {}, form.content_type, form.body});
         if (r.status != 200 && r.status != 201)
             throw LinkError("the host refused the upload of " + name + " (" + http_error_line(r) +
@@ -196,8 +195,8 @@ struct MoonrakerLink::Session {
     }
 };
 
-MoonrakerLink::MoonrakerLink(MoonrakerSettings settings, Log log)
-    : HostLink("moonraker", settings.url, std::move(log)),
+MoonrakerLink::MoonrakerLink(MoonrakerSettings settings, hal::HttpClient& http, Log log)
+    : HostLink("moonraker", settings.url, http, std::move(log)),
       settings_(std::move(settings)),
       session_(std::make_unique<Session>(Session{*this, settings_, nullptr, 1})) {}
 

@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "drivers/http.hpp"
 #include "firmware/links/host_link.hpp"
+#include "hal/http.hpp"
 
 namespace calbox::firmware {
 
 struct MoonrakerSettings {
-    drivers::Url url;
+    net::Url url;
     std::string api_key;  // empty: a host that asks for none (trusted clients)
     std::chrono::milliseconds reply_timeout{30000};
     std::chrono::milliseconds restart_timeout{60000};
@@ -28,7 +28,7 @@ struct MoonrakerSettings {
 
 class MoonrakerLink final : public HostLink {
   public:
-    MoonrakerLink(MoonrakerSettings settings, Log log);
+    MoonrakerLink(MoonrakerSettings settings, hal::HttpClient& http, Log log);
     ~MoonrakerLink() override;
     MoonrakerLink(const MoonrakerLink&) = delete;
     MoonrakerLink& operator=(const MoonrakerLink&) = delete;

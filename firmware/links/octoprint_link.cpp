@@ -27,25 +27,25 @@ std::optional<std::string> received(const std::string& log_line) {
 struct OctoPrintLink::Session {
     OctoPrintLink& link;
     const OctoPrintSettings& settings;
-    std::unique_ptr<drivers::WebSocketClient> socket;
+    std::unique_ptr<hal::WebSocket> socket;
     std::deque<std::string> logs;  // terminal lines read, not yet taken
     long markers = 0;
 
-    drivers::HttpResponse http(drivers::HttpRequest request) {
+    hal::HttpResponse http(hal::HttpRequest request) {
         link.check_stop();
         if (settings.api_key.empty())
             throw LinkError("OctoPrint: no API key in " + settings.key_file +
                             " yet (`link key` on the console asks OctoPrint for one)");
         request.headers.emplace_back("X-Api-Key", settings.api_key);
         try {
-            return drivers::http_request(settings.url, request, settings.reply_timeout);
-        } catch (const drivers::NetworkError& e) {
+            return link.http_client().request(settings.url, request, settings.reply_timeout);
+        } catch (const hal::NetworkError& e) {
             socket.reset();
             throw LinkError(std::string("OctoPrint: ") + e.what());
         }
     }
 
-    static void refused_key(const drivers::HttpResponse& r) {
+    static void refused_key(const hal::HttpResponse& r) {
         if (r.status == 401 || r.status == 403)
             throw LinkError("OctoPrint: the host refused the API key (" + http_error_line(r) +
                             "; is key_file's key one of its application keys?)");
@@ -61,15 +61,14 @@ struct OctoPrintLink::Session {
         const json user = json::parse(login.body, nullptr, false);
         if (user.is_discarded() || !user.contains("name") || !user.contains("session"))
             throw LinkError("OctoPrint: login: no session in the host's reply");
-        drivers::Url url = settings.url;
+        net::Url url = settings.url;
         url.path = "/sockjs/websocket";
         try {
-            socket = std::make_unique<drivers::WebSocketClient>(url, drivers::Headers{},
-                                                                settings.reply_timeout);
+            socket = link.http_client().open_socket(url, hal::Headers{}, settings.reply_timeout);
             socket->send(json{{"auth", user["name"].get<std::string>() + ":" +
                                            user["session"].get<std::string>()}}
                              .dump());
-        } catch (const drivers::NetworkError& e) {
+        } catch (const hal::NetworkError& e) {
             socket.reset();
             throw LinkError(std::string("OctoPrint: ") + e.what());
         }
@@ -80,7 +79,7 @@ struct OctoPrintLink::Session {
         std::optional<std::string> message;
         try {
             message = socket->receive(within);
-        } catch (const drivers::NetworkError& e) {
+        } catch (const hal::NetworkError& e) {
             socket.reset();
             throw LinkError(std::string("OctoPrint: ") + e.what());
         }
@@ -143,8 +142,8 @@ struct OctoPrintLink::Session {
     }
 };
 
-OctoPrintLink::OctoPrintLink(OctoPrintSettings settings, Log log)
-    : HostLink("octoprint", settings.url, std::move(log)),
+OctoPrintLink::OctoPrintLink(OctoPrintSettings settings, hal::HttpClient& http, Log log)
+    : HostLink("octoprint", settings.url, http, std::move(log)),
       settings_(std::move(settings)),
       session_(std::make_unique<Session>(Session{*this, settings_, nullptr, {}, 0})) {}
 
@@ -167,8 +166,8 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
     start_with<Session>(
         *session_,
         [this, text = std::move(text)](Session& s) {
-            const auto form = drivers::multipart_form("file", settings_.job_file_name, text,
-                                                      {{"select", "true"}, {"print", "true"}});
+            const auto form = net::multipart_form("file", settings_.job_file_name, text,
+                                                  {{"select", "true"}, {"print", "true"}});
             const auto up = s.http({"POST", "/api/files/local", {}, form.content_type, form.body});
             Session::refused_key(up);
             if (up.status != 201 && up.status != 200)
@@ -209,18 +208,18 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
         std::move(done));
 }
 
-std::string request_octoprint_key(const drivers::Url& url, const std::string& user,
-                                  std::chrono::milliseconds wait,
+std::string request_octoprint_key(hal::HttpClient& http, const net::Url& url,
+                                  const std::string& user, std::chrono::milliseconds wait,
                                   const std::function<void(const std::string&)>& log) {
     const auto timeout = std::chrono::milliseconds(10000);
     json request = {{"app", "calbox"}};
     if (!user.empty()) request["user"] = user;
-    drivers::HttpResponse r;
+    hal::HttpResponse r;
     try {
-        r = drivers::http_request(
+        r = http.request(
             url, {"POST", "/plugin/appkeys/request", {}, "application/json", request.dump()},
             timeout);
-    } catch (const drivers::NetworkError& e) {
+    } catch (const hal::NetworkError& e) {
         throw LinkError(std::string("OctoPrint: ") + e.what());
     }
     if (r.status == 404)
@@ -235,8 +234,8 @@ std::string request_octoprint_key(const drivers::Url& url, const std::string& us
     while (Clock::now() < until) {
         std::this_thread::sleep_for(std::chrono::milliseconds(500));
         try {
-            r = drivers::http_request(url, {"GET", path, {}, {}, {}}, timeout);
-        } catch (const drivers::NetworkError& e) {
+            r = http.request(url, {"GET", path, {}, {}, {}}, timeout);
+        } catch (const hal::NetworkError& e) {
             throw LinkError(std::string("OctoPrint: ") + e.what());
         }
         if (r.status == 202) continue;

@@ -12,13 +12,13 @@
 #include <string>
 #include <vector>
 
-#include "drivers/http.hpp"
 #include "firmware/links/host_link.hpp"
+#include "hal/http.hpp"
 
 namespace calbox::firmware {
 
 struct OctoPrintSettings {
-    drivers::Url url;
+    net::Url url;
     std::string api_key;   // empty: none yet (every request says so)
     std::string key_file;  // where it is kept, for that message
     std::chrono::milliseconds reply_timeout{30000};
@@ -28,7 +28,7 @@ struct OctoPrintSettings {
 
 class OctoPrintLink final : public HostLink {
   public:
-    OctoPrintLink(OctoPrintSettings settings, Log log);
+    OctoPrintLink(OctoPrintSettings settings, hal::HttpClient& http, Log log);
     ~OctoPrintLink() override;
     OctoPrintLink(const OctoPrintLink&) = delete;
     OctoPrintLink& operator=(const OctoPrintLink&) = delete;
@@ -46,8 +46,8 @@ class OctoPrintLink final : public HostLink {
 // OctoPrint's application keys (its appkeys plugin): asks the host for a key for calbox, which
 // its owner allows in OctoPrint's page; `wait` polls until then. Returns the key; throws
 // LinkError when the owner denies it, the host lacks the plugin, or `wait` passes.
-std::string request_octoprint_key(const drivers::Url& url, const std::string& user,
-                                  std::chrono::milliseconds wait,
+std::string request_octoprint_key(hal::HttpClient& http, const net::Url& url,
+                                  const std::string& user, std::chrono::milliseconds wait,
                                   const std::function<void(const std::string&)>& log);
 
 }  // namespace calbox::firmware

@@ -1,7 +1,6 @@
 #include "firmware/loop/event_loop.hpp"
 
 #include <sys/epoll.h>
-#include <sys/eventfd.h>
 #include <sys/signalfd.h>
 #include <unistd.h>
 
@@ -97,57 +96,35 @@ void LoopInbox::run_posted() {
     for (auto& job : jobs) job();
 }
 
-Wakeup::Wakeup() : fd_(::eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC)) {
-    if (fd_ < 0) throw os_error("eventfd");
-}
-
-Wakeup::~Wakeup() {
-    ::close(fd_);
-}
-
-void Wakeup::signal() {
-    const std::uint64_t one = 1;
-    while (::write(fd_, &one, sizeof one) < 0 && errno == EINTR) {
-    }
-}
-
-bool Wakeup::take() {
-    std::uint64_t count = 0;
-    return ::read(fd_, &count, sizeof count) == sizeof count && count > 0;
-}
-
 Worker::Worker(EventLoop& loop) : loop_(loop) {
-    loop_.watch(notifier_.fd(), [this] { finished(); });
+    loop_.watch(job_.fd(), [this] { finished(); });
 }
 
 Worker::~Worker() {
-    if (thread_.joinable()) thread_.join();
-    loop_.unwatch(notifier_.fd());
+    loop_.unwatch(job_.fd());
 }
 
 void Worker::start(std::function<void()> work, std::function<void(std::exception_ptr)> done) {
     if (busy_) throw std::logic_error("the worker is busy");
-    if (thread_.joinable()) thread_.join();
     busy_ = true;
     done_ = std::move(done);
-    error_ = nullptr;
-    thread_ = std::thread([this, work = std::move(work)] {
+    job_.start([work = std::move(work)]() -> std::exception_ptr {
         try {
             work();
+            return nullptr;
         } catch (...) {
-            error_ = std::current_exception();
+            return std::current_exception();
         }
-        notifier_.signal();
     });
 }
 
 void Worker::finished() {
-    if (!notifier_.take()) return;
-    thread_.join();
+    auto error = job_.take();
+    if (!error) return;
     busy_ = false;
     auto done = std::move(done_);
     done_ = nullptr;
-    if (done) done(error_);
+    if (done) done(*error);
 }
 
 SignalWatch::SignalWatch() {

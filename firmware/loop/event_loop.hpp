@@ -12,6 +12,9 @@
 #include <optional>
 #include <thread>
 
+#include "hal/background_job.hpp"
+#include "hal/notifier.hpp"
+
 namespace calbox::firmware {
 
 class EventLoop {
@@ -36,21 +39,6 @@ class EventLoop {
     int epoll_fd_ = -1;
     std::map<int, std::shared_ptr<std::function<void()>>> handlers_;
     bool stopped_ = false;
-};
-
-// Another thread's "done" to the loop: an eventfd, the loop's own way in (as its signals are).
-class Wakeup {
-  public:
-    Wakeup();  // throws std::runtime_error when the kernel refuses one
-    Wakeup(const Wakeup&) = delete;
-    Wakeup& operator=(const Wakeup&) = delete;
-    ~Wakeup();
-    int fd() const { return fd_; }
-    void signal();
-    bool take();  // false when nothing was signalled
-
-  private:
-    int fd_ = -1;
 };
 
 // Other threads' requests to the loop (the web server's connections, the MQTT client's): each job
@@ -83,7 +71,7 @@ class LoopInbox {
   private:
     void run_posted();
     EventLoop& loop_;
-    Wakeup wakeup_;
+    hal::Notifier wakeup_;
     std::mutex mutex_;
     std::deque<std::function<void()>> jobs_;  // under the mutex
 };
@@ -103,11 +91,9 @@ class Worker {
   private:
     void finished();
     EventLoop& loop_;
-    Wakeup notifier_;
-    std::thread thread_;
     std::function<void(std::exception_ptr)> done_;
-    std::exception_ptr error_;
     bool busy_ = false;
+    hal::BackgroundJob<std::exception_ptr> job_;  // last: joined before the rest goes
 };
 
 // SIGTERM and SIGINT as a file descriptor: blocked for ordinary delivery, read by the loop.

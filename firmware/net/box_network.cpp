@@ -3,7 +3,6 @@
 #include <nlohmann/json.hpp>
 
 #include "core/geometry/camera_model.hpp"
-#include "drivers/http.hpp"
 #include "firmware/net/mqtt_report.hpp"
 #include "firmware/net/web_window.hpp"
 
@@ -24,10 +23,9 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
     : p_(std::move(parts)), inbox_(p_.loop) {
     const BoxSettings& settings = p_.config.settings();
     if (!settings.web.listen.empty()) {
-        const auto at = drivers::parse_host_port(settings.web.listen, false);
-        p_.cycle.on_frame = [this](const hal::Frame& frame) { frames_.put(frame); };
+        const auto at = net::parse_host_port(settings.web.listen, false);
         web_ = std::make_unique<WebWindow>(
-            WebWindowContext{inbox_, p_.data, p_.clock, frames_,
+            WebWindowContext{inbox_, p_.data, p_.clock, frames_, p_.network,
                              [this](const std::string& line) { return p_.console.reply_to(line); },
                              [this] { return status(true); },
                              [this] { return p_.news.history_json(); },
@@ -47,16 +45,22 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
             MqttReport::Context{
                 inbox_, [this] { return status(false); },
                 [this](const std::string& line) { return p_.console.reply_to(line); }, p_.log,
-                p_.version},
+                p_.version, p_.network},
             settings.mqtt);
     }
+    CycleNews news{[this](Prompt, int) { changed(); },
+                   [this](CycleState) { changed(); },
+                   [this](bool completed) { cycle_ended(completed); },
+                   {},
+                   {}};
+    if (web_) news.frame = [this](const hal::Frame& frame) { frames_.put(frame); };
+    listening_ = p_.cycle.subscribe(std::move(news));
 }
 
 BoxNetwork::~BoxNetwork() {
     // The servers' threads first: they post to the inbox and read the frames.
     web_.reset();
     mqtt_.reset();
-    p_.cycle.on_frame = nullptr;
 }
 
 int BoxNetwork::web_port() const {

@@ -14,6 +14,7 @@
 #include "firmware/net/box_news.hpp"
 #include "firmware/net/live_view.hpp"
 #include "hal/clock.hpp"
+#include "hal/network.hpp"
 #include "hal/storage.hpp"
 
 namespace calbox::firmware {
@@ -29,6 +30,7 @@ struct BoxNetworkParts {
     const BoxConfig& config;  // the configuration in force (web.password is read from it)
     hal::Storage& data;       // the records the page serves
     hal::Clock& clock;
+    hal::Network& network;
     const LogBook& log_book;
     BoxNews& news;
     Cycle::Log log;
@@ -38,7 +40,7 @@ struct BoxNetworkParts {
 
 class BoxNetwork {
   public:
-    // Starts what the configuration asks for. Throws drivers::NetworkError when the page cannot
+    // Starts what the configuration asks for. Throws hal::NetworkError when the page cannot
     // listen where it is told; a broker that is not there is only logged (and retried).
     explicit BoxNetwork(BoxNetworkParts parts);
     BoxNetwork(BoxNetworkParts parts, const WebLimits& limits);
@@ -46,14 +48,14 @@ class BoxNetwork {
     BoxNetwork& operator=(const BoxNetwork&) = delete;
     ~BoxNetwork();
 
-    // The cycle's events, from its handlers: the state or prompt changed, a log line, a cycle
-    // ended (its line in the history first).
-    void changed();
-    void logged();  // the page's log only: MQTT carries the state, not every line
-    void cycle_ended(bool completed);
+    // A log line: the page's log only (MQTT carries the state, not every line). The cycle's
+    // states, prompts, ends and frames it hears for itself.
+    void logged();
     int web_port() const;  // 0 without a page
 
   private:
+    void changed();
+    void cycle_ended(bool completed);
     nlohmann::json status(bool for_page) const;
     LiveGuide guide() const;
     BoxNetworkParts p_;
@@ -61,6 +63,7 @@ class BoxNetwork {
     LatestFrame frames_;
     std::unique_ptr<WebWindow> web_;
     std::unique_ptr<MqttReport> mqtt_;
+    CycleSubscription listening_;
 };
 
 }  // namespace calbox::firmware

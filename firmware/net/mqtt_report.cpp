@@ -2,8 +2,6 @@
 
 #include <stdexcept>
 
-#include "drivers/http.hpp"
-
 namespace calbox::firmware {
 namespace {
 
@@ -31,11 +29,11 @@ json state_payload(const json& status) {
 
 MqttReport::MqttReport(Context context, const MqttSettings& settings)
     : c_(std::move(context)), settings_(settings) {
-    const auto broker = drivers::parse_host_port(settings_.broker, true);
+    const auto broker = net::parse_host_port(settings_.broker, true);
     const std::weak_ptr<bool> alive = alive_;
     LoopInbox& inbox = c_.inbox;
     // Each callback runs on the client's thread: it only posts to the loop.
-    drivers::MqttClient::Callbacks callbacks;
+    hal::MqttCallbacks callbacks;
     callbacks.connected = [this, alive, &inbox] {
         inbox.post([this, alive] {
             if (alive.lock()) on_connected(true);
@@ -65,9 +63,9 @@ MqttReport::MqttReport(Context context, const MqttSettings& settings)
             }
         });
     };
-    client_ = std::make_unique<drivers::MqttClient>(
-        "calbox-" + settings_.node_id, broker.host, broker.port,
-        drivers::MqttWill{topic("availability"), "offline", true, "offline"}, std::move(callbacks));
+    client_ = c_.network.mqtt("calbox-" + settings_.node_id, broker,
+                              hal::MqttWill{topic("availability"), "offline", true, "offline"},
+                              std::move(callbacks));
     c_.log("mqtt: reporting to " + settings_.broker + " as " + topic(""));
 }
 

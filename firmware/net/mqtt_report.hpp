@@ -10,9 +10,9 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "drivers/mqtt_client.hpp"
 #include "firmware/console/box_config.hpp"
 #include "firmware/loop/event_loop.hpp"
+#include "hal/network.hpp"
 
 namespace calbox::firmware {
 
@@ -25,6 +25,7 @@ class MqttReport {
         std::function<std::string(const std::string& line)> console;
         std::function<void(const std::string&)> log;
         std::string version;
+        hal::Network& network;
     };
     // Starts connecting; a broker not there is one log line, and tried again with back-off.
     MqttReport(Context context, const MqttSettings& settings);
@@ -48,7 +49,7 @@ class MqttReport {
     Context c_;
     MqttSettings settings_;
     std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);  // posted jobs check it
-    std::unique_ptr<drivers::MqttClient> client_;
+    std::unique_ptr<hal::MqttSession> client_;
 };
 
 }  // namespace calbox::firmware

@@ -5,20 +5,19 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
-#include "drivers/password.hpp"
 #include "firmware/net/web_page.hpp"
 
 namespace calbox::firmware {
 namespace {
 
-using drivers::ServerRequest;
-using drivers::ServerResponse;
+using hal::ServerRequest;
+using hal::ServerResponse;
 using json = nlohmann::json;
 
 // The loop did not answer in time (stopped, or the inbox going).
 struct Busy {};
 
-ServerResponse error(int status, const std::string& message, drivers::Headers headers = {}) {
+ServerResponse error(int status, const std::string& message, hal::Headers headers = {}) {
     return {status, "application/json", json{{"error", message}}.dump() + "\n", std::move(headers)};
 }
 
@@ -93,24 +92,24 @@ void secure(ServerResponse& r) {
 
 WebWindow::WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits)
     : c_(std::move(context)), limits_(limits) {
-    drivers::ServerLimits server;
+    hal::ServerLimits server;
     server.max_body_bytes = limits_.max_body_bytes;
     server.max_connections = limits_.max_connections;
     server.idle_timeout = limits_.idle_timeout;
-    server_ = std::make_unique<drivers::HttpServer>(
-        host, port,
-        drivers::HttpServer::Handlers{
-            [this](const ServerRequest& r) {
-                ServerResponse answer = this->answer(r);
-                secure(answer);
-                return answer;
-            },
-            [this](const ServerRequest& r) {
-                if (!take_token(r.peer)) return 429;
-                return r.target == "/events" ? 101 : 404;
-            },
-            [](const ServerRequest&, const std::string&) { return std::vector<std::string>{}; }},
-        server);
+    server_ = c_.network.listen(host, port,
+                                hal::HttpHandlers{[this](const ServerRequest& r) {
+                                                      ServerResponse answer = this->answer(r);
+                                                      secure(answer);
+                                                      return answer;
+                                                  },
+                                                  [this](const ServerRequest& r) {
+                                                      if (!take_token(r.peer)) return 429;
+                                                      return r.target == "/events" ? 101 : 404;
+                                                  },
+                                                  [](const ServerRequest&, const std::string&) {
+                                                      return std::vector<std::string>{};
+                                                  }},
+                                server);
 }
 
 WebWindow::~WebWindow() = default;
@@ -177,12 +176,11 @@ std::optional<ServerResponse> WebWindow::refuse_password(const ServerRequest& re
                          {{"Retry-After", std::to_string(limits_.wrong_password_wait.count())}});
     }
     const auto header = request.headers.find("authorization");
-    const auto password = header == request.headers.end()
-                              ? std::nullopt
-                              : drivers::basic_auth_password(header->second);
+    const auto password =
+        header == request.headers.end() ? std::nullopt : net::basic_auth_password(header->second);
     if (!password)
         return error(401, "this needs the box's web password (HTTP Basic authorization)");
-    const bool right = drivers::password_matches(*password, hash);
+    const bool right = c_.network.passwords().matches(*password, hash);
     const std::lock_guard lock(peers_mutex_);
     Peer& p = peers_[request.peer];
     if (right) {

@@ -3,7 +3,7 @@
 // with the set-up guide, the last cycle's pictures and every record, the configuration, the
 // button's actions, the drift history and /metrics. A window on the cycle like the display: it
 // reads through the loop's inbox and acts only through the console's commands, so that the page,
-// the button and the console do one thing one way. Served by drivers::HttpServer (Boost.Beast).
+// the button and the console do one thing one way. Served by a hal::HttpListener.
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -13,10 +13,10 @@
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 
-#include "drivers/http.hpp"
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/net/live_view.hpp"
 #include "hal/clock.hpp"
+#include "hal/network.hpp"
 #include "hal/storage.hpp"
 
 namespace calbox::firmware {
@@ -39,6 +39,7 @@ struct WebWindowContext {
     hal::Storage& records;  // the data directory: read from the server's threads
     hal::Clock& clock;      // the flood limit's
     LatestFrame& frames;    // the camera's newest frame (Cycle::on_frame)
+    hal::Network& network;  // its listener and the password's hasher
     // Each called on the loop's thread:
     std::function<std::string(const std::string& line)> console;  // a console line's reply
     std::function<nlohmann::json()> status;                       // BoxNews::status, the log
@@ -51,7 +52,7 @@ struct WebWindowContext {
 
 class WebWindow {
   public:
-    // Listens at host:port (port 0: a free one); throws drivers::NetworkError when it cannot.
+    // Listens at host:port (port 0: a free one); throws hal::NetworkError when it cannot.
     WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits = {});
     WebWindow(const WebWindow&) = delete;
     WebWindow& operator=(const WebWindow&) = delete;
@@ -67,26 +68,26 @@ class WebWindow {
         int wrong_passwords = 0;
         std::chrono::nanoseconds locked_until{0};
     };
-    drivers::ServerResponse answer(const drivers::ServerRequest& request);
-    drivers::ServerResponse route(const drivers::ServerRequest& request, const std::string& path,
-                                  const std::string& query);
-    drivers::ServerResponse post(const drivers::ServerRequest& request, const std::string& path);
-    drivers::ServerResponse live(const std::string& query);
-    drivers::ServerResponse record(const std::string& name, const std::string& query);
+    hal::ServerResponse answer(const hal::ServerRequest& request);
+    hal::ServerResponse route(const hal::ServerRequest& request, const std::string& path,
+                              const std::string& query);
+    hal::ServerResponse post(const hal::ServerRequest& request, const std::string& path);
+    hal::ServerResponse live(const std::string& query);
+    hal::ServerResponse record(const std::string& name, const std::string& query);
     // Empty when the request may change state; else the refusal.
-    std::optional<drivers::ServerResponse> refuse_password(const drivers::ServerRequest& request);
+    std::optional<hal::ServerResponse> refuse_password(const hal::ServerRequest& request);
     bool take_token(const std::string& peer);
     // On the loop's thread, within limits_.loop_answer; throws Busy otherwise.
     template <class T>
     T on_loop(std::function<T()> job);
     // A console line's reply on the loop, as HTTP: 200 with its JSON, or 409 with its error.
-    drivers::ServerResponse console_answer(const std::string& line);
+    hal::ServerResponse console_answer(const std::string& line);
 
     WebWindowContext c_;
     WebLimits limits_;
     std::mutex peers_mutex_;
-    std::map<std::string, Peer> peers_;            // under peers_mutex_
-    std::unique_ptr<drivers::HttpServer> server_;  // last: its threads use the rest
+    std::map<std::string, Peer> peers_;          // under peers_mutex_
+    std::unique_ptr<hal::HttpListener> server_;  // last: its threads use the rest
 };
 
 }  // namespace calbox::firmware

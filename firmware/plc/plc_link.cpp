@@ -69,6 +69,11 @@ PlcServer::PlcServer(hal::RegisterServer& server, Cycle& cycle, models::WordOrde
       log_(std::move(log)),
       completed_at_start_(cycle.cycles_completed()) {
     publish();
+    listening_ = cycle_.subscribe({[this](Prompt, int) { publish(); },
+                                   [this](CycleState) { publish(); },
+                                   [this](bool) { publish(); },
+                                   {},
+                                   {}});
 }
 
 void PlcServer::publish() {

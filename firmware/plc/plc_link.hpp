@@ -52,8 +52,8 @@ int input_register_count();
 class PlcServer {
   public:
     using Log = std::function<void(const std::string&)>;
+    // Listens to the cycle: its status bits and registers follow each state, prompt and end.
     PlcServer(hal::RegisterServer& server, Cycle& cycle, models::WordOrder order, Log log);
-    // Call on every state change and prompt: the status bits and registers follow the cycle.
     void publish();
     // Call when the server's written_fd() is readable: acts on the coils a client set.
     void on_coils_written();
@@ -66,6 +66,7 @@ class PlcServer {
     int completed_at_start_;
     bool was_idle_ = true;
     int published_results_ = -1;
+    CycleSubscription listening_;  // last: ends before the rest goes
 };
 
 // Writes each completed cycle's result block into a controller's holding registers, one value

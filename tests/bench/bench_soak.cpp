@@ -68,28 +68,39 @@ int main(int argc, char** argv) {
     int fds_after_first = 0;
     long rss_after_first = 0;
     const auto start = std::chrono::steady_clock::now();
-    box.cycle.on_prompt = [&box](firmware::Prompt p, int step) {
-        firmware::act_on_prompt(*box.board.bench, *box.board.lines, p, step, true);
-    };
-    box.cycle.on_cycle_end = [&](bool ok) {
-        ok ? ++completed : ++failed;
-        const int done = completed + failed;
-        if (done == 1) {
-            fds_after_first = open_descriptors();
-            rss_after_first = resident_kb();
-        }
-        if (done == 1 || done % 20 == 0 || done == cycles)
-            std::printf(
-                "cycle %3d: %d open descriptors, %ld kB resident, %ld kB heap in use, %.0f s\n",
-                done, open_descriptors(), resident_kb(), heap_in_use_kb(),
-                bench::seconds_since(start));
-        std::fflush(stdout);
-        if (done >= cycles) {
-            box.loop.stop();
-            return;
-        }
-        box.board.lines->press(std::chrono::milliseconds(100));
-    };
+    const auto operator_acts = box.cycle.subscribe(
+        {[&box](firmware::Prompt p, int step) {
+             firmware::act_on_prompt(*box.board.bench, *box.board.lines, p, step, true);
+         },
+         {},
+         {},
+         {},
+         {}});
+    const auto counting =
+        box.cycle.subscribe({{},
+                             {},
+                             [&](bool ok) {
+                                 ok ? ++completed : ++failed;
+                                 const int done = completed + failed;
+                                 if (done == 1) {
+                                     fds_after_first = open_descriptors();
+                                     rss_after_first = resident_kb();
+                                 }
+                                 if (done == 1 || done % 20 == 0 || done == cycles)
+                                     std::printf(
+                                         "cycle %3d: %d open descriptors, %ld kB resident, %ld kB "
+                                         "heap in use, %.0f s\n",
+                                         done, open_descriptors(), resident_kb(), heap_in_use_kb(),
+                                         bench::seconds_since(start));
+                                 std::fflush(stdout);
+                                 if (done >= cycles) {
+                                     box.loop.stop();
+                                     return;
+                                 }
+                                 box.board.lines->press(std::chrono::milliseconds(100));
+                             },
+                             {},
+                             {}});
     box.board.lines->press(std::chrono::milliseconds(100));
     box.loop.run();
     std::printf(

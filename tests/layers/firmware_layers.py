@@ -1,8 +1,9 @@
 #!/usr/bin/python3
-"""The firmware's house, from its own includes: firmware/ in folders by concern, each including
-only its own folder and the folders below it (never one above: no cycle), and firmware reaching
-drivers/ only through the files listed below, which hal/ is to replace one by one (a new file
-that includes drivers/ fails here). Usage: firmware_layers.py SOURCE_DIR"""
+"""The firmware's house, from its own includes and its build: firmware/ in folders by concern,
+each including only its own folder and the folders below it (never one above: no cycle);
+no firmware file including drivers/ (devices and the network are reached through hal/); the
+boards opened only by the calbox binary's own folders (app/, cli/); and the firmware library
+linking neither drivers nor boards. Usage: firmware_layers.py SOURCE_DIR"""
 import os
 import re
 import sys
@@ -13,13 +14,9 @@ firmware = os.path.join(top, "firmware")
 RANKS = ["loop", "links", "cycle", "modes", "plc", "console", "net", "cli", "app"]
 # Folders of one rank side by side, neither including the other.
 SAME_RANK = {"plc": 4, "console": 4}
-# What still includes drivers/ (issue: the layers enforced). Nothing may join this list.
-DRIVERS_ALLOWED = {
-    "console/box_config.cpp", "console/console.cpp", "console/link_key.cpp",
-    "console/link_key.hpp", "links/duet_link.hpp", "links/host_link.hpp",
-    "links/moonraker_link.hpp", "links/octoprint_link.hpp", "net/box_network.cpp",
-    "net/mqtt_report.cpp", "net/mqtt_report.hpp", "net/web_window.cpp", "net/web_window.hpp",
-}
+# The calbox binary's own folders: the composition root and the subcommands, the only users of
+# the boards (which bind drivers to hal/).
+BOARD_USERS = {"app", "cli"}
 
 
 def rank(folder):
@@ -46,9 +43,12 @@ for folder, _, names in os.walk(firmware):
             problems.append(f"firmware/{here}: '{own}' is no folder of the house ({', '.join(RANKS)})")
             continue
         for target in include.findall(open(path, encoding="utf-8").read()):
-            if target.startswith("drivers/") and here not in DRIVERS_ALLOWED:
+            if target.startswith("drivers/"):
                 problems.append(f"firmware/{here} includes {target}: reach devices and the "
                                 "network through hal/")
+            if target.startswith("board/") and own not in BOARD_USERS:
+                problems.append(f"firmware/{here} includes {target}: only the composition root "
+                                "(app/) and the subcommands (cli/) open boards")
             if not target.startswith("firmware/"):
                 continue
             parts = target.split("/")
@@ -61,9 +61,16 @@ for folder, _, names in os.walk(firmware):
             elif theirs != own and rank(theirs) >= rank(own):
                 problems.append(f"firmware/{here} ({own}) includes {target} ({theirs}): "
                                 "a lower folder includes a higher one, or one of its rank")
-stale = [f for f in DRIVERS_ALLOWED if not os.path.exists(os.path.join(firmware, f))]
-for f in stale:
-    problems.append(f"firmware/{f} is in DRIVERS_ALLOWED but not in the tree: take it out")
+# The build enforces it too: what the firmware library links.
+cmake = open(os.path.join(top, "CMakeLists.txt"), encoding="utf-8").read()
+links = re.search(r"target_link_libraries\(calbox_firmware\b([^)]*)\)", cmake)
+if links is None:
+    problems.append("CMakeLists.txt: no target_link_libraries(calbox_firmware ...)")
+else:
+    for library in ("calbox_drivers", "calbox_board", "calbox_sim", "calbox_rpi"):
+        if re.search(r"\b" + library + r"\b", links.group(1)):
+            problems.append(f"CMakeLists.txt: calbox_firmware links {library}: firmware reaches "
+                            "devices through hal/ only")
 if files < 50:
     problems.append(f"only {files} firmware files found under {firmware}")
 for p in problems:

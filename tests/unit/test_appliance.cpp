@@ -93,6 +93,7 @@ struct Rig {
     bool operator_acts = true;
     std::function<bool(firmware::Prompt)> intercept;  // true: the test handled the prompt
     int ended = 0;
+    firmware::CycleSubscription listening;
 
     Rig(const fs::path& data_dir, const std::string& scenario, firmware::CycleSettings settings,
         const firmware::SimAppliance::CameraChoice& choose_camera = {},
@@ -102,11 +103,16 @@ struct Rig {
               {scenario, data_dir, 115200}, clock, {1, 5000ms, 8}, std::move(settings),
               [this](const std::string& l) { log.push_back(l); }, choose_camera,
               std::make_unique<drivers::FileStorage>(data_dir, data_files)) {
-        cycle.on_prompt = [this](firmware::Prompt p, int step) {
-            if (intercept && intercept(p)) return;
-            if (operator_acts) firmware::act_on_prompt(*board.bench, *board.lines, p, step);
-        };
-        cycle.on_cycle_end = [this](bool) { ++ended; };
+        listening =
+            cycle.subscribe({[this](firmware::Prompt p, int step) {
+                                 if (intercept && intercept(p)) return;
+                                 if (operator_acts)
+                                     firmware::act_on_prompt(*board.bench, *board.lines, p, step);
+                             },
+                             {},
+                             [this](bool) { ++ended; },
+                             {},
+                             {}});
         // The twin's start-up banner, in real time: the fake clock must not run past the host's
         // wait for it while the printer's thread is still starting.
         for (int i = 0; i < 250 && !host.heard_from_printer(); ++i) loop.run_once(20ms);
@@ -839,7 +845,9 @@ TEST(ApplianceFiles, a_source_without_photos_and_photos_running_out_are_errors) 
 struct FillingDisk final : drivers::FileSystemCalls {
     bool full = false;
     drivers::FileSystemCalls& real = drivers::posix_file_system();
-    int create_truncated(const fs::path& p) override { return real.create_truncated(p); }
+    int create_truncated(const fs::path& p, drivers::FileAccess access) override {
+        return real.create_truncated(p, access);
+    }
     void write_all(int h, std::string_view bytes) override {
         if (!full) return real.write_all(h, bytes);
         real.write_all(h, bytes.substr(0, bytes.size() / 2));
@@ -1036,7 +1044,6 @@ struct PlcRig {
     explicit PlcRig(const std::string& scenario)
         : rig(fresh_dir("plc-" + fs::path(scenario).stem().string()),
               (fs::path(CALBOX_SOURCE_DIR) / scenario).string(), {}) {
-        rig.cycle.on_state = [this](firmware::CycleState) { plc.publish(); };
         rig.run_cycle();
         rig.check_cycles_completed(1);
         plc.publish();
@@ -1105,7 +1112,8 @@ TEST(AppliancePlc, a_galvo_missing_its_goal_reads_fail) {
 TEST(ApplianceLink, the_live_views_frames_never_take_the_cycles_place) {
     Rig rig(fresh_dir("preview"), kScenario.string(), {});
     std::vector<std::uint64_t> frames;
-    rig.cycle.on_frame = [&](const hal::Frame& f) { frames.push_back(f.metadata.sequence); };
+    const auto listening = rig.cycle.subscribe(
+        {{}, {}, {}, {}, [&](const hal::Frame& f) { frames.push_back(f.metadata.sequence); }});
     CHECK_TRUE(rig.cycle.preview());
     CHECK_FALSE(rig.cycle.preview());  // one at a time
     rig.run_until([&] { return frames.size() == 1; });

@@ -174,7 +174,7 @@ class PowerCutFileSystem final : public drivers::FileSystemCalls {
         for (auto& inode : inodes_) inode.cached = inode.durable;
     }
 
-    int create_truncated(const std::filesystem::path& path) override {
+    int create_truncated(const std::filesystem::path& path, drivers::FileAccess) override {
         step();
         const auto name = path.filename().string();
         if (const auto it = cached_.find(name); it != cached_.end()) {
@@ -273,7 +273,7 @@ TEST(ConfigSave, a_power_cut_at_any_step_of_a_save_leaves_the_old_file_or_the_ne
 TEST(ConfigSave, the_power_cut_double_catches_the_saves_that_are_not_safe) {
     // Writing in place: the truncation is journaled, a cut mid-write leaves an empty file.
     const Save in_place = [](drivers::FileSystemCalls& fs, const std::string& text) {
-        const int h = fs.create_truncated("/box/calbox.toml");
+        const int h = fs.create_truncated("/box/calbox.toml", drivers::FileAccess::shared);
         fs.write_all(h, text);
         fs.flush(h);
         fs.close(h);
@@ -281,7 +281,7 @@ TEST(ConfigSave, the_power_cut_double_catches_the_saves_that_are_not_safe) {
     STRCMP_CONTAINS("broke the file", first_unsafe_cut(in_place, true).c_str());
     // Renaming before the data is flushed: the journal keeps the name, the data is lost.
     const Save unflushed = [](drivers::FileSystemCalls& fs, const std::string& text) {
-        const int h = fs.create_truncated("/box/calbox.toml.tmp");
+        const int h = fs.create_truncated("/box/calbox.toml.tmp", drivers::FileAccess::shared);
         fs.write_all(h, text);
         fs.close(h);
         fs.rename("/box/calbox.toml.tmp", "/box/calbox.toml");
@@ -290,7 +290,7 @@ TEST(ConfigSave, the_power_cut_double_catches_the_saves_that_are_not_safe) {
     STRCMP_CONTAINS("broke the file", first_unsafe_cut(unflushed, true).c_str());
     // Not flushing the directory: the save returns, and a cut brings the old file back.
     const Save no_directory_flush = [](drivers::FileSystemCalls& fs, const std::string& text) {
-        const int h = fs.create_truncated("/box/calbox.toml.tmp");
+        const int h = fs.create_truncated("/box/calbox.toml.tmp", drivers::FileAccess::shared);
         fs.write_all(h, text);
         fs.flush(h);
         fs.close(h);
@@ -298,6 +298,45 @@ TEST(ConfigSave, the_power_cut_double_catches_the_saves_that_are_not_safe) {
     };
     STRCMP_CONTAINS("brought the old file back",
                     first_unsafe_cut(no_directory_flush, false).c_str());
+}
+
+TEST(ConfigSave, a_private_file_is_the_owners_alone_from_its_first_byte) {
+    char pattern[] = "/tmp/calbox-private-XXXXXX";
+    const std::filesystem::path dir = ::mkdtemp(pattern);
+    // A sibling an earlier cut left, readable by all: the key does not inherit its mode.
+    std::ofstream(dir / "octoprint.key.tmp") << "old";
+    std::filesystem::permissions(dir / "octoprint.key.tmp", std::filesystem::perms::all);
+    struct Watch final : drivers::FileSystemCalls {
+        drivers::FileSystemCalls& real = drivers::posix_file_system();
+        std::filesystem::perms written_with{};
+        int create_truncated(const std::filesystem::path& p, drivers::FileAccess a) override {
+            return real.create_truncated(p, a);
+        }
+        void write_all(int h, std::string_view bytes) override {
+            written_with =
+                std::filesystem::status("/proc/self/fd/" + std::to_string(h)).permissions();
+            real.write_all(h, bytes);
+        }
+        void flush(int h) override { real.flush(h); }
+        void close(int h) override { real.close(h); }
+        void rename(const std::filesystem::path& a, const std::filesystem::path& b) override {
+            real.rename(a, b);
+        }
+        void flush_directory(const std::filesystem::path& d) override { real.flush_directory(d); }
+        void remove(const std::filesystem::path& p) noexcept override { real.remove(p); }
+    } watch;
+    drivers::FileStorage storage(dir, watch);
+    storage.replace_private_file("octoprint.key", "0123456789ABCDEF\n");
+    const auto owner_only =
+        std::filesystem::perms::owner_read | std::filesystem::perms::owner_write;
+    CHECK_TRUE(watch.written_with == owner_only);
+    CHECK_TRUE(std::filesystem::status(dir / "octoprint.key").permissions() == owner_only);
+    STRCMP_EQUAL("0123456789ABCDEF\n", storage.read_file("octoprint.key")->c_str());
+    // A record is readable by all, as before.
+    storage.replace_file("cycle-0001-result.json", "{}");
+    CHECK_TRUE((std::filesystem::status(dir / "cycle-0001-result.json").permissions() &
+                std::filesystem::perms::others_read) != std::filesystem::perms::none);
+    std::filesystem::remove_all(dir);
 }
 
 TEST(ConfigSave, a_process_killed_at_random_moments_while_saving_leaves_a_whole_file_200_times) {

@@ -23,6 +23,7 @@
 #include "core/models/machine_file.hpp"
 #include "core/models/machine_import.hpp"
 #include "drivers/http.hpp"
+#include "drivers/network.hpp"
 #include "firmware/cycle/cycle_mode.hpp"
 #include "firmware/links/duet_link.hpp"
 #include "firmware/links/moonraker_link.hpp"
@@ -51,20 +52,20 @@ firmware::JobOutcome run_to_its_end(firmware::EventLoop& loop, Start start_reque
 TEST_GROUP(HttpDriver){};
 
 TEST(HttpDriver, parses_urls_and_refuses_what_it_cannot_reach) {
-    const auto u = drivers::parse_url("http://printer.local:7125/api");
+    const auto u = net::parse_url("http://printer.local:7125/api");
     STRCMP_EQUAL("http", u.scheme.c_str());
     STRCMP_EQUAL("printer.local", u.host.c_str());
     STRCMP_EQUAL("7125", u.port.c_str());
     STRCMP_EQUAL("/api", u.path.c_str());
-    STRCMP_EQUAL("80", drivers::parse_url("http://10.0.0.5").port.c_str());
-    CHECK_THROWS(std::invalid_argument, drivers::parse_url("printer.local:7125"));
-    CHECK_THROWS(std::invalid_argument, drivers::parse_url("ftp://printer.local"));
-    CHECK_THROWS(std::invalid_argument, drivers::parse_url("http://printer.local:99999"));
-    CHECK_THROWS(std::invalid_argument, drivers::parse_url("http://user:pw@printer.local"));
-    const auto tls = drivers::parse_url("https://printer.local/");
+    STRCMP_EQUAL("80", net::parse_url("http://10.0.0.5").port.c_str());
+    CHECK_THROWS(std::invalid_argument, net::parse_url("printer.local:7125"));
+    CHECK_THROWS(std::invalid_argument, net::parse_url("ftp://printer.local"));
+    CHECK_THROWS(std::invalid_argument, net::parse_url("http://printer.local:99999"));
+    CHECK_THROWS(std::invalid_argument, net::parse_url("http://user:pw@printer.local"));
+    const auto tls = net::parse_url("https://printer.local/");
     CHECK(tls.tls());
     STRCMP_EQUAL("443", tls.port.c_str());
-    CHECK(drivers::parse_url("wss://printer.local:7125/websocket").tls());
+    CHECK(net::parse_url("wss://printer.local:7125/websocket").tls());
     CHECK_FALSE(u.tls());
 }
 
@@ -74,11 +75,11 @@ TEST(HttpDriver, parses_urls_and_refuses_what_it_cannot_reach) {
 TEST(HttpDriver, tls_reaches_a_host_whose_certificate_it_trusts_and_no_other) {
     drivers::HttpServer server(
         "127.0.0.1", 0,
-        {[](const drivers::ServerRequest& r) {
-             return drivers::ServerResponse{200, "text/plain", r.method + " " + r.target};
+        {[](const hal::ServerRequest& r) {
+             return hal::ServerResponse{200, "text/plain", r.method + " " + r.target};
          },
-         [](const drivers::ServerRequest&) { return 101; },
-         [](const drivers::ServerRequest&, const std::string& m) {
+         [](const hal::ServerRequest&) { return 101; },
+         [](const hal::ServerRequest&, const std::string& m) {
              return std::vector<std::string>{"re:" + m};
          }});
     const auto certificate = drivers::self_signed_certificate("127.0.0.1");
@@ -86,19 +87,19 @@ TEST(HttpDriver, tls_reaches_a_host_whose_certificate_it_trusts_and_no_other) {
     drivers::TlsTerminator front("127.0.0.1", server.port(), certificate);
     const fs::path ca = fs::temp_directory_path() / ("calbox-ca-" + std::to_string(::getpid()));
     { std::ofstream(ca) << certificate.certificate_pem; }
-    auto url = drivers::parse_url("https://127.0.0.1:" + std::to_string(front.port()));
+    auto url = net::parse_url("https://127.0.0.1:" + std::to_string(front.port()));
     url.ca_file = ca.string();
     const auto r = drivers::http_request(url, {"GET", "/server/info", {}, {}, {}}, 2000ms);
     CHECK_EQUAL(200, r.status);
     STRCMP_EQUAL("GET /server/info", r.body.c_str());
-    auto socket_url = drivers::parse_url("wss://127.0.0.1:" + std::to_string(front.port()) + "/ws");
+    auto socket_url = net::parse_url("wss://127.0.0.1:" + std::to_string(front.port()) + "/ws");
     socket_url.ca_file = ca.string();
     drivers::WebSocketClient ws(socket_url, {}, 2000ms);
     ws.send("hello");
     STRCMP_EQUAL("re:hello", ws.receive(2000ms).value().c_str());
     // The inner server dropping its connections drops the TLS one too.
     server.drop_connections();
-    CHECK_THROWS(drivers::NetworkError, ws.receive(2000ms));
+    CHECK_THROWS(hal::NetworkError, ws.receive(2000ms));
 
     // Without the certificate to trust (the system's authorities never signed it).
     auto untrusted = url;
@@ -106,19 +107,19 @@ TEST(HttpDriver, tls_reaches_a_host_whose_certificate_it_trusts_and_no_other) {
     try {
         drivers::http_request(untrusted, {"GET", "/", {}, {}, {}}, 2000ms);
         FAIL("a certificate nobody vouches for was taken");
-    } catch (const drivers::NetworkError& e) {
+    } catch (const hal::NetworkError& e) {
         STRCMP_CONTAINS("TLS: certificate verify failed", e.what());
     }
     // A certificate for another address.
     const auto other = drivers::self_signed_certificate("127.0.0.2");
     drivers::TlsTerminator elsewhere("127.0.0.1", server.port(), other);
     { std::ofstream(ca) << other.certificate_pem; }
-    auto misnamed = drivers::parse_url("https://127.0.0.1:" + std::to_string(elsewhere.port()));
+    auto misnamed = net::parse_url("https://127.0.0.1:" + std::to_string(elsewhere.port()));
     misnamed.ca_file = ca.string();
     try {
         drivers::http_request(misnamed, {"GET", "/", {}, {}, {}}, 2000ms);
         FAIL("a certificate for another host was taken");
-    } catch (const drivers::NetworkError& e) {
+    } catch (const hal::NetworkError& e) {
         STRCMP_CONTAINS("TLS: certificate verify failed", e.what());
     }
     fs::remove(ca);
@@ -130,21 +131,19 @@ TEST(HttpDriver, tls_reaches_a_host_whose_certificate_it_trusts_and_no_other) {
 TEST(HttpDriver, serves_and_reaches_http_and_websocket_on_loopback) {
     drivers::HttpServer server(
         "127.0.0.1", 0,
-        {[](const drivers::ServerRequest& r) {
-             return drivers::ServerResponse{
+        {[](const hal::ServerRequest& r) {
+             return hal::ServerResponse{
                  r.target == "/echo" ? 200 : 404, "text/plain",
                  r.method + " " + r.body + " " +
                      (r.headers.count("x-api-key") != 0 ? r.headers.at("x-api-key")
                                                         : std::string("-"))};
          },
-         [](const drivers::ServerRequest& r) {
-             return r.headers.count("x-api-key") != 0 ? 101 : 401;
-         },
-         [](const drivers::ServerRequest&, const std::string& m) {
+         [](const hal::ServerRequest& r) { return r.headers.count("x-api-key") != 0 ? 101 : 401; },
+         [](const hal::ServerRequest&, const std::string& m) {
              if (m == "quiet") return std::vector<std::string>{};
              return std::vector<std::string>{"1:" + m, "2:" + m};
          }});
-    const auto url = drivers::parse_url("http://127.0.0.1:" + std::to_string(server.port()));
+    const auto url = net::parse_url("http://127.0.0.1:" + std::to_string(server.port()));
     const auto r = drivers::http_request(
         url, {"POST", "/echo", {{"X-Api-Key", "k1"}}, "text/plain", "body"}, 2000ms);
     CHECK_EQUAL(200, r.status);
@@ -154,7 +153,7 @@ TEST(HttpDriver, serves_and_reaches_http_and_websocket_on_loopback) {
     try {
         drivers::WebSocketClient refused(url, {}, 2000ms);
         FAIL("the upgrade without a key was accepted");
-    } catch (const drivers::NetworkError& e) {
+    } catch (const hal::NetworkError& e) {
         STRCMP_CONTAINS("HTTP 401", e.what());
     }
     drivers::WebSocketClient ws(url, {{"X-Api-Key", "k1"}}, 2000ms);
@@ -174,7 +173,7 @@ TEST(HttpDriver, serves_and_reaches_http_and_websocket_on_loopback) {
 
     // The server closing every connection (a host restarting): the client sees it gone.
     server.drop_connections();
-    CHECK_THROWS(drivers::NetworkError, ws.receive(2000ms));
+    CHECK_THROWS(hal::NetworkError, ws.receive(2000ms));
 }
 
 TEST(HttpDriver, a_port_nobody_listens_on_is_a_network_error) {
@@ -184,8 +183,8 @@ TEST(HttpDriver, a_port_nobody_listens_on_is_a_network_error) {
         drivers::HttpServer s("127.0.0.1", 0, {});
         port = s.port();
     }
-    const auto url = drivers::parse_url("http://127.0.0.1:" + std::to_string(port));
-    CHECK_THROWS(drivers::NetworkError, drivers::http_request(url, {}, 1000ms));
+    const auto url = net::parse_url("http://127.0.0.1:" + std::to_string(port));
+    CHECK_THROWS(hal::NetworkError, drivers::http_request(url, {}, 1000ms));
 }
 
 TEST_GROUP(KlipperConfig){};
@@ -456,6 +455,7 @@ TEST(KlipperConfig, the_machine_files_link_says_how_the_box_reaches_the_machine)
 // ends its request with one line naming it.
 TEST_GROUP(MoonrakerLink) {
     fs::path dir;
+    std::unique_ptr<hal::Network> network = drivers::system_network();
     std::shared_ptr<sim::TwinBench> bench;
     std::unique_ptr<sim::MoonrakerTwin> host;
     std::unique_ptr<firmware::MoonrakerLink> link;
@@ -482,13 +482,13 @@ TEST_GROUP(MoonrakerLink) {
         host = std::make_unique<sim::MoonrakerTwin>(bench, dir / "host",
                                                     sim::TwinHostSettings{key, faults, 85, 0});
         firmware::MoonrakerSettings s;
-        s.url = drivers::parse_url(host->url());
+        s.url = net::parse_url(host->url());
         s.api_key = link_key;
         s.reply_timeout = 1500ms;
         s.restart_timeout = 5000ms;
         s.poll_interval = 20ms;
         link = std::make_unique<firmware::MoonrakerLink>(
-            s, [this](const std::string& line) { log.push_back(line); });
+            s, network->http(), [this](const std::string& line) { log.push_back(line); });
         link->attach(loop);
     }
 
@@ -620,7 +620,7 @@ TEST(MoonrakerLink, the_modes_read_klippers_settings_in_force_or_fail_the_cycle_
 
 TEST(MoonrakerLink, a_one_shot_token_opens_one_websocket) {
     start({});
-    const auto url = drivers::parse_url(host->url());
+    const auto url = net::parse_url(host->url());
     const auto fetched = drivers::http_request(
         url, {"GET", "/access/oneshot_token", {{"X-Api-Key", "sesame"}}, {}, {}}, 2000ms);
     LONGS_EQUAL(200, fetched.status);
@@ -631,7 +631,7 @@ TEST(MoonrakerLink, a_one_shot_token_opens_one_websocket) {
     try {
         drivers::WebSocketClient again(socket_url, {}, 2000ms);
         FAIL("a one-shot token opened a second websocket");
-    } catch (const drivers::NetworkError& e) {
+    } catch (const hal::NetworkError& e) {
         STRCMP_CONTAINS("401", e.what());
     }
     const auto refused =
@@ -750,6 +750,7 @@ TEST(MoonrakerLink, a_refused_upload_leaves_the_file_as_it_was) {
 // application keys plugin.
 TEST_GROUP(OctoPrintLink) {
     fs::path dir;
+    std::unique_ptr<hal::Network> network = drivers::system_network();
     std::shared_ptr<sim::TwinBench> bench;
     std::unique_ptr<sim::OctoPrintTwin> host;
     std::unique_ptr<firmware::OctoPrintLink> link;
@@ -765,12 +766,12 @@ TEST_GROUP(OctoPrintLink) {
         host = std::make_unique<sim::OctoPrintTwin>(bench, dir / "host",
                                                     sim::TwinHostSettings{"sesame", {}, 85, 0});
         firmware::OctoPrintSettings s;
-        s.url = drivers::parse_url(host->url());
+        s.url = net::parse_url(host->url());
         s.api_key = "sesame";
         s.reply_timeout = 2000ms;
         s.poll_interval = 20ms;
         link = std::make_unique<firmware::OctoPrintLink>(
-            s, [this](const std::string& line) { log.push_back(line); });
+            s, network->http(), [this](const std::string& line) { log.push_back(line); });
         link->attach(loop);
     }
     void teardown() override {
@@ -818,7 +819,7 @@ TEST(OctoPrintLink, a_job_is_uploaded_printed_and_followed_to_its_end) {
 TEST(OctoPrintLink, a_key_is_asked_for_through_the_application_keys_plugin) {
     std::vector<std::string> said;
     const auto key =
-        firmware::request_octoprint_key(drivers::parse_url(host->url()), "owner", 10s,
+        firmware::request_octoprint_key(network->http(), net::parse_url(host->url()), "owner", 10s,
                                         [&said](const std::string& line) { said.push_back(line); });
     STRCMP_EQUAL("sesame", key.c_str());
     CHECK_EQUAL(1u, said.size());
@@ -829,6 +830,7 @@ TEST(OctoPrintLink, a_key_is_asked_for_through_the_application_keys_plugin) {
 // marker, a job uploaded with its CRC32 and started with M32.
 TEST_GROUP(DuetLink) {
     fs::path dir;
+    std::unique_ptr<hal::Network> network = drivers::system_network();
     std::shared_ptr<sim::TwinBench> bench;
     std::unique_ptr<sim::DuetTwin> host;
     std::unique_ptr<firmware::DuetLink> link;
@@ -850,11 +852,11 @@ TEST_GROUP(DuetLink) {
     }
     void connect(const std::string& password) {
         firmware::DuetSettings s;
-        s.url = drivers::parse_url(host->url());
+        s.url = net::parse_url(host->url());
         s.password = password;
         s.reply_timeout = 2000ms;
         s.poll_interval = 20ms;
-        link = std::make_unique<firmware::DuetLink>(s, [](const std::string&) {});
+        link = std::make_unique<firmware::DuetLink>(s, network->http(), [](const std::string&) {});
         link->attach(loop);
     }
     void teardown() override {

@@ -52,24 +52,24 @@ TEST(RegisterWords, float_test_vector_in_each_word_order) {
 TEST_GROUP(ModbusEndpoint){};
 
 TEST(ModbusEndpoint, parses_tcp_and_rtu_and_names_what_is_wrong) {
-    const auto tcp = drivers::parse_modbus_endpoint("tcp:127.0.0.1:1502");
-    CHECK(tcp.kind == drivers::ModbusEndpoint::Kind::tcp);
+    const auto tcp = net::parse_modbus_endpoint("tcp:127.0.0.1:1502");
+    CHECK(tcp.kind == net::ModbusEndpoint::Kind::tcp);
     STRCMP_EQUAL("127.0.0.1", tcp.host.c_str());
     CHECK_EQUAL(1502, tcp.port);
-    const auto rtu = drivers::parse_modbus_endpoint("rtu:/dev/ttyUSB0:19200");
+    const auto rtu = net::parse_modbus_endpoint("rtu:/dev/ttyUSB0:19200");
     STRCMP_EQUAL("/dev/ttyUSB0", rtu.device.c_str());
     CHECK_EQUAL(19200, rtu.baud);
     STRCMP_CONTAINS("not tcp:HOST:PORT", test::construction_error([] {
-                                             drivers::parse_modbus_endpoint("localhost");
+                                             net::parse_modbus_endpoint("localhost");
                                          }).c_str());
     STRCMP_CONTAINS("port 'x' is not a number", test::construction_error([] {
-                                                    drivers::parse_modbus_endpoint("tcp:h:x");
+                                                    net::parse_modbus_endpoint("tcp:h:x");
                                                 }).c_str());
     STRCMP_CONTAINS("'udp' is not tcp or rtu", test::construction_error([] {
-                                                   drivers::parse_modbus_endpoint("udp:h:1");
+                                                   net::parse_modbus_endpoint("udp:h:1");
                                                }).c_str());
     STRCMP_CONTAINS("port out of range", test::construction_error([] {
-                                             drivers::parse_modbus_endpoint("tcp:h:70000");
+                                             net::parse_modbus_endpoint("tcp:h:70000");
                                          }).c_str());
 }
 
@@ -217,7 +217,7 @@ TEST(ModbusClient, writes_and_reads_back_through_pymodbus_over_tcp_with_exceptio
     const int port = free_tcp_port();
     Process peer({"/usr/bin/python3", python_peer(), "tcp", std::to_string(port)});
     drivers::ModbusClient client(
-        drivers::parse_modbus_endpoint("tcp:127.0.0.1:" + std::to_string(port)), {});
+        net::parse_modbus_endpoint("tcp:127.0.0.1:" + std::to_string(port)), {});
     wait_until_serving(client);
 
     const auto w = models::pack_float(123456.0f, models::WordOrder::abcd);
@@ -249,7 +249,7 @@ TEST(ModbusClient, a_peer_that_never_answers_is_an_error_after_the_response_time
     socklen_t size = sizeof a;
     ::getsockname(listener, reinterpret_cast<sockaddr*>(&a), &size);
     drivers::ModbusClient client(
-        drivers::parse_modbus_endpoint("tcp:127.0.0.1:" + std::to_string(ntohs(a.sin_port))),
+        net::parse_modbus_endpoint("tcp:127.0.0.1:" + std::to_string(ntohs(a.sin_port))),
         {300, 100});
     const auto started = std::chrono::steady_clock::now();
     client.start_write_registers(0, {1});
@@ -264,7 +264,7 @@ TEST(ModbusClient, a_peer_that_never_answers_is_an_error_after_the_response_time
 
 TEST(ModbusClient, nobody_listening_is_one_clear_error) {
     drivers::ModbusClient client(
-        drivers::parse_modbus_endpoint("tcp:127.0.0.1:" + std::to_string(free_tcp_port())), {});
+        net::parse_modbus_endpoint("tcp:127.0.0.1:" + std::to_string(free_tcp_port())), {});
     client.start_write_coil(0, true);
     const auto r = wait_result(client);
     STRCMP_CONTAINS("cannot connect: Connection refused", r.error.c_str());
@@ -296,7 +296,7 @@ struct PtyPair {
 TEST(ModbusClient, writes_to_pymodbus_over_rtu_on_a_pty_pair) {
     PtyPair pty;
     Process peer({"/usr/bin/python3", python_peer(), "rtu", pty.b, "19200"});
-    drivers::ModbusClient client(drivers::parse_modbus_endpoint("rtu:" + pty.a + ":19200"), {});
+    drivers::ModbusClient client(net::parse_modbus_endpoint("rtu:" + pty.a + ":19200"), {});
     wait_until_serving(client);
     client.start_write_registers(0, {0x47F1, 0x2000});
     STRCMP_EQUAL("", wait_result(client).error.c_str());
@@ -311,10 +311,10 @@ TEST_GROUP(ModbusServer){};
 TEST(ModbusServer, our_client_drives_our_server_over_rtu_and_tcp) {
     for (const bool rtu : {false, true}) {
         PtyPair pty;
-        const auto server_end = drivers::parse_modbus_endpoint(
-            rtu ? "rtu:" + pty.a + ":38400" : std::string("tcp:127.0.0.1:0"));
+        const auto server_end = net::parse_modbus_endpoint(rtu ? "rtu:" + pty.a + ":38400"
+                                                               : std::string("tcp:127.0.0.1:0"));
         drivers::ModbusServer server(server_end, {4, 2, 0, 6}, {}, nullptr);
-        const auto client_end = drivers::parse_modbus_endpoint(
+        const auto client_end = net::parse_modbus_endpoint(
             rtu ? "rtu:" + pty.b + ":38400" : "tcp:127.0.0.1:" + std::to_string(server.port()));
         drivers::ModbusClient client(client_end, {});
         client.start_write_coil(2, true);
@@ -329,18 +329,18 @@ TEST(ModbusServer, our_client_drives_our_server_over_rtu_and_tcp) {
 }
 
 TEST(ModbusServer, a_port_in_use_a_missing_device_and_permission_denied_name_the_endpoint) {
-    drivers::ModbusServer first(drivers::parse_modbus_endpoint("tcp:127.0.0.1:0"), {1, 1, 0, 1}, {},
+    drivers::ModbusServer first(net::parse_modbus_endpoint("tcp:127.0.0.1:0"), {1, 1, 0, 1}, {},
                                 nullptr);
     const std::string taken = "tcp:127.0.0.1:" + std::to_string(first.port());
     STRCMP_CONTAINS(
         ("modbus " + taken + ": cannot listen: Address already in use").c_str(),
         test::construction_error([&] {
-            drivers::ModbusServer(drivers::parse_modbus_endpoint(taken), {1, 1, 0, 1}, {}, nullptr);
+            drivers::ModbusServer(net::parse_modbus_endpoint(taken), {1, 1, 0, 1}, {}, nullptr);
         }).c_str());
     STRCMP_CONTAINS(
         "modbus rtu:/dev/ttyCALBOX97:19200: cannot open the serial device: No such file",
         test::construction_error([] {
-            drivers::ModbusServer(drivers::parse_modbus_endpoint("rtu:/dev/ttyCALBOX97:19200"),
+            drivers::ModbusServer(net::parse_modbus_endpoint("rtu:/dev/ttyCALBOX97:19200"),
                                   {1, 1, 0, 1}, {}, nullptr);
         }).c_str());
     test::ScratchFile device("");
@@ -348,7 +348,7 @@ TEST(ModbusServer, a_port_in_use_a_missing_device_and_permission_denied_name_the
         ("modbus rtu:" + device.path + ":19200: cannot open the serial device: Permission denied")
             .c_str(),
         test::error_as_unprivileged_user([&] {
-            drivers::ModbusServer(drivers::parse_modbus_endpoint("rtu:" + device.path + ":19200"),
+            drivers::ModbusServer(net::parse_modbus_endpoint("rtu:" + device.path + ":19200"),
                                   {1, 1, 0, 1}, {}, nullptr);
         }).c_str());
 }
@@ -356,7 +356,7 @@ TEST(ModbusServer, a_port_in_use_a_missing_device_and_permission_denied_name_the
 TEST(ModbusClient, a_serial_device_it_may_not_open_is_one_line) {
     test::ScratchFile device("");
     const std::string error = test::error_as_unprivileged_user([&] {
-        drivers::ModbusClient client(drivers::parse_modbus_endpoint("rtu:" + device.path + ":9600"),
+        drivers::ModbusClient client(net::parse_modbus_endpoint("rtu:" + device.path + ":9600"),
                                      {});
         client.start_write_coil(0, true);
         pollfd p{client.completion_fd(), POLLIN, 0};

@@ -82,73 +82,94 @@ firmware::HistoryEntry entry(int cycle, const std::string& result, std::optional
 TEST_GROUP(Password){};
 
 TEST(Password, matches_a_hash_python_made_and_nothing_else) {
-    CHECK_TRUE(drivers::is_password_hash(kPythonHash));
-    CHECK_TRUE(drivers::password_matches("correct horse", kPythonHash));
-    CHECK_FALSE(drivers::password_matches("correct horsE", kPythonHash));
-    CHECK_FALSE(drivers::password_matches("", kPythonHash));
+    drivers::Pbkdf2Hasher hasher;
+    CHECK_TRUE(net::is_password_hash(kPythonHash));
+    CHECK_TRUE(hasher.matches("correct horse", kPythonHash));
+    CHECK_FALSE(hasher.matches("correct horsE", kPythonHash));
+    CHECK_FALSE(hasher.matches("", kPythonHash));
     // Its own hashes: a fresh salt each time, each verifying.
-    const std::string a = drivers::password_hash("battery staple");
-    const std::string b = drivers::password_hash("battery staple");
+    const std::string a = hasher.hash("battery staple");
+    const std::string b = hasher.hash("battery staple");
     CHECK_TRUE(a != b);
-    CHECK_TRUE(drivers::password_matches("battery staple", a));
-    CHECK_TRUE(drivers::password_matches("battery staple", b));
+    CHECK_TRUE(hasher.matches("battery staple", a));
+    CHECK_TRUE(hasher.matches("battery staple", b));
     CHECK_EQUAL(0u, a.rfind("pbkdf2-sha256:100000:", 0));
 }
 
 TEST(Password, refuses_malformed_hashes_and_passwords) {
+    drivers::Pbkdf2Hasher hasher;
     for (const char* bad : {"", "plain", "pbkdf2-sha256:100000:0001020304050607",
                             "pbkdf2-sha256:999:000102030405060708090a0b0c0d0e0f:"
                             "57f2c2f0739748d516419b062a884666323c583ea4ae165504a81f7b53c62a09",
                             "pbkdf2-sha1:100000:000102030405060708090a0b0c0d0e0f:"
                             "57f2c2f0739748d516419b062a884666323c583ea4ae165504a81f7b53c62a09",
                             "pbkdf2-sha256:100000:000102030405060708090a0b0c0d0e0f:57f2"}) {
-        CHECK_FALSE(drivers::is_password_hash(bad));
-        CHECK_FALSE(drivers::password_matches("correct horse", bad));
+        CHECK_FALSE(net::is_password_hash(bad));
+        CHECK_FALSE(hasher.matches("correct horse", bad));
     }
-    CHECK_THROWS(std::invalid_argument, drivers::password_hash(""));
-    CHECK_THROWS(std::invalid_argument, drivers::password_hash(std::string(257, 'x')));
+    CHECK_THROWS(std::invalid_argument, hasher.hash(""));
+    CHECK_THROWS(std::invalid_argument, hasher.hash(std::string(257, 'x')));
 }
 
 TEST(Password, reads_http_basic_authorization) {
     // base64.b64encode(b"calbox:correct horse"), b"x:ab", b"x:a" in Python: no, two, one '='.
     STRCMP_EQUAL("correct horse",
-                 drivers::basic_auth_password("Basic Y2FsYm94OmNvcnJlY3QgaG9yc2U=")->c_str());
-    STRCMP_EQUAL("ab", drivers::basic_auth_password("Basic eDphYg==")->c_str());
-    STRCMP_EQUAL("a", drivers::basic_auth_password("Basic eDph")->c_str());
-    CHECK_FALSE(drivers::basic_auth_password("Bearer eDph").has_value());
-    CHECK_FALSE(drivers::basic_auth_password("Basic !!!!").has_value());
-    CHECK_FALSE(drivers::basic_auth_password("Basic YWJj").has_value());  // "abc": no colon
-    CHECK_FALSE(drivers::basic_auth_password("Basic ").has_value());
+                 net::basic_auth_password("Basic Y2FsYm94OmNvcnJlY3QgaG9yc2U=")->c_str());
+    STRCMP_EQUAL("ab", net::basic_auth_password("Basic eDphYg==")->c_str());
+    STRCMP_EQUAL("a", net::basic_auth_password("Basic eDph")->c_str());
+    CHECK_FALSE(net::basic_auth_password("Bearer eDph").has_value());
+    CHECK_FALSE(net::basic_auth_password("Basic !!!!").has_value());
+    CHECK_FALSE(net::basic_auth_password("Basic YWJj").has_value());  // "abc": no colon
+    CHECK_FALSE(net::basic_auth_password("Basic ").has_value());
+}
+
+TEST_GROUP(UploadBody){};
+
+TEST(UploadBody, the_boundary_is_one_no_part_holds_and_every_part_is_framed_by_it) {
+    // A file that holds the first two candidates: the third is taken.
+    const auto form = net::multipart_form("file", "job.gcode", "G1 X1 ; calbox-0\ncalbox-1\n",
+                                          {{"root", "gcodes"}});
+    STRCMP_EQUAL("multipart/form-data; boundary=calbox-2", form.content_type.c_str());
+    STRCMP_EQUAL(
+        "--calbox-2\r\nContent-Disposition: form-data; name=\"root\"\r\n\r\ngcodes\r\n"
+        "--calbox-2\r\nContent-Disposition: form-data; name=\"file\"; filename=\"job.gcode\"\r\n"
+        "Content-Type: application/octet-stream\r\n\r\nG1 X1 ; calbox-0\ncalbox-1\n\r\n"
+        "--calbox-2--\r\n",
+        form.body.c_str());
+    // A field's value counts too.
+    STRCMP_EQUAL(
+        "multipart/form-data; boundary=calbox-1",
+        net::multipart_form("file", "a", "x", {{"note", "calbox-0"}}).content_type.c_str());
 }
 
 TEST_GROUP(HostPort){};
 
 TEST(HostPort, reads_addresses_and_names_where_they_are_allowed) {
-    auto hp = drivers::parse_host_port("127.0.0.1:8080", false);
+    auto hp = net::parse_host_port("127.0.0.1:8080", false);
     STRCMP_EQUAL("127.0.0.1", hp.host.c_str());
     LONGS_EQUAL(8080, hp.port);
-    hp = drivers::parse_host_port("[::1]:9", false);
+    hp = net::parse_host_port("[::1]:9", false);
     STRCMP_EQUAL("::1", hp.host.c_str());
-    STRCMP_EQUAL("127.0.0.1", drivers::parse_host_port("localhost:1", false).host.c_str());
-    STRCMP_EQUAL("broker.lan", drivers::parse_host_port("broker.lan:1883", true).host.c_str());
-    CHECK_THROWS(std::invalid_argument, drivers::parse_host_port("broker.lan:1883", false));
+    STRCMP_EQUAL("127.0.0.1", net::parse_host_port("localhost:1", false).host.c_str());
+    STRCMP_EQUAL("broker.lan", net::parse_host_port("broker.lan:1883", true).host.c_str());
+    CHECK_THROWS(std::invalid_argument, net::parse_host_port("broker.lan:1883", false));
     for (const char* bad : {"1.2.3.4:70000", "1.2.3.4", ":80", "1.2.3.4:", "1.2.3.4:8a", "a b:1"})
-        CHECK_THROWS(std::invalid_argument, drivers::parse_host_port(bad, true));
+        CHECK_THROWS(std::invalid_argument, net::parse_host_port(bad, true));
 }
 
 TEST_GROUP(ServerLimits){};
 
 TEST(ServerLimits, refuses_each_excess_with_its_status_and_lets_idle_clients_go) {
-    drivers::ServerLimits limits;
+    hal::ServerLimits limits;
     limits.max_body_bytes = 1000;
     limits.max_header_bytes = 2000;
     // Long enough that a loaded machine's third client comes well inside it.
     limits.idle_timeout = 1500ms;
     std::atomic<int> served{0};
     const drivers::HttpServer::Handlers echo{
-        [&](const drivers::ServerRequest& r) {
+        [&](const hal::ServerRequest& r) {
             ++served;
-            return drivers::ServerResponse{
+            return hal::ServerResponse{
                 200, "text/plain", std::to_string(r.body.size()), {{"X-Peer", r.peer}}};
         },
         {},
@@ -156,8 +177,8 @@ TEST(ServerLimits, refuses_each_excess_with_its_status_and_lets_idle_clients_go)
     // No connection limit here: a loaded machine may not have let the last request's connection
     // go when the next one comes.
     drivers::HttpServer server("127.0.0.1", 0, echo, limits);
-    const auto url = drivers::parse_url("http://127.0.0.1:" + std::to_string(server.port()) + "/");
-    drivers::HttpRequest post{"POST", "/", {}, "text/plain", std::string(1000, 'a')};
+    const auto url = net::parse_url("http://127.0.0.1:" + std::to_string(server.port()) + "/");
+    hal::HttpRequest post{"POST", "/", {}, "text/plain", std::string(1000, 'a')};
     const auto fits = drivers::http_request(url, post, 3s);
     LONGS_EQUAL(200, fits.status);
     STRCMP_EQUAL("1000", fits.body.c_str());
@@ -165,7 +186,7 @@ TEST(ServerLimits, refuses_each_excess_with_its_status_and_lets_idle_clients_go)
     const auto over = drivers::http_request(url, post, 3s);
     LONGS_EQUAL(413, over.status);
     CHECK_TRUE(over.body.find("at most 1000 bytes") != std::string::npos);
-    drivers::HttpRequest big_header{"GET", "/", {{"X-Big", std::string(3000, 'b')}}, "", ""};
+    hal::HttpRequest big_header{"GET", "/", {{"X-Big", std::string(3000, 'b')}}, "", ""};
     LONGS_EQUAL(431, drivers::http_request(url, big_header, 3s).status);
     CHECK_EQUAL(0u, exchange(server.port(), "NOT HTTP\r\n\r\n").rfind("HTTP/1.1 400", 0));
     LONGS_EQUAL(1, served.load());
@@ -175,7 +196,7 @@ TEST(ServerLimits, refuses_each_excess_with_its_status_and_lets_idle_clients_go)
     limits.max_connections = 2;
     drivers::HttpServer crowded("127.0.0.1", 0, echo, limits);
     const auto crowded_url =
-        drivers::parse_url("http://127.0.0.1:" + std::to_string(crowded.port()) + "/");
+        net::parse_url("http://127.0.0.1:" + std::to_string(crowded.port()) + "/");
     std::string first, second;
     std::thread a([&] { first = exchange(crowded.port(), "", 4s); });
     std::thread b([&] { second = exchange(crowded.port(), "", 4s); });

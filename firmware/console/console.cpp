@@ -451,7 +451,9 @@ std::string Console::reply_to(std::string_view line) {
         if (found == nullptr)
             throw Refused("'" + words[0] + "' is not a command (help lists them)");
         found->run(words, clean, r);
-    } catch (const Refused& e) {
+    } catch (const std::exception& e) {
+        // Whatever a row throws (a refusal, a key the configuration does not have, a file that
+        // cannot be written) is this line's answer: nothing typed ends the box.
         if (as_json) return json{{"ok", false}, {"error", e.what()}}.dump() + "\n";
         return std::string("error: ") + e.what() + "\n";
     }

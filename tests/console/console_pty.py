@@ -211,6 +211,17 @@ if v != "stdin":
 r = t.ask("frobnicate", ok=False)
 if "'frobnicate' is not a command" not in r["error"]:
     fail(r["error"])
+# a key that is not there is one line, as text and as JSON, and the box goes on (it once ended
+# the appliance with status 1)
+if t.text("config get nosuch") != [
+        "error: 'nosuch' is not a configuration key (config list shows them)"]:
+    fail("config get nosuch")
+for command in ("config get nosuch", "config reset nosuch", "config set nosuch 1"):
+    r = t.ask(command, ok=False)
+    if "'nosuch' is not a configuration key" not in r["error"]:
+        fail(command + ": " + r["error"])
+if t.ask("status")["state"] != "idle":
+    fail("the box is not idle after the unknown keys")
 for command, why in [("confirm", "not waiting for a person"), ("cancel", "nothing to cancel"),
                      ("camera plane", "not calibrated yet"), ("capture", "not waiting"),
                      ("last", "no cycle has completed yet"), ("revert", "no cycle")]:

@@ -79,7 +79,7 @@ int main(int argc, char** argv) {
         const std::vector<std::string> rest(words.begin() + 1, words.end());
         for (const auto& c : kSubcommands)
             if (words[0] == c.name) return c.run(rest);
-        throw UsageError("unknown command '" + words[0] + "' (calbox --help lists them)");
+        throw UsageError("unknown command '" + words[0] + "'");
     } catch (const calbox::geometry::PatternError& e) {
         std::cerr << "calbox: " << e.what() << "\n";
         return 2;

@@ -45,6 +45,7 @@ expect_error "unknown ArUco dictionary" sim photo --scenario "$scenario" --board
 expect_error "--pose needs 6" sim photo --scenario "$scenario" --board chessboard:9x6@20 --pose 1,2,3 -o "$work/result"
 expect_error "either --print or --board" sim photo --scenario "$scenario" -o "$work/result"
 expect_error "unknown option --frobnicate" sim print --frobnicate 3
+expect_error "^calbox: unknown command 'bogus' \\(see calbox --help\\)$" bogus
 expect_error "unknown command 'fly'" fly
 
 # camera and detect

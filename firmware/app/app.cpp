@@ -71,7 +71,9 @@ constexpr const char* kRunHelp = R"(usage:
                       before and after, and exits 0 only if the goal is met: a delta's XY RMS <=
                       0.01 mm, worst <= 0.03 mm over the printable area; a galvo's marks through
                       the table <= 0.008 mm mean, <= 0.03 mm worst; a router's (or printer's) fresh points
-                      through the model under 0.05 mm mean and 95 % less than before.
+                      through the model under 0.05 mm mean and 95 % less than before; 1 when it
+                      is not met or the cycle failed; 3 when SIGTERM or SIGINT stopped it before
+                      the verdict. Without --auto a signal is a clean stop, status 0.
       --config FILE   the box's configuration (TOML; docs/appliance.md, Configuration; default
                       DIR/calbox.toml when it exists): [cycle], [setup], [records], [console] and
                       [modbus]; the options override it. The console's `config save` writes it
@@ -233,6 +235,10 @@ hal::Network& network_of(Box& box) {
     if (!box.board.devices().network) throw std::logic_error("the board opened no network");
     return *box.board.devices().network;
 }
+
+// `calbox run --auto`'s status when a signal stopped it before its verdict (0 is a goal met, 1
+// one missed or a failure, 2 a usage error).
+constexpr int kStoppedBeforeVerdict = 3;
 
 // What `calbox run` was asked, checked together.
 struct RunOptions {
@@ -640,6 +646,12 @@ int run(const std::vector<std::string>& words) {
     if (stopped_by != 0) {
         log_line("stopped by signal " + std::to_string(stopped_by) + "; " +
                  box.appliance.link->closing_note());
+        // --auto promises 0 only for a goal met: stopped before its verdict, it says so.
+        if (options.automatic) {
+            log_line("--auto: stopped before the verdict (exit status " +
+                     std::to_string(kStoppedBeforeVerdict) + ")");
+            return kStoppedBeforeVerdict;
+        }
         return 0;
     }
     if (!options.automatic) return 0;

@@ -7,8 +7,9 @@
 # the box wrote (its SAVE_CONFIG block) and Klipper's settings in force were read back; calbox
 # revert puts the old printer.cfg back through the host. Each host fault ends the cycle in error
 # with one line naming it, and printer.cfg on the host is untouched or fully the backup. The API
-# key is never in a log, a record or the output. SIGTERM and SIGINT stop `calbox run` with status
-# 0, the link closed (a print running on the host left to it, said in the log).
+# key is never in a log, a record or the output. SIGTERM and SIGINT stop `calbox run` (status 0;
+# under --auto 3, stopped before its verdict), the link closed (a print running on the host left
+# to it, said in the log).
 set -euo pipefail
 calbox="$1"; top="$2"
 work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
@@ -343,7 +344,8 @@ fi
 grep -q "\[link\] key_file $work/no-such.key: cannot be read" "$work/cfg2.err" ||
     fail "the configuration's key file was not used: $(cat "$work/cfg2.err")"
 
-# SIGTERM while the host prints the box's target: status 0, the print left to the host.
+# SIGTERM while the host prints the box's target: --auto's status 3 (stopped before its verdict,
+# not a goal met), the print left to the host.
 mkdir -p "$work/stop/box"
 cp "$work/box/camera.yaml" "$work/box/plane.yaml" "$work/box/reference.yaml" "$work/stop/box/"
 sed -e 's/^segment_mm = 0.5$/segment_mm = 0.5\nhost_print_seconds = 60/' "$scenario" \
@@ -360,7 +362,9 @@ sleep 0.5
 kill -TERM $pid
 status=0
 wait $pid || status=$?
-[ $status -eq 0 ] || fail "SIGTERM mid-print: exit $status"
+[ $status -eq 3 ] || fail "SIGTERM mid-print under --auto: exit $status, not 3"
+grep -qx 'calbox: --auto: stopped before the verdict (exit status 3)' "$work/stop.err" ||
+    fail "SIGTERM mid-print: the log does not say --auto stopped before its verdict"
 grep -qE "^calbox: stopped by signal 15; the job in flight on moonraker http://127.0.0.1:[0-9]+ is left to the host \(cancel it there\)$" \
     "$work/stop.err" || fail "SIGTERM mid-print: the log does not say the print is left to the host"
 
@@ -379,4 +383,4 @@ wait $pid || status=$?
 [ $status -eq 0 ] || fail "SIGINT: exit $status"
 grep -qx 'calbox: stopped by signal 2; the machine link is closed' "$work/serial.err" ||
     fail "SIGINT: the log does not say the link is closed"
-echo "moonraker delta: after $after; moonraker delta probed over https: after $tls_after; moonraker cartesian: after $cart_after; octoprint delta: after $octo_after; duet delta: after $duet_after; duet with an SBC: after $sbc_after; revert restored each; 25 host faults named; SIGTERM and SIGINT exit 0"
+echo "moonraker delta: after $after; moonraker delta probed over https: after $tls_after; moonraker cartesian: after $cart_after; octoprint delta: after $octo_after; duet delta: after $duet_after; duet with an SBC: after $sbc_after; revert restored each; 25 host faults named; SIGTERM under --auto exits 3, SIGINT as a service 0"

@@ -261,7 +261,48 @@ std::string folder_of(const std::string& path) {
 
 constexpr int kDeepestInclude = 32;
 
-void read_klipper_file(const std::string& path, const std::string& text, const ReadIncluded& read,
+struct Includes {
+    const ReadIncluded& read;
+    const ListIncluded& list;
+};
+
+void read_klipper_file(const std::string& path, const std::string& text, const Includes& includes,
+                       std::vector<std::string>& chain, Sections& sections, Sections& saved,
+                       std::vector<std::string>& notes);
+
+// One [include SPEC] of the file at `path`, as Klipper resolves it: SPEC relative to the file's
+// folder; a wildcard names every matching file, read in sorted order (none matching is no
+// error); a plain name that is not there is noted.
+void read_klipper_include(const std::string& path, const std::string& spec,
+                          const Includes& includes, std::vector<std::string>& chain,
+                          Sections& sections, Sections& saved, std::vector<std::string>& notes) {
+    const std::string pattern = folder_of(path) + spec;
+    if (spec.find_first_of("*?[") == std::string::npos) {
+        if (const auto content = includes.read(pattern)) {
+            read_klipper_file(pattern, *content, includes, chain, sections, saved, notes);
+        } else {
+            notes.push_back(pattern + " (included) is not here: its settings are not read");
+        }
+        return;
+    }
+    if (!includes.list) {
+        notes.push_back(pattern +
+                        " (included, a wildcard) cannot be listed here: its settings are not "
+                        "read");
+        return;
+    }
+    std::vector<std::string> paths = includes.list(pattern);
+    std::sort(paths.begin(), paths.end());
+    for (const auto& included : paths) {
+        if (const auto content = includes.read(included)) {
+            read_klipper_file(included, *content, includes, chain, sections, saved, notes);
+        } else {
+            notes.push_back(included + " (included) cannot be read: its settings are not read");
+        }
+    }
+}
+
+void read_klipper_file(const std::string& path, const std::string& text, const Includes& includes,
                        std::vector<std::string>& chain, Sections& sections, Sections& saved,
                        std::vector<std::string>& notes) {
     if (std::find(chain.begin(), chain.end(), path) != chain.end()) {
@@ -297,13 +338,8 @@ void read_klipper_file(const std::string& path, const std::string& text, const R
         if (line.front() == '[' && line.back() == ']') {
             const std::string name = trimmed(line.substr(1, line.size() - 2));
             if (name.rfind("include ", 0) == 0) {
-                const std::string included = folder_of(path) + trimmed(name.substr(8));
-                if (const auto content = read(included)) {
-                    read_klipper_file(included, *content, read, chain, sections, saved, notes);
-                } else {
-                    notes.push_back(included +
-                                    " (included) is not here: its settings are not read");
-                }
+                read_klipper_include(path, trimmed(name.substr(8)), includes, chain, sections,
+                                     saved, notes);
                 section.clear();
                 continue;
             }
@@ -320,19 +356,20 @@ void read_klipper_file(const std::string& path, const std::string& text, const R
 }  // namespace
 
 KlipperSections read_klipper_sections(const std::string& path, const std::string& text,
-                                      const ReadIncluded& read, std::vector<std::string>& notes) {
+                                      const ReadIncluded& read, std::vector<std::string>& notes,
+                                      const ListIncluded& list) {
     Sections sections, saved;
     std::vector<std::string> chain;
-    read_klipper_file(path, text, read, chain, sections, saved, notes);
+    read_klipper_file(path, text, Includes{read, list}, chain, sections, saved, notes);
     for (const auto& [name, keys] : saved)
         for (const auto& [key, value] : keys) sections[name][key] = value;
     return sections;
 }
 
 KlipperConfig read_klipper_config(const std::string& path, const std::string& text,
-                                  const ReadIncluded& read) {
+                                  const ReadIncluded& read, const ListIncluded& list) {
     KlipperConfig config;
-    const Sections sections = read_klipper_sections(path, text, read, config.notes);
+    const Sections sections = read_klipper_sections(path, text, read, config.notes, list);
     const auto value = [&](const std::string& section, const std::string& key) {
         const auto s = sections.find(section);
         if (s == sections.end()) return std::optional<std::string>{};
@@ -400,8 +437,9 @@ KlipperConfig read_klipper_config(const std::string& path, const std::string& te
 }
 
 ImportedMachine import_klipper(const std::string& path, const std::string& text,
-                               const ReadIncluded& read, const ImportOptions& options) {
-    const KlipperConfig config = read_klipper_config(path, text, read);
+                               const ReadIncluded& read, const ImportOptions& options,
+                               const ListIncluded& list) {
+    const KlipperConfig config = read_klipper_config(path, text, read, list);
     auto out = delta_machine("klipper", from_klipper(config.delta), config.print_radius_mm,
                              "[printer] print_radius", options);
     out.notes.insert(out.notes.begin(),

@@ -65,6 +65,10 @@ RrfConfig read_rrf_config(const std::vector<std::string>& files);
 // Reads a file a printer.cfg includes (a path relative to the including file's folder): empty
 // when it is not there.
 using ReadIncluded = std::function<std::optional<std::string>(const std::string& path)>;
+// The files a wildcard include names (`[include printers/*.cfg]`): every path matching the
+// pattern (`*`, `?`, `[...]`, the including file's folder before it), in any order; Klipper reads
+// them sorted, as these functions do. Without one a wildcard include is noted, not read.
+using ListIncluded = std::function<std::vector<std::string>(const std::string& pattern)>;
 // One point DELTA_CALIBRATE probed, as SAVE_CONFIG keeps it ([delta_calibrate] heightN and
 // heightN_pos): the height the probe reported and each stepper's position, in steps below its
 // tower's endstop.
@@ -87,16 +91,18 @@ struct KlipperConfig {
 // Throws ImportError for an include loop.
 using KlipperSections = std::map<std::string, std::map<std::string, std::string>>;
 KlipperSections read_klipper_sections(const std::string& path, const std::string& text,
-                                      const ReadIncluded& read, std::vector<std::string>& notes);
+                                      const ReadIncluded& read, std::vector<std::string>& notes,
+                                      const ListIncluded& list = {});
 // The delta's settings in those sections. Throws ImportError as above, and for a printer that is
 // not a delta, missing keys or a malformed value.
 KlipperConfig read_klipper_config(const std::string& path, const std::string& text,
-                                  const ReadIncluded& read);
+                                  const ReadIncluded& read, const ListIncluded& list = {});
 
 ImportedMachine import_marlin(std::string_view log, const ImportOptions& options);
 ImportedMachine import_rrf(const std::vector<std::string>& files, const ImportOptions& options);
 ImportedMachine import_klipper(const std::string& path, const std::string& text,
-                               const ReadIncluded& read, const ImportOptions& options);
+                               const ReadIncluded& read, const ImportOptions& options,
+                               const ListIncluded& list = {});
 
 // The machine file as TOML, the notes as its opening comments.
 std::string machine_file_text(const ImportedMachine& imported);

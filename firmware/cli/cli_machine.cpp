@@ -1,7 +1,11 @@
 // calbox machine import
+#include <glob.h>
+
 #include <cstdio>
 #include <optional>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "core/models/machine_import.hpp"
 #include "firmware/cli/cli_args.hpp"
@@ -16,11 +20,23 @@ constexpr const char* kMachineHelp = R"(usage:
       --marlin: a console capture from any host (M503's reply: M665, M666, M92; or G33's
       report, which leaves out the rod: give --diagonal-rod); --rrf: config.g then
       config-override.g (a later M665 or M666 replaces an earlier one); --klipper: printer.cfg
-      with its includes and its SAVE_CONFIG block over the sections above it, as Klipper reads
-      it. What the files cannot tell (the printable radius, the bed's material, the line
-      width) is defaulted and said so, on standard output and at the file's top. A capture
+      with its includes (wildcards too, in sorted order) and its SAVE_CONFIG block over the
+      sections above it, as Klipper reads it. What the files cannot tell (the printable
+      radius, the bed's material, the line width) is defaulted and said so, on standard
+      output and at the file's top. A capture
       without a delta's geometry but with M92 gives a cartesian printer.
 )";
+
+// The files a wildcard include names (Klipper's glob), in the order glob gives them; the import
+// sorts them as Klipper does.
+std::vector<std::string> matching_files(const std::string& pattern) {
+    glob_t found{};
+    std::vector<std::string> paths;
+    if (::glob(pattern.c_str(), GLOB_NOSORT, nullptr, &found) == 0)
+        paths.assign(found.gl_pathv, found.gl_pathv + found.gl_pathc);
+    ::globfree(&found);
+    return paths;
+}
 
 // An included file Klipper's config names: empty where it is not there (said, not fatal).
 std::optional<std::string> read_if_there(const std::string& path) {
@@ -47,7 +63,7 @@ int import_machine(const std::vector<std::string>& words) {
             imported = models::import_marlin(read_input_file(*log, "console capture"), options);
         } else if (const auto cfg = args.get("--klipper")) {
             imported = models::import_klipper(*cfg, read_input_file(*cfg, "printer.cfg"),
-                                              read_if_there, options);
+                                              read_if_there, options, matching_files);
         } else {
             if (args.positional().empty())
                 throw UsageError("--rrf needs config.g (and config-override.g)");

@@ -61,6 +61,15 @@ expect_error "cannot read image .*missing.png: no such file" detect markers "$wo
 printf '[include b.cfg]\n[printer]\nkinematics: delta\n' > "$work/a.cfg"
 printf '[include a.cfg]\n' > "$work/b.cfg"
 expect_error "includes loop: .*a.cfg -> .*b.cfg -> .*a.cfg" machine import --klipper "$work/a.cfg" -o "$work/result"
+# A wildcard include ([include parts/*.cfg]) is every match, in Klipper's sorted order: the later
+# part's delta_radius is the one in force.
+mkdir -p "$work/klipper/parts"
+printf '[include parts/*.cfg]\n[printer]\nkinematics: delta\nprint_radius: 90\n[stepper_a]\nposition_endstop: 300\narm_length: 215\n' > "$work/klipper/printer.cfg"
+printf '[printer]\ndelta_radius: 99\n' > "$work/klipper/parts/a_frame.cfg"
+printf '[printer]\ndelta_radius: 101.5\n' > "$work/klipper/parts/b_towers.cfg"
+"$calbox" machine import --klipper "$work/klipper/printer.cfg" -o "$work/klipper/machine.toml" > /dev/null 2>&1 &&
+    grep -qx 'radius_mm = 101.5' "$work/klipper/machine.toml" ||
+    { echo "FAIL: a wildcard include was not read in sorted order"; failures=$((failures + 1)); }
 printf 'echo:.Height:297.80    Ex:-0.14  Ey:-0.07  Ez:+0.00    Radius:100.79\n' > "$work/g33.log"
 expect_error "G33's report leaves it out; give --diagonal-rod" machine import --marlin "$work/g33.log" -o "$work/result"
 expect_error "takes one of --marlin, --rrf, --klipper" machine import -o "$work/result"

@@ -128,6 +128,10 @@ MarlinCapture read_marlin_capture(std::string_view log) {
         if (!capture.delta) capture.delta.emplace();
         return *capture.delta;
     };
+    // M666 and G33's report both set the endstops, the last in the log in force. M666 alone is
+    // no delta's: a cartesian with dual endstops adjusts them with it too.
+    std::array<double, 3> endstop_mm{};
+    bool m666_seen = false;
     for (const auto& line : lines_of(log)) {
         if (const auto m665 = command_in(line, "M665")) {
             auto& d = delta();
@@ -139,9 +143,9 @@ MarlinCapture read_marlin_capture(std::string_view log) {
                 if (auto v = m665->value("ABC"[i])) d.rod_trim_mm[i] = *v;
             }
         } else if (const auto m666 = command_in(line, "M666")) {
-            auto& d = delta();
+            m666_seen = true;
             for (std::size_t i = 0; i < 3; ++i)
-                if (auto v = m666->value("XYZ"[i])) d.endstop_mm[i] = *v;
+                if (auto v = m666->value("XYZ"[i])) endstop_mm[i] = *v;
         } else if (const auto m92 = command_in(line, "M92")) {
             if (m92->has('T')) continue;  // an extruder's steps
             if (auto x = m92->value('X'), y = m92->value('Y'); x && y)
@@ -155,7 +159,7 @@ MarlinCapture read_marlin_capture(std::string_view log) {
             if (auto v = number_after(line, "Radius:")) d.radius_mm = v;
             for (std::size_t i = 0; i < 3; ++i)
                 if (auto v = number_after(line, std::string("E") + "xyz"[i] + ":"))
-                    d.endstop_mm[i] = *v;
+                    endstop_mm[i] = *v;
         } else if (line.find(".Tower angle") != std::string::npos) {
             auto& d = delta();
             for (std::size_t i = 0; i < 3; ++i)
@@ -163,6 +167,8 @@ MarlinCapture read_marlin_capture(std::string_view log) {
                     d.angle_trim_deg[i] = *v;
         }
     }
+    if (capture.delta) capture.delta->endstop_mm = endstop_mm;
+    capture.dual_endstops = m666_seen && !capture.delta;
     return capture;
 }
 
@@ -200,14 +206,19 @@ ImportedMachine import_marlin(std::string_view log, const ImportOptions& options
         out.machine.planar->steps_per_mm_x = (*capture.steps_per_mm_xy)[0];
         out.machine.planar->steps_per_mm_y = (*capture.steps_per_mm_xy)[1];
         out.notes.push_back("a cartesian printer: steps per mm from M92");
+        if (capture.dual_endstops)
+            out.notes.push_back(
+                "M666 without M665: its dual endstops' adjustments, not a delta's geometry (the "
+                "firmware keeps them; the box does not change them)");
         out.notes.push_back(
             "not in the capture, left to the defaults: the bed's size (200 x 200 mm), the hole "
             "pitch and margin, the line width and filament");
         return out;
     }
     throw ImportError(
-        "the capture holds no delta geometry (M665, M666, G33's report) and no steps per mm (M92): "
-        "capture the printer's whole reply to M503");
+        std::string("the capture holds no delta geometry (M665, G33's report") +
+        (capture.dual_endstops ? "; its M666 alone is a cartesian's dual endstops" : "") +
+        ") and no steps per mm (M92): capture the printer's whole reply to M503");
 }
 
 RrfConfig read_rrf_config(const std::vector<std::string>& files) {

@@ -49,8 +49,9 @@ struct MarlinDeltaSettings {
     bool from_g33 = false;
 };
 struct MarlinCapture {
-    std::optional<MarlinDeltaSettings> delta;
+    std::optional<MarlinDeltaSettings> delta;  // from M665 or G33's report (M666's endstops in it)
     std::optional<std::array<double, 2>> steps_per_mm_xy;  // M92 X Y
+    bool dual_endstops = false;  // M666 with neither M665 nor G33: a cartesian's dual endstops
 };
 MarlinCapture read_marlin_capture(std::string_view log);
 

@@ -611,6 +611,30 @@ TEST(RealImport, marlin_g33_reports_and_m503_captures) {
     }
 }
 
+TEST(RealImport, a_marlin_cartesian_with_dual_z_endstops_is_a_cartesian) {
+    // M503 of a cartesian built with Z_MULTI_ENDSTOPS, as Marlin 2.1 prints it: M666 adjusts the
+    // second Z endstop; there is no M665.
+    const std::string capture =
+        "echo:; Steps per unit:\n"
+        "echo:  M92 X80.00 Y80.00 Z400.00 E93.00\n"
+        "echo:; Endstop adjustment:\n"
+        "echo:  M666 Z-0.15\n";
+    const auto imported = models::import_marlin(capture, {});
+    STRCMP_EQUAL("cartesian", imported.machine.kind.c_str());
+    DOUBLES_EQUAL(80, *imported.machine.planar->steps_per_mm_x, 1e-9);
+    CHECK_TRUE(std::any_of(imported.notes.begin(), imported.notes.end(), [](const auto& n) {
+        return n.find("M666 without M665: its dual endstops' adjustments") != std::string::npos;
+    }));
+    reads_back(imported);
+    // M666 alone is no delta either: refused, saying what it is.
+    try {
+        models::import_marlin("echo:  M666 Z-0.15\n", {});
+        FAIL("a lone M666 imported");
+    } catch (const models::ImportError& e) {
+        STRCMP_CONTAINS("its M666 alone is a cartesian's dual endstops", e.what());
+    }
+}
+
 // RepRapFirmware's measured height map (anycubic_kossel_citruspers/heightmap.csv: 7 x 7 at 30 mm,
 // radius 110, "mean error -0.017, deviation 0.061") as the probe file `solve delta --probe` takes.
 TEST(RealImport, an_rrf_height_map_is_a_probe_file_with_its_stated_mean_and_deviation) {

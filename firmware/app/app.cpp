@@ -397,7 +397,7 @@ std::int64_t unix_now_s() {
 // the cycle's prompts and notices say.
 struct BoxConsole {
     bool wanted;
-    std::unique_ptr<hal::Storage> config_home, key_directory;
+    std::unique_ptr<hal::Storage> config_home;
     std::optional<firmware::ConsoleLink> link;
     firmware::LinkKeyRequest link_key;
     firmware::JobDesk job_desk;  // jobs compensated through the correction the box keeps
@@ -409,15 +409,17 @@ struct BoxConsole {
                const firmware::Cycle::Log& log, std::function<void()> config_changed)
         : wanted(port.wanted()),
           config_home(board::data_directory(directory_of(config_path))),
-          key_directory(board::data_directory(directory_of(box.board.machine.link.key_file))),
-          link_key(box.loop, box.board.machine.link, network_of(box).http(), *key_directory,
-                   logged_notice(log)),
+          link_key(
+              box.loop, box.board.machine.link, network_of(box).http(),
+              [key_file = box.board.machine.link.key_file] {
+                  return board::data_directory(directory_of(key_file));
+              },
+              logged_notice(log)),
           job_desk(box.loop, box.cycle, *box.appliance.link, *box.data, utc_now_text,
                    logged_notice(log)),
-          commands(firmware::ConsoleContext{box.cycle, config, *config_home,
-                                            config_path.filename().string(), *box.data, log_book,
-                                            calbox::build_version(), config_changed,
-                                            rows(config, box, std::move(config_changed))}) {
+          commands(firmware::ConsoleContext{
+              box.cycle, config, *config_home, config_path.filename().string(), *box.data, log_book,
+              calbox::build_version(), config_changed, rows(config, box, config_changed)}) {
         if (wanted) {
             link.emplace(box.loop, std::move(port.port), commands, log, std::move(port.reopen),
                          box.clock.get());
@@ -447,10 +449,9 @@ struct BoxConsole {
         };
     }
     std::vector<firmware::ConsoleCommand> rows(firmware::BoxConfig& config, Box& box,
-                                               std::function<void()> config_changed) {
+                                               const std::function<void()>& config_changed) {
         std::vector<firmware::ConsoleCommand> more = {
-            firmware::web_password_row(config, network_of(box).passwords(),
-                                       std::move(config_changed)),
+            firmware::web_password_row(config, network_of(box).passwords(), config_changed),
             job_desk.command(), link_key.command()};
         if (box.board.sim) {
             for (auto& row : sim_board_commands(*box.board.sim, box.loop))

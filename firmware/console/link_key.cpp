@@ -8,11 +8,12 @@
 namespace calbox::firmware {
 
 LinkKeyRequest::LinkKeyRequest(EventLoop& loop, models::MachineLinkSettings link,
-                               hal::HttpClient& http, hal::Storage& key_directory, Notice notice)
+                               hal::HttpClient& http, OpenKeyDirectory open_key_directory,
+                               Notice notice)
     : loop_(loop),
       link_(std::move(link)),
       http_(http),
-      key_directory_(key_directory),
+      open_key_directory_(std::move(open_key_directory)),
       notice_(std::move(notice)) {
     loop_.watch(request_.fd(), [this] { finished(); });
 }
@@ -66,8 +67,8 @@ void LinkKeyRequest::finished() {
         return;
     }
     try {
-        key_directory_.replace_private_file(std::filesystem::path(link_.key_file).filename(),
-                                            result->second + "\n");
+        open_key_directory_()->replace_private_file(
+            std::filesystem::path(link_.key_file).filename(), result->second + "\n");
     } catch (const std::exception& e) {
         notice_("link key: OctoPrint gave a key, but it could not be kept: " +
                 std::string(e.what()));

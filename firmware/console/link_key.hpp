@@ -4,6 +4,7 @@
 // link's key_file (mode 0600), so that nobody copies a key by hand. The key is never shown: the
 // console is told where it went. The link reads the file when the box starts.
 #include <functional>
+#include <memory>
 #include <string>
 #include <utility>
 
@@ -20,9 +21,11 @@ class EventLoop;
 class LinkKeyRequest {
   public:
     using Notice = std::function<void(const std::string&)>;
-    // `key_directory` is the key_file's directory.
+    // Opens the key_file's directory when a key is to be kept (not before: it may not be there
+    // yet when the box starts, which is no reason to stop it). Throws std::runtime_error.
+    using OpenKeyDirectory = std::function<std::unique_ptr<hal::Storage>()>;
     LinkKeyRequest(EventLoop& loop, models::MachineLinkSettings link, hal::HttpClient& http,
-                   hal::Storage& key_directory, Notice notice);
+                   OpenKeyDirectory open_key_directory, Notice notice);
     LinkKeyRequest(const LinkKeyRequest&) = delete;
     LinkKeyRequest& operator=(const LinkKeyRequest&) = delete;
     ~LinkKeyRequest();
@@ -34,7 +37,7 @@ class LinkKeyRequest {
     EventLoop& loop_;
     models::MachineLinkSettings link_;
     hal::HttpClient& http_;
-    hal::Storage& key_directory_;
+    OpenKeyDirectory open_key_directory_;
     Notice notice_;
     // The key, or why there is none.
     hal::BackgroundJob<std::pair<bool, std::string>> request_;

@@ -28,9 +28,9 @@ with open(config, "w") as f:
 err_path = os.path.join(work, "run.err")
 
 
-def start(scenario, config_file):
+def start(scenario, config_file, name=None):
     global data
-    data = os.path.join(work, os.path.basename(scenario))  # each box its own console link
+    data = os.path.join(work, name or os.path.basename(scenario))  # each box its own console link
     err = open(err_path, "w")
     return subprocess.Popen(
         [calbox, "run", "--board", "sim", "--console", "pty", "--scenario", scenario,
@@ -103,6 +103,29 @@ if box.wait(20) != 0:
     fail("SIGTERM: exit %d" % box.returncode)
 if key in open(err_path).read():
     fail("the key is in the log")
+
+# A key_file whose folder is not there yet: the box starts all the same (the folder is needed only
+# when a key is kept); asked then, the key cannot be kept and the console says why.
+later_key = os.path.join(work, "keys", "octoprint.key")
+later_config = os.path.join(work, "later.toml")
+with open(later_config, "w") as f:
+    f.write('[link]\nkey_file = "%s"\n' % later_key)
+box = start(os.path.join(top, "examples/octoprint_delta.toml"), later_config, "later")
+fd = terminal()
+os.write(fd, b"link key owner --json\r")
+seen = lines_until(fd, "{", 30)
+if not json.loads(seen[-1])["ok"]:
+    fail("link key with the key's folder missing: %r" % seen[-1])
+seen += lines_until(fd, "notice: link key: ", 30)
+if not seen[-1].startswith("notice: link key: OctoPrint gave a key, but it could not be kept: ") \
+        or os.path.join(work, "keys") not in seen[-1]:
+    fail("the notice for a missing folder: %r" % seen[-1])
+if os.path.exists(later_key):
+    fail("a key was written where its folder is missing")
+os.close(fd)
+box.terminate()
+if box.wait(20) != 0:
+    fail("SIGTERM with the key's folder missing: exit %d" % box.returncode)
 
 # A serial printer: nothing to ask.
 box = start(os.path.join(top, "tests/scenarios/delta_cycle_small.toml"), config)

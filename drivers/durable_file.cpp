@@ -9,11 +9,12 @@
 #include <stdexcept>
 
 namespace calbox::drivers {
-namespace {
 
 std::runtime_error os_error(const std::string& what, const std::filesystem::path& p) {
     return std::runtime_error(what + " " + p.string() + ": " + std::strerror(errno));
 }
+
+namespace {
 
 class PosixFileSystem final : public FileSystemCalls {
   public:

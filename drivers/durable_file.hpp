@@ -5,6 +5,7 @@
 // would come back as the old file). The calls go through FileSystemCalls so that a test can cut
 // the power between any two of them.
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 
@@ -26,6 +27,10 @@ class FileSystemCalls {
     virtual void flush_directory(const std::filesystem::path& directory) = 0;
     virtual void remove(const std::filesystem::path& path) noexcept = 0;  // best effort
 };
+
+// The system's reason (errno) for a failed call, as an exception naming what failed and where:
+// "cannot write /var/lib/calbox/x: No space left on device".
+std::runtime_error os_error(const std::string& what, const std::filesystem::path& p);
 
 // The POSIX calls (open, write, fsync, close, rename, fsync of the directory, unlink).
 FileSystemCalls& posix_file_system();

@@ -9,13 +9,6 @@
 #include <stdexcept>
 
 namespace calbox::drivers {
-namespace {
-
-std::runtime_error os_error(const std::string& what, const std::filesystem::path& p) {
-    return std::runtime_error(what + " " + p.string() + ": " + std::strerror(errno));
-}
-
-}  // namespace
 
 FileStorage::FileStorage(std::filesystem::path directory, FileSystemCalls& fs)
     : directory_(std::move(directory)), fs_(fs) {

@@ -3,11 +3,11 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 namespace calbox::models {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::array<double, 3> kBaseAngleDeg{210.0, 330.0, 90.0};
 
 struct Towers {
@@ -19,7 +19,7 @@ Towers towers(const DeltaGeometry& g) {
     Towers t;
     for (int i = 0; i < 3; ++i) {
         const auto k = static_cast<std::size_t>(i);
-        const double a = (kBaseAngleDeg[k] + g.tower_angle_trim_deg[k]) * kPi / 180;
+        const double a = (kBaseAngleDeg[k] + g.tower_angle_trim_deg[k]) * std::numbers::pi / 180;
         t.xy[k] = {std::cos(a) * g.radius_mm, std::sin(a) * g.radius_mm};
         const double rod = g.diagonal_rod_mm + g.diagonal_rod_trim_mm[k];
         t.rod2[k] = rod * rod;

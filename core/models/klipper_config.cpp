@@ -10,6 +10,7 @@
 
 #include "core/geometry/types.hpp"
 #include "core/models/machine_import.hpp"
+#include "core/trimmed_text.hpp"
 
 namespace calbox::models {
 namespace {
@@ -19,12 +20,6 @@ constexpr const char* kSaveConfigHeader =
     "#*# <---------------------- SAVE_CONFIG ---------------------->\n"
     "#*# DO NOT EDIT THIS BLOCK OR BELOW. The contents are auto-generated.\n"
     "#*#\n";
-
-std::string trimmed(std::string_view s) {
-    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
-    while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
-    return std::string(s);
-}
 
 // The SAVE_CONFIG block's sections in their order, each its keys and values in theirs.
 struct SavedSection {

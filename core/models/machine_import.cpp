@@ -10,16 +10,10 @@
 
 #include "core/number_text.hpp"
 #include "core/targets/gcode_line.hpp"
+#include "core/trimmed_text.hpp"
 
 namespace calbox::models {
 namespace {
-
-std::string trimmed(std::string_view text) {
-    std::size_t a = 0, b = text.size();
-    while (a < b && std::isspace(static_cast<unsigned char>(text[a]))) ++a;
-    while (b > a && std::isspace(static_cast<unsigned char>(text[b - 1]))) --b;
-    return std::string(text.substr(a, b - a));
-}
 
 std::vector<std::string> lines_of(std::string_view text) {
     std::vector<std::string> out;

@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <numbers>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -63,12 +64,11 @@ std::optional<solve::ProbePoint> klipper_probe_point(const std::string& text, do
 }  // namespace
 
 std::vector<geometry::Point2> probe_points(const models::ProbeSettings& probe) {
-    constexpr double kPi = 3.14159265358979323846;
     std::vector<geometry::Point2> out{{0, 0}};
     // Tower A stands at 210 degrees; every 30 degrees from it on the rim, every 60 inside.
     for (const auto& [count, radius] : {std::pair{6, probe.radius_mm / 2}, {12, probe.radius_mm}}) {
         for (int i = 0; i < count; ++i) {
-            const double a = (210.0 + 360.0 * i / count) * kPi / 180;
+            const double a = (210.0 + 360.0 * i / count) * std::numbers::pi / 180;
             out.push_back({radius * std::cos(a), radius * std::sin(a)});
         }
     }

@@ -8,6 +8,7 @@
 
 #include "core/modes/json_file.hpp"
 #include "core/modes/mark_grid.hpp"
+#include "core/modes/mark_records.hpp"
 #include "core/number_text.hpp"
 
 namespace calbox::modes {
@@ -192,32 +193,16 @@ namespace {
 
 using nlohmann::json;
 
-constexpr const char* kMeasurementsSchema = "calbox.galvo-measurements/1";
-constexpr const char* kResultSchema = "calbox.galvo-result/1";
-
-json statistics_json(const models::ErrorStatistics& s) {
-    return {
-        {"mean_mm", s.mean_mm}, {"rms_mm", s.rms_mm}, {"max_mm", s.max_mm}, {"points", s.points}};
-}
-models::ErrorStatistics statistics_from(const json& j) {
-    return {j.at("mean_mm").get<double>(), j.at("rms_mm").get<double>(),
-            j.at("max_mm").get<double>(), j.at("points").get<std::size_t>()};
-}
+constexpr const char* kGalvoMeasurementsSchema = "calbox.galvo-measurements/1";
+constexpr const char* kGalvoResultSchema = "calbox.galvo-result/1";
 
 }  // namespace
 
 std::string galvo_measurements_to_json(const GalvoMeasurement& m) {
-    json nodes = json::array(), missing = json::array(), extra = json::array();
+    json nodes = json::array();
     for (const auto& node : m.nodes)
-        nodes.push_back({{"column", node.index.column},
-                         {"row", node.index.row},
-                         {"large", node.large},
-                         {"intended_mm", point_json(node.intended_mm)},
-                         {"measured_mm", point_json(node.measured_mm)},
-                         {"sigma_mm", node.sigma_mm}});
-    for (const auto& i : m.missing) missing.push_back({i.column, i.row});
-    for (const auto& p : m.extra_mm) extra.push_back(point_json(p));
-    const json j{{"schema", kMeasurementsSchema},
+        nodes.push_back(mark_json(node, &GalvoNodeMeasurement::intended_mm, "intended_mm"));
+    const json j{{"schema", kGalvoMeasurementsSchema},
                  {"machine_fingerprint", m.machine_fingerprint},
                  {"target_fingerprint", m.target_fingerprint},
                  {"photos", m.photos},
@@ -226,13 +211,13 @@ std::string galvo_measurements_to_json(const GalvoMeasurement& m) {
                  {"symmetry", m.symmetry},
                  {"dark_marks", m.dark_marks},
                  {"nodes", nodes},
-                 {"missing", missing},
-                 {"extra_mm", extra}};
+                 {"missing", nodes_json(m.missing)},
+                 {"extra_mm", points_json(m.extra_mm)}};
     return j.dump(1) + "\n";
 }
 
 GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std::string& source) {
-    const json j = parse_record(text, source, kMeasurementsSchema, "galvo measurements");
+    const json j = parse_record(text, source, kGalvoMeasurementsSchema, "galvo measurements");
     try {
         GalvoMeasurement m;
         m.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
@@ -244,23 +229,11 @@ GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std
         m.dark_marks = j.at("dark_marks").get<bool>();
         if (m.grid_count < 7 || m.grid_count > 101 || !(m.pitch_mm > 0))
             throw RecordError(source + ": grid_count must be 7 to 101 and pitch_mm positive");
-        for (const auto& node : j.at("nodes")) {
-            GalvoNodeMeasurement g;
-            g.index = {node.at("column").get<int>(), node.at("row").get<int>()};
-            if (g.index.column < 0 || g.index.row < 0 || g.index.column >= m.grid_count ||
-                g.index.row >= m.grid_count)
-                throw RecordError(source + ": a node lies outside the " +
-                                  std::to_string(m.grid_count) + " x " +
-                                  std::to_string(m.grid_count) + " grid");
-            g.large = node.at("large").get<bool>();
-            g.intended_mm = point_from(node.at("intended_mm"));
-            g.measured_mm = point_from(node.at("measured_mm"));
-            g.sigma_mm = node.at("sigma_mm").get<double>();
-            m.nodes.push_back(g);
-        }
-        for (const auto& i : j.at("missing"))
-            m.missing.push_back({i.at(0).get<int>(), i.at(1).get<int>()});
-        for (const auto& p : j.at("extra_mm")) m.extra_mm.push_back(point_from(p));
+        for (const auto& node : j.at("nodes"))
+            m.nodes.push_back(mark_from(node, &GalvoNodeMeasurement::intended_mm, "intended_mm",
+                                        m.grid_count, m.grid_count, source, "node"));
+        m.missing = nodes_from(j.at("missing"));
+        m.extra_mm = points_from(j.at("extra_mm"));
         return m;
     } catch (const json::exception& e) {
         throw RecordError(source + ": " + e.what());
@@ -277,7 +250,7 @@ std::string galvo_result_to_json(const GalvoSolution& s) {
     }
     json intended = json::array();
     for (const auto& p : s.intended_mm) intended.push_back(point_json(p));
-    const json j{{"schema", kResultSchema},
+    const json j{{"schema", kGalvoResultSchema},
                  {"machine_fingerprint", s.machine_fingerprint},
                  {"pass", s.pass},
                  {"field_size_mm", s.field_size_mm ? json(*s.field_size_mm) : json(nullptr)},
@@ -300,7 +273,7 @@ std::string galvo_result_to_json(const GalvoSolution& s) {
 }
 
 GalvoSolution galvo_result_from_json(const std::string& text, const std::string& source) {
-    const json j = parse_record(text, source, kResultSchema, "galvo result");
+    const json j = parse_record(text, source, kGalvoResultSchema, "galvo result");
     try {
         GalvoSolution s;
         s.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
@@ -310,7 +283,7 @@ GalvoSolution galvo_result_from_json(const std::string& text, const std::string&
             if (!(*s.field_size_mm > 0))
                 throw RecordError(source + ": field_size_mm must be above 0");
         }
-        s.fit.before = statistics_from(j.at("before"));
+        s.fit.before = error_statistics_from(j.at("before"));
         s.measurement_sigma_mm = j.at("measurement_sigma_mm").get<double>();
         s.predicted_rms_mm = j.at("predicted_rms_mm").get<double>();
         s.fit.table_interpolation_max_mm = j.at("table_interpolation_max_mm").get<double>();

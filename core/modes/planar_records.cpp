@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/modes/json_file.hpp"
+#include "core/modes/mark_records.hpp"
 #include "core/modes/planar.hpp"
 #include "core/number_text.hpp"
 
@@ -14,26 +15,8 @@ namespace {
 
 using nlohmann::json;
 
-constexpr const char* kMeasurementsSchema = "calbox.planar-measurements/1";
-constexpr const char* kResultSchema = "calbox.planar-result/1";
-
-json statistics_json(const models::NormStatistics& s) {
-    return {{"max_mm", s.max_mm}, {"q3_mm", s.q3_mm},   {"median_mm", s.median_mm},
-            {"q1_mm", s.q1_mm},   {"min_mm", s.min_mm}, {"mean_mm", s.mean_mm},
-            {"std_mm", s.std_mm}, {"points", s.points}};
-}
-models::NormStatistics statistics_from(const json& j) {
-    models::NormStatistics s;
-    s.max_mm = j.at("max_mm").get<double>();
-    s.q3_mm = j.at("q3_mm").get<double>();
-    s.median_mm = j.at("median_mm").get<double>();
-    s.q1_mm = j.at("q1_mm").get<double>();
-    s.min_mm = j.at("min_mm").get<double>();
-    s.mean_mm = j.at("mean_mm").get<double>();
-    s.std_mm = j.at("std_mm").get<double>();
-    s.points = j.at("points").get<std::size_t>();
-    return s;
-}
+constexpr const char* kPlanarMeasurementsSchema = "calbox.planar-measurements/1";
+constexpr const char* kPlanarResultSchema = "calbox.planar-result/1";
 
 json frame_json(const std::optional<PlanarFrame>& f) {
     if (!f) return nullptr;
@@ -64,16 +47,9 @@ PlanarFrame frame_from(const json& j, const std::string& source) {
 }  // namespace
 
 std::string planar_measurements_to_json(const PlanarMeasurement& m) {
-    json holes = json::array(), missing = json::array(), extra = json::array();
+    json holes = json::array();
     for (const auto& h : m.holes)
-        holes.push_back({{"column", h.index.column},
-                         {"row", h.index.row},
-                         {"large", h.large},
-                         {"commanded_mm", point_json(h.commanded_mm)},
-                         {"measured_mm", point_json(h.measured_mm)},
-                         {"sigma_mm", h.sigma_mm}});
-    for (const auto& i : m.missing) missing.push_back({i.column, i.row});
-    for (const auto& p : m.extra_mm) extra.push_back(point_json(p));
+        holes.push_back(mark_json(h, &PlanarHoleMeasurement::commanded_mm, "commanded_mm"));
     json backlash = nullptr;
     if (m.backlash_hole)
         backlash = {{"column", m.backlash_hole->index.column},
@@ -81,7 +57,7 @@ std::string planar_measurements_to_json(const PlanarMeasurement& m) {
                     {"commanded_mm", point_json(m.backlash_hole->commanded_mm)},
                     {"measured_mm", point_json(m.backlash_hole->measured_mm)},
                     {"sigma_mm", m.backlash_hole->sigma_mm}};
-    const json j{{"schema", kMeasurementsSchema},
+    const json j{{"schema", kPlanarMeasurementsSchema},
                  {"machine_fingerprint", m.machine_fingerprint},
                  {"target_fingerprint", m.target_fingerprint},
                  {"photos", m.photos},
@@ -91,14 +67,14 @@ std::string planar_measurements_to_json(const PlanarMeasurement& m) {
                  {"mirrored", m.mirrored},
                  {"holes", holes},
                  {"backlash_hole", backlash},
-                 {"missing", missing},
-                 {"extra_mm", extra}};
+                 {"missing", nodes_json(m.missing)},
+                 {"extra_mm", points_json(m.extra_mm)}};
     return j.dump(1) + "\n";
 }
 
 PlanarMeasurement planar_measurements_from_json(const std::string& text,
                                                 const std::string& source) {
-    const json j = parse_record(text, source, kMeasurementsSchema, "planar measurements");
+    const json j = parse_record(text, source, kPlanarMeasurementsSchema, "planar measurements");
     try {
         PlanarMeasurement m;
         m.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
@@ -110,20 +86,9 @@ PlanarMeasurement planar_measurements_from_json(const std::string& text,
         m.mirrored = j.at("mirrored").get<bool>();
         if (m.columns < 7 || m.rows < 7 || !(m.pitch_mm > 0))
             throw RecordError(source + ": the grid must be at least 7 x 7 at a positive pitch");
-        for (const auto& h : j.at("holes")) {
-            PlanarHoleMeasurement p;
-            p.index = {h.at("column").get<int>(), h.at("row").get<int>()};
-            if (p.index.column < 0 || p.index.row < 0 || p.index.column >= m.columns ||
-                p.index.row >= m.rows)
-                throw RecordError(source + ": a hole lies outside the " +
-                                  std::to_string(m.columns) + " x " + std::to_string(m.rows) +
-                                  " grid");
-            p.large = h.at("large").get<bool>();
-            p.commanded_mm = point_from(h.at("commanded_mm"));
-            p.measured_mm = point_from(h.at("measured_mm"));
-            p.sigma_mm = h.at("sigma_mm").get<double>();
-            m.holes.push_back(p);
-        }
+        for (const auto& h : j.at("holes"))
+            m.holes.push_back(mark_from(h, &PlanarHoleMeasurement::commanded_mm, "commanded_mm",
+                                        m.columns, m.rows, source, "hole"));
         if (const auto& b = j.at("backlash_hole"); !b.is_null()) {
             PlanarHoleMeasurement h;
             h.index = {b.at("column").get<int>(), b.at("row").get<int>()};
@@ -132,9 +97,8 @@ PlanarMeasurement planar_measurements_from_json(const std::string& text,
             h.sigma_mm = b.at("sigma_mm").get<double>();
             m.backlash_hole = h;
         }
-        for (const auto& i : j.at("missing"))
-            m.missing.push_back({i.at(0).get<int>(), i.at(1).get<int>()});
-        for (const auto& p : j.at("extra_mm")) m.extra_mm.push_back(point_from(p));
+        m.missing = nodes_from(j.at("missing"));
+        m.extra_mm = points_from(j.at("extra_mm"));
         return m;
     } catch (const json::exception& e) {
         throw RecordError(source + ": " + e.what());
@@ -160,7 +124,7 @@ std::string planar_result_to_json(const PlanarSolution& s, const FirmwareSetting
         holes.push_back({{"commanded_mm", point_json(s.commanded_mm[i])},
                          {"error_mm", point_json(s.error_mm[i])},
                          {"residual_mm", point_json(s.fit.residuals_mm[i])}});
-    const json j{{"schema", kResultSchema},
+    const json j{{"schema", kPlanarResultSchema},
                  {"machine_fingerprint", s.machine_fingerprint},
                  {"tool_length_mm", s.tool_length_mm},
                  {"parameters", parameters},
@@ -189,7 +153,7 @@ std::string planar_result_to_json(const PlanarSolution& s, const FirmwareSetting
 }
 
 PlanarSolution planar_result_from_json(const std::string& text, const std::string& source) {
-    const json j = parse_record(text, source, kResultSchema, "planar result");
+    const json j = parse_record(text, source, kPlanarResultSchema, "planar result");
     try {
         PlanarSolution s;
         s.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
@@ -219,8 +183,8 @@ PlanarSolution planar_result_from_json(const std::string& text, const std::strin
         s.fit.residual_rms_mm = j.at("residual_rms_mm").get<double>();
         s.fit.unit_variance_ratio = j.at("unit_variance_ratio").get<double>();
         s.measurement_sigma_mm = j.at("measurement_sigma_mm").get<double>();
-        s.before = statistics_from(j.at("before"));
-        s.after = statistics_from(j.at("after"));
+        s.before = norm_statistics_from(j.at("before"));
+        s.after = norm_statistics_from(j.at("after"));
         const auto area = j.at("valid_area_mm").get<std::vector<double>>();
         if (area.size() != 4 || !(area[2] > area[0] && area[3] > area[1]))
             throw RecordError(source + ": valid_area_mm is [min x, min y, max x, max y]");

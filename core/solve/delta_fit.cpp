@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <functional>
 #include <limits>
+#include <numbers>
 
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
@@ -15,7 +16,6 @@ namespace calbox::solve {
 namespace {
 
 using models::DeltaGeometry;
-constexpr double kPi = 3.14159265358979323846;
 
 // The geometry parameters, in gauge: rod, two rod trims (the third is minus their sum), radius,
 // two angle trims (likewise), two endstop offsets relative to tower C's, height. `step` changes
@@ -171,7 +171,8 @@ std::vector<geometry::Point3> judging_points(double radius_mm, double z_mm) {
         const double r = radius_mm * ring / 6;
         const int n = 6 * ring;
         for (int k = 0; k < n; ++k)
-            out.push_back({r * std::cos(2 * kPi * k / n), r * std::sin(2 * kPi * k / n), z_mm});
+            out.push_back({r * std::cos(2 * std::numbers::pi * k / n),
+                           r * std::sin(2 * std::numbers::pi * k / n), z_mm});
     }
     return out;
 }

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <sstream>
 #include <vector>
@@ -18,7 +19,6 @@ namespace {
 
 using geometry::Point2;
 
-constexpr double kPi = 3.14159265358979323846;
 // LinuxCNC's bound on how far a centre-format arc's end may lie off the circle through its start
 // (0.0028 inch): beyond it, and beyond 0.1 % of the radius, no controller cuts the arc.
 constexpr double kArcRadiusToleranceMm = 2 * 0.001 * 1.41421356237309504880 * 25.4;
@@ -214,22 +214,22 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
     const double a1 = std::atan2(t[1] - cb, t[0] - ca);
     double sweep = a1 - a0;
     if (clockwise) {
-        while (sweep >= -1e-12) sweep -= 2 * kPi;
+        while (sweep >= -1e-12) sweep -= 2 * std::numbers::pi;
     } else {
-        while (sweep <= 1e-12) sweep += 2 * kPi;
+        while (sweep <= 1e-12) sweep += 2 * std::numbers::pi;
     }
     if (std::hypot(t[0] - f[0], t[1] - f[1]) < 1e-9 && !line.has('R'))
-        sweep = clockwise ? -2 * kPi : 2 * kPi;  // a whole circle
+        sweep = clockwise ? -2 * std::numbers::pi : 2 * std::numbers::pi;  // a whole circle
     // LinuxCNC's P: the arc goes round P times (P - 1 whole turns more).
     if (const auto turns = line.value('P')) {
         if (!(*turns >= 1 && *turns <= 1000 && *turns == std::floor(*turns)))
             throw fail("an arc's P (its turns) is a whole number from 1 to 1000, not " +
                        number(*turns, 4));
-        sweep += (clockwise ? -2 * kPi : 2 * kPi) * (*turns - 1);
+        sweep += (clockwise ? -2 * std::numbers::pi : 2 * std::numbers::pi) * (*turns - 1);
     }
     const double by_tolerance = radius > settings.arc_tolerance_mm
                                     ? 2 * std::acos(1 - settings.arc_tolerance_mm / radius)
-                                    : kPi;
+                                    : std::numbers::pi;
     const double by_length = settings.max_segment_mm / std::max(radius, 1e-9);
     const int pieces = std::max(
         1, static_cast<int>(std::ceil(std::abs(sweep) / std::min(by_tolerance, by_length))));
@@ -524,12 +524,12 @@ class Compensator {
         if (polar.any()) {
             const Point2 now = job_of(from, offset);
             const double r_now = std::hypot(now.x, now.y);
-            const double a_now = std::atan2(now.y, now.x) * 180 / kPi;
+            const double a_now = std::atan2(now.y, now.x) * 180 / std::numbers::pi;
             const double r =
                 m_.absolute ? polar.distance.value_or(r_now) : r_now + polar.distance.value_or(0);
             const double a = (m_.absolute ? polar.angle_deg.value_or(a_now)
                                           : a_now + polar.angle_deg.value_or(0)) *
-                             kPi / 180;
+                             std::numbers::pi / 180;
             return machine_of({r * std::cos(a), r * std::sin(a)}, offset);
         }
         Point2 to = from;

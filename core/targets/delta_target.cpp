@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <numbers>
 #include <opencv2/aruco.hpp>
 
 #include "core/geometry/pattern_spec.hpp"
@@ -12,7 +13,6 @@ namespace calbox::targets {
 namespace {
 
 using geometry::Point2;
-constexpr double kPi = 3.14159265358979323846;
 constexpr std::array<double, 3> kTowerDeg{210, 330, 90};
 
 Contour square(Point2 c, double half, bool clockwise) {
@@ -67,7 +67,7 @@ DeltaTarget make_delta_target(const models::MachineFile& machine, const DeltaTar
 
     // Bars along the towers, from the inner radius to the usable edge.
     for (int t = 0; t < 3; ++t) {
-        const double a = kTowerDeg[static_cast<std::size_t>(t)] * kPi / 180;
+        const double a = kTowerDeg[static_cast<std::size_t>(t)] * std::numbers::pi / 180;
         TargetBar bar;
         bar.tower = static_cast<char>('A' + t);
         bar.width_mm = o.bar_width_mm;

@@ -17,7 +17,7 @@ double line_width_of(const models::MachineFile& m) {
     return m.is_printer() ? m.line_width_mm : m.tool_width_mm;
 }
 
-std::string xy(Point2 p) {
+std::string spaced_xy(Point2 p) {
     return " X" + number_text("%.4f", p.x) + " Y" + number_text("%.4f", p.y);
 }
 
@@ -210,7 +210,7 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
                         line("G0 Z" + number_text("%.3f", hop));
                         lifted = true;
                     }
-                    line("G0" + xy(move.to) + " F" + number_text("%.0f", travel));
+                    line("G0" + spaced_xy(move.to) + " F" + number_text("%.0f", travel));
                     continue;
                 }
                 if (lifted) {
@@ -218,7 +218,7 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
                     lifted = false;
                 }
                 e += move.length_mm() * e_per_mm;
-                line("G1" + xy(move.to) + " E" + number_text("%.5f", e) + " F" +
+                line("G1" + spaced_xy(move.to) + " E" + number_text("%.5f", e) + " F" +
                      number_text("%.0f", feed));
             }
         }
@@ -246,7 +246,7 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
         if (move.kind == MoveKind::travel) {
             if (working) line(router ? "G0 Z" + number_text("%.3f", m.safe_height_mm) : "M5");
             working = false;
-            line("G0" + xy(move.to) + " F" + number_text("%.0f", travel));
+            line("G0" + spaced_xy(move.to) + " F" + number_text("%.0f", travel));
             continue;
         }
         if (!working) {
@@ -255,7 +255,7 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
                         : "M3 S" + number_text("%.0f", m.laser_power * power_scale));
             working = true;
         }
-        line("G1" + xy(move.to) + " F" + number_text("%.0f", feed));
+        line("G1" + spaced_xy(move.to) + " F" + number_text("%.0f", feed));
     }
     if (router) line("G0 Z" + number_text("%.3f", m.safe_height_mm));
     line("M5");

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <numbers>
 #include <optional>
 
 #include "core/targets/gcode_line.hpp"
@@ -14,7 +15,6 @@
 namespace calbox::gcode {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kLocalParameters = 30;  // #1..#30 belong to the subroutine call that set them
 // LinuxCNC's parameters from 5000 on are the controller's own (offsets, tool table, position):
 // their values are not in the file.
@@ -469,7 +469,7 @@ class Machine {
             return is ? 1 : 0;
         }
         const double a = value(at, s, i);
-        const double to_rad = kPi / 180;
+        const double to_rad = std::numbers::pi / 180;
         if (name == "ATAN") {
             skip_blanks(s, i);
             if (i >= s.size() || s[i] != '/') throw fail(at, "ATAN takes [y]/[x]");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <set>
 
 #include "core/number_text.hpp"
@@ -11,8 +12,6 @@ namespace {
 
 using geometry::Point2;
 
-constexpr double kPi = 3.14159265358979323846;
-
 // Every hole is approached from -x and -y, from this far: whatever slack the drives have is
 // taken up the same way at every hole, so backlash moves them all alike (a translation the fit
 // takes out) instead of scattering them.
@@ -20,11 +19,11 @@ constexpr double kApproachMm = 1.0;
 
 // A circle's points, enough that the polygon stays within a micrometre of it.
 std::vector<Point2> circle_points(Point2 centre, double radius_mm) {
-    const int sides =
-        std::max(24, static_cast<int>(std::ceil(kPi / std::acos(1 - 0.001 / radius_mm))));
+    const int sides = std::max(
+        24, static_cast<int>(std::ceil(std::numbers::pi / std::acos(1 - 0.001 / radius_mm))));
     std::vector<Point2> points;
     for (int k = 0; k <= sides; ++k) {
-        const double a = 2 * kPi * k / sides;
+        const double a = 2 * std::numbers::pi * k / sides;
         points.push_back({centre.x + radius_mm * std::cos(a), centre.y + radius_mm * std::sin(a)});
     }
     return points;

@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <map>
+#include <numbers>
 #include <optional>
 #include <pugixml.hpp>
 
@@ -14,7 +15,6 @@ namespace calbox::targets {
 namespace {
 
 using geometry::Point2;
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMmPerPx = 25.4 / 96.0;  // CSS pixel
 
 // ---------------------------------------------------------------------------------------------
@@ -115,7 +115,7 @@ void flatten_cubic(const Affine& m, Point2 p0, Point2 p1, Point2 p2, Point2 p3, 
 void flatten_arc(const Affine& m, Point2 centre, double rx, double ry, double phi, double theta1,
                  double delta, double tolerance, std::vector<Point2>& out) {
     const double r_mm = std::max(rx, ry) * m.scale();
-    double step = kPi / 2;
+    double step = std::numbers::pi / 2;
     if (r_mm > tolerance) step = std::min(step, 2 * std::acos(1 - tolerance / r_mm));
     // A million points is a 60 km arc at the default tolerance: more is a broken number, and
     // past int the count itself would be undefined (found by tests/fuzz under UBSan).
@@ -148,7 +148,7 @@ void arc_to(const Affine& m, Point2 p1, double rx, double ry, double phi_deg, bo
         out.push_back(p2);
         return;
     }
-    const double phi = phi_deg * kPi / 180, cp = std::cos(phi), sp = std::sin(phi);
+    const double phi = phi_deg * std::numbers::pi / 180, cp = std::cos(phi), sp = std::sin(phi);
     const double dx = (p1.x - p2.x) / 2, dy = (p1.y - p2.y) / 2;
     const double x1 = cp * dx + sp * dy, y1 = -sp * dx + cp * dy;
     const double lambda = x1 * x1 / (rx * rx) + y1 * y1 / (ry * ry);
@@ -166,8 +166,8 @@ void arc_to(const Affine& m, Point2 p1, double rx, double ry, double phi_deg, bo
     const double theta1 = vector_angle(1, 0, (x1 - cx1) / rx, (y1 - cy1) / ry);
     double delta =
         vector_angle((x1 - cx1) / rx, (y1 - cy1) / ry, (-x1 - cx1) / rx, (-y1 - cy1) / ry);
-    if (!sweep && delta > 0) delta -= 2 * kPi;
-    if (sweep && delta < 0) delta += 2 * kPi;
+    if (!sweep && delta > 0) delta -= 2 * std::numbers::pi;
+    if (sweep && delta < 0) delta += 2 * std::numbers::pi;
     flatten_arc(m, centre, rx, ry, phi, theta1, delta, tolerance, out);
     out.back() = p2;  // land exactly on the endpoint
 }
@@ -400,7 +400,7 @@ struct Reader {
             const double ry = name == "circle" ? rx : number_attribute(node, "ry", 0);
             if (rx <= 0 || ry <= 0) return {};
             std::vector<Point2> out;
-            flatten_arc(m, {cx, cy}, rx, ry, 0, 0, 2 * kPi, tol, out);
+            flatten_arc(m, {cx, cy}, rx, ry, 0, 0, 2 * std::numbers::pi, tol, out);
             out.pop_back();  // the last point repeats the first
             return {mapped(std::move(out), true)};
         }
@@ -463,15 +463,15 @@ Affine parse_transform(std::string_view text) {
         } else if (name == "rotate") {
             need(1, 3);
             if (v.size() == 2) throw SvgError("transform rotate() with 2 numbers");
-            const double r = v[0] * kPi / 180, cr = std::cos(r), sr = std::sin(r);
+            const double r = v[0] * std::numbers::pi / 180, cr = std::cos(r), sr = std::sin(r);
             const double cx = v.size() == 3 ? v[1] : 0, cy = v.size() == 3 ? v[2] : 0;
             t = {cr, sr, -sr, cr, cx - cr * cx + sr * cy, cy - sr * cx - cr * cy};
         } else if (name == "skewX") {
             need(1, 1);
-            t.c = std::tan(v[0] * kPi / 180);
+            t.c = std::tan(v[0] * std::numbers::pi / 180);
         } else if (name == "skewY") {
             need(1, 1);
-            t.b = std::tan(v[0] * kPi / 180);
+            t.b = std::tan(v[0] * std::numbers::pi / 180);
         } else {
             throw SvgError("unknown transform " + name + "()");
         }

@@ -4,6 +4,7 @@
 #include <clipper.hpp>
 #include <cmath>
 #include <limits>
+#include <numbers>
 #include <optional>
 
 namespace calbox::targets {
@@ -11,7 +12,6 @@ namespace {
 
 using geometry::Point2;
 constexpr double kScale = 1e5;  // Clipper works in integers: 10 nm units
-constexpr double kPi = 3.14159265358979323846;
 
 ClipperLib::Path to_clipper(const Polygon& polygon) {
     ClipperLib::Path path;
@@ -271,7 +271,7 @@ std::vector<ScanSegment> scanline_fill(const std::vector<Polygon>& region, doubl
     std::vector<ScanSegment> out;
     if (region.empty() || !(spacing_mm > 0)) return out;
     // Rotate the region so the scanlines run along x.
-    const double a = angle_deg * kPi / 180, ca = std::cos(a), sa = std::sin(a);
+    const double a = angle_deg * std::numbers::pi / 180, ca = std::cos(a), sa = std::sin(a);
     std::vector<Polygon> rotated;
     double ymin = std::numeric_limits<double>::infinity(), ymax = -ymin;
     for (const auto& polygon : region) {

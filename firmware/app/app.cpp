@@ -35,93 +35,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kRunHelp = R"(usage:
-  calbox run [--board sim|rpi] [--scenario FILE] [--data DIR] [--config FILE] [--console DEVICE]
-             [--board-file FILE] [--machine FILE]
-             [--auto | --operator | --operator-hands] [--frames N] [--camera-files DIR|GLOB]
-             [--modbus-server ENDPOINT] [--modbus-client ENDPOINT [--modbus-map FILE]]
-             [--modbus-word-order ORDER] [--web HOST:PORT] [--mqtt HOST:PORT]
-      The appliance: waits for the button, then runs the calibration cycle of the scenario's
-      machine (a delta printer, a galvo scanner or a router): the target made over the machine link, lit
-      and photographed, measured, solved, shown for review (short press applies, long press
-      cancels), applied, and verified by making the target again. A delta printer's settings
-      are sent with a backup and a read-back; a galvo scanner's correction is a table the box
-      keeps (DIR/galvo-table.json) and sends jobs through, the grid burned through it to verify;
-      a router's or cartesian printer's is an error model the box keeps (DIR/planar-result.json, with the firmware's
-      own scale and skew settings beside it in the cycle's firmware.txt) and compensates jobs
-      through, the holes drilled through it to verify. The correction starts from the settings the printer reports
-      (M503; RepRapFirmware: M665, M666), not the scenario's. The first time (no camera.yaml / plane.yaml in DIR) it first
-      asks for views of a chessboard held in front of the camera and for one on the bed (the
-      scenario's [setup]: chessboard:11x8@20 and 9x6@20 unless it says otherwise). Every state
-      change is one line on standard error.
-      --board rpi     a Raspberry Pi 4 or 5 with its camera (V4L2), button, LEDs and light
-                      (GPIO), display (I2C) and the machine's serial port, where --board-file
-                      FILE (default /etc/calbox/board.toml when it exists; docs/devices.md, The
-                      Raspberry Pi board) says; --machine FILE is the machine beside the box.
-                      A device that is not there stops it with one line naming it
-      --board sim     the digital twin (the default): --scenario FILE (default
-                      examples/delta_cycle.toml; examples/galvo_cycle.toml is a galvo scanner,
-                      examples/planar_cycle.toml a router, tests/scenarios/
-                      planar_printer_small.toml a cartesian printer) is
-                      the machine, its hidden errors, the camera and the set-up boards
-      --data DIR      set-up and cycle records (default $XDG_STATE_HOME/calbox, else
-                      ~/.local/state/calbox)
-      --auto          no person: the sim board's operator does what each prompt asks and
-                      presses the button; one cycle, then exit. Prints the twin's judgement
-                      before and after, and exits 0 only if the goal is met: a delta's XY RMS <=
-                      0.01 mm, worst <= 0.03 mm over the printable area; a galvo's marks through
-                      the table <= 0.008 mm mean, <= 0.03 mm worst; a router's (or printer's) fresh points
-                      through the model under 0.05 mm mean and 95 % less than before; 1 when it
-                      is not met or the cycle failed; 3 when SIGTERM or SIGINT stopped it before
-                      the verdict. Without --auto a signal is a clean stop, status 0.
-      --config FILE   the box's configuration (TOML; docs/appliance.md, Configuration; default
-                      DIR/calbox.toml when it exists): [cycle], [setup], [records], [console] and
-                      [modbus]; the options override it. The console's `config save` writes it
-      --console DEVICE
-                      the console (docs/appliance.md, Console): a serial device, "pty" (a pseudo-terminal,
-                      linked as DIR/console), "stdin" (the default: standard input when it is a
-                      terminal) or "" for none; overrides console.device
-      --operator      the sim board's operator does what the set-up and bed prompts ask, but
-                      the start and the review are left to the button, the console or a PLC
-      --operator-hands
-                      the operator does what each prompt asks but presses nothing: every press
-                      comes from the console or the button
-      --frames N      photos averaged per capture (default: cycle.frames_per_capture, 1)
-      --camera-files DIR|GLOB
-                      photos from image files (name order, one per frame) instead of the
-                      camera: a cycle re-run on saved photos, or photos from another camera.
-                      Their size must be the calibration's (camera.yaml), else one error line
-      --modbus-server ENDPOINT
-                      serve the PLC map (docs/devices.md, Modbus): trigger, confirm, cancel and
-                      acknowledge coils; ready, busy, review, done, pass, error and person inputs;
-                      state, error code, result counter and the result block in input registers.
-                      ENDPOINT is tcp:HOST:PORT (0.0.0.0 for all interfaces) or rtu:DEVICE:BAUD
-      --modbus-client ENDPOINT
-                      after each completed cycle, write its result into that controller's holding
-                      registers: the whole result block from register 0, or as --modbus-map FILE
-                      says (TOML lines: value_name = register)
-      --modbus-word-order ORDER
-                      the floats' word order on Modbus: abcd (default: 123456.0 is 0x47F1
-                      0x2000), cdab, badc or dcba
-      --web HOST:PORT serve the box's web page there (docs/network.md; overrides web.listen):
-                      status, live view, pictures, records, configuration and the actions at /,
-                      /metrics for Prometheus, records under /records/. HOST is an IP address
-                      (0.0.0.0: every interface); port 0 takes a free one (logged). Whatever
-                      changes state needs the password set with the console's `web password`
-      --mqtt HOST:PORT
-                      report to that MQTT broker (overrides mqtt.broker): the state and each
-                      cycle's result, availability, and Home Assistant's discovery
-      The console's commands: help, status, config list|get|set|save|reset, start, confirm,
-      cancel, revert, last, log, version, camera calibrate|plane, capture; on the sim board also
-      press, hold and quit.
-  calbox revert [--board sim|rpi] [--scenario FILE] [--data DIR] [--board-file FILE]
-                [--machine FILE]
-      Sends the settings backed up before the last completed cycle applied its correction
-      (DIR/cycle-NNNN-backup.gcode), then M500, and reads them back from the printer (M503;
-      RepRapFirmware: M665, M666); exits 1 if the printer reports anything else. The sim
-      board's printer keeps what it stores in DIR/twin-printer-settings.gcode, as an EEPROM.
-)";
-
 std::filesystem::path default_data_dir() {
     if (const char* state = std::getenv("XDG_STATE_HOME"); state != nullptr && *state != 0)
         return std::filesystem::path(state) / "calbox";
@@ -250,7 +163,6 @@ struct RunOptions {
 };
 
 RunOptions run_options(const Args& args) {
-    if (!args.positional().empty()) throw UsageError("run takes no positional argument");
     RunOptions o;
     o.automatic = args.flag("--auto");
     if (o.automatic && args.flag("--operator")) throw UsageError("--auto already has the operator");
@@ -542,12 +454,7 @@ int judged_run_end(Box& box, sim::TwinJudge& judge, const sim::TwinVerdict& befo
     return 0;
 }
 
-int run(const std::vector<std::string>& words) {
-    const Args args(words,
-                    {"--board", "--scenario", "--data", "--config", "--console", "--frames",
-                     "--camera-files", "--modbus-server", "--modbus-client", "--modbus-map",
-                     "--modbus-word-order", "--board-file", "--machine", "--web", "--mqtt"},
-                    {"--auto", "--operator", "--operator-hands"});
+int run(const Args& args) {
     const RunOptions options = run_options(args);
     const Common common = common_options(args, true);
     const std::filesystem::path config_path = args.get("--config")
@@ -659,9 +566,7 @@ int run(const std::vector<std::string>& words) {
     return judged_run_end(box, *judge, *before);
 }
 
-int revert(const std::vector<std::string>& words) {
-    const Args args(words, {"--board", "--scenario", "--data", "--board-file", "--machine"}, {});
-    if (!args.positional().empty()) throw UsageError("revert takes no positional argument");
+int revert(const Args& args) {
     const Common common = common_options(args, true);
     firmware::SignalWatch signals;
     Box box(args, common, {});
@@ -703,28 +608,109 @@ int revert(const std::vector<std::string>& words) {
     return 0;
 }
 
-bool wants_help(const std::vector<std::string>& words) {
-    for (const auto& w : words)
-        if (w == "--help" || w == "-h") return true;
-    return false;
+// Where the machine and the records are, as run and revert both take them.
+std::vector<Option> where_options() {
+    return {
+        {"--board", "sim|rpi",
+         "rpi: a Raspberry Pi 4 or 5 with its camera (V4L2), button, LEDs and light\n"
+         "(GPIO), display (I2C) and the machine's serial port, where --board-file says;\n"
+         "a device that is not there stops it with one line naming it.\n"
+         "sim: the digital twin (the default)"},
+        {"--scenario", "FILE",
+         "the sim board's machine, its hidden errors, the camera and the set-up boards\n"
+         "(default examples/delta_cycle.toml; examples/galvo_cycle.toml is a galvo\n"
+         "scanner, examples/planar_cycle.toml a router)"},
+        {"--data", "DIR",
+         "set-up and cycle records (default $XDG_STATE_HOME/calbox, else\n"
+         "~/.local/state/calbox)"},
+        {"--board-file", "FILE",
+         "the Pi's devices (default /etc/calbox/board.toml when it exists;\n"
+         "docs/devices.md, The Raspberry Pi board)"},
+        {"--machine", "FILE", "with --board rpi: the machine beside the box"},
+    };
 }
 
 }  // namespace
 
-int run_appliance(const std::vector<std::string>& words) {
-    if (wants_help(words)) {
-        std::cout << kRunHelp;
-        return 0;
-    }
-    return run(words);
-}
+std::vector<Command> appliance_commands() {
+    std::vector<Option> run_options = where_options();
+    const std::vector<Option> more = {
+        {"--config", "FILE",
+         "the box's configuration (TOML; docs/appliance.md, Configuration; default\n"
+         "DIR/calbox.toml when it exists); the options override it"},
+        {"--console", "DEVICE",
+         "the console: a serial device, \"pty\" (a pseudo-terminal, linked as\n"
+         "DIR/console), \"stdin\" (the default: standard input when it is a terminal)\n"
+         "or \"\" for none; overrides console.device"},
+        {"--auto", "",
+         "no person: the sim board's operator does what each prompt asks and presses\n"
+         "the button; one cycle, then exit with the twin's verdict (below)",
+         Given::flag},
+        {"--operator", "",
+         "the sim board's operator does what the set-up and bed prompts ask; the start\n"
+         "and the review are left to the button, the console or a PLC",
+         Given::flag},
+        {"--operator-hands", "",
+         "the operator does what each prompt asks but presses nothing: every press\n"
+         "comes from the console or the button",
+         Given::flag},
+        {"--frames", "N", "photos averaged per capture (default: cycle.frames_per_capture, 1)"},
+        {"--camera-files", "DIR|GLOB",
+         "photos from image files (name order, one per frame) instead of the camera;\n"
+         "their size must be the calibration's (camera.yaml)"},
+        {"--modbus-server", "ENDPOINT",
+         "serve the PLC map (docs/devices.md, Modbus); ENDPOINT is tcp:HOST:PORT\n"
+         "(0.0.0.0 for all interfaces) or rtu:DEVICE:BAUD"},
+        {"--modbus-client", "ENDPOINT",
+         "after each completed cycle, write its result into that controller's holding\n"
+         "registers: the whole result block from register 0, or as --modbus-map says"},
+        {"--modbus-map", "FILE", "with --modbus-client: TOML lines value_name = register"},
+        {"--modbus-word-order", "ORDER",
+         "the floats' word order on Modbus: abcd (default: 123456.0 is 0x47F1 0x2000),\n"
+         "cdab, badc or dcba"},
+        {"--web", "HOST:PORT",
+         "serve the box's web page there (docs/network.md; overrides web.listen);\n"
+         "port 0 takes a free one (logged)"},
+        {"--mqtt", "HOST:PORT",
+         "report to that MQTT broker (overrides mqtt.broker): the state, each cycle's\n"
+         "result, availability and Home Assistant's discovery"},
+    };
+    run_options.insert(run_options.end(), more.begin(), more.end());
+    return {
+        {"run", "the appliance: the one-button calibration cycle", run_options,
+         R"(The appliance: waits for the button, then runs the calibration cycle of the scenario's
+machine (a delta printer, a galvo scanner or a router): the target made over the machine
+link, lit and photographed, measured, solved, shown for review (short press applies, long
+press cancels), applied, and verified by making the target again. A delta printer's
+settings are sent with a backup and a read-back; a galvo scanner's correction is a table
+the box keeps (DIR/galvo-table.json) and sends jobs through, the grid burned through it to
+verify; a router's or cartesian printer's is an error model the box keeps
+(DIR/planar-result.json, with the firmware's own scale and skew settings beside it in the
+cycle's firmware.txt) and compensates jobs through, the holes drilled through it to verify.
+The correction starts from the settings the printer reports (M503; RepRapFirmware: M665,
+M666), not the scenario's. The first time (no camera.yaml / plane.yaml in DIR) it first
+asks for views of a chessboard held in front of the camera and for one on the bed (the
+scenario's [setup]: chessboard:11x8@20 and 9x6@20 unless it says otherwise). Every state
+change is one line on standard error.
 
-int run_revert(const std::vector<std::string>& words) {
-    if (wants_help(words)) {
-        std::cout << kRunHelp;
-        return 0;
-    }
-    return revert(words);
+With --auto it prints the twin's judgement before and after, and exits 0 only if the goal
+is met: a delta's XY RMS <= 0.01 mm, worst <= 0.03 mm over the printable area; a galvo's
+marks through the table <= 0.008 mm mean, <= 0.03 mm worst; a router's (or printer's)
+fresh points through the model under 0.05 mm mean and 95 % less than before; 1 when it is
+not met or the cycle failed; 3 when SIGTERM or SIGINT stopped it before the verdict.
+Without --auto a signal is a clean stop, status 0.
+
+The console's commands: help, status, config list|get|set|save|reset, start, confirm,
+cancel, revert, last, log, version, camera calibrate|plane, capture; on the sim board also
+press, hold and quit.)",
+         run},
+        {"revert", "put back what the last applied cycle changed", where_options(),
+         R"(Sends the settings backed up before the last completed cycle applied its correction
+(DIR/cycle-NNNN-backup.gcode), then M500, and reads them back from the printer (M503;
+RepRapFirmware: M665, M666); exits 1 if the printer reports anything else. The sim
+board's printer keeps what it stores in DIR/twin-printer-settings.gcode, as an EEPROM.)",
+         revert},
+    };
 }
 
 }  // namespace calbox::cli

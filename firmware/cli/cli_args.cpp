@@ -1,6 +1,5 @@
 #include "firmware/cli/cli_args.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -11,25 +10,9 @@
 
 namespace calbox::cli {
 
-Args::Args(const std::vector<std::string>& words, const std::set<std::string>& valued,
-           const std::set<std::string>& flags) {
-    for (std::size_t i = 0; i < words.size(); ++i) {
-        const std::string& w = words[i];
-        if (w.size() > 1 && w[0] == '-' &&
-            !(w.size() > 1 && (std::isdigit(static_cast<unsigned char>(w[1])) || w[1] == '.'))) {
-            if (flags.count(w)) {
-                flags_.insert(w);
-                continue;
-            }
-            if (!valued.count(w)) throw UsageError("unknown option " + w);
-            if (i + 1 >= words.size()) throw UsageError(w + " needs a value");
-            if (values_.count(w)) throw UsageError(w + " given twice");
-            values_[w] = words[++i];
-            continue;
-        }
-        positional_.push_back(w);
-    }
-}
+Args::Args(std::map<std::string, std::string> values, std::set<std::string> flags,
+           std::vector<std::string> positional)
+    : values_(std::move(values)), flags_(std::move(flags)), positional_(std::move(positional)) {}
 
 std::optional<std::string> Args::get(const std::string& name) const {
     const auto it = values_.find(name);
@@ -56,25 +39,6 @@ double Args::number(const std::string& name, double fallback) const {
     if (used != v->size() || !std::isfinite(d))
         throw UsageError(name + " needs a number, not '" + *v + "'");
     return d;
-}
-
-int dispatch(const std::vector<std::string>& words, const char* help, const char* group,
-             const std::vector<std::pair<std::string, Command>>& commands) {
-    const bool wants_help = std::any_of(words.begin(), words.end(), [](const std::string& w) {
-        return w == "--help" || w == "-h";
-    });
-    if (words.empty() || wants_help) {
-        std::cout << help;
-        return words.empty() ? 2 : 0;
-    }
-    const std::vector<std::string> rest(words.begin() + 1, words.end());
-    std::string names;
-    for (const auto& [name, run] : commands) {
-        if (words[0] == name) return run(rest);
-        names += (names.empty() ? "" : ", ") + name;
-    }
-    throw UsageError("unknown " + std::string(group) + " command '" + words[0] + "' (" + names +
-                     ")");
 }
 
 void write_output_file(const std::string& path, const std::string& contents) {

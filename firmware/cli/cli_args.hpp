@@ -1,25 +1,28 @@
 #pragma once
-// The calbox command line: options are "--name value" (or "-o value"), everything else is
-// positional. Each command states which options it takes; anything else is an error.
+// The calbox command line. Each command declares its options once, as a Command: the parser
+// (CLI11, in main.cpp) makes the command's usage, its --help and its errors for unknown,
+// missing, repeated or malformed options from that declaration, and hands the command what
+// was given as Args.
 #include <map>
 #include <optional>
 #include <set>
 #include <stdexcept>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace calbox::cli {
 
+// Bad use of a command (as against bad input files): exit status 2, "see --help".
 class UsageError : public std::runtime_error {
   public:
     using std::runtime_error::runtime_error;
 };
 
+// What a command was given, by the names its options are declared with ("--machine", "-o").
 class Args {
   public:
-    Args(const std::vector<std::string>& words, const std::set<std::string>& valued,
-         const std::set<std::string>& flags);
+    Args(std::map<std::string, std::string> values, std::set<std::string> flags,
+         std::vector<std::string> positional);
     std::optional<std::string> get(const std::string& name) const;
     std::string require(const std::string& name) const;
     bool flag(const std::string& name) const { return flags_.count(name) != 0; }
@@ -33,25 +36,43 @@ class Args {
     std::vector<std::string> positional_;
 };
 
-// One command group ("calbox sim ..."): --help anywhere prints `help`; the first word picks the
-// command from `commands`; no word at all prints the help and returns 2.
-using Command = int (*)(const std::vector<std::string>& rest);
-int dispatch(const std::vector<std::string>& words, const char* help, const char* group,
-             const std::vector<std::pair<std::string, Command>>& commands);
+enum class Given {
+    optional,   // --name VALUE, may be left out
+    required,   // --name VALUE, must be there
+    flag,       // --name alone
+    word,       // one positional argument, required (its name in capitals: IMAGE)
+    words,      // one or more positional arguments (IMAGES)
+    any_words,  // positional arguments, none or more
+};
+
+struct Option {
+    std::string name;   // "--machine", "-o"; a positional argument's name: "IMAGES"
+    std::string value;  // the value as the usage names it: "printer.toml", "MM"
+    std::string help;
+    Given given = Given::optional;
+};
+
+struct Command {
+    std::string path;     // "solve delta"; a command of one word: "compensate"
+    std::string summary;  // one line, listed by `calbox solve --help`
+    std::vector<Option> options;
+    std::string details;  // what it does and what it refuses, after the options in --help
+    int (*run)(const Args& args) = nullptr;
+};
+
+// Each file's commands, in the order --help lists them.
+std::vector<Command> appliance_commands();  // run, revert
+std::vector<Command> camera_commands();
+std::vector<Command> detect_commands();
+std::vector<Command> target_commands();
+std::vector<Command> measure_commands();
+std::vector<Command> solve_commands();
+std::vector<Command> compensate_commands();
+std::vector<Command> machine_commands();
+std::vector<Command> sim_commands();
 
 // Writes a whole output file atomically (sibling + rename): a failed run leaves no half file.
 void write_output_file(const std::string& path, const std::string& contents);
 std::string read_input_file(const std::string& path, const std::string& what);
-
-int run_sim(const std::vector<std::string>& words);         // "calbox sim ..."
-int run_camera(const std::vector<std::string>& words);      // "calbox camera ..."
-int run_detect(const std::vector<std::string>& words);      // "calbox detect ..."
-int run_target(const std::vector<std::string>& words);      // "calbox target ..."
-int run_solve(const std::vector<std::string>& words);       // "calbox solve ..."
-int run_measure(const std::vector<std::string>& words);     // "calbox measure ..."
-int run_compensate(const std::vector<std::string>& words);  // "calbox compensate ..."
-int run_appliance(const std::vector<std::string>& words);   // "calbox run ..."
-int run_revert(const std::vector<std::string>& words);      // "calbox revert ..."
-int run_machine(const std::vector<std::string>& words);     // "calbox machine ..."
 
 }  // namespace calbox::cli

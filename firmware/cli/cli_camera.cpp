@@ -9,22 +9,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kCameraHelp = R"(usage:
-  calbox camera calibrate --pattern SPEC [--model pinhole|fisheye] IMAGES... -o camera.yaml
-      Intrinsic calibration from views of a board: SPEC is chessboard:COLSxROWS@MM (inner
-      corners), charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares), circles:COLSxROWS@MM or
-      acircles:COLSxROWS@MM. Views where the board is not found are skipped and listed; a pinhole
-      needs at least 3 usable views and 60 corners, a fisheye 4 and 80. A view reprojecting
-      far beyond the others (5 times the better views, and over 1 px) is re-solved through the
-      others' camera or dropped, with a line saying which and why. Nothing is written when the
-      views left are too few or the RMS exceeds 1 px (pinhole) or 1.5 px (fisheye). Prints each
-      view's reprojection RMS and which detector found it.
-  calbox camera plane --camera camera.yaml --pattern SPEC [--thickness MM] IMAGE -o plane.yaml
-      The bed plane from one image of a board lying on the bed, its surface --thickness mm
-      (default 0) above the bed. The bed frame is right-handed with z up, its origin under the
-      board's first inner corner, x along the board's columns.
-)";
-
 geometry::LensModel model_from(const Args& args) {
     const std::string model = args.get("--model").value_or("pinhole");
     if (model == "pinhole") return geometry::LensModel::pinhole;
@@ -32,12 +16,10 @@ geometry::LensModel model_from(const Args& args) {
     throw UsageError("--model must be pinhole or fisheye, not '" + model + "'");
 }
 
-int calibrate(const std::vector<std::string>& words) {
-    const Args args(words, {"--pattern", "--model", "-o"}, {});
+int calibrate(const Args& args) {
     const auto pattern = geometry::parse_pattern_spec(args.require("--pattern"));
     const auto model = model_from(args);
     const std::string out = args.require("-o");
-    if (args.positional().empty()) throw UsageError("camera calibrate needs images");
     std::vector<cv::Mat> images;
     std::vector<geometry::NamedImage> views;
     for (const auto& path : args.positional()) images.push_back(load_gray_image(path));
@@ -62,14 +44,12 @@ int calibrate(const std::vector<std::string>& words) {
     return 0;
 }
 
-int plane(const std::vector<std::string>& words) {
-    const Args args(words, {"--camera", "--pattern", "--thickness", "-o"}, {});
+int plane(const Args& args) {
     const auto camera =
         geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file"));
     const auto pattern = geometry::parse_pattern_spec(args.require("--pattern"));
     const double thickness = args.number("--thickness", 0);
     const std::string out = args.require("-o");
-    if (args.positional().size() != 1) throw UsageError("camera plane takes one image");
     const cv::Mat image = load_gray_image(args.positional()[0]);
     const auto plane = geometry::estimate_bed_plane(camera, pattern, view_of(image), thickness);
     std::printf("bed plane: board reprojection RMS %.4f px, camera %.2f mm from the bed origin\n",
@@ -82,8 +62,38 @@ int plane(const std::vector<std::string>& words) {
 
 }  // namespace
 
-int run_camera(const std::vector<std::string>& words) {
-    return dispatch(words, kCameraHelp, "camera", {{"calibrate", calibrate}, {"plane", plane}});
+std::vector<Command> camera_commands() {
+    const Option pattern{"--pattern", "SPEC",
+                         "the board: chessboard:COLSxROWS@MM (inner corners), "
+                         "charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares), "
+                         "circles:COLSxROWS@MM or acircles:COLSxROWS@MM",
+                         Given::required};
+    return {
+        {"camera calibrate",
+         "the camera's intrinsics from views of a board",
+         {pattern,
+          {"--model", "pinhole|fisheye", "the lens model (default pinhole)"},
+          {"IMAGES", "", "views of the board", Given::words},
+          {"-o", "camera.yaml", "the calibration, written", Given::required}},
+         R"(Intrinsic calibration from views of a board. Views where the board is not found are
+skipped and listed; a pinhole needs at least 3 usable views and 60 corners, a fisheye 4 and
+80. A view reprojecting far beyond the others (5 times the better views, and over 1 px) is
+re-solved through the others' camera or dropped, with a line saying which and why. Nothing is
+written when the views left are too few or the RMS exceeds 1 px (pinhole) or 1.5 px
+(fisheye). Prints each view's reprojection RMS and which detector found it.)",
+         calibrate},
+        {"camera plane",
+         "the bed plane from one image of a board lying on the bed",
+         {{"--camera", "camera.yaml", "the camera's calibration", Given::required},
+          pattern,
+          {"--thickness", "MM", "the board's surface above the bed (default 0)"},
+          {"IMAGE", "", "the board on the bed", Given::word},
+          {"-o", "plane.yaml", "the bed plane, written", Given::required}},
+         R"(The bed plane from one image of a board lying on the bed, its surface --thickness mm
+above the bed. The bed frame is right-handed with z up, its origin under the board's first
+inner corner, x along the board's columns.)",
+         plane},
+    };
 }
 
 }  // namespace calbox::cli

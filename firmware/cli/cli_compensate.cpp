@@ -9,38 +9,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kCompensateHelp = R"(usage:
-  calbox compensate --result result.json IN -o OUT [--work-zero X,Y|measured|"G54=X,Y G55=X,Y"]
-                    [--again REASON] [--segment MM]
-      Sends every XY position of a job through the correction a solve found, so that the
-      machine marks where the job meant: a galvo result (calbox solve galvo), whose table gives
-      the scanner command for each intended point, or a planar result (calbox solve planar),
-      whose error model e gives X_c = X_t - e(X_c) (the rigid part of e left to the work's zero
-      and heading).
-      The frame: a planar result records the machine coordinates of the work zero its target
-      ran with, and the machine's travel. A printer's job is in machine coordinates (its G92
-      tracked). A router's or laser's job is written around its own work zero: --work-zero X,Y
-      gives G54's zero in machine coordinates, --work-zero measured says it is the frame the
-      result was measured in, "G55=X,Y ..." gives other work systems; without it the job is
-      refused. G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
-      travel is refused, naming the line; between the measured area and the travel a point
-      takes the correction at the area's nearest edge (held, never extrapolated), counted on
-      standard error. One line says which frame was used.
-      IN is G-code as slicers, CAM and LinuxCNC write it (inches, relative moves, G92, arcs and
-      helices, numbered and checksummed lines, canned cycles G73 and G81-G89 with G98/G99 and L
-      repeats: kept for LinuxCNC, written out as moves for grbl and printers; LinuxCNC's
-      parameters, expressions, O-word subroutines and loops, and polar words, evaluated into
-      plain G-code) or a plain scanner job (its first line x_mm,y_mm,power). Moves are split into
-      pieces of at most --segment mm (default 1) and arcs traced by chords within 0.002 mm; an R
-      arc short of its half chord by no more than the file's written precision is a half circle.
-      On printers G10 / G11 are firmware retraction, passed as written.
-      The output's first line names the result it went through (its digest and date); a job
-      carrying that line is refused unless --again gives the reason.
-      Refused, naming the line and the figure, nothing written: cutter compensation (G41/G42),
-      a lathe job (G7, G8, G76), an arc no controller could cut, a point beyond the travel, a
-      move in a work system whose zero is not given, moves under block delete.
-)";
-
 std::string today() {
     const std::time_t now = std::time(nullptr);
     std::tm utc{};
@@ -50,9 +18,7 @@ std::string today() {
     return text;
 }
 
-int compensate(const std::vector<std::string>& words) {
-    const Args args(words, {"--result", "-o", "--segment", "--work-zero", "--again"}, {});
-    if (args.positional().size() != 1) throw UsageError("compensate takes one job file");
+int compensate(const Args& args) {
     modes::JobRequest request;
     request.job_name = args.positional()[0];
     const std::string out = args.require("-o");
@@ -77,17 +43,45 @@ int compensate(const std::vector<std::string>& words) {
 
 }  // namespace
 
-int run_compensate(const std::vector<std::string>& words) {
-    for (const auto& w : words)
-        if (w == "--help" || w == "-h") {
-            std::cout << kCompensateHelp;
-            return 0;
-        }
-    if (words.empty()) {
-        std::cerr << kCompensateHelp;
-        return 2;
-    }
-    return compensate(words);
+std::vector<Command> compensate_commands() {
+    return {
+        {"compensate",
+         "a job sent through a solve's correction",
+         {{"--result", "result.json", "a galvo or planar result (calbox solve)", Given::required},
+          {"IN", "", "the job: G-code, or a scanner job (x_mm,y_mm,power lines)", Given::word},
+          {"-o", "OUT", "the compensated job, written", Given::required},
+          {"--work-zero", "X,Y|measured|\"G54=X,Y G55=X,Y\"",
+           "where the job's work zero is in machine coordinates (a planar result)"},
+          {"--again", "REASON", "compensate a job that already went through a correction"},
+          {"--segment", "MM", "the longest piece a move is split into (default 1)"}},
+         R"(Sends every XY position of a job through the correction a solve found, so that the
+machine marks where the job meant: a galvo result (calbox solve galvo), whose table gives
+the scanner command for each intended point, or a planar result (calbox solve planar),
+whose error model e gives X_c = X_t - e(X_c) (the rigid part of e left to the work's zero
+and heading).
+The frame: a planar result records the machine coordinates of the work zero its target
+ran with, and the machine's travel. A printer's job is in machine coordinates (its G92
+tracked). A router's or laser's job is written around its own work zero: --work-zero X,Y
+gives G54's zero in machine coordinates, --work-zero measured says it is the frame the
+result was measured in, "G55=X,Y ..." gives other work systems; without it the job is
+refused. G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
+travel is refused, naming the line; between the measured area and the travel a point
+takes the correction at the area's nearest edge (held, never extrapolated), counted on
+standard error. One line says which frame was used.
+IN is G-code as slicers, CAM and LinuxCNC write it (inches, relative moves, G92, arcs and
+helices, numbered and checksummed lines, canned cycles G73 and G81-G89 with G98/G99 and L
+repeats: kept for LinuxCNC, written out as moves for grbl and printers; LinuxCNC's
+parameters, expressions, O-word subroutines and loops, and polar words, evaluated into
+plain G-code) or a plain scanner job (its first line x_mm,y_mm,power). Moves are split into
+pieces of at most --segment mm (default 1) and arcs traced by chords within 0.002 mm; an R
+arc short of its half chord by no more than the file's written precision is a half circle.
+On printers G10 / G11 are firmware retraction, passed as written.
+The output's first line names the result it went through (its digest and date); a job
+carrying that line is refused unless --again gives the reason.
+Refused, naming the line and the figure, nothing written: cutter compensation (G41/G42),
+a lathe job (G7, G8, G76), an arc no controller could cut, a point beyond the travel, a
+move in a work system whose zero is not given, moves under block delete.)",
+         compensate}};
 }
 
 }  // namespace calbox::cli

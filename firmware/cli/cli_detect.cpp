@@ -14,21 +14,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kDetectHelp = R"(usage:
-  calbox detect markers IMAGE [--dict NAME] [--camera camera.yaml] [--no-refine]
-                              [-o detections.json] [--overlay PNG]
-  calbox detect chessboard IMAGE --pattern chessboard:COLSxROWS@MM [-o ...] [--overlay PNG]
-  calbox detect circles IMAGE --pattern circles:COLSxROWS@MM|acircles:COLSxROWS@MM [-o ...] [--overlay PNG]
-      Finds ArUco markers (default dictionary DICT_4X4_50; OpenCV's names, DICT_4X4_50 ...
-      DICT_APRILTAG_36h11), AprilTag markers (tag36h11, tag25h9, tagStandard41h12: found by
-      libapriltag), a chessboard or a dot grid in the image and writes their pixel positions as
-      JSON (to standard output without -o). Pixels use
-      OpenCV's convention (pixel centres at integer coordinates); marker corners are in OpenCV's
-      order, refined by fitting each outer edge over its length (with --camera, as straight lines
-      after undistortion). --overlay draws what was found on the image.
-      Finding nothing is an error.
-)";
-
 constexpr const char* kSchema = "calbox.detections/1";
 
 nlohmann::json point_json(const geometry::Point2& p) {
@@ -140,48 +125,60 @@ int board(const Args& args, const std::string& image_path, bool circles) {
     return 0;
 }
 
-// The options every detect command reads, and its one image.
-struct DetectArgs {
-    Args args;
-    std::string image;
-};
-
-DetectArgs detect_args(const std::vector<std::string>& rest, bool markers) {
-    DetectArgs d{
-        Args(rest, {"--dict", "--camera", "--pattern", "-o", "--overlay"}, {"--no-refine"}), ""};
-    if (d.args.positional().size() != 1) throw UsageError("detect takes one image");
-    d.image = d.args.positional()[0];
-    if (markers && d.args.get("--pattern"))
-        throw UsageError("detect markers takes --dict, not --pattern");
-    if (!markers &&
-        (d.args.get("--dict") || d.args.get("--camera") || d.args.flag("--no-refine"))) {
-        throw UsageError("--dict, --camera and --no-refine go with detect markers");
-    }
-    return d;
+int detect_markers(const Args& args) {
+    return markers(args, args.positional().front());
 }
 
-int detect_markers(const std::vector<std::string>& rest) {
-    const auto d = detect_args(rest, true);
-    return markers(d.args, d.image);
+int detect_chessboard(const Args& args) {
+    return board(args, args.positional().front(), false);
 }
 
-int detect_chessboard(const std::vector<std::string>& rest) {
-    const auto d = detect_args(rest, false);
-    return board(d.args, d.image, false);
-}
-
-int detect_circles(const std::vector<std::string>& rest) {
-    const auto d = detect_args(rest, false);
-    return board(d.args, d.image, true);
+int detect_circles(const Args& args) {
+    return board(args, args.positional().front(), true);
 }
 
 }  // namespace
 
-int run_detect(const std::vector<std::string>& words) {
-    return dispatch(words, kDetectHelp, "detect",
-                    {{"markers", detect_markers},
-                     {"chessboard", detect_chessboard},
-                     {"circles", detect_circles}});
+std::vector<Command> detect_commands() {
+    const Option image{"IMAGE", "", "the image", Given::word};
+    const Option out{"-o", "detections.json",
+                     "what was found, written (without it: to standard output)"};
+    const Option overlay{"--overlay", "PNG", "the image with what was found drawn on it"};
+    const char* found_details =
+        R"(Writes the pixel positions of what was found as JSON. Pixels use OpenCV's convention
+(pixel centres at integer coordinates). Finding nothing is an error.)";
+    return {
+        {"detect markers",
+         "ArUco or AprilTag markers in an image",
+         {image,
+          {"--dict", "NAME",
+           "the dictionary (default DICT_4X4_50): OpenCV's names, DICT_4X4_50 ... "
+           "DICT_APRILTAG_36h11, or tag36h11, tag25h9, tagStandard41h12 (libapriltag)"},
+          {"--camera", "camera.yaml", "refine the corners as straight lines after undistortion"},
+          {"--no-refine", "", "keep the corners as the detector found them", Given::flag},
+          out,
+          overlay},
+         std::string(found_details) +
+             R"( Marker corners are in OpenCV's order, refined by fitting
+each outer edge over its length (with --camera, as straight lines after undistortion).)",
+         detect_markers},
+        {"detect chessboard",
+         "a chessboard's inner corners in an image",
+         {image,
+          {"--pattern", "chessboard:COLSxROWS@MM", "the board", Given::required},
+          out,
+          overlay},
+         found_details,
+         detect_chessboard},
+        {"detect circles",
+         "a dot grid's centres in an image",
+         {image,
+          {"--pattern", "circles:COLSxROWS@MM|acircles:COLSxROWS@MM", "the grid", Given::required},
+          out,
+          overlay},
+         found_details,
+         detect_circles},
+    };
 }
 
 }  // namespace calbox::cli

@@ -13,20 +13,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kMachineHelp = R"(usage:
-  calbox machine import --marlin LOG | --rrf CONFIG.g... | --klipper printer.cfg
-                        [--diagonal-rod MM] [--bed-radius MM] -o machine.toml
-      A machine file from the printer's own files, its geometry as the firmware holds it:
-      --marlin: a console capture from any host (M503's reply: M665, M666, M92; or G33's
-      report, which leaves out the rod: give --diagonal-rod); --rrf: config.g then
-      config-override.g (a later M665 or M666 replaces an earlier one); --klipper: printer.cfg
-      with its includes (wildcards too, in sorted order) and its SAVE_CONFIG block over the
-      sections above it, as Klipper reads it. What the files cannot tell (the printable
-      radius, the bed's material, the line width) is defaulted and said so, on standard
-      output and at the file's top. A capture
-      without a delta's geometry but with M92 gives a cartesian printer.
-)";
-
 // The files a wildcard include names (Klipper's glob), in the order glob gives them; the import
 // sorts them as Klipper does.
 std::vector<std::string> matching_files(const std::string& pattern) {
@@ -47,9 +33,7 @@ std::optional<std::string> read_if_there(const std::string& path) {
     }
 }
 
-int import_machine(const std::vector<std::string>& words) {
-    const Args args(words, {"--marlin", "--klipper", "--diagonal-rod", "--bed-radius", "-o"},
-                    {"--rrf"});
+int import_machine(const Args& args) {
     const std::string out = args.require("-o");
     models::ImportOptions options;
     if (args.get("--diagonal-rod")) options.diagonal_rod_mm = args.number("--diagonal-rod", 0);
@@ -57,6 +41,9 @@ int import_machine(const std::vector<std::string>& words) {
     const int sources = (args.get("--marlin") ? 1 : 0) + (args.get("--klipper") ? 1 : 0) +
                         (args.flag("--rrf") ? 1 : 0);
     if (sources != 1) throw UsageError("machine import takes one of --marlin, --rrf, --klipper");
+    if (!args.flag("--rrf") && !args.positional().empty())
+        throw UsageError("machine import: '" + args.positional().front() +
+                         "' is a file for --rrf alone");
     models::ImportedMachine imported;
     try {
         if (const auto log = args.get("--marlin")) {
@@ -87,8 +74,26 @@ int import_machine(const std::vector<std::string>& words) {
 
 }  // namespace
 
-int run_machine(const std::vector<std::string>& words) {
-    return dispatch(words, kMachineHelp, "machine", {{"import", import_machine}});
+std::vector<Command> machine_commands() {
+    return {{"machine import",
+             "a machine file from the printer's own files",
+             {{"--marlin", "LOG", "a Marlin console capture (M503's reply, or G33's report)"},
+              {"--rrf", "", "RepRapFirmware: CONFIG files follow", Given::flag},
+              {"CONFIG", "", "with --rrf: config.g, then config-override.g", Given::any_words},
+              {"--klipper", "printer.cfg", "Klipper's configuration, with its includes"},
+              {"--diagonal-rod", "MM", "the rod length, where the files leave it out"},
+              {"--bed-radius", "MM", "the printable radius, where the files leave it out"},
+              {"-o", "machine.toml", "the machine file, written", Given::required}},
+             R"(A machine file from the printer's own files, its geometry as the firmware holds it:
+--marlin: a console capture from any host (M503's reply: M665, M666, M92; or G33's
+report, which leaves out the rod: give --diagonal-rod); --rrf: config.g then
+config-override.g (a later M665 or M666 replaces an earlier one); --klipper: printer.cfg
+with its includes (wildcards too, in sorted order) and its SAVE_CONFIG block over the
+sections above it, as Klipper reads it. What the files cannot tell (the printable
+radius, the bed's material, the line width) is defaulted and said so, on standard
+output and at the file's top. A capture without a delta's geometry but with M92 gives a
+cartesian printer.)",
+             import_machine}};
 }
 
 }  // namespace calbox::cli

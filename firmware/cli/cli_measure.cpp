@@ -18,47 +18,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kMeasureHelp = R"(usage:
-  calbox measure delta --camera camera.yaml --plane plane.yaml --machine printer.toml IMAGES...
-                       -o measurements.json [--overlay overlay.png] [--bed-temperature C]
-      Finds the delta target's markers in the photos (the target is regenerated from the machine
-      file), refines their corners, maps them to the bed and moves each along its ray to the
-      printed surface's height (from a fit of the corners), and writes each corner's commanded
-      and measured position with its uncertainty. Several photos are averaged. The three bars
-      are measured between the centrelines of the single strands across their ends. --bed-temperature: the
-      bed's temperature when the photos were taken (default: the machine file's
-      photo_bed_temperature_c), if not the bed_temperature_c it printed at; the print has grown or shrunk with the bed (bed_material) and positions are
-      given as printed. --overlay draws on the first photo what was found, each corner's error
-      after the best rotation and translation, magnified 10 to 1000 times (the factor is written
-      on the picture), and each bar with its length and its difference from the commanded one.
-  calbox measure galvo --camera camera.yaml --plane plane.yaml --machine scanner.toml PHOTO
-                       -o measurements.json [--grid N] [--overlay overlay.png]
-      Finds the burned circle grid (the target is regenerated from the machine file; --grid as
-      it was made, default 31): dark marks on a light substrate or light on dark, a median
-      filter against soot, each mark's centre from fixed-point moments, mapped to the bed at
-      the substrate's height ([galvo] substrate_height_mm). The grid is indexed by growing it
-      from its middle mark and turned the way its large marks say; misfired marks are listed
-      as missing, spatter and damaged marks as extra, and neither stops the measurement. Writes
-      each mark's commanded centre, where it was measured and its uncertainty. --overlay marks
-      on the photo the marks used (green), the extra blobs (orange) and each mark's index.
-  calbox measure planar --camera camera.yaml --plane plane.yaml --machine machine.toml PHOTO...
-                        -o measurements.json [--offsets X,Y;X,Y...] [--design N]
-                        [--overlay overlay.png]
-      Finds the drilled (or printed) hole grid (the target is regenerated from the machine file;
-      --design as it was made): each hole's centre from fixed-point moments, mapped to the bed at
-      the sheet's top ([planar] surface_height_mm); the grid placed by its two large holes (all
-      four ways round are tried) and every hole matched where the placement puts it. Holes with
-      a chip or a burr (elongated, or 5 % off their kind's size) are listed as extra and their
-      node as missing; two holes where the grid has one, a photo of another grid, or one that
-      shows under three quarters of it: one line, nothing written. A sheet larger than one view:
-      several photos from a camera the machine carries, --offsets giving where the machine put
-      it for each (machine mm; the first photo shows the two large holes and is the one --plane
-      was taken from). The offsets only say which hole is which; the photos are stitched through
-      the holes they share (each photo's rotation and shift fitted), so the machine's own errors
-      in moving the camera do not enter. --overlay marks, on the first photo, the holes used
-      (green), the extra blobs (orange) and the large holes' indices.
-)";
-
 // What every measure command reads first: the camera, the bed plane and the machine.
 struct SetUp {
     geometry::CameraModel camera;
@@ -73,11 +32,8 @@ SetUp read_set_up(const Args& args) {
         models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path)};
 }
 
-int delta(const std::vector<std::string>& words) {
-    const Args args(
-        words, {"--camera", "--plane", "--machine", "-o", "--overlay", "--bed-temperature"}, {});
+int measure_delta(const Args& args) {
     const std::string out = args.require("-o");
-    if (args.positional().empty()) throw UsageError("measure delta needs at least one photo");
     const auto [camera, plane, machine] = read_set_up(args);
     std::vector<cv::Mat> images;
     std::vector<vision::GrayView> views;
@@ -125,10 +81,8 @@ int delta(const std::vector<std::string>& words) {
     return 0;
 }
 
-int galvo(const std::vector<std::string>& words) {
-    const Args args(words, {"--camera", "--plane", "--machine", "-o", "--grid", "--overlay"}, {});
+int measure_galvo(const Args& args) {
     const std::string out = args.require("-o");
-    if (args.positional().size() != 1) throw UsageError("measure galvo takes one photo");
     const auto [camera, plane, machine] = read_set_up(args);
     modes::GalvoMeasureSettings settings;
     const double grid = args.number("--grid", 31);
@@ -154,12 +108,8 @@ int galvo(const std::vector<std::string>& words) {
     return 0;
 }
 
-int planar(const std::vector<std::string>& words) {
-    const Args args(
-        words, {"--camera", "--plane", "--machine", "-o", "--design", "--overlay", "--offsets"},
-        {});
+int measure_planar(const Args& args) {
     const std::string out = args.require("-o");
-    if (args.positional().empty()) throw UsageError("measure planar needs at least one photo");
     const auto [camera, plane, machine] = read_set_up(args);
     modes::PlanarMeasureSettings settings;
     if (args.get("--design")) {
@@ -216,9 +166,74 @@ int planar(const std::vector<std::string>& words) {
 
 }  // namespace
 
-int run_measure(const std::vector<std::string>& words) {
-    return dispatch(words, kMeasureHelp, "measure",
-                    {{"delta", delta}, {"galvo", galvo}, {"planar", planar}});
+std::vector<Command> measure_commands() {
+    const Option camera{"--camera", "camera.yaml", "the camera's calibration", Given::required};
+    const Option plane{"--plane", "plane.yaml", "the bed plane", Given::required};
+    const Option out{"-o", "measurements.json", "the measurements, written", Given::required};
+    return {
+        {"measure delta",
+         "the delta's printed target in photos",
+         {camera,
+          plane,
+          {"--machine", "printer.toml", "the delta's machine file", Given::required},
+          {"IMAGES", "", "photos of the printed target", Given::words},
+          out,
+          {"--overlay", "overlay.png", "the first photo with what was found drawn on it"},
+          {"--bed-temperature", "C", "the bed's temperature when the photos were taken"}},
+         R"(Finds the delta target's markers in the photos (the target is regenerated from the machine
+file), refines their corners, maps them to the bed and moves each along its ray to the
+printed surface's height (from a fit of the corners), and writes each corner's commanded
+and measured position with its uncertainty. Several photos are averaged. The three bars
+are measured between the centrelines of the single strands across their ends. --bed-temperature: the
+bed's temperature when the photos were taken (default: the machine file's
+photo_bed_temperature_c), if not the bed_temperature_c it printed at; the print has grown or shrunk with the bed (bed_material) and positions are
+given as printed. --overlay draws on the first photo what was found, each corner's error
+after the best rotation and translation, magnified 10 to 1000 times (the factor is written
+on the picture), and each bar with its length and its difference from the commanded one.)",
+         measure_delta},
+        {"measure galvo",
+         "the burned circle grid in a photo",
+         {camera,
+          plane,
+          {"--machine", "scanner.toml", "the scanner's machine file", Given::required},
+          {"PHOTO", "", "the photo of the burned grid", Given::word},
+          out,
+          {"--grid", "N", "circles a side, as the grid was made (default 31)"},
+          {"--overlay", "overlay.png", "the photo with what was found drawn on it"}},
+         R"(Finds the burned circle grid (the target is regenerated from the machine file; --grid as
+it was made, default 31): dark marks on a light substrate or light on dark, a median
+filter against soot, each mark's centre from fixed-point moments, mapped to the bed at
+the substrate's height ([galvo] substrate_height_mm). The grid is indexed by growing it
+from its middle mark and turned the way its large marks say; misfired marks are listed
+as missing, spatter and damaged marks as extra, and neither stops the measurement. Writes
+each mark's commanded centre, where it was measured and its uncertainty. --overlay marks
+on the photo the marks used (green), the extra blobs (orange) and each mark's index.)",
+         measure_galvo},
+        {"measure planar",
+         "the drilled or printed hole grid in photos",
+         {camera,
+          plane,
+          {"--machine", "machine.toml", "the machine file", Given::required},
+          {"PHOTOS", "", "photos of the sheet", Given::words},
+          out,
+          {"--offsets", "X,Y;X,Y...", "where the machine put the camera for each photo (mm)"},
+          {"--design", "N", "the number of holes, as the grid was made"},
+          {"--overlay", "overlay.png", "the first photo with what was found drawn on it"}},
+         R"(Finds the drilled (or printed) hole grid (the target is regenerated from the machine file;
+--design as it was made): each hole's centre from fixed-point moments, mapped to the bed at
+the sheet's top ([planar] surface_height_mm); the grid placed by its two large holes (all
+four ways round are tried) and every hole matched where the placement puts it. Holes with
+a chip or a burr (elongated, or 5 % off their kind's size) are listed as extra and their
+node as missing; two holes where the grid has one, a photo of another grid, or one that
+shows under three quarters of it: one line, nothing written. A sheet larger than one view:
+several photos from a camera the machine carries, --offsets giving where the machine put
+it for each (machine mm; the first photo shows the two large holes and is the one --plane
+was taken from). The offsets only say which hole is which; the photos are stitched through
+the holes they share (each photo's rotation and shift fitted), so the machine's own errors
+in moving the camera do not enter. --overlay marks, on the first photo, the holes used
+(green), the extra blobs (orange) and the large holes' indices.)",
+         measure_planar},
+    };
 }
 
 }  // namespace calbox::cli

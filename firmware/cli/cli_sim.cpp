@@ -23,42 +23,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kSimHelp = R"(usage:
-  calbox sim print --scenario FILE JOB.gcode -o print.json
-      Runs the G-code job on the scenario's machine (true geometry, firmware belief) and writes
-      every stroke of material as it really landed. Prints the machine's replies (M503) and a
-      summary on standard output.
-  calbox sim photo --scenario FILE --print print.json -o photo.png [--truth truth.json]
-  calbox sim photo --scenario FILE --board SPEC (--pose RX,RY,RZ,TX,TY,TZ | --on-bed X,Y,ANGLE)
-                   [--thickness MM] -o photo.png [--truth truth.json]
-      Renders what the scenario's camera sees of a print, or of a calibration board:
-        SPEC  chessboard:COLSxROWS@SQUARE_MM (inner corners) or
-              charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares)
-        --pose    board -> camera: rotation vector in degrees (axis times angle), then mm
-        --on-bed  the board lying face up on the bed at X,Y mm, turned ANGLE degrees,
-                  its surface --thickness mm above the bed (default 0)
-      --truth writes the true pixel position of every board corner and marker corner, or of
-      every stroke end, with the true camera and plane pose.
-  calbox sim camera --scenario FILE -o camera.yaml
-      The scenario's true camera as camera.yaml, for runs where calibration is not the point.
-  calbox sim measurements --scenario FILE [--features N] [--noise MM] [--seed N] -o measurements.json
-                          [--probe heights.csv]
-      Synthetic measurements of a delta scenario, straight from the twin's truth: N features
-      (default 150) commanded over the bed at z = 0.2 and where they really landed, with Gaussian
-      noise (default 0.01 mm), three 60 mm bars along the towers, and with --probe the nozzle's
-      height over the bed at 37 points. For testing calbox solve without photos.
-  calbox sim verify --scenario FILE [--result result.json] [-o verify.json]
-      Judges a delta scenario's printer in the twin's truth, over the printable area: commanded
-      against actual XY (after the best rotation and translation) and the bed's height range;
-      with --result, again after sending that solve result's firmware lines and homing. A galvo
-      scenario's scanner: a fresh 30 x 30 grid of marks over the table's area (without --result,
-      the field less a pitch) burned as commanded, and with --result through its table: where
-      they land against where they were meant (rotation and translation taken out). A router
-      scenario: a fresh job of holes half a pitch off its target's, drilled as commanded and
-      with --result through the compensated G-code (calbox compensate's correction), each hole
-      against where it was meant (the work's zero and heading taken out).
-)";
-
 std::array<double, 6> parse_numbers(const std::string& flag, const std::string& text,
                                     std::size_t count) {
     const auto refuse = [&] {
@@ -92,9 +56,7 @@ sim::Scenario scenario_from(const Args& args) {
     return sim::load_scenario(args.require("--scenario"));
 }
 
-int sim_print(const std::vector<std::string>& words) {
-    const Args args(words, {"--scenario", "-o"}, {});
-    if (args.positional().size() != 1) throw UsageError("sim print takes one job file");
+int sim_print(const Args& args) {
     const std::string job_path = args.positional()[0];
     const std::string out = args.require("-o");
     const auto scenario = scenario_from(args);
@@ -156,13 +118,7 @@ nlohmann::json pixel_json(const sim::CameraIntrinsics& c, const sim::Pose& pose,
     return {px.x, px.y};
 }
 
-int sim_photo(const std::vector<std::string>& words) {
-    const Args args(
-        words,
-        {"--scenario", "--print", "--board", "--pose", "--on-bed", "--thickness", "-o", "--truth"},
-        {});
-    if (!args.positional().empty())
-        throw UsageError("sim photo takes no positional argument '" + args.positional()[0] + "'");
+int sim_photo(const Args& args) {
     const std::string out = args.require("-o");
     const auto scenario = scenario_from(args);
     if (!scenario.camera)
@@ -248,10 +204,7 @@ int sim_photo(const std::vector<std::string>& words) {
     return 0;
 }
 
-int sim_measurements(const std::vector<std::string>& words) {
-    const Args args(words, {"--scenario", "--features", "--noise", "--seed", "-o", "--probe"}, {});
-    if (!args.positional().empty())
-        throw UsageError("sim measurements takes no positional argument");
+int sim_measurements(const Args& args) {
     const auto scenario = scenario_from(args);
     auto machine = sim::make_machine_twin(scenario);
     const auto* delta = dynamic_cast<const sim::DeltaTwin*>(machine.get());
@@ -319,9 +272,7 @@ int sim_measurements(const std::vector<std::string>& words) {
 
 // The twin judges a solve's result in its truth, each kind of machine its own way
 // (board/sim/twin_kind).
-int sim_verify(const std::vector<std::string>& words) {
-    const Args args(words, {"--scenario", "--result", "-o"}, {});
-    if (!args.positional().empty()) throw UsageError("sim verify takes no positional argument");
+int sim_verify(const Args& args) {
     const auto scenario = scenario_from(args);
     std::optional<sim::ResultFile> result;
     if (const auto path = args.get("--result"))
@@ -332,9 +283,7 @@ int sim_verify(const std::vector<std::string>& words) {
     return 0;
 }
 
-int sim_camera(const std::vector<std::string>& words) {
-    const Args args(words, {"--scenario", "-o"}, {});
-    if (!args.positional().empty()) throw UsageError("sim camera takes no positional argument");
+int sim_camera(const Args& args) {
     const auto scenario = scenario_from(args);
     if (!scenario.camera) throw std::runtime_error(scenario.path + ": no [camera] section");
     const auto model = sim::as_camera_model(scenario.camera->intrinsics);
@@ -342,13 +291,70 @@ int sim_camera(const std::vector<std::string>& words) {
     return 0;
 }
 
-int run_sim(const std::vector<std::string>& words) {
-    return dispatch(words, kSimHelp, "sim",
-                    {{"print", sim_print},
-                     {"photo", sim_photo},
-                     {"measurements", sim_measurements},
-                     {"camera", sim_camera},
-                     {"verify", sim_verify}});
+std::vector<Command> sim_commands() {
+    const Option scenario{"--scenario", "FILE", "the twin's scenario", Given::required};
+    return {
+        {"sim print",
+         "a job run on the twin's machine",
+         {scenario,
+          {"JOB.gcode", "", "the job", Given::word},
+          {"-o", "print.json", "every stroke as it landed, written", Given::required}},
+         R"(Runs the G-code job on the scenario's machine (true geometry, firmware belief) and writes
+every stroke of material as it really landed. Prints the machine's replies (M503) and a
+summary on standard output.)",
+         sim_print},
+        {"sim photo",
+         "what the twin's camera sees of a print or a board",
+         {scenario,
+          {"--print", "print.json", "a print (calbox sim print)"},
+          {"--board", "SPEC",
+           "a board: chessboard:COLSxROWS@SQUARE_MM (inner corners) or "
+           "charuco:COLSxROWS@SQUARE_MM/MARKER_MM:DICT (squares)"},
+          {"--pose", "RX,RY,RZ,TX,TY,TZ",
+           "board -> camera: rotation vector in degrees (axis times angle), then mm"},
+          {"--on-bed", "X,Y,ANGLE",
+           "the board lying face up on the bed at X,Y mm, turned ANGLE degrees"},
+          {"--thickness", "MM", "the board's surface above the bed, with --on-bed (default 0)"},
+          {"-o", "photo.png", "the photo, written", Given::required},
+          {"--truth", "truth.json", "where every corner or stroke end truly is, written"}},
+         R"(Renders what the scenario's camera sees of a print (--print), or of a calibration board
+(--board, placed by --pose or --on-bed). --truth writes the true pixel position of every
+board corner and marker corner, or of every stroke end, with the true camera and plane pose.)",
+         sim_photo},
+        {"sim measurements",
+         "synthetic delta measurements from the twin's truth",
+         {scenario,
+          {"--features", "N", "features over the bed (default 150)"},
+          {"--noise", "MM", "Gaussian noise on each (default 0.01)"},
+          {"--seed", "N", "the noise's seed"},
+          {"-o", "measurements.json", "the measurements, written", Given::required},
+          {"--probe", "heights.csv", "the nozzle's height over the bed at 37 points, written"}},
+         R"(Synthetic measurements of a delta scenario, straight from the twin's truth: N features
+(default 150) commanded over the bed at z = 0.2 and where they really landed, with Gaussian
+noise (default 0.01 mm), three 60 mm bars along the towers, and with --probe the nozzle's
+height over the bed at 37 points. For testing calbox solve without photos.)",
+         sim_measurements},
+        {"sim camera",
+         "the scenario's true camera",
+         {scenario, {"-o", "camera.yaml", "the camera, written", Given::required}},
+         R"(The scenario's true camera as camera.yaml, for runs where calibration is not the point.)",
+         sim_camera},
+        {"sim verify",
+         "the twin's judgement of its machine, before and after a result",
+         {scenario,
+          {"--result", "result.json", "a solve's result, sent to the twin's machine first"},
+          {"-o", "verify.json", "the figures, written"}},
+         R"(Judges a delta scenario's printer in the twin's truth, over the printable area: commanded
+against actual XY (after the best rotation and translation) and the bed's height range;
+with --result, again after sending that solve result's firmware lines and homing. A galvo
+scenario's scanner: a fresh 30 x 30 grid of marks over the table's area (without --result,
+the field less a pitch) burned as commanded, and with --result through its table: where
+they land against where they were meant (rotation and translation taken out). A router
+scenario: a fresh job of holes half a pitch off its target's, drilled as commanded and
+with --result through the compensated G-code (calbox compensate's correction), each hole
+against where it was meant (the work's zero and heading taken out).)",
+         sim_verify},
+    };
 }
 
 }  // namespace calbox::cli

@@ -15,59 +15,7 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kSolveHelp = R"(usage:
-  calbox solve delta --machine printer.toml --measurements measurements.json [--probe heights.csv]
-                     [--probe-radius MM] [--firmware marlin|rrf|klipper] [--method fit|classic]
-                     -o result.json
-      Fits the delta's geometry to where its features really landed and writes the correction:
-      parameters before and after, their uncertainty, what the data determine (singular values,
-      condition number, parameters held), the residual predicted after correction, and the exact
-      lines to send. --probe adds measured heights so the height and the height map are
-      corrected from them: CSV x,y,z (the nozzle's height over the bed when commanded to z = 0
-      there), or a Marlin console log whose "Bed X: .. Y: .. Z: .." lines G30, or G29 at V3 or
-      more, printed (the bed's height there, negated), RepRapFirmware's heightmap.csv,
-      Klipper's printer.cfg with a saved [delta_calibrate], or a Marlin G33 report at V2 or
-      more (with --probe-radius MM, its DELTA_CALIBRATION_RADIUS). Without it, the heights the first
-      layer's pressed strands measured from their widths stand in. --method classic is the seed
-      paper's rod-only correction from the bar lengths, for comparison. Refused, nothing written: measurements
-      the geometry cannot explain (residual over 3 times their uncertainty), a rod or radius
-      change over 2 %, a tower angle trim over 3 degrees.
-  calbox solve galvo --machine scanner.toml --measurements measurements.json -o result.json
-                     [--burned-through result.json] [--table-csv table.csv] [--table-nodes N]
-                     [--error-map PNG]
-      The scanner's field map from the measured grid and its correction table: the measured
-      marks turned and shifted onto the commanded grid (the field frame), a C1 bicubic map
-      through them (missing marks filled from their neighbours and flagged), inverted exactly
-      at the N x N nodes (default 65) of the largest rectangle inside the measured field. The
-      result has the error before (mean, RMS, worst), the measurements' uncertainty, what the
-      table's resolution costs and the table itself; --table-csv writes the table as CSV for a
-      controller. --burned-through: the result whose table the grid was burned through (a
-      second pass), refined rather than replaced. Refused, nothing written: a correction over
-      3 % of the field, or one that would command beyond the field.
-  calbox solve planar --machine machine.toml --measurements measurements.json -o result.json
-                      [--error-map PNG] [--firmware FILE]
-      The machine's quasi-static errors from the measured holes (the large ones only place the
-      grid): the twelve parameters of a gantry's kinematic chain to first order (scales,
-      squareness, straightness, gantry yaw, pitch and roll over [planar] tool_length_mm, the
-      tool's tilt), fitted by least squares with the machine's placement in the photo beside
-      them; those the holes cannot tell apart from others are held at 0 and reported with what
-      absorbs them. The result has each parameter with its uncertainty, the seed paper's
-      statistics of the error norm (max, Q3, median, Q1, min, mean, std) before and after (the
-      fit's residuals: what the correction leaves at the holes), the area it is valid over,
-      and the firmware's own settings for the part they can carry (Marlin M92 and M852, Klipper
-      rotation_distance and SET_SKEW, grbl $100/$101, LinuxCNC compensation files) with what
-      they leave. calbox compensate applies the whole model to any job. --error-map draws each
-      hole's error before (red) and after (green), magnified. --firmware writes those settings.
-      Refused, nothing written: a hole over 10 mm from where it was commanded, a correction
-      that large anywhere in the area, fewer than 8 holes, a design too badly conditioned.
-)";
-
-int delta(const std::vector<std::string>& words) {
-    const Args args(words,
-                    {"--machine", "--measurements", "--probe", "--probe-radius", "--firmware",
-                     "--method", "-o"},
-                    {});
-    if (!args.positional().empty()) throw UsageError("solve delta takes no positional argument");
+int solve_delta(const Args& args) {
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
     const auto machine =
@@ -162,12 +110,7 @@ void draw_error_map(const std::string& path, const modes::GalvoSolution& s) {
     write_png(path, picture);
 }
 
-int galvo(const std::vector<std::string>& words) {
-    const Args args(words,
-                    {"--machine", "--measurements", "-o", "--burned-through", "--table-csv",
-                     "--table-nodes", "--error-map"},
-                    {});
-    if (!args.positional().empty()) throw UsageError("solve galvo takes no positional argument");
+int solve_galvo(const Args& args) {
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
     const auto machine =
@@ -240,9 +183,7 @@ void draw_planar_error_map(const std::string& path, const modes::PlanarSolution&
     write_png(path, picture);
 }
 
-int planar(const std::vector<std::string>& words) {
-    const Args args(words, {"--machine", "--measurements", "-o", "--error-map", "--firmware"}, {});
-    if (!args.positional().empty()) throw UsageError("solve planar takes no positional argument");
+int solve_planar(const Args& args) {
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
     const auto machine =
@@ -295,9 +236,76 @@ int planar(const std::vector<std::string>& words) {
 
 }  // namespace
 
-int run_solve(const std::vector<std::string>& words) {
-    return dispatch(words, kSolveHelp, "solve",
-                    {{"delta", delta}, {"galvo", galvo}, {"planar", planar}});
+std::vector<Command> solve_commands() {
+    const Option measurements{"--measurements", "measurements.json",
+                              "the measurements (calbox measure)", Given::required};
+    const Option out{"-o", "result.json", "the result, written", Given::required};
+    return {
+        {"solve delta",
+         "the delta's geometry and the lines that correct it",
+         {{"--machine", "printer.toml", "the delta's machine file", Given::required},
+          measurements,
+          {"--probe", "heights.csv", "measured heights: CSV x,y,z or a firmware's own report"},
+          {"--probe-radius", "MM", "a Marlin G33 report's DELTA_CALIBRATION_RADIUS"},
+          {"--firmware", "marlin|rrf|klipper", "the lines' dialect (default: the machine file's)"},
+          {"--method", "fit|classic", "the fit (default), or the seed paper's rod correction"},
+          out},
+         R"(Fits the delta's geometry to where its features really landed and writes the correction:
+parameters before and after, their uncertainty, what the data determine (singular values,
+condition number, parameters held), the residual predicted after correction, and the exact
+lines to send. --probe adds measured heights so the height and the height map are
+corrected from them: CSV x,y,z (the nozzle's height over the bed when commanded to z = 0
+there), or a Marlin console log whose "Bed X: .. Y: .. Z: .." lines G30, or G29 at V3 or
+more, printed (the bed's height there, negated), RepRapFirmware's heightmap.csv,
+Klipper's printer.cfg with a saved [delta_calibrate], or a Marlin G33 report at V2 or
+more (with --probe-radius MM, its DELTA_CALIBRATION_RADIUS). Without it, the heights the first
+layer's pressed strands measured from their widths stand in. --method classic is the seed
+paper's rod-only correction from the bar lengths, for comparison. Refused, nothing written: measurements
+the geometry cannot explain (residual over 3 times their uncertainty), a rod or radius
+change over 2 %, a tower angle trim over 3 degrees.)",
+         solve_delta},
+        {"solve galvo",
+         "the scanner's field map and its correction table",
+         {{"--machine", "scanner.toml", "the scanner's machine file", Given::required},
+          measurements,
+          out,
+          {"--burned-through", "result.json", "the result whose table the grid was burned through"},
+          {"--table-csv", "table.csv", "the table as CSV for a controller, written"},
+          {"--table-nodes", "N", "the table's nodes a side (default 65)"},
+          {"--error-map", "PNG", "the error field before the correction, drawn"}},
+         R"(The scanner's field map from the measured grid and its correction table: the measured
+marks turned and shifted onto the commanded grid (the field frame), a C1 bicubic map
+through them (missing marks filled from their neighbours and flagged), inverted exactly
+at the N x N nodes (default 65) of the largest rectangle inside the measured field. The
+result has the error before (mean, RMS, worst), the measurements' uncertainty, what the
+table's resolution costs and the table itself; --table-csv writes the table as CSV for a
+controller. --burned-through: the result whose table the grid was burned through (a
+second pass), refined rather than replaced. Refused, nothing written: a correction over
+3 % of the field, or one that would command beyond the field.)",
+         solve_galvo},
+        {"solve planar",
+         "the machine's quasi-static errors and their correction",
+         {{"--machine", "machine.toml", "the machine file", Given::required},
+          measurements,
+          out,
+          {"--error-map", "PNG", "each hole's error before and after, drawn"},
+          {"--firmware", "FILE", "the firmware's own settings for the part they carry, written"}},
+         R"(The machine's quasi-static errors from the measured holes (the large ones only place the
+grid): the twelve parameters of a gantry's kinematic chain to first order (scales,
+squareness, straightness, gantry yaw, pitch and roll over [planar] tool_length_mm, the
+tool's tilt), fitted by least squares with the machine's placement in the photo beside
+them; those the holes cannot tell apart from others are held at 0 and reported with what
+absorbs them. The result has each parameter with its uncertainty, the seed paper's
+statistics of the error norm (max, Q3, median, Q1, min, mean, std) before and after (the
+fit's residuals: what the correction leaves at the holes), the area it is valid over,
+and the firmware's own settings for the part they can carry (Marlin M92 and M852, Klipper
+rotation_distance and SET_SKEW, grbl $100/$101, LinuxCNC compensation files) with what
+they leave. calbox compensate applies the whole model to any job. --error-map draws each
+hole's error before (red) and after (green), magnified. --firmware writes those settings.
+Refused, nothing written: a hole over 10 mm from where it was commanded, a correction
+that large anywhere in the area, fewer than 8 holes, a design too badly conditioned.)",
+         solve_planar},
+    };
 }
 
 }  // namespace calbox::cli

@@ -18,44 +18,6 @@
 namespace calbox::cli {
 namespace {
 
-constexpr const char* kTargetHelp = R"(usage:
-  calbox target delta --machine printer.toml -o target.gcode [--preview target.png]
-                      [--describe target.json] [--layers N]
-      The delta calibration artifact: ArUco markers (DICT_4X4_50, 12 mm) spread over the bed,
-      their white cells filled as zigzag lines at the line width, each ringed by one strand, and
-      three bars along the towers with one strand across each end. --describe writes each feature's commanded position in machine millimetres.
-  calbox target galvo --machine scanner.toml -o JOB [--format gcode|csv] [--grid N]
-                      [--preview PNG] [--describe target.json]
-      The galvo calibration artifact: an N x N grid (default 31) of filled circles over the
-      field ([galvo] field_size_mm), pitch field / N, small ones of 0.2 pitch radius and eight
-      large ones of 0.4 pitch laid out so that no rotation or mirror image matches. --format
-      gcode (default: M3/M5 with power, G1 at feed_mm_s, in scanner millimetres) or csv (a
-      plain scanner job: x_mm,y_mm,power lines). --describe writes every mark's commanded
-      centre, its grid index and its size.
-  calbox target planar --machine machine.toml -o target.gcode [--design N]
-                       [--describe target.json]
-      The planar calibration artifact for a router, cartesian printer or laser: a grid of holes
-      over the work area at [planar] hole_pitch_mm, the outer ones margin_mm inside it. Routers
-      drill them with their tool (tool_width_mm), plunging to cut_depth_mm at plunge_feed_mm_s
-      with a dwell of dwell_s, every hole approached from -X -Y so the drives' slack is taken up
-      alike, in the firmware's dialect (grbl, linuxcnc: G4 in seconds and M2; marlin: G4 in ms);
-      Z0 is the sheet's top. Printers and lasers fill dots a quarter pitch across. Two holes near
-      the first corner are twice the size and one is left out, so a photo says which hole is
-      which. --design N: only the N holes (and the two large ones) that DETMAX finds best for
-      the model, for a short job; measure with the same --design. --describe writes every hole's
-      commanded centre, grid index and diameter.
-  calbox target svg FILE.svg --machine FILE -o JOB [--spacing MM] [--angle DEG] [--feed MM_S]
-                    [--scale S | --fit MM] [--fill-rule nonzero|evenodd] [--perimeters N]
-                    [--preview PNG]
-      A job for the machine from a drawing. Filled shapes are filled as SVG means it (their
-      fill-rule, or --fill-rule for all): perimeters inset by half the line width, then infill
-      lines --spacing apart (default: the line width; printers accept their line width to ten
-      times it) at --angle degrees, in a zigzag. Shapes with only a stroke are traced. The
-      drawing is centred on the bed and reads as drawn seen from above; --fit makes its larger
-      side that many mm, --scale multiplies its own size. --preview draws perimeters (blue),
-      infill (green), traces (purple) and travel (red) with path length, travel and time.
-)";
-
 constexpr std::uintmax_t kMaxSvgBytes = std::uintmax_t{10} * 1024 * 1024;
 
 void draw_preview(const std::string& path, const targets::PlacedJob& job,
@@ -101,12 +63,7 @@ void draw_preview(const std::string& path, const targets::PlacedJob& job,
     write_png(path, picture);
 }
 
-int svg(const std::vector<std::string>& words) {
-    const Args args(words,
-                    {"--machine", "-o", "--spacing", "--angle", "--feed", "--scale", "--fit",
-                     "--fill-rule", "--perimeters", "--preview"},
-                    {});
-    if (args.positional().size() != 1) throw UsageError("target svg takes one SVG file");
+int target_svg(const Args& args) {
     const std::string svg_path = args.positional()[0];
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
@@ -157,9 +114,7 @@ int svg(const std::vector<std::string>& words) {
     return 0;
 }
 
-int delta(const std::vector<std::string>& words) {
-    const Args args(words, {"--machine", "-o", "--preview", "--describe", "--layers"}, {});
-    if (!args.positional().empty()) throw UsageError("target delta takes no positional argument");
+int target_delta(const Args& args) {
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
     const auto machine =
@@ -213,10 +168,7 @@ int delta(const std::vector<std::string>& words) {
     return 0;
 }
 
-int galvo(const std::vector<std::string>& words) {
-    const Args args(words, {"--machine", "-o", "--format", "--grid", "--preview", "--describe"},
-                    {});
-    if (!args.positional().empty()) throw UsageError("target galvo takes no positional argument");
+int target_galvo(const Args& args) {
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
     const std::string format = args.get("--format").value_or("gcode");
@@ -253,9 +205,7 @@ int galvo(const std::vector<std::string>& words) {
     return 0;
 }
 
-int planar(const std::vector<std::string>& words) {
-    const Args args(words, {"--machine", "-o", "--design", "--describe"}, {});
-    if (!args.positional().empty()) throw UsageError("target planar takes no positional argument");
+int target_planar(const Args& args) {
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
     const auto machine =
@@ -296,9 +246,75 @@ int planar(const std::vector<std::string>& words) {
 
 }  // namespace
 
-int run_target(const std::vector<std::string>& words) {
-    return dispatch(words, kTargetHelp, "target",
-                    {{"svg", svg}, {"delta", delta}, {"galvo", galvo}, {"planar", planar}});
+std::vector<Command> target_commands() {
+    const Option describe{"--describe", "target.json",
+                          "every feature's commanded position, written"};
+    return {
+        {"target delta",
+         "the delta's calibration artifact, as G-code",
+         {{"--machine", "printer.toml", "the delta's machine file", Given::required},
+          {"-o", "target.gcode", "the job, written", Given::required},
+          {"--preview", "target.png", "the artifact, drawn"},
+          describe,
+          {"--layers", "N", "layers printed, 1 to 5 (default 1)"}},
+         R"(The delta calibration artifact: ArUco markers (DICT_4X4_50, 12 mm) spread over the bed,
+their white cells filled as zigzag lines at the line width, each ringed by one strand, and
+three bars along the towers with one strand across each end. --describe writes each feature's commanded position in machine millimetres.)",
+         target_delta},
+        {"target galvo",
+         "the scanner's burned circle grid, as a job",
+         {{"--machine", "scanner.toml", "the scanner's machine file", Given::required},
+          {"-o", "JOB", "the job, written", Given::required},
+          {"--format", "gcode|csv", "G-code (default) or a plain scanner job"},
+          {"--grid", "N", "circles a side (default 31)"},
+          {"--preview", "PNG", "the grid, drawn"},
+          describe},
+         R"(The galvo calibration artifact: an N x N grid (default 31) of filled circles over the
+field ([galvo] field_size_mm), pitch field / N, small ones of 0.2 pitch radius and eight
+large ones of 0.4 pitch laid out so that no rotation or mirror image matches. --format
+gcode (default: M3/M5 with power, G1 at feed_mm_s, in scanner millimetres) or csv (a
+plain scanner job: x_mm,y_mm,power lines). --describe writes every mark's commanded
+centre, its grid index and its size.)",
+         target_galvo},
+        {"target planar",
+         "the router's, cartesian printer's or laser's hole grid, as G-code",
+         {{"--machine", "machine.toml", "the machine file", Given::required},
+          {"-o", "target.gcode", "the job, written", Given::required},
+          {"--design", "N", "only the N holes best for the model, for a short job"},
+          describe},
+         R"(The planar calibration artifact for a router, cartesian printer or laser: a grid of holes
+over the work area at [planar] hole_pitch_mm, the outer ones margin_mm inside it. Routers
+drill them with their tool (tool_width_mm), plunging to cut_depth_mm at plunge_feed_mm_s
+with a dwell of dwell_s, every hole approached from -X -Y so the drives' slack is taken up
+alike, in the firmware's dialect (grbl, linuxcnc: G4 in seconds and M2; marlin: G4 in ms);
+Z0 is the sheet's top. Printers and lasers fill dots a quarter pitch across. Two holes near
+the first corner are twice the size and one is left out, so a photo says which hole is
+which. --design N: only the N holes (and the two large ones) that DETMAX finds best for
+the model, for a short job; measure with the same --design. --describe writes every hole's
+commanded centre, grid index and diameter.)",
+         target_planar},
+        {"target svg",
+         "a job for the machine from a drawing",
+         {{"FILE.svg", "", "the drawing", Given::word},
+          {"--machine", "FILE", "the machine file", Given::required},
+          {"-o", "JOB", "the job, written", Given::required},
+          {"--spacing", "MM", "infill lines apart (default: the line width)"},
+          {"--angle", "DEG", "the infill's direction"},
+          {"--feed", "MM_S", "the working feed"},
+          {"--scale", "S", "the drawing's own size times S"},
+          {"--fit", "MM", "the drawing's larger side, in mm"},
+          {"--fill-rule", "nonzero|evenodd", "for every filled shape (default: each shape's own)"},
+          {"--perimeters", "N", "perimeters around each filled shape (default 1)"},
+          {"--preview", "PNG", "the job's paths, drawn"}},
+         R"(A job for the machine from a drawing. Filled shapes are filled as SVG means it (their
+fill-rule, or --fill-rule for all): perimeters inset by half the line width, then infill
+lines --spacing apart (default: the line width; printers accept their line width to ten
+times it) at --angle degrees, in a zigzag. Shapes with only a stroke are traced. The
+drawing is centred on the bed and reads as drawn seen from above; --fit makes its larger
+side that many mm, --scale multiplies its own size. --preview draws perimeters (blue),
+infill (green), traces (purple) and travel (red) with path length, travel and time.)",
+         target_svg},
+    };
 }
 
 }  // namespace calbox::cli

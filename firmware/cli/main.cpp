@@ -1,6 +1,11 @@
-// calbox: one binary; each subcommand exposes one step of the calibration cycle.
+// calbox: one binary; each command exposes one step of the calibration cycle, or the appliance.
+// The commands declare their options (cli_args.hpp); this file hands them to CLI11, which makes
+// every usage line, --help and option error from those declarations.
+#include <CLI/CLI.hpp>
+#include <cctype>
 #include <iostream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/geometry/pattern_spec.hpp"
@@ -9,82 +14,255 @@
 
 namespace {
 
+using calbox::cli::Args;
+using calbox::cli::Command;
+using calbox::cli::Given;
 using calbox::cli::UsageError;
 
-struct Subcommand {
+// The first word of the commands of two words, as `calbox --help` lists them.
+struct Group {
     const char* name;
-    const char* usage;  // what follows the name in the list
-    const char* help;
-    int (*run)(const std::vector<std::string>& words);
+    const char* summary;
+};
+const Group kGroups[] = {
+    {"camera", "intrinsic calibration and the bed plane"},
+    {"detect", "what the box sees in an image"},
+    {"target", "a calibration target, or a job from a drawing"},
+    {"measure", "measure the made target in photos"},
+    {"solve", "fit the machine's model and write the correction"},
+    {"machine", "a machine file from the printer's own files"},
+    {"sim", "the digital twin"},
 };
 
-// The modes, as `target`, `measure` and `solve` name them.
-constexpr const char* kModes = "delta|galvo|planar";
+constexpr const char* kFooter =
+    "modes: delta (delta 3D printers), galvo (galvo laser scanners), planar (CNC routers,\n"
+    "cartesian printers and gantry lasers)\n\n"
+    "Every command exits 0 on success, and non-zero with one line on standard error on failure.";
 
-// One row a subcommand: `calbox --help` lists them and `calbox NAME` runs one.
-const Subcommand kSubcommands[] = {
-    {"run", "", "the appliance: the one-button calibration cycle", calbox::cli::run_appliance},
-    {"revert", "", "put back what the last applied cycle changed", calbox::cli::run_revert},
-    {"camera", "calibrate|plane", "intrinsic calibration and the bed plane",
-     calbox::cli::run_camera},
-    {"detect", "markers|chessboard|circles", "what the box sees in an image",
-     calbox::cli::run_detect},
-    {"target", "MODE|svg", "a calibration target, or a job from a drawing",
-     calbox::cli::run_target},
-    {"measure", "MODE", "measure the made target in photos", calbox::cli::run_measure},
-    {"solve", "MODE", "fit the machine's model and write the correction", calbox::cli::run_solve},
-    {"compensate", "", "a job sent through a solve's correction", calbox::cli::run_compensate},
-    {"machine", "import", "a machine file from the printer's own files", calbox::cli::run_machine},
-    {"sim", "print|photo|measurements|camera|verify", "the digital twin", calbox::cli::run_sim},
-};
-
-std::string help_text() {
-    std::string out =
-        "calbox: calibrates machines from photos of what they make\n\n"
-        "usage: calbox COMMAND [ARGS...]   (calbox COMMAND --help for each)\n\n"
-        "commands:\n";
-    for (const auto& c : kSubcommands) {
-        std::string usage = c.usage;
-        if (const auto at = usage.find("MODE"); at != std::string::npos)
-            usage.replace(at, 4, kModes);
-        std::string left = std::string("  ") + c.name + (usage.empty() ? "" : " " + usage);
-        left.resize(std::max<std::size_t>(left.size() + 2, 40), ' ');
-        out += left + c.help + "\n";
-    }
-    out +=
-        "\nmodes: delta (delta 3D printers), galvo (galvo laser scanners), planar (CNC routers,\n"
-        "cartesian printers and gantry lasers)\n\n"
-        "Every command exits 0 on success, and non-zero with one line on standard error on "
-        "failure.\n";
-    return out;
+std::vector<Command> all_commands() {
+    std::vector<Command> all;
+    for (auto* commands :
+         {calbox::cli::appliance_commands, calbox::cli::camera_commands,
+          calbox::cli::detect_commands, calbox::cli::target_commands, calbox::cli::measure_commands,
+          calbox::cli::solve_commands, calbox::cli::compensate_commands,
+          calbox::cli::machine_commands, calbox::cli::sim_commands})
+        for (auto& c : commands()) all.push_back(std::move(c));
+    return all;
 }
+
+// One declared option as CLI11 holds it, to read back what was given.
+struct Declared {
+    CLI::Option* option;
+    Given given;
+};
+
+struct CommandLine {
+    CLI::App app{"calbox: calibrates machines from photos of what they make", "calbox"};
+    std::vector<Command> commands = all_commands();
+    std::vector<CLI::App*> apps;                  // one a command, as `commands`
+    std::vector<std::vector<Declared>> declared;  // one a command, as `commands`
+
+    CommandLine() {
+        app.require_subcommand(1);
+        app.footer(kFooter);
+        app.set_version_flag("--version", std::string("calbox ") + calbox::build_version());
+        app.get_formatter()->column_width(34);
+        for (const auto& c : commands) add(c);
+    }
+
+    CLI::App* parent_of(const std::string& path, std::string& verb) {
+        const auto space = path.find(' ');
+        if (space == std::string::npos) {
+            verb = path;
+            return &app;
+        }
+        const std::string group = path.substr(0, space);
+        verb = path.substr(space + 1);
+        for (auto* existing : app.get_subcommands({}))
+            if (existing->get_name() == group) return existing;
+        for (const auto& g : kGroups)
+            if (group == g.name) {
+                auto* made = app.add_subcommand(g.name, g.summary);
+                made->require_subcommand(1);
+                return made;
+            }
+        throw std::logic_error("command '" + path + "' has no group");
+    }
+
+    void add(const Command& c) {
+        std::string verb;
+        CLI::App* sub = parent_of(c.path, verb)->add_subcommand(verb, c.summary);
+        if (!c.details.empty()) sub->footer(c.details);
+        std::vector<Declared> options;
+        for (const auto& o : c.options) {
+            CLI::Option* added = nullptr;
+            switch (o.given) {
+                case Given::flag:
+                    added = sub->add_flag(o.name)->description(o.help);
+                    break;
+                case Given::optional:
+                case Given::required:
+                    added = sub->add_option(o.name, o.help)->type_name(o.value);
+                    if (o.given == Given::required) added->required();
+                    break;
+                case Given::word:
+                    added = sub->add_option(o.name, o.help)->type_name("")->required();
+                    break;
+                case Given::words:
+                case Given::any_words:
+                    added = sub->add_option(o.name, o.help)
+                                ->type_name("")
+                                ->expected(o.given == Given::words ? 1 : 0,
+                                           CLI::detail::expected_max_vector_size)
+                                ->allow_extra_args();
+                    if (o.given == Given::words) added->required();
+                    break;
+            }
+            options.push_back({added, o.given});
+        }
+        apps.push_back(sub);
+        declared.push_back(std::move(options));
+    }
+
+    // The command the words chose, or the deepest group they reached.
+    std::string reached() const {
+        std::string path = "calbox";
+        const CLI::App* at = &app;
+        for (;;) {
+            const auto chosen = at->get_subcommands();
+            if (chosen.empty()) return path;
+            at = chosen.front();
+            path += " " + at->get_name();
+        }
+    }
+
+    // Words that do not name a command, or options the command does not take, are named
+    // before CLI11 reads the options: it would report a missing option first, or call an
+    // unknown command an unexpected argument.
+    void check_words(const std::vector<std::string>& words) const {
+        const CLI::App* at = &app;
+        std::string path = "calbox";
+        const auto refuse = [&path](const std::string& what) {
+            std::string line = path == "calbox" ? "" : path.substr(7) + ": ";
+            line += what;
+            line += " (see ";
+            line += path;
+            line += " --help)";
+            throw UsageError(line);
+        };
+        std::size_t k = 0;
+        for (; k < words.size() && !at->get_subcommands({}).empty(); ++k) {
+            const std::string& w = words[k];
+            if (w == "--help" || w == "-h" || (at == &app && w == "--version")) return;
+            const CLI::App* next = nullptr;
+            for (const auto* s : at->get_subcommands({}))
+                if (s->get_name() == w) next = s;
+            // The top level's commands are one --help away; a group's few are listed.
+            if (!next)
+                refuse("unknown command '" + w + "'" +
+                       (at == &app ? "" : " (" + command_names(at) + ")"));
+            at = next;
+            path += " " + w;
+        }
+        if (!at->get_subcommands({}).empty()) refuse("needs a command: " + command_names(at));
+        for (; k < words.size(); ++k) {
+            const std::string& w = words[k];
+            const bool number = w.size() > 1 && w[0] == '-' &&
+                                (std::isdigit(static_cast<unsigned char>(w[1])) || w[1] == '.');
+            if (w.size() < 2 || w[0] != '-' || number || w == "--help" || w == "-h") continue;
+            const std::string name = w.substr(0, w.find('='));
+            if (at->get_option_no_throw(name) == nullptr) refuse("unknown option " + name);
+        }
+    }
+
+    static std::string command_names(const CLI::App* group) {
+        std::string names;
+        for (const auto* s : group->get_subcommands({})) {
+            if (!names.empty()) names += ", ";
+            names += s->get_name();
+        }
+        return names;
+    }
+
+    Args given_to(std::size_t k) const {
+        std::map<std::string, std::string> values;
+        std::set<std::string> flags;
+        std::vector<std::string> positional;
+        for (const auto& d : declared[k]) {
+            if (d.option->count() == 0) continue;
+            switch (d.given) {
+                case Given::flag:
+                    flags.insert(d.option->get_name());
+                    break;
+                case Given::optional:
+                case Given::required:
+                    values[d.option->get_name()] = d.option->results().front();
+                    break;
+                case Given::word:
+                case Given::words:
+                case Given::any_words:
+                    positional = d.option->results();
+                    break;
+            }
+        }
+        return Args(std::move(values), std::move(flags), std::move(positional));
+    }
+
+    int run(int argc, char** argv) {
+        std::vector<std::string> words(argv + 1, argv + argc);
+        if (words.empty()) {
+            std::cerr << app.help();
+            return 2;
+        }
+        if (words[0] == "help") words[0] = "--help";
+        check_words(words);
+        std::vector<std::string> reversed(words.rbegin(), words.rend());
+        try {
+            app.parse(reversed);
+        } catch (const CLI::CallForHelp&) {
+            std::cout << help_of(reached());
+            return 0;
+        } catch (const CLI::CallForVersion& e) {
+            std::cout << e.what() << "\n";
+            return 0;
+        } catch (const CLI::ParseError& e) {
+            throw UsageError(reached().substr(7) + ": " + e.what() + " (see " + reached() +
+                             " --help)");
+        }
+        for (std::size_t k = 0; k < apps.size(); ++k)
+            if (apps[k]->parsed()) return commands[k].run(given_to(k));
+        throw std::logic_error("no command ran");
+    }
+
+    std::string help_of(const std::string& path) const {
+        const CLI::App* at = &app;
+        std::string above;  // the words before the command's own, for its usage line
+        std::string rest = path.substr(6);
+        while (!rest.empty()) {
+            rest.erase(0, 1);
+            const auto space = rest.find(' ');
+            above += (above.empty() ? "" : " ") + at->get_name();
+            at = at->get_subcommand(rest.substr(0, space));
+            rest = space == std::string::npos ? "" : rest.substr(space);
+        }
+        return at->help(above);
+    }
+};
 
 }  // namespace
 
 int main(int argc, char** argv) {
-    const std::vector<std::string> words(argv + 1, argv + argc);
     try {
-        if (words.empty()) {
-            std::cerr << help_text();
-            return 2;
-        }
-        if (words[0] == "--help" || words[0] == "-h" || words[0] == "help") {
-            std::cout << help_text();
-            return 0;
-        }
-        if (words[0] == "--version") {
-            std::cout << "calbox " << calbox::build_version() << "\n";
-            return 0;
-        }
-        const std::vector<std::string> rest(words.begin() + 1, words.end());
-        for (const auto& c : kSubcommands)
-            if (words[0] == c.name) return c.run(rest);
-        throw UsageError("unknown command '" + words[0] + "'");
+        CommandLine command_line;
+        return command_line.run(argc, argv);
     } catch (const calbox::geometry::PatternError& e) {
         std::cerr << "calbox: " << e.what() << "\n";
         return 2;
     } catch (const UsageError& e) {
-        std::cerr << "calbox: " << e.what() << " (see calbox --help)\n";
+        const std::string what = e.what();
+        std::cerr << "calbox: " << what
+                  << (what.find("--help)") == std::string::npos ? " (see calbox --help)" : "")
+                  << "\n";
         return 2;
     } catch (const std::exception& e) {
         std::cerr << "calbox: " << e.what() << "\n";

@@ -37,14 +37,22 @@ expect_error "bad number '1.2.3'" sim print --scenario "$scenario" "$work/badnum
 expect_error "radius_mm: must be a number" sim print --scenario "$work/bad.toml" "$work/ok.gcode" -o "$work/result"
 expect_error "syntax.toml:[0-9]+:" sim print --scenario "$work/syntax.toml" "$work/ok.gcode" -o "$work/result"
 expect_error "cannot read job" sim print --scenario "$scenario" "$work/missing.gcode" -o "$work/result"
-expect_error "missing -o" sim print --scenario "$scenario" "$work/ok.gcode"
+expect_error "^calbox: sim print: -o is required \\(see calbox sim print --help\\)$" sim print --scenario "$scenario" "$work/ok.gcode"
 expect_error "no \[camera\]" sim photo --scenario "$work/nocamera.toml" --board chessboard:9x6@20 --pose 0,0,0,0,0,400 -o "$work/result"
 expect_error "not a print record" sim photo --scenario "$scenario" --print "$work/wrong.json" -o "$work/result"
 expect_error "bad pattern" sim photo --scenario "$scenario" --board chessboard:9x6 --pose 0,0,0,0,0,400 -o "$work/result"
 expect_error "unknown ArUco dictionary" sim photo --scenario "$scenario" --board charuco:5x7@20/14:DICT_9X9 --pose 0,0,0,0,0,400 -o "$work/result"
 expect_error "--pose needs 6" sim photo --scenario "$scenario" --board chessboard:9x6@20 --pose 1,2,3 -o "$work/result"
 expect_error "either --print or --board" sim photo --scenario "$scenario" -o "$work/result"
-expect_error "unknown option --frobnicate" sim print --frobnicate 3
+# The command line (CLI11, from each command's declared options): an unknown option is named
+# before a missing one, a repeated one or a command without its verb is one line.
+expect_error "^calbox: sim print: unknown option --frobnicate \\(see calbox sim print --help\\)$" sim print --frobnicate 3
+expect_error "^calbox: sim print: unknown option --frob \\(see" sim print --scenario=x --frob=3
+expect_error "^calbox: solve delta: -o: At Most 1 required but received 2" solve delta --machine a --measurements b -o "$work/x" -o "$work/y"
+expect_error "^calbox: solve: needs a command: delta, galvo, planar \\(see calbox solve --help\\)$" solve
+expect_error "^calbox: solve: unknown command 'fly' \\(delta, galvo, planar\\) \\(see calbox solve --help\\)$" solve fly
+expect_error "^calbox: target delta: The following argument was not expected: stray" target delta --machine "$top/examples/delta.toml" -o "$work/result" stray
+expect_error "is a file for --rrf alone" machine import --marlin "$work/ok.gcode" "$work/ok.gcode" -o "$work/result"
 expect_error "^calbox: unknown command 'bogus' \\(see calbox --help\\)$" bogus
 expect_error "unknown command 'fly'" fly
 
@@ -114,7 +122,7 @@ expect_error "fill-rule must be nonzero or evenodd" target svg "$work/square.svg
 expect_error "photo 1 shows no DICT_4X4_50 markers" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" "$work/board.png" -o "$work/result"
 expect_error "not an image OpenCV can decode" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" "$work/fake.png" -o "$work/result"
 expect_error "cannot read plane file" measure delta --camera "$work/camera.yaml" --plane "$work/none.yaml" --machine "$machine" "$work/board.png" -o "$work/result"
-expect_error "needs at least one photo" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" -o "$work/result"
+expect_error "^calbox: measure delta: IMAGES is required \\(see calbox measure delta --help\\)$" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" -o "$work/result"
 
 # measure delta on photos of the printed target that cannot be measured: issue 6's bad input.
 cycle="$top/examples/delta_cycle.toml"

@@ -178,6 +178,9 @@ class CycleMode {
     virtual std::optional<targets::KeptCorrection> kept_correction() const { return std::nullopt; }
     // The result file of that correction, as kept (for jobs compensated through the box).
     virtual std::optional<std::string> kept_result_text() const { return std::nullopt; }
+    // The files the mode keeps in the data directory beside the cycles' records (its
+    // correction in force), by name: the web page serves them with the records.
+    virtual std::vector<std::string> kept_files() const { return {}; }
 
     // The last cycle's own figures: for the console's `last` (text lines and JSON keys) and a
     // controller.
@@ -195,5 +198,8 @@ void work_out(CycleSteps& steps, std::function<T()> compute, std::function<void(
 
 // The one place the box's side reads the machine's kind.
 std::unique_ptr<CycleMode> make_cycle_mode(const models::MachineFile& machine, CycleSteps& steps);
+// The values the modes' results may carry (ModeResult::values), each mode's as it declares
+// them, in turn: the PLC's result block holds them in this order after the cycle's own.
+std::vector<std::string> mode_result_names();
 
 }  // namespace calbox::firmware

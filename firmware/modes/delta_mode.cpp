@@ -515,6 +515,12 @@ ModeResult DeltaCycleMode::result(bool) const {
     return r;
 }
 
+std::vector<std::string> DeltaCycleMode::result_names() {
+    std::vector<std::string> names;
+    for (const auto& [name, value] : settings_values({})) names.push_back(name);
+    return names;
+}
+
 std::vector<std::pair<std::string, double>> settings_values(const models::DeltaGeometry& g) {
     std::vector<std::pair<std::string, double>> values;
     const char* towers[] = {"a", "b", "c"};

@@ -53,6 +53,9 @@ class DeltaCycleMode final : public CycleMode {
     std::string revert(int number, std::function<void(std::string what)> then) override;
     void describe_last(std::string& text, nlohmann::json& data) const override;
     ModeResult result(bool applied) const override;
+    // The values result() carries besides the predicted figures, in their order: the settings
+    // its correction sent (mode_result_names).
+    static std::vector<std::string> result_names();
 
     // The last cycle's passes, in order, and the correction sent (the last pass's).
     const std::vector<DeltaPassReport>& passes() const { return passes_; }

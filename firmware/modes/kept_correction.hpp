@@ -26,6 +26,7 @@ class KeptCorrectionMode : public CycleMode {
     std::string revert(int number, std::function<void(std::string what)> then) override;
     std::optional<targets::KeptCorrection> kept_correction() const override;
     std::optional<std::string> kept_result_text() const override;
+    std::vector<std::string> kept_files() const override { return {files_.kept}; }
 
   protected:
     KeptCorrectionMode(CycleSteps& steps, KeptCorrectionFiles files)

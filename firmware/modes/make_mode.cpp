@@ -15,4 +15,10 @@ std::unique_ptr<CycleMode> make_cycle_mode(const models::MachineFile& machine, C
                                 machine.kind);
 }
 
+// The galvo's result is its table (ModeResult::table), the planar mode's its kept model: only
+// the delta's carries values.
+std::vector<std::string> mode_result_names() {
+    return DeltaCycleMode::result_names();
+}
+
 }  // namespace calbox::firmware

@@ -25,13 +25,13 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
     if (!settings.web.listen.empty()) {
         const auto at = net::parse_host_port(settings.web.listen, false);
         web_ = std::make_unique<WebWindow>(
-            WebWindowContext{inbox_, p_.data, p_.clock, frames_, p_.network,
-                             [this](const std::string& line) { return p_.console.reply_to(line); },
-                             [this] { return status(true); },
-                             [this] { return p_.news.history_json(); },
-                             [this] { return p_.news.metrics(p_.cycle); },
-                             [this] { return p_.config.settings().web.password_hash; },
-                             [this] { return p_.cycle.preview(); }, [this] { return guide(); }},
+            WebWindowContext{
+                inbox_, p_.data, p_.clock, frames_, p_.network, p_.cycle.mode().kept_files(),
+                [this](const std::string& line) { return p_.console.reply_to(line); },
+                [this] { return status(true); }, [this] { return p_.news.history_json(); },
+                [this] { return p_.news.metrics(p_.cycle); },
+                [this] { return p_.config.settings().web.password_hash; },
+                [this] { return p_.cycle.preview(); }, [this] { return guide(); }},
             at.host, at.port, limits);
         const std::string host =
             at.host.find(':') != std::string::npos ? "[" + at.host + "]" : at.host;
@@ -106,7 +106,7 @@ LiveGuide BoxNetwork::guide() const {
         g.plane.reset();
     }
     const models::MachineFile& machine = p_.cycle.machine();
-    if (p_.cycle.mode().goal().mode == "delta") {
+    if (machine.is_delta()) {  // a round bed
         g.bed_radius_mm = machine.bed_radius_mm;
     } else {
         g.bed_size_x_mm = machine.bed_size_x_mm;

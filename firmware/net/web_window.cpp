@@ -52,18 +52,19 @@ std::string query_value(const std::string& query, const std::string& name) {
     return {};
 }
 
-// The records a page may read: each cycle's, and the set-up's. Not the configuration (it holds
-// the password's hash), nor anything else the data directory gathers.
-bool is_record_name(const std::string& name) {
-    static const char* const setup[] = {"camera.yaml",  "plane.yaml",       "reference.yaml",
-                                        "history.json", "galvo-table.json", "planar-result.json"};
+// The records a page may read: each cycle's, the set-up's and the mode's kept files. Not the
+// configuration (it holds the password's hash), nor anything else the data directory gathers.
+bool is_record_name(const std::string& name, const std::vector<std::string>& kept_files) {
+    static const char* const setup[] = {"camera.yaml", "plane.yaml", "reference.yaml",
+                                        "history.json"};
     if (name.empty() || name.size() > 128 || name.front() == '.') return false;
     if (name.find_first_not_of(
             "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
         std::string::npos)
         return false;
     if (name.rfind("cycle-", 0) == 0 || name.rfind("job-", 0) == 0) return true;
-    return std::find(std::begin(setup), std::end(setup), name) != std::end(setup);
+    return std::find(std::begin(setup), std::end(setup), name) != std::end(setup) ||
+           std::find(kept_files.begin(), kept_files.end(), name) != kept_files.end();
 }
 
 std::string content_type_of(const std::string& name) {
@@ -253,7 +254,8 @@ ServerResponse WebWindow::route(const ServerRequest& request, const std::string&
     if (path == "/records" || path == "/records/") {
         json list = json::array();
         for (const auto& e : c_.records.list_files())
-            if (is_record_name(e.name)) list.push_back({{"name", e.name}, {"bytes", e.size_bytes}});
+            if (is_record_name(e.name, c_.kept_files))
+                list.push_back({{"name", e.name}, {"bytes", e.size_bytes}});
         std::sort(list.begin(), list.end(),
                   [](const json& a, const json& b) { return a["name"] < b["name"]; });
         return json_answer({{"records", list}});
@@ -263,7 +265,7 @@ ServerResponse WebWindow::route(const ServerRequest& request, const std::string&
 }
 
 ServerResponse WebWindow::record(const std::string& name, const std::string& query) {
-    if (!is_record_name(name))
+    if (!is_record_name(name, c_.kept_files))
         return error(403,
                      "not a record: /records/ serves the cycles' records and the set-up's "
                      "files by their plain names");

@@ -40,6 +40,9 @@ struct WebWindowContext {
     hal::Clock& clock;      // the flood limit's
     LatestFrame& frames;    // the camera's newest frame (Cycle::on_frame)
     hal::Network& network;  // its listener and the password's hasher
+    // The files the cycle's mode keeps beside the records (CycleMode::kept_files), served
+    // with them.
+    std::vector<std::string> kept_files;
     // Each called on the loop's thread:
     std::function<std::string(const std::string& line)> console;  // a console line's reply
     std::function<nlohmann::json()> status;                       // BoxNews::status, the log

@@ -9,7 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "firmware/modes/delta_mode.hpp"
+#include "firmware/cycle/cycle_mode.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -28,11 +28,12 @@ void append_float(std::vector<std::uint16_t>& words, double value, models::WordO
 
 const std::vector<std::string>& result_value_names() {
     static const std::vector<std::string> names = [] {
+        // The figures every cycle has (a mode may predict; the delta does), in the block's
+        // documented order, then the modes' own values.
         std::vector<std::string> n{"measured_xy_rms_mm",  "measured_xy_max_mm",
                                    "predicted_xy_rms_mm", "predicted_xy_max_mm",
                                    "verified_xy_rms_mm",  "verified_xy_max_mm"};
-        // Then the settings a delta's correction sent.
-        for (const auto& [name, value] : settings_values({})) n.push_back(name);
+        for (auto& name : mode_result_names()) n.push_back(std::move(name));
         return n;
     }();
     return names;

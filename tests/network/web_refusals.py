@@ -97,6 +97,10 @@ for climb in ("/records/../calbox.toml", "/records/..%2Fcalbox.toml", "/records/
               "/records/calbox.toml", "/records/.hidden", "/records//etc/passwd"):
     expect("GET " + climb, from_peer("127.0.0.1", "GET", climb), 403, "not a record")
 expect("a record not there", request(url + "/records/cycle-9999-result.json"), 404)
+# The files other modes keep beside the records are not this delta box's (each mode declares its
+# own, CycleMode::kept_files).
+for other in ("/records/galvo-table.json", "/records/planar-result.json"):
+    expect("GET " + other, from_peer("127.0.0.1", "GET", other), 403, "not a record")
 expect("malformed JSON", request(url + "/api/config", "POST", b'{"key": "cycle.', password=PASSWORD),
        400, "malformed JSON")
 expect("JSON not an object", request(url + "/api/action", "POST", b'["start"]', password=PASSWORD),

@@ -967,6 +967,8 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
     // The twin judges the table the box keeps, on a fresh grid.
     const auto kept = rig.data.read_file(firmware::kGalvoTableFile);
     CHECK(kept.has_value());
+    // The file the web page serves with the records is the one the table is kept in.
+    CHECK(rig.cycle.mode().kept_files() == std::vector<std::string>{firmware::kGalvoTableFile});
     const auto table = modes::galvo_result_from_json(*kept, "kept").fit.table;
     const auto after = rig.board.bench->judge_galvo_scanner(
         [&table](sim::Vec2 p) {

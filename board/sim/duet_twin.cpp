@@ -96,6 +96,7 @@ struct DuetTwin::State final : TwinHostCore {
             const auto q = line.find('"');
             const std::string path = line.substr(q + 1, line.rfind('"') - q - 1);
             const std::string name = path.substr(path.rfind('/') + 1);
+            if (faults.print_never_starts) return;
             try {
                 print->start(path, read_whole_file(dir / "gcodes" / name), print_seconds,
                              faults.print_cancelled && print->started() == 0);

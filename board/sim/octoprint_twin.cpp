@@ -119,6 +119,9 @@ struct OctoPrintTwin::State final : TwinHostCore {
                 if (faults.printer_not_ready)
                     return error_reply(409, "Can not print: printer is not operational");
                 const std::lock_guard lock(mutex);
+                if (faults.print_never_starts)
+                    return {201, "application/json",
+                            json{{"done", true}, {"files", {{"local", {{"name", name}}}}}}.dump()};
                 try {
                     print->start(name, contents, print_seconds,
                                  faults.print_cancelled && print->started() == 0);

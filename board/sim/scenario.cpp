@@ -136,6 +136,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.boolean("host_printer_not_ready", h.printer_not_ready);
         r.boolean("host_print_cancelled", h.print_cancelled);
         r.boolean("host_upload_refused", h.upload_refused);
+        r.boolean("host_print_never_starts", h.print_never_starts);
         r.integer("host_restart_at_request", h.restart_at_request, 0, 1000000);
         r.integer("host_silent_at_request", h.silent_at_request, 0, 1000000);
         r.boolean("host_config_edited", h.config_edited);

@@ -26,7 +26,10 @@ struct HostFaults {
                                      // start-up error, OctoPrint's printer not connected)
     bool print_cancelled = false;    // someone cancels the box's first print on the host
     bool upload_refused = false;     // the host refuses to store a file (its disk full)
-    int restart_at_request = 0;      // the host restarts at its n-th request
+    // The host takes the box's job and says it will print it, but never starts (a printer that
+    // dropped off its host as the job arrived).
+    bool print_never_starts = false;
+    int restart_at_request = 0;  // the host restarts at its n-th request
     // A Duet restarts on the first G-code line that starts so, before running it (a batch of
     // settings cut off part way: "M666").
     std::string restart_at_command;
@@ -35,8 +38,8 @@ struct HostFaults {
     bool new_config_rejected = false;  // Klipper refuses the printer.cfg the box writes
     bool any() const {
         return wrong_key || printer_not_ready || print_cancelled || upload_refused ||
-               restart_at_request > 0 || silent_at_request > 0 || config_edited ||
-               new_config_rejected || !restart_at_command.empty();
+               print_never_starts || restart_at_request > 0 || silent_at_request > 0 ||
+               config_edited || new_config_rejected || !restart_at_command.empty();
     }
 };
 

@@ -263,29 +263,28 @@ void DuetLink::run_job(const std::vector<std::string>& lines, Done done) {
             const std::string path = "0:/gcodes/" + settings_.job_file_name;
             s.upload(path, text);
             s.gcode("M32 \"" + path + "\"");
-            const PrintingOnHost printing(*this);
-            bool seen_printing = false;
-            const auto started = Clock::now();
-            for (;;) {
-                pause(settings_.poll_interval);
-                const std::string status = s.status();
+            return follow_print(settings_.poll_interval, settings_.reply_timeout, [&](bool) {
+                PrintReport report;
+                report.state = s.status();
+                const std::string& status = report.state;
                 if (status == "halted")
                     throw LinkError("the printer halted on the host (emergency stop)");
-                if (status == "processing" || status == "pausing" || status == "paused" ||
-                    status == "resuming" || status == "cancelling" || status == "simulating")
-                    seen_printing = true;
+                report.printing = status == "processing" || status == "pausing" ||
+                                  status == "paused" || status == "resuming" ||
+                                  status == "cancelling" || status == "simulating";
                 const json job = s.model("job");
                 const bool ours = job.value("lastFileName", json()) == json(path);
                 if (status == "idle" && ours) {
                     if (job.value("lastFileCancelled", false))
-                        return JobOutcome{false, "the print was cancelled on the host", {}, {}};
-                    if (job.value("lastFileAborted", false))
-                        return JobOutcome{false, "the print failed on the host", {}, {}};
-                    return JobOutcome{true, {}, {}, {}};
+                        report.over =
+                            JobOutcome{false, "the print was cancelled on the host", {}, {}};
+                    else if (job.value("lastFileAborted", false))
+                        report.over = JobOutcome{false, "the print failed on the host", {}, {}};
+                    else
+                        report.over = JobOutcome{true, {}, {}, {}};
                 }
-                if (!seen_printing && Clock::now() - started > settings_.reply_timeout)
-                    throw LinkError("the print never started on the host (" + status + ")");
-            }
+                return report;
+            });
         },
         std::move(done));
 }

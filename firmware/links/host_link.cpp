@@ -82,6 +82,23 @@ void HostLink::check_stop() const {
     if (stopping_) throw LinkError("stopped");
 }
 
+JobOutcome HostLink::follow_print(std::chrono::milliseconds poll_interval,
+                                  std::chrono::milliseconds start_timeout,
+                                  const std::function<PrintReport(bool seen_printing)>& poll) {
+    const PrintingOnHost printing(*this);
+    bool seen_printing = false;
+    const auto started = std::chrono::steady_clock::now();
+    for (;;) {
+        pause(poll_interval);
+        const PrintReport report = poll(seen_printing);
+        if (report.over) return *report.over;
+        if (report.printing)
+            seen_printing = true;
+        else if (!seen_printing && std::chrono::steady_clock::now() - started > start_timeout)
+            throw LinkError("the print never started on the host (" + report.state + ")");
+    }
+}
+
 void HostLink::pause(std::chrono::milliseconds how_long) const {
     const auto until = std::chrono::steady_clock::now() + how_long;
     for (;;) {

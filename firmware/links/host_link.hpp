@@ -7,6 +7,7 @@
 #include <chrono>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -69,6 +70,20 @@ class HostLink : public MachineLink {
       private:
         HostLink& link_;
     };
+    // What the host says of the box's print at one poll: under way (printing, paused, ...), or
+    // over with its outcome; `state` is the host's own word, for an error line.
+    struct PrintReport {
+        bool printing = false;
+        std::optional<JobOutcome> over;
+        std::string state;
+    };
+    // On the request thread, once the print is started: polls the host every `poll_interval`
+    // until `poll` (given whether the print was seen under way) says it is over. A print the
+    // host has not been seen running within `start_timeout` is a LinkError ("the print never
+    // started on the host (idle)"). The host's print is the box's meanwhile (PrintingOnHost).
+    JobOutcome follow_print(std::chrono::milliseconds poll_interval,
+                            std::chrono::milliseconds start_timeout,
+                            const std::function<PrintReport(bool seen_printing)>& poll);
     const net::Url& url() const { return url_; }
     hal::HttpClient& http_client() const { return http_; }
     const Log& log() const { return log_; }

@@ -220,26 +220,29 @@ void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
             s.ensure_ready();
             s.upload("gcodes", settings_.job_file_name, text);
             s.call("printer.print.start", {{"filename", settings_.job_file_name}});
-            const PrintingOnHost printing(*this);
             const json query = {{"objects", {{"print_stats", {"state", "message"}}}}};
-            for (;;) {
-                s.pause();
+            return follow_print(settings_.poll_interval, settings_.reply_timeout, [&](bool) {
                 const json status = s.call("printer.objects.query", query);
                 const json& stats = status.at("status").at("print_stats");
-                const std::string state = config_value(stats.value("state", json("")));
-                if (state == "complete") return JobOutcome{true, {}, {}, {}};
-                if (state == "cancelled")
-                    return JobOutcome{false, "the print was cancelled on the host", {}, {}};
-                if (state == "error")
-                    return JobOutcome{false,
-                                      "the print failed on the host: " +
-                                          config_value(stats.value("message", json(""))),
-                                      {},
-                                      {}};
-                if (state == "standby")
-                    return JobOutcome{
-                        false, "the print ended on the host without completing", {}, {}};
-            }
+                PrintReport report;
+                report.state = config_value(stats.value("state", json("")));
+                const std::string& state = report.state;
+                report.printing = state == "printing" || state == "paused";
+                if (state == "complete")
+                    report.over = JobOutcome{true, {}, {}, {}};
+                else if (state == "cancelled")
+                    report.over = JobOutcome{false, "the print was cancelled on the host", {}, {}};
+                else if (state == "error")
+                    report.over = JobOutcome{false,
+                                             "the print failed on the host: " +
+                                                 config_value(stats.value("message", json(""))),
+                                             {},
+                                             {}};
+                else if (state == "standby")
+                    report.over =
+                        JobOutcome{false, "the print ended on the host without completing", {}, {}};
+                return report;
+            });
         },
         std::move(done));
 }

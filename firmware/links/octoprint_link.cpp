@@ -173,18 +173,16 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
             if (up.status != 201 && up.status != 200)
                 throw LinkError("the host refused the upload of " + settings_.job_file_name + " (" +
                                 http_error_line(up) + ")");
-            const PrintingOnHost printing(*this);
-            bool seen_printing = false;
-            const auto started = Clock::now();
-            for (;;) {
-                pause(settings_.poll_interval);
+            return follow_print(settings_.poll_interval, settings_.reply_timeout, [&](bool seen) {
                 const auto r = s.http({"GET", "/api/job", {}, {}, {}});
                 Session::refused_key(r);
                 if (r.status != 200) throw LinkError("OctoPrint: /api/job: " + http_error_line(r));
                 const json job = json::parse(r.body, nullptr, false);
                 if (job.is_discarded() || !job.is_object())
                     throw LinkError("OctoPrint: /api/job: not JSON");
-                const std::string state = job.value("state", std::string());
+                PrintReport report;
+                report.state = job.value("state", std::string());
+                const std::string& state = report.state;
                 const json name = job["job"]["file"]["name"];
                 const bool ours = name.is_string() && name == settings_.job_file_name;
                 const json completion = job["progress"]["completion"];
@@ -192,18 +190,16 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
                 if (state.rfind("Error", 0) == 0 || state.rfind("Offline", 0) == 0)
                     throw LinkError("the print failed on the host: " + state);
                 // Idle again part of the way through: stopped on the host.
-                const bool stopped_part_way = state == "Operational" && ours && percent < 100 &&
-                                              (seen_printing || percent > 0);
+                const bool stopped_part_way =
+                    state == "Operational" && ours && percent < 100 && (seen || percent > 0);
                 if (state == "Cancelling" || stopped_part_way)
-                    return JobOutcome{false, "the print was cancelled on the host", {}, {}};
-                if (state == "Operational" && ours && percent >= 100)
-                    return JobOutcome{true, {}, {}, {}};
-                if (state == "Printing" || state == "Paused" || state == "Pausing" ||
-                    state == "Resuming" || state == "Starting")
-                    seen_printing = true;
-                else if (!seen_printing && Clock::now() - started > settings_.reply_timeout)
-                    throw LinkError("the print never started on the host (" + state + ")");
-            }
+                    report.over = JobOutcome{false, "the print was cancelled on the host", {}, {}};
+                else if (state == "Operational" && ours && percent >= 100)
+                    report.over = JobOutcome{true, {}, {}, {}};
+                report.printing = state == "Printing" || state == "Paused" || state == "Pausing" ||
+                                  state == "Resuming" || state == "Starting";
+                return report;
+            });
         },
         std::move(done));
 }

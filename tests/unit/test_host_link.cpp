@@ -816,6 +816,28 @@ TEST(OctoPrintLink, a_job_is_uploaded_printed_and_followed_to_its_end) {
     CHECK(fs::exists(dir / "host" / "uploads" / "calbox-target.gcode"));
 }
 
+// The host takes the job and never starts it: named once the reply timeout (2 s here) has
+// passed without the print seen under way, the host's state in the line.
+TEST(OctoPrintLink, a_print_the_host_never_starts_is_named) {
+    link->detach(loop);
+    link.reset();
+    host.reset();
+    sim::HostFaults faults;
+    faults.print_never_starts = true;
+    host = std::make_unique<sim::OctoPrintTwin>(bench, dir / "host",
+                                                sim::TwinHostSettings{"sesame", faults, 85, 0});
+    firmware::OctoPrintSettings s;
+    s.url = net::parse_url(host->url());
+    s.api_key = "sesame";
+    s.reply_timeout = 500ms;
+    s.poll_interval = 20ms;
+    link = std::make_unique<firmware::OctoPrintLink>(s, network->http(), [](const std::string&) {});
+    link->attach(loop);
+    const auto o = await([&](auto done) { link->run_job({"G28"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_EQUAL("the print never started on the host (Operational)", o.error.c_str());
+}
+
 TEST(OctoPrintLink, a_key_is_asked_for_through_the_application_keys_plugin) {
     std::vector<std::string> said;
     const auto key =
@@ -891,6 +913,17 @@ TEST(DuetLink, rrf_reports_its_settings_through_the_board) {
     o = await([&](auto done) { link->send_commands({"M999 P\"unknown\""}, done); });
     CHECK_FALSE(o.ok);
     STRCMP_CONTAINS("the printer: Error:", o.error.c_str());
+}
+
+// M32 taken but the print never started: named after the reply timeout (2 s here).
+TEST(DuetLink, a_print_the_board_never_starts_is_named) {
+    sim::HostFaults faults;
+    faults.print_never_starts = true;
+    serve(false, faults);
+    connect("pass word");
+    const auto o = await([&](auto done) { link->run_job({"G28"}, done); });
+    CHECK_FALSE(o.ok);
+    STRCMP_EQUAL("the print never started on the host (idle)", o.error.c_str());
 }
 
 // The same requests to a board with an SBC: the link finds DuetSoftwareFramework's API (the board

@@ -139,9 +139,30 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
                                                  job.max_x <= machine.bed_size_x_mm &&
                                                  job.max_y <= machine.bed_size_y_mm;
     if (!fits) {
+        // The largest scale at which the centred drawing fits, as the --fit that gives it
+        // (rounded down to 0.1 mm, so that it does fit).
+        const double w = xmax - xmin, h = ymax - ymin;
+        std::string region;
+        double largest_scale = 0;
+        if (machine.is_delta()) {
+            region = "the bed (a circle of " + number_text("%.1f", machine.bed_radius_mm) +
+                     " mm radius)";
+            largest_scale = machine.bed_radius_mm / std::hypot(w / 2, h / 2);
+        } else if (machine.is_galvo()) {
+            region = "the scanner's field (" + number_text("%.1f", 2 * half_field) + " x " +
+                     number_text("%.1f", 2 * half_field) + " mm)";
+            largest_scale = std::min(2 * half_field / w, 2 * half_field / h);
+        } else {
+            region = "the bed (" + number_text("%.1f", machine.bed_size_x_mm) + " x " +
+                     number_text("%.1f", machine.bed_size_y_mm) + " mm)";
+            largest_scale = std::min(machine.bed_size_x_mm / w, machine.bed_size_y_mm / h);
+        }
+        const double largest_fit_mm = std::floor(largest_scale * std::max(w, h) * 10 - 1e-9) / 10;
         throw JobError("the drawing, " + number_text("%.1f", job.max_x - job.min_x) + " x " +
                        number_text("%.1f", job.max_y - job.min_y) + " mm at scale " +
-                       number_text("%g", job.scale) + ", does not fit on the bed");
+                       number_text("%g", job.scale) + ", does not fit " + region + "; --fit " +
+                       number_text("%.1f", largest_fit_mm) +
+                       " (its larger side in mm) or less makes it fit");
     }
     FillSettings fill;
     fill.line_width_mm = job.line_width_mm;

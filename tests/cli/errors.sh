@@ -112,7 +112,13 @@ expect_error "nothing drawable" target svg "$work/empty.svg" --machine "$machine
 expect_error "non-numeric attribute width=\"abc\" on <rect>" target svg "$work/numeric.svg" --machine "$machine" -o "$work/result"
 expect_error "over the limit of 10485760" target svg "$work/huge.svg" --machine "$machine" -o "$work/result"
 expect_error "valid range 0.45 to 4.5 mm" target svg "$work/square.svg" --machine "$machine" --spacing 0.3 -o "$work/result"
-expect_error "does not fit on the bed" target svg "$work/square.svg" --machine "$machine" --fit 200 -o "$work/result"
+# A drawing too large names the region it missed, its size, and the --fit that makes it fit
+# (which then does).
+expect_error "200.0 x 200.0 mm at scale [0-9.]+, does not fit the bed \\(a circle of [0-9.]+ mm radius\\); --fit [0-9.]+ \\(its larger side in mm\\) or less makes it fit" target svg "$work/square.svg" --machine "$machine" --fit 200 -o "$work/result"
+largest=$(sed -n 's/.*--fit \([0-9.]*\) (its larger side.*/\1/p' "$work/err")
+"$calbox" target svg "$work/square.svg" --machine "$machine" --fit "$largest" -o "$work/fits.gcode" > /dev/null 2>&1 ||
+    { echo "FAIL: the suggested --fit $largest did not fit"; failures=$((failures + 1)); }
+expect_error "does not fit the scanner's field \\(110.0 x 110.0 mm\\); --fit 109.9 " target svg "$work/square.svg" --machine "$top/examples/galvo_scanner.toml" --fit 200 -o "$work/result"
 expect_error "cannot read drawing" target svg "$work/none.svg" --machine "$machine" -o "$work/result"
 expect_error "fill-rule must be nonzero or evenodd" target svg "$work/square.svg" --machine "$machine" --fill-rule odd -o "$work/result"
 

@@ -185,13 +185,13 @@ PlanarTarget make_planar_target(const models::MachineFile& machine,
     if (router) {
         auto holes = t.holes;
         holes.push_back(*t.backlash_hole);
-        t.job = write_drilling_job(machine, holes, t.hole_diameter_mm, t.large_diameter_mm,
-                                   "calbox planar target: " + std::to_string(t.columns) + " x " +
-                                       std::to_string(t.rows) + " grid at " +
-                                       number_text("%.3f", t.pitch_mm) + " mm, " +
-                                       std::to_string(t.holes.size() + 1) + " holes of " +
-                                       number_text("%.3f", t.hole_diameter_mm) + " mm (two of " +
-                                       number_text("%.3f", t.large_diameter_mm) + " mm)");
+        t.job = write_drilling_job(
+            machine, holes, t.hole_diameter_mm, t.large_diameter_mm,
+            "calbox planar target: " + std::to_string(t.columns) + " x " + std::to_string(t.rows) +
+                " grid at " + number_text("%.3f", t.pitch_mm) + " mm, " +
+                std::to_string(t.holes.size()) + " holes of " +
+                number_text("%.3f", t.hole_diameter_mm) + " mm (two of " +
+                number_text("%.3f", t.large_diameter_mm) + " mm), and one more for the backlash");
         return t;
     }
     // Printers and lasers: each dot filled with the machine's line, written as its jobs are.

@@ -237,9 +237,10 @@ int target_planar(const Args& args) {
                                {"holes", holes}};
         write_output_file(*describe, j.dump(1) + "\n");
     }
-    std::printf("%s: %d x %d grid at %.3f mm, %zu holes of %.3f mm (two of %.3f mm)%s\n",
+    std::printf("%s: %d x %d grid at %.3f mm, %zu holes of %.3f mm (two of %.3f mm)%s%s\n",
                 out.c_str(), target.columns, target.rows, target.pitch_mm, target.holes.size(),
                 target.hole_diameter_mm, target.large_diameter_mm,
+                target.backlash_hole ? ", and one more for the backlash" : "",
                 options.only_nodes ? ", a DETMAX design" : "");
     return 0;
 }

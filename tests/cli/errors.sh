@@ -208,6 +208,16 @@ expect_error "the planar target is for a router, cartesian printer or laser, not
 expect_error "at least 7 x 7 are needed" target planar --machine <(sed 's/bed_size_x_mm = 300.0/bed_size_x_mm = 120.0/' "$router") -o "$work/result"
 expect_error "\[planar\] on a galvo machine" target galvo --machine <(cat "$galvo"; printf '[planar]\nhole_pitch_mm = 20.0\n') -o "$work/result"
 expect_error "design: 3 holes; choose 8 to 141" target planar --machine "$router" --design 3 -o "$work/result"
+# The hole count said is the job's: the command's line and the job's header give the grid's holes
+# alike, and the job drills each of them and the backlash hole once.
+said=$("$calbox" target planar --machine "$router" -o "$work/planar_target.gcode")
+said_holes=$(sed -n 's/.* mm, \([0-9]*\) holes of .*and one more for the backlash$/\1/p' <<< "$said")
+header_holes=$(sed -n '1s/.* mm, \([0-9]*\) holes of .*and one more for the backlash$/\1/p' "$work/planar_target.gcode")
+plunges=$(grep -c '^G1 Z-' "$work/planar_target.gcode")
+if [ -z "$said_holes" ] || [ "$said_holes" != "$header_holes" ] || [ "$plunges" -ne $((said_holes + 1)) ]; then
+    echo "FAIL: target planar says '$said', its job's header '$(head -1 "$work/planar_target.gcode")', $plunges holes drilled"
+    failures=$((failures + 1))
+fi
 "$calbox" sim camera --scenario "$top/tests/scenarios/planar_small.toml" -o "$work/planar_camera.yaml"
 "$calbox" sim photo --scenario "$top/tests/scenarios/planar_small.toml" --board chessboard:15x11@15 --on-bed 45,235,0 -o "$work/planar_board.png"
 "$calbox" camera plane --camera "$work/planar_camera.yaml" --pattern chessboard:15x11@15 "$work/planar_board.png" -o "$work/planar_plane.yaml" > /dev/null

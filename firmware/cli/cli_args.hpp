@@ -12,10 +12,16 @@
 
 namespace calbox::cli {
 
-// Bad use of a command (as against bad input files): exit status 2, "see --help".
+// Bad use of a command (as against bad input files): exit status 2, and the --help to see
+// ("calbox solve delta"; the top level's unless the parser knows the command).
 class UsageError : public std::runtime_error {
   public:
-    using std::runtime_error::runtime_error;
+    explicit UsageError(const std::string& what, std::string help_of = "calbox")
+        : std::runtime_error(what), help_of_(std::move(help_of)) {}
+    const std::string& help_of() const { return help_of_; }
+
+  private:
+    std::string help_of_;
 };
 
 // What a command was given, by the names its options are declared with ("--machine", "-o").

@@ -124,16 +124,22 @@ struct CommandLine {
         declared.push_back(std::move(options));
     }
 
-    // The command the words chose, or the deepest group they reached.
-    std::string reached() const {
-        std::string path = "calbox";
-        const CLI::App* at = &app;
-        for (;;) {
-            const auto chosen = at->get_subcommands();
-            if (chosen.empty()) return path;
-            at = chosen.front();
-            path += " " + at->get_name();
+    // The command the words chose, or the deepest group they reached, and the words above it.
+    struct Reached {
+        const CLI::App* app;
+        std::string above;  // "calbox solve" for solve delta; empty for the top level
+        std::string path() const {
+            return above.empty() ? "calbox" : above + " " + app->get_name();
         }
+    };
+    Reached reached() const {
+        Reached r{&app, {}};
+        for (auto chosen = app.get_subcommands(); !chosen.empty();
+             chosen = r.app->get_subcommands()) {
+            r.above = r.path();
+            r.app = chosen.front();
+        }
+        return r;
     }
 
     // Words that do not name a command, or options the command does not take, are named
@@ -143,12 +149,7 @@ struct CommandLine {
         const CLI::App* at = &app;
         std::string path = "calbox";
         const auto refuse = [&path](const std::string& what) {
-            std::string line = path == "calbox" ? "" : path.substr(7) + ": ";
-            line += what;
-            line += " (see ";
-            line += path;
-            line += " --help)";
-            throw UsageError(line);
+            throw UsageError(path == "calbox" ? what : path.substr(7) + ": " + what, path);
         };
         std::size_t k = 0;
         for (; k < words.size() && !at->get_subcommands({}).empty(); ++k) {
@@ -220,32 +221,19 @@ struct CommandLine {
         try {
             app.parse(reversed);
         } catch (const CLI::CallForHelp&) {
-            std::cout << help_of(reached());
+            const Reached r = reached();
+            std::cout << r.app->help(r.above);
             return 0;
         } catch (const CLI::CallForVersion& e) {
             std::cout << e.what() << "\n";
             return 0;
         } catch (const CLI::ParseError& e) {
-            throw UsageError(reached().substr(7) + ": " + e.what() + " (see " + reached() +
-                             " --help)");
+            const std::string path = reached().path();
+            throw UsageError(path.substr(7) + ": " + e.what(), path);
         }
         for (std::size_t k = 0; k < apps.size(); ++k)
             if (apps[k]->parsed()) return commands[k].run(given_to(k));
         throw std::logic_error("no command ran");
-    }
-
-    std::string help_of(const std::string& path) const {
-        const CLI::App* at = &app;
-        std::string above;  // the words before the command's own, for its usage line
-        std::string rest = path.substr(6);
-        while (!rest.empty()) {
-            rest.erase(0, 1);
-            const auto space = rest.find(' ');
-            above += (above.empty() ? "" : " ") + at->get_name();
-            at = at->get_subcommand(rest.substr(0, space));
-            rest = space == std::string::npos ? "" : rest.substr(space);
-        }
-        return at->help(above);
     }
 };
 
@@ -259,10 +247,7 @@ int main(int argc, char** argv) {
         std::cerr << "calbox: " << e.what() << "\n";
         return 2;
     } catch (const UsageError& e) {
-        const std::string what = e.what();
-        std::cerr << "calbox: " << what
-                  << (what.find("--help)") == std::string::npos ? " (see calbox --help)" : "")
-                  << "\n";
+        std::cerr << "calbox: " << e.what() << " (see " << e.help_of() << " --help)\n";
         return 2;
     } catch (const std::exception& e) {
         std::cerr << "calbox: " << e.what() << "\n";

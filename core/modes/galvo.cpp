@@ -242,14 +242,9 @@ GalvoMeasurement galvo_measurements_from_json(const std::string& text, const std
 
 std::string galvo_result_to_json(const GalvoSolution& s) {
     const auto& t = s.fit.table;
-    json commands = json::array(), landed = json::array(), filled = json::array();
-    for (const auto& c : t.command_mm) commands.push_back(point_json(c));
-    for (std::size_t i = 0; i < s.fit.landed_mm.size(); ++i) {
-        landed.push_back(point_json(s.fit.landed_mm[i]));
+    json filled = json::array();
+    for (std::size_t i = 0; i < s.fit.filled.size(); ++i)
         if (s.fit.filled[i]) filled.push_back(i);
-    }
-    json intended = json::array();
-    for (const auto& p : s.intended_mm) intended.push_back(point_json(p));
     const json j{{"schema", kGalvoResultSchema},
                  {"machine_fingerprint", s.machine_fingerprint},
                  {"pass", s.pass},
@@ -259,8 +254,8 @@ std::string galvo_result_to_json(const GalvoSolution& s) {
                  {"predicted_rms_mm", s.predicted_rms_mm},
                  {"table_interpolation_max_mm", s.fit.table_interpolation_max_mm},
                  {"table_interpolation_rms_mm", s.fit.table_interpolation_rms_mm},
-                 {"intended_mm", intended},
-                 {"landed_mm", landed},
+                 {"intended_mm", points_json(s.intended_mm)},
+                 {"landed_mm", points_json(s.fit.landed_mm)},
                  {"filled_nodes", filled},
                  {"table",
                   {{"nodes", t.nodes},
@@ -268,7 +263,7 @@ std::string galvo_result_to_json(const GalvoSolution& s) {
                    {"min_y_mm", t.min_y_mm},
                    {"max_x_mm", t.max_x_mm},
                    {"max_y_mm", t.max_y_mm},
-                   {"command_mm", commands}}}};
+                   {"command_mm", points_json(t.command_mm)}}}};
     return j.dump(1) + "\n";
 }
 
@@ -288,8 +283,8 @@ GalvoSolution galvo_result_from_json(const std::string& text, const std::string&
         s.predicted_rms_mm = j.at("predicted_rms_mm").get<double>();
         s.fit.table_interpolation_max_mm = j.at("table_interpolation_max_mm").get<double>();
         s.fit.table_interpolation_rms_mm = j.at("table_interpolation_rms_mm").get<double>();
-        for (const auto& p : j.at("intended_mm")) s.intended_mm.push_back(point_from(p));
-        for (const auto& p : j.at("landed_mm")) s.fit.landed_mm.push_back(point_from(p));
+        s.intended_mm = points_from(j.at("intended_mm"));
+        s.fit.landed_mm = points_from(j.at("landed_mm"));
         s.fit.filled.assign(s.fit.landed_mm.size(), false);
         for (const auto& i : j.at("filled_nodes")) s.fit.filled.at(i.get<std::size_t>()) = true;
         const json& t = j.at("table");
@@ -299,7 +294,7 @@ GalvoSolution galvo_result_from_json(const std::string& text, const std::string&
         table.min_y_mm = t.at("min_y_mm").get<double>();
         table.max_x_mm = t.at("max_x_mm").get<double>();
         table.max_y_mm = t.at("max_y_mm").get<double>();
-        for (const auto& c : t.at("command_mm")) table.command_mm.push_back(point_from(c));
+        table.command_mm = points_from(t.at("command_mm"));
         if (table.nodes < 2 || table.command_mm.size() != geometry::grid_nodes(table.nodes) ||
             !(table.max_x_mm > table.min_x_mm && table.max_y_mm > table.min_y_mm))
             throw RecordError(source +

@@ -55,7 +55,8 @@ inline std::vector<targets::GridIndex> nodes_from(const nlohmann::json& j) {
     return out;
 }
 
-// Marks seen off the grid (spatter, a chip, a second burn), on the bed.
+// A list of points, [[x, y], ...]: the marks seen off the grid (spatter, a chip, a second
+// burn), a galvo table's commands, where the marks were meant and landed.
 inline nlohmann::json points_json(const std::vector<geometry::Point2>& points_mm) {
     nlohmann::json out = nlohmann::json::array();
     for (const auto& p : points_mm) out.push_back(point_json(p));

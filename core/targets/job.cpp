@@ -128,35 +128,35 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     job.max_x = bed_centre.x + (xmax - xmin) / 2 * job.scale;
     job.min_y = bed_centre.y - (ymax - ymin) / 2 * job.scale;
     job.max_y = bed_centre.y + (ymax - ymin) / 2 * job.scale;
-    const double half_field = machine.galvo ? machine.galvo->field_size_mm / 2 : 0;
-    const bool fits = machine.is_delta()
-                          ? std::hypot(std::max(std::abs(job.min_x), std::abs(job.max_x)),
-                                       std::max(std::abs(job.min_y), std::abs(job.max_y))) <=
-                                machine.bed_radius_mm
-                      : machine.is_galvo() ? job.min_x >= -half_field && job.min_y >= -half_field &&
-                                                 job.max_x <= half_field && job.max_y <= half_field
-                                           : job.min_x >= 0 && job.min_y >= 0 &&
-                                                 job.max_x <= machine.bed_size_x_mm &&
-                                                 job.max_y <= machine.bed_size_y_mm;
+    // Where the drawing must lie, whether it does, and the largest scale at which the centred
+    // drawing would (for the line that refuses it).
+    const double w = xmax - xmin, h = ymax - ymin;
+    bool fits = false;
+    std::string region;
+    double largest_scale = 0;
+    if (machine.is_delta()) {
+        fits =
+            std::hypot(std::max(std::abs(job.min_x), std::abs(job.max_x)),
+                       std::max(std::abs(job.min_y), std::abs(job.max_y))) <= machine.bed_radius_mm;
+        region =
+            "the bed (a circle of " + number_text("%.1f", machine.bed_radius_mm) + " mm radius)";
+        largest_scale = machine.bed_radius_mm / std::hypot(w / 2, h / 2);
+    } else if (machine.is_galvo()) {
+        const double half_field = machine.galvo ? machine.galvo->field_size_mm / 2 : 0;
+        fits = job.min_x >= -half_field && job.min_y >= -half_field && job.max_x <= half_field &&
+               job.max_y <= half_field;
+        region = "the scanner's field (" + number_text("%.1f", 2 * half_field) + " x " +
+                 number_text("%.1f", 2 * half_field) + " mm)";
+        largest_scale = std::min(2 * half_field / w, 2 * half_field / h);
+    } else {
+        fits = job.min_x >= 0 && job.min_y >= 0 && job.max_x <= machine.bed_size_x_mm &&
+               job.max_y <= machine.bed_size_y_mm;
+        region = "the bed (" + number_text("%.1f", machine.bed_size_x_mm) + " x " +
+                 number_text("%.1f", machine.bed_size_y_mm) + " mm)";
+        largest_scale = std::min(machine.bed_size_x_mm / w, machine.bed_size_y_mm / h);
+    }
     if (!fits) {
-        // The largest scale at which the centred drawing fits, as the --fit that gives it
-        // (rounded down to 0.1 mm, so that it does fit).
-        const double w = xmax - xmin, h = ymax - ymin;
-        std::string region;
-        double largest_scale = 0;
-        if (machine.is_delta()) {
-            region = "the bed (a circle of " + number_text("%.1f", machine.bed_radius_mm) +
-                     " mm radius)";
-            largest_scale = machine.bed_radius_mm / std::hypot(w / 2, h / 2);
-        } else if (machine.is_galvo()) {
-            region = "the scanner's field (" + number_text("%.1f", 2 * half_field) + " x " +
-                     number_text("%.1f", 2 * half_field) + " mm)";
-            largest_scale = std::min(2 * half_field / w, 2 * half_field / h);
-        } else {
-            region = "the bed (" + number_text("%.1f", machine.bed_size_x_mm) + " x " +
-                     number_text("%.1f", machine.bed_size_y_mm) + " mm)";
-            largest_scale = std::min(machine.bed_size_x_mm / w, machine.bed_size_y_mm / h);
-        }
+        // As the --fit that gives it, rounded down to 0.1 mm so that it does fit.
         const double largest_fit_mm = std::floor(largest_scale * std::max(w, h) * 10 - 1e-9) / 10;
         throw JobError("the drawing, " + number_text("%.1f", job.max_x - job.min_x) + " x " +
                        number_text("%.1f", job.max_y - job.min_y) + " mm at scale " +

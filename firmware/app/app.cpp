@@ -670,7 +670,8 @@ std::vector<Command> appliance_commands() {
          "cdab, badc or dcba"},
         {"--web", "HOST:PORT",
          "serve the box's web page there (docs/network.md; overrides web.listen);\n"
-         "port 0 takes a free one (logged)"},
+         "port 0 takes a free one (logged). Whatever changes state needs the password\n"
+         "set with the console's `web password`"},
         {"--mqtt", "HOST:PORT",
          "report to that MQTT broker (overrides mqtt.broker): the state, each cycle's\n"
          "result, availability and Home Assistant's discovery"},

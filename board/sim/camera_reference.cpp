@@ -93,17 +93,23 @@ Vec2 distort_normalized(const CameraIntrinsics& c, double x, double y) {
 
 Vec2 undistort_pixel(const CameraIntrinsics& c, double u, double v) {
     const Vec2 target{(u - c.cx) / c.fx, (v - c.cy) / c.fy};
-    // Newton's method on distort(x, y) = target, with a numerical Jacobian; the distortion is
-    // smooth and monotonic over any usable field of view, so it converges in a few steps.
-    Vec2 p = target;
+    Vec2 start = target;
     if (c.model == LensModel::fisheye) {
         // Start from the equidistant inverse: theta_d ~ theta.
         const double rd = std::hypot(target.x, target.y);
         if (rd > 1e-15) {
             const double r = std::tan(std::min(rd, 1.5));
-            p = {target.x * r / rd, target.y * r / rd};
+            start = {target.x * r / rd, target.y * r / rd};
         }
     }
+    return undistort_pixel_from(c, u, v, start);
+}
+
+Vec2 undistort_pixel_from(const CameraIntrinsics& c, double u, double v, Vec2 start) {
+    const Vec2 target{(u - c.cx) / c.fx, (v - c.cy) / c.fy};
+    // Newton's method on distort(x, y) = target, with a numerical Jacobian; the distortion is
+    // smooth and monotonic over any usable field of view, so it converges in a few steps.
+    Vec2 p = start;
     for (int iteration = 0; iteration < 30; ++iteration) {
         const Vec2 f = distort(c, p.x, p.y);
         const double ex = f.x - target.x, ey = f.y - target.y;

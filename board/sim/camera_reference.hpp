@@ -47,6 +47,9 @@ geometry::CameraModel as_camera_model(const CameraIntrinsics& c);
 
 Vec2 distort_normalized(const CameraIntrinsics& c, double x, double y);  // -> pixel
 Vec2 undistort_pixel(const CameraIntrinsics& c, double u, double v);     // -> normalized x/z, y/z
+// The same from a guess near the answer (a neighbouring pixel's): it converges to the same point
+// in two or three steps instead of five.
+Vec2 undistort_pixel_from(const CameraIntrinsics& c, double u, double v, Vec2 start);
 Vec2 project_point(const CameraIntrinsics& c, const Pose& plane_to_camera, const Vec3& p);
 
 }  // namespace calbox::sim

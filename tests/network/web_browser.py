@@ -21,6 +21,7 @@ import paho.mqtt.client as mqtt
 from prometheus_client.parser import text_string_to_metric_families
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
+from selenium.common.exceptions import NoSuchElementException
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -122,7 +123,11 @@ def text(element_id):
 
 
 def cell(row_id):
-    return driver.find_element(By.CSS_SELECTOR, "#%s td" % row_id).text
+    # The result's rows are built when the page has fetched the result: until then there is none.
+    try:
+        return driver.find_element(By.CSS_SELECTOR, "#%s td" % row_id).text
+    except NoSuchElementException:
+        return ""
 
 
 def tab(view):

@@ -230,8 +230,19 @@ void TwinBench::set_cartesian_skew(double xy_skew) {
     cartesian->set_skew(xy_skew);
 }
 
+void TwinBench::change_machine(const std::function<void(Scenario&)>& change) {
+    const std::lock_guard lock(mutex_);
+    change(scenario_);
+    remake_printer();
+}
+
 void TwinBench::reset_printer() {
     const std::lock_guard lock(mutex_);
+    remake_printer();
+}
+
+// Under the mutex.
+void TwinBench::remake_printer() {
     // The settings the firmware stored survive; what it held in RAM and its homing do not.
     if (auto* delta = dynamic_cast<DeltaTwin*>(machine_.get())) {
         replace_printer(std::make_unique<DeltaTwin>(scenario_.delta_truth, delta->stored_firmware(),

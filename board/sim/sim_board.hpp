@@ -55,6 +55,10 @@ class TwinBench {
     CartesianFirmware cartesian_printer_firmware() const;
     void restart_cartesian_printer(const CartesianFirmware& firmware);
     void set_cartesian_skew(double xy_skew);
+    // The machine ageing between cycles (a scanner's mirror mount creeping, a gantry's belt
+    // stretching): `change` edits the scenario's hidden errors, and the machine is made again
+    // from them as a power cycle makes it. The judge judges the changed machine.
+    void change_machine(const std::function<void(Scenario&)>& change);
 
     // What the camera sees now: the printed material, or a board, rendered with the scenario's
     // camera and photo settings; `frame` varies the sensor noise.
@@ -88,6 +92,7 @@ class TwinBench {
   private:
     void store_settings() const;
     void replace_printer(std::unique_ptr<MachineTwin> machine);
+    void remake_printer();       // under the mutex: from the scenario, the stored settings kept
     Pose bed_to_camera() const;  // under the mutex
     mutable std::mutex mutex_;
     Scenario scenario_;

@@ -433,8 +433,9 @@ const ConfigKey kSchema[] = {
      10,
      {},
      false,
-     "a cycle's error before correction (its mean, a delta's RMS) past this: the machine needs "
-     "calibrating (the page, MQTT, /metrics)",
+     "a cycle's error as jobs met it (its mean, a delta's RMS; through the correction the box "
+     "keeps, for a galvo or a router) past this: the machine needs calibrating (the page, MQTT, "
+     "/metrics)",
      [](const BoxSettings& s) { return decimal_text(s.needs_calibration_mm); },
      [](BoxSettings& s, const ConfigKey& k, std::string_view t) {
          s.needs_calibration_mm = decimal(k, t);

@@ -71,8 +71,8 @@ struct BoxSettings {
     LinkSettings link;
     WebSettings web;
     MqttSettings mqtt;
-    // A cycle's error before correction past this: the machine needs calibrating (MQTT, the page,
-    // /metrics).
+    // A cycle's error as jobs met it (CycleReport::in_force) past this: the machine needs
+    // calibrating (MQTT, the page, /metrics).
     double needs_calibration_mm = 0.05;
 };
 

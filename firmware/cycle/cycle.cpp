@@ -566,7 +566,10 @@ void Cycle::measure_print(CycleState state, std::function<void()> then) {
 void Cycle::solve() {
     mode_->solve([this](SolveOutcome outcome) {
         // A later pass's measurement is the verification print of the one before.
-        if (!report_.measured) report_.measured = outcome.measured;
+        if (!report_.measured) {
+            report_.measured = outcome.measured;
+            report_.in_force = outcome.in_force;
+        }
         switch (outcome.next) {
             case SolveOutcome::Next::review:
                 review();

@@ -91,6 +91,10 @@ struct CycleReport {
     // The target measured before the correction (a delta's placement errors; a galvo's marks
     // against its grid), and made again after it (a galvo's through the table).
     std::optional<modes::ErrorFigures> measured, verified;
+    // The machine's error as jobs met it before this cycle: `measured` through the correction
+    // the box keeps, if one is in force (galvo, planar), else `measured` itself. What drift and
+    // "needs calibrating" ask, as the last correction's `verified` is the same error then.
+    std::optional<modes::ErrorFigures> in_force;
     // The reference marks' largest apparent move on the bed since the plane was taken.
     std::optional<double> camera_move_mm;
     double box_seconds = 0;      // the box's own work: measuring, solving, set-up solves

@@ -116,6 +116,10 @@ struct SolveOutcome {
     };
     Next next = Next::review;
     modes::ErrorFigures measured;  // the target as made before this correction
+    // The machine's error as jobs meet it now: `measured` where the correction lives in the
+    // machine (a delta's, as printed), `measured` through the correction the box keeps and sends
+    // jobs through where one is in force (galvo, planar: the target is made without it).
+    modes::ErrorFigures in_force;
 };
 
 struct ReviewText {

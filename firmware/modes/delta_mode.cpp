@@ -240,7 +240,7 @@ void DeltaCycleMode::solve(std::function<void(SolveOutcome)> then) {
             steps_.log(modes::describe_delta_pass(*solution, pass, p.step, pass_limits_));
             // A printer that holds keeps the correction in force: the one sent stays the report's.
             if (p.step == modes::DeltaPassStep::holds) {
-                then({SolveOutcome::Next::done, measured});
+                then({SolveOutcome::Next::done, measured, measured});
                 return;
             }
             solution_ = *solution;
@@ -249,10 +249,10 @@ void DeltaCycleMode::solve(std::function<void(SolveOutcome)> then) {
             // a button or a PLC confirms a cycle once.
             if (pass > 1) {
                 for (const auto& command : solution_->commands) steps_.log_detail("  " + command);
-                then({SolveOutcome::Next::apply, measured});
+                then({SolveOutcome::Next::apply, measured, measured});
                 return;
             }
-            then({SolveOutcome::Next::review, measured});
+            then({SolveOutcome::Next::review, measured, measured});
         });
 }
 

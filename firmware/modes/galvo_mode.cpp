@@ -1,5 +1,6 @@
 #include "firmware/modes/galvo_mode.hpp"
 
+#include "core/modes/error_through.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/galvo_target.hpp"
 #include "core/targets/job.hpp"
@@ -63,22 +64,29 @@ void GalvoCycleMode::solve(std::function<void(SolveOutcome)> then) {
                                         std::to_string(measured_->missing.size()) + " missing");
     auto solution = std::make_shared<modes::GalvoSolution>();
     auto field = std::make_shared<std::string>();
+    auto in_force = std::make_shared<std::optional<modes::ErrorFigures>>();
     steps_.work(
-        [machine = machine_, measured = *measured_, solution, field] {
+        [machine = machine_, measured = *measured_, solution, field, in_force,
+         kept = correction_in_force()] {
             *solution = modes::solve_galvo(machine, measured, std::nullopt);
             // Where each measured mark landed against the grid it was meant for.
             const auto& fit = solution->fit;
             std::vector<FieldArrow> arrows;
+            std::vector<geometry::Point2> intended_mm, error_mm;
             for (std::size_t i = 0; i < fit.landed_mm.size() && i < solution->intended_mm.size();
                  ++i) {
                 if (fit.filled[i]) continue;
                 const auto& intended = solution->intended_mm[i];
-                arrows.push_back(
-                    {intended, {fit.landed_mm[i].x - intended.x, fit.landed_mm[i].y - intended.y}});
+                const geometry::Point2 error{fit.landed_mm[i].x - intended.x,
+                                             fit.landed_mm[i].y - intended.y};
+                arrows.push_back({intended, error});
+                intended_mm.push_back(intended);
+                error_mm.push_back(error);
             }
             *field = error_field_png(arrows, "galvo: each mark, landed - intended");
+            if (kept) *in_force = modes::error_through(intended_mm, error_mm, *kept);
         },
-        [this, solution, field, then = std::move(then)] {
+        [this, solution, field, in_force, then = std::move(then)] {
             solution_ = *solution;
             if (!steps_.keep(steps_.record_name("error-field.png"), *field)) return;
             if (!steps_.keep(steps_.record_name("result.json"),
@@ -87,7 +95,8 @@ void GalvoCycleMode::solve(std::function<void(SolveOutcome)> then) {
             if (!steps_.keep(steps_.record_name("table.csv"),
                              models::table_to_csv(solution_->fit.table)))
                 return;
-            then({SolveOutcome::Next::review, figures_of(solution_->fit.before)});
+            const auto measured = figures_of(solution_->fit.before);
+            then({SolveOutcome::Next::review, measured, in_force->value_or(measured)});
         });
 }
 

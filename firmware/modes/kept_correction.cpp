@@ -2,6 +2,7 @@
 
 #include <memory>
 #include <stdexcept>
+#include <string>
 
 namespace calbox::firmware {
 
@@ -45,6 +46,16 @@ std::optional<std::string> KeptCorrectionMode::kept_result_text() const {
     auto kept = steps_.read(files_.kept);
     if (!kept || *kept == files_.none) return std::nullopt;
     return kept;
+}
+
+std::optional<targets::KeptCorrection> KeptCorrectionMode::correction_in_force() const {
+    try {
+        return kept_correction();
+    } catch (const std::exception& e) {
+        steps_.log(std::string(files_.kept) + " does not read (" + e.what() +
+                   "): drift is worked out from the error without it");
+        return std::nullopt;
+    }
 }
 
 std::optional<targets::KeptCorrection> KeptCorrectionMode::kept_correction() const {

@@ -40,6 +40,9 @@ class KeptCorrectionMode : public CycleMode {
     virtual targets::JobFrame target_frame() const = 0;
     // A kept file read back (throws when it does not parse).
     virtual targets::KeptCorrection correction_of(const std::string& kept_text) const = 0;
+    // The correction jobs go through now, for the machine's error through it (drift); a kept
+    // file that does not read is said in the log, and the error without it stands instead.
+    std::optional<targets::KeptCorrection> correction_in_force() const;
 
     CycleSteps& steps_;
 

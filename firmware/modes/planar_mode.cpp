@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/modes/error_through.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/planar_target.hpp"
 #include "firmware/cycle/overlays.hpp"
@@ -71,9 +72,10 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
     auto solution = std::make_shared<modes::PlanarSolution>();
     auto firmware = std::make_shared<modes::FirmwareSettings>();
     auto field = std::make_shared<std::string>();
+    auto in_force = std::make_shared<std::optional<modes::ErrorFigures>>();
     steps_.work(
-        [machine = machine_, measured = *measured_, solution, firmware, field,
-         zero = controller_work_zero_] {
+        [machine = machine_, measured = *measured_, solution, firmware, field, in_force,
+         zero = controller_work_zero_, kept = correction_in_force()] {
             *solution = modes::solve_planar(machine, measured);
             if (zero && solution->frame) {
                 solution->frame->work_zero_mm = *zero;
@@ -85,8 +87,14 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
             for (std::size_t i = 0; i < solution->error_mm.size(); ++i)
                 arrows.push_back({solution->commanded_mm[i], solution->error_mm[i]});
             *field = error_field_png(arrows, "planar: each hole's error, seen - commanded");
+            if (kept)
+                *in_force = modes::error_through(solution->commanded_mm, solution->error_mm, *kept,
+                                                 [s = *solution](geometry::Point2 p) {
+                                                     return models::planar_error_mm(
+                                                         s.fit.parameters, p, s.tool_length_mm);
+                                                 });
         },
-        [this, solution, firmware, field, then = std::move(then)] {
+        [this, solution, firmware, field, in_force, then = std::move(then)] {
             solution_ = *solution;
             firmware_ = *firmware;
             if (klipper_now_)
@@ -100,7 +108,8 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
             // behind its host takes the review's instead.
             if (!steps_.keep(steps_.record_name("firmware.txt"), joined(firmware->lines))) return;
             if (!steps_.keep(steps_.record_name("error-field.png"), *field)) return;
-            then({SolveOutcome::Next::review, figures_of(*solution_)});
+            const auto measured = figures_of(*solution_);
+            then({SolveOutcome::Next::review, measured, in_force->value_or(measured)});
         });
 }
 

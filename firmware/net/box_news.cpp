@@ -34,6 +34,7 @@ json entry_json(const HistoryEntry& e) {
             {"finished_unix_s", e.finished_unix_s},
             {"result", e.result},
             {"before", figures_json(e.before)},
+            {"in_force", figures_json(e.in_force)},
             {"after", figures_json(e.after)},
             {"seconds", e.seconds}};
 }
@@ -45,6 +46,8 @@ HistoryEntry entry_of(const json& j) {
     e.finished_unix_s = j.at("finished_unix_s").get<std::int64_t>();
     e.result = j.at("result").get<std::string>();
     e.before = figures_of(j.at("before"));
+    // A history written before the box kept the figure: the error before stood for it.
+    e.in_force = j.contains("in_force") ? figures_of(j.at("in_force")) : e.before;
     e.after = figures_of(j.at("after"));
     e.seconds = j.at("seconds").get<double>();
     return e;
@@ -131,6 +134,7 @@ std::string BoxNews::cycle_ended(const Cycle& cycle, bool completed, std::int64_
                : cycle.state() == CycleState::error ? "failed"
                                                     : "cancelled";
     e.before = report.measured;
+    e.in_force = report.in_force;
     e.after = report.verified;
     e.seconds = report.box_seconds + report.camera_seconds + report.machine_seconds;
     return add(std::move(e));
@@ -152,10 +156,10 @@ std::string BoxNews::add(HistoryEntry e) {
 
 std::optional<double> BoxNews::drift_mm() const {
     for (auto last = history_.rbegin(); last != history_.rend(); ++last) {
-        if (!last->before) continue;
+        if (!last->in_force) continue;
         for (auto it = std::next(last); it != history_.rend(); ++it)
             if (it->result == "applied" && it->after)
-                return headline_mm(*last->before) - headline_mm(*it->after);
+                return headline_mm(*last->in_force) - headline_mm(*it->after);
         return std::nullopt;
     }
     return std::nullopt;
@@ -169,7 +173,7 @@ std::optional<std::int64_t> BoxNews::last_calibrated_unix_s() const {
 
 std::optional<bool> BoxNews::needs_calibration() const {
     for (auto it = history_.rbegin(); it != history_.rend(); ++it)
-        if (it->before) return headline_mm(*it->before) > needs_calibration_mm_;
+        if (it->in_force) return headline_mm(*it->in_force) > needs_calibration_mm_;
     return std::nullopt;
 }
 
@@ -247,7 +251,8 @@ std::string BoxNews::metrics(CycleState now, const CycleReport& report) const {
             << sample_value(report.machine_seconds) << '\n';
     }
     family(out, "calbox_drift_metres", "gauge",
-           "The last error before correction less the one verified after the last calibration.");
+           "The last error in force (through the kept correction, for a galvo or a router) less "
+           "the one verified after the last calibration.");
     if (const auto drift = drift_mm())
         out << "calbox_drift_metres " << sample_value(*drift / 1000) << '\n';
     family(out, "calbox_last_calibration_timestamp_seconds", "gauge",
@@ -255,7 +260,8 @@ std::string BoxNews::metrics(CycleState now, const CycleReport& report) const {
     if (const auto t = last_calibrated_unix_s())
         out << "calbox_last_calibration_timestamp_seconds " << *t << '\n';
     family(out, "calbox_needs_calibration", "gauge",
-           "1 when the last cycle's error before correction exceeded the configured limit.");
+           "1 when the last cycle's error in force (through the kept correction, for a galvo or a "
+           "router) exceeded the configured limit.");
     if (const auto needs = needs_calibration())
         out << "calbox_needs_calibration " << (*needs ? 1 : 0) << '\n';
     return out.str();

@@ -26,7 +26,10 @@ struct HistoryEntry {
     // applied | unchanged (completed, nothing sent) | cancelled | failed
     std::string result;
     std::optional<modes::ErrorFigures> before, after;  // measured, verified
-    double seconds = 0;                                // the box's, the camera's and the machine's
+    // The machine's error as jobs met it before the cycle (CycleReport::in_force): `before`
+    // through the correction the box keeps, for a mode that keeps one.
+    std::optional<modes::ErrorFigures> in_force;
+    double seconds = 0;  // the box's, the camera's and the machine's
 };
 bool operator==(const HistoryEntry& a, const HistoryEntry& b);
 
@@ -54,11 +57,13 @@ class BoxNews {
     void set_needs_calibration_mm(double limit_mm) { needs_calibration_mm_ = limit_mm; }
 
     const std::vector<HistoryEntry>& history() const { return history_; }
-    // The last entry's error before its correction less the after of the last calibration
-    // before it: how far the machine drifted since it was calibrated. None until both exist.
+    // The last entry's error as jobs met it (in_force) less the verified after of the last
+    // calibration before it, both the error through the correction then in force: how far the
+    // machine drifted since it was calibrated. None until both exist.
     std::optional<double> drift_mm() const;
     std::optional<std::int64_t> last_calibrated_unix_s() const;
-    // The last cycle's error before correction exceeded the limit (none: no cycle measured yet).
+    // The last cycle's error as jobs met it (in_force) exceeded the limit (none: no cycle
+    // measured yet).
     std::optional<bool> needs_calibration() const;
 
     // {"state","waiting","cycle","completed","error","setup_coverage","mode","last":{...},

@@ -129,7 +129,7 @@ function showStatus(s) {
   $('drift').textContent = mm(s.drift_mm);
   $('calibrated').textContent = s.last_calibrated || 'never';
   $('needs').textContent = s.needs_calibration === null ? '' :
-      (s.needs_calibration ? 'Needs calibrating: the last error before correction is over '
+      (s.needs_calibration ? 'Needs calibrating: the error jobs met at the last cycle is over '
                             : 'Within the limit of ') + s.needs_calibration_mm + ' mm';
   if (s.log) {
     // The newest line in view, unless the reader has scrolled up to read an older one.

@@ -21,6 +21,7 @@
 #include <optional>
 #include <sstream>
 
+#include "board/sim/twin_judge.hpp"
 #include "core/modes/delta_probe.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/number_text.hpp"
@@ -34,6 +35,7 @@
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/modes/delta_mode.hpp"
 #include "firmware/modes/galvo_mode.hpp"
+#include "firmware/net/box_news.hpp"
 #include "firmware/plc/plc_link.hpp"
 #include "tests/support/device_errors.hpp"
 #include "tests/support/fake_clock.hpp"
@@ -1142,4 +1144,92 @@ TEST(ApplianceLink, the_live_views_frames_never_take_the_cycles_place) {
     STRCMP_CONTAINS("88 corners", view->c_str());
     rig.intercept = nullptr;
     rig.cycle.cancel("test over");
+}
+
+// Issue "Figures and drawings that mean what they say": drift is the machine's change since its
+// last correction, measured the same way both times. For a mode whose correction the box keeps,
+// that is the error jobs meet through it, not the raw machine's error the target shows.
+TEST_GROUP(ApplianceDrift){void setup() override{mock().ignoreOtherCalls();
+}
+void teardown() override {
+    mock().clear();
+}
+}
+;
+
+namespace {
+
+struct DriftFigures {
+    double raw_mm, in_force_mm, truth_mm, drift_mm;
+    bool needs_calibration;
+};
+
+// Three cycles on one twin: the first calibrates; the second finds the machine as the first left
+// it; `change` then ages the machine, and the third finds that. Each figure is the mode's
+// headline (a mean); the truth is the twin's judge on a fresh job through the kept correction.
+std::vector<DriftFigures> three_cycles(const std::string& scenario,
+                                       const std::function<void(sim::Scenario&)>& change) {
+    Rig rig(fresh_dir("drift-" + fs::path(scenario).stem().string()),
+            (fs::path(CALBOX_SOURCE_DIR) / scenario).string(), {});
+    firmware::BoxNews news(rig.data, "test", {});
+    std::int64_t now_unix_s = 1'700'000'000;
+    const auto told = rig.cycle.subscribe(
+        {{},
+         {},
+         [&](bool completed) { news.cycle_ended(rig.cycle, completed, now_unix_s += 600); },
+         {},
+         {}});
+    const auto judge = sim::make_twin_judge(*rig.board.bench);
+    std::vector<DriftFigures> out;
+    for (int cycle = 1; cycle <= 3; ++cycle) {
+        if (cycle == 3) rig.board.bench->change_machine(change);
+        // What jobs meet now, in the twin's truth, through what the box keeps.
+        const auto kept = rig.cycle.mode().kept_correction();
+        const double truth =
+            firmware::headline_mm((kept ? judge->after(kept) : judge->before()).figures);
+        rig.ended = 0;
+        rig.run_cycle();
+        rig.check_cycles_completed(cycle);
+        const auto& report = rig.cycle.report();
+        CHECK(report.applied);
+        out.push_back({firmware::headline_mm(*report.measured),
+                       firmware::headline_mm(*report.in_force), truth, news.drift_mm().value_or(-1),
+                       news.needs_calibration().value_or(true)});
+        UT_PRINT((scenario + ": cycle " + std::to_string(cycle) + ": raw " +
+                  number_text("%.4f", out.back().raw_mm) + " mm, through the kept correction " +
+                  number_text("%.4f", out.back().in_force_mm) + " (the twin's truth " +
+                  number_text("%.4f", truth) + "), drift " +
+                  number_text("%.4f", out.back().drift_mm) +
+                  (out.back().needs_calibration ? ", needs calibrating" : ""))
+                     .c_str());
+    }
+    return out;
+}
+
+}  // namespace
+
+TEST(ApplianceDrift, a_scanner_as_its_table_left_it_has_not_drifted_and_a_changed_one_has) {
+    // The x mirror's gain creeps by 0.1 %: 0.055 mm at the field's edges.
+    const auto f = three_cycles("tests/scenarios/galvo_small.toml",
+                                [](sim::Scenario& s) { s.galvo_truth.gain_x += 0.001; });
+    // Cycle 2: the raw scanner is as far off as ever, but through its table it is not.
+    CHECK(f[1].raw_mm > 0.05);
+    CHECK(f[1].in_force_mm < 0.005);
+    CHECK(std::abs(f[1].drift_mm) < 0.003);
+    CHECK_FALSE(f[1].needs_calibration);
+    // Cycle 3: the change, as the twin's truth has it.
+    CHECK(std::abs(f[2].in_force_mm - f[2].truth_mm) < 0.005);
+    CHECK(f[2].drift_mm > 0.01);
+}
+
+TEST(ApplianceDrift, a_router_as_its_model_left_it_has_not_drifted_and_a_changed_one_has) {
+    // The x axis' belt stretches by 0.05 %: 0.1 mm over 200 mm.
+    const auto f = three_cycles("tests/scenarios/planar_small.toml",
+                                [](sim::Scenario& s) { s.router_truth.scale_x += 0.0005; });
+    CHECK(f[1].raw_mm > 0.05);
+    CHECK(f[1].in_force_mm < 0.05);
+    CHECK(std::abs(f[1].drift_mm) < 0.02);
+    CHECK_FALSE(f[1].needs_calibration);
+    CHECK(std::abs(f[2].in_force_mm - f[2].truth_mm) < 0.02);
+    CHECK(f[2].drift_mm > 0.01);
 }

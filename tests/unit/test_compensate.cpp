@@ -258,3 +258,51 @@ TEST(Compensate, scanner_jobs_are_corrected_point_by_point) {
                  targets::compensate_scanner_csv("x_mm,y_mm,power\n1,2,3\n", {kIdentity, {}},
                                                  kMachineFrame, {}, report));
 }
+
+// The machine's error through a kept correction, worked out from a target made without it (what
+// drift asks of a galvo or a router): hand-worked on a 10 mm square of four points.
+#include "core/modes/error_through.hpp"
+
+TEST_GROUP(ErrorThrough){};
+
+TEST(ErrorThrough, a_correction_that_holds_leaves_nothing_and_one_that_does_not_leaves_the_rest) {
+    using calbox::geometry::Point2;
+    const std::vector<Point2> at{{-5, -5}, {5, -5}, {5, 5}, {-5, 5}};
+    // The machine goes 1 % too far in x: each point lands 0.01 x off.
+    std::vector<Point2> error;
+    for (const auto& p : at) error.push_back({0.01 * p.x, 0});
+    const calbox::targets::Correction field = [](Point2 p) { return Point2{0.01 * p.x, 0}; };
+    // The kept correction is that error's exact inverse: commanded at x / 1.01 it lands on x.
+    const calbox::targets::KeptCorrection exact{[](Point2 p) {
+                                                    return Point2{p.x / 1.01, p.y};
+                                                },
+                                                -5, -5, 5, 5};
+    const auto held = calbox::modes::error_through(at, error, exact, field);
+    DOUBLES_EQUAL(0, held.rms_mm, 1e-12);
+    // Without the field the error is taken where the point was meant, not where it is sent:
+    // x / 1.01 + 0.01 x = 1.000099 x, 0.000099 * 5 mm off at every point.
+    const auto first_order = calbox::modes::error_through(at, error, exact);
+    DOUBLES_EQUAL(5 * (1 / 1.01 + 0.01 - 1), first_order.max_mm, 1e-12);
+    // No correction (the identity): the raw error, less the rigid part (none here: a stretch).
+    const calbox::targets::KeptCorrection none{[](Point2 p) { return p; }, -5, -5, 5, 5};
+    const auto raw = calbox::modes::error_through(at, error, none);
+    DOUBLES_EQUAL(0.05, raw.max_mm, 1e-12);
+    DOUBLES_EQUAL(0.05, *raw.mean_mm, 1e-12);
+    // A shift of the whole work is where it lies, not an error: taken out.
+    const calbox::targets::KeptCorrection shifted{[](Point2 p) {
+                                                      return Point2{p.x + 1, p.y};
+                                                  },
+                                                  -5, -5, 5, 5};
+    DOUBLES_EQUAL(0.05, calbox::modes::error_through(at, error, shifted).max_mm, 1e-9);
+    // Beyond the kept rectangle a point takes its edge's correction, as jobs do.
+    const calbox::targets::KeptCorrection smaller{[](Point2 p) {
+                                                      return Point2{p.x / 1.01, p.y};
+                                                  },
+                                                  -4, -5, 4, 5};
+    const auto edge = calbox::modes::error_through(at, error, smaller, field);
+    // x = 5 is sent where x = 4 is moved: 5 + (4 / 1.01 - 4), and lands 1 % further than that.
+    const double sent = 5 + 4 / 1.01 - 4, landed = 1.01 * sent;
+    DOUBLES_EQUAL(landed - 5, edge.max_mm, 1e-9);
+    CHECK_THROWS(std::invalid_argument,
+                 calbox::modes::error_through({{0, 0}, {1, 1}}, {{0, 0}, {0, 0}}, none));
+}

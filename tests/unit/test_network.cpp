@@ -72,6 +72,7 @@ firmware::HistoryEntry entry(int cycle, const std::string& result, std::optional
     e.result = result;
     e.finished_unix_s = at;
     if (before_rms) e.before = modes::ErrorFigures{before_mean, *before_rms, 2 * *before_rms};
+    e.in_force = e.before;  // a delta's: the error as printed
     if (after_rms) e.after = modes::ErrorFigures{{}, *after_rms, 2 * *after_rms};
     e.seconds = 60;
     return e;
@@ -244,11 +245,18 @@ TEST(BoxNews, keeps_the_history_and_works_out_the_drift_and_the_need) {
     news.add(entry(4, "applied", 0.5, 0.001, 1'700'090'000, 0.01));
     CHECK_FALSE(*news.needs_calibration());
     DOUBLES_EQUAL(0.01 - 0.001, *news.drift_mm(), 1e-12);
+    // A mode whose correction the box keeps measured the raw machine 0.5 mm off, but jobs go
+    // through the kept correction and met 0.004: that is the figure drift and the need ask.
+    auto kept = entry(5, "unchanged", 0.5, {}, 1'700'091'000, 0.5);
+    kept.in_force = modes::ErrorFigures{0.004, 0.005, 0.01};
+    news.add(kept);
+    CHECK_FALSE(*news.needs_calibration());
+    DOUBLES_EQUAL(0.004 - 0.001, *news.drift_mm(), 1e-12);
     STRCMP_EQUAL("2023-11-15T22:40:00Z", firmware::utc_text(1'700'088'000).c_str());
 
     // Read back by the next start, line for line.
     firmware::BoxNews again(data, "1.2.3", [](const std::string& why) { FAIL(why.c_str()); });
-    LONGS_EQUAL(4, static_cast<long>(again.history().size()));
+    LONGS_EQUAL(5, static_cast<long>(again.history().size()));
     CHECK_TRUE(again.history() == news.history());
 }
 

@@ -326,14 +326,26 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
     result.convergence = solution.convergence;
     result.placement = {solution.x[kGeometry],
                         {solution.x[kGeometry + 1], solution.x[kGeometry + 2]}};
+    // Features scattering more than their uncertainties say (a lens model short of the real one)
+    // widen the covariance by the ratio; never narrow it.
+    const double widen =
+        result.expected_rms_mm > 0
+            ? std::pow(std::max(1.0, result.fit_rms_mm / result.expected_rms_mm), 2)
+            : 1.0;
+    result.covariance.assign(kGeometry * kGeometry, 0.0);
     for (int i = 0; i < kGeometry; ++i) {
         const auto it = std::find(free.begin(), free.end(), i);
         const bool held = it == free.end();
         result.held[static_cast<std::size_t>(i)] = held;
-        if (!held) {
-            const auto k = static_cast<Eigen::Index>(it - free.begin());
-            result.uncertainty[static_cast<std::size_t>(i)] =
-                std::sqrt(std::max(0.0, covariance(k, k)));
+        if (held) continue;
+        const auto k = static_cast<Eigen::Index>(it - free.begin());
+        result.uncertainty[static_cast<std::size_t>(i)] =
+            std::sqrt(std::max(0.0, covariance(k, k)));
+        for (int j = 0; j < kGeometry; ++j) {
+            const auto other = std::find(free.begin(), free.end(), j);
+            if (other == free.end()) continue;
+            result.covariance[static_cast<std::size_t>(i * kGeometry + j)] =
+                widen * covariance(k, static_cast<Eigen::Index>(other - free.begin()));
         }
     }
     return result;
@@ -397,8 +409,62 @@ DeltaCorrection design_delta_correction(const models::MachineFile& machine,
         result.predicted_xy_change_mm = std::max(
             result.predicted_xy_change_mm, std::hypot(xy_after[i].x - p.x, xy_after[i].y - p.y));
     }
-    result.predicted_xy_rms_mm = std::sqrt(sum / static_cast<double>(judge.size()));
-    result.predicted_xy_max_mm = worst;
+    // The estimate off by its own uncertainty: each judging point's XY moves by J dx for a
+    // parameter error dx, whose spread is J C J^T (C the estimate's covariance).
+    std::vector<double> spread(judge.size(), 0.0);
+    if (fitted.covariance.size() == static_cast<std::size_t>(kGeometry * kGeometry)) {
+        const Vector base = pack(estimate);
+        const std::vector<double> steps = parameter_steps();
+        // Per parameter, how each point's XY moves per unit of it.
+        std::vector<std::vector<geometry::Point2>> moves(kGeometry);
+        for (int k = 0; k < kGeometry; ++k) {
+            const double h = 1e-3 * steps[static_cast<std::size_t>(k)];
+            Vector moved = base;
+            moved[k] += h;
+            const DeltaGeometry g = unpack(moved);
+            auto& move = moves[static_cast<std::size_t>(k)];
+            for (std::size_t i = 0; i < judge.size(); ++i) {
+                const auto p = models::actual_position_mm(g, result.after, judge[i]);
+                const auto q = models::actual_position_mm(estimate, result.after, judge[i]);
+                move.push_back({(p.x - q.x) / h, (p.y - q.y) / h});
+            }
+            // A turn or shift of the whole print is where it lies on the bed, not an error (the
+            // fit cannot see it either): each parameter's move field loses its rigid part.
+            double cx = 0, cy = 0, mx = 0, my = 0;
+            for (std::size_t i = 0; i < judge.size(); ++i)
+                cx += judge[i].x, cy += judge[i].y, mx += move[i].x, my += move[i].y;
+            const auto count = static_cast<double>(judge.size());
+            cx /= count, cy /= count, mx /= count, my /= count;
+            double turn = 0, spread_sq = 0;
+            for (std::size_t i = 0; i < judge.size(); ++i) {
+                const double px = judge[i].x - cx, py = judge[i].y - cy;
+                turn += px * (move[i].y - my) - py * (move[i].x - mx);
+                spread_sq += px * px + py * py;
+            }
+            turn = spread_sq > 0 ? turn / spread_sq : 0;
+            for (std::size_t i = 0; i < judge.size(); ++i) {
+                const double px = judge[i].x - cx, py = judge[i].y - cy;
+                move[i] = {move[i].x - mx + turn * py, move[i].y - my - turn * px};
+            }
+        }
+        for (std::size_t i = 0; i < judge.size(); ++i)
+            for (int k = 0; k < kGeometry; ++k)
+                for (int l = 0; l < kGeometry; ++l) {
+                    const double c = fitted.covariance[static_cast<std::size_t>(k * kGeometry + l)];
+                    if (c == 0) continue;
+                    const auto& a = moves[static_cast<std::size_t>(k)][i];
+                    const auto& b = moves[static_cast<std::size_t>(l)][i];
+                    spread[i] += c * (a.x * b.x + a.y * b.y);
+                }
+    }
+    double spread_sum = 0, spread_worst = 0;
+    for (std::size_t i = 0; i < judge.size(); ++i) {
+        spread_sum += std::max(0.0, spread[i]);
+        spread_worst = std::max(spread_worst, std::sqrt(std::max(0.0, spread[i])));
+    }
+    const auto n = static_cast<double>(judge.size());
+    result.predicted_xy_rms_mm = std::sqrt(sum / n + spread_sum / n);
+    result.predicted_xy_max_mm = std::hypot(worst, spread_worst);
     result.predicted_height_change_mm = change;
     return result;
 }

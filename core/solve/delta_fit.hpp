@@ -84,6 +84,10 @@ struct DeltaEstimate {
     // the data left it undetermined (held at the firmware's value).
     std::array<double, kDeltaParameterCount> uncertainty{};
     std::array<bool, kDeltaParameterCount> held{};
+    // The estimate's covariance in the fit's own parameters (the report's order), row by row,
+    // scaled up where the features scatter more than their uncertainties say; a held
+    // parameter's row and column are zero. Empty for an estimate read back from a record.
+    std::vector<double> covariance;
     std::vector<double> singular_values;  // of the weighted, scaled Jacobian
     double condition_number = 0;
     double fit_rms_mm = 0;       // measured vs fitted, after the placement
@@ -95,8 +99,11 @@ struct DeltaEstimate {
 
 // Stage two: the parameters to send, and what the fit predicts they leave.
 struct DeltaCorrection {
-    models::DeltaGeometry after;                              // in gauge
-    double predicted_xy_rms_mm = 0, predicted_xy_max_mm = 0;  // over the printable area, after
+    models::DeltaGeometry after;  // in gauge
+    // Over the printable area after the correction, one standard uncertainty: where the estimate
+    // is off by its own covariance, the correction puts the nozzle off by this much (and by what
+    // the correction's design leaves, in quadrature). Zero for an estimate without a covariance.
+    double predicted_xy_rms_mm = 0, predicted_xy_max_mm = 0;
     double predicted_height_change_mm = 0;  // largest change of the height map, after vs now
     double predicted_xy_change_mm = 0;      // largest XY move it makes, a turn or shift taken out
     double predicted_height_range_now_mm = 0;  // the bed's height range the fit sees now

@@ -270,14 +270,16 @@ ReviewText DeltaCycleMode::review() const {
     const auto& c = s.fit.correction;
     const auto& pass = passes_.back();
     ReviewText r;
-    r.detail = "predicted XY after " + number_text("%.4f", c.predicted_xy_rms_mm) + " mm RMS";
+    r.detail = "predicted XY after " + number_text("%.4f", c.predicted_xy_rms_mm) +
+               " mm RMS (the fit's own uncertainty)";
     r.proposed =
         ("proposed: rod " + number_text("%.3f", before.diagonal_rod_mm) + " -> " +
          number_text("%.3f", s.after.diagonal_rod_mm) + " mm, radius " +
          number_text("%.3f", before.radius_mm) + " -> " + number_text("%.3f", s.after.radius_mm) +
          " mm; fit RMS " + number_text("%.4f", s.fit.fitted.fit_rms_mm) + " mm; predicted XY " +
          number_text("%.4f", c.predicted_xy_rms_mm) + " mm RMS, " +
-         number_text("%.4f", c.predicted_xy_max_mm) + " mm worst");
+         number_text("%.4f", c.predicted_xy_max_mm) +
+         " mm worst (one standard uncertainty of the fit, carried through the correction)");
     for (const auto& command : s.commands) r.details.push_back("  " + command);
     r.screen = ReviewScreen{
         {"rod " + number_text("%+.3f", s.after.diagonal_rod_mm - before.diagonal_rod_mm) + " mm",

@@ -61,6 +61,7 @@ struct PassFigures {
     double gap_range = 0;  // the nozzle's gap over the bed, as the fit found it
     modes::DeltaPassStep step = modes::DeltaPassStep::apply;
     double xy_rms = 0, xy_max = 0;  // the printer after this pass (the last sent, for a hold)
+    double predicted_rms = 0;       // what the box predicted of it (the fit's own uncertainty)
 };
 
 struct CycleFigures {
@@ -85,8 +86,8 @@ std::string passes_text(const std::vector<PassFigures>& passes) {
             std::snprintf(b, sizeof b, "%s%zu: gap %.3f mm, holds", i ? " | " : "", i + 1,
                           p.gap_range);
         else
-            std::snprintf(b, sizeof b, "%s%zu: gap %.3f mm, XY %.4f/%.4f", i ? " | " : "", i + 1,
-                          p.gap_range, p.xy_rms, p.xy_max);
+            std::snprintf(b, sizeof b, "%s%zu: gap %.3f mm, XY %.4f/%.4f (predicted %.4f)",
+                          i ? " | " : "", i + 1, p.gap_range, p.xy_rms, p.xy_max, p.predicted_rms);
         out += b;
     }
     return out;
@@ -197,6 +198,7 @@ class DeltaCase {
                                pass == 1 ? probe_ : std::vector<solve::ProbePoint>{});
         PassFigures p;
         p.gap_range = solution.fit.correction.predicted_height_range_now_mm;
+        p.predicted_rms = solution.fit.correction.predicted_xy_rms_mm;
         p.step = modes::next_delta_pass_step(solution, pass);
         if (p.step != modes::DeltaPassStep::holds) {
             sent_.insert(sent_.end(), solution.commands.begin(), solution.commands.end());
@@ -205,6 +207,13 @@ class DeltaCase {
         sim::DeltaTwin judged(truth_, levelled_);
         const auto after = sim::judge_delta(judged, sent_, printable_);
         p.xy_rms = after.xy_rms, p.xy_max = after.xy_max;
+        // What the box predicts of a correction it sends is its fit's own uncertainty carried
+        // through it: not nothing (as the correction's design alone says), and the twin's truth
+        // after it within twice that.
+        if (p.step != modes::DeltaPassStep::holds && solution.method == modes::DeltaMethod::fit) {
+            CHECK_TEXT(p.predicted_rms > 0.0005, passes_text({p}).c_str());
+            CHECK_TEXT(p.xy_rms <= 2 * p.predicted_rms, passes_text({p}).c_str());
+        }
         figures_.passes.push_back(p);
         return p.step == modes::DeltaPassStep::apply_then_measure_again;
     }

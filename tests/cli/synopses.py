@@ -103,6 +103,17 @@ for path in commands():
         if not re.search(r"(?<![\w-])" + re.escape(p) + r"(?![\w-])", text):
             failures.append(f"{name}: --help's argument {p} is not in its synopsis ({shown[0][0]})")
 
+# Every picture the README and docs/ show is in the repository (the web page's screenshots once
+# were not: .gitignore dropped them).
+for page in [top / "README.md", *sorted((top / "docs").glob("*.md"))]:
+    for target in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", page.read_text()):
+        if not (page.parent / target).is_file():
+            failures.append(f"{page.relative_to(top)} shows {target}, which is not in the repository")
+        elif subprocess.run(["git", "-C", str(top), "ls-files", "--error-unmatch",
+                             str((page.parent / target).relative_to(top))],
+                            capture_output=True).returncode not in (0, 128):
+            failures.append(f"{page.relative_to(top)} shows {target}, which git does not keep")
+
 for f in failures:
     print("FAIL:", f)
 print(f"{len(commands())} commands checked against their synopses, {len(failures)} differences")

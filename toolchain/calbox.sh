@@ -88,6 +88,8 @@ case "$action" in
     run)
         # The appliance on the digital twin, from an empty data directory so that the one-time
         # set-up (camera and bed plane from photos) runs too; then one whole cycle, judged.
+        # Huge pages for the photos' large buffers (tests/CMakeLists.txt says why).
+        export GLIBC_TUNABLES=glibc.malloc.hugetlb=1
         cd "$top" && rm -rf out/box && mkdir -p out
         binary="build/$preset/calbox"
         [ "$preset" != arm64 ] || binary="build/arm64/calbox-emulated"

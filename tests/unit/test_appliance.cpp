@@ -1006,7 +1006,8 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
 
     // Issue "Figures and drawings that mean what they say": a second cycle on the scanner as its
     // table left it reads no drift and no need, though the raw grid is as far off as ever (the
-    // box once compared that raw error with the error verified through the table).
+    // box once compared that raw error with the error verified through the table). Its owner
+    // only looks: cancelled at review, nothing sent.
     firmware::BoxNews news(rig.data, "test", {});
     news.cycle_ended(rig.cycle, true, 1'700'000'000);
     const auto told = rig.cycle.subscribe(
@@ -1015,9 +1016,15 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
          [&](bool completed) { news.cycle_ended(rig.cycle, completed, 1'700'000'600); },
          {},
          {}});
+    rig.intercept = [&rig](firmware::Prompt p) {
+        if (p != firmware::Prompt::review) return false;
+        rig.board.lines->press(2000ms);  // long press: cancel
+        return true;
+    };
     rig.ended = 0;
     rig.run_cycle();
-    rig.check_cycles_completed(2);
+    rig.intercept = nullptr;
+    rig.check_cycles_completed(1);
     const auto& again = rig.cycle.report();
     UT_PRINT(("galvo, second cycle: raw " + number_text("%.4f", *again.measured->mean_mm) +
               " mm mean, through the table " + number_text("%.4f", *again.in_force->mean_mm) +
@@ -1028,12 +1035,14 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
     CHECK(std::abs(*again.in_force->mean_mm - after.mean_mm) < 0.002);
     CHECK(std::abs(*news.drift_mm()) < 0.003);
     CHECK_FALSE(*news.needs_calibration());
+    CHECK_EQUAL(*kept, *rig.data.read_file(firmware::kGalvoTableFile));  // nothing applied
 
-    // Revert puts back what was in force before the last cycle: the first cycle's table.
+    // Revert puts back what was in force before: no table.
     const std::size_t sent_before_revert = rig.transcript().size();
     CHECK_EQUAL(std::string(), rig.cycle.revert());
     rig.run_until([&rig] { return rig.cycle.state() == firmware::CycleState::idle; });
-    CHECK_EQUAL(*kept, *rig.data.read_file(firmware::kGalvoTableFile));
+    CHECK_EQUAL(std::string(firmware::kNoGalvoTable),
+                *rig.data.read_file(firmware::kGalvoTableFile));
     CHECK_EQUAL(sent_before_revert, rig.transcript().size());
 }
 

@@ -429,22 +429,18 @@ DeltaCorrection design_delta_correction(const models::MachineFile& machine,
                 move.push_back({(p.x - q.x) / h, (p.y - q.y) / h});
             }
             // A turn or shift of the whole print is where it lies on the bed, not an error (the
-            // fit cannot see it either): each parameter's move field loses its rigid part.
-            double cx = 0, cy = 0, mx = 0, my = 0;
-            for (std::size_t i = 0; i < judge.size(); ++i)
-                cx += judge[i].x, cy += judge[i].y, mx += move[i].x, my += move[i].y;
-            const auto count = static_cast<double>(judge.size());
-            cx /= count, cy /= count, mx /= count, my /= count;
-            double turn = 0, spread_sq = 0;
+            // fit cannot see it either): each parameter's move field loses its rigid part, the
+            // best placement of the points moved a micrometre's worth along it taken out.
+            constexpr double kAlong = 1e-3;
+            std::vector<geometry::Point2> from, to;
             for (std::size_t i = 0; i < judge.size(); ++i) {
-                const double px = judge[i].x - cx, py = judge[i].y - cy;
-                turn += px * (move[i].y - my) - py * (move[i].x - mx);
-                spread_sq += px * px + py * py;
+                from.push_back({judge[i].x, judge[i].y});
+                to.push_back({judge[i].x + kAlong * move[i].x, judge[i].y + kAlong * move[i].y});
             }
-            turn = spread_sq > 0 ? turn / spread_sq : 0;
+            const auto placed = best_rigid_placement(from, to);
             for (std::size_t i = 0; i < judge.size(); ++i) {
-                const double px = judge[i].x - cx, py = judge[i].y - cy;
-                move[i] = {move[i].x - mx + turn * py, move[i].y - my - turn * px};
+                const auto at = placed.apply(from[i]);
+                move[i] = {(to[i].x - at.x) / kAlong, (to[i].y - at.y) / kAlong};
             }
         }
         for (std::size_t i = 0; i < judge.size(); ++i)

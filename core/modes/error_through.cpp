@@ -1,9 +1,8 @@
 #include "core/modes/error_through.hpp"
 
-#include <algorithm>
-#include <cmath>
 #include <stdexcept>
 
+#include "core/models/galvo_field.hpp"
 #include "core/solve/placement.hpp"
 
 namespace calbox::modes {
@@ -16,13 +15,13 @@ ErrorFigures error_through(const std::vector<Point2>& commanded_mm,
     if (commanded_mm.size() != error_mm.size() || commanded_mm.size() < 3)
         throw std::invalid_argument(
             "the error through a correction needs as many errors as points, at least three");
+    const targets::Area kept_area{kept.min_x_mm, kept.min_y_mm, kept.max_x_mm, kept.max_y_mm};
     std::vector<Point2> meant, landed;
     meant.reserve(commanded_mm.size());
     landed.reserve(commanded_mm.size());
     for (std::size_t i = 0; i < commanded_mm.size(); ++i) {
         const Point2 p = commanded_mm[i];
-        const Point2 held{std::clamp(p.x, kept.min_x_mm, kept.max_x_mm),
-                          std::clamp(p.y, kept.min_y_mm, kept.max_y_mm)};
+        const Point2 held = kept_area.nearest(p);
         const Point2 kept_command = kept.correct(held);
         const Point2 command{p.x + kept_command.x - held.x, p.y + kept_command.y - held.y};
         Point2 error = error_mm[i];
@@ -34,16 +33,14 @@ ErrorFigures error_through(const std::vector<Point2>& commanded_mm,
         landed.push_back({command.x + error.x, command.y + error.y});
     }
     const auto placement = solve::best_rigid_placement(landed, meant);
-    double sum = 0, sum_squares = 0, worst = 0;
+    std::vector<Point2> residuals;
+    residuals.reserve(meant.size());
     for (std::size_t i = 0; i < meant.size(); ++i) {
         const Point2 at = placement.apply(landed[i]);
-        const double e = std::hypot(at.x - meant[i].x, at.y - meant[i].y);
-        sum += e;
-        sum_squares += e * e;
-        worst = std::max(worst, e);
+        residuals.push_back({at.x - meant[i].x, at.y - meant[i].y});
     }
-    const auto n = static_cast<double>(meant.size());
-    return {sum / n, std::sqrt(sum_squares / n), worst};
+    const auto s = models::error_statistics(residuals);
+    return {s.mean_mm, s.rms_mm, s.max_mm};
 }
 
 }  // namespace calbox::modes

@@ -12,11 +12,11 @@
 #include "board/sim/sim_board.hpp"
 #include "board/sim/twin_judge.hpp"
 #include "firmware/app/appliance.hpp"
+#include "firmware/app/box_config.hpp"
 #include "firmware/app/sim_appliance.hpp"
 #include "firmware/app/sim_operator.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/version.hpp"
-#include "firmware/console/box_config.hpp"
 #include "firmware/console/console.hpp"
 #include "firmware/console/job_desk.hpp"
 #include "firmware/console/link_key.hpp"
@@ -491,21 +491,22 @@ int run(const Args& args) {
     });
 
     firmware::BoxNews news(*box.data, calbox::build_version(), log);
-    news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
-    BoxConsole console(open_console_port(args, config, options.on_rpi, common.data_dir, log),
-                       config_path, config, box, log_book, log, [&] {
-                           cycle.set_settings(box.with_board(settings_from(config)));
-                           news.set_needs_calibration_mm(config.settings().needs_calibration_mm);
-                       });
+    news.set_needs_calibration_mm(config.settings().report.needs_calibration_mm);
+    BoxConsole console(
+        open_console_port(args, config, options.on_rpi, common.data_dir, log), config_path, config,
+        box, log_book, log, [&] {
+            cycle.set_settings(box.with_board(settings_from(config)));
+            news.set_needs_calibration_mm(config.settings().report.needs_calibration_mm);
+        });
 
     bool stop_when_written = false;
     ModbusRoles modbus_roles(modbus, result_map, loop, cycle, [&] {
         if (stop_when_written) loop.stop();
     });
     // The web page and MQTT, where the configuration or the options say.
-    firmware::BoxNetwork network({loop, cycle, console.commands, config, *box.data, *box.clock,
-                                  network_of(box), log_book, news, log, calbox::build_version(),
-                                  unix_now_s});
+    firmware::BoxNetwork network({loop, cycle, console.commands, config.settings().web,
+                                  config.settings().mqtt, *box.data, *box.clock, network_of(box),
+                                  log_book, news, log, calbox::build_version(), unix_now_s});
     on_log = [&network] { network.logged(); };
     // Lines logged while the rest comes down go to standard error only.
     const struct Quiet {

@@ -171,24 +171,25 @@ std::vector<ConsoleCommand> Console::config_rows() {
              need_words(words, 2, "config list");
              std::ostringstream out;
              json keys = json::object();
-             for (const auto& k : config_schema()) {
-                 const std::string value = c_.config.get(k.name);
-                 out << k.name << " = "
+             for (const auto& e : c_.config.entries()) {
+                 const KeyInfo& k = e.info;
+                 const std::string value = c_.config.get(e.name);
+                 out << e.name << " = "
                      << (k.kind == ConfigKind::text ? "\"" + value + "\"" : value);
                  if (!k.unit.empty()) out << " " << k.unit;
-                 const std::string fallback = default_text(k);
+                 const std::string fallback = c_.config.default_value(e.name);
                  if (value != fallback) out << "  (default " << fallback << ")";
                  if (k.needs_restart) out << "  [at start]";
                  out << "\n";
-                 keys[std::string(k.name)] = {{"value", value},
-                                              {"default", fallback},
-                                              {"unit", std::string(k.unit)},
-                                              {"kind", kind_name(k.kind)},
-                                              {"min", k.min},
-                                              {"max", k.max},
-                                              {"choices", std::string(k.choices)},
-                                              {"at_start", k.needs_restart},
-                                              {"doc", std::string(k.doc)}};
+                 keys[e.name] = {{"value", value},
+                                 {"default", fallback},
+                                 {"unit", std::string(k.unit)},
+                                 {"kind", kind_name(k.kind)},
+                                 {"min", k.min},
+                                 {"max", k.max},
+                                 {"choices", std::string(k.choices)},
+                                 {"at_start", k.needs_restart},
+                                 {"doc", std::string(k.doc)}};
              }
              r.text = out.str();
              r.text.pop_back();
@@ -212,7 +213,7 @@ std::vector<ConsoleCommand> Console::config_rows() {
                  throw Refused(e.what());
              }
              if (c_.config_changed) c_.config_changed();
-             const bool at_start = find_config_key(words[2])->needs_restart;
+             const bool at_start = c_.config.find(words[2])->info.needs_restart;
              r.text = words[2] + " = " + c_.config.get(words[2]) +
                       (at_start ? " (in force at the next start; config save keeps it)"
                                 : " (in force from the next cycle; config save keeps it)");
@@ -243,7 +244,7 @@ std::vector<ConsoleCommand> Console::config_rows() {
                  r.text = words[2] + " = " + c_.config.get(words[2]) + " (the default)";
              } else {
                  need_words(words, 2, "config reset [KEY]");
-                 c_.config = BoxConfig();
+                 c_.config.reset_all();
                  r.text = "every key back to its default (config save keeps it)";
              }
              if (c_.config_changed) c_.config_changed();

@@ -14,14 +14,23 @@
 #include <string_view>
 #include <vector>
 
-#include "firmware/console/box_config.hpp"
 #include "firmware/cycle/cycle.hpp"
 #include "firmware/loop/event_loop.hpp"
+#include "firmware/settings/settings_table.hpp"
 #include "hal/clock.hpp"
 #include "hal/serial_port.hpp"
 #include "hal/storage.hpp"
 
 namespace calbox::firmware {
+
+// Where the console is read: a serial device's path, "pty", "stdin" or "" for none.
+struct ConsoleSettings {
+    std::string device = "stdin";
+    int baud = 115200;
+};
+
+// The console's table of the configuration: [console].
+SettingsTable<ConsoleSettings> console_settings_table();
 
 // A line longer than this is refused whole, never cut: a cut line could be a different
 // command (`config set records.keep_cycles 1000` cut to `... 1`).
@@ -85,7 +94,7 @@ std::string console_words_after(std::string_view line, std::size_t skip);
 
 struct ConsoleContext {
     Cycle& cycle;
-    BoxConfig& config;       // the configuration in force
+    Configuration& config;   // the configuration in force
     hal::Storage& settings;  // where `config save` writes
     std::string settings_name;
     hal::Storage& data;  // the cycles' records, for `last`

@@ -12,6 +12,7 @@
 #include <list>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <utility>
 #include <vector>
@@ -24,6 +25,7 @@
 #include "firmware/cycle/screens.hpp"
 #include "firmware/links/machine_link.hpp"
 #include "firmware/loop/event_loop.hpp"
+#include "firmware/settings/settings_table.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
@@ -72,6 +74,9 @@ struct CycleSettings {
     std::string reference_marks = "DICT_APRILTAG_36h11";
     double camera_moved_limit_mm = 0.05;
 };
+
+// The cycle's tables of the configuration: [cycle], [setup] and [records].
+std::span<const SettingsTable<CycleSettings>> cycle_settings_tables();
 
 struct CycleDevices {
     hal::Camera& camera;

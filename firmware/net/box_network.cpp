@@ -21,32 +21,31 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts) : BoxNetwork(std::move(parts), Web
 
 BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
     : p_(std::move(parts)), inbox_(p_.loop) {
-    const BoxSettings& settings = p_.config.settings();
-    if (!settings.web.listen.empty()) {
-        const auto at = net::parse_host_port(settings.web.listen, false);
+    if (!p_.web.listen.empty()) {
+        const auto at = net::parse_host_port(p_.web.listen, false);
         web_ = std::make_unique<WebWindow>(
             WebWindowContext{
                 inbox_, p_.data, p_.clock, frames_, p_.network, p_.cycle.mode().kept_files(),
                 [this](const std::string& line) { return p_.console.reply_to(line); },
                 [this] { return status(true); }, [this] { return p_.news.history_json(); },
                 [this] { return p_.news.metrics(p_.cycle); },
-                [this] { return p_.config.settings().web.password_hash; },
-                [this] { return p_.cycle.preview(); }, [this] { return guide(); }},
+                [this] { return p_.web.password_hash; }, [this] { return p_.cycle.preview(); },
+                [this] { return guide(); }},
             at.host, at.port, limits);
         const std::string host =
             at.host.find(':') != std::string::npos ? "[" + at.host + "]" : at.host;
         p_.log("web: the page at http://" + host + ":" + std::to_string(web_->port()) + "/" +
-               (settings.web.password_hash.empty()
+               (p_.web.password_hash.empty()
                     ? " (no web password: it changes nothing until the console's `web password`)"
                     : ""));
     }
-    if (!settings.mqtt.broker.empty()) {
+    if (!p_.mqtt.broker.empty()) {
         mqtt_ = std::make_unique<MqttReport>(
             MqttReport::Context{
                 inbox_, [this] { return status(false); },
                 [this](const std::string& line) { return p_.console.reply_to(line); }, p_.log,
                 p_.version, p_.network},
-            settings.mqtt);
+            p_.mqtt);
     }
     CycleNews news{[this](Prompt, int) { changed(); },
                    [this](CycleState) { changed(); },

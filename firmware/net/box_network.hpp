@@ -7,7 +7,6 @@
 #include <memory>
 #include <string>
 
-#include "firmware/console/box_config.hpp"
 #include "firmware/console/console.hpp"
 #include "firmware/cycle/cycle.hpp"
 #include "firmware/loop/event_loop.hpp"
@@ -22,13 +21,17 @@ namespace calbox::firmware {
 class WebWindow;
 class MqttReport;
 struct WebLimits;
+struct WebSettings;
+struct MqttSettings;
 
 struct BoxNetworkParts {
     EventLoop& loop;
     Cycle& cycle;
     Console& console;
-    const BoxConfig& config;  // the configuration in force (web.password is read from it)
-    hal::Storage& data;       // the records the page serves
+    // The configuration's, as in force: the password's hash is read at each request.
+    const WebSettings& web;
+    const MqttSettings& mqtt;
+    hal::Storage& data;  // the records the page serves
     hal::Clock& clock;
     hal::Network& network;
     const LogBook& log_book;

@@ -14,6 +14,7 @@
 
 #include "core/modes/goal.hpp"
 #include "firmware/cycle/cycle.hpp"
+#include "firmware/settings/settings_table.hpp"
 #include "hal/storage.hpp"
 
 namespace calbox::firmware {
@@ -39,6 +40,15 @@ double headline_mm(const modes::ErrorFigures& figures);
 
 // "2026-11-26T03:25:33Z".
 std::string utc_text(std::int64_t unix_s);
+
+// When the box says the machine needs calibrating (the page, MQTT, /metrics).
+struct ReportSettings {
+    // A cycle's error as jobs met it (CycleReport::in_force) past this.
+    double needs_calibration_mm = 0.05;
+};
+
+// The report's table of the configuration: [report].
+SettingsTable<ReportSettings> report_settings_table();
 
 class BoxNews {
   public:
@@ -80,7 +90,7 @@ class BoxNews {
     std::string version_;
     std::vector<HistoryEntry> history_;
     std::map<std::pair<std::string, std::string>, int> cycles_;  // (mode, result) since start
-    double needs_calibration_mm_ = 0.05;
+    double needs_calibration_mm_ = ReportSettings{}.needs_calibration_mm;
 };
 
 }  // namespace calbox::firmware

@@ -10,11 +10,22 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "firmware/console/box_config.hpp"
 #include "firmware/loop/event_loop.hpp"
+#include "firmware/settings/settings_table.hpp"
 #include "hal/network.hpp"
 
 namespace calbox::firmware {
+
+// The MQTT broker the box reports to, Home Assistant's discovery with it: off while `broker` is
+// empty. Topics: calbox/NODE/...; discovery: PREFIX/<component>/NODE/<object>/config.
+struct MqttSettings {
+    std::string broker;  // HOST:PORT
+    std::string node_id = "calbox";
+    std::string discovery_prefix = "homeassistant";
+};
+
+// MQTT's table of the configuration: [mqtt].
+SettingsTable<MqttSettings> mqtt_settings_table();
 
 class MqttReport {
   public:

@@ -2,8 +2,8 @@
 
 namespace calbox::firmware {
 
-std::string_view web_page_html() {
-    return R"html(<!DOCTYPE html>
+// The page's three texts, served as they are written here.
+constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
 <html lang="en">
 <head>
 <meta charset="utf-8">
@@ -91,10 +91,8 @@ std::string_view web_page_html() {
 </body>
 </html>
 )html";
-}
 
-std::string_view web_page_script() {
-    return R"js('use strict';
+constexpr std::string_view kPageScript = R"js('use strict';
 const $ = (id) => document.getElementById(id);
 const mm = (v) => (v === null || v === undefined) ? '–' : v.toFixed(4) + ' mm';
 const headline = (f) => f ? (f.mean_mm !== null ? f.mean_mm : f.rms_mm) : null;
@@ -289,10 +287,8 @@ document.addEventListener('DOMContentLoaded', () => {
   liveLoop();
 });
 )js";
-}
 
-std::string_view web_page_style() {
-    return R"css(* { box-sizing: border-box; }
+constexpr std::string_view kPageStyle = R"css(* { box-sizing: border-box; }
 body { font-family: sans-serif; margin: 0; background: #f4f5f7; color: #1d2330; }
 header { display: flex; gap: 1em; align-items: center; padding: 0.6em 1em; background: #1d2330; color: #fff; }
 header h1 { font-size: 1.3em; margin: 0; }
@@ -327,6 +323,15 @@ figure { margin: 0; } figure.picture img { max-width: 100%; width: 640px; }
 figure.screen img { width: 256px; image-rendering: pixelated; border: 1px solid #889; }
 figcaption { font-size: 0.8em; color: #667; }
 )css";
+
+std::string_view web_page_html() {
+    return kPageHtml;
+}
+std::string_view web_page_script() {
+    return kPageScript;
+}
+std::string_view web_page_style() {
+    return kPageStyle;
 }
 
 }  // namespace calbox::firmware

@@ -4,7 +4,7 @@
 
 namespace calbox::firmware {
 
-ConsoleCommand web_password_row(BoxConfig& config, hal::PasswordHasher& passwords,
+ConsoleCommand web_password_row(Configuration& config, hal::PasswordHasher& passwords,
                                 std::function<void()> config_changed) {
     return {"web password", "web password PASSWORD",
             "the web page's password, kept as its hash (--clear: none; config save keeps it)",

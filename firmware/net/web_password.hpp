@@ -3,14 +3,13 @@
 // only (web.password), the page's own row on the console.
 #include <functional>
 
-#include "firmware/console/box_config.hpp"
 #include "firmware/console/console.hpp"
 #include "hal/password.hpp"
 
 namespace calbox::firmware {
 
 // `config_changed` puts the configuration in force, as after `config set`.
-ConsoleCommand web_password_row(BoxConfig& config, hal::PasswordHasher& passwords,
+ConsoleCommand web_password_row(Configuration& config, hal::PasswordHasher& passwords,
                                 std::function<void()> config_changed);
 
 }  // namespace calbox::firmware

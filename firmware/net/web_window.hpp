@@ -15,6 +15,7 @@
 
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/net/live_view.hpp"
+#include "firmware/settings/settings_table.hpp"
 #include "hal/clock.hpp"
 #include "hal/network.hpp"
 #include "hal/storage.hpp"
@@ -22,6 +23,16 @@
 namespace calbox::firmware {
 
 // What one client may ask before it is refused (429), and the server's own limits.
+// The box's own web page (docs/network.md): off while `listen` is empty. Anything that changes
+// state needs the password, kept only as its hash (hal/password.hpp).
+struct WebSettings {
+    std::string listen;  // HOST:PORT, an IP address to bind
+    std::string password_hash;
+};
+
+// The web page's table of the configuration: [web].
+SettingsTable<WebSettings> web_settings_table();
+
 struct WebLimits {
     double requests_per_second = 20;  // each client's steady rate
     double burst = 60;                // and what it may ask at once

@@ -12,10 +12,24 @@
 #include <vector>
 
 #include "core/models/register_words.hpp"
+#include "core/net/endpoints.hpp"
 #include "firmware/cycle/cycle.hpp"
+#include "firmware/settings/settings_table.hpp"
 #include "hal/register_link.hpp"
 
 namespace calbox::firmware {
+
+// The box's Modbus roles: the PLC map it serves, and the controller it writes each result to.
+struct ModbusSettings {
+    std::optional<net::ModbusEndpoint> server;  // serve the PLC map
+    std::optional<net::ModbusEndpoint> client;  // the controller the results are written to
+    std::string client_map;  // a map file (value_name = register); empty: the whole block from 0
+    models::WordOrder word_order = models::WordOrder::abcd;
+    hal::ModbusTimeouts timeouts;
+};
+
+// Modbus's table of the configuration: [modbus].
+SettingsTable<ModbusSettings> modbus_settings_table();
 
 namespace plc {
 // Coils (function 1 to read, 5 or 15 to write): a client writes 1, the box acts and clears it.

@@ -10,19 +10,18 @@ import sys
 
 top = sys.argv[1]
 firmware = os.path.join(top, "firmware")
-# Lowest first: a folder may include its own and those before it.
-RANKS = ["loop", "links", "cycle", "modes", "plc", "console", "net", "cli", "app"]
-# Folders of one rank side by side, neither including the other.
-SAME_RANK = {"plc": 4, "console": 4}
+# Lowest first: a folder may include its own and those of a lower rank. The PLC and the console
+# side by side, neither including the other.
+RANK = {"settings": 0, "loop": 1, "links": 2, "cycle": 3, "modes": 4, "plc": 5, "console": 5,
+        "net": 6, "cli": 7, "app": 8}
+RANKS = list(RANK)
 # The calbox binary's own folders: the composition root and the subcommands, the only users of
 # the boards (which bind drivers to hal/).
 BOARD_USERS = {"app", "cli"}
 
 
 def rank(folder):
-    if folder in SAME_RANK:
-        return SAME_RANK[folder]
-    return RANKS.index(folder) if RANKS.index(folder) < 4 else RANKS.index(folder) - 1
+    return RANK[folder]
 
 
 include = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)

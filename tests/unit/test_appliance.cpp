@@ -27,6 +27,7 @@
 #include "core/number_text.hpp"
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
+#include "firmware/app/box_config.hpp"
 #include "firmware/app/sim_appliance.hpp"
 #include "firmware/app/sim_operator.hpp"
 #include "firmware/console/console.hpp"

@@ -15,7 +15,7 @@
 
 #include "drivers/durable_file.hpp"
 #include "drivers/file_storage.hpp"
-#include "firmware/console/box_config.hpp"
+#include "firmware/app/box_config.hpp"
 #include "tests/support/device_errors.hpp"
 
 using namespace calbox;
@@ -40,7 +40,7 @@ TEST(BoxConfig, reads_every_table_and_names_the_line_of_what_it_does_not_know) {
     CHECK_TRUE(modbus.server.has_value());
     STRCMP_EQUAL("0.0.0.0", modbus.server->host.c_str());
     CHECK_EQUAL(502, modbus.server->port);
-    STRCMP_EQUAL("tcp:0.0.0.0:502", firmware::endpoint_text(*modbus.server).c_str());
+    STRCMP_EQUAL("tcp:0.0.0.0:502", config.get("modbus.server").c_str());
     CHECK_FALSE(modbus.client.has_value());
     CHECK(models::WordOrder::cdab == modbus.word_order);
     CHECK_EQUAL(200U, modbus.timeouts.byte_ms);
@@ -120,7 +120,7 @@ TEST(BoxConfig, the_network_keys_are_checked_as_the_console_checks_them) {
     const auto again = firmware::BoxConfig::from_toml(config.to_toml(), "saved.toml");
     STRCMP_EQUAL("0.0.0.0:8080", again.settings().web.listen.c_str());
     STRCMP_EQUAL("bench-2_a", again.settings().mqtt.node_id.c_str());
-    DOUBLES_EQUAL(0.02, again.settings().needs_calibration_mm, 0);
+    DOUBLES_EQUAL(0.02, again.settings().report.needs_calibration_mm, 0);
 }
 
 TEST(BoxConfig, the_readme_documents_every_key) {
@@ -128,9 +128,8 @@ TEST(BoxConfig, the_readme_documents_every_key) {
     const std::string readme((std::istreambuf_iterator<char>(in)),
                              std::istreambuf_iterator<char>());
     CHECK_TRUE(readme.size() > 1000);
-    for (const auto& key : firmware::config_schema())
-        CHECK_TEXT(readme.find("| `" + std::string(key.name) + "` |") != std::string::npos,
-                   std::string(key.name).c_str());
+    for (const auto& key : firmware::BoxConfig().entries())
+        CHECK_TEXT(readme.find("| `" + key.name + "` |") != std::string::npos, key.name.c_str());
 }
 
 TEST(BoxConfig, what_it_writes_reads_back_the_same_for_every_key) {
@@ -143,7 +142,7 @@ TEST(BoxConfig, what_it_writes_reads_back_the_same_for_every_key) {
     config.set("cycle.long_press_ms", "2250");
     const auto again = firmware::BoxConfig::from_toml(config.to_toml(), "saved.toml");
     CHECK_TRUE(again == config);
-    for (const auto& key : firmware::config_schema())
+    for (const auto& key : config.entries())
         STRCMP_EQUAL(config.get(key.name).c_str(), again.get(key.name).c_str());
     CHECK_FALSE(again == firmware::BoxConfig());
 }

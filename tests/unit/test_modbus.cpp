@@ -16,7 +16,7 @@
 
 #include "core/models/register_words.hpp"
 #include "drivers/modbus_link.hpp"
-#include "firmware/console/box_config.hpp"
+#include "firmware/app/box_config.hpp"
 #include "firmware/modes/galvo_mode.hpp"
 #include "firmware/plc/plc_link.hpp"
 #include "tests/mocks/hal_mocks.hpp"

@@ -1,166 +1,24 @@
-// calbox run: the appliance. The composition root: reads the options, asks a board for its
-// devices, wires them to the event loop and the cycle. calbox revert: the last backup, sent.
-#include <unistd.h>
-
+// calbox run: the appliance. The composition root: reads the options and the configuration, stands
+// the box up on a board's devices (box.hpp), starts its parts from their list (box_parts.hpp) and
+// runs the loop. calbox revert: the last backup, sent.
 #include <cstdio>
-#include <cstdlib>
 #include <filesystem>
-#include <iostream>
 
-#include "board/devices.hpp"
-#include "board/rpi/rpi_board.hpp"
-#include "board/sim/sim_board.hpp"
 #include "board/sim/twin_judge.hpp"
-#include "firmware/app/appliance.hpp"
+#include "firmware/app/box.hpp"
 #include "firmware/app/box_config.hpp"
-#include "firmware/app/sim_appliance.hpp"
-#include "firmware/app/sim_operator.hpp"
+#include "firmware/app/box_parts.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/version.hpp"
-#include "firmware/console/console.hpp"
-#include "firmware/console/job_desk.hpp"
-#include "firmware/console/link_key.hpp"
-#include "firmware/cycle/cycle.hpp"
-#include "firmware/links/gcode_host.hpp"
 #include "firmware/loop/event_loop.hpp"
-#include "firmware/net/box_network.hpp"
 #include "firmware/net/box_news.hpp"
-#include "firmware/net/web_password.hpp"
-#include "firmware/plc/plc_link.hpp"
-
-#ifndef CALBOX_EXAMPLES_DIR
-#define CALBOX_EXAMPLES_DIR "examples"
-#endif
 
 namespace calbox::cli {
 namespace {
 
-std::filesystem::path default_data_dir() {
-    if (const char* state = std::getenv("XDG_STATE_HOME"); state != nullptr && *state != 0)
-        return std::filesystem::path(state) / "calbox";
-    if (const char* home = std::getenv("HOME"); home != nullptr && *home != 0)
-        return std::filesystem::path(home) / ".local" / "state" / "calbox";
-    throw std::runtime_error(
-        "no --data directory given and neither XDG_STATE_HOME nor HOME is set");
-}
-
-void log_line(const std::string& line) {
-    std::fprintf(stderr, "calbox: %s\n", line.c_str());
-}
-
-struct Common {
-    std::string scenario;
-    std::filesystem::path data_dir;
-};
-
-Common common_options(const Args& args, bool rpi_allowed = false) {
-    const std::string board = args.get("--board").value_or("sim");
-    if (board != "sim" && !(rpi_allowed && board == "rpi"))
-        throw UsageError("unknown board '" + board + "': " + (rpi_allowed ? "sim or rpi" : "sim"));
-    if (board == "rpi" && args.get("--scenario")) throw UsageError("--scenario is the sim board's");
-    Common c;
-    c.scenario = args.get("--scenario").value_or(CALBOX_EXAMPLES_DIR "/delta_cycle.toml");
-    c.data_dir =
-        args.get("--data") ? std::filesystem::path(*args.get("--data")) : default_data_dir();
-    std::error_code ec;
-    std::filesystem::create_directories(c.data_dir, ec);
-    if (ec) throw std::runtime_error(c.data_dir.string() + ": cannot create: " + ec.message());
-    return c;
-}
-
-// The board --board chose: its devices (one type, whichever board), the machine beside them,
-// and on the sim board the twin (its bench for the operator and the judge, its own commands).
-struct ChosenBoard {
-    std::unique_ptr<sim::SimBoard> sim;
-    board::Devices own;  // a real board's devices
-    models::MachineFile machine;
-    board::Devices& devices() { return sim ? sim->devices : own; }
-};
-
-board::RpiSettings rpi_board_settings(const Args& args) {
-    const auto given = args.get("--board-file");
-    const std::string path = given.value_or("/etc/calbox/board.toml");
-    std::error_code ec;
-    if (!given && !std::filesystem::exists(path, ec)) return board::default_rpi_settings();
-    return board::read_rpi_settings(path);
-}
-
-// A real board's devices are opened in order: the first one that is not there stops the box
-// with one line naming it.
-ChosenBoard choose_board(const Args& args, const Common& common, hal::Clock& clock,
-                         const firmware::Cycle::Log& log) {
-    ChosenBoard chosen;
-    if (args.get("--board").value_or("sim") == "rpi") {
-        const auto path = args.get("--machine");
-        if (!path) throw UsageError("--board rpi needs --machine FILE: the machine beside the box");
-        chosen.machine = models::parse_machine_file(read_input_file(*path, "machine file"), *path);
-        chosen.own = board::open_rpi_devices(rpi_board_settings(args), clock);
-        return chosen;
-    }
-    chosen.sim = std::make_unique<sim::SimBoard>(
-        sim::make_sim_board({common.scenario, common.data_dir, 115200}, clock, log));
-    chosen.machine = chosen.sim->machine;
-    return chosen;
-}
-
-// The appliance on the real clock, built from the chosen board's devices as calbox run and
-// calbox revert both use it. With --camera-files the photos come from files, not the board's
-// camera.
-struct Box {
-    std::unique_ptr<hal::Clock> clock = board::monotonic_clock();
-    ChosenBoard board;
-    std::unique_ptr<hal::Camera> photo_files;
-    std::unique_ptr<hal::Storage> data = nullptr;
-    firmware::Appliance appliance;
-    firmware::Cycle& cycle = appliance.cycle;
-    firmware::EventLoop& loop = appliance.loop;
-
-    Box(const Args& args, const Common& common, firmware::CycleSettings settings,
-        const firmware::Cycle::Log& log = log_line, const firmware::LinkSettings& link = {})
-        : board(with_link(choose_board(args, common, *clock, log), link)),
-          photo_files(args.get("--camera-files") ? board::photo_files(*args.get("--camera-files"))
-                                                 : nullptr),
-          data(board::data_directory(common.data_dir)),
-          appliance(firmware::ApplianceDevices::of(board.devices(), photo_files.get()), *data,
-                    *clock, {}, board.machine, with_board(std::move(settings)), log) {}
-
-    // The configuration's link.* over the machine file's [link].
-    static ChosenBoard with_link(ChosenBoard chosen, const firmware::LinkSettings& link) {
-        try {
-            chosen.machine.link = link.over(chosen.machine);
-        } catch (const firmware::ConfigError& e) {
-            throw UsageError(std::string("configuration: ") + e.what());
-        }
-        if (chosen.sim) chosen.sim->machine.link = chosen.machine.link;
-        return chosen;
-    }
-
-    // The boards the sim board's person holds are the ones the box asks for.
-    firmware::CycleSettings with_board(firmware::CycleSettings settings) const {
-        if (!board.sim) return settings;
-        return firmware::SimAppliance::with_setup_boards(std::move(settings),
-                                                         board.sim->bench->scenario().setup);
-    }
-};
-
-// The board's network: every board has one.
-hal::Network& network_of(Box& box) {
-    if (!box.board.devices().network) throw std::logic_error("the board opened no network");
-    return *box.board.devices().network;
-}
-
 // `calbox run --auto`'s status when a signal stopped it before its verdict (0 is a goal met, 1
 // one missed or a failure, 2 a usage error).
 constexpr int kStoppedBeforeVerdict = 3;
-
-// What `calbox run` was asked, checked together.
-struct RunOptions {
-    bool automatic = false;       // --auto
-    bool operator_hands = false;  // --operator-hands
-    bool operator_acts = false;   // the sim board's operator does what the prompts ask
-    bool on_rpi = false;
-    std::optional<int> frames;
-};
 
 RunOptions run_options(const Args& args) {
     RunOptions o;
@@ -226,153 +84,6 @@ firmware::ModbusSettings modbus_settings(const Args& args, firmware::ModbusSetti
     return modbus;
 }
 
-// The console's port: --console DEVICE, else the configuration's console.device (on the rpi
-// board its file's console UART when neither says one). Null with `reopen` empty: no console.
-struct ConsolePort {
-    std::unique_ptr<hal::SerialPort> port;
-    firmware::ConsoleLink::Reopen reopen;
-    bool wanted() const { return port != nullptr || static_cast<bool>(reopen); }
-};
-
-ConsolePort open_console_port(const Args& args, const firmware::BoxConfig& config, bool on_rpi,
-                              const std::filesystem::path& data_dir,
-                              const firmware::Cycle::Log& log) {
-    std::string device = args.get("--console").value_or(config.settings().console.device);
-    if (on_rpi && !args.get("--console") && device == "stdin")
-        device = rpi_board_settings(args).console_device;
-    ConsolePort console;
-    if (device == "pty") {
-        auto pty = board::pseudo_terminal();
-        const auto link = data_dir / "console";
-        std::error_code ec;
-        std::filesystem::remove(link, ec);
-        std::filesystem::create_symlink(pty.path, link, ec);
-        log("console on " + pty.path + (ec ? "" : " (" + link.string() + ")"));
-        console.port = std::move(pty.port);
-    } else if (device == "stdin") {
-        // Standard input when it is a terminal; /dev/null (as under CI) leaves it off.
-        if (::isatty(STDIN_FILENO) == 1) console.port = board::standard_io();
-    } else if (!device.empty()) {
-        // A UART, often a USB adapter: unplugged and plugged in again, or not there yet at the
-        // start, it is opened again when it is back.
-        console.reopen = [device, baud = config.settings().console.baud] {
-            return board::serial_port(device, baud);
-        };
-        // A path that is there but cannot be opened (not a serial device, no permission) is a
-        // set-up mistake that waiting does not mend: it stops the box with its reason.
-        std::error_code ec;
-        if (std::filesystem::exists(device, ec)) {
-            console.port = console.reopen();
-            log("console on " + device);
-        } else {
-            log("console: " + device + " is not there (opened when it is)");
-        }
-    }
-    return console;
-}
-
-// The sim board's own console rows: press, hold, quit.
-std::vector<firmware::ConsoleCommand> sim_board_commands(sim::SimBoard& board,
-                                                         firmware::EventLoop& loop) {
-    using Words = std::vector<std::string>;
-    return {{"press", "press", "the sim board: a short press of the button",
-             [&board](const Words&, std::string_view, firmware::ConsoleReply& r) {
-                 board.lines->press(std::chrono::milliseconds(100));
-                 r.text = "pressed";
-             }},
-            {"hold", "hold", "the sim board: a long press of the button",
-             [&board](const Words&, std::string_view, firmware::ConsoleReply& r) {
-                 board.lines->press(std::chrono::milliseconds(2000));
-                 r.text = "held";
-             }},
-            {"quit", "quit", "the sim board: stop the box",
-             [&loop](const Words&, std::string_view, firmware::ConsoleReply& r) {
-                 loop.stop();
-                 r.text = "stopping";
-             }}};
-}
-
-std::string utc_now_text() {
-    return firmware::utc_text(std::chrono::duration_cast<std::chrono::seconds>(
-                                  std::chrono::system_clock::now().time_since_epoch())
-                                  .count());
-}
-
-std::int64_t unix_now_s() {
-    return static_cast<std::int64_t>(std::chrono::duration_cast<std::chrono::seconds>(
-                                         std::chrono::system_clock::now().time_since_epoch())
-                                         .count());
-}
-
-// The console and the parts with rows of their own on it (the web page's password, the job
-// desk, OctoPrint's key, the sim board's button), read on its port; it tells the console what
-// the cycle's prompts and notices say.
-struct BoxConsole {
-    bool wanted;
-    std::unique_ptr<hal::Storage> config_home;
-    std::optional<firmware::ConsoleLink> link;
-    firmware::LinkKeyRequest link_key;
-    firmware::JobDesk job_desk;  // jobs compensated through the correction the box keeps
-    firmware::Console commands;
-    firmware::CycleSubscription listening;
-
-    BoxConsole(ConsolePort port, const std::filesystem::path& config_path,
-               firmware::BoxConfig& config, Box& box, const firmware::LogBook& log_book,
-               const firmware::Cycle::Log& log, std::function<void()> config_changed)
-        : wanted(port.wanted()),
-          config_home(board::data_directory(directory_of(config_path))),
-          link_key(
-              box.loop, box.board.machine.link, network_of(box).http(),
-              [key_file = box.board.machine.link.key_file] {
-                  return board::data_directory(directory_of(key_file));
-              },
-              logged_notice(log)),
-          job_desk(box.loop, box.cycle, *box.appliance.link, *box.data, utc_now_text,
-                   logged_notice(log)),
-          commands(firmware::ConsoleContext{
-              box.cycle, config, *config_home, config_path.filename().string(), *box.data, log_book,
-              calbox::build_version(), config_changed, rows(config, box, config_changed)}) {
-        if (wanted) {
-            link.emplace(box.loop, std::move(port.port), commands, log, std::move(port.reopen),
-                         box.clock.get());
-        }
-        listening = box.cycle.subscribe({[this](firmware::Prompt prompt, int) {
-                                             if (prompt != firmware::Prompt::none)
-                                                 notice(std::string("waiting: ") +
-                                                        firmware::prompt_text(prompt));
-                                         },
-                                         {},
-                                         {},
-                                         [this](const std::string& line) { notice(line); },
-                                         {}});
-    }
-    void notice(const std::string& line) {
-        if (link) link->notice(line);
-    }
-
-  private:
-    static std::filesystem::path directory_of(const std::filesystem::path& file) {
-        return file.parent_path().empty() ? std::filesystem::path(".") : file.parent_path();
-    }
-    std::function<void(const std::string&)> logged_notice(const firmware::Cycle::Log& log) {
-        return [this, log](const std::string& line) {
-            log(line);
-            notice(line);
-        };
-    }
-    std::vector<firmware::ConsoleCommand> rows(firmware::BoxConfig& config, Box& box,
-                                               const std::function<void()>& config_changed) {
-        std::vector<firmware::ConsoleCommand> more = {
-            firmware::web_password_row(config, network_of(box).passwords(), config_changed),
-            job_desk.command(), link_key.command()};
-        if (box.board.sim) {
-            for (auto& row : sim_board_commands(*box.board.sim, box.loop))
-                more.push_back(std::move(row));
-        }
-        return more;
-    }
-};
-
 // The map of the results written to a controller: the whole block from register 0, or the
 // --modbus-map file's. Read before the board starts, so that a bad file stops nothing half-open.
 std::optional<firmware::ResultRegisterMap> result_map_of(const firmware::ModbusSettings& modbus) {
@@ -381,56 +92,6 @@ std::optional<firmware::ResultRegisterMap> result_map_of(const firmware::ModbusS
     return firmware::ResultRegisterMap::from_toml(read_input_file(modbus.client_map, "Modbus map"),
                                                   modbus.client_map);
 }
-
-// The box's Modbus roles where the configuration or the options say: the PLC map it serves
-// (listening to the cycle itself), and the controller it writes each completed cycle's result
-// to. `written` is called when the last result queued has gone.
-struct ModbusRoles {
-    board::RegisterServer server;
-    std::optional<firmware::PlcServer> plc;
-    std::unique_ptr<hal::RegisterLink> client;
-    std::optional<firmware::ResultWriter> writer;
-    int results_written_for = 0;
-    firmware::CycleSubscription listening;
-
-    ModbusRoles(const firmware::ModbusSettings& modbus,
-                const std::optional<firmware::ResultRegisterMap>& result_map,
-                firmware::EventLoop& loop, firmware::Cycle& cycle, std::function<void()> written) {
-        if (modbus.server) {
-            namespace plc_map = firmware::plc;
-            server = board::register_server(*modbus.server,
-                                            {plc_map::kCoilCount, plc_map::kDiscreteInputCount, 0,
-                                             firmware::input_register_count()},
-                                            modbus.timeouts, log_line);
-            plc.emplace(*server.server, cycle, modbus.word_order, log_line);
-            loop.watch(server.server->written_fd(), [this] { plc->on_coils_written(); });
-            log_line(modbus.server->describe() + ": serving the PLC map" +
-                     (modbus.server->kind == net::ModbusEndpoint::Kind::tcp
-                          ? " on port " + std::to_string(server.port)
-                          : std::string()));
-        }
-        if (!modbus.client) return;
-        client = board::register_client(*modbus.client, modbus.timeouts);
-        writer.emplace(*client, *result_map, modbus.word_order, log_line);
-        loop.watch(client->completion_fd(), [this, written = std::move(written)] {
-            writer->on_completion();
-            if (writer->idle()) written();
-        });
-        results_written_for = cycle.cycles_completed();
-        listening = cycle.subscribe({{},
-                                     {},
-                                     [this, &cycle](bool) {
-                                         if (cycle.cycles_completed() <= results_written_for)
-                                             return;
-                                         results_written_for = cycle.cycles_completed();
-                                         writer->write(cycle.report(),
-                                                       cycle.mode().result(cycle.report().applied));
-                                     },
-                                     {},
-                                     {}});
-    }
-    bool idle() const { return !writer || writer->idle(); }
-};
 
 // After `calbox run --auto`: the box's own time, then the machine as the cycle left it, judged
 // on a fresh job (through the correction the box keeps, when it keeps one) against the mode's
@@ -454,6 +115,26 @@ int judged_run_end(Box& box, sim::TwinJudge& judge, const sim::TwinVerdict& befo
     return 0;
 }
 
+// `calbox run`'s status once its loop is over. systemctl stop (SIGTERM) and Ctrl-C (SIGINT) are
+// how a box is meant to be stopped: a clean stop, status 0, whatever the cycle was doing
+// (cancelled: nothing half-sent stays in flight); with --auto, the twin's verdict.
+int run_end(Box& box, const RunOptions& options, int stopped_by, sim::TwinJudge* judge,
+            const std::optional<sim::TwinVerdict>& before) {
+    if (stopped_by != 0) {
+        log_line("stopped by signal " + std::to_string(stopped_by) + "; " +
+                 box.appliance.link->closing_note());
+        // --auto promises 0 only for a goal met: stopped before its verdict, it says so.
+        if (options.automatic) {
+            log_line("--auto: stopped before the verdict (exit status " +
+                     std::to_string(kStoppedBeforeVerdict) + ")");
+            return kStoppedBeforeVerdict;
+        }
+        return 0;
+    }
+    if (!options.automatic) return 0;
+    return judged_run_end(box, *judge, *before);
+}
+
 int run(const Args& args) {
     const RunOptions options = run_options(args);
     const Common common = common_options(args, true);
@@ -462,7 +143,7 @@ int run(const Args& args) {
                                                   : common.data_dir / "calbox.toml";
     firmware::BoxConfig config = run_config(args, config_path);
     const firmware::ModbusSettings modbus = modbus_settings(args, config.settings().modbus);
-    const auto result_map = result_map_of(modbus);
+    auto result_map = result_map_of(modbus);
 
     firmware::SignalWatch signals;  // before any thread, so that every thread blocks them
     // The cycle's settings as the configuration says, the options over them.
@@ -479,92 +160,60 @@ int run(const Args& args) {
         if (on_log) on_log();
     };
     Box box(args, common, settings_from(config), log, config.settings().link);
-    firmware::EventLoop& loop = box.loop;
-    firmware::Cycle& cycle = box.cycle;
-    sim::SimBoard* sim_board = box.board.sim.get();
-
     int stopped_by = 0;
-    loop.watch(signals.fd(), [&] {
+    box.loop.watch(signals.fd(), [&] {
         stopped_by = signals.take();
-        cycle.cancel("stopped by signal " + std::to_string(stopped_by));
-        loop.stop();
+        box.cycle.cancel("stopped by signal " + std::to_string(stopped_by));
+        box.loop.stop();
     });
 
     firmware::BoxNews news(*box.data, calbox::build_version(), log);
     news.set_needs_calibration_mm(config.settings().report.needs_calibration_mm);
-    BoxConsole console(
-        open_console_port(args, config, options.on_rpi, common.data_dir, log), config_path, config,
-        box, log_book, log, [&] {
-            cycle.set_settings(box.with_board(settings_from(config)));
-            news.set_needs_calibration_mm(config.settings().report.needs_calibration_mm);
-        });
+    RunningBox running{
+        .args = args,
+        .options = options,
+        .box = box,
+        .config = config,
+        .config_path = config_path,
+        .data_dir = common.data_dir,
+        .modbus = modbus,
+        .result_map = std::move(result_map),
+        .log_book = log_book,
+        .news = news,
+        .log = log,
+        .config_changed =
+            [&] {
+                box.cycle.set_settings(box.with_board(settings_from(config)));
+                news.set_needs_calibration_mm(config.settings().report.needs_calibration_mm);
+            },
+        .on_log = on_log};
+    StartedParts parts;
+    parts.start_all(running);
 
-    bool stop_when_written = false;
-    ModbusRoles modbus_roles(modbus, result_map, loop, cycle, [&] {
-        if (stop_when_written) loop.stop();
-    });
-    // The web page and MQTT, where the configuration or the options say.
-    firmware::BoxNetwork network({loop, cycle, console.commands, config.settings().web,
-                                  config.settings().mqtt, *box.data, *box.clock, network_of(box),
-                                  log_book, news, log, calbox::build_version(), unix_now_s});
-    on_log = [&network] { network.logged(); };
-    // Lines logged while the rest comes down go to standard error only.
-    const struct Quiet {
-        std::function<void()>& on_log;
-        ~Quiet() { on_log = nullptr; }
-    } quiet{on_log};
-    firmware::CycleSubscription operator_news;
-    if (options.operator_acts) {
-        operator_news = cycle.subscribe({[&](firmware::Prompt prompt, int step) {
-                                             firmware::act_on_prompt(
-                                                 *sim_board->bench, *sim_board->lines, prompt, step,
-                                                 options.automatic, !options.operator_hands);
-                                         },
-                                         {},
-                                         {},
-                                         {},
-                                         {}});
-    }
     std::unique_ptr<sim::TwinJudge> judge;
     std::optional<sim::TwinVerdict> before;
     firmware::CycleSubscription one_cycle;
     if (options.automatic) {
         // One cycle, then out (once the controller has the whole result).
-        one_cycle = cycle.subscribe({{},
-                                     {},
-                                     [&](bool) {
-                                         if (modbus_roles.idle())
-                                             loop.stop();
-                                         else
-                                             stop_when_written = true;
-                                     },
-                                     {},
-                                     {}});
+        one_cycle = box.cycle.subscribe({{},
+                                         {},
+                                         [&running](bool) {
+                                             running.stop_when_settled = true;
+                                             running.part_settled();
+                                         },
+                                         {},
+                                         {}});
         // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
-        judge = sim::make_twin_judge(*sim_board->bench);
+        judge = sim::make_twin_judge(*box.board.sim->bench);
         before = judge->before();
         std::printf("before: %s\n", before->line.c_str());
         std::fflush(stdout);
-        sim_board->lines->press(std::chrono::milliseconds(100));
-    } else if (!console.wanted) {
+        box.board.sim->lines->press(std::chrono::milliseconds(100));
+    } else if (!running.console_wanted) {
         log("waiting for the button (no console)");
     }
-    loop.run();
-    // systemctl stop (SIGTERM) and Ctrl-C (SIGINT) are how a box is meant to be stopped: a clean
-    // stop, status 0, whatever the cycle was doing (cancelled: nothing half-sent stays in flight).
-    if (stopped_by != 0) {
-        log_line("stopped by signal " + std::to_string(stopped_by) + "; " +
-                 box.appliance.link->closing_note());
-        // --auto promises 0 only for a goal met: stopped before its verdict, it says so.
-        if (options.automatic) {
-            log_line("--auto: stopped before the verdict (exit status " +
-                     std::to_string(kStoppedBeforeVerdict) + ")");
-            return kStoppedBeforeVerdict;
-        }
-        return 0;
-    }
-    if (!options.automatic) return 0;
-    return judged_run_end(box, *judge, *before);
+    box.loop.run();
+    return run_end(box, options, stopped_by, judge.get(), before);
 }
 
 int revert(const Args& args) {

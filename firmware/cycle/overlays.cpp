@@ -11,32 +11,12 @@
 #include "firmware/cycle/png_picture.hpp"
 
 namespace calbox::firmware {
-namespace {
-
-cv::Mat as_mat(const vision::GrayView& v) {
-    return {v.height_px, v.width_px, CV_8UC1, const_cast<std::uint8_t*>(v.pixels),
-            static_cast<std::size_t>(v.stride_bytes)};
-}
-
-// A grid mode's overlay: the marks found (green; those `labelled` says, with their column,row)
-// and the extra blobs (orange, twice the size), all on the sheet's surface at height z_mm.
-struct GridMark {
-    geometry::Point2 measured_mm;
-    int column = 0, row = 0;
-    bool labelled = false;
-};
-struct GridMarkStyle {
-    int radius_divisor;         // the mark's radius: the picture's width / this (at least 4 px)
-    int label_offset_radii;     // the label's start, right of the mark, in radii
-    double font_scale_divisor;  // the label's scale: the picture's width / this
-};
 
 std::string grid_overlay_png(const vision::GrayView& photo, const std::vector<GridMark>& marks,
                              const std::vector<geometry::Point2>& extra_mm, double z_mm,
                              const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                              const GridMarkStyle& style) {
-    cv::Mat picture;
-    cv::cvtColor(as_mat(photo), picture, cv::COLOR_GRAY2BGR);
+    cv::Mat picture = colour_picture_of(photo);
     const int thickness = std::max(1, picture.cols / 1500);
     std::vector<geometry::Point3> points;
     points.reserve(marks.size() + extra_mm.size());
@@ -59,8 +39,6 @@ std::string grid_overlay_png(const vision::GrayView& photo, const std::vector<Gr
     }
     return png_of_picture(picture);
 }
-
-}  // namespace
 
 std::string error_field_png(const std::vector<FieldArrow>& arrows, const std::string& title) {
     if (arrows.empty()) throw std::invalid_argument("error field: no point");
@@ -111,102 +89,6 @@ std::string error_field_png(const std::vector<FieldArrow>& arrows, const std::st
     cv::putText(picture, text, {20 + bar_px, kSize - 14}, cv::FONT_HERSHEY_SIMPLEX, 0.5,
                 cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
     return png_of_picture(picture);
-}
-
-std::string delta_overlay_png(const vision::GrayView& photo,
-                              const modes::DeltaMeasurement& measured,
-                              const geometry::CameraModel& camera,
-                              const geometry::BedPlane& plane) {
-    const auto& fs = measured.features;
-    const auto placed = modes::placement_errors(fs);
-    cv::Mat picture;
-    cv::cvtColor(as_mat(photo), picture, cv::COLOR_GRAY2BGR);
-    const int thickness = std::max(1, picture.cols / 1000);
-    std::map<std::string, geometry::Point2> pixel;
-    for (const auto& m : measured.frames.front()) {
-        std::vector<cv::Point> outline;
-        for (int k = 0; k < 4; ++k) {
-            const auto& p = m.corners[static_cast<std::size_t>(k)];
-            outline.emplace_back(cvRound(p.x), cvRound(p.y));
-            pixel[modes::corner_feature_id(m.id, k)] = p;
-        }
-        cv::polylines(picture, outline, true, cv::Scalar(0, 200, 0), thickness);
-    }
-    // Magnified so that the largest error is drawn about 15 mm long on the bed (a nice
-    // factor from 10 to 1000, printed on the picture); each arrow is projected through the
-    // camera, so it points the way the error does whatever the camera's roll.
-    const auto& errors = placed.error_mm;
-    const double largest = placed.largest_mm;
-    double gain = 10;
-    for (const double nice : {20.0, 50.0, 100.0, 200.0, 500.0, 1000.0})
-        if (nice * largest <= 15) gain = nice;
-    // Each drawn corner's arrow: its measured point and its magnified error, on the bed.
-    std::vector<cv::Point2d> from_px;
-    std::vector<geometry::Point3> arrow_ends;
-    for (std::size_t i = 0; i < fs.size(); ++i) {
-        const auto it = pixel.find(fs[i].id);
-        if (it == pixel.end()) continue;
-        const auto& f = fs[i];
-        from_px.emplace_back(it->second.x, it->second.y);
-        arrow_ends.push_back({f.measured_mm.x, f.measured_mm.y, f.seen_at_height_mm});
-        arrow_ends.push_back({f.measured_mm.x + gain * errors[i].x,
-                              f.measured_mm.y + gain * errors[i].y, f.seen_at_height_mm});
-    }
-    const auto ends = geometry::project_points(camera, plane.bed_to_camera, arrow_ends);
-    for (std::size_t i = 0; i < from_px.size(); ++i) {
-        const auto& tail = ends[2 * i];
-        const auto& head = ends[2 * i + 1];
-        const cv::Point2d to = from_px[i] + cv::Point2d(head.x - tail.x, head.y - tail.y);
-        cv::arrowedLine(picture, cv::Point(cvRound(from_px[i].x), cvRound(from_px[i].y)),
-                        cv::Point(cvRound(to.x), cvRound(to.y)), cv::Scalar(0, 0, 255), thickness);
-    }
-    char legend[120];
-    std::snprintf(legend, sizeof legend, "errors x%.0f (largest %.3f mm)", gain, largest);
-    cv::putText(picture, legend, {picture.cols / 40, picture.rows / 20}, cv::FONT_HERSHEY_SIMPLEX,
-                picture.cols / 1500.0, cv::Scalar(0, 0, 255), thickness);
-    // Each bar between its measured end ticks, with its length against the commanded one.
-    for (const auto& b : measured.bars) {
-        const auto px = geometry::project_points(camera, plane.bed_to_camera,
-                                                 {b.ticks_seen_mm[0], b.ticks_seen_mm[1]});
-        const cv::Point from(cvRound(px[0].x), cvRound(px[0].y));
-        const cv::Point to(cvRound(px[1].x), cvRound(px[1].y));
-        cv::line(picture, from, to, cv::Scalar(255, 160, 0), 2 * thickness);
-        char label[80];
-        std::snprintf(label, sizeof label, "%c %.3f mm (%+.3f)", b.tower, b.measured_mm,
-                      b.measured_mm - b.commanded_mm);
-        cv::putText(picture, label, (from + to) / 2, cv::FONT_HERSHEY_SIMPLEX,
-                    picture.cols / 2000.0, cv::Scalar(255, 160, 0), thickness);
-    }
-    return png_of_picture(picture);
-}
-
-std::string galvo_overlay_png(const vision::GrayView& photo,
-                              const modes::GalvoMeasurement& measured,
-                              const models::MachineFile& machine,
-                              const geometry::CameraModel& camera,
-                              const geometry::BedPlane& plane) {
-    std::vector<GridMark> marks;
-    for (const auto& n : measured.nodes)
-        marks.push_back({n.measured_mm, n.index.column, n.index.row,
-                         n.index.column % 5 == 0 && n.index.row % 5 == 0});
-    return grid_overlay_png(photo, marks, measured.extra_mm, machine.galvo->substrate_height_mm,
-                            camera, plane, {300, 1, 4000.0});
-}
-
-std::string planar_overlay_png(const vision::GrayView& photo,
-                               const modes::PlanarMeasurement& measured,
-                               const models::MachineFile& machine,
-                               const geometry::CameraModel& camera,
-                               const geometry::BedPlane& plane) {
-    // The holes are in the machine's frame (y flipped back for a mirrored photo); the picture
-    // wants the photo's, in which the extra blobs already are.
-    const double flip = measured.mirrored ? -1 : 1;
-    std::vector<GridMark> marks;
-    for (const auto& h : measured.holes)
-        marks.push_back(
-            {{h.measured_mm.x, flip * h.measured_mm.y}, h.index.column, h.index.row, h.large});
-    return grid_overlay_png(photo, marks, measured.extra_mm, machine.planar->surface_height_mm,
-                            camera, plane, {250, 2, 2000.0});
 }
 
 }  // namespace calbox::firmware

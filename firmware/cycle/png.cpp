@@ -1,6 +1,7 @@
 #include "firmware/cycle/png.hpp"
 
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "firmware/cycle/png_picture.hpp"
@@ -10,6 +11,15 @@ std::string png_of_picture(const cv::Mat& picture) {
     std::vector<std::uint8_t> bytes;
     if (!cv::imencode(".png", picture, bytes)) throw std::runtime_error("PNG encoding failed");
     return {bytes.begin(), bytes.end()};
+}
+
+cv::Mat colour_picture_of(const vision::GrayView& photo) {
+    const cv::Mat gray(photo.height_px, photo.width_px, CV_8UC1,
+                       const_cast<std::uint8_t*>(photo.pixels),
+                       static_cast<std::size_t>(photo.stride_bytes));
+    cv::Mat picture;
+    cv::cvtColor(gray, picture, cv::COLOR_GRAY2BGR);
+    return picture;
 }
 
 std::string png_of(const hal::Frame& frame) {

@@ -8,6 +8,7 @@
 
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_records.hpp"
+#include "core/vision/image_view.hpp"
 #include "firmware/cycle/cycle_mode.hpp"
 
 namespace calbox::firmware {
@@ -95,5 +96,11 @@ class DeltaCycleMode final : public CycleMode {
     std::optional<modes::DeltaSolution> solution_;
     std::vector<std::string> backup_;  // the settings before, as commands (M665, M666)
 };
+
+// The delta's overlay: each marker's outline, each corner's placement error as an arrow (magnified,
+// with its factor printed) and each bar between its measured end ticks with its length. PNG bytes.
+std::string delta_overlay_png(const vision::GrayView& photo,
+                              const modes::DeltaMeasurement& measured,
+                              const geometry::CameraModel& camera, const geometry::BedPlane& plane);
 
 }  // namespace calbox::firmware

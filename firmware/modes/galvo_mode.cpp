@@ -182,4 +182,17 @@ targets::KeptCorrection GalvoCycleMode::correction_of(const std::string& kept_te
     return {through_table(table), table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm};
 }
 
+std::string galvo_overlay_png(const vision::GrayView& photo,
+                              const modes::GalvoMeasurement& measured,
+                              const models::MachineFile& machine,
+                              const geometry::CameraModel& camera,
+                              const geometry::BedPlane& plane) {
+    std::vector<GridMark> marks;
+    for (const auto& n : measured.nodes)
+        marks.push_back({n.measured_mm, n.index.column, n.index.row,
+                         n.index.column % 5 == 0 && n.index.row % 5 == 0});
+    return grid_overlay_png(photo, marks, measured.extra_mm, machine.galvo->substrate_height_mm,
+                            camera, plane, {300, 1, 4000.0});
+}
+
 }  // namespace calbox::firmware

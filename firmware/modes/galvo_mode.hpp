@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "core/modes/galvo.hpp"
+#include "core/vision/image_view.hpp"
 #include "firmware/modes/kept_correction.hpp"
 
 namespace calbox::firmware {
@@ -44,5 +45,12 @@ class GalvoCycleMode final : public KeptCorrectionMode {
     std::optional<modes::GalvoMeasurement> measured_;
     std::optional<modes::GalvoSolution> solution_;
 };
+
+// The galvo's overlay: each mark measured (green; every fifth labelled column,row) and each extra
+// blob (orange). PNG bytes.
+std::string galvo_overlay_png(const vision::GrayView& photo,
+                              const modes::GalvoMeasurement& measured,
+                              const models::MachineFile& machine,
+                              const geometry::CameraModel& camera, const geometry::BedPlane& plane);
 
 }  // namespace calbox::firmware

@@ -177,4 +177,20 @@ targets::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_t
     return {through_model(s), s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm};
 }
 
+std::string planar_overlay_png(const vision::GrayView& photo,
+                               const modes::PlanarMeasurement& measured,
+                               const models::MachineFile& machine,
+                               const geometry::CameraModel& camera,
+                               const geometry::BedPlane& plane) {
+    // The holes are in the machine's frame (y flipped back for a mirrored photo); the picture
+    // wants the photo's, in which the extra blobs already are.
+    const double flip = measured.mirrored ? -1 : 1;
+    std::vector<GridMark> marks;
+    for (const auto& h : measured.holes)
+        marks.push_back(
+            {{h.measured_mm.x, flip * h.measured_mm.y}, h.index.column, h.index.row, h.large});
+    return grid_overlay_png(photo, marks, measured.extra_mm, machine.planar->surface_height_mm,
+                            camera, plane, {250, 2, 2000.0});
+}
+
 }  // namespace calbox::firmware

@@ -10,6 +10,7 @@
 
 #include "core/models/klipper_config.hpp"
 #include "core/modes/planar.hpp"
+#include "core/vision/image_view.hpp"
 #include "firmware/modes/kept_correction.hpp"
 
 namespace calbox::firmware {
@@ -63,5 +64,13 @@ class PlanarCycleMode final : public KeptCorrectionMode {
     // G54's zero as the controller reported it before the target ran (grbl's $#).
     std::optional<geometry::Point2> controller_work_zero_;
 };
+
+// The planar overlay: each hole used (green; the fiducials labelled) and each extra blob (orange).
+// PNG bytes.
+std::string planar_overlay_png(const vision::GrayView& photo,
+                               const modes::PlanarMeasurement& measured,
+                               const models::MachineFile& machine,
+                               const geometry::CameraModel& camera,
+                               const geometry::BedPlane& plane);
 
 }  // namespace calbox::firmware

@@ -183,6 +183,8 @@ int solve_delta(const Args& args) {
 
 ModeVerbs delta_verbs() {
     ModeVerbs verbs;
+    verbs.name = "delta";
+    verbs.machines = "delta 3D printers";
     {
         const Option describe = describe_option();
         verbs.target = {

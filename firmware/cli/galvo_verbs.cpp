@@ -162,6 +162,8 @@ int solve_galvo(const Args& args) {
 
 ModeVerbs galvo_verbs() {
     ModeVerbs verbs;
+    verbs.name = "galvo";
+    verbs.machines = "galvo laser scanners";
     {
         const Option describe = describe_option();
         verbs.target = {

@@ -10,6 +10,7 @@
 
 #include "core/geometry/pattern_spec.hpp"
 #include "firmware/cli/cli_args.hpp"
+#include "firmware/cli/mode_verbs.hpp"
 #include "firmware/cli/version.hpp"
 
 namespace {
@@ -34,10 +35,12 @@ const Group kGroups[] = {
     {"sim", "the digital twin"},
 };
 
-constexpr const char* kFooter =
-    "modes: delta (delta 3D printers), galvo (galvo laser scanners), planar (CNC routers,\n"
-    "cartesian printers and gantry lasers)\n\n"
-    "Every command exits 0 on success, and non-zero with one line on standard error on failure.";
+// The help's last lines: the modes (each declared with its verbs), and what every command returns.
+std::string footer() {
+    return calbox::cli::modes_line(90) +
+           "\n\nEvery command exits 0 on success, and non-zero with one line on standard error "
+           "on failure.";
+}
 
 std::vector<Command> all_commands() {
     std::vector<Command> all;
@@ -64,7 +67,7 @@ struct CommandLine {
 
     CommandLine() {
         app.require_subcommand(1);
-        app.footer(kFooter);
+        app.footer(footer());
         app.set_version_flag("--version", std::string("calbox ") + calbox::build_version());
         app.get_formatter()->column_width(34);
         for (const auto& c : commands) add(c);

@@ -14,6 +14,31 @@ std::vector<ModeVerbs> mode_verbs() {
     return {delta_verbs(), galvo_verbs(), planar_verbs()};
 }
 
+std::string modes_line(std::size_t width) {
+    std::string text = "modes:";
+    std::size_t line_start = 0;
+    const auto modes = mode_verbs();
+    for (std::size_t m = 0; m < modes.size(); ++m) {
+        const std::string entry =
+            modes[m].name + " (" + modes[m].machines + ")" + (m + 1 < modes.size() ? "," : "");
+        std::size_t from = 0;
+        while (from < entry.size()) {  // word by word, so that a long entry wraps too
+            const std::size_t space = entry.find(' ', from);
+            const std::string word =
+                entry.substr(from, space == std::string::npos ? std::string::npos : space - from);
+            from = space == std::string::npos ? entry.size() : space + 1;
+            if (text.size() - line_start + 1 + word.size() > width) {
+                text += '\n';
+                line_start = text.size();
+            } else {
+                text += ' ';
+            }
+            text += word;
+        }
+    }
+    return text;
+}
+
 std::vector<Command> measure_commands() {
     std::vector<Command> commands;
     for (auto& verbs : mode_verbs()) commands.push_back(std::move(verbs.measure));

@@ -13,6 +13,8 @@
 namespace calbox::cli {
 
 struct ModeVerbs {
+    std::string name;      // "delta", as the verbs take it
+    std::string machines;  // what it calibrates, for `calbox --help`: "delta 3D printers"
     Command target, measure, solve;
 };
 ModeVerbs delta_verbs();
@@ -20,6 +22,8 @@ ModeVerbs galvo_verbs();
 ModeVerbs planar_verbs();
 // Every mode's, in the order `calbox --help` lists them.
 std::vector<ModeVerbs> mode_verbs();
+// "modes: delta (delta 3D printers), ...", wrapped at `width` columns, for `calbox --help`.
+std::string modes_line(std::size_t width);
 
 // What every measure command reads first: the camera, the bed plane and the machine.
 struct SetUp {

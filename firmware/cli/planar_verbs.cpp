@@ -201,6 +201,8 @@ int solve_planar(const Args& args) {
 
 ModeVerbs planar_verbs() {
     ModeVerbs verbs;
+    verbs.name = "planar";
+    verbs.machines = "CNC routers, cartesian printers and gantry lasers";
     {
         const Option describe = describe_option();
         verbs.target = {

@@ -62,9 +62,9 @@ void GcodeRunner::run_line(std::string_view text) {
     } catch (const gcode::SyntaxError& e) {
         throw JobError("line " + std::to_string(line_number_) + ": " + e.what());
     } catch (const OutOfReach& e) {
-        throw JobError("line " + std::to_string(line_number_) + ": " + e.what());
+        throw JobMachineError("line " + std::to_string(line_number_) + ": " + e.what());
     } catch (const MachineError& e) {
-        throw JobError("line " + std::to_string(line_number_) + ": " + e.what());
+        throw JobMachineError("line " + std::to_string(line_number_) + ": " + e.what());
     }
 }
 

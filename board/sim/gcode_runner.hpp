@@ -14,6 +14,11 @@ class JobError : public std::runtime_error {
   public:
     using std::runtime_error::runtime_error;
 };
+// A line the machine could not carry out (a move beyond its reach), not one it could not read.
+class JobMachineError : public JobError {
+  public:
+    using JobError::JobError;
+};
 
 enum class ToolKind { extruder, laser, spindle };
 

@@ -6,6 +6,8 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -14,6 +16,7 @@
 #include <stdexcept>
 
 #include "board/sim/duet_twin.hpp"
+#include "board/sim/gcode_runner.hpp"
 #include "board/sim/moonraker_twin.hpp"
 #include "board/sim/octoprint_twin.hpp"
 #include "board/sim/twin_kind.hpp"
@@ -362,6 +365,25 @@ RouterVerdict TwinBench::judge_cartesian_printer(const targets::Correction* corr
     return judge_cartesian_fresh_points(*cartesian, scenario_.machine, correct);
 }
 
+// What the machine's firmware says when it starts (its board resets as its port opens): Marlin's
+// "start" and its version, grbl's welcome line. RepRapFirmware on native USB does not reset and
+// says nothing until asked; the box then waits its start-up time and sends.
+std::vector<std::string> start_up_banner(const models::MachineFile& machine) {
+    if (machine.firmware == "marlin") return {"start", "echo:Marlin 2.1.2 (calbox twin)"};
+    if (machine.firmware == "grbl") return {"Grbl 1.1h ['$' for help]"};
+    return {};
+}
+
+namespace {
+
+std::string as_lines(const std::vector<std::string>& lines) {
+    std::string text;
+    for (const auto& line : lines) text += line + "\n";
+    return text;
+}
+
+}  // namespace
+
 TwinPrinterLink::TwinPrinterLink(std::shared_ptr<TwinBench> bench)
     : bench_(std::move(bench)), noise_(bench_->scenario().photo.seed * 31 + 17) {
     master_fd_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
@@ -390,7 +412,7 @@ TwinPrinterLink::~TwinPrinterLink() {
 
 void TwinPrinterLink::serve() {
     std::string incoming;
-    std::string outgoing = "start\necho:Marlin 2.1.2 (calbox twin)\n";
+    std::string outgoing = as_lines(start_up_banner(bench_->scenario().machine));
     char buffer[4096];
     while (!stop_) {
         pollfd p{master_fd_, static_cast<short>(POLLIN | (outgoing.empty() ? 0 : POLLOUT)), 0};
@@ -439,8 +461,10 @@ std::vector<std::string> TwinPrinterLink::answer(std::string line) {
     if (faults.reset_at_line > 0 && count == static_cast<std::size_t>(faults.reset_at_line)) {
         bench_->reset_printer();
         last_line_ = 0;
-        return {"start", "echo:Marlin 2.1.2 (calbox twin)"};
+        alarm_ = false;
+        return start_up_banner(bench_->scenario().machine);
     }
+    if (bench_->scenario().machine.firmware == "grbl") return answer_as_grbl(line);
     // Line noise: one bit of the command flipped in transit; the checksum catches it.
     const std::size_t star = line.find('*');
     const std::size_t space = line.find(' ');
@@ -479,6 +503,43 @@ std::vector<std::string> TwinPrinterLink::answer(std::string line) {
         replies = bench_->run_printer_line(line);
     } catch (const std::exception& e) {
         return {std::string("Error:") + e.what(), "ok"};
+    }
+    replies.emplace_back("ok");
+    return replies;
+}
+
+// grbl 1.1 reads plain lines: a checksum's `*` is a word without its letter (error:1), M110 a
+// command it does not have (error:20). A line it refuses is answered by error:N alone, a move
+// beyond the travel by its soft-limit alarm, after which every line is locked out (error:9).
+std::vector<std::string> TwinPrinterLink::answer_as_grbl(const std::string& line) {
+    const auto& faults = bench_->scenario().faults;
+    if (alarm_) return {"error:9"};
+    if (line.find('*') != std::string::npos) return {"error:1"};
+    if (!is_system_command(line)) {
+        // grbl's M codes: program stops and ends, the spindle (laser), coolant, parking.
+        constexpr std::array<int, 11> kGrblM = {0, 1, 2, 3, 4, 5, 7, 8, 9, 30, 56};
+        try {
+            const gcode::Line parsed = gcode::parse_line(line);
+            if (parsed.command_letter == 'M' &&
+                std::find(kGrblM.begin(), kGrblM.end(), parsed.command_number) == kGrblM.end())
+                return {"error:20"};
+        } catch (const gcode::SyntaxError&) {
+            return {"error:1"};
+        }
+    }
+    if (faults.error_at_line > 0 &&
+        lines_received_ == static_cast<std::size_t>(faults.error_at_line)) {
+        alarm_ = true;
+        return {"ALARM:1"};  // a hard limit switch
+    }
+    std::vector<std::string> replies;
+    try {
+        replies = bench_->run_printer_line(line);
+    } catch (const JobMachineError&) {
+        alarm_ = true;
+        return {"ALARM:2"};
+    } catch (const std::exception&) {
+        return {"error:20"};
     }
     replies.emplace_back("ok");
     return replies;

@@ -112,6 +112,10 @@ class TwinBench {
     Pose knock_;  // the camera's frame after its knocks, from the one set up: identity at first
 };
 
+// What the twin machine's firmware says when its board starts: Marlin's "start" and version,
+// grbl's welcome line; nothing from RepRapFirmware (native USB: no reset, no banner).
+std::vector<std::string> start_up_banner(const models::MachineFile& machine);
+
 // The printer end of a pseudo-terminal: a thread answering as Marlin does (line numbers and
 // checksums checked, Resend on a mismatch, ok per line, M503 reports), with the scenario's
 // faults injected.
@@ -131,6 +135,7 @@ class TwinPrinterLink {
   private:
     void serve();
     std::vector<std::string> answer(std::string line);
+    std::vector<std::string> answer_as_grbl(const std::string& line);
     std::shared_ptr<TwinBench> bench_;
     int master_fd_ = -1;
     std::string device_path_;
@@ -139,6 +144,7 @@ class TwinPrinterLink {
     std::atomic<bool> answering_{false};  // from reading the box's bytes to writing the replies
     long last_line_ = 0;
     bool halted_ = false;
+    bool alarm_ = false;  // grbl: locked out after an alarm, until the board resets
     std::mt19937_64 noise_;
     std::thread thread_;
 };

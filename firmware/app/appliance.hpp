@@ -43,7 +43,7 @@ struct Appliance {
               GcodeHostSettings serial, const models::MachineFile& machine, CycleSettings settings,
               const Cycle::Log& log)
         : data(data_dir),
-          link(make_machine_link(machine.link, devices.machine, devices.http, clock, serial, log)),
+          link(make_machine_link(machine, devices.machine, devices.http, clock, serial, log)),
           cycle({devices.camera, devices.lines, *link, devices.display, clock, data, worker},
                 machine, std::move(settings), log) {
         watch_cycle(loop, cycle, *link, devices.camera, devices.lines);

@@ -24,6 +24,44 @@ long resend_number(const std::string& reply) {
     return n;
 }
 
+// What grbl 1.1's commonest codes mean (its documentation's error and alarm tables).
+std::string grbl_meaning(const std::string& reply) {
+    const bool alarm = reply.starts_with("ALARM:");
+    long code = -1;
+    const std::size_t at = reply.find(':') + 1;
+    std::from_chars(reply.data() + at, reply.data() + reply.size(), code);
+    if (alarm) {
+        switch (code) {
+            case 1:
+                return "grbl: a hard limit was hit";
+            case 2:
+                return "grbl: a move beyond the machine's travel (soft limit)";
+            case 3:
+                return "grbl: reset while in motion";
+            default:
+                return "grbl: alarm " + std::to_string(code);
+        }
+    }
+    switch (code) {
+        case 1:
+            return "grbl: a word without its letter";
+        case 2:
+            return "grbl: a number it cannot read";
+        case 9:
+            return "grbl: locked out by an alarm";
+        case 15:
+            return "grbl: a jog beyond the travel";
+        case 20:
+            return "grbl: an unsupported or invalid command";
+        case 22:
+            return "grbl: no feed rate set";
+        case 33:
+            return "grbl: a move with an invalid target";
+        default:
+            return "grbl: error " + std::to_string(code);
+    }
+}
+
 }  // namespace
 
 // A link that is gone is no longer watched (its descriptor would stay readable).
@@ -52,7 +90,8 @@ void GcodeHost::start_job(const std::vector<std::string>& lines,
         done(JobOutcome{false, gone_, {}, {}});
         return;
     }
-    job_.assign(1, "M110 N0");
+    job_.clear();
+    if (settings_.numbered_lines) job_.emplace_back("M110 N0");
     for (const auto& raw : lines) {
         std::string body = gcode::strip_comments(raw);
         while (!body.empty() && (body.back() == ' ' || body.back() == '\t' || body.back() == '\r'))
@@ -78,7 +117,9 @@ void GcodeHost::start_job(const std::vector<std::string>& lines,
 
 void GcodeHost::pump() {
     while (busy() && !paused_ && in_flight_ < settings_.window && next_ < job_.size()) {
-        write_line(gcode::numbered_line(static_cast<long>(next_), job_[next_]));
+        write_line(settings_.numbered_lines
+                       ? gcode::numbered_line(static_cast<long>(next_), job_[next_])
+                       : job_[next_]);
         ++next_;
         ++in_flight_;
     }
@@ -138,7 +179,9 @@ void GcodeHost::on_readable() {
 }
 
 void GcodeHost::handle(const std::string& reply) {
-    const bool banner = reply == "start" || reply.starts_with("start ");
+    // Marlin's "start", grbl's "Grbl 1.1h ['$' for help]": the board has reset and is ready.
+    const bool banner =
+        reply == "start" || reply.starts_with("start ") || reply.starts_with("Grbl ");
     heard_from_printer_ = true;
     if (waiting_for_startup_) {
         log_("printer: " + reply);
@@ -181,6 +224,13 @@ void GcodeHost::handle(const std::string& reply) {
     }
     if (contains(reply, "busy:")) {
         arm_deadline();  // the printer is working (homing, heating): not silent
+        return;
+    }
+    if (reply.starts_with("error:") || reply.starts_with("ALARM:")) {
+        // grbl's refusal of the line it last took (error:N) or its alarm (ALARM:N, the machine
+        // locked until it is cleared): the job cannot go on.
+        finish(false, "the machine answered \"" + reply + "\" (" + grbl_meaning(reply) + ") to " +
+                          last_sent());
         return;
     }
     if (reply.starts_with("Error:") || reply.starts_with("!!")) {
@@ -227,11 +277,17 @@ void GcodeHost::on_timer() {
     }
     if (busy() && (in_flight_ > 0 || paused_)) {
         const auto seconds = std::chrono::duration<double>(settings_.reply_timeout).count();
-        char why[160];
-        std::snprintf(why, sizeof why, "the printer did not answer within %.0f s (line %zu: %s)",
-                      seconds, next_ - 1, job_[next_ - 1].c_str());
-        finish(false, why);
+        char why[80];
+        std::snprintf(why, sizeof why, "the printer did not answer within %.0f s (", seconds);
+        finish(false, why + last_sent() + ")");
     }
+}
+
+std::string GcodeHost::last_sent() const {
+    if (next_ == 0) return "no line sent";
+    // Numbered, the printer's own line number (job_[0] is the M110 N0); plain, counted from 1.
+    const std::size_t number = settings_.numbered_lines ? next_ - 1 : next_;
+    return "line " + std::to_string(number) + ": " + job_[next_ - 1];
 }
 
 void GcodeHost::cancel(const std::string& why) {

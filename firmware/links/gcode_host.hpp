@@ -27,6 +27,10 @@ struct GcodeHostSettings {
     // spoken already; zero does not wait.
     std::chrono::milliseconds startup_wait{3000};
     std::size_t transcript_lines = 200000;  // about two whole delta cycles with resends
+    // Marlin and RepRapFirmware: each line numbered and checksummed, a job opened by M110 N0, a
+    // line the printer read wrong sent again when it asks. grbl reads neither (a `*` is its
+    // error:1, M110 its error:20): plain lines, each answered by ok or error:N.
+    bool numbered_lines = true;
 };
 
 // The machine link over a serial port the box owns.
@@ -74,6 +78,7 @@ class GcodeHost final : public MachineLink {
     void flush();
     void finish(bool ok, const std::string& error);
     void arm_deadline();
+    std::string last_sent() const;  // "line N: TEXT", the last line written
 
     hal::SerialPort& port_;
     std::unique_ptr<hal::Timer> timer_;

@@ -33,14 +33,16 @@ std::chrono::milliseconds milliseconds_of(double seconds) {
 
 }  // namespace
 
-std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings& link,
+std::unique_ptr<MachineLink> make_machine_link(const models::MachineFile& machine,
                                                hal::SerialPort* port, hal::HttpClient* http,
                                                hal::Clock& clock, GcodeHostSettings serial,
                                                const GcodeHost::Log& log) {
+    const models::MachineLinkSettings& link = machine.link;
     if (link.kind == "serial") {
         if (port == nullptr)
             throw std::runtime_error(
                 "the machine's link is serial but the board has no port for it");
+        serial.numbered_lines = machine.firmware != "grbl";
         return std::make_unique<GcodeHost>(*port, clock, serial, log);
     }
     if (link.url.empty())

@@ -27,10 +27,11 @@ struct LinkSettings {
 // The machine link's table of the configuration: [link].
 SettingsTable<LinkSettings> link_settings_table();
 
-// The machine link the machine file's [link] says: G-code streamed over the board's serial port,
-// or a host's API over `http`. Throws std::runtime_error naming what is missing (no serial port,
-// no network; a key file that cannot be read).
-std::unique_ptr<MachineLink> make_machine_link(const models::MachineLinkSettings& link,
+// The machine link the machine file's [link] says: G-code streamed over the board's serial port
+// (numbered and checksummed, or plain lines for grbl, as its firmware reads them), or a host's
+// API over `http`. Throws std::runtime_error naming what is missing (no serial port, no network;
+// a key file that cannot be read).
+std::unique_ptr<MachineLink> make_machine_link(const models::MachineFile& machine,
                                                hal::SerialPort* port, hal::HttpClient* http,
                                                hal::Clock& clock, GcodeHostSettings serial,
                                                const GcodeHost::Log& log);

@@ -7,6 +7,7 @@
 #include <CppUTestExt/MockSupport.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -118,8 +119,10 @@ struct Rig {
                              {}});
         // The twin's start-up banner, in real time: the fake clock must not run past the host's
         // wait for it while the printer's thread is still starting.
-        for (int i = 0; i < 250 && !host.heard_from_printer(); ++i) loop.run_once(20ms);
-        CHECK_TEXT(host.heard_from_printer(), "the twin printer sent no start-up banner");
+        if (!sim::start_up_banner(board.machine).empty()) {
+            for (int i = 0; i < 250 && !host.heard_from_printer(); ++i) loop.run_once(20ms);
+            CHECK_TEXT(host.heard_from_printer(), "the twin printer sent no start-up banner");
+        }
     }
 
     // Runs the loop until `done`; when nothing is ready, simulated time moves on by a second (so
@@ -701,6 +704,48 @@ TEST(ApplianceLink, the_printers_banner_is_not_echoed_back_before_the_line_is_ra
     ::close(slave);
 }
 
+// The twin as grbl: its own welcome, not Marlin's; a numbered, checksummed line is its error:1
+// (a word without its letter), M110 its error:20, a plain line an ok; a move beyond the travel
+// its soft-limit alarm, after which it is locked (error:9).
+TEST(ApplianceLink, a_grbl_twin_greets_and_answers_as_grbl) {
+    auto bench = std::make_shared<sim::TwinBench>(sim::load_scenario(
+        (fs::path(CALBOX_SOURCE_DIR) / "tests/scenarios/planar_small.toml").string()));
+    sim::TwinPrinterLink link(bench);
+    const int slave = ::open(link.device_path().c_str(), O_RDWR | O_NOCTTY);
+    CHECK(slave >= 0);
+    termios raw{};
+    ::tcgetattr(slave, &raw);
+    ::cfmakeraw(&raw);
+    ::tcsetattr(slave, TCSANOW, &raw);
+    std::string heard;
+    const auto hear_line = [&] {
+        for (int i = 0; i < 200 && heard.find('\n') == std::string::npos; ++i) {
+            pollfd p{slave, POLLIN, 0};
+            char buffer[256];
+            if (::poll(&p, 1, 20) == 1) {
+                const ssize_t n = ::read(slave, buffer, sizeof buffer);
+                if (n > 0) heard.append(buffer, static_cast<std::size_t>(n));
+            }
+        }
+        const auto end = heard.find('\n');
+        const std::string line = heard.substr(0, end);
+        heard.erase(0, end == std::string::npos ? heard.size() : end + 1);
+        return line;
+    };
+    const auto say = [&](const std::string& line) {
+        const std::string text = line + "\n";
+        CHECK_EQUAL(static_cast<ssize_t>(text.size()), ::write(slave, text.data(), text.size()));
+        return hear_line();
+    };
+    STRCMP_EQUAL("Grbl 1.1h ['$' for help]", hear_line().c_str());
+    STRCMP_EQUAL("error:1", say("N1 G21*19").c_str());
+    STRCMP_EQUAL("error:20", say("M110 N0").c_str());
+    STRCMP_EQUAL("ok", say("G21").c_str());
+    STRCMP_EQUAL("ALARM:2", say("G0 X5000 Y0").c_str());
+    STRCMP_EQUAL("error:9", say("G21").c_str());
+    ::close(slave);
+}
+
 // Line noise on the pty: the printer refuses corrupted lines, the box resends, the cycle ends
 // as on a clean link.
 TEST(ApplianceLink, a_noisy_link_is_resent_line_by_line_and_the_cycle_completes) {
@@ -994,8 +1039,11 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
             return l.find(word) != std::string::npos;
         });
     };
-    CHECK_EQUAL(2, count(" M110 N0*"));
-    CHECK(count(" M3 S") > 1900);   // every mark's beam switched on, twice
+    // grbl's plain lines: each job opens with its own G21, nothing numbered or checksummed.
+    CHECK_EQUAL(2, std::count(sent.begin(), sent.end(), "G21"));
+    CHECK_EQUAL(0, count("M110"));
+    CHECK_EQUAL(0, count("*"));
+    CHECK(count("M3 S") > 1900);    // every mark's beam switched on, twice
     CHECK_EQUAL(0, count("M665"));  // a galvo's geometry is not a printer's settings
     CHECK(rig.data.read_file("cycle-0001-table.csv").has_value());
     const auto verified = modes::galvo_result_from_json(
@@ -1113,6 +1161,13 @@ TEST(AppliancePlc, a_router_meeting_its_goal_reads_pass) {
     CHECK(r.rig.cycle.goal_met());
     DOUBLES_EQUAL(report.verified->rms_mm, r.registers.result("verified_xy_rms_mm"), 1e-5);
     CHECK(std::isnan(r.registers.result("diagonal_rod_mm")));  // a router has no rods
+    // grbl reads plain lines: nothing numbered, checksummed or opened by M110 went to it (the
+    // twin answers those as grbl does, error:1 and error:20, and the cycle would have failed).
+    const auto sent = r.rig.transcript();
+    CHECK(sent.size() > 100);
+    for (const auto& line : sent)
+        CHECK_TEXT(line.find('*') == std::string::npos && line.find("M110") == std::string::npos,
+                   line.c_str());
 }
 
 // Under a coarse, noisy camera the box measures the grid through its table at 0.012 mm mean:

@@ -140,6 +140,50 @@ TEST(GcodeHost, the_first_job_waits_for_the_start_up_banner) {
     CHECK(outcome && outcome->ok);
 }
 
+// grbl reads plain lines: no number, no checksum, no M110; each answered by ok or error:N, an
+// error or an alarm ends the job naming the line and what grbl means by it.
+TEST(GcodeHost, grbl_gets_plain_lines_and_its_errors_end_the_job) {
+    firmware::GcodeHostSettings grbl;
+    grbl.startup_wait = 0ms;
+    grbl.numbered_lines = false;
+    host = std::make_unique<firmware::GcodeHost>(port, clock, grbl, [](const std::string&) {});
+    start({"G21 ; mm", "G0 X1 Y2", "M3 S500"});
+    STRCMP_EQUAL("G21\n", port.written.c_str());
+    printer_says("ok\n");
+    STRCMP_EQUAL("G21\nG0 X1 Y2\n", port.written.c_str());
+    printer_says("error:20\n");
+    CHECK(outcome && !outcome->ok);
+    STRCMP_EQUAL(
+        "the machine answered \"error:20\" (grbl: an unsupported or invalid command) to line 2: "
+        "G0 X1 Y2",
+        outcome->error.c_str());
+    const auto sent = port.written.size();
+    printer_says("ok\n");
+    CHECK_EQUAL(sent, port.written.size());  // nothing more went
+    outcome.reset();
+    start({"G0 X900 Y0"});
+    printer_says("ALARM:2\n");
+    CHECK(outcome && !outcome->ok);
+    STRCMP_CONTAINS("ALARM:2\" (grbl: a move beyond the machine's travel (soft limit)) to line 1",
+                    outcome->error.c_str());
+}
+
+// grbl's welcome line is its start-up banner: the first job waits for it, and one mid-job is a
+// reset that abandons the job.
+TEST(GcodeHost, grbls_welcome_is_its_start_up_banner) {
+    firmware::GcodeHostSettings grbl;
+    grbl.startup_wait = 2000ms;
+    grbl.numbered_lines = false;
+    host = std::make_unique<firmware::GcodeHost>(port, clock, grbl, [](const std::string&) {});
+    start({"G21", "G0 X1"});
+    STRCMP_EQUAL("", port.written.c_str());
+    printer_says("\r\nGrbl 1.1h ['$' for help]\r\n");
+    STRCMP_EQUAL("G21\n", port.written.c_str());
+    printer_says("ok\nGrbl 1.1h ['$' for help]\n");
+    CHECK(outcome && !outcome->ok);
+    STRCMP_CONTAINS("restarted mid-job", outcome->error.c_str());
+}
+
 TEST(GcodeHost, a_printer_that_stays_silent_at_start_is_sent_to_after_the_wait) {
     host = std::make_unique<firmware::GcodeHost>(
         port, clock, firmware::GcodeHostSettings{1, 1000ms, 3, 2000ms}, [](const std::string&) {});

@@ -6,9 +6,14 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <fstream>
+#include <iterator>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <stdexcept>
+#include <vector>
+
+#include "core/vision/image_bytes.hpp"
 
 namespace calbox::drivers {
 namespace {
@@ -72,7 +77,15 @@ void FileCamera::start_capture(const hal::CaptureRequest& request) {
                     "camera: " + files_[k].string() + ": cannot read: " + std::strerror(errno);
                 break;
             }
-            const cv::Mat gray = cv::imread(files_[k].string(), cv::IMREAD_GRAYSCALE);
+            std::ifstream in(files_[k], std::ios::binary);
+            const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                                  std::istreambuf_iterator<char>());
+            if (const auto problem = vision::image_bytes_problem(bytes); !problem.empty()) {
+                result.frames.clear();
+                result.error = "camera: " + files_[k].string() + ": " + problem;
+                break;
+            }
+            const cv::Mat gray = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
             if (gray.empty()) {
                 result.frames.clear();
                 result.error = "camera: " + files_[k].string() + ": not an image OpenCV can read";

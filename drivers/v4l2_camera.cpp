@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
+#include "core/vision/image_bytes.hpp"
 #include "drivers/device_error.hpp"
 
 namespace calbox::drivers {
@@ -171,6 +172,9 @@ hal::Frame V4l2Camera::to_gray(const Buffer& buffer, std::size_t used_bytes) con
     frame.format = hal::PixelFormat::gray8;
     const auto* bytes = static_cast<const std::uint8_t*>(buffer.address);
     if (fourcc_ == V4L2_PIX_FMT_MJPEG) {
+        // A frame the USB link cut short decodes grey at its foot: refused, not measured.
+        if (const auto problem = vision::image_bytes_problem({bytes, used_bytes}); !problem.empty())
+            throw std::runtime_error(device_->path() + ": a frame: " + problem);
         const cv::Mat jpeg(1, static_cast<int>(used_bytes), CV_8U,
                            const_cast<std::uint8_t*>(bytes));
         const cv::Mat gray = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);

@@ -85,6 +85,18 @@ samples=/usr/share/doc/opencv-doc/examples/data
 head -c 20000 "$samples/left01.jpg" > "$work/cut_short.jpg"
 expect_error "cut_short.jpg: the JPEG is cut short" camera calibrate --pattern chessboard:9x6@25 \
     "$work/cut_short.jpg" "$samples/left02.jpg" "$samples/left03.jpg" "$samples/left04.jpg" -o "$work/result"
+# The same cut-short photo handed to the appliance as its camera, and an empty file to detect: each
+# named with what is wrong with it, not measured grey nor stopped on OpenCV's own assertion.
+mkdir -p "$work/cut_photos" && cp "$work/cut_short.jpg" "$work/cut_photos/"
+"$calbox" run --auto --scenario "$top/tests/scenarios/delta_cycle_small.toml" --data "$work/box_cut" \
+    --camera-files "$work/cut_photos" > "$work/out" 2> "$work/err" < /dev/null
+status=$?
+if [ "$status" -ne 1 ] || ! grep -q "cut_short.jpg: the JPEG is cut short" "$work/err"; then
+    echo "FAIL: a cut-short photo from --camera-files -> exit $status, stderr:"; sed 's/^/    /' "$work/err"
+    failures=$((failures + 1))
+fi
+: > "$work/empty.png"
+expect_error "cannot read image .*empty.png: the file is empty" detect markers "$work/empty.png"
 expect_error "the board was found in 0 of 3 images" camera calibrate --pattern chessboard:10x7@30 \
     "$samples/left02.jpg" "$samples/left03.jpg" "$samples/left04.jpg" -o "$work/result"
 expect_error "not an image OpenCV can decode" detect markers "$work/fake.png"

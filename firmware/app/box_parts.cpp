@@ -66,17 +66,20 @@ std::vector<firmware::ConsoleCommand> sim_board_commands(sim::SimBoard& board,
                                                          firmware::EventLoop& loop) {
     using Words = std::vector<std::string>;
     return {{"press", "press", "the sim board: a short press of the button",
-             [&board](const Words&, std::string_view, firmware::ConsoleReply& r) {
+             [&board](const Words& words, std::string_view, firmware::ConsoleReply& r) {
+                 firmware::need_words(words, 1, "press");
                  board.lines->press(std::chrono::milliseconds(100));
                  r.text = "pressed";
              }},
             {"hold", "hold", "the sim board: a long press of the button",
-             [&board](const Words&, std::string_view, firmware::ConsoleReply& r) {
+             [&board](const Words& words, std::string_view, firmware::ConsoleReply& r) {
+                 firmware::need_words(words, 1, "hold");
                  board.lines->press(std::chrono::milliseconds(2000));
                  r.text = "held";
              }},
             {"quit", "quit", "the sim board: stop the box",
-             [&loop](const Words&, std::string_view, firmware::ConsoleReply& r) {
+             [&loop](const Words& words, std::string_view, firmware::ConsoleReply& r) {
+                 firmware::need_words(words, 1, "quit");
                  loop.stop();
                  r.text = "stopping";
              }}};

@@ -106,11 +106,11 @@ namespace {
 
 using Words = std::vector<std::string>;
 
-void need_words(const Words& words, std::size_t n, const std::string& usage) {
-    if (words.size() != n) throw Refused("usage: " + usage);
-}
-
 }  // namespace
+
+void need_words(const std::vector<std::string>& words, std::size_t n, const std::string& usage) {
+    if (words.size() != n) throw ConsoleRefused("usage: " + usage);
+}
 
 std::vector<ConsoleCommand> Console::commands() {
     // The order `help` lists them in (docs/appliance.md's Console section follows it).

@@ -91,6 +91,9 @@ struct ConsoleCommand {
 // What follows a line's first `skip` words, trimmed; a value in double quotes loses them (a
 // row's free text: `config set KEY VALUE`, `web password PASSWORD`).
 std::string console_words_after(std::string_view line, std::size_t skip);
+// A row that takes exactly `n` words (its own included): anything else is refused with its
+// usage, so that "quit now" or "start later" does nothing.
+void need_words(const std::vector<std::string>& words, std::size_t n, const std::string& usage);
 
 struct ConsoleContext {
     Cycle& cycle;

@@ -230,6 +230,47 @@ for command, why in [("confirm", "not waiting for a person"), ("cancel", "nothin
         fail(f"{command}: {r['error']}")
 print("refusals: over-long line, unknown command, commands out of place")
 
+# Every command the console lists, with an unknown argument, an over-long one (inside the line's
+# 256 bytes) and, where it takes some, none: one reply line each, and the box still up, idle and
+# not started (a "quit now" once stopped the box; a "press twice" would start a cycle). Commands
+# that act are not sent bare.
+ACTING = {"start", "confirm", "cancel", "revert", "capture", "camera calibrate", "camera plane",
+          "press", "hold", "quit", "config save", "config reset", "acknowledge"}
+tried = 0
+for entry in t.ask("help")["commands"]:
+    usage = entry["command"].split()
+    name = []
+    for word in usage:
+        if not word[0].islower():
+            break
+        name.append(word)
+    name = " ".join(name)
+    trials = [name + " bogus-word", name + " " + "z" * 200]
+    if len(usage) > len(name.split()) and name not in ACTING:
+        trials.append(name)
+    for command in trials:
+        t.send(command + " --json\r")
+        while True:
+            line = t.line(60)
+            if line is None:
+                fail("no reply to " + command[:60] + " (the box " +
+                     ("ended" if box.poll() is not None else "is silent") + ")")
+            if not line.startswith("notice: "):
+                break
+        try:
+            json.loads(line)
+        except ValueError:
+            fail(f"{command[:60]}: not one JSON line: {line!r}")
+        extra = t.line(0.3)
+        if extra is not None and not extra.startswith("notice: "):
+            fail(f"{command[:60]}: a second line {extra!r}")
+        tried += 1
+    s = t.ask("status")
+    if s["state"] != "idle" or s["cycle"] != 0:
+        fail(f"after {name} with bad arguments: {s}")
+t.ask("web password --clear")  # its argument is free text: the trials above set one
+print(f"bad arguments: {tried} lines, one reply each, the box idle")
+
 # the camera's set-up from the console, one capture per view
 t.ask("camera calibrate")
 views = []

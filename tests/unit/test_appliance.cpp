@@ -1298,6 +1298,20 @@ std::vector<DriftFigures> three_cycles(const std::string& scenario,
 
 }  // namespace
 
+// A delta's correction lives in the printer: its error as jobs meet it is its print as printed.
+// The second cycle finds what the first verified (no drift, nothing to calibrate); a knock that
+// turns tower A by 0.15 degree before the third shows as drift, as the twin's truth has it.
+TEST(ApplianceDrift, a_delta_as_it_was_left_has_not_drifted_and_a_knocked_one_has) {
+    const auto f = three_cycles("tests/scenarios/delta_cycle_small.toml", [](sim::Scenario& s) {
+        s.delta_truth.tower_angle_trim_deg[0] += 0.15;
+    });
+    CHECK(f[0].raw_mm > 0.05);
+    CHECK(std::abs(f[1].drift_mm) < 0.01);
+    CHECK_FALSE(f[1].needs_calibration);
+    CHECK(std::abs(f[2].in_force_mm - f[2].truth_mm) < 0.01);
+    CHECK(f[2].drift_mm > 0.02);
+}
+
 TEST(ApplianceDrift, a_router_as_its_model_left_it_has_not_drifted_and_a_changed_one_has) {
     // The x axis' belt stretches by 0.05 %: 0.1 mm over 200 mm.
     const auto f = three_cycles("tests/scenarios/planar_small.toml",

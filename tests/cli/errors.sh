@@ -6,6 +6,17 @@ work="$(mktemp -d)"; trap 'rm -rf "$work"' EXIT
 failures=0
 scenario="$top/examples/delta_rod_error.toml"
 
+# A library's own words never reach the user: OpenCV's exceptions and warnings, libjpeg's, an
+# uncaught exception's. Every refusal below is checked for them.
+refusals=0
+no_library_text() {  # no_library_text WHAT (reads $work/err)
+    refusals=$((refusals + 1))
+    if grep -qE 'OpenCV\(|Assertion failed|Premature end of JPEG|Corrupt JPEG|libpng|terminate called|what\(\):|\[ WARN:' "$work/err"; then
+        echo "FAIL: $1: a library's own text reached the user:"; sed 's/^/    /' "$work/err"
+        failures=$((failures + 1))
+    fi
+}
+
 expect_error() {  # expect_error REGEX ARGS...
     local regex="$1"; shift
     "$calbox" "$@" > "$work/out" 2> "$work/err" < /dev/null
@@ -15,6 +26,7 @@ expect_error() {  # expect_error REGEX ARGS...
         echo "FAIL: calbox $* -> exit $status, stderr:"; sed 's/^/    /' "$work/err"
         failures=$((failures + 1))
     fi
+    no_library_text "calbox $*"
     if [ -e "$work/result" ]; then
         echo "FAIL: calbox $* left an output file behind"; failures=$((failures + 1)); rm -f "$work/result"
     fi
@@ -95,6 +107,7 @@ if [ "$status" -ne 1 ] || ! grep -q "cut_short.jpg: the JPEG is cut short" "$wor
     echo "FAIL: a cut-short photo from --camera-files -> exit $status, stderr:"; sed 's/^/    /' "$work/err"
     failures=$((failures + 1))
 fi
+no_library_text "calbox run --camera-files (a cut-short photo)"
 : > "$work/empty.png"
 expect_error "cannot read image .*empty.png: the file is empty" detect markers "$work/empty.png"
 expect_error "the board was found in 0 of 3 images" camera calibrate --pattern chessboard:10x7@30 \
@@ -255,5 +268,5 @@ expect_error "needs --machine FILE" run --board rpi --board-file "$work/board.to
 expect_error "unknown board 'pi': sim or rpi" run --board pi --data "$work/rpi"
 expect_error "the sim board's" run --board rpi --auto --machine "$top/examples/delta_printer.toml" --data "$work/rpi"
 
-[ "$failures" -eq 0 ] && echo "all error cases give one clear line"
+[ "$failures" -eq 0 ] && echo "all $refusals error cases give one clear line, none a library's own text"
 exit "$failures"

@@ -640,7 +640,7 @@ void PngDisplay::show(const hal::MonoBitmap& frame) {
         throw std::runtime_error(path.string() + ": cannot write the frame");
 }
 
-SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines::Log log) {
+SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const SimLines::Log& log) {
     SimBoard board;
     board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
                                               settings.data_dir / kTwinSettingsFile);

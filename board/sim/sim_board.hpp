@@ -239,6 +239,6 @@ struct SimBoard {
 };
 
 // Throws ScenarioError for a scenario the sim board cannot run (no camera, not a delta).
-SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, SimLines::Log log);
+SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const SimLines::Log& log);
 
 }  // namespace calbox::sim

@@ -324,6 +324,25 @@ struct MoonrakerTwin::State final : TwinHostCore {
     std::map<std::string, Clock::time_point> tokens;
     int tokens_redeemed = 0;
     Sections pending;  // SAVE_CONFIG's to write (SKEW_PROFILE SAVE)
+    bool restarted_at_command = false;
+
+    // host_restart_at_command: the first G-code script with a line starting so restarts the host
+    // (and Klipper with it) before any of it runs. A step of its own, whatever the requests
+    // before it numbered.
+    bool restarts_on(const std::string& method, const json& params) {
+        if (faults.restart_at_command.empty() || restarted_at_command ||
+            method != "printer.gcode.script")
+            return false;
+        std::istringstream script(params.value("script", std::string()));
+        std::string line;
+        bool found = false;
+        while (!found && std::getline(script, line))
+            found = line.rfind(faults.restart_at_command, 0) == 0;
+        if (!found) return false;
+        restarted_at_command = true;
+        restart_now();
+        return true;
+    }
 
     // Klipper reads printer.cfg: ready, or its error.
     void load_config() {
@@ -510,7 +529,7 @@ struct MoonrakerTwin::State final : TwinHostCore {
         const int n = count_request();
         // Unanswered: the client's reply timeout ends its wait.
         if (faults.silent_at_request > 0 && n >= faults.silent_at_request) return {};
-        if (restarts_at(n)) {
+        if (restarts_at(n) || restarts_on(method, params)) {
             // Klipper comes back with its host.
             const std::lock_guard lock(mutex);
             restart(std::chrono::milliseconds(1500));

@@ -145,9 +145,11 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.text("host_restart_at_command", restart_at_command);
         h.restart_at_command = restart_at_command.value_or("");
         r.finish();
-        if (!h.restart_at_command.empty() && s.machine.link.kind != "duet")
+        if (!h.restart_at_command.empty() && s.machine.link.kind != "duet" &&
+            s.machine.link.kind != "moonraker")
             throw ScenarioError(path +
-                                ": [faults] host_restart_at_command is a Duet's (each line its own "
+                                ": [faults] host_restart_at_command is a Duet's or Moonraker's "
+                                "(a G-code line or script of its own "
                                 "request there): the machine's [link] is " +
                                 s.machine.link.kind);
         if (h.any() && !s.machine.link.is_host())

@@ -161,9 +161,10 @@ expect_fault "$cartesian" cart_upload_refused \
     'host_upload_refused = true'
 klipper_cfg_is cart_upload_refused original
 # The host restarting while Klipper saves the skew, the rotation distances already written: they
-# are taken back.
+# are taken back. The restart comes with the script that saves the profile, whatever the number
+# of requests before it (a count fell elsewhere on a slower build).
 expect_fault "$cartesian" cart_restart_saving \
-    "apply: Moonraker: http://127.0.0.1:" 'host_restart_at_request = 12'
+    "apply: Moonraker: http://127.0.0.1:" 'host_restart_at_command = "SKEW_PROFILE SAVE"'
 grep -q "saving the skew profile calbox" "$work/cart_restart_saving.err" ||
     fail "cart_restart_saving: the host restarted before the skew was being saved"
 grep -q "(the previous printer.cfg was restored)$" "$work/cart_restart_saving.err" ||

@@ -92,9 +92,13 @@ Url parse_url(const std::string& text) {
     return url;
 }
 
+std::string ModbusEndpoint::text() const {
+    if (kind == Kind::tcp) return "tcp:" + host + ":" + std::to_string(port);
+    return "rtu:" + device + ":" + std::to_string(baud);
+}
+
 std::string ModbusEndpoint::describe() const {
-    if (kind == Kind::tcp) return "modbus tcp:" + host + ":" + std::to_string(port);
-    return "modbus rtu:" + device + ":" + std::to_string(baud);
+    return "modbus " + text();
 }
 
 ModbusEndpoint parse_modbus_endpoint(const std::string& text) {

@@ -29,12 +29,13 @@ HostPort parse_host_port(const std::string& text, bool names);
 struct ModbusEndpoint {
     enum class Kind { tcp, rtu };
     Kind kind = Kind::tcp;
-    std::string host;    // tcp
-    int port = 502;      // tcp
-    std::string device;  // rtu
-    int baud = 19200;    // rtu
-    int unit_id = 1;     // rtu: the server's address; tcp: the unit identifier sent
-    std::string describe() const;
+    std::string host;              // tcp
+    int port = 502;                // tcp
+    std::string device;            // rtu
+    int baud = 19200;              // rtu
+    int unit_id = 1;               // rtu: the server's address; tcp: the unit identifier sent
+    std::string text() const;      // as it is written: "tcp:HOST:PORT", "rtu:DEVICE:BAUD"
+    std::string describe() const;  // "modbus " and the text, for the log
 };
 ModbusEndpoint parse_modbus_endpoint(const std::string& text);
 

@@ -6,8 +6,6 @@
 #include <sstream>
 #include <vector>
 
-#include "core/number_text.hpp"
-
 namespace calbox::firmware {
 namespace {
 
@@ -69,21 +67,9 @@ std::string_view key_of(std::string_view name) {
     return name.substr(name.find('.') + 1);
 }
 
-// The index of `name` in the schema, or -1.
-std::ptrdiff_t index_of(std::string_view name) {
-    const auto& entries = schema().entries;
-    for (std::size_t i = 0; i < entries.size(); ++i)
-        if (entries[i].name == name) return static_cast<std::ptrdiff_t>(i);
-    return -1;
-}
-
-std::size_t index_or_throw(std::string_view name) {
-    const auto i = index_of(name);
-    if (i < 0) {
-        throw ConfigError("'" + std::string(name) +
-                          "' is not a configuration key (config list shows them)");
-    }
-    return static_cast<std::size_t>(i);
+// Where `entry` (one of the schema's, as Configuration::find gives it) is bound.
+const BoundKey& bound(const ConfigEntry& entry) {
+    return schema().keys[static_cast<std::size_t>(&entry - schema().entries.data())];
 }
 
 // A TOML node as the key's text, or a ConfigError saying what the key takes.
@@ -93,7 +79,7 @@ std::string node_text(const toml::node& node, const KeyInfo& k) {
         v && (k.kind == K::integer || k.kind == K::number || k.kind == K::choice))
         return std::to_string(v->get());
     if (const auto* d = node.as_floating_point(); d && k.kind == K::number)
-        return number_text("%.10g", d->get());
+        return setting_text::number(d->get());
     if (const auto* b = node.as_boolean(); b && k.kind == K::flag)
         return setting_text::flag_text(b->get());
     if (const auto* s = node.as_string(); s && (k.kind == K::text || k.kind == K::choice))
@@ -127,11 +113,10 @@ BoxConfig BoxConfig::from_toml(const std::string& text, const std::string& file)
         }
         for (const auto& [key, node] : *t) {
             const std::string prefix = where(node) + "[" + table + "] " + std::string(key.str());
-            const auto i = index_of(table + "." + std::string(key.str()));
-            if (i < 0) throw ConfigError(prefix + ": unknown key");
-            const auto at = static_cast<std::size_t>(i);
+            const ConfigEntry* entry = config.find(table + "." + std::string(key.str()));
+            if (entry == nullptr) throw ConfigError(prefix + ": unknown key");
             try {
-                schema().keys[at].set(config.settings_, node_text(node, schema().entries[at].info));
+                bound(*entry).set(config.settings_, node_text(node, entry->info));
             } catch (const ConfigError& e) {
                 throw ConfigError(prefix + ": " + e.what());
             }
@@ -179,19 +164,28 @@ std::span<const ConfigEntry> BoxConfig::entries() const {
     return schema().entries;
 }
 
+const ConfigEntry& BoxConfig::entry_or_throw(std::string_view key) const {
+    const ConfigEntry* entry = find(key);
+    if (entry == nullptr) {
+        throw ConfigError("'" + std::string(key) +
+                          "' is not a configuration key (config list shows them)");
+    }
+    return *entry;
+}
+
 std::string BoxConfig::get(std::string_view key) const {
-    return schema().keys[index_or_throw(key)].get(settings_);
+    return bound(entry_or_throw(key)).get(settings_);
 }
 
 std::string BoxConfig::default_value(std::string_view key) const {
-    return schema().keys[index_or_throw(key)].get(BoxSettings{});
+    return bound(entry_or_throw(key)).get(BoxSettings{});
 }
 
 void BoxConfig::set(std::string_view key, std::string_view value) {
-    const std::size_t i = index_or_throw(key);
+    const BoundKey& k = bound(entry_or_throw(key));
     BoxConfig changed = *this;
     try {
-        schema().keys[i].set(changed.settings_, value);
+        k.set(changed.settings_, value);
         changed.check_agreement();
     } catch (const ConfigError& e) {
         throw ConfigError(std::string(key) + ": " + e.what());
@@ -200,9 +194,9 @@ void BoxConfig::set(std::string_view key, std::string_view value) {
 }
 
 void BoxConfig::reset(std::string_view key) {
-    const std::size_t i = index_or_throw(key);
+    const BoundKey& k = bound(entry_or_throw(key));
     BoxConfig changed = *this;
-    schema().keys[i].set(changed.settings_, default_value(key));
+    k.set(changed.settings_, default_value(key));
     changed.check_agreement();
     *this = std::move(changed);
 }

@@ -51,6 +51,7 @@ class BoxConfig final : public Configuration {
     const BoxSettings& settings() const { return settings_; }
 
   private:
+    const ConfigEntry& entry_or_throw(std::string_view key) const;  // ConfigError when unknown
     void check_agreement() const;  // each table's own check (a Modbus map needs its client)
     BoxSettings settings_;
 };

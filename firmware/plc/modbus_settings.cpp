@@ -21,12 +21,9 @@ std::optional<net::ModbusEndpoint> endpoint(std::string_view text) {
     }
 }
 
-// "tcp:HOST:PORT" or "rtu:DEVICE:BAUD", as it is written; empty for none.
+// As it is written; empty for none.
 std::string text_of(const std::optional<net::ModbusEndpoint>& e) {
-    if (!e) return {};
-    if (e->kind == net::ModbusEndpoint::Kind::tcp)
-        return "tcp:" + e->host + ":" + std::to_string(e->port);
-    return "rtu:" + e->device + ":" + std::to_string(e->baud);
+    return e ? e->text() : std::string();
 }
 
 const SettingKey<ModbusSettings> kModbusKeys[] = {

@@ -138,6 +138,9 @@ struct MachineFile {
     bool is_delta() const { return kind == "delta"; }
     bool is_galvo() const { return kind == "galvo"; }
     bool is_planar() const { return kind == "router" || kind == "cartesian" || kind == "laser"; }
+    // A router's or a laser's job is written around a work zero the operator sets (a printer's
+    // around its bed's origin): placing it on the machine needs that zero.
+    bool jobs_at_work_zero() const { return kind == "router" || kind == "laser"; }
 };
 
 // A planar machine's travel in machine coordinates: [min x, min y, max x, max y].

@@ -74,7 +74,7 @@ std::string JobDesk::start(DeskOrder order) {
     const auto& machine = cycle_.machine();
     // A controller that tells its work offsets is asked; another's job needs its zero given.
     if (!order.work_zero && machine.firmware == "grbl") order.work_zero = "controller";
-    if (!order.work_zero && (machine.kind == "router" || machine.kind == "laser"))
+    if (!order.work_zero && machine.jobs_at_work_zero())
         return "compensate: a " + machine.kind +
                "'s job is written around its work zero, which calbox cannot see (its " +
                machine.firmware +

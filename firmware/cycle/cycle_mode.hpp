@@ -140,6 +140,16 @@ struct VerifyOutcome {
 struct ModeResult {
     std::vector<std::pair<std::string, double>> values;
     std::vector<float> table;
+    std::string table_key;  // the ModeTable (mode_tables()) it is written as
+};
+
+// A correction a mode keeps as a table that a controller can read from its holding registers:
+// where it goes unless the map file's `key = N` moves it, and how many registers it takes.
+struct ModeTable {
+    std::string key;   // the map file's key: "galvo_table"
+    std::string what;  // in messages: "the galvo table"
+    int registers = 0;
+    int default_register = 0;
 };
 
 class CycleMode {
@@ -205,5 +215,7 @@ std::unique_ptr<CycleMode> make_cycle_mode(const models::MachineFile& machine, C
 // The values the modes' results may carry (ModeResult::values), each mode's as it declares
 // them, in turn: the PLC's result block holds them in this order after the cycle's own.
 std::vector<std::string> mode_result_names();
+// The tables the modes' results may carry (ModeResult::table), each mode's as it declares it.
+std::vector<ModeTable> mode_tables();
 
 }  // namespace calbox::firmware

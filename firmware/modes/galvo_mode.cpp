@@ -145,7 +145,15 @@ ModeResult GalvoCycleMode::result(bool applied) const {
     ModeResult r;
     if (!solution_ || !applied) return r;
     r.table = table_registers(solution_->fit.table);
+    r.table_key = result_table().key;
     return r;
+}
+
+ModeTable GalvoCycleMode::result_table() {
+    // The cycle's table (65 x 65 nodes): its node count and rectangle, then two floats a node,
+    // two registers each.
+    const int nodes = modes::GalvoSolveOptions{}.table_nodes;
+    return {"galvo_table", "the galvo table", 2 * (5 + 2 * nodes * nodes), 1000};
 }
 
 std::vector<float> table_registers(const models::CorrectionTable& t) {

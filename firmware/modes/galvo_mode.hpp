@@ -30,6 +30,8 @@ class GalvoCycleMode final : public KeptCorrectionMode {
     void judge_verification(std::function<void(VerifyOutcome)> then) override;
     void describe_last(std::string&, nlohmann::json&) const override {}
     ModeResult result(bool applied) const override;
+    // The kept table in ModeResult::table (table_registers), from holding register 1000.
+    static ModeTable result_table();
 
     const std::optional<modes::GalvoSolution>& solution() const { return solution_; }
 

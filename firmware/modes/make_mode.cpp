@@ -21,4 +21,8 @@ std::vector<std::string> mode_result_names() {
     return DeltaCycleMode::result_names();
 }
 
+std::vector<ModeTable> mode_tables() {
+    return {GalvoCycleMode::result_table()};
+}
+
 }  // namespace calbox::firmware

@@ -15,8 +15,17 @@ namespace calbox::firmware {
 namespace {
 
 constexpr double kAbsent = std::numeric_limits<double>::quiet_NaN();
-// A 65 x 65 galvo table over Modbus: its node count and rectangle, then two floats a node.
-constexpr int kTableRegisters = 2 * (5 + 2 * 65 * 65);
+
+void place_tables_at_defaults(ResultRegisterMap& map) {
+    for (const auto& table : mode_tables()) map.table_registers[table.key] = table.default_register;
+}
+
+const ModeTable* table_of_key(const std::string& key) {
+    static const std::vector<ModeTable> tables = mode_tables();
+    for (const auto& table : tables)
+        if (table.key == key) return &table;
+    return nullptr;
+}
 
 void append_float(std::vector<std::uint16_t>& words, double value, models::WordOrder order) {
     const auto w = models::pack_float(static_cast<float>(value), order);
@@ -152,6 +161,7 @@ void PlcServer::on_coils_written() {
 
 ResultRegisterMap ResultRegisterMap::whole_block(int first_register) {
     ResultRegisterMap map;
+    place_tables_at_defaults(map);
     int address = first_register;
     for (const auto& name : result_value_names()) {
         map.registers.emplace_back(name, address);
@@ -172,22 +182,24 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
     std::map<std::string, bool> known;
     for (const auto& name : result_value_names()) known[name] = true;
     ResultRegisterMap map;
+    place_tables_at_defaults(map);
     std::map<int, std::string> taken;  // register -> the value using it
     for (const auto& [key, node] : table) {
         const std::string name(key.str());
         std::string at = source;
         at.append(":").append(std::to_string(node.source().begin.line)).append(": ");
-        if (known.count(name) == 0 && name != "galvo_table")
+        const auto* table = table_of_key(name);
+        if (known.count(name) == 0 && table == nullptr)
             throw std::runtime_error(at.append("'").append(name).append("' is not a result value"));
         const auto address = node.value<std::int64_t>();
-        if (name == "galvo_table") {
+        if (table != nullptr) {
             if (!node.is_integer() || !address || *address < 0 ||
-                *address > 65535 - kTableRegisters)
-                throw std::runtime_error(at + "galvo_table: a holding register 0 to " +
-                                         std::to_string(65535 - kTableRegisters) +
-                                         " (the table takes " + std::to_string(kTableRegisters) +
+                *address > 65535 - table->registers)
+                throw std::runtime_error(at + name + ": a holding register 0 to " +
+                                         std::to_string(65535 - table->registers) +
+                                         " (the table takes " + std::to_string(table->registers) +
                                          " registers)");
-            map.galvo_table_register = static_cast<int>(*address);
+            map.table_registers[name] = static_cast<int>(*address);
             continue;
         }
         if (!node.is_integer() || !address || *address < 0 || *address > 65534) {
@@ -203,14 +215,18 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
         map.registers.emplace_back(name, static_cast<int>(*address));
     }
     if (map.registers.empty()) throw std::runtime_error(source + ": maps no result value");
-    for (const auto& [name, address] : map.registers)
-        if (address + 1 >= map.galvo_table_register &&
-            address < map.galvo_table_register + kTableRegisters)
-            throw std::runtime_error(std::string(source)
-                                         .append(": ")
-                                         .append(name)
-                                         .append(" overlaps the galvo table at register ")
-                                         .append(std::to_string(map.galvo_table_register)));
+    for (const auto& [key, first] : map.table_registers) {
+        const auto* table = table_of_key(key);
+        for (const auto& [name, address] : map.registers)
+            if (address + 1 >= first && address < first + table->registers)
+                throw std::runtime_error(std::string(source)
+                                             .append(": ")
+                                             .append(name)
+                                             .append(" overlaps ")
+                                             .append(table->what)
+                                             .append(" at register ")
+                                             .append(std::to_string(first)));
+    }
     return map;
 }
 
@@ -228,7 +244,7 @@ void ResultWriter::write(const CycleReport& report, const ModeResult& mode) {
         words.emplace_back(address + 1, w[1]);
     }
     // A correction table the box keeps, for a controller that reads it from its registers.
-    int address = map_.galvo_table_register;
+    int address = mode.table.empty() ? 0 : map_.table_registers.at(mode.table_key);
     for (const float f : mode.table) {
         const auto w = models::pack_float(f, order_);
         words.emplace_back(address++, w[0]);

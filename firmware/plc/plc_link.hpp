@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -87,10 +88,9 @@ class PlcServer {
 // (two registers) per mapped name; the default map is the whole block from register 0.
 struct ResultRegisterMap {
     std::vector<std::pair<std::string, int>> registers;  // value name -> first holding register
-    // A galvo scanner's correction table, after the result (docs/devices.md, "The table over
-    // Modbus"): from this holding register, the node count and the rectangle (5 floats), then each
-    // node's command x and y, row by row. The TOML key `galvo_table` moves it.
-    int galvo_table_register = 1000;
+    // The first holding register of each mode's table (mode_tables(): its default unless the
+    // file's `key = N` moves it); docs/devices.md, "The table over Modbus".
+    std::map<std::string, int> table_registers;
     static ResultRegisterMap whole_block(int first_register);
     // A TOML file of `name = register` lines; unknown names, duplicate or overlapping
     // registers are errors naming the line. Throws std::runtime_error.

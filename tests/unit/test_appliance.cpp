@@ -1017,6 +1017,12 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
     CHECK(kept.has_value());
     // The file the web page serves with the records is the one the table is kept in.
     CHECK(rig.cycle.mode().kept_files() == std::vector<std::string>{firmware::kGalvoTableFile});
+    // What a controller reads over Modbus: that table, under the key a map file moves it by, in
+    // as many registers as the mode declares (the PLC's map checks overlaps with that count).
+    const auto for_controller = rig.cycle.mode().result(true);
+    CHECK_EQUAL(firmware::GalvoCycleMode::result_table().key, for_controller.table_key);
+    CHECK_EQUAL(firmware::GalvoCycleMode::result_table().registers,
+                2 * static_cast<int>(for_controller.table.size()));
     const auto table = modes::galvo_result_from_json(*kept, "kept").fit.table;
     const auto after = rig.board.bench->judge_galvo_scanner(
         [&table](sim::Vec2 p) {

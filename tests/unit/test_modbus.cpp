@@ -117,7 +117,7 @@ TEST(GalvoTableRegisters, the_kept_table_follows_the_result_block_in_stated_regi
         "measured_xy_rms_mm = 0\ngalvo_table = 2000\n", "map.toml");
     firmware::ResultWriter writer(registers_link, map, models::WordOrder::cdab,
                                   [](const std::string&) {});
-    writer.write(report, {{}, firmware::table_registers(t)});
+    writer.write(report, {{}, firmware::table_registers(t), "galvo_table"});
     while (!writer.idle()) {
         registers_link.results.push_back({});
         writer.on_completion();

@@ -21,40 +21,50 @@ std::string spaced_xy(Point2 p) {
     return " X" + number_text("%.4f", p.x) + " Y" + number_text("%.4f", p.y);
 }
 
-// The drawing as a browser shows it: what lies past the page (the viewport the document's width,
-// height and viewBox make) is not shown, so each shape reaching past it is cut at its edge, its
-// fill as a region and its stroke as lines.
-SvgDocument cut_at_page(const SvgDocument& document, std::optional<FillRule> fill_rule,
-                        int& shapes_cut) {
+// The drawing as a browser shows it: a shape shows only inside its clip path, and what lies past
+// the page (the viewport the document's width, height and viewBox make) is not shown, so each
+// shape reaching past either is cut at its edge, its fill as a region and its stroke as lines.
+SvgDocument cut_to_shown(const SvgDocument& document, std::optional<FillRule> fill_rule,
+                         int& shapes_cut_at_page) {
     const double w = document.width_mm, h = document.height_mm;
+    const bool has_page = w > 0 && h > 0;
     SvgDocument shown = document;
     shown.shapes.clear();
-    const Polygon page{{0, 0}, {w, 0}, {w, h}, {0, h}};
+    const std::vector<Polygon> page{{{0, 0}, {w, 0}, {w, h}, {0, h}}};
+    // A point within a micrometre of the page is on it: librsvg's painting (through cairo's
+    // fixed point) gives a corner on the page's edge back a fraction of that off it.
+    constexpr double kOnEdgeMm = 0.001;
     for (const auto& shape : document.shapes) {
         bool within = true;
-        for (const auto& c : shape.contours)
-            for (const auto& p : c.points)
-                within = within && p.x >= 0 && p.x <= w && p.y >= 0 && p.y <= h;
-        if (within) {
+        if (has_page)
+            for (const auto& c : shape.contours)
+                for (const auto& p : c.points)
+                    within = within && p.x >= -kOnEdgeMm && p.x <= w + kOnEdgeMm &&
+                             p.y >= -kOnEdgeMm && p.y <= h + kOnEdgeMm;
+        if (within && !shape.clip_region) {
             shown.shapes.push_back(shape);
             continue;
         }
-        ++shapes_cut;
+        if (!within) ++shapes_cut_at_page;
+        std::vector<Polygon> window = has_page ? page : std::vector<Polygon>{};
+        if (shape.clip_region)
+            window = has_page ? intersect_region(*shape.clip_region, page) : *shape.clip_region;
         if (shape.filled) {
             SvgShape fill = shape;
             fill.stroked = false;
+            fill.clip_region.reset();
             fill.fill_rule = FillRule::nonzero;  // resolved below
             fill.contours.clear();
             for (auto& p : intersect_region(
-                     resolve_fill(shape.contours, fill_rule.value_or(shape.fill_rule)), page))
+                     resolve_fill(shape.contours, fill_rule.value_or(shape.fill_rule)), window))
                 fill.contours.push_back({std::move(p), true});
             if (!fill.contours.empty()) shown.shapes.push_back(std::move(fill));
         }
         if (shape.stroked) {
             SvgShape stroke = shape;
             stroke.filled = false;
-            stroke.contours.clear();
-            stroke.contours = intersect_lines(shape.contours, page);
+            stroke.clip_region.reset();
+            stroke.contours = intersect_lines(shape.contours, window);
             if (!stroke.contours.empty()) shown.shapes.push_back(std::move(stroke));
         }
     }
@@ -94,10 +104,7 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     if (settings.perimeters < 0 || settings.perimeters > 20)
         throw JobError("perimeters must be 0 to 20");
     if (settings.scale && settings.fit_mm) throw JobError("give --scale or --fit, not both");
-    const SvgDocument shown =
-        document.width_mm > 0 && document.height_mm > 0
-            ? cut_at_page(document, settings.fill_rule, job.shapes_cut_at_page)
-            : document;
+    const SvgDocument shown = cut_to_shown(document, settings.fill_rule, job.shapes_cut_at_page);
     if (shown.shapes.empty()) throw JobError("nothing of the drawing lies on its page");
     double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
     for (const auto& shape : shown.shapes)

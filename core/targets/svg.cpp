@@ -10,6 +10,7 @@
 #include <pugixml.hpp>
 
 #include "core/number_text.hpp"
+#include "core/targets/toolpath.hpp"
 
 namespace calbox::targets {
 namespace {
@@ -268,49 +269,100 @@ void apply_property(Style& style, const std::string& name, std::string value,
     }
 }
 
+std::string without_spaces(std::string text) {
+    text.erase(
+        std::remove_if(text.begin(), text.end(), [](unsigned char c) { return std::isspace(c); }),
+        text.end());
+    return text;
+}
+
+// The declarations of a style="" attribute, name and value, in order.
+std::vector<std::pair<std::string, std::string>> style_declarations(const pugi::xml_node& node) {
+    const std::string style = node.attribute("style").value();
+    std::vector<std::pair<std::string, std::string>> declarations;
+    std::size_t start = 0;
+    while (start < style.size()) {
+        const auto end = std::min(style.find(';', start), style.size());
+        const std::string item = style.substr(start, end - start);
+        const auto colon = item.find(':');
+        if (colon != std::string::npos)
+            declarations.emplace_back(without_spaces(item.substr(0, colon)),
+                                      item.substr(colon + 1));
+        start = end + 1;
+    }
+    return declarations;
+}
+
 Style style_of(const pugi::xml_node& node, Style inherited, std::vector<std::string>& warnings) {
     for (const char* name :
          {"fill", "stroke", "fill-rule", "stroke-width", "display", "visibility"}) {
         if (const auto a = node.attribute(name))
             apply_property(inherited, name, a.value(), node, warnings);
     }
-    const std::string style = node.attribute("style").value();
-    std::size_t start = 0;
-    while (start < style.size()) {
-        const auto end = std::min(style.find(';', start), style.size());
-        const std::string item = style.substr(start, end - start);
-        const auto colon = item.find(':');
-        if (colon != std::string::npos) {
-            std::string name = item.substr(0, colon);
-            name.erase(std::remove_if(name.begin(), name.end(),
-                                      [](unsigned char c) { return std::isspace(c); }),
-                       name.end());
-            apply_property(inherited, name, item.substr(colon + 1), node, warnings);
-        }
-        start = end + 1;
-    }
+    for (const auto& [name, value] : style_declarations(node))
+        apply_property(inherited, name, value, node, warnings);
     return inherited;
 }
 
 // ---------------------------------------------------------------------------------------------
 
+using Region = std::optional<std::vector<Polygon>>;
+
+// "url(#id)" -> "id"; empty when it is not a local reference.
+std::string local_reference(const std::string& value) {
+    const std::string text = without_spaces(value);
+    if (text.rfind("url(#", 0) != 0 || text.back() != ')') return {};
+    return text.substr(5, text.size() - 6);
+}
+
+// A property given as an attribute or in style="" (the style wins, as in CSS).
+std::string property_of(const pugi::xml_node& node, const std::string& name) {
+    std::string value = node.attribute(name.c_str()).value();
+    for (const auto& [key, declared] : style_declarations(node))
+        if (key == name) value = declared;
+    return value;
+}
+
 struct Reader {
     SvgOptions options;
     SvgDocument document;
+    // check_svg_geometry: every element's geometry is read, wherever it stands, and nothing kept.
+    bool checking = false;
+    std::map<std::string, pugi::xml_node> by_id;
+    std::size_t instances = 0;
 
     // Groups nest this deep at most: drawing programs nest a few levels, a document nested
     // thousands deep is made to exhaust a reader's stack.
     static constexpr int kDeepestGroup = 256;
+    // Elements drawn through <use>: a few thousand in a real drawing; references nested to
+    // multiply without end are a document made to exhaust its reader.
+    static constexpr std::size_t kMostInstances = 200000;
+
+    void index(const pugi::xml_node& root) {
+        std::vector<pugi::xml_node> pending{root};
+        while (!pending.empty()) {
+            const auto node = pending.back();
+            pending.pop_back();
+            if (const auto id = node.attribute("id")) by_id.emplace(id.value(), node);
+            for (const auto& child : node.children())
+                if (child.type() == pugi::node_element) pending.push_back(child);
+        }
+    }
 
     void element(const pugi::xml_node& node, const Affine& parent, const Style& parent_style,
-                 int depth = 0) {
+                 int depth = 0, const Region& clip = std::nullopt) {
         if (depth > kDeepestGroup)
             throw SvgError("groups nested deeper than " + std::to_string(kDeepestGroup) +
                            " levels: not a drawing");
         const std::string name = element_name(node);
-        if (name == "defs" || name == "title" || name == "desc" || name == "metadata" ||
-            name == "style" || name == "clipPath" || name == "mask" || name == "symbol" ||
-            name == "marker" || name == "pattern") {
+        const bool container = name == "g" || name == "a" || name == "switch";
+        if (checking && (name == "text" || name == "style" || name == "title" || name == "desc" ||
+                         name == "metadata"))
+            return;  // no geometry of its own
+        if (!checking &&
+            (name == "defs" || name == "title" || name == "desc" || name == "metadata" ||
+             name == "style" || name == "clipPath" || name == "mask" || name == "symbol" ||
+             name == "marker" || name == "pattern")) {
             return;  // not drawn where it stands
         }
         if (name == "text")
@@ -318,11 +370,11 @@ struct Reader {
                 "<text> is not drawn by a machine: convert text to paths (Inkscape: Path > "
                 "Object to Path)");
         if (name == "image") {
-            document.warnings.push_back("ignored <image>: a machine draws no bitmap");
+            document.warnings.emplace_back("ignored <image>: a machine draws no bitmap");
             return;
         }
         const Style style = style_of(node, parent_style, document.warnings);
-        if (!style.visible) return;
+        if (!style.visible && !checking) return;
         Affine transform = parent;
         if (const auto t = node.attribute("transform")) {
             try {
@@ -331,10 +383,27 @@ struct Reader {
                 throw SvgError(std::string(e.what()) + " on <" + name + ">");
             }
         }
-        if (name == "g" || name == "a" || name == "switch") {
-            for (const auto& child : node.children()) {
-                if (child.type() == pugi::node_element) element(child, transform, style, depth + 1);
+        if (checking) {
+            if (name == "use") {
+                number_attribute(node, "x", 0);
+                number_attribute(node, "y", 0);
             }
+            geometry_of(node, name, transform);
+            for (const auto& child : node.children())
+                if (child.type() == pugi::node_element) element(child, transform, style, depth + 1);
+            return;
+        }
+        if (!node.attribute("mask").empty()) note_mask(node);
+        const Region region = clip_of(node, transform, clip);
+        if (container) {
+            for (const auto& child : node.children()) {
+                if (child.type() == pugi::node_element)
+                    element(child, transform, style, depth + 1, region);
+            }
+            return;
+        }
+        if (name == "use") {
+            use(node, transform, style, depth, region);
             return;
         }
         std::vector<Contour> contours = geometry_of(node, name, transform);
@@ -346,8 +415,99 @@ struct Reader {
         shape.fill_rule = style.fill_rule;
         shape.stroked = style.stroked;
         shape.stroke_width_mm = style.stroke_width_px * transform.scale();
+        shape.clip_region = region;
         if (!shape.filled && !shape.stroked) return;  // invisible
         document.shapes.push_back(std::move(shape));
+    }
+
+    // <use>: the element (or a <symbol>'s content) it names, drawn again at x, y.
+    void use(const pugi::xml_node& node, const Affine& transform, const Style& style, int depth,
+             const Region& clip) {
+        std::string href = node.attribute("href").value();
+        if (href.empty()) href = node.attribute("xlink:href").value();
+        const auto target =
+            href.size() > 1 && href[0] == '#' ? by_id.find(href.substr(1)) : by_id.end();
+        if (target == by_id.end()) {
+            document.warnings.push_back("ignored <use href=\"" + href +
+                                        "\">: no element of the document has that id");
+            return;
+        }
+        if (++instances > kMostInstances)
+            throw SvgError("more than " + std::to_string(kMostInstances) +
+                           " elements drawn through <use>: not a drawing");
+        const Affine at =
+            Affine{1, 0, 0, 1, number_attribute(node, "x", 0), number_attribute(node, "y", 0)}.then(
+                transform);
+        if (element_name(target->second) != "symbol") {
+            element(target->second, at, style, depth + 1, clip);
+            return;
+        }
+        const Style inside = style_of(target->second, style, document.warnings);
+        for (const auto& child : target->second.children())
+            if (child.type() == pugi::node_element) element(child, at, inside, depth + 1, clip);
+    }
+
+    // The region a clip-path="url(#id)" lets show, within the one inherited: its <clipPath>'s
+    // shapes, in the user space of the element it clips, each filled by its clip-rule.
+    Region clip_of(const pugi::xml_node& node, const Affine& transform, const Region& inherited) {
+        const std::string value = property_of(node, "clip-path");
+        if (value.empty() || value == "none") return inherited;
+        const std::string id = local_reference(value);
+        const auto found = by_id.find(id);
+        if (found == by_id.end() || element_name(found->second) != "clipPath") {
+            document.warnings.push_back("ignored clip-path \"" + value + "\" on <" +
+                                        element_name(node) + ">: no <clipPath> of that id");
+            return inherited;
+        }
+        const auto& clip_path = found->second;
+        if (std::string(clip_path.attribute("clipPathUnits").value()) == "objectBoundingBox")
+            throw SvgError("clipPathUnits=\"objectBoundingBox\" on <clipPath id=\"" + id +
+                           "\"> is not read: give the clip in user space");
+        Affine space = transform;
+        if (const auto t = clip_path.attribute("transform"))
+            space = parse_transform(t.value()).then(transform);
+        // cairo writes the rule on the clipped group; a clip path's own shapes may give theirs.
+        const std::string rule_of_group = property_of(node, "clip-rule");
+        std::vector<Contour> outlines;
+        for (const auto& child : clip_path.children()) {
+            if (child.type() != pugi::node_element) continue;
+            Affine child_space = space;
+            if (const auto t = child.attribute("transform"))
+                child_space = parse_transform(t.value()).then(space);
+            std::string rule = property_of(child, "clip-rule");
+            if (rule.empty()) rule = rule_of_group;
+            const auto rule_of =
+                rule.find("evenodd") != std::string::npos ? FillRule::evenodd : FillRule::nonzero;
+            for (auto& polygon :
+                 resolve_fill(geometry_of(child, element_name(child), child_space), rule_of))
+                outlines.push_back({std::move(polygon), true});
+        }
+        auto region = resolve_fill(outlines, FillRule::nonzero);
+        if (inherited) region = intersect_region(*inherited, region);
+        return region;
+    }
+
+    // A mask is not drawn through: a laser burns what a mask fades. cairo's own masks (a
+    // group's opacity: one rectangle) say nothing of the shapes, another mask is named.
+    void note_mask(const pugi::xml_node& node) {
+        const auto found = by_id.find(local_reference(property_of(node, "mask")));
+        bool opacity_only = found != by_id.end();
+        if (opacity_only) {
+            std::vector<pugi::xml_node> pending{found->second};
+            while (!pending.empty() && opacity_only) {
+                const auto n = pending.back();
+                pending.pop_back();
+                for (const auto& child : n.children()) {
+                    if (child.type() != pugi::node_element) continue;
+                    const std::string kind = element_name(child);
+                    opacity_only = kind == "g" || kind == "rect";
+                    pending.push_back(child);
+                }
+            }
+        }
+        if (!opacity_only)
+            document.warnings.push_back("drawn without its mask: <" + element_name(node) +
+                                        " mask=\"" + property_of(node, "mask") + "\">");
     }
 
     std::vector<Contour> geometry_of(const pugi::xml_node& node, const std::string& name,
@@ -432,10 +592,7 @@ Affine parse_transform(std::string_view text) {
         if (open == std::string_view::npos || close == std::string_view::npos || close < open) {
             throw SvgError("malformed transform \"" + std::string(text) + "\"");
         }
-        std::string name(text.substr(i, open - i));
-        name.erase(std::remove_if(name.begin(), name.end(),
-                                  [](unsigned char c) { return std::isspace(c); }),
-                   name.end());
+        const std::string name = without_spaces(std::string(text.substr(i, open - i)));
         Scanner s(text.substr(open + 1, close - open - 1));
         std::vector<double> v;
         while (!s.at_end()) {
@@ -604,13 +761,23 @@ std::vector<Contour> parse_path_data(std::string_view d, const Affine& m, double
     return contours;
 }
 
-SvgDocument parse_svg(std::string_view text, const SvgOptions& options) {
+namespace {
+
+// The document's XML, its <svg> root checked; the map from its viewport to millimetres and the
+// viewport's size (0 where the document gives none).
+struct LoadedSvg {
+    pugi::xml_document xml;
+    pugi::xml_node root;
+    Affine to_mm;
+    double width_mm = 0, height_mm = 0;
+};
+
+void load_svg(std::string_view text, const SvgOptions& options, LoadedSvg& loaded) {
     if (text.size() > options.max_bytes) {
         throw SvgError("the document is " + std::to_string(text.size()) +
                        " bytes, over the limit of " + std::to_string(options.max_bytes));
     }
-    pugi::xml_document xml;
-    const auto parsed = xml.load_buffer(text.data(), text.size(), pugi::parse_default);
+    const auto parsed = loaded.xml.load_buffer(text.data(), text.size(), pugi::parse_default);
     if (!parsed) {
         const auto offset = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, parsed.offset));
         const auto line =
@@ -621,11 +788,10 @@ SvgDocument parse_svg(std::string_view text, const SvgOptions& options) {
         throw SvgError("malformed XML at line " + std::to_string(line) + ": " +
                        parsed.description());
     }
-    const pugi::xml_node root = xml.document_element();
+    const pugi::xml_node root = loaded.xml.document_element();
     if (!root || element_name(root) != "svg")
         throw SvgError("not an SVG document: no <svg> root element");
-    Reader reader;
-    reader.options = options;
+    loaded.root = root;
     // The viewport in CSS pixels, then the viewBox mapped into it (preserveAspectRatio's
     // default, xMidYMid meet).
     std::optional<double> width, height;
@@ -660,14 +826,41 @@ SvgDocument parse_svg(std::string_view text, const SvgOptions& options) {
         width = w;
         height = h;
     }
-    const Affine to_mm = to_px.then(Affine{kMmPerPx, 0, 0, kMmPerPx, 0, 0});
-    reader.document.width_mm = width.value_or(0) * kMmPerPx;
-    reader.document.height_mm = height.value_or(0) * kMmPerPx;
-    for (const auto& child : root.children()) {
-        if (child.type() == pugi::node_element)
-            reader.element(child, to_mm, style_of(root, Style{}, reader.document.warnings));
+    loaded.to_mm = to_px.then(Affine{kMmPerPx, 0, 0, kMmPerPx, 0, 0});
+    loaded.width_mm = width.value_or(0) * kMmPerPx;
+    loaded.height_mm = height.value_or(0) * kMmPerPx;
+}
+
+}  // namespace
+
+SvgDocument parse_svg(std::string_view text, const SvgOptions& options) {
+    LoadedSvg loaded;
+    load_svg(text, options, loaded);
+    Reader reader;
+    reader.options = options;
+    reader.index(loaded.root);
+    reader.document.width_mm = loaded.width_mm;
+    reader.document.height_mm = loaded.height_mm;
+    const Style root_style = style_of(loaded.root, Style{}, reader.document.warnings);
+    for (const auto& child : loaded.root.children()) {
+        if (child.type() == pugi::node_element) reader.element(child, loaded.to_mm, root_style);
     }
     if (reader.document.shapes.empty()) throw SvgError("nothing drawable in the document");
+    return std::move(reader.document);
+}
+
+SvgDocument check_svg_geometry(std::string_view text, const SvgOptions& options) {
+    LoadedSvg loaded;
+    load_svg(text, options, loaded);
+    Reader reader;
+    reader.options = options;
+    reader.checking = true;
+    reader.document.width_mm = loaded.width_mm;
+    reader.document.height_mm = loaded.height_mm;
+    const Style root_style = style_of(loaded.root, Style{}, reader.document.warnings);
+    for (const auto& child : loaded.root.children()) {
+        if (child.type() == pugi::node_element) reader.element(child, loaded.to_mm, root_style);
+    }
     return std::move(reader.document);
 }
 

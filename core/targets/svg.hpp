@@ -1,8 +1,12 @@
 #pragma once
-// An SVG reader for the shapes people draw: polygon, polyline, rect (with rounded corners),
-// circle, ellipse, line and path (M L H V C S Q T A Z, absolute and relative), transforms on
-// elements and groups, viewBox / width / height with units. Curves are flattened to a stated
-// tolerance. Coordinates come out in millimetres, in SVG's orientation (y down).
+// An SVG reader for plain geometry: polygon, polyline, rect (with rounded corners), circle,
+// ellipse, line and path (M L H V C S Q T A Z, absolute and relative), transforms on elements
+// and groups, <use> of an element or a <symbol>, clip paths, viewBox / width / height with units.
+// Curves are flattened to a stated tolerance. Coordinates come out in millimetres, in SVG's
+// orientation (y down). Styling is read from presentation attributes and style="" only: a
+// drawing as people make it (CSS, text, markers) is read through core/targets/drawing, which has
+// librsvg paint it into this plain form first.
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -31,6 +35,8 @@ struct SvgShape {
     FillRule fill_rule = FillRule::nonzero;
     bool stroked = false;
     double stroke_width_mm = 0;
+    // Where a clip path lets the shape show (a resolved region in millimetres); none: anywhere.
+    std::optional<std::vector<std::vector<geometry::Point2>>> clip_region;
 };
 
 struct SvgDocument {
@@ -58,8 +64,15 @@ struct Affine {
 
 // Throws SvgError with one line naming the problem: malformed XML (with its line), no <svg>
 // root, nothing drawable, too large, an unknown path command, a non-numeric geometry attribute,
-// <text> (convert it to paths).
+// <text> (convert it to paths, or read the drawing through read_drawing).
 SvgDocument parse_svg(std::string_view text, const SvgOptions& options = {});
+
+// The checks parse_svg makes of every element's geometry (path data, numbers, transforms), made
+// of all of a document's elements, those only used or hidden included, and nothing drawn: what a
+// browser would quietly drop part of (a path cut at a bad command) is refused before a renderer
+// paints the rest. Returns the document's page (width_mm, height_mm: 0 where it gives none) and
+// the styling values ignored, as parse_svg's warnings; its shapes are not read.
+SvgDocument check_svg_geometry(std::string_view text, const SvgOptions& options = {});
 
 // Path data alone, mapped through `to_mm` and flattened to `tolerance_mm`.
 std::vector<Contour> parse_path_data(std::string_view d, const Affine& to_mm, double tolerance_mm);

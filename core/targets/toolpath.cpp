@@ -228,24 +228,26 @@ std::vector<Polygon> resolve_fill(const std::vector<Contour>& contours, FillRule
     return from_clipper(solution);
 }
 
-std::vector<Polygon> intersect_region(const std::vector<Polygon>& region, const Polygon& window) {
+std::vector<Polygon> intersect_region(const std::vector<Polygon>& region,
+                                      const std::vector<Polygon>& window) {
     ClipperLib::Clipper clipper;
     for (const auto& p : region) clipper.AddPath(to_clipper(p), ClipperLib::ptSubject, true);
-    clipper.AddPath(to_clipper(window), ClipperLib::ptClip, true);
+    for (const auto& p : window) clipper.AddPath(to_clipper(p), ClipperLib::ptClip, true);
     ClipperLib::Paths solution;
     clipper.Execute(ClipperLib::ctIntersection, solution, ClipperLib::pftNonZero,
                     ClipperLib::pftNonZero);
     return from_clipper(solution);
 }
 
-std::vector<Contour> intersect_lines(const std::vector<Contour>& lines, const Polygon& window) {
+std::vector<Contour> intersect_lines(const std::vector<Contour>& lines,
+                                     const std::vector<Polygon>& window) {
     ClipperLib::Clipper clipper;
     for (const auto& c : lines) {
         Polygon points = c.points;
         if (c.closed && !points.empty()) points.push_back(points.front());
         if (points.size() >= 2) clipper.AddPath(to_clipper(points), ClipperLib::ptSubject, false);
     }
-    clipper.AddPath(to_clipper(window), ClipperLib::ptClip, true);
+    for (const auto& p : window) clipper.AddPath(to_clipper(p), ClipperLib::ptClip, true);
     ClipperLib::PolyTree tree;
     clipper.Execute(ClipperLib::ctIntersection, tree, ClipperLib::pftNonZero,
                     ClipperLib::pftNonZero);

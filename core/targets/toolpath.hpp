@@ -47,11 +47,14 @@ struct FillSettings {
 // do not overlap (open contours closed implicitly).
 std::vector<Polygon> resolve_fill(const std::vector<Contour>& contours, FillRule rule);
 
-// The part of a resolved region inside `window` (a simple polygon).
-std::vector<Polygon> intersect_region(const std::vector<Polygon>& region, const Polygon& window);
+// The part of a resolved region inside `window` (a resolved region too: a page, a clip path).
+std::vector<Polygon> intersect_region(const std::vector<Polygon>& region,
+                                      const std::vector<Polygon>& window);
 
-// The pieces of lines (a closed contour with its closing side) inside `window`, as open lines.
-std::vector<Contour> intersect_lines(const std::vector<Contour>& lines, const Polygon& window);
+// The pieces of lines (a closed contour with its closing side) inside `window` (a resolved
+// region), as open lines.
+std::vector<Contour> intersect_lines(const std::vector<Contour>& lines,
+                                     const std::vector<Polygon>& window);
 
 // Insets (negative) or outsets a resolved region by `distance_mm`, mitred corners.
 std::vector<Polygon> offset_region(const std::vector<Polygon>& region, double distance_mm);

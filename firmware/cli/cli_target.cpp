@@ -4,7 +4,7 @@
 
 #include "core/models/machine_file.hpp"
 #include "core/targets/job.hpp"
-#include "core/targets/svg.hpp"
+#include "core/targets/drawing.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 
@@ -40,7 +40,7 @@ int target_svg(const Args& args) {
     }
     targets::SvgDocument document;
     try {
-        document = targets::parse_svg(read_input_file(svg_path, "drawing"));
+        document = targets::read_drawing(read_input_file(svg_path, "drawing"));
     } catch (const targets::SvgError& e) {
         throw std::runtime_error(svg_path + ": " + e.what());
     }

@@ -2,8 +2,13 @@
 #include <CppUTest/TestHarness.h>
 
 #include <cmath>
+#include <fstream>
+#include <sstream>
 #include <string>
 
+#include "core/models/machine_file.hpp"
+#include "core/targets/drawing.hpp"
+#include "core/targets/job.hpp"
 #include "core/targets/svg.hpp"
 #include "core/targets/toolpath.hpp"
 
@@ -256,7 +261,7 @@ TEST(SvgDocument, bad_documents_get_one_line_naming_the_problem) {
 TEST_GROUP(PageCut){};
 
 TEST(PageCut, lines_past_the_window_are_cut_at_its_edge) {
-    const Polygon page{{0, 0}, {10, 0}, {10, 10}, {0, 10}};
+    const std::vector<Polygon> page{{{0, 0}, {10, 0}, {10, 10}, {0, 10}}};
     // Across the page: the part between its sides.
     auto pieces = intersect_lines({Contour{{{-5, 5}, {15, 5}}, false}}, page);
     CHECK_EQUAL(1u, pieces.size());
@@ -276,4 +281,195 @@ TEST(PageCut, lines_past_the_window_are_cut_at_its_edge) {
                                  piece.points[k].y - piece.points[k - 1].y);
     DOUBLES_EQUAL(10, length, 1e-6);
     for (const auto& piece : pieces) CHECK(!piece.closed);
+}
+
+// Drawings as people make them, read through librsvg (core/targets/drawing): what a browser
+// paints, worked out by hand. Issue "Figures and drawings that mean what they say".
+TEST_GROUP(Drawing){};
+
+namespace {
+
+std::string drawing_error(const std::string& text) {
+    try {
+        read_drawing(text);
+    } catch (const SvgError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+// The length of every stroke's lines, in millimetres.
+double stroked_length(const SvgDocument& document) {
+    double length = 0;
+    for (const auto& shape : document.shapes) {
+        if (!shape.stroked) continue;
+        for (const auto& c : shape.contours) {
+            for (std::size_t k = 1; k < c.points.size(); ++k)
+                length += std::hypot(c.points[k].x - c.points[k - 1].x,
+                                     c.points[k].y - c.points[k - 1].y);
+            if (c.closed && c.points.size() > 2)
+                length += std::hypot(c.points.front().x - c.points.back().x,
+                                     c.points.front().y - c.points.back().y);
+        }
+    }
+    return length;
+}
+
+double filled_area(const SvgDocument& document) {
+    double area = 0;
+    for (const auto& shape : document.shapes)
+        if (shape.filled) area += region_area(resolve_fill(shape.contours, shape.fill_rule));
+    return area;
+}
+
+// The example diode laser (examples/laser.toml): 200 x 200 mm, 0.1 mm spot.
+models::MachineFile example_laser() {
+    std::ifstream in(std::string(CALBOX_SOURCE_DIR) + "/examples/laser.toml");
+    std::ostringstream text;
+    text << in.rdbuf();
+    return models::parse_machine_file(text.str(), "laser.toml");
+}
+
+}  // namespace
+
+TEST(Drawing, an_outline_styled_by_a_css_class_is_an_outline) {
+    // Illustrator's way: the style in a sheet, the shape naming its class. An 80 mm square
+    // outline, 70 mm inside the page's margin: 280 mm of line and nothing filled.
+    const auto doc = read_drawing(
+        in_mm("<defs><style>.cls-1{fill:none;stroke:#000;stroke-miterlimit:10;stroke-width:0.5px}"
+              "</style></defs><rect class='cls-1' x='15' y='15' width='70' height='70'/>"));
+    CHECK_EQUAL(1u, doc.shapes.size());
+    CHECK(!doc.shapes[0].filled);
+    CHECK(doc.shapes[0].stroked);
+    DOUBLES_EQUAL(280, stroked_length(doc), 0.01);
+    DOUBLES_EQUAL(0.5, doc.shapes[0].stroke_width_mm, 1e-3);  // 0.5 user units, 1 mm each
+    const auto job = plan_svg_job(doc, example_laser(), {});
+    DOUBLES_EQUAL(280, job.toolpath.working_length_mm(), 0.01);
+    // The same style in style="" reads the same (parse_svg's own reading, unchanged).
+    const auto plain = parse_svg(
+        in_mm("<rect style='fill:none;stroke:#000;stroke-width:0.5' x='15' y='15' width='70' "
+              "height='70'/>"));
+    DOUBLES_EQUAL(280, stroked_length(plain), 1e-9);
+    // Selectors and inheritance: an id rule beats a class rule; a group's fill is inherited.
+    const auto cascade =
+        read_drawing(in_mm("<style>#a{fill:none;stroke:red} .b{fill:blue} g.c{fill:none}</style>"
+                           "<rect id='a' class='b' width='10' height='10'/>"
+                           "<g class='c' stroke='black'><circle cx='50' cy='50' r='10'/></g>"));
+    CHECK_EQUAL(2u, cascade.shapes.size());
+    DOUBLES_EQUAL(0, filled_area(cascade), 1e-9);
+    DOUBLES_EQUAL(40 + 2 * kPi * 10, stroked_length(cascade), 0.01);
+}
+
+TEST(Drawing, reused_shapes_and_symbols_are_drawn_where_used) {
+    // Two rectangles reused at 30 and 60 mm right of a drawn one, and a circle's symbol twice:
+    // three 10 x 5 mm rectangles and two discs of radius 4.
+    const auto doc =
+        read_drawing(in_mm("<defs><symbol id='dot'><circle cx='5' cy='5' r='4'/></symbol></defs>"
+                           "<rect id='r' x='0' y='0' width='10' height='5'/>"
+                           "<use href='#r' x='30'/><use xlink:href='#r' x='60' "
+                           "xmlns:xlink='http://www.w3.org/1999/xlink'/>"
+                           "<use href='#dot' x='10' y='50'/><use href='#dot' x='70' y='50'/>"));
+    // Each disc's outline flattened to within 0.005 mm of the circle: under 0.1 mm^2 lost from it.
+    DOUBLES_EQUAL(3 * 50 + 2 * kPi * 16 - 0.1, filled_area(doc), 0.1);
+    double right = 0;
+    for (const auto& shape : doc.shapes)
+        for (const auto& c : shape.contours)
+            for (const auto& p : c.points) right = std::max(right, p.x);
+    DOUBLES_EQUAL(79, right, 1e-3);  // the second dot's right edge: 70 + 5 + 4
+    // parse_svg reads <use> of plain geometry the same way.
+    DOUBLES_EQUAL(3 * 50,
+                  filled_area(parse_svg(in_mm("<rect id='r' width='10' height='5'/>"
+                                              "<use href='#r' x='30'/>"
+                                              "<use href='#r' x='60'/>"))),
+                  1e-9);
+}
+
+TEST(Drawing, text_is_drawn_in_the_font_it_names_and_a_missing_font_is_named) {
+    // Two fonts the system has (fonts-dejavu-core): the same word is wider in the serif face,
+    // and both are drawn as filled outlines within the line's height.
+    const auto width_of = [](const std::string& family) {
+        const auto doc = read_drawing(
+            in_mm("<text x='10' y='50' font-size='10' font-family='" + family + "'>Calbox</text>"));
+        CHECK(doc.warnings.empty());
+        CHECK(filled_area(doc) > 20);
+        double left = 1e9, right = -1e9, top = 1e9, bottom = -1e9;
+        for (const auto& shape : doc.shapes)
+            for (const auto& c : shape.contours)
+                for (const auto& p : c.points) {
+                    left = std::min(left, p.x), right = std::max(right, p.x);
+                    top = std::min(top, p.y), bottom = std::max(bottom, p.y);
+                }
+        CHECK(left >= 10 && left < 11.5);
+        CHECK(bottom <= 50.5 && top >= 40);  // cap height under the font size
+        return right - left;
+    };
+    const double sans = width_of("DejaVu Sans"), serif = width_of("DejaVu Serif");
+    CHECK_TEXT(sans > 30 && sans < 45, std::to_string(sans).c_str());
+    CHECK_TEXT(serif > sans + 1, (std::to_string(serif) + " vs " + std::to_string(sans)).c_str());
+    const auto missing =
+        read_drawing(in_mm("<style>.t{font-family:'No Such Face',sans-serif;font-size:8px}</style>"
+                           "<text class='t' x='10' y='50'>A</text>"));
+    CHECK_EQUAL(1u, missing.warnings.size());
+    STRCMP_CONTAINS(
+        "the font \"No Such Face\" is not on this system: its text is drawn in \"DejaVu",
+        missing.warnings[0].c_str());
+}
+
+TEST(Drawing, a_clip_path_cuts_strokes_and_fills_where_it_ends) {
+    // A 100 mm diagonal line and a 40 mm square under a clip of the page's left half: 50 mm of
+    // the line's run (62.5 mm of its slope) and half of the square are drawn.
+    const auto doc = read_drawing(
+        in_mm("<defs><clipPath id='left'><rect width='50' height='100'/></clipPath></defs>"
+              "<g clip-path='url(#left)'><line x1='0' y1='0' x2='100' y2='75' stroke='black'/>"
+              "<rect x='30' y='60' width='40' height='40'/></g>"));
+    for (const auto& shape : doc.shapes) {
+        CHECK(shape.clip_region.has_value());
+        if (shape.stroked) {
+            SvgDocument one;
+            one.shapes.push_back(shape);
+            one.shapes.back().contours = intersect_lines(shape.contours, *shape.clip_region);
+            DOUBLES_EQUAL(62.5, stroked_length(one), 0.01);
+        }
+        if (shape.filled && shape.element == "path" && area_of(shape.contours) > 1000) {
+            DOUBLES_EQUAL(800,
+                          region_area(intersect_region(
+                              resolve_fill(shape.contours, shape.fill_rule), *shape.clip_region)),
+                          0.01);
+        }
+    }
+    // The job spans what shows: from the line's start to the clip's edge, 50 mm.
+    const auto job = plan_svg_job(doc, example_laser(), {});
+    DOUBLES_EQUAL(50, job.max_x - job.min_x, 0.01);
+}
+
+TEST(Drawing, what_would_be_dropped_quietly_is_refused_in_one_line) {
+    // A browser draws a path up to a bad command and leaves a shape of unreadable size out.
+    STRCMP_CONTAINS("unknown command 'X'",
+                    drawing_error(in_mm("<path d='M0 0 L10 0 X 5 5' stroke='black'/>")).c_str());
+    STRCMP_CONTAINS("non-numeric attribute width=\"abc\" on <rect>",
+                    drawing_error(in_mm("<defs><rect id='r' width='abc' height='2'/></defs>"
+                                        "<use href='#r'/>"))
+                        .c_str());
+    STRCMP_CONTAINS(
+        "not in SVG's namespace",
+        drawing_error("<svg width='10' height='10'><rect width='5' height='5'/></svg>").c_str());
+    STRCMP_CONTAINS("malformed XML at line 2", drawing_error("<svg>\n<rect></svg>").c_str());
+    STRCMP_CONTAINS("nothing drawable", drawing_error(in_mm("")).c_str());
+    // Text once refused is drawn now.
+    CHECK_EQUAL(std::string(), drawing_error(in_mm("<text x='5' y='20'>calbox</text>")));
+}
+
+TEST(Drawing, a_font_too_large_to_draw_at_first_is_drawn_again_smaller) {
+    // A letter as tall as its page: painted ~2048 px across, the font would pass FreeType's
+    // limit; the text is painted again at an eighth, and comes out whole, nothing printed.
+    const auto doc =
+        read_drawing(R"svg(<svg xmlns="http://www.w3.org/2000/svg" width="100" height="100">)svg"
+                     "<text x='0' y='95' font-size='300' font-family='DejaVu Sans'>I</text></svg>");
+    CHECK(doc.warnings.empty());
+    double top = 1e9, bottom = -1e9;
+    for (const auto& shape : doc.shapes)
+        for (const auto& c : shape.contours)
+            for (const auto& p : c.points) top = std::min(top, p.y), bottom = std::max(bottom, p.y);
+    // DejaVu Sans' capital I: from the baseline up 0.729 of the em (300 px), in millimetres.
+    DOUBLES_EQUAL(0.729 * 300 * 25.4 / 96, bottom - top, 0.5);
 }

@@ -41,6 +41,12 @@ std::string console_words_after(std::string_view line, std::size_t skip) {
 
 namespace {
 
+// A --json reply: one line. What a person typed comes back in it (a word that is not a command):
+// bytes that are not UTF-8 are replaced, not thrown on (found by fuzz_console).
+std::string json_line(const json& reply) {
+    return reply.dump(-1, ' ', false, json::error_handler_t::replace) + "\n";
+}
+
 const char* kind_name(ConfigKind k) {
     switch (k) {
         case ConfigKind::integer:
@@ -96,7 +102,7 @@ std::string Console::refuse_too_long(const LineAssembler::Line& line) const {
     const bool as_json = line.text.find("--json") != std::string::npos;
     const std::string why = "line longer than " + std::to_string(kConsoleLineLimitBytes) +
                             " bytes refused (nothing was done)";
-    if (as_json) return json{{"ok", false}, {"error", why}}.dump() + "\n";
+    if (as_json) return json_line(json{{"ok", false}, {"error", why}});
     return "error: " + why + "\n";
 }
 
@@ -430,7 +436,10 @@ std::string Console::reply_to(std::string_view line) {
     });
     std::string clean(line);
     if (const auto at = clean.find("--json"); at != std::string::npos) clean.erase(at, 6);
-    if (words.empty()) return {};
+    // An empty line is not answered; "--json" alone asks for an answer (found by fuzz_console).
+    if (words.empty())
+        return as_json ? json_line(json{{"ok", false}, {"error", "no command (help lists them)"}})
+                       : std::string();
 
     ConsoleReply r;
     try {
@@ -455,13 +464,13 @@ std::string Console::reply_to(std::string_view line) {
     } catch (const std::exception& e) {
         // Whatever a row throws (a refusal, a key the configuration does not have, a file that
         // cannot be written) is this line's answer: nothing typed ends the box.
-        if (as_json) return json{{"ok", false}, {"error", e.what()}}.dump() + "\n";
+        if (as_json) return json_line(json{{"ok", false}, {"error", e.what()}});
         return std::string("error: ") + e.what() + "\n";
     }
     if (as_json) {
         json out = r.data;
         out["ok"] = true;
-        return out.dump() + "\n";
+        return json_line(out);
     }
     return r.text + "\n";
 }

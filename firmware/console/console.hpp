@@ -117,6 +117,8 @@ class Console {
     // the line the reply is one JSON object: {"ok":true,...} or {"ok":false,"error":"..."}.
     std::string reply_to(std::string_view line);
     std::string refuse_too_long(const LineAssembler::Line& line) const;
+    // Its table, its own rows and then the other parts', as `help` lists them.
+    const std::vector<ConsoleCommand>& rows() const { return table_; }
 
   private:
     std::vector<ConsoleCommand> commands();

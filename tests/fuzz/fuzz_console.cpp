@@ -92,6 +92,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     // Every line with a word in it is answered, the answer a whole line.
     const bool has_word =
         std::any_of(line.begin(), line.end(), [](unsigned char c) { return std::isspace(c) == 0; });
+    // ... in calbox's words: a library's own text (the patterns tests/cli/errors.sh looks for in
+    // the command line's refusals, and nlohmann's and the standard library's) is a refusal that
+    // does not say what was wrong with the line.
+    for (const char* library :
+         {"OpenCV(", "Assertion failed", "Premature end of JPEG", "Corrupt JPEG", "libpng",
+          "[ WARN:", "[json.exception", "basic_string", "stoi", "stod", "vector::"}) {
+        if (reply.find(library) != std::string::npos) {
+            std::fprintf(stderr, "fuzz_console: \"%s\" was answered in a library's words: %s",
+                         line.c_str(), reply.c_str());
+            std::abort();
+        }
+    }
     if (has_word && (reply.empty() || reply.back() != '\n')) {
         std::fprintf(stderr, "fuzz_console: \"%s\" was answered \"%s\"\n", line.c_str(),
                      reply.c_str());

@@ -11,7 +11,6 @@
 #include <memory>
 #include <mutex>
 #include <pugixml.hpp>
-#include <regex>
 #include <set>
 #include <string>
 
@@ -62,22 +61,34 @@ void check_namespace(std::string_view text) {
 }
 
 // The font families a document names (attributes, style="" and <style> sheets alike), each
-// list in its order.
+// list in its order: what follows `font-family=` in quotes, or `font-family:` up to the end of
+// the declaration.
 std::vector<std::vector<std::string>> named_font_families(std::string_view text) {
-    static const std::regex family(
-        R"re(font-family\s*(?:=\s*"([^"]*)"|=\s*'([^']*)'|:\s*([^;}"<]*)))re", std::regex::icase);
+    constexpr std::string_view kProperty = "font-family";
     std::vector<std::vector<std::string>> lists;
-    const std::string all(text);
-    for (auto it = std::sregex_iterator(all.begin(), all.end(), family);
-         it != std::sregex_iterator(); ++it) {
-        std::string value = (*it)[1].matched   ? (*it)[1].str()
-                            : (*it)[2].matched ? (*it)[2].str()
-                                               : (*it)[3].str();
+    for (auto at = text.find(kProperty); at != std::string_view::npos;
+         at = text.find(kProperty, at + 1)) {
+        std::size_t i = at + kProperty.size();
+        while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+        if (i >= text.size() || (text[i] != '=' && text[i] != ':')) continue;
+        const bool attribute = text[i] == '=';
+        ++i;
+        while (i < text.size() && std::isspace(static_cast<unsigned char>(text[i]))) ++i;
+        std::string_view value;
+        if (attribute) {
+            if (i >= text.size() || (text[i] != '"' && text[i] != '\'')) continue;
+            const auto close = text.find(text[i], i + 1);
+            if (close == std::string_view::npos) continue;
+            value = text.substr(i + 1, close - i - 1);
+        } else {
+            const auto end = text.find_first_of(";}\"<", i);
+            value = text.substr(i, end == std::string_view::npos ? text.size() - i : end - i);
+        }
         std::vector<std::string> list;
         std::size_t start = 0;
         while (start <= value.size()) {
-            const auto end = std::min(value.find(',', start), value.size());
-            std::string name = value.substr(start, end - start);
+            const auto comma = std::min(value.find(',', start), value.size());
+            std::string name(value.substr(start, comma - start));
             const auto drop = [](unsigned char c) {
                 return std::isspace(c) != 0 || c == '\'' || c == '"';
             };
@@ -85,7 +96,7 @@ std::vector<std::vector<std::string>> named_font_families(std::string_view text)
             while (!name.empty() && drop(static_cast<unsigned char>(name.front())))
                 name.erase(0, 1);
             if (!name.empty()) list.push_back(name);
-            start = end + 1;
+            start = comma + 1;
         }
         if (!list.empty()) lists.push_back(std::move(list));
     }

@@ -83,10 +83,11 @@ std::vector<Command> target_commands() {
           {"--fill-rule", "nonzero|evenodd", "for every filled shape (default: each shape's own)"},
           {"--perimeters", "N", "perimeters around each filled shape (default 1)"},
           {"--preview", "PNG", "the job's paths, drawn"}},
-         R"(A job for the machine from a drawing. Filled shapes are filled as SVG means it (their
-fill-rule, or --fill-rule for all): perimeters inset by half the line width, then infill
-lines --spacing apart (default: the line width; printers accept their line width to ten
-times it) at --angle degrees, in a zigzag. Shapes with only a stroke are traced. The
+         R"(A job for the machine from a drawing, read as a browser paints it (librsvg: its CSS,
+<use> and <symbol>, text in the font it names, clip paths). Filled shapes are filled as SVG
+means it (their fill-rule, or --fill-rule for all): perimeters inset by half the line width,
+then infill lines --spacing apart (default: the line width; printers accept their line width
+to ten times it) at --angle degrees, in a zigzag. Strokes are traced along their middle. The
 drawing is centred on the bed and reads as drawn seen from above; --fit makes its larger
 side that many mm, --scale multiplies its own size. --preview draws perimeters (blue),
 infill (green), traces (purple) and travel (red) with path length, travel and time.)",

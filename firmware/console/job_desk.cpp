@@ -93,7 +93,8 @@ std::string JobDesk::start(DeskOrder order) {
             return "compensate: the machine link is busy with the cycle: try again when it is "
                    "idle, or give the work zero";
         }
-        link_.send_commands({"$#"}, [this, order, kept = *kept, job = *job](JobOutcome outcome) {
+        link_.send_commands({"$#"}, [this, order, kept = *kept,
+                                     job = *job](const JobOutcome& outcome) {
             auto o = order;
             const auto spec = outcome.ok ? work_zeros_reported(outcome.replies) : std::nullopt;
             if (!spec) {
@@ -105,15 +106,15 @@ std::string JobDesk::start(DeskOrder order) {
             }
             o.work_zero = *spec;
             o.work_zero_from = "the controller's work offsets ($#: " + *spec + ")";
-            compensate(std::move(o), kept, job);
+            compensate(o, kept, job);
         });
         return {};
     }
-    compensate(std::move(order), *kept, *job);
+    compensate(order, *kept, *job);
     return {};
 }
 
-void JobDesk::compensate(DeskOrder order, std::string result_text, std::string job_text) {
+void JobDesk::compensate(const DeskOrder& order, std::string result_text, std::string job_text) {
     auto request = std::make_shared<modes::JobRequest>();
     request->result_text = std::move(result_text);
     request->result_name = "the correction in force";
@@ -125,7 +126,7 @@ void JobDesk::compensate(DeskOrder order, std::string result_text, std::string j
     request->date = today_();
     auto done = std::make_shared<modes::CompensatedJob>();
     worker_.start([request, done] { *done = modes::compensate_job(*request); },
-                  [this, order, done](std::exception_ptr error) {
+                  [this, order, done](const std::exception_ptr& error) {
                       busy_ = false;
                       const std::string out = compensated_job_name(order.job_name);
                       try {

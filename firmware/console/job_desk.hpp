@@ -42,7 +42,7 @@ class JobDesk {
     ConsoleCommand command();
 
   private:
-    void compensate(DeskOrder order, std::string result_text, std::string job_text);
+    void compensate(const DeskOrder& order, std::string result_text, std::string job_text);
     Cycle& cycle_;
     MachineLink& link_;
     hal::Storage& data_;

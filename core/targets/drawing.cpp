@@ -19,7 +19,6 @@
 namespace calbox::targets {
 namespace {
 
-constexpr double kMmPerPx = 25.4 / 96.0;  // CSS pixel, as parse_svg reads it
 constexpr const char* kSvgNamespace = "http://www.w3.org/2000/svg";
 // cairo keeps a path's points in 24.8 fixed point (a 256th of a device unit): the drawing is
 // painted about 2048 units across, so that its points come back within a two-millionth of its
@@ -246,7 +245,7 @@ SvgDocument read_drawing(std::string_view text, const SvgOptions& options) {
     // The page as parse_svg reads it; a document without one is painted over its ink, moved
     // clear of the surface's origin and moved back after.
     const bool has_page = page.width_mm > 0 && page.height_mm > 0;
-    RsvgRectangle viewport{0, 0, page.width_mm / kMmPerPx, page.height_mm / kMmPerPx};
+    RsvgRectangle viewport{0, 0, page.width_mm / kMmPerCssPixel, page.height_mm / kMmPerCssPixel};
     geometry::Point2 shift_px{0, 0};
     if (!has_page) {
         // Without a viewBox its user units are pixels whatever the viewport: any will measure.
@@ -281,7 +280,8 @@ SvgDocument read_drawing(std::string_view text, const SvgOptions& options) {
     painted_options.max_bytes = std::max(options.max_bytes, painted.size());
     painted_options.tolerance_mm = options.tolerance_mm * scale;
     SvgDocument document = parse_svg(painted, painted_options);
-    scale_and_shift(document, 1 / scale, {shift_px.x * kMmPerPx, shift_px.y * kMmPerPx});
+    scale_and_shift(document, 1 / scale,
+                    {shift_px.x * kMmPerCssPixel, shift_px.y * kMmPerCssPixel});
     document.width_mm = page.width_mm;
     document.height_mm = page.height_mm;
     // Warnings of the document as written first (a styling value ignored), then of what was

@@ -16,7 +16,6 @@ namespace calbox::targets {
 namespace {
 
 using geometry::Point2;
-constexpr double kMmPerPx = 25.4 / 96.0;  // CSS pixel
 
 // ---------------------------------------------------------------------------------------------
 // Numbers as SVG writes them: "1.5.5" is 1.5 then .5, "-1-2" is -1 then -2.
@@ -182,9 +181,14 @@ std::optional<double> length_in_px(std::string_view text) {
     if (!v) return std::nullopt;
     std::string unit(text.substr(s.position()));
     while (!unit.empty() && std::isspace(static_cast<unsigned char>(unit.back()))) unit.pop_back();
-    static const std::map<std::string, double> kPx{
-        {"", 1.0},    {"px", 1.0},       {"mm", 1 / kMmPerPx}, {"cm", 10 / kMmPerPx},
-        {"in", 96.0}, {"pt", 96.0 / 72}, {"pc", 16.0},         {"q", 0.25 / kMmPerPx}};
+    static const std::map<std::string, double> kPx{{"", 1.0},
+                                                   {"px", 1.0},
+                                                   {"mm", 1 / kMmPerCssPixel},
+                                                   {"cm", 10 / kMmPerCssPixel},
+                                                   {"in", 96.0},
+                                                   {"pt", 96.0 / 72},
+                                                   {"pc", 16.0},
+                                                   {"q", 0.25 / kMmPerCssPixel}};
     const auto it = kPx.find(unit);
     if (it == kPx.end()) return std::nullopt;
     return *v * it->second;
@@ -826,9 +830,9 @@ void load_svg(std::string_view text, const SvgOptions& options, LoadedSvg& loade
         width = w;
         height = h;
     }
-    loaded.to_mm = to_px.then(Affine{kMmPerPx, 0, 0, kMmPerPx, 0, 0});
-    loaded.width_mm = width.value_or(0) * kMmPerPx;
-    loaded.height_mm = height.value_or(0) * kMmPerPx;
+    loaded.to_mm = to_px.then(Affine{kMmPerCssPixel, 0, 0, kMmPerCssPixel, 0, 0});
+    loaded.width_mm = width.value_or(0) * kMmPerCssPixel;
+    loaded.height_mm = height.value_or(0) * kMmPerCssPixel;
 }
 
 }  // namespace

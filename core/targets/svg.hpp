@@ -16,6 +16,9 @@
 
 namespace calbox::targets {
 
+// A CSS pixel (1/96 in), the unit of a length without one, in millimetres.
+constexpr double kMmPerCssPixel = 25.4 / 96.0;
+
 class SvgError : public std::runtime_error {
   public:
     using std::runtime_error::runtime_error;

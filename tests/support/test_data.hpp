@@ -1,9 +1,8 @@
 #pragma once
 // Inputs made outside the project, read where they are (CALBOX_TEST_DATA) and never copied in.
-#include <fstream>
-#include <sstream>
-#include <stdexcept>
 #include <string>
+
+#include "tests/support/whole_file.hpp"
 
 namespace calbox::test {
 
@@ -12,12 +11,7 @@ inline std::string test_data_path(const std::string& relative) {
 }
 
 inline std::string read_test_data(const std::string& relative) {
-    const std::string path = test_data_path(relative);
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error("cannot read " + path);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
+    return read_whole_file(test_data_path(relative));
 }
 
 }  // namespace calbox::test

@@ -1071,11 +1071,13 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
          [&](bool completed) { news.cycle_ended(rig.cycle, completed, 1'700'000'600); },
          {},
          {}});
-    rig.intercept = [&rig](firmware::Prompt p) {
+    // The owner only looks: each cycle below is cancelled at review (a long press).
+    const auto cancel_at_review = [&rig](firmware::Prompt p) {
         if (p != firmware::Prompt::review) return false;
-        rig.board.lines->press(2000ms);  // long press: cancel
+        rig.board.lines->press(2000ms);
         return true;
     };
+    rig.intercept = cancel_at_review;
     rig.ended = 0;
     rig.run_cycle();
     rig.intercept = nullptr;
@@ -1102,11 +1104,7 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
             return sim::Vec2{c.x, c.y};
         },
         {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm});
-    rig.intercept = [&rig](firmware::Prompt p) {
-        if (p != firmware::Prompt::review) return false;
-        rig.board.lines->press(2000ms);  // long press: cancel
-        return true;
-    };
+    rig.intercept = cancel_at_review;
     rig.ended = 0;
     rig.run_cycle();
     rig.intercept = nullptr;

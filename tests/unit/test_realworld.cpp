@@ -8,7 +8,6 @@
 #include <cctype>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -307,14 +306,6 @@ Painted as_librsvg_paints(const std::string& svg_path, const std::string& png_pa
     return p;
 }
 
-std::string read_text(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) FAIL(("cannot read " + path).c_str());
-    std::ostringstream text;
-    text << in.rdbuf();
-    return text.str();
-}
-
 // The share of `a`'s pixels farther than `reach_px` from any of `b`'s.
 double share_beyond(const cv::Mat& a, const cv::Mat& b, double reach_px) {
     cv::Mat distance;
@@ -353,7 +344,7 @@ TEST(RealSvg, every_drawing_gives_a_job_on_the_drawing_as_a_browser_paints_it) {
                                 .string();
     for (const auto& [path, refusal] : drawings) {
         const std::string file = std::filesystem::path(path).filename().string();
-        const std::string text = read_text(path);
+        const std::string text = test::read_whole_file(path);
         targets::PlacedJob job;
         std::string why;
         try {

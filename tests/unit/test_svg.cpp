@@ -2,8 +2,6 @@
 #include <CppUTest/TestHarness.h>
 
 #include <cmath>
-#include <fstream>
-#include <sstream>
 #include <string>
 
 #include "core/models/machine_file.hpp"
@@ -11,6 +9,7 @@
 #include "core/targets/job.hpp"
 #include "core/targets/svg.hpp"
 #include "core/targets/toolpath.hpp"
+#include "tests/support/whole_file.hpp"
 
 using namespace calbox;
 using namespace calbox::targets;
@@ -324,10 +323,9 @@ double filled_area(const SvgDocument& document) {
 
 // The example diode laser (examples/laser.toml): 200 x 200 mm, 0.1 mm spot.
 models::MachineFile example_laser() {
-    std::ifstream in(std::string(CALBOX_SOURCE_DIR) + "/examples/laser.toml");
-    std::ostringstream text;
-    text << in.rdbuf();
-    return models::parse_machine_file(text.str(), "laser.toml");
+    return models::parse_machine_file(
+        test::read_whole_file(std::string(CALBOX_SOURCE_DIR) + "/examples/laser.toml"),
+        "laser.toml");
 }
 
 }  // namespace

@@ -205,14 +205,12 @@ double number_attribute(const pugi::xml_node& node, const char* name, double fal
     const auto attribute = node.attribute(name);
     if (!attribute) return fallback;
     const std::string text = attribute.value();
-    std::optional<double> v;
-    if (length) {
-        v = length_in_px(text);
-    } else {
+    const auto plain_number = [&]() -> std::optional<double> {
         Scanner s(text);
-        v = s.number();
-        if (v && !s.at_end()) v.reset();
-    }
+        const auto v = s.number();
+        return v && s.at_end() ? v : std::nullopt;
+    };
+    const std::optional<double> v = length ? length_in_px(text) : plain_number();
     if (!v) {
         throw SvgError("non-numeric attribute " + std::string(name) + "=\"" + text + "\" on <" +
                        element_name(node) + ">");

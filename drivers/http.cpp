@@ -9,9 +9,10 @@
 #include <boost/asio/connect.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/ssl.hpp>
-#include <boost/beast/core.hpp>
+#include <boost/beast/core/buffers_to_string.hpp>
+#include <boost/beast/core/flat_buffer.hpp>
+#include <boost/beast/core/stream_traits.hpp>
 #include <boost/beast/http.hpp>
-#include <boost/beast/ssl.hpp>
 #include <boost/beast/websocket.hpp>
 #include <boost/beast/websocket/ssl.hpp>
 #include <cctype>
@@ -50,6 +51,25 @@ bool run_until(net::io_context& ioc, const bool& done, Clock::time_point deadlin
     return true;
 }
 
+// A client's step (connecting, the TLS and websocket handshakes, sending, the reply) finishes
+// within `timeout` or is ended: its socket closed, its handlers run out (they refer to the
+// caller's locals), false returned. Deadlines of our own on plain sockets rather than Beast's
+// timed stream: every operation on that stream is a template instance of its own, and they
+// made this file the build's longest.
+bool finish_within(net::io_context& ioc, const bool& done, std::chrono::milliseconds timeout,
+                   tcp::socket& socket) {
+    if (run_until(ioc, done, Clock::now() + timeout)) return true;
+    boost::system::error_code ignored;
+    socket.close(ignored);
+    ioc.restart();
+    ioc.run();
+    return false;
+}
+
+std::string within_phrase(std::chrono::milliseconds timeout) {
+    return "within " + std::to_string(timeout.count()) + " ms";
+}
+
 std::string describe(const Url& url) {
     return url.origin();
 }
@@ -75,35 +95,42 @@ std::unique_ptr<ssl::context> client_context(const Url& url) {
     return ctx;
 }
 
-// TLS over a connected stream: the host's name sent (SNI) and checked against its certificate.
-template <class TlsStream>
-void tls_handshake(net::io_context& ioc, TlsStream& stream, const Url& url,
-                   const std::string& where) {
+// TLS over a connected socket: the host's name sent (SNI) and checked against its certificate.
+void tls_handshake(net::io_context& ioc, ssl::stream<tcp::socket>& stream, const Url& url,
+                   std::chrono::milliseconds timeout, const std::string& where) {
     if (SSL_set_tlsext_host_name(stream.native_handle(), url.host.c_str()) != 1)
         throw NetworkError(where + ": the host name cannot be sent for TLS");
     stream.set_verify_callback(ssl::host_name_verification(url.host));
     boost::system::error_code ec;
-    stream.async_handshake(ssl::stream_base::client, [&](boost::system::error_code e) { ec = e; });
-    ioc.restart();
-    ioc.run();
+    bool done = false;
+    stream.async_handshake(ssl::stream_base::client, [&](boost::system::error_code e) {
+        ec = e;
+        done = true;
+    });
+    if (!finish_within(ioc, done, timeout, stream.next_layer()))
+        throw NetworkError(where + ": TLS: no handshake " + within_phrase(timeout));
     if (ec) throw NetworkError(where + ": TLS: " + ec.message());
 }
 
-void connect(net::io_context& ioc, beast::tcp_stream& stream, const Url& server,
+void connect(net::io_context& ioc, tcp::socket& socket, const Url& server,
              std::chrono::milliseconds timeout, const std::string& where) {
     boost::system::error_code ec;
     tcp::resolver resolver(ioc);
     const auto endpoints = resolver.resolve(server.host, server.port, ec);
     if (ec) throw NetworkError(where + ": " + ec.message());
-    stream.expires_after(timeout);
-    stream.async_connect(endpoints,
-                         [&](boost::system::error_code e, const tcp::endpoint&) { ec = e; });
-    ioc.run();
+    bool done = false;
+    net::async_connect(socket, endpoints, [&](boost::system::error_code e, const tcp::endpoint&) {
+        ec = e;
+        done = true;
+    });
+    if (!finish_within(ioc, done, timeout, socket))
+        throw NetworkError(where + ": no connection " + within_phrase(timeout));
     if (ec) throw NetworkError(where + ": " + ec.message());
 }
 
+// One request and its reply on a connected stream (the socket itself, or TLS over it).
 template <class Stream>
-HttpResponse exchange(net::io_context& ioc, Stream& stream, const Url& server,
+HttpResponse exchange(net::io_context& ioc, Stream& stream, tcp::socket& socket, const Url& server,
                       const HttpRequest& request, std::chrono::milliseconds timeout,
                       const std::string& where) {
     boost::system::error_code ec;
@@ -116,33 +143,35 @@ HttpResponse exchange(net::io_context& ioc, Stream& stream, const Url& server,
     if (!request.content_type.empty()) req.set(http::field::content_type, request.content_type);
     req.body() = request.body;
     req.prepare_payload();
-    auto& lowest = beast::get_lowest_layer(stream);
-    lowest.expires_after(timeout);
-    http::async_write(stream, req, [&](boost::system::error_code e, std::size_t) { ec = e; });
-    ioc.restart();
-    ioc.run();
     // The path alone in what is said: a query may carry a password (rr_connect's).
     const std::string path = request.target.substr(0, request.target.find('?'));
+    bool sent = false;
+    http::async_write(stream, req, [&](boost::system::error_code e, std::size_t) {
+        ec = e;
+        sent = true;
+    });
+    if (!finish_within(ioc, sent, timeout, socket))
+        throw NetworkError(where + ": sending " + path + ": not sent " + within_phrase(timeout));
     if (ec) throw NetworkError(where + ": sending " + path + ": " + ec.message());
 
     beast::flat_buffer buffer;
     http::response_parser<http::string_body> parser;
     parser.body_limit(kBodyLimitBytes);
-    lowest.expires_after(timeout);
-    http::async_read(stream, buffer, parser,
-                     [&](boost::system::error_code e, std::size_t) { ec = e; });
-    ioc.restart();
-    ioc.run();
+    bool answered = false;
+    http::async_read(stream, buffer, parser, [&](boost::system::error_code e, std::size_t) {
+        ec = e;
+        answered = true;
+    });
+    if (!finish_within(ioc, answered, timeout, socket))
+        throw NetworkError(where + ": the reply to " + path + ": none " + within_phrase(timeout));
     if (ec) {
         std::string why = ec.message();
-        if (ec == beast::error::timeout)
-            why = "none within " + std::to_string(timeout.count()) + " ms";
-        else if (ec == http::error::end_of_stream || ec == net::error::eof ||
-                 ec == net::error::connection_reset || ec == ssl::error::stream_truncated)
+        if (ec == http::error::end_of_stream || ec == net::error::eof ||
+            ec == net::error::connection_reset || ec == ssl::error::stream_truncated)
             why = "the host closed the connection";
         throw NetworkError(where + ": the reply to " + path + ": " + why);
     }
-    lowest.socket().shutdown(tcp::socket::shutdown_both, ec);
+    socket.shutdown(tcp::socket::shutdown_both, ec);
     auto response = parser.release();
     return {static_cast<int>(response.result_int()), std::move(response.body())};
 }
@@ -154,16 +183,15 @@ HttpResponse http_request(const Url& server, const HttpRequest& request,
     net::io_context ioc;
     const std::string where = describe(server);
     if (!server.tls()) {
-        beast::tcp_stream stream(ioc);
-        connect(ioc, stream, server, timeout, where);
-        return exchange(ioc, stream, server, request, timeout, where);
+        tcp::socket socket(ioc);
+        connect(ioc, socket, server, timeout, where);
+        return exchange(ioc, socket, socket, server, request, timeout, where);
     }
     const auto ctx = client_context(server);
-    beast::ssl_stream<beast::tcp_stream> stream(ioc, *ctx);
-    connect(ioc, beast::get_lowest_layer(stream), server, timeout, where);
-    beast::get_lowest_layer(stream).expires_after(timeout);
-    tls_handshake(ioc, stream, server, where);
-    return exchange(ioc, stream, server, request, timeout, where);
+    ssl::stream<tcp::socket> stream(ioc, *ctx);
+    connect(ioc, stream.next_layer(), server, timeout, where);
+    tls_handshake(ioc, stream, server, timeout, where);
+    return exchange(ioc, stream, stream.next_layer(), server, request, timeout, where);
 }
 
 struct WebSocketClient::State {
@@ -174,11 +202,11 @@ struct WebSocketClient::State {
 
 namespace {
 
-// A websocket over TCP (Layer beast::tcp_stream) or over TLS on TCP
-// (beast::ssl_stream<beast::tcp_stream>).
+// A websocket over TCP (Layer tcp::socket) or over TLS on TCP (ssl::stream<tcp::socket>): the
+// server's websocket and the TLS terminator's stream are the same types, built once.
 template <class Layer>
 struct SocketOver final : WebSocketClient::State {
-    static constexpr bool kTls = !std::is_same_v<Layer, beast::tcp_stream>;
+    static constexpr bool kTls = !std::is_same_v<Layer, tcp::socket>;
     net::io_context ioc;
     std::unique_ptr<ssl::context> tls;  // before the stream that uses it
     std::unique_ptr<websocket::stream<Layer>> ws;
@@ -195,12 +223,9 @@ struct SocketOver final : WebSocketClient::State {
         } else {
             ws = std::make_unique<websocket::stream<Layer>>(ioc);
         }
-        auto& tcp_layer = beast::get_lowest_layer(*ws);
-        connect(ioc, tcp_layer, url, timeout, where);
-        if constexpr (kTls) {
-            tcp_layer.expires_after(timeout);
-            tls_handshake(ioc, ws->next_layer(), url, where);
-        }
+        tcp::socket& socket = beast::get_lowest_layer(*ws);
+        connect(ioc, socket, url, timeout, where);
+        if constexpr (kTls) tls_handshake(ioc, ws->next_layer(), url, timeout, where);
         ws->set_option(websocket::stream_base::decorator([headers](websocket::request_type& req) {
             req.set(http::field::user_agent, "calbox");
             for (const auto& [name, value] : headers) req.set(name, value);
@@ -208,26 +233,27 @@ struct SocketOver final : WebSocketClient::State {
         ws->read_message_max(kBodyLimitBytes);
         websocket::response_type response;
         boost::system::error_code ec;
-        tcp_layer.expires_after(timeout);
+        bool done = false;
         ws->async_handshake(response, url.host + ":" + url.port, url.path,
-                            [&](boost::system::error_code e) { ec = e; });
-        ioc.restart();
-        ioc.run();
+                            [&](boost::system::error_code e) {
+                                ec = e;
+                                done = true;
+                            });
+        if (!finish_within(ioc, done, timeout, socket))
+            throw NetworkError(where + ": no websocket upgrade " + within_phrase(timeout));
         if (ec) {
             if (ec == websocket::error::upgrade_declined)
                 throw NetworkError(where + ": the host refused the connection (HTTP " +
                                    std::to_string(response.result_int()) + ")");
             throw NetworkError(where + ": " + ec.message());
         }
-        // From here each call keeps its own deadline.
-        tcp_layer.expires_never();
     }
 
     ~SocketOver() override {
         try {
             boost::system::error_code ec;
-            beast::get_lowest_layer(*ws).socket().shutdown(tcp::socket::shutdown_both, ec);
-            beast::get_lowest_layer(*ws).socket().close(ec);
+            beast::get_lowest_layer(*ws).shutdown(tcp::socket::shutdown_both, ec);
+            beast::get_lowest_layer(*ws).close(ec);
             // Pending handlers end with operation_aborted; none outlives the state they touch.
             ioc.restart();
             ioc.poll();
@@ -243,12 +269,8 @@ struct SocketOver final : WebSocketClient::State {
             ec = e;
             done = true;
         });
-        if (!run_until(ioc, done, Clock::now() + std::chrono::seconds(30))) {
-            beast::get_lowest_layer(*ws).socket().close(ec);
-            ioc.restart();
-            ioc.poll();
+        if (!finish_within(ioc, done, std::chrono::seconds(30), beast::get_lowest_layer(*ws)))
             throw NetworkError(where + ": a message could not be sent within 30 s");
-        }
         if (ec) throw NetworkError(where + ": " + ec.message());
     }
 
@@ -266,7 +288,7 @@ struct SocketOver final : WebSocketClient::State {
         if (read_error) {
             const auto& e = read_error;
             const bool closed = e == websocket::error::closed || e == net::error::eof ||
-                                e == net::error::connection_reset || e == beast::error::timeout ||
+                                e == net::error::connection_reset ||
                                 e == ssl::error::stream_truncated;
             throw NetworkError(
                 where + ": " +
@@ -283,10 +305,9 @@ struct SocketOver final : WebSocketClient::State {
 WebSocketClient::WebSocketClient(const Url& url, const Headers& headers,
                                  std::chrono::milliseconds timeout) {
     if (url.tls())
-        state_ = std::make_unique<SocketOver<beast::ssl_stream<beast::tcp_stream>>>(url, headers,
-                                                                                    timeout);
+        state_ = std::make_unique<SocketOver<ssl::stream<tcp::socket>>>(url, headers, timeout);
     else
-        state_ = std::make_unique<SocketOver<beast::tcp_stream>>(url, headers, timeout);
+        state_ = std::make_unique<SocketOver<tcp::socket>>(url, headers, timeout);
 }
 
 WebSocketClient::~WebSocketClient() = default;

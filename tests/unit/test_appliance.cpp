@@ -1115,6 +1115,7 @@ TEST(ApplianceGalvo, a_scanner_is_corrected_through_the_boxs_table_and_reverted)
               number_text("%.4f", news.drift_mm().value_or(-1)))
                  .c_str());
     CHECK(changed.mean_mm > 0.015);
+    CHECK(std::abs(*rig.cycle.report().in_force->mean_mm - changed.mean_mm) < 0.005);
     CHECK(std::abs(*news.drift_mm() - changed.mean_mm) < 0.005);
 
     // Revert puts back what was in force before: no table.

@@ -261,7 +261,7 @@ void MoonrakerLink::replace_config_file(const std::string& text, const std::stri
                                         Done done) {
     start_with<Session>(
         *session_,
-        [this, text, expected_now](Session& s) {
+        [text, expected_now](Session& s) {
             if (s.download("config/printer.cfg") != expected_now)
                 throw LinkError(
                     "printer.cfg was changed on the host since the box read it; nothing was "

@@ -6,6 +6,7 @@
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <thread>
@@ -106,8 +107,28 @@ void trace_row(const LensRays& rays, const Mat3& camera_to_plane, const Vec3& or
     }
 }
 
-void render_rows(const LensRays& rays, const Pose& pose, const Scene& scene, int first_row,
-                 int end_row, std::vector<float>& albedo) {
+// Where the box's lamp stands and how wide its mirrored lobe is, in the plane's frame.
+struct GlareGeometry {
+    Vec3 lamp_mm;
+    Vec3 camera_mm;
+    double spread_rad;
+    double peak;
+};
+
+// The glare lobe (0..1) at a point of the plane (z = 0): the half-vector between the directions to
+// the lamp and to the camera, against the plane's normal on the camera's side.
+double glare_lobe(const GlareGeometry& g, Vec2 p) {
+    const Vec3 to_camera{g.camera_mm.x - p.x, g.camera_mm.y - p.y, g.camera_mm.z};
+    const Vec3 to_lamp{g.lamp_mm.x - p.x, g.lamp_mm.y - p.y, g.lamp_mm.z};
+    if (to_lamp.z * to_camera.z <= 0) return 0;  // the lamp lights the plane's other face
+    const Vec3 half = to_camera * (1 / to_camera.norm()) + to_lamp * (1 / to_lamp.norm());
+    const double tilt = std::acos(std::min(1.0, std::abs(half.z) / half.norm()));
+    return std::exp(-0.5 * tilt * tilt / (g.spread_rad * g.spread_rad));
+}
+
+void render_rows(const LensRays& rays, const Pose& pose, const Scene& scene,
+                 const GlareGeometry* glare, int first_row, int end_row,
+                 std::vector<float>& albedo) {
     const Mat3 camera_to_plane = pose.rotation.transposed();
     const Vec3 origin = pose.camera_centre_in_plane();
     std::vector<Ray> here, below;
@@ -127,6 +148,7 @@ void render_rows(const LensRays& rays, const Pose& pose, const Scene& scene, int
                      {right.on_plane.y - r.on_plane.y, down.on_plane.y - r.on_plane.y}},
                     r.per_height};
                 a = scene.albedo(f);
+                if (glare != nullptr) a += glare->peak * glare_lobe(*glare, r.on_plane);
             }
             out[u] = static_cast<float>(a);
         }
@@ -154,26 +176,110 @@ cv::Mat motion_kernel(double length_px, double direction_deg) {
     return kernel / static_cast<double>(samples);
 }
 
+// Defocus that grows from `centre_sigma_px` at the image centre by `corner_extra_px` at its
+// corners, as the square of the radius (a lens's curved field). Between layers blurred at evenly
+// spaced sigmas, each pixel takes the two whose sigmas bracket its own, weighted linearly; two
+// layers are held at a time.
+void blur_growing_to_corners(cv::Mat& radiance, double centre_sigma_px, double corner_extra_px) {
+    const auto blurred = [&](double sigma) {
+        cv::Mat out;
+        if (sigma > 0)
+            cv::GaussianBlur(radiance, out, cv::Size(0, 0), sigma, 0, cv::BORDER_REFLECT);
+        else
+            out = radiance.clone();
+        return out;
+    };
+    // Layers half a pixel of sigma apart: a blend of neighbours then stands for the blur between
+    // to within a few hundredths of a count on a step edge.
+    const int layers = std::clamp(static_cast<int>(std::ceil(corner_extra_px / 0.5)), 1, 32);
+    const double half_w = (radiance.cols - 1) / 2.0, half_h = (radiance.rows - 1) / 2.0;
+    const double corner_sq = half_w * half_w + half_h * half_h;
+    cv::Mat out(radiance.size(), CV_32F);
+    cv::Mat lower = blurred(centre_sigma_px);
+    for (int k = 0; k < layers; ++k) {
+        const cv::Mat upper = blurred(centre_sigma_px + corner_extra_px * (k + 1) / layers);
+        for (int v = 0; v < radiance.rows; ++v) {
+            const float* a = lower.ptr<float>(v);
+            const float* b = upper.ptr<float>(v);
+            float* o = out.ptr<float>(v);
+            const double dv = v - half_h;
+            for (int u = 0; u < radiance.cols; ++u) {
+                const double du = u - half_w;
+                const double t = (du * du + dv * dv) / corner_sq * layers - k;
+                if (t < 0 || t > 1 || (t == 0 && k > 0)) continue;  // another pair's pixel
+                o[u] = static_cast<float>((1 - t) * a[u] + t * b[u]);
+            }
+        }
+        lower = upper;
+    }
+    out.copyTo(radiance);  // into the buffer the caller reads: radiance may wrap it
+}
+
 }  // namespace
 
-std::vector<float> render_albedo(const CameraIntrinsics& camera, const Pose& plane_to_camera,
-                                 const Scene& scene) {
+LampGlare glare_of_surface(const std::string& material) {
+    // Peaks and widths chosen so that, with the lamp 60 mm beside a camera 300-450 mm away, a
+    // laminated board's or a glass bed's spot saturates at the exposure a matte white takes
+    // (about a tenth of the frame for the board), PEI's is a broad sheen that saturates little,
+    // and bare metal's is broad and bright.
+    struct Surface {
+        const char* name;
+        LampGlare glare;
+    };
+    static const Surface surfaces[] = {{"matte", {0, 6, {60, 0, 0}}},
+                                       {"laminated", {1.2, 6, {60, 0, 0}}},
+                                       {"pei", {0.45, 12, {60, 0, 0}}},
+                                       {"glass", {3.0, 2, {60, 0, 0}}},
+                                       {"metal", {0.9, 10, {60, 0, 0}}}};
+    std::string names;
+    for (const auto& surface : surfaces) {
+        if (material == surface.name) return surface.glare;
+        names += names.empty() ? surface.name : std::string(", ") + surface.name;
+    }
+    throw std::invalid_argument("unknown surface \"" + material + "\" (one of " + names + ")");
+}
+
+namespace {
+
+// The scene's albedo over each pixel, with the lamp's glare added where `glare` has a peak.
+std::vector<float> render_surface(const CameraIntrinsics& camera, const Pose& plane_to_camera,
+                                  const Scene& scene, const LampGlare& glare) {
     if (camera.width_px <= 0 || camera.height_px <= 0 || camera.width_px > 20000 ||
         camera.height_px > 20000) {
         throw std::invalid_argument("camera size must be 1..20000 px on each side");
     }
+    if (glare.peak < 0 || !(glare.spread_deg > 0))
+        throw std::invalid_argument("a lamp's glare needs a peak >= 0 and a spread above 0 deg");
+    std::optional<GlareGeometry> lobe;
+    if (glare.peak > 0) {
+        const Vec3 camera_mm = plane_to_camera.camera_centre_in_plane();
+        lobe = GlareGeometry{
+            camera_mm + plane_to_camera.rotation.transposed() * glare.lamp_from_camera_mm,
+            camera_mm, radians(glare.spread_deg), glare.peak};
+    }
     std::vector<float> albedo(static_cast<std::size_t>(camera.width_px) * camera.height_px);
     const auto rays = rays_of(camera);
     on_all_cores(camera.height_px, [&](int first, int end) {
-        render_rows(*rays, plane_to_camera, scene, first, end, albedo);
+        render_rows(*rays, plane_to_camera, scene, lobe ? &*lobe : nullptr, first, end, albedo);
     });
     return albedo;
+}
+
+}  // namespace
+
+std::vector<float> render_albedo(const CameraIntrinsics& camera, const Pose& plane_to_camera,
+                                 const Scene& scene) {
+    return render_surface(camera, plane_to_camera, scene, {});
 }
 
 GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_camera,
                        const Scene& scene, const PhotoSettings& settings) {
     // Albedo becomes light on the sensor in place, in 8-bit counts before noise.
-    std::vector<float> light_dn = render_albedo(camera, plane_to_camera, scene);
+    if (!(settings.exposure_time_ratio > 0) || !(settings.analogue_gain > 0))
+        throw std::invalid_argument("an exposure time and a gain must be above 0");
+    std::vector<float> light_dn = render_surface(camera, plane_to_camera, scene, settings.glare);
+    const double exposed_dn =
+        settings.exposure_dn * settings.exposure_time_ratio * settings.analogue_gain;
     cv::Mat radiance(camera.height_px, camera.width_px, CV_32F, light_dn.data());
     const double half_w = camera.width_px / 2.0, half_h = camera.height_px / 2.0;
     const double corner = std::hypot(half_w, half_h);
@@ -195,10 +301,12 @@ GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_came
                 const double rho = std::hypot(u - half_w, v - half_h) / corner;
                 vignette = 1 - settings.vignetting * rho * rho;
             }
-            row[u] = static_cast<float>(row[u] * settings.exposure_dn * light * vignette);
+            row[u] = static_cast<float>(row[u] * exposed_dn * light * vignette);
         }
     }
-    if (settings.blur_sigma_px > 0) {
+    if (settings.field_curvature_px > 0) {
+        blur_growing_to_corners(radiance, settings.blur_sigma_px, settings.field_curvature_px);
+    } else if (settings.blur_sigma_px > 0) {
         cv::GaussianBlur(radiance, radiance, cv::Size(0, 0), settings.blur_sigma_px, 0,
                          cv::BORDER_REFLECT);
     }
@@ -212,9 +320,10 @@ GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_came
     std::mt19937_64 rng(settings.seed);
     std::normal_distribution<double> noise(0.0, 1.0);
     const bool noisy = settings.noise_sigma_dn > 0;
+    const double noise_dn = settings.noise_sigma_dn * settings.analogue_gain;
     for (std::size_t i = 0; i < light_dn.size(); ++i) {
         double dn = light_dn[i];
-        if (noisy) dn += settings.noise_sigma_dn * noise(rng);
+        if (noisy) dn += noise_dn * noise(rng);
         image.pixels[i] = static_cast<std::uint8_t>(std::clamp(std::lround(dn), 0L, 255L));
     }
     if (settings.jpeg_quality > 0) {

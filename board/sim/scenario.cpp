@@ -111,6 +111,23 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("motion_blur_px", p.motion_blur_px, 0, 50);
         r.number("motion_blur_direction_deg", p.motion_blur_direction_deg, -360, 360);
         r.integer("jpeg_quality", p.jpeg_quality, 0, 100);
+        r.number("field_curvature_px", p.field_curvature_px, 0, 20);
+        r.number("exposure_us", s.nominal_exposure_us, 10, 1e7);
+        for (const auto& [key, field] : {std::pair{"board_surface", &s.board_surface},
+                                         std::pair{"bed_surface", &s.bed_surface}}) {
+            std::optional<std::string> surface;
+            r.text(key, surface);
+            if (!surface) continue;
+            try {
+                glare_of_surface(*surface);
+            } catch (const std::invalid_argument& e) {
+                r.fail(key, e.what());
+            }
+            *field = *surface;
+        }
+        r.number("glare_strength", s.glare_strength, 0, 10);
+        if (const auto lamp = r.numbers("lamp_from_camera_mm", 3, 3); !lamp.empty())
+            s.lamp_from_camera_mm = {lamp[0], lamp[1], lamp[2]};
         auto& look = s.surface;
         r.number("bed_texture", look.bed_texture, 0, 1);
         r.number("bed_texture_grain_mm", look.bed_texture_grain_mm, 0.01, 100);

@@ -89,6 +89,16 @@ struct Scenario {
     double bed_albedo = 0.08;                       // matte black PEI
     double material_albedo = 0.85;                  // white PETG
     StrokeSurface surface;                          // [photo]: the bed's grain, the gloss
+    // [photo]: the box's lamp as the glossy things in view mirror it (glare_of_surface's names):
+    // the board laid or held in front of the camera, and the bed or plate with the work on it.
+    // glare_strength scales both surfaces' peaks (0 turns the lamp's reflection off).
+    std::string board_surface = "matte";
+    std::string bed_surface = "matte";
+    double glare_strength = 1;
+    Vec3 lamp_from_camera_mm{60, 0, 0};
+    // [photo] exposure_us: the exposure at which a white surface gives exposure_dn; a capture
+    // asking for another scales the light by the ratio.
+    double nominal_exposure_us = 10000;
     ScenarioFaults faults;
     ScenarioSetup setup;
 };

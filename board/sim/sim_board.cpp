@@ -265,7 +265,7 @@ void TwinBench::replace_printer(std::unique_ptr<MachineTwin> machine) {
     strokes_cleared_ = 0;
 }
 
-GrayImage TwinBench::photograph(std::uint64_t frame) const {
+GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& asked) const {
     std::vector<StrokeSegment> strokes;
     std::optional<Board> board;
     {
@@ -279,6 +279,16 @@ GrayImage TwinBench::photograph(std::uint64_t frame) const {
     const auto& camera = *scenario_.camera;
     PhotoSettings photo = scenario_.photo;
     photo.seed = scenario_.photo.seed + 7919 * frame;
+    if (asked.exposure)
+        photo.exposure_time_ratio =
+            static_cast<double>(asked.exposure->count()) / scenario_.nominal_exposure_us;
+    if (asked.analogue_gain) photo.analogue_gain = *asked.analogue_gain;
+    const auto lamp_on = [&](const std::string& surface) {
+        photo.glare = glare_of_surface(surface);
+        photo.glare.peak *= scenario_.glare_strength;
+        photo.glare.lamp_from_camera_mm = scenario_.lamp_from_camera_mm;
+    };
+    lamp_on(board_ ? scenario_.board_surface : scenario_.bed_surface);
     const auto& setup = scenario_.setup;
     const auto with_marks = [&](const Scene& scene, const double to_bed[2][2], Vec2 origin) {
         return ReferenceMarksScene(scene, reference_marks_, setup.reference_dictionary,
@@ -565,13 +575,16 @@ void TwinCamera::start_capture(const hal::CaptureRequest& request) {
                     break;
                 }
                 const GrayImage image =
-                    bench_->photograph(first_frame + static_cast<std::uint64_t>(k));
+                    bench_->photograph(first_frame + static_cast<std::uint64_t>(k), request);
                 hal::Frame frame;
                 frame.width_px = image.width_px;
                 frame.height_px = image.height_px;
                 frame.stride_bytes = image.width_px;
                 frame.pixels = image.pixels;
                 frame.metadata.sequence = first_frame + static_cast<std::uint64_t>(k);
+                frame.metadata.exposure = request.exposure.value_or(
+                    std::chrono::microseconds(std::lround(bench_->scenario().nominal_exposure_us)));
+                frame.metadata.analogue_gain = request.analogue_gain.value_or(1.0);
                 result.frames.push_back(std::move(frame));
             }
         } catch (const std::exception& e) {

@@ -61,8 +61,10 @@ class TwinBench {
     void change_machine(const std::function<void(Scenario&)>& change);
 
     // What the camera sees now: the printed material, or a board, rendered with the scenario's
-    // camera and photo settings; `frame` varies the sensor noise.
-    GrayImage photograph(std::uint64_t frame) const;
+    // camera and photo settings; `frame` varies the sensor noise. An exposure or gain `asked`
+    // for scales the light (a white surface gives the scenario's exposure_dn at its exposure_us
+    // and gain 1); unset, the scenario's.
+    GrayImage photograph(std::uint64_t frame, const hal::CaptureRequest& asked = {}) const;
 
     // The operator's hands.
     // The boards are the scenario's [setup] ones.

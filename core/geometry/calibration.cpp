@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <opencv2/aruco/charuco.hpp>
@@ -66,6 +67,24 @@ void put_black_corner_first(const cv::Mat& gray, const PatternSpec& pattern,
 
 namespace {
 
+// The mean distance between neighbours along the board's rows, in pixels.
+double corner_spacing_px(const std::vector<cv::Point2f>& corners, int columns) {
+    double spacing = 0;
+    int pairs = 0;
+    const auto per_row = static_cast<std::size_t>(columns);
+    for (std::size_t i = 0; i + 1 < corners.size(); ++i) {
+        if ((i + 1) % per_row == 0) continue;  // a row's last corner and the next row's first
+        spacing += cv::norm(corners[i + 1] - corners[i]);
+        ++pairs;
+    }
+    return spacing / std::max(1, pairs);
+}
+
+int refine_half_window_px(const ChessboardSearch& search, double spacing_px) {
+    return std::clamp(static_cast<int>(std::lround(search.refine_window_share * spacing_px)),
+                      search.refine_window_min_px, search.refine_window_max_px);
+}
+
 // The chessboard's inner corners in OpenCV's order (rows of columns), or empty; `detector`
 // says which found them.
 std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const PatternSpec& pattern,
@@ -82,33 +101,79 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Patt
     // refined at full resolution below instead.
     const int accuracy = factor == 1 ? cv::CALIB_CB_ACCURACY : 0;
     std::vector<cv::Point2f> corners;
+    bool refine = factor > 1;
     if (cv::findChessboardCornersSB(reduced, size, corners, accuracy)) {
         detector = "sb";
     } else if (cv::findChessboardCornersSB(reduced, size, corners,
                                            accuracy | cv::CALIB_CB_NORMALIZE_IMAGE)) {
         detector = "sb-normalized";
     } else {
-        return {};
+        // The box's lamp mirrored by a laminated board washes out the squares under it: there
+        // they keep a few tens of counts of contrast, which a global normalisation cannot lift
+        // beside the rest of the board. Equalised tile by tile (each tile's own histogram, the
+        // tiles blended), they show again; the corners found there are refined on the photo.
+        cv::Mat equalized;
+        cv::createCLAHE(search.equalize_clip_limit,
+                        cv::Size(search.equalize_tiles, search.equalize_tiles))
+            ->apply(reduced, equalized);
+        if (!cv::findChessboardCornersSB(equalized, size, corners, cv::CALIB_CB_EXHAUSTIVE))
+            return {};
+        detector = "sb-equalized";
+        refine = true;
     }
-    if (factor == 1) return corners;
+    if (!refine) return corners;
     // A reduced image's corner, at full resolution: OpenCV's pixel centres are at integers, so
     // a reduced pixel's centre k lies at factor * k + (factor - 1) / 2.
     const float offset = static_cast<float>(factor - 1) / 2;
     for (auto& c : corners) c = c * static_cast<float>(factor) + cv::Point2f(offset, offset);
-    double spacing = 0;
-    int pairs = 0;
-    const auto columns = static_cast<std::size_t>(pattern.columns);
-    for (std::size_t i = 0; i + 1 < corners.size(); ++i) {
-        if ((i + 1) % columns == 0) continue;  // a row's last corner and the next row's first
-        spacing += cv::norm(corners[i + 1] - corners[i]);
-        ++pairs;
-    }
-    const int half_window = std::clamp(
-        static_cast<int>(std::lround(search.refine_window_share * spacing / std::max(1, pairs))),
-        search.refine_window_min_px, search.refine_window_max_px);
+    const int half_window =
+        refine_half_window_px(search, corner_spacing_px(corners, pattern.columns));
     cv::cornerSubPix(gray, corners, cv::Size(half_window, half_window), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.001));
     return corners;
+}
+
+// A corner's contrast over its refinement window: the brightest quarter's mean less the darkest
+// quarter's, as a share of the brightest's (so that light falling off across the board or a
+// vignette, which scale both, leave it as it is).
+double corner_contrast(const cv::Mat& gray, cv::Point2f corner, int half_window) {
+    const cv::Rect window(static_cast<int>(std::lround(corner.x)) - half_window,
+                          static_cast<int>(std::lround(corner.y)) - half_window,
+                          2 * half_window + 1, 2 * half_window + 1);
+    const cv::Rect inside = window & cv::Rect(0, 0, gray.cols, gray.rows);
+    if (inside.area() < 4) return 0;
+    std::vector<std::uint8_t> levels;
+    levels.reserve(static_cast<std::size_t>(inside.area()));
+    for (int v = inside.y; v < inside.y + inside.height; ++v) {
+        const std::uint8_t* row = gray.ptr<std::uint8_t>(v);
+        levels.insert(levels.end(), row + inside.x, row + inside.x + inside.width);
+    }
+    std::sort(levels.begin(), levels.end());
+    const std::size_t quarter = levels.size() / 4;
+    double dark = 0, bright = 0;
+    for (std::size_t i = 0; i < quarter; ++i) {
+        dark += levels[i];
+        bright += levels[levels.size() - 1 - i];
+    }
+    return bright > 0 ? (bright - dark) / bright : 0;
+}
+
+// The corners a glare washed out, by index: those whose contrast is under the allowed share of
+// the board's best corners' (the tenth from the top). Under the lamp's reflection the dark
+// squares rise towards the clipped white and the saddle is pulled towards the brighter side; a
+// board merely over-exposed keeps its corners (its dark squares stay dark).
+std::vector<std::size_t> washed_out(const cv::Mat& gray, const std::vector<cv::Point2f>& corners,
+                                    int half_window, const ChessboardSearch& search) {
+    std::vector<double> contrast;
+    contrast.reserve(corners.size());
+    for (const auto& c : corners) contrast.push_back(corner_contrast(gray, c, half_window));
+    std::vector<double> sorted = contrast;
+    std::sort(sorted.begin(), sorted.end());
+    const double best = sorted[sorted.size() - 1 - sorted.size() / 10];
+    std::vector<std::size_t> out;
+    for (std::size_t i = 0; i < contrast.size(); ++i)
+        if (contrast[i] < search.washed_out_contrast_share * best) out.push_back(i);
+    return out;
 }
 
 void check_minimum(LensModel model, const std::vector<ObservedView>& views,
@@ -140,11 +205,19 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
         auto corners = find_chessboard_corners(gray, pattern, search, obs.detector);
         if (corners.empty()) return std::nullopt;
         put_black_corner_first(gray, pattern, corners);
+        const auto set_aside = washed_out(
+            gray, corners,
+            refine_half_window_px(search, corner_spacing_px(corners, pattern.columns)), search);
         for (int r = 0; r < pattern.rows; ++r) {
             for (int c = 0; c < pattern.columns; ++c) {
-                const auto& p = corners[static_cast<std::size_t>(r) *
-                                            static_cast<std::size_t>(pattern.columns) +
-                                        static_cast<std::size_t>(c)];
+                const auto index =
+                    static_cast<std::size_t>(r) * static_cast<std::size_t>(pattern.columns) +
+                    static_cast<std::size_t>(c);
+                const auto& p = corners[index];
+                if (std::binary_search(set_aside.begin(), set_aside.end(), index)) {
+                    obs.set_aside_ids.push_back(r * pattern.columns + c);
+                    continue;
+                }
                 obs.image_points.push_back({p.x, p.y});
                 obs.object_points.push_back({c * pattern.square_mm, r * pattern.square_mm, 0});
                 obs.ids.push_back(r * pattern.columns + c);
@@ -499,16 +572,34 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
     if (const auto size = photo_size_mismatch(camera, image.width_px, image.height_px);
         !size.empty())
         throw CalibrationError("the image is " + size);
-    const auto obs = find_board(pattern, image);
-    if (!obs)
-        throw CalibrationError("the board " +
-                               std::string(pattern.kind == PatternSpec::Kind::chessboard
-                                               ? "chessboard"
-                                               : "ChArUco board") +
-                               " was not found in the image");
+    const ChessboardSearch search;
+    const auto obs = find_board(pattern, image, search);
+    if (!obs) {
+        std::string why =
+            "the board " +
+            std::string(pattern.kind == PatternSpec::Kind::chessboard ? "chessboard"
+                                                                      : "ChArUco board") +
+            " was not found in the image";
+        // Over a twentieth of the photo clipped white: the likeliest cause is the lamp's glare.
+        const cv::Mat gray = to_cv(image);
+        const double clipped =
+            cv::countNonZero(gray >= search.clipped_from_dn) / static_cast<double>(gray.total());
+        if (clipped > 0.05)
+            why += "; " + std::to_string(static_cast<int>(std::lround(100 * clipped))) +
+                   " % of it is clipped white: tilt the board or diffuse the lamp's light";
+        throw CalibrationError(why);
+    }
+    const std::size_t found = obs->ids.size() + obs->set_aside_ids.size();
+    if (2 * obs->ids.size() < found)
+        throw CalibrationError(
+            "the board was found under glare: " + std::to_string(obs->set_aside_ids.size()) +
+            " of its " + std::to_string(found) +
+            " corners are washed out; tilt the board or diffuse the lamp's light");
     const RigidPose board = solve_board_pose(camera, *obs);
     BedPlane plane;
     plane.board_thickness_mm = board_thickness_mm;
+    plane.set_aside_corners = obs->set_aside_ids;
+    plane.corners_used = static_cast<int>(obs->ids.size());
     plane.rms_px =
         rms_between(project_points(camera, board, obs->object_points), obs->image_points);
     if (!(plane.rms_px <= max_rms_px)) {
@@ -532,6 +623,17 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
         plane.bed_to_camera.tvec_mm[static_cast<std::size_t>(i)] = t_bed[i];
     }
     return plane;
+}
+
+std::string set_aside_text(const BedPlane& plane) {
+    if (plane.set_aside_corners.empty()) return "";
+    std::string ids;
+    for (const int id : plane.set_aside_corners)
+        ids += (ids.empty() ? "" : ", ") + std::to_string(id);
+    return ", " + std::to_string(plane.set_aside_corners.size()) + " of its " +
+           std::to_string(plane.set_aside_corners.size() +
+                          static_cast<std::size_t>(plane.corners_used)) +
+           " corners set aside under glare (ids " + ids + ")";
 }
 
 std::string plane_to_yaml(const BedPlane& plane) {

@@ -21,9 +21,12 @@ struct BoardObservation {
     std::vector<Point2> image_points;
     std::vector<Point3> object_points;
     std::vector<int> ids;  // chessboard: corner index; ChArUco: corner id
-    // What found it: "sb" or "sb-normalized" for a chessboard (below), "charuco", "circles" or
-    // "circles-negative".
+    // What found it: "sb", "sb-normalized" or "sb-equalized" for a chessboard (below),
+    // "charuco", "circles" or "circles-negative".
     std::string detector;
+    // A chessboard's corners found washed out by a glare (ChessboardSearch): not among the
+    // points, by id.
+    std::vector<int> set_aside_ids;
 };
 
 // How a chessboard is searched for, each limit with its reason.
@@ -40,12 +43,28 @@ struct ChessboardSearch {
     double refine_window_share = 0.25;
     int refine_window_min_px = 3;
     int refine_window_max_px = 15;
+    // Tile-by-tile equalisation, the last try (CLAHE): tiles of the image's side over this, and
+    // each tile's histogram clipped at this many times its mean before it is spread (so that a
+    // flat tile's noise is not stretched into corners).
+    int equalize_tiles = 8;
+    double equalize_clip_limit = 4.0;
+    // A pixel at or above this is clipped white (a sensor's curve and JPEG flatten the last
+    // counts before 255).
+    int clipped_from_dn = 250;
+    // A corner whose contrast over its refinement window (the brightest quarter's mean less the
+    // darkest's, as a share of the brightest's) is under this share of the board's best corners'
+    // is washed out by a glare and set aside: its dark squares have risen towards the clipped
+    // white and its saddle is pulled towards the brighter side. Vignetting and light falling off
+    // across a board scale both sides alike and leave the share as it is.
+    double washed_out_contrast_share = 0.5;
 };
 
 // Empty when the board is not in the image. A chessboard is tried with OpenCV's SB detector
 // without normalisation ("sb"), with it ("sb-normalized": histogram equalisation helps a
-// low-contrast board but defeats SB on dark surroundings); SB's own accurate corners at full
-// size, else cornerSubPix at full resolution. OpenCV's classic detector is not tried: it found
+// low-contrast board but defeats SB on dark surroundings), then exhaustively on the image
+// equalised tile by tile ("sb-equalized": squares washed out by a glare); SB's own accurate
+// corners at full size, else cornerSubPix at full resolution. Corners under clipped white are
+// set aside (set_aside_ids). OpenCV's classic detector is not tried: it found
 // no board in the tests that SB missed, and on a ChArUco board (many small squares) it takes
 // two minutes to say no.
 // ChArUco boards through marker detection and corner interpolation (at least 6 corners), dot
@@ -97,9 +116,10 @@ struct ObservedView {
 };
 
 // How the views judge each other. A view reprojecting beyond `outlier_factor` times the better
-// views' RMS (their lower quartile) (and beyond `outlier_floor_px`, under which every view of a real lens is fine) is
-// set aside: on BoofCV's fisheye set two views whose pose OpenCV's start did not converge sit at
-// 100 px while the other 22 are at 0.18-0.50 px, and they drag the whole solve to 31 px.
+// views' RMS (their lower quartile) (and beyond `outlier_floor_px`, under which every view of a
+// real lens is fine) is set aside: on BoofCV's fisheye set two views whose pose OpenCV's start did
+// not converge sit at 100 px while the other 22 are at 0.18-0.50 px, and they drag the whole solve
+// to 31 px.
 struct ViewJudging {
     double outlier_factor = 5;
     double outlier_floor_px = 1.0;
@@ -139,6 +159,8 @@ struct BedPlane {
     RigidPose bed_to_camera;
     double board_thickness_mm = 0;
     double rms_px = 0;
+    std::vector<int> set_aside_corners;  // found under glare, left out of the fit (not stored)
+    int corners_used = 0;                // not stored
 };
 
 // The board's corners reproject through the plane's pose within this: a flat board seen through
@@ -147,10 +169,15 @@ struct BedPlane {
 constexpr double kPlaneMaxRmsPx = 1.0;
 
 // Throws CalibrationError when the board is not found, its pose cannot be solved, or its
-// reprojection RMS exceeds `max_rms_px` (the message gives the figure).
+// reprojection RMS exceeds `max_rms_px` (the message gives the figure), or when glare leaves
+// fewer than half the board's corners (the share and what to do are in the message).
 BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& pattern,
                             const vision::GrayView& image, double board_thickness_mm,
                             double max_rms_px = kPlaneMaxRmsPx);
+
+// "" or ", N of its M corners set aside under glare (ids a, b, ...)": what a report of the plane
+// adds, so that an owner sees the lamp's reflection on the board.
+std::string set_aside_text(const BedPlane& plane);
 
 std::string plane_to_yaml(const BedPlane& plane);
 BedPlane plane_from_yaml(const std::string& text);  // throws FileFormatError

@@ -52,10 +52,11 @@ int plane(const Args& args) {
     const std::string out = args.require("-o");
     const cv::Mat image = load_gray_image(args.positional()[0]);
     const auto plane = geometry::estimate_bed_plane(camera, pattern, view_of(image), thickness);
-    std::printf("bed plane: board reprojection RMS %.4f px, camera %.2f mm from the bed origin\n",
+    std::printf("bed plane: board reprojection RMS %.4f px, camera %.2f mm from the bed origin%s\n",
                 plane.rms_px,
                 std::hypot(plane.bed_to_camera.tvec_mm[0], plane.bed_to_camera.tvec_mm[1],
-                           plane.bed_to_camera.tvec_mm[2]));
+                           plane.bed_to_camera.tvec_mm[2]),
+                geometry::set_aside_text(plane).c_str());
     write_output_file(out, geometry::plane_to_yaml(plane));
     return 0;
 }

@@ -122,7 +122,8 @@ void Cycle::setup_plane() {
                         camera, geometry::parse_pattern_spec(pattern), view_of(*frame), thickness);
                     *yaml = geometry::plane_to_yaml(plane);
                     *summary = "bed plane from " + pattern + ", RMS " +
-                               number_text("%.3f", plane.rms_px) + " px";
+                               number_text("%.3f", plane.rms_px) + " px" +
+                               geometry::set_aside_text(plane);
                     if (marks == kNoReferenceMarks) return;
                     // The marks' view is taken with the plane, in the same photo: the two hold
                     // together until the camera moves.

@@ -621,3 +621,127 @@ TEST(HarderPhotos, jpeg_at_the_camera_apps_quality_changes_pixels_by_a_few_count
     CHECK_TEXT(q93 > 0.3 && q93 < 2.5, std::to_string(q93).c_str());
     CHECK_TEXT(q50 > q93, (std::to_string(q50) + " at quality 50").c_str());
 }
+
+TEST_GROUP(LampAndLens){};
+
+namespace {
+
+// The overhead camera with pixel centres on whole 0.4 mm steps of the bed: pixel (200, 150)
+// sees the bed's origin.
+CameraIntrinsics centred_overhead_camera() {
+    CameraIntrinsics camera = overhead_camera();
+    camera.cx = 200;
+    camera.cy = 150;
+    return camera;
+}
+
+double pixel(const GrayImage& image, int u, int v) {
+    return image.pixels[static_cast<std::size_t>(v) * static_cast<std::size_t>(image.width_px) +
+                        static_cast<std::size_t>(u)];
+}
+
+}  // namespace
+
+TEST(LampAndLens, the_lamps_glare_peaks_where_the_bed_mirrors_it_and_falls_off_by_hand) {
+    const auto camera = centred_overhead_camera();
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    const StrokeScene bare_bed({}, 0.5, 0.85, 4);
+    PhotoSettings photo;
+    photo.exposure_dn = 100;
+    photo.glare = {1.0, 6, {60, 0, 0}};  // the lamp 60 mm right of the lens (bed +x)
+    const GrayImage image = render_photo(camera, pose, bare_bed, photo);
+    // The bed mirrors the lamp half-way between the lens and the lamp: bed (30, 0), pixel 275,
+    // where the half-vector is the bed's normal: 100 * (0.5 + 1.0).
+    DOUBLES_EQUAL(150, pixel(image, 275, 150), 0.5);
+    // Under the lens, bed (0, 0), and under the lamp, bed (60, 0): the directions to the lens and
+    // the lamp are atan(60 / 400) = 8.531 deg apart, the half-vector tilts by half of it,
+    // 4.265 deg, and the lobe is exp(-(4.265 / 6)^2 / 2) = 0.7767: 100 * (0.5 + 0.7767).
+    DOUBLES_EQUAL(127.67, pixel(image, 200, 150), 0.5);
+    DOUBLES_EQUAL(127.67, pixel(image, 350, 150), 0.5);
+    // Across the lamp's line the spot is as wide: bed (30, 20), 50 px up.
+    CHECK(pixel(image, 275, 100) < pixel(image, 275, 150));
+    // A matte bed has none.
+    photo.glare = glare_of_surface("matte");
+    DOUBLES_EQUAL(50, pixel(render_photo(camera, pose, bare_bed, photo), 275, 150), 0.5);
+    CHECK_THROWS(std::invalid_argument, glare_of_surface("velvet"));
+}
+
+TEST(LampAndLens, exposure_time_and_gain_scale_the_light_and_clip_at_255) {
+    const auto camera = centred_overhead_camera();
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    const StrokeScene bare_bed({}, 0.5, 0.85, 4);
+    PhotoSettings photo;
+    photo.exposure_dn = 100;
+    photo.exposure_time_ratio = 2;
+    photo.analogue_gain = 1.5;
+    DOUBLES_EQUAL(150, pixel(render_photo(camera, pose, bare_bed, photo), 10, 10), 0.5);
+    photo.exposure_time_ratio = 4;
+    photo.analogue_gain = 2;  // 400 counts of light: the sensor holds 255
+    DOUBLES_EQUAL(255, pixel(render_photo(camera, pose, bare_bed, photo), 10, 10), 0);
+    // The gain amplifies the sensor's noise with the light: 2 DN of noise at gain 3 is 6 DN.
+    photo.exposure_dn = 40;
+    photo.exposure_time_ratio = 1;
+    photo.analogue_gain = 3;  // 60 counts, clear of both ends
+    photo.noise_sigma_dn = 2;
+    const GrayImage noisy = render_photo(camera, pose, bare_bed, photo);
+    double sum = 0, sum2 = 0;
+    for (const auto p : noisy.pixels) {
+        sum += p;
+        sum2 += static_cast<double>(p) * p;
+    }
+    const double n = static_cast<double>(noisy.pixels.size());
+    DOUBLES_EQUAL(60, sum / n, 0.1);
+    DOUBLES_EQUAL(std::sqrt(36.0 + 1.0 / 12), std::sqrt(sum2 / n - (sum / n) * (sum / n)), 0.1);
+    photo.analogue_gain = 0;
+    CHECK_THROWS(std::invalid_argument, render_photo(camera, pose, bare_bed, photo));
+}
+
+TEST(LampAndLens, field_curvature_blurs_by_the_square_of_the_radius_as_opencvs_gaussian_does) {
+    const auto camera = centred_overhead_camera();
+    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
+    // Stripes 4 mm wide every 8 mm across the whole view: edges everywhere.
+    std::vector<StrokeSegment> stripes;
+    for (double x = -84; x <= 84; x += 8) stripes.push_back({{x, -70, 0}, {x, 70, 0}, 4.0});
+    const StrokeScene scene(stripes, 0.1, 0.9, 4, 1.0);
+    PhotoSettings photo;
+    photo.exposure_dn = 200;
+    photo.blur_sigma_px = 0.8;
+    photo.field_curvature_px = 3;  // 3.8 px at the corners
+    const GrayImage image = render_photo(camera, pose, scene, photo);
+    // The reference: OpenCV's Gaussian of the sharp light at each pixel's own sigma,
+    // 0.8 + 3 * rho^2 with rho = 1 at the corner pixels' centres.
+    std::vector<float> light = render_albedo(camera, pose, scene);
+    for (auto& a : light) a *= 200;
+    const cv::Mat sharp(camera.height_px, camera.width_px, CV_32F, light.data());
+    const double corner_sq = 199.5 * 199.5 + 149.5 * 149.5;
+    double worst_dn = 0, steepest_centre = 0, steepest_corner = 0;
+    for (const auto& [u, v] : {std::pair{200, 150},
+                               {201, 150},
+                               {230, 140},
+                               {300, 60},
+                               {120, 250},
+                               {60, 40},
+                               {20, 10},
+                               {0, 0},
+                               {399, 299},
+                               {5, 290}}) {
+        const double rho_sq = ((u - 199.5) * (u - 199.5) + (v - 149.5) * (v - 149.5)) / corner_sq;
+        cv::Mat reference;
+        cv::GaussianBlur(sharp, reference, cv::Size(0, 0), 0.8 + 3 * rho_sq, 0, cv::BORDER_REFLECT);
+        worst_dn = std::max(worst_dn, std::abs(pixel(image, u, v) - reference.at<float>(v, u)));
+    }
+    // Rounding to counts (0.5) and the blend between layers half a pixel of sigma apart.
+    CHECK_TEXT(worst_dn < 1.0, std::to_string(worst_dn).c_str());
+    // And the blur does grow. A step of 160 counts (0.9 - 0.1 of 200) under a Gaussian of sigma s
+    // rises at most 160 / (sqrt(2 pi) s) a pixel: near the centre (sigma 0.8, and the pixel's own
+    // width) the steepest step along a row is over 45 counts; in the top-left corner's first 40
+    // columns of row 3 (rho^2 above 0.8: sigma above 3.2 px) it is at most 160 / 8.0 = 20.
+    for (int u = 150; u < 250; ++u)
+        steepest_centre =
+            std::max(steepest_centre, std::abs(pixel(image, u + 1, 150) - pixel(image, u, 150)));
+    for (int u = 1; u < 40; ++u)
+        steepest_corner =
+            std::max(steepest_corner, std::abs(pixel(image, u + 1, 3) - pixel(image, u, 3)));
+    CHECK_TEXT(steepest_centre > 45, std::to_string(steepest_centre).c_str());
+    CHECK_TEXT(steepest_corner <= 21, std::to_string(steepest_corner).c_str());
+}

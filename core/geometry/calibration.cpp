@@ -85,6 +85,55 @@ int refine_half_window_px(const ChessboardSearch& search, double spacing_px) {
                       search.refine_window_min_px, search.refine_window_max_px);
 }
 
+// A corner's contrast over its refinement window: the brightest quarter's mean less the darkest
+// quarter's, as a share of the brightest's (so that light falling off across the board or a
+// vignette, which scale both, leave it as it is); 1 when nothing in the window is clipped white
+// (a corner is washed out only by a glare: a blurred or distant corner's low contrast is not).
+double glared_contrast(const cv::Mat& gray, cv::Point2f corner, int half_window,
+                       int clipped_from_dn) {
+    const cv::Rect window(static_cast<int>(std::lround(corner.x)) - half_window,
+                          static_cast<int>(std::lround(corner.y)) - half_window,
+                          2 * half_window + 1, 2 * half_window + 1);
+    const cv::Rect inside = window & cv::Rect(0, 0, gray.cols, gray.rows);
+    if (inside.area() < 4) return 0;
+    std::vector<std::uint8_t> levels;
+    levels.reserve(static_cast<std::size_t>(inside.area()));
+    for (int v = inside.y; v < inside.y + inside.height; ++v) {
+        const std::uint8_t* row = gray.ptr<std::uint8_t>(v);
+        levels.insert(levels.end(), row + inside.x, row + inside.x + inside.width);
+    }
+    std::sort(levels.begin(), levels.end());
+    if (levels.back() < clipped_from_dn) return 1;
+    const std::size_t quarter = levels.size() / 4;
+    double dark = 0, bright = 0;
+    for (std::size_t i = 0; i < quarter; ++i) {
+        dark += levels[i];
+        bright += levels[levels.size() - 1 - i];
+    }
+    return bright > 0 ? (bright - dark) / bright : 0;
+}
+
+// The corners a glare washed out, by index: those beside clipped white whose contrast is under
+// the allowed share of the board's best corners' (the tenth from the top; a corner with nothing
+// clipped counts as 1). Under the lamp's reflection the dark squares rise towards the clipped
+// white and the saddle is pulled towards the brighter side; a board merely over-exposed keeps its
+// corners (its dark squares stay dark), and a blurred or distant one, clipped nowhere, all of
+// them.
+std::vector<std::size_t> washed_out(const cv::Mat& gray, const std::vector<cv::Point2f>& corners,
+                                    int half_window, const ChessboardSearch& search) {
+    std::vector<double> contrast;
+    contrast.reserve(corners.size());
+    for (const auto& c : corners)
+        contrast.push_back(glared_contrast(gray, c, half_window, search.clipped_from_dn));
+    std::vector<double> sorted = contrast;
+    std::sort(sorted.begin(), sorted.end());
+    const double best = sorted[sorted.size() - 1 - sorted.size() / 10];
+    std::vector<std::size_t> out;
+    for (std::size_t i = 0; i < contrast.size(); ++i)
+        if (contrast[i] < search.washed_out_contrast_share * best) out.push_back(i);
+    return out;
+}
+
 // The chessboard's inner corners in OpenCV's order (rows of columns), or empty; `detector`
 // says which found them.
 std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const PatternSpec& pattern,
@@ -112,6 +161,10 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Patt
         // they keep a few tens of counts of contrast, which a global normalisation cannot lift
         // beside the rest of the board. Equalised tile by tile (each tile's own histogram, the
         // tiles blended), they show again; the corners found there are refined on the photo.
+        // Only where there is a glare to see through (and, below, only a board under it).
+        const double clipped = cv::countNonZero(reduced >= search.clipped_from_dn) /
+                               static_cast<double>(reduced.total());
+        if (!(clipped > search.glare_clipped_share)) return {};
         cv::Mat equalized;
         cv::createCLAHE(search.equalize_clip_limit,
                         cv::Size(search.equalize_tiles, search.equalize_tiles))
@@ -130,50 +183,12 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Patt
         refine_half_window_px(search, corner_spacing_px(corners, pattern.columns));
     cv::cornerSubPix(gray, corners, cv::Size(half_window, half_window), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.001));
+    // A board found only once equalised must lie under the glare that called for it: elsewhere
+    // the equalised image makes grids of whatever it finds (on one of BoofCV's fisheye views,
+    // bright screens beside the board, it put a 4x6 grid across the wrong squares).
+    if (detector == "sb-equalized" && washed_out(gray, corners, half_window, search).empty())
+        return {};
     return corners;
-}
-
-// A corner's contrast over its refinement window: the brightest quarter's mean less the darkest
-// quarter's, as a share of the brightest's (so that light falling off across the board or a
-// vignette, which scale both, leave it as it is).
-double corner_contrast(const cv::Mat& gray, cv::Point2f corner, int half_window) {
-    const cv::Rect window(static_cast<int>(std::lround(corner.x)) - half_window,
-                          static_cast<int>(std::lround(corner.y)) - half_window,
-                          2 * half_window + 1, 2 * half_window + 1);
-    const cv::Rect inside = window & cv::Rect(0, 0, gray.cols, gray.rows);
-    if (inside.area() < 4) return 0;
-    std::vector<std::uint8_t> levels;
-    levels.reserve(static_cast<std::size_t>(inside.area()));
-    for (int v = inside.y; v < inside.y + inside.height; ++v) {
-        const std::uint8_t* row = gray.ptr<std::uint8_t>(v);
-        levels.insert(levels.end(), row + inside.x, row + inside.x + inside.width);
-    }
-    std::sort(levels.begin(), levels.end());
-    const std::size_t quarter = levels.size() / 4;
-    double dark = 0, bright = 0;
-    for (std::size_t i = 0; i < quarter; ++i) {
-        dark += levels[i];
-        bright += levels[levels.size() - 1 - i];
-    }
-    return bright > 0 ? (bright - dark) / bright : 0;
-}
-
-// The corners a glare washed out, by index: those whose contrast is under the allowed share of
-// the board's best corners' (the tenth from the top). Under the lamp's reflection the dark
-// squares rise towards the clipped white and the saddle is pulled towards the brighter side; a
-// board merely over-exposed keeps its corners (its dark squares stay dark).
-std::vector<std::size_t> washed_out(const cv::Mat& gray, const std::vector<cv::Point2f>& corners,
-                                    int half_window, const ChessboardSearch& search) {
-    std::vector<double> contrast;
-    contrast.reserve(corners.size());
-    for (const auto& c : corners) contrast.push_back(corner_contrast(gray, c, half_window));
-    std::vector<double> sorted = contrast;
-    std::sort(sorted.begin(), sorted.end());
-    const double best = sorted[sorted.size() - 1 - sorted.size() / 10];
-    std::vector<std::size_t> out;
-    for (std::size_t i = 0; i < contrast.size(); ++i)
-        if (contrast[i] < search.washed_out_contrast_share * best) out.push_back(i);
-    return out;
 }
 
 void check_minimum(LensModel model, const std::vector<ObservedView>& views,

@@ -48,14 +48,17 @@ struct ChessboardSearch {
     // flat tile's noise is not stretched into corners).
     int equalize_tiles = 8;
     double equalize_clip_limit = 4.0;
+    // ... tried only on a photo more than this share clipped white: a glare to see through.
+    double glare_clipped_share = 0.02;
     // A pixel at or above this is clipped white (a sensor's curve and JPEG flatten the last
     // counts before 255).
     int clipped_from_dn = 250;
-    // A corner whose contrast over its refinement window (the brightest quarter's mean less the
-    // darkest's, as a share of the brightest's) is under this share of the board's best corners'
-    // is washed out by a glare and set aside: its dark squares have risen towards the clipped
-    // white and its saddle is pulled towards the brighter side. Vignetting and light falling off
-    // across a board scale both sides alike and leave the share as it is.
+    // A corner with clipped white in its refinement window and a contrast there (the brightest
+    // quarter's mean less the darkest's, as a share of the brightest's) under this share of the
+    // board's best corners' is washed out by a glare and set aside: its dark squares have risen
+    // towards the clipped white and its saddle is pulled towards the brighter side. Vignetting
+    // and light falling off across a board scale both sides alike and leave the share as it is;
+    // blur and distance lower it, but a corner clipped nowhere is never set aside.
     double washed_out_contrast_share = 0.5;
 };
 

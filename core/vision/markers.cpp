@@ -9,6 +9,7 @@
 #include <cmath>
 #include <memory>
 #include <opencv2/core/version.hpp>
+#include <opencv2/imgproc.hpp>
 #include <optional>
 
 #include "core/geometry/cv_convert.hpp"
@@ -79,6 +80,13 @@ constexpr std::array<AprilTagFamily, 3> kAprilTagFamilies{{
 const AprilTagFamily* apriltag_family(const std::string& name) {
     for (const auto& f : kAprilTagFamilies)
         if (name == f.name) return &f;
+    return nullptr;
+}
+
+// The libapriltag family with the codes of one of OpenCV's AprilTag dictionaries, or null.
+const AprilTagFamily* apriltag_family_of_opencv(const std::string& dictionary) {
+    if (dictionary == "DICT_APRILTAG_36h11") return apriltag_family("tag36h11");
+    if (dictionary == "DICT_APRILTAG_25h9") return apriltag_family("tag25h9");
     return nullptr;
 }
 
@@ -205,7 +213,19 @@ RefinedCorners refine_marker_corners(const GrayView& image, const std::array<Poi
     return {corners, true, {}, sigma_px};
 }
 
-std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
+namespace {
+
+// Adds `more`'s marks whose ids `raw` lacks.
+void add_missing(RawMarkers& raw, const RawMarkers& more) {
+    for (std::size_t m = 0; m < more.ids.size(); ++m)
+        if (std::find(raw.ids.begin(), raw.ids.end(), more.ids[m]) == raw.ids.end()) {
+            raw.ids.push_back(more.ids[m]);
+            raw.corners.push_back(more.corners[m]);
+        }
+}
+
+// The detectors' rough finds in one image, each id once.
+RawMarkers detect_raw(const GrayView& image, const MarkerOptions& options) {
     const AprilTagFamily* family = apriltag_family(options.dictionary);
     RawMarkers raw;
     if (family != nullptr) {
@@ -214,24 +234,42 @@ std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOp
             options.apriltag_limits.second_pass_decimate != options.apriltag_limits.quad_decimate) {
             AprilTagLimits second = options.apriltag_limits;
             second.quad_decimate = options.apriltag_limits.second_pass_decimate;
-            const RawMarkers more = apriltag_detect(image, *family, second);
-            for (std::size_t m = 0; m < more.ids.size(); ++m)
-                if (std::find(raw.ids.begin(), raw.ids.end(), more.ids[m]) == raw.ids.end()) {
-                    raw.ids.push_back(more.ids[m]);
-                    raw.corners.push_back(more.corners[m]);
-                }
+            add_missing(raw, apriltag_detect(image, *family, second));
         }
-    } else {
-        int dictionary_id = 0;
-        try {
-            dictionary_id = geometry::aruco_dictionary_id(options.dictionary);
-        } catch (const geometry::PatternError&) {
-            throw geometry::PatternError(
-                "unknown marker dictionary '" + options.dictionary +
-                "' (OpenCV's DICT_4X4_50 ... DICT_7X7_1000, DICT_ARUCO_ORIGINAL, "
-                "DICT_APRILTAG_36h11, or libapriltag's tag36h11, tag25h9, tagStandard41h12)");
-        }
-        raw = opencv_detect(geometry::to_cv(image), dictionary_id);
+        return raw;
+    }
+    int dictionary_id = 0;
+    try {
+        dictionary_id = geometry::aruco_dictionary_id(options.dictionary);
+    } catch (const geometry::PatternError&) {
+        throw geometry::PatternError(
+            "unknown marker dictionary '" + options.dictionary +
+            "' (OpenCV's DICT_4X4_50 ... DICT_7X7_1000, DICT_ARUCO_ORIGINAL, "
+            "DICT_APRILTAG_36h11, or libapriltag's tag36h11, tag25h9, tagStandard41h12)");
+    }
+    raw = opencv_detect(geometry::to_cv(image), dictionary_id);
+    // OpenCV's AprilTag dictionaries are AprilTag's codes, which libapriltag reads too, and
+    // through a blur that loses OpenCV's quads (a lens's soft corners, where the reference marks
+    // stand). Its finds add the marks OpenCV missed; those OpenCV found stay as they were.
+    if (const AprilTagFamily* same_codes = apriltag_family_of_opencv(options.dictionary))
+        add_missing(raw, apriltag_detect(image, *same_codes, options.apriltag_limits));
+    return raw;
+}
+
+}  // namespace
+
+std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
+    RawMarkers raw = detect_raw(image, options);
+    if (options.equalized_pass) {
+        // Marks in a dim corner (light falling off, a vignette) under a soft lens: equalised tile
+        // by tile their cells show again. Found there, they are refined on the photo itself.
+        cv::Mat equalized;
+        cv::createCLAHE(options.equalize_clip_limit,
+                        cv::Size(options.equalize_tiles, options.equalize_tiles))
+            ->apply(geometry::to_cv(image), equalized);
+        add_missing(raw, detect_raw(GrayView{equalized.data, equalized.cols, equalized.rows,
+                                             static_cast<int>(equalized.step)},
+                                    options));
     }
     std::vector<DetectedMarker> out;
     for (std::size_t m = 0; m < raw.ids.size(); ++m) {

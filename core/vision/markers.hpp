@@ -83,6 +83,13 @@ struct MarkerOptions {
     const geometry::CameraModel* camera = nullptr;
     MarkerRefineLimits refine_limits;
     AprilTagLimits apriltag_limits;
+    // A second look on the image equalised tile by tile (CLAHE: tiles of the image's side over
+    // `equalize_tiles`, each tile's histogram clipped at `equalize_clip_limit` times its mean),
+    // adding the marks the photo itself did not give: marks in a dim, soft corner (the fixed
+    // reference marks). It costs a second detection.
+    bool equalized_pass = false;
+    int equalize_tiles = 8;
+    double equalize_clip_limit = 4.0;
 };
 
 // Markers sorted by id. Throws geometry::PatternError for an unknown dictionary name.

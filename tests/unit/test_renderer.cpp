@@ -439,6 +439,21 @@ TEST(EdgeTruth, stroke_edges_lie_where_the_camera_projects_them_to_a_hundredth_o
 
 TEST_GROUP(SensorModel){};
 
+namespace {
+
+// A photo's mean and standard deviation, in counts.
+std::pair<double, double> mean_and_spread(const GrayImage& image) {
+    double sum = 0, sum2 = 0;
+    for (const auto p : image.pixels) {
+        sum += p;
+        sum2 += static_cast<double>(p) * p;
+    }
+    const double n = static_cast<double>(image.pixels.size());
+    return {sum / n, std::sqrt(sum2 / n - (sum / n) * (sum / n))};
+}
+
+}  // namespace
+
 TEST(SensorModel, noise_is_seeded_and_has_the_asked_spread_light_falls_off_as_asked) {
     CameraIntrinsics camera;
     camera.width_px = 400;
@@ -457,15 +472,10 @@ TEST(SensorModel, noise_is_seeded_and_has_the_asked_spread_light_falls_off_as_as
     CHECK(a.pixels == b.pixels);
     photo.seed = 12;
     CHECK(render_photo(camera, pose, bare_bed, photo).pixels != a.pixels);
-    double sum = 0, sum2 = 0;
-    for (const auto p : a.pixels) {
-        sum += p;
-        sum2 += static_cast<double>(p) * p;
-    }
-    const double n = static_cast<double>(a.pixels.size());
-    DOUBLES_EQUAL(100.0, sum / n, 0.05);
+    const auto [mean, spread] = mean_and_spread(a);
+    DOUBLES_EQUAL(100.0, mean, 0.05);
     // Gaussian noise of 2 DN, then rounding (adds 1/12 DN^2 of variance).
-    DOUBLES_EQUAL(std::sqrt(4.0 + 1.0 / 12), std::sqrt(sum2 / n - (sum / n) * (sum / n)), 0.05);
+    DOUBLES_EQUAL(std::sqrt(4.0 + 1.0 / 12), spread, 0.05);
 
     PhotoSettings shaded;
     shaded.exposure_dn = 200;
@@ -622,8 +632,6 @@ TEST(HarderPhotos, jpeg_at_the_camera_apps_quality_changes_pixels_by_a_few_count
     CHECK_TEXT(q50 > q93, (std::to_string(q50) + " at quality 50").c_str());
 }
 
-TEST_GROUP(LampAndLens){};
-
 namespace {
 
 // The overhead camera with pixel centres on whole 0.4 mm steps of the bed: pixel (200, 150)
@@ -642,12 +650,18 @@ double pixel(const GrayImage& image, int u, int v) {
 
 }  // namespace
 
-TEST(LampAndLens, the_lamps_glare_peaks_where_the_bed_mirrors_it_and_falls_off_by_hand) {
-    const auto camera = centred_overhead_camera();
+// Over a flat grey bed (albedo 0.5) 400 mm below the lens, at 100 counts for white.
+TEST_GROUP(LampAndLens) {
+    const CameraIntrinsics camera = centred_overhead_camera();
     const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
-    const StrokeScene bare_bed({}, 0.5, 0.85, 4);
+    const StrokeScene bare_bed{{}, 0.5, 0.85, 4};
     PhotoSettings photo;
-    photo.exposure_dn = 100;
+    void setup() override {
+        photo.exposure_dn = 100;
+    }
+};
+
+TEST(LampAndLens, the_lamps_glare_peaks_where_the_bed_mirrors_it_and_falls_off_by_hand) {
     photo.glare = {1.0, 6, {60, 0, 0}};  // the lamp 60 mm right of the lens (bed +x)
     const GrayImage image = render_photo(camera, pose, bare_bed, photo);
     // The bed mirrors the lamp half-way between the lens and the lamp: bed (30, 0), pixel 275,
@@ -658,7 +672,7 @@ TEST(LampAndLens, the_lamps_glare_peaks_where_the_bed_mirrors_it_and_falls_off_b
     // 4.265 deg, and the lobe is exp(-(4.265 / 6)^2 / 2) = 0.7767: 100 * (0.5 + 0.7767).
     DOUBLES_EQUAL(127.67, pixel(image, 200, 150), 0.5);
     DOUBLES_EQUAL(127.67, pixel(image, 350, 150), 0.5);
-    // Across the lamp's line the spot is as wide: bed (30, 20), 50 px up.
+    // Across the lamp's line it falls off too: bed (30, 20), 50 px up.
     CHECK(pixel(image, 275, 100) < pixel(image, 275, 150));
     // A matte bed has none.
     photo.glare = glare_of_surface("matte");
@@ -667,11 +681,6 @@ TEST(LampAndLens, the_lamps_glare_peaks_where_the_bed_mirrors_it_and_falls_off_b
 }
 
 TEST(LampAndLens, exposure_time_and_gain_scale_the_light_and_clip_at_255) {
-    const auto camera = centred_overhead_camera();
-    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
-    const StrokeScene bare_bed({}, 0.5, 0.85, 4);
-    PhotoSettings photo;
-    photo.exposure_dn = 100;
     photo.exposure_time_ratio = 2;
     photo.analogue_gain = 1.5;
     DOUBLES_EQUAL(150, pixel(render_photo(camera, pose, bare_bed, photo), 10, 10), 0.5);
@@ -683,27 +692,18 @@ TEST(LampAndLens, exposure_time_and_gain_scale_the_light_and_clip_at_255) {
     photo.exposure_time_ratio = 1;
     photo.analogue_gain = 3;  // 60 counts, clear of both ends
     photo.noise_sigma_dn = 2;
-    const GrayImage noisy = render_photo(camera, pose, bare_bed, photo);
-    double sum = 0, sum2 = 0;
-    for (const auto p : noisy.pixels) {
-        sum += p;
-        sum2 += static_cast<double>(p) * p;
-    }
-    const double n = static_cast<double>(noisy.pixels.size());
-    DOUBLES_EQUAL(60, sum / n, 0.1);
-    DOUBLES_EQUAL(std::sqrt(36.0 + 1.0 / 12), std::sqrt(sum2 / n - (sum / n) * (sum / n)), 0.1);
+    const auto [mean, spread] = mean_and_spread(render_photo(camera, pose, bare_bed, photo));
+    DOUBLES_EQUAL(60, mean, 0.1);
+    DOUBLES_EQUAL(std::sqrt(36.0 + 1.0 / 12), spread, 0.1);
     photo.analogue_gain = 0;
     CHECK_THROWS(std::invalid_argument, render_photo(camera, pose, bare_bed, photo));
 }
 
 TEST(LampAndLens, field_curvature_blurs_by_the_square_of_the_radius_as_opencvs_gaussian_does) {
-    const auto camera = centred_overhead_camera();
-    const Pose pose = look_at_pose({0, 0, 400}, {0, 0, 0}, 0);
     // Stripes 4 mm wide every 8 mm across the whole view: edges everywhere.
     std::vector<StrokeSegment> stripes;
     for (double x = -84; x <= 84; x += 8) stripes.push_back({{x, -70, 0}, {x, 70, 0}, 4.0});
     const StrokeScene scene(stripes, 0.1, 0.9, 4, 1.0);
-    PhotoSettings photo;
     photo.exposure_dn = 200;
     photo.blur_sigma_px = 0.8;
     photo.field_curvature_px = 3;  // 3.8 px at the corners

@@ -80,6 +80,11 @@ double corner_spacing_px(const std::vector<cv::Point2f>& corners, int columns) {
     return spacing / std::max(1, pairs);
 }
 
+// The share of an image's pixels at or above `clipped_from_dn`.
+double clipped_share(const cv::Mat& gray, int clipped_from_dn) {
+    return cv::countNonZero(gray >= clipped_from_dn) / static_cast<double>(gray.total());
+}
+
 int refine_half_window_px(const ChessboardSearch& search, double spacing_px) {
     return std::clamp(static_cast<int>(std::lround(search.refine_window_share * spacing_px)),
                       search.refine_window_min_px, search.refine_window_max_px);
@@ -162,9 +167,8 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Patt
         // beside the rest of the board. Equalised tile by tile (each tile's own histogram, the
         // tiles blended), they show again; the corners found there are refined on the photo.
         // Only where there is a glare to see through (and, below, only a board under it).
-        const double clipped = cv::countNonZero(reduced >= search.clipped_from_dn) /
-                               static_cast<double>(reduced.total());
-        if (!(clipped > search.glare_clipped_share)) return {};
+        if (!(clipped_share(reduced, search.clipped_from_dn) > search.glare_clipped_share))
+            return {};
         cv::Mat equalized;
         cv::createCLAHE(search.equalize_clip_limit,
                         cv::Size(search.equalize_tiles, search.equalize_tiles))
@@ -183,11 +187,6 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Patt
         refine_half_window_px(search, corner_spacing_px(corners, pattern.columns));
     cv::cornerSubPix(gray, corners, cv::Size(half_window, half_window), cv::Size(-1, -1),
                      cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.001));
-    // A board found only once equalised must lie under the glare that called for it: elsewhere
-    // the equalised image makes grids of whatever it finds (on one of BoofCV's fisheye views,
-    // bright screens beside the board, it put a 4x6 grid across the wrong squares).
-    if (detector == "sb-equalized" && washed_out(gray, corners, half_window, search).empty())
-        return {};
     return corners;
 }
 
@@ -223,6 +222,11 @@ std::optional<BoardObservation> find_board(const PatternSpec& pattern,
         const auto set_aside = washed_out(
             gray, corners,
             refine_half_window_px(search, corner_spacing_px(corners, pattern.columns)), search);
+        // A board found only once equalised must lie under the glare that called for it:
+        // elsewhere the equalised image makes grids of whatever it finds (on one of BoofCV's
+        // fisheye views, bright screens beside the board, it put a 4x6 grid across the wrong
+        // squares).
+        if (obs.detector == "sb-equalized" && set_aside.empty()) return std::nullopt;
         for (int r = 0; r < pattern.rows; ++r) {
             for (int c = 0; c < pattern.columns; ++c) {
                 const auto index =
@@ -596,9 +600,7 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
                                                                       : "ChArUco board") +
             " was not found in the image";
         // Over a twentieth of the photo clipped white: the likeliest cause is the lamp's glare.
-        const cv::Mat gray = to_cv(image);
-        const double clipped =
-            cv::countNonZero(gray >= search.clipped_from_dn) / static_cast<double>(gray.total());
+        const double clipped = clipped_share(to_cv(image), search.clipped_from_dn);
         if (clipped > 0.05)
             why += "; " + std::to_string(static_cast<int>(std::lround(100 * clipped))) +
                    " % of it is clipped white: tilt the board or diffuse the lamp's light";

@@ -283,12 +283,11 @@ GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& 
         photo.exposure_time_ratio =
             static_cast<double>(asked.exposure->count()) / scenario_.nominal_exposure_us;
     if (asked.analogue_gain) photo.analogue_gain = *asked.analogue_gain;
-    const auto lamp_on = [&](const std::string& surface) {
-        photo.glare = glare_of_surface(surface);
-        photo.glare.peak *= scenario_.glare_strength;
-        photo.glare.lamp_from_camera_mm = scenario_.lamp_from_camera_mm;
-    };
-    lamp_on(board_ ? scenario_.board_surface : scenario_.bed_surface);
+    // The lamp mirrored by what is in view: the board when one is, else the bed (the copy taken
+    // under the mutex: the operator's hands move board_ while a capture renders).
+    photo.glare = glare_of_surface(board ? scenario_.board_surface : scenario_.bed_surface);
+    photo.glare.peak *= scenario_.glare_strength;
+    photo.glare.lamp_from_camera_mm = scenario_.lamp_from_camera_mm;
     const auto& setup = scenario_.setup;
     const auto with_marks = [&](const Scene& scene, const double to_bed[2][2], Vec2 origin) {
         return ReferenceMarksScene(scene, reference_marks_, setup.reference_dictionary,

@@ -335,6 +335,8 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     // Per corner, what the frames that saw it gave.
     struct CornerSightings {
         std::vector<geometry::Point3> on_bed;  // at the strand's height each frame measured
+        std::vector<geometry::Point3> at_top;  // at the target's top, for a height unmeasured
+        int heights_unmeasured = 0;            // frames that could not tell its strand's width
         geometry::Point2 shift;                // bed mm per mm of height along the ray
         double edge_variance_sum = 0;    // of each frame's centreline-fit uncertainty, in bed mm^2
         double height_variance_sum = 0;  // of each frame's strand height, mm^2
@@ -456,21 +458,32 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                 continue;
             }
             for (std::size_t k = 0; k < 4; ++k) {
+                auto& corner = seen[{found[i].id, static_cast<int>(k)}];
+                const double top = out.target.top_height_mm;
+                const auto at_top =
+                    geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]}, top)[0];
+                corner.at_top.push_back(at_top);
+                const auto above_top =
+                    geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]}, top + 1)[0];
+                corner.shift = {above_top.x - at_top.x, above_top.y - at_top.y};
+                const double sigma_mm = ring.sigma_px[k] * mm_per_px[i];
+                corner.edge_variance_sum += sigma_mm * sigma_mm;
+                if (!ring.width_unmeasured_because[k].empty()) {
+                    out.heights_unmeasured.push_back(
+                        photo_name + ": marker " + std::to_string(found[i].id) + "'s corner " +
+                        std::to_string(k) + ": " + ring.width_unmeasured_because[k]);
+                    ++corner.heights_unmeasured;
+                    corner.on_bed.push_back(at_top);
+                    continue;
+                }
                 const auto height = vision::strand_height_from_width(
                     out.target.strand_section_mm2, ring.width_px[k] * mm_per_px[i],
                     ring.width_sigma_px[k] * mm_per_px[i]);
-                const auto at = geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]},
-                                                        height.height_mm)[0];
-                const auto above = geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]},
-                                                           height.height_mm + 1)[0];
-                auto& corner = seen[{found[i].id, static_cast<int>(k)}];
-                corner.on_bed.push_back(at);
-                const double sigma_mm = ring.sigma_px[k] * mm_per_px[i];
-                corner.edge_variance_sum += sigma_mm * sigma_mm;
+                corner.on_bed.push_back(geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]},
+                                                                height.height_mm)[0]);
                 corner.height_variance_sum += height.sigma_mm * height.sigma_mm;
                 corner.free_beads += height.free_bead ? 1 : 0;
                 corner.scraped += height.scraped ? 1 : 0;
-                corner.shift = {above.x - at.x, above.y - at.y};
             }
         }
         out.frames.push_back(std::move(found));
@@ -482,7 +495,10 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     // frames average, and their scatter is used when it is larger.
     constexpr double kFrameFloorMm = 0.005;
     for (const auto& [key, corner] : seen) {
-        const auto& points = corner.on_bed;
+        // A height one frame could not tell is the surface fit's in all: the frames' points
+        // are averaged at one height.
+        const bool height_measured = corner.heights_unmeasured == 0;
+        const auto& points = height_measured ? corner.on_bed : corner.at_top;
         const auto& target_corner = markers[static_cast<std::size_t>(key.first)]
                                         .outline_corners_mm[static_cast<std::size_t>(key.second)];
         double mx = 0, my = 0, mz = 0;
@@ -504,10 +520,14 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         // fit only follows closely: on the twin the heights at the corners are within 0.005 mm
         // where their fits claim a tenth of that. That floor is added in quadrature.
         constexpr double kHeightFloorMm = 0.005;
+        // Unmeasured, the height is the fit's, which moves the point along its ray itself.
         const double height_sigma =
-            std::max(std::sqrt(corner.height_variance_sum / n + kHeightFloorMm * kHeightFloorMm),
-                     n > 1 ? std::sqrt(height_scatter / (n - 1)) : 0.0) /
-            std::sqrt(n);
+            !height_measured
+                ? 0.0
+                : std::max(
+                      std::sqrt(corner.height_variance_sum / n + kHeightFloorMm * kHeightFloorMm),
+                      n > 1 ? std::sqrt(height_scatter / (n - 1)) : 0.0) /
+                      std::sqrt(n);
         const double along_ray = height_sigma * std::hypot(corner.shift.x, corner.shift.y);
         const double frame_sigma =
             std::sqrt(kFrameFloorMm * kFrameFloorMm + corner.edge_variance_sum / n);
@@ -520,7 +540,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         feature.sigma_mm = std::sqrt(xy_sigma * xy_sigma + along_ray * along_ray);
         feature.seen_at_height_mm = mz;
         feature.shift_per_height = corner.shift;
-        feature.height_measured = true;
+        feature.height_measured = height_measured;
         feature.height_sigma_mm = height_sigma;
         feature.free_bead = corner.free_beads * 2 > static_cast<int>(points.size());
         feature.scraped = corner.scraped * 2 > static_cast<int>(points.size());

@@ -45,6 +45,10 @@ struct DeltaMeasurement {
     // Markers read whose ring strand could not be measured (their corners are not features):
     // "photo 1: marker 7's ring: its top side showed the strand in 3 of 60 profiles ...".
     std::vector<std::string> rings_unmeasured;
+    // Corners placed but whose strand's width (their height) could not be told, each with why:
+    // "photo 1: marker 7's corner 2: its top side: the lens's blur there (3.10 px) is as wide
+    // as the strand (3.05 px)". Their heights come from the surface fit of the others.
+    std::vector<std::string> heights_unmeasured;
     std::vector<std::vector<vision::DetectedMarker>> frames;  // what each photo showed
     double bed_scale = 1;  // the print in the photos against as printed (the bed's expansion)
     // The features stand at the heights their strands' widths give; the bars' ends are mapped
@@ -77,6 +81,7 @@ struct DeltaMeasurementsRecord {
     bool heights_from_fit = false;
     std::string heights_fallback;
     std::vector<std::string> bars_unmeasured;
+    std::vector<std::string> heights_unmeasured;
     std::vector<solve::FeatureMeasurement> features;
     std::vector<BarLengthMeasurement> bars;
 };

@@ -87,6 +87,7 @@ std::string measurements_to_json(const DeltaMeasurementsRecord& r) {
                  {"heights_from_fit", r.heights_from_fit},
                  {"heights_fallback", r.heights_fallback},
                  {"bars_unmeasured", r.bars_unmeasured},
+                 {"heights_unmeasured", r.heights_unmeasured},
                  {"features", features},
                  {"bars", bars}};
     return j.dump(1) + "\n";
@@ -104,6 +105,8 @@ DeltaMeasurementsRecord measurements_from_json(std::string_view text, const std:
         r.heights_fallback = j.value("heights_fallback", "");
         if (j.contains("bars_unmeasured"))
             r.bars_unmeasured = j.at("bars_unmeasured").get<std::vector<std::string>>();
+        if (j.contains("heights_unmeasured"))
+            r.heights_unmeasured = j.at("heights_unmeasured").get<std::vector<std::string>>();
         for (const auto& f : j.at("features")) {
             solve::FeatureMeasurement fm;
             fm.id = f.value("id", "");

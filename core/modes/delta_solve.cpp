@@ -22,6 +22,7 @@ DeltaMeasurementsRecord record_of(const DeltaMeasurement& measured,
     r.heights_from_fit = measured.heights_from_fit;
     r.heights_fallback = measured.heights_fallback;
     r.bars_unmeasured = measured.bars_unmeasured;
+    r.heights_unmeasured = measured.heights_unmeasured;
     r.features = measured.features;
     r.bars = measured.bars;
     return r;

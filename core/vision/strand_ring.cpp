@@ -1,14 +1,17 @@
 #include "core/vision/strand_ring.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
 #include <vector>
 
 #include "core/geometry/line_fit.hpp"
+#include "core/number_text.hpp"
 
 namespace calbox::vision {
 namespace {
@@ -64,7 +67,9 @@ class MarkerFrame {
 struct SideProfiles {
     std::vector<double> t;
     std::vector<Point2> centre;
+    std::vector<double> width_t;  // where the width was fitted: most of `t`
     std::vector<double> width_px;
+    std::string widths_unmeasured_because;
 };
 
 // Least-squares straight line through (t, v): its value at t0 and that value's standard
@@ -74,16 +79,19 @@ struct ValueAt {
 };
 ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0);
 
+double median_of(std::vector<double> values) {
+    const auto middle = values.begin() + static_cast<long>(values.size() / 2);
+    std::nth_element(values.begin(), middle, values.end());
+    return *middle;
+}
+
 // The same, with the points more than four robust deviations off a first fit left out: a
 // profile whose edge was a speck or a neighbour's gives a width far off the side's trend.
 ValueAt linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0) {
     std::vector<double> residuals;
     for (std::size_t i = 0; i < t.size(); ++i)
         residuals.push_back(std::abs(v[i] - plain_linear_fit_at(t, v, t[i]).value));
-    std::vector<double> sorted = residuals;
-    std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2),
-                     sorted.end());
-    const double robust_sigma = 1.4826 * sorted[sorted.size() / 2];
+    const double robust_sigma = 1.4826 * median_of(residuals);
     std::vector<double> kept_t, kept_v;
     for (std::size_t i = 0; i < t.size(); ++i) {
         if (residuals[i] <= 4 * robust_sigma + 1e-9) kept_t.push_back(t[i]), kept_v.push_back(v[i]);
@@ -134,6 +142,76 @@ std::optional<std::vector<Point2>> where_sides_meet(const std::array<geometry::L
 
 }  // namespace
 
+std::optional<BlurredBar> fit_blurred_bar(const std::vector<double>& profile, double step_px,
+                                          const BlurredBar& start, BarFit fit) {
+    const bool held = fit == BarFit::contrast_and_blur_held;
+    // Levenberg-Marquardt over (level, slope, brightness, centre, width, blur); the slope is
+    // about the starting centre so that it and the level do not trade.
+    constexpr int kParameters = 6;
+    using Vector = Eigen::Matrix<double, kParameters, 1>;
+    using Matrix = Eigen::Matrix<double, kParameters, kParameters>;
+    if (profile.size() < static_cast<std::size_t>(2 * kParameters) || !(step_px > 0) ||
+        !(start.width_px > 0) || !(start.blur_sigma_px > 0))
+        return std::nullopt;
+    const double pivot = start.centre_px;
+    constexpr double kInvSqrt2Pi = 0.3989422804014327;
+    const auto cdf = [](double u) { return 0.5 * std::erfc(-u / std::sqrt(2.0)); };
+    const auto pdf = [](double u) { return kInvSqrt2Pi * std::exp(-0.5 * u * u); };
+    Vector q;
+    q << (profile.front() + profile.back()) / 2, 0, start.contrast_dn, start.centre_px,
+        start.width_px, start.blur_sigma_px;
+    const auto cost_and_normal = [&](const Vector& at, Matrix* jtj, Vector* jtr) {
+        double cost = 0;
+        if (jtj != nullptr) {
+            jtj->setZero(), jtr->setZero();
+            if (held) (*jtj)(2, 2) = (*jtj)(5, 5) = 1;  // their steps come out zero
+        }
+        for (std::size_t i = 0; i < profile.size(); ++i) {
+            const double x = static_cast<double>(i) * step_px;
+            const double u1 = (x - at[3] + at[4] / 2) / at[5];
+            const double u2 = (x - at[3] - at[4] / 2) / at[5];
+            const double inside = cdf(u1) - cdf(u2);
+            const double r = profile[i] - (at[0] + at[1] * (x - pivot) + at[2] * inside);
+            cost += r * r;
+            if (jtj == nullptr) continue;
+            const double p1 = pdf(u1), p2 = pdf(u2);
+            Vector j;
+            j << 1, x - pivot, inside, at[2] * (p2 - p1) / at[5], at[2] * (p1 + p2) / (2 * at[5]),
+                at[2] * (p2 * u2 - p1 * u1) / at[5];
+            if (held) j[2] = j[5] = 0;
+            *jtj += j * j.transpose();
+            *jtr += j * r;
+        }
+        return cost;
+    };
+    double lambda = 1e-3;
+    Matrix jtj;
+    Vector jtr;
+    double cost = cost_and_normal(q, &jtj, &jtr);
+    bool converged = false;
+    for (int iteration = 0; iteration < 200 && !converged; ++iteration) {
+        Matrix damped = jtj;
+        damped.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-12);
+        const Vector step = damped.ldlt().solve(jtr);
+        Vector trial = q + step;
+        trial[4] = std::max(trial[4], 0.05);
+        trial[5] = std::max(trial[5], 0.05);
+        const double trial_cost = cost_and_normal(trial, nullptr, nullptr);
+        if (std::isfinite(trial_cost) && trial_cost <= cost) {
+            converged = cost - trial_cost <= 1e-8 * (1 + cost) ||
+                        step.cwiseAbs().maxCoeff() < 1e-7 * (1 + q.cwiseAbs().maxCoeff());
+            q = trial;
+            cost = cost_and_normal(q, &jtj, &jtr);
+            lambda = std::max(lambda / 10, 1e-9);
+        } else {
+            lambda *= 10;
+            converged = lambda > 1e9;  // no step lowers the cost: at the minimum
+        }
+    }
+    if (!converged || !q.allFinite()) return std::nullopt;
+    return BlurredBar{q[3], q[4], q[5], q[2]};
+}
+
 StrandHeight strand_height_from_width(double section_mm2, double width_mm, double width_sigma_mm) {
     if (!(section_mm2 > 0) || !(width_mm > 0))
         throw std::invalid_argument("a strand's height needs its cross-section and its width");
@@ -171,7 +249,66 @@ std::optional<StrandCrossing> strand_across(const GrayView& image, Point2 from, 
     const auto bed_dn =
         grey_at(image, {falling->x + unit.x * past_px, falling->y + unit.y * past_px});
     if (!middle_dn || !bed_dn || *middle_dn - *bed_dn < limits.min_contrast_dn) return std::nullopt;
-    return StrandCrossing{middle, width_px};
+    // The profile the width is fitted on: the strand and bare bed on either side of its edges.
+    StrandCrossing crossing{
+        middle, width_px, {}, limits.edges.sample_step_px * 2, 0, *middle_dn - *bed_dn};
+    const double margin_px = limits.bar_fit_margin_mm * px_per_mm;
+    crossing.middle_px = margin_px + width_px / 2;
+    const Point2 first{rising->x - unit.x * margin_px, rising->y - unit.y * margin_px};
+    const auto samples =
+        static_cast<int>(std::floor((width_px + 2 * margin_px) / crossing.profile_step_px)) + 1;
+    crossing.profile.reserve(static_cast<std::size_t>(samples));
+    for (int k = 0; k < samples; ++k) {
+        const double along = k * crossing.profile_step_px;
+        const auto dn = grey_at(image, {first.x + unit.x * along, first.y + unit.y * along});
+        if (!dn) return std::nullopt;
+        crossing.profile.push_back(*dn);
+    }
+    return crossing;
+}
+
+std::optional<BlurredBar> strand_across_side(const std::vector<StrandCrossing>& crossings,
+                                             const StrandRingLimits& limits, std::string& why_not) {
+    // One fit of the side's profiles averaged about their middles: each profile alone, at a
+    // camera's worst noise (6 grey levels on a strand 100 above the bed), leaves the blur and
+    // the brightness to trade, and the median of such fits comes out a fifth low.
+    if (crossings.size() < limits.min_profiles_per_side) {
+        why_not = "the strand in " + std::to_string(crossings.size()) + " profiles (at least " +
+                  std::to_string(limits.min_profiles_per_side) + " needed for its blur)";
+        return std::nullopt;
+    }
+    const double step = crossings.front().profile_step_px;
+    double before = std::numeric_limits<double>::max(), after = before, width = 0, contrast = 0;
+    for (const auto& c : crossings) {
+        before = std::min(before, c.middle_px);
+        after = std::min(after, (static_cast<double>(c.profile.size()) - 1) * step - c.middle_px);
+        width += c.width_px;
+        contrast += c.contrast_dn;
+    }
+    const auto n = static_cast<double>(crossings.size());
+    std::vector<double> mean;
+    const auto samples = static_cast<int>(std::floor((before + after) / step)) + 1;
+    mean.reserve(static_cast<std::size_t>(samples));
+    for (int k = 0; k < samples; ++k) {
+        const double x = -before + k * step;
+        double sum = 0;
+        for (const auto& c : crossings) {
+            const double at = (c.middle_px + x) / step;
+            const auto i = std::min(static_cast<std::size_t>(at), c.profile.size() - 2);
+            const double f = at - static_cast<double>(i);
+            sum += (1 - f) * c.profile[i] + f * c.profile[i + 1];
+        }
+        mean.push_back(sum / n);
+    }
+    const auto bar =
+        fit_blurred_bar(mean, step, {before, width / n, limits.bar_start_blur_px, contrast / n});
+    if (!bar || !(bar->blur_sigma_px > 0) || !(bar->contrast_dn > 0)) {
+        why_not =
+            "the blur across the strand could not be told from its width (their fit to its "
+            "profiles did not settle)";
+        return std::nullopt;
+    }
+    return bar;
 }
 
 StrandRing measure_strand_ring(const GrayView& image,
@@ -234,16 +371,17 @@ StrandRing measure_strand_ring(const GrayView& image,
             auto& side = sides[k];
             side = {};
             std::vector<Point2> centres_px;
+            std::vector<StrandCrossing> crossings;
             for (std::size_t i = 0; i < ts.size(); ++i) {
                 const Point2 from = stations[2 * i], to = stations[2 * i + 1];
                 const double px_per_mm =
                     std::hypot(to.x - from.x, to.y - from.y) / (outer_to_mm - outer_from_mm);
-                const auto crossing =
+                auto crossing =
                     strand_across(image, from, to, px_per_mm, layout.strand_width_mm, limits);
                 if (!crossing) continue;
                 side.t.push_back(ts[i]);
-                side.width_px.push_back(crossing->width_px);
                 centres_px.push_back(crossing->centre_px);
+                if (pass == 1) crossings.push_back(std::move(*crossing));
             }
             if (side.t.size() < limits.min_profiles_per_side) {
                 ring.unmeasured_because = std::string("its ") + kSideNames[k] +
@@ -255,6 +393,33 @@ StrandRing measure_strand_ring(const GrayView& image,
             }
             side.centre = frame.from_pixels(centres_px);
             lines[k] = geometry::fit_line(side.centre);
+            if (pass == 0) continue;
+            std::string why_not;
+            const auto bar = strand_across_side(crossings, limits, why_not);
+            std::vector<double> widths;
+            widths.reserve(crossings.size());
+            for (const auto& c : crossings) widths.push_back(c.width_px);
+            const double width = widths.empty() ? 0.0 : median_of(widths);
+            if (bar && bar->blur_sigma_px > limits.widest_blur_share * width) {
+                why_not = "the lens's blur across the strand (" +
+                          number_text("%.2f", bar->blur_sigma_px) + " px) is over " +
+                          number_text("%.2f", limits.widest_blur_share) + " of its width (" +
+                          number_text("%.2f", width) + " px)";
+            }
+            if (!why_not.empty()) {
+                side.widths_unmeasured_because = why_not;
+                continue;
+            }
+            for (std::size_t i = 0; i < crossings.size(); ++i) {
+                const auto& c = crossings[i];
+                const auto held =
+                    fit_blurred_bar(c.profile, c.profile_step_px,
+                                    {c.middle_px, c.width_px, bar->blur_sigma_px, bar->contrast_dn},
+                                    BarFit::contrast_and_blur_held);
+                if (!held) continue;
+                side.width_t.push_back(side.t[i]);
+                side.width_px.push_back(held->width_px);
+            }
         }
     }
     const auto met = where_sides_meet(lines);
@@ -276,8 +441,18 @@ StrandRing measure_strand_ring(const GrayView& image,
         const double sine = std::abs(a.direction.x * b.direction.y - a.direction.y * b.direction.x);
         ring.sigma_px[k] = frame.pixels_per_unit() * std::sqrt((sa * sa + sb * sb) / 2) / sine;
         // The side before ends at this corner, this side starts there.
-        const auto end_of_before = linear_fit_at(sides[before].t, sides[before].width_px, 1);
-        const auto start_of_this = linear_fit_at(sides[k].t, sides[k].width_px, 0);
+        for (const std::size_t side : {before, k}) {
+            if (sides[side].width_px.size() >= limits.min_profiles_per_side) continue;
+            ring.width_unmeasured_because[k] =
+                std::string("its ") + kSideNames[side] + " side: " +
+                (sides[side].widths_unmeasured_because.empty()
+                     ? "the strand's width fitted in " +
+                           std::to_string(sides[side].width_px.size()) + " profiles"
+                     : sides[side].widths_unmeasured_because);
+        }
+        if (!ring.width_unmeasured_because[k].empty()) continue;
+        const auto end_of_before = linear_fit_at(sides[before].width_t, sides[before].width_px, 1);
+        const auto start_of_this = linear_fit_at(sides[k].width_t, sides[k].width_px, 0);
         ring.width_px[k] = (end_of_before.value + start_of_this.value) / 2;
         ring.width_sigma_px[k] = std::sqrt(end_of_before.sigma * end_of_before.sigma +
                                            start_of_this.sigma * start_of_this.sigma) /

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/vision/edge_kernel.hpp"
@@ -51,6 +52,18 @@ struct StrandRingLimits {
     // levels: filament on a sheet differs by tens (a grey strand on a black sheet, over forty),
     // while on bare bed the kernel still finds the sensor noise's steepest steps, a few levels.
     double min_contrast_dn = 8;
+    // The blur is fitted over the strand and this much bare bed on either side of its edges:
+    // three times a soft corner's blur at 7 px/mm, short of the gap's fill inside and the next
+    // row's ring outside, however far a squashed strand spread; each fit starts from a blur of
+    // a pixel.
+    double bar_fit_margin_mm = 0.75;
+    double bar_start_blur_px = 1.0;
+    // The blur across a side's strand (strand_across_side) above this share of its width (the
+    // edge centroids') leaves the width untold. On the twin's worst day (6 grey levels of noise,
+    // JPEG at 68) a 12 MP camera's sides show 0.23-0.25 and a sharp 2 MP camera's up to 0.31,
+    // their heights within 0.02 mm of the material's; a 2 MP camera's soft corners 0.33-0.42,
+    // where the heights told with a share of 0.45 were up to 0.05 mm off.
+    double widest_blur_share = 0.33;
     EdgeKernelSettings edges;
 };
 
@@ -65,6 +78,9 @@ struct StrandRing {
     // averaged, with the standard uncertainty of that figure.
     std::array<double, 4> width_px{};
     std::array<double, 4> width_sigma_px{};
+    // Why a corner's width (and the height it says) was not measured: empty when it was. A
+    // corner whose width is not measured is still placed where the centrelines meet.
+    std::array<std::string, 4> width_unmeasured_because;
     std::string unmeasured_because;  // empty when measured
     bool measured() const { return unmeasured_because.empty(); }
 };
@@ -77,12 +93,46 @@ struct StrandRing {
 // not a strand's, or its middle is not brighter than the bed past it (no strand there).
 struct StrandCrossing {
     geometry::Point2 centre_px;  // midway between its edges
-    double width_px = 0;
+    double width_px = 0;         // between the edge kernel's centroids
+    // The profile across it for the blur's fit: the strand and bare bed on either side (the
+    // limits' bar_fit_margin_mm), sampled every `profile_step_px`, the centroids' midpoint
+    // `middle_px` from its start; the strand's middle above the bed past it.
+    std::vector<double> profile;
+    double profile_step_px = 0;
+    double middle_px = 0;
+    double contrast_dn = 0;
 };
 std::optional<StrandCrossing> strand_across(const GrayView& image, geometry::Point2 from,
                                             geometry::Point2 to, double px_per_mm,
                                             double strand_width_mm,
                                             const StrandRingLimits& limits = {});
+
+// A strand's profile across it fitted as a bar seen through a Gaussian blur: the background on
+// either side (a level and a slope), the bar's brightness above it, its centre, its width and the
+// blur. `profile` is sampled every `step_px` from its start; positions are in pixels from there.
+// Empty when the fit does not settle. Fitted free on one noisy profile, a blur of a third of the
+// width lets the width, the brightness and the blur trade (their product is most of what it
+// shows); a side's profiles share the brightness and the blur, so the ring fits them once on the
+// side's profiles averaged (strand_across_side) and each profile's width with them held.
+struct BlurredBar {
+    double centre_px = 0;
+    double width_px = 0;
+    double blur_sigma_px = 0;
+    double contrast_dn = 0;
+};
+enum class BarFit { free, contrast_and_blur_held };
+std::optional<BlurredBar> fit_blurred_bar(const std::vector<double>& profile, double step_px,
+                                          const BlurredBar& start, BarFit fit = BarFit::free);
+
+// The blurred bar of a side's profiles averaged about their middles: the strand's brightness
+// there and the lens's blur across it. The edge kernel's centroids place a strand's edges where
+// the blur is small against its width; a wider blur pulls the two edges' lobes apart and widens
+// the strand (at 7 px/mm, a 3 px strand under 1.2 px of blur, a lens's soft corners, by half a
+// pixel: its height 0.06 mm low). The ring takes each profile's width from its own bar with
+// these held, and tells no width where the blur is over the limits' share of it. Empty, with
+// why, when the side has too few profiles or they do not fit.
+std::optional<BlurredBar> strand_across_side(const std::vector<StrandCrossing>& crossings,
+                                             const StrandRingLimits& limits, std::string& why_not);
 
 // A first-layer strand's height from its width, the cross-section known from the job: pressed
 // by the nozzle it is as high as the cross-section over its width; as narrow as a free bead

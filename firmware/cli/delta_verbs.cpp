@@ -99,6 +99,8 @@ int measure_delta(const Args& args) {
     for (const auto& why : measured.markers_unread) std::printf("not read: %s\n", why.c_str());
     for (const auto& why : measured.rings_unmeasured)
         std::printf("not measured: %s\n", why.c_str());
+    for (const auto& why : measured.heights_unmeasured)
+        std::printf("height from the surface fit: %s\n", why.c_str());
     const auto unrefined = std::count_if(measured.features.begin(), measured.features.end(),
                                          [](const auto& f) { return !f.refined; });
     if (unrefined > 0) {

@@ -207,9 +207,19 @@ void DeltaCycleMode::solve(std::function<void(SolveOutcome)> then) {
     if (pass == 1 && !steps_.keep(steps_.record_name("measurements.json"),
                                   modes::measurements_to_json(*measurements_)))
         return;
-    steps_.enter(CycleState::solve,
-                 (pass > 1 ? "pass " + std::to_string(pass) + ": " : std::string()) +
-                     std::to_string(measurements_->features.size()) + " corners");
+    const auto from_fit =
+        std::count_if(measurements_->features.begin(), measurements_->features.end(),
+                      [](const auto& f) { return !f.height_measured; });
+    steps_.enter(
+        CycleState::solve,
+        (pass > 1 ? "pass " + std::to_string(pass) + ": " : std::string()) +
+            std::to_string(measurements_->features.size()) + " corners" +
+            (from_fit > 0
+                 ? ", " + std::to_string(from_fit) + " of their heights from the fit" +
+                       (measurements_->heights_unmeasured.empty()
+                            ? std::string()
+                            : " (the first: " + measurements_->heights_unmeasured.front() + ")")
+                 : std::string()));
     auto solution = std::make_shared<modes::DeltaSolution>();
     // The probe measured the printer as the first pass found it.
     auto probe = pass == 1 ? probe_ : std::vector<solve::ProbePoint>{};

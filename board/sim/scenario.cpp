@@ -216,6 +216,14 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
 
 }  // namespace
 
+PhotoSettings photo_settings_of(const Scenario& s, InView what) {
+    PhotoSettings photo = s.photo;
+    photo.glare = glare_of_surface(what == InView::board ? s.board_surface : s.bed_surface);
+    photo.glare.peak *= s.glare_strength;
+    photo.glare.lamp_from_camera_mm = s.lamp_from_camera_mm;
+    return photo;
+}
+
 double stroke_footprint_mm(const Scenario& s) {
     return twin_kind_of(s.machine).stroke_footprint_mm(s);
 }

@@ -103,6 +103,11 @@ struct Scenario {
     ScenarioSetup setup;
 };
 
+// The scenario's photo settings with the box's lamp mirrored by the board (a board in view) or
+// by the bed or plate.
+enum class InView { board, bed };
+PhotoSettings photo_settings_of(const Scenario& s, InView what);
+
 // A bound on how far a camera pixel's footprint reaches on the bed, for the stroke index: a
 // printer's 1 mm, or for a galvo's fine marks a few pixels' worth at the camera's distance.
 double stroke_footprint_mm(const Scenario& s);

@@ -277,17 +277,14 @@ GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& 
             strokes.push_back(material_of(laid[i]));
     }
     const auto& camera = *scenario_.camera;
-    PhotoSettings photo = scenario_.photo;
+    // The lamp mirrored by what is in view: the board when one is, else the bed (the copy taken
+    // under the mutex: the operator's hands move board_ while a capture renders).
+    PhotoSettings photo = photo_settings_of(scenario_, board ? InView::board : InView::bed);
     photo.seed = scenario_.photo.seed + 7919 * frame;
     if (asked.exposure)
         photo.exposure_time_ratio =
             static_cast<double>(asked.exposure->count()) / scenario_.nominal_exposure_us;
     if (asked.analogue_gain) photo.analogue_gain = *asked.analogue_gain;
-    // The lamp mirrored by what is in view: the board when one is, else the bed (the copy taken
-    // under the mutex: the operator's hands move board_ while a capture renders).
-    photo.glare = glare_of_surface(board ? scenario_.board_surface : scenario_.bed_surface);
-    photo.glare.peak *= scenario_.glare_strength;
-    photo.glare.lamp_from_camera_mm = scenario_.lamp_from_camera_mm;
     const auto& setup = scenario_.setup;
     const auto with_marks = [&](const Scene& scene, const double to_bed[2][2], Vec2 origin) {
         return ReferenceMarksScene(scene, reference_marks_, setup.reference_dictionary,

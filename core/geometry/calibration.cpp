@@ -169,12 +169,21 @@ std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const Patt
         // Only where there is a glare to see through (and, below, only a board under it).
         if (!(clipped_share(reduced, search.clipped_from_dn) > search.glare_clipped_share))
             return {};
-        cv::Mat equalized;
-        cv::createCLAHE(search.equalize_clip_limit,
-                        cv::Size(search.equalize_tiles, search.equalize_tiles))
-            ->apply(reduced, equalized);
-        if (!cv::findChessboardCornersSB(equalized, size, corners, cv::CALIB_CB_EXHAUSTIVE))
-            return {};
+        // A broad reflection (a camera far above a large laminated board) leaves the squares
+        // under it a few tens of counts apart over a third of the board: tiles twice as fine,
+        // allowed twice the contrast, see them where the first equalisation does not.
+        bool found = false;
+        for (const auto& [tiles, clip] :
+             {std::pair{search.equalize_tiles, search.equalize_clip_limit},
+              std::pair{2 * search.equalize_tiles, 2 * search.equalize_clip_limit}}) {
+            cv::Mat equalized;
+            cv::createCLAHE(clip, cv::Size(tiles, tiles))->apply(reduced, equalized);
+            if (cv::findChessboardCornersSB(equalized, size, corners, cv::CALIB_CB_EXHAUSTIVE)) {
+                found = true;
+                break;
+            }
+        }
+        if (!found) return {};
         detector = "sb-equalized";
         refine = true;
     }

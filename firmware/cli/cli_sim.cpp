@@ -158,7 +158,8 @@ int sim_photo(const Args& args) {
         const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
                                      scenario.material_albedo, scenario.photo.supersample,
                                      sim::stroke_footprint_mm(scenario));
-        image = sim::render_photo(camera.intrinsics, bed_to_camera, scene, scenario.photo);
+        image = sim::render_photo(camera.intrinsics, bed_to_camera, scene,
+                                  sim::photo_settings_of(scenario, sim::InView::bed));
         truth["strokes"] = stroke_truth;
     } else {
         const auto spec = geometry::parse_pattern_spec(*args.get("--board"));
@@ -181,7 +182,8 @@ int sim_photo(const Args& args) {
             truth["board_to_bed"] = pose_json(board_to_bed);
         }
         const sim::BoardScene scene(spec, scenario.photo.supersample);
-        image = sim::render_photo(camera.intrinsics, board_to_camera, scene, scenario.photo);
+        image = sim::render_photo(camera.intrinsics, board_to_camera, scene,
+                                  sim::photo_settings_of(scenario, sim::InView::board));
         nlohmann::json features = nlohmann::json::array();
         for (const auto& f : scene.features()) {
             nlohmann::json j{

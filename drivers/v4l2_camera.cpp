@@ -265,7 +265,15 @@ hal::CaptureResult V4l2Camera::capture(const hal::CaptureRequest& request) {
                 frame.metadata.sequence = b.sequence;
                 frame.metadata.timestamp = std::chrono::seconds(b.timestamp.tv_sec) +
                                            std::chrono::microseconds(b.timestamp.tv_usec);
-                if (request.exposure) frame.metadata.exposure = *request.exposure;
+                if (request.exposure) {
+                    frame.metadata.exposure = *request.exposure;
+                } else {
+                    // The camera's own: what it chose, read back, so that a metering frame
+                    // says what it was taken at (a device without the control leaves 0).
+                    v4l2_control c{V4L2_CID_EXPOSURE_ABSOLUTE, 0};
+                    if (device_->ioctl(VIDIOC_G_CTRL, &c) == 0 && c.value > 0)
+                        frame.metadata.exposure = std::chrono::microseconds(100 * c.value);
+                }
                 if (request.analogue_gain) frame.metadata.analogue_gain = *request.analogue_gain;
                 result.frames.push_back(std::move(frame));
             }

@@ -9,6 +9,7 @@
 #include "core/geometry/calibration.hpp"
 #include "core/number_text.hpp"
 #include "core/vision/reference_marks.hpp"
+#include "firmware/cycle/metering.hpp"
 #include "firmware/cycle/png.hpp"
 #include "firmware/cycle/screens.hpp"
 
@@ -354,18 +355,93 @@ void Cycle::fail(const std::string& message, const std::string& hint) {
 }
 
 void Cycle::capture(int frames, std::function<void(std::vector<hal::Frame>)> then) {
+    shoot({frames, {}, {}}, std::move(then));
+}
+
+void Cycle::shoot(const hal::CaptureRequest& request,
+                  std::function<void(std::vector<hal::Frame>)> then) {
     const unsigned generation = generation_;
     d_.lines.set_light(true);
     phase_started_ = d_.clock.now();
     if (previewing_) {
-        capture_after_preview_ = frames;
+        capture_after_preview_ = request;
     } else {
-        d_.camera.start_capture({frames, {}, {}});
+        d_.camera.start_capture(request);
     }
     // on_camera() continues; the continuation checks the generation.
     pending_capture_ = [this, generation, then = std::move(then)](std::vector<hal::Frame> f) {
         if (current(generation)) then(std::move(f));
     };
+}
+
+struct Cycle::MeteredRun {
+    MeteredCapture metering;
+    std::vector<std::vector<hal::Frame>> shots;  // each planned capture's frames, in order
+    std::function<void(std::vector<hal::Frame>)> then;
+};
+
+void Cycle::capture_metered(const std::string& what, int frames,
+                            std::function<void(std::vector<hal::Frame>)> then) {
+    // The work area lies inside the stored reference marks (a box without them: the frame less
+    // its border).
+    std::vector<geometry::Point2> mark_centres;
+    if (const auto stored = read(kReferenceFile)) {
+        try {
+            for (const auto& m : vision::reference_from_yaml(*stored).marks) {
+                geometry::Point2 c{0, 0};
+                for (const auto& p : m.corners) c.x += p.x / 4, c.y += p.y / 4;
+                mark_centres.push_back(c);
+            }
+        } catch (const geometry::FileFormatError&) {
+            mark_centres.clear();  // the cycle's camera check has already refused a broken file
+        }
+    }
+    auto run = std::make_shared<MeteredRun>(
+        MeteredRun{MeteredCapture(what, frames, std::move(mark_centres), metering_start_),
+                   {},
+                   std::move(then)});
+    shoot(run->metering.first(),
+          [this, run](std::vector<hal::Frame> f) { metered_reading(run, std::move(f)); });
+}
+
+void Cycle::metered_reading(const std::shared_ptr<MeteredRun>& run, std::vector<hal::Frame> f) {
+    std::optional<hal::CaptureRequest> again;
+    try {
+        if (f.empty()) throw std::runtime_error("the camera gave no frame");
+        again = run->metering.read(f.front());
+    } catch (const std::exception& e) {
+        fail(std::string("metering: ") + e.what());
+        return;
+    }
+    if (again) {
+        shoot(*again,
+              [this, run](std::vector<hal::Frame> next) { metered_reading(run, std::move(next)); });
+        return;
+    }
+    metered_capture(run);
+}
+
+void Cycle::metered_capture(const std::shared_ptr<MeteredRun>& run) {
+    const auto planned = run->metering.captures();
+    if (run->shots.size() < planned.size()) {
+        shoot(planned[run->shots.size()], [this, run](std::vector<hal::Frame> f) {
+            run->shots.push_back(std::move(f));
+            metered_capture(run);
+        });
+        return;
+    }
+    std::vector<hal::Frame> frames;
+    try {
+        frames = run->metering.finish(std::move(run->shots));
+    } catch (const std::exception& e) {
+        fail(std::string("capture: ") + e.what());
+        return;
+    }
+    log(run->metering.summary());
+    exposures_.push_back(run->metering.record());
+    metering_start_ = run->metering.next_start();
+    if (!keep(record_name("exposure.json"), nlohmann::json(exposures_).dump(1) + "\n")) return;
+    run->then(std::move(frames));
 }
 
 bool Cycle::preview() {
@@ -379,9 +455,9 @@ void Cycle::on_camera() {
     hal::CaptureResult result = d_.camera.take_frames();
     if (previewing_) {
         previewing_ = false;
-        if (capture_after_preview_ > 0) {
-            d_.camera.start_capture({capture_after_preview_, {}, {}});
-            capture_after_preview_ = 0;
+        if (capture_after_preview_) {
+            d_.camera.start_capture(*capture_after_preview_);
+            capture_after_preview_.reset();
         }
         if (!result.ok()) {
             log("live view: " + result.error);
@@ -488,6 +564,7 @@ void Cycle::begin_cycle() {
     take_next_settings();
     stage_seconds_ = {};
     cycle_screens_.clear();
+    exposures_.clear();
     report_ = CycleReport{};
     mode_->begin();
     const auto last = d_.data.read_file("last-cycle");
@@ -532,35 +609,38 @@ void Cycle::make_target() {
 }
 
 void Cycle::measure_print(CycleState state, std::function<void()> then) {
-    capture(settings_.frames_per_capture, [this, state,
-                                           then = std::move(then)](std::vector<hal::Frame> f) {
-        auto frames = std::make_shared<const std::vector<hal::Frame>>(std::move(f));
-        enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
-        // A verification's files carry its pass ("pass-2-verify-overlay.png").
-        const std::string what =
-            state == CycleState::verify ? mode_->pass_prefix() + "verify" : "target";
-        MeasureInput input{
-            frames, read("camera.yaml").value_or(""), read("plane.yaml").value_or(""),
-            record_name(state == CycleState::verify ? what + "-overlay.png" : "overlay.png")};
-        auto measure = [this, input = std::move(input), then] { mode_->measure(input, then); };
-        if (!settings_.records.keep_photos) {
-            measure();
-            return;
-        }
-        // The photos join the record when the configuration says so, encoded off the loop.
-        auto photos = std::make_shared<std::vector<std::string>>();
-        work(
-            [frames, photos] {
-                for (const auto& frame : *frames) photos->push_back(png_of(frame));
-            },
-            [this, photos, what, measure = std::move(measure)] {
-                for (std::size_t i = 0; i < photos->size(); ++i)
-                    if (!keep(record_name(what + "-photo-" + std::to_string(i + 1) + ".png"),
-                              (*photos)[i]))
-                        return;
+    const std::string what =
+        state == CycleState::verify ? mode_->pass_prefix() + "verify" : "target";
+    capture_metered(
+        what, settings_.frames_per_capture,
+        [this, state, then = std::move(then)](std::vector<hal::Frame> f) {
+            auto frames = std::make_shared<const std::vector<hal::Frame>>(std::move(f));
+            enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
+            // A verification's files carry its pass ("pass-2-verify-overlay.png").
+            const std::string what =
+                state == CycleState::verify ? mode_->pass_prefix() + "verify" : "target";
+            MeasureInput input{
+                frames, read("camera.yaml").value_or(""), read("plane.yaml").value_or(""),
+                record_name(state == CycleState::verify ? what + "-overlay.png" : "overlay.png")};
+            auto measure = [this, input = std::move(input), then] { mode_->measure(input, then); };
+            if (!settings_.records.keep_photos) {
                 measure();
-            });
-    });
+                return;
+            }
+            // The photos join the record when the configuration says so, encoded off the loop.
+            auto photos = std::make_shared<std::vector<std::string>>();
+            work(
+                [frames, photos] {
+                    for (const auto& frame : *frames) photos->push_back(png_of(frame));
+                },
+                [this, photos, what, measure = std::move(measure)] {
+                    for (std::size_t i = 0; i < photos->size(); ++i)
+                        if (!keep(record_name(what + "-photo-" + std::to_string(i + 1) + ".png"),
+                                  (*photos)[i]))
+                            return;
+                    measure();
+                });
+        });
 }
 
 void Cycle::solve() {

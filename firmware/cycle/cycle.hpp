@@ -22,6 +22,7 @@
 #include "core/modes/goal.hpp"
 #include "firmware/cycle/button_press.hpp"
 #include "firmware/cycle/cycle_mode.hpp"
+#include "firmware/cycle/metering.hpp"
 #include "firmware/cycle/screens.hpp"
 #include "firmware/links/machine_link.hpp"
 #include "firmware/loop/event_loop.hpp"
@@ -235,6 +236,16 @@ class Cycle final : private CycleSteps {
     void indicate(bool& failed, const char* what, const std::function<void()>& update);
     // Asynchronous steps: each continues only if the cycle was not cancelled meanwhile.
     void capture(int frames, std::function<void(std::vector<hal::Frame>)> then);
+    // The camera takes `request`; `then` gets its frames (the light on meanwhile).
+    void shoot(const hal::CaptureRequest& request,
+               std::function<void(std::vector<hal::Frame>)> then);
+    // A capture of the work with the box's own exposure (metering.hpp): `what` names it in the
+    // record (cycle-NNNN-exposure.json keeps every capture's).
+    void capture_metered(const std::string& what, int frames,
+                         std::function<void(std::vector<hal::Frame>)> then);
+    struct MeteredRun;
+    void metered_reading(const std::shared_ptr<MeteredRun>& run, std::vector<hal::Frame> f);
+    void metered_capture(const std::shared_ptr<MeteredRun>& run);
     bool current(unsigned generation) const { return generation == generation_; }
 
     void begin_cycle();
@@ -281,6 +292,8 @@ class Cycle final : private CycleSteps {
     double setup_coverage_ = 0;  // of the image, by the views taken so far
     bool setup_only_ = false;    // the set-up asked for on its own: back to idle after it
     std::function<void(std::vector<hal::Frame>)> pending_capture_;
+    std::vector<CaptureExposure> exposures_;  // this cycle's metered captures, for its record
+    hal::CaptureRequest metering_start_;      // the last metered capture's exposure
     // Told in subscription order. A listener may end any subscription while being told: each
     // is looked up again before it is told, so none ended meanwhile is.
     template <class Part, class... Args>
@@ -295,8 +308,9 @@ class Cycle final : private CycleSteps {
         }
     }
     std::shared_ptr<std::list<CycleNews>> listeners_ = std::make_shared<std::list<CycleNews>>();
-    bool previewing_ = false;        // the camera is taking a preview
-    int capture_after_preview_ = 0;  // frames the cycle's capture waits to take, 0 none
+    bool previewing_ = false;  // the camera is taking a preview
+    // The capture the cycle waits to start until the preview is done.
+    std::optional<hal::CaptureRequest> capture_after_preview_;
     std::vector<std::string> target_job_;
     CycleReport report_;
     std::chrono::nanoseconds phase_started_{0};

@@ -82,6 +82,14 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
     cv::resize(gray, small, cv::Size(), scale, scale, cv::INTER_AREA);
     cv::Mat view;
     cv::cvtColor(small, view, cv::COLOR_GRAY2BGR);
+    // Clipped white, where nothing can be measured and a board's squares wash out (the
+    // metering's level), and black (a mark's contrast there is under the noise of a dim sensor).
+    constexpr int kClippedFromDn = 250, kBlackToDn = 8;
+    const cv::Mat clipped = small >= kClippedFromDn, black = small <= kBlackToDn;
+    image.clipped_share = cv::countNonZero(clipped) / static_cast<double>(small.total());
+    image.black_share = cv::countNonZero(black) / static_cast<double>(small.total());
+    view.setTo(cv::Scalar(40, 40, 255), clipped);
+    view.setTo(cv::Scalar(255, 120, 0), black);
     const auto at = [scale](const geometry::Point2& p) {
         return cv::Point(static_cast<int>(std::lround(p.x * scale)),
                          static_cast<int>(std::lround(p.y * scale)));
@@ -123,6 +131,16 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
     } else {
         text("bed outline after the set-up (camera and plane)", cv::Scalar(200, 200, 200));
     }
+    // A person can fix what a few per cent of the frame shows; less is a speck or a screw head.
+    constexpr double kWorthSaying = 0.01;
+    if (image.clipped_share >= kWorthSaying)
+        text("clipped white " + std::to_string(std::lround(100 * image.clipped_share)) +
+                 " % (red): tilt the board or diffuse the lamp's light",
+             cv::Scalar(40, 40, 255));
+    if (image.black_share >= kWorthSaying)
+        text("black " + std::to_string(std::lround(100 * image.black_share)) +
+                 " % (blue): more light there",
+             cv::Scalar(255, 120, 0));
     char figures[96];
     std::snprintf(figures, sizeof figures, "sharpness %.0f   set-up coverage %.0f %%",
                   image.sharpness, 100 * guide.coverage);

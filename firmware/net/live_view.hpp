@@ -1,7 +1,8 @@
 #pragma once
 // The live view a person aims and focuses the box by: the camera's frame, scaled down, with the
-// set-up guide drawn over it (the board views' coverage so far, the bed's expected outline) and
-// a sharpness figure. JPEG bytes, so that OpenCV stays out of this header.
+// set-up guide drawn over it (the board views' coverage so far, the bed's expected outline, what
+// is clipped white or black, with what to do) and a sharpness figure. JPEG bytes, so that OpenCV
+// stays out of this header.
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
@@ -31,6 +32,10 @@ struct LiveImage {
     // The variance of the Laplacian over the frame's middle, full resolution: higher is
     // sharper; a figure to turn the focus ring by, not an absolute.
     double sharpness = 0;
+    // Of the frame: clipped white (marked red, with what to do: tilt the board, diffuse the
+    // lamp's light) and black (marked blue: more light there).
+    double clipped_share = 0;
+    double black_share = 0;
     int width_px = 0, height_px = 0;
     std::uint64_t sequence = 0;  // the frame's
 };

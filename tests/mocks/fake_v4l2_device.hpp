@@ -123,6 +123,12 @@ class FakeV4l2Device final : public drivers::V4l2Device {
                 controls[c.id] = c.value;
                 return 0;
             }
+            case VIDIOC_G_CTRL: {
+                auto& c = *static_cast<v4l2_control*>(argument);
+                if (controls.count(c.id) == 0) return fail(EINVAL);
+                c.value = controls[c.id];
+                return 0;
+            }
             case VIDIOC_QUERYCTRL: {
                 auto& q = *static_cast<v4l2_queryctrl*>(argument);
                 if (controls.count(q.id) == 0) return fail(EINVAL);

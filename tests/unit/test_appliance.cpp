@@ -18,6 +18,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
 #include <sstream>
@@ -537,8 +538,9 @@ TEST(ApplianceCycle, a_camera_failing_mid_burst_is_an_error) {
     firmware::CycleSettings s;
     s.frames_per_capture = 3;
     Rig rig(prepared_dir("camera"),
-            scenario_with("camera", "[faults]\ncamera_fails_at_capture = 2"), s);
-    rig.run_cycle();  // capture 1 is the camera check's single photo, 2 the target's burst
+            scenario_with("camera", "[faults]\ncamera_fails_at_capture = 3"), s);
+    // Capture 1 is the camera check's single photo, 2 the target's metering frame, 3 its burst.
+    rig.run_cycle();
     check_error_state(rig, "frame 2 of 3 never arrived");
 }
 
@@ -831,6 +833,12 @@ TEST(ApplianceFiles, a_cycle_runs_whole_on_saved_photos) {
     second.run_cycle();
     second.check_cycles_completed(1);
     CHECK_EQUAL(0, second.board.camera->captures_started());  // the twin's camera never used
+    // Photos from files say nothing of their exposure: not metered, and said.
+    CHECK(std::any_of(second.log.begin(), second.log.end(), [](const std::string& line) {
+        return line.find("target: exposure the camera's own; ") != std::string::npos &&
+               line.find("the camera does not report its exposure: taken at its own") !=
+                   std::string::npos;
+    }));
     CHECK(delta_of(second.cycle).solution()->commands == *first_commands);
     DOUBLES_EQUAL(*first_verify, second.cycle.report().verified->rms_mm, 1e-12);
     const auto after = second.board.bench->judge_delta_printer();
@@ -1354,4 +1362,122 @@ TEST(ApplianceDrift, a_router_as_its_model_left_it_has_not_drifted_and_a_changed
     CHECK_FALSE(f[1].needs_calibration);
     CHECK(std::abs(f[2].in_force_mm - f[2].truth_mm) < 0.02);
     CHECK(f[2].drift_mm > 0.01);
+}
+
+// Each mode's whole cycle, set-up included, on a camera's worst day (the scenarios say which
+// nuisances, at the strength that stopped the set-up before issue 44): the goal met as the twin
+// judges it.
+TEST_GROUP(ApplianceWorstDay){void setup() override{mock().ignoreOtherCalls();
+}
+void teardown() override {
+    mock().clear();
+}
+}
+;
+
+// A laminated board and a PEI bed under the box's lamp, a lens 5 px softer in its corners, three
+// times the noise, JPEG at 68, through a 2 MP camera: the board is found with its glared corners
+// set aside, and the rings' strands in the soft corners are too blurred for their widths to
+// give heights (there the heights are the fit's; said in the log). Before, those heights came
+// out 0.06 mm low and the corrected printer was 0.036 mm RMS off while its verification print
+// said 0.013. Its metering puts the prints' bright strands at 225 (the camera's own exposure
+// left them at 133).
+TEST(ApplianceWorstDay, the_delta_meets_its_goal) {
+    Rig rig(fresh_dir("worst-delta"),
+            (fs::path(CALBOX_SOURCE_DIR) / "tests/scenarios/delta_worst_day.toml").string(), {});
+    const auto before = rig.board.bench->judge_delta_printer();
+    rig.run_cycle();
+    rig.check_cycles_completed(1);
+    const auto after = rig.board.bench->judge_delta_printer();
+    const auto& report = rig.cycle.report();
+    UT_PRINT(("worst day, delta: before XY " + std::to_string(before.xy_rms) + " mm RMS; after " +
+              std::to_string(after.xy_rms) + ", " + std::to_string(after.xy_max) +
+              " worst; verify measured " + std::to_string(report.verified->rms_mm))
+                 .c_str());
+    CHECK(before.xy_rms > 0.25);
+    CHECK_TEXT(after.xy_rms <= 0.01, std::to_string(after.xy_rms).c_str());
+    CHECK_TEXT(after.xy_max <= 0.03, std::to_string(after.xy_max).c_str());
+    // What the box says of its own work is no rosier than what the twin finds (its verification
+    // print, measured with most heights untold, reads a few thousandths worse).
+    CHECK(report.verified->rms_mm >= after.xy_rms - 0.002);
+    const auto said = [&rig](const std::string& text) {
+        return std::any_of(rig.log.begin(), rig.log.end(), [&](const std::string& line) {
+            return line.find(text) != std::string::npos;
+        });
+    };
+    CHECK(said("corners set aside under glare"));
+    CHECK(said("of their heights from the fit (the first: photo 1: marker "));
+}
+
+namespace {
+
+// A worst-day cycle judged by the twin against its mode's own goal; the box's exposure log lines.
+struct WorstDay {
+    sim::TwinVerdict before, after;
+    std::string shortfall;
+    std::vector<std::string> exposures;  // "target: exposure ..." lines
+    std::string measured;                // the "measure -> solve (...)" line
+    nlohmann::json exposure_record;      // cycle-0001-exposure.json
+};
+WorstDay run_worst_day(const std::string& scenario, const std::string& dir) {
+    Rig rig(fresh_dir(dir), (fs::path(CALBOX_SOURCE_DIR) / "tests/scenarios" / scenario).string(),
+            {});
+    const auto judge = sim::make_twin_judge(*rig.board.bench);
+    WorstDay day;
+    day.before = judge->before();
+    rig.run_cycle();
+    rig.check_cycles_completed(1);
+    day.after = judge->after(rig.cycle.mode().kept_correction());
+    day.shortfall = rig.cycle.mode().goal().shortfall(day.before.figures, day.after.figures);
+    for (const auto& line : rig.log) {
+        if (line.find(": exposure ") != std::string::npos) day.exposures.push_back(line);
+        if (line.find("measure -> solve") != std::string::npos) day.measured = line;
+    }
+    if (const auto record = rig.data.read_file("cycle-0001-exposure.json"))
+        day.exposure_record = nlohmann::json::parse(*record);
+    UT_PRINT(
+        ("worst day, " + scenario + ": before " + day.before.line + "; after " + day.after.line)
+            .c_str());
+    for (const auto& line : day.exposures) UT_PRINT(line.c_str());
+    return day;
+}
+
+}  // namespace
+
+// A drilled aluminium plate under the lamp: half the work area clipped at the camera's own
+// exposure, where the sheet and a hole are both white. The box reads again at half the exposure,
+// then puts the bright side at 225: nothing clipped, the goal met. (The holes in the plate's
+// corners, under 5 px of blur, measure larger than the rest and are set aside as odd: lost to
+// the lens, not the light.)
+TEST(ApplianceWorstDay, the_router_meets_its_goal_with_its_own_exposure) {
+    const auto day = run_worst_day("planar_worst_day.toml", "worst-router");
+    CHECK_TEXT(day.shortfall.empty(), day.shortfall.c_str());
+    CHECK(day.exposures.size() >= 2);
+    STRCMP_CONTAINS("target: exposure ", day.exposures.front().c_str());
+    STRCMP_CONTAINS("% clipped before, 0.0 % after", day.exposures.front().c_str());
+    CHECK(day.exposures.front().find("0.0 % clipped before") == std::string::npos);
+    // The record: each capture's readings (the camera's own exposure, then half of it) and the
+    // exposure chosen, with the work area's clipped share before and after.
+    const auto& record = day.exposure_record;
+    CHECK_EQUAL(2u, record.size());
+    const auto& target = record.at(0);
+    STRCMP_EQUAL("target", target.at("what").get<std::string>().c_str());
+    CHECK(target.at("readings").size() >= 2);
+    const auto first_us = target.at("readings").at(0).at("exposure_us").get<long>();
+    CHECK_EQUAL(first_us / 2, target.at("readings").at(1).at("exposure_us").get<long>());
+    CHECK(target.at("work_area_clipped_before").get<double>() > 0.3);
+    DOUBLES_EQUAL(0, target.at("work_area_clipped_after").get<double>(), 1e-3);
+    CHECK(target.at("exposure_us").get<long>() < first_us);
+    CHECK_FALSE(target.at("bracketed").get<bool>());
+}
+
+// An anodised galvo plate under the lamp: at the camera's own exposure 47 of the 961 marks lay
+// in clipped white and were lost, and the worst mark after the table missed the goal (0.031 mm).
+// Metered, every mark is measured and the goal is met.
+TEST(ApplianceWorstDay, the_galvo_meets_its_goal_with_every_mark_measured) {
+    const auto day = run_worst_day("galvo_worst_day.toml", "worst-galvo");
+    CHECK_TEXT(day.shortfall.empty(), day.shortfall.c_str());
+    CHECK(day.exposures.size() >= 2);
+    STRCMP_CONTAINS("% clipped before, 0.0 % after", day.exposures.front().c_str());
+    STRCMP_CONTAINS("(961 marks, 0 missing)", day.measured.c_str());
 }

@@ -314,7 +314,7 @@ TEST(BoxNews, metrics_in_base_units_with_their_types) {
 
 TEST_GROUP(LiveView){};
 
-TEST(LiveView, draws_the_bed_where_the_camera_sees_it_and_judges_sharpness) {
+TEST(LiveView, draws_the_bed_judges_sharpness_and_marks_what_is_clipped_or_black) {
     // A camera 400 mm over the bed looking straight down (turned half round x: the bed's z up is
     // the camera's z into the scene negated), f 500 px: a bed of radius 100 mm is a circle of
     // 500 * 100 / 400 = 125 px round the image's centre.
@@ -365,6 +365,26 @@ TEST(LiveView, draws_the_bed_where_the_camera_sees_it_and_judges_sharpness) {
     CHECK_TRUE(firmware::live_view(soft, guide, 200).sharpness < sharp.sharpness / 2);
     LONGS_EQUAL(200, firmware::live_view(soft, guide, 200).width_px);
     CHECK_THROWS(std::invalid_argument, firmware::live_view(hal::Frame{}, guide, 200));
+    // Nothing clipped or black in the pattern; a lamp's hot spot (a 100 x 100 square at 255)
+    // and a black strip (40 x 300 at 0) are marked and said, in their share of the frame.
+    DOUBLES_EQUAL(0, sharp.clipped_share, 0);
+    DOUBLES_EQUAL(0, sharp.black_share, 0);
+    hal::Frame glare = frame;
+    for (int y = 0; y < 300; ++y)
+        for (int x = 0; x < 400; ++x) {
+            auto& p = glare.pixels[static_cast<std::size_t>(y * 400 + x)];
+            if (x >= 250 && x < 350 && y >= 50 && y < 150) p = 255;
+            if (x < 40) p = 0;
+        }
+    const auto marked = firmware::live_view(glare, guide, 400);
+    DOUBLES_EQUAL(100.0 * 100 / (400 * 300), marked.clipped_share, 1e-9);
+    DOUBLES_EQUAL(40.0 * 300 / (400 * 300), marked.black_share, 1e-9);
+    const cv::Mat marked_image = cv::imdecode(
+        std::vector<unsigned char>(marked.jpeg.begin(), marked.jpeg.end()), cv::IMREAD_COLOR);
+    const auto p = marked_image.at<cv::Vec3b>(100, 300);  // BGR: red
+    CHECK_TRUE(p[2] > 200 && p[0] < 90 && p[1] < 90);
+    const auto q = marked_image.at<cv::Vec3b>(250, 20);  // blue
+    CHECK_TRUE(q[0] > 200 && q[2] < 60);
 }
 
 TEST_GROUP(LoopInbox){};

@@ -90,6 +90,9 @@ TEST(V4l2Camera, grey_is_preferred_and_the_size_is_what_the_driver_gives) {
     CHECK_EQUAL(1280, result.frames.at(0).width_px);
     CHECK_EQUAL(test::FakeV4l2Device::level(1000, 700, 0),
                 result.frames[0].pixels[700 * 1280 + 1000]);
+    // At the camera's own exposure the frame says what it chose (read back: 156 x 100 us), so
+    // that the box's metering can scale from it.
+    CHECK_EQUAL(15600, result.frames[0].metadata.exposure.count());
 }
 
 TEST(V4l2Camera, mjpeg_frames_are_decoded_to_grey) {

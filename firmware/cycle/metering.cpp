@@ -61,9 +61,16 @@ hal::CaptureRequest MeteredCapture::next_start() const {
 }
 
 vision::WorkAreaLight MeteredCapture::meter(const hal::Frame& frame) {
-    return vision::meter_work_area(
-        view_of(frame), vision::work_area_inside(mark_centres_px_, frame.width_px, frame.height_px),
-        limits_);
+    try {
+        return vision::meter_work_area(
+            view_of(frame),
+            vision::work_area_inside(mark_centres_px_, frame.width_px, frame.height_px), limits_);
+    } catch (const std::invalid_argument&) {
+        // Marks in a line, or off this frame (photos of another size): the frame less its
+        // border, as without marks.
+        return vision::meter_work_area(
+            view_of(frame), vision::work_area_inside({}, frame.width_px, frame.height_px), limits_);
+    }
 }
 
 std::optional<hal::CaptureRequest> MeteredCapture::read(const hal::Frame& frame) {

@@ -472,8 +472,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                     out.heights_unmeasured.push_back(
                         photo_name + ": marker " + std::to_string(found[i].id) + "'s corner " +
                         std::to_string(k) + ": " + ring.width_unmeasured_because[k]);
-                    ++corner.heights_unmeasured;
-                    corner.on_bed.push_back(at_top);
+                    ++corner.heights_unmeasured;  // its points are then at_top's alone
                     continue;
                 }
                 const auto height = vision::strand_height_from_width(

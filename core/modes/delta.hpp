@@ -46,8 +46,8 @@ struct DeltaMeasurement {
     // "photo 1: marker 7's ring: its top side showed the strand in 3 of 60 profiles ...".
     std::vector<std::string> rings_unmeasured;
     // Corners placed but whose strand's width (their height) could not be told, each with why:
-    // "photo 1: marker 7's corner 2: its top side: the lens's blur there (3.10 px) is as wide
-    // as the strand (3.05 px)". Their heights come from the surface fit of the others.
+    // "photo 1: marker 7's corner 2: its top side: the lens's blur across the strand (1.14 px)
+    // is over 0.33 of its width (3.31 px)". Their heights come from the surface fit.
     std::vector<std::string> heights_unmeasured;
     std::vector<std::vector<vision::DetectedMarker>> frames;  // what each photo showed
     double bed_scale = 1;  // the print in the photos against as printed (the bed's expansion)

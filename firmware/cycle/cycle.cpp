@@ -609,16 +609,14 @@ void Cycle::make_target() {
 }
 
 void Cycle::measure_print(CycleState state, std::function<void()> then) {
+    // A verification's files carry its pass ("pass-2-verify-overlay.png"), as its exposure does.
     const std::string what =
         state == CycleState::verify ? mode_->pass_prefix() + "verify" : "target";
     capture_metered(
         what, settings_.frames_per_capture,
-        [this, state, then = std::move(then)](std::vector<hal::Frame> f) {
+        [this, state, what, then = std::move(then)](std::vector<hal::Frame> f) {
             auto frames = std::make_shared<const std::vector<hal::Frame>>(std::move(f));
             enter(state, "measuring " + std::to_string(frames->size()) + " photo(s)");
-            // A verification's files carry its pass ("pass-2-verify-overlay.png").
-            const std::string what =
-                state == CycleState::verify ? mode_->pass_prefix() + "verify" : "target";
             MeasureInput input{
                 frames, read("camera.yaml").value_or(""), read("plane.yaml").value_or(""),
                 record_name(state == CycleState::verify ? what + "-overlay.png" : "overlay.png")};

@@ -60,7 +60,7 @@ hal::CaptureRequest MeteredCapture::next_start() const {
     return {1, exposure, record_.readings.empty() ? 1.0 : record_.readings.back().analogue_gain};
 }
 
-vision::WorkAreaLight MeteredCapture::meter(const hal::Frame& frame) {
+vision::WorkAreaLight MeteredCapture::meter(const hal::Frame& frame) const {
     try {
         return vision::meter_work_area(
             view_of(frame),
@@ -80,7 +80,6 @@ std::optional<hal::CaptureRequest> MeteredCapture::read(const hal::Frame& frame)
     if (frame.metadata.exposure.count() <= 0) {
         // Photos from files, or a camera that keeps its exposure to itself: nothing to scale
         // from; a single frame wanted is this one.
-        camera_says_exposure_ = false;
         planned_ = true;
         record_.why = "the camera does not report its exposure: taken at its own";
         if (frames_ == 1) held_ = frame;
@@ -108,7 +107,8 @@ std::optional<hal::CaptureRequest> MeteredCapture::read(const hal::Frame& frame)
 std::vector<hal::CaptureRequest> MeteredCapture::captures() const {
     if (!planned_) throw std::logic_error("captures asked before the metering is done");
     if (held_) return {};
-    if (!camera_says_exposure_) return {{frames_, {}, {}}};
+    // A camera that does not say its exposure: its own.
+    if (record_.readings.back().exposure.count() <= 0) return {{frames_, {}, {}}};
     const auto& last = record_.readings.back();
     std::vector<hal::CaptureRequest> out{
         {frames_, scaled(last.exposure, plan_.ratio), last.analogue_gain}};

@@ -56,7 +56,7 @@ class MeteredCapture {
     std::string summary() const;  // one line for the log
 
   private:
-    vision::WorkAreaLight meter(const hal::Frame& frame);
+    vision::WorkAreaLight meter(const hal::Frame& frame) const;
 
     int frames_;
     std::vector<geometry::Point2> mark_centres_px_;
@@ -66,9 +66,6 @@ class MeteredCapture {
     CaptureExposure record_;
     vision::ExposurePlan plan_;
     bool planned_ = false;
-    // Metering needs the exposure each frame was taken at; a camera that does not say keeps its
-    // own, and the record says so.
-    bool camera_says_exposure_ = true;
 };
 
 }  // namespace calbox::firmware

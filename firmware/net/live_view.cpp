@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "core/geometry/camera_model.hpp"
+#include "core/vision/exposure.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -84,8 +85,9 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
     cv::cvtColor(small, view, cv::COLOR_GRAY2BGR);
     // Clipped white, where nothing can be measured and a board's squares wash out (the
     // metering's level), and black (a mark's contrast there is under the noise of a dim sensor).
-    constexpr int kClippedFromDn = 250, kBlackToDn = 8;
-    const cv::Mat clipped = small >= kClippedFromDn, black = small <= kBlackToDn;
+    constexpr int kBlackToDn = 8;
+    const cv::Mat clipped = small >= vision::MeteringLimits{}.clipped_from_dn,
+                  black = small <= kBlackToDn;
     image.clipped_share = cv::countNonZero(clipped) / static_cast<double>(small.total());
     image.black_share = cv::countNonZero(black) / static_cast<double>(small.total());
     view.setTo(cv::Scalar(40, 40, 255), clipped);

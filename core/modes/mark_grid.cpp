@@ -4,6 +4,7 @@
 #include <cmath>
 #include <deque>
 
+#include "core/median.hpp"
 #include "core/number_text.hpp"
 
 namespace calbox::modes {
@@ -129,23 +130,19 @@ std::vector<Point2> work_outline_px(const geometry::CameraModel& camera,
 
 void set_aside_odd_sizes(std::vector<MarkCandidate>& candidates, double max_deviation,
                          std::vector<Point2>& extra_mm) {
-    const auto median = [](std::vector<double> v) {
-        std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
-        return v[v.size() / 2];
-    };
     for (const bool kind : {false, true}) {
         std::vector<double> radii;
         for (const auto& c : candidates)
             if (c.large == kind) radii.push_back(c.radius_mm);
         if (radii.empty()) continue;
-        const double typical = median(radii);
+        const double typical = median_of(radii);
         // The kind's own spread, as a standard deviation from the median absolute deviation:
         // small marks seen by few pixels measure a few percent apart even when made alike.
         std::vector<double> deviations;
         deviations.reserve(radii.size());
         for (const double r : radii) deviations.push_back(std::abs(r / typical - 1));
         const double allowed =
-            std::max(max_deviation, kSizeSpreadsAllowed * 1.4826 * median(deviations));
+            std::max(max_deviation, kSizeSpreadsAllowed * 1.4826 * median_of(deviations));
         for (auto& c : candidates)
             if (c.large == kind && std::abs(c.radius_mm / typical - 1) > allowed) c.taken = true;
     }

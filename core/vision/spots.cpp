@@ -1,11 +1,15 @@
 #include "core/vision/spots.hpp"
 
+#include <Eigen/Dense>
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "core/geometry/cv_convert.hpp"
+#include "core/median.hpp"
 
 namespace calbox::vision {
 namespace {
@@ -19,15 +23,18 @@ double elongation_of(double sxx, double syy, double sxy) {
 }
 
 struct Ring {
-    double median_dn = 0, noise_dn = 0;
+    double level_dn = 0, noise_dn = 0;  // the substrate's level at the mark's centre, its noise
+    double slope_x_dn_per_px = 0, slope_y_dn_per_px = 0;
     bool inside_image = true;
 };
 
-// The substrate around a mark: the median and spread of the pixels in a ring just outside its
-// window (a median, so that a neighbouring mark's edge does not move it).
+// The substrate around a mark from a ring just outside its window: a plane through the medians
+// of eight sectors of the ring (a median, so that a neighbouring mark's edge in one sector does
+// not move it; a plane, because the lamp's reflection climbs across a glossy plate), then the
+// level at the centre and the spread as the median and the median absolute deviation of what the
+// plane leaves.
 Ring substrate_ring(const GrayView& image, geometry::Point2 c, double inner, double outer) {
     Ring ring;
-    std::vector<int> values;
     const int x0 = static_cast<int>(std::floor(c.x - outer)),
               x1 = static_cast<int>(std::ceil(c.x + outer));
     const int y0 = static_cast<int>(std::floor(c.y - outer)),
@@ -36,27 +43,52 @@ Ring substrate_ring(const GrayView& image, geometry::Point2 c, double inner, dou
         ring.inside_image = false;
         return ring;
     }
+    constexpr int kSectors = 8;
+    struct Sample {
+        double dx, dy, value;
+    };
+    std::vector<Sample> samples;
+    std::array<std::vector<double>, kSectors> sector_values;
+    std::array<double, kSectors> sector_x{}, sector_y{};
     for (int y = y0; y <= y1; ++y)
         for (int x = x0; x <= x1; ++x) {
-            const double d2 = (x - c.x) * (x - c.x) + (y - c.y) * (y - c.y);
-            if (d2 >= inner * inner && d2 <= outer * outer) values.push_back(image.at(x, y));
+            const double dx = x - c.x, dy = y - c.y, d2 = dx * dx + dy * dy;
+            if (d2 < inner * inner || d2 > outer * outer) continue;
+            const double value = image.at(x, y);
+            samples.push_back({dx, dy, value});
+            const double turn = (std::atan2(dy, dx) + std::numbers::pi) / (2 * std::numbers::pi);
+            const int k = std::min(kSectors - 1, static_cast<int>(turn * kSectors));
+            sector_values[static_cast<std::size_t>(k)].push_back(value);
+            sector_x[static_cast<std::size_t>(k)] += dx;
+            sector_y[static_cast<std::size_t>(k)] += dy;
         }
-    if (values.size() < 8) {
-        ring.inside_image = false;
-        return ring;
+    for (const auto& values : sector_values)
+        if (values.size() < 3) {
+            ring.inside_image = false;
+            return ring;
+        }
+    // Least squares for level + slope . (x, y) through the sectors' medians at their centroids.
+    Eigen::Matrix3d normal = Eigen::Matrix3d::Zero();
+    Eigen::Vector3d right = Eigen::Vector3d::Zero();
+    for (std::size_t k = 0; k < kSectors; ++k) {
+        const double n = static_cast<double>(sector_values[k].size());
+        const Eigen::Vector3d row{1.0, sector_x[k] / n, sector_y[k] / n};
+        normal += row * row.transpose();
+        right += row * median_of(sector_values[k]);
     }
-    std::nth_element(values.begin(), values.begin() + static_cast<long>(values.size() / 2),
-                     values.end());
-    ring.median_dn = values[values.size() / 2];
-    // The spread from the median absolute deviation (robust to a neighbour's edge).
-    std::vector<int> deviations;
-    deviations.reserve(values.size());
-    for (int v : values) deviations.push_back(std::abs(v - static_cast<int>(ring.median_dn)));
-    std::nth_element(deviations.begin(),
-                     deviations.begin() + static_cast<long>(deviations.size() / 2),
-                     deviations.end());
+    const Eigen::Vector3d plane = normal.ldlt().solve(right);
+    ring.slope_x_dn_per_px = plane[1];
+    ring.slope_y_dn_per_px = plane[2];
+    std::vector<double> levels;
+    levels.reserve(samples.size());
+    for (const Sample& s : samples)
+        levels.push_back(s.value - ring.slope_x_dn_per_px * s.dx - ring.slope_y_dn_per_px * s.dy);
+    ring.level_dn = median_of(levels);
+    std::vector<double> deviations;
+    deviations.reserve(levels.size());
+    for (double v : levels) deviations.push_back(std::abs(v - ring.level_dn));
     // A grey level is quantised: at least the quantisation noise of one count.
-    ring.noise_dn = std::max(1.4826 * deviations[deviations.size() / 2], 1 / std::sqrt(12.0));
+    ring.noise_dn = std::max(1.4826 * median_of(deviations), 1 / std::sqrt(12.0));
     return ring;
 }
 
@@ -103,6 +135,8 @@ Spot measure_spot_q16(const GrayView& image, const MomentWindow& w) {
     const std::int64_t fx_q8 = std::llround(b.fx * 256), fy_q8 = std::llround(b.fy * 256);
     const std::int64_t r_q8 = std::llround(w.radius_px * 256);
     const std::int64_t r2 = r_q8 * r_q8;
+    const std::int64_t slope_x_q8 = std::llround(w.substrate_slope_x_dn_per_px * 256),
+                       slope_y_q8 = std::llround(w.substrate_slope_y_dn_per_px * 256);
     std::int64_t s0 = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
     std::int64_t free_n = 0, free_x = 0, free_y = 0, free_xx = 0, free_yy = 0;
     for (int dy = -b.reach; dy <= b.reach; ++dy) {
@@ -112,7 +146,9 @@ Spot measure_spot_q16(const GrayView& image, const MomentWindow& w) {
             if (ex * ex + ey * ey > r2) continue;
             const std::int64_t level_q8 = static_cast<std::int64_t>(image.at(b.cx + dx, b.cy + dy))
                                           << 8;
-            std::int64_t weight = (substrate_q8 - level_q8) * 65536 / span_q8;  // Q16
+            // Q8 slope times Q8 offset is Q16; an arithmetic shift back to Q8 on every platform.
+            const std::int64_t here_q8 = substrate_q8 + ((slope_x_q8 * ex + slope_y_q8 * ey) >> 8);
+            std::int64_t weight = (here_q8 - level_q8) * 65536 / span_q8;  // Q16
             if (weight > 0 && weight < 65536) {
                 // Only a weight between its clamps moves with the noise.
                 ++free_n;
@@ -157,8 +193,10 @@ Spot measure_spot_reference(const GrayView& image, const MomentWindow& w) {
         for (int dx = -b.reach; dx <= b.reach; ++dx) {
             if ((dx - b.fx) * (dx - b.fx) + (dy - b.fy) * (dy - b.fy) > w.radius_px * w.radius_px)
                 continue;
+            const double here = w.substrate_dn + w.substrate_slope_x_dn_per_px * (dx - b.fx) +
+                                w.substrate_slope_y_dn_per_px * (dy - b.fy);
             const double weight =
-                std::clamp((w.substrate_dn - image.at(b.cx + dx, b.cy + dy)) / span, 0.0, 1.0);
+                std::clamp((here - image.at(b.cx + dx, b.cy + dy)) / span, 0.0, 1.0);
             s0 += weight, sx += weight * (b.cx + dx), sy += weight * (b.cy + dy);
         }
     Spot spot;
@@ -222,7 +260,9 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
         MomentWindow window;
         window.centre_px = rough;
         window.radius_px = radius;
-        window.substrate_dn = ring.median_dn;
+        window.substrate_dn = ring.level_dn;
+        window.substrate_slope_x_dn_per_px = ring.slope_x_dn_per_px;
+        window.substrate_slope_y_dn_per_px = ring.slope_y_dn_per_px;
         window.mark_dn = window_mean(fview, rough, 0.5 * (radius - settings.window_margin_px));
         window.noise_dn = ring.noise_dn;
         if (std::abs(window.substrate_dn - window.mark_dn) < 4) continue;  // no real contrast

@@ -65,7 +65,13 @@ SpotImage find_spots(const GrayView& image, const SpotSettings& settings = {});
 struct MomentWindow {
     geometry::Point2 centre_px;
     double radius_px = 0;
+    // The substrate's level at the window's centre and how it changes across the window: the
+    // lamp mirrored by a glass or metal plate adds light that climbs tens of counts across one
+    // mark, and a level held flat weighs the substrate on its dim side as mark, pulling the
+    // centroid there by a tenth of a pixel and more. Glare adds to the mark and the substrate
+    // alike, so the span between them (substrate_dn - mark_dn) stays the same across the window.
     double substrate_dn = 0, mark_dn = 0, noise_dn = 0;
+    double substrate_slope_x_dn_per_px = 0, substrate_slope_y_dn_per_px = 0;
 };
 Spot measure_spot_q16(const GrayView& image, const MomentWindow& window);
 // The same computation in double precision, the reference the kernel is tested against.

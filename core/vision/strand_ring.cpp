@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/geometry/line_fit.hpp"
+#include "core/median.hpp"
 #include "core/number_text.hpp"
 
 namespace calbox::vision {
@@ -78,12 +79,6 @@ struct ValueAt {
     double value = 0, sigma = 0;
 };
 ValueAt plain_linear_fit_at(const std::vector<double>& t, const std::vector<double>& v, double t0);
-
-double median_of(std::vector<double> values) {
-    const auto middle = values.begin() + static_cast<long>(values.size() / 2);
-    std::nth_element(values.begin(), middle, values.end());
-    return *middle;
-}
 
 // The same, with the points more than four robust deviations off a first fit left out: a
 // profile whose edge was a speck or a neighbour's gives a width far off the side's trend.

@@ -1,10 +1,18 @@
 #include "board/devices.hpp"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
 #include "drivers/file_camera.hpp"
 #include "drivers/file_storage.hpp"
 #include "drivers/modbus_link.hpp"
 #include "drivers/network.hpp"
 #include "drivers/pty_port.hpp"
+#include "drivers/systemd_supervisor.hpp"
 #include "drivers/termios_port.hpp"
 #include "drivers/timerfd_clock.hpp"
 
@@ -41,8 +49,7 @@ std::unique_ptr<hal::SerialPort> standard_io() {
 }
 
 RegisterServer register_server(const net::ModbusEndpoint& endpoint, RegisterTables tables,
-                               const hal::ModbusTimeouts& timeouts,
-                               std::function<void(const std::string&)> log) {
+                               const hal::ModbusTimeouts& timeouts, hal::Log log) {
     auto server = std::make_unique<drivers::ModbusServer>(
         endpoint,
         drivers::ModbusServer::Tables{tables.coils, tables.discrete_inputs,
@@ -55,6 +62,31 @@ RegisterServer register_server(const net::ModbusEndpoint& endpoint, RegisterTabl
 std::unique_ptr<hal::RegisterLink> register_client(const net::ModbusEndpoint& endpoint,
                                                    const hal::ModbusTimeouts& timeouts) {
     return std::make_unique<drivers::ModbusClient>(endpoint, timeouts);
+}
+
+namespace {
+
+bool standard_error_is_journal() {
+    const char* stream = std::getenv("JOURNAL_STREAM");  // "DEVICE:INODE", both decimal
+    if (stream == nullptr) return false;
+    struct stat error_stream {};
+    if (::fstat(STDERR_FILENO, &error_stream) != 0) return false;
+    return std::string(stream) ==
+           std::to_string(error_stream.st_dev) + ":" + std::to_string(error_stream.st_ino);
+}
+
+}  // namespace
+
+void log_to_standard_error(hal::LogLevel level, const std::string& line) {
+    static const bool to_journal = standard_error_is_journal();
+    if (to_journal)
+        std::fprintf(stderr, "<%d>calbox: %s\n", static_cast<int>(level), line.c_str());
+    else
+        std::fprintf(stderr, "calbox: %s\n", line.c_str());
+}
+
+std::unique_ptr<hal::Supervisor> service_supervisor() {
+    return std::make_unique<drivers::SystemdSupervisor>();
 }
 
 }  // namespace calbox::board

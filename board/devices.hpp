@@ -13,10 +13,12 @@
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
 #include "hal/lines.hpp"
+#include "hal/log.hpp"
 #include "hal/network.hpp"
 #include "hal/register_link.hpp"
 #include "hal/serial_port.hpp"
 #include "hal/storage.hpp"
+#include "hal/supervisor.hpp"
 
 namespace calbox::board {
 
@@ -44,6 +46,12 @@ struct Pty {
 };
 Pty pseudo_terminal();
 std::unique_ptr<hal::SerialPort> standard_io();
+// A line of the box's log on standard error, "calbox: LINE"; when standard error is the journal's
+// stream (systemd's JOURNAL_STREAM names its device and inode) with its level's prefix ("<3>" for
+// an error), which the journal files it under and which elsewhere would be noise.
+void log_to_standard_error(hal::LogLevel level, const std::string& line);
+// The service manager the box runs under (systemd's notification socket, when it gives one).
+std::unique_ptr<hal::Supervisor> service_supervisor();
 
 // The network: HTTP clients and listeners, MQTT sessions, the password hasher.
 std::unique_ptr<hal::Network> network();
@@ -58,8 +66,7 @@ struct RegisterServer {
     int port = 0;  // the TCP port it listens on (useful with port 0)
 };
 RegisterServer register_server(const net::ModbusEndpoint& endpoint, RegisterTables tables,
-                               const hal::ModbusTimeouts& timeouts,
-                               std::function<void(const std::string&)> log);
+                               const hal::ModbusTimeouts& timeouts, hal::Log log);
 std::unique_ptr<hal::RegisterLink> register_client(const net::ModbusEndpoint& endpoint,
                                                    const hal::ModbusTimeouts& timeouts);
 

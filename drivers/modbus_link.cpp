@@ -105,7 +105,7 @@ int ModbusServer::answer(int fd) {
     {
         std::lock_guard lock(mutex_);
         if (modbus_reply(ctx_, query, n, map_) < 0 && log_) {
-            log_(endpoint_.describe() + ": reply failed: " + modbus_error());
+            log_.warning(endpoint_.describe() + ": reply failed: " + modbus_error());
         }
         for (int i = 0; i < map_->nb_bits; ++i) {
             if (map_->tab_bits[i] != 0) {
@@ -133,7 +133,7 @@ void ModbusServer::serve() {
         }
         if (::select(top + 1, &readable, nullptr, nullptr, nullptr) < 0) {
             if (errno == EINTR) continue;
-            if (log_) log_(endpoint_.describe() + ": select failed: " + std::strerror(errno));
+            if (log_) log_.error(endpoint_.describe() + ": select failed: " + std::strerror(errno));
             break;
         }
         if (FD_ISSET(stop_.fd(), &readable)) break;

@@ -12,6 +12,7 @@
 
 #include "core/net/endpoints.hpp"
 #include "hal/background_job.hpp"
+#include "hal/log.hpp"
 #include "hal/notifier.hpp"
 #include "hal/register_link.hpp"
 
@@ -31,7 +32,7 @@ class ModbusServer final : public hal::RegisterServer {
     struct Tables {
         int coils = 0, discrete_inputs = 0, holding_registers = 0, input_registers = 0;
     };
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     // Listens (TCP, any number of clients) or opens the serial device (RTU). Throws
     // std::runtime_error naming the endpoint: address in use, device missing, permission.
     ModbusServer(const ModbusEndpoint& endpoint, Tables tables, ModbusTimeouts timeouts, Log log);

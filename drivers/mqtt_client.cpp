@@ -1,13 +1,16 @@
 #include "drivers/mqtt_client.hpp"
 
 #include <mosquitto.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstdio>
 #include <cstring>
+#include <fstream>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -23,6 +26,9 @@ struct MqttClient::State {
     bool stopping = false;  // under stop_mutex
     Callbacks callbacks;
     MqttWill will;
+    int protocol_version = 4;
+    std::string who;  // " as USER" for a login, empty for anonymous
+    std::string tls_check;  // how the broker's certificate is checked, for what is told
     std::atomic<bool> connected{false};
     // One trouble told per spell without a session: the retries after it are silent until the
     // broker takes the box again.
@@ -72,10 +78,14 @@ struct MqttClient::State {
     }
 
     void unreachable(int rc) {
-        trouble(
-            "cannot reach the broker at " + address + ": " +
-            (rc == MOSQ_ERR_ERRNO ? std::string(std::strerror(errno)) : mosquitto_strerror(rc)) +
-            " (retried with back-off)");
+        std::string why = rc == MOSQ_ERR_ERRNO ? std::string(std::strerror(errno))
+                                               : std::string(mosquitto_strerror(rc));
+        if (rc == MOSQ_ERR_TLS) why += " (its certificate checked against " + tls_check + ")";
+        trouble("cannot reach the broker at " + address + ": " + why + " (retried with back-off)");
+    }
+
+    std::string refusal(int rc) const {
+        return protocol_version == 5 ? mosquitto_reason_string(rc) : mosquitto_connack_string(rc);
     }
 
     void trouble(const std::string& why) {
@@ -97,25 +107,82 @@ MqttClient::State& state_of(void* user) {
     return *static_cast<MqttClient::State*>(user);
 }
 
+// The password, from a file its owner alone reads: a password others can read is no secret, and
+// the box says so rather than send it.
+std::string password_from(const std::string& file) {
+    struct stat st {};
+    if (::stat(file.c_str(), &st) != 0)
+        throw std::runtime_error("mqtt.password_file " + file + ": " + std::strerror(errno));
+    if ((st.st_mode & 077) != 0) {
+        char mode[8];
+        std::snprintf(mode, sizeof mode, "%04o", static_cast<unsigned>(st.st_mode & 07777));
+        throw std::runtime_error("mqtt.password_file " + file + " is readable by others (mode " +
+                                 mode + "): the password's file must be its owner's alone (chmod "
+                                 "600 " + file + ")");
+    }
+    std::ifstream in(file);
+    std::string password;
+    if (!in || !std::getline(in, password))
+        throw std::runtime_error("mqtt.password_file " + file + ": cannot be read");
+    if (!password.empty() && password.back() == '\r') password.pop_back();
+    if (password.empty())
+        throw std::runtime_error("mqtt.password_file " + file + ": its first line is empty");
+    return password;
+}
+
 }  // namespace
 
-MqttClient::MqttClient(const std::string& client_id, const std::string& host, int port,
-                       MqttWill will, Callbacks callbacks)
+MqttClient::MqttClient(const std::string& client_id, const hal::MqttBroker& broker, MqttWill will,
+                       Callbacks callbacks)
     : state_(std::make_unique<State>()) {
     library_once();
+    if (broker.protocol_version != 4 && broker.protocol_version != 5)
+        throw std::invalid_argument("MQTT protocol level " +
+                                    std::to_string(broker.protocol_version) + ": 4 or 5");
+    const std::string password =
+        broker.password_file.empty() ? std::string() : password_from(broker.password_file);
     auto& s = *state_;
     s.callbacks = std::move(callbacks);
     s.will = std::move(will);
+    s.protocol_version = broker.protocol_version;
     s.mosq = mosquitto_new(client_id.c_str(), true, &s);
     if (s.mosq == nullptr) throw std::runtime_error("libmosquitto: cannot make a client");
-    mosquitto_int_option(s.mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+    // Destroyed with the state if what follows throws.
+    struct Undo {
+        State& s;
+        bool armed = true;
+        ~Undo() {
+            if (armed) mosquitto_destroy(s.mosq);
+        }
+    } undo{s};
+    mosquitto_int_option(s.mosq, MOSQ_OPT_PROTOCOL_VERSION,
+                         broker.protocol_version == 5 ? MQTT_PROTOCOL_V5 : MQTT_PROTOCOL_V311);
+    if (!broker.user.empty()) {
+        s.who = " as " + broker.user;
+        if (mosquitto_username_pw_set(s.mosq, broker.user.c_str(),
+                                      password.empty() ? nullptr : password.c_str()) !=
+            MOSQ_ERR_SUCCESS)
+            throw std::runtime_error("libmosquitto: cannot take the user " + broker.user);
+    }
+    if (broker.tls) {
+        // The system's authorities where no CA file is named (a broker with a public
+        // certificate); the broker's name is checked against its certificate either way.
+        s.tls_check = broker.ca_file.empty() ? "the system's authorities" : broker.ca_file;
+        const int rc = mosquitto_tls_set(
+            s.mosq, broker.ca_file.empty() ? nullptr : broker.ca_file.c_str(),
+            broker.ca_file.empty() ? "/etc/ssl/certs" : nullptr, nullptr, nullptr, nullptr);
+        if (rc != MOSQ_ERR_SUCCESS)
+            throw std::runtime_error("mqtt: TLS cannot use " + s.tls_check + ": " +
+                                     mosquitto_strerror(rc));
+        mosquitto_tls_opts_set(s.mosq, 1 /* SSL_VERIFY_PEER */, nullptr, nullptr);
+    }
     mosquitto_will_set(s.mosq, s.will.topic.c_str(), static_cast<int>(s.will.payload.size()),
                        s.will.payload.data(), 1, s.will.retain);
     mosquitto_threaded_set(s.mosq, true);
     mosquitto_connect_callback_set(s.mosq, [](mosquitto*, void* user, int rc) {
         auto& st = state_of(user);
         if (rc != 0) {
-            st.trouble(std::string("the broker refused the box: ") + mosquitto_connack_string(rc) +
+            st.trouble("the broker refused the box" + st.who + ": " + st.refusal(rc) +
                        " (retried with back-off)");
             return;
         }
@@ -137,10 +204,12 @@ MqttClient::MqttClient(const std::string& client_id, const std::string& host, in
                                                    static_cast<std::size_t>(m->payloadlen)));
     });
     // A broker not there yet is tried again by the network thread, at the back-off's pace.
-    s.address = host + ":" + std::to_string(port);
-    const int rc = mosquitto_connect_async(s.mosq, host.c_str(), port, 30);
+    s.address = broker.address.host + ":" + std::to_string(broker.address.port);
+    const int rc = mosquitto_connect_async(s.mosq, broker.address.host.c_str(),
+                                           broker.address.port, 30);
     if (rc != MOSQ_ERR_SUCCESS) s.unreachable(rc);
     s.network = std::thread([&s, rc] { s.run(rc == MOSQ_ERR_SUCCESS); });
+    undo.armed = false;
 }
 
 MqttClient::~MqttClient() {

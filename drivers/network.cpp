@@ -28,9 +28,9 @@ class SystemNetwork final : public hal::Network {
         return std::make_unique<HttpServer>(address, port, std::move(handlers), limits);
     }
     std::unique_ptr<hal::MqttSession> mqtt(const std::string& client_id,
-                                           const net::HostPort& broker, hal::MqttWill will,
+                                           const hal::MqttBroker& broker, hal::MqttWill will,
                                            hal::MqttCallbacks callbacks) override {
-        return std::make_unique<MqttClient>(client_id, broker.host, broker.port, std::move(will),
+        return std::make_unique<MqttClient>(client_id, broker, std::move(will),
                                             std::move(callbacks));
     }
     hal::PasswordHasher& passwords() override { return passwords_; }

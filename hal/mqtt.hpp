@@ -17,6 +17,17 @@ struct MqttWill {
     std::string goodbye;
 };
 
+// The broker and how the box logs in to it: Home Assistant's Mosquitto add-on wants a user and
+// a password, often over TLS (port 8883).
+struct MqttBroker {
+    net::HostPort address;
+    std::string user;           // empty: anonymous
+    std::string password_file;  // the password alone in a file its owner only reads (mode 0600)
+    bool tls = false;           // the broker's certificate checked, its name included
+    std::string ca_file;        // the authority that signed it; empty: the system's authorities
+    int protocol_version = 4;   // MQTT's protocol level: 4 is 3.1.1, 5 is 5
+};
+
 struct MqttCallbacks {
     // Connected (again): subscribe and publish what a fresh session needs here.
     std::function<void()> connected;

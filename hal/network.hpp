@@ -20,8 +20,10 @@ class Network {
     virtual std::unique_ptr<HttpListener> listen(const std::string& address, int port,
                                                  HttpHandlers handlers, ServerLimits limits) = 0;
     // Starts connecting at once. Throws std::runtime_error when the session cannot start.
+    // Throws std::runtime_error for a login that cannot be tried at all (the password's file
+    // missing, empty or readable by others; a CA file TLS cannot load).
     virtual std::unique_ptr<MqttSession> mqtt(const std::string& client_id,
-                                              const net::HostPort& broker, MqttWill will,
+                                              const MqttBroker& broker, MqttWill will,
                                               MqttCallbacks callbacks) = 0;
     virtual PasswordHasher& passwords() = 0;
 };

@@ -147,6 +147,8 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("line_noise", f.line_noise, 0, 0.9);
         r.integer("reset_at_line", f.reset_at_line, 0, 100000000);
         r.integer("camera_fails_at_capture", f.camera_fails_at_capture, 0, 1000000);
+        r.integer("camera_hangs_at_capture", f.camera_hangs_at_capture, 0, 1000000);
+        r.number("camera_hang_s", f.camera_hang_s, 0, 600);
         r.boolean("settings_ignored", f.settings_ignored);
         auto& h = f.host;
         r.boolean("host_wrong_key", h.wrong_key);

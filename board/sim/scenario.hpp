@@ -39,8 +39,12 @@ struct ScenarioFaults {
     double line_noise = 0;            // chance that a received line arrives with a flipped bit
     int reset_at_line = 0;            // it resets on this line (the start-up banner follows)
     int camera_fails_at_capture = 0;  // the camera's n-th capture fails
-    bool settings_ignored = false;    // M665 / M666 answered ok but not applied
-    HostFaults host;                  // host_*: a printer behind a host ([link])
+    // The camera's n-th capture request does not return for camera_hang_s: a driver call that
+    // hangs, holding up the box's event loop (what the service manager's watchdog is for).
+    int camera_hangs_at_capture = 0;
+    double camera_hang_s = 0;
+    bool settings_ignored = false;  // M665 / M666 answered ok but not applied
+    HostFaults host;                // host_*: a printer behind a host ([link])
 };
 
 // [setup]: the boards the person at the box uses to set it up (a real box's configuration says

@@ -9,11 +9,13 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
+#include <thread>
 
 #include "board/sim/duet_twin.hpp"
 #include "board/sim/gcode_runner.hpp"
@@ -556,7 +558,10 @@ TwinCamera::TwinCamera(std::shared_ptr<TwinBench> bench) : bench_(std::move(benc
 void TwinCamera::start_capture(const hal::CaptureRequest& request) {
     if (capture_.busy()) throw std::logic_error("a capture is already running");
     const int capture = ++captures_;
-    const bool fail = bench_->scenario().faults.camera_fails_at_capture == capture;
+    const auto& faults = bench_->scenario().faults;
+    const bool fail = faults.camera_fails_at_capture == capture;
+    if (faults.camera_hangs_at_capture == capture)
+        std::this_thread::sleep_for(std::chrono::duration<double>(faults.camera_hang_s));
     const std::uint64_t first_frame = frames_taken_;
     frames_taken_ += static_cast<std::uint64_t>(std::max(1, request.frame_count));
     capture_.start([this, request, fail, first_frame] {

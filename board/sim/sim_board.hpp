@@ -26,6 +26,7 @@
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
 #include "hal/lines.hpp"
+#include "hal/log.hpp"
 #include "hal/notifier.hpp"
 #include "hal/serial_port.hpp"
 
@@ -171,7 +172,7 @@ class TwinCamera final : public hal::Camera {
 // remembered, the light's changes reported to `log`.
 class SimLines final : public hal::Lines {
   public:
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     SimLines(hal::Clock& clock, Log log);
     int button_fd() const override { return edges_.fd(); }
     std::optional<hal::ButtonEvent> read_button() override;

@@ -121,12 +121,14 @@ int judged_run_end(Box& box, sim::TwinJudge& judge, const sim::TwinVerdict& befo
 int run_end(Box& box, const RunOptions& options, int stopped_by, sim::TwinJudge* judge,
             const std::optional<sim::TwinVerdict>& before) {
     if (stopped_by != 0) {
-        log_line("stopped by signal " + std::to_string(stopped_by) + "; " +
-                 box.appliance.link->closing_note());
+        board::log_to_standard_error(hal::LogLevel::info, "stopped by signal " +
+                                                              std::to_string(stopped_by) + "; " +
+                                                              box.appliance.link->closing_note());
         // --auto promises 0 only for a goal met: stopped before its verdict, it says so.
         if (options.automatic) {
-            log_line("--auto: stopped before the verdict (exit status " +
-                     std::to_string(kStoppedBeforeVerdict) + ")");
+            board::log_to_standard_error(hal::LogLevel::warning,
+                                         "--auto: stopped before the verdict (exit status " +
+                                             std::to_string(kStoppedBeforeVerdict) + ")");
             return kStoppedBeforeVerdict;
         }
         return 0;
@@ -154,8 +156,9 @@ int run(const Args& args) {
     };
     firmware::LogBook log_book;
     std::function<void()> on_log;  // the network's windows, once they are there
-    const firmware::Cycle::Log log = [&log_book, &on_log](const std::string& line) {
-        log_line(line);
+    const firmware::Cycle::Log log = [&log_book, &on_log](hal::LogLevel level,
+                                                          const std::string& line) {
+        board::log_to_standard_error(level, line);
         log_book.add(line);
         if (on_log) on_log();
     };

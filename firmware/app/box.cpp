@@ -52,10 +52,6 @@ ChosenBoard with_link(ChosenBoard chosen, const firmware::LinkSettings& link) {
 
 }  // namespace
 
-void log_line(const std::string& line) {
-    std::fprintf(stderr, "calbox: %s\n", line.c_str());
-}
-
 Common common_options(const Args& args, bool rpi_allowed) {
     const std::string board = args.get("--board").value_or("sim");
     if (board != "sim" && !(rpi_allowed && board == "rpi"))

@@ -16,9 +16,6 @@
 
 namespace calbox::cli {
 
-// A line on standard error, as the box logs.
-void log_line(const std::string& line);
-
 // Where the machine and the records are, as run and revert both take them.
 struct Common {
     std::string scenario;
@@ -61,7 +58,8 @@ struct Box {
 
     // `link`: the configuration's link.* over the machine file's [link].
     Box(const Args& args, const Common& common, firmware::CycleSettings settings,
-        const firmware::Cycle::Log& log = log_line, const firmware::LinkSettings& link = {});
+        const firmware::Cycle::Log& log = board::log_to_standard_error,
+        const firmware::LinkSettings& link = {});
 
     // The boards the sim board's person holds are the ones the box asks for.
     firmware::CycleSettings with_board(firmware::CycleSettings settings) const;

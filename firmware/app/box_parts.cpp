@@ -12,6 +12,7 @@
 #include "firmware/console/link_key.hpp"
 #include "firmware/net/box_network.hpp"
 #include "firmware/net/web_password.hpp"
+#include "firmware/service/service_watch.hpp"
 
 namespace calbox::cli {
 namespace {
@@ -55,7 +56,7 @@ ConsolePort open_console_port(const RunningBox& running) {
             console.port = console.reopen();
             running.log("console on " + device);
         } else {
-            running.log("console: " + device + " is not there (opened when it is)");
+            running.log.warning("console: " + device + " is not there (opened when it is)");
         }
     }
     return console;
@@ -181,17 +182,19 @@ class ModbusRoles final : public BoxPart {
             server_ = board::register_server(*modbus.server,
                                              {plc_map::kCoilCount, plc_map::kDiscreteInputCount, 0,
                                               firmware::input_register_count()},
-                                             modbus.timeouts, log_line);
-            plc_.emplace(*server_.server, cycle, modbus.word_order, log_line);
+                                             modbus.timeouts, board::log_to_standard_error);
+            plc_.emplace(*server_.server, cycle, modbus.word_order, board::log_to_standard_error);
             loop.watch(server_.server->written_fd(), [this] { plc_->on_coils_written(); });
-            log_line(modbus.server->describe() + ": serving the PLC map" +
-                     (modbus.server->kind == net::ModbusEndpoint::Kind::tcp
-                          ? " on port " + std::to_string(server_.port)
-                          : std::string()));
+            board::log_to_standard_error(hal::LogLevel::info,
+                                         modbus.server->describe() + ": serving the PLC map" +
+                                             (modbus.server->kind == net::ModbusEndpoint::Kind::tcp
+                                                  ? " on port " + std::to_string(server_.port)
+                                                  : std::string()));
         }
         if (!modbus.client) return;
         client_ = board::register_client(*modbus.client, modbus.timeouts);
-        writer_.emplace(*client_, *running.result_map, modbus.word_order, log_line);
+        writer_.emplace(*client_, *running.result_map, modbus.word_order,
+                        board::log_to_standard_error);
         loop.watch(client_->completion_fd(), [this, &running] {
             writer_->on_completion();
             if (writer_->idle()) running.part_settled();
@@ -261,6 +264,20 @@ class SimOperator final : public BoxPart {
     firmware::CycleSubscription listening_;
 };
 
+// The box under its service manager (systemd on a board; nobody when run from a shell): last to
+// start, so that "ready" means every part is up, and first to stop, saying so.
+class ServicePart final : public BoxPart {
+  public:
+    explicit ServicePart(RunningBox& running)
+        : supervisor_(board::service_supervisor()),
+          watch_(running.box.loop, *running.box.clock, running.box.cycle, *supervisor_,
+                 running.log) {}
+
+  private:
+    std::unique_ptr<hal::Supervisor> supervisor_;
+    firmware::ServiceWatch watch_;
+};
+
 template <class Part>
 std::unique_ptr<BoxPart> start(RunningBox& running) {
     return std::make_unique<Part>(running);
@@ -271,11 +288,12 @@ std::unique_ptr<BoxPart> start_operator(RunningBox& running) {
     return std::make_unique<SimOperator>(running);
 }
 
-const std::array<PartStarter, 4> kParts = {{
+const std::array<PartStarter, 5> kParts = {{
     {"console", start<BoxConsole>},
     {"modbus", start<ModbusRoles>},
     {"network", start<NetworkPart>},
     {"operator", start_operator},
+    {"service", start<ServicePart>},
 }};
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "board/devices.hpp"
 #include "core/geometry/pattern_spec.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/mode_verbs.hpp"
@@ -247,13 +248,15 @@ int main(int argc, char** argv) {
         CommandLine command_line;
         return command_line.run(argc, argv);
     } catch (const calbox::geometry::PatternError& e) {
-        std::cerr << "calbox: " << e.what() << "\n";
+        calbox::board::log_to_standard_error(calbox::hal::LogLevel::error, e.what());
         return 2;
     } catch (const UsageError& e) {
-        std::cerr << "calbox: " << e.what() << " (see " << e.help_of() << " --help)\n";
+        calbox::board::log_to_standard_error(
+            calbox::hal::LogLevel::error,
+            std::string(e.what()) + " (see " + e.help_of() + " --help)");
         return 2;
     } catch (const std::exception& e) {
-        std::cerr << "calbox: " << e.what() << "\n";
+        calbox::board::log_to_standard_error(calbox::hal::LogLevel::error, e.what());
         return 1;
     }
 }

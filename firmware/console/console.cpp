@@ -509,10 +509,10 @@ void ConsoleLink::lost(const std::string& why) {
     port_.reset();
     lines_ = LineAssembler(kConsoleLineLimitBytes);  // half a line from before is not a command
     if (!reopen_) {
-        log_("console: " + why + " (the console is off; the box goes on)");
+        log_.warning("console: " + why + " (the console is off; the box goes on)");
         return;
     }
-    log_("console: " + why + " (opened again when it is back; the box goes on)");
+    log_.warning("console: " + why + " (opened again when it is back; the box goes on)");
     retry_->arm(std::chrono::seconds(1), std::chrono::seconds(1));
 }
 
@@ -563,7 +563,7 @@ void ConsoleLink::send(const std::string& text) {
     }
     if (sent < text.size() && !dropped_told_) {
         dropped_told_ = true;
-        log_("console: nobody reads the console; replies are dropped until someone does");
+        log_.warning("console: nobody reads the console; replies are dropped until someone does");
     } else if (sent == text.size()) {
         dropped_told_ = false;
     }

@@ -18,6 +18,7 @@
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/settings/settings_table.hpp"
 #include "hal/clock.hpp"
+#include "hal/log.hpp"
 #include "hal/serial_port.hpp"
 #include "hal/storage.hpp"
 
@@ -136,7 +137,7 @@ class Console {
 
 class ConsoleLink {
   public:
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     // Opens the console's device again: a UART whose USB adapter was unplugged comes back under
     // the same (by-id) path. Throws std::runtime_error while it is not there.
     using Reopen = std::function<std::unique_ptr<hal::SerialPort>()>;

@@ -143,7 +143,8 @@ void Cycle::indicate(bool& failed, const char* what, const std::function<void()>
         update();
         failed = false;
     } catch (const std::runtime_error& e) {
-        if (!failed) log_(std::string(what) + ": " + e.what() + " (the box goes on without it)");
+        if (!failed)
+            log_.warning(std::string(what) + ": " + e.what() + " (the box goes on without it)");
         failed = true;
     }
 }
@@ -196,7 +197,7 @@ void Cycle::close_record() {
         }
         prune_records();
     } catch (const std::runtime_error& e) {
-        log_("cycle " + std::to_string(report_.number) + ": records: " + e.what());
+        log(std::string("records: ") + e.what(), hal::LogLevel::error);
     }
     cycle_screens_.clear();
 }
@@ -342,7 +343,7 @@ void Cycle::fail(const std::string& message, const std::string& hint) {
     d_.lines.set_light(false);
     error_ = message;
     failed_in_ = state_;
-    log_("cycle " + std::to_string(report_.number) + ": error: " + message);
+    log("error: " + message, hal::LogLevel::error);
     state_ = CycleState::error;
     prompt_ = Prompt::acknowledge_error;
     set_leds();
@@ -460,7 +461,7 @@ void Cycle::on_camera() {
             capture_after_preview_.reset();
         }
         if (!result.ok()) {
-            log("live view: " + result.error);
+            log("live view: " + result.error, hal::LogLevel::warning);
         } else if (!result.frames.empty()) {
             tell(&CycleNews::frame, result.frames.front());
         }
@@ -551,8 +552,8 @@ CycleSubscription Cycle::subscribe(CycleNews news) {
     return {listeners_, std::prev(listeners_->end())};
 }
 
-void Cycle::log(const std::string& line) {
-    log_("cycle " + std::to_string(report_.number) + ": " + line);
+void Cycle::log(const std::string& line, hal::LogLevel level) {
+    log_.write(level, "cycle " + std::to_string(report_.number) + ": " + line);
 }
 
 void Cycle::notice(const std::string& what) {

@@ -31,6 +31,7 @@
 #include "hal/clock.hpp"
 #include "hal/display.hpp"
 #include "hal/lines.hpp"
+#include "hal/log.hpp"
 #include "hal/storage.hpp"
 
 namespace calbox::firmware {
@@ -149,7 +150,7 @@ class CycleSubscription {
 
 class Cycle final : private CycleSteps {
   public:
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     Cycle(CycleDevices devices, const models::MachineFile& machine, CycleSettings settings,
           Log log);
     Cycle(const Cycle&) = delete;
@@ -219,7 +220,7 @@ class Cycle final : private CycleSteps {
     std::optional<std::string> read(const std::string& name) const override;
     std::string record_name(const std::string& what) const override;
     void enter(CycleState next, const std::string& detail) override;
-    void log(const std::string& line) override;
+    void log(const std::string& line, hal::LogLevel level = hal::LogLevel::info) override;
     void log_detail(const std::string& line) override { log_(line); }
     void notice(const std::string& what) override;
     void fail(const std::string& message) override { fail(message, {}); }

@@ -20,6 +20,7 @@
 #include "firmware/links/job_text.hpp"
 #include "firmware/links/machine_link.hpp"
 #include "hal/camera.hpp"
+#include "hal/log.hpp"
 
 namespace calbox::firmware {
 
@@ -94,7 +95,8 @@ class CycleSteps {
     // This cycle's record: "cycle-NNNN-" + what.
     virtual std::string record_name(const std::string& what) const = 0;
     virtual void enter(CycleState state, const std::string& detail) = 0;
-    virtual void log(const std::string& line) = 0;         // "cycle N: " + line
+    // "cycle N: " + line, at how much it matters (hal/log.hpp)
+    virtual void log(const std::string& line, hal::LogLevel level = hal::LogLevel::info) = 0;
     virtual void log_detail(const std::string& line) = 0;  // as it is: "  M665 ..."
     virtual void notice(const std::string& line) = 0;      // the log, and the console's notice
     virtual void fail(const std::string& message) = 0;

@@ -164,7 +164,7 @@ void GcodeHost::on_readable() {
         if (busy()) {
             finish(false, gone_);
         } else {
-            log_(gone_);
+            log_.warning(gone_);
         }
         return;
     }
@@ -248,7 +248,7 @@ void GcodeHost::handle(const std::string& reply) {
             finish(false, "the printer cancelled the job (" + reply + ")");
         } else if (action.starts_with("pause")) {
             paused_ = true;
-            log_("printer paused the job (" + reply + ")");
+            log_.warning("printer paused the job (" + reply + ")");
         } else if (action.starts_with("resume")) {
             paused_ = false;
             pump();

@@ -13,6 +13,7 @@
 
 #include "firmware/links/machine_link.hpp"
 #include "hal/clock.hpp"
+#include "hal/log.hpp"
 #include "hal/serial_port.hpp"
 
 namespace calbox::firmware {
@@ -36,7 +37,7 @@ struct GcodeHostSettings {
 // The machine link over a serial port the box owns.
 class GcodeHost final : public MachineLink {
   public:
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     GcodeHost(hal::SerialPort& port, hal::Clock& clock, GcodeHostSettings settings, Log log);
 
     int port_fd() const { return port_.fd(); }

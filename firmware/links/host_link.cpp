@@ -74,7 +74,7 @@ void HostLink::cancel(const std::string& why) {
     stopping_ = true;
     if (printing_) {
         left_a_print_ = true;
-        log_(describe() + ": the print goes on there; cancel it on the host if needed");
+        log_.warning(describe() + ": the print goes on there; cancel it on the host if needed");
     }
 }
 

@@ -14,6 +14,7 @@
 #include "firmware/links/machine_link.hpp"
 #include "hal/background_job.hpp"
 #include "hal/http.hpp"
+#include "hal/log.hpp"
 
 namespace calbox::firmware {
 
@@ -30,7 +31,7 @@ std::string http_error_line(const hal::HttpResponse& reply);
 
 class HostLink : public MachineLink {
   public:
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     // `name`: "moonraker", "octoprint", "duet", for the log.
     HostLink(std::string name, net::Url url, hal::HttpClient& http, Log log);
 

@@ -206,7 +206,7 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
 
 std::string request_octoprint_key(hal::HttpClient& http, const net::Url& url,
                                   const std::string& user, std::chrono::milliseconds wait,
-                                  const std::function<void(const std::string&)>& log) {
+                                  const hal::Log& log) {
     const auto timeout = std::chrono::milliseconds(10000);
     json request = {{"app", "calbox"}};
     if (!user.empty()) request["user"] = user;
@@ -225,7 +225,7 @@ std::string request_octoprint_key(hal::HttpClient& http, const net::Url& url,
     if (token.is_discarded() || !token.contains("app_token"))
         throw LinkError("OctoPrint: asking for a key: no app_token in the reply");
     const std::string path = "/plugin/appkeys/request/" + token["app_token"].get<std::string>();
-    log("OctoPrint at " + url.origin() + ": allow calbox's access in OctoPrint's page");
+    log.warning("OctoPrint at " + url.origin() + ": allow calbox's access in OctoPrint's page");
     const auto until = Clock::now() + wait;
     while (Clock::now() < until) {
         std::this_thread::sleep_for(std::chrono::milliseconds(500));

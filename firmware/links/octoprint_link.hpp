@@ -14,6 +14,7 @@
 
 #include "firmware/links/host_link.hpp"
 #include "hal/http.hpp"
+#include "hal/log.hpp"
 
 namespace calbox::firmware {
 
@@ -48,6 +49,6 @@ class OctoPrintLink final : public HostLink {
 // LinkError when the owner denies it, the host lacks the plugin, or `wait` passes.
 std::string request_octoprint_key(hal::HttpClient& http, const net::Url& url,
                                   const std::string& user, std::chrono::milliseconds wait,
-                                  const std::function<void(const std::string&)>& log);
+                                  const hal::Log& log);
 
 }  // namespace calbox::firmware

@@ -408,7 +408,7 @@ void DeltaCycleMode::apply(std::function<void(bool verify)> then) {
 void DeltaCycleMode::restore_backup(const std::string& why) {
     auto restore = backup_;
     restore.emplace_back("M500");
-    steps_.log(why + "; restoring the backup");
+    steps_.log(why + "; restoring the backup", hal::LogLevel::warning);
     steps_.ask_machine(
         [restore](MachineLink& m, MachineLink::Done done) {
             m.send_commands(restore, std::move(done));

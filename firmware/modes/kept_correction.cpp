@@ -53,7 +53,8 @@ std::optional<targets::KeptCorrection> KeptCorrectionMode::correction_in_force()
         return kept_correction();
     } catch (const std::exception& e) {
         steps_.log(std::string(files_.kept) + " does not read (" + e.what() +
-                   "): drift is worked out from the error without it");
+                       "): drift is worked out from the error without it",
+                   hal::LogLevel::warning);
         return std::nullopt;
     }
 }

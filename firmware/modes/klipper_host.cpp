@@ -4,7 +4,7 @@ namespace calbox::firmware {
 
 void restore_printer_cfg(CycleSteps& steps, const std::string& backup,
                          std::function<bool(const std::string& now)> ours, const std::string& why) {
-    steps.log(why + "; checking printer.cfg on the host");
+    steps.log(why + "; checking printer.cfg on the host", hal::LogLevel::warning);
     steps.ask_machine(
         [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
         [&steps, backup, ours = std::move(ours), why](const JobOutcome& now) {

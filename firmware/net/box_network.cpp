@@ -40,12 +40,18 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
                     : ""));
     }
     if (!p_.mqtt.broker.empty()) {
-        mqtt_ = std::make_unique<MqttReport>(
-            MqttReport::Context{
-                inbox_, [this] { return status(false); },
-                [this](const std::string& line) { return p_.console.reply_to(line); }, p_.log,
-                p_.version, p_.network},
-            p_.mqtt);
+        // A login that cannot be tried (the password's file open to others) leaves MQTT off and
+        // says why: the box still calibrates.
+        try {
+            mqtt_ = std::make_unique<MqttReport>(
+                MqttReport::Context{
+                    inbox_, [this] { return status(false); },
+                    [this](const std::string& line) { return p_.console.reply_to(line); },
+                    p_.log, p_.version, p_.network},
+                p_.mqtt);
+        } catch (const std::runtime_error& e) {
+            p_.log.error(std::string("mqtt: off: ") + e.what());
+        }
     }
     CycleNews news{[this](Prompt, int) { changed(); },
                    [this](CycleState) { changed(); },
@@ -86,7 +92,7 @@ void BoxNetwork::logged() {
 
 void BoxNetwork::cycle_ended(bool completed) {
     if (const auto why = p_.news.cycle_ended(p_.cycle, completed, p_.unix_now()); !why.empty())
-        p_.log(why);
+        p_.log.warning(why);
     if (mqtt_ && !p_.news.history().empty())
         mqtt_->publish_result(p_.news.history_json(1)["cycles"].back());
     changed();

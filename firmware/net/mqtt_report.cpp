@@ -29,7 +29,13 @@ json state_payload(const json& status) {
 
 MqttReport::MqttReport(Context context, const MqttSettings& settings)
     : c_(std::move(context)), settings_(settings) {
-    const auto broker = net::parse_host_port(settings_.broker, true);
+    hal::MqttBroker broker;
+    broker.address = net::parse_host_port(settings_.broker, true);
+    broker.user = settings_.user;
+    broker.password_file = settings_.password_file;
+    broker.tls = settings_.tls;
+    broker.ca_file = settings_.ca_file;
+    broker.protocol_version = settings_.protocol == "5" ? 5 : 4;
     const std::weak_ptr<bool> alive = alive_;
     LoopInbox& inbox = c_.inbox;
     // Each callback runs on the client's thread: it only posts to the loop.
@@ -41,7 +47,7 @@ MqttReport::MqttReport(Context context, const MqttSettings& settings)
     };
     callbacks.trouble = [this, alive, &inbox](const std::string& why) {
         inbox.post([this, alive, why] {
-            if (alive.lock()) c_.log("mqtt: " + why);
+            if (alive.lock()) c_.log.warning("mqtt: " + why);
         });
     };
     callbacks.message = [this, alive, &inbox](const std::string& topic,
@@ -50,23 +56,29 @@ MqttReport::MqttReport(Context context, const MqttSettings& settings)
             if (!alive.lock()) return;
             if (topic == settings_.discovery_prefix + "/status") {
                 if (payload == "online") on_connected(false);
-            } else if (topic == this->topic("command")) {
+            } else if (topic == this->topic("command") && settings_.remote_start) {
                 if (payload != "start") {
-                    c_.log("mqtt: command '" + payload.substr(0, 40) +
-                           "' is not one the box takes");
+                    c_.log.warning("mqtt: command '" + payload.substr(0, 40) +
+                                   "' is not one the box takes");
                     return;
                 }
                 const json reply = json::parse(c_.console("start --json"));
-                c_.log("mqtt: start: " + (reply.value("ok", false)
-                                              ? std::string("started")
-                                              : reply.value("error", std::string("refused"))));
+                const bool started = reply.value("ok", false);
+                c_.log.write(
+                    started ? hal::LogLevel::info : hal::LogLevel::warning,
+                    "mqtt: start: " + (started ? std::string("started")
+                                               : reply.value("error", std::string("refused"))));
             }
         });
     };
     client_ = c_.network.mqtt("calbox-" + settings_.node_id, broker,
                               hal::MqttWill{topic("availability"), "offline", true, "offline"},
                               std::move(callbacks));
-    c_.log("mqtt: reporting to " + settings_.broker + " as " + topic(""));
+    c_.log("mqtt: reporting to " + settings_.broker + " as " + topic("") +
+           (settings_.user.empty() ? "" : ", logged in as " + settings_.user) +
+           (settings_.tls ? ", over TLS" : "") +
+           (settings_.remote_start ? "; calbox/" + settings_.node_id + "/command starts a cycle"
+                                   : "; remote start off"));
 }
 
 MqttReport::~MqttReport() {
@@ -125,10 +137,22 @@ std::vector<std::pair<std::string, std::string>> MqttReport::discovery() const {
     };
 }
 
+std::string MqttReport::start_button_topic() const {
+    return settings_.discovery_prefix + "/button/" + settings_.node_id + "/start/config";
+}
+
 void MqttReport::on_connected(bool fresh) {
-    client_->subscribe(topic("command"));
+    if (settings_.remote_start) client_->subscribe(topic("command"));
     client_->subscribe(settings_.discovery_prefix + "/status");
-    for (const auto& [t, payload] : discovery()) client_->publish(t, payload, true);
+    for (const auto& [t, payload] : discovery()) {
+        // Without remote start Home Assistant is offered no button, and one a former
+        // configuration announced is taken back (an empty retained config removes it).
+        if (t == start_button_topic() && !settings_.remote_start) {
+            client_->publish(t, "", true);
+            continue;
+        }
+        client_->publish(t, payload, true);
+    }
     client_->publish(topic("availability"), "online", true);
     publish_status(c_.status());
     if (fresh) c_.log("mqtt: connected to " + settings_.broker);

@@ -12,6 +12,7 @@
 
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/settings/settings_table.hpp"
+#include "hal/log.hpp"
 #include "hal/network.hpp"
 
 namespace calbox::firmware {
@@ -22,6 +23,16 @@ struct MqttSettings {
     std::string broker;  // HOST:PORT
     std::string node_id = "calbox";
     std::string discovery_prefix = "homeassistant";
+    // The login Home Assistant's Mosquitto add-on wants (hal::MqttBroker).
+    std::string user;
+    std::string password_file;
+    bool tls = false;
+    std::string ca_file;
+    std::string protocol = "3.1.1";  // or "5"
+    // Whether a message on calbox/NODE/command may start a cycle (and Home Assistant is offered
+    // the start button): off, a box moves its machine only for a person at it or a page that
+    // knows its password.
+    bool remote_start = false;
 };
 
 // MQTT's table of the configuration: [mqtt].
@@ -34,7 +45,7 @@ class MqttReport {
         // On the loop's thread:
         std::function<nlohmann::json()> status;  // BoxNews::status
         std::function<std::string(const std::string& line)> console;
-        std::function<void(const std::string&)> log;
+        hal::Log log;
         std::string version;
         hal::Network& network;
     };
@@ -53,6 +64,7 @@ class MqttReport {
     }
     // Home Assistant's discovery messages: (topic, retained JSON config).
     std::vector<std::pair<std::string, std::string>> discovery() const;
+    std::string start_button_topic() const;  // its config's topic, offered with remote start
 
   private:
     // On the loop's thread: a fresh session, or Home Assistant back online (discovery again).

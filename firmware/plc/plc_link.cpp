@@ -135,15 +135,15 @@ void PlcServer::on_coils_written() {
                 if (cycle_.state() == CycleState::idle) {
                     cycle_.start();
                 } else {
-                    log_("modbus: trigger ignored: the box is " +
-                         std::string(state_name(cycle_.state())));
+                    log_.warning("modbus: trigger ignored: the box is " +
+                                 std::string(state_name(cycle_.state())));
                 }
                 break;
             case plc::kConfirmCoil:
                 if (cycle_.prompt() == Prompt::review) {
                     cycle_.press(false);
                 } else {
-                    log_("modbus: confirm ignored: nothing is waiting for review");
+                    log_.warning("modbus: confirm ignored: nothing is waiting for review");
                 }
                 break;
             case plc::kCancelCoil:
@@ -284,7 +284,7 @@ void ResultWriter::on_completion() {
     } else {
         ++failed_;
         queue_.clear();  // the rest of this result would leave the controller half-written
-        log_("modbus: the result was not written: " + result.error);
+        log_.error("modbus: the result was not written: " + result.error);
     }
     next();
 }

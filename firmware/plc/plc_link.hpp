@@ -16,6 +16,7 @@
 #include "core/net/endpoints.hpp"
 #include "firmware/cycle/cycle.hpp"
 #include "firmware/settings/settings_table.hpp"
+#include "hal/log.hpp"
 #include "hal/register_link.hpp"
 
 namespace calbox::firmware {
@@ -66,7 +67,7 @@ int input_register_count();
 
 class PlcServer {
   public:
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     // Listens to the cycle: its status bits and registers follow each state, prompt and end.
     PlcServer(hal::RegisterServer& server, Cycle& cycle, models::WordOrder order, Log log);
     void publish();
@@ -99,7 +100,7 @@ struct ResultRegisterMap {
 
 class ResultWriter {
   public:
-    using Log = std::function<void(const std::string&)>;
+    using Log = hal::Log;
     ResultWriter(hal::RegisterLink& link, ResultRegisterMap map, models::WordOrder order, Log log);
     // Queued behind a write still in flight.
     void write(const CycleReport& report, const ModeResult& mode);

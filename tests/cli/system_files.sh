@@ -1,10 +1,21 @@
 #!/bin/bash
 # The Raspberry Pi board's system files: the service's exposure as systemd scores it with the
-# network allowed (README: 1.4, the goal 2.0 or lower), and the udev rules' and config.txt's lines
-# as the README lists them.
+# network allowed (README: 1.4, the goal 2.0 or lower), the unit as `systemd-analyze verify` reads
+# it (its ExecStart pointed at this build's binary, the rest as shipped), systemd's supervision
+# (Type=notify, a watchdog), and the udev rules' and config.txt's lines as the README lists them.
+# Usage: system_files.sh SOURCE_DIR CALBOX_BINARY
 set -eu
 top="$1"
+binary="$2"
 unit="$top/board/rpi/system/calbox.service"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+sed "s|^ExecStart=/usr/bin/calbox |ExecStart=$binary |" "$unit" > "$work/calbox.service"
+grep -q "^ExecStart=$binary run --board rpi " "$work/calbox.service"
+systemd-analyze verify "$work/calbox.service" || { echo "FAIL: systemd-analyze verify"; exit 1; }
+grep -q '^Type=notify$' "$unit"
+grep -q '^NotifyAccess=main$' "$unit"
+grep -q '^WatchdogSec=[0-9]*s$' "$unit"
 score=$(systemd-analyze security --offline=true "$unit" 2>&1 | sed -n 's/.*Overall exposure level for calbox.service: \([0-9.]*\) .*/\1/p')
 [ -n "$score" ] || { echo "FAIL: no exposure level from systemd-analyze"; exit 1; }
 awk -v s="$score" 'BEGIN { exit !(s <= 1.4) }' || { echo "FAIL: exposure $score, README says 1.4"; exit 1; }

@@ -11,9 +11,9 @@ import sys
 top = sys.argv[1]
 firmware = os.path.join(top, "firmware")
 # Lowest first: a folder may include its own and those of a lower rank. The PLC and the console
-# side by side, neither including the other.
+# side by side, neither including the other; the network and the service manager's watch too.
 RANK = {"settings": 0, "loop": 1, "links": 2, "cycle": 3, "modes": 4, "plc": 5, "console": 5,
-        "net": 6, "cli": 7, "app": 8}
+        "net": 6, "service": 6, "cli": 7, "app": 8}
 RANKS = list(RANK)
 # The calbox binary's own folders: the composition root and the subcommands, the only users of
 # the boards (which bind drivers to hal/).

@@ -55,7 +55,8 @@ ha.connect("127.0.0.1", broker_port)
 ha.subscribe([("homeassistant/#", 1), ("calbox/#", 1)])
 ha.loop_start()
 
-config = '[web]\npassword = "%s"\n\n[mqtt]\nnode_id = "%s"\n' % (password_hash(PASSWORD), NODE)
+# Home Assistant's button starts a cycle here: remote start on (it is off by default).
+config = '[web]\npassword = "%s"\n\n[mqtt]\nnode_id = "%s"\nremote_start = true\n' % (password_hash(PASSWORD), NODE)
 box, url = run.box(calbox, top, os.path.join(work, "data"),
                    ["--mqtt", "127.0.0.1:%d" % broker_port, "--operator"], config)
 

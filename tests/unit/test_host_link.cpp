@@ -570,7 +570,7 @@ class StepsOverLink : public firmware::CycleSteps {
     std::optional<std::string> read(const std::string&) const override { return std::nullopt; }
     std::string record_name(const std::string& what) const override { return what; }
     void enter(firmware::CycleState, const std::string&) override {}
-    void log(const std::string&) override {}
+    void log(const std::string&, hal::LogLevel) override {}
     void log_detail(const std::string&) override {}
     void notice(const std::string&) override {}
     void fail(const std::string& message) override { failures.push_back(message); }

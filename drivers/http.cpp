@@ -2,8 +2,11 @@
 
 #include <openssl/pem.h>
 #include <openssl/x509v3.h>
+#include <poll.h>
 #include <sys/socket.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <boost/asio/connect.hpp>
@@ -25,6 +28,7 @@
 #include <set>
 #include <thread>
 #include <type_traits>
+#include <vector>
 
 namespace calbox::drivers {
 namespace beast = boost::beast;
@@ -322,6 +326,78 @@ std::optional<std::string> WebSocketClient::receive(std::chrono::milliseconds wi
 
 namespace {
 
+// Connections refused past the limit, after their answer: each read (what the client sent is
+// drained, so that the close does not reset the connection before the answer is read) and closed
+// on a thread of their own within a second, so that a client that says nothing after its refusal
+// never holds up the accepting thread and the clients after it.
+class Refusals {
+  public:
+    Refusals() : thread_([this] { run(); }) {}
+    Refusals(const Refusals&) = delete;
+    Refusals& operator=(const Refusals&) = delete;
+    ~Refusals() {
+        {
+            const std::lock_guard lock(mutex_);
+            stopping_ = true;
+        }
+        wake_.notify_all();
+        thread_.join();
+        for (const auto& p : pending_) ::close(p.fd);
+    }
+    // Takes the descriptor (answered, its sending side shut down).
+    void add(int fd) {
+        {
+            const std::lock_guard lock(mutex_);
+            // Past this many a flood is closed at once: its answers may be lost, not the box.
+            if (pending_.size() >= kMostPending) {
+                ::close(fd);
+                return;
+            }
+            pending_.push_back({fd, Clock::now() + std::chrono::seconds(1)});
+        }
+        wake_.notify_all();
+    }
+
+  private:
+    static constexpr std::size_t kMostPending = 256;
+    struct Pending {
+        int fd;
+        Clock::time_point close_by;
+    };
+    void run() {
+        std::unique_lock lock(mutex_);
+        for (;;) {
+            wake_.wait(lock, [this] { return stopping_ || !pending_.empty(); });
+            if (stopping_) return;
+            std::vector<pollfd> polled;
+            for (const auto& p : pending_) polled.push_back({p.fd, POLLIN, 0});
+            lock.unlock();
+            ::poll(polled.data(), polled.size(), 50);
+            lock.lock();
+            const auto now = Clock::now();
+            std::array<char, 4096> sink{};
+            for (auto it = pending_.begin(); it != pending_.end();) {
+                const auto seen = std::find_if(polled.begin(), polled.end(),
+                                               [&](const pollfd& p) { return p.fd == it->fd; });
+                bool done = now >= it->close_by;
+                if (!done && seen != polled.end() && (seen->revents & (POLLIN | POLLHUP | POLLERR)))
+                    done = ::recv(it->fd, sink.data(), sink.size(), MSG_DONTWAIT) <= 0;
+                if (done) {
+                    ::close(it->fd);
+                    it = pending_.erase(it);
+                } else {
+                    ++it;
+                }
+            }
+        }
+    }
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    std::vector<Pending> pending_;  // under mutex_
+    bool stopping_ = false;         // under mutex_
+    std::thread thread_;            // last: it uses the rest
+};
+
 // Listens on a port of `address` (0: a free one) and serves each connection it accepts on a
 // thread of its own, keeping the connections' descriptors so that they can be shut down (a host
 // restarting, the server going).
@@ -349,7 +425,7 @@ class Listener {
 
     // `serve` runs on each connection's thread; the connection's descriptor is tracked. Past
     // `max_connections` (0: no limit) a connection is handed to `refuse` on the accepting thread
-    // instead, and closed.
+    // instead (which must not wait on the client), then drained and closed by refusals_.
     void start(std::function<void(tcp::socket)> serve, int max_connections = 0,
                std::function<void(tcp::socket&)> refuse = {}) {
         accepting_ = std::thread(
@@ -364,6 +440,8 @@ class Listener {
                     reap();
                     if (max_connections > 0 && serving() >= max_connections) {
                         if (refuse) refuse(socket);
+                        socket.shutdown(tcp::socket::shutdown_send, e);
+                        refusals_.add(socket.release(e));
                         continue;
                     }
                     const int fd = socket.native_handle();
@@ -453,6 +531,7 @@ class Listener {
     std::mutex mutex_;
     std::set<int> open_fds_;
     std::list<Connection> connections_;
+    Refusals refusals_;
     std::thread accepting_;
     bool stopping_ = false;
 };
@@ -693,24 +772,21 @@ HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, 
     s.limits = limits;
     s.listener = std::make_unique<Listener>(address, port);
     if (limits.idle_timeout.count() > 0) s.watchdog = std::thread([&s] { s.watch_idle(); });
-    s.listener->start(
-        [&s](tcp::socket socket) { s.serve(std::move(socket)); }, limits.max_connections,
-        [](tcp::socket& socket) {
-            boost::system::error_code ec;
-            write_answer(socket,
-                         {503,
-                          "text/plain",
-                          "too many connections: try again shortly\n",
-                          {{"Retry-After", "2"}}},
-                         false, ec);
-            // A close with the client's request unread would reset the connection
-            // and lose the answer: say we are done, then read what came, briefly.
-            socket.shutdown(tcp::socket::shutdown_send, ec);
-            timeval tv{0, 100'000};
-            ::setsockopt(socket.native_handle(), SOL_SOCKET, SO_RCVTIMEO, &tv, sizeof tv);
-            std::array<char, 4096> sink{};
-            for (int i = 0; i < 16 && !ec; ++i) socket.read_some(net::buffer(sink), ec);
-        });
+    s.listener->start([&s](tcp::socket socket) { s.serve(std::move(socket)); },
+                      limits.max_connections,
+                      [](tcp::socket& socket) {
+                          // Never waiting on the client: a fresh socket's send buffer takes the
+                          // whole answer, and one that would not is dropped rather than hold up the
+                          // accepting thread.
+                          boost::system::error_code ec;
+                          socket.non_blocking(true, ec);
+                          write_answer(socket,
+                                       {503,
+                                        "text/plain",
+                                        "too many connections: try again shortly\n",
+                                        {{"Retry-After", "2"}}},
+                                       false, ec);
+                      });
 }
 
 HttpServer::~HttpServer() {

@@ -156,19 +156,29 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
 }
 
 void LatestFrame::put(const hal::Frame& frame) {
+    // Copied outside the lock: a viewer reading the last frame is not held up by the copy.
+    auto fresh = std::make_shared<hal::Frame>(frame);
     {
         const std::lock_guard lock(mutex_);
-        frame_ = frame;
-        frame_->metadata.sequence = ++count_;
+        fresh->metadata.sequence = ++count_;
+        frame_ = std::move(fresh);
     }
     arrived_.notify_all();
 }
 
-std::optional<hal::Frame> LatestFrame::newer_than(std::uint64_t after,
-                                                  std::chrono::milliseconds within) {
+std::shared_ptr<const hal::Frame> LatestFrame::newer_than(std::uint64_t after,
+                                                          std::chrono::milliseconds within) {
     std::unique_lock lock(mutex_);
     arrived_.wait_for(lock, within, [&] { return count_ > after; });
     return frame_;
+}
+
+std::shared_ptr<const LiveImage> SharedLiveView::of(const hal::Frame& frame, const LiveGuide& guide,
+                                                    int max_width_px) {
+    const std::lock_guard lock(mutex_);
+    if (!newest_ || newest_->sequence != frame.metadata.sequence)
+        newest_ = std::make_shared<const LiveImage>(live_view(frame, guide, max_width_px));
+    return newest_;
 }
 
 }  // namespace calbox::firmware

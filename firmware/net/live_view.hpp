@@ -5,6 +5,7 @@
 // stays out of this header.
 #include <condition_variable>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
@@ -43,18 +44,32 @@ struct LiveImage {
 // Throws std::invalid_argument for an empty frame.
 LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_width_px);
 
-// The newest frame, handed from the loop's thread (the camera) to the server's (the live view).
+// The newest frame, handed from the loop's thread (the camera) to the server's (the live view):
+// one copy, shared by every viewer (a 12 MP frame per viewer would be hundreds of megabytes).
 class LatestFrame {
   public:
     void put(const hal::Frame& frame);
     // A frame numbered past `after`, waiting up to `within`; else the newest there is (or none).
-    std::optional<hal::Frame> newer_than(std::uint64_t after, std::chrono::milliseconds within);
+    std::shared_ptr<const hal::Frame> newer_than(std::uint64_t after,
+                                                 std::chrono::milliseconds within);
 
   private:
     std::mutex mutex_;
     std::condition_variable arrived_;
-    std::optional<hal::Frame> frame_;
+    std::shared_ptr<const hal::Frame> frame_;
     std::uint64_t count_ = 0;  // frames put: each frame's number here
+};
+
+// The live view drawn once per frame for all its viewers: one drawing at a time, the others
+// waiting for it and given the same image.
+class SharedLiveView {
+  public:
+    std::shared_ptr<const LiveImage> of(const hal::Frame& frame, const LiveGuide& guide,
+                                        int max_width_px);
+
+  private:
+    std::mutex mutex_;
+    std::shared_ptr<const LiveImage> newest_;  // under mutex_, with its frame's sequence
 };
 
 }  // namespace calbox::firmware

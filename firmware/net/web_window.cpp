@@ -291,10 +291,10 @@ ServerResponse WebWindow::live(const std::string& query) {
     const auto frame = c_.frames.newer_than(after, std::chrono::seconds(10));
     if (!frame) return error(503, "no frame from the camera yet", {{"Retry-After", "1"}});
     const LiveGuide guide = on_loop<LiveGuide>(c_.guide);
-    const LiveImage image = live_view(*frame, guide, limits_.live_width_px);
-    ServerResponse r{200, "image/jpeg", image.jpeg, {}};
+    const auto image = live_view_.of(*frame, guide, limits_.live_width_px);
+    ServerResponse r{200, "image/jpeg", image->jpeg, {}};
     r.headers.emplace_back("X-Frame", std::to_string(frame->metadata.sequence));
-    r.headers.emplace_back("X-Sharpness", std::to_string(static_cast<long>(image.sharpness)));
+    r.headers.emplace_back("X-Sharpness", std::to_string(static_cast<long>(image->sharpness)));
     return r;
 }
 

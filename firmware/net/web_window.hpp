@@ -100,7 +100,8 @@ class WebWindow {
     WebWindowContext c_;
     WebLimits limits_;
     std::mutex peers_mutex_;
-    std::map<std::string, Peer> peers_;          // under peers_mutex_
+    std::map<std::string, Peer> peers_;  // under peers_mutex_
+    SharedLiveView live_view_;
     std::unique_ptr<hal::HttpListener> server_;  // last: its threads use the rest
 };
 

@@ -1,0 +1,212 @@
+#!/usr/bin/python3
+"""The page under load, while a cycle runs. 100 clients that connect and say nothing and 20 that
+send a request a byte every 3 s: the 32 that find a place are closed at the 15 s idle limit, the
+rest answered 503 with Retry-After at once and closed; a reader asking for the status twice a
+second is answered (200, or 503 with Retry-After while the places are full) within 1 s every
+time, and served again once the idle limit has freed the places. Then 24 viewers of the live view
+and the status through a whole cycle: the box's peak memory stays within 64 MiB of the same cycle
+unread (the live view drawn once per frame for all of them). The figures are printed for
+docs/network.md. Usage: web_load.py CALBOX SOURCE_DIR"""
+import http.client
+import os
+import socket
+import sys
+import tempfile
+import threading
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import PASSWORD, Run, get_json, password_hash, request  # noqa: E402
+
+calbox, top = sys.argv[1], sys.argv[2]
+work = tempfile.mkdtemp(prefix="calbox-webload-")
+run = Run(work)
+config = '[web]\npassword = "%s"\n' % password_hash(PASSWORD)
+IDLE_S = 15
+
+
+def peak_mib(box):
+    for line in open("/proc/%d/status" % box.pid):
+        if line.startswith("VmHWM:"):
+            return int(line.split()[1]) / 1024
+    run.fail("no VmHWM for the box")
+
+
+def run_cycle(url, box):
+    """Start, confirm at review, wait for the completion; True when it completed."""
+    code = request(url + "/api/action", "POST", {"action": "start"}, password=PASSWORD)[0]
+    if code != 200:
+        run.fail("start: %d" % code)
+    run.wait_for("the review", lambda: get_json(url + "/api/status")["state"] == "review", 180,
+                 box)
+    code = request(url + "/api/action", "POST", {"action": "confirm"}, password=PASSWORD)[0]
+    if code != 200:
+        run.fail("confirm: %d" % code)
+    run.wait_for("the cycle completed", lambda: get_json(url + "/api/status")["completed"] == 1,
+                 180, box)
+
+
+def port_of(url):
+    return int(url.rsplit(":", 1)[1])
+
+
+# 1. Silent and slow clients past the connection limit while a cycle runs.
+run.work = os.path.join(work, "silent")
+os.makedirs(run.work)
+box, url = run.box(calbox, top, os.path.join(run.work, "data"), ["--operator"], config)
+port = port_of(url)
+code = request(url + "/api/action", "POST", {"action": "start"}, password=PASSWORD)[0]
+if code != 200:
+    run.fail("start: %d" % code)
+began = time.monotonic()
+silent, slow = [], []
+for k in range(100):
+    s = socket.create_connection(("127.0.0.1", port), timeout=30,
+                                 source_address=("127.0.2.%d" % (1 + k % 200), 0))
+    silent.append(s)
+for k in range(20):
+    s = socket.create_connection(("127.0.0.1", port), timeout=30,
+                                 source_address=("127.0.3.%d" % (1 + k), 0))
+    slow.append(s)
+closed_at = {}  # socket index -> seconds after `began` the box closed it
+lock = threading.Lock()
+stop = threading.Event()
+
+
+def watch(sockets, base):
+    """Each socket read until the box closes it (a 503 first, for those refused)."""
+    for s in sockets:
+        s.setblocking(False)
+    open_ones = dict(enumerate(sockets))
+    while open_ones and not stop.is_set():
+        for k, s in list(open_ones.items()):
+            try:
+                data = s.recv(4096)
+            except BlockingIOError:
+                continue
+            except OSError:
+                data = b""
+            if not data:
+                with lock:
+                    closed_at[base + k] = time.monotonic() - began
+                del open_ones[k]
+        time.sleep(0.05)
+
+
+def dribble():
+    """The slow clients: a request line a byte at a time, every 3 s."""
+    line = b"GET /api/status HTTP/1.1\r\nHost: box\r\n\r\n"
+    for i in range(len(line)):
+        if stop.wait(3):
+            return
+        for s in slow:
+            try:
+                s.send(line[i:i + 1])
+            except OSError:
+                pass
+
+
+threads = [threading.Thread(target=watch, args=(silent, 0), daemon=True),
+           threading.Thread(target=watch, args=(slow, 100), daemon=True),
+           threading.Thread(target=dribble, daemon=True)]
+for t in threads:
+    t.start()
+
+answers = []  # (seconds after began, status, latency s, Retry-After)
+while time.monotonic() - began < IDLE_S + 10:
+    asked = time.monotonic()
+    try:
+        status, headers, _ = request(url + "/api/status", timeout=5)
+        retry = headers.get("Retry-After")
+    except OSError as e:
+        status, retry = "no answer (%s)" % e, None
+    answers.append((asked - began, status, time.monotonic() - asked, retry))
+    time.sleep(max(0.0, 0.5 - (time.monotonic() - asked)))
+stop.set()
+for t in threads:
+    t.join()
+
+slowest = max(a[2] for a in answers)
+unanswered = [a for a in answers if a[1] not in (200, 503)]
+bare_503 = [a for a in answers if a[1] == 503 and not a[3]]
+if unanswered or slowest >= 1.0 or bare_503:
+    run.fail("the reader under load: %d unanswered, %d 503 without Retry-After, slowest %.2f s "
+             "(%s)" % (len(unanswered), len(bare_503), slowest, (unanswered or answers)[:3]))
+late = [a for a in answers if a[0] > IDLE_S + 3]
+if not late or any(a[1] != 200 for a in late):
+    run.fail("not served again after the idle limit: %s" % [a[1] for a in late])
+with lock:
+    still_open = 120 - len(closed_at)
+    held = sorted(t for t in closed_at.values() if t > 1.0)
+    refused_fast = sum(1 for t in closed_at.values() if t <= 1.0)
+if still_open:
+    run.fail("%d of the 120 silent and slow connections were never closed" % still_open)
+if len(held) != 32 or held[0] < IDLE_S - 1 or held[-1] > IDLE_S + 2:
+    run.fail("the connections holding a place: %d, closed %.1f to %.1f s in (the idle limit %d s)"
+             % (len(held), held[0] if held else 0, held[-1] if held else 0, IDLE_S))
+codes = [a[1] for a in answers]
+print("ok   100 silent and 20 slow connections: 32 held a place and were closed %.1f to %.1f s "
+      "in, %d refused at once; the reader: %d answers (%d of them 503 with Retry-After), the "
+      "slowest %.3f s, served again from %.1f s"
+      % (held[0], held[-1], refused_fast, len(answers), codes.count(503), slowest,
+         min(a[0] for a in answers if a[1] == 200 and a[0] > 1)))
+for s in silent + slow:
+    s.close()
+run.wait_for("the cycle still running or done",
+             lambda: get_json(url + "/api/status")["state"] != "error", 10, box)
+run.stop_all()
+
+
+# 2. The same cycle unread, then read by 24 viewers of the live view and the status.
+def cycle_peak(name, viewers):
+    run.work = os.path.join(work, name)
+    os.makedirs(run.work)
+    box, url = run.box(calbox, top, os.path.join(run.work, "data"), ["--operator"], config)
+    done = threading.Event()
+    images = [0]
+
+    def view(k):
+        # Each viewer from an address of its own, as 24 browsers would be (the page allows one
+        # address 20 requests a second).
+        after = 0
+        while not done.is_set():
+            try:
+                c = http.client.HTTPConnection("127.0.0.1", port_of(url), timeout=15,
+                                               source_address=("127.0.4.%d" % (k + 1), 0))
+                c.request("GET", "/live.jpg?after=%d" % after)
+                r = c.getresponse()
+                r.read()
+                if r.status == 200:
+                    with lock:
+                        images[0] += 1
+                    after = int(r.headers.get("X-Frame", after))
+                c.request("GET", "/api/status")
+                c.getresponse().read()
+                c.close()
+            except OSError:
+                time.sleep(0.1)
+
+    readers = [threading.Thread(target=view, args=(k,), daemon=True) for k in range(viewers)]
+    for t in readers:
+        t.start()
+    run_cycle(url, box)
+    peak = peak_mib(box)
+    done.set()
+    for t in readers:
+        t.join(timeout=20)
+    run.stop_all()
+    run.children.clear()
+    return peak, images[0]
+
+
+unread, _ = cycle_peak("unread", 0)
+read, images = cycle_peak("read", 24)
+if images < 24:
+    run.fail("the 24 viewers saw %d live images in all" % images)
+if read - unread > 64:
+    run.fail("peak memory with 24 viewers %.0f MiB, unread %.0f MiB: %.0f MiB more (64 allowed)"
+             % (read, unread, read - unread))
+print("ok   a cycle's peak memory: unread %.0f MiB, with 24 viewers of the live view and the "
+      "status %.0f MiB (%+.0f MiB; %d live images served)" % (unread, read, read - unread,
+                                                              images))
+print("web load: all checks pass")

@@ -171,6 +171,12 @@ std::optional<std::int64_t> BoxNews::last_calibrated_unix_s() const {
     return std::nullopt;
 }
 
+std::optional<std::int64_t> BoxNews::last_completed_unix_s() const {
+    for (auto it = history_.rbegin(); it != history_.rend(); ++it)
+        if (it->result == "applied" || it->result == "unchanged") return it->finished_unix_s;
+    return std::nullopt;
+}
+
 std::optional<bool> BoxNews::needs_calibration() const {
     for (auto it = history_.rbegin(); it != history_.rend(); ++it)
         if (it->in_force) return headline_mm(*it->in_force) > needs_calibration_mm_;
@@ -222,6 +228,14 @@ std::string BoxNews::metrics(CycleState now, const CycleReport& report) const {
     for (const auto& [key, count] : cycles_)
         out << "calbox_cycles_total{mode=\"" << label_value(key.first) << "\",result=\""
             << key.second << "\"} " << count << '\n';
+    // The kept history's, which a restart does not reset (a farm's cycles by result).
+    family(out, "calbox_history_cycles", "gauge",
+           "Cycles in the box's kept drift history (its last 1000), by mode and result.");
+    std::map<std::pair<std::string, std::string>, int> kept;
+    for (const auto& e : history_) ++kept[{e.mode, e.result}];
+    for (const auto& [key, count] : kept)
+        out << "calbox_history_cycles{mode=\"" << label_value(key.first) << "\",result=\""
+            << key.second << "\"} " << count << '\n';
     const HistoryEntry* last = history_.empty() ? nullptr : &history_.back();
     family(out, "calbox_last_error_metres", "gauge",
            "The last cycle's error: measured before its correction, verified after it.");
@@ -259,6 +273,11 @@ std::string BoxNews::metrics(CycleState now, const CycleReport& report) const {
            "When the last correction was applied, in Unix time.");
     if (const auto t = last_calibrated_unix_s())
         out << "calbox_last_calibration_timestamp_seconds " << *t << '\n';
+    family(out, "calbox_last_completed_cycle_timestamp_seconds", "gauge",
+           "When the last cycle completed (a correction applied, or the machine within its "
+           "tolerance), in Unix time.");
+    if (const auto t = last_completed_unix_s())
+        out << "calbox_last_completed_cycle_timestamp_seconds " << *t << '\n';
     family(out, "calbox_needs_calibration", "gauge",
            "1 when the last cycle's error in force (through the kept correction, for a galvo or a "
            "router) exceeded the configured limit.");

@@ -72,6 +72,9 @@ class BoxNews {
     // machine drifted since it was calibrated. None until both exist.
     std::optional<double> drift_mm() const;
     std::optional<std::int64_t> last_calibrated_unix_s() const;
+    // The last cycle that completed, a correction applied or the machine found within its
+    // tolerance (a farm's "no successful cycle for N days").
+    std::optional<std::int64_t> last_completed_unix_s() const;
     // The last cycle's error as jobs met it (in_force) exceeded the limit (none: no cycle
     // measured yet).
     std::optional<bool> needs_calibration() const;

@@ -89,6 +89,17 @@ def start_box(manager, name, scenario, extra, journal=False):
                             env=env)
 
 
+def finished(box, seconds, sigterm=False):
+    """The box's exit status (SIGTERM first, as systemctl stop sends it); None past `seconds`."""
+    if sigterm:
+        box.send_signal(signal.SIGTERM)
+    try:
+        return box.wait(timeout=seconds)
+    except subprocess.TimeoutExpired:
+        box.kill()
+        return None
+
+
 def watchdog_gaps(messages):
     times = [t for t, f in messages if f == "WATCHDOG=1"]
     return times, [b - a for a, b in zip(times, times[1:])]
@@ -103,11 +114,7 @@ scenario = os.path.join(top, "tests/scenarios/delta_cycle_small.toml")
 # 1. A whole cycle under the watchdog.
 manager = Manager("cycle")
 box = start_box(manager, "cycle", scenario, ["--auto"])
-try:
-    rc = box.wait(timeout=300)
-except subprocess.TimeoutExpired:
-    box.kill()
-    rc = None
+rc = finished(box, 300)
 manager.close()
 seen = manager.seen()
 fields = [f for _, f in seen]
@@ -156,12 +163,7 @@ times, gaps = watchdog_gaps(manager.seen())
 check(came_back and max(gaps) >= 2.9,
       "a hung camera request silences the watchdog for %.2f s (3 s hang), then it resumes"
       % (max(gaps) if gaps else 0))
-box.send_signal(signal.SIGTERM)
-try:
-    rc = box.wait(timeout=30)
-except subprocess.TimeoutExpired:
-    box.kill()
-    rc = None
+rc = finished(box, 30, sigterm=True)
 manager.close()
 check(rc == 3, "--auto stopped by SIGTERM before its verdict: exit status %s (3)" % rc)
 check([f for _, f in manager.seen()][-1:] == ["STOPPING=1"], "STOPPING=1 on the way out")
@@ -182,11 +184,7 @@ with open(failing, "w") as f:
     f.write(open(scenario).read() + "\n[faults]\ncamera_fails_at_capture = 1\n")
 manager = Manager("failing")
 box = start_box(manager, "failing", failing, ["--auto"], journal=True)
-try:
-    rc = box.wait(timeout=120)
-except subprocess.TimeoutExpired:
-    box.kill()
-    rc = None
+rc = finished(box, 120)
 manager.close()
 errors = [line for line in log_of("failing").splitlines() if line.startswith("<3>")]
 check(log_of("failing").splitlines()[-1:] ==
@@ -203,12 +201,7 @@ manager = Manager("idle")
 box = start_box(manager, "idle", scenario, [])
 ready = manager.wait_for("READY=1", 30, box)
 check(ready, "an idle box says READY=1")
-box.send_signal(signal.SIGTERM)
-try:
-    rc = box.wait(timeout=30)
-except subprocess.TimeoutExpired:
-    box.kill()
-    rc = None
+rc = finished(box, 30, sigterm=True)
 manager.close()
 fields = [f for _, f in manager.seen()]
 check(rc == 0, "SIGTERM: exit status %s (0)" % rc)

@@ -305,11 +305,39 @@ TEST(BoxNews, metrics_in_base_units_with_their_types) {
           "calbox_last_error_metres{stage=\"after\",figure=\"max\"} 2e-06\n",
           "calbox_last_cycle_duration_seconds{part=\"machine\"} 600\n",
           "calbox_drift_metres 2.8e-05\n", "calbox_last_calibration_timestamp_seconds 1700086400\n",
+          "calbox_last_completed_cycle_timestamp_seconds 1700086400\n",
+          "# TYPE calbox_history_cycles gauge\n",
+          "calbox_history_cycles{mode=\"delta\",result=\"applied\"} 2\n",
+          "calbox_history_cycles{mode=\"delta\",result=\"failed\"} 1\n",
           "calbox_needs_calibration 0\n"}) {
         if (text.find(line) == std::string::npos)
             FAIL(("no line: " + std::string(line) + text).c_str());
     }
     CHECK_TRUE(text.find("figure=\"mean\"") == std::string::npos);  // a delta measures none
+}
+
+// A box restarted with its history: the kept history's counts and the last completed cycle (one
+// that found the machine within its tolerance counts, and is not a calibration) survive the
+// restart; the counter since the start begins again.
+TEST(BoxNews, a_restarted_box_reports_its_kept_history) {
+    drivers::FileStorage data(dir);
+    {
+        firmware::BoxNews news(data, "1.2.3", {});
+        news.add(entry(1, "applied", 0.2, 0.002, 1'700'000'000));
+        news.add(entry(2, "unchanged", 0.004, 0.003, 1'700'050'000));
+        news.add(entry(3, "failed", {}, {}, 1'700'090'000));
+    }
+    const firmware::BoxNews again(data, "1.2.3", {});
+    const std::string text = again.metrics(firmware::CycleState::idle, {});
+    for (const char* line : {"calbox_history_cycles{mode=\"delta\",result=\"applied\"} 1\n",
+                             "calbox_history_cycles{mode=\"delta\",result=\"unchanged\"} 1\n",
+                             "calbox_history_cycles{mode=\"delta\",result=\"failed\"} 1\n",
+                             "calbox_last_calibration_timestamp_seconds 1700000000\n",
+                             "calbox_last_completed_cycle_timestamp_seconds 1700050000\n"}) {
+        if (text.find(line) == std::string::npos)
+            FAIL(("no line: " + std::string(line) + text).c_str());
+    }
+    CHECK_TRUE(text.find("calbox_cycles_total{") == std::string::npos);
 }
 
 TEST_GROUP(LiveView){};

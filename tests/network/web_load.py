@@ -8,6 +8,7 @@ and the status through a whole cycle: the box's peak memory stays within 64 MiB 
 unread (the live view drawn once per frame for all of them). The figures are printed for
 docs/network.md. Usage: web_load.py CALBOX SOURCE_DIR"""
 import http.client
+import json
 import os
 import socket
 import sys
@@ -16,7 +17,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import PASSWORD, Run, get_json, password_hash, request  # noqa: E402
+from common import PASSWORD, Run, password_hash, request  # noqa: E402
 
 calbox, top = sys.argv[1], sys.argv[2]
 work = tempfile.mkdtemp(prefix="calbox-webload-")
@@ -32,18 +33,30 @@ def peak_mib(box):
     run.fail("no VmHWM for the box")
 
 
+def answered(url, method="GET", body=None, password=None):
+    """(status, body) once the box answers other than 503 (its places full while 24 viewers
+    read: an answer, with Retry-After, not a failure) or 429."""
+    give_up = time.monotonic() + 30
+    while True:
+        status, headers, data = request(url, method, body, password=password)
+        if status not in (503, 429) or time.monotonic() > give_up:
+            return status, data
+        time.sleep(float(headers.get("Retry-After", "1")))
+
+
 def run_cycle(url, box):
-    """Start, confirm at review, wait for the completion; True when it completed."""
-    code = request(url + "/api/action", "POST", {"action": "start"}, password=PASSWORD)[0]
+    """Start, confirm at review, wait for the completion."""
+    def state():
+        status, data = answered(url + "/api/status")
+        return json.loads(data) if status == 200 else {}
+    code = answered(url + "/api/action", "POST", {"action": "start"}, PASSWORD)[0]
     if code != 200:
         run.fail("start: %d" % code)
-    run.wait_for("the review", lambda: get_json(url + "/api/status")["state"] == "review", 180,
-                 box)
-    code = request(url + "/api/action", "POST", {"action": "confirm"}, password=PASSWORD)[0]
+    run.wait_for("the review", lambda: state().get("state") == "review", 180, box)
+    code = answered(url + "/api/action", "POST", {"action": "confirm"}, PASSWORD)[0]
     if code != 200:
         run.fail("confirm: %d" % code)
-    run.wait_for("the cycle completed", lambda: get_json(url + "/api/status")["completed"] == 1,
-                 180, box)
+    run.wait_for("the cycle completed", lambda: state().get("completed") == 1, 180, box)
 
 
 def port_of(url):
@@ -152,8 +165,8 @@ print("ok   100 silent and 20 slow connections: 32 held a place and were closed 
          min(a[0] for a in answers if a[1] == 200 and a[0] > 1)))
 for s in silent + slow:
     s.close()
-run.wait_for("the cycle still running or done",
-             lambda: get_json(url + "/api/status")["state"] != "error", 10, box)
+run.wait_for("the cycle still running or done", lambda: json.loads(
+    answered(url + "/api/status")[1]).get("state") not in (None, "error"), 10, box)
 run.stop_all()
 
 

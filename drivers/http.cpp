@@ -709,8 +709,6 @@ void HttpServer::State::serve_socket(tcp::socket accepted,
     } forget{*this, fd};
     if (ec) return;
     ws.read_message_max(limits.max_body_bytes);
-    ws.accept(upgrade, ec);
-    if (ec) return;
     ws.text(true);
     std::deque<std::string> outbox;
     bool writing = false;
@@ -747,6 +745,9 @@ void HttpServer::State::serve_socket(tcp::socket accepted,
             read_next();
         });
     };
+    // Among the pushed-to before the handshake's answer goes: a client that acts as soon as it
+    // is accepted (a box sending G-code and waiting for the terminal's lines) must not lose what
+    // is pushed in between. What is pushed waits in the io_context until it runs.
     {
         const std::lock_guard lock(mutex);
         pushers[fd] = [&ioc, &outbox, &write_next](std::string m) {
@@ -756,6 +757,8 @@ void HttpServer::State::serve_socket(tcp::socket accepted,
             });
         };
     }
+    ws.accept(upgrade, ec);
+    if (ec) return;
     read_next();
     ioc.run();
 }

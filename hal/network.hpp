@@ -19,9 +19,9 @@ class Network {
     // NetworkError when it cannot listen.
     virtual std::unique_ptr<HttpListener> listen(const std::string& address, int port,
                                                  HttpHandlers handlers, ServerLimits limits) = 0;
-    // Starts connecting at once. Throws std::runtime_error when the session cannot start.
-    // Throws std::runtime_error for a login that cannot be tried at all (the password's file
-    // missing, empty or readable by others; a CA file TLS cannot load).
+    // Starts connecting at once. Throws std::runtime_error when the session cannot start or its
+    // login cannot be tried at all (the password's file missing, empty or readable by others; a
+    // CA file TLS cannot load).
     virtual std::unique_ptr<MqttSession> mqtt(const std::string& client_id,
                                               const MqttBroker& broker, MqttWill will,
                                               MqttCallbacks callbacks) = 0;

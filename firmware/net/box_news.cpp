@@ -1,10 +1,13 @@
 #include "firmware/net/box_news.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <ctime>
+#include <initializer_list>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <string_view>
 
 namespace calbox::firmware {
 namespace {
@@ -80,6 +83,23 @@ std::string sample_value(double v) {
 void family(std::ostringstream& out, const std::string& name, const std::string& type,
             const std::string& help) {
     out << "# HELP " << name << ' ' << help << "\n# TYPE " << name << ' ' << type << '\n';
+}
+
+// Cycles counted by (mode, result), one sample each.
+void by_mode_and_result(std::ostringstream& out, const std::string& name,
+                        const std::map<std::pair<std::string, std::string>, int>& counts) {
+    for (const auto& [key, count] : counts)
+        out << name << "{mode=\"" << label_value(key.first) << "\",result=\"" << key.second
+            << "\"} " << count << '\n';
+}
+
+// When the newest cycle with one of `results` finished.
+std::optional<std::int64_t> last_finished(const std::vector<HistoryEntry>& history,
+                                          std::initializer_list<std::string_view> results) {
+    for (auto it = history.rbegin(); it != history.rend(); ++it)
+        if (std::find(results.begin(), results.end(), it->result) != results.end())
+            return it->finished_unix_s;
+    return std::nullopt;
 }
 
 }  // namespace
@@ -166,15 +186,11 @@ std::optional<double> BoxNews::drift_mm() const {
 }
 
 std::optional<std::int64_t> BoxNews::last_calibrated_unix_s() const {
-    for (auto it = history_.rbegin(); it != history_.rend(); ++it)
-        if (it->result == "applied") return it->finished_unix_s;
-    return std::nullopt;
+    return last_finished(history_, {"applied"});
 }
 
 std::optional<std::int64_t> BoxNews::last_completed_unix_s() const {
-    for (auto it = history_.rbegin(); it != history_.rend(); ++it)
-        if (it->result == "applied" || it->result == "unchanged") return it->finished_unix_s;
-    return std::nullopt;
+    return last_finished(history_, {"applied", "unchanged"});
 }
 
 std::optional<bool> BoxNews::needs_calibration() const {
@@ -225,17 +241,13 @@ std::string BoxNews::metrics(CycleState now, const CycleReport& report) const {
     }
     family(out, "calbox_cycles_total", "counter",
            "Calibration cycles ended since the box started, by mode and result.");
-    for (const auto& [key, count] : cycles_)
-        out << "calbox_cycles_total{mode=\"" << label_value(key.first) << "\",result=\""
-            << key.second << "\"} " << count << '\n';
+    by_mode_and_result(out, "calbox_cycles_total", cycles_);
     // The kept history's, which a restart does not reset (a farm's cycles by result).
     family(out, "calbox_history_cycles", "gauge",
            "Cycles in the box's kept drift history (its last 1000), by mode and result.");
     std::map<std::pair<std::string, std::string>, int> kept;
     for (const auto& e : history_) ++kept[{e.mode, e.result}];
-    for (const auto& [key, count] : kept)
-        out << "calbox_history_cycles{mode=\"" << label_value(key.first) << "\",result=\""
-            << key.second << "\"} " << count << '\n';
+    by_mode_and_result(out, "calbox_history_cycles", kept);
     const HistoryEntry* last = history_.empty() ? nullptr : &history_.back();
     family(out, "calbox_last_error_metres", "gauge",
            "The last cycle's error: measured before its correction, verified after it.");

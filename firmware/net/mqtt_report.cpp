@@ -77,7 +77,7 @@ MqttReport::MqttReport(Context context, const MqttSettings& settings)
     c_.log("mqtt: reporting to " + settings_.broker + " as " + topic("") +
            (settings_.user.empty() ? "" : ", logged in as " + settings_.user) +
            (settings_.tls ? ", over TLS" : "") +
-           (settings_.remote_start ? "; calbox/" + settings_.node_id + "/command starts a cycle"
+           (settings_.remote_start ? "; " + topic("command") + " starts a cycle"
                                    : "; remote start off"));
 }
 
@@ -102,7 +102,7 @@ std::vector<std::pair<std::string, std::string>> MqttReport::discovery() const {
             settings_.discovery_prefix + "/" + component + "/" + node + "/" + object + "/config",
             fields.dump()};
     };
-    return {
+    std::vector<std::pair<std::string, std::string>> configs = {
         config("sensor", "last_error",
                {{"name", "Last measured error"},
                 {"state_topic", topic("state")},
@@ -135,24 +135,16 @@ std::vector<std::pair<std::string, std::string>> MqttReport::discovery() const {
                 {"command_topic", topic("command")},
                 {"payload_press", "start"}}),
     };
-}
-
-std::string MqttReport::start_button_topic() const {
-    return settings_.discovery_prefix + "/button/" + settings_.node_id + "/start/config";
+    // Without remote start Home Assistant is offered no button, and one a former configuration
+    // announced is taken back: an empty retained config removes it.
+    if (!settings_.remote_start) configs.back().second.clear();
+    return configs;
 }
 
 void MqttReport::on_connected(bool fresh) {
     if (settings_.remote_start) client_->subscribe(topic("command"));
     client_->subscribe(settings_.discovery_prefix + "/status");
-    for (const auto& [t, payload] : discovery()) {
-        // Without remote start Home Assistant is offered no button, and one a former
-        // configuration announced is taken back (an empty retained config removes it).
-        if (t == start_button_topic() && !settings_.remote_start) {
-            client_->publish(t, "", true);
-            continue;
-        }
-        client_->publish(t, payload, true);
-    }
+    for (const auto& [t, payload] : discovery()) client_->publish(t, payload, true);
     client_->publish(topic("availability"), "online", true);
     publish_status(c_.status());
     if (fresh) c_.log("mqtt: connected to " + settings_.broker);

@@ -62,9 +62,9 @@ class MqttReport {
     std::string topic(const std::string& leaf) const {
         return "calbox/" + settings_.node_id + "/" + leaf;
     }
-    // Home Assistant's discovery messages: (topic, retained JSON config).
+    // Home Assistant's discovery messages: (topic, retained JSON config); the start button's
+    // config empty without remote start, which takes back one announced before.
     std::vector<std::pair<std::string, std::string>> discovery() const;
-    std::string start_button_topic() const;  // its config's topic, offered with remote start
 
   private:
     // On the loop's thread: a fresh session, or Home Assistant back online (discovery again).

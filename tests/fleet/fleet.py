@@ -21,7 +21,7 @@ import urllib.request
 import paho.mqtt.client as mqtt
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "network"))
-from common import Run, free_port  # noqa: E402
+from common import Run, free_port, process_mib  # noqa: E402
 
 calbox, top = sys.argv[1], sys.argv[2]
 fleet = os.path.join(top, "board", "fleet")
@@ -164,11 +164,7 @@ with lock:
     messages = counts[0]
 if configs != 5 * BOXES:  # remote start off: five configs a box, no button
     run.fail("%d discovery configs for %d boxes" % (configs, BOXES))
-rss = []
-for name, box, url in boxes:
-    for line in open("/proc/%d/status" % box.pid):
-        if line.startswith("VmRSS:"):
-            rss.append(int(line.split()[1]) / 1024)
+rss = [process_mib(box.pid, "VmRSS") for _, box, _ in boxes]
 print("ok   %d boxes started in %.1f s; scrapes %.1f ms median, %.1f ms slowest; the broker carried "
       "%d messages (%d discovery configs, %d devices in Home Assistant); memory %.0f MiB a box "
       "(%.0f to %.0f)" % (BOXES, started_s, median_ms, worst_ms, messages, configs, len(devices),

@@ -20,6 +20,14 @@ def password_hash(password, salt=bytes(range(16)), iterations=100000):
     return "pbkdf2-sha256:%d:%s:%s" % (iterations, salt.hex(), digest.hex())
 
 
+def process_mib(pid, field):
+    """A field of /proc/PID/status in MiB ("VmHWM", the peak; "VmRSS", now)."""
+    for line in open("/proc/%d/status" % pid):
+        if line.startswith(field + ":"):
+            return int(line.split()[1]) / 1024
+    raise RuntimeError("no %s for process %d" % (field, pid))
+
+
 def free_port():
     s = socket.socket()
     s.bind(("127.0.0.1", 0))

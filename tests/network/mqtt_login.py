@@ -9,7 +9,6 @@ read is not used. Usage: mqtt_login.py CALBOX SOURCE_DIR"""
 import os
 import re
 import signal
-import ssl
 import subprocess
 import sys
 import tempfile

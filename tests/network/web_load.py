@@ -17,20 +17,13 @@ import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import PASSWORD, Run, password_hash, request  # noqa: E402
+from common import PASSWORD, Run, password_hash, process_mib, request  # noqa: E402
 
 calbox, top = sys.argv[1], sys.argv[2]
 work = tempfile.mkdtemp(prefix="calbox-webload-")
 run = Run(work)
 config = '[web]\npassword = "%s"\n' % password_hash(PASSWORD)
 IDLE_S = 15
-
-
-def peak_mib(box):
-    for line in open("/proc/%d/status" % box.pid):
-        if line.startswith("VmHWM:"):
-            return int(line.split()[1]) / 1024
-    run.fail("no VmHWM for the box")
 
 
 def answered(url, method="GET", body=None, password=None):
@@ -203,7 +196,7 @@ def cycle_peak(name, viewers):
     for t in readers:
         t.start()
     run_cycle(url, box)
-    peak = peak_mib(box)
+    peak = process_mib(box.pid, "VmHWM")
     done.set()
     for t in readers:
         t.join(timeout=20)

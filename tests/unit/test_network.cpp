@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cmath>
 #include <filesystem>
+#include <initializer_list>
 #include <opencv2/imgcodecs.hpp>
 #include <thread>
 
@@ -76,6 +77,13 @@ firmware::HistoryEntry entry(int cycle, const std::string& result, std::optional
     if (after_rms) e.after = modes::ErrorFigures{{}, *after_rms, 2 * *after_rms};
     e.seconds = 60;
     return e;
+}
+
+// Every one of `lines` in the metrics' text, else a failure showing the text.
+void check_metrics_lines(const std::string& text, std::initializer_list<const char*> lines) {
+    for (const char* line : lines)
+        if (text.find(line) == std::string::npos)
+            FAIL(("no line: " + std::string(line) + text).c_str());
 }
 
 }  // namespace
@@ -292,27 +300,25 @@ TEST(BoxNews, metrics_in_base_units_with_their_types) {
     report.camera_seconds = 20;
     report.machine_seconds = 600;
     const std::string text = news.metrics(firmware::CycleState::review, report);
-    for (const char* line :
-         {"# TYPE calbox_cycles_total counter\n",
-          "calbox_cycles_total{mode=\"delta\",result=\"applied\"} 2\n",
-          "calbox_cycles_total{mode=\"delta\",result=\"failed\"} 1\n",
-          "calbox_build_info{version=\"1.2.3\"} 1\n", "calbox_state{state=\"review\"} 1\n",
-          "calbox_state{state=\"idle\"} 0\n",
-          // 0.03 mm before, 0.06 worst; 0.001 mm after, 0.002 worst: in metres.
-          "calbox_last_error_metres{stage=\"before\",figure=\"rms\"} 3e-05\n",
-          "calbox_last_error_metres{stage=\"before\",figure=\"max\"} 6e-05\n",
-          "calbox_last_error_metres{stage=\"after\",figure=\"rms\"} 1e-06\n",
-          "calbox_last_error_metres{stage=\"after\",figure=\"max\"} 2e-06\n",
-          "calbox_last_cycle_duration_seconds{part=\"machine\"} 600\n",
-          "calbox_drift_metres 2.8e-05\n", "calbox_last_calibration_timestamp_seconds 1700086400\n",
-          "calbox_last_completed_cycle_timestamp_seconds 1700086400\n",
-          "# TYPE calbox_history_cycles gauge\n",
-          "calbox_history_cycles{mode=\"delta\",result=\"applied\"} 2\n",
-          "calbox_history_cycles{mode=\"delta\",result=\"failed\"} 1\n",
-          "calbox_needs_calibration 0\n"}) {
-        if (text.find(line) == std::string::npos)
-            FAIL(("no line: " + std::string(line) + text).c_str());
-    }
+    check_metrics_lines(
+        text,
+        {"# TYPE calbox_cycles_total counter\n",
+         "calbox_cycles_total{mode=\"delta\",result=\"applied\"} 2\n",
+         "calbox_cycles_total{mode=\"delta\",result=\"failed\"} 1\n",
+         "calbox_build_info{version=\"1.2.3\"} 1\n", "calbox_state{state=\"review\"} 1\n",
+         "calbox_state{state=\"idle\"} 0\n",
+         // 0.03 mm before, 0.06 worst; 0.001 mm after, 0.002 worst: in metres.
+         "calbox_last_error_metres{stage=\"before\",figure=\"rms\"} 3e-05\n",
+         "calbox_last_error_metres{stage=\"before\",figure=\"max\"} 6e-05\n",
+         "calbox_last_error_metres{stage=\"after\",figure=\"rms\"} 1e-06\n",
+         "calbox_last_error_metres{stage=\"after\",figure=\"max\"} 2e-06\n",
+         "calbox_last_cycle_duration_seconds{part=\"machine\"} 600\n",
+         "calbox_drift_metres 2.8e-05\n", "calbox_last_calibration_timestamp_seconds 1700086400\n",
+         "calbox_last_completed_cycle_timestamp_seconds 1700086400\n",
+         "# TYPE calbox_history_cycles gauge\n",
+         "calbox_history_cycles{mode=\"delta\",result=\"applied\"} 2\n",
+         "calbox_history_cycles{mode=\"delta\",result=\"failed\"} 1\n",
+         "calbox_needs_calibration 0\n"});
     CHECK_TRUE(text.find("figure=\"mean\"") == std::string::npos);  // a delta measures none
 }
 
@@ -329,14 +335,11 @@ TEST(BoxNews, a_restarted_box_reports_its_kept_history) {
     }
     const firmware::BoxNews again(data, "1.2.3", {});
     const std::string text = again.metrics(firmware::CycleState::idle, {});
-    for (const char* line : {"calbox_history_cycles{mode=\"delta\",result=\"applied\"} 1\n",
-                             "calbox_history_cycles{mode=\"delta\",result=\"unchanged\"} 1\n",
-                             "calbox_history_cycles{mode=\"delta\",result=\"failed\"} 1\n",
-                             "calbox_last_calibration_timestamp_seconds 1700000000\n",
-                             "calbox_last_completed_cycle_timestamp_seconds 1700050000\n"}) {
-        if (text.find(line) == std::string::npos)
-            FAIL(("no line: " + std::string(line) + text).c_str());
-    }
+    check_metrics_lines(text, {"calbox_history_cycles{mode=\"delta\",result=\"applied\"} 1\n",
+                               "calbox_history_cycles{mode=\"delta\",result=\"unchanged\"} 1\n",
+                               "calbox_history_cycles{mode=\"delta\",result=\"failed\"} 1\n",
+                               "calbox_last_calibration_timestamp_seconds 1700000000\n",
+                               "calbox_last_completed_cycle_timestamp_seconds 1700050000\n"});
     CHECK_TRUE(text.find("calbox_cycles_total{") == std::string::npos);
 }
 

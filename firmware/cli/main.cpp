@@ -247,8 +247,8 @@ struct CommandLine {
 int main(int argc, char** argv) {
     // Two malloc arenas, not glibc's eight a core: every web connection is a thread of its own,
     // and each arena keeps the peak of what its threads drew (a live view, a record), so that 24
-    // viewers of the live view raised a cycle's peak by 188 MiB with eight a core and by 34 MiB
-    // with two (tests/network/web_load.py). The box's threads seldom allocate at once.
+    // viewers of the live view raised a cycle's peak by 188 MiB with eight a core
+    // (tests/network/web_load.py). The box's threads seldom allocate at once.
     mallopt(M_ARENA_MAX, 2);
     try {
         CommandLine command_line;

@@ -446,7 +446,7 @@ void Cycle::metered_capture(const std::shared_ptr<MeteredRun>& run) {
 }
 
 bool Cycle::preview() {
-    if (previewing_ || pending_capture_) return false;
+    if (previewing_ || pending_capture_ || d_.worker.busy()) return false;
     d_.camera.start_capture({1, {}, {}});
     previewing_ = true;
     return true;

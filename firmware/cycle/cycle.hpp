@@ -183,7 +183,9 @@ class Cycle final : private CycleSteps {
     const std::vector<geometry::ObservedView>& setup_views() const { return calibration_views_; }
     // One frame for the live view, handed to on_frame. Only while the cycle's own capture is not
     // under way (false then); a capture the cycle starts meanwhile waits for it, so the cycle's
-    // photos are never the live view's.
+    // photos are never the live view's. Nor while the box computes (measures, solves): a frame
+    // then would take memory and a core from the computation at its peak, on a board with few of
+    // either; the page shows the photo being measured meanwhile.
     bool preview();
     // New settings (the console changed the configuration): in force at once in idle, else
     // from the next cycle, so that a running one keeps what it started with.

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -67,6 +68,29 @@ std::vector<geometry::Point3> bed_outline(const LiveGuide& g) {
         }
     }
     return out;
+}
+
+// What a guide draws, as text to compare by: the camera and the plane (none, or a set-up that
+// found them again), the bed, and the views so far (each view, once taken, stays as it is).
+std::string what_guide_shows(const LiveGuide& guide) {
+    std::string shown;
+    char part[160];
+    if (guide.camera) {
+        const auto& c = *guide.camera;
+        std::snprintf(part, sizeof part, "camera %d %.9g %.9g %.9g %.9g %.9g;",
+                      static_cast<int>(c.model), c.fx(), c.fy(), c.cx(), c.cy(), c.rms_px);
+        shown += part;
+    }
+    if (guide.plane) {
+        const auto& p = guide.plane->bed_to_camera;
+        std::snprintf(part, sizeof part, "plane %.9g %.9g %.9g %.9g %.9g %.9g %.9g;", p.rvec[0],
+                      p.rvec[1], p.rvec[2], p.tvec_mm[0], p.tvec_mm[1], p.tvec_mm[2],
+                      guide.plane->board_thickness_mm);
+        shown += part;
+    }
+    std::snprintf(part, sizeof part, "bed %.9g %.9g %.9g; views %zu %.9g", guide.bed_radius_mm,
+                  guide.bed_size_x_mm, guide.bed_size_y_mm, guide.views.size(), guide.coverage);
+    return shown + part;
 }
 
 }  // namespace
@@ -166,18 +190,28 @@ void LatestFrame::put(const hal::Frame& frame) {
     arrived_.notify_all();
 }
 
-std::shared_ptr<const hal::Frame> LatestFrame::newer_than(std::uint64_t after,
-                                                          std::chrono::milliseconds within) {
+void LatestFrame::wait_past(std::uint64_t after, std::chrono::milliseconds within) {
     std::unique_lock lock(mutex_);
     arrived_.wait_for(lock, within, [&] { return count_ > after; });
+}
+
+std::shared_ptr<const hal::Frame> LatestFrame::newest() {
+    const std::lock_guard lock(mutex_);
     return frame_;
 }
 
-std::shared_ptr<const LiveImage> SharedLiveView::of(const hal::Frame& frame, const LiveGuide& guide,
-                                                    int max_width_px) {
+std::shared_ptr<const LiveImage> SharedLiveView::of_newest(LatestFrame& frames,
+                                                           const LiveGuide& guide,
+                                                           int max_width_px) {
+    const std::string shown = what_guide_shows(guide);
     const std::lock_guard lock(mutex_);
-    if (!newest_ || newest_->sequence != frame.metadata.sequence)
-        newest_ = std::make_shared<const LiveImage>(live_view(frame, guide, max_width_px));
+    // Taken under the lock and dropped with it: the viewers queued here hold no frame.
+    const auto frame = frames.newest();
+    if (!frame) return nullptr;
+    if (!newest_ || newest_->sequence != frame->metadata.sequence || drawn_guide_ != shown) {
+        newest_ = std::make_shared<const LiveImage>(live_view(*frame, guide, max_width_px));
+        drawn_guide_ = shown;
+    }
     return newest_;
 }
 

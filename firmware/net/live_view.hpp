@@ -3,6 +3,7 @@
 // set-up guide drawn over it (the board views' coverage so far, the bed's expected outline, what
 // is clipped white or black, with what to do) and a sharpness figure. JPEG bytes, so that OpenCV
 // stays out of this header.
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <memory>
@@ -49,9 +50,10 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
 class LatestFrame {
   public:
     void put(const hal::Frame& frame);
-    // A frame numbered past `after`, waiting up to `within`; else the newest there is (or none).
-    std::shared_ptr<const hal::Frame> newer_than(std::uint64_t after,
-                                                 std::chrono::milliseconds within);
+    // Waits up to `within` for a frame numbered past `after`, holding none: a viewer waiting
+    // keeps no frame alive.
+    void wait_past(std::uint64_t after, std::chrono::milliseconds within);
+    std::shared_ptr<const hal::Frame> newest();
 
   private:
     std::mutex mutex_;
@@ -60,16 +62,21 @@ class LatestFrame {
     std::uint64_t count_ = 0;  // frames put: each frame's number here
 };
 
-// The live view drawn once per frame for all its viewers: one drawing at a time, the others
-// waiting for it and given the same image.
+// The live view drawn once per frame for all its viewers: one drawing at a time, of the newest
+// frame when it starts; the others wait for it, holding no frame, and are given the same image.
+// So however many viewers and however slowly they are served, the frames alive are the newest,
+// the one being drawn and the one being put.
 class SharedLiveView {
   public:
-    std::shared_ptr<const LiveImage> of(const hal::Frame& frame, const LiveGuide& guide,
-                                        int max_width_px);
+    // nullptr while the camera has given no frame. Drawn again when the frame or the guide (a
+    // new set-up view, the camera or the bed's plane found) has changed since the last drawing.
+    std::shared_ptr<const LiveImage> of_newest(LatestFrame& frames, const LiveGuide& guide,
+                                               int max_width_px);
 
   private:
     std::mutex mutex_;
     std::shared_ptr<const LiveImage> newest_;  // under mutex_, with its frame's sequence
+    std::string drawn_guide_;                  // under mutex_: what newest_'s guide showed
 };
 
 }  // namespace calbox::firmware

@@ -288,12 +288,12 @@ ServerResponse WebWindow::live(const std::string& query) {
     }
     // A fresh frame when the camera is free; while the cycle uses it, its own photos show.
     (void)on_loop<bool>(c_.preview);
-    const auto frame = c_.frames.newer_than(after, std::chrono::seconds(10));
-    if (!frame) return error(503, "no frame from the camera yet", {{"Retry-After", "1"}});
+    c_.frames.wait_past(after, std::chrono::seconds(10));
     const LiveGuide guide = on_loop<LiveGuide>(c_.guide);
-    const auto image = live_view_.of(*frame, guide, limits_.live_width_px);
+    const auto image = live_view_.of_newest(c_.frames, guide, limits_.live_width_px);
+    if (!image) return error(503, "no frame from the camera yet", {{"Retry-After", "1"}});
     ServerResponse r{200, "image/jpeg", image->jpeg, {}};
-    r.headers.emplace_back("X-Frame", std::to_string(frame->metadata.sequence));
+    r.headers.emplace_back("X-Frame", std::to_string(image->sequence));
     r.headers.emplace_back("X-Sharpness", std::to_string(static_cast<long>(image->sharpness)));
     return r;
 }

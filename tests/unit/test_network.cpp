@@ -418,6 +418,40 @@ TEST(LiveView, draws_the_bed_judges_sharpness_and_marks_what_is_clipped_or_black
     CHECK_TRUE(q[0] > 200 && q[2] < 60);
 }
 
+TEST(LiveView, one_drawing_of_the_newest_frame_for_every_viewer_and_again_when_the_guide_grows) {
+    firmware::LatestFrame frames;
+    firmware::SharedLiveView view;
+    firmware::LiveGuide guide;
+    CHECK_TRUE(view.of_newest(frames, guide, 200) == nullptr);  // no frame yet
+    hal::Frame frame;
+    frame.width_px = 64;
+    frame.height_px = 48;
+    frame.stride_bytes = 64;
+    frame.pixels.assign(64 * 48, 90);
+    frames.put(frame);
+    const std::weak_ptr<const hal::Frame> first = frames.newest();
+    const auto drawn = view.of_newest(frames, guide, 200);
+    LONGS_EQUAL(1, static_cast<long>(drawn->sequence));
+    CHECK_TRUE(view.of_newest(frames, guide, 200) == drawn);  // the same drawing, shared
+    // A set-up view taken, no new frame: the guide is drawn again over the same frame.
+    guide.views.push_back({{10, 10}, {50, 10}, {50, 40}, {10, 40}});
+    guide.coverage = 0.25;
+    const auto with_view = view.of_newest(frames, guide, 200);
+    CHECK_TRUE(with_view != drawn);
+    LONGS_EQUAL(1, static_cast<long>(with_view->sequence));
+    CHECK_TRUE(view.of_newest(frames, guide, 200) == with_view);
+    // A new frame: drawn from it, and nothing keeps the first frame alive any more (the view
+    // holds a frame only while drawing it).
+    frame.pixels.assign(64 * 48, 160);
+    frames.put(frame);
+    LONGS_EQUAL(2, static_cast<long>(view.of_newest(frames, guide, 200)->sequence));
+    CHECK_TRUE(first.expired());
+    LONGS_EQUAL(2, frames.newest().use_count());  // the latest frame's own copy, and ours
+    // A viewer asking past the newest waits (here 50 ms, none coming) and is given the newest.
+    frames.wait_past(2, std::chrono::milliseconds(50));
+    LONGS_EQUAL(2, static_cast<long>(view.of_newest(frames, guide, 200)->sequence));
+}
+
 TEST_GROUP(LoopInbox){};
 
 TEST(LoopInbox, runs_other_threads_jobs_on_the_loops_thread) {

@@ -1,5 +1,6 @@
 #include "drivers/http.hpp"
 
+#include <openssl/evp.h>
 #include <openssl/pem.h>
 #include <openssl/x509v3.h>
 #include <poll.h>
@@ -20,12 +21,14 @@
 #include <boost/beast/websocket/ssl.hpp>
 #include <cctype>
 #include <condition_variable>
+#include <ctime>
 #include <deque>
 #include <list>
 #include <map>
 #include <mutex>
 #include <random>
 #include <set>
+#include <sstream>
 #include <thread>
 #include <type_traits>
 #include <vector>
@@ -342,20 +345,24 @@ class Refusals {
         }
         wake_.notify_all();
         thread_.join();
-        for (const auto& p : pending_) ::close(p.fd);
+        for (const auto& p : pending_) {
+            SSL_free(p.ssl);
+            ::close(p.fd);
+        }
     }
     // Takes the descriptor (answered, its sending side shut down).
-    void add(int fd) {
-        {
-            const std::lock_guard lock(mutex_);
-            // Past this many a flood is closed at once: its answers may be lost, not the box.
-            if (pending_.size() >= kMostPending) {
-                ::close(fd);
-                return;
-            }
-            pending_.push_back({fd, Clock::now() + std::chrono::seconds(1)});
+    void add(int fd) { add({fd, Clock::now() + std::chrono::seconds(1), nullptr, {}, POLLIN}); }
+    // Takes a non-blocking descriptor whose client speaks TLS: its handshake is led here, without
+    // waiting on it, then `answer` is sent and the connection drained like the others.
+    void add_tls(int fd, SSL_CTX* tls, const std::string& answer) {
+        SSL* ssl = SSL_new(tls);
+        if (ssl == nullptr || SSL_set_fd(ssl, fd) != 1) {
+            SSL_free(ssl);
+            ::close(fd);
+            return;
         }
-        wake_.notify_all();
+        SSL_set_accept_state(ssl);
+        add({fd, Clock::now() + std::chrono::seconds(2), ssl, answer, POLLIN});
     }
 
   private:
@@ -363,14 +370,55 @@ class Refusals {
     struct Pending {
         int fd;
         Clock::time_point close_by;
+        SSL* ssl;            // while its TLS handshake and answer are under way, else null
+        std::string answer;  // what to send once the handshake is done
+        short waits_for = POLLIN;
     };
+    void add(Pending p) {
+        {
+            const std::lock_guard lock(mutex_);
+            // Past this many a flood is closed at once: its answers may be lost, not the box.
+            if (pending_.size() < kMostPending) {
+                pending_.push_back(std::move(p));
+                p.fd = -1;
+            }
+        }
+        if (p.fd >= 0) {
+            SSL_free(p.ssl);
+            ::close(p.fd);
+            return;
+        }
+        wake_.notify_all();
+    }
+    // One step of a TLS refusal: false once it has failed (closed then). The answer goes as soon
+    // as the handshake is done, then a close_notify and the sending side shut down.
+    static bool lead_tls(Pending& p) {
+        const int accepted = SSL_accept(p.ssl);
+        if (accepted != 1) {
+            const int error = SSL_get_error(p.ssl, accepted);
+            if (error == SSL_ERROR_WANT_READ || error == SSL_ERROR_WANT_WRITE) {
+                p.waits_for = error == SSL_ERROR_WANT_WRITE ? POLLOUT : POLLIN;
+                return true;
+            }
+            return false;
+        }
+        // A fresh connection's send buffer takes the whole answer; one that would not is dropped.
+        const bool sent = SSL_write(p.ssl, p.answer.data(), static_cast<int>(p.answer.size())) ==
+                          static_cast<int>(p.answer.size());
+        SSL_shutdown(p.ssl);
+        SSL_free(p.ssl);
+        p.ssl = nullptr;
+        p.waits_for = POLLIN;
+        ::shutdown(p.fd, SHUT_WR);
+        return sent;
+    }
     void run() {
         std::unique_lock lock(mutex_);
         for (;;) {
             wake_.wait(lock, [this] { return stopping_ || !pending_.empty(); });
             if (stopping_) return;
             std::vector<pollfd> polled;
-            for (const auto& p : pending_) polled.push_back({p.fd, POLLIN, 0});
+            for (const auto& p : pending_) polled.push_back({p.fd, p.waits_for, 0});
             lock.unlock();
             ::poll(polled.data(), polled.size(), 50);
             lock.lock();
@@ -380,9 +428,14 @@ class Refusals {
                 const auto seen = std::find_if(polled.begin(), polled.end(),
                                                [&](const pollfd& p) { return p.fd == it->fd; });
                 bool done = now >= it->close_by;
-                if (!done && seen != polled.end() && (seen->revents & (POLLIN | POLLHUP | POLLERR)))
+                const bool ready = seen != polled.end() &&
+                                   (seen->revents & (it->waits_for | POLLHUP | POLLERR)) != 0;
+                if (!done && ready && it->ssl != nullptr)
+                    done = !lead_tls(*it);
+                else if (!done && ready)
                     done = ::recv(it->fd, sink.data(), sink.size(), MSG_DONTWAIT) <= 0;
                 if (done) {
+                    SSL_free(it->ssl);
                     ::close(it->fd);
                     it = pending_.erase(it);
                 } else {
@@ -424,12 +477,13 @@ class Listener {
     int port() const { return port_; }
 
     // `serve` runs on each connection's thread; the connection's descriptor is tracked. Past
-    // `max_connections` (0: no limit) a connection is handed to `refuse` on the accepting thread
-    // instead (which must not wait on the client), then drained and closed by refusals_.
+    // `max_connections` (0: no limit) a connection is sent `refusal` (a whole HTTP answer's
+    // bytes) instead, without waiting on the client (over TLS once refusals_ has led its
+    // handshake), then drained and closed by refusals_.
     void start(std::function<void(tcp::socket)> serve, int max_connections = 0,
-               std::function<void(tcp::socket&)> refuse = {}) {
+               std::string refusal = {}, SSL_CTX* tls = nullptr) {
         accepting_ = std::thread(
-            [this, serve = std::move(serve), max_connections, refuse = std::move(refuse)] {
+            [this, serve = std::move(serve), max_connections, refusal = std::move(refusal), tls] {
                 for (;;) {
                     boost::system::error_code e;
                     tcp::socket socket(ioc_);
@@ -439,7 +493,15 @@ class Listener {
                     if (e) continue;
                     reap();
                     if (max_connections > 0 && serving() >= max_connections) {
-                        if (refuse) refuse(socket);
+                        socket.non_blocking(true, e);
+                        if (tls != nullptr) {
+                            refusals_.add_tls(socket.release(e), tls, refusal);
+                            continue;
+                        }
+                        // A fresh socket's send buffer takes the whole answer; one that would
+                        // not is dropped rather than hold up the accepting thread.
+                        (void)::send(socket.native_handle(), refusal.data(), refusal.size(),
+                                     MSG_NOSIGNAL | MSG_DONTWAIT);
                         socket.shutdown(tcp::socket::shutdown_send, e);
                         refusals_.add(socket.release(e));
                         continue;
@@ -538,6 +600,30 @@ class Listener {
 
 }  // namespace
 
+namespace {
+
+// A server's TLS: TLS 1.2 and later, the certificate chain and its key from their files, the key
+// checked against the certificate.
+std::unique_ptr<ssl::context> server_tls_context(const hal::ServerTls& files) {
+    auto context = std::make_unique<ssl::context>(ssl::context::tls_server);
+    SSL_CTX_set_min_proto_version(context->native_handle(), TLS1_2_VERSION);
+    boost::system::error_code ec;
+    context->use_certificate_chain_file(files.certificate_file, ec);
+    if (ec)
+        throw NetworkError("TLS: " + files.certificate_file +
+                           ": not a certificate in PEM: " + ec.message());
+    context->use_private_key_file(files.key_file, ssl::context::pem, ec);
+    if (ec)
+        throw NetworkError("TLS: " + files.key_file +
+                           ": not a private key in PEM: " + ec.message());
+    if (SSL_CTX_check_private_key(context->native_handle()) != 1)
+        throw NetworkError("TLS: " + files.key_file + " is not the key of " +
+                           files.certificate_file);
+    return context;
+}
+
+}  // namespace
+
 struct HttpServer::State {
     Handlers handlers;
     ServerLimits limits;
@@ -574,10 +660,16 @@ struct HttpServer::State {
     std::mutex mutex;                                         // the pushers'
     std::map<int, std::function<void(std::string)>> pushers;  // by socket, under the mutex
 
-    void serve(tcp::socket socket);
-    // An accepted websocket on an io_context of its own: one read always pending, writes queued
-    // (the replies to each message, and whatever push() posts from other threads).
-    void serve_socket(tcp::socket socket, const http::request<http::string_body>& upgrade,
+    std::unique_ptr<ssl::context> tls;  // null: plain HTTP
+
+    void serve(tcp::socket accepted);
+    template <class Stream>
+    void serve_requests(net::io_context& ioc, Stream& stream, int fd, const std::string& peer);
+    // An accepted websocket on the connection's io_context: one read always pending, writes
+    // queued (the replies to each message, and whatever push() posts from other threads).
+    template <class Stream>
+    void serve_socket(net::io_context& ioc, Stream&& stream, int fd,
+                      const http::request<http::string_body>& upgrade,
                       const ServerRequest& request);
     std::unique_ptr<Listener> listener;  // last: its threads use the rest
 };
@@ -602,15 +694,27 @@ ServerRequest server_request(const http::request<http::string_body>& req, const 
 
 namespace {
 
-void write_answer(tcp::socket& socket, const ServerResponse& answer, bool keep_alive,
-                  boost::system::error_code& ec) {
+http::response<http::string_body> response_of(const ServerResponse& answer, bool keep_alive) {
     http::response<http::string_body> res{static_cast<http::status>(answer.status), 11};
     res.set(http::field::content_type, answer.content_type);
     for (const auto& [name, value] : answer.headers) res.set(name, value);
     res.keep_alive(keep_alive);
     res.body() = answer.body;
     res.prepare_payload();
-    http::write(socket, res, ec);
+    return res;
+}
+
+template <class Stream>
+void write_answer(Stream& stream, const ServerResponse& answer, bool keep_alive,
+                  boost::system::error_code& ec) {
+    http::write(stream, response_of(answer, keep_alive), ec);
+}
+
+// An answer's bytes, as a connection past the limit is sent them.
+std::string answer_bytes(const ServerResponse& answer) {
+    std::ostringstream out;
+    out << response_of(answer, false);
+    return out.str();
 }
 
 // A request the parser refused: its status and why, for the client.
@@ -630,6 +734,22 @@ ServerResponse refusal(const boost::system::error_code& ec, const ServerLimits& 
     return {400, "text/plain", "malformed request: " + ec.message() + "\n", {}};
 }
 
+// After a refusal sent while the client may still be sending (a body past the limit): the
+// sending side shut down and what comes read and dropped, for at most a second, before the
+// close. Closing with unread bytes resets the connection, and the client's kernel then drops the
+// refusal it had not yet read.
+void drain_before_close(int fd) {
+    ::shutdown(fd, SHUT_WR);
+    const auto give_up = Clock::now() + std::chrono::seconds(1);
+    std::array<char, 16384> sink{};
+    while (Clock::now() < give_up) {
+        pollfd p{fd, POLLIN, 0};
+        if (::poll(&p, 1, 100) < 0) return;
+        if ((p.revents & (POLLIN | POLLHUP | POLLERR)) == 0) continue;
+        if (::recv(fd, sink.data(), sink.size(), MSG_DONTWAIT) <= 0) return;
+    }
+}
+
 bool parser_refused(const boost::system::error_code& ec) {
     const boost::system::error_code parse_error = http::error::body_limit;
     return ec.category() == parse_error.category() && ec != http::error::end_of_stream &&
@@ -638,37 +758,80 @@ bool parser_refused(const boost::system::error_code& ec) {
 
 }  // namespace
 
-void HttpServer::State::serve(tcp::socket socket) {
-    const int fd = socket.native_handle();
+// Each connection on an io_context of its own (a websocket's reads and writes run on it), over
+// TLS when the server has a certificate: the handshake within the idle limit, like a request.
+void HttpServer::State::serve(tcp::socket accepted) {
+    net::io_context ioc;
     boost::system::error_code ec;
-    const std::string peer = socket.remote_endpoint(ec).address().to_string();
+    const int fd = accepted.native_handle();
+    const std::string peer = accepted.remote_endpoint(ec).address().to_string();
+    tcp::socket socket(ioc);
+    socket.assign(accepted.local_endpoint(ec).protocol(), accepted.release(ec), ec);
+    if (ec) {
+        listener->forget(fd);
+        return;
+    }
+    if (!tls) {
+        serve_requests(ioc, socket, fd, peer);
+        return;
+    }
+    ssl::stream<tcp::socket> stream(std::move(socket), *tls);
+    waits(fd, true);
+    stream.handshake(ssl::stream_base::server, ec);
+    waits(fd, false);
+    if (ec) {
+        listener->forget(fd);
+        return;
+    }
+    serve_requests(ioc, stream, fd, peer);
+    // The stream closes as it goes out of scope, no longer among the open connections.
+}
+
+template <class Stream>
+void HttpServer::State::serve_requests(net::io_context& ioc, Stream& stream, int fd,
+                                       const std::string& peer) {
+    // No longer among the open connections before the stream closes (its descriptor's number
+    // may be the next connection's at once); a websocket forgets it itself.
+    struct Forget {
+        Listener& listener;
+        int fd;
+        bool handed_on = false;
+        ~Forget() {
+            if (!handed_on) listener.forget(fd);
+        }
+    } forget{*listener, fd};
+    boost::system::error_code ec;
     beast::flat_buffer buffer;
     for (;;) {
         http::request_parser<http::string_body> parser;
         parser.body_limit(limits.max_body_bytes);
         parser.header_limit(limits.max_header_bytes);
         waits(fd, true);
-        http::read(socket, buffer, parser, ec);
+        http::read(stream, buffer, parser, ec);
         waits(fd, false);
         if (ec) {
-            if (parser_refused(ec)) write_answer(socket, refusal(ec, limits), false, ec);
-            break;
+            if (parser_refused(ec)) {
+                write_answer(stream, refusal(ec, limits), false, ec);
+                drain_before_close(fd);
+            }
+            return;
         }
         const auto req = parser.release();
-        const ServerRequest request = server_request(req, peer);
+        ServerRequest request = server_request(req, peer);
+        request.over_tls = tls != nullptr;
         if (websocket::is_upgrade(req)) {
             const int status = handlers.accept_socket ? handlers.accept_socket(request) : 404;
             if (status != 101) {
-                write_answer(socket,
+                write_answer(stream,
                              {status,
                               "application/json",
                               "{\"error\": {\"code\": " + std::to_string(status) + "}}",
                               {}},
                              false, ec);
-                break;
+                return;
             }
-            // It closes the socket itself, once it is no longer among the open ones.
-            serve_socket(std::move(socket), req, request);
+            forget.handed_on = true;
+            serve_socket(ioc, std::move(stream), fd, req, request);
             return;
         }
         ServerResponse answer;
@@ -677,25 +840,19 @@ void HttpServer::State::serve(tcp::socket socket) {
         } catch (const std::exception& e) {
             answer = {500, "text/plain", e.what(), {}};
         }
-        write_answer(socket, answer, req.keep_alive(), ec);
-        if (ec || !req.keep_alive()) break;
+        write_answer(stream, answer, req.keep_alive(), ec);
+        if (ec || !req.keep_alive()) return;
     }
-    listener->forget(fd);
-    // The socket (or the stream it moved into) closes as it goes out of scope.
 }
 
-void HttpServer::State::serve_socket(tcp::socket accepted,
+template <class Stream>
+void HttpServer::State::serve_socket(net::io_context& ioc, Stream&& stream, int fd,
                                      const http::request<http::string_body>& upgrade,
                                      const ServerRequest& request) {
-    net::io_context ioc;
     boost::system::error_code ec;
-    const int fd = accepted.native_handle();
-    tcp::socket own(ioc);
-    const auto protocol = accepted.local_endpoint(ec).protocol();
-    own.assign(protocol, accepted.release(ec), ec);
-    websocket::stream<tcp::socket> ws(std::move(own));
-    // No longer among the open ones once this returns, before the descriptor closes with `ws`
-    // (declared after it: undone before it).
+    websocket::stream<std::remove_reference_t<Stream>> ws(std::move(stream));
+    // No longer pushed to once this returns, before the descriptor closes with `ws` (declared
+    // after it: undone before it).
     struct Forget {
         State& state;
         int fd;
@@ -707,7 +864,6 @@ void HttpServer::State::serve_socket(tcp::socket accepted,
             state.listener->forget(fd);
         }
     } forget{*this, fd};
-    if (ec) return;
     ws.read_message_max(limits.max_body_bytes);
     ws.text(true);
     std::deque<std::string> outbox;
@@ -768,28 +924,22 @@ void HttpServer::push(const std::string& message) {
     for (auto& [fd, post] : state_->pushers) post(message);
 }
 
-HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, ServerLimits limits)
+HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, ServerLimits limits,
+                       const std::optional<hal::ServerTls>& tls)
     : state_(std::make_unique<State>()) {
     auto& s = *state_;
     s.handlers = std::move(handlers);
     s.limits = limits;
+    if (tls) s.tls = server_tls_context(*tls);
     s.listener = std::make_unique<Listener>(address, port);
     if (limits.idle_timeout.count() > 0) s.watchdog = std::thread([&s] { s.watch_idle(); });
     s.listener->start([&s](tcp::socket socket) { s.serve(std::move(socket)); },
                       limits.max_connections,
-                      [](tcp::socket& socket) {
-                          // Never waiting on the client: a fresh socket's send buffer takes the
-                          // whole answer, and one that would not is dropped rather than hold up the
-                          // accepting thread.
-                          boost::system::error_code ec;
-                          socket.non_blocking(true, ec);
-                          write_answer(socket,
-                                       {503,
-                                        "text/plain",
-                                        "too many connections: try again shortly\n",
-                                        {{"Retry-After", "2"}}},
-                                       false, ec);
-                      });
+                      answer_bytes({503,
+                                    "text/plain",
+                                    "too many connections: try again shortly\n",
+                                    {{"Retry-After", "2"}}}),
+                      s.tls ? s.tls->native_handle() : nullptr);
 }
 
 HttpServer::~HttpServer() {
@@ -811,7 +961,10 @@ void HttpServer::drop_connections() {
     state_->listener->drop_connections();
 }
 
-SelfSignedCertificate self_signed_certificate(const std::string& ip_address) {
+SelfSignedCertificate self_signed_certificate(const std::vector<std::string>& names,
+                                              int valid_days) {
+    if (names.empty() || valid_days <= 0)
+        throw NetworkError("a certificate cannot be made: no name, or no days to be valid");
     // OpenSSL's objects, each freed with its own function.
     const std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(EVP_EC_gen("P-256"),
                                                                   EVP_PKEY_free);
@@ -821,23 +974,28 @@ SelfSignedCertificate self_signed_certificate(const std::string& ip_address) {
         return NetworkError(std::string("a certificate cannot be made: ") + what);
     };
     std::random_device random;
+    const auto serial = (static_cast<long>(random()) << 16) ^ static_cast<long>(random());
     if (X509_set_version(cert.get(), 2) != 1 ||
-        ASN1_INTEGER_set(X509_get_serialNumber(cert.get()), static_cast<long>(random() >> 1)) !=
-            1 ||
+        ASN1_INTEGER_set(X509_get_serialNumber(cert.get()), serial & 0x7fffffffffffL) != 1 ||
         X509_gmtime_adj(X509_getm_notBefore(cert.get()), -3600) == nullptr ||
-        X509_gmtime_adj(X509_getm_notAfter(cert.get()), 24L * 3600) == nullptr ||
+        X509_time_adj_ex(X509_getm_notAfter(cert.get()), valid_days, 0, nullptr) == nullptr ||
         X509_set_pubkey(cert.get(), key.get()) != 1)
         throw fail("its fields");
     X509_NAME* name = X509_get_subject_name(cert.get());
     if (X509_NAME_add_entry_by_txt(name, "CN", MBSTRING_ASC,
-                                   reinterpret_cast<const unsigned char*>(ip_address.c_str()), -1,
-                                   -1, 0) != 1 ||
+                                   reinterpret_cast<const unsigned char*>(names.front().c_str()),
+                                   -1, -1, 0) != 1 ||
         X509_set_issuer_name(cert.get(), name) != 1)
         throw fail("its name");
     X509V3_CTX v3;
     X509V3_set_ctx_nodb(&v3);
     X509V3_set_ctx(&v3, cert.get(), cert.get(), nullptr, nullptr, 0);
-    const std::string alt = "IP:" + ip_address;
+    std::string alt;
+    for (const auto& n : names) {
+        boost::system::error_code not_an_address;
+        net::ip::make_address(n, not_an_address);
+        alt += (alt.empty() ? "" : ",") + std::string(not_an_address ? "DNS:" : "IP:") + n;
+    }
     X509_EXTENSION* extension =
         X509V3_EXT_conf_nid(nullptr, &v3, NID_subject_alt_name, alt.c_str());
     if (extension == nullptr) throw fail("its subjectAltName");
@@ -858,6 +1016,44 @@ SelfSignedCertificate self_signed_certificate(const std::string& ip_address) {
         return PEM_write_bio_PrivateKey(b, key.get(), nullptr, nullptr, 0, nullptr, nullptr);
     });
     return out;
+}
+
+hal::CertificateFacts certificate_facts(const hal::ServerTls& files) {
+    const auto open = [](const std::string& path) {
+        std::unique_ptr<BIO, decltype(&BIO_free)> bio(BIO_new_file(path.c_str(), "r"), BIO_free);
+        if (!bio) throw std::runtime_error(path + ": cannot be read");
+        return bio;
+    };
+    const auto cert_bio = open(files.certificate_file);
+    const std::unique_ptr<X509, decltype(&X509_free)> cert(
+        PEM_read_bio_X509(cert_bio.get(), nullptr, nullptr, nullptr), X509_free);
+    if (!cert) throw std::runtime_error(files.certificate_file + ": not a certificate in PEM");
+    const auto key_bio = open(files.key_file);
+    const std::unique_ptr<EVP_PKEY, decltype(&EVP_PKEY_free)> key(
+        PEM_read_bio_PrivateKey(key_bio.get(), nullptr, nullptr, nullptr), EVP_PKEY_free);
+    if (!key) throw std::runtime_error(files.key_file + ": not a private key in PEM");
+    if (X509_check_private_key(cert.get(), key.get()) != 1)
+        throw std::runtime_error(files.key_file + ": not the key of " + files.certificate_file);
+    hal::CertificateFacts facts;
+    std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+    unsigned int length = 0;
+    if (X509_digest(cert.get(), EVP_sha256(), digest.data(), &length) != 1)
+        throw std::runtime_error(files.certificate_file + ": its fingerprint cannot be taken");
+    static const char* const kHex = "0123456789ABCDEF";
+    for (unsigned int i = 0; i < length; ++i) {
+        if (i > 0) facts.sha256_fingerprint += ':';
+        facts.sha256_fingerprint += kHex[digest[i] >> 4];
+        facts.sha256_fingerprint += kHex[digest[i] & 15];
+    }
+    std::array<char, 256> common_name{};
+    if (X509_NAME_get_text_by_NID(X509_get_subject_name(cert.get()), NID_commonName,
+                                  common_name.data(), static_cast<int>(common_name.size())) > 0)
+        facts.subject = common_name.data();
+    std::tm until{};
+    if (ASN1_TIME_to_tm(X509_get0_notAfter(cert.get()), &until) != 1)
+        throw std::runtime_error(files.certificate_file + ": its expiry cannot be read");
+    facts.not_after_unix_s = static_cast<std::int64_t>(timegm(&until));
+    return facts;
 }
 
 struct TlsTerminator::State {

@@ -15,6 +15,7 @@
 
 #include "core/net/endpoints.hpp"
 #include "hal/http.hpp"
+#include "hal/network.hpp"
 
 namespace calbox::drivers {
 
@@ -53,8 +54,10 @@ class WebSocketClient final : public hal::WebSocket {
 class HttpServer final : public hal::HttpListener {
   public:
     using Handlers = hal::HttpHandlers;
-    // Port 0 takes a free one (port()). Throws NetworkError when it cannot listen.
-    HttpServer(const std::string& address, int port, Handlers handlers, ServerLimits limits = {});
+    // Port 0 takes a free one (port()); over TLS with `tls`. Throws NetworkError when it cannot
+    // listen or the certificate's files do not load.
+    HttpServer(const std::string& address, int port, Handlers handlers, ServerLimits limits = {},
+               const std::optional<hal::ServerTls>& tls = std::nullopt);
     HttpServer(const HttpServer&) = delete;
     HttpServer& operator=(const HttpServer&) = delete;
     ~HttpServer() override;  // closes every connection and waits for its thread
@@ -69,13 +72,19 @@ class HttpServer final : public hal::HttpListener {
     std::unique_ptr<State> state_;
 };
 
-// A certificate of its own making for `ip_address` (subject and subjectAltName), valid a day:
-// PEM texts. For a server whose clients are given the certificate itself to trust (the twin's
-// hosts on loopback).
+// A certificate of its own making for `names` (IP addresses and host names, each in its
+// subjectAltName; the first its subject), valid `valid_days` from an hour ago: PEM texts. For a
+// server whose clients are given the certificate itself to trust, or check its fingerprint (the
+// twin's hosts on loopback, the box's own page).
 struct SelfSignedCertificate {
     std::string certificate_pem, private_key_pem;
 };
-SelfSignedCertificate self_signed_certificate(const std::string& ip_address);
+SelfSignedCertificate self_signed_certificate(const std::vector<std::string>& names,
+                                              int valid_days);
+
+// The facts of a certificate and key pair in PEM files, the key checked against the certificate.
+// Throws std::runtime_error naming the file and what is wrong with it.
+hal::CertificateFacts certificate_facts(const hal::ServerTls& files);
 
 // TLS on a port of `address` in front of a plain server on 127.0.0.1:`inner_port`, as a reverse
 // proxy in front of a printer's host (nginx before Moonraker) serves it: each connection's bytes

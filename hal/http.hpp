@@ -66,6 +66,7 @@ struct ServerRequest {
     std::map<std::string, std::string> headers;
     std::string body;
     std::string peer;
+    bool over_tls = false;
 };
 struct ServerResponse {
     int status = 200;
@@ -83,6 +84,12 @@ struct ServerLimits {
     std::uint32_t max_header_bytes = 16u << 10;
     int max_connections = 0;
     std::chrono::milliseconds idle_timeout{0};
+};
+
+// TLS on a listener: its certificate (the chain, PEM, the server's first) and private key, as
+// files.
+struct ServerTls {
+    std::string certificate_file, key_file;
 };
 
 // Each is called on the connection's thread: they must be thread-safe.

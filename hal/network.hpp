@@ -2,8 +2,11 @@
 // What the network gives the appliance, opened by a board (board::network()) as it opens ports
 // and Modbus roles: an HTTP client, listeners, MQTT sessions, and the password hasher of the web
 // page's password.
+#include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "hal/http.hpp"
 #include "hal/mqtt.hpp"
@@ -11,14 +14,37 @@
 
 namespace calbox::hal {
 
+// A server certificate as an owner checks it against what the browser shows.
+struct CertificateFacts {
+    std::string sha256_fingerprint;  // of the DER form, "AB:CD:...", as browsers show it
+    std::string subject;             // its common name
+    std::int64_t not_after_unix_s = 0;
+};
+
+class Certificates {
+  public:
+    virtual ~Certificates() = default;
+    // A new self-signed certificate for `names` (host names and IP addresses; the first is its
+    // common name), valid `valid_days` from now, written to the two files (the key readable by
+    // its owner only; each written whole or not at all). Throws std::runtime_error.
+    virtual void make_self_signed(const ServerTls& files, const std::vector<std::string>& names,
+                                  int valid_days) = 0;
+    // Reads and checks the pair: both load, the key is the certificate's. Throws
+    // std::runtime_error naming the file and what is wrong with it.
+    virtual CertificateFacts check(const ServerTls& files) = 0;
+};
+
 class Network {
   public:
     virtual ~Network() = default;
     virtual HttpClient& http() = 0;
-    // Serves on `port` of `address` (an IP address; port 0 takes a free one). Throws
-    // NetworkError when it cannot listen.
+    // Serves on `port` of `address` (an IP address; port 0 takes a free one), over TLS when
+    // `tls` is given (its files checked by certificates().check first). Throws NetworkError when
+    // it cannot listen or the files do not load.
     virtual std::unique_ptr<HttpListener> listen(const std::string& address, int port,
-                                                 HttpHandlers handlers, ServerLimits limits) = 0;
+                                                 HttpHandlers handlers, ServerLimits limits,
+                                                 const std::optional<ServerTls>& tls) = 0;
+    virtual Certificates& certificates() = 0;
     // Starts connecting at once. Throws std::runtime_error when the session cannot start or its
     // login cannot be tried at all (the password's file missing, empty or readable by others; a
     // CA file TLS cannot load).

@@ -698,7 +698,7 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const Si
         board.machine.link.url = board.host->url();
         board.machine.link.key_file = key_file.string();
         if (scenario.host_tls) {
-            const auto certificate = drivers::self_signed_certificate("127.0.0.1");
+            const auto certificate = drivers::self_signed_certificate({"127.0.0.1"}, 1);
             const auto ca_file = settings.data_dir / kTwinHostCertificateFile;
             write_file_whole(ca_file, certificate.certificate_pem);
             board.tls_front = std::make_unique<drivers::TlsTerminator>(

@@ -57,9 +57,10 @@ firmware::BoxConfig run_config(const Args& args, const std::filesystem::path& pa
     }
     try {
         if (auto v = args.get("--web")) config.set("web.listen", *v);
+        if (auto v = args.get("--web-tls")) config.set("web.tls_listen", *v);
         if (auto v = args.get("--mqtt")) config.set("mqtt.broker", *v);
     } catch (const firmware::ConfigError& e) {
-        throw UsageError(std::string("--web/--mqtt: ") + e.what());
+        throw UsageError(std::string("--web/--web-tls/--mqtt: ") + e.what());
     }
     return config;
 }
@@ -325,6 +326,10 @@ std::vector<Command> appliance_commands() {
          "serve the box's web page there (docs/network.md; overrides web.listen);\n"
          "port 0 takes a free one (logged). Whatever changes state needs the password\n"
          "set with the console's `web password`"},
+        {"--web-tls", "HOST:PORT",
+         "serve the page over https there (overrides web.tls_listen), with web.tls_cert\n"
+         "and web.tls_key or the box's own self-signed certificate; --web's port then\n"
+         "only redirects to it. `web tls` on the console shows the fingerprint"},
         {"--mqtt", "HOST:PORT",
          "report to that MQTT broker (overrides mqtt.broker): the state, each cycle's\n"
          "result, availability and Home Assistant's discovery"},

@@ -229,8 +229,9 @@ class NetworkPart final : public BoxPart {
         : on_log_(running.on_log),
           network_({running.box.loop, running.box.cycle, *running.console,
                     running.config.settings().web, running.config.settings().mqtt,
-                    *running.box.data, *running.box.clock, running.box.network(), running.log_book,
-                    running.news, running.log, calbox::build_version(), unix_now_s}) {
+                    *running.box.data, running.data_dir.string(), *running.box.clock,
+                    running.box.network(), running.log_book, running.news, running.log,
+                    calbox::build_version(), unix_now_s}) {
         on_log_ = [this] { network_.logged(); };
     }
     // Lines logged while the rest comes down go to standard error only.

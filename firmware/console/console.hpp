@@ -120,6 +120,10 @@ class Console {
     std::string refuse_too_long(const LineAssembler::Line& line) const;
     // Its table, its own rows and then the other parts', as `help` lists them.
     const std::vector<ConsoleCommand>& rows() const { return table_; }
+    // A part's own rows, added as it starts (the network's `web tls`): listed after the others.
+    void add_rows(std::vector<ConsoleCommand> rows) {
+        for (auto& row : rows) table_.push_back(std::move(row));
+    }
 
   private:
     std::vector<ConsoleCommand> commands();

@@ -187,6 +187,8 @@ class Cycle final : private CycleSteps {
     // then would take memory and a core from the computation at its peak, on a board with few of
     // either; the page shows the photo being measured meanwhile.
     bool preview();
+    // A screen another part shows when asked (the network's), until the cycle's next.
+    void show_aside(const hal::MonoBitmap& frame) { show(frame); }
     // New settings (the console changed the configuration): in force at once in idle, else
     // from the next cycle, so that a running one keeps what it started with.
     void set_settings(CycleSettings settings);

@@ -138,6 +138,13 @@ hal::MonoBitmap draw_screen(const DoneScreen& s) {
     return b;
 }
 
+hal::MonoBitmap draw_screen(const NetworkScreen& s) {
+    auto b = with_title("https :" + std::to_string(s.https_port) + " SHA-256");
+    for (std::size_t i = 0; i < s.fingerprint.size() && i < 4; ++i)
+        line(b, 1 + static_cast<int>(i), s.fingerprint[i]);
+    return b;
+}
+
 hal::MonoBitmap draw_screen(const ErrorScreen& s) {
     char code[16];
     std::snprintf(code, sizeof code, "E%02d", s.code);

@@ -43,6 +43,12 @@ struct ReviewScreen {
 struct DoneScreen {
     std::string before, after;  // "0.257 mm RMS"
 };
+// The page's TLS, as an owner checks a browser's warning against it: the https port and the
+// certificate's SHA-256 fingerprint (fingerprint_lines, firmware/net/web_tls.hpp).
+struct NetworkScreen {
+    int https_port = 0;
+    std::vector<std::string> fingerprint;  // four lines of four groups of four hex digits
+};
 struct ErrorScreen {
     int code = 0;         // the stage's state code, as the PLC's error register has it
     std::string hint;     // one line: what to check
@@ -55,6 +61,7 @@ hal::MonoBitmap draw_screen(const PromptScreen& s);
 hal::MonoBitmap draw_screen(const ReviewScreen& s);
 hal::MonoBitmap draw_screen(const DoneScreen& s);
 hal::MonoBitmap draw_screen(const ErrorScreen& s);
+hal::MonoBitmap draw_screen(const NetworkScreen& s);
 
 // Words over lines of at most `width` characters (a longer word is cut), at most `lines` lines.
 std::vector<std::string> wrap_words(std::string_view text, std::size_t width, std::size_t lines);

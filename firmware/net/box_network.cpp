@@ -3,13 +3,19 @@
 #include <nlohmann/json.hpp>
 
 #include "core/geometry/camera_model.hpp"
+#include "firmware/cycle/screens.hpp"
 #include "firmware/net/mqtt_report.hpp"
+#include "firmware/net/web_tls.hpp"
 #include "firmware/net/web_window.hpp"
 
 namespace calbox::firmware {
 namespace {
 
 using json = nlohmann::json;
+
+std::string bracketed(const std::string& host) {
+    return host.find(':') != std::string::npos ? "[" + host + "]" : host;
+}
 
 // What the page's log and plot show at most; /api/history has every line kept.
 constexpr std::size_t kPageLogLines = 40;
@@ -21,8 +27,13 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts) : BoxNetwork(std::move(parts), Web
 
 BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
     : p_(std::move(parts)), inbox_(p_.loop) {
-    if (!p_.web.listen.empty()) {
-        const auto at = net::parse_host_port(p_.web.listen, false);
+    const bool tls = !p_.web.tls_listen.empty();
+    const std::string page_at = tls ? p_.web.tls_listen : p_.web.listen;
+    if (!page_at.empty()) {
+        if (tls)
+            tls_ = web_tls_identity(p_.web, p_.data_dir, p_.network.certificates(), p_.unix_now(),
+                                    p_.log);
+        const auto at = net::parse_host_port(page_at, false);
         web_ = std::make_unique<WebWindow>(
             WebWindowContext{
                 inbox_, p_.data, p_.clock, frames_, p_.network, p_.cycle.mode().kept_files(),
@@ -31,14 +42,32 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
                 [this] { return p_.news.metrics(p_.cycle); },
                 [this] { return p_.web.password_hash; }, [this] { return p_.cycle.preview(); },
                 [this] { return guide(); }},
-            at.host, at.port, limits);
-        const std::string host =
-            at.host.find(':') != std::string::npos ? "[" + at.host + "]" : at.host;
-        p_.log("web: the page at http://" + host + ":" + std::to_string(web_->port()) + "/" +
+            at.host, at.port, limits, tls_ ? std::optional(tls_->files) : std::nullopt);
+        p_.log("web: the page at " + page_url(at.host, web_->port()) +
+               (tls_ ? " (certificate " + tls_->facts.subject + ", SHA-256 " +
+                           tls_->facts.sha256_fingerprint + ")"
+                     : std::string()) +
                (p_.web.password_hash.empty()
                     ? " (no web password: it changes nothing until the console's `web password`)"
                     : ""));
     }
+    if (tls && !p_.web.listen.empty()) {
+        const auto at = net::parse_host_port(p_.web.listen, false);
+        const int https_port = web_->port();
+        redirect_ =
+            p_.network.listen(at.host, at.port,
+                              hal::HttpHandlers{[https_port](const hal::ServerRequest& r) {
+                                                    return plain_port_answer(r, https_port);
+                                                },
+                                                [](const hal::ServerRequest&) { return 403; },
+                                                [](const hal::ServerRequest&, const std::string&) {
+                                                    return std::vector<std::string>{};
+                                                }},
+                              server_limits(limits), std::nullopt);
+        p_.log("web: http://" + bracketed(at.host) + ":" + std::to_string(redirect_->port()) +
+               "/ only sends browsers on to https, and never takes the password");
+    }
+    p_.console.add_rows({web_tls_row()});
     if (!p_.mqtt.broker.empty()) {
         // A login that cannot be tried (the password's file open to others) leaves MQTT off and
         // says why: the box still calibrates.
@@ -46,8 +75,8 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
             mqtt_ = std::make_unique<MqttReport>(
                 MqttReport::Context{
                     inbox_, [this] { return status(false); },
-                    [this](const std::string& line) { return p_.console.reply_to(line); },
-                    p_.log, p_.version, p_.network},
+                    [this](const std::string& line) { return p_.console.reply_to(line); }, p_.log,
+                    p_.version, p_.network},
                 p_.mqtt);
         } catch (const std::runtime_error& e) {
             p_.log.error(std::string("mqtt: off: ") + e.what());
@@ -64,12 +93,50 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
 
 BoxNetwork::~BoxNetwork() {
     // The servers' threads first: they post to the inbox and read the frames.
+    redirect_.reset();
     web_.reset();
     mqtt_.reset();
 }
 
 int BoxNetwork::web_port() const {
     return web_ ? web_->port() : 0;
+}
+
+std::string BoxNetwork::page_url(const std::string& host, int port) const {
+    return std::string(tls_ ? "https" : "http") + "://" + bracketed(host) + ":" +
+           std::to_string(port) + "/";
+}
+
+ConsoleCommand BoxNetwork::web_tls_row() {
+    return {"web tls", "web tls",
+            "the page's https port and its certificate's SHA-256 fingerprint (also on the "
+            "display), to check a browser's warning against",
+            [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& r) {
+                need_words(words, 2, "web tls");
+                if (!tls_) {
+                    r.text =
+                        "web tls: off (web.tls_listen is empty): the page, if any, is plain "
+                        "http";
+                    r.data = {{"tls", false}};
+                    return;
+                }
+                const auto& f = tls_->facts;
+                const int port = web_->port();
+                r.text =
+                    "web tls: https on port " + std::to_string(port) + "; certificate " +
+                    f.subject +
+                    (tls_->self_signed ? " (the box's own, self-signed, " : " (the owner's, ") +
+                    tls_->files.certificate_file + "), valid until " +
+                    utc_text(f.not_after_unix_s) + "\nSHA-256 " + f.sha256_fingerprint;
+                r.data = {{"tls", true},
+                          {"port", port},
+                          {"sha256", f.sha256_fingerprint},
+                          {"self_signed", tls_->self_signed},
+                          {"certificate_file", tls_->files.certificate_file},
+                          {"not_after", utc_text(f.not_after_unix_s)}};
+                p_.cycle.show_aside(
+                    draw_screen(NetworkScreen{port, fingerprint_lines(f.sha256_fingerprint)}));
+            }};
 }
 
 json BoxNetwork::status(bool for_page) const {

@@ -12,6 +12,7 @@
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/net/box_news.hpp"
 #include "firmware/net/live_view.hpp"
+#include "firmware/net/web_tls.hpp"
 #include "hal/clock.hpp"
 #include "hal/network.hpp"
 #include "hal/storage.hpp"
@@ -31,7 +32,8 @@ struct BoxNetworkParts {
     // The configuration's, as in force: the password's hash is read at each request.
     const WebSettings& web;
     const MqttSettings& mqtt;
-    hal::Storage& data;  // the records the page serves
+    hal::Storage& data;    // the records the page serves
+    std::string data_dir;  // its path: the page's self-signed certificate is kept there
     hal::Clock& clock;
     hal::Network& network;
     const LogBook& log_book;
@@ -61,10 +63,14 @@ class BoxNetwork {
     void cycle_ended(bool completed);
     nlohmann::json status(bool for_page) const;
     LiveGuide guide() const;
+    std::string page_url(const std::string& host, int port) const;
+    ConsoleCommand web_tls_row();
     BoxNetworkParts p_;
+    std::optional<WebTlsIdentity> tls_;
     LoopInbox inbox_;
     LatestFrame frames_;
     std::unique_ptr<WebWindow> web_;
+    std::unique_ptr<hal::HttpListener> redirect_;  // the plain port while TLS is on
     std::unique_ptr<MqttReport> mqtt_;
     CycleSubscription listening_;
 };

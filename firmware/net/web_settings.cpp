@@ -39,12 +39,46 @@ const SettingKey<WebSettings> kWebKeys[] = {
              throw ConfigError("not a password hash: set the password with `web password`");
          s.password_hash = hash;
      }},
+    {{"tls_listen",
+      K::text,
+      {},
+      0,
+      0,
+      {},
+      true,
+      "serve the page over TLS (https) at HOST:PORT; the plain `listen` port, if any, then only "
+      "redirects there and never takes the password; empty: no TLS"},
+     [](const WebSettings& s) { return s.tls_listen; },
+     [](WebSettings& s, const KeyInfo&, std::string_view t) {
+         s.tls_listen = host_port(t, false);
+     }},
+    {{"tls_cert",
+      K::text,
+      {},
+      0,
+      0,
+      {},
+      true,
+      "the page's certificate (PEM, the chain with the box's first); empty: a self-signed one the "
+      "box makes on its first start and keeps in its data directory (web-tls.crt)"},
+     [](const WebSettings& s) { return s.tls_cert; },
+     [](WebSettings& s, const KeyInfo&, std::string_view t) { s.tls_cert = one_line(t); }},
+    {{"tls_key", K::text, {}, 0, 0, {}, true, "the certificate's private key (PEM), with tls_cert"},
+     [](const WebSettings& s) { return s.tls_key; },
+     [](WebSettings& s, const KeyInfo&, std::string_view t) { s.tls_key = one_line(t); }},
 };
+
+void check_web(const WebSettings& s) {
+    if (s.tls_cert.empty() != s.tls_key.empty())
+        throw ConfigError(
+            "web.tls_cert and web.tls_key go together: both, or neither (a "
+            "self-signed certificate)");
+}
 
 }  // namespace
 
 SettingsTable<WebSettings> web_settings_table() {
-    return {"web", kWebKeys};
+    return {"web", kWebKeys, check_web};
 }
 
 }  // namespace calbox::firmware

@@ -91,12 +91,17 @@ void secure(ServerResponse& r) {
 
 }  // namespace
 
-WebWindow::WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits)
-    : c_(std::move(context)), limits_(limits) {
+hal::ServerLimits server_limits(const WebLimits& limits) {
     hal::ServerLimits server;
-    server.max_body_bytes = limits_.max_body_bytes;
-    server.max_connections = limits_.max_connections;
-    server.idle_timeout = limits_.idle_timeout;
+    server.max_body_bytes = limits.max_body_bytes;
+    server.max_connections = limits.max_connections;
+    server.idle_timeout = limits.idle_timeout;
+    return server;
+}
+
+WebWindow::WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits,
+                     const std::optional<hal::ServerTls>& tls)
+    : c_(std::move(context)), limits_(limits) {
     server_ = c_.network.listen(host, port,
                                 hal::HttpHandlers{[this](const ServerRequest& r) {
                                                       ServerResponse answer = this->answer(r);
@@ -110,7 +115,7 @@ WebWindow::WebWindow(WebWindowContext context, const std::string& host, int port
                                                   [](const ServerRequest&, const std::string&) {
                                                       return std::vector<std::string>{};
                                                   }},
-                                server);
+                                server_limits(limits_), tls);
 }
 
 WebWindow::~WebWindow() = default;

@@ -28,6 +28,10 @@ namespace calbox::firmware {
 struct WebSettings {
     std::string listen;  // HOST:PORT, an IP address to bind
     std::string password_hash;
+    // TLS (firmware/net/web_tls.hpp): where, and the certificate's files (both empty: the box's
+    // own, self-signed).
+    std::string tls_listen;
+    std::string tls_cert, tls_key;
 };
 
 // The web page's table of the configuration: [web].
@@ -44,6 +48,9 @@ struct WebLimits {
     std::chrono::milliseconds loop_answer{5000};  // the loop answers within it, else 503
     int live_width_px = 960;
 };
+
+// The server's limits the page asks for (its plain port's redirects too).
+hal::ServerLimits server_limits(const WebLimits& limits);
 
 struct WebWindowContext {
     LoopInbox& inbox;
@@ -66,8 +73,10 @@ struct WebWindowContext {
 
 class WebWindow {
   public:
-    // Listens at host:port (port 0: a free one); throws hal::NetworkError when it cannot.
-    WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits = {});
+    // Listens at host:port (port 0: a free one), over TLS with `tls`; throws hal::NetworkError
+    // when it cannot.
+    WebWindow(WebWindowContext context, const std::string& host, int port, WebLimits limits = {},
+              const std::optional<hal::ServerTls>& tls = std::nullopt);
     WebWindow(const WebWindow&) = delete;
     WebWindow& operator=(const WebWindow&) = delete;
     ~WebWindow();

@@ -2,10 +2,12 @@
 and waiting with a deadline. The password's hash is made here with Python's own PBKDF2, not by
 the box."""
 import hashlib
+import http.client
 import json
 import os
 import re
 import socket
+import ssl
 import subprocess
 import sys
 import time
@@ -13,6 +15,53 @@ import urllib.error
 import urllib.request
 
 PASSWORD = "correct horse"
+# A test run with --tls: the page over https (--web-tls, a certificate from a test authority
+# made here), its plain port only redirecting; every request and connection below goes over TLS.
+TLS = "--tls" in sys.argv[1:]
+_trusted = {"context": None}
+
+
+def sh_in(work, *args):
+    subprocess.run(args, check=True, cwd=work, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL)
+
+
+def test_authority(work, name):
+    """A test CA (ca.crt) and a certificate it signed for 127.0.0.1 (NAME.crt, NAME.key) in WORK,
+    made with openssl; their paths."""
+    if not os.path.exists(os.path.join(work, "ca.crt")):
+        sh_in(work, "openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2",
+              "-subj", "/CN=calbox test CA", "-keyout", "ca.key", "-out", "ca.crt")
+    sh_in(work, "openssl", "req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=127.0.0.1",
+          "-keyout", name + ".key", "-out", name + ".csr")
+    with open(os.path.join(work, "san.ext"), "w") as f:
+        f.write("subjectAltName=IP:127.0.0.1,DNS:localhost\n")
+    sh_in(work, "openssl", "x509", "-req", "-in", name + ".csr", "-CA", "ca.crt", "-CAkey",
+          "ca.key", "-CAcreateserial", "-days", "2", "-extfile", "san.ext", "-out", name + ".crt")
+    return tuple(os.path.join(work, f) for f in ("ca.crt", name + ".crt", name + ".key"))
+
+
+def trust(ca_file):
+    """Requests and connections over TLS check the page's certificate against CA_FILE."""
+    _trusted["context"] = ssl.create_default_context(cafile=ca_file)
+
+
+def connect(port, source="127.0.0.1", timeout=10, handshake=True):
+    """A connection to the page's port from SOURCE: over TLS (its handshake done) when TLS."""
+    s = socket.create_connection(("127.0.0.1", port), timeout=timeout,
+                                 source_address=(source, 0))
+    if TLS and handshake:
+        s = _trusted["context"].wrap_socket(s, server_hostname="127.0.0.1")
+    return s
+
+
+def http_connection(port, source="127.0.0.1", timeout=15):
+    if TLS:
+        return http.client.HTTPSConnection("127.0.0.1", port, timeout=timeout,
+                                           source_address=(source, 0),
+                                           context=_trusted["context"])
+    return http.client.HTTPConnection("127.0.0.1", port, timeout=timeout,
+                                      source_address=(source, 0))
 
 
 def password_hash(password, salt=bytes(range(16)), iterations=100000):
@@ -86,23 +135,38 @@ class Run:
         return broker, port
 
     def box(self, calbox, top, data, extra, config_text):
+        """A box on the sim board serving its page; (its process, the page's URL). When TLS, the
+        page is over https with a certificate from the test authority (trusted from here on),
+        and self.plain_port is the plain port that redirects to it."""
         os.makedirs(data, exist_ok=True)
+        web_tls = []
+        if TLS:
+            ca, cert, key = test_authority(self.work, "page")
+            trust(ca)
+            keys = 'tls_cert = "%s"\ntls_key = "%s"\n' % (cert, key)
+            config_text = (config_text.replace("[web]\n", "[web]\n" + keys, 1)
+                           if "[web]\n" in config_text else config_text + "\n[web]\n" + keys)
+            web_tls = ["--web-tls", "127.0.0.1:0"]
         with open(os.path.join(data, "calbox.toml"), "w") as f:
             f.write(config_text)
         err = open(os.path.join(self.work, "box.err"), "w")
         box = subprocess.Popen(
             [calbox, "run", "--board", "sim", "--scenario",
              os.path.join(top, "tests/scenarios/delta_cycle_small.toml"), "--data", data,
-             "--web", "127.0.0.1:0", "--console", ""] + extra,
+             "--web", "127.0.0.1:0", "--console", ""] + web_tls + extra,
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
         self.children.append(box)
+        scheme = "https" if TLS else "http"
 
         def page_port():
             text = open(os.path.join(self.work, "box.err"), errors="replace").read()
-            m = re.search(r"web: the page at http://127\.0\.0\.1:(\d+)/", text)
-            return int(m.group(1)) if m else None
+            m = re.search(r"web: the page at %s://127\.0\.0\.1:(\d+)/" % scheme, text)
+            plain = re.search(r"web: http://127\.0\.0\.1:(\d+)/ only sends", text)
+            if TLS and plain:
+                self.plain_port = int(plain.group(1))
+            return int(m.group(1)) if m and (plain or not TLS) else None
         port = self.wait_for("the page's port in the log", page_port, 20, box)
-        return box, "http://127.0.0.1:%d" % port
+        return box, "%s://127.0.0.1:%d" % (scheme, port)
 
     def log(self):
         return open(os.path.join(self.work, "box.err"), errors="replace").read()
@@ -120,8 +184,9 @@ def request(url, method="GET", body=None, headers=None, password=None, timeout=1
         headers["Authorization"] = "Basic " + base64.b64encode(
             ("calbox:" + password).encode()).decode()
     req = urllib.request.Request(url, data=data, method=method, headers=headers)
+    context = _trusted["context"] if url.startswith("https:") else None
     try:
-        with urllib.request.urlopen(req, timeout=timeout) as r:
+        with urllib.request.urlopen(req, timeout=timeout, context=context) as r:
             return r.status, r.headers, r.read()
     except urllib.error.HTTPError as e:
         return e.code, e.headers, e.read()

@@ -18,7 +18,7 @@ import time
 import paho.mqtt.client as mqtt
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__))))
-from common import Run, free_port  # noqa: E402
+from common import Run, free_port, sh_in, test_authority  # noqa: E402
 
 calbox, top = sys.argv[1], sys.argv[2]
 work = tempfile.mkdtemp(prefix="calbox-mqtt-login-")
@@ -27,19 +27,11 @@ SECRET = "s3cret-horse-battery"
 
 
 def sh(*args):
-    subprocess.run(args, check=True, cwd=work, stdout=subprocess.DEVNULL,
-                   stderr=subprocess.DEVNULL)
+    sh_in(work, *args)
 
 
 # A test CA and the broker's certificate, for 127.0.0.1.
-sh("openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj",
-   "/CN=calbox test CA", "-keyout", "ca.key", "-out", "ca.crt")
-sh("openssl", "req", "-newkey", "rsa:2048", "-nodes", "-subj", "/CN=127.0.0.1", "-keyout",
-   "broker.key", "-out", "broker.csr")
-with open(os.path.join(work, "san.ext"), "w") as f:
-    f.write("subjectAltName=IP:127.0.0.1,DNS:localhost\n")
-sh("openssl", "x509", "-req", "-in", "broker.csr", "-CA", "ca.crt", "-CAkey", "ca.key",
-   "-CAcreateserial", "-days", "2", "-extfile", "san.ext", "-out", "broker.crt")
+test_authority(work, "broker")
 # Another CA, which did not sign the broker's certificate.
 sh("openssl", "req", "-x509", "-newkey", "rsa:2048", "-nodes", "-days", "2", "-subj",
    "/CN=someone else", "-keyout", "other.key", "-out", "other.crt")

@@ -82,7 +82,7 @@ TEST(HttpDriver, tls_reaches_a_host_whose_certificate_it_trusts_and_no_other) {
          [](const hal::ServerRequest&, const std::string& m) {
              return std::vector<std::string>{"re:" + m};
          }});
-    const auto certificate = drivers::self_signed_certificate("127.0.0.1");
+    const auto certificate = drivers::self_signed_certificate({"127.0.0.1"}, 1);
     STRCMP_CONTAINS("-----BEGIN CERTIFICATE-----", certificate.certificate_pem.c_str());
     drivers::TlsTerminator front("127.0.0.1", server.port(), certificate);
     const fs::path ca = fs::temp_directory_path() / ("calbox-ca-" + std::to_string(::getpid()));
@@ -111,7 +111,7 @@ TEST(HttpDriver, tls_reaches_a_host_whose_certificate_it_trusts_and_no_other) {
         STRCMP_CONTAINS("TLS: certificate verify failed", e.what());
     }
     // A certificate for another address.
-    const auto other = drivers::self_signed_certificate("127.0.0.2");
+    const auto other = drivers::self_signed_certificate({"127.0.0.2"}, 1);
     drivers::TlsTerminator elsewhere("127.0.0.1", server.port(), other);
     { std::ofstream(ca) << other.certificate_pem; }
     auto misnamed = net::parse_url("https://127.0.0.1:" + std::to_string(elsewhere.port()));

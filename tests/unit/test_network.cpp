@@ -5,6 +5,7 @@
 #include <CppUTest/TestHarness.h>
 #include <netinet/in.h>
 #include <sys/socket.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -16,11 +17,14 @@
 
 #include "drivers/file_storage.hpp"
 #include "drivers/http.hpp"
+#include "drivers/network.hpp"
 #include "drivers/password.hpp"
 #include "firmware/cycle/overlays.hpp"
 #include "firmware/loop/event_loop.hpp"
 #include "firmware/net/box_news.hpp"
 #include "firmware/net/live_view.hpp"
+#include "firmware/net/web_tls.hpp"
+#include "firmware/net/web_window.hpp"
 
 using namespace calbox;
 using namespace std::chrono_literals;
@@ -450,6 +454,106 @@ TEST(LiveView, one_drawing_of_the_newest_frame_for_every_viewer_and_again_when_t
     // A viewer asking past the newest waits (here 50 ms, none coming) and is given the newest.
     frames.wait_past(2, std::chrono::milliseconds(50));
     LONGS_EQUAL(2, static_cast<long>(view.of_newest(frames, guide, 200)->sequence));
+}
+
+TEST_GROUP(WebTls){};
+
+TEST(WebTls, the_plain_port_redirects_to_the_same_path_and_never_takes_the_password) {
+    hal::ServerRequest r;
+    r.target = "/api/status?after=3";
+    r.headers["host"] = "192.168.1.23:8080";
+    auto a = firmware::plain_port_answer(r, 8443);
+    LONGS_EQUAL(308, a.status);
+    STRCMP_EQUAL("Location", a.headers.at(0).first.c_str());
+    STRCMP_EQUAL("https://192.168.1.23:8443/api/status?after=3", a.headers.at(0).second.c_str());
+    r.headers["host"] = "[fe80::1]:80";
+    a = firmware::plain_port_answer(r, 443);
+    STRCMP_EQUAL("https://[fe80::1]:443/api/status?after=3", a.headers.at(0).second.c_str());
+    r.headers["host"] = "calbox.local";
+    STRCMP_EQUAL("https://calbox.local:443/api/status?after=3",
+                 firmware::plain_port_answer(r, 443).headers.at(0).second.c_str());
+    // A password sent in the clear: refused whatever it is, nowhere to follow.
+    r.headers["authorization"] = "Basic Y2FsYm94OnNlY3JldA==";
+    a = firmware::plain_port_answer(r, 443);
+    LONGS_EQUAL(403, a.status);
+    CHECK_TRUE(a.headers.empty());
+    STRCMP_CONTAINS("not taken over plain http", a.body.c_str());
+    // A Host no client could mean (a header smuggled in it, no host at all): no redirect.
+    r.headers.erase("authorization");
+    r.headers["host"] = "evil.example\r\nSet-Cookie: x";
+    LONGS_EQUAL(400, firmware::plain_port_answer(r, 443).status);
+    r.headers.erase("host");
+    LONGS_EQUAL(400, firmware::plain_port_answer(r, 443).status);
+}
+
+TEST(WebTls, the_fingerprint_in_four_lines_of_four_groups_for_the_display) {
+    const std::string fp =
+        "94:28:29:00:86:63:E6:BB:AD:D0:D3:BB:E3:94:79:9E:AC:53:62:CB:34:D6:"
+        "1D:F4:EA:EE:82:C0:D3:BF:C8:46";
+    const auto lines = firmware::fingerprint_lines(fp);
+    LONGS_EQUAL(4, static_cast<long>(lines.size()));
+    STRCMP_EQUAL("9428 2900 8663 E6BB", lines[0].c_str());
+    STRCMP_EQUAL("ADD0 D3BB E394 799E", lines[1].c_str());
+    STRCMP_EQUAL("AC53 62CB 34D6 1DF4", lines[2].c_str());
+    STRCMP_EQUAL("EAEE 82C0 D3BF C846", lines[3].c_str());
+    for (const auto& line : lines)
+        CHECK_TRUE(line.size() <= static_cast<std::size_t>(firmware::kScreenColumns));
+}
+
+TEST(WebTls, the_box_makes_its_own_certificate_once_keeps_it_and_renews_it_before_its_end) {
+    namespace fs = std::filesystem;
+    const fs::path dir =
+        fs::temp_directory_path() / ("calbox-webtls-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const auto network = drivers::system_network();
+    auto& certificates = network->certificates();
+    std::vector<std::string> logged;
+    const hal::Log log([&](hal::LogLevel, const std::string& line) { logged.push_back(line); });
+    firmware::WebSettings settings;
+    settings.tls_listen = "192.168.1.23:8443";
+    const std::int64_t now = 1'790'000'000;  // 2026-09-21
+    const auto first = firmware::web_tls_identity(settings, dir.string(), certificates, now, log);
+    CHECK_TRUE(first.self_signed);
+    LONGS_EQUAL(1, static_cast<long>(logged.size()));
+    STRCMP_CONTAINS(first.facts.sha256_fingerprint.c_str(), logged[0].c_str());
+    STRCMP_EQUAL("192.168.1.23", first.facts.subject.c_str());
+    LONGS_EQUAL(95, static_cast<long>(first.facts.sha256_fingerprint.size()));
+    struct stat key {};
+    CHECK_EQUAL(0, ::stat((dir / firmware::kSelfSignedKeyFile).c_str(), &key));
+    LONGS_EQUAL(0600, static_cast<long>(key.st_mode & 0777));
+    // Made from the wall clock, valid ten years: past now plus nine.
+    CHECK_TRUE(first.facts.not_after_unix_s > now + 9LL * 365 * 24 * 3600);
+    // The next start: the same certificate, nothing said.
+    const auto again = firmware::web_tls_identity(settings, dir.string(), certificates, now, log);
+    STRCMP_EQUAL(first.facts.sha256_fingerprint.c_str(), again.facts.sha256_fingerprint.c_str());
+    LONGS_EQUAL(1, static_cast<long>(logged.size()));
+    // Within 30 days of its end (a clock ten years on, less 20 days): made anew, and said.
+    const std::int64_t late = first.facts.not_after_unix_s - 20LL * 24 * 3600;
+    const auto renewed =
+        firmware::web_tls_identity(settings, dir.string(), certificates, late, log);
+    CHECK_TRUE(renewed.facts.sha256_fingerprint != first.facts.sha256_fingerprint);
+    LONGS_EQUAL(2, static_cast<long>(logged.size()));
+    STRCMP_CONTAINS("the last one ends on", logged[1].c_str());
+    // The owner's files: a key that is not the certificate's is refused, naming the key.
+    const hal::ServerTls other{(dir / "other.crt").string(), (dir / "other.key").string()};
+    certificates.make_self_signed(other, {"127.0.0.1"}, 1);
+    settings.tls_cert = (dir / firmware::kSelfSignedCertificateFile).string();
+    settings.tls_key = other.key_file;
+    try {
+        firmware::web_tls_identity(settings, dir.string(), certificates, now, log);
+        FAIL("a key that is not the certificate's was taken");
+    } catch (const std::runtime_error& e) {
+        STRCMP_CONTAINS("other.key: not the key of", e.what());
+    }
+    // The owner's certificate past its end: served, with a warning.
+    settings.tls_cert = other.certificate_file;
+    const auto a_day = certificates.check(other);  // valid a day
+    const auto ended = firmware::web_tls_identity(settings, dir.string(), certificates,
+                                                  a_day.not_after_unix_s + 1, log);
+    CHECK_FALSE(ended.self_signed);
+    STRCMP_CONTAINS("browsers refuse it", logged.back().c_str());
+    fs::remove_all(dir);
 }
 
 TEST_GROUP(LoopInbox){};

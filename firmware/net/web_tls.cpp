@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "core/net/endpoints.hpp"
@@ -70,7 +71,7 @@ WebTlsIdentity web_tls_identity(const WebSettings& settings, const std::string& 
     if (at.host != "0.0.0.0" && at.host != "::") names.push_back(at.host);
     certificates.make_self_signed(id.files, names, kSelfSignedValidDays);
     id.facts = certificates.check(id.files);
-    log("web: a new self-signed certificate (" + why_new + "), SHA-256 " +
+    log("web: the box's own certificate made anew (" + why_new + "), SHA-256 " +
         id.facts.sha256_fingerprint + ": a browser asks once to trust it");
     return id;
 }
@@ -78,7 +79,7 @@ WebTlsIdentity web_tls_identity(const WebSettings& settings, const std::string& 
 hal::ServerResponse plain_port_answer(const hal::ServerRequest& request, int tls_port) {
     const auto refuse = [](int status, const std::string& why) {
         return hal::ServerResponse{
-            status, "application/json", "{\"error\": \"" + why + "\"}\n", {}};
+            status, "application/json", nlohmann::json{{"error", why}}.dump() + "\n", {}};
     };
     const auto host = asked_host(request);
     if (request.headers.count("authorization") != 0)

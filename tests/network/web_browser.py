@@ -1,12 +1,13 @@
 #!/usr/bin/python3
 """The box's web page in a real browser and its MQTT in Home Assistant's place, through one cycle
-on the sim board: headless Chromium (driven by Selenium) opens the page, sees the live view change,
+on the sim board: headless Chromium (driven by Selenium), trusting a test authority, opens the
+page over https (sent there from the plain port), sees the live view change,
 presses Start, confirms at review and reads the result, keeping screenshots of the status, set-up
 and result views; paho-mqtt stands for Home Assistant on a Mosquitto broker: the discovery configs
 arrive retained and well-formed (and again when Home Assistant says it is back), the state goes
 through the cycle, its button starts one, and the box's availability goes offline when it is
 killed. /metrics is parsed by Prometheus' own parser and its figures are the cycle's.
-Usage: web_browser.py CALBOX SOURCE_DIR SCREENSHOT_DIR"""
+Usage: web_browser.py CALBOX SOURCE_DIR SCREENSHOT_DIR [--tls]"""
 import json
 import os
 import re
@@ -25,7 +26,7 @@ from selenium.common.exceptions import NoSuchElementException
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import PASSWORD, Run, get_json, password_hash, request  # noqa: E402
+from common import PASSWORD, Run, get_json, password_hash, request, sh_in  # noqa: E402
 
 calbox, top, shots = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(shots, exist_ok=True)
@@ -110,6 +111,23 @@ ha.publish("homeassistant/status", "online")
 run.wait_for("discovery again after homeassistant/status online",
              lambda: len(seen(lambda m: m[0].endswith("/config"))) >= count + len(EXPECTED), 10, box)
 
+# The page is over https (the test runs with --tls), its certificate from the test authority,
+# which the browser trusts as a person's would: in NSS's database under its home. The box's
+# fingerprint is the one openssl reads from the certificate file.
+ca_file = os.path.join(work, "ca.crt")
+page_cert = os.path.join(work, "page.crt")
+fingerprint = subprocess.run(["openssl", "x509", "-noout", "-fingerprint", "-sha256", "-in",
+                              page_cert], check=True, capture_output=True,
+                             text=True).stdout.strip().split("=", 1)[1]
+if "SHA-256 " + fingerprint not in run.log():
+    run.fail("the box's log does not give the certificate's fingerprint %s" % fingerprint)
+home = os.path.join(work, "home")
+nssdb = "sql:" + os.path.join(home, ".pki", "nssdb")
+os.makedirs(os.path.join(home, ".pki", "nssdb"))
+sh_in(work, "certutil", "-d", nssdb, "-N", "--empty-password")
+sh_in(work, "certutil", "-d", nssdb, "-A", "-t", "C,,", "-n", "calbox test CA", "-i", ca_file)
+os.environ["HOME"] = home
+
 # The browser.
 options = webdriver.ChromeOptions()
 options.binary_location = "/usr/bin/chromium"
@@ -136,9 +154,10 @@ def tab(view):
 
 
 try:
-    driver.get(url + "/")
-    if driver.title != "calbox":
-        run.fail("the page's title is %r" % driver.title)
+    # Asked on the plain port, the browser is sent on to https, and trusts what it finds there.
+    driver.get("http://127.0.0.1:%d/" % run.plain_port)
+    if driver.title != "calbox" or driver.current_url != url + "/":
+        run.fail("the page's title is %r at %s" % (driver.title, driver.current_url))
     run.wait_for("the page showing idle", lambda: text("state") == "idle", 15, box)
     run.wait_for("the page's websocket", lambda: text("link") == "live", 10, box)
 

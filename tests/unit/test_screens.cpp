@@ -105,6 +105,10 @@ TEST(Screens, the_readmes_pictures_are_these_drawings) {
         {"error", draw_screen(firmware::ErrorScreen{4, "check camera + light",
                                                     "camera: frame 2 of 3 never arrived "
                                                     "(sensor timeout)"})},
+        {"network", draw_screen(firmware::NetworkScreen{
+                        8443,
+                        {"9428 2900 8663 E6BB", "ADD0 D3BB E394 799E", "AC53 62CB 34D6 1DF4",
+                         "EAEE 82C0 D3BF C846"}})},
     };
     const bool write = std::getenv("CALBOX_WRITE_SCREENS") != nullptr;
     for (const auto& [name, bitmap] : screens) {

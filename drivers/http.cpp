@@ -374,16 +374,17 @@ class Refusals {
         std::string answer;  // what to send once the handshake is done
         short waits_for = POLLIN;
     };
-    void add(Pending p) {
+    void add(const Pending& p) {
+        bool taken = false;
         {
             const std::lock_guard lock(mutex_);
             // Past this many a flood is closed at once: its answers may be lost, not the box.
             if (pending_.size() < kMostPending) {
-                pending_.push_back(std::move(p));
-                p.fd = -1;
+                pending_.push_back(p);
+                taken = true;
             }
         }
-        if (p.fd >= 0) {
+        if (!taken) {
             SSL_free(p.ssl);
             ::close(p.fd);
             return;
@@ -668,7 +669,7 @@ struct HttpServer::State {
     // An accepted websocket on the connection's io_context: one read always pending, writes
     // queued (the replies to each message, and whatever push() posts from other threads).
     template <class Stream>
-    void serve_socket(net::io_context& ioc, Stream&& stream, int fd,
+    void serve_socket(net::io_context& ioc, Stream stream, int fd,
                       const http::request<http::string_body>& upgrade,
                       const ServerRequest& request);
     std::unique_ptr<Listener> listener;  // last: its threads use the rest
@@ -846,11 +847,11 @@ void HttpServer::State::serve_requests(net::io_context& ioc, Stream& stream, int
 }
 
 template <class Stream>
-void HttpServer::State::serve_socket(net::io_context& ioc, Stream&& stream, int fd,
+void HttpServer::State::serve_socket(net::io_context& ioc, Stream stream, int fd,
                                      const http::request<http::string_body>& upgrade,
                                      const ServerRequest& request) {
     boost::system::error_code ec;
-    websocket::stream<std::remove_reference_t<Stream>> ws(std::move(stream));
+    websocket::stream<Stream> ws(std::move(stream));
     // No longer pushed to once this returns, before the descriptor closes with `ws` (declared
     // after it: undone before it).
     struct Forget {

@@ -13,8 +13,10 @@ namespace {
 
 using json = nlohmann::json;
 
-std::string bracketed(const std::string& host) {
-    return host.find(':') != std::string::npos ? "[" + host + "]" : host;
+// "http://[::1]:8080/": an IPv6 address in brackets.
+std::string url_of(const char* scheme, const std::string& host, int port) {
+    const std::string shown = host.find(':') != std::string::npos ? "[" + host + "]" : host;
+    return std::string(scheme) + "://" + shown + ":" + std::to_string(port) + "/";
 }
 
 // What the page's log and plot show at most; /api/history has every line kept.
@@ -43,7 +45,7 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
                 [this] { return p_.web.password_hash; }, [this] { return p_.cycle.preview(); },
                 [this] { return guide(); }},
             at.host, at.port, limits, tls_ ? std::optional(tls_->files) : std::nullopt);
-        p_.log("web: the page at " + page_url(at.host, web_->port()) +
+        p_.log("web: the page at " + url_of(tls_ ? "https" : "http", at.host, web_->port()) +
                (tls_ ? " (certificate " + tls_->facts.subject + ", SHA-256 " +
                            tls_->facts.sha256_fingerprint + ")"
                      : std::string()) +
@@ -64,8 +66,8 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
                                                     return std::vector<std::string>{};
                                                 }},
                               server_limits(limits), std::nullopt);
-        p_.log("web: http://" + bracketed(at.host) + ":" + std::to_string(redirect_->port()) +
-               "/ only sends browsers on to https, and never takes the password");
+        p_.log("web: " + url_of("http", at.host, redirect_->port()) +
+               " only sends browsers on to https, and never takes the password");
     }
     p_.console.add_rows({web_tls_row()});
     if (!p_.mqtt.broker.empty()) {
@@ -100,11 +102,6 @@ BoxNetwork::~BoxNetwork() {
 
 int BoxNetwork::web_port() const {
     return web_ ? web_->port() : 0;
-}
-
-std::string BoxNetwork::page_url(const std::string& host, int port) const {
-    return std::string(tls_ ? "https" : "http") + "://" + bracketed(host) + ":" +
-           std::to_string(port) + "/";
 }
 
 ConsoleCommand BoxNetwork::web_tls_row() {

@@ -63,7 +63,6 @@ class BoxNetwork {
     void cycle_ended(bool completed);
     nlohmann::json status(bool for_page) const;
     LiveGuide guide() const;
-    std::string page_url(const std::string& host, int port) const;
     ConsoleCommand web_tls_row();
     BoxNetworkParts p_;
     std::optional<WebTlsIdentity> tls_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
@@ -11,10 +12,6 @@
 
 namespace calbox::firmware {
 namespace {
-
-std::string joined(const std::string& directory, const char* name) {
-    return directory.empty() || directory.back() == '/' ? directory + name : directory + "/" + name;
-}
 
 // The host a client asked for (the Host header without its port), if it is a plain name or
 // address: a redirect never carries what a client could not have meant.
@@ -56,7 +53,8 @@ WebTlsIdentity web_tls_identity(const WebSettings& settings, const std::string& 
         return id;
     }
     id.self_signed = true;
-    id.files = {joined(data_dir, kSelfSignedCertificateFile), joined(data_dir, kSelfSignedKeyFile)};
+    const std::filesystem::path dir(data_dir);
+    id.files = {(dir / kSelfSignedCertificateFile).string(), (dir / kSelfSignedKeyFile).string()};
     std::string why_new;
     try {
         id.facts = certificates.check(id.files);

@@ -6,8 +6,8 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
-#include "firmware/console/console.hpp"
 #include "hal/http.hpp"
 #include "hal/log.hpp"
 #include "hal/network.hpp"

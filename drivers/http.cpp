@@ -23,6 +23,7 @@
 #include <condition_variable>
 #include <ctime>
 #include <deque>
+#include <fstream>
 #include <list>
 #include <map>
 #include <mutex>
@@ -603,24 +604,30 @@ class Listener {
 
 namespace {
 
-// A server's TLS: TLS 1.2 and later, the certificate chain and its key from their files, the key
-// checked against the certificate.
-std::unique_ptr<ssl::context> server_tls_context(const hal::ServerTls& files) {
+// A server's TLS: TLS 1.2 and later, a certificate chain and its key in PEM text, the key checked
+// against the certificate. `chain_from` and `key_from` name them in its errors.
+std::unique_ptr<ssl::context> server_tls_context(const std::string& chain_pem,
+                                                 const std::string& chain_from,
+                                                 const std::string& key_pem,
+                                                 const std::string& key_from) {
     auto context = std::make_unique<ssl::context>(ssl::context::tls_server);
     SSL_CTX_set_min_proto_version(context->native_handle(), TLS1_2_VERSION);
     boost::system::error_code ec;
-    context->use_certificate_chain_file(files.certificate_file, ec);
+    context->use_certificate_chain(net::buffer(chain_pem), ec);
     if (ec)
-        throw NetworkError("TLS: " + files.certificate_file +
-                           ": not a certificate in PEM: " + ec.message());
-    context->use_private_key_file(files.key_file, ssl::context::pem, ec);
-    if (ec)
-        throw NetworkError("TLS: " + files.key_file +
-                           ": not a private key in PEM: " + ec.message());
+        throw NetworkError("TLS: " + chain_from + ": not a certificate in PEM: " + ec.message());
+    context->use_private_key(net::buffer(key_pem), ssl::context::pem, ec);
+    if (ec) throw NetworkError("TLS: " + key_from + ": not a private key in PEM: " + ec.message());
     if (SSL_CTX_check_private_key(context->native_handle()) != 1)
-        throw NetworkError("TLS: " + files.key_file + " is not the key of " +
-                           files.certificate_file);
+        throw NetworkError("TLS: " + key_from + " is not the key of " + chain_from);
     return context;
+}
+
+std::string pem_file_text(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::ostringstream text;
+    if (!in || !(text << in.rdbuf())) throw NetworkError("TLS: " + path + ": cannot be read");
+    return text.str();
 }
 
 }  // namespace
@@ -931,7 +938,9 @@ HttpServer::HttpServer(const std::string& address, int port, Handlers handlers, 
     auto& s = *state_;
     s.handlers = std::move(handlers);
     s.limits = limits;
-    if (tls) s.tls = server_tls_context(*tls);
+    if (tls)
+        s.tls = server_tls_context(pem_file_text(tls->certificate_file), tls->certificate_file,
+                                   pem_file_text(tls->key_file), tls->key_file);
     s.listener = std::make_unique<Listener>(address, port);
     if (limits.idle_timeout.count() > 0) s.watchdog = std::thread([&s] { s.watch_idle(); });
     s.listener->start([&s](tcp::socket socket) { s.serve(std::move(socket)); },
@@ -1058,7 +1067,7 @@ hal::CertificateFacts certificate_facts(const hal::ServerTls& files) {
 }
 
 struct TlsTerminator::State {
-    ssl::context tls{ssl::context::tls_server};
+    std::unique_ptr<ssl::context> tls;
     int inner_port = 0;
     std::unique_ptr<Listener> listener;  // last: its threads use the rest
 
@@ -1073,7 +1082,7 @@ void TlsTerminator::State::pass_through(tcp::socket accepted) {
     const int outer_fd = accepted.native_handle();
     tcp::socket outer(own);
     outer.assign(accepted.local_endpoint(ec).protocol(), accepted.release(ec), ec);
-    ssl::stream<tcp::socket> client(std::move(outer), tls);
+    ssl::stream<tcp::socket> client(std::move(outer), *tls);
     tcp::socket inner(own);
     struct Forget {
         Listener& listener;
@@ -1128,10 +1137,8 @@ TlsTerminator::TlsTerminator(const std::string& address, int inner_port,
     : state_(std::make_unique<State>()) {
     auto& s = *state_;
     s.inner_port = inner_port;
-    boost::system::error_code ec;
-    s.tls.use_certificate_chain(net::buffer(certificate.certificate_pem), ec);
-    if (!ec) s.tls.use_private_key(net::buffer(certificate.private_key_pem), ssl::context::pem, ec);
-    if (ec) throw NetworkError("TLS: the certificate does not load: " + ec.message());
+    s.tls = server_tls_context(certificate.certificate_pem, "the certificate",
+                               certificate.private_key_pem, "its key");
     s.listener = std::make_unique<Listener>(address, 0);
     s.listener->start([&s](tcp::socket socket) { s.pass_through(std::move(socket)); });
 }

@@ -1471,13 +1471,29 @@ TEST(ApplianceWorstDay, the_router_meets_its_goal_with_its_own_exposure) {
     CHECK_FALSE(target.at("bracketed").get<bool>());
 }
 
-// An anodised galvo plate under the lamp: at the camera's own exposure 47 of the 961 marks lay
-// in clipped white and were lost, and the worst mark after the table missed the goal (0.031 mm).
-// Metered, every mark is measured and the goal is met.
+// A glass galvo plate under the lamp: its mirror image saturates a tenth of the work area while
+// the plate's dark side sits near the noise (on an anodised plate, at the camera's own exposure,
+// 47 of the 961 marks lay in clipped white and were lost). No one exposure holds both, so the
+// target's capture is bracketed: a long exposure for the work area's middle, a short one for the
+// bright side, merged pixel by pixel. Every mark is measured and the goal is met.
 TEST(ApplianceWorstDay, the_galvo_meets_its_goal_with_every_mark_measured) {
     const auto day = run_worst_day("galvo_worst_day.toml", "worst-galvo");
     CHECK_TEXT(day.shortfall.empty(), day.shortfall.c_str());
     CHECK(day.exposures.size() >= 2);
     STRCMP_CONTAINS("% clipped before, 0.0 % after", day.exposures.front().c_str());
     STRCMP_CONTAINS("(961 marks, 0 missing)", day.measured.c_str());
+    // The bracket in the cycle's record: both exposures, the share taken from the short one, the
+    // work area's clipped share before and after.
+    const auto& target = day.exposure_record.at(0);
+    STRCMP_EQUAL("target", target.at("what").get<std::string>().c_str());
+    CHECK(target.at("bracketed").get<bool>());
+    const auto long_us = target.at("exposure_us").get<long>();
+    const auto short_us = target.at("short_exposure_us").get<long>();
+    CHECK_TEXT(long_us > 2 * short_us,
+               (std::to_string(long_us) + " us and " + std::to_string(short_us)).c_str());
+    const double from_short = target.at("from_short_share").get<double>();
+    CHECK_TEXT(from_short > 0.01 && from_short < 0.5, std::to_string(from_short).c_str());
+    CHECK(target.at("work_area_clipped_before").get<double>() > 0.05);
+    DOUBLES_EQUAL(0, target.at("work_area_clipped_after").get<double>(), 1e-3);
+    STRCMP_CONTAINS("merged", day.exposures.front().c_str());
 }

@@ -600,10 +600,6 @@ class Listener {
     bool stopping_ = false;
 };
 
-}  // namespace
-
-namespace {
-
 // A server's TLS: TLS 1.2 and later, a certificate chain and its key in PEM text, the key checked
 // against the certificate. `chain_from` and `key_from` name them in its errors.
 std::unique_ptr<ssl::context> server_tls_context(const std::string& chain_pem,
@@ -825,8 +821,7 @@ void HttpServer::State::serve_requests(net::io_context& ioc, Stream& stream, int
             return;
         }
         const auto req = parser.release();
-        ServerRequest request = server_request(req, peer);
-        request.over_tls = tls != nullptr;
+        const ServerRequest request = server_request(req, peer);
         if (websocket::is_upgrade(req)) {
             const int status = handlers.accept_socket ? handlers.accept_socket(request) : 404;
             if (status != 101) {

@@ -66,7 +66,6 @@ struct ServerRequest {
     std::map<std::string, std::string> headers;
     std::string body;
     std::string peer;
-    bool over_tls = false;
 };
 struct ServerResponse {
     int status = 200;

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
-#include <nlohmann/json.hpp>
 #include <stdexcept>
 
 #include "core/net/endpoints.hpp"
@@ -75,18 +74,14 @@ WebTlsIdentity web_tls_identity(const WebSettings& settings, const std::string& 
 }
 
 hal::ServerResponse plain_port_answer(const hal::ServerRequest& request, int tls_port) {
-    const auto refuse = [](int status, const std::string& why) {
-        return hal::ServerResponse{
-            status, "application/json", nlohmann::json{{"error", why}}.dump() + "\n", {}};
-    };
     const auto host = asked_host(request);
     if (request.headers.count("authorization") != 0)
-        return refuse(403,
-                      "the password is not taken over plain http while the page is on https: "
-                      "it crossed the network readable; ask https://" +
-                          host.value_or("BOX") + ":" + std::to_string(tls_port) +
-                          "/ and change it with the console's `web password`");
-    if (!host) return refuse(400, "no Host to send the client on to");
+        return error_answer(403,
+                            "the password is not taken over plain http while the page is on https: "
+                            "it crossed the network readable; ask https://" +
+                                host.value_or("BOX") + ":" + std::to_string(tls_port) +
+                                "/ and change it with the console's `web password`");
+    if (!host) return error_answer(400, "no Host to send the client on to");
     std::string target =
         request.target.empty() || request.target.front() != '/' ? std::string("/") : request.target;
     return {308,

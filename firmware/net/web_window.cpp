@@ -17,10 +17,6 @@ using json = nlohmann::json;
 // The loop did not answer in time (stopped, or the inbox going).
 struct Busy {};
 
-ServerResponse error(int status, const std::string& message, hal::Headers headers = {}) {
-    return {status, "application/json", json{{"error", message}}.dump() + "\n", std::move(headers)};
-}
-
 ServerResponse json_answer(const json& j) {
     return {200, "application/json", j.dump() + "\n", {}};
 }
@@ -90,6 +86,10 @@ void secure(ServerResponse& r) {
 }
 
 }  // namespace
+
+ServerResponse error_answer(int status, const std::string& message, hal::Headers headers) {
+    return {status, "application/json", json{{"error", message}}.dump() + "\n", std::move(headers)};
+}
 
 hal::ServerLimits server_limits(const WebLimits& limits) {
     hal::ServerLimits server;
@@ -170,22 +170,24 @@ bool WebWindow::take_token(const std::string& peer) {
 std::optional<ServerResponse> WebWindow::refuse_password(const ServerRequest& request) {
     const std::string hash = on_loop<std::string>(c_.password_hash);
     if (hash.empty())
-        return error(403,
-                     "no web password is set on the box: the page changes nothing until one is "
-                     "(the console's `web password`)");
+        return error_answer(
+            403,
+            "no web password is set on the box: the page changes nothing until one is "
+            "(the console's `web password`)");
     const auto now = c_.clock.now();
     {
         const std::lock_guard lock(peers_mutex_);
         const Peer& p = peers_[request.peer];
         if (p.locked_until > now)
-            return error(429, "too many wrong passwords: wait and try again",
-                         {{"Retry-After", std::to_string(limits_.wrong_password_wait.count())}});
+            return error_answer(
+                429, "too many wrong passwords: wait and try again",
+                {{"Retry-After", std::to_string(limits_.wrong_password_wait.count())}});
     }
     const auto header = request.headers.find("authorization");
     const auto password =
         header == request.headers.end() ? std::nullopt : net::basic_auth_password(header->second);
     if (!password)
-        return error(401, "this needs the box's web password (HTTP Basic authorization)");
+        return error_answer(401, "this needs the box's web password (HTTP Basic authorization)");
     const bool right = c_.network.passwords().matches(*password, hash);
     const std::lock_guard lock(peers_mutex_);
     Peer& p = peers_[request.peer];
@@ -197,30 +199,31 @@ std::optional<ServerResponse> WebWindow::refuse_password(const ServerRequest& re
         p.wrong_passwords = 0;
         p.locked_until = now + limits_.wrong_password_wait;
     }
-    return error(401, "wrong web password");
+    return error_answer(401, "wrong web password");
 }
 
 ServerResponse WebWindow::console_answer(const std::string& line) {
     const std::string reply = on_loop<std::string>([this, line] { return c_.console(line); });
     json j = json::parse(reply);
-    if (!j.value("ok", false)) return error(409, j.value("error", std::string("refused")));
+    if (!j.value("ok", false)) return error_answer(409, j.value("error", std::string("refused")));
     return json_answer(j);
 }
 
 ServerResponse WebWindow::answer(const ServerRequest& request) {
     if (!take_token(request.peer))
-        return error(429,
-                     "too many requests: at most " +
-                         std::to_string(static_cast<int>(limits_.requests_per_second)) +
-                         " a second",
-                     {{"Retry-After", "1"}});
+        return error_answer(429,
+                            "too many requests: at most " +
+                                std::to_string(static_cast<int>(limits_.requests_per_second)) +
+                                " a second",
+                            {{"Retry-After", "1"}});
     const auto q = request.target.find('?');
     const std::string path = request.target.substr(0, q);
     const std::string query = q == std::string::npos ? "" : request.target.substr(q + 1);
     try {
         return route(request, path, query);
     } catch (const Busy&) {
-        return error(503, "the box did not answer in time: try again", {{"Retry-After", "2"}});
+        return error_answer(503, "the box did not answer in time: try again",
+                            {{"Retry-After", "2"}});
     }
 }
 
@@ -228,7 +231,7 @@ ServerResponse WebWindow::route(const ServerRequest& request, const std::string&
                                 const std::string& query) {
     if (request.method == "POST") return post(request, path);
     if (request.method != "GET")
-        return error(405, request.method + " is not served here", {{"Allow", "GET, POST"}});
+        return error_answer(405, request.method + " is not served here", {{"Allow", "GET, POST"}});
     if (path == "/" || path == "/index.html") {
         ServerResponse r{200, "text/html; charset=utf-8", std::string(web_page_html()), {}};
         r.headers.emplace_back("Content-Security-Policy",
@@ -266,16 +269,16 @@ ServerResponse WebWindow::route(const ServerRequest& request, const std::string&
         return json_answer({{"records", list}});
     }
     if (path.rfind("/records/", 0) == 0) return record(percent_decoded(path.substr(9)), query);
-    return error(404, "nothing at " + path);
+    return error_answer(404, "nothing at " + path);
 }
 
 ServerResponse WebWindow::record(const std::string& name, const std::string& query) {
     if (!is_record_name(name, c_.kept_files))
-        return error(403,
-                     "not a record: /records/ serves the cycles' records and the set-up's "
-                     "files by their plain names");
+        return error_answer(403,
+                            "not a record: /records/ serves the cycles' records and the set-up's "
+                            "files by their plain names");
     const auto contents = c_.records.read_file(name);
-    if (!contents) return error(404, "no record " + name);
+    if (!contents) return error_answer(404, "no record " + name);
     ServerResponse r{200, content_type_of(name), *contents, {}};
     if (query_value(query, "download") == "1")
         r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + name + "\"");
@@ -288,7 +291,7 @@ ServerResponse WebWindow::live(const std::string& query) {
     if (!after_text.empty()) {
         if (after_text.size() > 19 ||
             after_text.find_first_not_of("0123456789") != std::string::npos)
-            return error(400, "after: a frame number");
+            return error_answer(400, "after: a frame number");
         after = std::stoull(after_text);
     }
     // A fresh frame when the camera is free; while the cycle uses it, its own photos show.
@@ -296,7 +299,7 @@ ServerResponse WebWindow::live(const std::string& query) {
     c_.frames.wait_past(after, std::chrono::seconds(10));
     const LiveGuide guide = on_loop<LiveGuide>(c_.guide);
     const auto image = live_view_.of_newest(c_.frames, guide, limits_.live_width_px);
-    if (!image) return error(503, "no frame from the camera yet", {{"Retry-After", "1"}});
+    if (!image) return error_answer(503, "no frame from the camera yet", {{"Retry-After", "1"}});
     ServerResponse r{200, "image/jpeg", image->jpeg, {}};
     r.headers.emplace_back("X-Frame", std::to_string(image->sequence));
     r.headers.emplace_back("X-Sharpness", std::to_string(static_cast<long>(image->sharpness)));
@@ -304,18 +307,19 @@ ServerResponse WebWindow::live(const std::string& query) {
 }
 
 ServerResponse WebWindow::post(const ServerRequest& request, const std::string& path) {
-    if (path != "/api/action" && path != "/api/config") return error(404, "nothing at " + path);
+    if (path != "/api/action" && path != "/api/config")
+        return error_answer(404, "nothing at " + path);
     const auto type = request.headers.find("content-type");
     if (type == request.headers.end() || type->second.rfind("application/json", 0) != 0)
-        return error(415, "the body must be JSON (Content-Type: application/json)");
+        return error_answer(415, "the body must be JSON (Content-Type: application/json)");
     if (auto refused = refuse_password(request)) return *refused;
     json body;
     try {
         body = json::parse(request.body);
     } catch (const json::parse_error& e) {
-        return error(400, std::string("malformed JSON: ") + e.what());
+        return error_answer(400, std::string("malformed JSON: ") + e.what());
     }
-    if (!body.is_object()) return error(400, "the body must be a JSON object");
+    if (!body.is_object()) return error_answer(400, "the body must be a JSON object");
     if (path == "/api/action" && body.value("action", std::string()) == "compensate") {
         // The console's `compensate`, one line built from plain words.
         const std::string job = body.value("job", std::string());
@@ -328,9 +332,10 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
         if (job.empty() || job.size() > 100 || zero.size() > 120 || !word_chars(job) ||
             job.find(' ') != std::string::npos || !word_chars(zero) ||
             zero.find("--") != std::string::npos || body.size() > 3)
-            return error(400,
-                         "compensate: {\"action\": \"compensate\", \"job\": \"job-NAME.nc\", "
-                         "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}");
+            return error_answer(
+                400,
+                "compensate: {\"action\": \"compensate\", \"job\": \"job-NAME.nc\", "
+                "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}");
         return console_answer("compensate " + job + (zero.empty() ? "" : " " + zero) + " --json");
     }
     if (path == "/api/action") {
@@ -340,19 +345,19 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
         if (action == body.end() || !action->is_string() ||
             std::find(std::begin(actions), std::end(actions), action->get<std::string>()) ==
                 std::end(actions))
-            return error(400, "action: one of start, confirm, cancel, acknowledge, revert");
+            return error_answer(400, "action: one of start, confirm, cancel, acknowledge, revert");
         return console_answer(action->get<std::string>() + " --json");
     }
     if (body.contains("save")) {
-        if (body.size() != 1 || body["save"] != true) return error(400, "save: true, alone");
+        if (body.size() != 1 || body["save"] != true) return error_answer(400, "save: true, alone");
         return console_answer("config save --json");
     }
     const auto key = body.find("key");
     const auto value = body.find("value");
     if (key == body.end() || !key->is_string() || value == body.end() || !value->is_string() ||
         body.size() != 2)
-        return error(400,
-                     "a configuration change is {\"key\": \"table.key\", \"value\": \"text\"}");
+        return error_answer(
+            400, "a configuration change is {\"key\": \"table.key\", \"value\": \"text\"}");
     const std::string k = key->get<std::string>(), v = value->get<std::string>();
     const auto plain = [](const std::string& s) {
         return std::none_of(s.begin(), s.end(), [](char ch) {
@@ -361,8 +366,9 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
     };
     if (k.empty() || k.size() > 64 || v.size() > 200 || !plain(k) || !plain(v) ||
         k.find_first_of(" \t") != std::string::npos || v.find("--json") != std::string::npos)
-        return error(400, "a key is one word, a value one line without control characters");
-    if (k == "web.password") return error(403, "the web password is set on the console only");
+        return error_answer(400, "a key is one word, a value one line without control characters");
+    if (k == "web.password")
+        return error_answer(403, "the web password is set on the console only");
     return console_answer("config set " + k + " " + (v.empty() ? "\"\"" : v) + " --json");
 }
 

@@ -49,6 +49,9 @@ struct WebLimits {
     int live_width_px = 960;
 };
 
+// A refusal as the page gives it (its plain port too): the status and {"error": MESSAGE}.
+hal::ServerResponse error_answer(int status, const std::string& message, hal::Headers headers = {});
+
 // The server's limits the page asks for (its plain port's redirects too).
 hal::ServerLimits server_limits(const WebLimits& limits);
 

@@ -20,8 +20,9 @@ std::optional<std::string> work_zeros_reported(const std::vector<std::string>& r
     for (const char* system : {"G54", "G55", "G56", "G57", "G58", "G59"}) {
         const auto zero = modes::grbl_work_zero_of(replies, system);
         if (!zero) continue;
-        spec += (spec.empty() ? "" : " ") + std::string(system) + "=" +
-                number_text("%.3f", zero->x) + "," + number_text("%.3f", zero->y);
+        if (!spec.empty()) spec += ' ';
+        spec += std::string(system) + "=" + number_text("%.3f", zero->x) + "," +
+                number_text("%.3f", zero->y);
     }
     if (spec.empty()) return std::nullopt;
     return spec;

@@ -97,8 +97,10 @@ std::vector<std::string> fingerprint_lines(const std::string& sha256_fingerprint
     std::vector<std::string> lines;
     for (std::size_t at = 0; at < hex.size(); at += 16) {
         std::string line;
-        for (std::size_t g = at; g < std::min(hex.size(), at + 16); g += 4)
-            line += (line.empty() ? "" : " ") + hex.substr(g, 4);
+        for (std::size_t g = at; g < std::min(hex.size(), at + 16); g += 4) {
+            if (!line.empty()) line += ' ';
+            line += hex.substr(g, 4);
+        }
         lines.push_back(line);
     }
     return lines;

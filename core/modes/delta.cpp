@@ -15,6 +15,7 @@
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
 #include "core/vision/edge_kernel.hpp"
+#include "core/vision/exposure.hpp"
 #include "core/vision/strand_ring.hpp"
 
 namespace calbox::modes {
@@ -37,20 +38,34 @@ struct ExposureLimits {
 void check_exposure(const vision::GrayView& image, std::size_t frame,
                     const ExposureLimits& limits = {}) {
     const std::string which = "photo " + std::to_string(frame + 1);
+    // One pass over the photo: its histogram gives the brightest level, Otsu's split and the
+    // counts above it (three passes and two masks of the frame's size before).
     const cv::Mat view(image.height_px, image.width_px, CV_8UC1,
                        const_cast<std::uint8_t*>(image.pixels),
                        static_cast<std::size_t>(image.stride_bytes));
-    double brightest = 0;
-    cv::minMaxLoc(view, nullptr, &brightest);
+    cv::Mat counts;
+    const int bins = 256;
+    const float range[] = {0, 256};
+    const float* ranges[] = {range};
+    const int channel = 0;
+    cv::calcHist(&view, 1, &channel, cv::Mat(), counts, 1, &bins, ranges);
+    std::array<double, 256> histogram{};
+    for (int level = 0; level < bins; ++level)
+        histogram[static_cast<std::size_t>(level)] = counts.at<float>(level);
+    int brightest = bins - 1;
+    while (brightest > 0 && histogram[static_cast<std::size_t>(brightest)] == 0) --brightest;
     if (brightest < limits.brightest_at_least_dn)
         throw MeasureError(which + " is under-exposed: nothing in it is brighter than " +
-                           std::to_string(static_cast<int>(brightest)) + " of 255");
+                           std::to_string(brightest) + " of 255");
     // Bright and dark split where Otsu's method puts it: the printed lines and the bed.
-    cv::Mat ignored;
-    const double split = cv::threshold(view, ignored, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+    const int split = vision::otsu_level(histogram);
     const auto total = static_cast<double>(view.total());
-    const double bright = cv::countNonZero(view > split);
-    const double clipped = cv::countNonZero(view >= limits.clipped_from_dn);
+    double bright = 0, clipped = 0;
+    for (int level = 0; level < bins; ++level) {
+        const double n = histogram[static_cast<std::size_t>(level)];
+        if (level > split) bright += n;
+        if (level >= limits.clipped_from_dn) clipped += n;
+    }
     if (clipped > limits.clipped_share_at_most * total ||
         (bright > 0 && clipped > limits.clipped_share_at_most * bright)) {
         throw MeasureError(which + " is over-exposed: " +

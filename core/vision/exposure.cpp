@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -189,6 +190,40 @@ MergedFrame merge_bracket(const GrayView& long_frame, const GrayView& short_fram
     }
     out.from_short_share = static_cast<double>(from_short) / static_cast<double>(i);
     return out;
+}
+
+int otsu_level(const std::array<double, 256>& histogram) {
+    double total = 0, level_sum = 0;
+    for (std::size_t level = 0; level < histogram.size(); ++level) {
+        total += histogram[level];
+        level_sum += static_cast<double>(level) * histogram[level];
+    }
+    if (!(total > 0)) return 0;
+    const double scale = 1 / total;
+    const double mean = level_sum * scale;
+    // The dark class's share and mean as the level rises; a level that leaves a class emptier
+    // than float's resolution is passed over (as OpenCV does, its running mean included).
+    double dark_share = 0, dark_mean = 0, best_spread = 0;
+    int best = 0;
+    constexpr double kEmpty = std::numeric_limits<float>::epsilon();
+    for (std::size_t level = 0; level < histogram.size(); ++level) {
+        const double share = histogram[level] * scale;
+        dark_mean *= dark_share;
+        dark_share += share;
+        const double bright_share = 1 - dark_share;
+        if (std::min(dark_share, bright_share) < kEmpty ||
+            std::max(dark_share, bright_share) > 1 - kEmpty)
+            continue;
+        dark_mean = (dark_mean + static_cast<double>(level) * share) / dark_share;
+        const double bright_mean = (mean - dark_share * dark_mean) / bright_share;
+        const double spread =
+            dark_share * bright_share * (dark_mean - bright_mean) * (dark_mean - bright_mean);
+        if (spread > best_spread) {
+            best_spread = spread;
+            best = static_cast<int>(level);
+        }
+    }
+    return best;
 }
 
 }  // namespace calbox::vision

@@ -2,6 +2,7 @@
 // The box's own exposure: what the work area's light is in a frame, the exposure that puts its
 // bright side below saturation and its dark side above the noise, and two exposures merged where
 // one cannot hold both (the lamp's reflection on a glossy plate).
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -105,5 +106,11 @@ struct MergedFrame {
 };
 MergedFrame merge_bracket(const GrayView& long_frame, const GrayView& short_frame,
                           double long_over_short, const MeteringLimits& limits = {});
+
+// Otsu's level between a photo's dark and bright parts from its grey histogram: the level
+// (counts at or below it dark) that leaves the two classes' means furthest apart, weighted by
+// their shares, computed as OpenCV's THRESH_OTSU does on the same counts (a caller that has
+// the histogram need not pass over the photo again).
+int otsu_level(const std::array<double, 256>& histogram);
 
 }  // namespace calbox::vision

@@ -256,9 +256,8 @@ RawMarkers detect_raw(const GrayView& image, const MarkerOptions& options) {
     return raw;
 }
 
-}  // namespace
-
-std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
+// The detectors' finds in one image (or window), with the equalised second look if asked.
+RawMarkers detect_raw_with_equalized(const GrayView& image, const MarkerOptions& options) {
     RawMarkers raw = detect_raw(image, options);
     if (options.equalized_pass) {
         // Marks in a dim corner (light falling off, a vignette) under a soft lens: equalised tile
@@ -271,6 +270,36 @@ std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOp
                                              static_cast<int>(equalized.step)},
                                     options));
     }
+    return raw;
+}
+
+// The finds in each window (a view into the image, no copy), their corners in the image's pixels.
+RawMarkers detect_raw_in_windows(const GrayView& image, const MarkerOptions& options) {
+    RawMarkers raw;
+    for (const auto& w : options.windows) {
+        const int x0 = std::clamp(w.x_px, 0, image.width_px);
+        const int y0 = std::clamp(w.y_px, 0, image.height_px);
+        const int x1 = std::clamp(w.x_px + w.width_px, x0, image.width_px);
+        const int y1 = std::clamp(w.y_px + w.height_px, y0, image.height_px);
+        if (x1 - x0 < 8 || y1 - y0 < 8) continue;  // nothing a marker fits in
+        const GrayView window{image.pixels + static_cast<long>(y0) * image.stride_bytes + x0,
+                              x1 - x0, y1 - y0, image.stride_bytes};
+        RawMarkers found = detect_raw_with_equalized(window, options);
+        for (auto& corners : found.corners)
+            for (auto& c : corners)
+                c += cv::Point2f(static_cast<float>(x0), static_cast<float>(y0));
+        raw.cells_per_side = found.cells_per_side;
+        raw.dark_inside = found.dark_inside;
+        add_missing(raw, found);
+    }
+    return raw;
+}
+
+}  // namespace
+
+std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
+    const RawMarkers raw = options.windows.empty() ? detect_raw_with_equalized(image, options)
+                                                   : detect_raw_in_windows(image, options);
     std::vector<DetectedMarker> out;
     for (std::size_t m = 0; m < raw.ids.size(); ++m) {
         DetectedMarker marker;

@@ -72,6 +72,11 @@ struct AprilTagLimits {
     float min_decision_margin = 30.0F;
 };
 
+// A rectangle of an image's pixels: columns x_px .. x_px + width_px - 1, likewise rows.
+struct PixelWindow {
+    int x_px = 0, y_px = 0, width_px = 0, height_px = 0;
+};
+
 struct MarkerOptions {
     // OpenCV's ArUco dictionaries by OpenCV's names (DICT_4X4_50 ... DICT_APRILTAG_36h11), or
     // AprilTag families by libapriltag's (tag36h11, tag25h9, tagStandard41h12), which its own
@@ -90,6 +95,10 @@ struct MarkerOptions {
     bool equalized_pass = false;
     int equalize_tiles = 8;
     double equalize_clip_limit = 4.0;
+    // Where to look, in pixels: empty for the whole image; else only inside these windows
+    // (clipped to the image), each searched on its own (a few marks whose places are known cost
+    // a few small detections, not the frame's). Corners are refined on the whole image.
+    std::vector<PixelWindow> windows;
 };
 
 // Markers sorted by id. Throws geometry::PatternError for an unknown dictionary name.

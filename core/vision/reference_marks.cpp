@@ -17,6 +17,34 @@ ReferenceView find_reference_marks(const GrayView& image, const std::string& dic
     return {dictionary, detect_markers(image, options)};
 }
 
+ReferenceView find_reference_marks_again(const GrayView& image, const ReferenceView& stored,
+                                         const geometry::CameraModel& camera) {
+    MarkerOptions options;
+    options.dictionary = stored.dictionary;
+    options.camera = &camera;
+    options.equalized_pass = true;
+    for (const auto& mark : stored.marks) {
+        double x0 = mark.corners[0].x, x1 = x0, y0 = mark.corners[0].y, y1 = y0;
+        for (const auto& c : mark.corners) {
+            x0 = std::min(x0, c.x), x1 = std::max(x1, c.x);
+            y0 = std::min(y0, c.y), y1 = std::max(y1, c.y);
+        }
+        const double grow = std::max(x1 - x0, y1 - y0);
+        options.windows.push_back({static_cast<int>(std::floor(x0 - grow)),
+                                   static_cast<int>(std::floor(y0 - grow)),
+                                   static_cast<int>(std::ceil(x1 - x0 + 2 * grow)),
+                                   static_cast<int>(std::ceil(y1 - y0 + 2 * grow))});
+    }
+    ReferenceView now{stored.dictionary, detect_markers(image, options)};
+    const bool all_found =
+        std::all_of(stored.marks.begin(), stored.marks.end(), [&](const auto& m) {
+            return std::any_of(now.marks.begin(), now.marks.end(),
+                               [&](const auto& n) { return n.id == m.id; });
+        });
+    if (all_found) return now;
+    return find_reference_marks(image, stored.dictionary, camera);
+}
+
 std::string reference_to_yaml(const ReferenceView& view) {
     cv::FileStorage fs(".yaml", cv::FileStorage::WRITE | cv::FileStorage::MEMORY);
     fs << "dictionary" << view.dictionary;

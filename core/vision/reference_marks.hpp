@@ -20,6 +20,12 @@ struct ReferenceView {
 ReferenceView find_reference_marks(const GrayView& image, const std::string& dictionary,
                                    const geometry::CameraModel& camera);
 
+// The stored marks found again: each looked for first in a window around where it was stored
+// (grown by its own side, so that a knocked camera still shows it there), and the whole photo
+// searched as find_reference_marks does only when one is not in its window.
+ReferenceView find_reference_marks_again(const GrayView& image, const ReferenceView& stored,
+                                         const geometry::CameraModel& camera);
+
 std::string reference_to_yaml(const ReferenceView& view);
 ReferenceView reference_from_yaml(const std::string& text);  // throws geometry::FileFormatError
 

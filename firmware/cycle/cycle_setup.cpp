@@ -188,8 +188,8 @@ void Cycle::check_camera() {
                 const auto camera = geometry::camera_from_yaml(camera_yaml);
                 *move = vision::compare_reference(
                     reference,
-                    vision::find_reference_marks(calibrated_view_of(*frame, camera),
-                                                 reference.dictionary, camera),
+                    vision::find_reference_marks_again(calibrated_view_of(*frame, camera),
+                                                       reference, camera),
                     camera, geometry::plane_from_yaml(plane_yaml));
             },
             [this, move] {

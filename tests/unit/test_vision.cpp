@@ -7,6 +7,7 @@
 #include <cmath>
 #include <map>
 #include <memory>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <random>
@@ -387,10 +388,21 @@ TEST(ReferenceMarks, a_knocked_camera_moves_the_marks_by_what_the_twins_geometry
     CHECK_EQUAL(4u, stored.marks.size());
     bench.take_board_away();
 
-    const auto still = vision::compare_reference(
-        stored,
-        vision::find_reference_marks(view_of(bench.photograph(1)), stored.dictionary, camera),
-        camera, plane);
+    // Found again in windows around the stored marks (as the cycle's check does): the same
+    // corners as the whole photo's search gives.
+    const auto still_photo = bench.photograph(1);
+    const auto again = vision::find_reference_marks_again(view_of(still_photo), stored, camera);
+    const auto whole =
+        vision::find_reference_marks(view_of(still_photo), stored.dictionary, camera);
+    CHECK_EQUAL(whole.marks.size(), again.marks.size());
+    for (std::size_t m = 0; m < whole.marks.size(); ++m) {
+        CHECK_EQUAL(whole.marks[m].id, again.marks[m].id);
+        for (std::size_t k = 0; k < 4; ++k) {
+            DOUBLES_EQUAL(whole.marks[m].corners[k].x, again.marks[m].corners[k].x, 0.01);
+            DOUBLES_EQUAL(whole.marks[m].corners[k].y, again.marks[m].corners[k].y, 0.01);
+        }
+    }
+    const auto still = vision::compare_reference(stored, again, camera, plane);
     CHECK_EQUAL(4, still.marks_compared);
     CHECK(still.missing.empty());
     // Two photos' noise, the board's bright paper beside the marks in the first: well under the
@@ -416,11 +428,11 @@ TEST(ReferenceMarks, a_knocked_camera_moves_the_marks_by_what_the_twins_geometry
                 }
             }
         }
-        const auto move = vision::compare_reference(
-            stored,
-            vision::find_reference_marks(view_of(knocked_bench.photograph(2)), stored.dictionary,
-                                         camera),
-            camera, plane);
+        const auto move =
+            vision::compare_reference(stored,
+                                      vision::find_reference_marks_again(
+                                          view_of(knocked_bench.photograph(2)), stored, camera),
+                                      camera, plane);
         UT_PRINT(("turned " + std::to_string(turn_deg) + " deg: largest apparent move " +
                   std::to_string(move.largest_mm) + " mm, the twin's " + std::to_string(truth) +
                   " mm")
@@ -1142,4 +1154,34 @@ TEST(Metering, a_work_area_off_the_frame_or_without_corners_is_refused) {
     CHECK_THROWS(std::invalid_argument, vision::meter_work_area(view(pixels), {{1, 1}, {5, 5}}));
     CHECK_THROWS(std::invalid_argument,
                  vision::meter_work_area(view(pixels), {{300, 300}, {400, 300}, {400, 400}}));
+}
+
+// Otsu's level from a histogram the caller already has is OpenCV's THRESH_OTSU level on the same
+// photo, over every photo OpenCV's documentation ships (real scenes, every kind of histogram), and
+// on hand-made ones: two levels, one level (no split: 0), and an empty histogram.
+TEST(Metering, otsus_level_from_a_histogram_is_opencvs_on_the_same_photo) {
+    const std::string data = "/usr/share/doc/opencv-doc/examples/data/";
+    int photos = 0;
+    for (const char* name :
+         {"HappyFish.jpg", "LinuxLogo.jpg", "aero1.jpg", "baboon.jpg", "box.png", "building.jpg",
+          "chessboard.png", "fruits.jpg", "lena.jpg", "messi5.jpg", "pic1.png", "sudoku.png"}) {
+        const cv::Mat photo = cv::imread(data + name, cv::IMREAD_GRAYSCALE);
+        if (photo.empty()) continue;
+        ++photos;
+        std::array<double, 256> histogram{};
+        for (int y = 0; y < photo.rows; ++y)
+            for (int x = 0; x < photo.cols; ++x) ++histogram[photo.at<std::uint8_t>(y, x)];
+        cv::Mat ignored;
+        const double opencv =
+            cv::threshold(photo, ignored, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+        LONGS_EQUAL_TEXT(static_cast<long>(opencv), vision::otsu_level(histogram), name);
+    }
+    CHECK(photos >= 10);
+    std::array<double, 256> two{};
+    two[40] = 300, two[200] = 100;
+    LONGS_EQUAL(40, vision::otsu_level(two));
+    std::array<double, 256> one{};
+    one[128] = 5;
+    LONGS_EQUAL(0, vision::otsu_level(one));
+    LONGS_EQUAL(0, vision::otsu_level(std::array<double, 256>{}));
 }

@@ -7,22 +7,29 @@
 
 namespace calbox::vision {
 
-ReferenceView find_reference_marks(const GrayView& image, const std::string& dictionary,
-                                   const geometry::CameraModel& camera) {
+namespace {
+
+// How the marks are looked for, wherever: they stand near the view's corners, where the light is
+// least and a lens softest.
+MarkerOptions reference_options(const std::string& dictionary,
+                                const geometry::CameraModel& camera) {
     MarkerOptions options;
     options.dictionary = dictionary;
     options.camera = &camera;
-    // The marks stand near the view's corners, where the light is least and a lens softest.
     options.equalized_pass = true;
-    return {dictionary, detect_markers(image, options)};
+    return options;
+}
+
+}  // namespace
+
+ReferenceView find_reference_marks(const GrayView& image, const std::string& dictionary,
+                                   const geometry::CameraModel& camera) {
+    return {dictionary, detect_markers(image, reference_options(dictionary, camera))};
 }
 
 ReferenceView find_reference_marks_again(const GrayView& image, const ReferenceView& stored,
                                          const geometry::CameraModel& camera) {
-    MarkerOptions options;
-    options.dictionary = stored.dictionary;
-    options.camera = &camera;
-    options.equalized_pass = true;
+    MarkerOptions options = reference_options(stored.dictionary, camera);
     for (const auto& mark : stored.marks) {
         double x0 = mark.corners[0].x, x1 = x0, y0 = mark.corners[0].y, y1 = y0;
         for (const auto& c : mark.corners) {

@@ -217,7 +217,7 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
         targets::CompensateReport report;
         // The fresh holes lie inside the measured area: the correction is the model's there.
         const targets::JobFrame frame{
-            targets::flavour_of_firmware(machine.firmware), {geometry::Point2{}}, {}};
+            targets::flavour_of_firmware(machine.firmware), {geometry::Point2{}}, {}, {}};
         const std::string compensated =
             targets::compensate_gcode(job, {*correct, {}}, frame, {}, report);
         v.after = judge_router(truth, intended, compensated);

@@ -175,6 +175,18 @@ CompensatedJob compensate_job(const JobRequest& r) {
     } else {
         throw JobError(r.result_name + ": not a planar or galvo result (schema " + schema + ")");
     }
+    if (r.start_at) {
+        const auto start = pair_of(*r.start_at);
+        if (!start)
+            throw JobError("--start-at '" + *r.start_at +
+                           "': not X,Y in millimetres (where the tool stands when the job starts, "
+                           "machine coordinates)");
+        if (!frame.travel_mm.contains(*start))
+            throw JobError("--start-at " + *r.start_at + ": beyond the machine's travel");
+        frame.start_mm = start;
+        done.frame_line += "; the tool starts at machine X" + mm(start->x) + " Y" + mm(start->y) +
+                           " mm (--start-at)";
+    }
     try {
         const bool scanner = r.job_text.rfind("x_mm,y_mm,power", 0) == 0;
         const std::string compensated =

@@ -23,6 +23,8 @@ struct JobRequest {
     // --work-zero: "X,Y" (G54's zero in machine coordinates), "measured" (the frame the result
     // was measured in), or entries "G54=X,Y G55=X,Y ..." separated by blanks.
     std::optional<std::string> work_zero;
+    // --start-at "X,Y": where the tool stands when the job starts, machine coordinates.
+    std::optional<std::string> start_at;
     std::string work_zero_from;  // where the work zero came from, when not the owner's option
     std::optional<std::string> again_because;  // compensate a marked job again, for this reason
     std::string date;                          // for the mark: the caller's clock

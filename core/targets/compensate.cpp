@@ -39,15 +39,6 @@ std::string number(double v, int decimals) {
     return s;
 }
 
-// The comment part of a raw line (from its first ';' or '('), kept as written.
-std::string comment_of(std::string_view raw) {
-    const auto at = raw.find_first_of(";(");
-    if (at == std::string_view::npos) return {};
-    std::string c(raw.substr(at));
-    while (!c.empty() && (c.back() == '\r' || c.back() == '\n')) c.pop_back();
-    return c;
-}
-
 // A G word's number and its decimal (92.1 -> 92, 1; 90 -> 90, -1).
 struct Code {
     int number = -1, subcode = -1;
@@ -98,6 +89,9 @@ struct Modal {
     std::size_t work_system = 0;  // G54
     std::array<std::optional<Point2>, kWorkSystems> work_zero_mm;
     Point2 g92_offset_mm;
+    // What G92.3 restores: the offset G92 last set (LinuxCNC's parameters 5211-5216), zero after
+    // G92.1; unknown before the file sets one.
+    std::optional<Point2> saved_g92_mm;
     Point2 xy_mm;
     bool xy_known = false;  // not until a move gives both axes (and not after G28)
     std::optional<double> z_mm;
@@ -364,7 +358,80 @@ bool is_lathe_word(const Code& c) {
     return c.is(7) || c.is(8) || c.is(76) || (c.number >= 70 && c.number <= 72 && c.subcode < 0);
 }
 
-std::string refused_word(const Code& c, const gcode::Line& line) {
+bool is_cnc(Flavour f) {
+    return f != Flavour::printer;
+}
+
+// The letters each CNC controller has: LinuxCNC's interpreter stops on any other ("Bad
+// character"), grbl with its error 20. U V W on LinuxCNC: machines configured with them exist,
+// though rs274's own default machine (XYZABC) refuses them. grbl's Q: the peck of the drilling
+// cycles calbox writes out for it as moves; its D and H are read to be refused with the code
+// they belong to (cutter compensation, tool length), which says more than the letter.
+std::string_view letters_of(Flavour f) {
+    return f == Flavour::linuxcnc ? "ABCDFGHIJKLMNPQRSTUVWXYZ" : "ABCDFGHIJKLMNPQRSTXYZ";
+}
+
+std::string controller_of(Flavour f) {
+    return f == Flavour::linuxcnc ? "LinuxCNC" : f == Flavour::grbl ? "grbl" : "the printer";
+}
+
+// A G code's modal group, as RS274NGC numbers them (0 the non-modal codes), or -1 for a code
+// outside the table.
+int modal_group(const Code& c) {
+    const int n = c.number;
+    if (c.subcode >= 0) {
+        if (n == 38 || (n == 33 && c.subcode == 1)) return 1;
+        if (n == 59) return 12;
+        if (n == 61) return 13;
+        if (n == 92 || n == 28 || n == 30) return 0;
+        if (n == 43) return 8;
+        if (n == 90 || n == 91) return 4;
+        if (n == 41 || n == 42) return 7;
+        return -1;
+    }
+    if ((n >= 0 && n <= 3) || n == 33 || n == 73 || n == 76 || (n >= 80 && n <= 89)) return 1;
+    if (n >= 17 && n <= 19) return 2;
+    if (n == 90 || n == 91) return 3;
+    if (n >= 93 && n <= 95) return 5;
+    if (n == 20 || n == 21) return 6;
+    if (n >= 40 && n <= 42) return 7;
+    if (n == 43 || n == 49) return 8;
+    if (n == 98 || n == 99) return 10;
+    if (n >= 54 && n <= 59) return 12;
+    if (n == 61 || n == 64) return 13;
+    if (n == 4 || n == 10 || n == 28 || n == 30 || n == 52 || n == 53 || n == 92) return 0;
+    return -1;
+}
+
+bool has_m_in(const gcode::Line& line, int from, int to) {
+    for (int n = from; n <= to; ++n)
+        if (has_m(line, n)) return true;
+    return false;
+}
+
+// The M and T words of a line as written, split by when the controller acts on them: a stop
+// (M0, M1, M2, M30, M60) after the line's motion, the others before it.
+struct CommandWords {
+    std::string before, after;
+};
+CommandWords command_words(const gcode::Line& line) {
+    CommandWords words;
+    const auto add = [&](char letter, double value) {
+        const bool stop =
+            letter == 'M' && (value == 0 || value == 1 || value == 2 || value == 30 || value == 60);
+        std::string& to = stop ? words.after : words.before;
+        char text[32];
+        std::snprintf(text, sizeof text, " %c%g", letter, value);
+        to += text;
+    };
+    if (line.command_letter == 'M' || line.command_letter == 'T')
+        add(line.command_letter, line.command_number);
+    for (const auto& w : line.parameters)
+        if (w.letter == 'M' && w.value) add('M', *w.value);
+    return words;
+}
+
+std::string refused_word(const Code& c, const gcode::Line& line, Flavour flavour) {
     if (is_lathe_word(c))
         return "a lathe job (" + c.text() +
                "): calbox compensates mills, routers, lasers and printers, not lathes";
@@ -373,7 +440,9 @@ std::string refused_word(const Code& c, const gcode::Line& line) {
                "): the cutter's path is not in the file; have the CAM write the compensated path";
     if (c.number == 90 && c.subcode == 1)
         return "absolute arc centres (G90.1): have the CAM write I J K relative";
-    if (c.is(52)) return "a local offset (G52): have the CAM write the job in one work system";
+    if (c.is(52) && flavour != Flavour::linuxcnc)
+        return "a local offset (G52): " + controller_of(flavour) +
+               " has none; have the CAM write the job in one work system";
     if (c.is(68)) return "coordinate rotation (G68): have the CAM write the rotated job";
     if (c.is(51)) return "scaling (G51): have the CAM write the scaled job";
     if (c.number == 5 && (c.subcode < 0 || c.subcode <= 3))
@@ -404,6 +473,14 @@ class Compensator {
                 const CompensateSettings& settings, CompensateReport& report)
         : correction_(correction), frame_(frame), settings_(settings), report_(report) {
         m_.work_zero_mm = frame.work_zero_mm;
+        // grbl powers up in G0: axis words alone move. LinuxCNC and printers start with none.
+        if (frame.flavour == Flavour::grbl) m_.motion = 0;
+        if (frame.start_mm) {
+            m_.xy_mm = *frame.start_mm;
+            m_.xy_known = true;
+            if (const auto offset = m_.offset_mm())
+                m_.written_xy = job_of(*frame.start_mm, *offset);
+        }
     }
 
     std::string run(std::string_view job) {
@@ -431,21 +508,30 @@ class Compensator {
         // A lathe job is refused as one, wherever its first lathe word stands; and the file's
         // written precision is the most decimals its coordinates carry.
         int decimals = 0;
+        bool ended = false;
         for (const auto& [raw, number] : lines) {
-            decimals = std::max(decimals, written_decimals(raw, "XYZIJKR"));
             gcode::Line parsed;
             try {
-                std::string text = raw;
-                take_polar_words(text);
+                // E too: LinuxCNC's G76 threading has one, and the lathe job is refused as one.
+                const std::string text = words_of(raw, nullptr, "E");
+                decimals = std::max(decimals, written_decimals(text, "XYZIJKR"));
                 parsed = gcode::parse_line(text);
+                ended = ended || has_m(parsed, 2) || has_m(parsed, 30) ||
+                        (gcode::strip_comments(raw).empty() && raw.find('%') != std::string::npos);
                 for (const Code c : g_codes_of(parsed))
                     if (is_lathe_word(c)) {
                         line_number_ = number;
-                        throw fail(refused_word(c, parsed));
+                        throw fail(refused_word(c, parsed, frame_.flavour));
                     }
             } catch (const gcode::SyntaxError&) {
                 continue;  // named where the line is read
             }
+        }
+        if (frame_.flavour == Flavour::linuxcnc && !ended && !lines.empty()) {
+            line_number_ = lines.back().second;
+            throw fail(
+                "the job ends without M2, M30 or a closing '%': LinuxCNC stops on it (\"File "
+                "ended with no percent sign or program end\"); end it with M2");
         }
         written_precision_ = std::pow(10.0, -std::min(decimals, 6));
         for (auto& [raw, number] : lines) {
@@ -600,10 +686,15 @@ class Compensator {
                         "start)");
                 if ((!x || !y) && !zero)
                     throw fail("G10 L20 sets one axis of a work system whose zero is not known");
+                // The controller stands where it was sent, the corrected point: the line is
+                // rewritten so that the zero it sets is the intended one.
+                const Point2 sent = machine_of(m_.written_xy, offset_or_fail("G10 L20"));
                 Point2 z = zero.value_or(Point2{});
                 if (x) z.x = m_.xy_mm.x - m_.g92_offset_mm.x - *x * m_.unit_mm;
                 if (y) z.y = m_.xy_mm.y - m_.g92_offset_mm.y - *y * m_.unit_mm;
                 zero = z;
+                rewritten_ = offset_line(line, {(sent.x - m_.g92_offset_mm.x - z.x) / m_.unit_mm,
+                                                (sent.y - m_.g92_offset_mm.y - z.y) / m_.unit_mm});
             }
         });
     }
@@ -613,7 +704,8 @@ class Compensator {
     void state_words(const gcode::Line& line, const std::vector<Code>& codes, bool& not_a_move,
                      std::vector<Code>& kept_codes) {
         for (const Code c : codes) {
-            if (const auto why = refused_word(c, line); !why.empty()) throw fail(why);
+            if (const auto why = refused_word(c, line, frame_.flavour); !why.empty())
+                throw fail(why);
             if (c.is_motion() || (c.subcode < 0 && is_cycle(c.number))) {
                 if (is_cycle(c.number) && !is_cycle(m_.motion)) m_.cycle_start_z_mm = m_.z_mm;
                 m_.motion = c.number;
@@ -652,7 +744,11 @@ class Compensator {
             } else if (c.is(92)) {
                 not_a_move = true;
                 if (line.has('X') || line.has('Y')) {
-                    if (!m_.xy_known) throw fail("G92 with X or Y before the position is known");
+                    if (!m_.xy_known)
+                        throw fail(
+                            "G92 with X or Y before the position is known: it says the tool is "
+                            "there, wherever it stands; give where it stands when the job starts "
+                            "(calbox compensate --start-at X,Y, machine coordinates)");
                     offset_or_fail("G92");
                     const Point2 zero = *m_.work_zero_mm[m_.work_system];
                     reframe([&] {
@@ -661,22 +757,45 @@ class Compensator {
                         if (auto y = line.value('Y'))
                             m_.g92_offset_mm.y = m_.xy_mm.y - zero.y - *y * m_.unit_mm;
                     });
+                    m_.saved_g92_mm = m_.g92_offset_mm;
+                    // The controller stands at the corrected point: said to read there what the
+                    // written position reads in the intended frame, its offset is the intended one.
+                    rewritten_ = offset_line(line, m_.written_xy);
                 }
                 if (auto e = line.value('E')) m_.e = *e;
                 if (auto z = line.value('Z')) m_.z_mm = *z * m_.unit_mm, m_.written_z = *z;
                 for (const char a : kOtherAxes)
                     if (auto v = line.value(a)) m_.other_axes[a] = *v;
-            } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2)) {
+            } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2 || c.subcode == 3)) {
                 not_a_move = true;
-                reframe([&] { m_.g92_offset_mm = {}; });
+                if (frame_.flavour == Flavour::grbl && c.subcode != 1)
+                    throw fail(c.text() + ": grbl has G92.1 only (its error 20)");
+                if (c.subcode == 3 && !m_.saved_g92_mm)
+                    throw fail(
+                        "G92.3 restores an offset the file did not set (the controller's "
+                        "parameters hold it)");
+                const Point2 to = c.subcode == 3 ? *m_.saved_g92_mm : Point2{};
+                reframe([&] { m_.g92_offset_mm = to; });
+                if (c.subcode == 1) m_.saved_g92_mm = Point2{};
             } else if (c.number == 92) {
-                throw fail("G92.3 restores an offset the file did not set");
+                throw fail(c.text() + " is no offset code");
+            } else if (c.is(52)) {
+                // LinuxCNC's local offset: the G92 offset set to the words given, not from where
+                // the tool is, so the controller's frame and the intended one stay the same.
+                not_a_move = true;
+                reframe([&] {
+                    if (auto x = line.value('X')) m_.g92_offset_mm.x = *x * m_.unit_mm;
+                    if (auto y = line.value('Y')) m_.g92_offset_mm.y = *y * m_.unit_mm;
+                });
             } else if (c.is(28) || c.is(30)) {
                 not_a_move = true;
                 m_.xy_known = false, m_.z_mm.reset(), m_.written_z.reset();
                 m_.other_axes.clear();
             } else if (c.is(4)) {
-                not_a_move = true;
+                // LinuxCNC and grbl dwell, then move the line's axis words under the motion in
+                // force; a printer's G4 is the line's one command.
+                not_a_move = not_a_move || !is_cnc(frame_.flavour) ||
+                             !(line.has('X') || line.has('Y') || line.has('Z'));
             } else if (c.number == 38) {
                 if (line.has('X') || line.has('Y'))
                     throw fail("a probing move (" + c.text() +
@@ -686,17 +805,104 @@ class Compensator {
         }
     }
 
+    // The line's words as its controller reads them: on LinuxCNC and grbl blanks count for
+    // nothing and only the controller's letters are words; LinuxCNC's and printers' polar words
+    // ('@', '^') taken out first.
+    std::string words_of(const std::string& raw, Polar* polar = nullptr,
+                         std::string_view more_letters = {}) const {
+        std::string text = raw;
+        if (frame_.flavour != Flavour::grbl) {
+            const Polar p = take_polar_words(text);
+            if (polar) *polar = p;
+        }
+        if (!is_cnc(frame_.flavour)) return text;
+        return gcode::cnc_words(text, std::string(letters_of(frame_.flavour)) += more_letters);
+    }
+
+    // What LinuxCNC's interpreter and grbl refuse in a line whose words are all theirs: a letter
+    // twice, two codes of one modal group, axis words with no motion to take them, and words
+    // that no code on the line (or the motion in force) uses. `m_` holds the line's motion.
+    void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) const {
+        const std::string who = controller_of(frame_.flavour);
+        const std::string stops = ": " + who + " stops on it";
+        std::map<char, int> seen;
+        if (line.command_letter == 'T') ++seen['T'];
+        for (const auto& w : line.parameters)
+            if (w.letter != 'G' && w.letter != 'M' && ++seen[w.letter] == 2)
+                throw fail(std::string("two ") + w.letter + " words on one line" + stops);
+        for (std::size_t i = 0; i < codes.size(); ++i)
+            for (std::size_t j = i + 1; j < codes.size(); ++j)
+                if (modal_group(codes[i]) >= 0 && modal_group(codes[i]) == modal_group(codes[j]))
+                    throw fail("two G codes of one modal group on one line (" + codes[i].text() +
+                               " and " + codes[j].text() + ")" + stops);
+        const auto on_line = [&](int number) {
+            return std::any_of(codes.begin(), codes.end(),
+                               [number](Code c) { return c.number == number; });
+        };
+        const bool motion_code =
+            std::any_of(codes.begin(), codes.end(), [](Code c) { return modal_group(c) == 1; });
+        // The non-modal codes that take the line's axis words for themselves.
+        const bool axis_code =
+            on_line(10) || on_line(28) || on_line(30) || on_line(52) ||
+            std::any_of(codes.begin(), codes.end(), [](Code c) { return c.is(92); });
+        bool axes = polar;
+        for (const char a : std::string_view("XYZABCUVW")) axes = axes || line.has(a);
+        if (axis_code && motion_code && axes)
+            throw fail("two G codes on one line that both take the axis words" + stops);
+        const int motion = motion_code || (axes && !axis_code) ? m_.motion : -1;
+        if (axes && !axis_code && motion < 0)
+            throw fail(
+                "axis words with no motion in force (before any G0 G1 G2 G3, or after "
+                "G80)" +
+                stops);
+        const bool arc = motion == 2 || motion == 3, cycle = is_cycle(motion);
+        const bool g10 = on_line(10);
+        const auto unused = [&](char letter, const std::string& users) {
+            if (line.has(letter))
+                throw fail(std::string(1, letter) + " word with no " + users + " to use it" +
+                           stops);
+        };
+        if (!arc && motion != 87 && !g10) {
+            unused('I', "G2 or G3");
+            unused('J', "G2 or G3");
+            unused('K', "G2 or G3");
+        }
+        if (arc) {
+            const char other = m_.plane == 17 ? 'K' : m_.plane == 18 ? 'J' : 'I';
+            if (line.has(other))
+                throw fail(std::string(1, other) + " word in an arc in the " +
+                           (m_.plane == 17   ? "XY"
+                            : m_.plane == 18 ? "XZ"
+                                             : "YZ") +
+                           " plane" + stops);
+        }
+        if (!arc && !cycle && !g10) unused('R', "G2, G3, a drilling cycle or G10");
+        if (!cycle && !g10) unused('L', "G10 or drilling cycle");
+        const bool m_with_p = has_m_in(line, 50, 53) || has_m_in(line, 62, 66) || has_m(line, 98) ||
+                              has_m_in(line, 100, 199);
+        const bool arc_turns = arc && frame_.flavour == Flavour::linuxcnc;
+        if (!on_line(4) && !g10 && !arc_turns && !on_line(64) && !m_with_p &&
+            !(motion == 82 || motion == 86 || motion == 88 || motion == 89))
+            unused('P', "G4, G10, G64, an arc's turns, G82/G86/G88/G89 or M code");
+        if (!(motion == 73 || motion == 83) && !on_line(64) && !g10 && !has_m_in(line, 66, 68) &&
+            !has_m_in(line, 100, 199))
+            unused('Q', "G73, G83, G64, G10 or M66-M68");
+        if (!on_line(43)) unused('H', "G43");
+        unused('D', "G41 or G42");
+    }
+
     void line(std::string raw) {
         gcode::Line line;
         std::vector<Code> codes;
         Polar polar;
-        std::string parsed = raw;
         try {
-            polar = take_polar_words(parsed);
-            line = gcode::parse_line(parsed);
+            line = gcode::parse_line(words_of(raw, &polar));
             codes = g_codes_of(line);
         } catch (const gcode::SyntaxError& e) {
-            throw fail(e.what());
+            throw fail(std::string(e.what()) +
+                       (is_cnc(frame_.flavour)
+                            ? ": " + controller_of(frame_.flavour) + " stops on it too"
+                            : std::string()));
         }
         numbered_ = line.line_number.has_value();
         checksummed_ = gcode::without_checksum(raw).size() != raw.size();
@@ -704,7 +910,9 @@ class Compensator {
         bool not_a_move = false;
         machine_move_ = false;
         std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move
+        rewritten_.reset();
         state_words(line, codes, not_a_move, kept_codes);
+        if (is_cnc(frame_.flavour)) cnc_rules(line, codes, polar.any());
         if (has_m(line, 98) || has_m(line, 99))
             throw fail(
                 "a subprogram call or return (M98, M99): have the CAM write the program "
@@ -716,7 +924,10 @@ class Compensator {
         const bool commanded_motion = std::any_of(codes.begin(), codes.end(), [](Code c) {
             return c.is_motion() || (c.subcode < 0 && is_cycle(c.number));
         });
-        const bool not_a_command = line.command_letter == 'M' || line.command_letter == 'T';
+        // A printer's M or T command is the line's one command; on LinuxCNC and grbl M, S, F and
+        // T words ride on a move like any other word.
+        const bool not_a_command =
+            !is_cnc(frame_.flavour) && (line.command_letter == 'M' || line.command_letter == 'T');
         if (machine_move_) return machine_move(raw, line);
         if (!not_a_move && !not_a_command && is_cycle(m_.motion) &&
             (axes || line.has('R') || commanded_motion))
@@ -747,7 +958,10 @@ class Compensator {
                         else if (now != m_.other_axes.end())
                             now->second += *v;
                     }
-            verbatim(raw);
+            if (rewritten_)
+                emit(*rewritten_ + trailing_comment(raw));
+            else
+                verbatim(raw);
             return;
         }
         move(raw, line, polar, kept_codes, is_arc_mode);
@@ -833,6 +1047,7 @@ class Compensator {
             }
             others.push_back({a, now->second, m_.absolute ? *v : now->second + *v});
         }
+        const CommandWords commands = command_words(line);
         for (std::size_t k = 0; k < n; ++k) {
             const double share = static_cast<double>(k + 1) / static_cast<double>(n);
             const Point2 c = corrected(path[k].xy);
@@ -856,11 +1071,12 @@ class Compensator {
             }
             const auto feed = line.value('F');
             const bool per_piece_feed = m_.inverse_time && feed && m_.motion != 0;
-            std::string left_out = per_piece_feed ? "XYZEIJKRGF" : "XYZEIJKRG";
+            std::string left_out = per_piece_feed ? "XYZEIJKRGFM" : "XYZEIJKRGM";
             for (const auto& a : others) left_out += a.letter;
             if (is_arc_mode) left_out += 'P';  // the turns, traced
-            if (k == 0) text += other_words(line, left_out);
+            if (k == 0) text += other_words(line, left_out) + commands.before;
             if (per_piece_feed) text += " F" + number(*feed * static_cast<double>(n), 6);
+            if (k + 1 == n) text += commands.after;
             if (k + 1 == n) text += trailing_comment(raw);
             emit(text);
             ++report_.pieces;
@@ -883,6 +1099,28 @@ class Compensator {
         return " Z" + number(dz, decimals());
     }
 
+    // An offset line (G92, G10 L20) with its X and Y words given new values, everything else on
+    // it as written.
+    std::string offset_line(const gcode::Line& line, Point2 xy) const {
+        std::string text;
+        for (const Code c : g_codes_of(line)) {
+            if (!text.empty()) text += ' ';
+            text += c.text();
+        }
+        for (const auto& w : line.parameters) {
+            if (w.letter == 'G' || w.letter == 'M') continue;
+            text += ' ';
+            text += w.letter;
+            if (w.letter == 'X' || w.letter == 'Y')
+                text += number(w.letter == 'X' ? xy.x : xy.y, decimals());
+            else if (w.value)
+                text += number(*w.value, 6);
+        }
+        const CommandWords m = command_words(line);
+        text += m.before + m.after;
+        return text;
+    }
+
     static std::string other_words(const gcode::Line& line, std::string_view left_out) {
         std::string text;
         for (const auto& w : line.parameters) {
@@ -893,8 +1131,10 @@ class Compensator {
         }
         return text;
     }
+    // The line's comments, after its last piece: only the comments (words after an inline
+    // comment are the line's words, written already).
     static std::string trailing_comment(const std::string& raw) {
-        const std::string comment = comment_of(gcode::without_checksum(raw));
+        const std::string comment = gcode::comments_of(gcode::without_checksum(raw));
         return comment.empty() ? std::string() : " " + comment;
     }
 
@@ -922,60 +1162,60 @@ class Compensator {
             throw fail("canned cycle " + code.text() + " L" + number(repeats, 3) +
                        ": L repeats a hole 0 to 10000 times");
         const bool keep = frame_.flavour == Flavour::linuxcnc;
-        if (!keep && !m_.absolute)
-            throw fail("canned cycle " + code.text() +
-                       " in incremental mode (G91): this controller has no cycles and calbox "
-                       "writes them out in absolute coordinates only; have the CAM write G90");
         if (!m_.xy_known && !(m_.absolute && line.has('X') && line.has('Y') && !polar.any()))
             throw fail(
                 "a drilling cycle where the position is unknown (after G28 or at the start)");
         const Point2 offset = offset_or_fail("a drilling cycle");
         // The planes in the job's frame, mm, fixed for the block: G91 takes R from the height
-        // the block starts at, Z from R.
+        // the series of cycles started at (as LinuxCNC reads it: a later block's R0 is that
+        // height again, not the retract it starts from), Z from R.
         std::optional<double> r_mm, bottom_mm;
         if (m_.absolute) {
             r_mm = *m_.cycle_r * m_.unit_mm;
             bottom_mm = *m_.cycle_z * m_.unit_mm;
-        } else if (m_.z_mm) {
-            r_mm = *m_.z_mm + *m_.cycle_r * m_.unit_mm;
+        } else if (m_.cycle_start_z_mm) {
+            r_mm = *m_.cycle_start_z_mm + *m_.cycle_r * m_.unit_mm;
             bottom_mm = *r_mm + *m_.cycle_z * m_.unit_mm;
+        } else if (!keep) {
+            throw fail("canned cycle " + code.text() +
+                       " in incremental mode (G91) from a height the file does not give: give a "
+                       "Z move before it");
         }
         std::optional<double> clear_mm = r_mm;
         if (!m_.retract_to_r)
             clear_mm = m_.cycle_start_z_mm && r_mm
                            ? std::optional<double>(std::max(*m_.cycle_start_z_mm, *r_mm))
                            : std::nullopt;
+        const CommandWords commands = command_words(line);
         for (long k = 0; k < static_cast<long>(repeats); ++k) {
             const Point2 hole = end_of(line, polar, offset);
             inside_travel(hole, offset);
             const Point2 c = corrected(hole);
-            const std::optional<double> z_now = m_.z_mm;
             if (keep) {
                 std::string text;
                 if (k == 0)
                     for (const Code kc : kept_codes) text += kc.text() + " ";
                 text += code.text();
                 text += xy_words(c, offset, decimals());
-                std::string others = other_words(line, "XYRLG");
-                if (!m_.absolute && k > 0) {
-                    // Each repeat starts where the last left the tool: R again from there.
-                    if (!r_mm || !z_now)
-                        throw fail("repeats (L) of an incremental cycle from an unknown height");
-                    text += " R" + number((*r_mm - *z_now) / m_.unit_mm, decimals());
-                } else if (line.has('R')) {
-                    text += " R" + number(*line.value('R'), 6);
-                }
-                if (k == 0) {
-                    text += others;
-                } else {
-                    text += other_words(line, "XYRLGF");
-                }
-                if (k + 1 == static_cast<long>(repeats)) text += trailing_comment(raw);
+                // R stays in force from block to block, as the job's own repeats keep it (under
+                // G91 it is taken from the series' start either way).
+                if (k == 0 && line.has('R')) text += " R" + number(*line.value('R'), 6);
+                text += other_words(line, k == 0 ? "XYRLGM" : "XYRLGFM");
+                if (k == 0) text += commands.before;
+                if (k + 1 == static_cast<long>(repeats))
+                    text += commands.after + trailing_comment(raw);
                 emit(text);
             } else {
+                if (k == 0 && !commands.before.empty()) emit(commands.before.substr(1));
+                // Written out in absolute coordinates; an incremental job goes back to G91.
+                const bool incremental = !m_.absolute;
+                if (incremental) emit("G90"), m_.absolute = true;
                 written_out_cycle(c, offset, *r_mm, *bottom_mm, clear_mm, line, kept_codes, k == 0);
+                if (incremental) emit("G91"), m_.absolute = false;
+                if (k + 1 == static_cast<long>(repeats) && !commands.after.empty())
+                    emit(commands.after.substr(1));
                 if (k + 1 == static_cast<long>(repeats)) {
-                    const std::string comment = comment_of(gcode::without_checksum(raw));
+                    const std::string comment = gcode::comments_of(gcode::without_checksum(raw));
                     if (!comment.empty()) emit(comment);
                 }
             }
@@ -1003,16 +1243,16 @@ class Compensator {
         std::string head;
         if (first)
             for (const Code kc : kept_codes)
-                if (!kc.is(98) && !kc.is(99)) head += kc.text() + " ";
-        if (m_.z_mm && *m_.z_mm < r_mm) emit(head + "G0" + z(r_mm)), head.clear();
-        emit(head + "G0" + xy_words(c, offset, d));
-        emit("G0" + z(r_mm));
+                // G91 is written after the hole, which is written in G90.
+                if (!kc.is(98) && !kc.is(99) && !kc.is(91)) head += kc.text() + " ";
+        // The block's F is set on its first line, before any of its moves, as the cycle set it.
         std::string feed;
-        if (auto f = line.value('F')) feed = " F" + number(*f, 6);
-        const auto down = [&](double to_mm) {
-            emit("G1" + z(to_mm) + feed);
-            feed.clear();
-        };
+        if (auto f = line.value('F'); f && first) feed = " F" + number(*f, 6);
+        if (m_.z_mm && *m_.z_mm < r_mm)
+            emit(head + "G0" + z(r_mm) + feed), head.clear(), feed.clear();
+        emit(head + "G0" + xy_words(c, offset, d) + feed);
+        if (!m_.z_mm || *m_.z_mm != r_mm) emit("G0" + z(r_mm));
+        const auto down = [&](double to_mm) { emit("G1" + z(to_mm)); };
         const double peck_clearance_mm = 0.254;  // LinuxCNC's: 0.010 inch
         switch (m_.motion) {
             case 81:
@@ -1061,6 +1301,8 @@ class Compensator {
     std::string out_;
     long line_number_ = 0;
     bool numbered_ = false, checksummed_ = false, machine_move_ = false;
+    // An offset line as the controller must read it, where calbox rewrote it (G92, G10 L20).
+    std::optional<std::string> rewritten_;
     double written_precision_ = 1;  // the job's units: 0.001 for a file written to 3 decimals
 };
 

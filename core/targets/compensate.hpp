@@ -48,6 +48,9 @@ struct JobFrame {
     Flavour flavour = Flavour::printer;
     std::array<std::optional<geometry::Point2>, kWorkSystems> work_zero_mm{geometry::Point2{}};
     Area travel_mm;
+    // Where the tool stands when the job starts, in machine coordinates, where the owner says:
+    // a job that sets G92 before its first move says the tool is there.
+    std::optional<geometry::Point2> start_mm;
 };
 
 struct CompensateSettings {

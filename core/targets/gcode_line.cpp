@@ -66,6 +66,91 @@ std::string strip_comments(std::string_view raw) {
     return out;
 }
 
+std::string cnc_words(std::string_view raw, std::string_view letters) {
+    std::string out;
+    std::size_t i = 0;
+    const auto column = [&](std::size_t at) { return "column " + std::to_string(at + 1) + ": "; };
+    // Past blanks and comments, to the next character that counts (or the end).
+    const auto next = [&] {
+        while (i < raw.size()) {
+            if (is_blank(raw[i])) {
+                ++i;
+            } else if (raw[i] == '(') {
+                const auto close = raw.find(')', i);
+                if (close == std::string_view::npos)
+                    throw SyntaxError(column(i) + "a '(' comment not closed on its line");
+                i = close + 1;
+            } else if (raw[i] == ';') {
+                i = raw.size();
+            } else {
+                break;
+            }
+        }
+        return i < raw.size();
+    };
+    const auto is_digit = [](char c) { return std::isdigit(static_cast<unsigned char>(c)) != 0; };
+    // A program's opening and closing '%', alone on its line.
+    if (next() && raw[i] == '%') {
+        ++i;
+        if (!next()) return out;
+        throw SyntaxError(column(i) + "words after a program's '%' on its line");
+    }
+    if (next() && raw[i] == '/') {
+        out += '/';
+        ++i;
+    }
+    while (next()) {
+        const std::size_t at = i;
+        const char letter = static_cast<char>(std::toupper(static_cast<unsigned char>(raw[i])));
+        if (!std::isalpha(static_cast<unsigned char>(letter)))
+            throw SyntaxError(column(at) + "'" + std::string(1, raw[i]) +
+                              "' where a word's letter should be");
+        if (letters.find(letter) == std::string_view::npos)
+            throw SyntaxError(column(at) + "'" + std::string(1, raw[i]) +
+                              "': the controller has no " + std::string(1, letter) + " word");
+        ++i;
+        std::string number;
+        bool digits = false, point = false;
+        if (next() && (raw[i] == '+' || raw[i] == '-')) number += raw[i++];
+        while (next() && (is_digit(raw[i]) || (raw[i] == '.' && !point))) {
+            point = point || raw[i] == '.';
+            digits = digits || is_digit(raw[i]);
+            number += raw[i++];
+        }
+        const std::string word = std::string(1, letter) + number;
+        if (!digits)
+            throw SyntaxError(column(at) + "'" + word + "': " + std::string(1, letter) +
+                              " without a number after it");
+        if (next() && !std::isalpha(static_cast<unsigned char>(raw[i])))
+            throw SyntaxError(column(at) + "'" + word + std::string(1, raw[i]) + "': '" +
+                              std::string(1, raw[i]) + "' is no part of a number");
+        if (!out.empty() && out != "/") out += ' ';
+        out += word;
+    }
+    return out;
+}
+
+std::string comments_of(std::string_view raw) {
+    std::string out;
+    for (std::size_t i = 0; i < raw.size(); ++i) {
+        std::size_t end = std::string_view::npos;
+        if (raw[i] == ';') {
+            end = raw.size();
+        } else if (raw[i] == '(') {
+            end = raw.find(')', i);
+            end = end == std::string_view::npos ? raw.size() : end + 1;
+        } else {
+            continue;
+        }
+        std::string_view comment = raw.substr(i, end - i);
+        while (!comment.empty() && is_blank(comment.back())) comment.remove_suffix(1);
+        if (!out.empty()) out += ' ';
+        out += comment;
+        i = end - 1;
+    }
+    return out;
+}
+
 std::uint8_t checksum(std::string_view text) {
     std::uint8_t sum = 0;
     for (char c : text) sum ^= static_cast<std::uint8_t>(c);

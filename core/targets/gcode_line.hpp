@@ -66,6 +66,17 @@ std::string numbered_line(long number, std::string_view command);
 // '*' in a comment is text: PrusaSlicer's settings block has them).
 std::string_view without_checksum(std::string_view raw);
 
+// The words of a line as RS274NGC (LinuxCNC) and grbl read it: blanks outside comments count
+// for nothing ("X 1 0 . 5" is X10.5), letters in either case, and after every letter a number
+// with an optional sign and point, at least one digit and no exponent. `letters` are the ones the
+// controller has. Returns the words upper case, one blank apart, without comments ('(...)' and
+// ';' to the end), a leading '/' kept. Throws SyntaxError "column C: ..." naming the word.
+std::string cnc_words(std::string_view raw, std::string_view letters);
+
+// Every comment of a line ('(...)' and ';' to the end) in order, one blank apart: what is left
+// of the line when its words are taken out.
+std::string comments_of(std::string_view raw);
+
 // Words before any command are modal (S12000, F500, X10 Y20 under the last motion command).
 // Throws SyntaxError naming what is wrong (bad number, checksum mismatch, stray text).
 Line parse_line(std::string_view raw);

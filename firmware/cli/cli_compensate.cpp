@@ -27,6 +27,7 @@ int compensate(const Args& args) {
     if (!(request.settings.max_segment_mm >= 0.01 && request.settings.max_segment_mm <= 100))
         throw UsageError("--segment must be 0.01 to 100 mm");
     request.work_zero = args.get("--work-zero");
+    request.start_at = args.get("--start-at");
     request.again_because = args.get("--again");
     if (request.again_because && request.again_because->empty())
         throw UsageError("--again needs the reason");
@@ -52,6 +53,9 @@ std::vector<Command> compensate_commands() {
           {"-o", "OUT", "the compensated job, written", Given::required},
           {"--work-zero", "X,Y|measured|\"G54=X,Y G55=X,Y\"",
            "where the job's work zero is in machine coordinates (a planar result)"},
+          {"--start-at", "X,Y",
+           "where the tool stands when the job starts (machine coordinates): for a job that "
+           "sets G92 before its first move"},
           {"--again", "REASON", "compensate a job that already went through a correction"},
           {"--segment", "MM", "the longest piece a move is split into (default 1)"}},
          R"(Sends every XY position of a job through the correction a solve found, so that the

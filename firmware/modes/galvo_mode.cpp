@@ -182,7 +182,7 @@ targets::Area GalvoCycleMode::measured_area() const {
 
 // A scanner's jobs are in its field's coordinates: the machine's own.
 targets::JobFrame GalvoCycleMode::target_frame() const {
-    return {targets::Flavour::grbl, {geometry::Point2{}}, {}};
+    return {targets::Flavour::grbl, {geometry::Point2{}}, {}, {}};
 }
 
 targets::KeptCorrection GalvoCycleMode::correction_of(const std::string& kept_text) const {

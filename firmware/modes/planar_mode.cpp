@@ -169,7 +169,7 @@ targets::Area PlanarCycleMode::measured_area() const {
 // The verification job is the target again, in the frame the target ran in: its work frame is
 // the measured one, so the correction is taken in that frame as it is.
 targets::JobFrame PlanarCycleMode::target_frame() const {
-    return {targets::flavour_of_firmware(machine_.firmware), {geometry::Point2{}}, {}};
+    return {targets::flavour_of_firmware(machine_.firmware), {geometry::Point2{}}, {}, {}};
 }
 
 targets::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_text) const {

@@ -15,8 +15,8 @@ using geometry::Point2;
 namespace {
 
 const targets::Correction kIdentity = [](Point2 p) { return p; };
-// A router's job whose work zero is the machine's origin, no travel limit, corrected everywhere.
-const targets::JobFrame kMachineFrame{targets::Flavour::linuxcnc, {Point2{}}, {}};
+// A printer's job in machine coordinates, no travel limit, corrected everywhere.
+const targets::JobFrame kMachineFrame{targets::Flavour::printer, {Point2{}}, {}, {}};
 
 std::vector<std::string> lines_of(const std::string& text) {
     std::vector<std::string> out;

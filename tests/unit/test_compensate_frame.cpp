@@ -38,12 +38,28 @@ std::vector<std::string> lines_of(const std::string& text) {
     return out;
 }
 
+// targets::compensate_gcode for these tests' jobs: LinuxCNC stops on a job without its end (M2),
+// so a LinuxCNC job without one gets it, taken off the output again, and the lines these tests
+// read are the job's own.
+std::string compensate_job(const std::string& job, const targets::MachineCorrection& c,
+                           const targets::JobFrame& frame, const targets::CompensateSettings& s,
+                           targets::CompensateReport& report) {
+    const bool ended = job.find("M2") != std::string::npos || job.find("M30") != std::string::npos;
+    if (frame.flavour != targets::Flavour::linuxcnc || ended)
+        return targets::compensate_gcode(job, c, frame, s, report);
+    std::string out = targets::compensate_gcode(job + "M2\n", c, frame, s, report);
+    CHECK_EQUAL(std::string("M2\n"), out.substr(out.size() - 3));
+    out.resize(out.size() - 3);
+    --report.lines;
+    return out;
+}
+
 std::string compensated(const std::string& job, const targets::JobFrame& frame,
                         targets::CompensateReport& report,
                         const targets::Correction& c = kStretched) {
     targets::CompensateSettings s;
     s.max_segment_mm = 1000;  // one piece a move: the end points are what these tests read
-    return targets::compensate_gcode(job, {c, kMeasured}, frame, s, report);
+    return compensate_job(job, {c, kMeasured}, frame, s, report);
 }
 std::string compensated(const std::string& job, const targets::JobFrame& frame) {
     targets::CompensateReport report;
@@ -51,7 +67,7 @@ std::string compensated(const std::string& job, const targets::JobFrame& frame) 
 }
 
 targets::JobFrame router_at(Point2 work_zero) {
-    return {targets::Flavour::linuxcnc, {work_zero}, kTravel};
+    return {targets::Flavour::linuxcnc, {work_zero}, kTravel, {}};
 }
 
 std::string refusal_of(const std::string& job, const targets::JobFrame& frame) {
@@ -138,7 +154,7 @@ TEST(CompensateFrame, work_offsets_set_in_the_job_and_given_are_tracked) {
 }
 
 TEST(CompensateFrame, printers_retract_with_g10_routers_set_offsets_with_it) {
-    const targets::JobFrame printer{targets::Flavour::printer, {Point2{}}, kTravel};
+    const targets::JobFrame printer{targets::Flavour::printer, {Point2{}}, kTravel, {}};
     // FullControl's firmware retraction: passed as written.
     const auto out = lines_of(compensated("G90\nG1 X100 Y100\nG10 ; retract\nG11\n", printer));
     CHECK_EQUAL(std::string("G10 ; retract"), out[2]);
@@ -157,8 +173,8 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
     const targets::Correction none = [](Point2 p) { return p; };
     targets::CompensateReport report;
     targets::CompensateSettings s;
-    const targets::JobFrame frame{targets::Flavour::grbl, {Point2{}}, {}};
-    const auto out = lines_of(targets::compensate_gcode(
+    const targets::JobFrame frame{targets::Flavour::grbl, {Point2{}}, {}, {}};
+    const auto out = lines_of(compensate_job(
         "G90\nG0 X0.257 Y16.041\nG3 X0.257 Y19.058 Z2.38 R1.508\n", {none, {}}, frame, s, report));
     double farthest = 0;
     for (std::size_t i = 2; i < out.size(); ++i) {
@@ -171,8 +187,7 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
     // 0.002 short in a 3-decimal file: refused with its figures.
     const auto refused = [&] {
         try {
-            targets::compensate_gcode("G90\nG0 X0 Y0\nG2 X3 Y0 R1.498\n", {none, {}}, frame, s,
-                                      report);
+            compensate_job("G90\nG0 X0 Y0\nG2 X3 Y0 R1.498\n", {none, {}}, frame, s, report);
         } catch (const targets::CompensateError& e) {
             return std::string(e.what());
         }
@@ -196,9 +211,10 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
     CHECK_EQUAL(std::string("G80"), kept[3]);
     CHECK_EQUAL(2, report.holes);
     // Incremental repeats: L3 holes 10 mm apart from x = 100, each its own line, written as
-    // differences of the corrected holes (111.1, 121.2, 131.3). R is taken from the height each
-    // repeat starts at: under G98 that is Z 10 again (R -9 each time); under G99 the R plane the
-    // last one left (R 0 after the first).
+    // differences of the corrected holes (111.1, 121.2, 131.3). LinuxCNC takes an incremental R
+    // from the height the series of cycles started at (Z 10), under G98 and G99 alike (its rs274
+    // reads a later block's R0 as Z 10, not as the R plane the last hole left): R -9 on the first
+    // line stays in force for the others, which write none.
     for (const bool to_r : {false, true}) {
         const auto repeats =
             lines_of(compensated(std::string("G90 G0 X100 Y100 Z10\nG91 ") +
@@ -210,22 +226,25 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
             const auto l = gcode::parse_line(repeats[k]);
             x += *l.value('X');
             DOUBLES_EQUAL(1.01 * (100 + 10 * k), x, 1e-4);
-            DOUBLES_EQUAL(to_r && k > 1 ? 0 : -9, *l.value('R'), 1e-9);
+            if (k == 1)
+                DOUBLES_EQUAL(-9, *l.value('R'), 1e-9);
+            else
+                CHECK_FALSE(l.has('R'));
             DOUBLES_EQUAL(-3, *l.value('Z'), 1e-9);
         }
     }
     // grbl has no cycles (nor G98 / G99): G83 written out as pecks of 1 mm to Z-2.5, back to R
     // between them, down to 0.254 mm above the last depth, then back to where it started (G98:
     // Z 5).
-    const targets::JobFrame grbl{targets::Flavour::grbl, {Point2{}}, kTravel};
+    const targets::JobFrame grbl{targets::Flavour::grbl, {Point2{}}, kTravel, {}};
     const auto pecks =
         lines_of(compensated("G90 G0 X0 Y0 Z5\nG98 G83 X100 Y100 Z-2.5 R0.5 Q1 F200\n", grbl));
     const std::vector<std::string> expected{
         // (0, 0) lies beyond the measured area: its corner's correction (+0.1, +0.01), held.
         "G90 G0 X0.1 Y0.01 Z5",
-        "G0 X101 Y100.1",
+        "G0 X101 Y100.1 F200",
         "G0 Z0.5",
-        "G1 Z-0.5 F200",
+        "G1 Z-0.5",
         "G0 Z0.5",
         "G0 Z-0.246",
         "G1 Z-1.5",
@@ -324,8 +343,8 @@ TEST(CompensateFrame, inverse_time_feed_is_shared_among_a_moves_pieces) {
     targets::CompensateReport report;
     targets::CompensateSettings s;
     const auto out =
-        lines_of(targets::compensate_gcode("G90 G0 X100 Y100\nG93 G1 X104 Y100 F2\n",
-                                           {kStretched, kMeasured}, router_at({0, 0}), s, report));
+        lines_of(compensate_job("G90 G0 X100 Y100\nG93 G1 X104 Y100 F2\n", {kStretched, kMeasured},
+                                router_at({0, 0}), s, report));
     CHECK_EQUAL(5u, out.size());
     for (std::size_t i = 1; i < out.size(); ++i)
         DOUBLES_EQUAL(8, *gcode::parse_line(out[i]).value('F'), 1e-12);
@@ -336,16 +355,16 @@ TEST(CompensateFrame, a_rotary_axis_is_shared_along_the_pieces_and_arcs_take_the
     targets::CompensateReport report;
     targets::CompensateSettings s;
     const auto out =
-        lines_of(targets::compensate_gcode("G90 G0 X100 Y100 A0\nG1 X104 Y100 A40 F300\n",
-                                           {kStretched, kMeasured}, router_at({0, 0}), s, report));
+        lines_of(compensate_job("G90 G0 X100 Y100 A0\nG1 X104 Y100 A40 F300\n",
+                                {kStretched, kMeasured}, router_at({0, 0}), s, report));
     CHECK_EQUAL(5u, out.size());
     for (std::size_t k = 1; k <= 4; ++k)
         DOUBLES_EQUAL(10.0 * k, *gcode::parse_line(out[k]).value('A'), 1e-9);
     // Driving A from where the file never said is refused: the share is unknown.
     std::string unknown_a;
     try {
-        targets::compensate_gcode("G90 G0 X100 Y100\nG1 X104 Y100 A40\n", {kStretched, kMeasured},
-                                  router_at({0, 0}), s, report);
+        compensate_job("G90 G0 X100 Y100\nG1 X104 Y100 A40\n", {kStretched, kMeasured},
+                       router_at({0, 0}), s, report);
     } catch (const targets::CompensateError& e) {
         unknown_a = e.what();
     }
@@ -356,10 +375,10 @@ TEST(CompensateFrame, a_rotary_axis_is_shared_along_the_pieces_and_arcs_take_the
     const targets::Correction none = [](Point2 p) { return p; };
     targets::CompensateSettings fine;
     fine.max_segment_mm = 0.1;
-    const auto one = targets::compensate_gcode("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0\n",
-                                               {none, {}}, router_at({0, 0}), fine, report);
-    const auto three = targets::compensate_gcode("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0 P3\n",
-                                                 {none, {}}, router_at({0, 0}), fine, report);
+    const auto one = compensate_job("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0\n", {none, {}},
+                                    router_at({0, 0}), fine, report);
+    const auto three = compensate_job("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0 P3\n", {none, {}},
+                                      router_at({0, 0}), fine, report);
     const double ratio = static_cast<double>(lines_of(three).size() - 1) /
                          static_cast<double>(lines_of(one).size() - 1);
     DOUBLES_EQUAL(3, ratio, 0.05);
@@ -474,4 +493,113 @@ TEST(CompensateFrame, a_scanners_job_stays_in_its_field) {
     r.job_text = "x_mm,y_mm,power\n0,0,0\n6,0,0.5\n";
     CHECK(job_refusal(r).find("job.nc: line 3: the point 6,0 is beyond the field the machine "
                               "reaches") != std::string::npos);
+}
+
+// Issue 56's cases, each worked by hand through kStretched (x 1 % long, y + 0.001 x), one piece a
+// move. LinuxCNC's interpreter reads the same (tests/cli/rs274_judge.py).
+TEST(CompensateFrame, words_riding_on_modal_moves_are_corrected_with_them) {
+    // grbl: M03 S1000 and M5 on modal G1 lines. (0, 0) is beyond the measured area: its corner's
+    // correction (+0.1, +0.01), held.
+    const targets::JobFrame grbl{targets::Flavour::grbl, {Point2{}}, kTravel, {}};
+    targets::CompensateReport report;
+    const auto out = lines_of(compensated(
+        "G21 G90\nG0 X0 Y0\nG1 X120 Y100 F500\nX130 Y100 M03 S1000\nX150 Y100 M5\n", grbl, report));
+    CHECK_EQUAL(std::string("G0 X0.1 Y0.01"), out[1]);
+    CHECK_EQUAL(std::string("G1 X121.2 Y100.12 F500"), out[2]);
+    CHECK_EQUAL(std::string("G1 X131.3 Y100.13 S1000 M3"), out[3]);
+    CHECK_EQUAL(std::string("G1 X151.5 Y100.15 M5"), out[4]);
+    CHECK_EQUAL(4, report.moves);
+    // A stop rides after the move: M2 on the last piece.
+    targets::CompensateSettings s;
+    const auto split =
+        lines_of(compensate_job("G90 G0 X100 Y100\nG1 X102 Y100 F100 M8 M2\n",
+                                {kStretched, kMeasured}, router_at({0, 0}), s, report));
+    CHECK_EQUAL(std::string("G1 X102.01 Y100.101 F100 M8"), split[1]);
+    CHECK_EQUAL(std::string("G1 X103.02 Y100.102 M2"), split[2]);
+}
+
+TEST(CompensateFrame,
+     offsets_set_mid_job_are_rewritten_so_the_controller_zero_is_the_intended_one) {
+    // The tool stands at the corrected (101, 100.1) when G92 says "here is 0, 0": the controller
+    // is told it reads (1, 0.1) there, so its zero is at machine (100, 100) as the job meant, and
+    // X20 Y10 (machine 120, 110, sent to 121.2, 110.12) is written X21.2 Y10.12.
+    for (const std::string offset : {"G92 X0 Y0", "G10 L20 P1 X0 Y0"}) {
+        const auto out = lines_of(
+            compensated("G90 G0 X100 Y100\n" + offset + "\nG0 X20 Y10\n", router_at({0, 0})));
+        CHECK_EQUAL(std::string("G90 G0 X101 Y100.1"), out[0]);
+        CHECK_EQUAL(offset.substr(0, offset.size() - 5) + "X1 Y0.1", out[1]);
+        CHECK_EQUAL(std::string("G0 X21.2 Y10.12"), out[2]);
+    }
+    // G10 L2 sets the zero in machine coordinates: as written.
+    const auto l2 = lines_of(
+        compensated("G90 G0 X100 Y100\nG10 L2 P1 X50 Y50\nG0 X20 Y10\n", router_at({0, 0})));
+    CHECK_EQUAL(std::string("G10 L2 P1 X50 Y50"), l2[1]);
+    // X20 Y10 in the new frame: machine (70, 60), sent to (70.7, 60.07), X20.7 Y10.07 there.
+    CHECK_EQUAL(std::string("G0 X20.7 Y10.07"), l2[2]);
+    // T2Laser's opening G92 before any move says the head is where it stands: at machine
+    // (100, 100) the owner says, it reads (42.2, 49.95), so X52.2 Y59.95 is machine (110, 110).
+    targets::JobFrame laser{targets::Flavour::grbl, {Point2{}}, kTravel, Point2{100, 100}};
+    const auto t2 = lines_of(compensated("G21\nG90\nG92X42.2Y49.95\nG0 X52.2 Y59.95\n", laser));
+    CHECK_EQUAL(std::string("G92 X42.2 Y49.95"), t2[2]);
+    CHECK_EQUAL(std::string("G0 X53.3 Y60.06"), t2[3]);
+    // Without where it starts, refused naming the option.
+    CHECK(refusal_of("G21\nG92X42.2Y49.95\nG0 X52.2 Y59.95\n",
+                     {targets::Flavour::grbl, {Point2{}}, kTravel, {}})
+              .find("line 2: G92 with X or Y before the position is known") != std::string::npos);
+    // G52 on LinuxCNC sets the offset itself, not from where the tool is: as written, and the
+    // next point placed by it (X10 Y5 at machine 60, 25: sent to 60.6, 25.06).
+    const auto g52 =
+        lines_of(compensated("G90 G0 X100 Y100\nG52 X50 Y20\nG0 X10 Y5\n", router_at({0, 0})));
+    CHECK_EQUAL(std::string("G52 X50 Y20"), g52[1]);
+    CHECK_EQUAL(std::string("G0 X10.6 Y5.06"), g52[2]);
+}
+
+TEST(CompensateFrame, words_are_read_as_the_controllers_read_them) {
+    // Blanks inside a number count for nothing (RS274NGC): X 1 0 . 5 is X10.5, sent to 10.605.
+    const auto spaced =
+        lines_of(compensated("G90 G0 X20 Y20\nG1 X 1 0 . 5 Y2 0 F100\n", router_at({0, 0})));
+    CHECK_EQUAL(std::string("G1 X10.605 Y20.0105 F100"), spaced[1]);
+    // Lower case letters, and a leading '+' and '.'.
+    const auto lower = lines_of(compensated("g90 g0 x20 y20\ng1 x30 f100\n", router_at({0, 0})));
+    CHECK_EQUAL(std::string("G90 G0 X20.2 Y20.02"), lower[0]);
+    CHECK_EQUAL(std::string("G1 X30.3 Y20.03 F100"), lower[1]);
+    // (20, 0.5) is beyond the measured area: (20, 10)'s correction (+0.2, +0.02), held.
+    const auto plus =
+        lines_of(compensated("G90 G0 X20 Y20\nG1 X+50. Y+20.\nG1 X+20. Y+.5\n", router_at({0, 0})));
+    CHECK_EQUAL(std::string("G1 X50.5 Y20.05"), plus[1]);
+    CHECK_EQUAL(std::string("G1 X20.2 Y0.52"), plus[2]);
+    // What LinuxCNC and grbl stop on is refused, naming the line, the column and the word.
+    const auto refused = [&](const std::string& job, const std::string& see) {
+        const std::string why = refusal_of(job, router_at({0, 0}));
+        CHECK_TEXT(why.find(see) != std::string::npos, why.c_str());
+    };
+    refused("G0 X0 Y0\nG1 X30 Y3O F100\n", "line 2: column 10: 'O': the controller has no O word");
+    refused("G0 X1e5 Y10\n", "line 1: column 6: 'e': the controller has no E word");
+    refused("G0 X0 Y0\nG1 X10 Y2 K3 F100\n", "line 2: K word with no G2 or G3 to use it");
+    refused("G0 X0 Y0\nG1 X1 X2 F10\n", "line 2: two X words on one line");
+    refused("G0 G1 X1 Y1 F10\n", "line 1: two G codes of one modal group on one line (G0 and G1)");
+    refused("G0 X1 Y1\nG80\nX2 Y2\n", "line 3: axis words with no motion in force");
+    refused("G0 X1.2.3 Y1\n", "line 1: column 4: 'X1.2.': '.' is no part of a number");
+    // This file's helper ends LinuxCNC's jobs with M2; without it, LinuxCNC stops at the end.
+    std::string unended;
+    try {
+        targets::CompensateReport report;
+        targets::compensate_gcode("G0 X1 Y1\n", {kStretched, kMeasured}, router_at({0, 0}), {},
+                                  report);
+    } catch (const targets::CompensateError& e) {
+        unended = e.what();
+    }
+    CHECK_TEXT(
+        unended.find("line 1: the job ends without M2, M30 or a closing '%'") != std::string::npos,
+        unended.c_str());
+}
+
+TEST(CompensateFrame, comments_are_kept_once_and_the_words_after_them_read) {
+    // tort.ngc's line: the words after the inline comment are the arc's; the copy carries the
+    // comment once and no word twice.
+    const auto out = lines_of(compensated(
+        "G90 G0 X100 Y100 Z13\nG17 G2 (270 360) I0 J7 X107 Y107 Z13 F100\n", router_at({0, 0})));
+    const auto last = out[out.size() - 1];
+    CHECK_EQUAL(std::string("G1 X108.07 Y107.107 Z13 (270 360)"), last);
+    for (const auto& l : out) CHECK_EQUAL(std::string::npos, l.find("I0"));
 }

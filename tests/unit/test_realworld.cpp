@@ -176,6 +176,7 @@ targets::JobFrame frame_of_file(const std::string& file, geometry::Point2 work_z
     return {printer ? targets::Flavour::printer
                     : (ngc ? targets::Flavour::linuxcnc : targets::Flavour::grbl),
             {work_zero_mm},
+            {},
             {}};
 }
 

@@ -1,0 +1,445 @@
+#!/usr/bin/python3
+"""LinuxCNC's own interpreter as the judge of `calbox compensate`.
+
+For every job (the shared real ones and the hand-made cases below) the original and the
+compensated copy are read by `rs274` (linuxcnc-uspace), the work zero given to both through its
+parameter file (#5221/#5222, inches). The correction is a planar result written here with a field
+this script evaluates itself (a reference model, not calbox's): the machine lands at
+c + e(c), so each point of the copy is carried to where the tool really goes and must lie on the
+original's motion, reaching every one of its endpoints in order, at the same Z, by the same kind
+of move (traverse or feed); arcs are checked along their sweep. Spindle, coolant, dwell, tool,
+feed and stop commands come in the same order, after the same original move. A job rs274 refuses
+is refused by calbox; a job calbox refuses alone is one of the named deliberate differences.
+
+usage: rs274_judge.py CALBOX DATA_DIR [--only NAME] [--keep DIR]
+"""
+import json
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+
+# The reference field, in the result's frame (its work zero at machine 0, 0): linear scale and
+# squareness and quadratic bows, a few tenths of a millimetre over the travel.
+FIELD = {"x_scale": 1.0e-3, "y_scale": -8.0e-4, "xy_squareness": 5.0e-4,
+         "x_straightness": 2.0e-7, "y_straightness": -3.0e-7}
+TRAVEL = [-1000.0, -1000.0, 1000.0, 1000.0]
+NAMES = ["x_scale", "y_scale", "xy_squareness", "x_straightness", "y_straightness",
+         "gantry_yaw_rate", "x_pitch_rate", "x_roll_rate", "y_pitch_rate", "y_roll_rate",
+         "tool_tilt_about_x", "tool_tilt_about_y"]
+
+
+def error_mm(x, y):
+    """e(x, y): where the machine lands less where it was sent (the model's translation terms)."""
+    f = FIELD
+    return (f["x_scale"] * x + f["y_straightness"] * y * y,
+            f["y_scale"] * y + f["xy_squareness"] * x + f["x_straightness"] * x * x)
+
+
+def landing(x, y):
+    e = error_mm(x, y)
+    return x + e[0], y + e[1]
+
+
+def result_json(firmware):
+    stats = {"max_mm": 0.5, "q3_mm": 0.3, "median_mm": 0.2, "q1_mm": 0.1, "min_mm": 0.0,
+             "mean_mm": 0.2, "std_mm": 0.1, "points": 100}
+    return {
+        "schema": "calbox.planar-result/1", "machine_fingerprint": "fnv1a64:0000000000000000",
+        "tool_length_mm": 50.0,
+        "parameters": [{"name": n, "unit": "", "seed_symbol": "", "value": FIELD.get(n, 0.0),
+                        "uncertainty": 0.0, "fitted": n in FIELD} for n in NAMES],
+        "placement": {"rotation_rad": 0.0, "translation_mm": [0.0, 0.0]},
+        "rigid_part_left_out": {"rotation_rad": 0.0, "offset_mm": [0.0, 0.0]},
+        "rank": 5, "condition": 10.0, "residual_rms_mm": 0.001, "unit_variance_ratio": 1.0,
+        "measurement_sigma_mm": 0.001, "before": stats, "after": stats,
+        "valid_area_mm": TRAVEL,
+        "frame": {"work_zero_mm": [0.0, 0.0], "work_zero_from": "the judge",
+                  "travel_mm": TRAVEL, "firmware": firmware, "kind": "router"},
+        "backlash_mm": None,
+        "firmware": {"lines": [], "mean_left_mm": 0.0, "mean_before_mm": 0.0},
+        "holes": []}
+
+
+# The hand-made cases: (name, flavour, text). Expected verdicts come from rs274 itself.
+CASES = [
+    ("modal_m_s_words", "grbl",
+     "G21 G90\nG0 X0 Y0\nG1 X120 Y100 F500\nX130 Y100 M03 S1000\nX150 Y100 M5\nM2\n"),
+    ("t2laser_style", "grbl",
+     "G21\nG90\nG92X42.2Y49.95\nG0 X0 Y0\nM03 S0\nG1 X10 Y0 F1200 S300\nX10.5 Y0.2 S120\n"
+     "X11 Y0.4 S0\nG0 X0 Y1\nG1 X12 Y1 S255\nM05\nG92X0Y0\nG0 X5 Y5\nM2\n"),
+    ("g92_mid_job", "linuxcnc",
+     "G21 G90\nG0 X100 Y100\nG92 X0 Y0\n"
+     + "".join("G0 X%d Y%d\nG1 Z-1 F100\nG0 Z1\n" % (x, y)
+               for x in (0, 20, 40) for y in (0, 20, 40))
+     + "G92.1\nG0 X0 Y0\nM2\n"),
+    ("g10_l20_mid_job", "linuxcnc",
+     "G21 G90\nG0 X100 Y100\nG10 L20 P1 X0 Y0\n"
+     + "".join("G0 X%d Y%d\n" % (x, y) for x in (0, 25, 50) for y in (0, 25))
+     + "G10 L2 P1 X10 Y10\nG0 X0 Y0\nM2\n"),
+    ("g10_l20_grbl", "grbl",
+     "G21 G90\nG0 X60 Y-40\nG10 L20 P1 X0 Y0\nG0 X10 Y10\nG1 X20 Y10 F300\nM2\n"),
+    ("g52_local", "linuxcnc",
+     "G21 G90\nG0 X10 Y10\nG52 X50 Y20\nG0 X0 Y0\nG1 X10 Y5 F200\nG52 X0 Y0\nG0 X0 Y0\nM2\n"),
+    ("g92_2_g92_3", "linuxcnc",
+     "G21 G90\nG0 X30 Y30\nG92 X0 Y0\nG0 X10 Y0\nG92.2\nG0 X10 Y0\nG92.3\nG0 X10 Y0\nM2\n"),
+    ("letter_o", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X30 Y3O F100\nM2\n"),
+    ("exponent", "linuxcnc", "G21 G90\nG0 X1e5 Y10\nM2\n"),
+    ("exponent_grbl", "grbl", "G21 G90\nG0 X1e5 Y10\nM2\n"),
+    ("stray_k", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X10 Y2 K3 F100\nM2\n"),
+    ("spaces_in_numbers", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X 1 0 . 5 Y2 F100\nM2\n"),
+    ("lower_case", "grbl", "g21 g90\ng0 x0 y0\ng1 x10 y5 f300\nm2\n"),
+    ("comment_then_words", "linuxcnc",
+     "G21 G90\nG0 X0 Y0 Z13\nG17 G2 (270 360) I0 J7 X7 Y7 Z13 F100\nM2\n"),
+    ("two_x_words", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X1 X2 F10\nM2\n"),
+    ("two_motion_codes", "linuxcnc", "G21 G90\nG0 G1 X1 F10\nM2\n"),
+    ("leading_plus_and_point", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X+.5 Y-.25 F10\nM2\n"),
+    ("m_words_on_moves", "linuxcnc",
+     "G21 G90\nG0 X0 Y0\nG1 X10 Y0 F100 M3 S1200\nX20 M8\nX30 M9 M5\nX40 M2\n"),
+    ("dwell_with_move", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X1 F100\nX2 G4 P0.5\nM2\n"),
+    ("inch_job", "linuxcnc",
+     "G20 G90\nG0 X1 Y1\nG1 X2.5 Y1.25 F10\nG2 X3.5 Y2.25 I1 J0\nM2\n"),
+    ("g81_under_g91_grbl", "grbl",
+     "G21 G90\nG0 X10 Y10 Z5\nG91 G99 G81 X10 Y0 Z-3 R-4 F100 L3\nG80 G90\nG0 X0 Y0\nM2\n"),
+    ("g81_g91_repeats_g98", "linuxcnc",
+     "G21 G90\nG0 X100 Y100 Z10\nG91 G98 G81 X10 Y0 Z-3 R-9 L3 F100\nX5 Y5\nG80 G90\nM2\n"),
+    ("g81_g91_repeats_g99", "linuxcnc",
+     "G21 G90\nG0 X100 Y100 Z10\nG91 G99 G81 X10 Y0 Z-3 R-9 L3 F100\nG81 X5 Y5 R0\nG80 G90\nM2\n"),
+    ("g83_pecks_grbl", "grbl",
+     "G21 G90\nG0 X0 Y0 Z5\nG98 G83 X30 Y20 Z-2.5 R0.5 Q1 F200\nX40\nG80\nM2\n"),
+    ("g18_g19_arcs", "linuxcnc",
+     "G21 G90\nG0 X10 Y10 Z0\nG18 G2 X20 Z0 I5 K0 F100\nG19 G3 Y20 Z0 J5 K0\nG17\nM2\n"),
+    ("g18_helix_linuxcnc", "linuxcnc",
+     "G21 G90\nG0 X10 Y10 Z0\nG18 G3 X14 Z4 I2 K2 Y12 F100\nG17\nM2\n"),
+]
+
+# Where calbox refuses a job rs274 runs, on purpose, and why. A refusal not listed fails.
+CALBOX_ALONE = {
+    # LinuxCNC's polar words ('@' distance, '^' angle) are no words of grbl's.
+    ("hole-circle.ngc", "grbl"): "grbl has no polar words",
+}
+
+# Jobs that set G92 before their first move say the tool is where it stands: rs274 starts at
+# machine 0, 0, and calbox is told so.
+START_AT_ZERO = {"t2laser_style"}
+
+TRACKED = ("SET_SPINDLE_SPEED", "START_SPINDLE_CLOCKWISE", "START_SPINDLE_COUNTERCLOCKWISE",
+           "STOP_SPINDLE_TURNING", "MIST_ON", "MIST_OFF", "FLOOD_ON", "FLOOD_OFF", "DWELL",
+           "SELECT_TOOL", "CHANGE_TOOL", "PROGRAM_STOP", "OPTIONAL_PROGRAM_STOP",
+           "PROGRAM_END", "SET_FEED_RATE")
+
+
+class Refused(Exception):
+    pass
+
+
+def run_rs274(path, work, zero_mm):
+    # rs274 writes its parameters back when it ends: each run starts from a fresh file. Every
+    # tool number a job may ask for is in its table.
+    var, tools = os.path.join(work, "judge.var"), os.path.join(work, "judge.tbl")
+    var_file(var, zero_mm)
+    if not os.path.exists(tools):
+        with open(tools, "w") as f:
+            f.write("".join("T%d P%d D3.175 Z+0 ;\n" % (t, t) for t in range(1, 100)))
+    out = subprocess.run(["rs274", "-t", tools, "-v", var, "-g", path], capture_output=True,
+                         text=True, stdin=subprocess.DEVNULL, timeout=300)
+    text = out.stdout + out.stderr
+    if out.returncode != 0:
+        lines = [l for l in text.splitlines() if l.strip() and not re.match(r"\s*\d+ N", l)
+                 and l.strip() != "executing"]
+        raise Refused(lines[0] if lines else "rs274 exit %d" % out.returncode)
+    return text
+
+
+def canon(text, start=None):
+    """rs274's canonical commands -> (motion, events): motion is a list of primitives in machine
+    millimetres; events are (command, arguments, primitives done before it)."""
+    unit = 1.0
+    g5x = [0.0] * 3
+    g92 = [0.0] * 3
+    plane = "XY"
+    pos = start
+    motion, events = [], []
+    inverse_time = False
+    feed = None
+    for line in text.splitlines():
+        m = re.match(r"\s*\d+ N\S*\s+([A-Z_0-9]+)\((.*)\)\s*$", line)
+        if not m:
+            continue
+        name, args = m.group(1), m.group(2)
+        if name == "USE_LENGTH_UNITS":
+            unit = 25.4 if "INCHES" in args else (10.0 if "CM" in args else 1.0)
+            continue
+        if name == "SET_FEED_MODE":
+            inverse_time = args.strip().split(",")[-1].strip() not in ("0", "CANON_UNITS_PER_MINUTE")
+            continue
+        values = []
+        for a in args.split(","):
+            try:
+                values.append(float(a))
+            except ValueError:
+                values.append(a.strip())
+        if name == "SET_G5X_OFFSET":
+            g5x = [values[1] * unit, values[2] * unit, values[3] * unit]
+        elif name == "SET_G92_OFFSET":
+            g92 = [values[0] * unit, values[1] * unit, values[2] * unit]
+        elif name == "SELECT_PLANE":
+            plane = "XY" if "XY" in args else ("XZ" if "XZ" in args else "YZ")
+        elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "STRAIGHT_PROBE"):
+            end = [values[i] * unit + g5x[i] + g92[i] for i in range(3)]
+            if pos is not None and max(abs(end[i] - pos[i]) for i in range(3)) < 1e-9:
+                continue  # a move to where the tool stands does nothing
+            motion.append({"kind": "traverse" if name == "STRAIGHT_TRAVERSE" else "feed",
+                           "from": pos, "to": end})
+            pos = end
+        elif name == "ARC_FEED":
+            e1, e2, c1, c2, turns, axis_end = values[0:6]
+            off = [g5x[i] + g92[i] for i in range(3)]
+            # The plane's first and second axes and its normal, as canon orders them.
+            order = {"XY": (0, 1, 2), "XZ": (2, 0, 1), "YZ": (1, 2, 0)}[plane]
+            end = [0.0] * 3
+            centre = [0.0, 0.0]
+            end[order[0]] = e1 * unit + off[order[0]]
+            end[order[1]] = e2 * unit + off[order[1]]
+            end[order[2]] = axis_end * unit + off[order[2]]
+            centre[0] = c1 * unit + off[order[0]]
+            centre[1] = c2 * unit + off[order[1]]
+            motion.append({"kind": "feed", "from": pos, "to": end, "arc": True, "order": order,
+                           "centre": centre, "turns": int(turns)})
+            pos = end
+        elif name in TRACKED:
+            if name == "SET_FEED_RATE" and (inverse_time or values[0] == feed):
+                continue  # per move under G93; the same rate again changes nothing
+            if name == "SET_FEED_RATE":
+                feed = values[0]
+            events.append((name, tuple(round(v, 3) if isinstance(v, float) else v
+                                       for v in values), len(motion)))
+    return motion, events
+
+
+def arc_point(p, t):
+    """The point at share t of an arc primitive's sweep (XYZ, machine mm)."""
+    o = p["order"]
+    s, e, c = p["from"], p["to"], p["centre"]
+    a0 = math.atan2(s[o[1]] - c[1], s[o[0]] - c[0])
+    a1 = math.atan2(e[o[1]] - c[1], e[o[0]] - c[0])
+    r0 = math.hypot(s[o[0]] - c[0], s[o[1]] - c[1])
+    r1 = math.hypot(e[o[0]] - c[0], e[o[1]] - c[1])
+    turns = p["turns"]
+    if turns > 0:
+        sweep = (a1 - a0) % (2 * math.pi)
+        if sweep <= 1e-12:
+            sweep += 2 * math.pi
+        sweep += 2 * math.pi * (turns - 1)
+    else:
+        sweep = -((a0 - a1) % (2 * math.pi))
+        if sweep >= -1e-12:
+            sweep -= 2 * math.pi
+        sweep -= 2 * math.pi * (-turns - 1)
+    a = a0 + sweep * t
+    r = r0 + (r1 - r0) * t
+    q = [0.0] * 3
+    q[o[0]] = c[0] + r * math.cos(a)
+    q[o[1]] = c[1] + r * math.sin(a)
+    q[o[2]] = s[o[2]] + (e[o[2]] - s[o[2]]) * t
+    return q, sweep
+
+
+def nearest_share(p, q):
+    """(distance, share) from q to primitive p: the share along it of its nearest point."""
+    s, e = p["from"], p["to"]
+    if not p.get("arc"):
+        d = [e[i] - s[i] for i in range(3)]
+        dd = sum(v * v for v in d)
+        t = 0.0 if dd == 0 else max(0.0, min(1.0, sum((q[i] - s[i]) * d[i] for i in range(3)) / dd))
+        pt = [s[i] + d[i] * t for i in range(3)]
+        return math.dist(pt, q), t
+    # An arc: coarse samples, then refined about the nearest.
+    _, sweep = arc_point(p, 0.0)
+    n = max(16, int(abs(sweep) / 0.05))
+    best = min(range(n + 1), key=lambda k: math.dist(arc_point(p, k / n)[0], q))
+    lo, hi = max(0.0, (best - 1) / n), min(1.0, (best + 1) / n)
+    for _ in range(60):
+        m1, m2 = lo + (hi - lo) / 3, hi - (hi - lo) / 3
+        if math.dist(arc_point(p, m1)[0], q) < math.dist(arc_point(p, m2)[0], q):
+            hi = m2
+        else:
+            lo = m1
+    t = (lo + hi) / 2
+    return math.dist(arc_point(p, t)[0], q), t
+
+
+def judge(original, copy, tolerance_mm, allow_raw):
+    """Problems found comparing the copy's motion, landed, with the original's."""
+    motion, events = original
+    copy_motion, copy_events = copy
+    problems = []
+    # The original's moves before its first known position (from None) only set where it is.
+    k = 0
+    landed = []
+    for c in copy_motion:
+        x, y = landing(c["to"][0], c["to"][1])
+        landed.append({"kind": c["kind"], "to": [x, y, c["to"][2]]})
+    # Each copy point lies on the original move in hand, or ends it (moving on to the next).
+    # G28, G30 and G53 go to the controller's own places in machine coordinates, passed as
+    # written: there a traverse's raw end is the original's.
+    raw_places = allow_raw
+    done_at = []  # for each copy point, how many original moves are complete after it
+    share = 0.0
+    for j, c in enumerate(landed):
+        if k >= len(motion):
+            problems.append("the copy moves on after the original's last move, to %s" % c["to"])
+            break
+        p = motion[k]
+        at_end = math.dist(p["to"], c["to"]) <= tolerance_mm
+        if raw_places and p["kind"] == "traverse" and \
+                math.dist(p["to"], copy_motion[j]["to"]) <= 1e-4:
+            at_end, d, t = True, 0.0, 1.0
+        elif p["from"] is None:
+            d, t = math.dist(p["to"], c["to"]), 1.0
+        else:
+            d, t = nearest_share(p, c["to"])
+        # A whole circle ends where it starts: it is done when the copy has gone round.
+        whole_circle = p.get("arc") and p["from"] is not None and \
+            math.dist(p["from"], p["to"]) <= tolerance_mm
+        finishes = at_end and (not whole_circle or share > 0.5)
+        if not finishes and (d > tolerance_mm or t < share - 1e-6 or p["from"] is None):
+            problems.append("copy point %d %s is %.4f mm off the original's move %d (%s to %s)"
+                            % (j, ["%.4f" % v for v in c["to"]], d, k, p["from"], p["to"]))
+            break
+        if c["kind"] != p["kind"]:
+            problems.append("copy point %d is a %s where the original's move %d is a %s"
+                            % (j, c["kind"], k, p["kind"]))
+            break
+        share = t
+        if finishes:
+            k += 1
+            share = 0.0
+        done_at.append(k)
+    if not problems and k < len(motion):
+        problems.append("the copy stops after %d of the original's %d moves (next to %s)"
+                        % (k, len(motion), motion[k]["to"]))
+    if not problems:
+        # Events after the same number of completed original moves, in the same order.
+        def placed(evs, done):
+            return [(n, a, done[i - 1] if i > 0 else 0) for n, a, i in evs]
+        mine = placed(copy_events, done_at)
+        if [(n, a) for n, a, _ in events] != [(n, a) for n, a, _ in mine]:
+            problems.append("commands differ: original %s, copy %s" % (
+                [(n, a) for n, a, _ in events][:12], [(n, a) for n, a, _ in mine][:12]))
+        else:
+            for (n, a, i), (_, _, j) in zip(events, mine):
+                if i != j:
+                    problems.append("%s%s comes after %d of the original's moves, in the copy "
+                                    "after %d" % (n, a, i, j))
+                    break
+    return problems
+
+
+def var_file(path, zero_mm):
+    with open(path, "w") as f:
+        f.write("5220 1.000000\n5221 %.6f\n5222 %.6f\n" % (zero_mm[0] / 25.4, zero_mm[1] / 25.4))
+
+
+def main():
+    args = sys.argv[1:]
+    calbox, data = args[0], args[1]
+    only = args[args.index("--only") + 1] if "--only" in args else None
+    keep = args[args.index("--keep") + 1] if "--keep" in args else None
+    work = keep or tempfile.mkdtemp()
+    os.makedirs(work, exist_ok=True)
+    results = {}
+    for firmware in ("linuxcnc", "grbl"):
+        results[firmware] = os.path.join(work, "result_%s.json" % firmware)
+        with open(results[firmware], "w") as f:
+            json.dump(result_json(firmware), f)
+    jobs = []
+    root = os.path.join(data, "gcode")
+    for folder in ("cnc", "laser"):
+        for dirpath, _, files in sorted(os.walk(os.path.join(root, folder))):
+            for name in sorted(files):
+                path = os.path.join(dirpath, name)
+                for flavour in ("linuxcnc", "grbl"):
+                    jobs.append((name, flavour, path))
+    for name, flavour, text in CASES:
+        path = os.path.join(work, name + ".ngc")
+        with open(path, "w") as f:
+            f.write(text)
+        jobs.append((name, flavour, path))
+    zero = (120.0, 80.0)
+    failures, counts = [], {"right": 0, "refused by both": 0, "refused by calbox alone": 0}
+    for name, flavour, path in jobs:
+        if only and only != name:
+            continue
+        label = "%s (%s)" % (name, flavour)
+        out = os.path.join(work, "%s.%s.compensated.ngc" % (name, flavour))
+        if os.path.exists(out):
+            os.remove(out)
+        run = subprocess.run([calbox, "compensate", "--result", results[flavour], path,
+                              "--work-zero", "%g,%g" % zero, "-o", out]
+                             + (["--start-at", "0,0"] if name in START_AT_ZERO else []),
+                             capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=600)
+        # grbl runs a file to its end; LinuxCNC wants M2, M30 or a closing '%' (a deliberate
+        # difference for grbl's jobs: both sides are read with an M2 after them).
+        judged_path, judged_out = path, out
+        if flavour == "grbl":
+            judged_path = os.path.join(work, "%s.%s.judged.ngc" % (name, flavour))
+            judged_out = os.path.join(work, "%s.%s.compensated.judged.ngc" % (name, flavour))
+            with open(path, errors="replace") as f, open(judged_path, "w") as g:
+                g.write(f.read().rstrip("\n%") + "\nM2\n")
+        try:
+            start = [0.0, 0.0, 0.0] if name in START_AT_ZERO else None
+            original = canon(run_rs274(judged_path, work, zero), start)
+            rs_refusal = None
+        except Refused as e:
+            rs_refusal = str(e)
+        if rs_refusal is not None:
+            if run.returncode == 0:
+                failures.append("%s: rs274 refuses it (%s), calbox compensated it" % (label, rs_refusal))
+            else:
+                counts["refused by both"] += 1
+                print("%s: refused by both: rs274 '%s'; calbox '%s'" % (label, rs_refusal, run.stderr.strip()))
+            continue
+        if run.returncode != 0:
+            if (name, flavour) in CALBOX_ALONE:
+                counts["refused by calbox alone"] += 1
+                print("%s: refused by calbox alone, deliberately (%s): %s" % (
+                    label, CALBOX_ALONE[(name, flavour)], run.stderr.strip()))
+            else:
+                failures.append("%s: rs274 runs it, calbox refused: %s" % (label, run.stderr.strip()))
+            continue
+        if os.path.exists(out) is False:
+            failures.append("%s: calbox exit 0 without its output" % label)
+            continue
+        if flavour == "grbl":
+            with open(out, errors="replace") as f, open(judged_out, "w") as g:
+                g.write(f.read().rstrip("\n%") + "\nM2\n")
+        try:
+            copy = canon(run_rs274(judged_out, work, zero), start)
+        except Refused as e:
+            failures.append("%s: rs274 refuses the compensated copy: %s" % (label, e))
+            continue
+        with open(path, errors="replace") as f:
+            inches = re.search(r"G\s*2\s*0(?![0-9.])", f.read(), re.I) is not None
+        # rs274 prints 4 decimals of the program's unit: an inch job's figures carry its rounding
+        # (half of 0.0001 inch) on both sides.
+        tolerance = 0.002 + (2 * 0.00005 * 25.4 * math.sqrt(3) if inches else 0.0)
+        with open(path, errors="replace") as f:
+            raw_places = re.search(r"G\s*(28|30|53)(?![0-9.])", f.read(), re.I) is not None
+        problems = judge(original, copy, tolerance, raw_places)
+        if problems:
+            failures.append("%s: %s" % (label, problems[0]))
+        else:
+            counts["right"] += 1
+            print("%s: right (%d moves, %d in the copy, %d commands in order)" % (
+                label, len(original[0]), len(copy[0]), len(original[1])))
+    print("; ".join("%d %s" % (v, k) for k, v in counts.items()))
+    for f in failures:
+        print("FAIL " + f)
+    sys.exit(1 if failures else 0)
+
+
+if __name__ == "__main__":
+    main()

@@ -23,6 +23,7 @@
 #include <condition_variable>
 #include <ctime>
 #include <deque>
+#include <filesystem>
 #include <fstream>
 #include <list>
 #include <map>
@@ -1026,6 +1027,8 @@ SelfSignedCertificate self_signed_certificate(const std::vector<std::string>& na
 hal::CertificateFacts certificate_facts(const hal::ServerTls& files) {
     const auto open = [](const std::string& path) {
         std::unique_ptr<BIO, decltype(&BIO_free)> bio(BIO_new_file(path.c_str(), "r"), BIO_free);
+        if (!bio && !std::filesystem::exists(path))
+            throw hal::CertificateMissing(path + ": not there");
         if (!bio) throw std::runtime_error(path + ": cannot be read");
         return bio;
     };

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -21,6 +22,12 @@ struct CertificateFacts {
     std::int64_t not_after_unix_s = 0;
 };
 
+// What Certificates::check throws when a file of the pair is not there at all.
+class CertificateMissing : public std::runtime_error {
+  public:
+    using std::runtime_error::runtime_error;
+};
+
 class Certificates {
   public:
     virtual ~Certificates() = default;
@@ -30,7 +37,8 @@ class Certificates {
     virtual void make_self_signed(const ServerTls& files, const std::vector<std::string>& names,
                                   int valid_days) = 0;
     // Reads and checks the pair: both load, the key is the certificate's. Throws
-    // std::runtime_error naming the file and what is wrong with it.
+    // CertificateMissing for a file that is not there, std::runtime_error naming the file and
+    // what is wrong with it for the rest.
     virtual CertificateFacts check(const ServerTls& files) = 0;
 };
 

@@ -82,8 +82,9 @@ case "$action" in
     build) ;;
     test)
         # Under qemu the long tests (whole twin cycles, 12 MP photos) would take hours: left out.
-        skip=()
-        [ "$preset" != arm64 ] || skip=(-LE long)
+        # The slow label (thousands of mutated jobs through rs274) runs on demand: ctest -L slow.
+        skip=(-LE slow)
+        [ "$preset" != arm64 ] || skip=(-LE "long|slow")
         # Three at a time on two cores: a fifth of the suite's time is tests waiting (an idle
         # limit, a broker's back-off, a hung camera, Prometheus's scrapes), which a third job
         # fills; the build stays at -j2.

@@ -80,6 +80,16 @@ std::string triple_toml(const std::array<double, 3>& v) {
 ImportedMachine delta_machine(const std::string& firmware, const DeltaGeometry& geometry,
                               std::optional<double> bed_radius_mm, const std::string& radius_from,
                               const ImportOptions& options) {
+    // The files' own figures refused as what they are, before anything is derived from them.
+    const std::string radius_word =
+        firmware == "klipper" ? "delta_radius" : "the delta radius (M665 R)";
+    if (!(geometry.radius_mm > 0))
+        throw ImportError(radius_word + " " + number_toml(geometry.radius_mm) +
+                          ": not a radius (it must be above 0)");
+    if (!(geometry.diagonal_rod_mm > geometry.radius_mm))
+        throw ImportError("the diagonal rod " + number_toml(geometry.diagonal_rod_mm) +
+                          " mm is not longer than " + radius_word + " " +
+                          number_toml(geometry.radius_mm) + " mm: no delta printer is built so");
     ImportedMachine out;
     out.machine.kind = "delta";
     out.machine.firmware = firmware;

@@ -144,7 +144,8 @@ CompensatedJob compensate_job(const JobRequest& r) {
             zero_from = r.work_zero_from.empty() ? "--work-zero " + *r.work_zero : r.work_zero_from;
         }
         done.frame_line = "frame: job placed with " + zero_from;
-        if (frame.work_zero_mm[0])
+        // A printer's job is in machine coordinates: no work zero to name.
+        if (frame.work_zero_mm[0] && frame.flavour != targets::Flavour::printer)
             done.frame_line += " (G54 zero at machine X" + mm(frame.work_zero_mm[0]->x) + " Y" +
                                mm(frame.work_zero_mm[0]->y) + " mm)";
         done.frame_line +=

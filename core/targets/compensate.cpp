@@ -19,9 +19,11 @@ namespace {
 
 using geometry::Point2;
 
-// LinuxCNC's bound on how far a centre-format arc's end may lie off the circle through its start
-// (0.0028 inch): beyond it, and beyond 0.1 % of the radius, no controller cuts the arc.
-constexpr double kArcRadiusToleranceMm = 2 * 0.001 * 1.41421356237309504880 * 25.4;
+// LinuxCNC's bound on how far a centre-format arc's end may lie off the circle through its start,
+// in the program's units (0.002 sqrt 2 inch; 0.02 sqrt 2 mm): beyond it and beyond 0.1 % of the
+// radius, or beyond a hundred times it, rs274 refuses the arc (measured with rs274 itself).
+constexpr double kArcRadiusToleranceInchJobMm = 0.002 * 1.41421356237309504880 * 25.4;
+constexpr double kArcRadiusToleranceMmJobMm = 0.02 * 1.41421356237309504880;
 // No slicer or CAM program writes a line near this (PrusaSlicer's longest, its settings and
 // thumbnail lines, stay under a few thousand characters); past it the file is not G-code.
 constexpr std::size_t kLongestLine = 65536;
@@ -108,6 +110,7 @@ struct Modal {
     bool retract_to_r = false;
     // G93: F is each move's inverse time (1 / minutes), so a move split in n pieces takes n F.
     bool inverse_time = false;
+    std::optional<double> feed;  // the F in force (units per minute), where a line gave one
     std::optional<double> cycle_start_z_mm;
     std::optional<double> cycle_r, cycle_z, cycle_q, cycle_p;  // the job's units
 
@@ -200,7 +203,10 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
     // LinuxCNC's own bound on a centre-format arc whose end is off the start's circle: past
     // both, it refuses the arc, and so does calbox.
     const double radius_step = std::abs(end_radius - radius);
-    if (radius_step > kArcRadiusToleranceMm && radius_step > 0.001 * radius)
+    const double tolerance_mm =
+        m.unit_mm > 1 ? kArcRadiusToleranceInchJobMm : kArcRadiusToleranceMmJobMm;
+    if ((radius_step > tolerance_mm && radius_step > 0.001 * radius) ||
+        radius_step > 100 * tolerance_mm)
         throw fail("an arc no controller could cut: its end is " + number(radius_step, 5) +
                    " mm off the circle through its start (radius " + number(radius, 5) +
                    " mm about its centre); have the CAM write the arc again");
@@ -401,6 +407,58 @@ int modal_group(const Code& c) {
     if (n == 61 || n == 64) return 13;
     if (n == 4 || n == 10 || n == 28 || n == 30 || n == 52 || n == 53 || n == 92) return 0;
     return -1;
+}
+
+// LinuxCNC's G codes (its G-code reference; grbl's are a subset): any other stops its
+// interpreter ("Unknown g code used"), so calbox never passes one on as written.
+bool is_known_code(const Code& c) {
+    const int n = c.number, s = c.subcode;
+    if (s < 0)
+        return (n >= 0 && n <= 5) || n == 7 || n == 8 || n == 10 || (n >= 17 && n <= 21) ||
+               n == 28 || n == 30 || n == 33 || (n >= 40 && n <= 43) || n == 49 || n == 52 ||
+               n == 53 || (n >= 54 && n <= 59) || n == 61 || n == 64 || (n >= 70 && n <= 74) ||
+               n == 76 || (n >= 80 && n <= 99);
+    switch (n) {
+        case 5:
+            return s >= 1 && s <= 3;
+        case 17:
+        case 18:
+        case 19:
+        case 28:
+        case 30:
+        case 33:
+        case 61:
+        case 90:
+        case 91:
+            return s == 1;
+        case 38:
+            return s >= 2 && s <= 5;
+        case 41:
+        case 42:
+            return s == 1;
+        case 43:
+            return s == 1 || s == 2;
+        case 59:
+            return s >= 1 && s <= 3;
+        case 71:
+        case 72:
+            return s == 1 || s == 2;
+        case 92:
+            return s >= 1 && s <= 3;
+        default:
+            return false;
+    }
+}
+
+// The M codes each controller has: LinuxCNC's (its M-code reference, user codes M100-M199
+// included) and grbl 1.1's (its gcode.c; any other is its error 20, a tool change M6 too).
+bool is_known_m(Flavour f, double value) {
+    const int m = static_cast<int>(value);
+    if (f == Flavour::grbl)
+        return (m >= 0 && m <= 5) || (m >= 7 && m <= 9) || m == 30 || m == 56;
+    return (m >= 0 && m <= 9) || m == 19 || m == 30 || (m >= 48 && m <= 53) || m == 60 ||
+           m == 61 || (m >= 62 && m <= 68) || (m >= 70 && m <= 73) || m == 98 || m == 99 ||
+           (m >= 100 && m <= 199);
 }
 
 bool has_m_in(const gcode::Line& line, int from, int to) {
@@ -767,7 +825,7 @@ class Compensator {
                 for (const char a : kOtherAxes)
                     if (auto v = line.value(a)) m_.other_axes[a] = *v;
             } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2 || c.subcode == 3)) {
-                not_a_move = true;
+                // No axis words of its own: a move on its line runs in the frame it leaves.
                 if (frame_.flavour == Flavour::grbl && c.subcode != 1)
                     throw fail(c.text() + ": grbl has G92.1 only (its error 20)");
                 if (c.subcode == 3 && !m_.saved_g92_mm)
@@ -822,9 +880,22 @@ class Compensator {
     // What LinuxCNC's interpreter and grbl refuse in a line whose words are all theirs: a letter
     // twice, two codes of one modal group, axis words with no motion to take them, and words
     // that no code on the line (or the motion in force) uses. `m_` holds the line's motion.
-    void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) const {
+    void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) {
         const std::string who = controller_of(frame_.flavour);
         const std::string stops = ": " + who + " stops on it";
+        for (const Code c : codes)
+            if (!is_known_code(c))
+                throw fail(c.text() + ": no such G code (" + who +
+                           " stops on it: \"Unknown g code used\")");
+        const auto check_m = [&](double value) {
+            if (!is_known_m(frame_.flavour, value))
+                throw fail("M" + number(value, 0) + ": no such M code on " + who + " (it stops on it" +
+                           (frame_.flavour == Flavour::grbl ? ": its error 20)"
+                                                            : ": \"Unknown m code used\")"));
+        };
+        if (line.command_letter == 'M') check_m(line.command_number);
+        for (const auto& w : line.parameters)
+            if (w.letter == 'M' && w.value) check_m(*w.value);
         std::map<char, int> seen;
         if (line.command_letter == 'T') ++seen['T'];
         for (const auto& w : line.parameters)
@@ -856,6 +927,17 @@ class Compensator {
                 "G80)" +
                 stops);
         const bool arc = motion == 2 || motion == 3, cycle = is_cycle(motion);
+        // A feed move needs a feed rate: LinuxCNC "Cannot do G1 with zero feed rate", grbl's
+        // error 22; under G93 (inverse time) on the move's own line.
+        if (auto f = line.value('F'); f && !m_.inverse_time) m_.feed = *f;
+        // (LinuxCNC asks it of a G1 code even on a line without axis words.)
+        const bool feeds = (motion == 1 || arc || cycle) &&
+                           (axes || motion_code ||
+                            (arc && (line.has('I') || line.has('J') || line.has('K'))));
+        if (feeds && m_.inverse_time && !(line.value('F').value_or(0) > 0))
+            throw fail("a feed move under G93 (inverse time) without its F on the line" + stops);
+        if (feeds && !m_.inverse_time && !(m_.feed.value_or(0) > 0))
+            throw fail("a feed move with no feed rate in force (no F above 0 given yet)" + stops);
         const bool g10 = on_line(10);
         const auto unused = [&](char letter, const std::string& users) {
             if (line.has(letter))

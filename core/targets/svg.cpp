@@ -805,6 +805,11 @@ void load_svg(std::string_view text, const SvgOptions& options, LoadedSvg& loade
         std::string(root.attribute("height").value()).find('%') == std::string::npos) {
         height = number_attribute(root, "height", 0);
     }
+    // SVG makes a negative size an error (and a zero one draws nothing): refused, not guessed.
+    for (const auto& [name, size] : {std::pair{"width", width}, std::pair{"height", height}})
+        if (size && !(*size > 0))
+            throw SvgError(std::string(name) + "=\"" + root.attribute(name).value() +
+                           "\" on <svg>: a drawing's " + name + " must be above 0");
     Affine to_px;
     if (const auto vb = root.attribute("viewBox")) {
         Scanner s(vb.value());

@@ -44,6 +44,11 @@ int import_machine(const Args& args) {
     if (!args.flag("--rrf") && !args.positional().empty())
         throw UsageError("machine import: '" + args.positional().front() +
                          "' is a file for --rrf alone");
+    // Every refusal names the input it comes from, never the file being written.
+    const std::string input = args.get("--marlin")        ? *args.get("--marlin")
+                              : args.get("--klipper")     ? *args.get("--klipper")
+                              : args.positional().empty() ? std::string("config.g")
+                                                          : args.positional().front();
     models::ImportedMachine imported;
     try {
         if (const auto log = args.get("--marlin")) {
@@ -60,11 +65,17 @@ int import_machine(const Args& args) {
             imported = models::import_rrf(files, options);
         }
     } catch (const models::ImportError& e) {
-        throw std::runtime_error(e.what());
+        const std::string why = e.what();
+        throw std::runtime_error(why.rfind(input, 0) == 0 ? why : input + ": " + why);
     }
     const std::string text = models::machine_file_text(imported);
-    // What is written must read back as a machine file.
-    models::parse_machine_file(text, out);
+    // What is written must read back as a machine file; where it does not, the input's figure
+    // is at fault (a negative radius), and the message names the input.
+    try {
+        models::parse_machine_file(text, input + " (as imported)");
+    } catch (const models::MachineFileError& e) {
+        throw std::runtime_error(e.what());
+    }
     write_output_file(out, text);
     for (const auto& note : imported.notes) std::printf("%s\n", note.c_str());
     std::printf("%s: a %s printer (%s)\n", out.c_str(), imported.machine.kind.c_str(),

@@ -3,8 +3,8 @@
 #include <filesystem>
 
 #include "core/models/machine_file.hpp"
-#include "core/targets/job.hpp"
 #include "core/targets/drawing.hpp"
+#include "core/targets/job.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 
@@ -46,7 +46,14 @@ int target_svg(const Args& args) {
     }
     for (const auto& warning : document.warnings)
         std::fprintf(stderr, "calbox: warning: %s: %s\n", svg_path.c_str(), warning.c_str());
-    const auto job = targets::plan_svg_job(document, machine, settings);
+    // Whatever the drawing cannot become is said of the drawing.
+    const auto job = [&] {
+        try {
+            return targets::plan_svg_job(document, machine, settings);
+        } catch (const std::runtime_error& e) {
+            throw std::runtime_error(svg_path + ": " + e.what());
+        }
+    }();
     if (job.shapes_cut_at_page > 0)
         std::fprintf(stderr,
                      "calbox: warning: %s: %d shapes reach past the drawing's page and were cut at "

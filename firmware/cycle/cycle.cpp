@@ -734,8 +734,15 @@ void Cycle::finish_cycle() {
          number_text("%.2f", report_.machine_seconds) + " s");
     ++completed_;
     enter(CycleState::idle,
-          report_.verified ? "done: XY " + number_text("%.3f", report_.verified->rms_mm) + " mm"
-                           : "done");
+          report_.verified
+              // The statistic named, and the mean where the verification has one: the figure
+              // the line before it ("verified ... mm mean") said.
+              ? (report_.verified->mean_mm
+                     ? "done: verified XY " + number_text("%.4f", *report_.verified->mean_mm) +
+                           " mm mean, " + number_text("%.4f", report_.verified->rms_mm) + " mm RMS"
+                     : "done: verified XY " + number_text("%.4f", report_.verified->rms_mm) +
+                           " mm RMS")
+              : "done");
     last_stage_seconds_ = stage_seconds_;
     if (report_.measured && report_.verified)
         show(draw_screen(DoneScreen{number_text("%.4f", report_.measured->rms_mm) + " mm",

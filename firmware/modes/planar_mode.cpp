@@ -29,9 +29,11 @@ targets::Correction through_model(const modes::PlanarSolution& solution) {
 }  // namespace
 
 PlanarCycleMode::PlanarCycleMode(models::MachineFile machine, CycleSteps& steps)
-    : KeptCorrectionMode(steps, {kPlanarResultFile, kNoPlanarResult, "backup-result.json",
-                                 "keeping the error model: jobs now go through it",
-                                 "drilling the grid again through the error model"}),
+    : KeptCorrectionMode(
+          steps, {kPlanarResultFile, kNoPlanarResult, "backup-result.json",
+                  "keeping the error model: jobs now go through it",
+                  machine.kind == "cartesian" ? "printing the grid again through the error model"
+                                              : "drilling the grid again through the error model"}),
       machine_(std::move(machine)) {}
 
 void PlanarCycleMode::begin() {

@@ -59,6 +59,8 @@ WebTlsIdentity web_tls_identity(const WebSettings& settings, const std::string& 
         id.facts = certificates.check(id.files);
         if (id.facts.not_after_unix_s - now_unix_s < kRenewWithinS)
             why_new = "the last one ends on " + utc_text(id.facts.not_after_unix_s);
+    } catch (const hal::CertificateMissing&) {
+        why_new = "the box had none yet";  // the first start: not a file that "cannot be read"
     } catch (const std::runtime_error& e) {
         why_new = e.what();
     }

@@ -221,7 +221,7 @@ printf '{"schema": "calbox.galvo-measurements/1", "machine_fingerprint": "fnv1a6
 expect_error "made for another machine file" solve galvo --machine "$galvo" --measurements "$work/other_galvo.json" -o "$work/result"
 expect_error "wrong.json: not a planar or galvo result \(schema something else\)" compensate --result "$work/wrong.json" "$work/ok.gcode" -o "$work/result"
 printf '{"schema": "calbox.galvo-result/1", "machine_fingerprint": "x", "pass": 1, "before": {"mean_mm": 0, "rms_mm": 0, "max_mm": 0, "points": 0}, "measurement_sigma_mm": 0, "predicted_rms_mm": 0, "table_interpolation_max_mm": 0, "table_interpolation_rms_mm": 0, "intended_mm": [], "landed_mm": [], "filled_nodes": [], "table": {"nodes": 2, "min_x_mm": -1, "min_y_mm": -1, "max_x_mm": 1, "max_y_mm": 1, "command_mm": [[-1,-1],[1,-1],[-1,1],[1,1]]}}' > "$work/identity_result.json"
-printf 'G1 X0 Y0\nG41 D1 X5 Y5\n' > "$work/cutter.gcode"
+printf 'G1 X0 Y0 F600\nG41 D1 X5 Y5\n' > "$work/cutter.gcode"
 expect_error "cutter.gcode: line 2: cutter radius compensation \(G41\)" compensate --result "$work/identity_result.json" "$work/cutter.gcode" -o "$work/result"
 # A line of 1 MB is no G-code: one line, nothing written.
 { printf 'G1 X0 Y0\n; '; head -c 1048576 /dev/zero | tr '\0' 'x'; printf '\n'; } > "$work/long_line.gcode"

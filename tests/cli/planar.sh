@@ -44,7 +44,7 @@ refused() {  # refused WHAT-TO-SEE ARGS...: exit non-zero, that line on stderr, 
     [ ! -e "$work/refused.gcode" ] || { echo "refused, yet wrote its output"; exit 1; }
 }
 refused "holes.gcode: a router's job is written around its work zero, which calbox cannot see: give --work-zero X,Y" "$work/holes.gcode"
-printf 'G90\nG0 X0 Y0\nG1 X1000 Y-1000\n' > "$work/far.gcode"
+printf 'G90\nG0 X0 Y0\nG1 X1000 Y-1000 F600\n' > "$work/far.gcode"
 refused "far.gcode: line 3: the point X1000 Y-1000 is at machine X700 Y-1300 mm, beyond the machine's travel (X -300..0, Y -300..0 mm)" "$work/far.gcode" --work-zero measured
 refused "holes_compensated.gcode: already compensated" "$work/holes_compensated.gcode" --work-zero measured
 # A job written around a stock corner at machine (-250, -200): placed there, inside the travel.

@@ -11,7 +11,13 @@ of move (traverse or feed); arcs are checked along their sweep. Spindle, coolant
 feed and stop commands come in the same order, after the same original move. A job rs274 refuses
 is refused by calbox; a job calbox refuses alone is one of the named deliberate differences.
 
-usage: rs274_judge.py CALBOX DATA_DIR [--only NAME] [--keep DIR]
+usage: rs274_judge.py CALBOX DATA_DIR [--only NAME] [--keep DIR] [--mutations N]
+
+--mutations N: the differential fuzzer. N jobs made by mutating the hand-made cases and the
+first lines of the real jobs (a character dropped, doubled or changed, a word's letter or a
+number's digit swapped, blanks and comments put in), each through calbox and rs274 as above: a
+job rs274 refuses is refused by calbox, a job calbox writes is judged right; calbox may refuse
+more than rs274 (counted).
 """
 import json
 import math
@@ -119,6 +125,8 @@ CASES = [
 CALBOX_ALONE = {
     # LinuxCNC's polar words ('@' distance, '^' angle) are no words of grbl's.
     ("hole-circle.ngc", "grbl"): "grbl has no polar words",
+    # PyCAM's "T4 M6": grbl 1.1 has no tool change (its error 20), LinuxCNC has.
+    ("ShapeOko_Calibration_Pattern_01b.ngc", "grbl"): "grbl has no M6",
 }
 
 # Jobs that set G92 before their first move say the tool is where it stands: rs274 starts at
@@ -343,6 +351,95 @@ def var_file(path, zero_mm):
         f.write("5220 1.000000\n5221 %.6f\n5222 %.6f\n" % (zero_mm[0] / 25.4, zero_mm[1] / 25.4))
 
 
+MUTATION_CHARACTERS = "XYZGIJKRFSMPQLNOEe0123456789.-+ \t()%;[#"
+
+
+def mutated_jobs(seeds, count, rng):
+    """`count` mutations of the seed texts: (name, text)."""
+    out = []
+    for n in range(count):
+        name, text = seeds[rng.randrange(len(seeds))]
+        chars = list(text)
+        for _ in range(rng.randint(1, 3)):
+            at = rng.randrange(len(chars)) if chars else 0
+            kind = rng.randrange(4)
+            if kind == 0 and chars:
+                del chars[at]
+            elif kind == 1:
+                chars.insert(at, rng.choice(MUTATION_CHARACTERS))
+            elif kind == 2 and chars:
+                chars[at] = rng.choice(MUTATION_CHARACTERS)
+            elif chars:
+                chars.insert(at, chars[at])
+        out.append(("%s~%d" % (name, n), "".join(chars)))
+    return out
+
+
+def fuzz(calbox, data, work, count):
+    import random
+    rng = random.Random(56)
+    seeds = [(name, text) for name, _, text in CASES]
+    for folder in ("cnc", "laser"):
+        for dirpath, _, files in sorted(os.walk(os.path.join(data, "gcode", folder))):
+            for f in sorted(files):
+                with open(os.path.join(dirpath, f), errors="replace") as h:
+                    head = "".join(h.readlines()[:60])
+                seeds.append((f, head + "\nM2\n"))
+    results = os.path.join(work, "result_linuxcnc.json")
+    with open(results, "w") as f:
+        json.dump(result_json("linuxcnc"), f)
+    zero = (120.0, 80.0)
+    counts = {"right": 0, "refused by both": 0, "refused by calbox alone": 0}
+    failures = []
+    for name, text in mutated_jobs(seeds, count, rng):
+        path = os.path.join(work, "fuzz.ngc")
+        out = os.path.join(work, "fuzz.compensated.ngc")
+        with open(path, "w") as f:
+            f.write(text)
+        if os.path.exists(out):
+            os.remove(out)
+        try:
+            run = subprocess.run([calbox, "compensate", "--result", results, path, "--work-zero",
+                                  "%g,%g" % zero, "-o", out], capture_output=True, text=True,
+                                 stdin=subprocess.DEVNULL, timeout=60)
+        except subprocess.TimeoutExpired:
+            failures.append("%s: calbox hung (60 s)" % name)
+            continue
+        if run.returncode < 0 or "terminate called" in run.stderr:
+            failures.append("%s: calbox crashed: %s" % (name, run.stderr.strip()[-200:]))
+            continue
+        try:
+            original = canon(run_rs274(path, work, zero))
+        except Refused:
+            if run.returncode == 0:
+                failures.append("%s: rs274 refuses it, calbox compensated it:\n%s" % (name, text))
+            else:
+                counts["refused by both"] += 1
+            continue
+        if run.returncode != 0:
+            counts["refused by calbox alone"] += 1
+            continue
+        try:
+            copy = canon(run_rs274(out, work, zero))
+        except Refused as e:
+            failures.append("%s: rs274 refuses the copy (%s):\n%s" % (name, e, text))
+            continue
+        raw_places = re.search(r"G\s*(28|30|53)(?![0-9.])", text, re.I) is not None
+        inches = re.search(r"G\s*2\s*0(?![0-9.])", text, re.I) is not None
+        tolerance = 0.002 + (2 * 0.00005 * 25.4 * math.sqrt(3) if inches else 0.0)
+        problems = judge(original, copy, tolerance, raw_places)
+        if problems:
+            failures.append("%s: %s:\n%s" % (name, problems[0], text))
+        else:
+            counts["right"] += 1
+    print("%d mutated jobs: " % count + "; ".join("%d %s" % (v, k) for k, v in counts.items()))
+    for f in failures[:10]:
+        print("FAIL " + f)
+    if len(failures) > 10:
+        print("... and %d more" % (len(failures) - 10))
+    sys.exit(1 if failures else 0)
+
+
 def main():
     args = sys.argv[1:]
     calbox, data = args[0], args[1]
@@ -350,6 +447,8 @@ def main():
     keep = args[args.index("--keep") + 1] if "--keep" in args else None
     work = keep or tempfile.mkdtemp()
     os.makedirs(work, exist_ok=True)
+    if "--mutations" in args:
+        fuzz(calbox, data, work, int(args[args.index("--mutations") + 1]))
     results = {}
     for firmware in ("linuxcnc", "grbl"):
         results[firmware] = os.path.join(work, "result_%s.json" % firmware)

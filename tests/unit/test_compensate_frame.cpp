@@ -118,7 +118,7 @@ TEST(CompensateFrame, inside_at_the_edge_beyond_it_and_past_the_travel) {
     CHECK_EQUAL(2, report.held);
     DOUBLES_EQUAL(std::hypot(5.0, 5.0), report.held_farthest_mm, 1e-9);
     // Past the travel: refused, naming the line, the point and the travel.
-    const std::string far = refusal_of("G90\nG0 X100 Y100\nG1 X1000 Y-1000\n", router_at({0, 0}));
+    const std::string far = refusal_of("G90 F300\nG0 X100 Y100\nG1 X1000 Y-1000\n", router_at({0, 0}));
     CHECK_TEXT(far.find("line 3: the point X1000 Y-1000 is at machine X1000 Y-1000 mm, beyond "
                         "the machine's travel (X 0..300, Y 0..300 mm)") != std::string::npos,
                far.c_str());
@@ -129,7 +129,7 @@ TEST(CompensateFrame, inside_at_the_edge_beyond_it_and_past_the_travel) {
         placed.c_str());
     // An arc that bulges past the travel, though both its ends are inside.
     const std::string bulge =
-        refusal_of("G90\nG0 X290 Y100\nG3 X290 Y120 I0 J10\n", router_at({5, 0}));
+        refusal_of("G90 F300\nG0 X290 Y100\nG3 X290 Y120 I0 J10\n", router_at({5, 0}));
     CHECK_TEXT(bulge.find("beyond the machine's travel") != std::string::npos, bulge.c_str());
 }
 
@@ -175,7 +175,7 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
     targets::CompensateSettings s;
     const targets::JobFrame frame{targets::Flavour::grbl, {Point2{}}, {}, {}};
     const auto out = lines_of(compensate_job(
-        "G90\nG0 X0.257 Y16.041\nG3 X0.257 Y19.058 Z2.38 R1.508\n", {none, {}}, frame, s, report));
+        "G90 F300\nG0 X0.257 Y16.041\nG3 X0.257 Y19.058 Z2.38 R1.508\n", {none, {}}, frame, s, report));
     double farthest = 0;
     for (std::size_t i = 2; i < out.size(); ++i) {
         const Point2 p = xy_of(out[i]);
@@ -187,7 +187,7 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
     // 0.002 short in a 3-decimal file: refused with its figures.
     const auto refused = [&] {
         try {
-            compensate_job("G90\nG0 X0 Y0\nG2 X3 Y0 R1.498\n", {none, {}}, frame, s, report);
+            compensate_job("G90 F300\nG0 X0 Y0\nG2 X3 Y0 R1.498\n", {none, {}}, frame, s, report);
         } catch (const targets::CompensateError& e) {
             return std::string(e.what());
         }
@@ -217,7 +217,7 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
     // line stays in force for the others, which write none.
     for (const bool to_r : {false, true}) {
         const auto repeats =
-            lines_of(compensated(std::string("G90 G0 X100 Y100 Z10\nG91 ") +
+            lines_of(compensated(std::string("G90 G0 X100 Y100 Z10 F300\nG91 ") +
                                      (to_r ? "G99" : "G98") + " G81 X10 Y0 Z-3 R-9 L3\n",
                                  router_at({0, 0})));
         CHECK_EQUAL(4u, repeats.size());
@@ -256,7 +256,7 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
     for (std::size_t i = 0; i < expected.size() && i < pecks.size(); ++i)
         CHECK_EQUAL(expected[i], pecks[i]);
     // A tapping cycle cannot be written out as moves: refused, saying so.
-    CHECK(refusal_of("G90 G0 X0 Y0 Z5\nG84 X10 Y10 Z-2 R1\n", grbl)
+    CHECK(refusal_of("G90 G0 X0 Y0 Z5 F300\nG84 X10 Y10 Z-2 R1\n", grbl)
               .find("line 2: canned cycle G84") != std::string::npos);
 }
 
@@ -264,7 +264,7 @@ TEST(CompensateFrame, linuxcnc_programs_run_into_the_moves_linuxcnc_makes) {
     // A subroutine called in a loop with numbered, named and global parameters and expressions:
     // holes at x = 10, 20, 30 (y = 2 x - 5 by the expression), then a polar move.
     const std::string program =
-        "#<_pitch> = 10\n"
+        "F300 #<_pitch> = 10\n"
         "o100 sub\n"
         "  G1 X#1 Y[#1 * 2 - 5]\n"
         "o100 endsub\n"
@@ -363,7 +363,7 @@ TEST(CompensateFrame, a_rotary_axis_is_shared_along_the_pieces_and_arcs_take_the
     // Driving A from where the file never said is refused: the share is unknown.
     std::string unknown_a;
     try {
-        compensate_job("G90 G0 X100 Y100\nG1 X104 Y100 A40\n", {kStretched, kMeasured},
+        compensate_job("G90 G0 X100 Y100 F300\nG1 X104 Y100 A40\n", {kStretched, kMeasured},
                        router_at({0, 0}), s, report);
     } catch (const targets::CompensateError& e) {
         unknown_a = e.what();
@@ -375,9 +375,9 @@ TEST(CompensateFrame, a_rotary_axis_is_shared_along_the_pieces_and_arcs_take_the
     const targets::Correction none = [](Point2 p) { return p; };
     targets::CompensateSettings fine;
     fine.max_segment_mm = 0.1;
-    const auto one = compensate_job("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0\n", {none, {}},
+    const auto one = compensate_job("G90 G0 X101 Y100 F300\nG2 X101 Y100 I-1 J0\n", {none, {}},
                                     router_at({0, 0}), fine, report);
-    const auto three = compensate_job("G90 G0 X101 Y100\nG2 X101 Y100 I-1 J0 P3\n", {none, {}},
+    const auto three = compensate_job("G90 G0 X101 Y100 F300\nG2 X101 Y100 I-1 J0 P3\n", {none, {}},
                                       router_at({0, 0}), fine, report);
     const double ratio = static_cast<double>(lines_of(three).size() - 1) /
                          static_cast<double>(lines_of(one).size() - 1);
@@ -435,7 +435,7 @@ std::string job_refusal(const modes::JobRequest& r) {
 }  // namespace
 
 TEST(CompensateFrame, a_routers_job_needs_its_work_zero_and_is_compensated_once) {
-    auto r = request_for("G90\nG0 X0 Y0\nG1 X10 Y-5\n");
+    auto r = request_for("G90 F300\nG0 X0 Y0\nG1 X10 Y-5\n");
     const std::string no_zero = job_refusal(r);
     CHECK_TEXT(no_zero.find("job.nc: a router's job is written around its work zero, which "
                             "calbox cannot see: give --work-zero X,Y") != std::string::npos,
@@ -565,7 +565,7 @@ TEST(CompensateFrame, words_are_read_as_the_controllers_read_them) {
     CHECK_EQUAL(std::string("G1 X30.3 Y20.03 F100"), lower[1]);
     // (20, 0.5) is beyond the measured area: (20, 10)'s correction (+0.2, +0.02), held.
     const auto plus =
-        lines_of(compensated("G90 G0 X20 Y20\nG1 X+50. Y+20.\nG1 X+20. Y+.5\n", router_at({0, 0})));
+        lines_of(compensated("G90 G0 X20 Y20 F300\nG1 X+50. Y+20.\nG1 X+20. Y+.5\n", router_at({0, 0})));
     CHECK_EQUAL(std::string("G1 X50.5 Y20.05"), plus[1]);
     CHECK_EQUAL(std::string("G1 X20.2 Y0.52"), plus[2]);
     // What LinuxCNC and grbl stop on is refused, naming the line, the column and the word.

@@ -3,10 +3,12 @@
 # toolchain/packages.txt), configures and builds with a CMake preset, then runs what was asked.
 #
 #   toolchain/calbox.sh run   [--preset P]   the main job: calbox run --board sim --auto (only the
-#                                             calbox binary, and only the packages the box needs)
-#   toolchain/calbox.sh test  [--preset P]   every test under ctest (default preset for both: dev,
-#                                             so the main job runs what CI compiled)
+#                                             calbox binary, and only the packages the box needs;
+#                                             default preset: release, what the package ships)
+#   toolchain/calbox.sh test  [--preset P]   every test under ctest (default preset: dev)
 #   toolchain/calbox.sh build [--preset P]   configure and build only
+#   toolchain/calbox.sh bench [--write]      the benchmarks on the release preset, beside the
+#                                             committed figures (tests/bench/ledger.json)
 # Presets: dev, asan, release, fuzz, and arm64 (cross-built for the Raspberry Pi, run under qemu).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
@@ -18,18 +20,24 @@ action="${1:-}"
 [ -n "$action" ] || { usage >&2; exit 2; }
 shift
 preset=""
+write=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --preset) preset="${2:?--preset needs a name: dev, asan, release or arm64}"; shift 2 ;;
+        --write) [ "$action" = bench ] || { echo "calbox.sh: --write is bench's" >&2; exit 2; }
+                 write=--write; shift ;;
         -h|--help) usage; exit 0 ;;
         *) echo "calbox.sh: unknown argument '$1'" >&2; exit 2 ;;
     esac
 done
 case "$action" in
-    run) preset="${preset:-dev}" ;;
+    run) preset="${preset:-release}" ;;
     test|build) preset="${preset:-dev}" ;;
+    bench) [ -z "$preset" ] || [ "$preset" = release ] || {
+               echo "calbox.sh: bench measures the release preset (what ships)" >&2; exit 2; }
+           preset=release ;;
     -h|--help|help) usage; exit 0 ;;
-    *) echo "calbox.sh: unknown action '$action' (run, test or build)" >&2; exit 2 ;;
+    *) echo "calbox.sh: unknown action '$action' (run, test, build or bench)" >&2; exit 2 ;;
 esac
 
 # A manifest line is a package this machine needs for every preset, or one tagged for the arm64
@@ -71,6 +79,8 @@ build() {
     cmake --preset "$preset" > /dev/null
     if [ "$action" = run ]; then
         cmake --build "build/$preset" -j 2 --target calbox
+    elif [ "$action" = bench ]; then
+        cmake --build "build/$preset" -j 2 --target calbox bench_delta bench_galvo bench_planar
     else
         cmake --build "build/$preset" -j 2
     fi
@@ -89,6 +99,17 @@ case "$action" in
         # limit, a broker's back-off, a hung camera, Prometheus's scrapes), which a third job
         # fills; the build stays at -j2.
         cd "$top" && ctest --test-dir "build/$preset" --output-on-failure -j 3 "${skip[@]}" < /dev/null ;;
+    bench)
+        # One after the other, nothing else running: each prints its figures and "ledger" lines.
+        cd "$top"
+        out="$(mktemp)"
+        trap 'rm -f "$out"' EXIT
+        for b in bench_delta bench_planar bench_galvo; do
+            "build/$preset/tests/bench/$b" | tee -a "$out"
+        done
+        bash tests/bench/bench_appliance.sh "build/$preset/calbox" examples/delta_cycle.toml \
+            examples/planar_cycle.toml examples/galvo_cycle.toml | tee -a "$out"
+        /usr/bin/python3 tests/bench/ledger.py tests/bench/ledger.json $write < "$out" ;;
     run)
         # The appliance on the digital twin, from an empty data directory so that the one-time
         # set-up (camera and bed plane from photos) runs too; then one whole cycle, judged.

@@ -37,7 +37,7 @@ std::string grid_overlay_png(const vision::GrayView& photo, const std::vector<Gr
                         cv::Scalar(255, 0, 0), thickness);
         }
     }
-    return png_of_picture(picture);
+    return overlay_png_of(picture);
 }
 
 std::string error_field_png(const std::vector<FieldArrow>& arrows, const std::string& title) {

@@ -73,7 +73,7 @@ std::string delta_overlay_png(const vision::GrayView& photo,
         cv::putText(picture, label, (from + to) / 2, cv::FONT_HERSHEY_SIMPLEX,
                     picture.cols / 2000.0, cv::Scalar(255, 160, 0), thickness);
     }
-    return png_of_picture(picture);
+    return overlay_png_of(picture);
 }
 
 }  // namespace calbox::firmware

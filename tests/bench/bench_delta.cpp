@@ -13,6 +13,7 @@
 #include "board/sim/scenes.hpp"
 #include "core/modes/delta.hpp"
 #include "tests/bench/bench_support.hpp"
+#include "tests/bench/seed_pipelines.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -55,6 +56,24 @@ int main() {
     }
     std::printf("measure one 4056x3040 frame: %.3f s (mean of %d), %zu corners\n",
                 seconds_since(start) / kRuns, kRuns, measured.features.size());
+    // Against the seed's pipeline on the same frame, interleaved.
+    const auto undistort = bench::seed_undistort_maps(model);
+    const cv::Mat gray(image.height_px, image.width_px, CV_8UC1,
+                       const_cast<std::uint8_t*>(image.pixels.data()));
+    const auto& square = target.markers.front().corners_mm;
+    const double marker_mm = std::hypot(square[1].x - square[0].x, square[1].y - square[0].y);
+    int seed_found = 0;
+    const auto t = bench::interleaved_medians(
+        [&] {
+            measured = modes::measure_delta(
+                machine, model, plane,
+                {{image.pixels.data(), image.width_px, image.height_px, image.width_px}});
+        },
+        [&] { seed_found = bench::seed_delta_frame(gray, undistort, marker_mm); }, 7);
+    std::printf("the seed's pipeline (REFERENCE.md 1) on the same frame: %.3f s (%d bar ends)\n",
+                t.seed_s, seed_found);
+    std::printf("ledger delta_frame_s %.4f\nledger delta_seed_frame_s %.4f\n", t.box_s, t.seed_s);
+    std::printf("ledger delta_frame_ratio %.3f\n", t.ratio());
     start = std::chrono::steady_clock::now();
     const auto fit = solve::fit_delta(machine, measured.features, {});
     std::printf("solve: %.3f s, fit RMS %.4f mm\n", seconds_since(start), fit.fitted.fit_rms_mm);

@@ -15,6 +15,7 @@
 
 #include "core/modes/galvo.hpp"
 #include "tests/bench/bench_support.hpp"
+#include "tests/bench/seed_pipelines.hpp"
 #include "tests/support/galvo_fixtures.hpp"
 
 using namespace calbox;
@@ -83,6 +84,18 @@ int main() {
     for (int i = 0; i < kRuns; ++i) measured = modes::measure_galvo(machine, camera, plane, view);
     std::printf("measure one %dx%d photo: %.3f s (mean of %d), %zu marks\n", photo.cols, photo.rows,
                 seconds_since(start) / kRuns, kRuns, measured.nodes.size());
+    const int grid = targets::make_galvo_target(machine).grid_count;
+    int seed_found = 0;
+    const auto t = bench::interleaved_medians(
+        [&] { measured = modes::measure_galvo(machine, camera, plane, view); },
+        [&] {
+            seed_found = bench::seed_galvo_frame(photo, {grid, grid}, 40);
+        },
+        5);
+    std::printf("the seed's pipeline (REFERENCE.md 4) on the same frame: %.3f s (%d circles)\n",
+                t.seed_s, seed_found);
+    std::printf("ledger galvo_frame_s %.4f\nledger galvo_seed_frame_s %.4f\n", t.box_s, t.seed_s);
+    std::printf("ledger galvo_frame_ratio %.3f\n", t.ratio());
     start = std::chrono::steady_clock::now();
     modes::GalvoSolution solution;
     for (int i = 0; i < kRuns; ++i) solution = modes::solve_galvo(machine, measured, std::nullopt);
@@ -91,6 +104,7 @@ int main() {
     std::printf(
         "peak resident memory of the box's work: %ld MB (%ld MB before loading the photo)\n",
         peak_rss_mb(), before);
+    std::printf("ledger galvo_box_peak_mb %ld\n", peak_rss_mb());
     std::filesystem::remove_all(dir);
     return 0;
 }

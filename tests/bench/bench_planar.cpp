@@ -15,6 +15,7 @@
 
 #include "core/modes/planar.hpp"
 #include "tests/bench/bench_support.hpp"
+#include "tests/bench/seed_pipelines.hpp"
 #include "tests/support/router_fixtures.hpp"
 
 using namespace calbox;
@@ -76,6 +77,15 @@ int main() {
     for (int i = 0; i < kRuns; ++i) measured = modes::measure_planar(machine, camera, plane, view);
     std::printf("measure one %dx%d photo: %.3f s (mean of %d), %zu holes\n", photo.cols, photo.rows,
                 seconds_since(start) / kRuns, kRuns, measured.holes.size());
+    const auto undistort = bench::seed_undistort_maps(camera);
+    int seed_found = 0;
+    const auto t = bench::interleaved_medians(
+        [&] { measured = modes::measure_planar(machine, camera, plane, view); },
+        [&] { seed_found = bench::seed_planar_frame(photo, undistort); }, 7);
+    std::printf("the seed's pipeline (REFERENCE.md 2) on the same frame: %.3f s (%d ellipses)\n",
+                t.seed_s, seed_found);
+    std::printf("ledger planar_frame_s %.4f\nledger planar_seed_frame_s %.4f\n", t.box_s, t.seed_s);
+    std::printf("ledger planar_frame_ratio %.3f\n", t.ratio());
     start = std::chrono::steady_clock::now();
     modes::PlanarSolution solution;
     for (int i = 0; i < kRuns; ++i) solution = modes::solve_planar(machine, measured);
@@ -90,6 +100,7 @@ int main() {
     std::printf(
         "peak resident memory of the box's work: %ld MB (%ld MB before loading the photo)\n",
         peak_rss_mb(), before);
+    std::printf("ledger planar_box_peak_mb %ld\n", peak_rss_mb());
     std::filesystem::remove_all(dir);
     return 0;
 }

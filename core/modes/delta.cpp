@@ -347,7 +347,6 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     const auto& markers = out.target.markers;
     vision::MarkerOptions options;
     options.camera = &camera;
-    options.marks_expected = static_cast<int>(markers.size());
     // Per corner, what the frames that saw it gave.
     struct CornerSightings {
         std::vector<geometry::Point3> on_bed;  // at the strand's height each frame measured

@@ -295,26 +295,11 @@ RawMarkers detect_raw_in_windows(const GrayView& image, const MarkerOptions& opt
     return raw;
 }
 
-// The whole image's finds at half size, the corners in the image's pixels.
-RawMarkers detect_raw_at_half_size(const GrayView& image, const MarkerOptions& options) {
-    cv::Mat half;
-    cv::resize(geometry::to_cv(image), half, {image.width_px / 2, image.height_px / 2}, 0, 0,
-               cv::INTER_AREA);
-    RawMarkers raw = detect_raw_with_equalized(
-        GrayView{half.data, half.cols, half.rows, static_cast<int>(half.step)}, options);
-    // A half-size pixel's centre is at (2 i + 0.5) in the full image's pixel centres.
-    for (auto& corners : raw.corners)
-        for (auto& c : corners) c = c * 2.0f + cv::Point2f(0.5f, 0.5f);
-    return raw;
-}
-
 }  // namespace
 
-namespace {
-
-// The finds with their corners refined on the full image, sorted by id.
-std::vector<DetectedMarker> refined_markers(const GrayView& image, const RawMarkers& raw,
-                                            const MarkerOptions& options) {
+std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
+    const RawMarkers raw = options.windows.empty() ? detect_raw_with_equalized(image, options)
+                                                   : detect_raw_in_windows(image, options);
     std::vector<DetectedMarker> out;
     for (std::size_t m = 0; m < raw.ids.size(); ++m) {
         DetectedMarker marker;
@@ -336,34 +321,6 @@ std::vector<DetectedMarker> refined_markers(const GrayView& image, const RawMark
     }
     std::sort(out.begin(), out.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
     return out;
-}
-
-}  // namespace
-
-std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
-    if (!options.windows.empty())
-        return refined_markers(image, detect_raw_in_windows(image, options), options);
-    RawMarkers half;
-    if (options.marks_expected > 0) {
-        half = detect_raw_at_half_size(image, options);
-        // Every mark found there, and each one's edges refined from those rough corners: done.
-        // A mark whose refinement failed would keep a half-size detector's corners.
-        if (static_cast<int>(half.ids.size()) >= options.marks_expected) {
-            // The detector's corners at half size are worth half as much: the refinement may
-            // move them twice as far.
-            MarkerOptions from_half = options;
-            from_half.refine_limits.max_corner_move_px *= 2;
-            auto out = refined_markers(image, half, from_half);
-            if (!options.refine_edges ||
-                std::all_of(out.begin(), out.end(), [](const auto& m) { return m.refined; }))
-                return out;
-        }
-    }
-    // The full image, and what only the half-size look found (a mark whose cells the full
-    // image's threshold breaks up).
-    RawMarkers raw = detect_raw_with_equalized(image, options);
-    add_missing(raw, half);
-    return refined_markers(image, raw, options);
 }
 
 }  // namespace calbox::vision

@@ -99,12 +99,6 @@ struct MarkerOptions {
     // (clipped to the image), each searched on its own (a few marks whose places are known cost
     // a few small detections, not the frame's). Corners are refined on the whole image.
     std::vector<PixelWindow> windows;
-    // How many marks the image should show, where the caller knows (a target's markers): the
-    // whole image is then searched at half size first (a quarter of the pixels: the seed looked
-    // at a 720p copy), and at full size, as without it, only when fewer are found there (the
-    // half size's finds added to the full size's). Corners are refined on the full image either
-    // way.
-    int marks_expected = 0;
 };
 
 // Markers sorted by id. Throws geometry::PatternError for an unknown dictionary name.

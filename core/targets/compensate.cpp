@@ -454,10 +454,9 @@ bool is_known_code(const Code& c) {
 // included) and grbl 1.1's (its gcode.c; any other is its error 20, a tool change M6 too).
 bool is_known_m(Flavour f, double value) {
     const int m = static_cast<int>(value);
-    if (f == Flavour::grbl)
-        return (m >= 0 && m <= 5) || (m >= 7 && m <= 9) || m == 30 || m == 56;
-    return (m >= 0 && m <= 9) || m == 19 || m == 30 || (m >= 48 && m <= 53) || m == 60 ||
-           m == 61 || (m >= 62 && m <= 68) || (m >= 70 && m <= 73) || m == 98 || m == 99 ||
+    if (f == Flavour::grbl) return (m >= 0 && m <= 5) || (m >= 7 && m <= 9) || m == 30 || m == 56;
+    return (m >= 0 && m <= 9) || m == 19 || m == 30 || (m >= 48 && m <= 53) || m == 60 || m == 61 ||
+           (m >= 62 && m <= 68) || (m >= 70 && m <= 73) || m == 98 || m == 99 ||
            (m >= 100 && m <= 199);
 }
 
@@ -879,8 +878,9 @@ class Compensator {
 
     // What LinuxCNC's interpreter and grbl refuse in a line whose words are all theirs: a letter
     // twice, two codes of one modal group, axis words with no motion to take them, and words
-    // that no code on the line (or the motion in force) uses. `m_` holds the line's motion.
-    void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) {
+    // that no code on the line (or the motion in force) uses. `m_` holds the line's motion and
+    // the F in force.
+    void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) const {
         const std::string who = controller_of(frame_.flavour);
         const std::string stops = ": " + who + " stops on it";
         for (const Code c : codes)
@@ -889,7 +889,8 @@ class Compensator {
                            " stops on it: \"Unknown g code used\")");
         const auto check_m = [&](double value) {
             if (!is_known_m(frame_.flavour, value))
-                throw fail("M" + number(value, 0) + ": no such M code on " + who + " (it stops on it" +
+                throw fail("M" + number(value, 0) + ": no such M code on " + who +
+                           " (it stops on it" +
                            (frame_.flavour == Flavour::grbl ? ": its error 20)"
                                                             : ": \"Unknown m code used\")"));
         };
@@ -929,11 +930,10 @@ class Compensator {
         const bool arc = motion == 2 || motion == 3, cycle = is_cycle(motion);
         // A feed move needs a feed rate: LinuxCNC "Cannot do G1 with zero feed rate", grbl's
         // error 22; under G93 (inverse time) on the move's own line.
-        if (auto f = line.value('F'); f && !m_.inverse_time) m_.feed = *f;
         // (LinuxCNC asks it of a G1 code even on a line without axis words.)
-        const bool feeds = (motion == 1 || arc || cycle) &&
-                           (axes || motion_code ||
-                            (arc && (line.has('I') || line.has('J') || line.has('K'))));
+        const bool feeds =
+            (motion == 1 || arc || cycle) &&
+            (axes || motion_code || (arc && (line.has('I') || line.has('J') || line.has('K'))));
         if (feeds && m_.inverse_time && !(line.value('F').value_or(0) > 0))
             throw fail("a feed move under G93 (inverse time) without its F on the line" + stops);
         if (feeds && !m_.inverse_time && !(m_.feed.value_or(0) > 0))
@@ -994,6 +994,8 @@ class Compensator {
         std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move
         rewritten_.reset();
         state_words(line, codes, not_a_move, kept_codes);
+        // The F in force, as the controller keeps it (G93's F is each move's own).
+        if (auto f = line.value('F'); f && !m_.inverse_time) m_.feed = *f;
         if (is_cnc(frame_.flavour)) cnc_rules(line, codes, polar.any());
         if (has_m(line, 98) || has_m(line, 99))
             throw fail(

@@ -7,12 +7,15 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "tests/unit/crash_report.hpp"
+
 int main(int argc, char** argv) {
     if (!std::filesystem::is_directory(CALBOX_TEST_DATA)) {
         std::printf("skipped: the test data %s is not here (set CALBOX_TEST_DATA)\n",
                     CALBOX_TEST_DATA);
         return 77;
     }
+    calbox::test::report_crashes();
     MemoryLeakWarningPlugin::turnOffNewDeleteOverloads();
     return CommandLineTestRunner::RunAllTests(argc, argv);
 }

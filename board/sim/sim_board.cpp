@@ -21,6 +21,7 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/moonraker_twin.hpp"
 #include "board/sim/octoprint_twin.hpp"
+#include "board/sim/photo_cache.hpp"
 #include "board/sim/twin_kind.hpp"
 #include "core/targets/gcode_line.hpp"
 #include "drivers/termios_port.hpp"
@@ -288,31 +289,54 @@ GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& 
             static_cast<double>(asked.exposure->count()) / scenario_.nominal_exposure_us;
     if (asked.analogue_gain) photo.analogue_gain = *asked.analogue_gain;
     const auto& setup = scenario_.setup;
+    PhotoKey key;
+    key.add(camera.intrinsics).add(photo).add(reference_marks_).add(setup.reference_dictionary);
+    key.add(setup.reference_mark_mm);
     const auto with_marks = [&](const Scene& scene, const double to_bed[2][2], Vec2 origin) {
         return ReferenceMarksScene(scene, reference_marks_, setup.reference_dictionary,
                                    setup.reference_mark_mm, photo.supersample, to_bed, origin);
     };
+    const auto kept_or_rendered = [&key](const auto& render) {
+        if (auto kept = kept_photo(key)) return std::move(*kept);
+        GrayImage image = render();
+        keep_photo(key, image);
+        return image;
+    };
     if (board) {
+        key.add(board->on_bed ? "board on the bed" : "board held").add(board->spec);
+        key.add(board->board_to_camera).add(static_cast<std::int64_t>(setup.board_surroundings));
         const BoardScene scene(geometry::parse_pattern_spec(board->spec), photo.supersample,
                                setup.board_surroundings);
-        if (!board->on_bed)
-            return render_photo(camera.intrinsics, board->board_to_camera, scene, photo);
+        if (!board->on_bed) {
+            return kept_or_rendered([&] {
+                return render_photo(camera.intrinsics, board->board_to_camera, scene, photo);
+            });
+        }
         // Face up on the bed: the board's y runs the other way from the bed's.
-        const double to_bed[2][2] = {{1, 0}, {0, -1}};
-        return render_photo(camera.intrinsics, board->board_to_camera,
-                            with_marks(scene, to_bed, setup.plane_board_at_mm), photo);
+        key.add(setup.plane_board_at_mm);
+        return kept_or_rendered([&] {
+            const double to_bed[2][2] = {{1, 0}, {0, -1}};
+            return render_photo(camera.intrinsics, board->board_to_camera,
+                                with_marks(scene, to_bed, setup.plane_board_at_mm), photo);
+        });
     }
     Pose bed_to_camera_now;
     {
         const std::lock_guard lock(mutex_);
         bed_to_camera_now = bed_to_camera();
     }
-    const StrokeScene scene(as_photographed(scenario_, std::move(strokes)), scenario_.bed_albedo,
-                            scenario_.material_albedo, photo.supersample,
-                            stroke_footprint_mm(scenario_), scenario_.surface);
-    const double identity[2][2] = {{1, 0}, {0, 1}};
-    return render_photo(camera.intrinsics, bed_to_camera_now, with_marks(scene, identity, {0, 0}),
-                        photo);
+    auto photographed = as_photographed(scenario_, std::move(strokes));
+    const double footprint_mm = stroke_footprint_mm(scenario_);
+    key.add("the bed").add(photographed).add(scenario_.bed_albedo).add(scenario_.material_albedo);
+    key.add(footprint_mm).add(scenario_.surface).add(bed_to_camera_now);
+    return kept_or_rendered([&] {
+        const StrokeScene scene(std::move(photographed), scenario_.bed_albedo,
+                                scenario_.material_albedo, photo.supersample, footprint_mm,
+                                scenario_.surface);
+        const double identity[2][2] = {{1, 0}, {0, 1}};
+        return render_photo(camera.intrinsics, bed_to_camera_now,
+                            with_marks(scene, identity, {0, 0}), photo);
+    });
 }
 
 void TwinBench::hold_calibration_board(int view) {

@@ -297,11 +297,6 @@ class GalvoKind final : public TwinKind {
         v.json = j.dump(1) + "\n";
         return v;
     }
-    // A burn's footprint: three pixels of the camera's at its distance (one without a camera).
-    double stroke_footprint_mm(const Scenario& s) const override {
-        if (!s.camera) return 1.0;
-        return 3 * (s.camera->position_mm - s.camera->look_at_mm).norm() / s.camera->intrinsics.fx;
-    }
 };
 
 class RouterKind final : public TwinKind {
@@ -395,6 +390,11 @@ class CartesianKind final : public TwinKind {
 };
 
 }  // namespace
+
+double TwinKind::stroke_footprint_mm(const Scenario& s) const {
+    if (!s.camera) return 1.0;
+    return 3 * (s.camera->position_mm - s.camera->look_at_mm).norm() / s.camera->intrinsics.fx;
+}
 
 const TwinKind& twin_kind_of(const models::MachineFile& machine) {
     static const DeltaKind delta;

@@ -1,7 +1,10 @@
 // The photo renderer and the twin's camera, judged against OpenCV and hand-worked values.
 #include <CppUTest/TestHarness.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -10,6 +13,7 @@
 #include "board/sim/camera_reference.hpp"
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
+#include "board/sim/photo_cache.hpp"
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/scenes.hpp"
@@ -744,4 +748,66 @@ TEST(LampAndLens, field_curvature_blurs_by_the_square_of_the_radius_as_opencvs_g
             std::max(steepest_corner, std::abs(pixel(image, u + 1, 3) - pixel(image, u, 3)));
     CHECK_TEXT(steepest_centre > 45, std::to_string(steepest_centre).c_str());
     CHECK_TEXT(steepest_corner <= 21, std::to_string(steepest_corner).c_str());
+}
+
+// The photos kept between a run's tests (board/sim/photo_cache.hpp): a kept photo comes back byte
+// for byte, any input changed is another photo, and a damaged file is rendered again, not read.
+TEST_GROUP(KeptPhotos) {
+    std::string dir;
+    void setup() override {
+        dir = (std::filesystem::temp_directory_path() /
+               ("calbox_kept_photos_" + std::to_string(::getpid())))
+                  .string();
+        std::filesystem::remove_all(dir);
+        ::setenv("CALBOX_TWIN_PHOTO_CACHE", dir.c_str(), 1);
+    }
+    void teardown() override {
+        ::unsetenv("CALBOX_TWIN_PHOTO_CACHE");
+        std::filesystem::remove_all(dir);
+    }
+};
+
+TEST(KeptPhotos, a_kept_photo_comes_back_byte_for_byte_and_only_for_its_own_inputs) {
+    CameraIntrinsics camera;
+    camera.width_px = 64;
+    camera.height_px = 48;
+    PhotoSettings photo;
+    photo.noise_sigma_dn = 2;
+    const std::vector<StrokeSegment> strokes = {{{-1, 0, 0.2}, {1, 0, 0.2}, 0.4}};
+    const auto key_of = [&](const PhotoSettings& p, const std::vector<StrokeSegment>& s) {
+        PhotoKey key;
+        key.add(camera).add(p).add(s).add("the bed");
+        return key;
+    };
+    const GrayImage image{64, 48, std::vector<std::uint8_t>(64 * 48, 7)};
+    CHECK_FALSE(kept_photo(key_of(photo, strokes)).has_value());
+    keep_photo(key_of(photo, strokes), image);
+    const auto back = kept_photo(key_of(photo, strokes));
+    CHECK(back.has_value());
+    CHECK_EQUAL(64, back->width_px);
+    CHECK_EQUAL(48, back->height_px);
+    CHECK(back->pixels == image.pixels);
+    // Another frame's noise, another exposure, a stroke a nanometre away: not that photo.
+    PhotoSettings next_frame = photo;
+    next_frame.seed += 7919;
+    CHECK_FALSE(kept_photo(key_of(next_frame, strokes)).has_value());
+    PhotoSettings shorter = photo;
+    shorter.exposure_time_ratio = 0.5;
+    CHECK_FALSE(kept_photo(key_of(shorter, strokes)).has_value());
+    auto moved = strokes;
+    moved[0].b_mm.x += 1e-6;
+    CHECK_FALSE(kept_photo(key_of(photo, moved)).has_value());
+    // Cut short (a test killed while another read it): treated as not kept.
+    const auto path = std::filesystem::path(dir) / (key_of(photo, strokes).digest() + ".gray");
+    std::filesystem::resize_file(path, std::filesystem::file_size(path) - 1);
+    CHECK_FALSE(kept_photo(key_of(photo, strokes)).has_value());
+}
+
+TEST(KeptPhotos, without_the_directory_nothing_is_kept) {
+    ::unsetenv("CALBOX_TWIN_PHOTO_CACHE");
+    PhotoKey key;
+    key.add("anything");
+    keep_photo(key, GrayImage{2, 2, {1, 2, 3, 4}});
+    CHECK_FALSE(kept_photo(key).has_value());
+    CHECK_FALSE(std::filesystem::exists(dir));
 }

@@ -290,19 +290,36 @@ GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_came
     for (std::size_t u = 0; u < across.size(); ++u) {
         across[u] = (static_cast<double>(u) - half_w) / camera.width_px * cos_l;
     }
-    for (int v = 0; v < camera.height_px; ++v) {
+    // The vignette of a row, column by column. Rows v and height - v lie equally far from the
+    // centre, as do columns u and width - u (the offsets are exact halves): each distance's hypot
+    // is worked out once for all four, the same figures (hypot is even in each argument).
+    std::vector<double> vignette(across.size(), 1.0);  // 1 - 0 * rho^2, without the square root
+    const auto vignette_of_row = [&](int v) {
+        for (int u = camera.width_px - 1; u >= 0; --u) {
+            const int mirror = camera.width_px - u;
+            if (mirror > u && mirror < camera.width_px) {
+                vignette[static_cast<std::size_t>(u)] = vignette[static_cast<std::size_t>(mirror)];
+                continue;
+            }
+            const double rho = std::hypot(u - half_w, v - half_h) / corner;
+            vignette[static_cast<std::size_t>(u)] = 1 - settings.vignetting * rho * rho;
+        }
+    };
+    const auto light_row = [&](int v) {
         float* row = radiance.ptr<float>(v);
         const double down = (v - half_h) / camera.height_px * sin_l;
         for (int u = 0; u < camera.width_px; ++u) {
-            const double light =
-                1 + settings.lighting_gradient * (across[static_cast<std::size_t>(u)] + down);
-            double vignette = 1;  // what 1 - 0 * rho^2 is, without the square root
-            if (settings.vignetting != 0) {
-                const double rho = std::hypot(u - half_w, v - half_h) / corner;
-                vignette = 1 - settings.vignetting * rho * rho;
-            }
-            row[u] = static_cast<float>(row[u] * exposed_dn * light * vignette);
+            const auto i = static_cast<std::size_t>(u);
+            const double light = 1 + settings.lighting_gradient * (across[i] + down);
+            row[u] = static_cast<float>(row[u] * exposed_dn * light * vignette[i]);
         }
+    };
+    for (int v = 0; v < camera.height_px; ++v) {
+        const int mirror = camera.height_px - v;
+        if (mirror < v) continue;  // lit with its mirror, above
+        if (settings.vignetting != 0) vignette_of_row(v);
+        light_row(v);
+        if (mirror > v && mirror < camera.height_px) light_row(mirror);
     }
     if (settings.field_curvature_px > 0) {
         blur_growing_to_corners(radiance, settings.blur_sigma_px, settings.field_curvature_px);

@@ -129,9 +129,10 @@ void keep_photo(const PhotoKey& key, const GrayImage& photo) {
     if (!dir) return;
     std::error_code ignored;
     fs::create_directories(*dir, ignored);
-    const fs::path final_path = *dir / (key.digest() + ".gray");
+    const std::string name = key.digest();
+    const fs::path final_path = *dir / (name + ".gray");
     const fs::path temporary =
-        *dir / (key.digest() + "." + std::to_string(::getpid()) + "." +
+        *dir / (name + "." + std::to_string(::getpid()) + "." +
                 std::to_string(reinterpret_cast<std::uintptr_t>(&photo)) + ".part");
     {
         std::ofstream out(temporary, std::ios::binary | std::ios::trunc);

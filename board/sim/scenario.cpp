@@ -227,7 +227,9 @@ PhotoSettings photo_settings_of(const Scenario& s, InView what) {
 }
 
 double stroke_footprint_mm(const Scenario& s) {
-    return twin_kind_of(s.machine).stroke_footprint_mm(s);
+    if (!s.camera) return 1.0;
+    return stroke_footprint_mm(s.camera->intrinsics,
+                               (s.camera->position_mm - s.camera->look_at_mm).norm());
 }
 
 double bed_growth_at_photo(const Scenario& s) {

@@ -112,8 +112,8 @@ struct Scenario {
 enum class InView { board, bed };
 PhotoSettings photo_settings_of(const Scenario& s, InView what);
 
-// A bound on how far a camera pixel's footprint reaches on the bed, for the stroke index: a
-// printer's 1 mm, or for a galvo's fine marks a few pixels' worth at the camera's distance.
+// A bound on how far a camera pixel's footprint reaches on the bed, for the stroke index: three
+// pixels at the camera's distance (scenes.hpp), 1 mm without a camera.
 double stroke_footprint_mm(const Scenario& s);
 
 // The same delta geometry in the twin's own struct and in the machine file's keys.

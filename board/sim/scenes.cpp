@@ -151,6 +151,10 @@ Vec2 offset_from_centreline(const StrokeSegment& s, double t, double x, double y
 
 }  // namespace
 
+double stroke_footprint_mm(const CameraIntrinsics& camera, double distance_mm) {
+    return 3 * distance_mm / camera.fx;
+}
+
 StrokeScene::StrokeScene(std::vector<StrokeSegment> strokes, double bed_albedo,
                          double material_albedo, int supersample, double footprint_mm,
                          const StrokeSurface& surface)

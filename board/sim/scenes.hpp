@@ -49,6 +49,11 @@ struct StrokeSurface {
     double light_elevation_deg = 30;  // its height above the bed's plane
 };
 
+// The largest a camera pixel's footprint gets on a plane `distance_mm` away, for StrokeScene's
+// index: three of the camera's pixels there (a pixel's own reach is about two; the third covers
+// the frame's edges and a tilt). The photo is the same with any larger figure, only slower.
+double stroke_footprint_mm(const CameraIntrinsics& camera, double distance_mm);
+
 class StrokeScene final : public Scene {
   public:
     // `footprint_mm`: the largest a pixel's footprint on the plane gets (the index lists each

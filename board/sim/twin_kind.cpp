@@ -391,11 +391,6 @@ class CartesianKind final : public TwinKind {
 
 }  // namespace
 
-double TwinKind::stroke_footprint_mm(const Scenario& s) const {
-    if (!s.camera) return 1.0;
-    return 3 * (s.camera->position_mm - s.camera->look_at_mm).norm() / s.camera->intrinsics.fx;
-}
-
 const TwinKind& twin_kind_of(const models::MachineFile& machine) {
     static const DeltaKind delta;
     static const GalvoKind galvo;

@@ -56,9 +56,6 @@ class TwinKind {
                                                   std::vector<StrokeSegment> strokes) const {
         return strokes;
     }
-    // The largest a camera pixel's footprint on the bed gets, for the stroke scene's index
-    // (scenes.hpp): three pixels of the camera's at its distance, 1 mm without a camera.
-    double stroke_footprint_mm(const Scenario& s) const;
 };
 
 // Throws ScenarioError for a kind the twin does not know.

@@ -64,13 +64,6 @@ inline sim::CameraIntrinsics hq_camera() {
     return c;
 }
 
-// The largest a pixel's footprint gets on the bed, for the stroke scene's index: three pixels at
-// the camera's distance from the bed's origin, as the sim board's scenarios give it
-// (TwinKind::stroke_footprint_mm). The photo is the same either way, only found sooner.
-inline double stroke_footprint_mm(const sim::CameraIntrinsics& camera, const sim::Pose& pose) {
-    return 3 * pose.translation_mm.norm() / camera.fx;
-}
-
 // What the box's camera sees of printed material on the scenario's default bed and filament
 // (matte black PEI, white PETG), edges sampled 4x4 per pixel.
 inline sim::GrayImage photo_of_print(const sim::CameraIntrinsics& camera, const sim::Pose& pose,
@@ -80,7 +73,7 @@ inline sim::GrayImage photo_of_print(const sim::CameraIntrinsics& camera, const 
     return sim::render_photo(
         camera, pose,
         sim::StrokeScene(std::move(strokes), defaults.bed_albedo, defaults.material_albedo, 4,
-                         stroke_footprint_mm(camera, pose)),
+                         sim::stroke_footprint_mm(camera, pose.translation_mm.norm())),
         photo);
 }
 
@@ -89,10 +82,11 @@ inline sim::GrayImage photo_of_print(const sim::CameraIntrinsics& camera, const 
                                      std::vector<sim::StrokeSegment> strokes,
                                      const sim::PhotoSettings& photo, double bed_albedo,
                                      double material_albedo, const sim::StrokeSurface& surface) {
-    return sim::render_photo(camera, pose,
-                             sim::StrokeScene(std::move(strokes), bed_albedo, material_albedo, 4,
-                                              stroke_footprint_mm(camera, pose), surface),
-                             photo);
+    return sim::render_photo(
+        camera, pose,
+        sim::StrokeScene(std::move(strokes), bed_albedo, material_albedo, 4,
+                         sim::stroke_footprint_mm(camera, pose.translation_mm.norm()), surface),
+        photo);
 }
 
 inline vision::GrayView view_of(const sim::GrayImage& image) {

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <opencv2/imgproc.hpp>
 #include <optional>
@@ -20,6 +21,10 @@
 
 namespace calbox::modes {
 namespace {
+
+// How far a marker may stand from where the target lays it, relative to the others, before the
+// photo is taken for another artifact's.
+constexpr double kLayoutToleranceMm = 4.0;
 
 // Exposure that leaves no edge to measure, in the limits' words. Each is what a photo of white
 // or grey filament on a dark or light sheet, lit by the box's lamp, stays well clear of.
@@ -316,6 +321,49 @@ MissingMarkers missing_markers(const targets::DeltaTarget& target,
     return out;
 }
 
+// Where the target's markers stand in the photo by the bed's pose from set-up, and how large:
+// ArUco's thresholds and contours then run on a window round them (each grown by a marker's side
+// and the layout's tolerance: the detector needs the quiet zone round a marker, and an
+// uncalibrated printer puts them a few millimetres off), scaled down as far as their size allows,
+// not on the whole 12 MP frame. Nothing is set when the target lies outside the photo.
+void look_where_the_target_stands(vision::MarkerOptions& options,
+                                  const targets::DeltaTarget& target,
+                                  const geometry::CameraModel& camera,
+                                  const geometry::BedPlane& plane) {
+    const double grow_mm = 2 * target.marker_half_mm + kLayoutToleranceMm;
+    std::vector<geometry::Point3> grown, corners;
+    for (const auto& marker : target.markers) {
+        for (const double dx : {-1.0, 1.0})
+            for (const double dy : {-1.0, 1.0})
+                grown.push_back({marker.centre_mm.x + dx * (target.marker_half_mm + grow_mm),
+                                 marker.centre_mm.y + dy * (target.marker_half_mm + grow_mm),
+                                 target.top_height_mm});
+        for (const auto& c : marker.corners_mm) corners.push_back({c.x, c.y, target.top_height_mm});
+    }
+    const auto px = geometry::project_points(camera, plane.bed_to_camera, grown);
+    double x0 = px.front().x, x1 = x0, y0 = px.front().y, y1 = y0;
+    for (const auto& p : px) {
+        if (!std::isfinite(p.x) || !std::isfinite(p.y)) return;
+        x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+        y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+    }
+    x0 = std::max(x0, 0.0), y0 = std::max(y0, 0.0);
+    x1 = std::min(x1, camera.image_width - 1.0), y1 = std::min(y1, camera.image_height - 1.0);
+    if (x1 <= x0 || y1 <= y0) return;
+    const auto side = geometry::project_points(camera, plane.bed_to_camera, corners);
+    double smallest_px = std::numeric_limits<double>::max();
+    for (std::size_t m = 0; m + 3 < side.size(); m += 4)
+        for (std::size_t k = 0; k < 4; ++k)
+            smallest_px = std::min(smallest_px, std::hypot(side[m + (k + 1) % 4].x - side[m + k].x,
+                                                           side[m + (k + 1) % 4].y - side[m + k].y));
+    options.windows.push_back({static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)),
+                               static_cast<int>(std::ceil(x1 - std::floor(x0))) + 1,
+                               static_cast<int>(std::ceil(y1 - std::floor(y0))) + 1});
+    // A printed marker squashed or tilted shows smaller than laid out: half its size still found.
+    constexpr double kSmallestShare = 0.5;
+    if (std::isfinite(smallest_px)) options.smallest_side_px = kSmallestShare * smallest_px;
+}
+
 std::string joined(const std::vector<std::string>& parts) {
     std::string text;
     for (const auto& part : parts) text += (text.empty() ? "" : ", ") + part;
@@ -347,6 +395,7 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
     const auto& markers = out.target.markers;
     vision::MarkerOptions options;
     options.camera = &camera;
+    look_where_the_target_stands(options, out.target, camera, plane);
     // Per corner, what the frames that saw it gave.
     struct CornerSightings {
         std::vector<geometry::Point3> on_bed;  // at the strand's height each frame measured
@@ -366,7 +415,21 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
             !size.empty())
             throw MeasureError("photo " + std::to_string(f + 1) + " is " + size);
         check_exposure(frame, f);
+        // The markers looked for where the target should stand; the whole photo only when that
+        // misses one of them (the bed moved since set-up, a marker out of frame, a foreign
+        // artifact), so the refusals below see what the whole photo shows.
         auto found = vision::detect_markers(frame, options);
+        const bool all_found =
+            std::all_of(markers.begin(), markers.end(), [&](const targets::TargetMarker& marker) {
+                return std::any_of(found.begin(), found.end(),
+                                   [&](const auto& m) { return m.id == marker.id; });
+            });
+        if (!options.windows.empty() && !all_found) {
+            vision::MarkerOptions whole = options;
+            whole.windows.clear();
+            whole.smallest_side_px = 0;
+            found = vision::detect_markers(frame, whole);
+        }
         if (found.empty())
             throw MeasureError("photo " + std::to_string(f + 1) + " shows no " +
                                options.dictionary + " markers");
@@ -407,7 +470,6 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
                 worst =
                     std::max(worst, std::hypot(p.x - seen_centres[i].x, p.y - seen_centres[i].y));
             }
-            constexpr double kLayoutToleranceMm = 4.0;
             if (worst > kLayoutToleranceMm) {
                 char why[200];
                 std::snprintf(why, sizeof why,

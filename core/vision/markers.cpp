@@ -42,18 +42,26 @@ struct RawMarkers {
 };
 
 // The adapter: OpenCV 4.7 moved ArUco into objdetect with a detector object.
-RawMarkers opencv_detect(const cv::Mat& gray, int dictionary_id) {
+RawMarkers opencv_detect(const cv::Mat& gray, int dictionary_id, double smallest_side_px) {
     RawMarkers raw;
+    const auto set = [&](cv::aruco::DetectorParameters& parameters) {
+        parameters.cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
+        if (smallest_side_px > 0) {
+            parameters.useAruco3Detection = true;
+            parameters.minMarkerLengthRatioOriginalImg = static_cast<float>(
+                smallest_side_px / std::max(gray.cols, gray.rows));
+        }
+    };
 #if CALBOX_ARUCO_DETECTOR_API
     const cv::aruco::Dictionary dictionary = cv::aruco::getPredefinedDictionary(dictionary_id);
     cv::aruco::DetectorParameters parameters;
-    parameters.cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
+    set(parameters);
     cv::aruco::ArucoDetector(dictionary, parameters).detectMarkers(gray, raw.corners, raw.ids);
     raw.cells_per_side = dictionary.markerSize + 2;
 #else
     const auto dictionary = cv::aruco::getPredefinedDictionary(dictionary_id);
     const auto parameters = cv::aruco::DetectorParameters::create();
-    parameters->cornerRefinementMethod = cv::aruco::CORNER_REFINE_SUBPIX;
+    set(*parameters);
     cv::aruco::detectMarkers(gray, dictionary, raw.corners, raw.ids, parameters);
     raw.cells_per_side = dictionary->markerSize + 2;
 #endif
@@ -247,7 +255,7 @@ RawMarkers detect_raw(const GrayView& image, const MarkerOptions& options) {
             "' (OpenCV's DICT_4X4_50 ... DICT_7X7_1000, DICT_ARUCO_ORIGINAL, "
             "DICT_APRILTAG_36h11, or libapriltag's tag36h11, tag25h9, tagStandard41h12)");
     }
-    raw = opencv_detect(geometry::to_cv(image), dictionary_id);
+    raw = opencv_detect(geometry::to_cv(image), dictionary_id, options.smallest_side_px);
     // OpenCV's AprilTag dictionaries are AprilTag's codes, which libapriltag reads too, and
     // through a blur that loses OpenCV's quads (a lens's soft corners, where the reference marks
     // stand). Its finds add the marks OpenCV missed; those OpenCV found stay as they were.

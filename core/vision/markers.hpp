@@ -99,6 +99,10 @@ struct MarkerOptions {
     // (clipped to the image), each searched on its own (a few marks whose places are known cost
     // a few small detections, not the frame's). Corners are refined on the whole image.
     std::vector<PixelWindow> windows;
+    // The smallest marker side the search must find, in pixels (0: any size). Known, OpenCV's
+    // ArUco looks on a copy scaled so that such a marker spans its decoding's 32 pixels (ArUco3,
+    // Romero-Ramirez et al. 2018) and refines its corners back up to the photo itself.
+    double smallest_side_px = 0;
 };
 
 // Markers sorted by id. Throws geometry::PatternError for an unknown dictionary name.

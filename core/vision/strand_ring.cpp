@@ -185,28 +185,36 @@ std::optional<std::vector<Point2>> where_sides_meet(const std::array<geometry::L
 
 }  // namespace
 
-std::optional<BlurredBar> fit_blurred_bar(const std::vector<double>& profile, double step_px,
-                                          const BlurredBar& start, BarFit fit) {
-    const bool held = fit == BarFit::contrast_and_blur_held;
-    // Levenberg-Marquardt over (level, slope, brightness, centre, width, blur); the slope is
-    // about the starting centre so that it and the level do not trade.
+namespace {
+
+// Levenberg-Marquardt over the bar's (level, slope, brightness, centre, width, blur), the slope
+// about the starting centre so that it and the level do not trade; with `Free` 4, over the
+// first, second, fourth and fifth alone (brightness and blur held): a held parameter's row of the
+// normal equations is zero but for its diagonal, so its step is zero and the others' are those
+// of the smaller system, which is solved instead.
+template <int Free>
+std::optional<BlurredBar> fit_bar(const std::vector<double>& profile, double step_px,
+                                  const BlurredBar& start) {
+    static_assert(Free == 6 || Free == 4);
     constexpr int kParameters = 6;
-    using Vector = Eigen::Matrix<double, kParameters, 1>;
-    using Matrix = Eigen::Matrix<double, kParameters, kParameters>;
+    using Bar = Eigen::Matrix<double, kParameters, 1>;
+    using Vector = Eigen::Matrix<double, Free, 1>;
+    using Matrix = Eigen::Matrix<double, Free, Free>;
+    static constexpr std::array<int, 6> kFree =
+        Free == 6 ? std::array<int, 6>{0, 1, 2, 3, 4, 5} : std::array<int, 6>{0, 1, 3, 4, -1, -1};
     if (profile.size() < static_cast<std::size_t>(2 * kParameters) || !(step_px > 0) ||
         !(start.width_px > 0) || !(start.blur_sigma_px > 0))
         return std::nullopt;
     const double pivot = start.centre_px;
     const NormalTable& normal = normal_table();
-    Vector q;
+    Bar q;
     q << (profile.front() + profile.back()) / 2, 0, start.contrast_dn, start.centre_px,
         start.width_px, start.blur_sigma_px;
     // The cost at a point with its normal equations: a step that is taken needs them next, so
     // they are made with the cost that decides it.
-    const auto cost_and_normal = [&](const Vector& at, Matrix& jtj, Vector& jtr) {
+    const auto cost_and_normal = [&](const Bar& at, Matrix& jtj, Vector& jtr) {
         double cost = 0;
         jtj.setZero(), jtr.setZero();
-        if (held) jtj(2, 2) = jtj(5, 5) = 1;  // their steps come out zero
         for (std::size_t i = 0; i < profile.size(); ++i) {
             const double x = static_cast<double>(i) * step_px;
             const double u1 = (x - at[3] + at[4] / 2) / at[5];
@@ -215,12 +223,18 @@ std::optional<BlurredBar> fit_blurred_bar(const std::vector<double>& profile, do
             const double inside = n1.cdf - n2.cdf;
             const double r = profile[i] - (at[0] + at[1] * (x - pivot) + at[2] * inside);
             cost += r * r;
-            Vector j;
-            j << 1, x - pivot, inside, at[2] * (n2.pdf - n1.pdf) / at[5],
+            const std::array<double, kParameters> all{
+                1,
+                x - pivot,
+                inside,
+                at[2] * (n2.pdf - n1.pdf) / at[5],
                 at[2] * (n1.pdf + n2.pdf) / (2 * at[5]),
-                at[2] * (n2.pdf * u2 - n1.pdf * u1) / at[5];
-            if (held) j[2] = j[5] = 0;
-            jtj += j * j.transpose();
+                at[2] * (n2.pdf * u2 - n1.pdf * u1) / at[5]};
+            Vector j;
+            for (int k = 0; k < Free; ++k)
+                j[k] = all[static_cast<std::size_t>(kFree[static_cast<std::size_t>(k)])];
+            // The lower half only: the damped solve below (LDLT) reads no other.
+            jtj.template selfadjointView<Eigen::Lower>().rankUpdate(j);
             jtr += j * r;
         }
         return cost;
@@ -234,7 +248,8 @@ std::optional<BlurredBar> fit_blurred_bar(const std::vector<double>& profile, do
         Matrix damped = jtj;
         damped.diagonal() += lambda * jtj.diagonal().cwiseMax(1e-12);
         const Vector step = damped.ldlt().solve(jtr);
-        Vector trial = q + step;
+        Bar trial = q;
+        for (int k = 0; k < Free; ++k) trial[kFree[static_cast<std::size_t>(k)]] += step[k];
         trial[4] = std::max(trial[4], 0.05);
         trial[5] = std::max(trial[5], 0.05);
         const double trial_cost = cost_and_normal(trial, trial_jtj, trial_jtr);
@@ -252,6 +267,14 @@ std::optional<BlurredBar> fit_blurred_bar(const std::vector<double>& profile, do
     }
     if (!converged || !q.allFinite()) return std::nullopt;
     return BlurredBar{q[3], q[4], q[5], q[2]};
+}
+
+}  // namespace
+
+std::optional<BlurredBar> fit_blurred_bar(const std::vector<double>& profile, double step_px,
+                                          const BlurredBar& start, BarFit fit) {
+    return fit == BarFit::contrast_and_blur_held ? fit_bar<4>(profile, step_px, start)
+                                                 : fit_bar<6>(profile, step_px, start);
 }
 
 StrandHeight strand_height_from_width(double section_mm2, double width_mm, double width_sigma_mm) {

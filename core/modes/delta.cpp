@@ -354,8 +354,9 @@ void look_where_the_target_stands(vision::MarkerOptions& options,
     double smallest_px = std::numeric_limits<double>::max();
     for (std::size_t m = 0; m + 3 < side.size(); m += 4)
         for (std::size_t k = 0; k < 4; ++k)
-            smallest_px = std::min(smallest_px, std::hypot(side[m + (k + 1) % 4].x - side[m + k].x,
-                                                           side[m + (k + 1) % 4].y - side[m + k].y));
+            smallest_px =
+                std::min(smallest_px, std::hypot(side[m + (k + 1) % 4].x - side[m + k].x,
+                                                 side[m + (k + 1) % 4].y - side[m + k].y));
     options.windows.push_back({static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)),
                                static_cast<int>(std::ceil(x1 - std::floor(x0))) + 1,
                                static_cast<int>(std::ceil(y1 - std::floor(y0))) + 1});

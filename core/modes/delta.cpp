@@ -10,6 +10,7 @@
 #include <optional>
 #include <utility>
 
+#include "core/each_on_all_cores.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/line_fit.hpp"
 #include "core/models/delta.hpp"
@@ -523,12 +524,17 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         // The features: each marker's ring strand, its corners where its sides' centrelines
         // meet (where the nozzle went, however wide the strand lies), each mapped to the bed at
         // the height the strand's width there says it stands.
-        for (std::size_t i = 0; i < found.size(); ++i) {
+        // Each ring is measured on its own (the photo and the camera only read), on all cores.
+        std::vector<vision::StrandRing> rings(found.size());
+        each_on_all_cores(found.size(), [&](std::size_t i) {
             const auto& marker = markers[static_cast<std::size_t>(found[i].id)];
             const vision::StrandRingLayout layout{out.target.marker_half_mm, marker.outline_half_mm,
                                                   out.target.strand_width_mm,
                                                   out.target.ring_gap_mm};
-            const auto ring = vision::measure_strand_ring(frame, found[i].corners, layout, &camera);
+            rings[i] = vision::measure_strand_ring(frame, found[i].corners, layout, &camera);
+        });
+        for (std::size_t i = 0; i < found.size(); ++i) {
+            const auto& ring = rings[i];
             if (!ring.measured()) {
                 out.rings_unmeasured.push_back(photo_name + ": marker " +
                                                std::to_string(found[i].id) +

@@ -230,12 +230,14 @@ std::optional<BlurredBar> fit_bar(const std::vector<double>& profile, double ste
                 at[2] * (n2.pdf - n1.pdf) / at[5],
                 at[2] * (n1.pdf + n2.pdf) / (2 * at[5]),
                 at[2] * (n2.pdf * u2 - n1.pdf * u1) / at[5]};
-            Vector j;
-            for (int k = 0; k < Free; ++k)
-                j[k] = all[static_cast<std::size_t>(kFree[static_cast<std::size_t>(k)])];
+            std::array<double, Free> j{};
+            for (std::size_t k = 0; k < Free; ++k) j[k] = all[static_cast<std::size_t>(kFree[k])];
             // The lower half only: the damped solve below (LDLT) reads no other.
-            jtj.template selfadjointView<Eigen::Lower>().rankUpdate(j);
-            jtr += j * r;
+            for (std::size_t a = 0; a < Free; ++a) {
+                for (std::size_t b = 0; b <= a; ++b)
+                    jtj(static_cast<Eigen::Index>(a), static_cast<Eigen::Index>(b)) += j[a] * j[b];
+                jtr[static_cast<Eigen::Index>(a)] += j[a] * r;
+            }
         }
         return cost;
     };

@@ -1,5 +1,6 @@
 #include "firmware/console/console.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
@@ -434,6 +435,22 @@ std::string Console::reply_to(std::string_view line) {
         as_json = true;
         return true;
     });
+    // A control byte (a NUL from a line noise burst, an escape sequence) is refused by its place:
+    // echoed in a reply it would cut the line short at a NUL or act on the terminal.
+    if (const auto at = std::find_if(line.begin(), line.end(),
+                                     [](char c) {
+                                         const auto u = static_cast<unsigned char>(c);
+                                         return (u < 0x20 && c != '\t') || u == 0x7f;
+                                     });
+        at != line.end()) {
+        char why[96];
+        std::snprintf(why, sizeof why,
+                      "control byte 0x%02x at column %zu refused (a command is printable text)",
+                      static_cast<unsigned>(static_cast<unsigned char>(*at)),
+                      static_cast<std::size_t>(at - line.begin()) + 1);
+        if (as_json) return json_line(json{{"ok", false}, {"error", why}});
+        return std::string("error: ") + why + "\n";
+    }
     std::string clean(line);
     if (const auto at = clean.find("--json"); at != std::string::npos) clean.erase(at, 6);
     // An empty line is not answered; "--json" alone asks for an answer (found by fuzz_console).

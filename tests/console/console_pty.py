@@ -211,6 +211,14 @@ if v != "stdin":
 r = t.ask("frobnicate", ok=False)
 if "'frobnicate' is not a command" not in r["error"]:
     fail(r["error"])
+# a NUL in a line (line noise) is refused by its place, not echoed cut short at it, as text and
+# as JSON; the box goes on
+if t.text("frob\0nicate") != [
+        "error: control byte 0x00 at column 5 refused (a command is printable text)"]:
+    fail("NUL in a line")
+r = t.ask("status\x1b[2J", ok=False)
+if r["error"] != "control byte 0x1b at column 7 refused (a command is printable text)":
+    fail("escape in a line: " + r["error"])
 # a key that is not there is one line, as text and as JSON, and the box goes on (it once ended
 # the appliance with status 1)
 if t.text("config get nosuch") != [

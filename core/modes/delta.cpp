@@ -358,9 +358,11 @@ void look_where_the_target_stands(vision::MarkerOptions& options,
             smallest_px =
                 std::min(smallest_px, std::hypot(side[m + (k + 1) % 4].x - side[m + k].x,
                                                  side[m + (k + 1) % 4].y - side[m + k].y));
+    std::vector<int> ids;
+    for (const auto& marker : target.markers) ids.push_back(marker.id);
     options.windows.push_back({static_cast<int>(std::floor(x0)), static_cast<int>(std::floor(y0)),
                                static_cast<int>(std::ceil(x1 - std::floor(x0))) + 1,
-                               static_cast<int>(std::ceil(y1 - std::floor(y0))) + 1});
+                               static_cast<int>(std::ceil(y1 - std::floor(y0))) + 1, ids});
     // A printed marker squashed or tilted shows smaller than laid out: half its size still found.
     constexpr double kSmallestShare = 0.5;
     if (std::isfinite(smallest_px)) options.smallest_side_px = kSmallestShare * smallest_px;
@@ -421,17 +423,6 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         // misses one of them (the bed moved since set-up, a marker out of frame, a foreign
         // artifact), so the refusals below see what the whole photo shows.
         auto found = vision::detect_markers(frame, options);
-        const bool all_found =
-            std::all_of(markers.begin(), markers.end(), [&](const targets::TargetMarker& marker) {
-                return std::any_of(found.begin(), found.end(),
-                                   [&](const auto& m) { return m.id == marker.id; });
-            });
-        if (!options.windows.empty() && !all_found) {
-            vision::MarkerOptions whole = options;
-            whole.windows.clear();
-            whole.smallest_side_px = 0;
-            found = vision::detect_markers(frame, whole);
-        }
         if (found.empty())
             throw MeasureError("photo " + std::to_string(f + 1) + " shows no " +
                                options.dictionary + " markers");

@@ -233,12 +233,22 @@ void add_missing(RawMarkers& raw, const RawMarkers& more) {
         }
 }
 
-// The detectors' rough finds in one image, each id once.
-RawMarkers detect_raw(const GrayView& image, const MarkerOptions& options) {
+// Whether `raw` holds every one of `wanted` (false when nothing is wanted: every look is taken).
+bool holds_all(const RawMarkers& raw, const std::vector<int>& wanted) {
+    return !wanted.empty() && std::all_of(wanted.begin(), wanted.end(), [&](int id) {
+        return std::find(raw.ids.begin(), raw.ids.end(), id) != raw.ids.end();
+    });
+}
+
+// The detectors' rough finds in one image, each id once; the later looks left out once the first
+// has found every one of `wanted`.
+RawMarkers detect_raw(const GrayView& image, const MarkerOptions& options,
+                      const std::vector<int>& wanted) {
     const AprilTagFamily* family = apriltag_family(options.dictionary);
     RawMarkers raw;
     if (family != nullptr) {
         raw = apriltag_detect(image, *family, options.apriltag_limits);
+        if (holds_all(raw, wanted)) return raw;
         if (options.apriltag_limits.second_pass_decimate > 0 &&
             options.apriltag_limits.second_pass_decimate != options.apriltag_limits.quad_decimate) {
             AprilTagLimits second = options.apriltag_limits;
@@ -257,6 +267,7 @@ RawMarkers detect_raw(const GrayView& image, const MarkerOptions& options) {
             "DICT_APRILTAG_36h11, or libapriltag's tag36h11, tag25h9, tagStandard41h12)");
     }
     raw = opencv_detect(geometry::to_cv(image), dictionary_id, options.smallest_side_px);
+    if (holds_all(raw, wanted)) return raw;
     // OpenCV's AprilTag dictionaries are AprilTag's codes, which libapriltag reads too, and
     // through a blur that loses OpenCV's quads (a lens's soft corners, where the reference marks
     // stand). Its finds add the marks OpenCV missed; those OpenCV found stay as they were.
@@ -266,9 +277,10 @@ RawMarkers detect_raw(const GrayView& image, const MarkerOptions& options) {
 }
 
 // The detectors' finds in one image (or window), with the equalised second look if asked.
-RawMarkers detect_raw_with_equalized(const GrayView& image, const MarkerOptions& options) {
-    RawMarkers raw = detect_raw(image, options);
-    if (options.equalized_pass) {
+RawMarkers detect_raw_with_equalized(const GrayView& image, const MarkerOptions& options,
+                                     const std::vector<int>& wanted = {}) {
+    RawMarkers raw = detect_raw(image, options, wanted);
+    if (options.equalized_pass && !holds_all(raw, wanted)) {
         // Marks in a dim corner (light falling off, a vignette) under a soft lens: equalised tile
         // by tile their cells show again. Found there, they are refined on the photo itself.
         cv::Mat equalized;
@@ -277,7 +289,7 @@ RawMarkers detect_raw_with_equalized(const GrayView& image, const MarkerOptions&
             ->apply(geometry::to_cv(image), equalized);
         add_missing(raw, detect_raw(GrayView{equalized.data, equalized.cols, equalized.rows,
                                              static_cast<int>(equalized.step)},
-                                    options));
+                                    options, wanted));
     }
     return raw;
 }
@@ -293,7 +305,7 @@ RawMarkers detect_raw_in_windows(const GrayView& image, const MarkerOptions& opt
         if (x1 - x0 < 8 || y1 - y0 < 8) continue;  // nothing a marker fits in
         const GrayView window{image.pixels + static_cast<long>(y0) * image.stride_bytes + x0,
                               x1 - x0, y1 - y0, image.stride_bytes};
-        RawMarkers found = detect_raw_with_equalized(window, options);
+        RawMarkers found = detect_raw_with_equalized(window, options, w.wanted_ids);
         for (auto& corners : found.corners)
             for (auto& c : corners)
                 c += cv::Point2f(static_cast<float>(x0), static_cast<float>(y0));
@@ -307,8 +319,18 @@ RawMarkers detect_raw_in_windows(const GrayView& image, const MarkerOptions& opt
 }  // namespace
 
 std::vector<DetectedMarker> detect_markers(const GrayView& image, const MarkerOptions& options) {
-    const RawMarkers raw = options.windows.empty() ? detect_raw_with_equalized(image, options)
-                                                   : detect_raw_in_windows(image, options);
+    RawMarkers raw = options.windows.empty() ? detect_raw_with_equalized(image, options)
+                                             : detect_raw_in_windows(image, options);
+    const bool a_wanted_mark_missed =
+        std::any_of(options.windows.begin(), options.windows.end(), [&](const PixelWindow& w) {
+            return !w.wanted_ids.empty() && !holds_all(raw, w.wanted_ids);
+        });
+    if (a_wanted_mark_missed) {
+        MarkerOptions whole = options;
+        whole.windows.clear();
+        whole.smallest_side_px = 0;
+        raw = detect_raw_with_equalized(image, whole);
+    }
     // Each marker's corners refined on its own (the image and the camera only read), on all cores.
     std::vector<DetectedMarker> out(raw.ids.size());
     each_on_all_cores(raw.ids.size(), [&](std::size_t m) {

@@ -75,6 +75,10 @@ struct AprilTagLimits {
 // A rectangle of an image's pixels: columns x_px .. x_px + width_px - 1, likewise rows.
 struct PixelWindow {
     int x_px = 0, y_px = 0, width_px = 0, height_px = 0;
+    // The marks this window is for (empty: whatever it shows). Once the window's first look has
+    // them all, its later looks (a second AprilTag decimation, the equalised photo) are skipped;
+    // one missed by every look sends the search to the whole image (MarkerOptions::windows).
+    std::vector<int> wanted_ids;
 };
 
 struct MarkerOptions {
@@ -97,7 +101,10 @@ struct MarkerOptions {
     double equalize_clip_limit = 4.0;
     // Where to look, in pixels: empty for the whole image; else only inside these windows
     // (clipped to the image), each searched on its own (a few marks whose places are known cost
-    // a few small detections, not the frame's). Corners are refined on the whole image.
+    // a few small detections, not the frame's). Corners are refined on the whole image. When a
+    // window's wanted mark is not found in it (the camera or the bed moved, a mark covered), the
+    // whole image is searched as if no window had been given (and with no smallest side), so that
+    // what is then said of the photo is what the whole photo shows.
     std::vector<PixelWindow> windows;
     // The smallest marker side the search must find, in pixels (0: any size). Known, OpenCV's
     // ArUco looks on a copy scaled so that such a marker spans its decoding's 32 pixels (ArUco3,

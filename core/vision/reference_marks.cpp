@@ -40,16 +40,10 @@ ReferenceView find_reference_marks_again(const GrayView& image, const ReferenceV
         options.windows.push_back({static_cast<int>(std::floor(x0 - grow)),
                                    static_cast<int>(std::floor(y0 - grow)),
                                    static_cast<int>(std::ceil(x1 - x0 + 2 * grow)),
-                                   static_cast<int>(std::ceil(y1 - y0 + 2 * grow))});
+                                   static_cast<int>(std::ceil(y1 - y0 + 2 * grow)),
+                                   {mark.id}});
     }
-    ReferenceView now{stored.dictionary, detect_markers(image, options)};
-    const bool all_found =
-        std::all_of(stored.marks.begin(), stored.marks.end(), [&](const auto& m) {
-            return std::any_of(now.marks.begin(), now.marks.end(),
-                               [&](const auto& n) { return n.id == m.id; });
-        });
-    if (all_found) return now;
-    return find_reference_marks(image, stored.dictionary, camera);
+    return {stored.dictionary, detect_markers(image, options)};
 }
 
 std::string reference_to_yaml(const ReferenceView& view) {

@@ -16,28 +16,31 @@ std::string grid_overlay_png(const vision::GrayView& photo, const std::vector<Gr
                              const std::vector<geometry::Point2>& extra_mm, double z_mm,
                              const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                              const GridMarkStyle& style) {
-    cv::Mat picture = colour_picture_of(photo);
-    const int thickness = std::max(1, picture.cols / 1500);
+    OverlayCanvas canvas = overlay_canvas_of(photo);
+    const int thickness = canvas.size(std::max(1, photo.width_px / 1500));
     std::vector<geometry::Point3> points;
     points.reserve(marks.size() + extra_mm.size());
     for (const auto& m : marks) points.push_back({m.measured_mm.x, m.measured_mm.y, z_mm});
     for (const auto& e : extra_mm) points.push_back({e.x, e.y, z_mm});
     const auto px = geometry::project_points(camera, plane.bed_to_camera, points);
-    const int radius = std::max(4, picture.cols / style.radius_divisor);
+    const int photo_radius = std::max(4, photo.width_px / style.radius_divisor);
+    const int radius = canvas.size(photo_radius);
     for (std::size_t i = 0; i < px.size(); ++i) {
-        const cv::Point at(cvRound(px[i].x), cvRound(px[i].y));
+        const cv::Point at = canvas.at(px[i].x, px[i].y);
         const bool mark = i < marks.size();
-        cv::circle(picture, at, mark ? radius : 2 * radius,
+        cv::circle(canvas.picture, at, mark ? radius : 2 * radius,
                    mark ? cv::Scalar(0, 200, 0) : cv::Scalar(0, 140, 255), thickness);
         if (mark && marks[i].labelled) {
             const std::string label =
                 std::to_string(marks[i].column) + "," + std::to_string(marks[i].row);
-            cv::putText(picture, label, at + cv::Point(style.label_offset_radii * radius, -radius),
-                        cv::FONT_HERSHEY_SIMPLEX, picture.cols / style.font_scale_divisor,
+            cv::putText(canvas.picture, label,
+                        at + cv::Point(style.label_offset_radii * radius, -radius),
+                        cv::FONT_HERSHEY_SIMPLEX,
+                        canvas.font_scale(photo.width_px / style.font_scale_divisor),
                         cv::Scalar(255, 0, 0), thickness);
         }
     }
-    return overlay_png_of(picture);
+    return png_of(canvas);
 }
 
 std::string error_field_png(const std::vector<FieldArrow>& arrows, const std::string& title) {

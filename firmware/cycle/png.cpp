@@ -1,5 +1,7 @@
 #include "firmware/cycle/png.hpp"
 
+#include <algorithm>
+#include <cmath>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -13,23 +15,35 @@ std::string png_of_picture(const cv::Mat& picture) {
     return {bytes.begin(), bytes.end()};
 }
 
-std::string overlay_png_of(const cv::Mat& picture) {
-    if (picture.cols <= kOverlayWidthPx) return png_of_picture(picture);
-    // A whole factor, so that the drawn lines stay as sharp as they were drawn.
-    const int factor = (picture.cols + kOverlayWidthPx - 1) / kOverlayWidthPx;
-    cv::Mat smaller;
-    cv::resize(picture, smaller, {picture.cols / factor, picture.rows / factor}, 0, 0,
-               cv::INTER_AREA);
-    return png_of_picture(smaller);
+cv::Point OverlayCanvas::at(double x_px, double y_px) const {
+    return {cvRound((x_px + 0.5) / factor - 0.5), cvRound((y_px + 0.5) / factor - 0.5)};
 }
 
-cv::Mat colour_picture_of(const vision::GrayView& photo) {
+int OverlayCanvas::size(double photo_px) const {
+    return std::max(1, static_cast<int>(std::lround(photo_px / factor)));
+}
+
+OverlayCanvas overlay_canvas_of(const vision::GrayView& photo) {
+    photo.check();
     const cv::Mat gray(photo.height_px, photo.width_px, CV_8UC1,
                        const_cast<std::uint8_t*>(photo.pixels),
                        static_cast<std::size_t>(photo.stride_bytes));
-    cv::Mat picture;
-    cv::cvtColor(gray, picture, cv::COLOR_GRAY2BGR);
-    return picture;
+    OverlayCanvas canvas;
+    canvas.photo_width_px = photo.width_px;
+    // A whole factor, so that the drawn lines stay as sharp as they were drawn.
+    canvas.factor = (photo.width_px + kOverlayWidthPx - 1) / kOverlayWidthPx;
+    cv::Mat smaller;
+    if (canvas.factor > 1)
+        cv::resize(gray, smaller, {photo.width_px / canvas.factor, photo.height_px / canvas.factor},
+                   0, 0, cv::INTER_AREA);
+    else
+        smaller = gray;
+    cv::cvtColor(smaller, canvas.picture, cv::COLOR_GRAY2BGR);
+    return canvas;
+}
+
+std::string png_of(const OverlayCanvas& canvas) {
+    return png_of_picture(canvas.picture);
 }
 
 std::string png_of(const hal::Frame& frame) {

@@ -16,17 +16,17 @@ std::string delta_overlay_png(const vision::GrayView& photo,
                               const geometry::BedPlane& plane) {
     const auto& fs = measured.features;
     const auto placed = modes::placement_errors(fs);
-    cv::Mat picture = colour_picture_of(photo);
-    const int thickness = std::max(1, picture.cols / 1000);
+    OverlayCanvas canvas = overlay_canvas_of(photo);
+    const int thickness = canvas.size(std::max(1, photo.width_px / 1000));
     std::map<std::string, geometry::Point2> pixel;
     for (const auto& m : measured.frames.front()) {
         std::vector<cv::Point> outline;
         for (int k = 0; k < 4; ++k) {
             const auto& p = m.corners[static_cast<std::size_t>(k)];
-            outline.emplace_back(cvRound(p.x), cvRound(p.y));
+            outline.push_back(canvas.at(p.x, p.y));
             pixel[modes::corner_feature_id(m.id, k)] = p;
         }
-        cv::polylines(picture, outline, true, cv::Scalar(0, 200, 0), thickness);
+        cv::polylines(canvas.picture, outline, true, cv::Scalar(0, 200, 0), thickness);
     }
     // Magnified so that the largest error is drawn about 15 mm long on the bed (a nice
     // factor from 10 to 1000, printed on the picture); each arrow is projected through the
@@ -53,27 +53,28 @@ std::string delta_overlay_png(const vision::GrayView& photo,
         const auto& tail = ends[2 * i];
         const auto& head = ends[2 * i + 1];
         const cv::Point2d to = from_px[i] + cv::Point2d(head.x - tail.x, head.y - tail.y);
-        cv::arrowedLine(picture, cv::Point(cvRound(from_px[i].x), cvRound(from_px[i].y)),
-                        cv::Point(cvRound(to.x), cvRound(to.y)), cv::Scalar(0, 0, 255), thickness);
+        cv::arrowedLine(canvas.picture, canvas.at(from_px[i].x, from_px[i].y),
+                        canvas.at(to.x, to.y), cv::Scalar(0, 0, 255), thickness);
     }
     char legend[120];
     std::snprintf(legend, sizeof legend, "errors x%.0f (largest %.3f mm)", gain, largest);
-    cv::putText(picture, legend, {picture.cols / 40, picture.rows / 20}, cv::FONT_HERSHEY_SIMPLEX,
-                picture.cols / 1500.0, cv::Scalar(0, 0, 255), thickness);
+    cv::putText(canvas.picture, legend, canvas.at(photo.width_px / 40, photo.height_px / 20),
+                cv::FONT_HERSHEY_SIMPLEX, canvas.font_scale(photo.width_px / 1500.0),
+                cv::Scalar(0, 0, 255), thickness);
     // Each bar between its measured end ticks, with its length against the commanded one.
     for (const auto& b : measured.bars) {
         const auto px = geometry::project_points(camera, plane.bed_to_camera,
                                                  {b.ticks_seen_mm[0], b.ticks_seen_mm[1]});
-        const cv::Point from(cvRound(px[0].x), cvRound(px[0].y));
-        const cv::Point to(cvRound(px[1].x), cvRound(px[1].y));
-        cv::line(picture, from, to, cv::Scalar(255, 160, 0), 2 * thickness);
+        const cv::Point from = canvas.at(px[0].x, px[0].y);
+        const cv::Point to = canvas.at(px[1].x, px[1].y);
+        cv::line(canvas.picture, from, to, cv::Scalar(255, 160, 0), 2 * thickness);
         char label[80];
         std::snprintf(label, sizeof label, "%c %.3f mm (%+.3f)", b.tower, b.measured_mm,
                       b.measured_mm - b.commanded_mm);
-        cv::putText(picture, label, (from + to) / 2, cv::FONT_HERSHEY_SIMPLEX,
-                    picture.cols / 2000.0, cv::Scalar(255, 160, 0), thickness);
+        cv::putText(canvas.picture, label, (from + to) / 2, cv::FONT_HERSHEY_SIMPLEX,
+                    canvas.font_scale(photo.width_px / 2000.0), cv::Scalar(255, 160, 0), thickness);
     }
-    return overlay_png_of(picture);
+    return png_of(canvas);
 }
 
 }  // namespace calbox::firmware

@@ -402,6 +402,26 @@ TEST(ReferenceMarks, a_knocked_camera_moves_the_marks_by_what_the_twins_geometry
             DOUBLES_EQUAL(whole.marks[m].corners[k].y, again.marks[m].corners[k].y, 0.01);
         }
     }
+    // A window that misses its mark (stored where the mark is not: here, the photo's middle)
+    // sends the search to the whole photo: every mark found, where the whole photo's search has it.
+    auto misplaced = stored;
+    {
+        auto& corners = misplaced.marks.front().corners;
+        double cx = 0, cy = 0;
+        for (const auto& p : corners) cx += p.x / 4, cy += p.y / 4;
+        for (auto& p : corners)
+            p.x += camera.image_width / 2.0 - cx, p.y += camera.image_height / 2.0 - cy;
+    }
+    const auto refound =
+        vision::find_reference_marks_again(view_of(still_photo), misplaced, camera);
+    CHECK_EQUAL(whole.marks.size(), refound.marks.size());
+    for (std::size_t m = 0; m < whole.marks.size(); ++m) {
+        CHECK_EQUAL(whole.marks[m].id, refound.marks[m].id);
+        for (std::size_t k = 0; k < 4; ++k) {
+            DOUBLES_EQUAL(whole.marks[m].corners[k].x, refound.marks[m].corners[k].x, 1e-9);
+            DOUBLES_EQUAL(whole.marks[m].corners[k].y, refound.marks[m].corners[k].y, 1e-9);
+        }
+    }
     const auto still = vision::compare_reference(stored, again, camera, plane);
     CHECK_EQUAL(4, still.marks_compared);
     CHECK(still.missing.empty());

@@ -12,6 +12,7 @@
 #include <sstream>
 #include <vector>
 
+#include "core/number_text.hpp"
 #include "core/targets/gcode_line.hpp"
 
 namespace calbox::targets {
@@ -30,9 +31,7 @@ constexpr std::size_t kLongestLine = 65536;
 
 // A number as G-code writes it: no exponent, no trailing zeros.
 std::string number(double v, int decimals) {
-    char buffer[64];
-    std::snprintf(buffer, sizeof buffer, "%.*f", decimals, v);
-    std::string s = buffer;
+    std::string s = fixed_text(v, decimals);
     if (s.find('.') != std::string::npos) {
         while (s.back() == '0') s.pop_back();
         if (s.back() == '.') s.pop_back();
@@ -460,9 +459,15 @@ bool is_known_m(Flavour f, double value) {
            (m >= 100 && m <= 199);
 }
 
+// has_m for any of from..to, in one look at the line's words (a job's every line asks).
 bool has_m_in(const gcode::Line& line, int from, int to) {
-    for (int n = from; n <= to; ++n)
-        if (has_m(line, n)) return true;
+    if (line.command_letter == 'M' && line.command_subcode < 0 && line.command_number >= from &&
+        line.command_number <= to)
+        return true;
+    for (const auto& w : line.parameters)
+        if (w.letter == 'M' && w.value && *w.value >= from && *w.value <= to &&
+            *w.value == std::floor(*w.value))
+            return true;
     return false;
 }
 
@@ -873,7 +878,16 @@ class Compensator {
             if (polar) *polar = p;
         }
         if (!is_cnc(frame_.flavour)) return text;
-        return gcode::cnc_words(text, std::string(letters_of(frame_.flavour)) += more_letters);
+        std::string words =
+            gcode::cnc_words(text, std::string(letters_of(frame_.flavour)) += more_letters);
+        // LinuxCNC reads N only as a line's first word (after a '/'); grbl takes it anywhere.
+        if (frame_.flavour == Flavour::linuxcnc) {
+            if (const auto at = words.find(" N"); at != std::string::npos)
+                throw gcode::SyntaxError(
+                    "'" + words.substr(at + 1, words.find(' ', at + 1) - at - 1) +
+                    "': a line number after other words (N comes first on its line)");
+        }
+        return words;
     }
 
     // What LinuxCNC's interpreter and grbl refuse in a line whose words are all theirs: a letter

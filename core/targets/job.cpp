@@ -18,7 +18,7 @@ double line_width_of(const models::MachineFile& m) {
 }
 
 std::string spaced_xy(Point2 p) {
-    return " X" + number_text("%.4f", p.x) + " Y" + number_text("%.4f", p.y);
+    return " X" + fixed_text(p.x, 4) + " Y" + fixed_text(p.y, 4);
 }
 
 // The drawing as a browser shows it: a shape shows only inside its clip path, and what lies past
@@ -145,30 +145,29 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
         fits =
             std::hypot(std::max(std::abs(job.min_x), std::abs(job.max_x)),
                        std::max(std::abs(job.min_y), std::abs(job.max_y))) <= machine.bed_radius_mm;
-        region =
-            "the bed (a circle of " + number_text("%.1f", machine.bed_radius_mm) + " mm radius)";
+        region = "the bed (a circle of " + fixed_text(machine.bed_radius_mm, 1) + " mm radius)";
         largest_scale = machine.bed_radius_mm / std::hypot(w / 2, h / 2);
     } else if (machine.is_galvo()) {
         const double half_field = machine.galvo ? machine.galvo->field_size_mm / 2 : 0;
         fits = job.min_x >= -half_field && job.min_y >= -half_field && job.max_x <= half_field &&
                job.max_y <= half_field;
-        region = "the scanner's field (" + number_text("%.1f", 2 * half_field) + " x " +
-                 number_text("%.1f", 2 * half_field) + " mm)";
+        region = "the scanner's field (" + fixed_text(2 * half_field, 1) + " x " +
+                 fixed_text(2 * half_field, 1) + " mm)";
         largest_scale = std::min(2 * half_field / w, 2 * half_field / h);
     } else {
         fits = job.min_x >= 0 && job.min_y >= 0 && job.max_x <= machine.bed_size_x_mm &&
                job.max_y <= machine.bed_size_y_mm;
-        region = "the bed (" + number_text("%.1f", machine.bed_size_x_mm) + " x " +
-                 number_text("%.1f", machine.bed_size_y_mm) + " mm)";
+        region = "the bed (" + fixed_text(machine.bed_size_x_mm, 1) + " x " +
+                 fixed_text(machine.bed_size_y_mm, 1) + " mm)";
         largest_scale = std::min(machine.bed_size_x_mm / w, machine.bed_size_y_mm / h);
     }
     if (!fits) {
         // As the --fit that gives it, rounded down to 0.1 mm so that it does fit.
         const double largest_fit_mm = std::floor(largest_scale * std::max(w, h) * 10 - 1e-9) / 10;
-        throw JobError("the drawing, " + number_text("%.1f", job.max_x - job.min_x) + " x " +
-                       number_text("%.1f", job.max_y - job.min_y) + " mm at scale " +
+        throw JobError("the drawing, " + fixed_text(job.max_x - job.min_x, 1) + " x " +
+                       fixed_text(job.max_y - job.min_y, 1) + " mm at scale " +
                        number_text("%g", job.scale) + ", does not fit " + region + "; --fit " +
-                       number_text("%.1f", largest_fit_mm) +
+                       fixed_text(largest_fit_mm, 1) +
                        " (its larger side in mm) or less makes it fit");
     }
     FillSettings fill;
@@ -207,7 +206,7 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
     line("; calbox job for a " + m.kind + " (" + m.firmware + "): line " +
          number_text("%g", job.line_width_mm) + " mm, spacing " +
          number_text("%g", job.spacing_mm) + " mm, " +
-         number_text("%.1f", job.toolpath.working_length_mm()) + " mm of path");
+         fixed_text(job.toolpath.working_length_mm(), 1) + " mm of path");
     line("G21");
     line("G90");
     if (m.is_printer()) {
@@ -216,9 +215,8 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
             out += *m.start_gcode;
             if (!out.empty() && out.back() != '\n') out += "\n";
         } else {
-            if (m.bed_temperature_c) line("M190 S" + number_text("%.0f", *m.bed_temperature_c));
-            if (m.nozzle_temperature_c)
-                line("M109 S" + number_text("%.0f", *m.nozzle_temperature_c));
+            if (m.bed_temperature_c) line("M190 S" + fixed_text(*m.bed_temperature_c, 0));
+            if (m.nozzle_temperature_c) line("M109 S" + fixed_text(*m.nozzle_temperature_c, 0));
             line("G28");
         }
         line("G92 E0");
@@ -226,32 +224,31 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
             job.line_width_mm * m.layer_height_mm /
             (3.14159265358979323846 * m.filament_diameter_mm * m.filament_diameter_mm / 4);
         double e = 0;
-        line("G0 Z" + number_text("%.3f", m.safe_height_mm) + " F" + number_text("%.0f", travel));
+        line("G0 Z" + fixed_text(m.safe_height_mm, 3) + " F" + fixed_text(travel, 0));
         for (int layer = 1; layer <= job.layers; ++layer) {
             const double z = layer * m.layer_height_mm, hop = z + 0.4;
-            if (layer > 1) line("G0 Z" + number_text("%.3f", hop));
+            if (layer > 1) line("G0 Z" + fixed_text(hop, 3));
             bool lifted = true;
             for (const auto& move : job.toolpath.moves) {
                 if (move.kind == MoveKind::travel) {
                     // Lift over the print for anything longer than a hop to the next line.
                     if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
-                        line("G0 Z" + number_text("%.3f", hop));
+                        line("G0 Z" + fixed_text(hop, 3));
                         lifted = true;
                     }
-                    line("G0" + spaced_xy(move.to) + " F" + number_text("%.0f", travel));
+                    line("G0" + spaced_xy(move.to) + " F" + fixed_text(travel, 0));
                     continue;
                 }
                 if (lifted) {
-                    line("G0 Z" + number_text("%.3f", z));
+                    line("G0 Z" + fixed_text(z, 3));
                     lifted = false;
                 }
                 e += move.length_mm() * e_per_mm;
-                line("G1" + spaced_xy(move.to) + " E" + number_text("%.5f", e) + " F" +
-                     number_text("%.0f", feed));
+                line("G1" + spaced_xy(move.to) + " E" + fixed_text(e, 5) + " F" +
+                     fixed_text(feed, 0));
             }
         }
-        line("G0 Z" + number_text("%.3f", m.safe_height_mm + 10) + " F" +
-             number_text("%.0f", travel));
+        line("G0 Z" + fixed_text(m.safe_height_mm + 10, 3) + " F" + fixed_text(travel, 0));
         if (m.end_gcode) {
             out += *m.end_gcode;
             if (!out.empty() && out.back() != '\n') out += "\n";
@@ -266,26 +263,25 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
     const double power_scale = m.firmware == "grbl" ? 1000 : 255;
     line("M5");
     if (router) {
-        line("G0 Z" + number_text("%.3f", m.safe_height_mm) + " F" + number_text("%.0f", travel));
-        line("M3 S" + number_text("%.0f", m.spindle_rpm));
+        line("G0 Z" + fixed_text(m.safe_height_mm, 3) + " F" + fixed_text(travel, 0));
+        line("M3 S" + fixed_text(m.spindle_rpm, 0));
     }
     bool working = false;
     for (const auto& move : job.toolpath.moves) {
         if (move.kind == MoveKind::travel) {
-            if (working) line(router ? "G0 Z" + number_text("%.3f", m.safe_height_mm) : "M5");
+            if (working) line(router ? "G0 Z" + fixed_text(m.safe_height_mm, 3) : "M5");
             working = false;
-            line("G0" + spaced_xy(move.to) + " F" + number_text("%.0f", travel));
+            line("G0" + spaced_xy(move.to) + " F" + fixed_text(travel, 0));
             continue;
         }
         if (!working) {
-            line(router ? "G1 Z" + number_text("%.3f", -m.cut_depth_mm) + " F" +
-                              number_text("%.0f", feed / 4)
-                        : "M3 S" + number_text("%.0f", m.laser_power * power_scale));
+            line(router ? "G1 Z" + fixed_text(-m.cut_depth_mm, 3) + " F" + fixed_text(feed / 4, 0)
+                        : "M3 S" + fixed_text(m.laser_power * power_scale, 0));
             working = true;
         }
-        line("G1" + spaced_xy(move.to) + " F" + number_text("%.0f", feed));
+        line("G1" + spaced_xy(move.to) + " F" + fixed_text(feed, 0));
     }
-    if (router) line("G0 Z" + number_text("%.3f", m.safe_height_mm));
+    if (router) line("G0 Z" + fixed_text(m.safe_height_mm, 3));
     line("M5");
     return out;
 }

@@ -1,5 +1,9 @@
 #include <CppUTest/TestHarness.h>
 
+#include <cstdio>
+#include <stdexcept>
+
+#include "core/number_text.hpp"
 #include "core/targets/gcode_line.hpp"
 
 using calbox::gcode::parse_line;
@@ -105,4 +109,20 @@ TEST(GcodeLine, reads_g_code_as_cam_and_slicers_write_it) {
     CHECK_EQUAL(1u, parse_line("G1 X1 (a*b)").parameters.size());
     CHECK_EQUAL(std::string("G1 X1 ; a*b"), std::string(calbox::gcode::without_checksum("G1 X1 ; a*b")));
     CHECK_EQUAL(std::string("N3 T0"), std::string(calbox::gcode::without_checksum("N3 T0*57")));
+}
+
+// A job's numbers are written by fixed_text: it must write what printf's "%.<n>f" writes, digit
+// for digit (halves, negative zero, carries, large and tiny values), or a job's coordinates move.
+TEST(GcodeLine, fixed_text_writes_what_printf_writes) {
+    const double values[] = {0.0,      -0.0,     0.5,       1.5,       2.5,       -2.5,
+                             0.00005,  -0.00005, 0.000049,  123.45675, -53.11349, 9.99995,
+                             99999.99, 1e-300,   -1e-300,   1e15,      3.0e300,   0.1 + 0.2,
+                             1.0 / 3,  -2.0 / 3, 17238.625, 4.0E-5,    -0.00004999999};
+    for (const double v : values)
+        for (int decimals = 0; decimals <= 8; ++decimals) {
+            char expected[512];
+            std::snprintf(expected, sizeof expected, "%.*f", decimals, v);
+            STRCMP_EQUAL(expected, calbox::fixed_text(v, decimals).c_str());
+        }
+    CHECK_THROWS(std::invalid_argument, calbox::fixed_text(1e300, 200));
 }

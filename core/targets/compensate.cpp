@@ -72,11 +72,21 @@ std::vector<Code> g_codes_of(const gcode::Line& line) {
     return codes;
 }
 
-bool has_m(const gcode::Line& line, int number) {
-    if (line.is('M', number)) return true;
+// Whether the line holds an M word numbered from..to (its command or a word after it), in one look
+// at its words (a job's every line asks).
+bool has_m_in(const gcode::Line& line, int from, int to) {
+    if (line.command_letter == 'M' && line.command_subcode < 0 && line.command_number >= from &&
+        line.command_number <= to)
+        return true;
     for (const auto& w : line.parameters)
-        if (w.letter == 'M' && w.value && *w.value == number) return true;
+        if (w.letter == 'M' && w.value && *w.value >= from && *w.value <= to &&
+            *w.value == std::floor(*w.value))
+            return true;
     return false;
+}
+
+bool has_m(const gcode::Line& line, int number) {
+    return has_m_in(line, number, number);
 }
 
 // What the controller holds between lines, as the job's lines set it. XY are kept in machine
@@ -457,18 +467,6 @@ bool is_known_m(Flavour f, double value) {
     return (m >= 0 && m <= 9) || m == 19 || m == 30 || (m >= 48 && m <= 53) || m == 60 || m == 61 ||
            (m >= 62 && m <= 68) || (m >= 70 && m <= 73) || m == 98 || m == 99 ||
            (m >= 100 && m <= 199);
-}
-
-// has_m for any of from..to, in one look at the line's words (a job's every line asks).
-bool has_m_in(const gcode::Line& line, int from, int to) {
-    if (line.command_letter == 'M' && line.command_subcode < 0 && line.command_number >= from &&
-        line.command_number <= to)
-        return true;
-    for (const auto& w : line.parameters)
-        if (w.letter == 'M' && w.value && *w.value >= from && *w.value <= to &&
-            *w.value == std::floor(*w.value))
-            return true;
-    return false;
 }
 
 // The M and T words of a line as written, split by when the controller acts on them: a stop

@@ -29,7 +29,6 @@ OverlayCanvas overlay_canvas_of(const vision::GrayView& photo) {
                        const_cast<std::uint8_t*>(photo.pixels),
                        static_cast<std::size_t>(photo.stride_bytes));
     OverlayCanvas canvas;
-    canvas.photo_width_px = photo.width_px;
     // A whole factor, so that the drawn lines stay as sharp as they were drawn.
     canvas.factor = (photo.width_px + kOverlayWidthPx - 1) / kOverlayWidthPx;
     cv::Mat smaller;

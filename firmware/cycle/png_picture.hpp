@@ -20,7 +20,6 @@ constexpr int kOverlayWidthPx = 2048;
 struct OverlayCanvas {
     cv::Mat picture;  // BGR, the photo's size over `factor`
     int factor = 1;
-    int photo_width_px = 0;  // what sizes drawn in proportion to the photo go by
     cv::Point at(double x_px, double y_px) const;
     // A line width or a radius of `photo_px` on the photo, at least a pixel.
     int size(double photo_px) const;

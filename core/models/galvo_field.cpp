@@ -31,6 +31,35 @@ std::array<double, 4> catmull_rom(double t) {
             0.5 * (t3 - t2)};
 }
 
+// The fourth difference along a row or a column of five measured nodes cancels any field up to a
+// cubic along it (a scanner's distortion is smooth over five pitches), leaving the nodes' own
+// scatter: each such difference of independent errors of variance s^2 per axis has variance
+// 70 s^2 per axis. Its squared length then follows 70 s^2 times a chi-square of two degrees of
+// freedom, whose median is 2 ln 2: the median keeps a spattered or chipped mark from swaying it.
+double node_scatter(int n, const std::vector<std::optional<Point2>>& measured,
+                    const std::vector<Point2>& landed_mm, const SquareGrid& grid) {
+    constexpr std::array<double, 5> kFourthDifference{1, -4, 6, -4, 1};
+    std::vector<double> squared;
+    for (const bool along_rows : {true, false})
+        for (int r = 0; r < n; ++r)
+            for (int c = 0; c + 4 < n; ++c) {
+                Point2 d;
+                bool whole = true;
+                for (int k = 0; k < 5 && whole; ++k) {
+                    const int column = along_rows ? c + k : r, row = along_rows ? r : c + k;
+                    const std::size_t i = geometry::grid_offset(column, row, n);
+                    whole = measured[i].has_value();
+                    d = d + kFourthDifference[static_cast<std::size_t>(k)] *
+                                (landed_mm[i] - grid.node_mm(column, row));
+                }
+                if (whole) squared.push_back(d.x * d.x + d.y * d.y);
+            }
+    if (squared.size() < 20) return 0;
+    const auto middle = squared.begin() + static_cast<std::ptrdiff_t>(squared.size() / 2);
+    std::nth_element(squared.begin(), middle, squared.end());
+    const double per_axis_variance = *middle / (70 * 2 * std::log(2.0));
+    return std::sqrt(2 * per_axis_variance);
+}
 }  // namespace
 
 Point2 SquareGrid::node_mm(int column, int row) const {
@@ -159,6 +188,7 @@ FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional
                 errors.push_back(fit.landed_mm[index(c, r)] - grid.node_mm(c, r));
             }
     fit.before = error_statistics(errors);
+    fit.node_scatter_mm = node_scatter(n, landed, fit.landed_mm, grid);
     // A node without a mark: a quadratic in the grid indices fitted to the displacement of the
     // measured nodes around it (5 x 5, wider if that holds too few).
     for (int r = 0; r < n; ++r)

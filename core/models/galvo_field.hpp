@@ -76,6 +76,11 @@ struct FieldFit {
     // Largest and RMS difference, at the table cells' middles, between the exact inverse and the
     // table's bilinear reading: what the table's resolution costs.
     double table_interpolation_max_mm = 0, table_interpolation_rms_mm = 0;
+    // How far each measured mark lies from the smooth field through its neighbours (RMS, in the
+    // plane): the burn's repeatability and the measurement's noise together, which the table,
+    // fitted through every node, carries into each later burn. Zero when too few rows of five
+    // measured nodes exist to tell.
+    double node_scatter_mm = 0;
 };
 
 // `intended` is the grid the marks were meant to land on; each mark was commanded through

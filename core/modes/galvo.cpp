@@ -162,7 +162,11 @@ GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasure
         for (int c = 0; c < n; ++c) s.intended_mm.push_back(grid.node_mm(c, r));
     s.measurement_sigma_mm =
         std::sqrt(sigma2 / static_cast<double>(std::max<std::size_t>(1, measured.nodes.size())));
-    s.predicted_rms_mm = std::hypot(s.measurement_sigma_mm, s.fit.table_interpolation_rms_mm);
+    // The table goes through every node as measured, so it carries each node's scatter (the
+    // burn's repeatability and the photo's noise) into the next burn, which scatters afresh.
+    const double scatter = std::max(s.fit.node_scatter_mm, s.measurement_sigma_mm);
+    s.predicted_rms_mm =
+        std::sqrt(2 * scatter * scatter + std::pow(s.fit.table_interpolation_rms_mm, 2));
     const double limit = options.max_correction_fraction * machine.galvo->field_size_mm;
     const auto& t = s.fit.table;
     for (int r = 0; r < t.nodes; ++r)

@@ -77,7 +77,7 @@ struct GalvoSolution {
     models::FieldFit fit;
     std::vector<geometry::Point2> intended_mm;  // per grid node, row by row
     double measurement_sigma_mm = 0;            // RMS of the nodes' uncertainties
-    double predicted_rms_mm = 0;  // what the table should leave: measurement and table resolution
+    double predicted_rms_mm = 0;  // what the next burn should show: nodes' scatter, table's cells
     int pass = 1;                 // 1 from the uncorrected scanner, n after n - 1 tables
     // The scanner's square field's side: a job's point beyond it is refused. Results written
     // before calbox recorded it have none.

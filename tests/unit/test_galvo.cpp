@@ -277,6 +277,23 @@ TEST(GalvoField, table_from_exact_landing_positions_corrects_to_the_micrometre) 
     CHECK(after.max_mm < 0.0005);
 }
 
+TEST(GalvoField, the_nodes_scatter_about_the_smooth_field_is_told_apart_from_the_field) {
+    // The twin's distortion alone (up to tenths of a millimetre, smooth) is no scatter; marks
+    // each landing 0.5 um per axis off at random (the test's own draws) scatter by 0.5 * sqrt(2)
+    // um in the plane, with a few spattered marks 20 um off that must not sway the figure.
+    const auto truth = sim::random_galvo_truth(3);
+    auto landed = exact_landings(truth);
+    const auto smooth = models::fit_galvo_field(kGrid, landed, models::identity_table(55));
+    CHECK(smooth.before.mean_mm > 0.1);
+    CHECK_TEXT(smooth.node_scatter_mm < 0.00005, std::to_string(smooth.node_scatter_mm).c_str());
+    std::mt19937 draws(11);
+    std::normal_distribution<double> off(0, 0.0005);
+    for (auto& mark : landed) *mark = {mark->x + off(draws), mark->y + off(draws)};
+    for (const int spattered : {40, 300, 611}) landed[spattered]->x += 0.02;
+    const auto noisy = models::fit_galvo_field(kGrid, landed, models::identity_table(55));
+    DOUBLES_EQUAL(0.0005 * std::sqrt(2.0), noisy.node_scatter_mm, 0.0001);
+}
+
 TEST(GalvoField, a_second_pass_through_the_first_table_refines_it) {
     // The grid burned through the first table lands within a hundredth; the table refined from
     // it still corrects to the micrometre.

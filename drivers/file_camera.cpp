@@ -8,12 +8,12 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
-#include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <stdexcept>
 #include <vector>
 
 #include "core/vision/image_bytes.hpp"
+#include "core/vision/image_codec.hpp"
 
 namespace calbox::drivers {
 namespace {
@@ -85,34 +85,32 @@ void FileCamera::start_capture(const hal::CaptureRequest& request) {
                 result.error = "camera: " + files_[k].string() + ": " + problem;
                 break;
             }
-            const cv::Mat gray = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
-            if (gray.empty()) {
+            vision::GrayPixels gray;
+            try {
+                gray = vision::decode_gray(bytes);
+            } catch (const vision::ImageCodecError& e) {
                 result.frames.clear();
-                result.error = "camera: " + files_[k].string() + ": not an image OpenCV can read";
+                result.error = "camera: " + files_[k].string() + ": " + e.what();
                 break;
             }
             if (width_px_ == 0) {
-                width_px_ = gray.cols;
-                height_px_ = gray.rows;
+                width_px_ = gray.width_px;
+                height_px_ = gray.height_px;
             }
-            if (gray.cols != width_px_ || gray.rows != height_px_) {
+            if (gray.width_px != width_px_ || gray.height_px != height_px_) {
                 result.frames.clear();
                 result.error = "camera: " + files_[k].string() + " is " +
-                               std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
-                               ", the photos before it " + std::to_string(width_px_) + "x" +
-                               std::to_string(height_px_);
+                               std::to_string(gray.width_px) + "x" +
+                               std::to_string(gray.height_px) + ", the photos before it " +
+                               std::to_string(width_px_) + "x" + std::to_string(height_px_);
                 break;
             }
             hal::Frame frame;
-            frame.width_px = gray.cols;
-            frame.height_px = gray.rows;
-            frame.stride_bytes = gray.cols;
+            frame.width_px = gray.width_px;
+            frame.height_px = gray.height_px;
+            frame.stride_bytes = gray.width_px;
             frame.format = hal::PixelFormat::gray8;
-            frame.pixels.resize(static_cast<std::size_t>(gray.cols) * gray.rows);
-            for (int r = 0; r < gray.rows; ++r) {
-                std::copy_n(gray.ptr<std::uint8_t>(r), gray.cols,
-                            frame.pixels.data() + static_cast<std::size_t>(r) * gray.cols);
-            }
+            frame.pixels = std::move(gray.pixels);
             frame.metadata.sequence = k;
             result.frames.push_back(std::move(frame));
         }
@@ -130,12 +128,12 @@ void write_frame_png(const std::filesystem::path& path, const hal::Frame& frame)
     if (frame.format != hal::PixelFormat::gray8) {
         throw std::runtime_error(path.string() + ": only grey frames are saved");
     }
-    const cv::Mat view(frame.height_px, frame.width_px, CV_8UC1,
-                       const_cast<std::uint8_t*>(frame.pixels.data()),
-                       static_cast<std::size_t>(frame.stride_bytes));
-    if (!cv::imwrite(path.string(), view)) {
-        throw std::runtime_error(path.string() + ": cannot write the photo");
-    }
+    const auto png = vision::png_bytes(
+        {frame.pixels.data(), frame.width_px, frame.height_px, frame.stride_bytes, 1});
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    out.close();
+    if (!out) throw std::runtime_error(path.string() + ": cannot write the photo");
 }
 
 }  // namespace calbox::drivers

@@ -12,10 +12,10 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 
 #include "core/vision/image_bytes.hpp"
+#include "core/vision/image_codec.hpp"
 #include "drivers/device_error.hpp"
 
 namespace calbox::drivers {
@@ -175,15 +175,16 @@ hal::Frame V4l2Camera::to_gray(const Buffer& buffer, std::size_t used_bytes) con
         // A frame the USB link cut short decodes grey at its foot: refused, not measured.
         if (const auto problem = vision::image_bytes_problem({bytes, used_bytes}); !problem.empty())
             throw std::runtime_error(device_->path() + ": a frame: " + problem);
-        const cv::Mat jpeg(1, static_cast<int>(used_bytes), CV_8U,
-                           const_cast<std::uint8_t*>(bytes));
-        const cv::Mat gray = cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE);
-        if (gray.empty())
-            throw std::runtime_error(device_->path() + ": a frame is not a readable JPEG");
-        frame.width_px = gray.cols;
-        frame.height_px = gray.rows;
-        frame.stride_bytes = gray.cols;
-        frame.pixels.assign(gray.datastart, gray.dataend);
+        vision::GrayPixels gray;
+        try {
+            gray = vision::decode_gray({bytes, used_bytes});
+        } catch (const vision::ImageCodecError& e) {
+            throw std::runtime_error(device_->path() + ": a frame: " + e.what());
+        }
+        frame.width_px = gray.width_px;
+        frame.height_px = gray.height_px;
+        frame.stride_bytes = gray.width_px;
+        frame.pixels = std::move(gray.pixels);
         return frame;
     }
     frame.width_px = width_px_;

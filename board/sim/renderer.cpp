@@ -4,12 +4,13 @@
 #include <cmath>
 #include <memory>
 #include <mutex>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <random>
 #include <stdexcept>
 #include <thread>
+
+#include "core/vision/image_codec.hpp"
 
 namespace calbox::sim {
 namespace {
@@ -345,14 +346,13 @@ GrayImage render_photo(const CameraIntrinsics& camera, const Pose& plane_to_came
     }
     if (settings.jpeg_quality > 0) {
         if (settings.jpeg_quality > 100) throw std::invalid_argument("JPEG quality is 1..100");
-        const cv::Mat sensor(image.height_px, image.width_px, CV_8U, image.pixels.data());
-        std::vector<std::uint8_t> file;
-        cv::imencode(".jpg", sensor, file, {cv::IMWRITE_JPEG_QUALITY, settings.jpeg_quality});
-        const cv::Mat decoded = cv::imdecode(file, cv::IMREAD_GRAYSCALE);
-        if (decoded.size() != sensor.size() || !decoded.isContinuous()) {
+        const auto file = vision::jpeg_bytes(
+            {image.pixels.data(), image.width_px, image.height_px, image.width_px, 1},
+            settings.jpeg_quality);
+        auto decoded = vision::decode_gray(file);
+        if (decoded.width_px != image.width_px || decoded.height_px != image.height_px)
             throw std::runtime_error("the JPEG round trip lost the picture");
-        }
-        std::copy(decoded.datastart, decoded.dataend, image.pixels.begin());
+        image.pixels = std::move(decoded.pixels);
     }
     return image;
 }

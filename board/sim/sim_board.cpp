@@ -13,7 +13,6 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
-#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 #include <thread>
 
@@ -24,6 +23,7 @@
 #include "board/sim/photo_cache.hpp"
 #include "board/sim/twin_kind.hpp"
 #include "core/targets/gcode_line.hpp"
+#include "core/vision/image_codec.hpp"
 #include "drivers/termios_port.hpp"
 
 namespace calbox::sim {
@@ -667,15 +667,19 @@ PngDisplay::PngDisplay(std::filesystem::path directory) : directory_(std::move(d
 void PngDisplay::show(const hal::MonoBitmap& frame) {
     if (frame.width_px() != width_px() || frame.height_px() != height_px())
         throw std::invalid_argument("display: frame is not 128x64");
-    cv::Mat image(frame.height_px(), frame.width_px(), CV_8UC1);
+    std::vector<std::uint8_t> image(static_cast<std::size_t>(frame.width_px()) * frame.height_px());
     for (int y = 0; y < frame.height_px(); ++y)
         for (int x = 0; x < frame.width_px(); ++x)
-            image.at<std::uint8_t>(y, x) = frame.at(x, y) ? 255 : 0;
+            image[static_cast<std::size_t>(y) * frame.width_px() + x] = frame.at(x, y) ? 255 : 0;
+    const auto png =
+        vision::png_bytes({image.data(), frame.width_px(), frame.height_px(), frame.width_px(), 1});
     char name[32];
     std::snprintf(name, sizeof name, "%04d.png", ++frames_);
     const auto path = directory_ / name;
-    if (!cv::imwrite(path.string(), image))
-        throw std::runtime_error(path.string() + ": cannot write the frame");
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(png.data()), static_cast<std::streamsize>(png.size()));
+    out.close();
+    if (!out) throw std::runtime_error(path.string() + ": cannot write the frame");
 }
 
 SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const SimLines::Log& log) {

@@ -1,11 +1,11 @@
 #include "firmware/cli/cli_images.hpp"
 
 #include <filesystem>
-#include <opencv2/imgcodecs.hpp>
 #include <stdexcept>
 #include <vector>
 
 #include "core/vision/image_bytes.hpp"
+#include "core/vision/image_codec.hpp"
 #include "firmware/cli/cli_args.hpp"
 
 namespace calbox::cli {
@@ -17,11 +17,14 @@ cv::Mat load_gray_image(const std::string& path) {
     const std::vector<unsigned char> bytes(text.begin(), text.end());
     if (const auto problem = vision::image_bytes_problem(bytes); !problem.empty())
         throw std::runtime_error("cannot read image " + path + ": " + problem);
-    cv::Mat image = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
-    if (image.empty())
-        throw std::runtime_error("cannot read image " + path + ": not an image OpenCV can decode");
-    if (image.depth() != CV_8U) image.convertTo(image, CV_8U);
-    return image;
+    try {
+        const auto gray = vision::decode_gray(bytes);
+        return cv::Mat(gray.height_px, gray.width_px, CV_8UC1,
+                       const_cast<std::uint8_t*>(gray.pixels.data()))
+            .clone();
+    } catch (const vision::ImageCodecError& e) {
+        throw std::runtime_error("cannot read image " + path + ": " + e.what());
+    }
 }
 
 vision::GrayView view_of(const cv::Mat& gray) {
@@ -29,9 +32,10 @@ vision::GrayView view_of(const cv::Mat& gray) {
 }
 
 void write_png(const std::string& path, const cv::Mat& image) {
-    std::vector<unsigned char> png;
-    if (!cv::imencode(".png", image, png))
-        throw std::runtime_error("cannot encode " + path + " as PNG");
+    if (image.depth() != CV_8U || (image.channels() != 1 && image.channels() != 3))
+        throw std::runtime_error("cannot encode " + path + " as PNG: not 8-bit gray or colour");
+    const auto png = vision::png_bytes(
+        {image.data, image.cols, image.rows, static_cast<int>(image.step[0]), image.channels()});
     write_output_file(path, std::string(png.begin(), png.end()));
 }
 

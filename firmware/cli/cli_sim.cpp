@@ -3,7 +3,6 @@
 #include <fstream>
 #include <iostream>
 #include <nlohmann/json.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <sstream>
 
@@ -18,6 +17,7 @@
 #include "core/modes/delta_records.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/modes/planar.hpp"
+#include "core/vision/image_codec.hpp"
 #include "firmware/cli/cli_args.hpp"
 
 namespace calbox::cli {
@@ -197,10 +197,8 @@ int sim_photo(const Args& args) {
         truth["board_to_camera"] = pose_json(board_to_camera);
         truth["features"] = features;
     }
-    const cv::Mat view(image.height_px, image.width_px, CV_8UC1, image.pixels.data());
-    std::vector<unsigned char> png;
-    if (!cv::imencode(".png", view, png))
-        throw std::runtime_error("cannot encode the photo as PNG");
+    const auto png = vision::png_bytes(
+        {image.pixels.data(), image.width_px, image.height_px, image.width_px, 1});
     write_output_file(out, std::string(png.begin(), png.end()));
     if (const auto t = args.get("--truth")) write_output_file(*t, truth.dump(1) + "\n");
     return 0;

@@ -2,16 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "core/vision/image_codec.hpp"
 #include "firmware/cycle/png_picture.hpp"
 
 namespace calbox::firmware {
 std::string png_of_picture(const cv::Mat& picture) {
-    std::vector<std::uint8_t> bytes;
-    if (!cv::imencode(".png", picture, bytes)) throw std::runtime_error("PNG encoding failed");
+    const auto bytes = vision::png_bytes({picture.data, picture.cols, picture.rows,
+                                          static_cast<int>(picture.step[0]), picture.channels()});
     return {bytes.begin(), bytes.end()};
 }
 

@@ -4,12 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "core/geometry/camera_model.hpp"
 #include "core/vision/exposure.hpp"
+#include "core/vision/image_codec.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -171,8 +171,8 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
     std::snprintf(figures, sizeof figures, "sharpness %.0f   set-up coverage %.0f %%",
                   image.sharpness, 100 * guide.coverage);
     text(figures, cv::Scalar(255, 255, 255));
-    std::vector<unsigned char> jpeg;
-    cv::imencode(".jpg", view, jpeg, {cv::IMWRITE_JPEG_QUALITY, 80});
+    const auto jpeg = vision::jpeg_bytes(
+        {view.data, view.cols, view.rows, static_cast<int>(view.step[0]), view.channels()}, 80);
     image.jpeg.assign(jpeg.begin(), jpeg.end());
     image.width_px = view.cols;
     image.height_px = view.rows;

@@ -112,7 +112,7 @@ no_library_text "calbox run --camera-files (a cut-short photo)"
 expect_error "cannot read image .*empty.png: the file is empty" detect markers "$work/empty.png"
 expect_error "the board was found in 0 of 3 images" camera calibrate --pattern chessboard:10x7@30 \
     "$samples/left02.jpg" "$samples/left03.jpg" "$samples/left04.jpg" -o "$work/result"
-expect_error "not an image OpenCV can decode" detect markers "$work/fake.png"
+expect_error "cannot read image .*fake.png: neither a PNG nor a JPEG" detect markers "$work/fake.png"
 expect_error "unknown marker dictionary 'DICT_9X9_9'" detect markers "$work/board.png" --dict DICT_9X9_9
 expect_error "no DICT_4X4_50 markers found" detect markers "$work/board.png"
 expect_error "bad pattern 'chessboard:9by6@20'" detect chessboard "$work/board.png" --pattern chessboard:9by6@20
@@ -153,7 +153,7 @@ expect_error "fill-rule must be nonzero or evenodd" target svg "$work/square.svg
 "$calbox" sim camera --scenario "$scenario" -o "$work/camera.yaml"
 "$calbox" camera plane --camera "$work/camera.yaml" --pattern chessboard:9x6@20 "$work/board.png" -o "$work/plane.yaml" > /dev/null
 expect_error "photo 1 shows no DICT_4X4_50 markers" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" "$work/board.png" -o "$work/result"
-expect_error "not an image OpenCV can decode" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" "$work/fake.png" -o "$work/result"
+expect_error "cannot read image .*fake.png: neither a PNG nor a JPEG" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" "$work/fake.png" -o "$work/result"
 expect_error "cannot read plane file" measure delta --camera "$work/camera.yaml" --plane "$work/none.yaml" --machine "$machine" "$work/board.png" -o "$work/result"
 expect_error "^calbox: measure delta: IMAGES is required \\(see calbox measure delta --help\\)$" measure delta --camera "$work/camera.yaml" --plane "$work/plane.yaml" --machine "$machine" -o "$work/result"
 

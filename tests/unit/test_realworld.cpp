@@ -8,6 +8,8 @@
 #include <cctype>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -25,6 +27,7 @@
 #include "core/targets/drawing.hpp"
 #include "core/targets/gcode_line.hpp"
 #include "core/targets/job.hpp"
+#include "core/vision/image_codec.hpp"
 #include "tests/support/gcode_reference.hpp"
 #include "tests/support/test_data.hpp"
 
@@ -78,6 +81,29 @@ void print(const char* what, const geometry::CalibrationResult& r) {
 // percent (on the Sony set OpenCV's own calibrateCamera gives 707.9 / 705.2 against BoofCV's
 // 701.0 / 698.7); a wrong board size or corner order is off by far more.
 TEST_GROUP(RealCamera){};
+
+// Other people's cameras' JPEGs (EXIF, thumbnails, a fisheye's) read by the box's own reader as
+// OpenCV reads them, pixel for pixel (the box's binary no longer links OpenCV's imgcodecs).
+TEST(RealCamera, every_photo_reads_as_opencv_reads_it) {
+    int read = 0;
+    for (const auto& e :
+         std::filesystem::recursive_directory_iterator(test::test_data_path("realworld"))) {
+        const auto ext = e.path().extension().string();
+        if (ext != ".jpg" && ext != ".png") continue;
+        std::ifstream in(e.path(), std::ios::binary);
+        const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
+                                              std::istreambuf_iterator<char>());
+        const cv::Mat theirs = cv::imdecode(bytes, cv::IMREAD_GRAYSCALE);
+        const auto ours = vision::decode_gray(bytes);
+        CHECK_EQUAL(theirs.cols, ours.width_px);
+        CHECK_EQUAL(theirs.rows, ours.height_px);
+        const cv::Mat view(ours.height_px, ours.width_px, CV_8UC1,
+                           const_cast<std::uint8_t*>(ours.pixels.data()));
+        CHECK_TEXT(cv::norm(theirs, view, cv::NORM_INF) == 0, e.path().string().c_str());
+        ++read;
+    }
+    CHECK_EQUAL(50, read);
+}
 
 TEST(RealCamera, bumblebee2_left_calibrates_near_its_published_intrinsics) {
     const auto r = calibrate("boofcv_bumblebee2_left_chess", geometry::LensModel::pinhole);

@@ -23,7 +23,7 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
                                const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                                const vision::GrayView& photo,
                                const GalvoMeasureSettings& settings) {
-    const auto target = targets::make_galvo_target(machine, settings.target);
+    const auto target = targets::galvo_grid(machine, settings.target);
     const double pitch = target.pitch_mm;
     const int n = target.grid_count;
     if (const auto size = geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
@@ -135,7 +135,7 @@ GalvoSolution solve_galvo(const models::MachineFile& machine, const GalvoMeasure
         throw GalvoError(
             "solve: the measurements were made for another machine file (fingerprint " +
             measured.machine_fingerprint + ")");
-    const auto target = targets::make_galvo_target(machine, {measured.grid_count});
+    const auto target = targets::galvo_grid(machine, {measured.grid_count});
     if (measured.target_fingerprint != target.fingerprint)
         throw GalvoError("solve: the measurements are of another target than this machine's " +
                          std::to_string(measured.grid_count) + " x " +

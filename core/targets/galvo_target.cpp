@@ -19,6 +19,9 @@ using geometry::Point2;
 constexpr std::array<std::array<int, 2>, 8> kLargeOffsets{
     {{0, 0}, {1, 0}, {2, 0}, {0, 1}, {-9, 10}, {1, -9}, {-12, -4}, {5, 6}}};
 
+// The circles' radii, in pitches.
+constexpr double kSmallRadiusPitches = 0.2, kLargeRadiusPitches = 0.4;
+
 Contour circle(Point2 centre, double radius_mm) {
     // Enough sides that the polygon lies within a micrometre of the circle.
     const int sides = std::max(
@@ -31,6 +34,12 @@ Contour circle(Point2 centre, double radius_mm) {
             {centre.x + radius_mm * std::cos(a), centre.y + radius_mm * std::sin(a)});
     }
     return c;
+}
+
+// The k-th circle burned on a row: row by row, alternate rows backwards, so that the beam never
+// jumps across the field.
+int burned_column(int row, int k, int grid_count) {
+    return row % 2 == 0 ? k : grid_count - 1 - k;
 }
 
 }  // namespace
@@ -56,8 +65,7 @@ GridIndex apply_symmetry(int symmetry, GridIndex i, int grid_count) {
     return q;
 }
 
-GalvoTarget make_galvo_target(const models::MachineFile& machine,
-                              const GalvoTargetOptions& options) {
+GalvoTarget galvo_grid(const models::MachineFile& machine, const GalvoTargetOptions& options) {
     if (!machine.is_galvo() || !machine.galvo)
         throw JobError("the galvo target is for a galvo machine (kind = \"galvo\"), not a " +
                        machine.kind);
@@ -68,21 +76,12 @@ GalvoTarget make_galvo_target(const models::MachineFile& machine,
     target.grid_count = options.grid_count;
     // The outer large circles' edges stay inside the field.
     target.pitch_mm = machine.galvo->field_size_mm / options.grid_count;
-    const double small_radius = 0.2 * target.pitch_mm, large_radius = 0.4 * target.pitch_mm;
+    const double small_radius = kSmallRadiusPitches * target.pitch_mm;
     if (machine.tool_width_mm > small_radius)
         throw JobError("the spot (tool_width_mm " + number_text("%g", machine.tool_width_mm) +
                        " mm) is too large for circles of " + number_text("%.3f", small_radius) +
                        " mm radius: use a smaller grid count");
-    FillSettings fill;
-    fill.line_width_mm = machine.tool_width_mm;
-    fill.spacing_mm = machine.tool_width_mm;
-    fill.angle_deg = 0;
     const double middle = (options.grid_count - 1) / 2.0;
-    Point2 pen{0, 0};
-    PlacedJob& job = target.job;
-    job.line_width_mm = machine.tool_width_mm;
-    job.spacing_mm = machine.tool_width_mm;
-    job.feed_mm_s = machine.feed_mm_s;
     std::string canonical =
         models::fingerprint(machine) + "|galvo-grid|" + std::to_string(options.grid_count);
     for (int row = 0; row < options.grid_count; ++row) {
@@ -95,21 +94,42 @@ GalvoTarget make_galvo_target(const models::MachineFile& machine,
             target.marks.push_back(mark);
         }
     }
-    // Row by row, alternate rows backwards, so the beam never jumps across the field.
-    for (int row = 0; row < options.grid_count; ++row) {
+    // The large marks in the order the job burns them (below), as fingerprints have always
+    // listed them.
+    for (int row = 0; row < options.grid_count; ++row)
         for (int k = 0; k < options.grid_count; ++k) {
-            const int column = row % 2 == 0 ? k : options.grid_count - 1 - k;
-            const GalvoMark& mark = target.at({column, row});
+            const int column = burned_column(row, k, options.grid_count);
+            if (target.at({column, row}).large)
+                canonical += "|L" + std::to_string(column) + "," + std::to_string(row);
+        }
+    target.fingerprint = models::digest(canonical + "|" + number_text("%.6f", target.pitch_mm));
+    return target;
+}
+
+GalvoTarget make_galvo_target(const models::MachineFile& machine,
+                              const GalvoTargetOptions& options) {
+    GalvoTarget target = galvo_grid(machine, options);
+    const double small_radius = kSmallRadiusPitches * target.pitch_mm,
+                 large_radius = kLargeRadiusPitches * target.pitch_mm;
+    FillSettings fill;
+    fill.line_width_mm = machine.tool_width_mm;
+    fill.spacing_mm = machine.tool_width_mm;
+    fill.angle_deg = 0;
+    Point2 pen{0, 0};
+    PlacedJob& job = target.job;
+    job.line_width_mm = machine.tool_width_mm;
+    job.spacing_mm = machine.tool_width_mm;
+    job.feed_mm_s = machine.feed_mm_s;
+    for (int row = 0; row < options.grid_count; ++row)
+        for (int k = 0; k < options.grid_count; ++k) {
+            const GalvoMark& mark = target.at({burned_column(row, k, options.grid_count), row});
             append(job.toolpath,
                    plan_fill({circle(mark.centre_mm, mark.large ? large_radius : small_radius)},
                              FillRule::nonzero, fill, pen));
-            if (mark.large) canonical += "|L" + std::to_string(column) + "," + std::to_string(row);
         }
-    }
     const double half = machine.galvo->field_size_mm / 2;
     job.min_x = job.min_y = -half;
     job.max_x = job.max_y = half;
-    target.fingerprint = models::digest(canonical + "|" + number_text("%.6f", target.pitch_mm));
     return target;
 }
 

@@ -46,6 +46,10 @@ bool is_large_mark(GridIndex index, int grid_count);
 // quarter turns, 4-7 the mirror images.
 GridIndex apply_symmetry(int symmetry, GridIndex index, int grid_count);
 
+// The grid alone (its marks, pitch and fingerprint, no job): what a measurement is matched
+// against, without filling 961 circles. Throws as make_galvo_target does.
+GalvoTarget galvo_grid(const models::MachineFile& machine, const GalvoTargetOptions& options = {});
+
 // Throws JobError when the machine is not a galvo, the grid is under 7 x 7 or over 101 x 101,
 // or the spot is too large to fill the small circles.
 GalvoTarget make_galvo_target(const models::MachineFile& machine,

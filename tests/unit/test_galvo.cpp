@@ -229,6 +229,14 @@ TEST(GalvoTarget, grid_circles_and_job_as_the_seed_lays_them_out) {
     const auto target = targets::make_galvo_target(machine);
     CHECK_EQUAL(31, target.grid_count);
     CHECK_EQUAL(31u * 31u, target.marks.size());
+    // The grid alone, which measurements are matched against, is the job's grid.
+    const auto grid = targets::galvo_grid(machine);
+    STRCMP_EQUAL(target.fingerprint.c_str(), grid.fingerprint.c_str());
+    CHECK(grid.job.toolpath.moves.empty());
+    for (std::size_t i = 0; i < grid.marks.size(); ++i) {
+        CHECK(grid.marks[i].index == target.marks[i].index);
+        CHECK_EQUAL(target.marks[i].large, grid.marks[i].large);
+    }
     DOUBLES_EQUAL(110.0 / 31, target.pitch_mm, 1e-12);
     DOUBLES_EQUAL(-15 * target.pitch_mm, target.marks.front().centre_mm.x, 1e-9);
     DOUBLES_EQUAL(15 * target.pitch_mm, target.marks.back().centre_mm.y, 1e-9);

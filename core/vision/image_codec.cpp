@@ -12,7 +12,6 @@
 #include <csetjmp>
 #include <cstdlib>
 #include <cstring>
-#include <optional>
 
 namespace calbox::vision {
 namespace {

@@ -12,7 +12,6 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/vision/image_bytes.hpp"
 #include "core/vision/image_codec.hpp"
 
 namespace calbox::drivers {
@@ -80,11 +79,6 @@ void FileCamera::start_capture(const hal::CaptureRequest& request) {
             std::ifstream in(files_[k], std::ios::binary);
             const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)),
                                                   std::istreambuf_iterator<char>());
-            if (const auto problem = vision::image_bytes_problem(bytes); !problem.empty()) {
-                result.frames.clear();
-                result.error = "camera: " + files_[k].string() + ": " + problem;
-                break;
-            }
             vision::GrayPixels gray;
             try {
                 gray = vision::decode_gray(bytes);

@@ -13,6 +13,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "core/vision/image_bytes.hpp"
+
 namespace calbox::vision {
 namespace {
 
@@ -325,6 +327,8 @@ std::vector<std::uint8_t> jpeg_bytes(const PixelRows& image, int quality) {
 }
 
 GrayPixels decode_gray(std::span<const std::uint8_t> bytes) {
+    if (const auto problem = image_bytes_problem(bytes); !problem.empty())
+        throw ImageCodecError(problem);
     static constexpr std::uint8_t kPng[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
     if (bytes.size() >= sizeof kPng && std::equal(std::begin(kPng), std::end(kPng), bytes.begin()))
         return decode_png(bytes);

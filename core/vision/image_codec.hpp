@@ -41,7 +41,8 @@ std::vector<std::uint8_t> jpeg_bytes(const PixelRows& image, int quality);
 
 // A PNG or JPEG file's picture as 8-bit gray, as OpenCV's imdecode(IMREAD_GRAYSCALE) gives it:
 // colour as luma, 16 bits to 8, transparency dropped, turned upright by the file's EXIF
-// orientation. Throws ImageCodecError for anything else or a file the decoder stops on.
+// orientation. Throws ImageCodecError for anything else, a file the decoder stops on, or what
+// image_bytes_problem finds (an empty file, a JPEG cut short).
 GrayPixels decode_gray(std::span<const std::uint8_t> bytes);
 
 }  // namespace calbox::vision

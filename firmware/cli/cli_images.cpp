@@ -4,7 +4,6 @@
 #include <stdexcept>
 #include <vector>
 
-#include "core/vision/image_bytes.hpp"
 #include "core/vision/image_codec.hpp"
 #include "firmware/cli/cli_args.hpp"
 
@@ -15,8 +14,6 @@ cv::Mat load_gray_image(const std::string& path) {
         throw std::runtime_error("cannot read image " + path + ": no such file");
     const std::string text = read_input_file(path, "image");
     const std::vector<unsigned char> bytes(text.begin(), text.end());
-    if (const auto problem = vision::image_bytes_problem(bytes); !problem.empty())
-        throw std::runtime_error("cannot read image " + path + ": " + problem);
     try {
         const auto gray = vision::decode_gray(bytes);
         return cv::Mat(gray.height_px, gray.width_px, CV_8UC1,

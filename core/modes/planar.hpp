@@ -133,6 +133,10 @@ struct PlanarSolution {
     // The frame it was measured in. Results written before calbox recorded it have none, and
     // compensate nothing.
     std::optional<PlanarFrame> frame;
+    // Whether the photos' bed frame is mirrored against the machine's (PlanarMeasurement's
+    // `mirrored`): with the placement above, where the camera's bed lies in the machine's frame.
+    // Results written before calbox recorded it have none, and give no bed view.
+    std::optional<bool> bed_mirrored;
 };
 
 // Throws PlanarError (or models::PlanarModelError) with one line; nothing is returned for a

@@ -130,7 +130,8 @@ std::string planar_result_to_json(const PlanarSolution& s, const FirmwareSetting
                  {"parameters", parameters},
                  {"placement",
                   {{"rotation_rad", s.fit.rotation_rad},
-                   {"translation_mm", point_json(s.fit.translation_mm)}}},
+                   {"translation_mm", point_json(s.fit.translation_mm)},
+                   {"bed_mirrored", s.bed_mirrored ? json(*s.bed_mirrored) : json(nullptr)}}},
                  {"rigid_part_left_out",
                   {{"rotation_rad", s.rigid_part.rotation_rad},
                    {"offset_mm", point_json(s.rigid_part.offset_mm)}}},
@@ -176,6 +177,9 @@ PlanarSolution planar_result_from_json(const std::string& text, const std::strin
         }
         s.fit.rotation_rad = j.at("placement").at("rotation_rad").get<double>();
         s.fit.translation_mm = point_from(j.at("placement").at("translation_mm"));
+        if (const auto& placement = j.at("placement");
+            placement.contains("bed_mirrored") && !placement.at("bed_mirrored").is_null())
+            s.bed_mirrored = placement.at("bed_mirrored").get<bool>();
         s.rigid_part.rotation_rad = j.at("rigid_part_left_out").at("rotation_rad").get<double>();
         s.rigid_part.offset_mm = point_from(j.at("rigid_part_left_out").at("offset_mm"));
         s.fit.rank = j.at("rank").get<int>();

@@ -58,6 +58,7 @@ PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeas
     models::PlanarFitSettings fit_settings;
     fit_settings.abbe_height_mm = s.tool_length_mm;
     s.fit = models::fit_planar_errors(observations, fit_settings);
+    s.bed_mirrored = measured.mirrored;
     // Before: what the holes show once only the machine's placement in the photo is taken out.
     const auto placement = solve::best_rigid_placement(seen, s.commanded_mm);
     for (std::size_t i = 0; i < seen.size(); ++i) {

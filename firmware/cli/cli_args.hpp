@@ -76,6 +76,7 @@ std::vector<Command> solve_commands();
 std::vector<Command> compensate_commands();
 std::vector<Command> machine_commands();
 std::vector<Command> sim_commands();
+std::vector<Command> view_commands();  // view bed
 
 // Writes a whole output file atomically (sibling + rename): a failed run leaves no half file.
 void write_output_file(const std::string& path, const std::string& contents);

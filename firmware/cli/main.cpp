@@ -1,8 +1,9 @@
 // calbox: one binary; each command exposes one step of the calibration cycle, or the appliance.
 // The commands declare their options (cli_args.hpp); this file hands them to CLI11, which makes
 // every usage line, --help and option error from those declarations.
-#include <CLI/CLI.hpp>
 #include <malloc.h>
+
+#include <CLI/CLI.hpp>
 #include <cctype>
 #include <iostream>
 #include <string>
@@ -35,6 +36,7 @@ const Group kGroups[] = {
     {"solve", "fit the machine's model and write the correction"},
     {"machine", "a machine file from the printer's own files"},
     {"sim", "the digital twin"},
+    {"view", "what the camera sees, in the machine's coordinates"},
 };
 
 // The help's last lines: the modes (each declared with its verbs), and what every command returns.
@@ -50,7 +52,7 @@ std::vector<Command> all_commands() {
          {calbox::cli::appliance_commands, calbox::cli::camera_commands,
           calbox::cli::detect_commands, calbox::cli::target_commands, calbox::cli::measure_commands,
           calbox::cli::solve_commands, calbox::cli::compensate_commands,
-          calbox::cli::machine_commands, calbox::cli::sim_commands})
+          calbox::cli::machine_commands, calbox::cli::sim_commands, calbox::cli::view_commands})
         for (auto& c : commands()) all.push_back(std::move(c));
     return all;
 }

@@ -51,6 +51,40 @@ refused "holes_compensated.gcode: already compensated" "$work/holes_compensated.
 printf 'G21 G90\nG0 X0 Y0\nG1 X100 Y50 F600\n' > "$work/stock.gcode"
 "$calbox" compensate --result "$work/result.json" "$work/stock.gcode" --work-zero -250,-200 -o "$work/stock_compensated.gcode" > "$work/stock.out"
 grep -q "G54 zero at machine X-250.000 Y-200.000 mm" "$work/stock.out"
+# The bed in the machine's coordinates from the drilled sheet's photo: its size, its world file
+# (read here as a GIS reads it: pixel size, then the top-left pixel's centre), the PNG's own
+# header, and the refusals, nothing written by them.
+"$calbox" view bed --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/holes.png" --stock-thickness 1.5 --mm-per-px 0.5 -o "$work/bed.png" > "$work/view.out"
+cat "$work/view.out"
+grep -q "bed.png: 600 x 600 px of X -300.000..0.000 Y -300.000..0.000 mm at 0.500 mm a pixel" "$work/view.out"
+[ "$(tr '\n' ' ' < "$work/bed.pgw")" = "0.5 0 0 -0.5 -299.75 -0.25 " ] || { cat "$work/bed.pgw"; exit 1; }
+/usr/bin/python3 -c "
+import struct, sys
+data = open('$work/bed.png', 'rb').read()
+w, h, depth, colour = struct.unpack('>IIBB', data[16:26])
+sys.exit(0 if data[:8] == b'\x89PNG\r\n\x1a\n' and (w, h, depth, colour) == (600, 600, 8, 2) else 'bed.png: %r' % ((w, h, depth, colour),))"
+view_refused() {  # view_refused WHAT-TO-SEE ARGS...
+    local see="$1"; shift
+    if "$calbox" view bed --camera "$work/camera.yaml" --plane "$work/plane.yaml" "$@" 2> "$work/err"; then
+        echo "viewed: $*"; exit 1
+    fi
+    grep -q -- "$see" "$work/err" || { cat "$work/err"; exit 1; }
+    [ ! -e "$work/refused.png" ] && [ ! -e "$work/refused.pgw" ] || { echo "refused, yet wrote"; exit 1; }
+}
+view_refused "reaches beyond the machine's travel (X -300.000..0.000 Y -300.000..0.000 mm)" \
+    --result "$work/result.json" "$work/holes.png" --area -350,-300,0,0 -o "$work/refused.png"
+view_refused "bed.png: the photo is 600x600, the camera was calibrated at 2028x1520" \
+    --result "$work/result.json" "$work/bed.png" -o "$work/refused.png"
+view_refused "-o must name a .png" --result "$work/result.json" "$work/holes.png" -o "$work/refused.jpg"
+view_refused "--area '1,2,3': give X0,Y0,X1,Y1" --result "$work/result.json" "$work/holes.png" --area 1,2,3 -o "$work/refused.png"
+/usr/bin/python3 -c "
+import json
+r = json.load(open('$work/result.json'))
+del r['placement']['bed_mirrored']
+json.dump(r, open('$work/old_result.json', 'w'))"
+view_refused "old_result.json: a result from before calbox recorded which way round the camera's bed lies" \
+    --result "$work/old_result.json" "$work/holes.png" -o "$work/refused.png"
 echo "planar cycle complete"
 
 # The appliance: one cycle on the router, the box keeping the error model; revert puts back

@@ -1,0 +1,347 @@
+#include "core/modes/bed_view.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+
+#include "core/number_text.hpp"
+
+namespace calbox::modes {
+
+using geometry::Point2;
+using geometry::Point3;
+
+namespace {
+
+Point2 turned(Point2 p, double angle_rad) {
+    const double c = std::cos(angle_rad), s = std::sin(angle_rad);
+    return {c * p.x - s * p.y, s * p.x + c * p.y};
+}
+
+std::string three_decimals(double v) {
+    return number_text("%.3f", v);
+}
+
+// The view never shows more than this: a 300 x 300 mm bed at 0.05 mm a pixel.
+constexpr double kMaxViewPixels = 40e6;
+
+}  // namespace
+
+Point2 BedToMachine::machine_of(Point2 bed_mm) const {
+    const Point2 m = mirrored ? Point2{bed_mm.x, -bed_mm.y} : bed_mm;
+    const Point2 r = turned(m, rotation_rad);
+    return {r.x + translation_mm.x, r.y + translation_mm.y};
+}
+
+Point2 BedToMachine::bed_of(Point2 machine_mm) const {
+    const Point2 m =
+        turned({machine_mm.x - translation_mm.x, machine_mm.y - translation_mm.y}, -rotation_rad);
+    return mirrored ? Point2{m.x, -m.y} : m;
+}
+
+BedToMachine planar_bed_to_machine(const PlanarSolution& solution, const std::string& source) {
+    if (!solution.frame)
+        throw BedViewError(source +
+                           ": a result from before calbox recorded the frame it was measured in "
+                           "(work zero, travel): solve the measurements again");
+    if (!solution.bed_mirrored)
+        throw BedViewError(source +
+                           ": a result from before calbox recorded which way round the camera's "
+                           "bed lies: solve the measurements again");
+    // The solve saw each hole at R (c + e(c)) + t in the (unmirrored) bed frame; a job aimed at p
+    // through the correction lands where c + e(c) = Rr p + o (the rigid part left out): so
+    // p = Rr^-1 (R^-1 (m - t) - o), and the machine's coordinates add the work zero.
+    const double theta = solution.fit.rotation_rad, phi = solution.rigid_part.rotation_rad;
+    const Point2 unturned =
+        turned({-solution.fit.translation_mm.x, -solution.fit.translation_mm.y}, -theta);
+    const Point2 shift = turned({unturned.x - solution.rigid_part.offset_mm.x,
+                                 unturned.y - solution.rigid_part.offset_mm.y},
+                                -phi);
+    BedToMachine map;
+    map.mirrored = *solution.bed_mirrored;
+    map.rotation_rad = -(theta + phi);
+    map.translation_mm = {shift.x + solution.frame->work_zero_mm.x,
+                          shift.y + solution.frame->work_zero_mm.y};
+    return map;
+}
+
+Point2 BedView::machine_of_pixel(double column, double row) const {
+    return {min_x_mm + (column + 0.5) * mm_per_px, max_y_mm - (row + 0.5) * mm_per_px};
+}
+
+Point2 BedView::pixel_of_machine(Point2 machine_mm) const {
+    return {(machine_mm.x - min_x_mm) / mm_per_px - 0.5,
+            (max_y_mm - machine_mm.y) / mm_per_px - 0.5};
+}
+
+BedView render_bed_view(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                        const vision::GrayView& photo, const PlanarSolution& solution,
+                        const BedViewRequest& request, const std::string& source) {
+    photo.check();
+    if (const auto mismatch =
+            geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
+        !mismatch.empty())
+        throw BedViewError("the photo is " + mismatch);
+    const BedToMachine map = planar_bed_to_machine(solution, source);
+    const auto& f = *solution.frame;
+    BedView view;
+    const bool whole_travel = request.min_x_mm == 0 && request.min_y_mm == 0 &&
+                              request.max_x_mm == 0 && request.max_y_mm == 0;
+    view.min_x_mm = whole_travel ? f.travel_min_x_mm : request.min_x_mm;
+    view.min_y_mm = whole_travel ? f.travel_min_y_mm : request.min_y_mm;
+    view.max_x_mm = whole_travel ? f.travel_max_x_mm : request.max_x_mm;
+    view.max_y_mm = whole_travel ? f.travel_max_y_mm : request.max_y_mm;
+    const std::string area = "X " + three_decimals(view.min_x_mm) + ".." +
+                             three_decimals(view.max_x_mm) + " Y " + three_decimals(view.min_y_mm) +
+                             ".." + three_decimals(view.max_y_mm) + " mm";
+    if (!(view.max_x_mm > view.min_x_mm && view.max_y_mm > view.min_y_mm))
+        throw BedViewError("the area " + area + " has no size");
+    constexpr double kEdgeMm = 1e-6;
+    if (view.min_x_mm < f.travel_min_x_mm - kEdgeMm ||
+        view.max_x_mm > f.travel_max_x_mm + kEdgeMm ||
+        view.min_y_mm < f.travel_min_y_mm - kEdgeMm || view.max_y_mm > f.travel_max_y_mm + kEdgeMm)
+        throw BedViewError(
+            "the area " + area + " reaches beyond the machine's travel (X " +
+            three_decimals(f.travel_min_x_mm) + ".." + three_decimals(f.travel_max_x_mm) + " Y " +
+            three_decimals(f.travel_min_y_mm) + ".." + three_decimals(f.travel_max_y_mm) + " mm)");
+    if (!(request.surface_height_mm >= 0 && request.surface_height_mm < 500))
+        throw BedViewError("a surface " + three_decimals(request.surface_height_mm) +
+                           " mm above the bed: give 0 to 500 mm");
+    view.surface_height_mm = request.surface_height_mm;
+
+    const double h = request.surface_height_mm;
+    const auto bed_point = [&](Point2 machine) {
+        const Point2 b = map.bed_of(machine);
+        return Point3{b.x, b.y, h};
+    };
+    // A ray the lens's polynomial was never fitted to can fold back into the photo: a sample
+    // counts only when it is in front of the camera, within the photo's widest ray, and lands in
+    // the photo.
+    cv::Matx33d rotation;
+    cv::Rodrigues(cv::Vec3d(plane.bed_to_camera.rvec[0], plane.bed_to_camera.rvec[1],
+                            plane.bed_to_camera.rvec[2]),
+                  rotation);
+    const cv::Vec3d shift(plane.bed_to_camera.tvec_mm[0], plane.bed_to_camera.tvec_mm[1],
+                          plane.bed_to_camera.tvec_mm[2]);
+    double widest_ray = 0;
+    const double w = photo.width_px - 1, hgt = photo.height_px - 1;
+    for (const Point2& n : geometry::undistort_to_normalized(camera, {{0, 0},
+                                                                      {w / 2, 0},
+                                                                      {w, 0},
+                                                                      {w, hgt / 2},
+                                                                      {w, hgt},
+                                                                      {w / 2, hgt},
+                                                                      {0, hgt},
+                                                                      {0, hgt / 2}}))
+        widest_ray = std::max(widest_ray, std::hypot(n.x, n.y));
+    const auto within_lens = [&](const Point3& p) {
+        const cv::Vec3d c = rotation * cv::Vec3d(p.x, p.y, p.z) + shift;
+        return c[2] > 0 && std::hypot(c[0], c[1]) <= widest_ray * c[2];
+    };
+    const auto in_photo = [&](Point2 p) {
+        return p.x >= 0 && p.y >= 0 && p.x <= photo.width_px - 1 && p.y <= photo.height_px - 1;
+    };
+    // The photo's own scale at the point of the area nearest its middle that the photo shows (a
+    // lens's polynomial says nothing of rays outside the photo): a millimetre each way there.
+    constexpr int kProbes = 21;
+    const Point2 middle{0.5 * (view.min_x_mm + view.max_x_mm),
+                        0.5 * (view.min_y_mm + view.max_y_mm)};
+    std::vector<Point2> probes;
+    std::vector<Point3> probe_points;
+    for (int j = 0; j < kProbes; ++j)
+        for (int i = 0; i < kProbes; ++i) {
+            const Point2 p{view.min_x_mm + (view.max_x_mm - view.min_x_mm) * i / (kProbes - 1),
+                           view.min_y_mm + (view.max_y_mm - view.min_y_mm) * j / (kProbes - 1)};
+            probes.push_back(p);
+            probe_points.push_back(bed_point(p));
+        }
+    const auto probed = geometry::project_points(camera, plane.bed_to_camera, probe_points);
+    std::optional<Point2> nearest;
+    for (std::size_t k = 0; k < probes.size(); ++k)
+        if (in_photo(probed[k]) && within_lens(probe_points[k]) &&
+            (!nearest || std::hypot(probes[k].x - middle.x, probes[k].y - middle.y) <
+                             std::hypot(nearest->x - middle.x, nearest->y - middle.y)))
+            nearest = probes[k];
+    if (!nearest)
+        throw BedViewError("the camera sees none of " + area + " at " +
+                           three_decimals(request.surface_height_mm) + " mm above the bed");
+    const auto around =
+        geometry::project_points(camera, plane.bed_to_camera,
+                                 {bed_point(*nearest), bed_point({nearest->x + 1, nearest->y}),
+                                  bed_point({nearest->x, nearest->y + 1})});
+    const double px_per_mm =
+        0.5 * (std::hypot(around[1].x - around[0].x, around[1].y - around[0].y) +
+               std::hypot(around[2].x - around[0].x, around[2].y - around[0].y));
+    view.camera_mm_per_px = 1 / px_per_mm;
+    view.mm_per_px = request.mm_per_px > 0 ? request.mm_per_px
+                                           : std::ceil(view.camera_mm_per_px * 100 - 1e-9) / 100;
+    if (view.mm_per_px < 0.1 * view.camera_mm_per_px)
+        throw BedViewError(
+            three_decimals(view.mm_per_px) + " mm a pixel is under a tenth of the photo's own " +
+            three_decimals(view.camera_mm_per_px) + " mm there: nothing finer can be seen");
+    const double columns_exact = (view.max_x_mm - view.min_x_mm) / view.mm_per_px;
+    const double rows_exact = (view.max_y_mm - view.min_y_mm) / view.mm_per_px;
+    if (columns_exact * rows_exact > kMaxViewPixels)
+        throw BedViewError(area + " at " + three_decimals(view.mm_per_px) +
+                           " mm a pixel would be " + number_text("%.0f", columns_exact) + " x " +
+                           number_text("%.0f", rows_exact) +
+                           " pixels, over 40 megapixels: give a coarser scale");
+    // Whole pixels from the area's top-left corner, none past the area (nor the travel): the far
+    // edges move in by under a pixel.
+    const int columns = std::max(1, static_cast<int>(std::floor(columns_exact + 1e-9)));
+    const int rows = std::max(1, static_cast<int>(std::floor(rows_exact + 1e-9)));
+    view.max_x_mm = view.min_x_mm + columns * view.mm_per_px;
+    view.min_y_mm = view.max_y_mm - rows * view.mm_per_px;
+
+    // Each view pixel averages `k` x `k` samples where it is coarser than the photo, so that the
+    // photo's detail does not alias into it.
+    const int k = std::clamp(
+        static_cast<int>(std::ceil(view.mm_per_px / (1.25 * view.camera_mm_per_px))), 1, 8);
+    const cv::Mat source_image(photo.height_px, photo.width_px, CV_8UC1,
+                               const_cast<std::uint8_t*>(photo.pixels),
+                               static_cast<std::size_t>(photo.stride_bytes));
+    cv::Mat out(rows, columns, CV_8UC1);
+    long seen = 0;
+    // A band of rows at a time: the photo's coordinates of every sample in the band, then
+    // OpenCV's bilinear remap.
+    constexpr int kBandRows = 32;
+    for (int top = 0; top < rows; top += kBandRows) {
+        const int band = std::min(kBandRows, rows - top);
+        std::vector<Point3> points;
+        points.reserve(static_cast<std::size_t>(band) * k * columns * k);
+        const double step = view.mm_per_px / k;
+        for (int r = 0; r < band * k; ++r) {
+            const double y = view.max_y_mm - (top * k + r + 0.5) * step;
+            for (int c = 0; c < columns * k; ++c)
+                points.push_back(bed_point({view.min_x_mm + (c + 0.5) * step, y}));
+        }
+        const auto pixels = geometry::project_points(camera, plane.bed_to_camera, points);
+        cv::Mat map_x(band * k, columns * k, CV_32FC1), map_y(band * k, columns * k, CV_32FC1);
+        cv::Mat inside(band * k, columns * k, CV_8UC1);
+        for (int r = 0; r < band * k; ++r) {
+            auto* mx = map_x.ptr<float>(r);
+            auto* my = map_y.ptr<float>(r);
+            auto* in = inside.ptr<std::uint8_t>(r);
+            for (int c = 0; c < columns * k; ++c) {
+                const Point2& p = pixels[static_cast<std::size_t>(r) * columns * k + c];
+                const std::size_t at = static_cast<std::size_t>(r) * columns * k + c;
+                const bool ok = in_photo(p) && within_lens(points[at]);
+                in[c] = ok ? 1 : 0;
+                mx[c] = ok ? static_cast<float>(p.x) : -1.0F;
+                my[c] = ok ? static_cast<float>(p.y) : -1.0F;
+            }
+        }
+        cv::Mat sampled;
+        cv::remap(source_image, sampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+        cv::Mat target = out.rowRange(top, top + band);
+        if (k == 1) {
+            sampled.copyTo(target);
+            seen += cv::countNonZero(inside);
+        } else {
+            cv::resize(sampled, target, target.size(), 0, 0, cv::INTER_AREA);
+            cv::Mat covered;
+            cv::resize(inside, covered, target.size(), 0, 0, cv::INTER_AREA);
+            // A view pixel counts as seen when most of its samples are.
+            seen += cv::countNonZero(covered * 2 > 1);
+        }
+    }
+    view.seen_share = static_cast<double>(seen) / (static_cast<double>(rows) * columns);
+    if (seen == 0)
+        throw BedViewError("the camera sees none of " + area + " at " +
+                           three_decimals(request.surface_height_mm) + " mm above the bed");
+    view.pixels.width_px = columns;
+    view.pixels.height_px = rows;
+    view.pixels.pixels.assign(out.data, out.data + static_cast<std::size_t>(rows) * columns);
+    const double camera_mm = view.camera_mm_per_px * camera.rms_px;
+    const double plane_mm = view.camera_mm_per_px * plane.rms_px;
+    view.accuracy_mm = 2 * std::sqrt(camera_mm * camera_mm + plane_mm * plane_mm +
+                                     solution.fit.residual_rms_mm * solution.fit.residual_rms_mm);
+    return view;
+}
+
+std::vector<std::uint8_t> bed_view_with_overlay(const BedView& view,
+                                                const PlanarSolution& solution) {
+    cv::Mat gray(view.pixels.height_px, view.pixels.width_px, CV_8UC1,
+                 const_cast<std::uint8_t*>(view.pixels.pixels.data()));
+    cv::Mat colour;
+    cv::cvtColor(gray, colour, cv::COLOR_GRAY2BGR);
+    constexpr int kShift = 4;  // sub-pixel drawing
+    const auto at = [&](Point2 machine) {
+        const Point2 p = view.pixel_of_machine(machine);
+        return cv::Point(static_cast<int>(std::lround((p.x + 0.5) * (1 << kShift))),
+                         static_cast<int>(std::lround((p.y + 0.5) * (1 << kShift))));
+    };
+    const int thickness = std::max(1, static_cast<int>(std::lround(view.pixels.width_px / 800.0)));
+    const auto rectangle = [&](double x0, double y0, double x1, double y1,
+                               const cv::Scalar& colour_bgr) {
+        const cv::Point a = at({x0, y0}), b = at({x1, y0}), c = at({x1, y1}), d = at({x0, y1});
+        for (const auto& [from, to] : {std::pair{a, b}, {b, c}, {c, d}, {d, a}})
+            cv::line(colour, from, to, colour_bgr, thickness, cv::LINE_AA, kShift);
+    };
+    if (solution.frame) {
+        const auto& f = *solution.frame;
+        rectangle(f.travel_min_x_mm, f.travel_min_y_mm, f.travel_max_x_mm, f.travel_max_y_mm,
+                  cv::Scalar(230, 120, 0));
+        const Point2 zero = f.work_zero_mm;
+        rectangle(solution.min_x_mm + zero.x, solution.min_y_mm + zero.y,
+                  solution.max_x_mm + zero.x, solution.max_y_mm + zero.y, cv::Scalar(40, 190, 40));
+        // The machine's axes, a tenth of the view long, as near its zero as they fit a margin in
+        // (a circle marks the zero itself where it shows), each pointing its axis's + way.
+        const double length_mm =
+            0.1 * std::max(view.max_x_mm - view.min_x_mm, view.max_y_mm - view.min_y_mm);
+        const double margin_mm = 0.3 * length_mm;
+        const auto nearest = [&](double lo, double hi) {
+            return std::clamp(0.0, lo + margin_mm,
+                              std::max(lo + margin_mm, hi - margin_mm - length_mm));
+        };
+        const Point2 anchor{nearest(view.min_x_mm, view.max_x_mm),
+                            nearest(view.min_y_mm, view.max_y_mm)};
+        const double x0 = anchor.x, y0 = anchor.y;
+        const cv::Scalar red(30, 30, 230);
+        const cv::Point x_tip = at({x0 + length_mm, anchor.y}),
+                        y_tip = at({anchor.x, y0 + length_mm});
+        cv::arrowedLine(colour, at({x0, anchor.y}), x_tip, red, thickness + 1, cv::LINE_AA, kShift,
+                        0.15);
+        cv::arrowedLine(colour, at({anchor.x, y0}), y_tip, red, thickness + 1, cv::LINE_AA, kShift,
+                        0.15);
+        if (0 >= view.min_x_mm && 0 <= view.max_x_mm && 0 >= view.min_y_mm && 0 <= view.max_y_mm)
+            cv::circle(colour, at({0, 0}), 8 * thickness * (1 << kShift), red, thickness + 1,
+                       cv::LINE_AA, kShift);
+        const double font = std::max(0.5, view.pixels.width_px / 1500.0);
+        const int em = static_cast<int>(std::lround(24 * font));
+        cv::putText(colour, "X", cv::Point(x_tip.x >> kShift, (x_tip.y >> kShift) + em),
+                    cv::FONT_HERSHEY_SIMPLEX, font, red, thickness + 1, cv::LINE_AA);
+        cv::putText(colour, "Y", cv::Point((y_tip.x >> kShift) + em / 2, y_tip.y >> kShift),
+                    cv::FONT_HERSHEY_SIMPLEX, font, red, thickness + 1, cv::LINE_AA);
+    }
+    const std::string caption = three_decimals(view.mm_per_px) + " mm/px, " +
+                                three_decimals(view.surface_height_mm) + " mm above the bed, +/-" +
+                                three_decimals(view.accuracy_mm) +
+                                " mm (2 sigma); blue travel, green measured area";
+    // The caption's size for a wide view, smaller where the view is narrower than the line.
+    double font = std::max(0.4, view.pixels.width_px / 2400.0);
+    int baseline = 0;
+    cv::Size size = cv::getTextSize(caption, cv::FONT_HERSHEY_SIMPLEX, font, thickness, &baseline);
+    if (size.width > colour.cols - 24) {
+        font *= static_cast<double>(colour.cols - 24) / size.width;
+        size = cv::getTextSize(caption, cv::FONT_HERSHEY_SIMPLEX, font, thickness, &baseline);
+    }
+    const cv::Point corner(8, colour.rows - 8 - baseline);
+    cv::rectangle(colour, corner + cv::Point(-4, baseline + 4),
+                  corner + cv::Point(size.width + 4, -size.height - 4), cv::Scalar(255, 255, 255),
+                  cv::FILLED);
+    cv::putText(colour, caption, corner, cv::FONT_HERSHEY_SIMPLEX, font, cv::Scalar(0, 0, 0),
+                thickness, cv::LINE_AA);
+    return {colour.data, colour.data + colour.total() * colour.elemSize()};
+}
+
+std::string world_file_text(const BedView& view) {
+    const Point2 first = view.machine_of_pixel(0, 0);
+    const auto line = [](double v) { return number_text("%.10g", v) + "\n"; };
+    return line(view.mm_per_px) + line(0) + line(0) + line(-view.mm_per_px) + line(first.x) +
+           line(first.y);
+}
+
+}  // namespace calbox::modes

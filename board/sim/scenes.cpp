@@ -695,4 +695,56 @@ double ReferenceMarksScene::albedo(const Footprint& f) const {
     return inner_.albedo(f);
 }
 
+// ---------------------------------------------------------------------------------------------
+// A sheet of stock
+
+SheetScene::SheetScene(const StockSheet& sheet, int supersample)
+    : sheet_(sheet), supersample_(std::max(1, supersample)) {
+    if (!(sheet.width_mm > 0 && sheet.depth_mm > 0))
+        throw std::invalid_argument("a sheet needs a width and a depth");
+    const double a = radians(sheet.angle_deg);
+    along_ = {std::cos(a), std::sin(a)};
+    across_ = {-std::sin(a), std::cos(a)};
+}
+
+std::array<Vec2, 4> SheetScene::corners() const {
+    const Vec2 c = sheet_.corner_mm;
+    const double w = sheet_.width_mm, d = sheet_.depth_mm;
+    return {c, Vec2{c.x + w * along_.x, c.y + w * along_.y},
+            Vec2{c.x + w * along_.x + d * across_.x, c.y + w * along_.y + d * across_.y},
+            Vec2{c.x + d * across_.x, c.y + d * across_.y}};
+}
+
+double SheetScene::albedo(const Footprint& f) const {
+    // The point in the sheet's own frame; the four edges' outward normals on the bed.
+    const auto local = [&](Vec2 p) {
+        const double dx = p.x - sheet_.corner_mm.x, dy = p.y - sheet_.corner_mm.y;
+        return Vec2{dx * along_.x + dy * along_.y, dx * across_.x + dy * across_.y};
+    };
+    const auto nearest_edge = [&](Vec2 q, Vec2* normal) {
+        // Signed distance (negative inside) to the edge whose half-plane decides: the largest.
+        const Vec2 l = local(q);
+        const double d[4] = {-l.y, l.x - sheet_.width_mm, l.y - sheet_.depth_mm, -l.x};
+        const Vec2 n[4] = {{-across_.x, -across_.y}, along_, across_, {-along_.x, -along_.y}};
+        int k = 0;
+        for (int i = 1; i < 4; ++i)
+            if (d[i] > d[k]) k = i;
+        *normal = n[k];
+        return d[k];
+    };
+    const auto mix = [&](double on_sheet) {
+        return on_sheet * sheet_.sheet_albedo + (1 - on_sheet) * sheet_.bed_albedo;
+    };
+    const Extent e = half_extent(f);
+    Vec2 normal;
+    const double centre = nearest_edge(f.centre_mm, &normal);
+    if (std::abs(centre) > e.x_mm + e.y_mm) return mix(centre < 0 ? 1.0 : 0.0);
+    const int s = supersample_;
+    return average_over_subpixels(f, s, [&](Vec2 q) {
+        Vec2 n;
+        const double d = nearest_edge(q, &n);
+        return mix(inside_fraction(d, n, f.jacobian, s));
+    });
+}
+
 }  // namespace calbox::sim

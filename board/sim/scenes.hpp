@@ -1,4 +1,5 @@
 #pragma once
+#include <array>
 // What lies on a plane in front of the camera, evaluated over one pixel's footprint so that
 // the rendered edges sit where the geometry puts them (exact half-plane area coverage).
 #include <memory>
@@ -105,6 +106,29 @@ class BoardScene final : public Scene {
   private:
     std::unique_ptr<Layout> layout_;
     int supersample_;
+};
+
+// A rectangular sheet of stock lying on the bed, anywhere and turned: its corner at `corner_mm`,
+// `width_mm` along its own x (turned `angle_deg` from the bed's x), `depth_mm` along its own y.
+// The scene's plane is the sheet's top; the bed around it is a flat albedo. Edges are covered
+// exactly (each sub-square's share on the sheet's side of its nearest edge).
+struct StockSheet {
+    Vec2 corner_mm;
+    double width_mm = 0, depth_mm = 0, angle_deg = 0;
+    double sheet_albedo = 0.8, bed_albedo = 0.2;
+};
+
+class SheetScene final : public Scene {
+  public:
+    SheetScene(const StockSheet& sheet, int supersample);
+    double albedo(const Footprint& f) const override;
+    // The sheet's corners on the bed, counter-clockwise from `corner_mm`.
+    std::array<Vec2, 4> corners() const;
+
+  private:
+    StockSheet sheet_;
+    int supersample_;
+    Vec2 along_, across_;  // the sheet's own unit x and y on the bed
 };
 
 // Fixed reference marks stuck on the bed over whatever `inner` shows: each a white square sticker

@@ -202,8 +202,7 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
     const cv::Mat source_image(photo.height_px, photo.width_px, CV_8UC1,
                                const_cast<std::uint8_t*>(photo.pixels),
                                static_cast<std::size_t>(photo.stride_bytes));
-    cv::Mat out(rows, columns, CV_8UC1);
-    long seen = 0;
+    cv::Mat out(rows, columns, CV_8UC1), seen_mask(rows, columns, CV_8UC1);
     // A band of rows at a time: the photo's coordinates of every sample in the band, then
     // OpenCV's bilinear remap.
     constexpr int kBandRows = 32;
@@ -228,7 +227,7 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
                 const Point2& p = pixels[static_cast<std::size_t>(r) * columns * k + c];
                 const std::size_t at = static_cast<std::size_t>(r) * columns * k + c;
                 const bool ok = in_photo(p) && within_lens(points[at]);
-                in[c] = ok ? 1 : 0;
+                in[c] = ok ? 255 : 0;
                 mx[c] = ok ? static_cast<float>(p.x) : -1.0F;
                 my[c] = ok ? static_cast<float>(p.y) : -1.0F;
             }
@@ -236,17 +235,19 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
         cv::Mat sampled;
         cv::remap(source_image, sampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
         cv::Mat target = out.rowRange(top, top + band);
+        cv::Mat seen_band = seen_mask.rowRange(top, top + band);
         if (k == 1) {
             sampled.copyTo(target);
-            seen += cv::countNonZero(inside);
+            inside.copyTo(seen_band);
         } else {
             cv::resize(sampled, target, target.size(), 0, 0, cv::INTER_AREA);
             cv::Mat covered;
             cv::resize(inside, covered, target.size(), 0, 0, cv::INTER_AREA);
             // A view pixel counts as seen when most of its samples are.
-            seen += cv::countNonZero(covered * 2 > 1);
+            cv::threshold(covered, seen_band, 127, 255, cv::THRESH_BINARY);
         }
     }
+    const long seen = cv::countNonZero(seen_mask);
     view.seen_share = static_cast<double>(seen) / (static_cast<double>(rows) * columns);
     if (seen == 0)
         throw BedViewError("the camera sees none of " + area + " at " +
@@ -254,6 +255,10 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
     view.pixels.width_px = columns;
     view.pixels.height_px = rows;
     view.pixels.pixels.assign(out.data, out.data + static_cast<std::size_t>(rows) * columns);
+    view.seen.width_px = columns;
+    view.seen.height_px = rows;
+    view.seen.pixels.assign(seen_mask.data,
+                            seen_mask.data + static_cast<std::size_t>(rows) * columns);
     const double camera_mm = view.camera_mm_per_px * camera.rms_px;
     const double plane_mm = view.camera_mm_per_px * plane.rms_px;
     view.accuracy_mm = 2 * std::sqrt(camera_mm * camera_mm + plane_mm * plane_mm +

@@ -50,6 +50,7 @@ struct BedViewRequest {
 // The view: north up, pixel (0, 0)'s centre at machine (min_x + s/2, max_y - s/2).
 struct BedView {
     vision::GrayPixels pixels;  // 0 where the camera does not see
+    vision::GrayPixels seen;    // 255 where it does, 0 elsewhere
     double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;
     double mm_per_px = 0;
     double surface_height_mm = 0;

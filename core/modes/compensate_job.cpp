@@ -3,12 +3,14 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <sstream>
 
 #include "core/models/machine_file.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/modes/json_file.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/stock.hpp"
 #include "core/number_text.hpp"
 
 namespace calbox::modes {
@@ -140,8 +142,41 @@ CompensatedJob compensate_job(const JobRequest& r) {
                                "zero), or --work-zero measured (the frame the result was "
                                "measured in: zero at machine X" +
                                mm(zm.x) + " Y" + mm(zm.y) + ")");
-            frame.work_zero_mm = parse_work_zero(*r.work_zero, zm);
-            zero_from = r.work_zero_from.empty() ? "--work-zero " + *r.work_zero : r.work_zero_from;
+            if (*r.work_zero == "camera") {
+                if (!r.stock_text)
+                    throw JobError(
+                        "--work-zero camera places the job at the sheet the camera "
+                        "found: give --stock stock.json (calbox view stock)");
+                const auto found = stock_from_json(*r.stock_text, *r.stock_name);
+                if (found.machine_fingerprint != planar->machine_fingerprint)
+                    throw JobError(*r.stock_name +
+                                   ": the sheet was found through the result of "
+                                   "machine " +
+                                   found.machine_fingerprint + ", not " + r.result_name + "'s (" +
+                                   planar->machine_fingerprint +
+                                   "): find it again through the result in force");
+                const StockCorner* corner = nullptr;
+                try {
+                    corner = &modes::stock_corner(found.stock, r.stock_corner);
+                } catch (const StockError& e) {
+                    throw JobError("--corner " + std::string(e.what()));
+                }
+                frame.work_zero_mm = {corner->machine_mm};
+                frame.turn_rad = found.stock.rotation_deg * std::numbers::pi / 180;
+                zero_from = "the camera: " + *r.stock_name + "'s " + corner->name +
+                            " corner at machine X" + mm(corner->machine_mm.x) + " Y" +
+                            mm(corner->machine_mm.y) + " mm (+/-" +
+                            number_text("%.3f", corner->sigma_mm) + "), the job turned " +
+                            number_text("%.3f", found.stock.rotation_deg) +
+                            " deg with the sheet's front edge";
+            } else {
+                if (r.stock_text)
+                    throw JobError("--stock is for --work-zero camera, not --work-zero " +
+                                   *r.work_zero);
+                frame.work_zero_mm = parse_work_zero(*r.work_zero, zm);
+                zero_from =
+                    r.work_zero_from.empty() ? "--work-zero " + *r.work_zero : r.work_zero_from;
+            }
         }
         done.frame_line = "frame: job placed with " + zero_from;
         // A printer's job is in machine coordinates: no work zero to name.
@@ -156,6 +191,10 @@ CompensatedJob compensate_job(const JobRequest& r) {
             " mm; travel X " + mm(f.travel_min_x_mm) + ".." + mm(f.travel_max_x_mm) + " Y " +
             mm(f.travel_min_y_mm) + ".." + mm(f.travel_max_y_mm) + " mm";
     } else if (schema.rfind("calbox.galvo-result/", 0) == 0) {
+        if (r.stock_text || (r.work_zero && *r.work_zero == "camera"))
+            throw JobError(r.result_name +
+                           ": a scanner's job is in its field's coordinates; --work-zero camera "
+                           "places a router's or laser's job on the sheet a planar result sees");
         galvo = galvo_result_from_json(r.result_text, r.result_name);
         const auto table = galvo->fit.table;
         correction.correct = [table](Point2 p) { return table.command_for(p); };

@@ -23,6 +23,11 @@ struct JobRequest {
     // --work-zero: "X,Y" (G54's zero in machine coordinates), "measured" (the frame the result
     // was measured in), or entries "G54=X,Y G55=X,Y ..." separated by blanks.
     std::optional<std::string> work_zero;
+    // --work-zero camera: the sheet the camera found (calbox view stock's file) and the corner
+    // the job's zero goes to ("nearest": the one nearest the machine's zero); the job is turned
+    // with the sheet's front edge.
+    std::optional<std::string> stock_text, stock_name;
+    std::string stock_corner = "nearest";
     // --start-at "X,Y": where the tool stands when the job starts, machine coordinates.
     std::optional<std::string> start_at;
     std::string work_zero_from;  // where the work zero came from, when not the owner's option

@@ -638,9 +638,27 @@ class Compensator {
         if (const auto after = m_.offset_mm(); before && after) m_.written_xy = job_of(at, *after);
     }
 
-    void inside_travel(Point2 p, Point2 offset) const {
+    // Where the point the job means lies on the machine once the job is placed turned (itself
+    // when it is not).
+    Point2 placed(Point2 p) const {
+        if (frame_.turn_rad == 0) return p;
+        const Point2 pivot = *frame_.work_zero_mm[0];
+        const double c = std::cos(frame_.turn_rad), s = std::sin(frame_.turn_rad);
+        const Point2 d{p.x - pivot.x, p.y - pivot.y};
+        return {pivot.x + c * d.x - s * d.y, pivot.y + s * d.x + c * d.y};
+    }
+    void refuse_when_turned(const std::string& what) const {
+        if (frame_.turn_rad != 0)
+            throw fail(what +
+                       " in a job placed turned with the stock (--work-zero camera): the "
+                       "turn is about G54's zero as the stock's corner gives it; have the "
+                       "CAM write the job in G54 alone, without offsets of its own");
+    }
+
+    void inside_travel(Point2 unplaced, Point2 offset) const {
+        const Point2 p = placed(unplaced);
         if (frame_.travel_mm.contains(p)) return;
-        const Point2 job = job_of(p, offset);
+        const Point2 job = job_of(unplaced, offset);
         const auto& t = frame_.travel_mm;
         throw fail("the point X" + number(job.x, 4) + " Y" + number(job.y, 4) + " is at machine X" +
                    number(p.x, 3) + " Y" + number(p.y, 3) + " mm, beyond the machine's travel (X " +
@@ -649,7 +667,7 @@ class Compensator {
                    " mm): check the job's work zero, or the travel in the machine file");
     }
 
-    Point2 corrected(Point2 p) { return held_correction(correction_, p, report_); }
+    Point2 corrected(Point2 p) { return held_correction(correction_, placed(p), report_); }
 
     void emit(const std::string& text) {
         out_ += numbered_ ? numbering_.line(text, checksummed_) : text;
@@ -728,6 +746,7 @@ class Compensator {
         const std::size_t system = p == 0 ? m_.work_system : static_cast<std::size_t>(p) - 1;
         const auto x = line.value('X'), y = line.value('Y');
         if (!x && !y) return;
+        refuse_when_turned("G10 L" + number(*l, 0) + " with X or Y");
         reframe([&] {
             auto& zero = m_.work_zero_mm[system];
             if (*l == 2) {
@@ -791,6 +810,7 @@ class Compensator {
                 const std::size_t system = c.number == 59 && c.subcode > 0
                                                ? static_cast<std::size_t>(5 + c.subcode)
                                                : static_cast<std::size_t>(c.number - 54);
+                if (system != 0) refuse_when_turned(c.text());
                 reframe([&] { m_.work_system = system; });
             } else if (c.is(10)) {
                 not_a_move = true;
@@ -804,6 +824,7 @@ class Compensator {
             } else if (c.is(92)) {
                 not_a_move = true;
                 if (line.has('X') || line.has('Y')) {
+                    refuse_when_turned("G92 with X or Y");
                     if (!m_.xy_known)
                         throw fail(
                             "G92 with X or Y before the position is known: it says the tool is "
@@ -1436,6 +1457,8 @@ std::string compensate_scanner_csv(std::string_view job, const MachineCorrection
         throw CompensateError("the segment length must be positive");
     if (!frame.work_zero_mm[0])
         throw CompensateError("the scanner job's zero on the machine is not known");
+    if (frame.turn_rad != 0)
+        throw CompensateError("a scanner job is not placed turned: its field is the machine's");
     const Point2 zero = *frame.work_zero_mm[0];
     std::istringstream in{std::string(job)};
     std::string raw, out;

@@ -51,6 +51,11 @@ struct JobFrame {
     // Where the tool stands when the job starts, in machine coordinates, where the owner says:
     // a job that sets G92 before its first move says the tool is there.
     std::optional<geometry::Point2> start_mm;
+    // A job placed turned about G54's zero (the camera found the stock turned): the point the
+    // job means at zero + (x, y) goes to zero + R (x, y) before the correction, and the written
+    // X Y are that point's command in G54 as the controller holds it (no rotation of its own).
+    // Such a job keeps to G54 as the frame gives it: G10, G92 and other work systems are refused.
+    double turn_rad = 0;
 };
 
 struct CompensateSettings {

@@ -27,6 +27,16 @@ int compensate(const Args& args) {
     if (!(request.settings.max_segment_mm >= 0.01 && request.settings.max_segment_mm <= 100))
         throw UsageError("--segment must be 0.01 to 100 mm");
     request.work_zero = args.get("--work-zero");
+    if (const auto stock = args.get("--stock")) {
+        request.stock_name = *stock;
+        request.stock_text = read_input_file(*stock, "stock file");
+    }
+    if (const auto corner = args.get("--corner")) {
+        if (!(request.work_zero && *request.work_zero == "camera"))
+            throw UsageError("--corner names the sheet's corner for --work-zero camera",
+                             "calbox compensate");
+        request.stock_corner = *corner;
+    }
     request.start_at = args.get("--start-at");
     request.again_because = args.get("--again");
     if (request.again_because && request.again_because->empty())
@@ -51,8 +61,13 @@ std::vector<Command> compensate_commands() {
          {{"--result", "result.json", "a galvo or planar result (calbox solve)", Given::required},
           {"IN", "", "the job: G-code, or a scanner job (x_mm,y_mm,power lines)", Given::word},
           {"-o", "OUT", "the compensated job, written", Given::required},
-          {"--work-zero", "X,Y|measured|\"G54=X,Y G55=X,Y\"",
+          {"--work-zero", "X,Y|measured|camera|\"G54=X,Y G55=X,Y\"",
            "where the job's work zero is in machine coordinates (a planar result)"},
+          {"--stock", "stock.json",
+           "the sheet the camera found (calbox view stock), for --work-zero camera"},
+          {"--corner", "NAME",
+           "its corner the job's zero goes to: front-left, front-right, back-right, back-left or "
+           "nearest (the default: the one nearest the machine's zero)"},
           {"--start-at", "X,Y",
            "where the tool stands when the job starts (machine coordinates): for a job that "
            "sets G92 before its first move"},
@@ -67,8 +82,10 @@ The frame: a planar result records the machine coordinates of the work zero its 
 ran with, and the machine's travel. A printer's job is in machine coordinates (its G92
 tracked). A router's or laser's job is written around its own work zero: --work-zero X,Y
 gives G54's zero in machine coordinates, --work-zero measured says it is the frame the
-result was measured in, "G55=X,Y ..." gives other work systems; without it the job is
-refused. G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
+result was measured in, "G55=X,Y ..." gives other work systems, --work-zero camera puts it
+at a corner of the sheet the camera found (--stock stock.json, --corner NAME) and turns the
+job with the sheet's front edge (such a job keeps to G54, without G10 or G92 offsets); without
+it the job is refused. G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
 travel is refused, naming the line; between the measured area and the travel a point
 takes the correction at the area's nearest edge (held, never extrapolated), counted on
 standard error. One line says which frame was used.

@@ -132,8 +132,32 @@ int sim_photo(const Args& args) {
     sim::GrayImage image;
     const bool has_print = args.get("--print").has_value();
     const bool has_board = args.get("--board").has_value();
-    if (has_print == has_board) throw UsageError("sim photo needs either --print or --board");
-    if (has_print) {
+    const bool has_sheet = args.get("--sheet").has_value();
+    if (int{has_print} + int{has_board} + int{has_sheet} != 1)
+        throw UsageError("sim photo needs one of --print, --board and --sheet");
+    if (has_sheet) {
+        if (args.get("--pose") || args.get("--on-bed"))
+            throw UsageError("--pose and --on-bed go with --board");
+        const auto v = parse_numbers("--sheet", *args.get("--sheet"), 5);
+        const double thickness = args.number("--thickness", 0);
+        if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
+        if (!(v[2] > 0 && v[3] > 0)) throw UsageError("--sheet needs a width and a depth above 0");
+        sim::StockSheet sheet;
+        sheet.corner_mm = {v[0], v[1]};
+        sheet.width_mm = v[2], sheet.depth_mm = v[3], sheet.angle_deg = v[4];
+        // A sheet that stands out against the scenario's bed: dark on a light bed, light on a
+        // dark one.
+        sheet.bed_albedo = scenario.bed_albedo;
+        sheet.sheet_albedo = scenario.bed_albedo > 0.5 ? 0.15 : 0.8;
+        const sim::SheetScene scene(sheet, scenario.photo.supersample);
+        sim::Pose lifted;
+        lifted.translation_mm = {0, 0, thickness};
+        image = sim::render_photo(camera.intrinsics, sim::compose(bed_to_camera, lifted), scene,
+                                  sim::photo_settings_of(scenario, sim::InView::bed));
+        nlohmann::json corners = nlohmann::json::array();
+        for (const auto& c : scene.corners()) corners.push_back({c.x, c.y, thickness});
+        truth["sheet_corners_mm"] = corners;
+    } else if (has_print) {
         if (args.get("--pose") || args.get("--on-bed") || args.get("--thickness")) {
             throw UsageError("--pose, --on-bed and --thickness go with --board");
         }
@@ -304,7 +328,7 @@ every stroke of material as it really landed. Prints the machine's replies (M503
 summary on standard output.)",
          sim_print},
         {"sim photo",
-         "what the twin's camera sees of a print or a board",
+         "what the twin's camera sees of a print, a board or a sheet",
          {scenario,
           {"--print", "print.json", "a print (calbox sim print)"},
           {"--board", "SPEC",
@@ -314,12 +338,16 @@ summary on standard output.)",
            "board -> camera: rotation vector in degrees (axis times angle), then mm"},
           {"--on-bed", "X,Y,ANGLE",
            "the board lying face up on the bed at X,Y mm, turned ANGLE degrees"},
-          {"--thickness", "MM", "the board's surface above the bed, with --on-bed (default 0)"},
+          {"--sheet", "X,Y,W,D,ANGLE",
+           "a sheet of stock on the bed: its corner at X,Y mm, W x D mm, turned ANGLE degrees"},
+          {"--thickness", "MM",
+           "the board's or the sheet's top above the bed, with --on-bed or --sheet (default 0)"},
           {"-o", "photo.png", "the photo, written", Given::required},
           {"--truth", "truth.json", "where every corner or stroke end truly is, written"}},
-         R"(Renders what the scenario's camera sees of a print (--print), or of a calibration board
-(--board, placed by --pose or --on-bed). --truth writes the true pixel position of every
-board corner and marker corner, or of every stroke end, with the true camera and plane pose.)",
+         R"(Renders what the scenario's camera sees of a print (--print), of a calibration board
+(--board, placed by --pose or --on-bed), or of a sheet of stock on the bed (--sheet: dark on a light bed, light on a dark one).
+--truth writes the true pixel position of every board corner and marker corner, or of every
+stroke end, or the sheet's corners on the bed, with the true camera and plane pose.)",
          sim_photo},
         {"sim measurements",
          "synthetic delta measurements from the twin's truth",

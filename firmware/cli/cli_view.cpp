@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/modes/bed_view.hpp"
+#include "core/modes/stock.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/cli_images.hpp"
 
@@ -39,6 +40,37 @@ void read_area(const std::string& text, modes::BedViewRequest& request) {
     request.max_y_mm = std::max(values[1], values[3]);
 }
 
+// What every view reads: the camera, the plane, the planar result in force and the photo.
+struct ViewInputs {
+    geometry::CameraModel camera;
+    geometry::BedPlane plane;
+    std::string result_name;
+    modes::PlanarSolution solution;
+    std::string photo_name;
+    cv::Mat photo;
+};
+
+ViewInputs read_view_inputs(const Args& args) {
+    ViewInputs in;
+    in.camera =
+        geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file"));
+    in.plane = geometry::plane_from_yaml(read_input_file(args.require("--plane"), "plane file"));
+    in.result_name = args.require("--result");
+    in.solution =
+        modes::planar_result_from_json(read_input_file(in.result_name, "result"), in.result_name);
+    in.photo_name = args.positional()[0];
+    in.photo = load_gray_image(in.photo_name);
+    return in;
+}
+
+// --mm-per-px: the view's scale, 0 (the photo's own) when not given.
+double view_scale(const Args& args, const std::string& command) {
+    const double mm_per_px = args.number("--mm-per-px", 0);
+    if (args.get("--mm-per-px") && !(mm_per_px > 0))
+        throw UsageError("--mm-per-px must be above 0", command);
+    return mm_per_px;
+}
+
 int view_bed(const Args& args) {
     const std::string out = args.require("-o");
     if (out.size() < 5 || out.substr(out.size() - 4) != ".png")
@@ -47,32 +79,22 @@ int view_bed(const Args& args) {
     const std::string world = out.substr(0, out.size() - 4) + ".pgw";
     modes::BedViewRequest request;
     request.surface_height_mm = args.number("--stock-thickness", 0);
-    request.mm_per_px = args.number("--mm-per-px", 0);
-    if (args.get("--mm-per-px") && !(request.mm_per_px > 0))
-        throw UsageError("--mm-per-px must be above 0", "calbox view bed");
+    request.mm_per_px = view_scale(args, "calbox view bed");
     if (const auto area = args.get("--area")) read_area(*area, request);
-    const auto camera =
-        geometry::camera_from_yaml(read_input_file(args.require("--camera"), "camera file"));
-    const auto plane =
-        geometry::plane_from_yaml(read_input_file(args.require("--plane"), "plane file"));
-    const std::string result_name = args.require("--result");
-    const auto solution =
-        modes::planar_result_from_json(read_input_file(result_name, "result"), result_name);
-    const std::string photo_name = args.positional()[0];
-    const cv::Mat photo = load_gray_image(photo_name);
+    const ViewInputs in = read_view_inputs(args);
     modes::BedView view;
     try {
-        view =
-            modes::render_bed_view(camera, plane, view_of(photo), solution, request, result_name);
+        view = modes::render_bed_view(in.camera, in.plane, view_of(in.photo), in.solution, request,
+                                      in.result_name);
     } catch (const modes::BedViewError& e) {
-        throw std::runtime_error(photo_name + ": " + e.what());
+        throw std::runtime_error(in.photo_name + ": " + e.what());
     }
     cv::Mat picture;
     if (args.flag("--plain")) {
         picture = cv::Mat(view.pixels.height_px, view.pixels.width_px, CV_8UC1,
                           view.pixels.pixels.data());
     } else {
-        auto colour = modes::bed_view_with_overlay(view, solution);
+        auto colour = modes::bed_view_with_overlay(view, in.solution);
         picture =
             cv::Mat(view.pixels.height_px, view.pixels.width_px, CV_8UC3, colour.data()).clone();
     }
@@ -85,6 +107,46 @@ int view_bed(const Args& args) {
         out.c_str(), view.pixels.width_px, view.pixels.height_px, view.min_x_mm, view.max_x_mm,
         view.min_y_mm, view.max_y_mm, view.mm_per_px, view.camera_mm_per_px, view.surface_height_mm,
         100 * view.seen_share, view.accuracy_mm, world.c_str());
+    return 0;
+}
+
+int view_stock(const Args& args) {
+    const std::string out = args.require("-o");
+    const auto overlay = args.get("--overlay");
+    if (overlay && (overlay->size() < 5 || overlay->substr(overlay->size() - 4) != ".png"))
+        throw UsageError("--overlay must name a .png", "calbox view stock");
+    const double top_mm = args.number("--stock-thickness", 0);
+    const ViewInputs in = read_view_inputs(args);
+    modes::StockOutline stock;
+    try {
+        stock = modes::find_stock(in.camera, in.plane, view_of(in.photo), in.solution, top_mm,
+                                  in.result_name);
+    } catch (const modes::StockError& e) {
+        throw std::runtime_error(in.photo_name + ": " + e.what());
+    } catch (const modes::BedViewError& e) {
+        throw std::runtime_error(in.photo_name + ": " + e.what());
+    }
+    write_output_file(out, modes::stock_to_json(stock, in.solution.machine_fingerprint));
+    if (overlay) {
+        modes::BedViewRequest request;
+        request.surface_height_mm = top_mm;
+        request.mm_per_px = view_scale(args, "calbox view stock");
+        const auto view = modes::render_bed_view(in.camera, in.plane, view_of(in.photo),
+                                                 in.solution, request, in.result_name);
+        auto colour = modes::bed_view_with_stock(view, in.solution, stock);
+        write_png(*overlay,
+                  cv::Mat(view.pixels.height_px, view.pixels.width_px, CV_8UC3, colour.data()));
+    }
+    std::printf(
+        "%s: a %s sheet %.2f x %.2f mm turned %.3f deg (+/-%.3f), its top %.3f mm above the bed; "
+        "edge points %d, %d, %d, %d (front, right, back, left), %d set aside, %d under glare\n",
+        out.c_str(), stock.lighter_than_bed ? "light" : "dark", stock.width_mm, stock.depth_mm,
+        stock.rotation_deg, stock.rotation_sigma_deg, stock.surface_height_mm, stock.edge_points[0],
+        stock.edge_points[1], stock.edge_points[2], stock.edge_points[3],
+        stock.edge_points_set_aside, stock.edge_points_under_glare);
+    for (const auto& c : stock.corners)
+        std::printf("%-11s X%.3f Y%.3f mm +/-%.3f (1 sigma)\n", c.name.c_str(), c.machine_mm.x,
+                    c.machine_mm.y, c.sigma_mm);
     return 0;
 }
 
@@ -117,6 +179,29 @@ planar model leaves. Where the camera does not see, the view is black. Refused: 
 another size than the camera's, an area beyond the travel, a view over 40 megapixels, a
 result from before calbox recorded its frame.)",
          view_bed},
+        {"view stock",
+         "the sheet on the bed: its corners and turn in the machine's coordinates",
+         {{"--camera", "camera.yaml", "the camera's calibration", Given::required},
+          {"--plane", "plane.yaml", "the bed plane", Given::required},
+          {"--result", "result.json", "the planar result in force (calbox solve planar)",
+           Given::required},
+          {"IMAGE", "", "a photo of the sheet from the same camera on its mount", Given::word},
+          {"--stock-thickness", "MM", "the sheet's top above the bed", Given::required},
+          {"-o", "stock.json", "the sheet's corners, written", Given::required},
+          {"--overlay", "PNG", "the bed view with the sheet's outline drawn, written"},
+          {"--mm-per-px", "MM", "the overlay's scale (default: the photo's own at its middle)"}},
+         R"(Finds a rectangular sheet lying on the bed (light or dark against it, turned any way) and
+gives its four corners in the machine's coordinates, as a job compensated through the result
+means them (see calbox view bed), each with its standard uncertainty, and the front edge's
+turn against +X. The outline is found on a coarse view of the travel; each edge is then
+measured in the photo every 2 mm across it, clear of the corners, mapped onto the machine at
+the sheet's top and fitted with a line; a point off its line (a chip, a clamp) is set aside,
+and so is a point where the sensor clipped the edge (the lamp's glare). The corners are named
+front-left, front-right, back-right, back-left (the front is the machine's -Y side).
+calbox compensate --work-zero camera --stock stock.json places a job at one of them.
+Refused: a sheet that runs on beyond what the camera sees, an edge that shows over under half
+its length, a result from before calbox recorded its frame.)",
+         view_stock},
     };
 }
 

@@ -55,7 +55,10 @@ expect_error "not a print record" sim photo --scenario "$scenario" --print "$wor
 expect_error "bad pattern" sim photo --scenario "$scenario" --board chessboard:9x6 --pose 0,0,0,0,0,400 -o "$work/result"
 expect_error "unknown ArUco dictionary" sim photo --scenario "$scenario" --board charuco:5x7@20/14:DICT_9X9 --pose 0,0,0,0,0,400 -o "$work/result"
 expect_error "--pose needs 6" sim photo --scenario "$scenario" --board chessboard:9x6@20 --pose 1,2,3 -o "$work/result"
-expect_error "either --print or --board" sim photo --scenario "$scenario" -o "$work/result"
+expect_error "one of --print, --board and --sheet" sim photo --scenario "$scenario" -o "$work/result"
+expect_error "one of --print, --board and --sheet" sim photo --scenario "$scenario" --board chessboard:9x6@20 --sheet 0,0,100,100,0 -o "$work/result"
+expect_error "--sheet needs 5" sim photo --scenario "$scenario" --sheet 0,0,100 -o "$work/result"
+expect_error "--sheet needs a width and a depth above 0" sim photo --scenario "$scenario" --sheet 0,0,0,100,0 -o "$work/result"
 # The command line (CLI11, from each command's declared options): an unknown option is named
 # before a missing one, a repeated one or a command without its verb is one line.
 expect_error "^calbox: sim print: unknown option --frobnicate \\(see calbox sim print --help\\)$" sim print --frobnicate 3

@@ -85,6 +85,30 @@ del r['placement']['bed_mirrored']
 json.dump(r, open('$work/old_result.json', 'w'))"
 view_refused "old_result.json: a result from before calbox recorded which way round the camera's bed lies" \
     --result "$work/old_result.json" "$work/holes.png" -o "$work/refused.png"
+# The sheet on the bed: found, its corners written; a job placed at one of them and turned with
+# it (the accuracy is test_bed_view's, against the twin's truth).
+"$calbox" sim photo --scenario "$top/tests/scenarios/planar_small.toml" --sheet 50,60,210,150,2.7 \
+    --thickness 3 -o "$work/sheet.png"
+"$calbox" view stock --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/sheet.png" --stock-thickness 3 -o "$work/stock.json" --overlay "$work/stock.png" > "$work/stock.out"
+cat "$work/stock.out"
+grep -q "stock.json: a dark sheet 210.0[0-9] x 149.9[0-9] mm turned 2.8[0-9]* deg" "$work/stock.out" \
+    || grep -q "stock.json: a dark sheet 210.0[0-9] x 150.0[0-9] mm turned 2.8[0-9]* deg" "$work/stock.out"
+grep -q "^front-left  X-25[01].[0-9]* Y-24[01].[0-9]* mm +/-0.0[0-9]* (1 sigma)" "$work/stock.out"
+grep -q '"schema": "calbox.stock/1"' "$work/stock.json"
+printf 'G21 G90 G54\nG0 X10 Y10\nG1 Z-1 F300\nG1 X190 Y10 F600\nG0 Z5\n' > "$work/on_sheet.gcode"
+"$calbox" compensate --result "$work/result.json" "$work/on_sheet.gcode" --work-zero camera \
+    --stock "$work/stock.json" --corner front-left -o "$work/on_sheet_compensated.gcode" > "$work/placed.out"
+grep -q "frame: job placed with the camera: .*stock.json's front-left corner at machine X-25[01].[0-9]* Y-24[01].[0-9]* mm (+/-0.0[0-9]*), the job turned 2.8[0-9]* deg with the sheet's front edge" "$work/placed.out" \
+    || { cat "$work/placed.out"; exit 1; }
+refused "--work-zero camera places the job at the sheet the camera found: give --stock stock.json" \
+    "$work/on_sheet.gcode" --work-zero camera
+refused "--stock is for --work-zero camera" "$work/on_sheet.gcode" --work-zero measured --stock "$work/stock.json"
+refused "--corner 'middle' is no corner of a sheet" "$work/on_sheet.gcode" --work-zero camera \
+    --stock "$work/stock.json" --corner middle
+refused "--corner names the sheet's corner for --work-zero camera" "$work/on_sheet.gcode" --work-zero measured --corner front-left
+printf 'G21 G90\nG55\nG0 X1 Y1\n' > "$work/g55.gcode"
+refused "line 2: G55 in a job placed turned with the stock" "$work/g55.gcode" --work-zero camera --stock "$work/stock.json"
 echo "planar cycle complete"
 
 # The appliance: one cycle on the router, the box keeping the error model; revert puts back

@@ -5,13 +5,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/geometry/pattern_spec.hpp"
 #include "core/modes/bed_view.hpp"
+#include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/stock.hpp"
 #include "core/targets/planar_target.hpp"
 #include "tests/support/router_fixtures.hpp"
 
@@ -188,6 +192,53 @@ TEST(BedViewRefusals, the_world_file_places_the_top_left_pixels_centre) {
     STRCMP_EQUAL("0.5\n0\n0\n-0.5\n-199.75\n-150.25\n", modes::world_file_text(view).c_str());
 }
 
+namespace {
+
+// A router calibrated from its drilled sheet on the twin (half the 12 MP camera over it): what
+// the box keeps after a cycle, and the twin's truth for the judge. Made once for the tests below.
+struct CalibratedRouter {
+    models::MachineFile machine =
+        models::parse_machine_file(test::kRouterMachineToml, "router.toml");
+    test::RouterBench bench = test::router_bench(0.5);
+    geometry::CameraModel camera = test::as_core(bench.camera);
+    geometry::BedPlane plane = test::router_plane(bench);
+    sim::RouterTruth truth = sim::random_router_truth(3);
+    modes::PlanarSolution solution;
+    CalibratedRouter() {
+        const auto target = targets::make_planar_target(machine);
+        const auto drilled = test::photo_of_drilled_sheet(bench, truth, target.job);
+        solution = modes::solve_planar(
+            machine, modes::measure_planar(machine, camera, plane, test::view_of(drilled)));
+    }
+    // Where the twin's tool really goes for a job aimed at `machine_mm` through the correction
+    // (drilling as the target drills: to the cut depth, approached from -x -y).
+    sim::Vec2 lands(Point2 machine_mm) const {
+        const Point2 zero = solution.frame->work_zero_mm;
+        const Point2 command =
+            modes::planar_command_for(solution, {machine_mm.x - zero.x, machine_mm.y - zero.y});
+        const sim::Vec3 tool = sim::router_tool_position_mm(
+            truth, {command.x, command.y, -machine.cut_depth_mm}, {true, true});
+        return {tool.x, tool.y};
+    }
+    // The machine coordinates a job through the correction must aim at to land on `bed`.
+    Point2 aim_for(sim::Vec2 bed) const {
+        const Point2 zero = solution.frame->work_zero_mm;
+        Point2 x{bed.x + zero.x, bed.y + zero.y};
+        for (int k = 0; k < 20; ++k) {
+            const sim::Vec2 t = lands(x);
+            x = {x.x + bed.x - t.x, x.y + bed.y - t.y};
+        }
+        return x;
+    }
+};
+
+const CalibratedRouter& calibrated_router() {
+    static const CalibratedRouter router;
+    return router;
+}
+
+}  // namespace
+
 TEST_GROUP(BedViewTwin){};
 
 // A chessboard printed on a 1.5 mm sheet anywhere on the router's bed, turned; the router
@@ -195,16 +246,8 @@ TEST_GROUP(BedViewTwin){};
 // OpenCV finds in the view, commanded through the correction, is where the twin's tool really
 // goes to within 0.1 mm of the printed corner (the bar).
 TEST(BedViewTwin, every_printed_corner_in_the_view_is_where_the_corrected_tool_lands) {
-    const auto machine = models::parse_machine_file(test::kRouterMachineToml, "router.toml");
-    const auto bench = test::router_bench(0.5);
-    const auto camera = test::as_core(bench.camera);
-    const auto plane = test::router_plane(bench);
-    const auto truth = sim::random_router_truth(3);
-    const auto target = targets::make_planar_target(machine);
-    const auto drilled = test::photo_of_drilled_sheet(bench, truth, target.job);
-    const auto solution = modes::solve_planar(
-        machine, modes::measure_planar(machine, camera, plane, test::view_of(drilled)));
-
+    const auto& router = calibrated_router();
+    const auto& bench = router.bench;
     const auto spec = geometry::parse_pattern_spec("chessboard:17x13@15");
     const sim::Vec3 origin{41.5, 237.25, bench.surface_height_mm};
     const double turn_deg = 2.5;
@@ -214,8 +257,8 @@ TEST(BedViewTwin, every_printed_corner_in_the_view_is_where_the_corrected_tool_l
     modes::BedViewRequest request;
     request.surface_height_mm = bench.surface_height_mm;
     request.mm_per_px = 0.2;
-    const auto view = modes::render_bed_view(camera, plane, test::view_of(printed), solution,
-                                             request, "result.json");
+    const auto view = modes::render_bed_view(router.camera, router.plane, test::view_of(printed),
+                                             router.solution, request, "result.json");
     CHECK_EQUAL(1500, view.pixels.width_px);
     DOUBLES_EQUAL(1.0, view.seen_share, 1e-9);
     const cv::Mat image(view.pixels.height_px, view.pixels.width_px, CV_8UC1,
@@ -233,14 +276,10 @@ TEST(BedViewTwin, every_printed_corner_in_the_view_is_where_the_corrected_tool_l
         for (int i = 0; i < 17; ++i)
             corners.push_back({origin.x + 15 * (i * std::cos(a) + j * std::sin(a)),
                                origin.y + 15 * (i * std::sin(a) - j * std::cos(a))});
-    const Point2 zero = solution.frame->work_zero_mm;
     std::vector<bool> taken(corners.size(), false);
     double sum = 0, sum2 = 0, worst = 0;
     for (const auto& f : found) {
-        const Point2 at = view.machine_of_pixel(f.x, f.y);
-        const Point2 command = modes::planar_command_for(solution, {at.x - zero.x, at.y - zero.y});
-        const sim::Vec3 tool = sim::router_tool_position_mm(
-            truth, {command.x, command.y, -machine.cut_depth_mm}, {true, true});
+        const sim::Vec2 tool = router.lands(view.machine_of_pixel(f.x, f.y));
         std::size_t nearest = 0;
         double d = 1e300;
         for (std::size_t k = 0; k < corners.size(); ++k) {
@@ -266,4 +305,199 @@ TEST(BedViewTwin, every_printed_corner_in_the_view_is_where_the_corrected_tool_l
     // the distance (which is sqrt(2) sigma), and it is under the bar.
     CHECK(std::sqrt(sum2 / n) <= view.accuracy_mm);
     CHECK(view.accuracy_mm < 0.1);
+}
+
+TEST_GROUP(StockTwin){};
+
+namespace {
+
+// The sheet photographed on the router's bed at its top's height, found by the box, and each
+// corner judged against the machine coordinates a job through the correction must aim at to
+// land on the twin's corner.
+struct StockVerdict {
+    modes::StockOutline found;
+    double worst_corner_mm = 0, rotation_error_deg = 0;
+};
+
+StockVerdict find_sheet(const sim::StockSheet& sheet, const sim::PhotoSettings& photo,
+                        double top_mm) {
+    const auto& router = calibrated_router();
+    sim::Pose lifted;
+    lifted.translation_mm = {0, 0, top_mm};
+    const auto picture =
+        sim::render_photo(router.bench.camera, sim::compose(router.bench.bed_to_camera, lifted),
+                          sim::SheetScene(sheet, 4), photo);
+    StockVerdict v;
+    v.found = modes::find_stock(router.camera, router.plane, test::view_of(picture),
+                                router.solution, top_mm, "result.json");
+    const auto truth = sim::SheetScene(sheet, 4).corners();
+    std::array<Point2, 4> aims;
+    for (int k = 0; k < 4; ++k) {
+        aims[k] = router.aim_for(truth[k]);
+        const Point2 got = v.found.corners[k].machine_mm;
+        v.worst_corner_mm =
+            std::max(v.worst_corner_mm, std::hypot(got.x - aims[k].x, got.y - aims[k].y));
+    }
+    const double true_rotation =
+        std::atan2(aims[1].y - aims[0].y, aims[1].x - aims[0].x) * 180 / kPi;
+    v.rotation_error_deg = std::abs(v.found.rotation_deg - true_rotation);
+    UT_PRINT(("stock " + std::to_string(sheet.width_mm) + " x " + std::to_string(sheet.depth_mm) +
+              " turned " + std::to_string(sheet.angle_deg) + " deg: corners within " +
+              std::to_string(v.worst_corner_mm) + " mm (sigma stated " +
+              std::to_string(v.found.corners[0].sigma_mm) + "), rotation " +
+              std::to_string(v.found.rotation_deg) + " deg, off by " +
+              std::to_string(v.rotation_error_deg) + "; edge points " +
+              std::to_string(v.found.edge_points[0]) + "/" +
+              std::to_string(v.found.edge_points[1]) + "/" +
+              std::to_string(v.found.edge_points[2]) + "/" +
+              std::to_string(v.found.edge_points[3]) + ", set aside " +
+              std::to_string(v.found.edge_points_set_aside) + ", under glare " +
+              std::to_string(v.found.edge_points_under_glare))
+                 .c_str());
+    return v;
+}
+
+}  // namespace
+
+// The bars: the corner within 0.1 mm, the rotation within 0.05 degrees.
+TEST(StockTwin, a_light_sheet_turned_on_the_spoilboard_is_found_to_its_corners) {
+    sim::StockSheet sheet;
+    sheet.corner_mm = {52.3, 61.7};
+    sheet.width_mm = 220, sheet.depth_mm = 160, sheet.angle_deg = 3.2;
+    sheet.sheet_albedo = 0.75, sheet.bed_albedo = 0.3;
+    const auto v = find_sheet(sheet, calibrated_router().bench.photo, 1.5);
+    CHECK(v.found.lighter_than_bed);
+    STRCMP_EQUAL("front-left", v.found.corners[0].name.c_str());
+    CHECK(v.worst_corner_mm < 0.1);
+    CHECK(v.rotation_error_deg < 0.05);
+    DOUBLES_EQUAL(220, v.found.width_mm, 0.2);
+    DOUBLES_EQUAL(160, v.found.depth_mm, 0.2);
+    CHECK_EQUAL(0, v.found.edge_points_set_aside);
+}
+
+TEST(StockTwin, a_dark_sheet_turned_the_other_way_is_found_too) {
+    sim::StockSheet sheet;
+    sheet.corner_mm = {120.4, 30.2};
+    sheet.width_mm = 140, sheet.depth_mm = 200, sheet.angle_deg = -7.5;
+    sheet.sheet_albedo = 0.07, sheet.bed_albedo = 0.55;
+    const auto v = find_sheet(sheet, calibrated_router().bench.photo, 3);
+    CHECK(!v.found.lighter_than_bed);
+    CHECK(v.worst_corner_mm < 0.1);
+    CHECK(v.rotation_error_deg < 0.05);
+}
+
+// The box's lamp mirrored by a glossy sheet: a washed-out lobe over part of it.
+TEST(StockTwin, the_lamps_glare_over_part_of_the_sheet_leaves_its_corners) {
+    sim::StockSheet sheet;
+    sheet.corner_mm = {40.8, 70.1};
+    sheet.width_mm = 230, sheet.depth_mm = 150, sheet.angle_deg = 1.4;
+    sheet.sheet_albedo = 0.6, sheet.bed_albedo = 0.25;
+    auto photo = calibrated_router().bench.photo;
+    photo.glare = sim::glare_of_surface("laminated");
+    const auto v = find_sheet(sheet, photo, 1.5);
+    // Where the sensor clipped the edge it is left out (about half the front and right edges
+    // here), and what is left still tells the corners.
+    CHECK(v.found.edge_points_under_glare > 100);
+    CHECK(v.worst_corner_mm < 0.1);
+    CHECK(v.rotation_error_deg < 0.05);
+}
+
+// A sheet hanging over the bed's edge, out of the camera's sight: its outline cannot be told, and
+// no corner is made up.
+TEST(StockTwin, a_sheet_running_out_of_sight_is_refused) {
+    sim::StockSheet sheet;
+    sheet.corner_mm = {-80, 60};
+    sheet.width_mm = 200, sheet.depth_mm = 150, sheet.angle_deg = 2;
+    const auto& router = calibrated_router();
+    sim::Pose lifted;
+    lifted.translation_mm = {0, 0, 1.5};
+    const auto picture =
+        sim::render_photo(router.bench.camera, sim::compose(router.bench.bed_to_camera, lifted),
+                          sim::SheetScene(sheet, 4), router.bench.photo);
+    try {
+        modes::find_stock(router.camera, router.plane, test::view_of(picture), router.solution, 1.5,
+                          "result.json");
+        FAIL("a sheet out of sight was found");
+    } catch (const modes::StockError& e) {
+        STRCMP_CONTAINS("no sheet with four straight edges in X 0.0..300.0 Y 0.0..300.0 mm",
+                        e.what());
+    }
+}
+
+// Corners by name, or the one nearest the machine's zero (grbl's: the back right).
+TEST(StockTwin, a_corner_is_chosen_by_name_or_as_the_one_nearest_the_machines_zero) {
+    modes::StockOutline stock;
+    const char* names[4] = {"front-left", "front-right", "back-right", "back-left"};
+    const Point2 at[4] = {{-250, -240}, {-30, -230}, {-40, -70}, {-260, -80}};
+    for (int k = 0; k < 4; ++k) stock.corners[k] = {names[k], at[k], 0.01};
+    STRCMP_EQUAL("back-right", modes::stock_corner(stock, "nearest").name.c_str());
+    DOUBLES_EQUAL(-260, modes::stock_corner(stock, "back-left").machine_mm.x, 0);
+    CHECK_THROWS(modes::StockError, modes::stock_corner(stock, "left"));
+}
+
+// The job placed by the sheet's corner (calbox compensate --work-zero camera): a drilling job
+// written around the sheet's front-left corner, 10 mm in from its edges, compensated through the
+// result with the corner and the turn the box found; each hole drilled by the twin lands where
+// the job meant it on the real sheet, within the 0.1 mm.
+TEST(StockTwin, a_job_placed_at_the_found_corner_lands_on_the_sheet_where_it_was_meant) {
+    sim::StockSheet sheet;
+    sheet.corner_mm = {52.3, 61.7};
+    sheet.width_mm = 220, sheet.depth_mm = 160, sheet.angle_deg = 3.2;
+    sheet.sheet_albedo = 0.75, sheet.bed_albedo = 0.3;
+    const auto& router = calibrated_router();
+    const auto v = find_sheet(sheet, router.bench.photo, 1.5);
+    const Point2 meant[5] = {{10, 10}, {210, 10}, {210, 150}, {10, 150}, {110, 80}};
+    std::string job = "G21 G90 G54\n";
+    for (const auto& p : meant)
+        job += "G0 X" + std::to_string(p.x) + " Y" + std::to_string(p.y) + "\nG1 Z-2 F300\nG0 Z5\n";
+    modes::JobRequest request;
+    request.result_text = modes::planar_result_to_json(
+        router.solution, modes::planar_firmware_settings(router.machine, router.solution));
+    request.result_name = "result.json";
+    request.job_text = job;
+    request.job_name = "holes.nc";
+    request.work_zero = "camera";
+    request.stock_text = modes::stock_to_json(v.found, router.solution.machine_fingerprint);
+    request.stock_name = "stock.json";
+    request.stock_corner = "front-left";
+    request.date = "2026-11-29";
+    const auto done = modes::compensate_job(request);
+    STRCMP_CONTAINS("the camera: stock.json's front-left corner at machine X",
+                    done.frame_line.c_str());
+    // The controller's G54 zero is the found corner; each rapid's X Y is commanded from there.
+    const Point2 zero = v.found.corners[0].machine_mm;
+    const double a = sheet.angle_deg * kPi / 180;
+    // Where each plunge is: the last X Y written before it.
+    std::vector<Point2> written;
+    Point2 at;
+    std::istringstream lines(done.text);
+    for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("G0 X", 0) == 0)
+            CHECK_EQUAL(2, std::sscanf(line.c_str(), "G0 X%lf Y%lf", &at.x, &at.y));
+        if (line.rfind("G1 Z-2", 0) == 0) written.push_back(at);
+    }
+    CHECK_EQUAL(5u, written.size());
+    double worst = 0;
+    for (std::size_t k = 0; k < written.size() && k < 5; ++k) {
+        const Point2 command{written[k].x + zero.x, written[k].y + zero.y};
+        const sim::Vec3 tool = sim::router_tool_position_mm(
+            router.truth, {command.x, command.y, -router.machine.cut_depth_mm}, {true, true});
+        const sim::Vec2 on_sheet{
+            sheet.corner_mm.x + meant[k].x * std::cos(a) - meant[k].y * std::sin(a),
+            sheet.corner_mm.y + meant[k].x * std::sin(a) + meant[k].y * std::cos(a)};
+        worst = std::max(worst, std::hypot(tool.x - on_sheet.x, tool.y - on_sheet.y));
+    }
+    UT_PRINT(("a job placed at the found corner: its holes within " + std::to_string(worst) +
+              " mm of where it meant them on the sheet")
+                 .c_str());
+    CHECK(worst < 0.1);
+    // Offsets of its own would move the turn's centre: refused, naming the line.
+    request.job_text = "G21 G90\nG10 L2 P1 X5 Y5\nG0 X1 Y1\n";
+    try {
+        modes::compensate_job(request);
+        FAIL("a turned job setting its own offset was compensated");
+    } catch (const modes::JobError& e) {
+        STRCMP_CONTAINS("line 2: G10 L2 with X or Y in a job placed turned with the stock",
+                        e.what());
+    }
 }

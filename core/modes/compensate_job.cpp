@@ -10,6 +10,7 @@
 #include "core/modes/galvo.hpp"
 #include "core/modes/json_file.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/registration.hpp"
 #include "core/modes/stock.hpp"
 #include "core/number_text.hpp"
 
@@ -134,6 +135,27 @@ CompensatedJob compensate_job(const JobRequest& r) {
                                "--work-zero is for routers and lasers");
             frame.work_zero_mm = {Point2{}};
             zero_from = "machine coordinates (a printer's job, G92 tracked)";
+        } else if (r.registration_text) {
+            if (r.work_zero || r.stock_text)
+                throw JobError(
+                    "--register places the job where its drawing lies: give neither "
+                    "--work-zero nor --stock with it");
+            const auto found = registration_from_json(*r.registration_text, *r.registration_name);
+            if (found.machine_fingerprint != planar->machine_fingerprint)
+                throw JobError(
+                    *r.registration_name + ": the marks were found through the result of machine " +
+                    found.machine_fingerprint + ", not " + r.result_name + "'s (" +
+                    planar->machine_fingerprint + "): find them again through the result in force");
+            const auto& g = found.registration;
+            frame.work_zero_mm = {g.origin_mm};
+            frame.turn_rad = g.rotation_deg * std::numbers::pi / 180;
+            frame.scale = g.scale;
+            zero_from = "the printed marks: " + *r.registration_name + "'s " +
+                        std::to_string(g.marks.size()) + " marks, the drawing's zero at machine X" +
+                        mm(g.origin_mm.x) + " Y" + mm(g.origin_mm.y) + " mm turned " +
+                        number_text("%.3f", g.rotation_deg) + " deg" +
+                        (g.scale_fitted ? ", scaled " + number_text("%.5f", g.scale) : "") +
+                        " (worst mark " + number_text("%.3f", g.worst_residual_mm) + " mm)";
         } else {
             if (!r.work_zero)
                 throw JobError(r.job_name + ": a " + f.kind +
@@ -191,7 +213,7 @@ CompensatedJob compensate_job(const JobRequest& r) {
             " mm; travel X " + mm(f.travel_min_x_mm) + ".." + mm(f.travel_max_x_mm) + " Y " +
             mm(f.travel_min_y_mm) + ".." + mm(f.travel_max_y_mm) + " mm";
     } else if (schema.rfind("calbox.galvo-result/", 0) == 0) {
-        if (r.stock_text || (r.work_zero && *r.work_zero == "camera"))
+        if (r.stock_text || r.registration_text || (r.work_zero && *r.work_zero == "camera"))
             throw JobError(r.result_name +
                            ": a scanner's job is in its field's coordinates; --work-zero camera "
                            "places a router's or laser's job on the sheet a planar result sees");

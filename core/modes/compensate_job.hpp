@@ -28,6 +28,9 @@ struct JobRequest {
     // with the sheet's front edge.
     std::optional<std::string> stock_text, stock_name;
     std::string stock_corner = "nearest";
+    // --register: the drawing's place that its printed marks gave (calbox view marks); the job
+    // is in the drawing's frame, and goes where the drawing lies.
+    std::optional<std::string> registration_text, registration_name;
     // --start-at "X,Y": where the tool stands when the job starts, machine coordinates.
     std::optional<std::string> start_at;
     std::string work_zero_from;  // where the work zero came from, when not the owner's option

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <vector>
@@ -20,7 +21,6 @@ using geometry::Point3;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr const char* kCornerNames[4] = {"front-left", "front-right", "back-right", "back-left"};
 constexpr const char* kEdgeNames[4] = {"front", "right", "back", "left"};
 
@@ -279,7 +279,7 @@ StockOutline find_stock(const geometry::CameraModel& camera, const geometry::Bed
         const auto corner = geometry::intersect(lines[before], lines[k]);
         const double sin_angle = std::abs(lines[before].direction.x * lines[k].direction.y -
                                           lines[before].direction.y * lines[k].direction.x);
-        if (!corner || sin_angle < std::sin(30 * kPi / 180))
+        if (!corner || sin_angle < std::sin(30 * std::numbers::pi / 180))
             throw StockError("the sheet's " + std::string(kEdgeNames[before]) + " and " +
                              kEdgeNames[k] +
                              " edges meet at under 30 degrees: not a sheet's corner");
@@ -292,7 +292,7 @@ StockOutline find_stock(const geometry::CameraModel& camera, const geometry::Bed
     // The front edge's line, pointed along +X.
     Point2 d = lines[0].direction;
     if (d.x < 0) d = {-d.x, -d.y};
-    out.rotation_deg = std::atan2(d.y, d.x) * 180 / kPi;
+    out.rotation_deg = std::atan2(d.y, d.x) * 180 / std::numbers::pi;
     const Point2 fl = out.corners[0].machine_mm, fr = out.corners[1].machine_mm,
                  bl = out.corners[3].machine_mm;
     out.width_mm = std::hypot(fr.x - fl.x, fr.y - fl.y);
@@ -300,7 +300,7 @@ StockOutline find_stock(const geometry::CameraModel& camera, const geometry::Bed
     // The front line's turn: its two ends' uncertainties across it, over its length.
     out.rotation_sigma_deg = std::hypot(geometry::line_sigma_at(lines[0], kept[0], fl),
                                         geometry::line_sigma_at(lines[0], kept[0], fr)) /
-                             out.width_mm * 180 / kPi;
+                             out.width_mm * 180 / std::numbers::pi;
     return out;
 }
 

@@ -641,14 +641,15 @@ class Compensator {
     // Where the point the job means lies on the machine once the job is placed turned (itself
     // when it is not).
     Point2 placed(Point2 p) const {
-        if (frame_.turn_rad == 0) return p;
+        if (frame_.turn_rad == 0 && frame_.scale == 1) return p;
         const Point2 pivot = *frame_.work_zero_mm[0];
-        const double c = std::cos(frame_.turn_rad), s = std::sin(frame_.turn_rad);
+        const double c = frame_.scale * std::cos(frame_.turn_rad),
+                     s = frame_.scale * std::sin(frame_.turn_rad);
         const Point2 d{p.x - pivot.x, p.y - pivot.y};
         return {pivot.x + c * d.x - s * d.y, pivot.y + s * d.x + c * d.y};
     }
     void refuse_when_turned(const std::string& what) const {
-        if (frame_.turn_rad != 0)
+        if (frame_.turn_rad != 0 || frame_.scale != 1)
             throw fail(what +
                        " in a job placed turned with the stock (--work-zero camera): the "
                        "turn is about G54's zero as the stock's corner gives it; have the "
@@ -1457,7 +1458,7 @@ std::string compensate_scanner_csv(std::string_view job, const MachineCorrection
         throw CompensateError("the segment length must be positive");
     if (!frame.work_zero_mm[0])
         throw CompensateError("the scanner job's zero on the machine is not known");
-    if (frame.turn_rad != 0)
+    if (frame.turn_rad != 0 || frame.scale != 1)
         throw CompensateError("a scanner job is not placed turned: its field is the machine's");
     const Point2 zero = *frame.work_zero_mm[0];
     std::istringstream in{std::string(job)};

@@ -56,6 +56,8 @@ struct JobFrame {
     // X Y are that point's command in G54 as the controller holds it (no rotation of its own).
     // Such a job keeps to G54 as the frame gives it: G10, G92 and other work systems are refused.
     double turn_rad = 0;
+    // With the turn, a drawing's stretch as printed (print and cut): zero + scale R (x, y).
+    double scale = 1;
 };
 
 struct CompensateSettings {

@@ -31,6 +31,10 @@ int compensate(const Args& args) {
         request.stock_name = *stock;
         request.stock_text = read_input_file(*stock, "stock file");
     }
+    if (const auto marks = args.get("--register")) {
+        request.registration_name = *marks;
+        request.registration_text = read_input_file(*marks, "registration file");
+    }
     if (const auto corner = args.get("--corner")) {
         if (!(request.work_zero && *request.work_zero == "camera"))
             throw UsageError("--corner names the sheet's corner for --work-zero camera",
@@ -65,6 +69,9 @@ std::vector<Command> compensate_commands() {
            "where the job's work zero is in machine coordinates (a planar result)"},
           {"--stock", "stock.json",
            "the sheet the camera found (calbox view stock), for --work-zero camera"},
+          {"--register", "marks.json",
+           "the drawing's place its printed marks gave (calbox view marks): the job is in the "
+           "drawing's frame"},
           {"--corner", "NAME",
            "its corner the job's zero goes to: front-left, front-right, back-right, back-left or "
            "nearest (the default: the one nearest the machine's zero)"},
@@ -85,7 +92,8 @@ gives G54's zero in machine coordinates, --work-zero measured says it is the fra
 result was measured in, "G55=X,Y ..." gives other work systems, --work-zero camera puts it
 at a corner of the sheet the camera found (--stock stock.json, --corner NAME) and turns the
 job with the sheet's front edge (such a job keeps to G54, without G10 or G92 offsets); without
-it the job is refused. G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
+it the job is refused. --register marks.json instead places a job written in a printed
+drawing's frame where its marks were found (turned, and scaled with four marks). G10 L2 / L20 in the job set work offsets, and are tracked. A point beyond the
 travel is refused, naming the line; between the measured area and the travel a point
 takes the correction at the area's nearest edge (held, never extrapolated), counted on
 standard error. One line says which frame was used.

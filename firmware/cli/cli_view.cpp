@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "core/modes/bed_view.hpp"
+#include "core/modes/registration.hpp"
 #include "core/modes/stock.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/cli_images.hpp"
@@ -150,6 +151,68 @@ int view_stock(const Args& args) {
     return 0;
 }
 
+// "X,Y;X,Y;X,Y[;X,Y]": the marks' places in the drawing, millimetres.
+std::vector<geometry::Point2> read_marks(const std::string& text) {
+    std::vector<geometry::Point2> marks;
+    std::size_t start = 0;
+    while (start <= text.size()) {
+        const auto end = std::min(text.find(';', start), text.size());
+        const std::string entry = text.substr(start, end - start);
+        const auto comma = entry.find(',');
+        double x = 0, y = 0;
+        const auto parse = [](const std::string& t, double& v) {
+            const auto [next, error] = std::from_chars(t.data(), t.data() + t.size(), v);
+            return error == std::errc{} && next == t.data() + t.size() && std::isfinite(v);
+        };
+        if (comma == std::string::npos || !parse(entry.substr(0, comma), x) ||
+            !parse(entry.substr(comma + 1), y))
+            throw UsageError("--marks '" + text +
+                                 "': give each mark's X,Y in the drawing, millimetres, separated "
+                                 "by ';'",
+                             "calbox view marks");
+        marks.push_back({x, y});
+        start = end + 1;
+    }
+    return marks;
+}
+
+int view_marks(const Args& args) {
+    const std::string out = args.require("-o");
+    modes::RegistrationRequest request;
+    request.marks_drawing_mm = read_marks(args.require("--marks"));
+    request.mark_diameter_mm = args.number("--mark-diameter", 5);
+    request.surface_height_mm = args.number("--stock-thickness", 0);
+    request.max_residual_mm = args.number("--max-residual", 0.1);
+    if (!(request.max_residual_mm > 0))
+        throw UsageError("--max-residual must be above 0", "calbox view marks");
+    const ViewInputs in = read_view_inputs(args);
+    modes::Registration found;
+    try {
+        found = modes::register_marks(in.camera, in.plane, view_of(in.photo), in.solution, request,
+                                      in.result_name);
+    } catch (const modes::RegistrationError& e) {
+        throw std::runtime_error(in.photo_name + ": " + e.what());
+    } catch (const modes::BedViewError& e) {
+        throw std::runtime_error(in.photo_name + ": " + e.what());
+    }
+    write_output_file(out, modes::registration_to_json(found, in.solution.machine_fingerprint));
+    std::printf(
+        "%s: the drawing's zero at machine X%.3f Y%.3f mm, turned %.3f deg, scale %.5f (%s), "
+        "worst mark %.3f mm\n",
+        out.c_str(), found.origin_mm.x, found.origin_mm.y, found.rotation_deg, found.scale,
+        found.scale_fitted ? "fitted from four marks" : "held: three marks",
+        found.worst_residual_mm);
+    for (std::size_t i = 0; i < found.marks.size(); ++i) {
+        const auto& m = found.marks[i];
+        std::printf(
+            "mark %zu: drawing X%.3f Y%.3f at machine X%.3f Y%.3f, %.3f mm off the fit "
+            "(+/-%.3f)\n",
+            i + 1, m.drawing_mm.x, m.drawing_mm.y, m.machine_mm.x, m.machine_mm.y, m.residual_mm,
+            m.sigma_mm);
+    }
+    return 0;
+}
+
 }  // namespace
 
 std::vector<Command> view_commands() {
@@ -202,6 +265,29 @@ calbox compensate --work-zero camera --stock stock.json places a job at one of t
 Refused: a sheet that runs on beyond what the camera sees, an edge that shows over under half
 its length, a result from before calbox recorded its frame.)",
          view_stock},
+        {"view marks",
+         "a printed drawing's place from its registration marks (print and cut)",
+         {{"--camera", "camera.yaml", "the camera's calibration", Given::required},
+          {"--plane", "plane.yaml", "the bed plane", Given::required},
+          {"--result", "result.json", "the planar result in force (calbox solve planar)",
+           Given::required},
+          {"IMAGE", "", "a photo of the printed sheet from the same camera on its mount",
+           Given::word},
+          {"--marks", "X,Y;X,Y;X,Y[;X,Y]", "the marks' places in the drawing (mm), three or four",
+           Given::required},
+          {"--mark-diameter", "MM", "the printed marks' diameter (default 5)"},
+          {"--stock-thickness", "MM", "the printed sheet's top above the bed (default 0)"},
+          {"--max-residual", "MM", "the farthest a mark may lie from the fit (default 0.1)"},
+          {"-o", "marks.json", "the drawing's place, written", Given::required}},
+         R"(Finds the drawing's registration marks (filled dark circles, --mark-diameter across) in
+the photo, matches them to their places in the drawing whatever way the sheet lies, and fits
+where the drawing lies on the machine (as a job compensated through the result means it):
+turned and shifted, and with four marks its scale too (a printer's stretch). Each mark's
+residual from the fit is printed. calbox compensate --register marks.json then places a job
+written in the drawing's frame there. Refused: marks not all found, marks laid
+symmetrically (the drawing would fit two ways: move one), a mark farther from the fit than
+--max-residual (a misprint, a smudge, a sheet not flat), a scale over 3 % off.)",
+         view_marks},
     };
 }
 

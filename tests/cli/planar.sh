@@ -109,6 +109,17 @@ refused "--corner 'middle' is no corner of a sheet" "$work/on_sheet.gcode" --wor
 refused "--corner names the sheet's corner for --work-zero camera" "$work/on_sheet.gcode" --work-zero measured --corner front-left
 printf 'G21 G90\nG55\nG0 X1 Y1\n' > "$work/g55.gcode"
 refused "line 2: G55 in a job placed turned with the stock" "$work/g55.gcode" --work-zero camera --stock "$work/stock.json"
+# Print and cut's marks (their accuracy is test_bed_view's): a photo without them, and marks
+# not given as X,Y, are refused.
+if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/sheet.png" --marks "0,0;160,0;0,110" -o "$work/marks.json" 2> "$work/err"; then
+    echo "marks found on a sheet without any"; exit 1
+fi
+grep -q "sheet.png: the photo shows [0-9]* round marks 5.0 mm across, the drawing has 3" "$work/err" || { cat "$work/err"; exit 1; }
+if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/sheet.png" --marks "0,0;160" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
+grep -q -- "--marks '0,0;160': give each mark's X,Y in the drawing" "$work/err" || { cat "$work/err"; exit 1; }
+[ ! -e "$work/marks.json" ]
 echo "planar cycle complete"
 
 # The appliance: one cycle on the router, the box keeping the error model; revert puts back

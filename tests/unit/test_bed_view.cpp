@@ -15,6 +15,7 @@
 #include "core/modes/bed_view.hpp"
 #include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/registration.hpp"
 #include "core/modes/stock.hpp"
 #include "core/targets/planar_target.hpp"
 #include "tests/support/router_fixtures.hpp"
@@ -498,6 +499,186 @@ TEST(StockTwin, a_job_placed_at_the_found_corner_lands_on_the_sheet_where_it_was
         FAIL("a turned job setting its own offset was compensated");
     } catch (const modes::JobError& e) {
         STRCMP_CONTAINS("line 2: G10 L2 with X or Y in a job placed turned with the stock",
+                        e.what());
+    }
+}
+
+TEST_GROUP(PrintAndCutTwin){};
+
+namespace {
+
+// A card printed with a drawing and its marks (filled 5 mm circles), lying on the router's bed
+// turned and shifted, the printer's stretch on it: where a drawing's point really is.
+struct PrintedCard {
+    sim::Vec2 origin_mm;
+    double angle_deg = 0, stretch = 1;
+    sim::Vec2 at(Point2 d) const {
+        const double a = angle_deg * kPi / 180;
+        return {origin_mm.x + stretch * (std::cos(a) * d.x - std::sin(a) * d.y),
+                origin_mm.y + stretch * (std::sin(a) * d.x + std::cos(a) * d.y)};
+    }
+};
+
+// The drawing's cut line: a five-lobed outline around (80, 60), closed.
+std::vector<Point2> cut_line() {
+    std::vector<Point2> points;
+    for (int k = 0; k <= 120; ++k) {
+        const double t = 2 * kPi * k / 120, r = 40 + 8 * std::cos(5 * t);
+        points.push_back({80 + r * std::cos(t), 60 + r * std::sin(t)});
+    }
+    return points;
+}
+
+double distance_to_polyline(sim::Vec2 p, const std::vector<sim::Vec2>& line) {
+    double best = 1e300;
+    for (std::size_t k = 0; k + 1 < line.size(); ++k) {
+        const double dx = line[k + 1].x - line[k].x, dy = line[k + 1].y - line[k].y;
+        const double t = std::clamp(
+            ((p.x - line[k].x) * dx + (p.y - line[k].y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+        best = std::min(best, std::hypot(p.x - line[k].x - t * dx, p.y - line[k].y - t * dy));
+    }
+    return best;
+}
+
+struct CutVerdict {
+    modes::Registration registration;
+    double mean_mm = 0, worst_mm = 0;
+    std::size_t points = 0;
+};
+
+// Prints the card, photographs it at its top (0.3 mm), finds the marks, compensates the cut job
+// (in the drawing's frame) through --register and runs it on the twin router: each point the
+// tool really cut against the printed line.
+CutVerdict print_and_cut(const PrintedCard& card, const std::vector<Point2>& marks,
+                         const sim::PhotoSettings& photo) {
+    const auto& router = calibrated_router();
+    constexpr double kTopMm = 0.3;
+    std::vector<sim::StrokeSegment> ink;
+    for (const auto& m : marks) {
+        const sim::Vec2 c = card.at(m);
+        ink.push_back({{c.x, c.y, 0}, {c.x, c.y, 0}, 5.0 * card.stretch});
+    }
+    const auto line = cut_line();
+    std::vector<sim::Vec2> printed;
+    for (const auto& p : line) printed.push_back(card.at(p));
+    for (std::size_t k = 0; k + 1 < printed.size(); ++k)
+        ink.push_back(
+            {{printed[k].x, printed[k].y, 0}, {printed[k + 1].x, printed[k + 1].y, 0}, 0.4});
+    sim::Pose lifted;
+    lifted.translation_mm = {0, 0, kTopMm};
+    const auto pose = sim::compose(router.bench.bed_to_camera, lifted);
+    const auto picture = sim::render_photo(
+        router.bench.camera, pose,
+        sim::StrokeScene(std::move(ink), 0.85, 0.08, 4,
+                         sim::stroke_footprint_mm(router.bench.camera, pose.translation_mm.norm())),
+        photo);
+    modes::RegistrationRequest request;
+    request.marks_drawing_mm = marks;
+    request.mark_diameter_mm = 5;
+    request.surface_height_mm = kTopMm;
+    CutVerdict v;
+    v.registration = modes::register_marks(router.camera, router.plane, test::view_of(picture),
+                                           router.solution, request, "result.json");
+    // The cut: the drawing's line in its own frame, as a laser or a drag knife follows it.
+    std::string job = "G21 G90 G54\nM3 S12000\nG0 Z5\nG0 X" + std::to_string(line[0].x) + " Y" +
+                      std::to_string(line[0].y) + "\nG1 Z-0.2 F300\n";
+    for (const auto& p : line)
+        job += "G1 X" + std::to_string(p.x) + " Y" + std::to_string(p.y) + " F600\n";
+    job += "G0 Z5\n";
+    modes::JobRequest cut;
+    cut.result_text = modes::planar_result_to_json(
+        router.solution, modes::planar_firmware_settings(router.machine, router.solution));
+    cut.result_name = "result.json";
+    cut.job_text = job;
+    cut.job_name = "cut.nc";
+    cut.registration_text =
+        modes::registration_to_json(v.registration, router.solution.machine_fingerprint);
+    cut.registration_name = "marks.json";
+    cut.date = "2026-11-29";
+    const auto done = modes::compensate_job(cut);
+    // The controller's G54 is the drawing's zero the marks gave; the twin runs in the frame the
+    // router was calibrated in (its work zero), so each written X Y moves by that zero.
+    const Point2 zero = v.registration.origin_mm;
+    std::string in_twin;
+    std::istringstream lines(done.text);
+    for (std::string l; std::getline(lines, l);) {
+        const auto x = l.find(" X"), y = l.find(" Y");
+        if (l.empty() || l[0] == ';' || x == std::string::npos || y == std::string::npos) {
+            in_twin += l + "\n";
+            continue;
+        }
+        const double xv = std::stod(l.substr(x + 2)), yv = std::stod(l.substr(y + 2));
+        const auto rest = l.find(' ', y + 2);
+        in_twin += l.substr(0, x) + " X" + std::to_string(xv + zero.x) + " Y" +
+                   std::to_string(yv + zero.y) + (rest == std::string::npos ? "" : l.substr(rest)) +
+                   "\n";
+    }
+    sim::RouterTwin twin(router.truth);
+    sim::ToolSettings tool;
+    tool.kind = sim::ToolKind::spindle;
+    tool.tool_width_mm = 0.2;
+    sim::GcodeRunner runner(twin, tool);
+    std::istringstream run(in_twin);
+    runner.run(run);
+    double sum = 0;
+    for (const auto& s : runner.result().strokes)
+        for (const sim::Vec3& p : {s.a_mm, s.b_mm}) {
+            if (p.z > -0.1) continue;  // not cutting
+            const double d = distance_to_polyline({p.x, p.y}, printed);
+            sum += d;
+            v.worst_mm = std::max(v.worst_mm, d);
+            ++v.points;
+        }
+    v.mean_mm = sum / static_cast<double>(std::max<std::size_t>(1, v.points));
+    UT_PRINT(("print and cut, " + std::to_string(marks.size()) + " marks: turned " +
+              std::to_string(v.registration.rotation_deg) + " deg, scale " +
+              std::to_string(v.registration.scale) + ", worst mark " +
+              std::to_string(v.registration.worst_residual_mm) +
+              " mm; the cut from the printed "
+              "line " +
+              std::to_string(v.mean_mm) + " mm mean, " + std::to_string(v.worst_mm) +
+              " worst over " + std::to_string(v.points) + " points")
+                 .c_str());
+    return v;
+}
+
+const std::vector<Point2> kFourMarks = {{0, 0}, {160, 0}, {160, 125}, {0, 110}};
+
+}  // namespace
+
+// Four marks: the turn, the shift and the printer's 0.3 % stretch fitted; the cut on the printed
+// line within the issue's 0.1 mm everywhere.
+TEST(PrintAndCutTwin, four_marks_place_a_stretched_drawing_and_the_cut_follows_the_print) {
+    const PrintedCard card{{63.4, 71.9}, -4.3, 1.003};
+    const auto v = print_and_cut(card, kFourMarks, calibrated_router().bench.photo);
+    CHECK(v.registration.scale_fitted);
+    DOUBLES_EQUAL(1.003, v.registration.scale, 3e-4);
+    CHECK(v.points > 200);
+    CHECK(v.worst_mm < 0.1);
+    CHECK(v.mean_mm < 0.05);
+}
+
+// Three marks hold the scale at 1; the lamp's glare over part of the card.
+TEST(PrintAndCutTwin, three_marks_under_the_lamps_glare_place_the_drawing_too) {
+    const PrintedCard card{{82.0, 65.5}, 6.1, 1.0};
+    auto photo = calibrated_router().bench.photo;
+    photo.glare = sim::glare_of_surface("pei");
+    const auto v = print_and_cut(card, {{0, 0}, {160, 0}, {0, 110}}, photo);
+    CHECK(!v.registration.scale_fitted);
+    CHECK(v.worst_mm < 0.1);
+    CHECK(v.mean_mm < 0.05);
+}
+
+// Marks at a rectangle's corners fit the drawing turned half round as well as the right way:
+// nothing tells which, and the box says so.
+TEST(PrintAndCutTwin, marks_laid_symmetrically_are_refused) {
+    const PrintedCard card{{63.4, 71.9}, 2, 1.0};
+    try {
+        print_and_cut(card, {{0, 0}, {160, 0}, {160, 120}, {0, 120}},
+                      calibrated_router().bench.photo);
+        FAIL("a symmetric layout was placed");
+    } catch (const modes::RegistrationError& e) {
+        STRCMP_CONTAINS("the marks lie symmetrically: the drawing fits them turned 180 degrees",
                         e.what());
     }
 }

@@ -1,0 +1,247 @@
+#include "core/modes/registration.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <optional>
+
+#include "core/modes/bed_view.hpp"
+#include "core/modes/json_file.hpp"
+#include "core/number_text.hpp"
+#include "core/solve/placement.hpp"
+#include "core/vision/spots.hpp"
+
+namespace calbox::modes {
+
+using geometry::Point2;
+
+namespace {
+
+constexpr const char* kRegistrationSchema = "calbox.registration/1";
+
+std::string drawing_text(Point2 p) {
+    return "X" + number_text("%.2f", p.x) + " Y" + number_text("%.2f", p.y);
+}
+
+struct Candidate {
+    Point2 machine_mm;
+    double sigma_mm = 0;
+};
+
+// One way the drawing's marks fall on the candidates: which candidate each mark is, and the
+// rigid placement that put them there.
+struct Matching {
+    std::vector<std::size_t> candidate_of_mark;
+    double rotation_rad = 0;
+    double misfit_mm = 0;  // the sum of the marks' distances from their candidates
+};
+
+}  // namespace
+
+Registration register_marks(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                            const vision::GrayView& photo, const PlanarSolution& solution,
+                            const RegistrationRequest& request, const std::string& source) {
+    const auto& marks = request.marks_drawing_mm;
+    if (marks.size() != 3 && marks.size() != 4)
+        throw RegistrationError(std::to_string(marks.size()) +
+                                " registration marks given: print and cut takes three or four");
+    if (!(request.mark_diameter_mm > 0.5 && request.mark_diameter_mm < 50))
+        throw RegistrationError("a mark " + number_text("%.2f", request.mark_diameter_mm) +
+                                " mm across: give 0.5 to 50 mm");
+    for (std::size_t i = 0; i < marks.size(); ++i)
+        for (std::size_t j = i + 1; j < marks.size(); ++j)
+            if (std::hypot(marks[i].x - marks[j].x, marks[i].y - marks[j].y) <
+                3 * request.mark_diameter_mm)
+                throw RegistrationError("marks " + std::to_string(i + 1) + " and " +
+                                        std::to_string(j + 1) +
+                                        " lie under three diameters apart: they blur together");
+    photo.check();
+    if (const auto mismatch =
+            geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
+        !mismatch.empty())
+        throw BedViewError("the photo is " + mismatch);
+    const BedToMachine map = planar_bed_to_machine(solution, source);
+    const double h = request.surface_height_mm;
+
+    // The photo's scale at its middle, for the marks' size there.
+    const auto middle = geometry::pixels_to_bed(
+        camera, plane, {{0.5 * (photo.width_px - 1), 0.5 * (photo.height_px - 1)}}, h)[0];
+    const auto around = geometry::project_points(
+        camera, plane.bed_to_camera,
+        {middle, {middle.x + 1, middle.y, h}, {middle.x, middle.y + 1, h}});
+    const double px_per_mm =
+        0.5 * (std::hypot(around[1].x - around[0].x, around[1].y - around[0].y) +
+               std::hypot(around[2].x - around[0].x, around[2].y - around[0].y));
+    vision::SpotSettings spot_settings;
+    spot_settings.polarity = vision::MarkPolarity::dark;
+    spot_settings.mark_diameter_px = request.mark_diameter_mm * px_per_mm;
+    const auto found = vision::find_spots(photo, spot_settings);
+    // Marks of the size printed, round, whole.
+    const double expected_area_px = std::numbers::pi * 0.25 * request.mark_diameter_mm *
+                                    request.mark_diameter_mm * px_per_mm * px_per_mm;
+    std::vector<Candidate> candidates;
+    std::vector<Point2> centres_px;
+    std::vector<double> sigmas_px;
+    for (const auto& s : found.spots) {
+        if (s.touches_border || s.elongation > 1.25) continue;
+        if (s.area_px < 0.6 * expected_area_px || s.area_px > 1.6 * expected_area_px) continue;
+        centres_px.push_back(s.centre_px);
+        sigmas_px.push_back(s.sigma_px);
+    }
+    if (!centres_px.empty()) {
+        const auto on_bed = geometry::pixels_to_bed(camera, plane, centres_px, h);
+        for (std::size_t k = 0; k < on_bed.size(); ++k)
+            candidates.push_back(
+                {map.machine_of({on_bed[k].x, on_bed[k].y}), sigmas_px[k] / px_per_mm});
+    }
+    if (candidates.size() < marks.size())
+        throw RegistrationError("the photo shows " + std::to_string(candidates.size()) +
+                                " round marks " + number_text("%.1f", request.mark_diameter_mm) +
+                                " mm across, the drawing has " + std::to_string(marks.size()) +
+                                ": are they printed dark, whole and in view?");
+
+    // Each pair of candidates as far apart as the first two marks places the drawing one way
+    // (turned, shifted); the other marks must then each lie on a candidate. A printer's stretch
+    // of a percent or two and the photo's millimetre leave room.
+    const double base = std::hypot(marks[1].x - marks[0].x, marks[1].y - marks[0].y);
+    const double reach_mm = 0.02 * base + 1.0;
+    std::vector<Matching> matchings;
+    for (std::size_t a = 0; a < candidates.size(); ++a)
+        for (std::size_t b = 0; b < candidates.size(); ++b) {
+            if (a == b) continue;
+            const Point2 ca = candidates[a].machine_mm, cb = candidates[b].machine_mm;
+            if (std::abs(std::hypot(cb.x - ca.x, cb.y - ca.y) - base) > reach_mm) continue;
+            const double turn = std::atan2(cb.y - ca.y, cb.x - ca.x) -
+                                std::atan2(marks[1].y - marks[0].y, marks[1].x - marks[0].x);
+            const double c = std::cos(turn), s = std::sin(turn);
+            Matching m;
+            m.rotation_rad = turn;
+            m.candidate_of_mark = {a, b};
+            bool all = true;
+            for (std::size_t i = 2; i < marks.size() && all; ++i) {
+                const Point2 d{marks[i].x - marks[0].x, marks[i].y - marks[0].y};
+                const Point2 predicted{ca.x + c * d.x - s * d.y, ca.y + s * d.x + c * d.y};
+                std::optional<std::size_t> nearest;
+                double best = reach_mm;
+                for (std::size_t k = 0; k < candidates.size(); ++k) {
+                    const double e = std::hypot(candidates[k].machine_mm.x - predicted.x,
+                                                candidates[k].machine_mm.y - predicted.y);
+                    if (e < best) best = e, nearest = k;
+                }
+                if (!nearest)
+                    all = false;
+                else {
+                    m.candidate_of_mark.push_back(*nearest);
+                    m.misfit_mm += best;
+                }
+            }
+            if (all) matchings.push_back(m);
+        }
+    if (matchings.empty())
+        throw RegistrationError("no " + std::to_string(candidates.size()) +
+                                " round marks in the photo lie as the drawing's " +
+                                std::to_string(marks.size()) + " do (within " +
+                                number_text("%.1f", reach_mm) + " mm)");
+    std::sort(matchings.begin(), matchings.end(),
+              [](const Matching& x, const Matching& y) { return x.misfit_mm < y.misfit_mm; });
+    // Two ways of laying the marks that fit alike and turn the drawing differently: a symmetric
+    // layout, and nothing tells which way round the drawing lies.
+    for (std::size_t k = 1; k < matchings.size(); ++k) {
+        double apart = std::remainder(matchings[k].rotation_rad - matchings[0].rotation_rad,
+                                      2 * std::numbers::pi);
+        if (std::abs(apart) > 1 * std::numbers::pi / 180 && matchings[k].misfit_mm < 2 * reach_mm)
+            throw RegistrationError("the marks lie symmetrically: the drawing fits them turned " +
+                                    number_text("%.0f", std::abs(apart) * 180 / std::numbers::pi) +
+                                    " degrees apart too; print them off symmetry (one mark moved)");
+    }
+    const auto& best = matchings.front();
+    std::vector<Point2> seen;
+    for (const std::size_t k : best.candidate_of_mark) seen.push_back(candidates[k].machine_mm);
+
+    Registration r;
+    r.surface_height_mm = h;
+    r.scale_fitted = marks.size() == 4;
+    solve::SimilarPlacement fit;
+    if (r.scale_fitted) {
+        fit = solve::best_similar_placement(marks, seen);
+    } else {
+        const auto rigid = solve::best_rigid_placement(marks, seen);
+        fit.angle_rad = rigid.angle_rad;
+        fit.translation_mm = rigid.translation_mm;
+    }
+    r.origin_mm = fit.translation_mm;
+    r.rotation_deg = std::remainder(fit.angle_rad, 2 * std::numbers::pi) * 180 / std::numbers::pi;
+    r.scale = fit.scale;
+    for (std::size_t i = 0; i < marks.size(); ++i) {
+        const Point2 placed = fit.apply(marks[i]);
+        RegisteredMark m;
+        m.drawing_mm = marks[i];
+        m.machine_mm = seen[i];
+        m.residual_mm = std::hypot(seen[i].x - placed.x, seen[i].y - placed.y);
+        m.sigma_mm = candidates[best.candidate_of_mark[i]].sigma_mm;
+        r.worst_residual_mm = std::max(r.worst_residual_mm, m.residual_mm);
+        r.marks.push_back(m);
+    }
+    for (std::size_t i = 0; i < r.marks.size(); ++i)
+        if (r.marks[i].residual_mm > request.max_residual_mm)
+            throw RegistrationError("mark " + std::to_string(i + 1) + " (drawing " +
+                                    drawing_text(marks[i]) + ") lies " +
+                                    number_text("%.3f", r.marks[i].residual_mm) +
+                                    " mm from where the others put it, "
+                                    "over " +
+                                    number_text("%.3f", request.max_residual_mm) +
+                                    " mm: a misprint, a smudge, or the sheet not flat");
+    if (r.scale_fitted && std::abs(r.scale - 1) > 0.03)
+        throw RegistrationError("the marks lie " + number_text("%.2f", 100 * (r.scale - 1)) +
+                                " % larger than the drawing's: another drawing, or printed at "
+                                "another size");
+    return r;
+}
+
+std::string registration_to_json(const Registration& r, const std::string& machine_fingerprint) {
+    using nlohmann::json;
+    json marks = json::array();
+    for (const auto& m : r.marks)
+        marks.push_back({{"drawing_mm", point_json(m.drawing_mm)},
+                         {"machine_mm", point_json(m.machine_mm)},
+                         {"residual_mm", m.residual_mm},
+                         {"sigma_mm", m.sigma_mm}});
+    const json j{{"schema", kRegistrationSchema},
+                 {"machine_fingerprint", machine_fingerprint},
+                 {"origin_mm", point_json(r.origin_mm)},
+                 {"rotation_deg", r.rotation_deg},
+                 {"scale", r.scale},
+                 {"scale_fitted", r.scale_fitted},
+                 {"worst_residual_mm", r.worst_residual_mm},
+                 {"surface_height_mm", r.surface_height_mm},
+                 {"marks", marks}};
+    return j.dump(1) + "\n";
+}
+
+RegistrationRecord registration_from_json(const std::string& text, const std::string& source) {
+    const auto j = parse_record(text, source, kRegistrationSchema, "registration");
+    try {
+        RegistrationRecord rec;
+        auto& r = rec.registration;
+        rec.machine_fingerprint = j.at("machine_fingerprint").get<std::string>();
+        r.origin_mm = point_from(j.at("origin_mm"));
+        r.rotation_deg = j.at("rotation_deg").get<double>();
+        r.scale = j.at("scale").get<double>();
+        r.scale_fitted = j.at("scale_fitted").get<bool>();
+        r.worst_residual_mm = j.at("worst_residual_mm").get<double>();
+        r.surface_height_mm = j.at("surface_height_mm").get<double>();
+        if (!std::isfinite(r.origin_mm.x) || !std::isfinite(r.origin_mm.y) ||
+            !(std::abs(r.rotation_deg) <= 180) || !(r.scale > 0.9 && r.scale < 1.1))
+            throw RecordError(source +
+                              ": the drawing's place (origin, rotation within 180, "
+                              "scale within 10 %) is out of bounds");
+        for (const auto& m : j.at("marks"))
+            r.marks.push_back({point_from(m.at("drawing_mm")), point_from(m.at("machine_mm")),
+                               m.at("residual_mm").get<double>(), m.at("sigma_mm").get<double>()});
+        return rec;
+    } catch (const nlohmann::json::exception& e) {
+        throw RecordError(source + ": malformed registration file: " + e.what());
+    }
+}
+
+}  // namespace calbox::modes

@@ -67,6 +67,16 @@ BedToMachine planar_bed_to_machine(const PlanarSolution& solution, const std::st
     return map;
 }
 
+BedToMachine photo_on_machine(const geometry::CameraModel& camera, const vision::GrayView& photo,
+                              const PlanarSolution& solution, const std::string& source) {
+    photo.check();
+    if (const auto mismatch =
+            geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
+        !mismatch.empty())
+        throw BedViewError("the photo is " + mismatch);
+    return planar_bed_to_machine(solution, source);
+}
+
 Point2 BedView::machine_of_pixel(double column, double row) const {
     return {min_x_mm + (column + 0.5) * mm_per_px, max_y_mm - (row + 0.5) * mm_per_px};
 }
@@ -79,12 +89,7 @@ Point2 BedView::pixel_of_machine(Point2 machine_mm) const {
 BedView render_bed_view(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                         const vision::GrayView& photo, const PlanarSolution& solution,
                         const BedViewRequest& request, const std::string& source) {
-    photo.check();
-    if (const auto mismatch =
-            geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
-        !mismatch.empty())
-        throw BedViewError("the photo is " + mismatch);
-    const BedToMachine map = planar_bed_to_machine(solution, source);
+    const BedToMachine map = photo_on_machine(camera, photo, solution, source);
     const auto& f = *solution.frame;
     BedView view;
     const bool whole_travel = request.min_x_mm == 0 && request.min_y_mm == 0 &&

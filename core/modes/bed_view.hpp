@@ -38,6 +38,11 @@ struct BedToMachine {
 // written before calbox recorded its frame or its bed's handedness).
 BedToMachine planar_bed_to_machine(const PlanarSolution& solution, const std::string& source);
 
+// The same for a photo to be read onto the machine: throws BedViewError for a photo of another
+// size than the camera's too.
+BedToMachine photo_on_machine(const geometry::CameraModel& camera, const vision::GrayView& photo,
+                              const PlanarSolution& solution, const std::string& source);
+
 struct BedViewRequest {
     // The machine coordinates shown; all four 0: the machine's travel.
     double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;

@@ -55,12 +55,7 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
                 throw RegistrationError("marks " + std::to_string(i + 1) + " and " +
                                         std::to_string(j + 1) +
                                         " lie under three diameters apart: they blur together");
-    photo.check();
-    if (const auto mismatch =
-            geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
-        !mismatch.empty())
-        throw BedViewError("the photo is " + mismatch);
-    const BedToMachine map = planar_bed_to_machine(solution, source);
+    const BedToMachine map = photo_on_machine(camera, photo, solution, source);
     const double h = request.surface_height_mm;
 
     // The photo's scale at its middle, for the marks' size there.

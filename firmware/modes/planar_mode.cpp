@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/modes/bed_view.hpp"
 #include "core/modes/error_through.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/planar_target.hpp"
@@ -60,7 +61,21 @@ void PlanarCycleMode::measure(MeasureInput input, std::function<void()> then) {
             measured.photos = {photos.names.front()};
             overlay = planar_overlay_png(photos.views.front(), measured, machine, photos.camera,
                                          photos.plane);
-            return [this, measured] { measured_ = measured; };
+            auto kept = std::make_shared<BedPhoto>();
+            const auto& view = photos.views.front();
+            kept->photo.width_px = view.width_px;
+            kept->photo.height_px = view.height_px;
+            kept->photo.pixels.reserve(static_cast<std::size_t>(view.width_px) * view.height_px);
+            for (int y = 0; y < view.height_px; ++y) {
+                const auto* row = view.pixels + static_cast<std::ptrdiff_t>(y) * view.stride_bytes;
+                kept->photo.pixels.insert(kept->photo.pixels.end(), row, row + view.width_px);
+            }
+            kept->camera = photos.camera;
+            kept->plane = photos.plane;
+            return [this, measured, kept] {
+                measured_ = measured;
+                bed_photo_ = kept;
+            };
         },
         std::move(then));
 }
@@ -75,9 +90,12 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
     auto firmware = std::make_shared<modes::FirmwareSettings>();
     auto field = std::make_shared<std::string>();
     auto in_force = std::make_shared<std::optional<modes::ErrorFigures>>();
+    auto bed_view = std::make_shared<std::optional<std::pair<std::string, std::string>>>();
+    auto bed_view_refused = std::make_shared<std::string>();
     steps_.work(
         [machine = machine_, measured = *measured_, solution, firmware, field, in_force,
-         zero = controller_work_zero_, kept = correction_in_force()] {
+         zero = controller_work_zero_, kept = correction_in_force(), bed_photo = bed_photo_,
+         bed_view, bed_view_refused] {
             *solution = modes::solve_planar(machine, measured);
             if (zero && solution->frame) {
                 solution->frame->work_zero_mm = *zero;
@@ -95,8 +113,11 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
                                                      return models::planar_error_mm(
                                                          s.fit.parameters, p, s.tool_length_mm);
                                                  });
+            if (bed_photo)
+                *bed_view = bed_view_files(*bed_photo, machine, *solution, *bed_view_refused);
         },
-        [this, solution, firmware, field, in_force, then = std::move(then)] {
+        [this, solution, firmware, field, in_force, bed_view, bed_view_refused,
+         then = std::move(then)] {
             solution_ = *solution;
             firmware_ = *firmware;
             if (klipper_now_)
@@ -110,6 +131,13 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
             // behind its host takes the review's instead.
             if (!steps_.keep(steps_.record_name("firmware.txt"), joined(firmware->lines))) return;
             if (!steps_.keep(steps_.record_name("error-field.png"), *field)) return;
+            if (*bed_view) {
+                if (!steps_.keep(steps_.record_name("bed-view.png"), (*bed_view)->first) ||
+                    !steps_.keep(steps_.record_name("bed-view.pgw"), (*bed_view)->second))
+                    return;
+            } else if (!bed_view_refused->empty()) {
+                steps_.log("no bed view: " + *bed_view_refused, hal::LogLevel::warning);
+            }
             const auto measured = figures_of(*solution_);
             then({SolveOutcome::Next::review, measured, in_force->value_or(measured)});
         });
@@ -177,6 +205,32 @@ targets::JobFrame PlanarCycleMode::target_frame() const {
 targets::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_text) const {
     const auto s = modes::planar_result_from_json(kept_text, kPlanarResultFile);
     return {through_model(s), s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm};
+}
+
+std::optional<std::pair<std::string, std::string>> PlanarCycleMode::bed_view_files(
+    const BedPhoto& bed, const models::MachineFile& machine, const modes::PlanarSolution& solution,
+    std::string& refused) {
+    // The whole travel about 800 pixels across: enough to see the sheet and the frame, a
+    // fraction of the photo's pixels to write.
+    modes::BedViewRequest request;
+    request.surface_height_mm = machine.planar->surface_height_mm;
+    if (solution.frame) {
+        const auto& f = *solution.frame;
+        const double extent =
+            std::max(f.travel_max_x_mm - f.travel_min_x_mm, f.travel_max_y_mm - f.travel_min_y_mm);
+        request.mm_per_px = std::ceil(extent / 800 * 20) / 20;
+    }
+    try {
+        const auto view = modes::render_bed_view(bed.camera, bed.plane, bed.photo.view(), solution,
+                                                 request, "the cycle's result");
+        const auto colour = modes::bed_view_with_overlay(view, solution);
+        const auto png = vision::png_bytes({colour.data(), view.pixels.width_px,
+                                            view.pixels.height_px, view.pixels.width_px * 3, 3});
+        return std::pair{std::string(png.begin(), png.end()), modes::world_file_text(view)};
+    } catch (const modes::BedViewError& e) {
+        refused = e.what();
+        return std::nullopt;
+    }
 }
 
 std::string planar_overlay_png(const vision::GrayView& photo,

@@ -6,10 +6,12 @@
 // A Klipper printer behind its host is the exception: the jobs it prints do not pass through the
 // box, so its own settings carry the model's linear part (rotation_distance, a skew profile) and
 // the box keeps no model for it (planar_klipper.cpp).
+#include <memory>
 #include <optional>
 
 #include "core/models/klipper_config.hpp"
 #include "core/modes/planar.hpp"
+#include "core/vision/image_codec.hpp"
 #include "core/vision/image_view.hpp"
 #include "firmware/modes/kept_correction.hpp"
 
@@ -61,6 +63,18 @@ class PlanarCycleMode final : public KeptCorrectionMode {
     std::optional<modes::FirmwareSettings> firmware_;
     std::optional<modes::PlanarMeasurement> measured_;
     std::optional<modes::PlanarSolution> solution_;
+    // The measured photo with its camera and plane, kept from measure to solve for the bed view
+    // (the records' bed-view.png: the bed in the machine's coordinates).
+    struct BedPhoto {
+        vision::GrayPixels photo;
+        geometry::CameraModel camera;
+        geometry::BedPlane plane;
+    };
+    std::shared_ptr<const BedPhoto> bed_photo_;
+    // The bed view's PNG and world file, or nothing with why in `refused`.
+    static std::optional<std::pair<std::string, std::string>> bed_view_files(
+        const BedPhoto& bed, const models::MachineFile& machine,
+        const modes::PlanarSolution& solution, std::string& refused);
     // G54's zero as the controller reported it before the target ran (grbl's $#).
     std::optional<geometry::Point2> controller_work_zero_;
 };

@@ -132,9 +132,14 @@ grep -q "^before: .* mm mean" "$work/run.out"
 grep -q "^after: through the error model " "$work/run.out"
 grep -q "verified on the grid drilled through the model" "$work/run.err"
 for f in planar-result.json cycle-0001-result.json cycle-0001-measurements.json cycle-0001-firmware.txt \
-         cycle-0001-backup-result.json cycle-0001-verify-measurements.json; do
+         cycle-0001-backup-result.json cycle-0001-verify-measurements.json cycle-0001-bed-view.png \
+         cycle-0001-bed-view.pgw; do
     [ -s "$data/$f" ] || { echo "appliance: missing $f"; exit 1; }
 done
+# The bed in the machine's coordinates in the records (and so on the web page's Result screen):
+# the travel 750 pixels across, its top-left pixel's centre at machine X-299.8 Y-0.2.
+[ "$(tr '\n' ' ' < "$data/cycle-0001-bed-view.pgw")" = "0.4 0 0 -0.4 -299.8 -0.2 " ] \
+    || { cat "$data/cycle-0001-bed-view.pgw"; exit 1; }
 [ "$(cat "$data/cycle-0001-backup-result.json")" = "none" ]
 grep -q '"schema": "calbox.planar-result/1"' "$data/planar-result.json"
 # The frame the box measured in, as grbl reported it before the sheet was drilled.

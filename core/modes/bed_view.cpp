@@ -202,8 +202,12 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
 
     // Each view pixel averages `k` x `k` samples where it is coarser than the photo, so that the
     // photo's detail does not alias into it.
-    const int k = std::clamp(
-        static_cast<int>(std::ceil(view.mm_per_px / (1.25 * view.camera_mm_per_px))), 1, 8);
+    const int k =
+        request.average_samples
+            ? std::clamp(
+                  static_cast<int>(std::ceil(view.mm_per_px / (1.25 * view.camera_mm_per_px))), 1,
+                  8)
+            : 1;
     const cv::Mat source_image(photo.height_px, photo.width_px, CV_8UC1,
                                const_cast<std::uint8_t*>(photo.pixels),
                                static_cast<std::size_t>(photo.stride_bytes));

@@ -50,6 +50,9 @@ struct BedViewRequest {
     double mm_per_px = 0;
     // The height of what is seen above the bed the plane was taken on (the stock's top).
     double surface_height_mm = 0;
+    // A view coarser than the photo averages several samples a pixel, so that the photo's detail
+    // does not alias into it; a picture only for the eye (the cycle's record) may take one.
+    bool average_samples = true;
 };
 
 // The view: north up, pixel (0, 0)'s centre at machine (min_x + s/2, max_y - s/2).

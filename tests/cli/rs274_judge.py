@@ -10,6 +10,10 @@ original's motion, reaching every one of its endpoints in order, at the same Z, 
 of move (traverse or feed); arcs are checked along their sweep. Spindle, coolant, dwell, tool,
 feed and stop commands come in the same order, after the same original move. A job rs274 refuses
 is refused by calbox; a job calbox refuses alone is one of the named deliberate differences.
+Then each job again placed by the camera at a sheet's corner and turned 3.5 degrees with it
+(--work-zero camera, a stock file written here): the original's motion as rs274 reads it, turned
+about the work zero, against the copy landed through the field; a job with offsets of its own
+(G10, G92, G55..) must be refused.
 
 usage: rs274_judge.py CALBOX DATA_DIR [--only NAME] [--keep DIR] [--mutations N]
 
@@ -550,9 +554,126 @@ def main():
             print("%s: right (%d moves, %d in the copy, %d commands in order)" % (
                 label, len(original[0]), len(copy[0]), len(original[1])))
     print("; ".join("%d %s" % (v, k) for k, v in counts.items()))
+    placed_pass(calbox, jobs, results, work, zero, only, failures)
     for f in failures:
         print("FAIL " + f)
     sys.exit(1 if failures else 0)
+
+
+# A job placed by the camera at a sheet's corner and turned with it (calbox compensate
+# --work-zero camera): the same jobs, their original motion as rs274 reads it turned about the
+# work zero by the sheet's turn, against the copy landed through the field.
+PLACED_TURN_DEG = 3.5
+OWN_OFFSETS = re.compile(r"G\s*(10|92|5[5-9])(?![0-9])", re.I)
+
+
+def stock_json(zero, turn_deg):
+    a = math.radians(turn_deg)
+    along, across = (math.cos(a), math.sin(a)), (-math.sin(a), math.cos(a))
+    w, d = 300.0, 200.0
+    corners = [zero, (zero[0] + w * along[0], zero[1] + w * along[1]),
+               (zero[0] + w * along[0] + d * across[0], zero[1] + w * along[1] + d * across[1]),
+               (zero[0] + d * across[0], zero[1] + d * across[1])]
+    names = ["front-left", "front-right", "back-right", "back-left"]
+    return {"schema": "calbox.stock/1", "machine_fingerprint": "fnv1a64:0000000000000000",
+            "corners": [{"name": n, "machine_mm": list(c), "sigma_mm": 0.02}
+                        for n, c in zip(names, corners)],
+            "rotation_deg": turn_deg, "rotation_sigma_deg": 0.001, "width_mm": w, "depth_mm": d,
+            "lighter_than_bed": True, "surface_height_mm": 3.0, "edge_points": [100, 70, 100, 70],
+            "edge_points_set_aside": 0, "edge_points_under_glare": 0}
+
+
+def turned_motion(motion, zero, turn_deg):
+    """The motion turned about the work zero in XY; None when an arc lies out of the XY plane."""
+    a = math.radians(turn_deg)
+    c, s = math.cos(a), math.sin(a)
+
+    def turn(p):
+        if p is None:
+            return None
+        dx, dy = p[0] - zero[0], p[1] - zero[1]
+        return [zero[0] + c * dx - s * dy, zero[1] + s * dx + c * dy] + list(p[2:])
+    out = []
+    # Before the job's first X Y, rs274 reports its moves (Z alone) at its own start, machine
+    # X0 Y0: no point of the job's, and calbox passes them as they are.
+    xy_known = False
+    for m in motion:
+        if m.get("arc") and m["order"] != (0, 1, 2):
+            return None
+        at_start = lambda q: q is not None and abs(q[0]) < 1e-3 and abs(q[1]) < 1e-3  # noqa: E731
+        if not xy_known and at_start(m["to"]):
+            out.append(m)
+            continue
+        first = not xy_known
+        xy_known = True
+        t = dict(m, **{"from": None if first and at_start(m["from"]) else turn(m["from"]),
+                       "to": turn(m["to"])})
+        if m.get("arc"):
+            t["centre"] = turn(m["centre"] + [0.0])[:2]
+        out.append(t)
+    return out
+
+
+def placed_pass(calbox, jobs, results, work, zero, only, failures):
+    stock = os.path.join(work, "stock.json")
+    with open(stock, "w") as f:
+        json.dump(stock_json(zero, PLACED_TURN_DEG), f)
+    counts = {"right": 0, "refused for offsets of their own": 0, "refused by both": 0,
+              "with arcs out of the XY plane, not judged": 0}
+    for name, flavour, path in jobs:
+        if only and only != name:
+            continue
+        label = "%s (%s, placed turned %g deg)" % (name, flavour, PLACED_TURN_DEG)
+        out = os.path.join(work, "%s.%s.placed.ngc" % (name, flavour))
+        if os.path.exists(out):
+            os.remove(out)
+        run = subprocess.run([calbox, "compensate", "--result", results[flavour], path,
+                              "--work-zero", "camera", "--stock", stock, "-o", out],
+                             capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=600)
+        judged_path, judged_out = path, out
+        if flavour == "grbl":
+            judged_path = os.path.join(work, "%s.%s.judged.ngc" % (name, flavour))
+            judged_out = os.path.join(work, "%s.%s.placed.judged.ngc" % (name, flavour))
+        try:
+            original = canon(run_rs274(judged_path, work, zero), None)
+        except Refused:
+            if run.returncode == 0:
+                failures.append("%s: rs274 refuses it, calbox placed it" % label)
+            else:
+                counts["refused by both"] += 1
+            continue
+        with open(path, errors="replace") as f:
+            text = f.read()
+        if run.returncode != 0:
+            if OWN_OFFSETS.search(text) and "job placed turned with the stock" in run.stderr:
+                counts["refused for offsets of their own"] += 1
+            elif (name, flavour) in CALBOX_ALONE or name in START_AT_ZERO:
+                counts["refused by both"] += 1
+            else:
+                failures.append("%s: calbox refused: %s" % (label, run.stderr.strip()))
+            continue
+        placed = turned_motion(original[0], zero, PLACED_TURN_DEG)
+        if placed is None:
+            counts["with arcs out of the XY plane, not judged"] += 1
+            continue
+        if flavour == "grbl":
+            with open(out, errors="replace") as f, open(judged_out, "w") as g:
+                g.write(f.read().rstrip("\n%") + "\nM2\n")
+        try:
+            copy = canon(run_rs274(judged_out, work, zero), None)
+        except Refused as e:
+            failures.append("%s: rs274 refuses the placed copy: %s" % (label, e))
+            continue
+        inches = re.search(r"G\s*2\s*0(?![0-9.])", text, re.I) is not None
+        tolerance = 0.002 + (2 * 0.00005 * 25.4 * math.sqrt(3) if inches else 0.0)
+        raw_places = re.search(r"G\s*(28|30|53)(?![0-9.])", text, re.I) is not None
+        problems = judge((placed, original[1]), copy, tolerance, raw_places)
+        if problems:
+            failures.append("%s: %s" % (label, problems[0]))
+        else:
+            counts["right"] += 1
+    print("placed turned %g deg at a sheet's corner: " % PLACED_TURN_DEG +
+          "; ".join("%d %s" % (v, k) for k, v in counts.items()))
 
 
 if __name__ == "__main__":

@@ -5,10 +5,12 @@
 #include <numbers>
 #include <optional>
 
+#include "core/geometry/line_fit.hpp"
 #include "core/modes/bed_view.hpp"
 #include "core/modes/json_file.hpp"
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
+#include "core/vision/markers.hpp"
 #include "core/vision/spots.hpp"
 
 namespace calbox::modes {
@@ -38,35 +40,16 @@ struct Matching {
 
 }  // namespace
 
-Registration register_marks(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
-                            const vision::GrayView& photo, const PlanarSolution& solution,
-                            const RegistrationRequest& request, const std::string& source) {
-    const auto& marks = request.marks_drawing_mm;
-    if (marks.size() != 3 && marks.size() != 4)
-        throw RegistrationError(std::to_string(marks.size()) +
-                                " registration marks given: print and cut takes three or four");
-    if (!(request.mark_diameter_mm > 0.5 && request.mark_diameter_mm < 50))
-        throw RegistrationError("a mark " + number_text("%.2f", request.mark_diameter_mm) +
-                                " mm across: give 0.5 to 50 mm");
-    for (std::size_t i = 0; i < marks.size(); ++i)
-        for (std::size_t j = i + 1; j < marks.size(); ++j)
-            if (std::hypot(marks[i].x - marks[j].x, marks[i].y - marks[j].y) <
-                3 * request.mark_diameter_mm)
-                throw RegistrationError("marks " + std::to_string(i + 1) + " and " +
-                                        std::to_string(j + 1) +
-                                        " lie under three diameters apart: they blur together");
-    const BedToMachine map = photo_on_machine(camera, photo, solution, source);
-    const double h = request.surface_height_mm;
+namespace {
 
-    // The photo's scale at its middle, for the marks' size there.
-    const auto middle = geometry::pixels_to_bed(
-        camera, plane, {{0.5 * (photo.width_px - 1), 0.5 * (photo.height_px - 1)}}, h)[0];
-    const auto around = geometry::project_points(
-        camera, plane.bed_to_camera,
-        {middle, {middle.x + 1, middle.y, h}, {middle.x, middle.y + 1, h}});
-    const double px_per_mm =
-        0.5 * (std::hypot(around[1].x - around[0].x, around[1].y - around[0].y) +
-               std::hypot(around[2].x - around[0].x, around[2].y - around[0].y));
+// The circles: the photo's round marks of the printed size, and the one way the drawing's
+// marks lie on them.
+std::pair<std::vector<Point2>, std::vector<double>> circle_marks(
+    const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+    const vision::GrayView& photo, const BedToMachine& map, const RegistrationRequest& request,
+    double px_per_mm) {
+    const auto& marks = request.marks_drawing_mm;
+    const double h = request.surface_height_mm;
     vision::SpotSettings spot_settings;
     spot_settings.polarity = vision::MarkPolarity::dark;
     spot_settings.mark_diameter_px = request.mark_diameter_mm * px_per_mm;
@@ -151,10 +134,24 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
     }
     const auto& best = matchings.front();
     std::vector<Point2> seen;
-    for (const std::size_t k : best.candidate_of_mark) seen.push_back(candidates[k].machine_mm);
+    std::vector<double> sigma;
+    for (const std::size_t k : best.candidate_of_mark) {
+        seen.push_back(candidates[k].machine_mm);
+        sigma.push_back(candidates[k].sigma_mm);
+    }
+    return {seen, sigma};
+}
 
+}  // namespace
+
+namespace {
+
+// The drawing's place fitted to its marks as seen; each mark's residual, the limits checked.
+Registration fitted_registration(const std::vector<Point2>& marks, const std::vector<Point2>& seen,
+                                 const std::vector<double>& sigma,
+                                 const RegistrationRequest& request) {
     Registration r;
-    r.surface_height_mm = h;
+    r.surface_height_mm = request.surface_height_mm;
     r.scale_fitted = marks.size() == 4;
     solve::SimilarPlacement fit;
     if (r.scale_fitted) {
@@ -173,7 +170,7 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
         m.drawing_mm = marks[i];
         m.machine_mm = seen[i];
         m.residual_mm = std::hypot(seen[i].x - placed.x, seen[i].y - placed.y);
-        m.sigma_mm = candidates[best.candidate_of_mark[i]].sigma_mm;
+        m.sigma_mm = sigma[i];
         r.worst_residual_mm = std::max(r.worst_residual_mm, m.residual_mm);
         r.marks.push_back(m);
     }
@@ -191,6 +188,81 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
                                 " % larger than the drawing's: another drawing, or printed at "
                                 "another size");
     return r;
+}
+
+}  // namespace
+
+Registration register_marks(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                            const vision::GrayView& photo, const PlanarSolution& solution,
+                            const RegistrationRequest& request, const std::string& source) {
+    const auto& marks = request.marks_drawing_mm;
+    if (marks.size() != 3 && marks.size() != 4)
+        throw RegistrationError(std::to_string(marks.size()) +
+                                " registration marks given: print and cut takes three or four");
+    if (!(request.mark_diameter_mm > 0.5 && request.mark_diameter_mm < 50))
+        throw RegistrationError("a mark " + number_text("%.2f", request.mark_diameter_mm) +
+                                " mm across: give 0.5 to 50 mm");
+    for (std::size_t i = 0; i < marks.size(); ++i)
+        for (std::size_t j = i + 1; j < marks.size(); ++j)
+            if (std::hypot(marks[i].x - marks[j].x, marks[i].y - marks[j].y) <
+                3 * request.mark_diameter_mm)
+                throw RegistrationError("marks " + std::to_string(i + 1) + " and " +
+                                        std::to_string(j + 1) +
+                                        " lie under three diameters apart: they blur together");
+    const BedToMachine map = photo_on_machine(camera, photo, solution, source);
+    const double h = request.surface_height_mm;
+
+    // The photo's scale at its middle, for the marks' size there.
+    const auto middle = geometry::pixels_to_bed(
+        camera, plane, {{0.5 * (photo.width_px - 1), 0.5 * (photo.height_px - 1)}}, h)[0];
+    const auto around = geometry::project_points(
+        camera, plane.bed_to_camera,
+        {middle, {middle.x + 1, middle.y, h}, {middle.x, middle.y + 1, h}});
+    const double px_per_mm =
+        0.5 * (std::hypot(around[1].x - around[0].x, around[1].y - around[0].y) +
+               std::hypot(around[2].x - around[0].x, around[2].y - around[0].y));
+    std::vector<Point2> seen;
+    std::vector<double> seen_sigma;
+    if (request.kind == MarkKind::markers) {
+        if (request.marker_ids.size() != marks.size())
+            throw RegistrationError(
+                "each marker mark needs its id: " + std::to_string(request.marker_ids.size()) +
+                " ids for " + std::to_string(marks.size()) + " marks");
+        vision::MarkerOptions options;
+        options.dictionary = request.dictionary;
+        options.camera = &camera;
+        const auto detected = vision::detect_markers(photo, options);
+        for (std::size_t i = 0; i < marks.size(); ++i) {
+            const auto found = std::find_if(detected.begin(), detected.end(), [&](const auto& d) {
+                return d.id == request.marker_ids[i];
+            });
+            if (found == detected.end())
+                throw RegistrationError("marker " + std::to_string(request.marker_ids[i]) + " (" +
+                                        request.dictionary + ", drawing " + drawing_text(marks[i]) +
+                                        ") is not in the photo");
+            // The marker's centre on the sheet: its diagonals' crossing there (the photo's
+            // perspective moves the centre of its outline in pixels).
+            const auto corners = geometry::pixels_to_bed(
+                camera, plane, {found->corners.begin(), found->corners.end()}, h);
+            std::vector<Point2> on_machine;
+            for (const auto& c : corners) on_machine.push_back(map.machine_of({c.x, c.y}));
+            const auto centre = geometry::intersect(
+                {on_machine[0],
+                 {on_machine[2].x - on_machine[0].x, on_machine[2].y - on_machine[0].y}},
+                {on_machine[1],
+                 {on_machine[3].x - on_machine[1].x, on_machine[3].y - on_machine[1].y}});
+            if (!centre)
+                throw RegistrationError("marker " + std::to_string(request.marker_ids[i]) +
+                                        " has no centre: its corners lie on a line");
+            seen.push_back(*centre);
+            double sigma_px = 0;
+            for (const double sp : found->sigma_px) sigma_px += sp / 4;
+            seen_sigma.push_back(sigma_px / px_per_mm / std::sqrt(2.0));
+        }
+    } else {
+        std::tie(seen, seen_sigma) = circle_marks(camera, plane, photo, map, request, px_per_mm);
+    }
+    return fitted_registration(marks, seen, seen_sigma, request);
 }
 
 std::string registration_to_json(const Registration& r, const std::string& machine_fingerprint) {

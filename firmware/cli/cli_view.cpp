@@ -151,13 +151,28 @@ int view_stock(const Args& args) {
     return 0;
 }
 
-// "X,Y;X,Y;X,Y[;X,Y]": the marks' places in the drawing, millimetres.
-std::vector<geometry::Point2> read_marks(const std::string& text) {
-    std::vector<geometry::Point2> marks;
+// "X,Y;X,Y;X,Y[;X,Y]": the marks' places in the drawing, millimetres; for markers each is
+// "ID:X,Y", its id first.
+void read_marks(const std::string& text, modes::RegistrationRequest& request) {
+    auto& marks = request.marks_drawing_mm;
+    const bool ids = request.kind == modes::MarkKind::markers;
     std::size_t start = 0;
     while (start <= text.size()) {
         const auto end = std::min(text.find(';', start), text.size());
-        const std::string entry = text.substr(start, end - start);
+        std::string entry = text.substr(start, end - start);
+        if (ids) {
+            const auto colon = entry.find(':');
+            int id = -1;
+            const auto [next, error] = std::from_chars(entry.data(), entry.data() + colon, id);
+            if (colon == std::string::npos || error != std::errc{} ||
+                next != entry.data() + colon || id < 0)
+                throw UsageError("--marks '" + text +
+                                     "': give each marker as ID:X,Y (its id, then its centre in "
+                                     "the drawing, mm), separated by ';'",
+                                 "calbox view marks");
+            request.marker_ids.push_back(id);
+            entry = entry.substr(colon + 1);
+        }
         const auto comma = entry.find(',');
         double x = 0, y = 0;
         const auto parse = [](const std::string& t, double& v) {
@@ -173,13 +188,22 @@ std::vector<geometry::Point2> read_marks(const std::string& text) {
         marks.push_back({x, y});
         start = end + 1;
     }
-    return marks;
 }
 
 int view_marks(const Args& args) {
     const std::string out = args.require("-o");
     modes::RegistrationRequest request;
-    request.marks_drawing_mm = read_marks(args.require("--marks"));
+    const std::string kind = args.get("--mark-kind").value_or("circles");
+    if (kind == "markers") {
+        request.kind = modes::MarkKind::markers;
+        request.dictionary = args.get("--dict").value_or("DICT_4X4_50");
+    } else if (kind != "circles") {
+        throw UsageError("--mark-kind must be circles or markers, not '" + kind + "'",
+                         "calbox view marks");
+    } else if (args.get("--dict")) {
+        throw UsageError("--dict goes with --mark-kind markers", "calbox view marks");
+    }
+    read_marks(args.require("--marks"), request);
     request.mark_diameter_mm = args.number("--mark-diameter", 5);
     request.surface_height_mm = args.number("--stock-thickness", 0);
     request.max_residual_mm = args.number("--max-residual", 0.1);
@@ -273,13 +297,18 @@ its length, a result from before calbox recorded its frame.)",
            Given::required},
           {"IMAGE", "", "a photo of the printed sheet from the same camera on its mount",
            Given::word},
-          {"--marks", "X,Y;X,Y;X,Y[;X,Y]", "the marks' places in the drawing (mm), three or four",
+          {"--marks", "X,Y;X,Y;X,Y[;X,Y]",
+           "the marks' places in the drawing (mm), three or four; markers as ID:X,Y",
            Given::required},
-          {"--mark-diameter", "MM", "the printed marks' diameter (default 5)"},
+          {"--mark-kind", "circles|markers",
+           "filled circles (the default) or ArUco/AprilTag markers, each told by its id"},
+          {"--dict", "NAME", "the markers' dictionary (default DICT_4X4_50)"},
+          {"--mark-diameter", "MM", "the circles' diameter or the markers' side (default 5)"},
           {"--stock-thickness", "MM", "the printed sheet's top above the bed (default 0)"},
           {"--max-residual", "MM", "the farthest a mark may lie from the fit (default 0.1)"},
           {"-o", "marks.json", "the drawing's place, written", Given::required}},
-         R"(Finds the drawing's registration marks (filled dark circles, --mark-diameter across) in
+         R"(Finds the drawing's registration marks (filled dark circles, --mark-diameter across; or
+ArUco/AprilTag markers with --mark-kind markers, each mark given as ID:X,Y of its centre) in
 the photo, matches them to their places in the drawing whatever way the sheet lies, and fits
 where the drawing lies on the machine (as a job compensated through the result means it):
 turned and shifted, and with four marks its scale too (a printer's stretch). Each mark's

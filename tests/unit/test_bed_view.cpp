@@ -682,3 +682,70 @@ TEST(PrintAndCutTwin, marks_laid_symmetrically_are_refused) {
                         e.what());
     }
 }
+
+// The second kind: ArUco markers printed at the drawing's corners, each told by its id (no
+// layout is ambiguous, even a rectangle's). The twin prints them square to the bed (its sticker
+// scene), which moves no marker's centre.
+TEST(PrintAndCutTwin, aruco_markers_told_by_their_ids_place_the_drawing) {
+    const auto& router = calibrated_router();
+    const PrintedCard card{{70.2, 66.8}, 3.4, 1.002};
+    const std::vector<Point2> marks = {{0, 0}, {160, 0}, {160, 120}, {0, 120}};
+    const std::vector<int> ids = {3, 7, 11, 15};
+    constexpr double kTopMm = 0.3, kSideMm = 10;
+    std::vector<sim::StrokeSegment> ink;
+    const auto line = cut_line();
+    std::vector<sim::Vec2> printed;
+    for (const auto& p : line) printed.push_back(card.at(p));
+    for (std::size_t k = 0; k + 1 < printed.size(); ++k)
+        ink.push_back(
+            {{printed[k].x, printed[k].y, 0}, {printed[k + 1].x, printed[k + 1].y, 0}, 0.4});
+    sim::Pose lifted;
+    lifted.translation_mm = {0, 0, kTopMm};
+    const auto pose = sim::compose(router.bench.bed_to_camera, lifted);
+    const sim::StrokeScene drawing(
+        std::move(ink), 0.85, 0.08, 4,
+        sim::stroke_footprint_mm(router.bench.camera, pose.translation_mm.norm()));
+    std::vector<sim::ReferenceMark> printed_marks;
+    for (std::size_t i = 0; i < marks.size(); ++i)
+        printed_marks.push_back({ids[i], card.at(marks[i])});
+    const double identity[2][2] = {{1, 0}, {0, 1}};
+    const sim::ReferenceMarksScene scene(drawing, printed_marks, "DICT_4X4_50",
+                                         kSideMm * card.stretch, 4, identity, {0, 0});
+    const auto picture = sim::render_photo(router.bench.camera, pose, scene, router.bench.photo);
+    modes::RegistrationRequest request;
+    request.kind = modes::MarkKind::markers;
+    request.marks_drawing_mm = marks;
+    request.marker_ids = ids;
+    request.mark_diameter_mm = kSideMm;
+    request.surface_height_mm = kTopMm;
+    const auto found = modes::register_marks(router.camera, router.plane, test::view_of(picture),
+                                             router.solution, request, "result.json");
+    // Where the fitted place puts each drawing point, judged where the corrected tool lands.
+    double worst = 0;
+    for (const auto& d : line) {
+        const double a = found.rotation_deg * kPi / 180;
+        const Point2 machine{
+            found.origin_mm.x + found.scale * (std::cos(a) * d.x - std::sin(a) * d.y),
+            found.origin_mm.y + found.scale * (std::sin(a) * d.x + std::cos(a) * d.y)};
+        const sim::Vec2 tool = router.lands(machine);
+        const sim::Vec2 meant = card.at(d);
+        worst = std::max(worst, std::hypot(tool.x - meant.x, tool.y - meant.y));
+    }
+    UT_PRINT(("print and cut, ArUco markers: scale " + std::to_string(found.scale) +
+              ", worst mark " + std::to_string(found.worst_residual_mm) +
+              " mm; the line's points within " + std::to_string(worst) +
+              " mm where the corrected tool lands")
+                 .c_str());
+    DOUBLES_EQUAL(1.002, found.scale, 3e-4);
+    CHECK(worst < 0.1);
+    // A marker not printed is named.
+    request.marker_ids[2] = 40;
+    try {
+        modes::register_marks(router.camera, router.plane, test::view_of(picture), router.solution,
+                              request, "result.json");
+        FAIL("a missing marker was placed");
+    } catch (const modes::RegistrationError& e) {
+        STRCMP_CONTAINS("marker 40 (DICT_4X4_50, drawing X160.00 Y120.00) is not in the photo",
+                        e.what());
+    }
+}

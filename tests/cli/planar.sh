@@ -119,6 +119,12 @@ grep -q "sheet.png: the photo shows [0-9]* round marks 5.0 mm across, the drawin
 if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
     "$work/sheet.png" --marks "0,0;160" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
 grep -q -- "--marks '0,0;160': give each mark's X,Y in the drawing" "$work/err" || { cat "$work/err"; exit 1; }
+if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/sheet.png" --mark-kind markers --marks "0,0;160,0;0,110" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
+grep -q -- "give each marker as ID:X,Y" "$work/err" || { cat "$work/err"; exit 1; }
+if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/sheet.png" --mark-kind markers --marks "3:0,0;7:160,0;11:0,110" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
+grep -q "sheet.png: marker 3 (DICT_4X4_50, drawing X0.00 Y0.00) is not in the photo" "$work/err" || { cat "$work/err"; exit 1; }
 [ ! -e "$work/marks.json" ]
 echo "planar cycle complete"
 

@@ -129,10 +129,10 @@ CompensatedJob compensate_job(const JobRequest& r) {
                            f.travel_max_y_mm};
         frame.flavour = targets::flavour_of_firmware(f.firmware);
         if (frame.flavour == targets::Flavour::printer) {
-            if (r.work_zero)
+            if (r.work_zero || r.stock_text || r.registration_text)
                 throw JobError(r.job_name +
                                ": a printer's job is in machine coordinates (its G92 tracked); "
-                               "--work-zero is for routers and lasers");
+                               "--work-zero, --stock and --register are for routers and lasers");
             frame.work_zero_mm = {Point2{}};
             zero_from = "machine coordinates (a printer's job, G92 tracked)";
         } else if (r.registration_text) {

@@ -749,3 +749,28 @@ TEST(PrintAndCutTwin, aruco_markers_told_by_their_ids_place_the_drawing) {
                         e.what());
     }
 }
+
+// A printer's job is in machine coordinates: a place from the camera is refused, not ignored.
+TEST(BedViewFrame, a_printers_job_takes_no_place_from_the_camera) {
+    auto s = hand_result(true);
+    s.fit.residuals_mm.clear();
+    s.frame->firmware = "marlin";
+    s.frame->kind = "cartesian";
+    modes::JobRequest request;
+    request.result_text = modes::planar_result_to_json(s, {});
+    request.result_name = "result.json";
+    request.job_text = "G28\nG1 X10 Y10 F600\n";
+    request.job_name = "part.gcode";
+    request.registration_text = modes::registration_to_json(modes::Registration{}, "");
+    request.registration_name = "marks.json";
+    request.date = "2026-11-29";
+    try {
+        modes::compensate_job(request);
+        FAIL("a printer's job was placed by marks");
+    } catch (const modes::JobError& e) {
+        STRCMP_CONTAINS(
+            "part.gcode: a printer's job is in machine coordinates (its G92 tracked); "
+            "--work-zero, --stock and --register are for routers and lasers",
+            e.what());
+    }
+}

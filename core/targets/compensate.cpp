@@ -651,9 +651,9 @@ class Compensator {
     void refuse_when_turned(const std::string& what) const {
         if (frame_.turn_rad != 0 || frame_.scale != 1)
             throw fail(what +
-                       " in a job placed turned with the stock (--work-zero camera): the "
-                       "turn is about G54's zero as the stock's corner gives it; have the "
-                       "CAM write the job in G54 alone, without offsets of its own");
+                       " in a job placed turned with the stock (--work-zero camera, --register): "
+                       "the turn is about G54's zero as the camera gives it; have the CAM write "
+                       "the job in G54 alone, without offsets of its own");
     }
 
     void inside_travel(Point2 unplaced, Point2 offset) const {

@@ -77,6 +77,13 @@ BedToMachine photo_on_machine(const geometry::CameraModel& camera, const vision:
     return planar_bed_to_machine(solution, source);
 }
 
+double photo_px_per_mm(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                       const Point3& at, const Point3& x_step, const Point3& y_step) {
+    const auto px = geometry::project_points(camera, plane.bed_to_camera, {at, x_step, y_step});
+    return 0.5 * (std::hypot(px[1].x - px[0].x, px[1].y - px[0].y) +
+                  std::hypot(px[2].x - px[0].x, px[2].y - px[0].y));
+}
+
 Point2 BedView::machine_of_pixel(double column, double row) const {
     return {min_x_mm + (column + 0.5) * mm_per_px, max_y_mm - (row + 0.5) * mm_per_px};
 }
@@ -172,14 +179,9 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
     if (!nearest)
         throw BedViewError("the camera sees none of " + area + " at " +
                            three_decimals(request.surface_height_mm) + " mm above the bed");
-    const auto around =
-        geometry::project_points(camera, plane.bed_to_camera,
-                                 {bed_point(*nearest), bed_point({nearest->x + 1, nearest->y}),
-                                  bed_point({nearest->x, nearest->y + 1})});
-    const double px_per_mm =
-        0.5 * (std::hypot(around[1].x - around[0].x, around[1].y - around[0].y) +
-               std::hypot(around[2].x - around[0].x, around[2].y - around[0].y));
-    view.camera_mm_per_px = 1 / px_per_mm;
+    view.camera_mm_per_px = 1 / photo_px_per_mm(camera, plane, bed_point(*nearest),
+                                                bed_point({nearest->x + 1, nearest->y}),
+                                                bed_point({nearest->x, nearest->y + 1}));
     view.mm_per_px = request.mm_per_px > 0 ? request.mm_per_px
                                            : std::ceil(view.camera_mm_per_px * 100 - 1e-9) / 100;
     if (view.mm_per_px < 0.1 * view.camera_mm_per_px)

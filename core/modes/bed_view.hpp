@@ -43,6 +43,12 @@ BedToMachine planar_bed_to_machine(const PlanarSolution& solution, const std::st
 BedToMachine photo_on_machine(const geometry::CameraModel& camera, const vision::GrayView& photo,
                               const PlanarSolution& solution, const std::string& source);
 
+// The photo's own scale at a point of the bed: pixels a millimetre, the mean over the two steps
+// from `at` to `x_step` and `y_step` (each a millimetre away on the bed), through the lens.
+double photo_px_per_mm(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                       const geometry::Point3& at, const geometry::Point3& x_step,
+                       const geometry::Point3& y_step);
+
 struct BedViewRequest {
     // The machine coordinates shown; all four 0: the machine's travel.
     double min_x_mm = 0, min_y_mm = 0, max_x_mm = 0, max_y_mm = 0;

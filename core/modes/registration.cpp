@@ -215,12 +215,8 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
     // The photo's scale at its middle, for the marks' size there.
     const auto middle = geometry::pixels_to_bed(
         camera, plane, {{0.5 * (photo.width_px - 1), 0.5 * (photo.height_px - 1)}}, h)[0];
-    const auto around = geometry::project_points(
-        camera, plane.bed_to_camera,
-        {middle, {middle.x + 1, middle.y, h}, {middle.x, middle.y + 1, h}});
-    const double px_per_mm =
-        0.5 * (std::hypot(around[1].x - around[0].x, around[1].y - around[0].y) +
-               std::hypot(around[2].x - around[0].x, around[2].y - around[0].y));
+    const double px_per_mm = photo_px_per_mm(camera, plane, middle, {middle.x + 1, middle.y, h},
+                                             {middle.x, middle.y + 1, h});
     std::vector<Point2> seen;
     std::vector<double> seen_sigma;
     if (request.kind == MarkKind::markers) {

@@ -99,18 +99,20 @@ RoughSheet rough_sheet(const BedView& view, const std::string& area) {
             RoughSheet sheet;
             for (int k = 0; k < 4; ++k)
                 sheet.corners[k] = view.machine_of_pixel(polygon[k].x, polygon[k].y);
-            // The step across the sides, inside less outside, 1.5 mm either side of each.
+            // Counter-clockwise in the machine's frame (the view's rows run down, so a contour's
+            // order there is the other way round): the inside lies to the left of each side.
             double signed_area = 0;
             for (int k = 0; k < 4; ++k)
                 signed_area += sheet.corners[k].x * sheet.corners[(k + 1) % 4].y -
                                sheet.corners[(k + 1) % 4].x * sheet.corners[k].y;
-            const double turn = signed_area > 0 ? 1 : -1;  // the inside lies to the left if > 0
+            if (signed_area < 0) std::reverse(sheet.corners.begin(), sheet.corners.end());
+            // The step across the sides, inside less outside, 1.5 mm either side of each.
             std::vector<double> steps;
             for (int k = 0; k < 4; ++k) {
                 const Point2 a = sheet.corners[k], b = sheet.corners[(k + 1) % 4];
                 const double length = std::hypot(b.x - a.x, b.y - a.y);
                 const Point2 d{(b.x - a.x) / length, (b.y - a.y) / length};
-                const Point2 out{turn * d.y, -turn * d.x};
+                const Point2 out{d.y, -d.x};
                 const int samples = static_cast<int>(0.7 * length / (2 * view.mm_per_px));
                 for (int i = 0; i <= samples; ++i) {
                     const double t = 0.15 * length + i * 2 * view.mm_per_px;
@@ -130,13 +132,8 @@ RoughSheet rough_sheet(const BedView& view, const std::string& area) {
         }
     }
     if (!best) throw StockError("no sheet with four straight edges in " + area + ": " + why);
-    // Counter-clockwise in the machine's frame (the view's rows run down, so a contour's order
-    // there is the other way round), starting at the edge running nearest +X.
+    // Starting at the edge running nearest +X.
     auto& c = best->corners;
-    double signed_area = 0;
-    for (int k = 0; k < 4; ++k)
-        signed_area += c[k].x * c[(k + 1) % 4].y - c[(k + 1) % 4].x * c[k].y;
-    if (signed_area < 0) std::reverse(c.begin(), c.end());
     int front = 0;
     double best_cos = -2;
     for (int k = 0; k < 4; ++k) {

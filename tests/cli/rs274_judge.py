@@ -361,6 +361,13 @@ def judge(original, copy, tolerance_mm, allow_raw):
     return problems
 
 
+def with_end(path, judged):
+    """grbl runs a file to its end; LinuxCNC wants M2, M30 or a closing '%': the job at `path`
+    written to `judged` with an M2 after it."""
+    with open(path, errors="replace") as f, open(judged, "w") as g:
+        g.write(f.read().rstrip("\n%") + "\nM2\n")
+
+
 def var_file(path, zero_mm):
     with open(path, "w") as f:
         f.write("5220 1.000000\n5221 %.6f\n5222 %.6f\n" % (zero_mm[0] / 25.4, zero_mm[1] / 25.4))
@@ -505,8 +512,7 @@ def main():
         if flavour == "grbl":
             judged_path = os.path.join(work, "%s.%s.judged.ngc" % (name, flavour))
             judged_out = os.path.join(work, "%s.%s.compensated.judged.ngc" % (name, flavour))
-            with open(path, errors="replace") as f, open(judged_path, "w") as g:
-                g.write(f.read().rstrip("\n%") + "\nM2\n")
+            with_end(path, judged_path)
         try:
             start = [0.0, 0.0, 0.0] if name in START_AT_ZERO else None
             original = canon(run_rs274(judged_path, work, zero), start)
@@ -532,8 +538,7 @@ def main():
             failures.append("%s: calbox exit 0 without its output" % label)
             continue
         if flavour == "grbl":
-            with open(out, errors="replace") as f, open(judged_out, "w") as g:
-                g.write(f.read().rstrip("\n%") + "\nM2\n")
+            with_end(out, judged_out)
         try:
             copy = canon(run_rs274(judged_out, work, zero), start)
         except Refused as e:
@@ -639,6 +644,7 @@ def placed_pass(calbox, jobs, results, work, zero, only, failures):
         if flavour == "grbl":
             judged_path = os.path.join(work, "%s.%s.judged.ngc" % (name, flavour))
             judged_out = os.path.join(work, "%s.%s.placed.judged.ngc" % (name, flavour))
+            with_end(path, judged_path)
         try:
             original = canon(run_rs274(judged_path, work, zero), None)
         except Refused:
@@ -662,8 +668,7 @@ def placed_pass(calbox, jobs, results, work, zero, only, failures):
             counts["with arcs out of the XY plane, not judged"] += 1
             continue
         if flavour == "grbl":
-            with open(out, errors="replace") as f, open(judged_out, "w") as g:
-                g.write(f.read().rstrip("\n%") + "\nM2\n")
+            with_end(out, judged_out)
         try:
             copy = canon(run_rs274(judged_out, work, zero), None)
         except Refused as e:

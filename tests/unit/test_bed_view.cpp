@@ -211,6 +211,12 @@ struct CalibratedRouter {
         solution = modes::solve_planar(
             machine, modes::measure_planar(machine, camera, plane, test::view_of(drilled)));
     }
+    // The camera's pose against a surface `top_mm` above the bed (a sheet's or a card's top).
+    sim::Pose pose_over(double top_mm) const {
+        sim::Pose lifted;
+        lifted.translation_mm = {0, 0, top_mm};
+        return sim::compose(bench.bed_to_camera, lifted);
+    }
     // Where the twin's tool really goes for a job aimed at `machine_mm` through the correction
     // (drilling as the target drills: to the cut depth, approached from -x -y).
     sim::Vec2 lands(Point2 machine_mm) const {
@@ -323,11 +329,8 @@ struct StockVerdict {
 StockVerdict find_sheet(const sim::StockSheet& sheet, const sim::PhotoSettings& photo,
                         double top_mm) {
     const auto& router = calibrated_router();
-    sim::Pose lifted;
-    lifted.translation_mm = {0, 0, top_mm};
-    const auto picture =
-        sim::render_photo(router.bench.camera, sim::compose(router.bench.bed_to_camera, lifted),
-                          sim::SheetScene(sheet, 4), photo);
+    const auto picture = sim::render_photo(router.bench.camera, router.pose_over(top_mm),
+                                           sim::SheetScene(sheet, 4), photo);
     StockVerdict v;
     v.found = modes::find_stock(router.camera, router.plane, test::view_of(picture),
                                 router.solution, top_mm, "result.json");
@@ -410,11 +413,8 @@ TEST(StockTwin, a_sheet_running_out_of_sight_is_refused) {
     sheet.corner_mm = {-80, 60};
     sheet.width_mm = 200, sheet.depth_mm = 150, sheet.angle_deg = 2;
     const auto& router = calibrated_router();
-    sim::Pose lifted;
-    lifted.translation_mm = {0, 0, 1.5};
-    const auto picture =
-        sim::render_photo(router.bench.camera, sim::compose(router.bench.bed_to_camera, lifted),
-                          sim::SheetScene(sheet, 4), router.bench.photo);
+    const auto picture = sim::render_photo(router.bench.camera, router.pose_over(1.5),
+                                           sim::SheetScene(sheet, 4), router.bench.photo);
     try {
         modes::find_stock(router.camera, router.plane, test::view_of(picture), router.solution, 1.5,
                           "result.json");
@@ -529,6 +529,17 @@ std::vector<Point2> cut_line() {
     return points;
 }
 
+// The cut line as the card shows it: its strokes (0.4 mm of ink) added to `ink`, and its points.
+std::vector<sim::Vec2> printed_line(const PrintedCard& card, const std::vector<Point2>& line,
+                                    std::vector<sim::StrokeSegment>& ink) {
+    std::vector<sim::Vec2> printed;
+    for (const auto& p : line) printed.push_back(card.at(p));
+    for (std::size_t k = 0; k + 1 < printed.size(); ++k)
+        ink.push_back(
+            {{printed[k].x, printed[k].y, 0}, {printed[k + 1].x, printed[k + 1].y, 0}, 0.4});
+    return printed;
+}
+
 double distance_to_polyline(sim::Vec2 p, const std::vector<sim::Vec2>& line) {
     double best = 1e300;
     for (std::size_t k = 0; k + 1 < line.size(); ++k) {
@@ -559,14 +570,8 @@ CutVerdict print_and_cut(const PrintedCard& card, const std::vector<Point2>& mar
         ink.push_back({{c.x, c.y, 0}, {c.x, c.y, 0}, 5.0 * card.stretch});
     }
     const auto line = cut_line();
-    std::vector<sim::Vec2> printed;
-    for (const auto& p : line) printed.push_back(card.at(p));
-    for (std::size_t k = 0; k + 1 < printed.size(); ++k)
-        ink.push_back(
-            {{printed[k].x, printed[k].y, 0}, {printed[k + 1].x, printed[k + 1].y, 0}, 0.4});
-    sim::Pose lifted;
-    lifted.translation_mm = {0, 0, kTopMm};
-    const auto pose = sim::compose(router.bench.bed_to_camera, lifted);
+    const auto printed = printed_line(card, line, ink);
+    const auto pose = router.pose_over(kTopMm);
     const auto picture = sim::render_photo(
         router.bench.camera, pose,
         sim::StrokeScene(std::move(ink), 0.85, 0.08, 4,
@@ -694,14 +699,8 @@ TEST(PrintAndCutTwin, aruco_markers_told_by_their_ids_place_the_drawing) {
     constexpr double kTopMm = 0.3, kSideMm = 10;
     std::vector<sim::StrokeSegment> ink;
     const auto line = cut_line();
-    std::vector<sim::Vec2> printed;
-    for (const auto& p : line) printed.push_back(card.at(p));
-    for (std::size_t k = 0; k + 1 < printed.size(); ++k)
-        ink.push_back(
-            {{printed[k].x, printed[k].y, 0}, {printed[k + 1].x, printed[k + 1].y, 0}, 0.4});
-    sim::Pose lifted;
-    lifted.translation_mm = {0, 0, kTopMm};
-    const auto pose = sim::compose(router.bench.bed_to_camera, lifted);
+    const auto printed = printed_line(card, line, ink);
+    const auto pose = router.pose_over(kTopMm);
     const sim::StrokeScene drawing(
         std::move(ink), 0.85, 0.08, 4,
         sim::stroke_footprint_mm(router.bench.camera, pose.translation_mm.norm()));

@@ -249,6 +249,7 @@ CompensatedJob compensate_job(const JobRequest& r) {
         done.frame_line += "; the tool starts at machine X" + mm(start->x) + " Y" + mm(start->y) +
                            " mm (--start-at)";
     }
+    done.report.keep_path = r.keep_path;
     try {
         const bool scanner = r.job_text.rfind("x_mm,y_mm,power", 0) == 0;
         const std::string compensated =

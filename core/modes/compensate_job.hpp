@@ -37,6 +37,8 @@ struct JobRequest {
     std::optional<std::string> again_because;  // compensate a marked job again, for this reason
     std::string date;                          // for the mark: the caller's clock
     targets::CompensateSettings settings;
+    // Keep where the job means the tool to go (the report's path_mm): to draw it on the bed.
+    bool keep_path = false;
 };
 
 struct CompensatedJob {

@@ -518,6 +518,7 @@ std::string refused_word(const Code& c, const gcode::Line& line, Flavour flavour
 // measured area, and its nearest edge point's correction beyond it (held, never extrapolated),
 // each held point counted in `report`.
 Point2 held_correction(const MachineCorrection& correction, Point2 p, CompensateReport& report) {
+    if (report.keep_path) report.path_mm.push_back(p);
     const auto& area = correction.measured_mm;
     if (area.contains(p)) return correction.correct(p);
     const Point2 q = area.nearest(p);

@@ -12,6 +12,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "core/geometry/types.hpp"
 #include "core/targets/ngc_program.hpp"
@@ -79,6 +80,10 @@ struct CompensateReport {
     long held = 0;                // points outside the measured area, given its edge's correction
     double held_farthest_mm = 0;  // the farthest of them from the measured area
     bool ran_program = false;     // LinuxCNC's parameters, expressions or O-words evaluated
+    // Asked for with keep_path: every point the tool is sent to, in order, in machine coordinates
+    // where the job means it (before the correction), travel included: to draw the job on the bed.
+    bool keep_path = false;
+    std::vector<geometry::Point2> path_mm;
 };
 
 using Correction = std::function<geometry::Point2(geometry::Point2)>;

@@ -43,7 +43,7 @@ BoxNetwork::BoxNetwork(BoxNetworkParts parts, const WebLimits& limits)
                 [this] { return status(true); }, [this] { return p_.news.history_json(); },
                 [this] { return p_.news.metrics(p_.cycle); },
                 [this] { return p_.web.password_hash; }, [this] { return p_.cycle.preview(); },
-                [this] { return guide(); }},
+                [this] { return guide(); }, [this] { return p_.cycle.mode().kept_result_text(); }},
             at.host, at.port, limits, tls_ ? std::optional(tls_->files) : std::nullopt);
         p_.log("web: the page at " + url_of(tls_ ? "https" : "http", at.host, web_->port()) +
                (tls_ ? " (certificate " + tls_->facts.subject + ", SHA-256 " +

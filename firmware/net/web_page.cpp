@@ -17,11 +17,13 @@ constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
   <h1>calbox</h1>
   <span id="state" class="badge">…</span>
   <span id="link" class="muted">connecting</span>
+  <label class="password">Web password <input id="password" type="password" autocomplete="current-password"></label>
 </header>
 <nav>
   <button data-view="status" class="tab on">Status</button>
   <button data-view="setup" class="tab">Set-up</button>
   <button data-view="result" class="tab">Result</button>
+  <button data-view="place" class="tab">Place</button>
   <button data-view="config" class="tab">Configuration</button>
 </nav>
 <main>
@@ -37,8 +39,7 @@ constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
       <button id="btn-acknowledge">Acknowledge</button>
       <button id="btn-revert">Revert</button>
     </div>
-    <p><label>Web password <input id="password" type="password" autocomplete="current-password"></label>
-      <span id="action-reply" class="muted"></span></p>
+    <p><span id="action-reply" class="muted"></span></p>
   </div>
   <div class="card">
     <h2>Machine</h2>
@@ -77,6 +78,19 @@ constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
   <div class="card wide">
     <h2>Records</h2>
     <ul id="records"></ul>
+  </div>
+</section>
+<section id="view-place" class="view" hidden>
+  <div class="card wide">
+    <h2>Place a job on the bed</h2>
+    <p class="muted">The bed as the box's camera sees it, in the machine's coordinates (as a job compensated through the correction in force means them). Choose a job from the data directory and click where its work zero (G54's origin) goes: the job is drawn where the tool will go, before anything runs. Compensate writes it through the correction, ready to download; the controller's own zero is yours to set there.</p>
+    <p><label>Job <select id="place-job"></select></label>
+      <label>Work zero <input id="place-zero" placeholder="click the bed, or X,Y"></label>
+      <button id="btn-place">Compensate</button> <span id="place-reply" class="muted"></span></p>
+    <p id="place-frame" class="muted"></p>
+    <div id="place-bed"><img id="bed" alt="the bed in the machine's coordinates"><svg id="bed-job" preserveAspectRatio="none" role="img" aria-label="the job where its tool will go"></svg></div>
+    <p id="bed-caption" class="muted"></p>
+    <p id="place-download"></p>
   </div>
 </section>
 <section id="view-config" class="view" hidden>
@@ -207,6 +221,98 @@ async function loadRecords(cycle) {
   }));
 }
 
+// The bed view's world file: machine X = c + a (column), Y = f + e (row), at pixel centres.
+let bed = null;
+const jobExt = /^job-[A-Za-z0-9._-]+\.(gcode|nc|ngc|tap|g|csv|txt)$/;
+async function loadPlace() {
+  const r = await fetch('/records/');
+  if (!r.ok) return;
+  const names = (await r.json()).records.map((e) => e.name);
+  const chosen = $('place-job').value;
+  const jobs = names.filter((n) => jobExt.test(n) && !/-compensated\.[a-z]+$/.test(n));
+  $('place-job').replaceChildren(...jobs.map((n) => {
+    const o = document.createElement('option');
+    o.value = o.textContent = n;
+    o.selected = n === chosen;
+    return o;
+  }));
+  // A photo of the bed as it is now when the box has one, else the last cycle's.
+  const name = names.includes('bed-view.png') ? 'bed-view.png'
+      : names.filter((n) => /^cycle-\d{4}-bed-view\.png$/.test(n)).sort().pop();
+  if (!name) { $('bed-caption').textContent = 'No bed view yet: a planar cycle keeps one.'; return; }
+  const w = await fetch('/records/' + name.replace(/\.png$/, '.pgw'));
+  if (!w.ok) { $('bed-caption').textContent = name + ': its world file is missing.'; return; }
+  const [a, , , e, c, f] = (await w.text()).trim().split(/\s+/).map(Number);
+  const img = $('bed');
+  img.onload = () => {
+    bed = {name, a, e, c, f, width: img.naturalWidth, height: img.naturalHeight};
+    $('bed-job').setAttribute('viewBox', `0 0 ${bed.width} ${bed.height}`);
+    $('bed-caption').textContent = `${name}: ${a} mm a pixel; its top-left pixel's centre at machine X${c} Y${f}.`;
+    drawJob();
+  };
+  img.src = '/records/' + encodeURIComponent(name) + '?v=' + Date.now();
+}
+function pixelOf(x, y) { return [(x - bed.c) / bed.a + 0.5, (y - bed.f) / bed.e + 0.5]; }
+let drawn = 0;
+async function drawJob() {
+  const svg = $('bed-job');
+  const job = $('place-job').value, zero = $('place-zero').value.trim();
+  if (!bed || !job) { svg.innerHTML = ''; return; }
+  const ticket = ++drawn;
+  const r = await fetch('/api/place?job=' + encodeURIComponent(job) + '&work_zero=' + encodeURIComponent(zero));
+  const j = await r.json().catch(() => ({error: r.statusText}));
+  if (ticket !== drawn) return;
+  if (!r.ok) { svg.innerHTML = ''; $('place-frame').textContent = j.error; $('place-frame').className = 'error'; return; }
+  $('place-frame').textContent = j.summary + '; ' + j.frame;
+  $('place-frame').className = 'muted';
+  const pts = j.points.map((p) => pixelOf(p[0], p[1]).map((v) => v.toFixed(2)).join(',')).join(' ');
+  let out = `<polyline id="bed-job-path" points="${pts}"/>`;
+  const m = /^\s*(-?[0-9.]+)\s*,\s*(-?[0-9.]+)\s*$/.exec(zero);
+  if (m) {
+    const [x, y] = pixelOf(Number(m[1]), Number(m[2]));
+    out += `<circle id="bed-zero" cx="${x}" cy="${y}" r="6"/><line x1="${x - 12}" y1="${y}" x2="${x + 12}" y2="${y}"/>` +
+           `<line x1="${x}" y1="${y - 12}" x2="${x}" y2="${y + 12}"/>`;
+  }
+  svg.innerHTML = out;
+}
+function placeClick(ev) {
+  if (!bed) return;
+  const rect = $('bed').getBoundingClientRect();
+  const col = (ev.clientX - rect.left) * bed.width / rect.width - 0.5;
+  const row = (ev.clientY - rect.top) * bed.height / rect.height - 0.5;
+  $('place-zero').value = (bed.c + bed.a * col).toFixed(3) + ',' + (bed.f + bed.e * row).toFixed(3);
+  drawJob();
+}
+// The desk works in the background and says how it went in the log: the page waits for its line.
+async function placeCompensate() {
+  const job = $('place-job').value;
+  const out = job.replace(/(\.[A-Za-z]+)$/, '-compensated$1');
+  const said = (s) => (s.log || []).filter((l) => l.startsWith('compensate: '));
+  const before = said(await (await fetch('/api/status')).json()).length;
+  $('place-download').replaceChildren();
+  if (!await send('/api/action', {action: 'compensate', job, work_zero: $('place-zero').value.trim()}, 'place-reply')) return;
+  $('place-reply').textContent = 'compensating…';
+  for (let i = 0; i < 240; ++i) {
+    await new Promise((ok) => setTimeout(ok, 500));
+    const lines = said(await (await fetch('/api/status')).json());
+    if (lines.length <= before) continue;
+    const line = lines[lines.length - 1];
+    const written = line.startsWith('compensate: ' + out + ': ');
+    $('place-reply').textContent = line;
+    $('place-reply').className = written ? 'muted' : 'error';
+    if (written) {
+      const a = document.createElement('a');
+      a.id = 'place-download-link';
+      a.href = '/records/' + encodeURIComponent(out) + '?download=1';
+      a.textContent = 'Download ' + out;
+      $('place-download').replaceChildren(a);
+    }
+    return;
+  }
+  $('place-reply').textContent = 'the box did not say how the job went';
+  $('place-reply').className = 'error';
+}
+
 async function refresh() {
   const r = await fetch('/api/status');
   if (r.ok) showStatus(await r.json());
@@ -274,11 +380,17 @@ document.addEventListener('DOMContentLoaded', () => {
   $('btn-save').onclick = () => send('/api/config', {save: true}, 'config-reply');
   $('btn-compensate').onclick = () => send('/api/action',
     {action: 'compensate', job: $('job-name').value, work_zero: $('job-zero').value}, 'job-reply');
+  $('bed').onclick = placeClick;
+  $('bed-job').onclick = placeClick;
+  $('place-job').onchange = drawJob;
+  $('place-zero').onchange = drawJob;
+  $('btn-place').onclick = placeCompensate;
   for (const tab of document.querySelectorAll('nav .tab')) {
     tab.onclick = () => {
       for (const t of document.querySelectorAll('nav .tab')) t.classList.toggle('on', t === tab);
       for (const v of document.querySelectorAll('.view')) v.hidden = v.id !== 'view-' + tab.dataset.view;
       if (tab.dataset.view === 'config') loadConfig();
+      if (tab.dataset.view === 'place') loadPlace();
       if (tab.dataset.view === 'result' && status && status.last) loadRecords(status.last.cycle);
     };
   }
@@ -292,6 +404,7 @@ constexpr std::string_view kPageStyle = R"css(* { box-sizing: border-box; }
 body { font-family: sans-serif; margin: 0; background: #f4f5f7; color: #1d2330; }
 header { display: flex; gap: 1em; align-items: center; padding: 0.6em 1em; background: #1d2330; color: #fff; }
 header h1 { font-size: 1.3em; margin: 0; }
+header .password { margin-left: auto; font-size: 0.9em; }
 nav { display: flex; gap: 0.3em; padding: 0.5em 1em; }
 .tab { border: 0; padding: 0.5em 1em; background: #dde1e8; border-radius: 4px; cursor: pointer; }
 .tab.on { background: #2d6cdf; color: #fff; }
@@ -322,6 +435,12 @@ td, th { padding: 0.2em 0.6em 0.2em 0; vertical-align: top; }
 figure { margin: 0; } figure.picture img { max-width: 100%; width: 640px; }
 figure.screen img { width: 256px; image-rendering: pixelated; border: 1px solid #889; }
 figcaption { font-size: 0.8em; color: #667; }
+#place-bed { position: relative; display: inline-block; max-width: 100%; }
+#bed { display: block; max-width: 100%; cursor: crosshair; }
+#bed-job { position: absolute; left: 0; top: 0; width: 100%; height: 100%; max-width: none; background: none; cursor: crosshair; }
+#bed-job polyline { fill: none; stroke: #e8590c; stroke-width: 1.5; vector-effect: non-scaling-stroke; }
+#bed-job circle { fill: none; stroke: #2d6cdf; stroke-width: 2; vector-effect: non-scaling-stroke; }
+#bed-job line { stroke: #2d6cdf; stroke-width: 1.5; vector-effect: non-scaling-stroke; }
 )css";
 
 std::string_view web_page_html() {

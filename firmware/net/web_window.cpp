@@ -5,6 +5,9 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "core/modes/compensate_job.hpp"
+#include "firmware/console/job_desk.hpp"
+#include "firmware/net/place_view.hpp"
 #include "firmware/net/web_page.hpp"
 
 namespace calbox::firmware {
@@ -259,6 +262,7 @@ ServerResponse WebWindow::route(const ServerRequest& request, const std::string&
             200, "text/plain; version=0.0.4; charset=utf-8", on_loop<std::string>(c_.metrics), {}};
     }
     if (path == "/live.jpg") return live(query);
+    if (path == "/api/place") return place(query);
     if (path == "/records" || path == "/records/") {
         json list = json::array();
         for (const auto& e : c_.records.list_files())
@@ -283,6 +287,27 @@ ServerResponse WebWindow::record(const std::string& name, const std::string& que
     if (query_value(query, "download") == "1")
         r.headers.emplace_back("Content-Disposition", "attachment; filename=\"" + name + "\"");
     return r;
+}
+
+ServerResponse WebWindow::place(const std::string& query) {
+    const std::string job = query_value(query, "job");
+    const std::string zero = query_value(query, "work_zero");
+    if (compensated_job_name(job).empty())
+        return error_answer(400, "place: job=job-NAME.EXT, a job in the data directory");
+    if (zero.size() > 120) return error_answer(400, "place: work_zero=X,Y (or G54=X,Y ...)");
+    const auto kept = on_loop<std::optional<std::string>>(c_.kept_result);
+    if (!kept)
+        return error_answer(409,
+                            "place: no correction in force: the box keeps none for this "
+                            "machine yet (calibrate it first)");
+    const auto text = c_.records.read_file(job);
+    if (!text) return error_answer(404, "place: no " + job + " in the data directory");
+    // Worked out on the server's thread: a long job does not hold up the loop.
+    try {
+        return json_answer(job_outline_json(*kept, *text, job, zero));
+    } catch (const modes::JobError& e) {
+        return error_answer(409, e.what());
+    }
 }
 
 ServerResponse WebWindow::live(const std::string& query) {

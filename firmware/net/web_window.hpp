@@ -11,6 +11,7 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <string>
 
 #include "firmware/loop/event_loop.hpp"
@@ -72,6 +73,7 @@ struct WebWindowContext {
     std::function<std::string()> password_hash;  // the configuration's web.password
     std::function<bool()> preview;               // Cycle::preview
     std::function<LiveGuide()> guide;
+    std::function<std::optional<std::string>()> kept_result;  // the correction in force's text
 };
 
 class WebWindow {
@@ -99,6 +101,8 @@ class WebWindow {
                               const std::string& query);
     hal::ServerResponse post(const hal::ServerRequest& request, const std::string& path);
     hal::ServerResponse live(const std::string& query);
+    // GET /api/place?job=job-NAME.EXT&work_zero=X,Y: the job's outline on the bed.
+    hal::ServerResponse place(const std::string& query);
     hal::ServerResponse record(const std::string& name, const std::string& query);
     // Empty when the request may change state; else the refusal.
     std::optional<hal::ServerResponse> refuse_password(const hal::ServerRequest& request);

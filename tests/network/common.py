@@ -134,7 +134,8 @@ class Run:
         self.wait_for("the broker", listening, 10)
         return broker, port
 
-    def box(self, calbox, top, data, extra, config_text):
+    def box(self, calbox, top, data, extra, config_text,
+            scenario="tests/scenarios/delta_cycle_small.toml"):
         """A box on the sim board serving its page; (its process, the page's URL). When TLS, the
         page is over https with a certificate from the test authority (trusted from here on),
         and self.plain_port is the plain port that redirects to it."""
@@ -152,7 +153,7 @@ class Run:
         err = open(os.path.join(self.work, "box.err"), "w")
         box = subprocess.Popen(
             [calbox, "run", "--board", "sim", "--scenario",
-             os.path.join(top, "tests/scenarios/delta_cycle_small.toml"), "--data", data,
+             os.path.join(top, scenario), "--data", data,
              "--web", "127.0.0.1:0", "--console", ""] + web_tls + extra,
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=err)
         self.children.append(box)

@@ -1,0 +1,139 @@
+#!/usr/bin/python3
+"""The page's Place screen in a real browser (headless Chromium, driven by Selenium), on a box
+that has calibrated a router on the sim board: the bed view shown, a job from the data directory
+drawn over it, the owner's click on the bed turned into the job's work zero, the job compensated
+and offered for download. Judged by the bed view's world file (read here, not by the page), by
+where the drawn job's corners lie on it, and by the command line's own compensation of the same
+job at the same zero.
+Usage: web_place.py CALBOX SOURCE_DIR SCREENSHOT_DIR"""
+import os
+import subprocess
+import sys
+import tempfile
+
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+from selenium.webdriver.common.action_chains import ActionChains
+from selenium.webdriver.common.by import By
+from selenium.webdriver.support.ui import Select
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from common import PASSWORD, Run, password_hash, request  # noqa: E402
+
+calbox, top, shots = sys.argv[1], sys.argv[2], sys.argv[3]
+os.makedirs(shots, exist_ok=True)
+work = tempfile.mkdtemp(prefix="calbox-place-")
+run = Run(work)
+scenario = "tests/scenarios/planar_small.toml"
+data = os.path.join(work, "data")
+
+# A router calibrated by the box: the correction in force and the cycle's bed view.
+cycle = subprocess.run([calbox, "run", "--board", "sim", "--scenario", os.path.join(top, scenario),
+                        "--data", data, "--auto"], stdin=subprocess.DEVNULL,
+                       capture_output=True, text=True)
+if cycle.returncode != 0:
+    run.fail("the planar cycle: exit %d: %s" % (cycle.returncode, cycle.stderr[-400:]))
+# A 40 x 30 mm pocket outline around G54's zero, as CAM writes one.
+JOB = "job-pocket.nc"
+CORNERS = [(0, 0), (40, 0), (40, 30), (0, 30)]
+with open(os.path.join(data, JOB), "w") as f:
+    f.write("G21 G90 G54\nG0 Z5\nG0 X0 Y0\nM3 S12000\nG1 Z-1 F300\nG1 X40 Y0 F600\nG1 X40 Y30\n"
+            "G1 X0 Y30\nG1 X0 Y0\nG0 Z5\nM5\nM2\n")
+# The world file, read here: machine X = c + a col, Y = f + e row at pixel centres.
+a, _, _, e, c, f = (float(v) for v in open(os.path.join(data, "cycle-0001-bed-view.pgw")).read().split())
+
+box, url = run.box(calbox, top, data, [], '[web]\npassword = "%s"\n' % password_hash(PASSWORD),
+                   scenario=scenario)
+
+options = webdriver.ChromeOptions()
+options.binary_location = "/usr/bin/chromium"
+for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+            "--disable-background-networking", "--window-size=1280,1400",
+            "--user-data-dir=" + os.path.join(work, "chromium")):
+    options.add_argument(arg)
+driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+
+
+def pixel_of(x, y):
+    return (x - c) / a + 0.5, (y - f) / e + 0.5
+
+
+try:
+    driver.get(url + "/")
+    run.wait_for("the page showing idle", lambda: driver.find_element(By.ID, "state").text == "idle",
+                 15, box)
+    driver.find_element(By.CSS_SELECTOR, "button[data-view='place']").click()
+    size = run.wait_for("the bed view on the Place screen", lambda: driver.execute_script(
+        "const i = document.getElementById('bed');"
+        "return i.complete && i.naturalWidth > 0 && typeof bed === 'object' && bed ?"
+        " [i.naturalWidth, i.naturalHeight] : null;"), 20, box)
+    if "cycle-0001-bed-view.png" not in driver.find_element(By.ID, "bed-caption").text:
+        run.fail("the caption names another view: %r" % driver.find_element(By.ID, "bed-caption").text)
+    jobs = [o.text for o in Select(driver.find_element(By.ID, "place-job")).options]
+    if jobs != [JOB]:
+        run.fail("the jobs offered are %s, not [%s]" % (jobs, JOB))
+
+    # The owner clicks where the pocket's zero goes: machine X-250 Y-200, as the world file
+    # puts it on the picture.
+    want = (-250.0, -200.0)
+    img = driver.find_element(By.ID, "bed")
+    rect = driver.execute_script("const r = arguments[0].getBoundingClientRect();"
+                                 "return [r.left, r.top, r.width, r.height];", img)
+    scale = rect[2] / size[0]  # CSS pixels a view pixel
+    col, row = pixel_of(*want)
+    dx, dy = round(col * scale - rect[2] / 2), round(row * scale - rect[3] / 2)
+    ActionChains(driver).move_to_element_with_offset(img, dx, dy).click().perform()
+    # Where that CSS pixel is on the bed (the world file's mapping, worked here).
+    clicked = (c + a * ((rect[2] / 2 + dx) / scale - 0.5), f + e * ((rect[3] / 2 + dy) / scale - 0.5))
+    zero_text = run.wait_for("the work zero from the click", lambda: driver.find_element(
+        By.ID, "place-zero").get_attribute("value"), 10, box)
+    zero = tuple(float(v) for v in zero_text.split(","))
+    # Selenium may click the CSS pixel's centre or its corner: half a CSS pixel on the bed.
+    slack = abs(a) / scale
+    if max(abs(zero[0] - clicked[0]), abs(zero[1] - clicked[1])) > slack or \
+            max(abs(zero[0] - want[0]), abs(zero[1] - want[1])) > 2 * slack:
+        run.fail("the click at %s (aimed at %s) gave the work zero %s" % (clicked, want, zero_text))
+
+    # The job drawn before anything runs: its corners where zero + corner lies on the view.
+    points = run.wait_for("the job drawn over the bed", lambda: driver.execute_script(
+        "const p = document.getElementById('bed-job-path');"
+        "return p ? p.getAttribute('points') : null;"), 20, box)
+    drawn = [tuple(float(v) for v in p.split(",")) for p in points.split()]
+    for corner in CORNERS:
+        x, y = pixel_of(zero[0] + corner[0], zero[1] + corner[1])
+        if not any(abs(px - x) < 0.01 and abs(py - y) < 0.01 for px, py in drawn):
+            run.fail("the pocket's corner %s is not drawn at view pixel (%.2f, %.2f): %s"
+                     % (corner, x, y, drawn))
+    frame = driver.find_element(By.ID, "place-frame").text
+    if "G54 zero at machine X%.3f Y%.3f mm" % zero not in frame:
+        run.fail("the page's frame line does not give the clicked zero %s: %r" % (zero_text, frame))
+    driver.save_screenshot(os.path.join(shots, "web-place.png"))
+
+    # Compensated through the correction in force, then offered for download.
+    driver.find_element(By.ID, "password").send_keys(PASSWORD)
+    driver.find_element(By.ID, "btn-place").click()
+    link = run.wait_for("the compensated job's download link", lambda: driver.execute_script(
+        "const a = document.getElementById('place-download-link'); return a ? a.href : null;"), 60, box)
+    reply = driver.find_element(By.ID, "place-reply").text
+    if not reply.startswith("compensate: job-pocket-compensated.nc: ") or "moves corrected" not in reply:
+        run.fail("the page's reply: %r" % reply)
+    driver.save_screenshot(os.path.join(shots, "web-place-compensated.png"))
+finally:
+    driver.quit()
+
+status, headers, body = request(link)
+if status != 200 or 'filename="job-pocket-compensated.nc"' not in headers.get("Content-Disposition", ""):
+    run.fail("the download: %d %s" % (status, headers.get("Content-Disposition")))
+# The same job at the same zero through the command line: the same moves (the mark's date aside).
+reference = os.path.join(work, "reference.nc")
+subprocess.run([calbox, "compensate", "--result", os.path.join(data, "planar-result.json"),
+                os.path.join(data, JOB), "--work-zero", zero_text, "-o", reference],
+               check=True, capture_output=True, stdin=subprocess.DEVNULL)
+page_lines = body.decode().splitlines()
+cli_lines = open(reference).read().splitlines()
+if page_lines[1:] != cli_lines[1:] or len(page_lines) < 12:
+    run.fail("the page's job differs from the command line's at the same zero:\n%s\n---\n%s"
+             % ("\n".join(page_lines[:8]), "\n".join(cli_lines[:8])))
+run.stop_all()
+print("the Place screen: bed view %dx%d at %.2f mm a pixel, zero clicked at %s, job drawn and "
+      "compensated (%s)" % (size[0], size[1], a, zero_text, reply.split(": ", 2)[2][:80]))

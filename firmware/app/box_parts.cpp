@@ -8,6 +8,7 @@
 
 #include "firmware/app/sim_operator.hpp"
 #include "firmware/cli/version.hpp"
+#include "firmware/console/bed_photo_desk.hpp"
 #include "firmware/console/job_desk.hpp"
 #include "firmware/console/link_key.hpp"
 #include "firmware/net/box_network.hpp"
@@ -101,8 +102,8 @@ std::filesystem::path directory_of(const std::filesystem::path& file) {
 }
 
 // The console and the parts with rows of their own on it (the web page's password, the job
-// desk, OctoPrint's key, the sim board's button), read on its port; it tells the console what
-// the cycle's prompts and notices say.
+// desk, the bed photo, OctoPrint's key, the sim board's button), read on its port; it tells the
+// console what the cycle's prompts and notices say.
 class BoxConsole final : public BoxPart {
   public:
     explicit BoxConsole(RunningBox& running)
@@ -116,6 +117,8 @@ class BoxConsole final : public BoxPart {
               logged_notice(running.log)),
           job_desk_(running.box.loop, running.box.cycle, *running.box.appliance.link,
                     *running.box.data, utc_now_text, logged_notice(running.log)),
+          bed_photo_desk_(running.box.loop, running.box.cycle, *running.box.data,
+                          logged_notice(running.log)),
           commands_(firmware::ConsoleContext{
               running.box.cycle, running.config, *config_home_,
               running.config_path.filename().string(), *running.box.data, running.log_book,
@@ -151,7 +154,7 @@ class BoxConsole final : public BoxPart {
         std::vector<firmware::ConsoleCommand> more = {
             firmware::web_password_row(running.config, running.box.network().passwords(),
                                        running.config_changed),
-            job_desk_.command(), link_key_.command()};
+            job_desk_.command(), bed_photo_desk_.command(), link_key_.command()};
         if (running.box.board.sim) {
             for (auto& row : sim_board_commands(*running.box.board.sim, running.box.loop))
                 more.push_back(std::move(row));
@@ -164,6 +167,7 @@ class BoxConsole final : public BoxPart {
     std::optional<firmware::ConsoleLink> link_;
     firmware::LinkKeyRequest link_key_;
     firmware::JobDesk job_desk_;  // jobs compensated through the correction the box keeps
+    firmware::BedPhotoDesk bed_photo_desk_;  // the bed now, in the machine's coordinates
     firmware::Console commands_;
     firmware::CycleSubscription listening_;
 };

@@ -61,17 +61,8 @@ void PlanarCycleMode::measure(MeasureInput input, std::function<void()> then) {
             measured.photos = {photos.names.front()};
             overlay = planar_overlay_png(photos.views.front(), measured, machine, photos.camera,
                                          photos.plane);
-            auto kept = std::make_shared<BedPhoto>();
-            const auto& view = photos.views.front();
-            kept->photo.width_px = view.width_px;
-            kept->photo.height_px = view.height_px;
-            kept->photo.pixels.reserve(static_cast<std::size_t>(view.width_px) * view.height_px);
-            for (int y = 0; y < view.height_px; ++y) {
-                const auto* row = view.pixels + static_cast<std::ptrdiff_t>(y) * view.stride_bytes;
-                kept->photo.pixels.insert(kept->photo.pixels.end(), row, row + view.width_px);
-            }
-            kept->camera = photos.camera;
-            kept->plane = photos.plane;
+            auto kept = std::make_shared<BedPhoto>(
+                bed_photo_of(photos.views.front(), photos.camera, photos.plane));
             return [this, measured, kept] {
                 measured_ = measured;
                 bed_photo_ = kept;
@@ -114,7 +105,8 @@ void PlanarCycleMode::solve(std::function<void(SolveOutcome)> then) {
                                                          s.fit.parameters, p, s.tool_length_mm);
                                                  });
             if (bed_photo)
-                *bed_view = bed_view_files(*bed_photo, machine, *solution, *bed_view_refused);
+                *bed_view = bed_view_files(*bed_photo, *solution, machine.planar->surface_height_mm,
+                                           *bed_view_refused);
         },
         [this, solution, firmware, field, in_force, bed_view, bed_view_refused,
          then = std::move(then)] {
@@ -207,13 +199,26 @@ targets::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_t
     return {through_model(s), s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm};
 }
 
-std::optional<std::pair<std::string, std::string>> PlanarCycleMode::bed_view_files(
-    const BedPhoto& bed, const models::MachineFile& machine, const modes::PlanarSolution& solution,
+BedPhoto bed_photo_of(const vision::GrayView& view, const geometry::CameraModel& camera,
+                      const geometry::BedPlane& plane) {
+    BedPhoto kept{{}, camera, plane};
+    kept.photo.width_px = view.width_px;
+    kept.photo.height_px = view.height_px;
+    kept.photo.pixels.reserve(static_cast<std::size_t>(view.width_px) * view.height_px);
+    for (int y = 0; y < view.height_px; ++y) {
+        const auto* row = view.pixels + static_cast<std::ptrdiff_t>(y) * view.stride_bytes;
+        kept.photo.pixels.insert(kept.photo.pixels.end(), row, row + view.width_px);
+    }
+    return kept;
+}
+
+std::optional<std::pair<std::string, std::string>> bed_view_files(
+    const BedPhoto& bed, const modes::PlanarSolution& solution, double surface_height_mm,
     std::string& refused) {
     // The whole travel about 800 pixels across: enough to see the sheet and the frame, a
     // fraction of the photo's pixels to write.
     modes::BedViewRequest request;
-    request.surface_height_mm = machine.planar->surface_height_mm;
+    request.surface_height_mm = surface_height_mm;
     // One sample a pixel: a quarter of the work, and the bed and the sheet show alike.
     request.average_samples = false;
     if (solution.frame) {

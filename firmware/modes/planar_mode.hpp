@@ -20,6 +20,24 @@ namespace calbox::firmware {
 constexpr const char* kPlanarResultFile = "planar-result.json";
 constexpr const char* kNoPlanarResult = "none\n";
 
+// A photo of the bed with the camera and plane it was taken through.
+struct BedPhoto {
+    vision::GrayPixels photo;
+    geometry::CameraModel camera;
+    geometry::BedPlane plane;
+};
+
+// A copy of `view`'s pixels, kept with the camera and plane.
+BedPhoto bed_photo_of(const vision::GrayView& view, const geometry::CameraModel& camera,
+                      const geometry::BedPlane& plane);
+
+// The bed in the machine's coordinates as a picture for the eye (the records' bed-view.png and
+// the console's `bed photo`): the machine's travel about 800 pixels across, the surface
+// `surface_height_mm` above the bed; its PNG and world file, or nothing with why in `refused`.
+std::optional<std::pair<std::string, std::string>> bed_view_files(
+    const BedPhoto& bed, const modes::PlanarSolution& solution, double surface_height_mm,
+    std::string& refused);
+
 class PlanarCycleMode final : public KeptCorrectionMode {
   public:
     PlanarCycleMode(models::MachineFile machine, CycleSteps& steps);
@@ -63,18 +81,8 @@ class PlanarCycleMode final : public KeptCorrectionMode {
     std::optional<modes::FirmwareSettings> firmware_;
     std::optional<modes::PlanarMeasurement> measured_;
     std::optional<modes::PlanarSolution> solution_;
-    // The measured photo with its camera and plane, kept from measure to solve for the bed view
-    // (the records' bed-view.png: the bed in the machine's coordinates).
-    struct BedPhoto {
-        vision::GrayPixels photo;
-        geometry::CameraModel camera;
-        geometry::BedPlane plane;
-    };
+    // The measured photo, kept from measure to solve for the records' bed view.
     std::shared_ptr<const BedPhoto> bed_photo_;
-    // The bed view's PNG and world file, or nothing with why in `refused`.
-    static std::optional<std::pair<std::string, std::string>> bed_view_files(
-        const BedPhoto& bed, const models::MachineFile& machine,
-        const modes::PlanarSolution& solution, std::string& refused);
     // G54's zero as the controller reported it before the target ran (grbl's $#).
     std::optional<geometry::Point2> controller_work_zero_;
 };

@@ -87,6 +87,9 @@ constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
     <p><label>Job <select id="place-job"></select></label>
       <label>Work zero <input id="place-zero" placeholder="click the bed, or X,Y"></label>
       <button id="btn-place">Compensate</button> <span id="place-reply" class="muted"></span></p>
+    <p><button id="btn-bed-photo">Photograph the bed</button>
+      <label>its surface (the stock's top) <input id="bed-surface" size="6" placeholder="machine file's"> mm above the bed</label>
+      <span id="bed-reply" class="muted"></span></p>
     <p id="place-frame" class="muted"></p>
     <div id="place-bed"><img id="bed" alt="the bed in the machine's coordinates"><svg id="bed-job" preserveAspectRatio="none" role="img" aria-label="the job where its tool will go"></svg></div>
     <p id="bed-caption" class="muted"></p>
@@ -283,20 +286,38 @@ function placeClick(ev) {
   $('place-zero').value = (bed.c + bed.a * col).toFixed(3) + ',' + (bed.f + bed.e * row).toFixed(3);
   drawJob();
 }
-// The desk works in the background and says how it went in the log: the page waits for its line.
-async function placeCompensate() {
-  const job = $('place-job').value;
-  const out = job.replace(/(\.[A-Za-z]+)$/, '-compensated$1');
-  const said = (s) => (s.log || []).filter((l) => l.startsWith('compensate: '));
+// The desks work in the background and say how it went in the log: the page waits for a new
+// line of theirs after sending the action; null when none came.
+async function sendAndHear(body, prefix, replyId) {
+  const said = (s) => (s.log || []).filter((l) => l.startsWith(prefix));
   const before = said(await (await fetch('/api/status')).json()).length;
-  $('place-download').replaceChildren();
-  if (!await send('/api/action', {action: 'compensate', job, work_zero: $('place-zero').value.trim()}, 'place-reply')) return;
-  $('place-reply').textContent = 'compensating…';
+  if (!await send('/api/action', body, replyId)) return null;
+  $(replyId).textContent = 'working…';
   for (let i = 0; i < 240; ++i) {
     await new Promise((ok) => setTimeout(ok, 500));
     const lines = said(await (await fetch('/api/status')).json());
-    if (lines.length <= before) continue;
-    const line = lines[lines.length - 1];
+    if (lines.length > before) return lines[lines.length - 1];
+  }
+  $(replyId).textContent = 'the box did not say how it went';
+  $(replyId).className = 'error';
+  return null;
+}
+async function bedPhoto() {
+  const body = {action: 'bed-photo'};
+  if ($('bed-surface').value.trim() !== '') body.surface_mm = Number($('bed-surface').value);
+  const line = await sendAndHear(body, 'bed photo: ', 'bed-reply');
+  if (line === null) return;
+  $('bed-reply').textContent = line;
+  $('bed-reply').className = line.includes('nothing written') ? 'error' : 'muted';
+  loadPlace();
+}
+async function placeCompensate() {
+  const job = $('place-job').value;
+  const out = job.replace(/(\.[A-Za-z]+)$/, '-compensated$1');
+  $('place-download').replaceChildren();
+  const line = await sendAndHear({action: 'compensate', job, work_zero: $('place-zero').value.trim()},
+                                 'compensate: ', 'place-reply');
+  if (line !== null) {
     const written = line.startsWith('compensate: ' + out + ': ');
     $('place-reply').textContent = line;
     $('place-reply').className = written ? 'muted' : 'error';
@@ -307,10 +328,7 @@ async function placeCompensate() {
       a.textContent = 'Download ' + out;
       $('place-download').replaceChildren(a);
     }
-    return;
   }
-  $('place-reply').textContent = 'the box did not say how the job went';
-  $('place-reply').className = 'error';
 }
 
 async function refresh() {
@@ -385,6 +403,7 @@ document.addEventListener('DOMContentLoaded', () => {
   $('place-job').onchange = drawJob;
   $('place-zero').onchange = drawJob;
   $('btn-place').onclick = placeCompensate;
+  $('btn-bed-photo').onclick = bedPhoto;
   for (const tab of document.querySelectorAll('nav .tab')) {
     tab.onclick = () => {
       for (const t of document.querySelectorAll('nav .tab')) t.classList.toggle('on', t === tab);

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "core/modes/compensate_job.hpp"
+#include "core/number_text.hpp"
 #include "firmware/console/job_desk.hpp"
 #include "firmware/net/place_view.hpp"
 #include "firmware/net/web_page.hpp"
@@ -54,8 +55,8 @@ std::string query_value(const std::string& query, const std::string& name) {
 // The records a page may read: each cycle's, the set-up's and the mode's kept files. Not the
 // configuration (it holds the password's hash), nor anything else the data directory gathers.
 bool is_record_name(const std::string& name, const std::vector<std::string>& kept_files) {
-    static const char* const setup[] = {"camera.yaml", "plane.yaml", "reference.yaml",
-                                        "history.json"};
+    static const char* const setup[] = {"camera.yaml",  "plane.yaml",   "reference.yaml",
+                                        "history.json", "bed-view.png", "bed-view.pgw"};
     if (name.empty() || name.size() > 128 || name.front() == '.') return false;
     if (name.find_first_not_of(
             "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
@@ -362,6 +363,18 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
                 "compensate: {\"action\": \"compensate\", \"job\": \"job-NAME.nc\", "
                 "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}");
         return console_answer("compensate " + job + (zero.empty() ? "" : " " + zero) + " --json");
+    }
+    if (path == "/api/action" && body.value("action", std::string()) == "bed-photo") {
+        // The console's `bed photo`, its one figure checked there.
+        const auto surface = body.find("surface_mm");
+        if (body.size() > 2 || (surface != body.end() && !surface->is_number()))
+            return error_answer(
+                400, "bed-photo: {\"action\": \"bed-photo\", \"surface_mm\": MM (optional)}");
+        return console_answer("bed photo" +
+                              (surface == body.end()
+                                   ? std::string()
+                                   : " " + number_text("%.3f", surface->get<double>())) +
+                              " --json");
     }
     if (path == "/api/action") {
         const auto action = body.find("action");

@@ -39,8 +39,6 @@ CORNERS = [(0, 0), (40, 0), (40, 30), (0, 30)]
 with open(os.path.join(data, JOB), "w") as f:
     f.write("G21 G90 G54\nG0 Z5\nG0 X0 Y0\nM3 S12000\nG1 Z-1 F300\nG1 X40 Y0 F600\nG1 X40 Y30\n"
             "G1 X0 Y30\nG1 X0 Y0\nG0 Z5\nM5\nM2\n")
-# The world file, read here: machine X = c + a col, Y = f + e row at pixel centres.
-a, _, _, e, c, f = (float(v) for v in open(os.path.join(data, "cycle-0001-bed-view.pgw")).read().split())
 
 box, url = run.box(calbox, top, data, [], '[web]\npassword = "%s"\n' % password_hash(PASSWORD),
                    scenario=scenario)
@@ -69,6 +67,24 @@ try:
         " [i.naturalWidth, i.naturalHeight] : null;"), 20, box)
     if "cycle-0001-bed-view.png" not in driver.find_element(By.ID, "bed-caption").text:
         run.fail("the caption names another view: %r" % driver.find_element(By.ID, "bed-caption").text)
+    # The bed as it is now: a fresh photo through the same camera, plane and correction, shown
+    # in place of the cycle's.
+    driver.find_element(By.ID, "password").send_keys(PASSWORD)
+    driver.find_element(By.ID, "btn-bed-photo").click()
+    run.wait_for("the fresh bed view on the page", lambda: driver.find_element(
+        By.ID, "bed-caption").text.startswith("bed-view.png: "), 60, box)
+    said = driver.find_element(By.ID, "bed-reply").text
+    if not said.startswith("bed photo: bed-view.png and bed-view.pgw: the bed now, the surface 1.50 mm"):
+        run.fail("the page's bed photo reply: %r" % said)
+    world = open(os.path.join(data, "bed-view.pgw")).read()
+    if world != open(os.path.join(data, "cycle-0001-bed-view.pgw")).read():
+        run.fail("the fresh view's world file %r is not the cycle's (the same travel and scale)" % world)
+    # The world file, read here: machine X = c + a col, Y = f + e row at pixel centres.
+    a, _, _, e, c, f = (float(v) for v in world.split())
+    size = run.wait_for("the fresh bed view loaded", lambda: driver.execute_script(
+        "const i = document.getElementById('bed');"
+        "return i.complete && i.naturalWidth > 0 && bed && bed.name === 'bed-view.png' ?"
+        " [i.naturalWidth, i.naturalHeight] : null;"), 20, box)
     jobs = [o.text for o in Select(driver.find_element(By.ID, "place-job")).options]
     if jobs != [JOB]:
         run.fail("the jobs offered are %s, not [%s]" % (jobs, JOB))
@@ -110,7 +126,6 @@ try:
     driver.save_screenshot(os.path.join(shots, "web-place.png"))
 
     # Compensated through the correction in force, then offered for download.
-    driver.find_element(By.ID, "password").send_keys(PASSWORD)
     driver.find_element(By.ID, "btn-place").click()
     link = run.wait_for("the compensated job's download link", lambda: driver.execute_script(
         "const a = document.getElementById('place-download-link'); return a ? a.href : null;"), 60, box)
@@ -121,6 +136,11 @@ try:
 finally:
     driver.quit()
 
+# A height the console would refuse is refused through the page too, naming the figure.
+status, _, refused = request(url + "/api/action", "POST", {"action": "bed-photo", "surface_mm": -2},
+                             password=PASSWORD)
+if status != 409 or b"'-2.000' is not a height in millimetres" not in refused:
+    run.fail("a bed photo at -2 mm: %d %s" % (status, refused[:200]))
 status, headers, body = request(link)
 if status != 200 or 'filename="job-pocket-compensated.nc"' not in headers.get("Content-Disposition", ""):
     run.fail("the download: %d %s" % (status, headers.get("Content-Disposition")))

@@ -19,7 +19,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
     Scenario s;
     s.path = path;
     s.machine = models::read_machine_tables(
-        path, root, {"truth", "twin", "camera", "photo", "faults", "setup"});
+        path, root, {"truth", "twin", "camera", "photo", "faults", "setup", "placement"});
     if (s.machine.delta) s.delta_firmware = twin_params(*s.machine.delta);
     s.delta_truth = s.delta_firmware;
     // The machine's hidden truth: its kind reads its own [truth.*] table and refuses another's.
@@ -138,6 +138,32 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.number("bed_albedo", s.bed_albedo, 0, 1);
         r.number("material_albedo", s.material_albedo, 0, 1);
         r.finish();
+    }
+    if (const auto* placement = models::subtable(path, root, "placement")) {
+        if (!s.machine.planar || s.machine.kind != "router")
+            throw ScenarioError(path +
+                                ": [placement] places a router's job on a sheet; this is a " +
+                                s.machine.kind);
+        TomlReader r(path, *placement, "placement");
+        ScenarioPlacement p;
+        r.number("sheet_corner_x_mm", p.sheet.corner_mm.x, -10000, 10000);
+        r.number("sheet_corner_y_mm", p.sheet.corner_mm.y, -10000, 10000);
+        r.number("sheet_width_mm", p.sheet.width_mm, 10, 10000);
+        r.number("sheet_depth_mm", p.sheet.depth_mm, 10, 10000);
+        r.number("sheet_angle_deg", p.sheet.angle_deg, -45, 45);
+        r.number("sheet_albedo", p.sheet.sheet_albedo, 0, 1);
+        r.number("bed_albedo", p.sheet.bed_albedo, 0, 1);
+        r.number("thickness_mm", p.thickness_mm, 0, 200);
+        r.text("corner", p.corner,
+               {"nearest", "front-left", "front-right", "back-right", "back-left"});
+        r.number("goal_mm", p.goal_mm, 0.001, 10);
+        std::optional<std::string> job;
+        r.text("job", job);
+        r.finish();
+        if (!job || job->empty())
+            throw ScenarioError(path + ": [placement] job: the drilling job placed on the sheet");
+        p.job_path = *job;
+        s.placement = p;
     }
     if (const auto* faults = models::subtable(path, root, "faults")) {
         TomlReader r(path, *faults, "faults");

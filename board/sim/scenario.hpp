@@ -63,6 +63,18 @@ struct ScenarioSetup {
     std::string reference_dictionary = "DICT_APRILTAG_36h11";
 };
 
+// [placement]: after the cycle, a sheet of stock laid on the spoilboard where the box does not
+// know it (the twin's truth, in the bed's frame: the work frame the router's errors are in); the
+// box photographs it, finds its corner and places a drilling job there (`calbox run --auto`
+// judges where the holes land on the sheet against goal_mm).
+struct ScenarioPlacement {
+    StockSheet sheet;
+    double thickness_mm = 1.5;
+    std::string job_path;  // the drilling job, its path as given (relative to the scenario's)
+    std::string corner = "nearest";
+    double goal_mm = 0.1;
+};
+
 struct Scenario {
     std::string path;
     models::MachineFile machine;      // the machine-file keys: [machine] and [delta]
@@ -105,6 +117,7 @@ struct Scenario {
     double nominal_exposure_us = 10000;
     ScenarioFaults faults;
     ScenarioSetup setup;
+    std::optional<ScenarioPlacement> placement;
 };
 
 // The scenario's photo settings with the box's lamp mirrored by the board (a board in view) or

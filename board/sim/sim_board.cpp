@@ -339,6 +339,20 @@ GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& 
     });
 }
 
+GrayImage TwinBench::photograph_sheet(const StockSheet& sheet, double thickness_mm) const {
+    Pose bed_to_camera_now;
+    {
+        const std::lock_guard lock(mutex_);
+        bed_to_camera_now = bed_to_camera();
+    }
+    // The scene's plane is the sheet's top.
+    Pose lifted;
+    lifted.translation_mm = {0, 0, thickness_mm};
+    const PhotoSettings photo = photo_settings_of(scenario_, InView::bed);
+    return render_photo(scenario_.camera->intrinsics, compose(bed_to_camera_now, lifted),
+                        SheetScene(sheet, photo.supersample), photo);
+}
+
 void TwinBench::hold_calibration_board(int view) {
     if (view < 0 || view >= kCalibrationViews)
         throw std::out_of_range("calibration view " + std::to_string(view));

@@ -66,6 +66,9 @@ class TwinBench {
     // for scales the light (a white surface gives the scenario's exposure_dn at its exposure_us
     // and gain 1); unset, the scenario's.
     GrayImage photograph(std::uint64_t frame, const hal::CaptureRequest& asked = {}) const;
+    // The camera's photo of a sheet of stock `thickness_mm` thick lying on the bed (nothing else
+    // on it), at the scenario's light: the scenario's [placement].
+    GrayImage photograph_sheet(const StockSheet& sheet, double thickness_mm) const;
 
     // The operator's hands.
     // The boards are the scenario's [setup] ones.

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "board/sim/twin_judge.hpp"
+#include "firmware/app/auto_placement.hpp"
 #include "firmware/app/box.hpp"
 #include "firmware/app/box_config.hpp"
 #include "firmware/app/box_parts.hpp"
@@ -113,6 +114,11 @@ int judged_run_end(Box& box, sim::TwinJudge& judge, const sim::TwinVerdict& befo
     if (const auto shortfall = goal.shortfall(before.figures, after.figures); !shortfall.empty())
         throw std::runtime_error("the " + goal.mode + " goal is not met: " + shortfall + " (goal " +
                                  goal.describe() + ")");
+    if (box.board.sim->bench->scenario().placement) {
+        const auto kept = cycle.mode().kept_result_text();
+        if (!kept) throw std::runtime_error("placement: the box keeps no correction");
+        firmware::judge_placement(*box.board.sim->bench, *box.data, *kept);
+    }
     return 0;
 }
 

@@ -129,13 +129,31 @@ grep -q "sheet.png: marker 3 (DICT_4X4_50, drawing X0.00 Y0.00) is not in the ph
 echo "planar cycle complete"
 
 # The appliance: one cycle on the router, the box keeping the error model; revert puts back
-# what was in force before (none).
+# what was in force before (none). Then (the scenario's [placement], examples/router_stock.toml's)
+# a sheet laid on the spoilboard where the box does not know it: photographed, its corner found,
+# examples/router_stock.gcode drilled there, each hole judged against where the job meant it on
+# the sheet.
 data="$work/box"
-"$calbox" run --board sim --scenario "$top/tests/scenarios/planar_small.toml" --data "$data" --auto \
-    > "$work/run.out" 2> "$work/run.err" < /dev/null
+"$calbox" run --board sim --scenario "$top/tests/scenarios/router_stock_small.toml" --data "$data" --auto \
+    > "$work/run.out" 2> "$work/run.err" < /dev/null || { cat "$work/run.out"; tail -5 "$work/run.err"; exit 1; }
 cat "$work/run.out"
 grep -q "^before: .* mm mean" "$work/run.out"
 grep -q "^after: through the error model " "$work/run.out"
+grep -q "^placement: frame: job placed with the camera: placement-stock.json's front-left corner at machine X" "$work/run.out"
+/usr/bin/python3 -c "
+import re, sys
+m = re.search(r'placement: the sheet.s front-left corner, turned ([0-9.-]+) deg in the machine.s axes \(3.200 on the bed.s\); 5 holes ([0-9.]+) mm mean, ([0-9.]+) mm worst', open('$work/run.out').read())
+sys.exit(0 if m and float(m.group(2)) < 0.05 and float(m.group(3)) < 0.1 else 'placement: %s' % (m.groups() if m else None))"
+[ -s "$data/placement-stock.json" ] && [ -s "$data/placement-job-compensated.nc" ]
+# A goal the placement cannot meet is a failed run, saying by how much.
+sed 's/^goal_mm = 0.1$/goal_mm = 0.001/' "$top/tests/scenarios/router_stock_small.toml" \
+    | sed "s|^job = .*|job = \"$top/examples/router_stock.gcode\"|" > "$work/stock_miss.toml"
+if "$calbox" run --board sim --scenario "$work/stock_miss.toml" --data "$work/miss" --auto \
+    > "$work/miss.out" 2> "$work/miss.err" < /dev/null; then
+    echo "a placement past its goal exited 0"; exit 1
+fi
+grep -q "the placement goal is not met: a hole 0.0[0-9]* mm from where the job meant it on the sheet (goal 0.001 mm)" "$work/miss.err" \
+    || { tail -3 "$work/miss.err"; exit 1; }
 grep -q "verified on the grid drilled through the model" "$work/run.err"
 for f in planar-result.json cycle-0001-result.json cycle-0001-measurements.json cycle-0001-firmware.txt \
          cycle-0001-backup-result.json cycle-0001-verify-measurements.json cycle-0001-bed-view.png \

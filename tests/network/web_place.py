@@ -133,6 +133,10 @@ try:
     if not reply.startswith("compensate: job-pocket-compensated.nc: ") or "moves corrected" not in reply:
         run.fail("the page's reply: %r" % reply)
     driver.save_screenshot(os.path.join(shots, "web-place-compensated.png"))
+except BaseException:
+    # A browser's exception leaves no box behind.
+    run.stop_all()
+    raise
 finally:
     driver.quit()
 

@@ -157,6 +157,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.text("corner", p.corner,
                {"nearest", "front-left", "front-right", "back-right", "back-left"});
         r.number("goal_mm", p.goal_mm, 0.001, 10);
+        r.boolean("on_bed_at_start", p.on_bed_at_start);
         std::optional<std::string> job;
         r.text("job", job);
         r.finish();

@@ -73,6 +73,9 @@ struct ScenarioPlacement {
     std::string job_path;  // the drilling job, its path as given (relative to the scenario's)
     std::string corner = "nearest";
     double goal_mm = 0.1;
+    // The sheet already lies on the bed when the box starts (a box started to place a job, with
+    // its correction kept from an earlier run): the camera sees it until a board is held.
+    bool on_bed_at_start = false;
 };
 
 struct Scenario {

@@ -320,6 +320,8 @@ GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& 
                                 with_marks(scene, to_bed, setup.plane_board_at_mm), photo);
         });
     }
+    if (const auto& placing = scenario_.placement; placing && placing->on_bed_at_start)
+        return photograph_sheet(placing->sheet, placing->thickness_mm, photo);
     Pose bed_to_camera_now;
     {
         const std::lock_guard lock(mutex_);
@@ -339,7 +341,8 @@ GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& 
     });
 }
 
-GrayImage TwinBench::photograph_sheet(const StockSheet& sheet, double thickness_mm) const {
+GrayImage TwinBench::photograph_sheet(const StockSheet& sheet, double thickness_mm,
+                                      const PhotoSettings& photo) const {
     Pose bed_to_camera_now;
     {
         const std::lock_guard lock(mutex_);
@@ -348,7 +351,6 @@ GrayImage TwinBench::photograph_sheet(const StockSheet& sheet, double thickness_
     // The scene's plane is the sheet's top.
     Pose lifted;
     lifted.translation_mm = {0, 0, thickness_mm};
-    const PhotoSettings photo = photo_settings_of(scenario_, InView::bed);
     return render_photo(scenario_.camera->intrinsics, compose(bed_to_camera_now, lifted),
                         SheetScene(sheet, photo.supersample), photo);
 }

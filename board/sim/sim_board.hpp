@@ -68,7 +68,11 @@ class TwinBench {
     GrayImage photograph(std::uint64_t frame, const hal::CaptureRequest& asked = {}) const;
     // The camera's photo of a sheet of stock `thickness_mm` thick lying on the bed (nothing else
     // on it), at the scenario's light: the scenario's [placement].
-    GrayImage photograph_sheet(const StockSheet& sheet, double thickness_mm) const;
+    GrayImage photograph_sheet(const StockSheet& sheet, double thickness_mm) const {
+        return photograph_sheet(sheet, thickness_mm, photo_settings_of(scenario_, InView::bed));
+    }
+    GrayImage photograph_sheet(const StockSheet& sheet, double thickness_mm,
+                               const PhotoSettings& photo) const;
 
     // The operator's hands.
     // The boards are the scenario's [setup] ones.

@@ -6,7 +6,9 @@
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/stock.hpp"
 #include "core/number_text.hpp"
+#include "firmware/console/job_desk.hpp"
 #include "firmware/cycle/photos.hpp"
 #include "firmware/modes/planar_mode.hpp"
 
@@ -73,11 +75,23 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
         std::make_shared<BedPhoto>(bed_photo_of(view_of(frame), order->camera, order->plane));
     auto files = std::make_shared<std::optional<std::pair<std::string, std::string>>>();
     auto refused = std::make_shared<std::string>();
+    auto sheet = std::make_shared<std::optional<modes::StockOutline>>();
+    auto no_sheet = std::make_shared<std::string>();
     worker_.start(
-        [order, photo, files, refused] {
-            *files = bed_view_files(*photo, order->solution, order->surface_height_mm, *refused);
+        [order, photo, files, refused, sheet, no_sheet] {
+            // A sheet on the bed is found as `calbox view stock` finds it; a bed without one (or
+            // one the camera cannot tell) is a photo still.
+            try {
+                *sheet =
+                    modes::find_stock(order->camera, order->plane, photo->photo.view(),
+                                      order->solution, order->surface_height_mm, "the bed photo");
+            } catch (const modes::StockError& e) {
+                *no_sheet = e.what();
+            }
+            *files = bed_view_files(*photo, order->solution, order->surface_height_mm, *refused,
+                                    *sheet ? &**sheet : nullptr);
         },
-        [this, order, files, refused](const std::exception_ptr& error) {
+        [this, order, files, refused, sheet, no_sheet](const std::exception_ptr& error) {
             try {
                 if (error) std::rethrow_exception(error);
                 if (!*files) {
@@ -87,13 +101,33 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
                 // The world file first: a page that reads the new picture finds its place.
                 data_.replace_file(kBedViewWorld, (*files)->second);
                 data_.replace_file(kBedViewPng, (*files)->first);
+                // The sheet of this photo or none: one from an earlier photo may be gone from the
+                // bed, and a job placed by it would be cut where nothing lies.
+                if (*sheet)
+                    data_.replace_file(
+                        kFoundStockFile,
+                        modes::stock_to_json(**sheet, order->solution.machine_fingerprint));
+                else
+                    data_.remove_file(kFoundStockFile);
             } catch (const std::exception& e) {
                 notice_(std::string("bed photo: ") + e.what() + "; nothing written");
                 return;
             }
-            notice_(std::string("bed photo: ") + kBedViewPng + " and " + kBedViewWorld +
-                    ": the bed now, the surface " + number_text("%.2f", order->surface_height_mm) +
-                    " mm above it");
+            std::string line = std::string("bed photo: ") + kBedViewPng + " and " + kBedViewWorld +
+                               ": the bed now, the surface " +
+                               number_text("%.2f", order->surface_height_mm) + " mm above it; ";
+            if (*sheet) {
+                const auto& front_left = (*sheet)->corners[0];
+                line += std::string("the sheet found (") + kFoundStockFile +
+                        "): its front-left corner at machine X" +
+                        number_text("%.3f", front_left.machine_mm.x) + " Y" +
+                        number_text("%.3f", front_left.machine_mm.y) + " mm (+/-" +
+                        number_text("%.3f", front_left.sigma_mm) + "), turned " +
+                        number_text("%.3f", (*sheet)->rotation_deg) + " deg";
+            } else {
+                line += "no sheet told: " + *no_sheet;
+            }
+            notice_(line);
         });
 }
 

@@ -30,6 +30,12 @@ std::optional<std::string> work_zeros_reported(const std::vector<std::string>& r
 
 }  // namespace
 
+std::optional<std::string> camera_corner_of(const std::string& work_zero) {
+    if (work_zero != "camera" && work_zero.rfind("camera ", 0) != 0) return std::nullopt;
+    const auto corner = work_zero.find_first_not_of(' ', 6);
+    return corner == std::string::npos ? std::string("nearest") : work_zero.substr(corner);
+}
+
 std::string compensated_job_name(const std::string& job_name) {
     if (job_name.rfind("job-", 0) != 0 || job_name.size() > 100 ||
         job_name.find_first_not_of(
@@ -81,6 +87,12 @@ std::string JobDesk::start(DeskOrder order) {
                machine.firmware +
                " does not report it over the link): give X,Y (its machine coordinates) or "
                "measured (the frame the correction was measured in)";
+    if (order.work_zero && camera_corner_of(*order.work_zero)) {
+        order.stock_text = data_.read_file(kFoundStockFile);
+        if (!order.stock_text)
+            return "compensate: no sheet found on the bed: take a bed photo with the sheet in view "
+                   "(bed photo), or give the work zero as X,Y";
+    }
     busy_ = true;
     if (order.work_zero == "controller") {
         if (cycle_.machine().firmware != "grbl") {
@@ -122,6 +134,12 @@ void JobDesk::compensate(const DeskOrder& order, std::string result_text, std::s
     request->job_text = std::move(job_text);
     request->job_name = order.job_name;
     request->work_zero = order.work_zero;
+    if (const auto corner = order.work_zero ? camera_corner_of(*order.work_zero) : std::nullopt) {
+        request->work_zero = "camera";
+        request->stock_text = order.stock_text;
+        request->stock_name = kFoundStockFile;
+        request->stock_corner = *corner;
+    }
     request->work_zero_from = order.work_zero_from;
     request->again_because = order.again_because;
     request->date = today_();
@@ -146,13 +164,13 @@ void JobDesk::compensate(const DeskOrder& order, std::string result_text, std::s
 ConsoleCommand JobDesk::command() {
     return {"compensate", "compensate JOB [WORK_ZERO] [again REASON]",
             "a job in the data directory (job-NAME.EXT) through the correction in force, placed "
-            "at its work zero (X,Y, measured, controller, G54=X,Y ...); written as "
-            "job-NAME-compensated.EXT",
+            "at its work zero (X,Y, measured, controller, G54=X,Y ..., or camera [CORNER]: the "
+            "sheet the last bed photo found); written as job-NAME-compensated.EXT",
             [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
                 if (words.size() < 2)
                     throw ConsoleRefused(
                         "usage: compensate JOB [WORK_ZERO] [again REASON] (WORK_ZERO: X,Y, "
-                        "measured, controller or G54=X,Y G55=X,Y ...)");
+                        "measured, controller, G54=X,Y G55=X,Y ... or camera [CORNER])");
                 DeskOrder order;
                 order.job_name = words[1];
                 std::string zero, because;

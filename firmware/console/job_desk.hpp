@@ -22,8 +22,12 @@ class Cycle;
 
 struct DeskOrder {
     std::string job_name;  // job-NAME.EXT in the data directory
+    // "X,Y", "measured", "controller", "G54=X,Y ...", or "camera [CORNER]": the sheet the last
+    // bed photo found (stock.json, firmware/console/bed_photo_desk), its corner nearest the
+    // machine's zero or the one named.
     std::optional<std::string> work_zero;
-    std::string work_zero_from;  // "" for one the owner gave
+    std::optional<std::string> stock_text;  // with "camera": stock.json's text
+    std::string work_zero_from;             // "" for one the owner gave
     std::optional<std::string> again_because;
 };
 
@@ -51,6 +55,13 @@ class JobDesk {
     Worker worker_;
     bool busy_ = false;
 };
+
+// The sheet the last bed photo found, kept in the data directory.
+constexpr const char* kFoundStockFile = "stock.json";
+
+// For a work zero "camera [CORNER]": the corner's name ("nearest" when none is named); nothing
+// for another work zero.
+std::optional<std::string> camera_corner_of(const std::string& work_zero);
 
 // `job-NAME.EXT` -> `job-NAME-compensated.EXT`; "" when the name is not a job's.
 std::string compensated_job_name(const std::string& job_name);

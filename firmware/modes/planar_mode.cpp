@@ -214,7 +214,7 @@ BedPhoto bed_photo_of(const vision::GrayView& view, const geometry::CameraModel&
 
 std::optional<std::pair<std::string, std::string>> bed_view_files(
     const BedPhoto& bed, const modes::PlanarSolution& solution, double surface_height_mm,
-    std::string& refused) {
+    std::string& refused, const modes::StockOutline* stock) {
     // The whole travel about 800 pixels across: enough to see the sheet and the frame, a
     // fraction of the photo's pixels to write.
     modes::BedViewRequest request;
@@ -230,7 +230,8 @@ std::optional<std::pair<std::string, std::string>> bed_view_files(
     try {
         const auto view = modes::render_bed_view(bed.camera, bed.plane, bed.photo.view(), solution,
                                                  request, "the cycle's result");
-        const auto colour = modes::bed_view_with_overlay(view, solution);
+        const auto colour = stock ? modes::bed_view_with_stock(view, solution, *stock)
+                                  : modes::bed_view_with_overlay(view, solution);
         const auto png = vision::png_bytes({colour.data(), view.pixels.width_px,
                                             view.pixels.height_px, view.pixels.width_px * 3, 3});
         return std::pair{std::string(png.begin(), png.end()), modes::world_file_text(view)};

@@ -11,6 +11,7 @@
 
 #include "core/models/klipper_config.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/stock.hpp"
 #include "core/vision/image_codec.hpp"
 #include "core/vision/image_view.hpp"
 #include "firmware/modes/kept_correction.hpp"
@@ -34,9 +35,10 @@ BedPhoto bed_photo_of(const vision::GrayView& view, const geometry::CameraModel&
 // The bed in the machine's coordinates as a picture for the eye (the records' bed-view.png and
 // the console's `bed photo`): the machine's travel about 800 pixels across, the surface
 // `surface_height_mm` above the bed; its PNG and world file, or nothing with why in `refused`.
+// With `stock`, the sheet's outline is drawn on it too.
 std::optional<std::pair<std::string, std::string>> bed_view_files(
     const BedPhoto& bed, const modes::PlanarSolution& solution, double surface_height_mm,
-    std::string& refused);
+    std::string& refused, const modes::StockOutline* stock = nullptr);
 
 class PlanarCycleMode final : public KeptCorrectionMode {
   public:

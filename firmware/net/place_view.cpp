@@ -4,17 +4,29 @@
 #include <nlohmann/json.hpp>
 
 #include "core/modes/compensate_job.hpp"
+#include "firmware/console/job_desk.hpp"
 
 namespace calbox::firmware {
 
 nlohmann::json job_outline_json(const std::string& kept_result_text, const std::string& job_text,
-                                const std::string& job_name, const std::string& work_zero) {
+                                const std::string& job_name, const std::string& work_zero,
+                                const std::optional<std::string>& stock_text) {
     modes::JobRequest request;
     request.result_text = kept_result_text;
     request.result_name = "the correction in force";
     request.job_text = job_text;
     request.job_name = job_name;
     if (!work_zero.empty()) request.work_zero = work_zero;
+    if (const auto corner = camera_corner_of(work_zero)) {
+        if (!stock_text)
+            throw modes::JobError(
+                "no sheet found on the bed: take a bed photo with the sheet in view, or click "
+                "where the job's zero goes");
+        request.work_zero = "camera";
+        request.stock_text = stock_text;
+        request.stock_name = kFoundStockFile;
+        request.stock_corner = *corner;
+    }
     request.keep_path = true;
     // A drawing needs the job's own points, not the pieces a changing correction is followed by.
     request.settings.max_segment_mm = 1e9;

@@ -4,6 +4,7 @@
 // (core/modes/compensate_job: the same placement, the same refusals, as the job compensated).
 #include <cstddef>
 #include <nlohmann/json_fwd.hpp>
+#include <optional>
 #include <string>
 
 namespace calbox::firmware {
@@ -15,7 +16,9 @@ constexpr std::size_t kOutlinePointsMax = 20000;
 // the job's path in machine coordinates, thinned to kOutlinePointsMax for the drawing (the
 // count before thinning said). Throws modes::JobError with the job's, the zero's or the
 // result's one line.
+// A work zero "camera [CORNER]" places it at `stock_text`'s sheet (the last bed photo's).
 nlohmann::json job_outline_json(const std::string& kept_result_text, const std::string& job_text,
-                                const std::string& job_name, const std::string& work_zero);
+                                const std::string& job_name, const std::string& work_zero,
+                                const std::optional<std::string>& stock_text);
 
 }  // namespace calbox::firmware

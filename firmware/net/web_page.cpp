@@ -83,9 +83,9 @@ constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
 <section id="view-place" class="view" hidden>
   <div class="card wide">
     <h2>Place a job on the bed</h2>
-    <p class="muted">The bed as the box's camera sees it, in the machine's coordinates (as a job compensated through the correction in force means them). Choose a job from the data directory and click where its work zero (G54's origin) goes: the job is drawn where the tool will go, before anything runs. Compensate writes it through the correction, ready to download; the controller's own zero is yours to set there.</p>
+    <p class="muted">The bed as the box's camera sees it, in the machine's coordinates (as a job compensated through the correction in force means them). Choose a job from the data directory and click where its work zero (G54's origin) goes, or, when the bed photo found a sheet, give camera (its corner nearest the machine's zero; camera front-right names another): the job is drawn where the tool will go, before anything runs. Compensate writes it through the correction, ready to download; the controller's own zero is yours to set there.</p>
     <p><label>Job <select id="place-job"></select></label>
-      <label>Work zero <input id="place-zero" placeholder="click the bed, or X,Y"></label>
+      <label>Work zero <input id="place-zero" placeholder="click the bed, X,Y or camera"></label>
       <button id="btn-place">Compensate</button> <span id="place-reply" class="muted"></span></p>
     <p><button id="btn-bed-photo">Photograph the bed</button>
       <label>its surface (the stock's top) <input id="bed-surface" size="6" placeholder="machine file's"> mm above the bed</label>
@@ -309,6 +309,8 @@ async function bedPhoto() {
   if (line === null) return;
   $('bed-reply').textContent = line;
   $('bed-reply').className = line.includes('nothing written') ? 'error' : 'muted';
+  // A sheet found: the job goes to its corner unless the owner points elsewhere.
+  if (line.includes('the sheet found')) $('place-zero').value = 'camera';
   loadPlace();
 }
 async function placeCompensate() {

@@ -56,7 +56,8 @@ std::string query_value(const std::string& query, const std::string& name) {
 // configuration (it holds the password's hash), nor anything else the data directory gathers.
 bool is_record_name(const std::string& name, const std::vector<std::string>& kept_files) {
     static const char* const setup[] = {"camera.yaml",  "plane.yaml",   "reference.yaml",
-                                        "history.json", "bed-view.png", "bed-view.pgw"};
+                                        "history.json", "bed-view.png", "bed-view.pgw",
+                                        kFoundStockFile};
     if (name.empty() || name.size() > 128 || name.front() == '.') return false;
     if (name.find_first_not_of(
             "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789._-") !=
@@ -305,7 +306,8 @@ ServerResponse WebWindow::place(const std::string& query) {
     if (!text) return error_answer(404, "place: no " + job + " in the data directory");
     // Worked out on the server's thread: a long job does not hold up the loop.
     try {
-        return json_answer(job_outline_json(*kept, *text, job, zero));
+        return json_answer(
+            job_outline_json(*kept, *text, job, zero, c_.records.read_file(kFoundStockFile)));
     } catch (const modes::JobError& e) {
         return error_answer(409, e.what());
     }

@@ -6,6 +6,8 @@ and offered for download. Judged by the bed view's world file (read here, not by
 where the drawn job's corners lie on it, and by the command line's own compensation of the same
 job at the same zero.
 Usage: web_place.py CALBOX SOURCE_DIR SCREENSHOT_DIR"""
+import json
+import math
 import os
 import subprocess
 import sys
@@ -18,13 +20,13 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import PASSWORD, Run, password_hash, request  # noqa: E402
+from common import PASSWORD, Run, get_json, password_hash, request  # noqa: E402
 
 calbox, top, shots = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(shots, exist_ok=True)
 work = tempfile.mkdtemp(prefix="calbox-place-")
 run = Run(work)
-scenario = "tests/scenarios/planar_small.toml"
+scenario = "tests/scenarios/router_stock_small.toml"
 data = os.path.join(work, "data")
 
 # A router calibrated by the box: the correction in force and the cycle's bed view.
@@ -40,8 +42,14 @@ with open(os.path.join(data, JOB), "w") as f:
     f.write("G21 G90 G54\nG0 Z5\nG0 X0 Y0\nM3 S12000\nG1 Z-1 F300\nG1 X40 Y0 F600\nG1 X40 Y30\n"
             "G1 X0 Y30\nG1 X0 Y0\nG0 Z5\nM5\nM2\n")
 
+# The box started again to place a job, the scenario's sheet already lying on the bed.
+placing = os.path.join(work, "placing.toml")
+with open(placing, "w") as f:
+    f.write(open(os.path.join(top, scenario)).read()
+            .replace('job = "../../examples/', 'job = "%s/examples/' % top)
+            .replace("[placement]\n", "[placement]\non_bed_at_start = true\n"))
 box, url = run.box(calbox, top, data, [], '[web]\npassword = "%s"\n' % password_hash(PASSWORD),
-                   scenario=scenario)
+                   scenario=placing)
 
 options = webdriver.ChromeOptions()
 options.binary_location = "/usr/bin/chromium"
@@ -74,7 +82,8 @@ try:
     run.wait_for("the fresh bed view on the page", lambda: driver.find_element(
         By.ID, "bed-caption").text.startswith("bed-view.png: "), 60, box)
     said = driver.find_element(By.ID, "bed-reply").text
-    if not said.startswith("bed photo: bed-view.png and bed-view.pgw: the bed now, the surface 1.50 mm"):
+    if not said.startswith("bed photo: bed-view.png and bed-view.pgw: the bed now, the surface 1.50 mm "
+                           "above it; the sheet found (stock.json): its front-left corner at machine X"):
         run.fail("the page's bed photo reply: %r" % said)
     world = open(os.path.join(data, "bed-view.pgw")).read()
     if world != open(os.path.join(data, "cycle-0001-bed-view.pgw")).read():
@@ -85,6 +94,29 @@ try:
         "const i = document.getElementById('bed');"
         "return i.complete && i.naturalWidth > 0 && bed && bed.name === 'bed-view.png' ?"
         " [i.naturalWidth, i.naturalHeight] : null;"), 20, box)
+    # The sheet found: the job goes to its corner nearest the machine's zero (grbl's back right),
+    # turned with the sheet, drawn there before anything runs.
+    if driver.find_element(By.ID, "place-zero").get_attribute("value") != "camera":
+        run.fail("the work zero after a sheet was found is %r, not camera"
+                 % driver.find_element(By.ID, "place-zero").get_attribute("value"))
+    sheet = json.load(open(os.path.join(data, "stock.json")))
+    nearest = min(sheet["corners"], key=lambda c: math.hypot(*c["machine_mm"]))
+    turn = math.radians(sheet["rotation_deg"])
+    points = run.wait_for("the job drawn at the sheet's corner", lambda: driver.execute_script(
+        "const p = document.getElementById('bed-job-path');"
+        "return p ? p.getAttribute('points') : null;"), 20, box)
+    drawn = [tuple(float(v) for v in p.split(",")) for p in points.split()]
+    zx, zy = nearest["machine_mm"]
+    for corner in CORNERS:
+        x, y = pixel_of(zx + corner[0] * math.cos(turn) - corner[1] * math.sin(turn),
+                        zy + corner[0] * math.sin(turn) + corner[1] * math.cos(turn))
+        if not any(abs(px - x) < 0.01 and abs(py - y) < 0.01 for px, py in drawn):
+            run.fail("the pocket's corner %s at the sheet's %s corner is not drawn at view pixel "
+                     "(%.2f, %.2f): %s" % (corner, nearest["name"], x, y, drawn))
+    frame = driver.find_element(By.ID, "place-frame").text
+    if "the camera: stock.json's %s corner at machine X%.3f Y%.3f mm" % (nearest["name"], zx, zy) not in frame:
+        run.fail("the frame line does not name the sheet's %s corner: %r" % (nearest["name"], frame))
+    driver.save_screenshot(os.path.join(shots, "web-place-sheet.png"))
     jobs = [o.text for o in Select(driver.find_element(By.ID, "place-job")).options]
     if jobs != [JOB]:
         run.fail("the jobs offered are %s, not [%s]" % (jobs, JOB))
@@ -101,8 +133,8 @@ try:
     ActionChains(driver).move_to_element_with_offset(img, dx, dy).click().perform()
     # Where that CSS pixel is on the bed (the world file's mapping, worked here).
     clicked = (c + a * ((rect[2] / 2 + dx) / scale - 0.5), f + e * ((rect[3] / 2 + dy) / scale - 0.5))
-    zero_text = run.wait_for("the work zero from the click", lambda: driver.find_element(
-        By.ID, "place-zero").get_attribute("value"), 10, box)
+    zero_text = run.wait_for("the work zero from the click", lambda: (lambda v: v if v != "camera" else None)(
+        driver.find_element(By.ID, "place-zero").get_attribute("value")), 10, box)
     zero = tuple(float(v) for v in zero_text.split(","))
     # Selenium may click the CSS pixel's centre or its corner: half a CSS pixel on the bed.
     slack = abs(a) / scale
@@ -110,16 +142,16 @@ try:
             max(abs(zero[0] - want[0]), abs(zero[1] - want[1])) > 2 * slack:
         run.fail("the click at %s (aimed at %s) gave the work zero %s" % (clicked, want, zero_text))
 
-    # The job drawn before anything runs: its corners where zero + corner lies on the view.
-    points = run.wait_for("the job drawn over the bed", lambda: driver.execute_script(
-        "const p = document.getElementById('bed-job-path');"
-        "return p ? p.getAttribute('points') : null;"), 20, box)
-    drawn = [tuple(float(v) for v in p.split(",")) for p in points.split()]
-    for corner in CORNERS:
-        x, y = pixel_of(zero[0] + corner[0], zero[1] + corner[1])
-        if not any(abs(px - x) < 0.01 and abs(py - y) < 0.01 for px, py in drawn):
-            run.fail("the pocket's corner %s is not drawn at view pixel (%.2f, %.2f): %s"
-                     % (corner, x, y, drawn))
+    # The job drawn before anything runs: its corners where zero + corner lies on the view (the
+    # drawing the sheet's corner gave is replaced when the page has the clicked zero's).
+    def drawn_at_zero():
+        points = driver.execute_script("const p = document.getElementById('bed-job-path');"
+                                       "return p ? p.getAttribute('points') : null;")
+        drawn = [tuple(float(v) for v in p.split(",")) for p in (points or "").split()]
+        return all(any(abs(px - x) < 0.01 and abs(py - y) < 0.01 for px, py in drawn)
+                   for x, y in (pixel_of(zero[0] + cx, zero[1] + cy) for cx, cy in CORNERS))
+    run.wait_for("the pocket's corners drawn at view pixels of the clicked zero + corner",
+                 drawn_at_zero, 20, box)
     frame = driver.find_element(By.ID, "place-frame").text
     if "G54 zero at machine X%.3f Y%.3f mm" % zero not in frame:
         run.fail("the page's frame line does not give the clicked zero %s: %r" % (zero_text, frame))
@@ -158,6 +190,23 @@ cli_lines = open(reference).read().splitlines()
 if page_lines[1:] != cli_lines[1:] or len(page_lines) < 12:
     run.fail("the page's job differs from the command line's at the same zero:\n%s\n---\n%s"
              % ("\n".join(page_lines[:8]), "\n".join(cli_lines[:8])))
+# The desk places by the sheet too (the console's `compensate JOB camera CORNER`, sent here as
+# the page sends it): the same job as the command line's at that corner of stock.json.
+status, _, answer = request(url + "/api/action", "POST", {"action": "compensate", "job": JOB,
+                                                           "work_zero": "camera front-left"},
+                            password=PASSWORD)
+if status != 200:
+    run.fail("compensate at the sheet's front-left corner: %d %s" % (status, answer[:200]))
+run.wait_for("the desk's line for the sheet's corner", lambda: any(
+    "stock.json's front-left corner" in line and line.startswith("compensate: job-pocket-compensated.nc: ")
+    for line in get_json(url + "/api/status")["log"]), 30, box)
+_, _, body = request(url + "/records/job-pocket-compensated.nc")
+subprocess.run([calbox, "compensate", "--result", os.path.join(data, "planar-result.json"),
+                os.path.join(data, JOB), "--work-zero", "camera", "--stock", os.path.join(data, "stock.json"),
+                "--corner", "front-left", "-o", reference],
+               check=True, capture_output=True, stdin=subprocess.DEVNULL)
+if body.decode().splitlines()[1:] != open(reference).read().splitlines()[1:]:
+    run.fail("the desk's job at the sheet's corner differs from the command line's")
 run.stop_all()
 print("the Place screen: bed view %dx%d at %.2f mm a pixel, zero clicked at %s, job drawn and "
       "compensated (%s)" % (size[0], size[1], a, zero_text, reply.split(": ", 2)[2][:80]))

@@ -108,7 +108,10 @@ void RouterTwin::home() {
     moving_positive_ = {true, true};
 }
 
-Vec3 RouterTwin::actual_position_mm(const Vec3& commanded) const {
+Vec3 RouterTwin::actual_position_mm(const Vec3& commanded_in_g54) const {
+    // A point in G54 as it is now, in the work frame of the truth's touch-off.
+    const Vec3 commanded{commanded_in_g54.x + g54_x_mm_ - truth_.g54_x_mm,
+                         commanded_in_g54.y + g54_y_mm_ - truth_.g54_y_mm, commanded_in_g54.z};
     if (commanded.x < -1 || commanded.y < -1 || commanded.x > truth_.travel_x_mm + 1 ||
         commanded.y > truth_.travel_y_mm + 1)
         throw OutOfReach("the router cannot reach X" + std::to_string(commanded.x) + " Y" +
@@ -121,13 +124,19 @@ Vec3 RouterTwin::actual_position_mm(const Vec3& commanded) const {
 
 std::optional<std::vector<std::string>> RouterTwin::settings_command(const gcode::Line& line) {
     if (line.is('G', 17) || line.is('M', 2) || line.is('M', 30)) return std::vector<std::string>{};
+    // grbl's G10 L2 P1: G54's zero set to the machine coordinates given (the axes given).
+    if (line.is('G', 10) && line.value('L') == 2.0 && line.value('P') == 1.0) {
+        if (const auto x = line.value('X')) g54_x_mm_ = *x;
+        if (const auto y = line.value('Y')) g54_y_mm_ = *y;
+        return std::vector<std::string>{};
+    }
     return std::nullopt;
 }
 
 std::optional<std::vector<std::string>> RouterTwin::system_command(std::string_view text) {
     if (text != "$#") return std::nullopt;
     char line[96];
-    std::snprintf(line, sizeof line, "[G54:%.3f,%.3f,0.000]", truth_.g54_x_mm, truth_.g54_y_mm);
+    std::snprintf(line, sizeof line, "[G54:%.3f,%.3f,0.000]", g54_x_mm_, g54_y_mm_);
     std::vector<std::string> report{line};
     for (const char* other : {"G55", "G56", "G57", "G58", "G59", "G28", "G30"})
         report.push_back(std::string("[") + other + ":0.000,0.000,0.000]");

@@ -54,7 +54,7 @@ class RouterTwin final : public MachineTwin {
     Vec3 position_after_homing_mm() const override { return {0, 0, 0}; }
     // Keeps which way each drive last moved: the commanded positions come in the order the
     // machine moves through them.
-    Vec3 actual_position_mm(const Vec3& commanded) const override;
+    Vec3 actual_position_mm(const Vec3& commanded_in_g54) const override;
     std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) override;
     // grbl's `$#`: the work coordinate systems' zeros in machine coordinates.
     std::optional<std::vector<std::string>> system_command(std::string_view text) override;
@@ -62,6 +62,9 @@ class RouterTwin final : public MachineTwin {
 
   private:
     RouterTruth truth_;
+    // G54's zero now, machine coordinates: the operator's touch-off (the truth's) until a G10 L2
+    // P1 moves it; the work frame the errors are in stays where the truth put it.
+    double g54_x_mm_ = truth_.g54_x_mm, g54_y_mm_ = truth_.g54_y_mm;
     bool homed_ = true;  // a router's work zero is set by hand; jobs need not home it
     mutable Vec3 last_commanded_{0, 0, 0};
     mutable std::array<bool, 2> moving_positive_{true, true};

@@ -154,7 +154,8 @@ class BoxConsole final : public BoxPart {
         std::vector<firmware::ConsoleCommand> more = {
             firmware::web_password_row(running.config, running.box.network().passwords(),
                                        running.config_changed),
-            job_desk_.command(), bed_photo_desk_.command(), link_key_.command()};
+            job_desk_.command(), job_desk_.zero_command(), bed_photo_desk_.command(),
+            link_key_.command()};
         if (running.box.board.sim) {
             for (auto& row : sim_board_commands(*running.box.board.sim, running.box.loop))
                 more.push_back(std::move(row));

@@ -1,10 +1,13 @@
 #include "firmware/console/job_desk.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <memory>
 
 #include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/stock.hpp"
 #include "core/number_text.hpp"
 #include "firmware/cycle/cycle.hpp"
 
@@ -195,6 +198,105 @@ ConsoleCommand JobDesk::command() {
                 reply.data = {{"job", order.job_name},
                               {"output", compensated_job_name(order.job_name)}};
             }};
+}
+
+ConsoleCommand JobDesk::zero_command() {
+    return {
+        "work zero", "work zero ZERO [confirm]",
+        "the controller's G54 zero at ZERO: machine X,Y, or camera [CORNER] (the corner of the "
+        "sheet the last bed photo found): shown first, sent (grbl's G10 L2 P1) only with confirm, "
+        "then read back",
+        [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
+            std::vector<std::string> given;
+            for (std::size_t i = 2; i < words.size(); ++i)
+                if (words[i] != "--json") given.push_back(words[i]);
+            const bool confirmed = !given.empty() && given.back() == "confirm";
+            if (confirmed) given.pop_back();
+            std::string spec;
+            for (const auto& w : given) spec += (spec.empty() ? "" : " ") + w;
+            if (spec.empty())
+                throw ConsoleRefused(
+                    "usage: work zero ZERO [confirm] (ZERO: X,Y or camera [CORNER])");
+            const auto& machine = cycle_.machine();
+            if (machine.firmware != "grbl")
+                throw ConsoleRefused(
+                    "work zero: the box sets G54 on grbl (G10 L2 P1, read back by "
+                    "$#); this machine's firmware is " +
+                    machine.firmware + ": set it on the controller");
+            geometry::Point2 zero;
+            std::string from;
+            try {
+                if (const auto corner = camera_corner_of(spec)) {
+                    const auto text = data_.read_file(kFoundStockFile);
+                    if (!text)
+                        throw ConsoleRefused(
+                            "work zero: no sheet found on the bed: take a bed "
+                            "photo with the sheet in view (bed photo)");
+                    const auto found = modes::stock_from_json(*text, kFoundStockFile);
+                    const auto& c = modes::stock_corner(found.stock, *corner);
+                    zero = c.machine_mm;
+                    from = std::string(kFoundStockFile) + "'s " + c.name + " corner";
+                } else {
+                    const auto zeros = modes::parse_work_zero(spec, {});
+                    if (!zeros[0] || std::count_if(zeros.begin(), zeros.end(), [](const auto& z) {
+                                         return z.has_value();
+                                     }) != 1)
+                        throw ConsoleRefused("work zero '" + spec +
+                                             "': give X,Y (G54's zero in machine coordinates) "
+                                             "or camera [CORNER]");
+                    zero = *zeros[0];
+                    from = "X,Y as given";
+                }
+            } catch (const ConsoleRefused&) {
+                throw;
+            } catch (const std::exception& e) {
+                throw ConsoleRefused("work zero: " + std::string(e.what()));
+            }
+            // Bounds first: a zero beyond the travel would send every job off the machine.
+            const bool inside =
+                machine.travel_min_x_mm && machine.travel_max_x_mm && machine.travel_min_y_mm &&
+                machine.travel_max_y_mm && zero.x >= *machine.travel_min_x_mm &&
+                zero.x <= *machine.travel_max_x_mm && zero.y >= *machine.travel_min_y_mm &&
+                zero.y <= *machine.travel_max_y_mm;
+            if (!inside)
+                throw ConsoleRefused("work zero: machine X" + number_text("%.3f", zero.x) + " Y" +
+                                     number_text("%.3f", zero.y) +
+                                     " is beyond the machine file's travel (or it gives none)");
+            const std::string command =
+                "G10 L2 P1 X" + number_text("%.3f", zero.x) + " Y" + number_text("%.3f", zero.y);
+            reply.data = {{"command", command}, {"sent", confirmed}};
+            if (!confirmed) {
+                reply.text = "would send '" + command + "' (G54's zero at " + from +
+                             "): say it again with confirm";
+                return;
+            }
+            if (busy_ || cycle_.state() != CycleState::idle || link_.busy())
+                throw ConsoleRefused(
+                    "work zero: the machine link is busy: try again when the "
+                    "box is idle");
+            busy_ = true;
+            link_.send_commands({command, "$#"}, [this, command, zero](const JobOutcome& outcome) {
+                busy_ = false;
+                if (!outcome.ok) {
+                    notice_("work zero: '" + command + "' failed: " + outcome.error);
+                    return;
+                }
+                const auto read = modes::grbl_work_zero_of(outcome.replies, "G54");
+                const geometry::Point2 reported = read.value_or(geometry::Point2{1e300, 1e300});
+                const auto at = [](geometry::Point2 p) {
+                    return "machine X" + number_text("%.3f", p.x) + " Y" + number_text("%.3f", p.y);
+                };
+                if (std::abs(reported.x - zero.x) > 0.0015 ||
+                    std::abs(reported.y - zero.y) > 0.0015)
+                    notice_("work zero: sent '" + command + "', but the controller reports G54 " +
+                            (read ? "at " + at(reported) : std::string("nowhere ($# gave none)")) +
+                            ": check it before running a job");
+                else
+                    notice_("work zero: the controller's G54 zero at " + at(zero) + " (sent '" +
+                            command + "', read back by $#)");
+            });
+            reply.text = "sending '" + command + "'";
+        }};
 }
 
 }  // namespace calbox::firmware

@@ -44,6 +44,10 @@ class JobDesk {
     bool busy() const { return busy_; }
     // The console's row: `compensate JOB [ZERO ...] [again REASON ...]`.
     ConsoleCommand command();
+    // The console's row `work zero ZERO [confirm]` (X,Y or camera [CORNER]): grbl's G54 set there (G10 L2
+    // P1) only with confirm, when the link is free, then read back ($#); without confirm, what
+    // would be sent.
+    ConsoleCommand zero_command();
 
   private:
     void compensate(const DeskOrder& order, std::string result_text, std::string job_text);

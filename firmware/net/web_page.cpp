@@ -86,7 +86,8 @@ constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
     <p class="muted">The bed as the box's camera sees it, in the machine's coordinates (as a job compensated through the correction in force means them). Choose a job from the data directory and click where its work zero (G54's origin) goes, or, when the bed photo found a sheet, give camera (its corner nearest the machine's zero; camera front-right names another): the job is drawn where the tool will go, before anything runs. Compensate writes it through the correction, ready to download; the controller's own zero is yours to set there.</p>
     <p><label>Job <select id="place-job"></select></label>
       <label>Work zero <input id="place-zero" placeholder="click the bed, X,Y or camera"></label>
-      <button id="btn-place">Compensate</button> <span id="place-reply" class="muted"></span></p>
+      <button id="btn-place">Compensate</button> <button id="btn-zero">Set the controller's zero here</button>
+      <span id="place-reply" class="muted"></span></p>
     <p><button id="btn-bed-photo">Photograph the bed</button>
       <label>its surface (the stock's top) <input id="bed-surface" size="6" placeholder="machine file's"> mm above the bed</label>
       <span id="bed-reply" class="muted"></span></p>
@@ -313,6 +314,19 @@ async function bedPhoto() {
   if (line.includes('the sheet found')) $('place-zero').value = 'camera';
   loadPlace();
 }
+// The controller's G54 moves only after the owner has read what will be sent and said yes.
+async function placeZero() {
+  const zero = $('place-zero').value.trim();
+  const r = await fetch('/api/action', {method: 'POST', headers: auth(),
+                                        body: JSON.stringify({action: 'work-zero', work_zero: zero})});
+  const j = await r.json().catch(() => ({error: r.statusText}));
+  if (!r.ok) { $('place-reply').textContent = r.status + ': ' + j.error; $('place-reply').className = 'error'; return; }
+  if (!window.confirm('Send ' + j.command + ' to the controller? Its G54 zero moves there.')) return;
+  const line = await sendAndHear({action: 'work-zero', work_zero: zero, confirm: true}, 'work zero: ', 'place-reply');
+  if (line === null) return;
+  $('place-reply').textContent = line;
+  $('place-reply').className = line.includes('read back') ? 'muted' : 'error';
+}
 async function placeCompensate() {
   const job = $('place-job').value;
   const out = job.replace(/(\.[A-Za-z]+)$/, '-compensated$1');
@@ -406,6 +420,7 @@ document.addEventListener('DOMContentLoaded', () => {
   $('place-zero').onchange = drawJob;
   $('btn-place').onclick = placeCompensate;
   $('btn-bed-photo').onclick = bedPhoto;
+  $('btn-zero').onclick = placeZero;
   for (const tab of document.querySelectorAll('nav .tab')) {
     tab.onclick = () => {
       for (const t of document.querySelectorAll('nav .tab')) t.classList.toggle('on', t === tab);

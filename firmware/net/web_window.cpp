@@ -366,6 +366,23 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
                 "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}");
         return console_answer("compensate " + job + (zero.empty() ? "" : " " + zero) + " --json");
     }
+    if (path == "/api/action" && body.value("action", std::string()) == "work-zero") {
+        // The console's `work zero`: what would be sent, or with confirm sent.
+        const auto zero = body.find("work_zero");
+        const auto confirm = body.find("confirm");
+        if (body.size() > 3 || zero == body.end() || !zero->is_string() || zero->empty() ||
+            zero->get<std::string>().size() > 60 ||
+            zero->get<std::string>().find_first_not_of(
+                "abcdefghijklmnopqrstuvwxyz0123456789.,- ") != std::string::npos ||
+            zero->get<std::string>().find("--") != std::string::npos ||
+            (confirm != body.end() && !confirm->is_boolean()))
+            return error_answer(400,
+                                "work-zero: {\"action\": \"work-zero\", \"work_zero\": "
+                                "\"X,Y|camera [CORNER]\", \"confirm\": true|false}");
+        const bool confirmed = confirm != body.end() && confirm->get<bool>();
+        return console_answer("work zero " + zero->get<std::string>() +
+                              (confirmed ? " confirm" : "") + " --json");
+    }
     if (path == "/api/action" && body.value("action", std::string()) == "bed-photo") {
         // The console's `bed photo`, its one figure checked there.
         const auto surface = body.find("surface_mm");

@@ -14,6 +14,7 @@ import sys
 import tempfile
 
 from selenium import webdriver
+from selenium.common.exceptions import NoAlertPresentException
 from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
@@ -58,6 +59,13 @@ for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-sh
             "--user-data-dir=" + os.path.join(work, "chromium")):
     options.add_argument(arg)
 driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+
+
+def _alert(browser):
+    try:
+        return browser.switch_to.alert
+    except NoAlertPresentException:
+        return None
 
 
 def pixel_of(x, y):
@@ -165,6 +173,18 @@ try:
     if not reply.startswith("compensate: job-pocket-compensated.nc: ") or "moves corrected" not in reply:
         run.fail("the page's reply: %r" % reply)
     driver.save_screenshot(os.path.join(shots, "web-place-compensated.png"))
+
+    # The controller's G54 set there, after the owner has read what will be sent and said yes;
+    # the twin's grbl reports it back ($#).
+    driver.find_element(By.ID, "btn-zero").click()
+    alert = run.wait_for("the confirmation", lambda: _alert(driver), 10, box)
+    command = "G10 L2 P1 X%.3f Y%.3f" % zero
+    if command not in alert.text:
+        run.fail("the confirmation does not say what will be sent (%s): %r" % (command, alert.text))
+    alert.accept()
+    run.wait_for("the zero read back", lambda: driver.find_element(By.ID, "place-reply").text.startswith(
+        "work zero: the controller's G54 zero at machine X%.3f Y%.3f (sent '%s', read back by $#)"
+        % (zero[0], zero[1], command)), 30, box)
 except BaseException:
     # A browser's exception leaves no box behind.
     run.stop_all()
@@ -172,6 +192,15 @@ except BaseException:
 finally:
     driver.quit()
 
+# A zero beyond the travel is refused before anything is sent; without confirm nothing is sent.
+status, _, refused = request(url + "/api/action", "POST", {"action": "work-zero", "work_zero": "10,10",
+                                                            "confirm": True}, password=PASSWORD)
+if status != 409 or b"work zero: machine X10.000 Y10.000 is beyond the machine file's travel" not in refused:
+    run.fail("a zero beyond the travel: %d %s" % (status, refused[:200]))
+status, _, answer = request(url + "/api/action", "POST", {"action": "work-zero", "work_zero": "camera"},
+                            password=PASSWORD)
+if status != 200 or json.loads(answer)["sent"] is not False:
+    run.fail("work zero without confirm: %d %s" % (status, answer[:200]))
 # A height the console would refuse is refused through the page too, naming the figure.
 status, _, refused = request(url + "/api/action", "POST", {"action": "bed-photo", "surface_mm": -2},
                              password=PASSWORD)

@@ -10,6 +10,7 @@
 #include "core/modes/json_file.hpp"
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
+#include "core/vision/cross_mark.hpp"
 #include "core/vision/markers.hpp"
 #include "core/vision/spots.hpp"
 
@@ -42,27 +43,45 @@ struct Matching {
 
 namespace {
 
-// The circles: the photo's round marks of the printed size, and the one way the drawing's
-// marks lie on them.
-std::pair<std::vector<Point2>, std::vector<double>> circle_marks(
+// The circles or crosses: the photo's marks of the printed size and shape, and the one way the
+// drawing's marks lie on them. A cross's centroid is its centre as a disc's is: both are
+// symmetric about it, and the moment window around it is too.
+std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
     const geometry::CameraModel& camera, const geometry::BedPlane& plane,
     const vision::GrayView& photo, const BedToMachine& map, const RegistrationRequest& request,
     double px_per_mm) {
     const auto& marks = request.marks_drawing_mm;
     const double h = request.surface_height_mm;
+    const bool crosses = request.kind == MarkKind::crosses;
+    const std::string what = crosses ? "crosses" : "round marks";
     vision::SpotSettings spot_settings;
     spot_settings.polarity = vision::MarkPolarity::dark;
     spot_settings.mark_diameter_px = request.mark_diameter_mm * px_per_mm;
+    if (crosses) {
+        // The median filter that takes the specks keeps a bar only when it is narrower than it.
+        const int bar_px = static_cast<int>(request.cross_line_mm * px_per_mm);
+        spot_settings.median_kernel_px = std::clamp(bar_px - 1 - (bar_px % 2 == 0), 1, 5);
+    }
     const auto found = vision::find_spots(photo, spot_settings);
-    // Marks of the size printed, round, whole.
-    const double expected_area_px = std::numbers::pi * 0.25 * request.mark_diameter_mm *
-                                    request.mark_diameter_mm * px_per_mm * px_per_mm;
+    // Marks of the size printed, whole: a disc's area, or two crossed bars' (isotropic both).
+    const double d = request.mark_diameter_mm, w = request.cross_line_mm;
+    const double expected_area_px =
+        (crosses ? 2 * d * w - w * w : std::numbers::pi * 0.25 * d * d) * px_per_mm * px_per_mm;
     std::vector<Candidate> candidates;
     std::vector<Point2> centres_px;
     std::vector<double> sigmas_px;
     for (const auto& s : found.spots) {
         if (s.touches_border || s.elongation > 1.25) continue;
         if (s.area_px < 0.6 * expected_area_px || s.area_px > 1.6 * expected_area_px) continue;
+        if (crosses) {
+            // The blob finds it; its bars' centre lines measure it.
+            const auto cross =
+                vision::measure_cross(photo, s.centre_px, d * px_per_mm, w * px_per_mm);
+            if (!cross) continue;
+            centres_px.push_back(cross->centre_px);
+            sigmas_px.push_back(cross->sigma_px);
+            continue;
+        }
         centres_px.push_back(s.centre_px);
         sigmas_px.push_back(s.sigma_px);
     }
@@ -73,8 +92,8 @@ std::pair<std::vector<Point2>, std::vector<double>> circle_marks(
                 {map.machine_of({on_bed[k].x, on_bed[k].y}), sigmas_px[k] / px_per_mm});
     }
     if (candidates.size() < marks.size())
-        throw RegistrationError("the photo shows " + std::to_string(candidates.size()) +
-                                " round marks " + number_text("%.1f", request.mark_diameter_mm) +
+        throw RegistrationError("the photo shows " + std::to_string(candidates.size()) + " " +
+                                what + " " + number_text("%.1f", request.mark_diameter_mm) +
                                 " mm across, the drawing has " + std::to_string(marks.size()) +
                                 ": are they printed dark, whole and in view?");
 
@@ -116,8 +135,8 @@ std::pair<std::vector<Point2>, std::vector<double>> circle_marks(
             if (all) matchings.push_back(m);
         }
     if (matchings.empty())
-        throw RegistrationError("no " + std::to_string(candidates.size()) +
-                                " round marks in the photo lie as the drawing's " +
+        throw RegistrationError("no " + std::to_string(candidates.size()) + " " + what +
+                                " in the photo lie as the drawing's " +
                                 std::to_string(marks.size()) + " do (within " +
                                 number_text("%.1f", reach_mm) + " mm)");
     std::sort(matchings.begin(), matchings.end(),
@@ -202,6 +221,11 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
     if (!(request.mark_diameter_mm > 0.5 && request.mark_diameter_mm < 50))
         throw RegistrationError("a mark " + number_text("%.2f", request.mark_diameter_mm) +
                                 " mm across: give 0.5 to 50 mm");
+    if (request.kind == MarkKind::crosses &&
+        !(request.cross_line_mm >= 0.1 && request.cross_line_mm <= request.mark_diameter_mm / 4))
+        throw RegistrationError("crosses with bars " + number_text("%.2f", request.cross_line_mm) +
+                                " mm wide: give 0.1 mm to a quarter of their " +
+                                number_text("%.2f", request.mark_diameter_mm) + " mm span");
     for (std::size_t i = 0; i < marks.size(); ++i)
         for (std::size_t j = i + 1; j < marks.size(); ++j)
             if (std::hypot(marks[i].x - marks[j].x, marks[i].y - marks[j].y) <
@@ -256,7 +280,7 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
             seen_sigma.push_back(sigma_px / px_per_mm / std::sqrt(2.0));
         }
     } else {
-        std::tie(seen, seen_sigma) = circle_marks(camera, plane, photo, map, request, px_per_mm);
+        std::tie(seen, seen_sigma) = printed_marks(camera, plane, photo, map, request, px_per_mm);
     }
     return fitted_registration(marks, seen, seen_sigma, request);
 }

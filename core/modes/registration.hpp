@@ -19,9 +19,10 @@ class RegistrationError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-// Filled dark circles (as vinyl cutters and LightBurn print them), or ArUco/AprilTag markers,
-// each told by its id: no layout is ambiguous then.
-enum class MarkKind { circles, markers };
+// Filled dark circles (as vinyl cutters and LightBurn print them), dark crosses (a plus of two
+// bars, as print shops' registration marks), or ArUco/AprilTag markers, each told by its id: no
+// layout is ambiguous then.
+enum class MarkKind { circles, crosses, markers };
 
 struct RegistrationRequest {
     std::vector<geometry::Point2> marks_drawing_mm;  // three or four, in the drawing's frame
@@ -29,7 +30,8 @@ struct RegistrationRequest {
     // Markers: each mark's id (as marks_drawing_mm, its centre there) and their dictionary.
     std::vector<int> marker_ids;
     std::string dictionary = "DICT_4X4_50";
-    double mark_diameter_mm = 5;   // circles: the diameter; markers: the side
+    double mark_diameter_mm = 5;   // circles: the diameter; crosses: tip to tip; markers: the side
+    double cross_line_mm = 0.5;    // crosses: each bar's width
     double surface_height_mm = 0;  // the printed sheet's top above the bed
     // A mark this far from where the fit puts it is a misprint, a smudge or another mark: the
     // drawing cannot be placed to the goal (0.1 mm) through it.

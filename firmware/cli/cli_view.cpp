@@ -197,12 +197,16 @@ int view_marks(const Args& args) {
     if (kind == "markers") {
         request.kind = modes::MarkKind::markers;
         request.dictionary = args.get("--dict").value_or("DICT_4X4_50");
-    } else if (kind != "circles") {
-        throw UsageError("--mark-kind must be circles or markers, not '" + kind + "'",
+    } else if (kind != "circles" && kind != "crosses") {
+        throw UsageError("--mark-kind must be circles, crosses or markers, not '" + kind + "'",
                          "calbox view marks");
     } else if (args.get("--dict")) {
         throw UsageError("--dict goes with --mark-kind markers", "calbox view marks");
     }
+    if (kind == "crosses") request.kind = modes::MarkKind::crosses;
+    if (args.get("--mark-line") && kind != "crosses")
+        throw UsageError("--mark-line goes with --mark-kind crosses", "calbox view marks");
+    request.cross_line_mm = args.number("--mark-line", 0.5);
     read_marks(args.require("--marks"), request);
     request.mark_diameter_mm = args.number("--mark-diameter", 5);
     request.surface_height_mm = args.number("--stock-thickness", 0);
@@ -300,14 +304,18 @@ its length, a result from before calbox recorded its frame.)",
           {"--marks", "X,Y;X,Y;X,Y[;X,Y]",
            "the marks' places in the drawing (mm), three or four; markers as ID:X,Y",
            Given::required},
-          {"--mark-kind", "circles|markers",
-           "filled circles (the default) or ArUco/AprilTag markers, each told by its id"},
+          {"--mark-kind", "circles|crosses|markers",
+           "filled circles (the default), crosses (two crossed bars) or ArUco/AprilTag markers, "
+           "each told by its id"},
           {"--dict", "NAME", "the markers' dictionary (default DICT_4X4_50)"},
-          {"--mark-diameter", "MM", "the circles' diameter or the markers' side (default 5)"},
+          {"--mark-diameter", "MM",
+           "the circles' diameter, the crosses' span or the markers' side (default 5)"},
+          {"--mark-line", "MM", "the crosses' bar width (default 0.5)"},
           {"--stock-thickness", "MM", "the printed sheet's top above the bed (default 0)"},
           {"--max-residual", "MM", "the farthest a mark may lie from the fit (default 0.1)"},
           {"-o", "marks.json", "the drawing's place, written", Given::required}},
-         R"(Finds the drawing's registration marks (filled dark circles, --mark-diameter across; or
+         R"(Finds the drawing's registration marks (filled dark circles, --mark-diameter across; dark
+crosses with --mark-kind crosses, --mark-diameter tip to tip with bars --mark-line wide; or
 ArUco/AprilTag markers with --mark-kind markers, each mark given as ID:X,Y of its centre) in
 the photo, matches them to their places in the drawing whatever way the sheet lies, and fits
 where the drawing lies on the machine (as a job compensated through the result means it):

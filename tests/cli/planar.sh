@@ -123,6 +123,12 @@ if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" 
     "$work/sheet.png" --mark-kind markers --marks "0,0;160,0;0,110" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
 grep -q -- "give each marker as ID:X,Y" "$work/err" || { cat "$work/err"; exit 1; }
 if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/sheet.png" --mark-line 0.5 --marks "0,0;160,0;0,110" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
+grep -q -- "--mark-line goes with --mark-kind crosses" "$work/err" || { cat "$work/err"; exit 1; }
+if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
+    "$work/sheet.png" --mark-kind crosses --mark-line 4 --marks "0,0;160,0;0,110" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
+grep -q "crosses with bars 4.00 mm wide: give 0.1 mm to a quarter of their 5.00 mm span" "$work/err" || { cat "$work/err"; exit 1; }
+if "$calbox" view marks --camera "$work/camera.yaml" --plane "$work/plane.yaml" --result "$work/result.json" \
     "$work/sheet.png" --mark-kind markers --marks "3:0,0;7:160,0;11:0,110" -o "$work/marks.json" 2> "$work/err"; then exit 1; fi
 grep -q "sheet.png: marker 3 (DICT_4X4_50, drawing X0.00 Y0.00) is not in the photo" "$work/err" || { cat "$work/err"; exit 1; }
 [ ! -e "$work/marks.json" ]

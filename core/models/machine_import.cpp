@@ -72,7 +72,15 @@ std::string number_toml(double v) {
 }
 
 std::string triple_toml(const std::array<double, 3>& v) {
-    return "[" + number_toml(v[0]) + ", " + number_toml(v[1]) + ", " + number_toml(v[2]) + "]";
+    // Appended in place: GCC 12 at -O3 misreads `"[" + std::string` as an overlapping copy
+    // (-Werror=restrict), the release preset's stop.
+    std::string text = "[";
+    for (std::size_t k = 0; k < v.size(); ++k) {
+        if (k > 0) text += ", ";
+        text += number_toml(v[k]);
+    }
+    text += ']';
+    return text;
 }
 
 // A delta machine file's [machine] part: the printable radius from the files, the options, or

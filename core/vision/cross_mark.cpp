@@ -67,7 +67,9 @@ std::optional<CrossCentre> measure_cross(const GrayView& image, Point2 rough_px,
         const double a = (best_deg + 90.0 * bar) * std::numbers::pi / 180;
         const Point2 u{std::cos(a), std::sin(a)}, n{-u.y, u.x};
         std::vector<Point2> points;
-        for (double s = -reach; s <= reach; s += 1) {
+        const int stations = static_cast<int>(std::floor(reach));
+        for (int station = -stations; station <= stations; ++station) {
+            const double s = station;
             if (std::abs(s) < clear) continue;
             const Point2 middle = along(rough_px, u, s);
             const auto grey =

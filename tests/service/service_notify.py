@@ -39,8 +39,7 @@ class Manager:
         self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
         self.sock.bind(self.path)
         # When the kernel queued each datagram, not when this thread got round to reading it: a
-        # listener starved by a loaded machine would otherwise stamp a burst after a silence
-        # alike and hide the silence (seen once under the whole suite).
+        # listener slowed by a loaded machine would otherwise stamp a burst after a silence alike.
         self.sock.setsockopt(socket.SOL_SOCKET, SO_TIMESTAMPNS, 1)
         self.sock.settimeout(0.2)
         self.messages = []  # (s, field): the kernel's receive time, CLOCK_REALTIME
@@ -112,7 +111,9 @@ def finished(box, seconds, sigterm=False):
 
 
 def watchdog_gaps(messages):
-    times = [t for t, f in messages if f == "WATCHDOG=1"]
+    # systemd counts a silence from READY=1 as from a pet: a loop held up before its first pet
+    # (a fast cycle reaching the hung capture within the first quarter second) is silent too.
+    times = [t for t, f in messages if f in ("READY=1", "WATCHDOG=1")]
     return times, [b - a for a, b in zip(times, times[1:])]
 
 
@@ -143,10 +144,10 @@ check(statuses[-1:] == ["idle, 1 cycle completed: waiting: press to calibrate"],
       "the last status is the idle box with its cycle done: %s" % statuses[-1:])
 check(fields[-1:] == ["STOPPING=1"], "STOPPING=1 comes last (last: %s)" % fields[-1:])
 times, gaps = watchdog_gaps(seen)
+pets = sum(1 for _, f in seen if f == "WATCHDOG=1")
 run_s = (seen[-1][0] - seen[0][0]) if seen else 0
-check(len(times) >= run_s / (WATCHDOG_S / 4) * 0.6,
-      "WATCHDOG=1 %d times over %.1f s (petted every %.2f s)" % (len(times), run_s,
-                                                                  WATCHDOG_S / 4))
+check(pets >= run_s / (WATCHDOG_S / 4) * 0.6,
+      "WATCHDOG=1 %d times over %.1f s (petted every %.2f s)" % (pets, run_s, WATCHDOG_S / 4))
 longest = max(gaps) if gaps else float("inf")
 check(longest < WATCHDOG_S,
       "the longest silence of a healthy loop, %.2f s, is under the %.1f s timeout"
@@ -175,7 +176,7 @@ check(came_back and max(gaps) >= 2.9,
       "a hung camera request silences the watchdog for %.2f s (3 s hang), then it resumes"
       % (max(gaps) if gaps else 0))
 if not came_back:
-    # Seen twice under the whole suite, never alone: what the box did, for whoever looks next.
+    # What the box did, for whoever looks next.
     print("  %d WATCHDOG=1 over %.1f s; the hung box's log:" % (len(times), times[-1] - times[0] if times else 0))
     print("".join("  " + line for line in open(os.path.join(work, "hung.err"), errors="replace").readlines()[-25:]))
 rc = finished(box, 30, sigterm=True)

@@ -39,6 +39,22 @@ std::optional<std::string> camera_corner_of(const std::string& work_zero) {
     return corner == std::string::npos ? std::string("nearest") : work_zero.substr(corner);
 }
 
+void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero,
+                        const std::optional<std::string>& found_stock_text) {
+    if (work_zero.empty()) return;
+    request.work_zero = work_zero;
+    const auto corner = camera_corner_of(work_zero);
+    if (!corner) return;
+    if (!found_stock_text)
+        throw modes::JobError(
+            "no sheet found on the bed: take a bed photo with the sheet in view (bed photo), or "
+            "give the job's zero as X,Y");
+    request.work_zero = "camera";
+    request.stock_text = found_stock_text;
+    request.stock_name = kFoundStockFile;
+    request.stock_corner = *corner;
+}
+
 std::string compensated_job_name(const std::string& job_name) {
     if (job_name.rfind("job-", 0) != 0 || job_name.size() > 100 ||
         job_name.find_first_not_of(
@@ -136,13 +152,7 @@ void JobDesk::compensate(const DeskOrder& order, std::string result_text, std::s
     request->result_name = "the correction in force";
     request->job_text = std::move(job_text);
     request->job_name = order.job_name;
-    request->work_zero = order.work_zero;
-    if (const auto corner = order.work_zero ? camera_corner_of(*order.work_zero) : std::nullopt) {
-        request->work_zero = "camera";
-        request->stock_text = order.stock_text;
-        request->stock_name = kFoundStockFile;
-        request->stock_corner = *corner;
-    }
+    set_desk_work_zero(*request, order.work_zero.value_or(""), order.stock_text);
     request->work_zero_from = order.work_zero_from;
     request->again_because = order.again_because;
     request->date = today_();

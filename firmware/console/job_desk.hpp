@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/modes/compensate_job.hpp"
 #include "firmware/console/console.hpp"
 #include "firmware/links/machine_link.hpp"
 #include "firmware/loop/event_loop.hpp"
@@ -44,9 +45,9 @@ class JobDesk {
     bool busy() const { return busy_; }
     // The console's row: `compensate JOB [ZERO ...] [again REASON ...]`.
     ConsoleCommand command();
-    // The console's row `work zero ZERO [confirm]` (X,Y or camera [CORNER]): grbl's G54 set there (G10 L2
-    // P1) only with confirm, when the link is free, then read back ($#); without confirm, what
-    // would be sent.
+    // The console's row `work zero ZERO [confirm]` (X,Y or camera [CORNER]): grbl's G54 set there
+    // (G10 L2 P1) only with confirm, when the link is free, then read back ($#); without confirm,
+    // what would be sent.
     ConsoleCommand zero_command();
 
   private:
@@ -66,6 +67,12 @@ constexpr const char* kFoundStockFile = "stock.json";
 // For a work zero "camera [CORNER]": the corner's name ("nearest" when none is named); nothing
 // for another work zero.
 std::optional<std::string> camera_corner_of(const std::string& work_zero);
+
+// A desk's work zero into `request` ("" leaves it unset): "camera [CORNER]" places the job at
+// the sheet the last bed photo found (`found_stock_text`, stock.json's); throws modes::JobError
+// when there is none.
+void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero,
+                        const std::optional<std::string>& found_stock_text);
 
 // `job-NAME.EXT` -> `job-NAME-compensated.EXT`; "" when the name is not a job's.
 std::string compensated_job_name(const std::string& job_name);

@@ -16,17 +16,7 @@ nlohmann::json job_outline_json(const std::string& kept_result_text, const std::
     request.result_name = "the correction in force";
     request.job_text = job_text;
     request.job_name = job_name;
-    if (!work_zero.empty()) request.work_zero = work_zero;
-    if (const auto corner = camera_corner_of(work_zero)) {
-        if (!stock_text)
-            throw modes::JobError(
-                "no sheet found on the bed: take a bed photo with the sheet in view, or click "
-                "where the job's zero goes");
-        request.work_zero = "camera";
-        request.stock_text = stock_text;
-        request.stock_name = kFoundStockFile;
-        request.stock_corner = *corner;
-    }
+    set_desk_work_zero(request, work_zero, stock_text);
     request.keep_path = true;
     // A drawing needs the job's own points, not the pieces a changing correction is followed by.
     request.settings.max_segment_mm = 1e9;

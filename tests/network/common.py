@@ -198,3 +198,16 @@ def get_json(url):
     if status != 200:
         raise RuntimeError("%s: %d %s" % (url, status, body[:200]))
     return json.loads(body)
+
+
+def headless_chromium(work, height_px):
+    """Debian's Chromium under its chromedriver, headless, 1280 px wide, its profile in `work`."""
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    options = webdriver.ChromeOptions()
+    options.binary_location = "/usr/bin/chromium"
+    for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
+              "--disable-background-networking", "--window-size=1280,%d" % height_px,
+              "--user-data-dir=" + os.path.join(work, "chromium")):
+        options.add_argument(a)
+    return webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)

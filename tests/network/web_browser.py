@@ -20,13 +20,11 @@ import time
 
 import paho.mqtt.client as mqtt
 from prometheus_client.parser import text_string_to_metric_families
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.common.exceptions import NoSuchElementException
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import PASSWORD, Run, get_json, password_hash, request, sh_in  # noqa: E402
+from common import PASSWORD, Run, headless_chromium, get_json, password_hash, request, sh_in  # noqa: E402
 
 calbox, top, shots = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(shots, exist_ok=True)
@@ -129,12 +127,7 @@ sh_in(work, "certutil", "-d", nssdb, "-A", "-t", "C,,", "-n", "calbox test CA", 
 os.environ["HOME"] = home
 
 # The browser.
-options = webdriver.ChromeOptions()
-options.binary_location = "/usr/bin/chromium"
-for a in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-          "--window-size=1280,1000", "--user-data-dir=" + os.path.join(work, "chromium")):
-    options.add_argument(a)
-driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+driver = headless_chromium(work, 1000)
 
 
 def text(element_id):

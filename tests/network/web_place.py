@@ -13,15 +13,13 @@ import subprocess
 import sys
 import tempfile
 
-from selenium import webdriver
 from selenium.common.exceptions import NoAlertPresentException
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import PASSWORD, Run, get_json, password_hash, request  # noqa: E402
+from common import PASSWORD, Run, headless_chromium, get_json, password_hash, request  # noqa: E402
 
 calbox, top, shots = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(shots, exist_ok=True)
@@ -52,13 +50,7 @@ with open(placing, "w") as f:
 box, url = run.box(calbox, top, data, [], '[web]\npassword = "%s"\n' % password_hash(PASSWORD),
                    scenario=placing)
 
-options = webdriver.ChromeOptions()
-options.binary_location = "/usr/bin/chromium"
-for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage",
-            "--disable-background-networking", "--window-size=1280,1400",
-            "--user-data-dir=" + os.path.join(work, "chromium")):
-    options.add_argument(arg)
-driver = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=options)
+driver = headless_chromium(work, 1400)
 
 
 def _alert(browser):

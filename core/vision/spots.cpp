@@ -10,6 +10,7 @@
 
 #include "core/geometry/cv_convert.hpp"
 #include "core/median.hpp"
+#include "core/vision/median_filter.hpp"
 
 namespace calbox::vision {
 namespace {
@@ -30,6 +31,26 @@ struct Ring {
     double slope_x_dn_per_px = 0, slope_y_dn_per_px = 0;
     bool inside_image = true;
 };
+
+// Part of a photo and where its first pixel lies in the photo.
+struct LocalView {
+    GrayView view;
+    int x0_px = 0, y0_px = 0;
+};
+
+// Which eighth of a turn from -pi an offset lies in: by its signs and which of |dx|, |dy| is the
+// larger (an atan2 for each of a ring's thousand pixels was a tenth of a frame's time); on the
+// eighths' edges, where rounding decides, as atan2 puts it.
+int sector_of(double dx, double dy) {
+    const double ax = std::abs(dx), ay = std::abs(dy);
+    if (dx == 0 || dy == 0 || ax == ay) {
+        const double turn = (std::atan2(dy, dx) + std::numbers::pi) / (2 * std::numbers::pi);
+        return std::min(7, static_cast<int>(turn * 8));
+    }
+    const bool steep = ay > ax;
+    if (dy < 0) return dx < 0 ? (steep ? 1 : 0) : (steep ? 2 : 3);
+    return dx > 0 ? (steep ? 5 : 4) : (steep ? 6 : 7);
+}
 
 // The substrate around a mark from a ring just outside its window: a plane through the medians
 // of eight sectors of the ring (a median, so that a neighbouring mark's edge in one sector does
@@ -59,8 +80,7 @@ Ring substrate_ring(const GrayView& image, geometry::Point2 c, double inner, dou
             if (d2 < inner * inner || d2 > outer * outer) continue;
             const double value = image.at(x, y);
             samples.push_back({dx, dy, value});
-            const double turn = (std::atan2(dy, dx) + std::numbers::pi) / (2 * std::numbers::pi);
-            const int k = std::min(kSectors - 1, static_cast<int>(turn * kSectors));
+            const int k = sector_of(dx, dy);
             sector_values[static_cast<std::size_t>(k)].push_back(value);
             sector_x[static_cast<std::size_t>(k)] += dx;
             sector_y[static_cast<std::size_t>(k)] += dy;
@@ -227,8 +247,8 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
                    cv::INTER_AREA);
     else
         found_on = raw;
-    cv::Mat found_filtered;
-    cv::medianBlur(found_on, found_filtered, halved ? 3 : settings.median_kernel_px);
+    const cv::Mat found_filtered =
+        median_filtered(found_on, halved ? 3 : settings.median_kernel_px);
     cv::Mat marks;
     if (settings.mark_diameter_px > 0) {
         const double diameter = settings.mark_diameter_px / scale;
@@ -251,34 +271,36 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
     }
     cv::Mat labels, stats, centroids;
     const int count = cv::connectedComponentsWithStats(marks, labels, stats, centroids, 8, CV_32S);
-    // The full photo's median, filled in where a mark is measured (halved) or everywhere.
-    cv::Mat filtered;
-    if (halved)
-        filtered.create(raw.size(), CV_8UC1);
-    else
-        filtered = found_filtered;
+    // Halved, each mark is measured on the full photo median-filtered around it alone: a patch
+    // of its own, reaching the kernel's half further than what is kept so that the patch's own
+    // border lies outside it, as the whole photo's would. The patch is read with the mark's
+    // coordinates moved by the patch's corner, an integer, so that every figure is the one the
+    // whole photo's median gives (a 12 MP buffer touched around each mark cost a page fault for
+    // each row of every patch).
     const int median_reach = settings.median_kernel_px / 2;
-    const auto filter_around = [&](geometry::Point2 centre, double reach) {
-        const cv::Rect inside(0, 0, raw.cols, raw.rows);
+    const cv::Rect inside(0, 0, raw.cols, raw.rows);
+    cv::Mat patch;
+    const auto filtered_around = [&](geometry::Point2 centre, double reach) -> LocalView {
+        if (!halved)
+            return {{found_filtered.data, found_filtered.cols, found_filtered.rows,
+                     static_cast<int>(found_filtered.step)},
+                    0,
+                    0};
         const cv::Rect wanted(static_cast<int>(std::floor(centre.x - reach)) - 1,
                               static_cast<int>(std::floor(centre.y - reach)) - 1,
                               static_cast<int>(2 * std::ceil(reach)) + 4,
                               static_cast<int>(2 * std::ceil(reach)) + 4);
         const cv::Rect area = wanted & inside;
-        if (area.empty()) return;
-        // Its input reaches the kernel's half further, so that the patch's own border (which
-        // medianBlur replicates) lies outside what is kept, as the whole photo's would.
+        if (area.empty()) return {};
         const cv::Rect input =
             cv::Rect(area.x - median_reach, area.y - median_reach, area.width + 2 * median_reach,
                      area.height + 2 * median_reach) &
             inside;
-        cv::Mat patch;
-        cv::medianBlur(raw(input), patch, settings.median_kernel_px);
-        patch(cv::Rect(area.x - input.x, area.y - input.y, area.width, area.height))
-            .copyTo(filtered(area));
+        patch = median_filtered(raw(input), settings.median_kernel_px);
+        const cv::Mat kept =
+            patch(cv::Rect(area.x - input.x, area.y - input.y, area.width, area.height));
+        return {{kept.data, kept.cols, kept.rows, static_cast<int>(kept.step)}, area.x, area.y};
     };
-    const GrayView fview{filtered.data, filtered.cols, filtered.rows,
-                         static_cast<int>(filtered.step)};
     std::vector<cv::Point2f> outline;
     for (const auto& p : settings.search_outline_px)
         outline.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
@@ -294,8 +316,11 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
                 false) < 0)
             continue;
         const double radius = std::sqrt(area / 3.14159265358979) + settings.window_margin_px;
-        if (halved) filter_around(rough, radius + 4);
-        const Ring ring = substrate_ring(fview, rough, radius + 1, radius + 4);
+        const LocalView local = filtered_around(rough, radius + 4);
+        const geometry::Point2 here{rough.x - local.x0_px, rough.y - local.y0_px};
+        const Ring ring = local.view.pixels == nullptr
+                              ? Ring{.inside_image = false}
+                              : substrate_ring(local.view, here, radius + 1, radius + 4);
         Spot spot;
         if (!ring.inside_image) {
             spot.centre_px = rough;
@@ -305,15 +330,17 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
             continue;
         }
         MomentWindow window;
-        window.centre_px = rough;
+        window.centre_px = here;
         window.radius_px = radius;
         window.substrate_dn = ring.level_dn;
         window.substrate_slope_x_dn_per_px = ring.slope_x_dn_per_px;
         window.substrate_slope_y_dn_per_px = ring.slope_y_dn_per_px;
-        window.mark_dn = window_mean(fview, rough, 0.5 * (radius - settings.window_margin_px));
+        window.mark_dn = window_mean(local.view, here, 0.5 * (radius - settings.window_margin_px));
         window.noise_dn = ring.noise_dn;
         if (std::abs(window.substrate_dn - window.mark_dn) < 4) continue;  // no real contrast
-        out.spots.push_back(measure_spot_q16(fview, window));
+        spot = measure_spot_q16(local.view, window);
+        spot.centre_px = {spot.centre_px.x + local.x0_px, spot.centre_px.y + local.y0_px};
+        out.spots.push_back(spot);
     }
     return out;
 }

@@ -13,9 +13,13 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
 #include <vector>
 
 #include "core/vision/edge_kernel.hpp"
+#include "core/vision/median_filter.hpp"
 #include "core/vision/spots.hpp"
 
 using namespace calbox;
@@ -137,4 +141,42 @@ TEST(FixedPointKernels, give_the_stored_bits_on_every_architecture) {
         std::fprintf(stderr, "fixed-point kernels' digest: 0x%016llX\n",
                      static_cast<unsigned long long>(digest.value));
     CHECK_EQUAL(kStoredDigest, digest.value);
+}
+
+// The patches' median is OpenCV's median, bit for bit: random images of every small shape (one
+// pixel to wider than a run of the network), a patch cut from a larger image (its edge
+// replicated, not read past), and the whole-photo path; other kernel sizes and colour refused.
+TEST_GROUP(MedianFilter){};
+
+TEST(MedianFilter, is_opencvs_median_bit_for_bit) {
+    cv::RNG rng(20261129);
+    long differing = 0, pixels = 0;
+    for (const int kernel : {1, 3, 5})
+        for (int t = 0; t < 200; ++t) {
+            cv::Mat image(rng.uniform(1, 140), rng.uniform(1, 140), CV_8UC1);
+            // Half the images noise over the whole range, half a few levels around a step (ties).
+            if (t % 2 == 0)
+                rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+            else
+                for (int y = 0; y < image.rows; ++y)
+                    for (int x = 0; x < image.cols; ++x)
+                        image.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(
+                            (x > image.cols / 2 ? 180 : 40) + rng.uniform(0, 4));
+            cv::Mat expected;
+            cv::medianBlur(image, expected, kernel);
+            differing += cv::countNonZero(vision::median_filtered(image, kernel) != expected);
+            pixels += static_cast<long>(image.total());
+        }
+    CHECK_EQUAL(0, differing);
+    CHECK(pixels > 1'000'000 / 2);
+    cv::Mat large(300, 400, CV_8UC1);
+    rng.fill(large, cv::RNG::UNIFORM, 0, 256);
+    cv::Mat expected;
+    const cv::Mat patch = large(cv::Rect(100, 50, 61, 57));
+    cv::medianBlur(patch.clone(), expected, 5);
+    CHECK_EQUAL(0, cv::countNonZero(vision::median_filtered(patch, 5) != expected));
+    cv::medianBlur(large, expected, 5);
+    CHECK_EQUAL(0, cv::countNonZero(vision::median_filtered(large, 5) != expected));
+    CHECK_THROWS(std::invalid_argument, vision::median_filtered(large, 7));
+    CHECK_THROWS(std::invalid_argument, vision::median_filtered(cv::Mat(8, 8, CV_8UC3), 3));
 }

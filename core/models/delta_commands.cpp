@@ -271,11 +271,12 @@ std::string settings_mismatch(const std::string& firmware, const std::vector<std
         }
         if (!got) return "the printer does not report " + name;
         for (const auto& w : want.parameters) {
-            if (w.values.empty()) continue;
+            const auto sent = want.values(w.letter);
+            if (sent.empty()) continue;
             const auto have = got->values(w.letter);
-            for (std::size_t i = 0; i < std::max(w.values.size(), have.size()); ++i) {
+            for (std::size_t i = 0; i < std::max(sent.size(), have.size()); ++i) {
                 // One value stands for all: RepRapFirmware's "L250" is every tower's rod.
-                const double sent_value = w.values[std::min(i, w.values.size() - 1)];
+                const double sent_value = sent[std::min(i, sent.size() - 1)];
                 if (have.empty() || std::abs(have[std::min(i, have.size() - 1)] - sent_value) >
                                         tolerance(want.command_number)) {
                     char why[160];

@@ -891,6 +891,21 @@ class Compensator {
     // The line's words as its controller reads them: on LinuxCNC and grbl blanks count for
     // nothing and only the controller's letters are words; LinuxCNC's and printers' polar words
     // ('@', '^') taken out first.
+    // LinuxCNC stops on a '(' inside a '(' comment ("Nested comment found"); grbl reads the
+    // comment to its first ')'. A ';' comment holds anything.
+    static void refuse_nested_comment(std::string_view raw) {
+        for (std::size_t i = 0; i < raw.size() && raw[i] != ';'; ++i) {
+            if (raw[i] != '(') continue;
+            const std::size_t close = raw.find(')', i);
+            const std::size_t inner = raw.find('(', i + 1);
+            if (inner < close)
+                throw gcode::SyntaxError("column " + std::to_string(inner + 1) +
+                                         ": a '(' inside a comment (a nested comment)");
+            if (close == std::string_view::npos) return;  // named where the words are read
+            i = close;
+        }
+    }
+
     std::string words_of(const std::string& raw, Polar* polar = nullptr,
                          std::string_view more_letters = {}) const {
         std::string text = raw;
@@ -899,8 +914,11 @@ class Compensator {
             if (polar) *polar = p;
         }
         if (!is_cnc(frame_.flavour)) return text;
+        if (frame_.flavour == Flavour::linuxcnc) refuse_nested_comment(text);
         std::string words =
-            gcode::cnc_words(text, std::string(letters_of(frame_.flavour)) += more_letters);
+            more_letters.empty()
+                ? gcode::cnc_words(text, letters_of(frame_.flavour))
+                : gcode::cnc_words(text, std::string(letters_of(frame_.flavour)) += more_letters);
         // LinuxCNC reads N only as a line's first word (after a '/'); grbl takes it anywhere.
         if (frame_.flavour == Flavour::linuxcnc) {
             if (const auto at = words.find(" N"); at != std::string::npos)
@@ -916,15 +934,16 @@ class Compensator {
     // that no code on the line (or the motion in force) uses. `m_` holds the line's motion and
     // the F in force.
     void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) const {
-        const std::string who = controller_of(frame_.flavour);
-        const std::string stops = ": " + who + " stops on it";
+        // Named only in a refusal: a line read builds no message.
+        const auto who = [this] { return controller_of(frame_.flavour); };
+        const auto stops = [&who] { return ": " + who() + " stops on it"; };
         for (const Code c : codes)
             if (!is_known_code(c))
-                throw fail(c.text() + ": no such G code (" + who +
+                throw fail(c.text() + ": no such G code (" + who() +
                            " stops on it: \"Unknown g code used\")");
         const auto check_m = [&](double value) {
             if (!is_known_m(frame_.flavour, value))
-                throw fail("M" + number(value, 0) + ": no such M code on " + who +
+                throw fail("M" + number(value, 0) + ": no such M code on " + who() +
                            " (it stops on it" +
                            (frame_.flavour == Flavour::grbl ? ": its error 20)"
                                                             : ": \"Unknown m code used\")"));
@@ -932,16 +951,17 @@ class Compensator {
         if (line.command_letter == 'M') check_m(line.command_number);
         for (const auto& w : line.parameters)
             if (w.letter == 'M' && w.value) check_m(*w.value);
-        std::map<char, int> seen;
+        std::array<int, 256> seen{};
         if (line.command_letter == 'T') ++seen['T'];
         for (const auto& w : line.parameters)
-            if (w.letter != 'G' && w.letter != 'M' && ++seen[w.letter] == 2)
-                throw fail(std::string("two ") + w.letter + " words on one line" + stops);
+            if (w.letter != 'G' && w.letter != 'M' &&
+                ++seen[static_cast<unsigned char>(w.letter)] == 2)
+                throw fail(std::string("two ") + w.letter + " words on one line" + stops());
         for (std::size_t i = 0; i < codes.size(); ++i)
             for (std::size_t j = i + 1; j < codes.size(); ++j)
                 if (modal_group(codes[i]) >= 0 && modal_group(codes[i]) == modal_group(codes[j]))
                     throw fail("two G codes of one modal group on one line (" + codes[i].text() +
-                               " and " + codes[j].text() + ")" + stops);
+                               " and " + codes[j].text() + ")" + stops());
         const auto on_line = [&](int number) {
             return std::any_of(codes.begin(), codes.end(),
                                [number](Code c) { return c.number == number; });
@@ -955,13 +975,13 @@ class Compensator {
         bool axes = polar;
         for (const char a : std::string_view("XYZABCUVW")) axes = axes || line.has(a);
         if (axis_code && motion_code && axes)
-            throw fail("two G codes on one line that both take the axis words" + stops);
+            throw fail("two G codes on one line that both take the axis words" + stops());
         const int motion = motion_code || (axes && !axis_code) ? m_.motion : -1;
         if (axes && !axis_code && motion < 0)
             throw fail(
                 "axis words with no motion in force (before any G0 G1 G2 G3, or after "
                 "G80)" +
-                stops);
+                stops());
         const bool arc = motion == 2 || motion == 3, cycle = is_cycle(motion);
         // A feed move needs a feed rate: LinuxCNC "Cannot do G1 with zero feed rate", grbl's
         // error 22; under G93 (inverse time) on the move's own line.
@@ -970,14 +990,14 @@ class Compensator {
             (motion == 1 || arc || cycle) &&
             (axes || motion_code || (arc && (line.has('I') || line.has('J') || line.has('K'))));
         if (feeds && m_.inverse_time && !(line.value('F').value_or(0) > 0))
-            throw fail("a feed move under G93 (inverse time) without its F on the line" + stops);
+            throw fail("a feed move under G93 (inverse time) without its F on the line" + stops());
         if (feeds && !m_.inverse_time && !(m_.feed.value_or(0) > 0))
-            throw fail("a feed move with no feed rate in force (no F above 0 given yet)" + stops);
+            throw fail("a feed move with no feed rate in force (no F above 0 given yet)" + stops());
         const bool g10 = on_line(10);
-        const auto unused = [&](char letter, const std::string& users) {
+        const auto unused = [&](char letter, std::string_view users) {
             if (line.has(letter))
-                throw fail(std::string(1, letter) + " word with no " + users + " to use it" +
-                           stops);
+                throw fail(std::string(1, letter) + " word with no " + std::string(users) +
+                           " to use it" + stops());
         };
         if (!arc && motion != 87 && !g10) {
             unused('I', "G2 or G3");
@@ -991,7 +1011,7 @@ class Compensator {
                            (m_.plane == 17   ? "XY"
                             : m_.plane == 18 ? "XZ"
                                              : "YZ") +
-                           " plane" + stops);
+                           " plane" + stops());
         }
         if (!arc && !cycle && !g10) unused('R', "G2, G3, a drilling cycle or G10");
         if (!cycle && !g10) unused('L', "G10 or drilling cycle");
@@ -1006,9 +1026,25 @@ class Compensator {
             unused('Q', "G73, G83, G64, G10 or M66-M68");
         if (!on_line(43)) unused('H', "G43");
         unused('D', "G41 or G42");
+        // The words a code cannot go without (LinuxCNC's interpreter; grbl's errors 26 and 28).
+        const auto positive = [&](char letter) { return line.value(letter).value_or(0) > 0; };
+        if (on_line(4) && !(line.value('P').value_or(-1) >= 0))
+            throw fail("G4 without its dwell time (a P of 0 or more)" + stops());
+        if ((on_line(52) ||
+             std::any_of(codes.begin(), codes.end(), [](Code c) { return c.is(92); })) &&
+            !axes)
+            throw fail("G52 or G92 with no axis word to set" + stops());
+        if (on_line(96) && !line.has('S'))
+            throw fail("G96 without its S (the surface speed)" + stops());
+        if (arc && line.has('R') && (line.has('I') || line.has('J') || line.has('K')))
+            throw fail("an arc given both by its radius (R) and its centre (I, J, K)" + stops());
+        if ((on_line(73) || on_line(83) || ((motion == 73 || motion == 83) && line.has('Q'))) &&
+            !positive('Q'))
+            throw fail("G" + std::to_string(motion == 73 || on_line(73) ? 73 : 83) +
+                       " without its peck depth (a Q above 0)" + stops());
     }
 
-    void line(std::string raw) {
+    void line(const std::string& raw) {
         gcode::Line line;
         std::vector<Code> codes;
         Polar polar;
@@ -1133,7 +1169,11 @@ class Compensator {
         const std::vector<PathPoint> path =
             is_arc_mode
                 ? arc_path(line, m_, from, to, z_from, z_to, settings_, r_tolerance_mm, failing)
-                : line_path(m_.xy_known, from, to, z_from, z_to, settings_);
+                // From a height the file has not given, a climb cannot be shared along pieces
+                // (each would take the whole of it at once): the move is written whole, to its
+                // corrected end, as one from a place not given is.
+                : line_path(m_.xy_known && !(line.has('Z') && !z_from), from, to, z_from, z_to,
+                            settings_);
         // The move's end as the job writes it; then, for an arc, every chord's end (an arc
         // bulges past the rectangle its ends lie in).
         inside_travel(to, offset);

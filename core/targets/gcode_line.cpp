@@ -223,7 +223,11 @@ std::optional<double> Line::value(char letter) const {
 
 std::vector<double> Line::values(char letter) const {
     for (const auto& w : parameters)
-        if (w.letter == letter) return w.values;
+        if (w.letter == letter) {
+            if (!w.list.empty()) return w.list;
+            if (w.value) return {*w.value};
+            return {};
+        }
     return {};
 }
 
@@ -254,7 +258,8 @@ Line parse_line(std::string_view raw) {
             ++i;
         }
         const std::string_view number(body.data() + start, i - start);
-        std::vector<double> values;
+        std::optional<double> value;
+        std::vector<double> list;
         // One number, or RepRapFirmware's ':'-separated list of them.
         for (std::size_t from = 0; from < number.size();) {
             const std::size_t colon = std::min(number.find(':', from), number.size());
@@ -267,18 +272,22 @@ Line parse_line(std::string_view raw) {
                 throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
                                   letter);
             }
-            values.push_back(v);
+            if (!value)
+                value = v;
+            else {
+                if (list.empty()) list.push_back(*value);
+                list.push_back(v);
+            }
             from = colon + 1;
             if (colon + 1 == number.size()) {
                 throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
                                   letter);
             }
         }
-        std::optional<double> value;
-        if (!values.empty()) value = values.front();
+        const bool one_value = value && list.empty();
         if (letter == 'N' && line.command_letter == 0 && !line.line_number) {
             // Hosts number lines from 0 upwards in a signed 32-bit counter.
-            if (values.size() != 1 || !(*value >= 0 && *value <= 2147483647.0) ||
+            if (!one_value || !(*value >= 0 && *value <= 2147483647.0) ||
                 *value != std::floor(*value)) {
                 throw SyntaxError("line number N without one whole value from 0 to 2147483647");
             }
@@ -286,8 +295,7 @@ Line parse_line(std::string_view raw) {
             continue;
         }
         if (line.command_letter == 0 && (letter == 'G' || letter == 'M' || letter == 'T')) {
-            const auto command =
-                values.size() == 1 ? command_number_of(letter, *value) : std::nullopt;
+            const auto command = one_value ? command_number_of(letter, *value) : std::nullopt;
             if (!command) throw SyntaxError(std::string("bad command number after ") + letter);
             line.command_letter = letter;
             line.command_number = command->number;
@@ -300,7 +308,7 @@ Line parse_line(std::string_view raw) {
             }
             continue;
         }
-        line.parameters.push_back(Word{letter, value, std::move(values)});
+        line.parameters.push_back(Word{letter, value, std::move(list)});
     }
     return line;
 }

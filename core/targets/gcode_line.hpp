@@ -18,9 +18,10 @@ class SyntaxError : public std::runtime_error {
 struct Word {
     char letter = 0;              // upper case
     std::optional<double> value;  // empty for a bare flag such as the X in "G28 X"
-    // RepRapFirmware's lists ("L250.1:250.3:249.9"): every element, `value` the first; one
-    // element for a plain number, none for a bare flag.
-    std::vector<double> values;
+    // RepRapFirmware's lists ("L250.1:250.3:249.9"): every element, `value` the first; empty
+    // for a plain number (its one value is `value`: a word read is no allocation) and a bare
+    // flag. Line::values gives every element either way.
+    std::vector<double> list;
 };
 
 struct Line {

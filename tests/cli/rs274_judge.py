@@ -124,6 +124,18 @@ CASES = [
      "G21 G90\nG0 X10 Y10 Z0\nG18 G2 X20 Z0 I5 K0 F100\nG19 G3 Y20 Z0 J5 K0\nG17\nM2\n"),
     ("g18_helix_linuxcnc", "linuxcnc",
      "G21 G90\nG0 X10 Y10 Z0\nG18 G3 X14 Z4 I2 K2 Y12 F100\nG17\nM2\n"),
+    # Found by the fuzzer (stop 67): words a code cannot go without, a nested comment, and a
+    # climb from a height the file never gave, which calbox split into pieces that each took
+    # the whole climb at once.
+    ("nested_comment", "linuxcnc", "G21 G90\nG0 X0 Y0 ((to zero)\nG1 X10 F100\nM2\n"),
+    ("g4_without_p", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X2 F100 G4\nM2\n"),
+    ("g92_without_axes", "linuxcnc", "G21 G90\nG0 X30 Y30\nG92\nG0 X10 Y0\nM2\n"),
+    ("arc_r_and_ijk", "linuxcnc", "G21 G90\nG0 X0 Y0\nG2 X10 Y0 R5 I5 J0 F100\nM2\n"),
+    ("g83_q_negative", "linuxcnc",
+     "G21 G90\nG0 X0 Y0 Z5\nG98 G83 X30 Y20 Z-2.5 R0.5 Q-1 F200\nG80\nM2\n"),
+    ("g96_without_s", "linuxcnc", "G21 G90\nG96\nG0 X0 Y0\nG1 X10 F100 S1000\nM2\n"),
+    ("climb_from_unknown_height", "linuxcnc",
+     "G21 G90\nG0 X10 Y10\nG1 X60 Y10 Z-1 F100\nG0 Z5\nM2\n"),
 ]
 
 # Where calbox refuses a job rs274 runs, on purpose, and why. A refusal not listed fails.

@@ -58,9 +58,11 @@ std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
     spot_settings.polarity = vision::MarkPolarity::dark;
     spot_settings.mark_diameter_px = request.mark_diameter_mm * px_per_mm;
     if (crosses) {
-        // The median filter that takes the specks keeps a bar only when it is narrower than it.
+        // The median filter that takes the specks keeps a bar only when it is narrower than it:
+        // the largest odd size under the bar's width (an even one is no median's size: a bar
+        // 3 to 6 px wide gave 2 or 4, and the photo was refused by the filter, not measured).
         const int bar_px = static_cast<int>(request.cross_line_mm * px_per_mm);
-        spot_settings.median_kernel_px = std::clamp(bar_px - 1 - (bar_px % 2 == 0), 1, 5);
+        spot_settings.median_kernel_px = std::clamp(bar_px - 1 - (bar_px % 2 != 0), 1, 5);
     }
     const auto found = vision::find_spots(photo, spot_settings);
     // Marks of the size printed, whole: a disc's area, or two crossed bars' (isotropic both).

@@ -969,9 +969,9 @@ class Compensator {
         const bool motion_code =
             std::any_of(codes.begin(), codes.end(), [](Code c) { return modal_group(c) == 1; });
         // The non-modal codes that take the line's axis words for themselves.
-        const bool axis_code =
-            on_line(10) || on_line(28) || on_line(30) || on_line(52) ||
-            std::any_of(codes.begin(), codes.end(), [](Code c) { return c.is(92); });
+        const bool sets_offset =
+            on_line(52) || std::any_of(codes.begin(), codes.end(), [](Code c) { return c.is(92); });
+        const bool axis_code = on_line(10) || on_line(28) || on_line(30) || sets_offset;
         bool axes = polar;
         for (const char a : std::string_view("XYZABCUVW")) axes = axes || line.has(a);
         if (axis_code && motion_code && axes)
@@ -1030,10 +1030,7 @@ class Compensator {
         const auto positive = [&](char letter) { return line.value(letter).value_or(0) > 0; };
         if (on_line(4) && !(line.value('P').value_or(-1) >= 0))
             throw fail("G4 without its dwell time (a P of 0 or more)" + stops());
-        if ((on_line(52) ||
-             std::any_of(codes.begin(), codes.end(), [](Code c) { return c.is(92); })) &&
-            !axes)
-            throw fail("G52 or G92 with no axis word to set" + stops());
+        if (sets_offset && !axes) throw fail("G52 or G92 with no axis word to set" + stops());
         if (on_line(96) && !line.has('S'))
             throw fail("G96 without its S (the surface speed)" + stops());
         if (arc && line.has('R') && (line.has('I') || line.has('J') || line.has('K')))

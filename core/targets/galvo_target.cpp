@@ -3,6 +3,8 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <tuple>
 
 #include "core/number_text.hpp"
 
@@ -120,12 +122,39 @@ GalvoTarget make_galvo_target(const models::MachineFile& machine,
     job.line_width_mm = machine.tool_width_mm;
     job.spacing_mm = machine.tool_width_mm;
     job.feed_mm_s = machine.feed_mm_s;
+    // Every circle of a size is filled alike: the fill is planned once about the origin for each
+    // size and each place the beam comes from (a few in all: the serpentine repeats), and moved
+    // to each circle's centre. The scanlines were centred on each circle already: the same
+    // moves as filling each in place, to Clipper's integer grid, for a few fills rather than 961
+    // (Clipper's work was most of the target's time).
+    struct Fill {
+        Toolpath about_origin;
+        Point2 pen_after;  // where the beam ends, from the centre
+    };
+    std::map<std::tuple<bool, long long, long long>, Fill> fills;
+    const auto nanometres = [](double mm) { return std::llround(mm * 1e6); };
     for (int row = 0; row < options.grid_count; ++row)
         for (int k = 0; k < options.grid_count; ++k) {
             const GalvoMark& mark = target.at({burned_column(row, k, options.grid_count), row});
-            append(job.toolpath,
-                   plan_fill({circle(mark.centre_mm, mark.large ? large_radius : small_radius)},
-                             FillRule::nonzero, fill, pen));
+            const Point2 c = mark.centre_mm;
+            const Point2 from{pen.x - c.x, pen.y - c.y};
+            auto [at, fresh] =
+                fills.try_emplace({mark.large, nanometres(from.x), nanometres(from.y)});
+            Fill& f = at->second;
+            if (fresh) {
+                f.pen_after = from;
+                f.about_origin =
+                    plan_fill({circle({0, 0}, mark.large ? large_radius : small_radius)},
+                              FillRule::nonzero, fill, f.pen_after);
+            }
+            for (const Move& m : f.about_origin.moves)
+                job.toolpath.moves.push_back(
+                    {{m.from.x + c.x, m.from.y + c.y}, {m.to.x + c.x, m.to.y + c.y}, m.kind});
+            // The first move starts where the beam stood (the key rounds it to a nanometre).
+            if (!f.about_origin.moves.empty())
+                job.toolpath.moves[job.toolpath.moves.size() - f.about_origin.moves.size()].from =
+                    pen;
+            pen = {f.pen_after.x + c.x, f.pen_after.y + c.y};
         }
     const double half = machine.galvo->field_size_mm / 2;
     job.min_x = job.min_y = -half;

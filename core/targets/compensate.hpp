@@ -69,6 +69,10 @@ struct CompensateSettings {
     double arc_tolerance_mm = 0.002;
     // LinuxCNC's language: runaway loops and recursion stop here.
     gcode::ProgramLimits program;
+    // The cutter's radius, mm, for a LinuxCNC job's cutter radius compensation by the tool table
+    // (G41 / G42 D<tool>): the controller's table is not in the file. G41.1 / G42.1 give their
+    // diameter on the line and need none.
+    std::optional<double> tool_radius_mm;
 };
 
 struct CompensateReport {
@@ -104,10 +108,11 @@ struct KeptCorrection {
 
 // G-code as slicers, CAM and LinuxCNC write it: absolute or relative, millimetres or inches,
 // G92 and work offsets tracked, arcs and helices traced, canned cycles' holes placed, LinuxCNC's
-// parameters, expressions, O-words and polar words evaluated. Throws CompensateError("line N:
-// ...") naming the word and what to do for what it cannot carry through faithfully: cutter
-// radius compensation, a lathe job, an arc no controller could cut, a point beyond the travel, a
-// move in a work system whose zero is not known.
+// parameters, expressions, O-words and polar words evaluated, LinuxCNC's cutter radius
+// compensation of straight moves written out as the path it cuts. Throws CompensateError("line
+// N: ...") naming the word and what to do for what it cannot carry through faithfully: cutter
+// radius compensation elsewhere (arcs, G91, grbl, printers), a lathe job, an arc no controller
+// could cut, a point beyond the travel, a move in a work system whose zero is not known.
 std::string compensate_gcode(std::string_view job, const MachineCorrection& correction,
                              const JobFrame& frame, const CompensateSettings& settings,
                              CompensateReport& report);

@@ -26,6 +26,12 @@ int compensate(const Args& args) {
     request.settings.max_segment_mm = args.number("--segment", 1.0);
     if (!(request.settings.max_segment_mm >= 0.01 && request.settings.max_segment_mm <= 100))
         throw UsageError("--segment must be 0.01 to 100 mm");
+    if (args.get("--tool-radius")) {
+        const double r = args.number("--tool-radius", 0);
+        if (!(r > 0 && r <= 100))
+            throw UsageError("--tool-radius must be above 0 and at most 100 mm");
+        request.settings.tool_radius_mm = r;
+    }
     request.work_zero = args.get("--work-zero");
     if (const auto stock = args.get("--stock")) {
         request.stock_name = *stock;
@@ -79,7 +85,10 @@ std::vector<Command> compensate_commands() {
            "where the tool stands when the job starts (machine coordinates): for a job that "
            "sets G92 before its first move"},
           {"--again", "REASON", "compensate a job that already went through a correction"},
-          {"--segment", "MM", "the longest piece a move is split into (default 1)"}},
+          {"--segment", "MM", "the longest piece a move is split into (default 1)"},
+          {"--tool-radius", "MM",
+           "the cutter's radius, for a LinuxCNC job's cutter radius compensation by the tool "
+           "table (G41 / G42 D<tool>)"}},
          R"(Sends every XY position of a job through the correction a solve found, so that the
 machine marks where the job meant: a galvo result (calbox solve galvo), whose table gives
 the scanner command for each intended point, or a planar result (calbox solve planar),
@@ -107,8 +116,13 @@ arc short of its half chord by no more than the file's written precision is a ha
 On printers G10 / G11 are firmware retraction, passed as written.
 The output's first line names the result it went through (its digest and date); a job
 carrying that line is refused unless --again gives the reason.
-Refused, naming the line and the figure, nothing written: cutter compensation (G41/G42),
-a lathe job (G7, G8, G76), an arc no controller could cut, a point beyond the travel, a
+Cutter radius compensation on LinuxCNC (G41 / G42 with --tool-radius, or G41.1 / G42.1
+with the diameter on the line; G40 off) is carried out as LinuxCNC's interpreter does it,
+for straight moves in G17 under G90: the path the controller would cut is written out (an
+arc about each outside corner, inside corners cut where the offset paths cross) and
+corrected like any other.
+Refused, naming the line and the figure, nothing written: cutter compensation on grbl and
+printers, or with arcs, G91, another plane or offsets under it; a lathe job (G7, G8, G76), an arc no controller could cut, a point beyond the travel, a
 move in a work system whose zero is not given, moves under block delete.)",
          compensate}};
 }

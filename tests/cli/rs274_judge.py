@@ -136,7 +136,39 @@ CASES = [
     ("g96_without_s", "linuxcnc", "G21 G90\nG96\nG0 X0 Y0\nG1 X10 F100 S1000\nM2\n"),
     ("climb_from_unknown_height", "linuxcnc",
      "G21 G90\nG0 X10 Y10\nG1 X60 Y10 Z-1 F100\nG0 Z5\nM2\n"),
+    # Cutter radius compensation, as LinuxCNC cuts it: the entry move, inside corners (the move
+    # before pulled back, a height change held with it), outside corners (an arc about the
+    # corner for G1, a traverse across for G0), spindle and coolant words in their order, the
+    # exit after G40.
+    ("cutter_left_corners", "linuxcnc",
+     "G21 G90 G17\nG0 X-10 Y0 Z5\nG1 Z-1 F300\nG41.1 D6\nG1 X0 Y0\nG1 X0 Y10\n"
+     "G1 X10 Y10 M3 S1000\nZ-2\nG1 X10 Y0 F200\nM7\nG0 X20 Y-5\nG1 X30 Y-5\nX30 Y-20\n"
+     "X5 Y-20\nG40\nG1 X40 Y-30\nM2\n"),
+    # Right of the path, the radius from the controller's tool table (the judge's table holds
+    # every tool at 3.175 inch across: --tool-radius 40.3225 mm), an inch job, numbered lines,
+    # G41 on the entry move's own line and a pocket's inside corners.
+    ("cutter_right_tool_table", "linuxcnc",
+     "N10 G20 G90 G17 F20\nN20 G0 X-4 Y-4\nN30 G42 D1 G1 X0 Y0\nN40 Y8\nN50 X12 Y8\n"
+     "N60 X12 Y0 (bottom)\nN70 X0 Y0\nN80 G40 G0 X-5 Y-5\nN90 M2\n"),
+    # Both refuse: an entry move no longer than the radius.
+    ("cutter_entry_too_short", "linuxcnc",
+     "G21 G90\nG0 X0 Y0\nG41.1 D6\nG1 X2 Y0 F100\nG1 X20 Y0\nG40\nM2\n"),
+    # Found by the slow label's mutations: an inside corner that pulls a traverse back past its
+    # start (LinuxCNC: "cannot be reached by the tool without gouging"), and a line under
+    # compensation with two G1, which the written path must not hide.
+    ("cutter_gouge", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X0 Y10\nG1 X10 Y10\nG1 X10 Y0\n"
+     "G0 X2 Y-5\nG1 X30 Y-5\nG40\nM2\n"),
+    ("cutter_two_g1", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X0 Y10G1 X10 Y10\nG40\nM2\n"),
+    # calbox alone refuses (below): an arc under compensation.
+    ("cutter_arc", "linuxcnc",
+     "G21 G90 G17\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0 F100\nG3 X10 Y10 I0 J10\nG1 X20 Y10\n"
+     "G40\nM2\n"),
 ]
+
+# The cutter's radius calbox is given (--tool-radius, mm) where a case takes it from the table.
+TOOL_RADIUS_MM = {"cutter_right_tool_table": 3.175 / 2 * 25.4}
 
 # Where calbox refuses a job rs274 runs, on purpose, and why. A refusal not listed fails.
 CALBOX_ALONE = {
@@ -144,6 +176,8 @@ CALBOX_ALONE = {
     ("hole-circle.ngc", "grbl"): "grbl has no polar words",
     # PyCAM's "T4 M6": grbl 1.1 has no tool change (its error 20), LinuxCNC has.
     ("ShapeOko_Calibration_Pattern_01b.ngc", "grbl"): "grbl has no M6",
+    # Cutter radius compensation is carried through straight moves only.
+    ("cutter_arc", "linuxcnc"): "an arc under cutter radius compensation is not carried yet",
 }
 
 # Jobs that set G92 before their first move say the tool is where it stands: rs274 starts at
@@ -516,7 +550,9 @@ def main():
             os.remove(out)
         run = subprocess.run([calbox, "compensate", "--result", results[flavour], path,
                               "--work-zero", "%g,%g" % zero, "-o", out]
-                             + (["--start-at", "0,0"] if name in START_AT_ZERO else []),
+                             + (["--start-at", "0,0"] if name in START_AT_ZERO else [])
+                             + (["--tool-radius", "%.6f" % TOOL_RADIUS_MM[name]]
+                                if name in TOOL_RADIUS_MM else []),
                              capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=600)
         # grbl runs a file to its end; LinuxCNC wants M2, M30 or a closing '%' (a deliberate
         # difference for grbl's jobs: both sides are read with an M2 after them).
@@ -650,7 +686,9 @@ def placed_pass(calbox, jobs, results, work, zero, only, failures):
         if os.path.exists(out):
             os.remove(out)
         run = subprocess.run([calbox, "compensate", "--result", results[flavour], path,
-                              "--work-zero", "camera", "--stock", stock, "-o", out],
+                              "--work-zero", "camera", "--stock", stock, "-o", out]
+                             + (["--tool-radius", "%.6f" % TOOL_RADIUS_MM[name]]
+                                if name in TOOL_RADIUS_MM else []),
                              capture_output=True, text=True, stdin=subprocess.DEVNULL, timeout=600)
         judged_path, judged_out = path, out
         if flavour == "grbl":

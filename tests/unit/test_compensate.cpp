@@ -2,6 +2,7 @@
 #include <CppUTest/TestHarness.h>
 
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -152,6 +153,64 @@ std::vector<Point2> positions_of(const std::string& job) {
 }
 
 }  // namespace
+
+TEST(Compensate, cutter_radius_compensation_writes_the_path_linuxcnc_cuts) {
+    // A 10 mm square run anticlockwise, the cutter (6 mm across) on its left: inside it. Worked
+    // by hand: the entry move up the left side ends 3 mm left of (0, 0); the turn along the bottom
+    // is an outside corner for it (an arc about (0, 0) to (0, 3)); the three later corners are
+    // inside ones, cut where the offset sides cross: (7, 3), (7, 7), (3, 7); G40 leaves the last
+    // side at (3, 0), and the exit goes from there.
+    const std::string job =
+        "G21 G90 G17\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nX10 Y0\nX10 Y10\nX0 Y10\nX0 "
+        "Y0\nG40\nG0 X0 Y-10\nM2\n";
+    targets::CompensateReport report;
+    targets::CompensateSettings s;
+    s.max_segment_mm = 1000;
+    const targets::JobFrame frame{targets::Flavour::linuxcnc, {Point2{}}, {}, {}};
+    const std::string out = targets::compensate_gcode(job, {kIdentity, {}}, frame, s, report);
+    const auto at = positions_of(out);
+    const std::vector<Point2> corners{{0, -10}, {-3, 0}, {0, 3}, {7, 3},
+                                      {7, 7},   {3, 7},  {3, 0}, {0, -10}};
+    std::size_t next = 0;
+    for (const auto& p : at) {
+        if (next < corners.size() &&
+            std::hypot(p.x - corners[next].x, p.y - corners[next].y) < 1e-6)
+            ++next;
+        else  // the arc's chords, between (-3, 0) and (0, 3): on the circle about (0, 0)
+            CHECK_TEXT(next == 2 && std::abs(std::hypot(p.x, p.y) - 3) < 1e-3, out.c_str());
+    }
+    CHECK_TEXT(next == corners.size(), out.c_str());
+    CHECK(out.find("G41") == std::string::npos);
+
+    const auto refused = [&](const std::string& text, const std::string& words,
+                             std::optional<double> radius = std::nullopt) {
+        targets::CompensateSettings r = s;
+        r.tool_radius_mm = radius;
+        try {
+            targets::compensate_gcode(text, {kIdentity, {}}, frame, r, report);
+        } catch (const targets::CompensateError& e) {
+            const std::string what = e.what();
+            CHECK_TEXT(what.find(words) != std::string::npos, what.c_str());
+            return;
+        }
+        FAIL(("not refused: " + text).c_str());
+    };
+    // The tool table's radius is not in the file; given, the same path right of a reversed run.
+    refused("G21 G90\nG0 X0 Y-10\nG42 D1\nG1 X0 Y0 F100\nG40\nM2\n",
+            "line 3: cutter radius compensation (G41 / G42) by the controller's tool table: give "
+            "the cutter's radius (calbox compensate --tool-radius MM)");
+    refused("G21 G90\nG0 X0 Y0\nG41.1 D6\nG1 X2 Y0 F100\nM2\n",
+            "line 4: the first move under cutter radius compensation is 2 long, not longer than "
+            "the cutter's radius 3");
+    refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG91 G1 X5\nM2\n",
+            "line 5: incremental distances (G91) under cutter radius compensation", 3.0);
+    refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG2 X5 Y5 I5 J0\nM2\n",
+            "line 5: an arc under cutter radius compensation");
+    refused("G21 G90\nG28\nG41.1 D6\nG1 X0 Y0 F100\nM2\n",
+            "line 4: cutter radius compensation starts where the position is not known");
+    refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nT2 M6\nM2\n",
+            "line 5: a tool change under cutter radius compensation");
+}
 
 TEST(Compensate, modal_words_comments_and_program_delimiters_are_carried) {
     const std::string job =

@@ -230,6 +230,7 @@ expect_error "cutter.gcode: line 2: cutter radius compensation \(G41\)" compensa
 { printf 'G1 X0 Y0\n; '; head -c 1048576 /dev/zero | tr '\0' 'x'; printf '\n'; } > "$work/long_line.gcode"
 expect_error "long_line.gcode: line 2 is 1048578 characters long" compensate --result "$work/identity_result.json" "$work/long_line.gcode" -o "$work/result"
 expect_error "--segment must be 0.01 to 100 mm" compensate --result "$work/identity_result.json" "$work/ok.gcode" --segment 0 -o "$work/result"
+expect_error "--tool-radius must be above 0 and at most 100 mm" compensate --result "$work/identity_result.json" "$work/ok.gcode" --tool-radius -1 -o "$work/result"
 
 # The planar mode: the wrong machine, an area too small, a photo that is not the sheet,
 # measurements of another machine.

@@ -1594,6 +1594,13 @@ class Compensator {
             z_to = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
         const std::optional<double> e_word = line.value('E');
         const double r_tolerance_mm = written_precision_ * m_.unit_mm;
+        // A helix shares its descent along its chords; from a height the file has not given,
+        // each chord would take the whole of it at once (a straight move is written whole for
+        // that; an arc cannot be).
+        if (is_arc_mode && m_.plane == 17 && line.has('Z') && !z_from)
+            throw fail(
+                "an arc that changes height (a helix) from a height the file has not given: its "
+                "chords cannot share the descent; give a Z move before it");
         const auto failing = [this](const std::string& why) { return fail(why); };
         const std::vector<PathPoint> path =
             is_arc_mode

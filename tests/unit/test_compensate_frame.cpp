@@ -118,7 +118,8 @@ TEST(CompensateFrame, inside_at_the_edge_beyond_it_and_past_the_travel) {
     CHECK_EQUAL(2, report.held);
     DOUBLES_EQUAL(std::hypot(5.0, 5.0), report.held_farthest_mm, 1e-9);
     // Past the travel: refused, naming the line, the point and the travel.
-    const std::string far = refusal_of("G90 F300\nG0 X100 Y100\nG1 X1000 Y-1000\n", router_at({0, 0}));
+    const std::string far =
+        refusal_of("G90 F300\nG0 X100 Y100\nG1 X1000 Y-1000\n", router_at({0, 0}));
     CHECK_TEXT(far.find("line 3: the point X1000 Y-1000 is at machine X1000 Y-1000 mm, beyond "
                         "the machine's travel (X 0..300, Y 0..300 mm)") != std::string::npos,
                far.c_str());
@@ -174,8 +175,9 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
     targets::CompensateReport report;
     targets::CompensateSettings s;
     const targets::JobFrame frame{targets::Flavour::grbl, {Point2{}}, {}, {}};
-    const auto out = lines_of(compensate_job(
-        "G90 F300\nG0 X0.257 Y16.041\nG3 X0.257 Y19.058 Z2.38 R1.508\n", {none, {}}, frame, s, report));
+    const auto out =
+        lines_of(compensate_job("G90 F300\nG0 X0.257 Y16.041 Z3\nG3 X0.257 Y19.058 Z2.38 R1.508\n",
+                                {none, {}}, frame, s, report));
     double farthest = 0;
     for (std::size_t i = 2; i < out.size(); ++i) {
         const Point2 p = xy_of(out[i]);
@@ -564,8 +566,8 @@ TEST(CompensateFrame, words_are_read_as_the_controllers_read_them) {
     CHECK_EQUAL(std::string("G90 G0 X20.2 Y20.02"), lower[0]);
     CHECK_EQUAL(std::string("G1 X30.3 Y20.03 F100"), lower[1]);
     // (20, 0.5) is beyond the measured area: (20, 10)'s correction (+0.2, +0.02), held.
-    const auto plus =
-        lines_of(compensated("G90 G0 X20 Y20 F300\nG1 X+50. Y+20.\nG1 X+20. Y+.5\n", router_at({0, 0})));
+    const auto plus = lines_of(
+        compensated("G90 G0 X20 Y20 F300\nG1 X+50. Y+20.\nG1 X+20. Y+.5\n", router_at({0, 0})));
     CHECK_EQUAL(std::string("G1 X50.5 Y20.05"), plus[1]);
     CHECK_EQUAL(std::string("G1 X20.2 Y0.52"), plus[2]);
     // What LinuxCNC and grbl stop on is refused, naming the line, the column and the word.

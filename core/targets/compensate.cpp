@@ -529,6 +529,13 @@ Point2 held_correction(const MachineCorrection& correction, Point2 p, Compensate
     return {p.x + c.x - q.x, p.y + c.y - q.y};
 }
 
+// The line's comments, after its last piece: only the comments (words after an inline comment
+// are the line's words, written already).
+std::string trailing_comment(const std::string& raw) {
+    const std::string comment = gcode::comments_of(gcode::without_checksum(raw));
+    return comment.empty() ? std::string() : " " + comment;
+}
+
 // A line as the controller reads it: its words parsed, its G codes, whether it had polar words.
 struct ReadLine {
     gcode::Line line;
@@ -626,8 +633,7 @@ class CutterPath {
             if (c.is(17) || c.is(18) || c.is(19)) plane_ = c.number;
             if (c.is_motion()) motion_ = c.number;
             if (c.is(80)) motion_ = -1;
-            if (c.subcode < 0 && (c.number == 73 || (c.number >= 81 && c.number <= 89)))
-                motion_ = c.number;
+            if (c.subcode < 0 && is_cycle(c.number)) motion_ = c.number;
         }
         const bool reframes = std::any_of(r.codes.begin(), r.codes.end(), [](Code c) {
             return c.is(10) || c.is(28) || c.is(30) || c.is(52) || c.is(53) || c.number == 92 ||
@@ -700,7 +706,7 @@ class CutterPath {
                 "a tool change under cutter radius compensation: LinuxCNC refuses it too (turn it "
                 "off with G40 first)");
         for (const auto& w : l.parameters)
-            if (std::string_view("ABCUVW").find(w.letter) != std::string_view::npos)
+            if (kOtherAxes.find(w.letter) != std::string_view::npos)
                 throw fail(refusal(std::string("a move of axis ") + w.letter));
         if (!moves || !axes) {
             if (moves && !started_)
@@ -758,9 +764,7 @@ class CutterPath {
         while (!h.head.empty() && h.head.front() == ' ') h.head.erase(0, 1);
         h.motion = motion_ == 0 ? "G0" : "G1";
         if (const auto z = l.value('Z')) h.tail = " Z" + number(*z, 6);
-        h.tail += m.after;
-        const std::string comment = gcode::comments_of(gcode::without_checksum(raw));
-        if (!comment.empty()) h.tail += " " + comment;
+        h.tail += m.after + trailing_comment(raw);
         return h;
     }
 
@@ -888,9 +892,7 @@ class CutterPath {
             add(std::string(1, w.letter) + (w.value ? number(*w.value, 6) : std::string()));
         }
         const CommandWords m = command_words(l);
-        text += m.before + m.after;
-        const std::string comment = gcode::comments_of(gcode::without_checksum(raw));
-        if (!comment.empty()) add(comment);
+        text += m.before + m.after + trailing_comment(raw);
         while (!text.empty() && text.front() == ' ') text.erase(0, 1);
         return text;
     }
@@ -1725,12 +1727,6 @@ class Compensator {
             if (w.value) text += number(*w.value, 6);
         }
         return text;
-    }
-    // The line's comments, after its last piece: only the comments (words after an inline
-    // comment are the line's words, written already).
-    static std::string trailing_comment(const std::string& raw) {
-        const std::string comment = gcode::comments_of(gcode::without_checksum(raw));
-        return comment.empty() ? std::string() : " " + comment;
     }
 
     // A canned cycle's block: each hole (L repeats of it) placed through the correction; the

@@ -576,7 +576,10 @@ class CutterPath {
             }
             line(raw, r);
         }
-        if (side_ != 0) flush();
+        if (side_ != 0) {
+            refuse_gouge(cutter_, kRunsBackwards);
+            flush();
+        }
         return std::move(out_);
     }
 
@@ -590,6 +593,9 @@ class CutterPath {
         std::string raw;     // a line as written
         std::string n;       // its line number word, written first
         long number = 0;
+        // The way the move goes, as LinuxCNC queues it: the programmed move's direction (none
+        // for a height change), the cutter's for the entry move.
+        Point2 along{};
     };
 
     CompensateError fail(const std::string& why) const {
@@ -679,6 +685,7 @@ class CutterPath {
         }
         if (turn_off) {
             // LinuxCNC goes on from where the cutter is.
+            refuse_gouge(cutter_, kRunsBackwards);
             flush();
             side_ = 0;
             at_ = cutter_;
@@ -687,6 +694,8 @@ class CutterPath {
             out_.emplace_back(raw, number_);
             return;
         }
+        // LinuxCNC ends the held moves at a program's end as at G40.
+        if (started_ && (has_m(l, 2) || has_m(l, 30))) refuse_gouge(cutter_, kRunsBackwards);
         // On: what this carries through.
         if (std::any_of(r.codes.begin(), r.codes.end(),
                         [](Code c) { return c.is(20) || c.is(21); }))
@@ -781,6 +790,7 @@ class CutterPath {
         const double normal = along + (side_ > 0 ? kHalfPi : -kHalfPi);
         from_ = from;
         cutter_ = {to.x + radius_ * std::cos(normal), to.y + radius_ * std::sin(normal)};
+        move.along = {cutter_.x - from.x, cutter_.y - from.y};
         held_.push_back(std::move(move));
         programmed_ = to;
         started_ = true;
@@ -823,7 +833,9 @@ class CutterPath {
             pull_back({cutter_.x + retreat * std::cos(theta + gamma),
                        cutter_.y + retreat * std::sin(theta + gamma)});
         } else if (beta > kConcaveCorner) {
-            // Around the programmed corner: an arc for a feed, a traverse across for G0.
+            // Around the programmed corner: an arc for a feed, a traverse across for G0. LinuxCNC
+            // ends the held moves where the cutter is first, checking them as at an inside one.
+            refuse_gouge(cutter_, kRunsBackwards);
             if (move.motion == "G1") {
                 corner_move = (side_ > 0 ? "G2" : "G3") + xy(start) + " I" +
                               number(corner.x - cutter_.x, 6) + " J" +
@@ -833,6 +845,7 @@ class CutterPath {
             }
         }
         flush();
+        move.along = {to.x - corner.x, to.y - corner.y};
         if (!corner_move.empty()) {
             from_ = start;  // the move starts after its corner's
             // The block's words that act before its motion act before the corner too.
@@ -848,15 +861,20 @@ class CutterPath {
     // An inside corner: every move held ends at `p` instead (LinuxCNC's move_endpoint_and_flush);
     // a move that would run backwards to it gouges, and is refused as LinuxCNC refuses it.
     void pull_back(Point2 p) {
-        if (!held_.empty() && held_.front().move) {
-            const Point2 d_was{cutter_.x - from_.x, cutter_.y - from_.y};
-            const Point2 d_now{p.x - from_.x, p.y - from_.y};
-            if (d_was.x * d_now.x + d_was.y * d_now.y < 0)
-                throw fail(
-                    "an inside corner the cutter cannot reach without gouging the move before "
-                    "it: LinuxCNC refuses it too (a smaller cutter, or a wider corner)");
-        }
+        refuse_gouge(p,
+                     "an inside corner the cutter cannot reach without gouging the move before it");
         cutter_ = p;
+    }
+
+    // LinuxCNC checks every held move against where it now ends, at an inside corner and at G40
+    // alike: the move's own direction against the way from where the held moves start to `p`. A
+    // move shorter than the inside corner before it takes back runs backwards there.
+    void refuse_gouge(Point2 p, const std::string& what) const {
+        const Point2 d_now{p.x - from_.x, p.y - from_.y};
+        for (const Held& h : held_)
+            if (h.move && h.along.x * d_now.x + h.along.y * d_now.y < 0)
+                throw fail(what + " (the move on line " + std::to_string(h.number) +
+                           "): LinuxCNC refuses it too (a smaller cutter, or a wider corner)");
     }
 
     void flush() {
@@ -920,6 +938,9 @@ class CutterPath {
         cutter_ = programmed_;
     }
 
+    static constexpr const char* kRunsBackwards =
+        "a move the cutter would run backwards along (shorter than the inside corner before it "
+        "takes back)";
     static constexpr double kHalfPi = std::numbers::pi / 2;
     // LinuxCNC's TOLERANCE_CONCAVE_CORNER, radians: a turn this small is no corner.
     static constexpr double kConcaveCorner = 0.05;
@@ -1396,6 +1417,7 @@ class Compensator {
         const auto who = [this] { return controller_of(frame_.flavour); };
         const auto stops = [&who] { return ": " + who() + " stops on it"; };
         word_rules(line, codes);
+        negative_words(line);
         const auto on_line = [&](int number) {
             return std::any_of(codes.begin(), codes.end(),
                                [number](Code c) { return c.number == number; });
@@ -1473,6 +1495,29 @@ class Compensator {
             !positive('Q'))
             throw fail("G" + std::to_string(motion == 73 || on_line(73) ? 73 : 83) +
                        " without its peck depth (a Q above 0)" + stops());
+        if ((motion == 82 || motion == 86 || motion == 88 || motion == 89) && line.has('P') &&
+            !(line.value('P').value_or(-1) >= 0))
+            throw fail("G" + std::to_string(motion) + " with a negative dwell (P)" + stops());
+    }
+
+    // Words whose value cannot be below 0: LinuxCNC's "Negative f word used", "Negative spindle
+    // speed used", "Negative l word used", an H or D naming no tool; grbl's error 4 ("Negative
+    // value received for an expected positive value") for F, P and S.
+    void negative_words(const gcode::Line& line) const {
+        const bool grbl = frame_.flavour == Flavour::grbl;
+        const std::string_view letters = grbl ? "FPS" : "FSLHD";
+        for (const auto& w : line.parameters) {
+            if (!w.value || !(*w.value < 0) || letters.find(w.letter) == std::string_view::npos)
+                continue;
+            const std::string what = w.letter == 'F'   ? "feed rate"
+                                     : w.letter == 'S' ? "spindle speed"
+                                     : w.letter == 'P' ? "P word"
+                                     : w.letter == 'L' ? "repeat count (L)"
+                                                       : "tool number";
+            throw fail("'" + std::string(1, w.letter) + number(*w.value, 4) + "': a negative " +
+                       what + ": " + controller_of(frame_.flavour) + " stops on it" +
+                       (grbl ? " (its error 4)" : ""));
+        }
     }
 
     void line(const std::string& raw) {
@@ -1603,6 +1648,13 @@ class Compensator {
             throw fail(
                 "an arc that changes height (a helix) from a height the file has not given: its "
                 "chords cannot share the descent; give a Z move before it");
+        // In the XZ or YZ plane the height is one of the arc's own coordinates: from a height the
+        // file has not given, its centre and its path are not known (rs274 takes Z0 there; a
+        // machine starts where its tool is).
+        if (is_arc_mode && m_.plane != 17 && !z_from)
+            throw fail(std::string("an arc in the ") + (m_.plane == 18 ? "XZ" : "YZ") +
+                       " plane from a height the file has not given: its centre and path are "
+                       "not known; give a Z move before it");
         const auto failing = [this](const std::string& why) { return fail(why); };
         const std::vector<PathPoint> path =
             is_arc_mode
@@ -1748,6 +1800,14 @@ class Compensator {
             throw fail("canned cycle " + code.text() +
                        " without its R or Z (retract plane and "
                        "bottom of the hole)");
+        // A retract plane below the hole's bottom drills upwards: LinuxCNC stops on it. Under
+        // G91 Z is taken from R, so a Z above 0 is the same.
+        if (m_.absolute ? *m_.cycle_r < *m_.cycle_z : *m_.cycle_z > 0)
+            throw fail("canned cycle " + code.text() + " with its retract plane R" +
+                       number(*m_.cycle_r, 4) + " below the hole's bottom Z" +
+                       number(*m_.cycle_z, 4) + (m_.absolute ? "" : " (G91: Z from R)") +
+                       ": it would drill upwards; LinuxCNC stops on it (\"R less than z in cycle "
+                       "in xy plane\")");
         const double repeats = line.value('L').value_or(1);
         if (!(repeats >= 0 && repeats <= 10000 && repeats == std::floor(repeats)))
             throw fail("canned cycle " + code.text() + " L" + number(repeats, 3) +

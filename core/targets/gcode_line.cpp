@@ -109,19 +109,30 @@ std::string cnc_words(std::string_view raw, std::string_view letters) {
             throw SyntaxError(column(at) + "'" + std::string(1, raw[i]) +
                               "': the controller has no " + std::string(1, letter) + " word");
         ++i;
+        // Blanks count for nothing inside a word, but a comment ends it: LinuxCNC reads
+        // 'X1(c)9' as X1 and then a stray '9' ("Bad character '9' used") where grbl, which drops
+        // comments as it reads, would take X19. Refused rather than read either way.
+        const auto blanks = [&] {
+            while (i < raw.size() && is_blank(raw[i])) ++i;
+            return i < raw.size();
+        };
         std::string number;
         bool digits = false, point = false;
-        if (next() && (raw[i] == '+' || raw[i] == '-')) number += raw[i++];
-        while (next() && (is_digit(raw[i]) || (raw[i] == '.' && !point))) {
+        if (blanks() && (raw[i] == '+' || raw[i] == '-')) number += raw[i++];
+        while (blanks() && (is_digit(raw[i]) || (raw[i] == '.' && !point))) {
             point = point || raw[i] == '.';
             digits = digits || is_digit(raw[i]);
             number += raw[i++];
         }
         const std::string word = std::string(1, letter) + number;
+        if (!digits && i < raw.size() && (raw[i] == '(' || raw[i] == ';'))
+            throw SyntaxError(column(i) + "a comment between '" + word +
+                              "' and its number (the controller reads no number there)");
         if (!digits)
             throw SyntaxError(column(at) + "'" + word + "': " + std::string(1, letter) +
                               " without a number after it");
-        if (next() && !std::isalpha(static_cast<unsigned char>(raw[i])))
+        if (blanks() && raw[i] != '(' && raw[i] != ';' &&
+            !std::isalpha(static_cast<unsigned char>(raw[i])))
             throw SyntaxError(column(at) + "'" + word + std::string(1, raw[i]) + "': '" +
                               std::string(1, raw[i]) + "' is no part of a number");
         if (!out.empty() && out != "/") out += ' ';

@@ -141,6 +141,27 @@ CASES = [
     ("arc_turns", "linuxcnc",
      "G21 G90 G17 F100\nG0 X0 Y0 Z0\nG2 X10 Y0 R5 P3\nG1 X20 Y0\nG3 X30 Y0 I5 J0 P2 Z-1\nM2\n"),
 
+    # Found by the slow label (stop 68): a digit straight after a comment (tort.ngc's
+    # "(90 195)9": LinuxCNC's "Bad character '9' used", where calbox read the comment as blanks
+    # inside the number), a retract plane below the hole's bottom (absolute, and under G91 where
+    # Z is taken from R), negative spindle speeds and feeds.
+    ("digit_after_comment", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X1(to one)9 Y0 F100\nM2\n"),
+    ("digit_after_comment_grbl", "grbl", "G21 G90\nG0 X0 Y0\nG1 X1 (to one)9 Y0 F100\nM2\n"),
+    ("comment_before_number", "linuxcnc", "G21 G90\nG0 X(here)1 Y0\nM2\n"),
+    ("cycle_r_below_z_grbl", "grbl",
+     "G21 G90\nG0 X0 Y0 Z5\nG98 G83 X30 Y20 Z1 R0.5 Q1 F200\nX40\nG80\nM2\n"),
+    ("cycle_r_below_z_sticky", "linuxcnc",
+     "G21 G90\nG0 X0 Y0 Z5\nG99 G81 X10 Y10 Z-1 R1 F200\nX20 Z2\nG80\nM2\n"),
+    ("cycle_g91_z_above_r", "linuxcnc",
+     "G21 G90\nG0 X0 Y0 Z5\nG91 G99 G81 X10 Y0 Z1 R-1 F100\nG80 G90\nM2\n"),
+    ("negative_spindle_speed", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X10 F100 M3 S-1000\nM2\n"),
+    ("negative_feed_grbl", "grbl", "G21 G90\nG0 X0 Y0\nG1 X10 F-100\nM2\n"),
+    ("negative_dwell_g82", "linuxcnc",
+     "G21 G90\nG0 X0 Y0 Z5\nG98 G82 X10 Y10 Z-1 R1 P-1 F200\nG80\nM2\n"),
+    # An arc in the XZ plane from a height the file has not given: rs274 takes Z0, a machine
+    # starts where its tool is (calbox alone, below).
+    ("g18_arc_from_unknown_height", "linuxcnc",
+     "G21 G90\nG0 X10 Y10\nG18 G2 X20 Z0 I5 K0 F100\nG17\nM2\n"),
     # calbox alone refuses (below): a helix from a height the file has not given.
     ("helix_from_unknown_height", "linuxcnc",
      "G21 G90 G17 F100\nG0 X0 Y0\nG3 X10 Y0 I5 J0 Z-1\nM2\n"),
@@ -167,6 +188,21 @@ CASES = [
     ("cutter_gouge", "linuxcnc",
      "G21 G90 G17 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X0 Y10\nG1 X10 Y10\nG1 X10 Y0\n"
      "G0 X2 Y-5\nG1 X30 Y-5\nG40\nM2\n"),
+    # Found by the slow label (stop 68): a move after an inside corner shorter than the corner
+    # takes back runs backwards; LinuxCNC finds it where the held moves are next ended: at G40, at
+    # the program's end, at an outside corner (a traverse's too). A collinear move after it ends
+    # nothing and is right.
+    ("cutter_gouge_at_g40", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D6\nG1 X0 Y0\nG1 X10 Y0\nG1 X10 Y1\nM5\nG0 Z5\n"
+     "G40\nM2\n"),
+    ("cutter_gouge_at_end", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D6\nG1 X0 Y0\nG1 X10 Y0\nG1 X10 Y1\nM2\n"),
+    ("cutter_gouge_at_outside_corner", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D6\nG1 X0 Y0\nG1 X10 Y0\nG1 X10 Y1\nG0 X20 Y1\n"
+     "G40\nM2\n"),
+    ("cutter_short_then_collinear", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D6\nG1 X0 Y0\nG1 X10 Y0\nG1 X10 Y1\nG1 X10 Y5\n"
+     "G40\nG0 X30 Y30\nM2\n"),
     ("cutter_two_g1", "linuxcnc",
      "G21 G90 G17 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X0 Y10G1 X10 Y10\nG40\nM2\n"),
     # calbox alone refuses (below): an arc under compensation.
@@ -189,6 +225,8 @@ CALBOX_ALONE = {
     # rs274 starts at Z0; a machine starts wherever its tool is: a helix's descent from there is
     # not known (each chord of the copy took the whole descent, 0.99 mm off rs274's helix).
     ("helix_from_unknown_height", "linuxcnc"): "a helix from a height the file has not given",
+    # The same for an arc in the XZ plane, whose centre is at a height: rs274 takes Z0 for it.
+    ("g18_arc_from_unknown_height", "linuxcnc"): "an XZ arc from a height the file has not given",
 }
 
 # Jobs that set G92 before their first move say the tool is where it stands: rs274 starts at

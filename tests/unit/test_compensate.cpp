@@ -210,6 +210,17 @@ TEST(Compensate, cutter_radius_compensation_writes_the_path_linuxcnc_cuts) {
             "line 4: cutter radius compensation starts where the position is not known");
     refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nT2 M6\nM2\n",
             "line 5: a tool change under cutter radius compensation");
+    // After the inside corner at (10, 0) the cutter (3 mm radius) starts up the right side at
+    // (7, 3): the 1 mm move to (10, 1) would end at (7, 1), back down the side. LinuxCNC finds it
+    // where the held move is next ended: at G40, at the program's end, at an outside corner.
+    const std::string short_after_corner =
+        "G21 G90\nG0 X-10 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG1 X10 Y0\nG1 X10 Y1\n";
+    refused(short_after_corner + "M5\nG40\nM2\n",
+            "line 8: a move the cutter would run backwards along (shorter than the inside corner "
+            "before it takes back) (the move on line 6)");
+    refused(short_after_corner + "M2\n", "line 7: a move the cutter would run backwards along");
+    refused(short_after_corner + "G0 X20 Y1\nG40\nM2\n",
+            "line 7: a move the cutter would run backwards along");
 }
 
 TEST(Compensate, modal_words_comments_and_program_delimiters_are_carried) {

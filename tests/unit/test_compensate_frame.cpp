@@ -582,6 +582,19 @@ TEST(CompensateFrame, words_are_read_as_the_controllers_read_them) {
     refused("G0 G1 X1 Y1 F10\n", "line 1: two G codes of one modal group on one line (G0 and G1)");
     refused("G0 X1 Y1\nG80\nX2 Y2\n", "line 3: axis words with no motion in force");
     refused("G0 X1.2.3 Y1\n", "line 1: column 4: 'X1.2.': '.' is no part of a number");
+    // A comment ends a number (LinuxCNC: "Bad character '9' used"), and stands in none.
+    refused("G0 X1(one)9 Y0\n", "line 1: column 11: '9' where a word's letter should be");
+    refused("G0 X(here)1 Y0\n", "line 1: column 5: a comment between 'X' and its number");
+    refused("G0 X0 Y0\nG1 X10 F100 M3 S-1000\n", "line 2: 'S-1000': a negative spindle speed");
+    refused("G0 X0 Y0\nG1 X10 F-100\n", "line 2: 'F-100': a negative feed rate");
+    // A drilling cycle's retract plane below its bottom, also when Z stays in force.
+    refused("G0 X0 Y0 Z5\nG99 G81 X10 Y10 Z-1 R1 F200\nX20 Z2\n",
+            "line 3: canned cycle G81 with its retract plane R1 below the hole's bottom Z2");
+    refused("G0 X0 Y0 Z5\nG91 G99 G81 X10 Y0 Z1 R-1 F100\n",
+            "line 2: canned cycle G81 with its retract plane R-1 below the hole's bottom Z1 (G91");
+    // An XZ arc from a height the file has not given (rs274 would take Z0).
+    refused("G0 X10 Y10\nG18 G2 X20 Z0 I5 K0 F100\n",
+            "line 2: an arc in the XZ plane from a height the file has not given");
     // This file's helper ends LinuxCNC's jobs with M2; without it, LinuxCNC stops at the end.
     std::string unended;
     try {

@@ -123,6 +123,9 @@ struct Modal {
     std::optional<double> feed;  // the F in force (units per minute), where a line gave one
     std::optional<double> cycle_start_z_mm;
     std::optional<double> cycle_r, cycle_z, cycle_q, cycle_p;  // the job's units
+    // Whether the file has the spindle turning (M3, M4; M5 and a tool change stop it), as
+    // LinuxCNC's interpreter follows it from a stopped start: G86 and G88 need it turning.
+    bool spindle_turning = false;
 
     // Machine = job * unit + offset, where the work system's zero is known.
     std::optional<Point2> offset_mm() const {
@@ -1390,6 +1393,12 @@ class Compensator {
                 throw fail(c.text() + ": no such G code (" + who() +
                            " stops on it: \"Unknown g code used\")");
         const auto check_m = [&](double value) {
+            if (value != std::floor(value))
+                throw fail("M" + number(value, 4) + ": an M code is a whole number (" + who() +
+                           " stops on it" +
+                           (frame_.flavour == Flavour::grbl
+                                ? ": its error 20)"
+                                : ": \"Non integer value for integer\")"));
             if (!is_known_m(frame_.flavour, value))
                 throw fail("M" + number(value, 0) + ": no such M code on " + who() +
                            " (it stops on it" +
@@ -1538,6 +1547,7 @@ class Compensator {
         if (numbered_) numbering_.saw(*line.line_number);
         bool not_a_move = false;
         machine_move_ = false;
+        motion_before_ = m_.motion;
         std::vector<Code> kept_codes;  // the line's other G words, written ahead of its move
         rewritten_.reset();
         state_words(line, codes, not_a_move, kept_codes);
@@ -1548,6 +1558,9 @@ class Compensator {
             throw fail(
                 "a subprogram call or return (M98, M99): have the CAM write the program "
                 "flat");
+        if (has_m(line, 6)) m_.spindle_turning = false;
+        if (has_m(line, 3) || has_m(line, 4)) m_.spindle_turning = true;
+        if (has_m(line, 5)) m_.spindle_turning = false;
         if (has_m(line, 82)) m_.absolute_e = true;
         if (has_m(line, 83)) m_.absolute_e = false;
 
@@ -1791,6 +1804,11 @@ class Compensator {
                 "operator's switch");
         if (m_.plane != 17)
             throw fail("a drilling cycle in the XZ or YZ plane (G18, G19): holes along X or Y");
+        // R, Z, Q and P stay in force only while the same cycle does: a cycle entered anew (after
+        // G80, another motion or another cycle) gives its own, as LinuxCNC asks ("R clearance
+        // plane unspecified in cycle").
+        if (motion_before_ != m_.motion)
+            m_.cycle_r.reset(), m_.cycle_z.reset(), m_.cycle_q.reset(), m_.cycle_p.reset();
         if (auto r = line.value('R')) m_.cycle_r = *r;
         if (auto z = line.value('Z')) m_.cycle_z = *z;
         if (auto q = line.value('Q')) m_.cycle_q = *q;
@@ -1798,8 +1816,21 @@ class Compensator {
         const Code code{m_.motion, -1};
         if (!m_.cycle_r || !m_.cycle_z)
             throw fail("canned cycle " + code.text() +
-                       " without its R or Z (retract plane and "
-                       "bottom of the hole)");
+                       " without its R or Z (retract plane and bottom of the hole): a cycle "
+                       "entered anew gives its own, LinuxCNC keeps them only while the same "
+                       "cycle goes on");
+        const bool dwells =
+            m_.motion == 82 || m_.motion == 86 || m_.motion == 88 || m_.motion == 89;
+        if (dwells && !m_.cycle_p)
+            throw fail("canned cycle " + code.text() +
+                       " without its dwell (P): LinuxCNC stops on it (\"Dwell time p word "
+                       "missing\")");
+        if ((m_.motion == 86 || m_.motion == 88) && !m_.spindle_turning)
+            throw fail(
+                "canned cycle " + code.text() +
+                " with the spindle not turning (no M3 or M4 since the start, an M5 or a tool "
+                "change): "
+                "LinuxCNC stops on it (\"Spindle not turning\")");
         // A retract plane below the hole's bottom drills upwards: LinuxCNC stops on it. Under
         // G91 Z is taken from R, so a Z above 0 is the same.
         if (m_.absolute ? *m_.cycle_r < *m_.cycle_z : *m_.cycle_z > 0)
@@ -1952,6 +1983,7 @@ class Compensator {
     std::string out_;
     long line_number_ = 0;
     bool numbered_ = false, checksummed_ = false, machine_move_ = false;
+    int motion_before_ = -1;  // the motion in force before the line being read
     // An offset line as the controller must read it, where calbox rewrote it (G92, G10 L20).
     std::optional<std::string> rewritten_;
     double written_precision_ = 1;  // the job's units: 0.001 for a file written to 3 decimals

@@ -158,6 +158,22 @@ CASES = [
     ("negative_feed_grbl", "grbl", "G21 G90\nG0 X0 Y0\nG1 X10 F-100\nM2\n"),
     ("negative_dwell_g82", "linuxcnc",
      "G21 G90\nG0 X0 Y0 Z5\nG98 G82 X10 Y10 Z-1 R1 P-1 F200\nG80\nM2\n"),
+    # Found by the slow label at this change's first run: a cycle entered anew gives its own R
+    # and Z (LinuxCNC keeps them only while the same cycle goes on: after G80, or from G82 to
+    # G81, calbox had used the old ones), a dwelling cycle its P, G86 and G88 a turning spindle;
+    # an M code is a whole number ('M . 5' read as M0.5).
+    ("cycle_again_after_g80", "linuxcnc",
+     "G21 G90\nG0 X100 Y100 Z10\nG99 G81 X0 Y0 Z-3 R9 F100\nG80\nG81 X5 Y0\nG80\nM2\n"),
+    ("cycle_changed_without_r_grbl", "grbl",
+     "G21 G90\nG0 X100 Y100 Z10\nG99 G82 X0 Y0 Z-3 R9 F100 P1\nG81 X5 Y0\nG80\nM2\n"),
+    ("g88_without_p", "linuxcnc",
+     "G21 G90\nG0 X100 Y100 Z10\nM3 S500\nG99 G88 X0 Y0 Z-3 R9 F100\nG80\nM2\n"),
+    ("g86_spindle_stopped", "linuxcnc",
+     "G21 G90\nG0 X100 Y100 Z10\nM3 S500\nT1 M6\nG99 G86 X0 Y0 Z-3 R9 F100 P1\nG80\nM2\n"),
+    ("g86_spindle_on_same_line", "linuxcnc",
+     "G21 G90\nG0 X100 Y100 Z10\nG99 G86 X0 Y0 Z-3 R9 F100 P1 M3 S500\nX10\nG81 X20 R9 Z-2\n"
+     "X30\nG80\nM5\nM2\n"),
+    ("m_not_whole", "linuxcnc", "G21 G90\nG0 X0 Y0\nG1 X 1 M . 5 Y2 F100\nM2\n"),
     # An arc in the XZ plane from a height the file has not given: rs274 takes Z0, a machine
     # starts where its tool is (calbox alone, below).
     ("g18_arc_from_unknown_height", "linuxcnc",

@@ -592,6 +592,17 @@ TEST(CompensateFrame, words_are_read_as_the_controllers_read_them) {
             "line 3: canned cycle G81 with its retract plane R1 below the hole's bottom Z2");
     refused("G0 X0 Y0 Z5\nG91 G99 G81 X10 Y0 Z1 R-1 F100\n",
             "line 2: canned cycle G81 with its retract plane R-1 below the hole's bottom Z1 (G91");
+    // R and Z kept only while the same cycle goes on; a dwelling cycle's P; G86's spindle; an M
+    // code with a fraction.
+    refused("G0 X0 Y0 Z10\nG99 G81 X0 Y0 Z-3 R9 F100\nG80\nG81 X5 Y0\n",
+            "line 4: canned cycle G81 without its R or Z");
+    refused("G0 X0 Y0 Z10\nG99 G82 X0 Y0 Z-3 R9 F100 P1\nG81 X5 Y0\n",
+            "line 3: canned cycle G81 without its R or Z");
+    refused("G0 X0 Y0 Z10\nM3 S500\nG99 G88 X0 Y0 Z-3 R9 F100\n",
+            "line 3: canned cycle G88 without its dwell (P)");
+    refused("G0 X0 Y0 Z10\nM3 S500\nT1 M6\nG99 G86 X0 Y0 Z-3 R9 F100 P1\n",
+            "line 4: canned cycle G86 with the spindle not turning");
+    refused("G0 X0 Y0\nG1 X 1 M . 5 Y2 F100\n", "line 2: M0.5: an M code is a whole number");
     // An XZ arc from a height the file has not given (rs274 would take Z0).
     refused("G0 X10 Y10\nG18 G2 X20 Z0 I5 K0 F100\n",
             "line 2: an arc in the XZ plane from a height the file has not given");

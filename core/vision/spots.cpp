@@ -10,6 +10,7 @@
 
 #include "core/geometry/cv_convert.hpp"
 #include "core/median.hpp"
+#include "core/vision/blobs.hpp"
 #include "core/vision/median_filter.hpp"
 
 namespace calbox::vision {
@@ -269,8 +270,7 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
         marks = out.dark_marks ? (found_filtered <= out.threshold_dn)
                                : (found_filtered > out.threshold_dn);
     }
-    cv::Mat labels, stats, centroids;
-    const int count = cv::connectedComponentsWithStats(marks, labels, stats, centroids, 8, CV_32S);
+    const std::vector<Blob> blobs = blobs_of(marks);
     // Halved, each mark is measured on the full photo median-filtered around it alone: a patch
     // of its own, reaching the kernel's half further than what is kept so that the patch's own
     // border lies outside it, as the whole photo's would. The patch is read with the mark's
@@ -304,12 +304,12 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
     std::vector<cv::Point2f> outline;
     for (const auto& p : settings.search_outline_px)
         outline.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
-    for (int k = 1; k < count; ++k) {
-        const int area = stats.at<int>(k, cv::CC_STAT_AREA) * scale * scale;
+    for (const Blob& blob : blobs) {
+        const int area = static_cast<int>(blob.area_px) * scale * scale;
         if (area < settings.min_area_px) continue;
         // A pixel of the halved photo covers two of the photo's: its centre lies half a pixel on.
-        const geometry::Point2 rough{scale * centroids.at<double>(k, 0) + 0.5 * (scale - 1),
-                                     scale * centroids.at<double>(k, 1) + 0.5 * (scale - 1)};
+        const geometry::Point2 rough{scale * blob.centre_x_px + 0.5 * (scale - 1),
+                                     scale * blob.centre_y_px + 0.5 * (scale - 1)};
         if (outline.size() >= 3 &&
             cv::pointPolygonTest(
                 outline, cv::Point2f(static_cast<float>(rough.x), static_cast<float>(rough.y)),

@@ -16,8 +16,10 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <tuple>
 #include <vector>
 
+#include "core/vision/blobs.hpp"
 #include "core/vision/edge_kernel.hpp"
 #include "core/vision/median_filter.hpp"
 #include "core/vision/spots.hpp"
@@ -141,6 +143,67 @@ TEST(FixedPointKernels, give_the_stored_bits_on_every_architecture) {
         std::fprintf(stderr, "fixed-point kernels' digest: 0x%016llX\n",
                      static_cast<unsigned long long>(digest.value));
     CHECK_EQUAL(kStoredDigest, digest.value);
+}
+
+// The blobs are OpenCV's 8-connected components, area and centroid to the last bit, in the raster
+// order of their first pixels: random masks from sparse specks to nearly full (rings, diagonal
+// chains that join only through a corner, runs to the image's edges, widths that are not a
+// multiple of the eight-pixel look), a cut of a larger mask, and a mask of nothing.
+TEST_GROUP(Blobs){};
+
+TEST(Blobs, are_opencvs_connected_components) {
+    cv::RNG rng(20261201);
+    long blobs_seen = 0;
+    for (int t = 0; t < 300; ++t) {
+        cv::Mat mask(rng.uniform(1, 90), rng.uniform(1, 150), CV_8UC1);
+        cv::Mat noise(mask.size(), CV_8UC1);
+        rng.fill(noise, cv::RNG::UNIFORM, 0, 100);
+        const int fill = rng.uniform(1, 80);
+        mask = noise < fill;
+        if (t % 3 == 0) {  // diagonal chains: neighbours only through a corner
+            mask.setTo(0);
+            for (int k = 0; k < 6; ++k) {
+                int x = rng.uniform(0, mask.cols), y = rng.uniform(0, mask.rows);
+                const int dx = rng.uniform(0, 2) * 2 - 1;
+                for (; x >= 0 && x < mask.cols && y < mask.rows; x += dx, ++y)
+                    mask.at<std::uint8_t>(y, x) = 255;
+            }
+        }
+        cv::Mat labels, stats, centroids;
+        const int count =
+            cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+        std::vector<std::tuple<int, int, long, double, double>> expected;  // first pixel, stats
+        for (int k = 1; k < count; ++k) {
+            cv::Point first(-1, -1);
+            for (int y = 0; y < mask.rows && first.y < 0; ++y)
+                for (int x = 0; x < mask.cols; ++x)
+                    if (labels.at<int>(y, x) == k) {
+                        first = {x, y};
+                        break;
+                    }
+            expected.emplace_back(first.y, first.x, stats.at<int>(k, cv::CC_STAT_AREA),
+                                  centroids.at<double>(k, 0), centroids.at<double>(k, 1));
+        }
+        std::sort(expected.begin(), expected.end());
+        const auto got = vision::blobs_of(mask);
+        CHECK_EQUAL(expected.size(), got.size());
+        for (std::size_t i = 0; i < got.size() && i < expected.size(); ++i) {
+            CHECK_EQUAL(std::get<2>(expected[i]), got[i].area_px);
+            CHECK_EQUAL(std::get<3>(expected[i]), got[i].centre_x_px);
+            CHECK_EQUAL(std::get<4>(expected[i]), got[i].centre_y_px);
+        }
+        blobs_seen += static_cast<long>(got.size());
+    }
+    CHECK(blobs_seen > 3000);
+    cv::Mat large(200, 300, CV_8UC1, cv::Scalar(0));
+    cv::circle(large, {150, 100}, 40, cv::Scalar(255), 3);   // a ring: one blob
+    cv::circle(large, {150, 100}, 10, cv::Scalar(255), -1);  // and a disc inside it
+    const auto rings = vision::blobs_of(large(cv::Rect(60, 20, 200, 170)));
+    CHECK_EQUAL(2U, rings.size());
+    DOUBLES_EQUAL(90.0, rings[0].centre_x_px, 0.01);  // (150, 100) in the cut
+    DOUBLES_EQUAL(80.0, rings[1].centre_y_px, 0.01);
+    CHECK(vision::blobs_of(cv::Mat(5, 7, CV_8UC1, cv::Scalar(0))).empty());
+    CHECK_THROWS(std::invalid_argument, vision::blobs_of(cv::Mat(8, 8, CV_16UC1)));
 }
 
 // The patches' median is OpenCV's median, bit for bit: random images of every small shape (one

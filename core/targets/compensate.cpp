@@ -312,6 +312,11 @@ bool is_cycle(int motion) {
     return motion == 73 || (motion >= 81 && motion <= 89);
 }
 
+// The drilling cycles that dwell at the hole's bottom, for their P.
+bool dwells_at_bottom(int motion) {
+    return motion == 82 || motion == 86 || motion == 88 || motion == 89;
+}
+
 // The polar words of a line (LinuxCNC's '@' distance and '^' angle in degrees), taken out of it.
 struct Polar {
     std::optional<double> distance, angle_deg;
@@ -1484,7 +1489,7 @@ class Compensator {
                               has_m_in(line, 100, 199);
         const bool arc_turns = arc && frame_.flavour == Flavour::linuxcnc;
         if (!on_line(4) && !g10 && !arc_turns && !on_line(64) && !m_with_p &&
-            !(motion == 82 || motion == 86 || motion == 88 || motion == 89))
+            !dwells_at_bottom(motion))
             unused('P', "G4, G10, G64, an arc's turns, G82/G86/G88/G89 or M code");
         if (!(motion == 73 || motion == 83) && !on_line(64) && !g10 && !has_m_in(line, 66, 68) &&
             !has_m_in(line, 100, 199))
@@ -1504,8 +1509,7 @@ class Compensator {
             !positive('Q'))
             throw fail("G" + std::to_string(motion == 73 || on_line(73) ? 73 : 83) +
                        " without its peck depth (a Q above 0)" + stops());
-        if ((motion == 82 || motion == 86 || motion == 88 || motion == 89) && line.has('P') &&
-            !(line.value('P').value_or(-1) >= 0))
+        if (dwells_at_bottom(motion) && line.has('P') && !(line.value('P').value_or(-1) >= 0))
             throw fail("G" + std::to_string(motion) + " with a negative dwell (P)" + stops());
     }
 
@@ -1819,9 +1823,7 @@ class Compensator {
                        " without its R or Z (retract plane and bottom of the hole): a cycle "
                        "entered anew gives its own, LinuxCNC keeps them only while the same "
                        "cycle goes on");
-        const bool dwells =
-            m_.motion == 82 || m_.motion == 86 || m_.motion == 88 || m_.motion == 89;
-        if (dwells && !m_.cycle_p)
+        if (dwells_at_bottom(m_.motion) && !m_.cycle_p)
             throw fail("canned cycle " + code.text() +
                        " without its dwell (P): LinuxCNC stops on it (\"Dwell time p word "
                        "missing\")");

@@ -1,9 +1,10 @@
 #include "core/vision/blobs.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
-#include <numeric>
 #include <stdexcept>
+#include <vector>
 
 namespace calbox::vision {
 namespace {

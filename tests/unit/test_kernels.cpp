@@ -155,7 +155,11 @@ TEST(Blobs, are_opencvs_connected_components) {
     cv::RNG rng(20261201);
     long blobs_seen = 0;
     for (int t = 0; t < 300; ++t) {
-        cv::Mat mask(rng.uniform(1, 90), rng.uniform(1, 150), CV_8UC1);
+        // Drawn one at a time: the order a call's arguments are computed in is the compiler's, so
+        // the same seed would give other masks on the Pi's build.
+        const int rows = rng.uniform(1, 90);
+        const int cols = rng.uniform(1, 150);
+        cv::Mat mask(rows, cols, CV_8UC1);
         cv::Mat noise(mask.size(), CV_8UC1);
         rng.fill(noise, cv::RNG::UNIFORM, 0, 100);
         const int fill = rng.uniform(1, 80);
@@ -216,7 +220,9 @@ TEST(MedianFilter, is_opencvs_median_bit_for_bit) {
     long differing = 0, pixels = 0;
     for (const int kernel : {1, 3, 5})
         for (int t = 0; t < 200; ++t) {
-            cv::Mat image(rng.uniform(1, 140), rng.uniform(1, 140), CV_8UC1);
+            const int rows = rng.uniform(1, 140);  // one at a time, as for the blobs' masks
+            const int cols = rng.uniform(1, 140);
+            cv::Mat image(rows, cols, CV_8UC1);
             // Half the images noise over the whole range, half a few levels around a step (ties).
             if (t % 2 == 0)
                 rng.fill(image, cv::RNG::UNIFORM, 0, 256);

@@ -11,6 +11,7 @@
 #include "core/geometry/cv_convert.hpp"
 #include "core/median.hpp"
 #include "core/vision/blobs.hpp"
+#include "core/vision/local_threshold.hpp"
 #include "core/vision/median_filter.hpp"
 
 namespace calbox::vision {
@@ -255,10 +256,9 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
         const double diameter = settings.mark_diameter_px / scale;
         const int block =
             std::max(halved ? 7 : 15, 2 * static_cast<int>(std::lround(1.5 * diameter)) + 1);
-        cv::adaptiveThreshold(
-            found_filtered, marks, 255, cv::ADAPTIVE_THRESH_MEAN_C,
-            out.dark_marks ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY, block,
-            out.dark_marks ? settings.local_contrast_dn : -settings.local_contrast_dn);
+        // Halved, the halved photo is not read again: its buffer takes the mask.
+        if (halved) marks = found_on;
+        local_threshold(found_filtered, block, out.dark_marks, settings.local_contrast_dn, marks);
     } else {
         // Otsu's level from a reduced copy: the histogram is the same, a tenth of the work.
         cv::Mat small;

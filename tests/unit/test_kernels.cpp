@@ -21,6 +21,7 @@
 
 #include "core/vision/blobs.hpp"
 #include "core/vision/edge_kernel.hpp"
+#include "core/vision/local_threshold.hpp"
 #include "core/vision/median_filter.hpp"
 #include "core/vision/spots.hpp"
 
@@ -208,6 +209,55 @@ TEST(Blobs, are_opencvs_connected_components) {
     DOUBLES_EQUAL(80.0, rings[1].centre_y_px, 0.01);
     CHECK(vision::blobs_of(cv::Mat(5, 7, CV_8UC1, cv::Scalar(0))).empty());
     CHECK_THROWS(std::invalid_argument, vision::blobs_of(cv::Mat(8, 8, CV_16UC1)));
+}
+
+// The marks' mask is OpenCV's adaptiveThreshold (mean), bit for bit: random smooth images of
+// many shapes, blocks from 3 to wider than the image, contrasts whole and fractional, negative,
+// zero and past the grey scale, both polarities; into a buffer given (kept), none, one of another
+// size, and the image's own (not written over). Even blocks and colour refused.
+TEST_GROUP(LocalThreshold){};
+
+TEST(LocalThreshold, is_opencvs_adaptive_threshold) {
+    cv::RNG rng(20261202);
+    const std::array<double, 11> contrasts{0, 1, 2, 7, 10.5, -3, -7.25, 0.5, -0.5, 254, 300};
+    long marked = 0, checked = 0;
+    for (int t = 0; t < 400; ++t) {
+        const int rows = rng.uniform(1, 120);
+        const int cols = rng.uniform(1, 200);
+        cv::Mat image(rows, cols, CV_8UC1);
+        rng.fill(image, cv::RNG::UNIFORM, 0, 256);
+        const int blur = 2 * rng.uniform(0, 4) + 1;
+        cv::GaussianBlur(image, image, cv::Size(blur, blur), 0);
+        const int block = 2 * rng.uniform(1, 60) + 1;
+        const bool dark = rng.uniform(0, 2) == 1;
+        const double contrast = contrasts[static_cast<std::size_t>(rng.uniform(0, 11))];
+        cv::Mat expected;
+        cv::adaptiveThreshold(image, expected, 255, cv::ADAPTIVE_THRESH_MEAN_C,
+                              dark ? cv::THRESH_BINARY_INV : cv::THRESH_BINARY, block,
+                              dark ? contrast : -contrast);
+        cv::Mat out;
+        const int given = t % 4;  // none, the same size (kept), another size, the image itself
+        if (given == 1) out.create(image.size(), CV_8UC1);
+        if (given == 2) out.create(rows + 1, cols, CV_8UC1);
+        const cv::Mat before = image.clone();
+        const std::uint8_t* kept = out.data;
+        if (given == 3) out = image;
+        vision::local_threshold(image, block, dark, contrast, out);
+        CHECK_EQUAL(0, cv::norm(expected, out, cv::NORM_INF));
+        CHECK(expected.size() == out.size());
+        if (given == 1) CHECK(out.data == kept);
+        CHECK_EQUAL(0, cv::norm(before, image, cv::NORM_INF));
+        marked += cv::countNonZero(expected);
+        checked += static_cast<long>(expected.total());
+    }
+    // Neither all marks nor none: the rule is exercised both ways.
+    CHECK(marked > checked / 10);
+    CHECK(marked < checked * 9 / 10);
+    cv::Mat out;
+    CHECK_THROWS(std::invalid_argument,
+                 vision::local_threshold(cv::Mat(8, 8, CV_8UC1), 4, true, 5, out));
+    CHECK_THROWS(std::invalid_argument,
+                 vision::local_threshold(cv::Mat(8, 8, CV_8UC3), 5, true, 5, out));
 }
 
 // The patches' median is OpenCV's median, bit for bit: random images of every small shape (one

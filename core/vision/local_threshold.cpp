@@ -1,0 +1,70 @@
+#include "core/vision/local_threshold.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+namespace calbox::vision {
+namespace {
+
+// out[i] = 255 where a[i] - b[i] >= at_least (as integers), else 0; `flip` swaps the two.
+// Written on saturated differences, which stay in bytes, so that the loop is vector code.
+void at_least(const std::uint8_t* a, const std::uint8_t* b, std::uint8_t* out, int n,
+              int at_least_dn, bool flip) {
+    const std::uint8_t yes = flip ? 0 : 255, no = flip ? 255 : 0;
+    if (at_least_dn <= 0) {
+        std::memset(out, yes, static_cast<std::size_t>(n));
+        return;
+    }
+    if (at_least_dn > 255) {
+        std::memset(out, no, static_cast<std::size_t>(n));
+        return;
+    }
+    const auto t = static_cast<std::uint8_t>(at_least_dn);
+    for (int i = 0; i < n; ++i) {
+        const std::uint8_t u = a[i], v = b[i];
+        const auto d = static_cast<std::uint8_t>(u > v ? u - v : 0);
+        out[i] = d >= t ? yes : no;
+    }
+}
+
+}  // namespace
+
+void local_threshold(const cv::Mat& image, int block_px, bool dark, double contrast_dn,
+                     cv::Mat& out) {
+    if (image.type() != CV_8UC1 || image.empty())
+        throw std::invalid_argument("a local threshold needs an 8-bit grey image");
+    if (block_px < 3 || block_px % 2 == 0)
+        throw std::invalid_argument("a local threshold's block of " + std::to_string(block_px) +
+                                    " pixels: odd, at least 3");
+    if (out.data == image.data) out.release();
+    // The mean as OpenCV's adaptiveThreshold takes it, into the mask's own buffer.
+    cv::boxFilter(image, out, CV_8U, cv::Size(block_px, block_px), cv::Point(-1, -1), true,
+                  cv::BORDER_REPLICATE | cv::BORDER_ISOLATED);
+    // OpenCV's rule, in its terms: delta = contrast (dark) or -contrast (light), rounded down for
+    // THRESH_BINARY_INV and up for THRESH_BINARY; a dark mark is where src - mean <= -delta, a
+    // light one where src - mean > -delta.
+    const double delta = dark ? contrast_dn : -contrast_dn;
+    const int rounded = static_cast<int>(dark ? std::floor(delta) : std::ceil(delta));
+    for (int y = 0; y < image.rows; ++y) {
+        const std::uint8_t* src = image.ptr<std::uint8_t>(y);
+        std::uint8_t* mean_then_mask = out.ptr<std::uint8_t>(y);
+        if (dark) {
+            // mean - src >= delta; with delta <= 0, not (src - mean >= 1 - delta).
+            if (rounded > 0)
+                at_least(mean_then_mask, src, mean_then_mask, image.cols, rounded, false);
+            else
+                at_least(src, mean_then_mask, mean_then_mask, image.cols, 1 - rounded, true);
+        } else {
+            // src - mean >= 1 - delta; with delta > 0, not (mean - src >= delta).
+            if (rounded <= 0)
+                at_least(src, mean_then_mask, mean_then_mask, image.cols, 1 - rounded, false);
+            else
+                at_least(mean_then_mask, src, mean_then_mask, image.cols, rounded, true);
+        }
+    }
+}
+
+}  // namespace calbox::vision

@@ -30,7 +30,7 @@ struct FrameGuess {
     }
 };
 
-struct Matching {
+struct HoleMatching {
     std::vector<long> candidate_of_hole;  // per target hole, -1 when none within reach
     int matched = 0, wrong_size = 0, at_omitted = 0;
     int score() const { return matched - 3 * wrong_size - 3 * at_omitted; }
@@ -50,10 +50,10 @@ long nearest_candidate(const std::vector<MarkCandidate>& candidates, Point2 at, 
     return best;
 }
 
-Matching match_holes(const targets::PlanarTarget& target,
-                     const std::vector<MarkCandidate>& candidates, const FrameGuess& frame,
-                     double reach) {
-    Matching m;
+HoleMatching match_holes(const targets::PlanarTarget& target,
+                         const std::vector<MarkCandidate>& candidates, const FrameGuess& frame,
+                         double reach) {
+    HoleMatching m;
     for (const auto& hole : target.holes) {
         const long c = nearest_candidate(candidates, frame.bed_of(hole.centre_mm), reach);
         m.candidate_of_hole.push_back(c);
@@ -163,7 +163,7 @@ FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
                       " pairs of large holes a pitch apart: not this target (an ambiguous grid)");
     struct Reading {
         FrameGuess frame;
-        Matching matching;
+        HoleMatching matching;
     };
     std::vector<Reading> readings;
     for (const bool mirrored : {false, true})
@@ -191,7 +191,7 @@ FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
         }
         if (from.size() >= 3) frame.placement = solve::best_rigid_placement(from, to);
     }
-    const Matching best = match_holes(target, candidates, frame, reach);
+    const HoleMatching best = match_holes(target, candidates, frame, reach);
     // The right reading matches (nearly) every hole in the photo; a wrong one, those near the
     // fiducials at most.
     const int seen = static_cast<int>(candidates.size());
@@ -214,7 +214,7 @@ std::vector<long> index_holes(const targets::PlanarTarget& target,
                               double reach) {
     // Refined over every hole matched: a frame from two holes, or from where the camera was
     // sent, leaves the far side of the photo a few tenths of a degree out.
-    Matching m = match_holes(target, candidates, frame, reach);
+    HoleMatching m = match_holes(target, candidates, frame, reach);
     std::vector<Point2> from, to;
     for (std::size_t h = 0; h < target.holes.size(); ++h) {
         const long c = m.candidate_of_hole[h];

@@ -33,7 +33,7 @@ struct Candidate {
 
 // One way the drawing's marks fall on the candidates: which candidate each mark is, and the
 // rigid placement that put them there.
-struct Matching {
+struct MarkMatching {
     std::vector<std::size_t> candidate_of_mark;
     double rotation_rad = 0;
     double misfit_mm = 0;  // the sum of the marks' distances from their candidates
@@ -104,7 +104,7 @@ std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
     // of a percent or two and the photo's millimetre leave room.
     const double base = std::hypot(marks[1].x - marks[0].x, marks[1].y - marks[0].y);
     const double reach_mm = 0.02 * base + 1.0;
-    std::vector<Matching> matchings;
+    std::vector<MarkMatching> matchings;
     for (std::size_t a = 0; a < candidates.size(); ++a)
         for (std::size_t b = 0; b < candidates.size(); ++b) {
             if (a == b) continue;
@@ -113,7 +113,7 @@ std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
             const double turn = std::atan2(cb.y - ca.y, cb.x - ca.x) -
                                 std::atan2(marks[1].y - marks[0].y, marks[1].x - marks[0].x);
             const double c = std::cos(turn), s = std::sin(turn);
-            Matching m;
+            MarkMatching m;
             m.rotation_rad = turn;
             m.candidate_of_mark = {a, b};
             bool all = true;
@@ -141,8 +141,9 @@ std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
                                 " in the photo lie as the drawing's " +
                                 std::to_string(marks.size()) + " do (within " +
                                 number_text("%.1f", reach_mm) + " mm)");
-    std::sort(matchings.begin(), matchings.end(),
-              [](const Matching& x, const Matching& y) { return x.misfit_mm < y.misfit_mm; });
+    std::sort(matchings.begin(), matchings.end(), [](const MarkMatching& x, const MarkMatching& y) {
+        return x.misfit_mm < y.misfit_mm;
+    });
     // Two ways of laying the marks that fit alike and turn the drawing differently: a symmetric
     // layout, and nothing tells which way round the drawing lies.
     for (std::size_t k = 1; k < matchings.size(); ++k) {

@@ -5,19 +5,22 @@
 #include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <utility>
 
 namespace calbox::vision {
 namespace {
 
-// out[i] = 255 where a[i] - b[i] >= at_least (as integers), else 0; `flip` swaps the two.
-// Written on saturated differences, which stay in bytes, so that the loop is vector code.
+// out[i] = 255 where a[i] - b[i] >= at_least_dn (as integers), else 0. Written on saturated
+// differences, which stay in bytes, so that the loop is vector code: a bound at or below zero is
+// the complement of b[i] - a[i] >= 1 - at_least_dn. `out` may be `a` or `b`.
 void at_least(const std::uint8_t* a, const std::uint8_t* b, std::uint8_t* out, int n,
-              int at_least_dn, bool flip) {
-    const std::uint8_t yes = flip ? 0 : 255, no = flip ? 255 : 0;
-    if (at_least_dn <= 0) {
-        std::memset(out, yes, static_cast<std::size_t>(n));
-        return;
+              int at_least_dn) {
+    const bool complement = at_least_dn <= 0;
+    if (complement) {
+        std::swap(a, b);
+        at_least_dn = 1 - at_least_dn;
     }
+    const std::uint8_t yes = complement ? 0 : 255, no = complement ? 255 : 0;
     if (at_least_dn > 255) {
         std::memset(out, no, static_cast<std::size_t>(n));
         return;
@@ -48,22 +51,16 @@ void local_threshold(const cv::Mat& image, int block_px, bool dark, double contr
     // light one where src - mean > -delta.
     const double delta = dark ? contrast_dn : -contrast_dn;
     const int rounded = static_cast<int>(dark ? std::floor(delta) : std::ceil(delta));
+    // As bounds on one difference: a dark mark's mean - src >= delta, a light one's
+    // src - mean >= 1 - delta.
+    const int bound = dark ? rounded : 1 - rounded;
     for (int y = 0; y < image.rows; ++y) {
         const std::uint8_t* src = image.ptr<std::uint8_t>(y);
         std::uint8_t* mean_then_mask = out.ptr<std::uint8_t>(y);
-        if (dark) {
-            // mean - src >= delta; with delta <= 0, not (src - mean >= 1 - delta).
-            if (rounded > 0)
-                at_least(mean_then_mask, src, mean_then_mask, image.cols, rounded, false);
-            else
-                at_least(src, mean_then_mask, mean_then_mask, image.cols, 1 - rounded, true);
-        } else {
-            // src - mean >= 1 - delta; with delta > 0, not (mean - src >= delta).
-            if (rounded <= 0)
-                at_least(src, mean_then_mask, mean_then_mask, image.cols, 1 - rounded, false);
-            else
-                at_least(mean_then_mask, src, mean_then_mask, image.cols, rounded, true);
-        }
+        if (dark)
+            at_least(mean_then_mask, src, mean_then_mask, image.cols, bound);
+        else
+            at_least(src, mean_then_mask, mean_then_mask, image.cols, bound);
     }
 }
 

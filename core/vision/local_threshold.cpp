@@ -1,11 +1,15 @@
 #include "core/vision/local_threshold.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <utility>
+
+#include "core/each_on_all_cores.hpp"
 
 namespace calbox::vision {
 namespace {
@@ -43,9 +47,7 @@ void local_threshold(const cv::Mat& image, int block_px, bool dark, double contr
         throw std::invalid_argument("a local threshold's block of " + std::to_string(block_px) +
                                     " pixels: odd, at least 3");
     if (out.data == image.data) out.release();
-    // The mean as OpenCV's adaptiveThreshold takes it, into the mask's own buffer.
-    cv::boxFilter(image, out, CV_8U, cv::Size(block_px, block_px), cv::Point(-1, -1), true,
-                  cv::BORDER_REPLICATE | cv::BORDER_ISOLATED);
+    out.create(image.size(), CV_8UC1);
     // OpenCV's rule, in its terms: delta = contrast (dark) or -contrast (light), rounded down for
     // THRESH_BINARY_INV and up for THRESH_BINARY; a dark mark is where src - mean <= -delta, a
     // light one where src - mean > -delta.
@@ -54,14 +56,32 @@ void local_threshold(const cv::Mat& image, int block_px, bool dark, double contr
     // As bounds on one difference: a dark mark's mean - src >= delta, a light one's
     // src - mean >= 1 - delta.
     const int bound = dark ? rounded : 1 - rounded;
-    for (int y = 0; y < image.rows; ++y) {
-        const std::uint8_t* src = image.ptr<std::uint8_t>(y);
-        std::uint8_t* mean_then_mask = out.ptr<std::uint8_t>(y);
-        if (dark)
-            at_least(mean_then_mask, src, mean_then_mask, image.cols, bound);
-        else
-            at_least(src, mean_then_mask, mean_then_mask, image.cols, bound);
-    }
+    // The mean as OpenCV's adaptiveThreshold takes it, in bands of rows on all the cores (its box
+    // filter runs on one). Each band's mean is taken on the band and half a block of the image's
+    // rows either side, as the whole image's filter reads them, so that a band's rows get the
+    // whole image's means; at the image's own top and bottom the band ends where the image does
+    // and is replicated as the image's would be.
+    const int reach = block_px / 2;
+    const int bands = std::clamp(cv::getNumThreads(), 1, std::max(1, image.rows / (4 * reach + 1)));
+    each_on_all_cores(static_cast<std::size_t>(bands), [&](std::size_t band) {
+        const int first = image.rows * static_cast<int>(band) / bands,
+                  end = image.rows * static_cast<int>(band + 1) / bands;
+        const int read_first = std::max(0, first - reach),
+                  read_end = std::min(image.rows, end + reach);
+        cv::Mat mean;
+        cv::boxFilter(image.rowRange(read_first, read_end), mean, CV_8U,
+                      cv::Size(block_px, block_px), cv::Point(-1, -1), true,
+                      cv::BORDER_REPLICATE | cv::BORDER_ISOLATED);
+        for (int y = first; y < end; ++y) {
+            const std::uint8_t* src = image.ptr<std::uint8_t>(y);
+            const std::uint8_t* mean_row = mean.ptr<std::uint8_t>(y - read_first);
+            std::uint8_t* mask = out.ptr<std::uint8_t>(y);
+            if (dark)
+                at_least(mean_row, src, mask, image.cols, bound);
+            else
+                at_least(src, mean_row, mask, image.cols, bound);
+        }
+    });
 }
 
 }  // namespace calbox::vision

@@ -13,12 +13,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 #include <tuple>
 #include <vector>
 
+#include "core/median.hpp"
 #include "core/vision/blobs.hpp"
 #include "core/vision/edge_kernel.hpp"
 #include "core/vision/local_threshold.hpp"
@@ -258,6 +260,51 @@ TEST(LocalThreshold, is_opencvs_adaptive_threshold) {
                  vision::local_threshold(cv::Mat(8, 8, CV_8UC1), 4, true, 5, out));
     CHECK_THROWS(std::invalid_argument,
                  vision::local_threshold(cv::Mat(8, 8, CV_8UC3), 5, true, 5, out));
+}
+
+// The median is the value a full sort puts at the middle (the upper one for an even count), on
+// both of its paths: few values, and many counted into buckets first. Sets of every size around
+// the bucketed path's start, spread wide, clustered in ties a ring's levels make, with outliers
+// far off, all equal, and with infinities and NaN (which go nth_element's way; NaN's rank is
+// unspecified there, so only that a value comes back is checked).
+TEST_GROUP(Median){};
+
+TEST(Median, is_the_sorted_middle_on_both_paths) {
+    cv::RNG rng(20261202);
+    int checked = 0;
+    for (int t = 0; t < 3000; ++t) {
+        const int n = t < 600 ? 1 + t : rng.uniform(1, 2000);
+        std::vector<double> values(static_cast<std::size_t>(n));
+        const int kind = t % 4;
+        for (double& v : values) {
+            if (kind == 0)
+                v = rng.uniform(-1e6, 1e6);
+            else if (kind == 1)  // a ring's levels: grey counts less a smooth plane, many ties
+                v = std::round(rng.gaussian(3) + 200) - 0.125 * rng.uniform(0, 8);
+            else if (kind == 2)  // a tight cluster and a few far away
+                v = rng.uniform(0, 50) == 0 ? rng.uniform(-1e9, 1e9) : 7 + rng.gaussian(1e-9);
+            else
+                v = rng.uniform(0, 3);
+        }
+        std::vector<double> sorted = values;
+        std::sort(sorted.begin(), sorted.end());
+        const double expected = sorted[sorted.size() / 2];
+        if (median_of(values) != expected) {
+            std::printf("median of %d values (kind %d): %.17g, sorted middle %.17g\n", n, kind,
+                        median_of(values), expected);
+            FAIL("median differs from the sorted middle");
+        }
+        ++checked;
+    }
+    CHECK_EQUAL(3000, checked);
+    CHECK_EQUAL(4.5, median_of(std::vector<double>(300, 4.5)));
+    std::vector<double> with_infinity(300, 1.0);
+    with_infinity[7] = std::numeric_limits<double>::infinity();
+    with_infinity[8] = -std::numeric_limits<double>::infinity();
+    CHECK_EQUAL(1.0, median_of(with_infinity));
+    with_infinity[9] = std::numeric_limits<double>::quiet_NaN();
+    (void)median_of(with_infinity);
+    CHECK_THROWS(std::invalid_argument, median_of({}));
 }
 
 // The patches' median is OpenCV's median, bit for bit: random images of every small shape (one

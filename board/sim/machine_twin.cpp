@@ -317,9 +317,27 @@ Vec3 CartesianTwin::actual_position_mm(const Vec3& c) const {
 }
 
 std::optional<std::vector<std::string>> CartesianTwin::settings_command(const gcode::Line& line) {
+    if (grbl_ && (line.is('G', 17) || line.is('M', 2) || line.is('M', 30)))
+        return std::vector<std::string>{};
     if (line.is('M', 500)) return std::vector<std::string>{"echo:Settings Stored", "ok"};
     if (line.is('M', 503)) return std::vector<std::string>{"echo:; (no geometry settings)", "ok"};
     return std::nullopt;
+}
+
+std::optional<std::vector<std::string>> CartesianTwin::system_command(std::string_view text) {
+    if (!grbl_ || text != "$#") return std::nullopt;
+    return grbl_offsets_report(0, 0);
+}
+
+std::vector<std::string> grbl_offsets_report(double g54_x_mm, double g54_y_mm) {
+    char line[96];
+    std::snprintf(line, sizeof line, "[G54:%.3f,%.3f,0.000]", g54_x_mm, g54_y_mm);
+    std::vector<std::string> report{line};
+    for (const char* other : {"G55", "G56", "G57", "G58", "G59", "G28", "G30"})
+        report.push_back(std::string("[") + other + ":0.000,0.000,0.000]");
+    report.insert(report.end(),
+                  {"[G92:0.000,0.000,0.000]", "[TLO:0.000]", "[PRB:0.000,0.000,0.000:0]", "ok"});
+    return report;
 }
 
 }  // namespace calbox::sim

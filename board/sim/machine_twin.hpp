@@ -119,8 +119,12 @@ struct CartesianFirmware {
 
 class CartesianTwin final : public MachineTwin {
   public:
-    explicit CartesianTwin(const CartesianErrors& truth, const CartesianFirmware& firmware = {})
-        : truth_(truth), firmware_(firmware) {}
+    // `grbl`: a gantry laser's grbl, homing off ($22=0, as most diode lasers run): it moves from
+    // where it stands, ends a program at M2 or M30 and reports its offsets to `$#`; otherwise a
+    // printer's firmware, which refuses a move before G28.
+    explicit CartesianTwin(const CartesianErrors& truth, const CartesianFirmware& firmware = {},
+                           bool grbl = false)
+        : truth_(truth), firmware_(firmware), grbl_(grbl), homed_(grbl) {}
     const CartesianFirmware& firmware() const { return firmware_; }
     void set_skew(double xy_skew) { firmware_.xy_skew = xy_skew; }
     void home() override { homed_ = true; }
@@ -128,13 +132,18 @@ class CartesianTwin final : public MachineTwin {
     Vec3 position_after_homing_mm() const override { return {0, 0, 0}; }
     Vec3 actual_position_mm(const Vec3& commanded) const override;
     std::optional<std::vector<std::string>> settings_command(const gcode::Line& line) override;
+    // grbl's `$#`: G54 at the machine's zero.
+    std::optional<std::vector<std::string>> system_command(std::string_view text) override;
 
   private:
     CartesianErrors truth_;
     CartesianFirmware firmware_;
+    bool grbl_ = false;
     bool homed_ = false;
 };
 
 std::vector<std::string> marlin_delta_report(const DeltaParams& p);  // M503's delta lines
+// grbl's reply to `$#` with G54's zero at (x, y, 0) and every other offset at zero.
+std::vector<std::string> grbl_offsets_report(double g54_x_mm, double g54_y_mm);
 
 }  // namespace calbox::sim

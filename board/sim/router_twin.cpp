@@ -135,14 +135,7 @@ std::optional<std::vector<std::string>> RouterTwin::settings_command(const gcode
 
 std::optional<std::vector<std::string>> RouterTwin::system_command(std::string_view text) {
     if (text != "$#") return std::nullopt;
-    char line[96];
-    std::snprintf(line, sizeof line, "[G54:%.3f,%.3f,0.000]", g54_x_mm_, g54_y_mm_);
-    std::vector<std::string> report{line};
-    for (const char* other : {"G55", "G56", "G57", "G58", "G59", "G28", "G30"})
-        report.push_back(std::string("[") + other + ":0.000,0.000,0.000]");
-    report.insert(report.end(),
-                  {"[G92:0.000,0.000,0.000]", "[TLO:0.000]", "[PRB:0.000,0.000,0.000:0]", "ok"});
-    return report;
+    return grbl_offsets_report(g54_x_mm_, g54_y_mm_);
 }
 
 std::vector<Vec2> drilled_hole_centres_mm(RouterTwin& twin, const std::string& job) {

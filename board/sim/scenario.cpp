@@ -3,6 +3,7 @@
 #include <cmath>
 #include <fstream>
 #include <map>
+#include <numbers>
 #include <set>
 #include <sstream>
 
@@ -140,29 +141,56 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         r.finish();
     }
     if (const auto* placement = models::subtable(path, root, "placement")) {
-        if (!s.machine.planar || s.machine.kind != "router")
+        // A printed card (print and cut) is told by its marks; otherwise a sheet's corner.
+        const bool card = placement->contains("marks_mm");
+        if (!s.machine.planar ||
+            (s.machine.kind != "router" && !(card && s.machine.kind == "laser")))
             throw ScenarioError(path +
-                                ": [placement] places a router's job on a sheet; this is a " +
+                                ": [placement] places a router's job on a sheet, or a router's "
+                                "or a laser's cut on a printed card (marks_mm); this is a " +
                                 s.machine.kind);
         TomlReader r(path, *placement, "placement");
         ScenarioPlacement p;
-        r.number("sheet_corner_x_mm", p.sheet.corner_mm.x, -10000, 10000);
-        r.number("sheet_corner_y_mm", p.sheet.corner_mm.y, -10000, 10000);
-        r.number("sheet_width_mm", p.sheet.width_mm, 10, 10000);
-        r.number("sheet_depth_mm", p.sheet.depth_mm, 10, 10000);
-        r.number("sheet_angle_deg", p.sheet.angle_deg, -45, 45);
-        r.number("sheet_albedo", p.sheet.sheet_albedo, 0, 1);
-        r.number("bed_albedo", p.sheet.bed_albedo, 0, 1);
+        if (card) {
+            PrintedCard c;
+            r.number("print_origin_x_mm", c.origin_mm.x, -10000, 10000);
+            r.number("print_origin_y_mm", c.origin_mm.y, -10000, 10000);
+            r.number("print_angle_deg", c.angle_deg, -45, 45);
+            r.number("print_stretch", c.stretch_x, 0.95, 1.05);
+            c.stretch_y = c.stretch_x;
+            r.number("print_stretch_y", c.stretch_y, 0.95, 1.05);
+            const auto marks = r.numbers("marks_mm", 6, 8);
+            if (marks.size() % 2 != 0) r.fail("marks_mm", "x, y pairs: three or four marks");
+            for (std::size_t k = 0; k + 1 < marks.size(); k += 2)
+                c.marks_mm.push_back({marks[k], marks[k + 1]});
+            r.number("mark_diameter_mm", c.mark_diameter_mm, 1, 50);
+            r.number("card_albedo", c.card_albedo, 0, 1);
+            r.number("ink_albedo", c.ink_albedo, 0, 1);
+            if (c.ink_albedo >= c.card_albedo)
+                r.fail("ink_albedo", "the ink must be darker than the card");
+            p.card = c;
+            p.thickness_mm = 0.3;
+        } else {
+            r.number("sheet_corner_x_mm", p.sheet.corner_mm.x, -10000, 10000);
+            r.number("sheet_corner_y_mm", p.sheet.corner_mm.y, -10000, 10000);
+            r.number("sheet_width_mm", p.sheet.width_mm, 10, 10000);
+            r.number("sheet_depth_mm", p.sheet.depth_mm, 10, 10000);
+            r.number("sheet_angle_deg", p.sheet.angle_deg, -45, 45);
+            r.number("sheet_albedo", p.sheet.sheet_albedo, 0, 1);
+            r.number("bed_albedo", p.sheet.bed_albedo, 0, 1);
+            r.text("corner", p.corner,
+                   {"nearest", "front-left", "front-right", "back-right", "back-left"});
+            r.boolean("on_bed_at_start", p.on_bed_at_start);
+        }
         r.number("thickness_mm", p.thickness_mm, 0, 200);
-        r.text("corner", p.corner,
-               {"nearest", "front-left", "front-right", "back-right", "back-left"});
         r.number("goal_mm", p.goal_mm, 0.001, 10);
-        r.boolean("on_bed_at_start", p.on_bed_at_start);
         std::optional<std::string> job;
         r.text("job", job);
         r.finish();
         if (!job || job->empty())
-            throw ScenarioError(path + ": [placement] job: the drilling job placed on the sheet");
+            throw ScenarioError(path + (card ? ": [placement] job: the cut, in the drawing's frame"
+                                             : ": [placement] job: the drilling job placed on "
+                                               "the sheet"));
         p.job_path = *job;
         s.placement = p;
     }
@@ -332,6 +360,13 @@ ToolSettings tool_settings_of(const Scenario& s) {
 
 StrokeSegment material_of(const Stroke& s) {
     return {{s.a_mm.x, s.a_mm.y, s.top_a_mm}, {s.b_mm.x, s.b_mm.y, s.top_b_mm}, s.width_mm};
+}
+
+Vec2 PrintedCard::on_bed(Vec2 drawing_mm) const {
+    const double a = angle_deg * std::numbers::pi / 180;
+    const double x = stretch_x * drawing_mm.x, y = stretch_y * drawing_mm.y;
+    return {origin_mm.x + std::cos(a) * x - std::sin(a) * y,
+            origin_mm.y + std::sin(a) * x + std::cos(a) * y};
 }
 
 }  // namespace calbox::sim

@@ -5,6 +5,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "board/sim/camera_reference.hpp"
 #include "board/sim/delta_reference.hpp"
@@ -67,10 +68,28 @@ struct ScenarioSetup {
 // know it (the twin's truth, in the bed's frame: the work frame the router's errors are in); the
 // box photographs it, finds its corner and places a drilling job there (`calbox run --auto`
 // judges where the holes land on the sheet against goal_mm).
+// Print and cut: a card printed with a drawing's cut line (the job's own path) and its
+// registration marks, laid turned and shifted where the box does not know it, the printer's
+// stretch on it; the box finds the marks, places the job by them and the judge says how far the
+// tool really went from the printed line.
+struct PrintedCard {
+    Vec2 origin_mm;  // where the drawing's (0, 0) lies on the bed
+    double angle_deg = 0;
+    // The printer's stretch along the drawing's x and y: a paper feed stretches one way more
+    // than the other, which a fit of turn, shift and one scale leaves in its residuals.
+    double stretch_x = 1, stretch_y = 1;
+    std::vector<Vec2> marks_mm;  // filled circles, their centres in the drawing's frame
+    double mark_diameter_mm = 5;
+    double card_albedo = 0.85, ink_albedo = 0.08;
+    // Where a drawing's point is on the bed.
+    Vec2 on_bed(Vec2 drawing_mm) const;
+};
+
 struct ScenarioPlacement {
+    std::optional<PrintedCard> card;  // print and cut; otherwise the sheet's corner places the job
     StockSheet sheet;
     double thickness_mm = 1.5;
-    std::string job_path;  // the drilling job, its path as given (relative to the scenario's)
+    std::string job_path;  // the job, its path as given (relative to the scenario's)
     std::string corner = "nearest";
     double goal_mm = 0.1;
     // The sheet already lies on the bed when the box starts (a box started to place a job, with

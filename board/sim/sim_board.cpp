@@ -355,6 +355,36 @@ GrayImage TwinBench::photograph_sheet(const StockSheet& sheet, double thickness_
                         SheetScene(sheet, photo.supersample), photo);
 }
 
+GrayImage TwinBench::photograph_card(const PrintedCard& card, const std::vector<Vec2>& cut_line_mm,
+                                     double thickness_mm) const {
+    Pose bed_to_camera_now;
+    {
+        const std::lock_guard lock(mutex_);
+        bed_to_camera_now = bed_to_camera();
+    }
+    std::vector<StrokeSegment> ink;
+    for (const Vec2& m : card.marks_mm) {
+        const Vec2 c = card.on_bed(m);
+        ink.push_back({{c.x, c.y, 0},
+                       {c.x, c.y, 0},
+                       card.mark_diameter_mm * std::sqrt(card.stretch_x * card.stretch_y)});
+    }
+    for (std::size_t k = 0; k + 1 < cut_line_mm.size(); ++k) {
+        const Vec2 a = card.on_bed(cut_line_mm[k]), b = card.on_bed(cut_line_mm[k + 1]);
+        ink.push_back({{a.x, a.y, 0}, {b.x, b.y, 0}, 0.4});
+    }
+    const PhotoSettings photo = photo_settings_of(scenario_, InView::bed);
+    Pose lifted;
+    lifted.translation_mm = {0, 0, thickness_mm};
+    const Pose card_to_camera = compose(bed_to_camera_now, lifted);
+    return render_photo(
+        scenario_.camera->intrinsics, card_to_camera,
+        StrokeScene(std::move(ink), card.card_albedo, card.ink_albedo, photo.supersample,
+                    stroke_footprint_mm(scenario_.camera->intrinsics,
+                                        card_to_camera.translation_mm.norm())),
+        photo);
+}
+
 void TwinBench::hold_calibration_board(int view) {
     if (view < 0 || view >= kCalibrationViews)
         throw std::out_of_range("calibration view " + std::to_string(view));
@@ -703,11 +733,6 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const Si
     board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
                                               settings.data_dir / kTwinSettingsFile);
     const auto& machine = board.bench->scenario().machine;
-    if (!twin_kind_of(machine).runs_on_the_sim_board())
-        throw ScenarioError(settings.scenario_path +
-                            ": the sim board runs delta printers, galvo scanners, routers and "
-                            "cartesian printers, not a " +
-                            machine.kind);
     board.machine = machine;
     std::unique_ptr<hal::SerialPort> port;
     if (machine.link.is_host()) {

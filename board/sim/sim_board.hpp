@@ -73,6 +73,11 @@ class TwinBench {
     }
     GrayImage photograph_sheet(const StockSheet& sheet, double thickness_mm,
                                const PhotoSettings& photo) const;
+    // The camera's photo of a printed card lying on the bed, its top `thickness_mm` up: the
+    // drawing's cut line (points in the drawing's frame, 0.4 mm of ink) and its marks, at the
+    // scenario's light: the scenario's print-and-cut [placement].
+    GrayImage photograph_card(const PrintedCard& card, const std::vector<Vec2>& cut_line_mm,
+                              double thickness_mm) const;
 
     // The operator's hands.
     // The boards are the scenario's [setup] ones.

@@ -352,11 +352,11 @@ class RouterKind final : public TwinKind {
     }
 };
 
-// A cartesian printer, or a gantry laser (whose twin runs jobs; the sim board has no cycle for
-// it yet).
+// A cartesian printer, or a gantry laser: the same gantry's errors, its marks laid by an extruder
+// or burned by the laser's spot.
 class CartesianKind final : public TwinKind {
   public:
-    explicit CartesianKind(bool on_the_sim_board) : on_the_sim_board_(on_the_sim_board) {}
+    explicit CartesianKind(ToolKind tool) : tool_(tool) {}
     const char* truth_table() const override { return "cartesian"; }
     void read_truth(const std::string& path, const TruthTable* table, Scenario& s) const override {
         if (table == nullptr) return;
@@ -367,26 +367,24 @@ class CartesianKind final : public TwinKind {
         r.finish();
     }
     std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {
-        return std::make_unique<CartesianTwin>(s.cartesian_truth);
+        return std::make_unique<CartesianTwin>(s.cartesian_truth, CartesianFirmware{},
+                                               s.machine.firmware == "grbl");
     }
     std::unique_ptr<TwinJudge> make_judge(const TwinBench& bench) const override {
         return std::make_unique<CartesianJudge>(bench);
     }
-    ToolKind tool() const override {
-        return on_the_sim_board_ ? ToolKind::extruder : ToolKind::laser;
-    }
+    ToolKind tool() const override { return tool_; }
     RouterVerdict judge_fresh_job(const Scenario& s,
                                   const targets::Correction* correct) const override {
         return judge_cartesian_fresh_points(s.cartesian_truth, s.machine, correct);
     }
-    bool runs_on_the_sim_board() const override { return on_the_sim_board_; }
     SimVerification verify(const Scenario& s,
                            const std::optional<ResultFile>& result) const override {
         return verify_planar(*this, s, result);
     }
 
   private:
-    bool on_the_sim_board_;
+    ToolKind tool_;
 };
 
 }  // namespace
@@ -395,7 +393,7 @@ const TwinKind& twin_kind_of(const models::MachineFile& machine) {
     static const DeltaKind delta;
     static const GalvoKind galvo;
     static const RouterKind router;
-    static const CartesianKind cartesian(true), laser(false);
+    static const CartesianKind cartesian(ToolKind::extruder), laser(ToolKind::laser);
     if (machine.kind == "delta") return delta;
     if (machine.kind == "galvo") return galvo;
     if (machine.kind == "router") return router;

@@ -49,8 +49,6 @@ class TwinKind {
     // `calbox sim verify`: a fresh job in the twin's truth, as commanded and through `result`.
     virtual SimVerification verify(const Scenario& s,
                                    const std::optional<ResultFile>& result) const = 0;
-    // The sim board runs it end to end (a gantry laser's twin runs jobs, no cycle yet).
-    virtual bool runs_on_the_sim_board() const { return true; }
     // What the camera sees of the strokes the machine made (a router's: holes in the sheet).
     virtual std::vector<StrokeSegment> on_the_bed(const Scenario&,
                                                   std::vector<StrokeSegment> strokes) const {

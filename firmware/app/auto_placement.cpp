@@ -9,13 +9,17 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "board/sim/gcode_runner.hpp"
 #include "board/sim/router_twin.hpp"
+#include "board/sim/scenario.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/registration.hpp"
 #include "core/modes/stock.hpp"
 #include "core/number_text.hpp"
+#include "core/targets/gcode_line.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -42,21 +46,134 @@ std::vector<geometry::Point2> plunges(const std::string& job) {
     return found;
 }
 
-}  // namespace
+// The judge's own reading of a cut (the print-and-cut example's): the X Y of every G0 and G1
+// line in order, the line the drawing prints and the tool follows.
+std::vector<sim::Vec2> cut_line(const std::string& job) {
+    std::vector<sim::Vec2> found;
+    std::istringstream lines(job);
+    for (std::string line; std::getline(lines, line);) {
+        int g = 0;
+        double x = 0, y = 0;
+        if (std::sscanf(line.c_str(), "G%d X%lf Y%lf", &g, &x, &y) == 3 && (g == 0 || g == 1))
+            found.push_back({x, y});
+    }
+    return found;
+}
 
-void judge_placement(const sim::TwinBench& bench, hal::Storage& data,
-                     const std::string& kept_result_text) {
-    const auto& scenario = bench.scenario();
-    const auto& placement = *scenario.placement;
-    // The box's part: what it has (its set-up and correction) and what the camera sees.
+double distance_to_polyline(sim::Vec2 p, const std::vector<sim::Vec2>& line) {
+    double best = 1e300;
+    for (std::size_t k = 0; k + 1 < line.size(); ++k) {
+        const double dx = line[k + 1].x - line[k].x, dy = line[k + 1].y - line[k].y;
+        const double t = std::clamp(
+            ((p.x - line[k].x) * dx + (p.y - line[k].y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+        best = std::min(best, std::hypot(p.x - line[k].x - t * dx, p.y - line[k].y - t * dy));
+    }
+    return best;
+}
+
+// What the box has: its set-up's camera and plane, the correction in force.
+struct BoxSide {
+    geometry::CameraModel camera;
+    geometry::BedPlane plane;
+    modes::PlanarSolution solution;
+};
+
+BoxSide box_side(hal::Storage& data, const std::string& kept_result_text) {
     const auto camera_yaml = data.read_file("camera.yaml");
     const auto plane_yaml = data.read_file("plane.yaml");
     if (!camera_yaml || !plane_yaml)
         throw std::runtime_error("placement: the box has no camera.yaml or plane.yaml");
-    const auto camera = geometry::camera_from_yaml(*camera_yaml);
-    const auto plane = geometry::plane_from_yaml(*plane_yaml);
-    const auto solution =
-        modes::planar_result_from_json(kept_result_text, "the correction in force");
+    return {geometry::camera_from_yaml(*camera_yaml), geometry::plane_from_yaml(*plane_yaml),
+            modes::planar_result_from_json(kept_result_text, "the correction in force")};
+}
+
+// Print and cut: the box finds the card's marks in its photo and places the cut by them
+// (what `calbox view marks` and `calbox compensate --register` do); the judge runs the placed
+// cut on the twin's machine and measures each point it cut from the printed line.
+void judge_print_and_cut(const sim::TwinBench& bench, hal::Storage& data,
+                         const std::string& kept_result_text) {
+    const auto& scenario = bench.scenario();
+    const auto& placement = *scenario.placement;
+    const auto& card = *placement.card;
+    const auto box = box_side(data, kept_result_text);
+    const auto job_path = std::filesystem::path(scenario.path).parent_path() / placement.job_path;
+    const std::string job = read_whole(job_path);
+    const auto line = cut_line(job);
+    if (line.size() < 2)
+        throw std::runtime_error("placement: " + job_path.string() + " cuts no line (G0/G1 X Y)");
+    const auto photo = bench.photograph_card(card, line, placement.thickness_mm);
+    const vision::GrayView view{photo.pixels.data(), photo.width_px, photo.height_px,
+                                photo.width_px};
+    modes::RegistrationRequest marks;
+    for (const auto& m : card.marks_mm) marks.marks_drawing_mm.push_back({m.x, m.y});
+    marks.mark_diameter_mm = card.mark_diameter_mm;
+    marks.surface_height_mm = placement.thickness_mm;
+    const auto registration = modes::register_marks(box.camera, box.plane, view, box.solution,
+                                                    marks, "the correction in force");
+    modes::JobRequest request;
+    request.result_text = kept_result_text;
+    request.result_name = "the correction in force";
+    request.job_text = job;
+    request.job_name = job_path.filename().string();
+    request.registration_text =
+        modes::registration_to_json(registration, box.solution.machine_fingerprint);
+    request.registration_name = "placement-marks.json";
+    request.date = "the sim board";
+    const auto placed = modes::compensate_job(request);
+    data.replace_file("placement-marks.json", *request.registration_text);
+    data.replace_file("placement-job-compensated.nc", placed.text);
+    std::printf("placement: %s\n", placed.frame_line.c_str());
+
+    // The judge's part, in the twin's truth: the placed cut run on the twin's machine, each
+    // point it cut against the line printed on the card.
+    // The controller's G54 set where the marks put the drawing's zero: by G10 L2 P1 where the
+    // twin's controller keeps work offsets (the router's grbl), else by G92 at that point.
+    auto machine = sim::make_machine_twin(scenario);
+    sim::GcodeRunner runner(*machine, sim::tool_settings_of(scenario));
+    if (!machine->homed()) runner.run_line("G28");
+    const std::string at = " X" + number_text("%.6f", registration.origin_mm.x) + " Y" +
+                           number_text("%.6f", registration.origin_mm.y);
+    if (!machine->settings_command(gcode::parse_line("G10 L2 P1" + at))) {
+        runner.run_line("G0" + at);
+        runner.run_line("G92 X0 Y0");
+    }
+    std::istringstream run(placed.text);
+    runner.run(run);
+    std::vector<sim::Vec2> printed;
+    for (const auto& p : line) printed.push_back(card.on_bed(p));
+    double worst = 0, sum = 0;
+    std::size_t points = 0;
+    for (const auto& s : runner.result().strokes)
+        for (const sim::Vec3& p : {s.a_mm, s.b_mm}) {
+            const double d = distance_to_polyline({p.x, p.y}, printed);
+            worst = std::max(worst, d);
+            sum += d;
+            ++points;
+        }
+    if (points == 0) throw std::runtime_error("placement: the placed cut cut nothing on the twin");
+    const double mean = sum / static_cast<double>(points);
+    std::printf(
+        "placement: %zu marks, the drawing turned %s deg, scale %s, worst mark %s mm; the cut "
+        "%s mm mean, %s mm worst from the printed line over %zu points (goal %s mm)\n",
+        registration.marks.size(), number_text("%.3f", registration.rotation_deg).c_str(),
+        number_text("%.5f", registration.scale).c_str(),
+        number_text("%.4f", registration.worst_residual_mm).c_str(),
+        number_text("%.4f", mean).c_str(), number_text("%.4f", worst).c_str(), points,
+        number_text("%.3f", placement.goal_mm).c_str());
+    if (worst > placement.goal_mm)
+        throw std::runtime_error("the placement goal is not met: the cut " +
+                                 number_text("%.4f", worst) + " mm from the printed line (goal " +
+                                 number_text("%.3f", placement.goal_mm) + " mm)");
+}
+
+// A sheet's corner: the box finds the sheet and places the drilling job at its corner; the judge
+// drills each hole on the twin's router against where the job meant it on the sheet.
+void judge_sheet_placement(const sim::TwinBench& bench, hal::Storage& data,
+                           const std::string& kept_result_text) {
+    const auto& scenario = bench.scenario();
+    const auto& placement = *scenario.placement;
+    // The box's part: what it has (its set-up and correction) and what the camera sees.
+    const auto [camera, plane, solution] = box_side(data, kept_result_text);
     const auto photo = bench.photograph_sheet(placement.sheet, placement.thickness_mm);
     const vision::GrayView view{photo.pixels.data(), photo.width_px, photo.height_px,
                                 photo.width_px};
@@ -123,6 +240,16 @@ void judge_placement(const sim::TwinBench& bench, hal::Storage& data,
                                  number_text("%.4f", worst) + " mm from where the job meant it " +
                                  "on the sheet (goal " + number_text("%.3f", placement.goal_mm) +
                                  " mm)");
+}
+
+}  // namespace
+
+void judge_placement(const sim::TwinBench& bench, hal::Storage& data,
+                     const std::string& kept_result_text) {
+    if (bench.scenario().placement->card)
+        judge_print_and_cut(bench, data, kept_result_text);
+    else
+        judge_sheet_placement(bench, data, kept_result_text);
 }
 
 }  // namespace calbox::firmware

@@ -1,6 +1,8 @@
 #include "board/sim/scenario.hpp"
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <numbers>
@@ -13,6 +15,18 @@
 
 namespace calbox::sim {
 namespace {
+
+// The twin's own reading of a print-and-cut job: the X Y of every G0 and G1 line in order.
+std::vector<Vec2> printed_line_of(std::istream& job) {
+    std::vector<Vec2> found;
+    for (std::string line; std::getline(job, line);) {
+        int g = 0;
+        double x = 0, y = 0;
+        if (std::sscanf(line.c_str(), "G%d X%lf Y%lf", &g, &x, &y) == 3 && (g == 0 || g == 1))
+            found.push_back({x, y});
+    }
+    return found;
+}
 
 using models::TomlReader;
 
@@ -153,6 +167,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
         ScenarioPlacement p;
         if (card) {
             PrintedCard c;
+            r.boolean("on_bed_at_start", p.on_bed_at_start);
             r.number("print_origin_x_mm", c.origin_mm.x, -10000, 10000);
             r.number("print_origin_y_mm", c.origin_mm.y, -10000, 10000);
             r.number("print_angle_deg", c.angle_deg, -45, 45);
@@ -192,6 +207,16 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
                                              : ": [placement] job: the drilling job placed on "
                                                "the sheet"));
         p.job_path = *job;
+        if (p.card) {
+            const auto job_file = std::filesystem::path(path).parent_path() / p.job_path;
+            std::ifstream in(job_file);
+            if (!in)
+                throw ScenarioError(path + ": [placement] job: cannot read " + job_file.string());
+            p.card->line_mm = printed_line_of(in);
+            if (p.card->line_mm.size() < 2)
+                throw ScenarioError(path + ": [placement] job: " + job_file.string() +
+                                    " cuts no line (G0/G1 X Y)");
+        }
         s.placement = p;
     }
     if (const auto* faults = models::subtable(path, root, "faults")) {

@@ -81,6 +81,9 @@ struct PrintedCard {
     std::vector<Vec2> marks_mm;  // filled circles, their centres in the drawing's frame
     double mark_diameter_mm = 5;
     double card_albedo = 0.85, ink_albedo = 0.08;
+    // The printed cut line: the job's own path (the X Y of its G0 and G1 lines, in order, read
+    // by the twin when the scenario is loaded), in the drawing's frame.
+    std::vector<Vec2> line_mm;
     // Where a drawing's point is on the bed.
     Vec2 on_bed(Vec2 drawing_mm) const;
 };
@@ -92,8 +95,9 @@ struct ScenarioPlacement {
     std::string job_path;  // the job, its path as given (relative to the scenario's)
     std::string corner = "nearest";
     double goal_mm = 0.1;
-    // The sheet already lies on the bed when the box starts (a box started to place a job, with
-    // its correction kept from an earlier run): the camera sees it until a board is held.
+    // The sheet or the card already lies on the bed when the box starts (a box started to place
+    // a job, with its correction kept from an earlier run): the camera sees it until a board is
+    // held.
     bool on_bed_at_start = false;
 };
 

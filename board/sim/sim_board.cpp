@@ -321,7 +321,8 @@ GrayImage TwinBench::photograph(std::uint64_t frame, const hal::CaptureRequest& 
         });
     }
     if (const auto& placing = scenario_.placement; placing && placing->on_bed_at_start)
-        return photograph_sheet(placing->sheet, placing->thickness_mm, photo);
+        return placing->card ? photograph_card(*placing->card, placing->thickness_mm, photo)
+                             : photograph_sheet(placing->sheet, placing->thickness_mm, photo);
     Pose bed_to_camera_now;
     {
         const std::lock_guard lock(mutex_);
@@ -355,8 +356,8 @@ GrayImage TwinBench::photograph_sheet(const StockSheet& sheet, double thickness_
                         SheetScene(sheet, photo.supersample), photo);
 }
 
-GrayImage TwinBench::photograph_card(const PrintedCard& card, const std::vector<Vec2>& cut_line_mm,
-                                     double thickness_mm) const {
+GrayImage TwinBench::photograph_card(const PrintedCard& card, double thickness_mm,
+                                     const PhotoSettings& photo) const {
     Pose bed_to_camera_now;
     {
         const std::lock_guard lock(mutex_);
@@ -369,11 +370,10 @@ GrayImage TwinBench::photograph_card(const PrintedCard& card, const std::vector<
                        {c.x, c.y, 0},
                        card.mark_diameter_mm * std::sqrt(card.stretch_x * card.stretch_y)});
     }
-    for (std::size_t k = 0; k + 1 < cut_line_mm.size(); ++k) {
-        const Vec2 a = card.on_bed(cut_line_mm[k]), b = card.on_bed(cut_line_mm[k + 1]);
+    for (std::size_t k = 0; k + 1 < card.line_mm.size(); ++k) {
+        const Vec2 a = card.on_bed(card.line_mm[k]), b = card.on_bed(card.line_mm[k + 1]);
         ink.push_back({{a.x, a.y, 0}, {b.x, b.y, 0}, 0.4});
     }
-    const PhotoSettings photo = photo_settings_of(scenario_, InView::bed);
     Pose lifted;
     lifted.translation_mm = {0, 0, thickness_mm};
     const Pose card_to_camera = compose(bed_to_camera_now, lifted);

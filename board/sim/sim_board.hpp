@@ -74,10 +74,13 @@ class TwinBench {
     GrayImage photograph_sheet(const StockSheet& sheet, double thickness_mm,
                                const PhotoSettings& photo) const;
     // The camera's photo of a printed card lying on the bed, its top `thickness_mm` up: the
-    // drawing's cut line (points in the drawing's frame, 0.4 mm of ink) and its marks, at the
-    // scenario's light: the scenario's print-and-cut [placement].
-    GrayImage photograph_card(const PrintedCard& card, const std::vector<Vec2>& cut_line_mm,
-                              double thickness_mm) const;
+    // drawing's cut line (0.4 mm of ink) and its marks, at the scenario's light: the scenario's
+    // print-and-cut [placement].
+    GrayImage photograph_card(const PrintedCard& card, double thickness_mm) const {
+        return photograph_card(card, thickness_mm, photo_settings_of(scenario_, InView::bed));
+    }
+    GrayImage photograph_card(const PrintedCard& card, double thickness_mm,
+                              const PhotoSettings& photo) const;
 
     // The operator's hands.
     // The boards are the scenario's [setup] ones.

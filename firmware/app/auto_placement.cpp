@@ -46,20 +46,6 @@ std::vector<geometry::Point2> plunges(const std::string& job) {
     return found;
 }
 
-// The judge's own reading of a cut (the print-and-cut example's): the X Y of every G0 and G1
-// line in order, the line the drawing prints and the tool follows.
-std::vector<sim::Vec2> cut_line(const std::string& job) {
-    std::vector<sim::Vec2> found;
-    std::istringstream lines(job);
-    for (std::string line; std::getline(lines, line);) {
-        int g = 0;
-        double x = 0, y = 0;
-        if (std::sscanf(line.c_str(), "G%d X%lf Y%lf", &g, &x, &y) == 3 && (g == 0 || g == 1))
-            found.push_back({x, y});
-    }
-    return found;
-}
-
 double distance_to_polyline(sim::Vec2 p, const std::vector<sim::Vec2>& line) {
     double best = 1e300;
     for (std::size_t k = 0; k + 1 < line.size(); ++k) {
@@ -98,10 +84,7 @@ void judge_print_and_cut(const sim::TwinBench& bench, hal::Storage& data,
     const auto box = box_side(data, kept_result_text);
     const auto job_path = std::filesystem::path(scenario.path).parent_path() / placement.job_path;
     const std::string job = read_whole(job_path);
-    const auto line = cut_line(job);
-    if (line.size() < 2)
-        throw std::runtime_error("placement: " + job_path.string() + " cuts no line (G0/G1 X Y)");
-    const auto photo = bench.photograph_card(card, line, placement.thickness_mm);
+    const auto photo = bench.photograph_card(card, placement.thickness_mm);
     const vision::GrayView view{photo.pixels.data(), photo.width_px, photo.height_px,
                                 photo.width_px};
     modes::RegistrationRequest marks;
@@ -140,7 +123,7 @@ void judge_print_and_cut(const sim::TwinBench& bench, hal::Storage& data,
     std::istringstream run(placed.text);
     runner.run(run);
     std::vector<sim::Vec2> printed;
-    for (const auto& p : line) printed.push_back(card.on_bed(p));
+    for (const auto& p : card.line_mm) printed.push_back(card.on_bed(p));
     double worst = 0, sum = 0;
     std::size_t points = 0;
     for (const auto& s : runner.result().strokes)

@@ -1,11 +1,14 @@
 #include "firmware/console/bed_photo_desk.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <exception>
 
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
+#include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"
+#include "core/modes/registration.hpp"
 #include "core/modes/stock.hpp"
 #include "core/number_text.hpp"
 #include "firmware/console/job_desk.hpp"
@@ -22,6 +25,8 @@ struct BedPhotoDesk::Order {
     geometry::CameraModel camera;
     geometry::BedPlane plane;
     double surface_height_mm = 0;
+    // `marks ...`: a printed drawing's registration marks looked for too (print and cut).
+    std::optional<modes::RegistrationRequest> marks;
 };
 
 BedPhotoDesk::BedPhotoDesk(EventLoop& loop, Cycle& cycle, hal::Storage& data, Notice notice)
@@ -31,7 +36,8 @@ BedPhotoDesk::BedPhotoDesk(EventLoop& loop, Cycle& cycle, hal::Storage& data, No
 
 BedPhotoDesk::~BedPhotoDesk() = default;
 
-std::string BedPhotoDesk::start(std::optional<double> surface_height_mm) {
+std::string BedPhotoDesk::start(std::optional<double> surface_height_mm,
+                                std::optional<modes::RegistrationRequest> marks) {
     if (waiting_ || worker_.busy()) return "bed photo: already taking one";
     if (cycle_.state() != CycleState::idle)
         return "bed photo: the camera is the cycle's until it ends (now " +
@@ -57,6 +63,10 @@ std::string BedPhotoDesk::start(std::optional<double> surface_height_mm) {
     if (!machine.planar)
         return "bed photo: a " + machine.kind + " has no flat bed to place a job on";
     order->surface_height_mm = surface_height_mm.value_or(machine.planar->surface_height_mm);
+    if (marks) {
+        marks->surface_height_mm = order->surface_height_mm;
+        order->marks = std::move(marks);
+    }
     if (!cycle_.preview()) return "bed photo: the camera is busy: try again in a moment";
     waiting_ = std::move(order);
     return {};
@@ -77,8 +87,21 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
     auto refused = std::make_shared<std::string>();
     auto sheet = std::make_shared<std::optional<modes::StockOutline>>();
     auto no_sheet = std::make_shared<std::string>();
+    auto placed = std::make_shared<std::optional<modes::Registration>>();
+    auto no_marks = std::make_shared<std::string>();
     worker_.start(
-        [order, photo, files, refused, sheet, no_sheet] {
+        [order, photo, files, refused, sheet, no_sheet, placed, no_marks] {
+            // The printed marks, when asked for, as `calbox view marks` finds them; a photo
+            // whose marks cannot be told keeps none, so that no job is placed by older ones.
+            if (order->marks) {
+                try {
+                    *placed =
+                        modes::register_marks(order->camera, order->plane, photo->photo.view(),
+                                              order->solution, *order->marks, "the bed photo");
+                } catch (const modes::RegistrationError& e) {
+                    *no_marks = e.what();
+                }
+            }
             // A sheet on the bed is found as `calbox view stock` finds it; a bed without one (or
             // one the camera cannot tell) is a photo still.
             try {
@@ -91,7 +114,8 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
             *files = bed_view_files(*photo, order->solution, order->surface_height_mm, *refused,
                                     *sheet ? &**sheet : nullptr);
         },
-        [this, order, files, refused, sheet, no_sheet](const std::exception_ptr& error) {
+        [this, order, files, refused, sheet, no_sheet, placed,
+         no_marks](const std::exception_ptr& error) {
             try {
                 if (error) std::rethrow_exception(error);
                 if (!*files) {
@@ -109,6 +133,12 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
                         modes::stock_to_json(**sheet, order->solution.machine_fingerprint));
                 else
                     data_.remove_file(kFoundStockFile);
+                if (*placed)
+                    data_.replace_file(
+                        kFoundMarksFile,
+                        modes::registration_to_json(**placed, order->solution.machine_fingerprint));
+                else
+                    data_.remove_file(kFoundMarksFile);
             } catch (const std::exception& e) {
                 notice_(std::string("bed photo: ") + e.what() + "; nothing written");
                 return;
@@ -127,33 +157,92 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
             } else {
                 line += "no sheet told: " + *no_sheet;
             }
+            if (*placed) {
+                const auto& r = **placed;
+                line += std::string("; the drawing's marks found (") + kFoundMarksFile +
+                        "): " + std::to_string(r.marks.size()) + " marks, its zero at machine X" +
+                        number_text("%.3f", r.origin_mm.x) + " Y" +
+                        number_text("%.3f", r.origin_mm.y) + " mm, turned " +
+                        number_text("%.3f", r.rotation_deg) + " deg, scale " +
+                        number_text("%.5f", r.scale) + ", worst mark " +
+                        number_text("%.4f", r.worst_residual_mm) + " mm";
+            } else if (order->marks) {
+                line += "; no marks placed: " + *no_marks;
+            }
             notice_(line);
         });
 }
 
+namespace {
+
+// A height in millimetres the stock's top lies above the bed (0 to 200), or nothing.
+std::optional<double> height_of(const std::string& w) {
+    double v = 0;
+    const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
+    if (ec != std::errc() || end != w.data() + w.size() || !(v >= 0) || v > 200)
+        return std::nullopt;
+    return v;
+}
+
+// `marks X,Y X,Y X,Y [X,Y] [diameter MM]`: the drawing's marks (filled circles) in its own
+// frame, and their diameter (5 mm unless given).
+modes::RegistrationRequest marks_of(const std::vector<std::string>& words) {
+    modes::RegistrationRequest r;
+    for (std::size_t i = 0; i < words.size(); ++i) {
+        if (words[i] == "diameter") {
+            double d = 0;
+            const auto& w = i + 1 < words.size() ? words[i + 1] : std::string();
+            const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), d);
+            if (ec != std::errc() || end != w.data() + w.size() || !(d >= 1) || d > 50 ||
+                i + 2 != words.size())
+                throw ConsoleRefused("bed photo: marks ... diameter MM (1 to 50), last");
+            r.mark_diameter_mm = d;
+            break;
+        }
+        const auto zeros = modes::parse_work_zero(words[i], {});
+        if (!zeros[0])
+            throw ConsoleRefused("bed photo: mark '" + words[i] +
+                                 "' is not X,Y (its centre in the drawing's frame, mm)");
+        r.marks_drawing_mm.push_back(*zeros[0]);
+    }
+    if (r.marks_drawing_mm.size() < 3 || r.marks_drawing_mm.size() > 4)
+        throw ConsoleRefused("bed photo: marks: three or four X,Y, " +
+                             std::to_string(r.marks_drawing_mm.size()) + " given");
+    return r;
+}
+
+}  // namespace
+
 ConsoleCommand BedPhotoDesk::command() {
-    return {"bed photo", "bed photo [SURFACE_MM]",
+    return {"bed photo", "bed photo [SURFACE_MM] [marks X,Y X,Y X,Y [X,Y] [diameter MM]]",
             "a photo of the bed now, in the machine's coordinates through the correction in force "
             "(bed-view.png and its world file bed-view.pgw, shown on the page's Place screen); "
             "SURFACE_MM: the height seen above the bed, the stock's top (default: the machine "
-            "file's)",
+            "file's); marks: a printed drawing's registration marks (filled circles, their "
+            "centres in the drawing's frame) found too, the drawing's place kept as marks.json "
+            "for `compensate JOB marks`",
             [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
-                std::optional<double> surface;
                 std::vector<std::string> given;
                 for (std::size_t i = 2; i < words.size(); ++i)
                     if (words[i] != "--json") given.push_back(words[i]);
-                if (given.size() > 1) throw ConsoleRefused("usage: bed photo [SURFACE_MM]");
+                const auto marks_at = std::find(given.begin(), given.end(), "marks");
+                std::optional<modes::RegistrationRequest> marks;
+                if (marks_at != given.end()) {
+                    marks = marks_of({marks_at + 1, given.end()});
+                    given.erase(marks_at, given.end());
+                }
+                if (given.size() > 1)
+                    throw ConsoleRefused(
+                        "usage: bed photo [SURFACE_MM] [marks X,Y X,Y X,Y [X,Y] [diameter MM]]");
+                std::optional<double> surface;
                 if (!given.empty()) {
-                    double v = 0;
-                    const auto& w = given.front();
-                    const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
-                    if (ec != std::errc() || end != w.data() + w.size() || !(v >= 0) || v > 200)
-                        throw ConsoleRefused("bed photo: '" + w +
+                    surface = height_of(given.front());
+                    if (!surface)
+                        throw ConsoleRefused("bed photo: '" + given.front() +
                                              "' is not a height in millimetres (0 to 200): the "
                                              "stock's top above the bed");
-                    surface = v;
                 }
-                const std::string refused = start(surface);
+                const std::string refused = start(surface, std::move(marks));
                 if (!refused.empty()) throw ConsoleRefused(refused);
                 reply.text = "photographing the bed";
                 reply.data = {{"png", kBedViewPng}, {"world_file", kBedViewWorld}};

@@ -3,12 +3,15 @@
 // frame while the box is idle and projects it onto the machine's coordinates through the planar
 // correction in force and the set-up's camera and plane, kept in the data directory as
 // bed-view.png with its world file bed-view.pgw; the web page's Place screen shows the newest.
-// The surface seen is the machine file's, or the stock's top the owner gives.
+// The surface seen is the machine file's, or the stock's top the owner gives. With `marks`, a
+// printed drawing's registration marks are found in the same photo and the drawing's place kept
+// as marks.json, which `compensate JOB marks` places a job by (print and cut).
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 
+#include "core/modes/registration.hpp"
 #include "firmware/console/console.hpp"
 #include "firmware/cycle/cycle.hpp"
 #include "firmware/loop/event_loop.hpp"
@@ -25,13 +28,14 @@ class BedPhotoDesk {
     BedPhotoDesk(const BedPhotoDesk&) = delete;
     BedPhotoDesk& operator=(const BedPhotoDesk&) = delete;
     ~BedPhotoDesk();
-    // The console's row: `bed photo [SURFACE_MM]`.
+    // The console's row: `bed photo [SURFACE_MM] [marks X,Y X,Y X,Y [X,Y] [diameter MM]]`.
     ConsoleCommand command();
 
   private:
     struct Order;
     // "" when the camera was asked for a frame (the outcome is a notice), else why not.
-    std::string start(std::optional<double> surface_height_mm);
+    std::string start(std::optional<double> surface_height_mm,
+                      std::optional<modes::RegistrationRequest> marks);
     void on_frame(const hal::Frame& frame);
 
     Cycle& cycle_;

@@ -39,18 +39,34 @@ std::optional<std::string> camera_corner_of(const std::string& work_zero) {
     return corner == std::string::npos ? std::string("nearest") : work_zero.substr(corner);
 }
 
+std::optional<std::string> found_file_for(const std::string& work_zero) {
+    if (camera_corner_of(work_zero)) return std::string(kFoundStockFile);
+    if (work_zero == "marks") return std::string(kFoundMarksFile);
+    return std::nullopt;
+}
+
 void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero,
-                        const std::optional<std::string>& found_stock_text) {
+                        const std::optional<std::string>& found_text) {
     if (work_zero.empty()) return;
+    if (work_zero == "marks") {
+        // The printed marks' fit is the job's frame: no work zero besides it.
+        if (!found_text)
+            throw modes::JobError(
+                "no printed marks found on the bed: take a bed photo with the marks in view "
+                "(bed photo marks X,Y X,Y X,Y [X,Y]), or give the job's zero as X,Y");
+        request.registration_text = found_text;
+        request.registration_name = kFoundMarksFile;
+        return;
+    }
     request.work_zero = work_zero;
     const auto corner = camera_corner_of(work_zero);
     if (!corner) return;
-    if (!found_stock_text)
+    if (!found_text)
         throw modes::JobError(
             "no sheet found on the bed: take a bed photo with the sheet in view (bed photo), or "
             "give the job's zero as X,Y");
     request.work_zero = "camera";
-    request.stock_text = found_stock_text;
+    request.stock_text = found_text;
     request.stock_name = kFoundStockFile;
     request.stock_corner = *corner;
 }
@@ -106,11 +122,15 @@ std::string JobDesk::start(DeskOrder order) {
                machine.firmware +
                " does not report it over the link): give X,Y (its machine coordinates) or "
                "measured (the frame the correction was measured in)";
-    if (order.work_zero && camera_corner_of(*order.work_zero)) {
-        order.stock_text = data_.read_file(kFoundStockFile);
-        if (!order.stock_text)
-            return "compensate: no sheet found on the bed: take a bed photo with the sheet in view "
-                   "(bed photo), or give the work zero as X,Y";
+    if (const auto found = order.work_zero ? found_file_for(*order.work_zero) : std::nullopt) {
+        order.found_text = data_.read_file(*found);
+        if (!order.found_text)
+            return *found == kFoundStockFile
+                       ? "compensate: no sheet found on the bed: take a bed photo with the sheet "
+                         "in view (bed photo), or give the work zero as X,Y"
+                       : "compensate: no printed marks found on the bed: take a bed photo with "
+                         "the marks in view (bed photo marks X,Y X,Y X,Y [X,Y]), or give the "
+                         "work zero as X,Y";
     }
     busy_ = true;
     if (order.work_zero == "controller") {
@@ -152,7 +172,7 @@ void JobDesk::compensate(const DeskOrder& order, std::string result_text, std::s
     request->result_name = "the correction in force";
     request->job_text = std::move(job_text);
     request->job_name = order.job_name;
-    set_desk_work_zero(*request, order.work_zero.value_or(""), order.stock_text);
+    set_desk_work_zero(*request, order.work_zero.value_or(""), order.found_text);
     request->work_zero_from = order.work_zero_from;
     request->again_because = order.again_because;
     request->date = today_();
@@ -177,13 +197,14 @@ void JobDesk::compensate(const DeskOrder& order, std::string result_text, std::s
 ConsoleCommand JobDesk::command() {
     return {"compensate", "compensate JOB [WORK_ZERO] [again REASON]",
             "a job in the data directory (job-NAME.EXT) through the correction in force, placed "
-            "at its work zero (X,Y, measured, controller, G54=X,Y ..., or camera [CORNER]: the "
-            "sheet the last bed photo found); written as job-NAME-compensated.EXT",
+            "at its work zero (X,Y, measured, controller, G54=X,Y ..., camera [CORNER]: the "
+            "sheet the last bed photo found, or marks: by the printed marks it found); written "
+            "as job-NAME-compensated.EXT",
             [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
                 if (words.size() < 2)
                     throw ConsoleRefused(
                         "usage: compensate JOB [WORK_ZERO] [again REASON] (WORK_ZERO: X,Y, "
-                        "measured, controller, G54=X,Y G55=X,Y ... or camera [CORNER])");
+                        "measured, controller, G54=X,Y G55=X,Y ..., camera [CORNER] or marks)");
                 DeskOrder order;
                 order.job_name = words[1];
                 std::string zero, because;

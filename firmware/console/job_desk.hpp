@@ -23,11 +23,12 @@ class Cycle;
 
 struct DeskOrder {
     std::string job_name;  // job-NAME.EXT in the data directory
-    // "X,Y", "measured", "controller", "G54=X,Y ...", or "camera [CORNER]": the sheet the last
+    // "X,Y", "measured", "controller", "G54=X,Y ...", "camera [CORNER]": the sheet the last
     // bed photo found (stock.json, firmware/console/bed_photo_desk), its corner nearest the
-    // machine's zero or the one named.
+    // machine's zero or the one named; or "marks": the drawing's place its printed marks gave in
+    // the last bed photo (marks.json).
     std::optional<std::string> work_zero;
-    std::optional<std::string> stock_text;  // with "camera": stock.json's text
+    std::optional<std::string> found_text;  // with "camera" or "marks": that file's text
     std::string work_zero_from;             // "" for one the owner gave
     std::optional<std::string> again_because;
 };
@@ -61,18 +62,23 @@ class JobDesk {
     bool busy_ = false;
 };
 
-// The sheet the last bed photo found, kept in the data directory.
+// The sheet and the printed marks the last bed photo found, kept in the data directory.
 constexpr const char* kFoundStockFile = "stock.json";
+constexpr const char* kFoundMarksFile = "marks.json";
 
 // For a work zero "camera [CORNER]": the corner's name ("nearest" when none is named); nothing
 // for another work zero.
 std::optional<std::string> camera_corner_of(const std::string& work_zero);
 
+// The file a work zero places the job by (stock.json for "camera [CORNER]", marks.json for
+// "marks"), or nothing for one given in numbers or read from the controller.
+std::optional<std::string> found_file_for(const std::string& work_zero);
+
 // A desk's work zero into `request` ("" leaves it unset): "camera [CORNER]" places the job at
-// the sheet the last bed photo found (`found_stock_text`, stock.json's); throws modes::JobError
-// when there is none.
+// the sheet the last bed photo found, "marks" by the printed marks it found (`found_text`, that
+// file's text: found_file_for); throws modes::JobError when there is none.
 void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero,
-                        const std::optional<std::string>& found_stock_text);
+                        const std::optional<std::string>& found_text);
 
 // `job-NAME.EXT` -> `job-NAME-compensated.EXT`; "" when the name is not a job's.
 std::string compensated_job_name(const std::string& job_name);

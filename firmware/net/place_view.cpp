@@ -10,13 +10,13 @@ namespace calbox::firmware {
 
 nlohmann::json job_outline_json(const std::string& kept_result_text, const std::string& job_text,
                                 const std::string& job_name, const std::string& work_zero,
-                                const std::optional<std::string>& stock_text) {
+                                const std::optional<std::string>& found_text) {
     modes::JobRequest request;
     request.result_text = kept_result_text;
     request.result_name = "the correction in force";
     request.job_text = job_text;
     request.job_name = job_name;
-    set_desk_work_zero(request, work_zero, stock_text);
+    set_desk_work_zero(request, work_zero, found_text);
     request.keep_path = true;
     // A drawing needs the job's own points, not the pieces a changing correction is followed by.
     request.settings.max_segment_mm = 1e9;

@@ -16,9 +16,10 @@ constexpr std::size_t kOutlinePointsMax = 20000;
 // the job's path in machine coordinates, thinned to kOutlinePointsMax for the drawing (the
 // count before thinning said). Throws modes::JobError with the job's, the zero's or the
 // result's one line.
-// A work zero "camera [CORNER]" places it at `stock_text`'s sheet (the last bed photo's).
+// A work zero "camera [CORNER]" places it at `found_text`'s sheet, "marks" by its printed marks
+// (the last bed photo's stock.json or marks.json: found_file_for).
 nlohmann::json job_outline_json(const std::string& kept_result_text, const std::string& job_text,
                                 const std::string& job_name, const std::string& work_zero,
-                                const std::optional<std::string>& stock_text);
+                                const std::optional<std::string>& found_text);
 
 }  // namespace calbox::firmware

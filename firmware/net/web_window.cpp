@@ -306,8 +306,9 @@ ServerResponse WebWindow::place(const std::string& query) {
     if (!text) return error_answer(404, "place: no " + job + " in the data directory");
     // Worked out on the server's thread: a long job does not hold up the loop.
     try {
-        return json_answer(
-            job_outline_json(*kept, *text, job, zero, c_.records.read_file(kFoundStockFile)));
+        return json_answer(job_outline_json(
+            *kept, *text, job, zero,
+            found_file_for(zero) ? c_.records.read_file(*found_file_for(zero)) : std::nullopt));
     } catch (const modes::JobError& e) {
         return error_answer(409, e.what());
     }
@@ -384,16 +385,26 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
                               (confirmed ? " confirm" : "") + " --json");
     }
     if (path == "/api/action" && body.value("action", std::string()) == "bed-photo") {
-        // The console's `bed photo`, its one figure checked there.
+        // The console's `bed photo`, its figures checked there: the marks as plain numbers.
         const auto surface = body.find("surface_mm");
-        if (body.size() > 2 || (surface != body.end() && !surface->is_number()))
-            return error_answer(
-                400, "bed-photo: {\"action\": \"bed-photo\", \"surface_mm\": MM (optional)}");
-        return console_answer("bed photo" +
-                              (surface == body.end()
-                                   ? std::string()
-                                   : " " + number_text("%.3f", surface->get<double>())) +
-                              " --json");
+        const auto marks = body.find("marks");
+        const auto diameter = body.find("mark_diameter_mm");
+        const bool marks_plain =
+            marks == body.end() ||
+            (marks->is_string() && !marks->empty() && marks->get<std::string>().size() <= 120 &&
+             marks->get<std::string>().find_first_not_of("0123456789.,- ") == std::string::npos);
+        if (body.size() > 4 || (surface != body.end() && !surface->is_number()) || !marks_plain ||
+            (diameter != body.end() && (!diameter->is_number() || marks == body.end())))
+            return error_answer(400,
+                                "bed-photo: {\"action\": \"bed-photo\", \"surface_mm\": MM, "
+                                "\"marks\": \"X,Y X,Y X,Y [X,Y]\", \"mark_diameter_mm\": MM} "
+                                "(each optional; a diameter with marks)");
+        std::string line = "bed photo";
+        if (surface != body.end()) line += " " + number_text("%.3f", surface->get<double>());
+        if (marks != body.end()) line += " marks " + marks->get<std::string>();
+        if (diameter != body.end())
+            line += " diameter " + number_text("%.3f", diameter->get<double>());
+        return console_answer(line + " --json");
     }
     if (path == "/api/action") {
         const auto action = body.find("action");

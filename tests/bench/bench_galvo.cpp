@@ -3,7 +3,6 @@
 // it reports numbers. The twin renders the photo and the plane board in a child process, so that
 // the peak memory reported is the box's work alone (loading the photo, measuring, solving).
 //   cmake --build build/release --target bench_galvo && ./build/release/tests/bench/bench_galvo
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -59,15 +58,7 @@ int main() {
     const auto dir = std::filesystem::temp_directory_path() /
                      ("calbox_bench_galvo_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
-    const pid_t child = ::fork();
-    if (child == 0) {
-        prepare(dir, machine);
-        std::fflush(stdout);
-        ::_exit(0);
-    }
-    int status = 0;
-    ::waitpid(child, &status, 0);
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    if (!bench::in_child_process([&] { prepare(dir, machine); })) {
         std::fprintf(stderr, "bench_galvo: the twin's part failed\n");
         return 1;
     }

@@ -3,7 +3,6 @@
 // choose a 24-hole DETMAX design. Not a test: it reports numbers. The twin renders the photo and
 // the plane board in a child process, so that the peak memory reported is the box's work alone.
 //   cmake --build build/release --target bench_planar && ./build/release/tests/bench/bench_planar
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -52,15 +51,7 @@ int main() {
     const auto dir = std::filesystem::temp_directory_path() /
                      ("calbox_bench_planar_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
-    const pid_t child = ::fork();
-    if (child == 0) {
-        prepare(dir, machine);
-        std::fflush(stdout);
-        ::_exit(0);
-    }
-    int status = 0;
-    ::waitpid(child, &status, 0);
-    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
+    if (!bench::in_child_process([&] { prepare(dir, machine); })) {
         std::fprintf(stderr, "bench_planar: the twin's part failed\n");
         return 1;
     }

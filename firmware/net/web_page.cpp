@@ -83,13 +83,14 @@ constexpr std::string_view kPageHtml = R"html(<!DOCTYPE html>
 <section id="view-place" class="view" hidden>
   <div class="card wide">
     <h2>Place a job on the bed</h2>
-    <p class="muted">The bed as the box's camera sees it, in the machine's coordinates (as a job compensated through the correction in force means them). Choose a job from the data directory and click where its work zero (G54's origin) goes, or, when the bed photo found a sheet, give camera (its corner nearest the machine's zero; camera front-right names another): the job is drawn where the tool will go, before anything runs. Compensate writes it through the correction, ready to download; the controller's own zero is yours to set there.</p>
+    <p class="muted">The bed as the box's camera sees it, in the machine's coordinates (as a job compensated through the correction in force means them). Choose a job from the data directory and click where its work zero (G54's origin) goes, or, when the bed photo found a sheet, give camera (its corner nearest the machine's zero; camera front-right names another), or, for print and cut, give the printed drawing's marks (their centres in the drawing, X,Y each) before photographing the bed and place the job by marks: the job is drawn where the tool will go, before anything runs. Compensate writes it through the correction, ready to download; the controller's own zero is yours to set there.</p>
     <p><label>Job <select id="place-job"></select></label>
-      <label>Work zero <input id="place-zero" placeholder="click the bed, X,Y or camera"></label>
+      <label>Work zero <input id="place-zero" placeholder="click the bed, X,Y, camera or marks"></label>
       <button id="btn-place">Compensate</button> <button id="btn-zero">Set the controller's zero here</button>
       <span id="place-reply" class="muted"></span></p>
     <p><button id="btn-bed-photo">Photograph the bed</button>
       <label>its surface (the stock's top) <input id="bed-surface" size="6" placeholder="machine file's"> mm above the bed</label>
+      <label>printed marks <input id="bed-marks" size="30" placeholder="X,Y X,Y X,Y [X,Y] in the drawing"></label>
       <span id="bed-reply" class="muted"></span></p>
     <p id="place-frame" class="muted"></p>
     <div id="place-bed"><img id="bed" alt="the bed in the machine's coordinates"><svg id="bed-job" preserveAspectRatio="none" role="img" aria-label="the job where its tool will go"></svg></div>
@@ -306,12 +307,14 @@ async function sendAndHear(body, prefix, replyId) {
 async function bedPhoto() {
   const body = {action: 'bed-photo'};
   if ($('bed-surface').value.trim() !== '') body.surface_mm = Number($('bed-surface').value);
+  if ($('bed-marks').value.trim() !== '') body.marks = $('bed-marks').value.trim();
   const line = await sendAndHear(body, 'bed photo: ', 'bed-reply');
   if (line === null) return;
   $('bed-reply').textContent = line;
-  $('bed-reply').className = line.includes('nothing written') ? 'error' : 'muted';
-  // A sheet found: the job goes to its corner unless the owner points elsewhere.
-  if (line.includes('the sheet found')) $('place-zero').value = 'camera';
+  $('bed-reply').className = line.includes('nothing written') || line.includes('no marks placed') ? 'error' : 'muted';
+  // A drawing's marks or a sheet found: the job goes by them unless the owner points elsewhere.
+  if (line.includes("the drawing's marks found")) $('place-zero').value = 'marks';
+  else if (line.includes('the sheet found')) $('place-zero').value = 'camera';
   loadPlace();
 }
 // The controller's G54 moves only after the owner has read what will be sent and said yes.

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
-"""Print and cut on the appliance, through the page's API (what its Place screen and the console
-send): a gantry laser calibrated by the box on the sim board (examples/laser_print_and_cut.toml,
+"""Print and cut on the appliance, through the page's Place screen in a real browser (headless
+Chromium, driven by Selenium) and its API: a gantry laser calibrated by the box on the sim board (examples/laser_print_and_cut.toml,
 --auto), then the box started again with the printed card already on the bed. `bed-photo` with
-the drawing's marks finds them (marks.json), `compensate ... marks` places the cut by them.
+the drawing's marks (typed on the page) finds them (marks.json), the page places the cut by
+them, draws it and offers it compensated for download.
 Judged here in the twin's truth, with this file's own model of the laser's gantry (the scenario's
 [truth.cartesian] scales and squareness) and of the card (its turn, shift and stretches): every
 point of the compensated cut, commanded at the G54 zero the marks gave, where the laser really
@@ -18,7 +19,9 @@ import sys
 import tempfile
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from common import PASSWORD, Run, password_hash, request  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+
+from common import PASSWORD, Run, headless_chromium, password_hash, request  # noqa: E402
 
 calbox, top = sys.argv[1], sys.argv[2]
 work = tempfile.mkdtemp(prefix="calbox-marks-")
@@ -100,14 +103,42 @@ try:
     if status != 409 or b"marks: three or four X,Y, 2 given" not in body:
         run.fail("a bed photo with two marks: %d %r" % (status, body[:200]))
 
-    status, _, body = request(url + "/api/action", "POST",
-                              {"action": "bed-photo", "surface_mm": 0.3,
-                               "marks": " ".join("%g,%g" % m for m in MARKS),
-                               "mark_diameter_mm": 5}, password=PASSWORD)
-    if status != 200:
-        run.fail("bed-photo with marks: %d %r" % (status, body[:200]))
+    # The owner's way, in a real browser: the Place screen, the card's top and its marks typed,
+    # the bed photographed; the job then goes by the marks, drawn on the bed, compensated and
+    # offered for download.
+    driver = headless_chromium(work, 1400)
+    try:
+        driver.get(url + "/")
+        run.wait_for("the page showing idle",
+                     lambda: driver.find_element(By.ID, "state").text == "idle", 15, box)
+        driver.find_element(By.CSS_SELECTOR, "button[data-view='place']").click()
+        driver.find_element(By.ID, "password").send_keys(PASSWORD)
+        driver.find_element(By.ID, "bed-surface").send_keys("0.3")
+        driver.find_element(By.ID, "bed-marks").send_keys(" ".join("%g,%g" % m for m in MARKS))
+        driver.find_element(By.ID, "btn-bed-photo").click()
+        said = run.wait_for("the bed photo's reply on the page", lambda: re.search(
+            r"^bed photo: .*the surface 0.30 mm above it; .*the drawing's marks found \(marks.json\): "
+            r"4 marks, its zero at machine X([-0-9.]+) Y([-0-9.]+) mm, turned ([-0-9.]+) deg",
+            driver.find_element(By.ID, "bed-reply").text), 120, box)
+        zero = (float(said.group(1)), float(said.group(2)))
+        if driver.find_element(By.ID, "place-zero").get_attribute("value") != "marks":
+            run.fail("the work zero after the marks were found is %r, not marks"
+                     % driver.find_element(By.ID, "place-zero").get_attribute("value"))
+        points = run.wait_for("the cut drawn on the bed view", lambda: driver.execute_script(
+            "const p = document.getElementById('bed-job-path');"
+            "return p ? p.getAttribute('points') : null;"), 30, box)
+        if len(points.split()) < len(drawing) - 1:
+            run.fail("the cut drawn with %d points, the job has %d" % (len(points.split()), len(drawing)))
+        frame = driver.find_element(By.ID, "place-frame").text
+        if "job placed with the printed marks: marks.json's 4 marks" not in frame:
+            run.fail("the page's frame line does not say the marks place the job: %r" % frame)
+        driver.find_element(By.ID, "btn-place").click()
+        link = run.wait_for("the compensated cut's download link", lambda: driver.execute_script(
+            "const a = document.getElementById('place-download-link'); return a ? a.href : null;"),
+            60, box)
+    finally:
+        driver.quit()
     marks_file = os.path.join(data, "marks.json")
-    run.wait_for("marks.json", lambda: os.path.exists(marks_file), 90, box)
     found = json.load(open(marks_file))
     if found.get("schema") != "calbox.registration/1" or len(found["marks"]) != 4:
         run.fail("marks.json: %s" % json.dumps(found)[:300])
@@ -115,23 +146,10 @@ try:
     print("marks: %d found, worst residual %.4f mm" % (len(found["marks"]), worst_mark))
     if worst_mark > 0.05:
         run.fail("a mark the box found is %.4f mm from where its fit puts it" % worst_mark)
-    said = run.wait_for("the bed photo's notice", lambda: re.search(
-        r"bed photo: .*the drawing's marks found \(marks.json\): 4 marks, its zero at machine "
-        r"X([-0-9.]+) Y([-0-9.]+) mm, turned ([-0-9.]+) deg", run.log()), 10, box)
-    zero = (float(said.group(1)), float(said.group(2)))
-
-    status, _, body = request(url + "/api/action", "POST",
-                              {"action": "compensate", "job": JOB, "work_zero": "marks"},
-                              password=PASSWORD)
-    if status != 200:
-        run.fail("compensate by marks: %d %r" % (status, body[:200]))
-    out = os.path.join(data, "job-cut-compensated.nc")
-    run.wait_for("the compensated cut", lambda: os.path.exists(out), 30, box)
-    job = open(out).read()
-    run.wait_for("the compensation's notice", lambda: re.search(
-        r"compensate: job-cut-compensated.nc: .* moves corrected .*; frame: job placed with the "
-        r"printed marks: marks.json's 4 marks, the drawing's zero at machine X%.3f Y%.3f mm"
-        % zero, run.log()), 10, box)
+    status, headers, body = request(link)
+    if status != 200 or 'filename="job-cut-compensated.nc"' not in headers.get("Content-Disposition", ""):
+        run.fail("the download: %d %s" % (status, headers.get("Content-Disposition")))
+    job = body.decode()
     # G54 at the drawing's zero the marks gave: each written point, commanded there, lands on the
     # printed line.
     points = g1_points(job)

@@ -747,4 +747,15 @@ double SheetScene::albedo(const Footprint& f) const {
     });
 }
 
+double distance_to_polyline(Vec2 p, const std::vector<Vec2>& line) {
+    double best = 1e300;
+    for (std::size_t k = 0; k + 1 < line.size(); ++k) {
+        const double dx = line[k + 1].x - line[k].x, dy = line[k + 1].y - line[k].y;
+        const double t = std::clamp(
+            ((p.x - line[k].x) * dx + (p.y - line[k].y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
+        best = std::min(best, std::hypot(p.x - line[k].x - t * dx, p.y - line[k].y - t * dy));
+    }
+    return best;
+}
+
 }  // namespace calbox::sim

@@ -161,4 +161,8 @@ class ReferenceMarksScene final : public Scene {
     Vec2 b_;
 };
 
+// The distance from `p` to the nearest point of the polyline through `line` (the judges' measure
+// of a cut against the line printed for it).
+double distance_to_polyline(Vec2 p, const std::vector<Vec2>& line);
+
 }  // namespace calbox::sim

@@ -780,7 +780,7 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const Si
         port = board::serial_port(board.printer->device_path(), settings.baud);
     }
     auto camera = std::make_unique<TwinCamera>(board.bench);
-    auto lines = std::make_unique<SimLines>(clock, std::move(log));
+    auto lines = std::make_unique<SimLines>(clock, log);
     auto display = std::make_unique<PngDisplay>(settings.data_dir / "display");
     board.camera = camera.get();
     board.lines = lines.get();

@@ -12,6 +12,7 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenario.hpp"
+#include "board/sim/scenes.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/modes/compensate_job.hpp"
@@ -44,17 +45,6 @@ std::vector<geometry::Point2> plunges(const std::string& job) {
         if (line.rfind("G1 Z-", 0) == 0) found.push_back(at);
     }
     return found;
-}
-
-double distance_to_polyline(sim::Vec2 p, const std::vector<sim::Vec2>& line) {
-    double best = 1e300;
-    for (std::size_t k = 0; k + 1 < line.size(); ++k) {
-        const double dx = line[k + 1].x - line[k].x, dy = line[k + 1].y - line[k].y;
-        const double t = std::clamp(
-            ((p.x - line[k].x) * dx + (p.y - line[k].y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
-        best = std::min(best, std::hypot(p.x - line[k].x - t * dx, p.y - line[k].y - t * dy));
-    }
-    return best;
 }
 
 // What the box has: its set-up's camera and plane, the correction in force.
@@ -128,7 +118,7 @@ void judge_print_and_cut(const sim::TwinBench& bench, hal::Storage& data,
     std::size_t points = 0;
     for (const auto& s : runner.result().strokes)
         for (const sim::Vec3& p : {s.a_mm, s.b_mm}) {
-            const double d = distance_to_polyline({p.x, p.y}, printed);
+            const double d = sim::distance_to_polyline({p.x, p.y}, printed);
             worst = std::max(worst, d);
             sum += d;
             ++points;

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "board/sim/scenes.hpp"
 #include "core/geometry/pattern_spec.hpp"
 #include "core/modes/bed_view.hpp"
 #include "core/modes/compensate_job.hpp"
@@ -540,17 +541,6 @@ std::vector<sim::Vec2> printed_line(const PrintedCard& card, const std::vector<P
     return printed;
 }
 
-double distance_to_polyline(sim::Vec2 p, const std::vector<sim::Vec2>& line) {
-    double best = 1e300;
-    for (std::size_t k = 0; k + 1 < line.size(); ++k) {
-        const double dx = line[k + 1].x - line[k].x, dy = line[k + 1].y - line[k].y;
-        const double t = std::clamp(
-            ((p.x - line[k].x) * dx + (p.y - line[k].y) * dy) / (dx * dx + dy * dy), 0.0, 1.0);
-        best = std::min(best, std::hypot(p.x - line[k].x - t * dx, p.y - line[k].y - t * dy));
-    }
-    return best;
-}
-
 struct CutVerdict {
     modes::Registration registration;
     double mean_mm = 0, worst_mm = 0;
@@ -643,7 +633,7 @@ CutVerdict print_and_cut(const PrintedCard& card, const std::vector<Point2>& mar
     for (const auto& s : runner.result().strokes)
         for (const sim::Vec3& p : {s.a_mm, s.b_mm}) {
             if (p.z > -0.1) continue;  // not cutting
-            const double d = distance_to_polyline({p.x, p.y}, printed);
+            const double d = sim::distance_to_polyline({p.x, p.y}, printed);
             sum += d;
             v.worst_mm = std::max(v.worst_mm, d);
             ++v.points;

@@ -72,19 +72,22 @@ std::vector<firmware::ConsoleCommand> sim_board_commands(sim::SimBoard& board,
                  firmware::need_words(words, 1, "press");
                  board.lines->press(std::chrono::milliseconds(100));
                  r.text = "pressed";
-             }},
+             },
+             /*acts=*/true},
             {"hold", "hold", "the sim board: a long press of the button",
              [&board](const Words& words, std::string_view, firmware::ConsoleReply& r) {
                  firmware::need_words(words, 1, "hold");
                  board.lines->press(std::chrono::milliseconds(2000));
                  r.text = "held";
-             }},
+             },
+             /*acts=*/true},
             {"quit", "quit", "the sim board: stop the box",
              [&loop](const Words& words, std::string_view, firmware::ConsoleReply& r) {
                  firmware::need_words(words, 1, "quit");
                  loop.stop();
                  r.text = "stopping";
-             }}};
+             },
+             /*acts=*/true}};
 }
 
 std::int64_t unix_now_s() {

@@ -139,7 +139,7 @@ std::vector<ConsoleCommand> Console::status_rows() {
                  out << "  " << c.usage
                      << std::string(22 - std::min<std::size_t>(21, c.usage.size()), ' ') << c.help
                      << "\n";
-                 list.push_back({{"command", c.usage}, {"help", c.help}});
+                 list.push_back({{"command", c.usage}, {"help", c.help}, {"acts", c.acts}});
              }
              out << "  (--json on any line: the reply as one JSON object)";
              r.text = out.str();
@@ -238,7 +238,8 @@ std::vector<ConsoleCommand> Console::config_rows() {
              }
              r.text = "saved " + c_.settings_name;
              r.data = {{"saved", c_.settings_name}};
-         }},
+         },
+         /*acts=*/true},
         {"config reset", "config reset [KEY]",
          "one key, or all, back to its default (save to keep it)",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
@@ -255,7 +256,8 @@ std::vector<ConsoleCommand> Console::config_rows() {
                  r.text = "every key back to its default (config save keeps it)";
              }
              if (c_.config_changed) c_.config_changed();
-         }},
+         },
+         /*acts=*/true},
     };
 }
 
@@ -270,13 +272,15 @@ std::vector<ConsoleCommand> Console::cycle_rows() {
                  throw Refused(std::string("busy: ") + state_name(cycle.state()));
              cycle.start();
              r.text = std::string("started: ") + state_name(cycle.state());
-         }},
+         },
+         /*acts=*/true},
         {"confirm", "confirm",
          "go on where the box waits: apply in review, the next step in set-up",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 1, "confirm");
              r.text = press_for_prompt(false);
-         }},
+         },
+         /*acts=*/true},
         {"cancel", "cancel",
          "stop the cycle (the button's long press); nothing more goes to the machine",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
@@ -285,7 +289,8 @@ std::vector<ConsoleCommand> Console::cycle_rows() {
              if (cycle.state() == CycleState::idle) throw Refused("nothing to cancel: idle");
              cycle.cancel("cancelled from the console");
              r.text = std::string("cancelled: ") + state_name(cycle.state());
-         }},
+         },
+         /*acts=*/true},
         {"revert", "revert", "send the settings in force before the last completed cycle",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 1, "revert");
@@ -293,7 +298,8 @@ std::vector<ConsoleCommand> Console::cycle_rows() {
              if (!refused.empty()) throw Refused(refused);
              r.text = "reverting to the settings before cycle " +
                       std::to_string(c_.cycle.report().number);
-         }},
+         },
+         /*acts=*/true},
     };
 }
 
@@ -339,18 +345,21 @@ std::vector<ConsoleCommand> Console::setup_rows() {
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 2, "camera calibrate|plane");
              start_setup(c_.cycle.calibrate_camera(), r);
-         }},
+         },
+         /*acts=*/true},
         {"camera plane", "camera plane",
          "set-up: take the bed plane from the board laid on the bed",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 2, "camera calibrate|plane");
              start_setup(c_.cycle.take_plane(), r);
-         }},
+         },
+         /*acts=*/true},
         {"capture", "capture", "take the set-up view the box asks for (the button's press)",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 1, "capture");
              r.text = press_for_prompt(true);
-         }},
+         },
+         /*acts=*/true},
         {"acknowledge", "acknowledge", "back to idle after an error (the button's press there)",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 1, "acknowledge");
@@ -360,7 +369,8 @@ std::vector<ConsoleCommand> Console::setup_rows() {
                                state_name(cycle.state()));
              cycle.acknowledge();
              r.text = std::string("acknowledged: ") + state_name(cycle.state());
-         }},
+         },
+         /*acts=*/true},
     };
 }
 

@@ -87,6 +87,10 @@ struct ConsoleCommand {
     std::function<void(const std::vector<std::string>& words, std::string_view line,
                        ConsoleReply& reply)>
         run;
+    // Said as it is (its name alone), the row acts: it starts, stops or steers the cycle, moves
+    // the machine, or writes the configuration. `help --json` says so, so that a test sending
+    // every row bare leaves these out without a list of its own.
+    bool acts = false;
 };
 
 // What follows a line's first `skip` words, trimmed; a value in double quotes loses them (a

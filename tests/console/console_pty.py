@@ -241,11 +241,13 @@ print("refusals: over-long line, unknown command, commands out of place")
 # Every command the console lists, with an unknown argument, an over-long one (inside the line's
 # 256 bytes) and, where it takes some, none: one reply line each, and the box still up, idle and
 # not started (a "quit now" once stopped the box; a "press twice" would start a cycle). Commands
-# that act are not sent bare.
-ACTING = {"start", "confirm", "cancel", "revert", "capture", "camera calibrate", "camera plane",
-          "press", "hold", "quit", "config save", "config reset", "acknowledge"}
+# that act are not sent bare: the console's own table says which (help's "acts").
 tried = 0
-for entry in t.ask("help")["commands"]:
+commands = t.ask("help")["commands"]
+acting = {e["command"].split()[0] for e in commands if e["acts"]}
+if not {"start", "quit", "config"} <= acting or "status" in acting:
+    fail("help's acting rows: %s" % sorted(e["command"] for e in commands if e["acts"]))
+for entry in commands:
     usage = entry["command"].split()
     name = []
     for word in usage:
@@ -254,7 +256,7 @@ for entry in t.ask("help")["commands"]:
         name.append(word)
     name = " ".join(name)
     trials = [name + " bogus-word", name + " " + "z" * 200]
-    if len(usage) > len(name.split()) and name not in ACTING:
+    if len(usage) > len(name.split()) and not entry["acts"]:
         trials.append(name)
     for command in trials:
         t.send(command + " --json\r")

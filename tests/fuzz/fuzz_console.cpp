@@ -3,8 +3,9 @@
 // is the appliance on the sim board (tests/scenarios/delta_cycle_small.toml: the main job's delta
 // at a quarter of its photo's pixels; its data and configuration in a fresh temporary folder),
 // made once; its loop is not run, so what a row starts stays started.
-// Each input is one typed line: its first byte chooses a row of the table, whose words begin the
-// line, and the rest follows as its arguments (a byte past the table's rows: the rest alone).
+// Each input is one typed line. One that begins with a row's name and a tab ("config set\tKEY
+// VALUE") is that row's words and what follows the tab, so that a seed names its command and a
+// row added to the table leaves every seed its own; any other input is the line as typed.
 // A line may be refused, in one line; an exception out of reply_to, a crash or the box ending is
 // a bug.
 #include <algorithm>
@@ -14,6 +15,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <string_view>
 
 #include "board/devices.hpp"
 #include "drivers/password.hpp"
@@ -89,9 +91,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (size == 0) return 0;
     auto& fuzzed = fuzzed_box();
     const auto& rows = fuzzed.console.rows();
-    std::string line;
-    if (data[0] < rows.size()) line = rows[data[0]].name + " ";
-    line.append(calbox::fuzz::as_text(data + 1, size - 1));
+    const std::string_view input = calbox::fuzz::as_text(data, size);
+    std::string line(input);
+    if (const auto tab = input.find('\t'); tab != std::string_view::npos) {
+        const std::string_view name = input.substr(0, tab);
+        if (std::any_of(rows.begin(), rows.end(), [&](const auto& r) { return r.name == name; }))
+            line = std::string(name) + " " + std::string(input.substr(tab + 1));
+    }
     // One line, as the console's port hands it over (its newline ends it).
     line = line.substr(0, line.find_first_of("\r\n"));
     const std::string reply = fuzzed.console.reply_to(line);

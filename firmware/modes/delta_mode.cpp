@@ -313,47 +313,29 @@ void DeltaCycleMode::read_klipper_settings(std::function<void(models::DeltaGeome
 // Klipper takes printer.cfg as a whole: the fitted values go where SAVE_CONFIG keeps them, the
 // file as it was is the backup, and the settings Klipper took after its restart are compared.
 void DeltaCycleMode::apply_on_klipper_host(std::function<void(bool verify)> then) {
-    steps_.enter(CycleState::apply,
-                 "backing up printer.cfg through " + steps_.machine_link().describe());
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
-        [this, then = std::move(then)](const JobOutcome& read) {
-            std::string updated;
-            try {
-                updated = models::klipper_saved_config(read.text, solution_->after);
-            } catch (const std::exception& e) {
-                steps_.fail(std::string("apply: ") + e.what() + " (nothing was written)");
-                return;
-            }
-            if (!steps_.keep(pass_file(kKlipperBackup), read.text) ||
-                !steps_.keep(pass_file("printer.cfg"), updated))
-                return;
-            steps_.log("writing printer.cfg's SAVE_CONFIG block and restarting Klipper");
-            steps_.ask_machine(
-                [updated, old = read.text](MachineLink& m, MachineLink::Done done) {
-                    m.replace_config_file(updated, old, std::move(done));
-                },
-                [this, then, updated, old = read.text](const JobOutcome& replaced) {
-                    if (!replaced.ok) {
-                        restore_klipper_config(old, updated, "apply: " + replaced.error);
-                        return;
-                    }
-                    read_klipper_settings(
-                        [this, then, updated, old](const models::DeltaGeometry& in_force) {
-                            const std::string mismatch =
-                                models::klipper_settings_mismatch(solution_->after, in_force);
-                            if (!mismatch.empty()) {
-                                restore_klipper_config(old, updated,
-                                                       "apply: read-back mismatch: " + mismatch);
-                                return;
-                            }
-                            machine_.delta = in_force;
-                            then(true);
-                        });
-                },
-                false);
-        },
-        true);
+    write_printer_cfg(
+        steps_,
+        {[this](const std::string& read) {
+             return models::klipper_saved_config(read, solution_->after);
+         },
+         pass_file(kKlipperBackup), pass_file("printer.cfg"),
+         "writing printer.cfg's SAVE_CONFIG block and restarting Klipper",
+         [this, then = std::move(then)](const std::string& old, const std::string& updated) {
+             read_klipper_settings([this, then, updated,
+                                    old](const models::DeltaGeometry& in_force) {
+                 const std::string mismatch =
+                     models::klipper_settings_mismatch(solution_->after, in_force);
+                 if (!mismatch.empty()) {
+                     restore_klipper_config(old, updated, "apply: read-back mismatch: " + mismatch);
+                     return;
+                 }
+                 machine_.delta = in_force;
+                 then(true);
+             });
+         },
+         [this](const std::string& old, const std::string& updated, const std::string& why) {
+             restore_klipper_config(old, updated, why);
+         }});
 }
 
 void DeltaCycleMode::restore_klipper_config(const std::string& backup, const std::string& written,

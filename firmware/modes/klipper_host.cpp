@@ -1,5 +1,8 @@
 #include "firmware/modes/klipper_host.hpp"
 
+#include <memory>
+#include <utility>
+
 namespace calbox::firmware {
 
 void restore_printer_cfg(CycleSteps& steps, const std::string& backup,
@@ -33,6 +36,40 @@ void restore_printer_cfg(CycleSteps& steps, const std::string& backup,
                 false);
         },
         false);
+}
+
+void write_printer_cfg(CycleSteps& steps, PrinterCfgWrite write) {
+    steps.enter(CycleState::apply,
+                "backing up printer.cfg through " + steps.machine_link().describe());
+    auto shared = std::make_shared<PrinterCfgWrite>(std::move(write));
+    steps.ask_machine(
+        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
+        [&steps, shared](const JobOutcome& read) {
+            std::string updated;
+            try {
+                updated = shared->update(read.text);
+            } catch (const std::exception& e) {
+                steps.fail(std::string("apply: ") + e.what() + " (nothing was written)");
+                return;
+            }
+            if (!steps.keep(shared->backup_record, read.text) ||
+                !steps.keep(shared->updated_record, updated))
+                return;
+            steps.log(shared->writing);
+            steps.ask_machine(
+                [updated, backup = read.text](MachineLink& m, MachineLink::Done done) {
+                    m.replace_config_file(updated, backup, std::move(done));
+                },
+                [shared, updated, backup = read.text](const JobOutcome& replaced) {
+                    if (!replaced.ok) {
+                        shared->refused(backup, updated, "apply: " + replaced.error);
+                        return;
+                    }
+                    shared->written(backup, updated);
+                },
+                false);
+        },
+        true);
 }
 
 void put_back_printer_cfg(CycleSteps& steps, const std::string& backup,

@@ -112,39 +112,21 @@ void PlanarCycleMode::verification_job(const std::vector<std::string>& target,
 // file read): an upload the host refuses leaves the file untouched. Then the skew, which Klipper
 // saves itself over the file it took.
 void PlanarCycleMode::apply_on_klipper_host(std::function<void(bool verify)> then) {
-    steps_.enter(CycleState::apply,
-                 "backing up printer.cfg through " + steps_.machine_link().describe());
-    steps_.ask_machine(
-        [](MachineLink& m, MachineLink::Done done) { m.read_config_file(std::move(done)); },
-        [this, then = std::move(then)](const JobOutcome& read) {
-            std::string updated;
-            try {
-                updated = models::klipper_saved_values(
-                    read.text, models::klipper_travel_values(*klipper_sent_));
-            } catch (const std::exception& e) {
-                steps_.fail(std::string("apply: ") + e.what() + " (nothing was written)");
-                return;
-            }
-            if (!steps_.keep(steps_.record_name(kKlipperBackup), read.text) ||
-                !steps_.keep(steps_.record_name("printer.cfg"), updated))
-                return;
-            steps_.log(
-                "writing the rotation distances into printer.cfg's SAVE_CONFIG block and "
-                "restarting Klipper");
-            steps_.ask_machine(
-                [updated, backup = read.text](MachineLink& m, MachineLink::Done done) {
-                    m.replace_config_file(updated, backup, std::move(done));
-                },
-                [this, then, backup = read.text](const JobOutcome& replaced) {
-                    if (!replaced.ok) {
-                        restore_klipper_config(backup, "apply: " + replaced.error);
-                        return;
-                    }
-                    save_klipper_skew(backup, then);
-                },
-                false);
-        },
-        true);
+    write_printer_cfg(
+        steps_,
+        {[this](const std::string& read) {
+             return models::klipper_saved_values(read,
+                                                 models::klipper_travel_values(*klipper_sent_));
+         },
+         steps_.record_name(kKlipperBackup), steps_.record_name("printer.cfg"),
+         "writing the rotation distances into printer.cfg's SAVE_CONFIG block and restarting "
+         "Klipper",
+         [this, then = std::move(then)](const std::string& backup, const std::string&) {
+             save_klipper_skew(backup, then);
+         },
+         [this](const std::string& backup, const std::string&, const std::string& why) {
+             restore_klipper_config(backup, why);
+         }});
 }
 
 void PlanarCycleMode::save_klipper_skew(const std::string& backup,

@@ -175,11 +175,12 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
 
 namespace {
 
-// A height in millimetres the stock's top lies above the bed (0 to 200), or nothing.
-std::optional<double> height_of(const std::string& w) {
+// A word that is a number from `least` to `most` (the stock's top above the bed, a mark's
+// diameter, in millimetres), or nothing.
+std::optional<double> number_in(const std::string& w, double least, double most) {
     double v = 0;
     const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), v);
-    if (ec != std::errc() || end != w.data() + w.size() || !(v >= 0) || v > 200)
+    if (ec != std::errc() || end != w.data() + w.size() || !(v >= least) || v > most)
         return std::nullopt;
     return v;
 }
@@ -190,13 +191,9 @@ modes::RegistrationRequest marks_of(const std::vector<std::string>& words) {
     modes::RegistrationRequest r;
     for (std::size_t i = 0; i < words.size(); ++i) {
         if (words[i] == "diameter") {
-            double d = 0;
-            const auto& w = i + 1 < words.size() ? words[i + 1] : std::string();
-            const auto [end, ec] = std::from_chars(w.data(), w.data() + w.size(), d);
-            if (ec != std::errc() || end != w.data() + w.size() || !(d >= 1) || d > 50 ||
-                i + 2 != words.size())
-                throw ConsoleRefused("bed photo: marks ... diameter MM (1 to 50), last");
-            r.mark_diameter_mm = d;
+            const auto d = i + 2 == words.size() ? number_in(words[i + 1], 1, 50) : std::nullopt;
+            if (!d) throw ConsoleRefused("bed photo: marks ... diameter MM (1 to 50), last");
+            r.mark_diameter_mm = *d;
             break;
         }
         const auto zeros = modes::parse_work_zero(words[i], {});
@@ -236,7 +233,7 @@ ConsoleCommand BedPhotoDesk::command() {
                         "usage: bed photo [SURFACE_MM] [marks X,Y X,Y X,Y [X,Y] [diameter MM]]");
                 std::optional<double> surface;
                 if (!given.empty()) {
-                    surface = height_of(given.front());
+                    surface = number_in(given.front(), 0, 200);
                     if (!surface)
                         throw ConsoleRefused("bed photo: '" + given.front() +
                                              "' is not a height in millimetres (0 to 200): the "

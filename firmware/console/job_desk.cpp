@@ -39,6 +39,19 @@ std::optional<std::string> camera_corner_of(const std::string& work_zero) {
     return corner == std::string::npos ? std::string("nearest") : work_zero.substr(corner);
 }
 
+namespace {
+
+// Why a job cannot be placed by `file` (stock.json or marks.json): the last bed photo found none.
+std::string nothing_found(const std::string& file) {
+    return file == kFoundStockFile
+               ? "no sheet found on the bed: take a bed photo with the sheet in view (bed photo), "
+                 "or give the job's zero as X,Y"
+               : "no printed marks found on the bed: take a bed photo with the marks in view (bed "
+                 "photo marks X,Y X,Y X,Y [X,Y]), or give the job's zero as X,Y";
+}
+
+}  // namespace
+
 std::optional<std::string> found_file_for(const std::string& work_zero) {
     if (camera_corner_of(work_zero)) return std::string(kFoundStockFile);
     if (work_zero == "marks") return std::string(kFoundMarksFile);
@@ -50,10 +63,7 @@ void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero
     if (work_zero.empty()) return;
     if (work_zero == "marks") {
         // The printed marks' fit is the job's frame: no work zero besides it.
-        if (!found_text)
-            throw modes::JobError(
-                "no printed marks found on the bed: take a bed photo with the marks in view "
-                "(bed photo marks X,Y X,Y X,Y [X,Y]), or give the job's zero as X,Y");
+        if (!found_text) throw modes::JobError(nothing_found(kFoundMarksFile));
         request.registration_text = found_text;
         request.registration_name = kFoundMarksFile;
         return;
@@ -61,10 +71,7 @@ void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero
     request.work_zero = work_zero;
     const auto corner = camera_corner_of(work_zero);
     if (!corner) return;
-    if (!found_text)
-        throw modes::JobError(
-            "no sheet found on the bed: take a bed photo with the sheet in view (bed photo), or "
-            "give the job's zero as X,Y");
+    if (!found_text) throw modes::JobError(nothing_found(kFoundStockFile));
     request.work_zero = "camera";
     request.stock_text = found_text;
     request.stock_name = kFoundStockFile;
@@ -124,13 +131,7 @@ std::string JobDesk::start(DeskOrder order) {
                "measured (the frame the correction was measured in)";
     if (const auto found = order.work_zero ? found_file_for(*order.work_zero) : std::nullopt) {
         order.found_text = data_.read_file(*found);
-        if (!order.found_text)
-            return *found == kFoundStockFile
-                       ? "compensate: no sheet found on the bed: take a bed photo with the sheet "
-                         "in view (bed photo), or give the work zero as X,Y"
-                       : "compensate: no printed marks found on the bed: take a bed photo with "
-                         "the marks in view (bed photo marks X,Y X,Y X,Y [X,Y]), or give the "
-                         "work zero as X,Y";
+        if (!order.found_text) return "compensate: " + nothing_found(*found);
     }
     busy_ = true;
     if (order.work_zero == "controller") {

@@ -157,17 +157,18 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
     if (const auto* placement = models::subtable(path, root, "placement")) {
         // A printed card (print and cut) is told by its marks; otherwise a sheet's corner.
         const bool card = placement->contains("marks_mm");
-        if (!s.machine.planar ||
-            (s.machine.kind != "router" && !(card && s.machine.kind == "laser")))
+        // The judges are the router's for a sheet and the laser's for a card: no other pairing
+        // is judged, so none is taken.
+        if (!s.machine.planar || s.machine.kind != (card ? "laser" : "router"))
             throw ScenarioError(path +
-                                ": [placement] places a router's job on a sheet, or a router's "
-                                "or a laser's cut on a printed card (marks_mm); this is a " +
-                                s.machine.kind);
+                                ": [placement] places a router's job on a sheet (sheet_*) or a "
+                                "laser's cut on a printed card (marks_mm); this is a " +
+                                s.machine.kind + (card ? " with a card" : " with a sheet"));
         TomlReader r(path, *placement, "placement");
         ScenarioPlacement p;
+        r.boolean("on_bed_at_start", p.on_bed_at_start);
         if (card) {
             PrintedCard c;
-            r.boolean("on_bed_at_start", p.on_bed_at_start);
             r.number("print_origin_x_mm", c.origin_mm.x, -10000, 10000);
             r.number("print_origin_y_mm", c.origin_mm.y, -10000, 10000);
             r.number("print_angle_deg", c.angle_deg, -45, 45);
@@ -195,7 +196,6 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
             r.number("bed_albedo", p.sheet.bed_albedo, 0, 1);
             r.text("corner", p.corner,
                    {"nearest", "front-left", "front-right", "back-right", "back-left"});
-            r.boolean("on_bed_at_start", p.on_bed_at_start);
         }
         r.number("thickness_mm", p.thickness_mm, 0, 200);
         r.number("goal_mm", p.goal_mm, 0.001, 10);

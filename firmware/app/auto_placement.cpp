@@ -20,7 +20,6 @@
 #include "core/modes/registration.hpp"
 #include "core/modes/stock.hpp"
 #include "core/number_text.hpp"
-#include "core/targets/gcode_line.hpp"
 
 namespace calbox::firmware {
 namespace {
@@ -97,19 +96,15 @@ void judge_print_and_cut(const sim::TwinBench& bench, hal::Storage& data,
     data.replace_file("placement-job-compensated.nc", placed.text);
     std::printf("placement: %s\n", placed.frame_line.c_str());
 
-    // The judge's part, in the twin's truth: the placed cut run on the twin's machine, each
-    // point it cut against the line printed on the card.
-    // The controller's G54 set where the marks put the drawing's zero: by G10 L2 P1 where the
-    // twin's controller keeps work offsets (the router's grbl), else by G92 at that point.
+    // The judge's part, in the twin's truth: the placed cut run on the twin's laser, each point
+    // it cut against the line printed on the card. The controller's zero is set where the marks
+    // put the drawing's (a laser's grbl keeps its work frame at the machine's: G92 there).
     auto machine = sim::make_machine_twin(scenario);
     sim::GcodeRunner runner(*machine, sim::tool_settings_of(scenario));
     if (!machine->homed()) runner.run_line("G28");
-    const std::string at = " X" + number_text("%.6f", registration.origin_mm.x) + " Y" +
-                           number_text("%.6f", registration.origin_mm.y);
-    if (!machine->settings_command(gcode::parse_line("G10 L2 P1" + at))) {
-        runner.run_line("G0" + at);
-        runner.run_line("G92 X0 Y0");
-    }
+    runner.run_line("G0 X" + number_text("%.6f", registration.origin_mm.x) + " Y" +
+                    number_text("%.6f", registration.origin_mm.y));
+    runner.run_line("G92 X0 Y0");
     std::istringstream run(placed.text);
     runner.run(run);
     std::vector<sim::Vec2> printed;

@@ -55,7 +55,7 @@ grep -q "the placement goal is not met: the cut 0.0[0-9]* mm from the printed li
     || { tail -3 "$work/miss.err"; exit 1; }
 
 # The scenario's refusals: a card's key beside a sheet's, three marks' worth of numbers that are
-# not pairs, ink lighter than the card.
+# not pairs, ink lighter than the card, a card under a router (whose cut no judge here runs).
 refused() {
     local name="$1" message="$2"
     if "$calbox" run --board sim --auto --scenario "$work/$name.toml" --data "$work/$name" \
@@ -70,4 +70,8 @@ sed 's/^marks_mm = .*/marks_mm = [0.0, 0.0, 130.0, 0.0, 130.0]/' "$top/examples/
 refused odd "[placement] marks_mm"
 sed 's/^mark_diameter_mm = 5.0$/mark_diameter_mm = 5.0\nink_albedo = 0.9/' "$top/examples/laser_print_and_cut.toml" > "$work/ink.toml"
 refused ink "[placement] ink_albedo: the ink must be darker than the card"
+sed -e 's/^kind = "laser"/kind = "router"/' -e 's/^\[truth.cartesian\]/[truth.router]\nseed = 1\n[unread]/' \
+    -e "s|^job = .*|job = \"$top/examples/laser_print_and_cut.gcode\"|" \
+    "$top/examples/laser_print_and_cut.toml" | sed '/^\[unread\]/,/^$/d' > "$work/router.toml"
+refused router "[placement] places a router's job on a sheet (sheet_*) or a laser's cut on a printed card (marks_mm); this is a router with a card"
 echo "print and cut complete"

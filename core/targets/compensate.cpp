@@ -34,11 +34,6 @@ using job_words::number;
 using job_words::ReadLine;
 using job_words::trailing_comment;
 
-// LinuxCNC's bound on how far a centre-format arc's end may lie off the circle through its start,
-// in the program's units (0.002 sqrt 2 inch; 0.02 sqrt 2 mm): beyond it and beyond 0.1 % of the
-// radius, or beyond a hundred times it, rs274 refuses the arc (measured with rs274 itself).
-constexpr double kArcRadiusToleranceInchJobMm = 0.002 * 1.41421356237309504880 * 25.4;
-constexpr double kArcRadiusToleranceMmJobMm = 0.02 * 1.41421356237309504880;
 // No slicer or CAM program writes a line near this (PrusaSlicer's longest, its settings and
 // thumbnail lines, stay under a few thousand characters); past it the file is not G-code.
 constexpr std::size_t kLongestLine = 65536;
@@ -79,6 +74,9 @@ struct Modal {
     // Whether the file has the spindle turning (M3, M4; M5 and a tool change stop it), as
     // LinuxCNC's interpreter follows it from a stopped start: G86 and G88 need it turning.
     bool spindle_turning = false;
+    // G95 (feed per revolution) and the S in force: LinuxCNC feeds by neither with S at 0.
+    bool feed_per_rev = false;
+    double spindle_speed = 0;
 
     // Machine = job * unit + offset, where the work system's zero is known.
     std::optional<Point2> offset_mm() const {
@@ -169,10 +167,7 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
     // LinuxCNC's own bound on a centre-format arc whose end is off the start's circle: past
     // both, it refuses the arc, and so does calbox.
     const double radius_step = std::abs(end_radius - radius);
-    const double tolerance_mm =
-        m.unit_mm > 1 ? kArcRadiusToleranceInchJobMm : kArcRadiusToleranceMmJobMm;
-    if ((radius_step > tolerance_mm && radius_step > 0.001 * radius) ||
-        radius_step > 100 * tolerance_mm)
+    if (job_words::arc_end_off_its_circle(radius, radius_step, m.unit_mm > 1))
         throw fail("an arc no controller could cut: its end is " + number(radius_step, 5) +
                    " mm off the circle through its start (radius " + number(radius, 5) +
                    " mm about its centre); have the CAM write the arc again");
@@ -755,6 +750,7 @@ class Compensator {
                 m_.motion = -1;
             } else if (c.is(93) || c.is(94) || c.is(95)) {
                 m_.inverse_time = c.is(93);
+                m_.feed_per_rev = c.is(95);
             } else if (c.is(98) || c.is(99)) {
                 m_.retract_to_r = c.is(99);
             } else if ((c.number >= 54 && c.number <= 58 && c.subcode < 0) ||
@@ -1059,6 +1055,7 @@ class Compensator {
                 "flat");
         if (has_m(line, 6)) m_.spindle_turning = false;
         if (has_m(line, 3) || has_m(line, 4)) m_.spindle_turning = true;
+        if (const auto s = line.value('S')) m_.spindle_speed = *s;
         if (has_m(line, 5)) m_.spindle_turning = false;
         if (has_m(line, 82)) m_.absolute_e = true;
         if (has_m(line, 83)) m_.absolute_e = false;
@@ -1072,13 +1069,17 @@ class Compensator {
         const bool not_a_command =
             !is_cnc(frame_.flavour) && (line.command_letter == 'M' || line.command_letter == 'T');
         if (machine_move_) return machine_move(raw, line);
-        if (!not_a_move && !not_a_command && is_cycle(m_.motion) &&
-            (axes || line.has('R') || commanded_motion))
-            return cycle(raw, line, polar, kept_codes);
+        const bool cycles = !not_a_move && !not_a_command && is_cycle(m_.motion) &&
+                            (axes || line.has('R') || commanded_motion);
         const bool arc_words = line.has('I') || line.has('J') || line.has('K') || line.has('R');
         const bool is_arc_mode = m_.motion == 2 || m_.motion == 3;
         const bool moves = !not_a_move && m_.motion >= 0 && m_.motion <= 3 && !not_a_command &&
                            (axes || (is_arc_mode && (arc_words || commanded_motion)));
+        if (m_.feed_per_rev && m_.spindle_speed == 0 && (cycles || (moves && m_.motion != 0)))
+            throw fail(
+                "a feed per revolution (G95) with the spindle speed 0 (no S above 0): LinuxCNC "
+                "stops on it (\"Cannot feed with zero spindle speed in feed per rev mode\")");
+        if (cycles) return cycle(raw, line, polar, kept_codes);
         const bool moves_xy =
             moves && (is_arc_mode || line.has('X') || line.has('Y') || polar.any());
         if (!moves_xy) {

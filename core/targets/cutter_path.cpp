@@ -6,20 +6,24 @@
 #include <string_view>
 
 #include "core/targets/compensate.hpp"
+#include "core/targets/cutter_geometry.hpp"
 
 namespace calbox::targets {
 namespace {
 
+using geometry::distance;
 using geometry::Point2;
 using job_words::Code;
-using job_words::command_words;
-using job_words::CommandWords;
 using job_words::has_m;
 using job_words::is_cycle;
 using job_words::kOtherAxes;
 using job_words::number;
 using job_words::ReadLine;
-using job_words::trailing_comment;
+
+using cutter_geometry::angle_to;
+using cutter_geometry::sweep_of;
+using cutter_geometry::toward;
+using std::numbers::pi;
 
 class CutterPath {
   public:
@@ -61,6 +65,13 @@ class CutterPath {
         // The way the move goes, as LinuxCNC queues it: the programmed move's direction (none
         // for a height change), the cutter's for the entry move.
         Point2 along{};
+        // An arc (G2, G3): the cutter's centre and way round (1 counter-clockwise), and its sweep
+        // as queued, from where it starts, which LinuxCNC checks a pulled-back end against.
+        bool arc = false;
+        int turn = 0;
+        bool absolute = true;  // G90 on its line (G91: its end written as a step)
+        Point2 centre{};
+        double sweep_rad = 0;
     };
 
     CompensateError fail(const std::string& why) const {
@@ -76,6 +87,23 @@ class CutterPath {
             out_.emplace_back(raw, number_);
     }
     static std::string xy(Point2 p) { return " X" + number(p.x, 6) + " Y" + number(p.y, 6); }
+    // An outside corner's arc about the programmed corner, from where the cutter is to `start`.
+    std::string corner_arc(Point2 start, Point2 corner) const {
+        return (side_ > 0 ? "G2" : "G3") + to_xy(start) + " I" + number(corner.x - cutter_.x, 6) +
+               " J" + number(corner.y - cutter_.y, 6);
+    }
+    // The corner written ahead of the move, which starts at its end; the block's words that act
+    // before its motion act before the corner.
+    void write_corner(const std::string& corner_move, Point2 start, Held& move) {
+        from_ = start;
+        out_.emplace_back(move.n + join(corner_move, move.head), move.number);
+        move.head.clear();
+        move.n.clear();
+    }
+    // A move from where the cutter is to `p`, in the distance mode in force.
+    std::string to_xy(Point2 p) const {
+        return absolute_ ? xy(p) : xy({p.x - cutter_.x, p.y - cutter_.y});
+    }
 
     void line(const std::string& raw, const ReadLine& r) {
         const gcode::Line& l = r.line;
@@ -91,7 +119,55 @@ class CutterPath {
             throw fail(
                 "cutter radius compensation turned on where it is on already: LinuxCNC refuses "
                 "it too");
-        // The frame and modes, read before the line's move as the controller reads them.
+        read_modes(r);
+        const bool reframes = std::any_of(r.codes.begin(), r.codes.end(), [](Code c) {
+            return c.is(10) || c.is(28) || c.is(30) || c.is(52) || c.is(53) || c.number == 92 ||
+                   (c.number >= 54 && c.number <= 59);
+        });
+        if (turn_on != 0) compensation_on(l, turn_on, has_code(41, 1) || has_code(42, 1));
+        const bool axes = l.has('X') || l.has('Y');
+        const bool moves = motion_ >= 0 && motion_ <= 3 && (axes || l.has('Z'));
+        if (side_ == 0 || radius_ == 0) {
+            // Off, or a radius of 0 (LinuxCNC moves on the path itself): the line as it is, its
+            // compensation words taken out; the place it ends at followed.
+            const bool was_on = side_ != 0;
+            if (turn_off) {
+                if (was_on) flush();
+                side_ = 0;
+            }
+            const std::string text = after_off(l, r, reframes, raw, turn_on != 0);
+            follow(l, r, reframes, axes);
+            out_.emplace_back(text, number_);
+            return;
+        }
+        if (turn_off) {
+            // LinuxCNC's position is the programmed path's end now; the cutter stands off it.
+            refuse_gouge(cutter_, kRunsBackwards);
+            flush();
+            side_ = 0;
+            at_ = programmed_;
+            left_at_ = cutter_;
+            const std::string text = after_off(l, r, reframes, raw, false);
+            follow(l, r, reframes, axes);
+            out_.emplace_back(text, number_);
+            return;
+        }
+        // LinuxCNC ends the held moves at a program's end as at G40, and reads nothing after it.
+        if (started_ && (has_m(l, 2) || has_m(l, 30))) {
+            refuse_gouge(cutter_, kRunsBackwards);
+            if (!moves) {
+                flush();
+                side_ = 0;
+                out_.emplace_back(raw, number_);
+                return;
+            }
+        }
+        refuse_under_compensation(r, reframes, moves, axes);
+        move_under_compensation(raw, r, turn_on != 0, moves, axes);
+    }
+
+    // The frame and modes, read before the line's move as the controller reads them.
+    void read_modes(const ReadLine& r) {
         for (const Code c : r.codes) {
             if (c.is(90)) absolute_ = true;
             if (c.is(91)) absolute_ = false;
@@ -106,139 +182,145 @@ class CutterPath {
             if (c.is(80)) motion_ = -1;
             if (c.subcode < 0 && is_cycle(c.number)) motion_ = c.number;
         }
-        const bool reframes = std::any_of(r.codes.begin(), r.codes.end(), [](Code c) {
-            return c.is(10) || c.is(28) || c.is(30) || c.is(52) || c.is(53) || c.number == 92 ||
-                   (c.number >= 54 && c.number <= 59);
-        });
-        if (turn_on != 0) {
-            if (plane_ != 17)
-                throw fail("cutter radius compensation outside the XY plane (G18, G19)");
-            const bool diameter_given = has_code(41, 1) || has_code(42, 1);
-            double radius = 0;
-            if (diameter_given) {
-                const auto d = l.value('D');
-                if (!d || *d < 0)
-                    throw fail("G41.1 / G42.1 without the cutter's diameter (D, 0 or more)");
-                if (l.has('L'))
-                    throw fail("G41.1 / G42.1 with a lathe tool's orientation (L): a lathe job");
-                radius = *d / 2;
-            } else {
-                if (!tool_radius_mm_)
-                    throw fail(
-                        "cutter radius compensation (G41 / G42) by the controller's tool table: "
-                        "give the cutter's radius (calbox compensate --tool-radius MM), or have "
-                        "the CAM write the compensated path");
-                radius = *tool_radius_mm_ / unit_mm_;
-            }
-            side_ = turn_on;
-            radius_ = radius;
-            started_ = false;
+    }
+
+    // G41 / G42 (`turn_on` 1 left, -1 right), with its diameter on the line (G41.1 / G42.1) or
+    // the tool table's.
+    void compensation_on(const gcode::Line& l, int turn_on, bool diameter_given) {
+        if (plane_ != 17) throw fail("cutter radius compensation outside the XY plane (G18, G19)");
+        double radius = 0;
+        if (diameter_given) {
+            const auto d = l.value('D');
+            if (!d || *d < 0)
+                throw fail("G41.1 / G42.1 without the cutter's diameter (D, 0 or more)");
+            if (l.has('L'))
+                throw fail("G41.1 / G42.1 with a lathe tool's orientation (L): a lathe job");
+            radius = *d / 2;
+        } else {
+            if (!tool_radius_mm_)
+                throw fail(
+                    "cutter radius compensation (G41 / G42) by the controller's tool table: "
+                    "give the cutter's radius (calbox compensate --tool-radius MM), or have "
+                    "the CAM write the compensated path");
+            radius = *tool_radius_mm_ / unit_mm_;
         }
-        const bool axes = l.has('X') || l.has('Y');
-        const bool moves = motion_ >= 0 && motion_ <= 3 && (axes || l.has('Z'));
-        if (side_ == 0 || radius_ == 0) {
-            // Off, or a radius of 0 (LinuxCNC moves on the path itself): the line as it is, its
-            // compensation words taken out; the place it ends at followed.
-            const bool was_on = side_ != 0;
-            if (turn_off) {
-                if (was_on) flush();
-                side_ = 0;
-            }
-            follow(l, r, reframes, axes);
-            out_.emplace_back(turn_on != 0 ? without_compensation_words(raw, r) : raw, number_);
-            return;
+        side_ = turn_on;
+        radius_ = radius;
+        started_ = false;
+        if (radius_ != 0) left_at_.reset();  // the entry move is written whole
+    }
+
+    // What LinuxCNC refuses under compensation, and what calbox does not carry through.
+    void refuse_under_compensation(const ReadLine& r, bool reframes, bool moves, bool axes) const {
+        const gcode::Line& l = r.line;
+        for (const Code c : r.codes) {
+            const char* change = c.is(20) || c.is(21)         ? "units"
+                                 : c.number == 43 || c.is(49) ? "the tool length offset (G43, G49)"
+                                 : c.number == 61 || c.is(64) ? "the path control mode (G61, G64)"
+                                                              : nullptr;
+            if (change != nullptr)
+                throw fail(std::string("a change of ") + change +
+                           " under cutter radius compensation: LinuxCNC refuses it too");
         }
-        if (turn_off) {
-            // LinuxCNC goes on from where the cutter is.
-            refuse_gouge(cutter_, kRunsBackwards);
-            flush();
-            side_ = 0;
-            at_ = cutter_;
-            programmed_ = cutter_;
-            follow(l, r, reframes, axes);
-            out_.emplace_back(raw, number_);
-            return;
-        }
-        // LinuxCNC ends the held moves at a program's end as at G40.
-        if (started_ && (has_m(l, 2) || has_m(l, 30))) refuse_gouge(cutter_, kRunsBackwards);
-        // On: what this carries through.
-        if (std::any_of(r.codes.begin(), r.codes.end(),
-                        [](Code c) { return c.is(20) || c.is(21); }))
-            throw fail(
-                "a change of units under cutter radius compensation: LinuxCNC refuses it too");
         if (r.polar) throw fail(refusal("polar words"));
         if (reframes) throw fail(refusal("an offset, a machine-coordinate move or a return home"));
-        if (!absolute_) throw fail(refusal("incremental distances (G91)"));
         if (plane_ != 17) throw fail(refusal("another plane than XY (G18, G19)"));
-        if (motion_ == 2 || motion_ == 3)
-            if (moves || l.has('I') || l.has('J') || l.has('R')) throw fail(refusal("an arc"));
+        const bool arc = motion_ == 2 || motion_ == 3;
+        if (arc && !moves && (l.has('I') || l.has('J') || l.has('R')))
+            throw fail(refusal("an arc without X, Y or Z"));
+        if (arc && moves) {
+            if (const auto turns = l.value('P'); turns && *turns != 1)
+                throw fail(refusal("an arc of more than one turn (P)"));
+            if (!l.has('I') && !l.has('J') && !l.has('R'))
+                throw fail(
+                    "an arc without its centre (I, J) or radius (R): LinuxCNC refuses it too");
+        }
         if (motion_ > 3 && (axes || l.has('R'))) throw fail(refusal("a canned cycle"));
-        if (l.is('M', 6) ||
-            std::any_of(l.parameters.begin(), l.parameters.end(),
-                        [](const auto& w) { return w.letter == 'M' && w.value && *w.value == 6; }))
+        if (has_m(l, 6))
             throw fail(
                 "a tool change under cutter radius compensation: LinuxCNC refuses it too (turn it "
                 "off with G40 first)");
         for (const auto& w : l.parameters)
             if (kOtherAxes.find(w.letter) != std::string_view::npos)
                 throw fail(refusal(std::string("a move of axis ") + w.letter));
-        if (!moves || !axes) {
-            if (moves && !started_)
+    }
+
+    // A line under compensation: a move held (its end said by the next), or a line between moves.
+    void move_under_compensation(const std::string& raw, const ReadLine& r, bool turns_on,
+                                 bool moves, bool axes) {
+        const gcode::Line& l = r.line;
+        const bool arc = motion_ == 2 || motion_ == 3;
+        // A G0 or G1 alone is a move too, to where the path stands (an entry move of length 0).
+        const bool bare_motion = !moves && std::any_of(r.codes.begin(), r.codes.end(),
+                                                       [](Code c) { return c.is_motion(); });
+        // A program stop (M0, M1, M60) empties LinuxCNC's queue: the held moves end where they
+        // are (checked as at G40), and the next inside corner pulls nothing back.
+        const bool stops = has_m(l, 0) || has_m(l, 1) || has_m(l, 60);
+        if (!moves || (!axes && !arc)) {
+            if (stops && started_) {
+                refuse_gouge(cutter_, kRunsBackwards);
+                flush();
+                out_.emplace_back(raw, number_);
+                return;
+            }
+            if ((moves || bare_motion) && !started_)
                 throw fail(
                     "the first move under cutter radius compensation has no X or Y: LinuxCNC "
                     "refuses it too (\"Length of cutter compensation entry move is not greater "
                     "than the tool radius\")");
-            pass(turn_on != 0 ? without_compensation_words(raw, r) : raw);
+            pass(turns_on ? job_words::rebuilt_line(raw, r) : raw);
             return;
         }
         if (!at_)
             throw fail(
                 "cutter radius compensation starts where the position is not known (no move "
                 "has given both X and Y since the start or since an offset or a return home)");
-        const Point2 to{l.value('X').value_or(programmed_.x), l.value('Y').value_or(programmed_.y)};
+        const Point2 to = absolute_ ? Point2{l.value('X').value_or(programmed_.x),
+                                             l.value('Y').value_or(programmed_.y)}
+                                    : Point2{programmed_.x + l.value('X').value_or(0),
+                                             programmed_.y + l.value('Y').value_or(0)};
         Held move = block(l, r, raw);
-        if (!started_)
-            entry(to, move);
-        else
-            next(to, move);
+        if (arc) {
+            const int turn = motion_ == 3 ? 1 : -1;
+            if (!started_)
+                entry_arc(to, turn, l, std::move(move));
+            else
+                next_arc(to, turn, l, std::move(move));
+        } else if (!started_) {
+            entry(to, std::move(move));
+        } else {
+            next(to, std::move(move));
+        }
+        if (stops) {
+            refuse_gouge(cutter_, kRunsBackwards);
+            flush();
+        }
     }
 
     static std::string refusal(const std::string& what) {
         return what +
-               " under cutter radius compensation: calbox carries it through straight moves in "
-               "the XY plane (G17) in absolute distances (G90); have the CAM write the "
-               "compensated path";
+               " under cutter radius compensation: calbox carries it through straight moves and "
+               "arcs in the XY plane (G17); have the CAM write the compensated path";
     }
 
-    // The line split for a move under compensation: what acts before its motion (its other G
-    // codes, F, S, T, M words that are not stops), its motion, what follows (Z, stops, comments).
+    // The line split for a move under compensation: what acts before its motion, its motion,
+    // what follows (job_words::move_words); the compensation's D and an arc's centre, radius and
+    // turn taken out (the cutter's arc is written with its own).
     Held block(const gcode::Line& l, const ReadLine& r, const std::string& raw) const {
         Held h;
         h.move = true;
+        h.absolute = absolute_;
         h.number = number_;
         if (l.line_number) h.n = "N" + std::to_string(*l.line_number) + " ";
-        for (const Code c : r.codes) {
-            if (c.is_motion() || c.number == 40 || c.number == 41 || c.number == 42) continue;
-            if (!h.head.empty()) h.head += ' ';
-            h.head += c.text();
-        }
         const bool turns_on = std::any_of(r.codes.begin(), r.codes.end(),
                                           [](Code c) { return c.number == 41 || c.number == 42; });
-        for (const auto& w : l.parameters) {
-            if (std::string_view("GMXYZN").find(w.letter) != std::string_view::npos) continue;
-            if (w.letter == 'D' && turns_on) continue;  // the compensation's, taken out
-            if (std::string_view("FST").find(w.letter) == std::string_view::npos)
-                throw fail(refusal(std::string("a move with ") + w.letter));
-            if (!h.head.empty()) h.head += ' ';
-            h.head += w.letter;
-            if (w.value) h.head += number(*w.value, 6);
-        }
-        const CommandWords m = command_words(l);
-        h.head += m.before;
-        while (!h.head.empty() && h.head.front() == ' ') h.head.erase(0, 1);
+        const bool arc = motion_ == 2 || motion_ == 3;
+        const std::string taken_out = std::string(turns_on ? "D" : "") + (arc ? "IJRP" : "");
+        const job_words::MoveWords words = job_words::move_words(raw, r, taken_out);
+        if (words.other != '\0') throw fail(refusal(std::string("a move with ") + words.other));
+        h.head = words.head;
+        h.tail = words.tail;
         h.motion = motion_ == 0 ? "G0" : "G1";
-        if (const auto z = l.value('Z')) h.tail = " Z" + number(*z, 6);
-        h.tail += m.after + trailing_comment(raw);
         return h;
     }
 
@@ -274,58 +356,186 @@ class CutterPath {
         double alpha = std::atan2(to.y - corner.y, to.x - corner.x);
         double beta = 0, gamma = 0;
         if (side_ > 0) {
-            if (theta < alpha) theta += 2 * std::numbers::pi;
+            if (theta < alpha) theta += 2 * pi;
             beta = theta - alpha - kHalfPi;
             gamma = kHalfPi;
         } else {
-            if (alpha < theta) alpha += 2 * std::numbers::pi;
+            if (alpha < theta) alpha += 2 * pi;
             beta = alpha - theta - kHalfPi;
             gamma = -kHalfPi;
         }
-        const Point2 end{to.x + radius_ * std::cos(alpha + gamma),
-                         to.y + radius_ * std::sin(alpha + gamma)};
-        const Point2 start{corner.x + radius_ * std::cos(alpha + gamma),
-                           corner.y + radius_ * std::sin(alpha + gamma)};
-        const bool concave = beta < -kConcaveCorner || beta > std::numbers::pi + kConcaveCorner;
+        const Point2 end = toward(to, radius_, alpha + gamma);
+        const Point2 start = toward(corner, radius_, alpha + gamma);
+        const Held* before = held_move();
+        const bool after_arc = before != nullptr && before->arc;
+        // LinuxCNC takes a near reversal after an arc the cutter is outside of (an "h" drawn
+        // right to left) as an inside corner: the cutter stays above the arc.
+        const bool concave = beta < -kConcaveCorner || beta > pi + kConcaveCorner ||
+                             (beta > pi - kConcaveCorner && after_arc && before->turn == -side_);
         std::string corner_move;
-        if (concave) {
-            const double half_corner = (beta + std::numbers::pi) / 2;
+        if (concave && after_arc) {
+            pull_back(arc_meets_line(*before, corner, to));
+        } else if (concave) {
+            const double half_corner = (beta + pi) / 2;
             if (half_corner == 0)
                 throw fail(
                     "a zero-degree inside corner under cutter radius compensation: "
                     "LinuxCNC refuses it too");
             const double retreat = radius_ / std::tan(half_corner);
-            pull_back({cutter_.x + retreat * std::cos(theta + gamma),
-                       cutter_.y + retreat * std::sin(theta + gamma)});
+            pull_back(toward(cutter_, retreat, theta + gamma));
         } else if (beta > kConcaveCorner) {
             // Around the programmed corner: an arc for a feed, a traverse across for G0. LinuxCNC
             // ends the held moves where the cutter is first, checking them as at an inside one.
             refuse_gouge(cutter_, kRunsBackwards);
-            if (move.motion == "G1") {
-                corner_move = (side_ > 0 ? "G2" : "G3") + xy(start) + " I" +
-                              number(corner.x - cutter_.x, 6) + " J" +
-                              number(corner.y - cutter_.y, 6);
-            } else {
-                corner_move = "G0" + xy(start);
-            }
+            corner_move = move.motion == "G1" ? corner_arc(start, corner) : "G0" + to_xy(start);
         }
         flush();
         move.along = {to.x - corner.x, to.y - corner.y};
-        if (!corner_move.empty()) {
-            from_ = start;  // the move starts after its corner's
-            // The block's words that act before its motion act before the corner too.
-            out_.emplace_back(move.n + join(corner_move, move.head), move.number);
-            move.head.clear();
-            move.n.clear();
-        }
+        if (!concave) from_known_ = true;  // a corner's end, or a tangent join
+        if (!corner_move.empty()) write_corner(corner_move, start, move);
         held_.push_back(std::move(move));
         cutter_ = end;
         programmed_ = to;
     }
 
+    // The cutter inside the arc: left of a counter-clockwise one, right of a clockwise one.
+    bool inside(int turn) const { return side_ == turn; }
+
+    // The programmed arc's centre from `start`, as LinuxCNC's interpreter finds it (I J from the
+    // start; or R, the short way for R > 0), refused where LinuxCNC refuses the arc.
+    Point2 arc_centre(Point2 start, Point2 end, int turn, const gcode::Line& l) const {
+        const auto found = cutter_geometry::programmed_arc_centre(
+            start, end, turn, l.value('I'), l.value('J'), l.value('R'), l.has('K'), unit_mm_);
+        if (!found.refused.empty()) throw fail(found.refused + ": LinuxCNC refuses it too");
+        return found.centre;
+    }
+
+    CompensateError too_tight() const {
+        return fail(
+            "an arc no larger than the cutter's radius with the cutter inside it: LinuxCNC "
+            "refuses it too (a smaller cutter)");
+    }
+
+    // The entry move as an arc: the cutter's arc runs from where the cutter is to a radius off
+    // the programmed end, about a centre on the line from there to the programmed centre.
+    void entry_arc(Point2 to, int turn, const gcode::Line& l, Held move) {
+        const Point2 from = programmed_;
+        if (!(distance(from, to) > radius_))
+            throw fail("the first move under cutter radius compensation, an arc, ends " +
+                       number(distance(from, to), 4) +
+                       " from where it starts, not farther than the cutter's radius " +
+                       number(radius_, 4) +
+                       ": LinuxCNC refuses it too (\"Radius of cutter compensation entry arc is "
+                       "not greater than the tool radius\")");
+        const Point2 centre = arc_centre(from, to, turn, l);
+        if (inside(turn) && distance(centre, from) <= radius_) throw too_tight();
+        const double out = inside(turn) ? angle_to(to, centre) : angle_to(centre, to);
+        const Point2 end = toward(to, radius_, out);
+        const auto cutter_centre = cutter_geometry::entry_arc_centre(from, end, centre);
+        if (!cutter_centre) throw too_tight();
+        move.arc = true;
+        move.turn = turn;
+        move.centre = *cutter_centre;
+        from_ = from;
+        from_known_ = false;
+        held_.push_back(std::move(move));
+        cutter_ = end;
+        programmed_ = to;
+        started_ = true;
+    }
+
+    // A later arc: the corner at the programmed point it starts from (an inside one pulls the
+    // held move back to where the two offset paths cross, an outside one is rounded about the
+    // programmed corner), then the arc a radius off the programmed one about the same centre.
+    void next_arc(Point2 to, int turn, const gcode::Line& l, Held move) {
+        const Point2 corner = programmed_;
+        const Point2 centre = arc_centre(corner, to, turn, l);
+        const double arc_radius = distance(centre, to);
+        // LinuxCNC's angles: theta along the move before, alpha along the arc's start; beta the
+        // turn between them, from -90 to 270 degrees.
+        const double theta = angle_to(corner, cutter_) + (side_ > 0 ? -kHalfPi : kHalfPi);
+        double delta = angle_to(corner, centre);
+        const double alpha = turn > 0 ? delta - kHalfPi : delta + kHalfPi;
+        double beta = side_ > 0 ? theta - alpha : alpha - theta;
+        if (beta > 1.5 * pi)
+            beta -= 2 * pi;
+        else if (beta < -kHalfPi)
+            beta += 2 * pi;
+        double out = 0;
+        if (inside(turn)) {
+            if (arc_radius <= radius_) throw too_tight();
+            out = angle_to(to, centre);
+        } else {
+            out = angle_to(centre, to);
+            delta += pi;
+        }
+        const Point2 end = toward(to, radius_, out);
+        // A tangent join where the cutter is outside the arc is an inside corner too (the top
+        // of an "m").
+        const bool concave = beta < -kConcaveCorner || beta > pi + kConcaveCorner ||
+                             (std::abs(beta - pi) < kConcaveCorner && !inside(turn));
+        move.arc = true;
+        move.turn = turn;
+        move.centre = centre;
+        if (concave) {
+            const Held* before = held_move();
+            pull_back(before != nullptr && before->arc
+                          ? arc_meets_arc(*before, centre, arc_radius, turn)
+                          : line_meets_arc(theta, beta, centre, arc_radius, turn));
+            flush();
+        } else if (beta > kConcaveCorner) {
+            // Around the programmed corner by an arc, the held moves ended unchecked.
+            const Point2 start = toward(corner, radius_, delta);
+            flush();
+            write_corner(corner_arc(start, corner), start, move);
+        } else {
+            flush();  // tangent: the arc goes on from where the cutter is
+        }
+        if (!concave) from_known_ = true;  // a corner's end, or a tangent join
+        move.sweep_rad = sweep_of(from_, centre, turn, end);
+        held_.push_back(std::move(move));
+        cutter_ = end;
+        programmed_ = to;
+    }
+
+    CompensateError unreachable(const std::string& what) const {
+        return fail(what +
+                    " makes an inside corner the cutter cannot reach without gouging: LinuxCNC "
+                    "refuses it too (a smaller cutter, or a wider corner)");
+    }
+
+    Point2 line_meets_arc(double theta, double beta, Point2 centre, double arc_radius,
+                          int turn) const {
+        const auto p = cutter_geometry::line_meets_arc(theta, beta, centre, arc_radius, turn,
+                                                       inside(turn), radius_);
+        if (!p) throw unreachable("a move into an arc");
+        return *p;
+    }
+    Point2 arc_meets_arc(const Held& before, Point2 centre, double arc_radius, int turn) const {
+        const double held_radius = distance(before.centre, cutter_);
+        if (held_radius == 0 || distance(before.centre, centre) == 0)
+            throw fail(
+                "two arcs about one centre meet in an inside corner: LinuxCNC refuses it too "
+                "(\"Arc to arc motion is invalid because the arcs have the same center\")");
+        const auto p = cutter_geometry::arc_meets_arc(
+            before.centre, held_radius, inside(before.turn), centre,
+            inside(turn) ? arc_radius - radius_ : arc_radius + radius_, turn);
+        if (!p) throw unreachable("an arc into an arc");
+        return *p;
+    }
+    Point2 arc_meets_line(const Held& before, Point2 corner, Point2 to) const {
+        const auto p =
+            cutter_geometry::arc_meets_line(before.centre, distance(before.centre, cutter_),
+                                            before.turn, inside(before.turn), corner, to, radius_);
+        if (!p) throw unreachable("an arc into a move");
+        return *p;
+    }
+
     // An inside corner: every move held ends at `p` instead (LinuxCNC's move_endpoint_and_flush);
     // a move that would run backwards to it gouges, and is refused as LinuxCNC refuses it.
     void pull_back(Point2 p) {
+        if (held_move() == nullptr)
+            return;  // emptied by a stop: the cutter goes on from where it is
         refuse_gouge(p,
                      "an inside corner the cutter cannot reach without gouging the move before it");
         cutter_ = p;
@@ -334,50 +544,99 @@ class CutterPath {
     // LinuxCNC checks every held move against where it now ends, at an inside corner and at G40
     // alike: the move's own direction against the way from where the held moves start to `p`. A
     // move shorter than the inside corner before it takes back runs backwards there.
+    // An arc is checked by its sweep: pulled back past its start, it would go round the other way.
+    // After an entry arc LinuxCNC holds no start to check against, and checks nothing.
     void refuse_gouge(Point2 p, const std::string& what) const {
+        if (!from_known_) return;
         const Point2 d_now{p.x - from_.x, p.y - from_.y};
-        for (const Held& h : held_)
-            if (h.move && h.along.x * d_now.x + h.along.y * d_now.y < 0)
-                throw fail(what + " (the move on line " + std::to_string(h.number) +
+        for (const Held& h : held_) {
+            if (!h.move) continue;
+            const bool backwards =
+                h.arc ? h.sweep_rad != 0 && std::abs(sweep_of(from_, h.centre, h.turn, p)) >
+                                                std::abs(h.sweep_rad) + 0.001
+                      : h.along.x * d_now.x + h.along.y * d_now.y < 0;
+            if (backwards)
+                throw fail(what + " (the " + (h.arc ? "arc" : "move") + " on line " +
+                           std::to_string(h.number) +
                            "): LinuxCNC refuses it too (a smaller cutter, or a wider corner)");
+        }
     }
 
     void flush() {
+        // LinuxCNC knows where the held moves start again once it has ended one.
+        if (held_move() != nullptr) from_known_ = true;
+        Point2 start = from_;
         for (auto& h : held_) {
             if (!h.move) {
                 out_.emplace_back(std::move(h.raw), h.number);
                 continue;
             }
-            // The held end is the cutter's, for the move and the height changes after it.
-            out_.emplace_back(h.n + join(h.motion + xy(cutter_), h.head) + h.tail, h.number);
+            // The held end is the cutter's, for the move and the height changes after it; an
+            // arc's centre is written from where it starts.
+            // G91: the end written as the step from the start.
+            const std::string end =
+                h.absolute ? xy(cutter_) : xy({cutter_.x - start.x, cutter_.y - start.y});
+            std::string motion = h.motion + end;
+            if (h.arc)
+                motion = (h.turn > 0 ? "G3" : "G2") + end + " I" + number(h.centre.x - start.x, 6) +
+                         " J" + number(h.centre.y - start.y, 6);
+            out_.emplace_back(h.n + join(motion, h.head) + h.tail, h.number);
+            start = cutter_;
         }
         held_.clear();
         from_ = cutter_;
+    }
+
+    // The move held (the first held line that moves), or none.
+    const Held* held_move() const {
+        for (const Held& h : held_)
+            if (h.move) return &h;
+        return nullptr;
     }
 
     static std::string join(const std::string& a, const std::string& b) {
         return a.empty() ? b : a + " " + b;
     }
 
-    // The line without G40 / G41 / G42 (and their D, L): what remains of it for the compensator.
-    static std::string without_compensation_words(const std::string& raw, const ReadLine& r) {
-        const gcode::Line& l = r.line;
-        std::string text;
-        const auto add = [&text](const std::string& word) {
-            if (!text.empty()) text += ' ';
-            text += word;
-        };
-        if (l.line_number) add("N" + std::to_string(*l.line_number));
-        for (const Code c : r.codes)
-            if (c.number != 41 && c.number != 42) add(c.text());
-        for (const auto& w : l.parameters) {
-            if (std::string_view("GMND").find(w.letter) != std::string_view::npos) continue;
-            add(std::string(1, w.letter) + (w.value ? number(*w.value, 6) : std::string()));
+    // After G40 LinuxCNC's position is the programmed path's end while the cutter stands a radius
+    // off it: the first move goes from the cutter to an end whose missing X or Y LinuxCNC takes
+    // from the programmed end (a height change alone moves there too). It is written with both;
+    // a move whose end cannot be written so is refused. The line is written without compensation
+    // words where `turns_on` (a radius of 0).
+    std::string after_off(const gcode::Line& l, const ReadLine& r, bool reframes,
+                          const std::string& raw, bool turns_on) {
+        const bool axes = l.has('X') || l.has('Y');
+        // A G0 or G1 alone moves too: to the programmed end.
+        const bool moves =
+            motion_ >= 0 && motion_ <= 3 &&
+            (axes || l.has('Z') ||
+             std::any_of(r.codes.begin(), r.codes.end(), [](Code c) { return c.is_motion(); }));
+        const bool cycle = motion_ > 3 && (axes || l.has('R'));
+        if (!left_at_ || (!moves && !cycle && !reframes && !r.polar))
+            return turns_on ? job_words::rebuilt_line(raw, r) : raw;
+        if (cycle || reframes || r.polar || motion_ > 1)
+            throw fail(
+                "the first move after cutter radius compensation is turned off (G40) starts where "
+                "the cutter stands, X" +
+                number(left_at_->x, 4) + " Y" + number(left_at_->y, 4) +
+                ", and LinuxCNC takes what it leaves out from the programmed path's end X" +
+                number(programmed_.x, 4) + " Y" + number(programmed_.y, 4) +
+                ": calbox writes that out for a straight move only; make it a G0 or G1 with both "
+                "X and Y");
+        const Point2 from = *left_at_;
+        left_at_.reset();
+        if (!absolute_) {
+            // G91: from the programmed end, written as steps from where the cutter stands.
+            const Point2 end{programmed_.x + l.value('X').value_or(0),
+                             programmed_.y + l.value('Y').value_or(0)};
+            return job_words::rebuilt_line(
+                raw, r, " X" + number(end.x - from.x, 6) + " Y" + number(end.y - from.y, 6), "XY");
         }
-        const CommandWords m = command_words(l);
-        text += m.before + m.after + trailing_comment(raw);
-        while (!text.empty() && text.front() == ' ') text.erase(0, 1);
-        return text;
+        std::string missing;
+        if (!l.has('X')) missing += " X" + number(programmed_.x, 6);
+        if (!l.has('Y')) missing += " Y" + number(programmed_.y, 6);
+        if (missing.empty()) return turns_on ? job_words::rebuilt_line(raw, r) : raw;
+        return job_words::rebuilt_line(raw, r, missing);
     }
 
     // Where the programmed path stands when compensation is off.
@@ -406,7 +665,7 @@ class CutterPath {
     static constexpr const char* kRunsBackwards =
         "a move the cutter would run backwards along (shorter than the inside corner before it "
         "takes back)";
-    static constexpr double kHalfPi = std::numbers::pi / 2;
+    static constexpr double kHalfPi = pi / 2;
     // LinuxCNC's TOLERANCE_CONCAVE_CORNER, radians: a turn this small is no corner.
     static constexpr double kConcaveCorner = 0.05;
 
@@ -423,6 +682,9 @@ class CutterPath {
     int plane_ = 17, motion_ = -1;
     std::optional<Point2> at_;  // the programmed position, where known (off)
     Point2 programmed_, cutter_, from_;
+    bool from_known_ = true;
+    // Where the cutter stands after G40 until a move says where it goes.
+    std::optional<Point2> left_at_;  // where the held moves start is known (not after an entry arc)
 };
 
 }  // namespace

@@ -42,6 +42,10 @@ std::vector<Code> g_codes_of(const gcode::Line& line);
 bool has_m_in(const gcode::Line& line, int from, int to);
 bool has_m(const gcode::Line& line, int number);
 
+// Whether LinuxCNC refuses a centre-format arc whose end lies `step_mm` off the circle through
+// its start (radius `radius_mm`), in a job written in inches or millimetres.
+bool arc_end_off_its_circle(double radius_mm, double step_mm, bool inch_job);
+
 // The axes beyond X Y Z: rotary A B C, linear U V W.
 constexpr std::string_view kOtherAxes = "ABCUVW";
 
@@ -65,5 +69,22 @@ struct ReadLine {
     std::vector<Code> codes;
     bool polar = false;
 };
+
+// A move's line split as LinuxCNC acts on it: `head` what acts before its motion (its G codes
+// but the motion and G40-G42, its F, S and T, its M words that are not stops), `tail` what
+// follows its motion in X and Y (its Z, its stops, its comments). Words of the letters `taken_out`
+// are left out; `other` is a letter beyond those ('\0' where none: a move with an A, a K or an H,
+// say, is no such move).
+struct MoveWords {
+    std::string head, tail;
+    char other = '\0';
+};
+MoveWords move_words(const std::string& raw, const ReadLine& r, std::string_view taken_out);
+
+// The line rebuilt from its words: its number, its G codes but G41 / G42, its other words but
+// D and the letters `drop`, then `extra` words, its M and T words and its comments. What remains
+// of a line for the compensator once cutter radius compensation has been carried out.
+std::string rebuilt_line(const std::string& raw, const ReadLine& r, const std::string& extra = {},
+                         std::string_view drop = {});
 
 }  // namespace calbox::targets::job_words

@@ -221,10 +221,92 @@ CASES = [
      "G40\nG0 X30 Y30\nM2\n"),
     ("cutter_two_g1", "linuxcnc",
      "G21 G90 G17 F100\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0\nG1 X0 Y10G1 X10 Y10\nG40\nM2\n"),
-    # calbox alone refuses (below): an arc under compensation.
+    # Arcs under compensation: a line into an arc the cutter is outside of (a convex corner
+    # rounded first), an arc into a line.
     ("cutter_arc", "linuxcnc",
      "G21 G90 G17\nG0 X-10 Y0\nG41.1 D6\nG1 X0 Y0 F100\nG3 X10 Y10 I0 J10\nG1 X20 Y10\n"
      "G40\nM2\n"),
+    # The cutter inside a counter-clockwise arc, an inside corner from the arc into a line, the
+    # arc's own feed and comment on its line (LinuxCNC queues them before the arc).
+    ("cutter_arc_inside_corner", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D2\nG1 X0 Y0\nG1 X10 Y0\n"
+     "G3 X20 Y10 I0 J10 F200 (round)\nG1 X10 Y20\nG40\nG0 X-20 Y-20\nM2\n"),
+    # Right of the path: a line into a clockwise arc it is inside of (an inside corner pulled
+    # back onto the arc), an arc into an arc (an inside corner between two), R arcs both ways
+    # round, a helix, a tangent join.
+    ("cutter_arcs_right", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y20 Z5\nG42.1 D4\nG1 X0 Y10\nG1 X0 Y0\n"
+     "G2 X20 Y0 R10 Z-1\nG2 X30 Y10 I10 J0\nG1 X30 Y20\nG3 X40 Y30 R10\nG40\n"
+     "G0 X50 Y50\nM2\n"),
+    # The entry move an arc: the cutter's arc from where it is to a radius off the end.
+    ("cutter_entry_arc", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X0 Y0\nG41.1 D2\nG3 X10 Y10 I10 J0\nG1 X20 Y10\nG1 X20 Y0\n"
+     "G40\nG0 X0 Y0\nM2\n"),
+    # An inch job with arcs from the tool table's radius, an "h" drawn right to left (a near
+    # reversal after an arc the cutter is outside of: LinuxCNC keeps above it).
+    ("cutter_h_shape", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X30 Y-10\nG42.1 D2\nG1 X30 Y0\nG3 X10 Y0 I-10 J0\nG1 X10 Y20\n"
+     "G40\nG0 X0 Y30\nM2\n"),
+    # Inside corners onto arcs the cutter is inside of: a line into a counter-clockwise arc (G41),
+    # a clockwise arc into another (G42, a lens), each pulled back to where the offset paths
+    # cross.
+    ("cutter_line_into_arc", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D2\nG1 X0 Y0\nG1 X10 Y0\nG3 X0 Y10 I-10 J0\n"
+     "G1 X-10 Y10\nG40\nG0 X-20 Y-20\nM2\n"),
+    ("cutter_arc_into_arc", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG42.1 D4\nG1 X0 Y0\nG2 X10 Y10 I10 J0\n"
+     "G2 X0 Y0 I-10 J0\nG1 X-10 Y0\nG40\nG0 X-20 Y-20\nM2\n"),
+    # Found by the fuzzer's arc seeds: after G40 LinuxCNC's position is the programmed path's
+    # end, the cutter a radius off it: the first move's missing X or Y comes from the programmed
+    # end (a height change alone moves there), and calbox had taken the cutter's.
+    ("cutter_exit_half_given", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D4\nG1 X0 Y0\nG1 X10 Y0\nG40\nG0 Z5\nG0 X20\n"
+     "G41.1 D4\nG1 X30 Y10\nG1 X40 Y10\nG40 G0 X50\nM2\n"),
+    # The same first move after G40 in G91: its steps are from the programmed end.
+    ("cutter_exit_incremental", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D4\nG1 X0 Y0\nG1 X10 Y0\nG40\nG91 G0 X5\n"
+     "G0 Y3\nG90\nM2\n"),
+    # Incremental distances under compensation: each end a step from the programmed one, the
+    # copy's moves written as steps from where the cutter is (an outside corner's arc too), a
+    # height change in G91, back to G90 mid-path.
+    ("cutter_incremental", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10 Z5\nG91\nG41.1 D4\nG1 X10 Y10\nG1 Y10\nG1 X10\nZ-6\n"
+     "G3 X10 Y10 I0 J10\nG1 X-5 Y10\nG90 G1 X0 Y40\nG91 G2 X-10 Y0 R5\nG40 G0 X-10 Y-10\n"
+     "G90\nM2\n"),
+    # Found by the fuzzer's arc seeds: an arc met nearly tangent (its cutter's start a little
+    # before the programmed one) and pulled back by the inside corner after it, which LinuxCNC
+    # checks against the arc's sweep as queued (calbox had checked the programmed sweep and
+    # refused); and pulled back past its start, which both refuse.
+    ("cutter_tangent_arc_pulled_back", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-100 Y0\nG41.1 D8\nG1 X0 Y0\nG3 X4 Y0 I2 J40\nG1 X20 Y2\nG40\n"
+     "M2\n"),
+    ("cutter_arc_gouge", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-100 Y0\nG41.1 D8\nG1 X0 Y0\nG3 X4 Y0 I2 J40\nG1 X0 Y20\nG40\n"
+     "M2\n"),
+    # Found by the fuzzer's arc seeds, each refused by both: a path control mode changed under
+    # compensation, an arc given by R and I J at once (dropped when the cutter's arc was written),
+    # a G1 alone as the entry move, a feed per revolution with S at 0 (with compensation or
+    # without).
+    ("cutter_g61", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X30 Y-10\nG42.1 D2\nG61 X30 Y0\nG3 X10 Y0 I-10 J0\nG40\nM2\n"),
+    ("cutter_arc_r_and_ij", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y20\nG42.1 D4\nG1 X0 Y10\nG1 X0 Y0\nG2 X20 Y0 R10 I10 J0\n"
+     "G40\nM2\n"),
+    ("cutter_entry_bare_g1", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D2\nG1 (no axes)\nG1 X10 Y0\nG40\nM2\n"),
+    ("g95_spindle_speed_zero", "linuxcnc",
+     "G21 G95 G17 F0.1\nG0 X30 Y-10\nG1 X30 Y0\nM2\n"),
+    # Found by the fuzzer's arc seeds: a program stop (M0 on a move, M1, M60) empties LinuxCNC's
+    # queue, the held move ending where it is and the inside corner after it pulling nothing
+    # back (calbox had pulled it back, 0.82 mm off).
+    ("cutter_gouge_at_stop", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D6\nG1 X7 Y0\nG1 X1 M0\nG1 X10 Y1\nG40\nM2\n"),
+    ("cutter_program_stops", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D6\nG1 X0 Y0\nG1 X1 M0\nG1 X10 Y1\nM1\n"
+     "G1 X20 Y2\nG3 X30 Y12 I0 J10\nM60\nG1 X20 Y21\nG40\nM2\n"),
+    # Both refuse: an arc the cutter is inside of no larger than its radius.
+    ("cutter_arc_too_tight", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y0\nG41.1 D8\nG1 X0 Y0\nG3 X4 Y0 I2 J0\nG40\nM2\n"),
 ]
 
 # The cutter's radius calbox is given (--tool-radius, mm) where a case takes it from the table.
@@ -236,8 +318,6 @@ CALBOX_ALONE = {
     ("hole-circle.ngc", "grbl"): "grbl has no polar words",
     # PyCAM's "T4 M6": grbl 1.1 has no tool change (its error 20), LinuxCNC has.
     ("ShapeOko_Calibration_Pattern_01b.ngc", "grbl"): "grbl has no M6",
-    # Cutter radius compensation is carried through straight moves only.
-    ("cutter_arc", "linuxcnc"): "an arc under cutter radius compensation is not carried yet",
     # rs274 starts at Z0; a machine starts wherever its tool is: a helix's descent from there is
     # not known (each chord of the copy took the whole descent, 0.99 mm off rs274's helix).
     ("helix_from_unknown_height", "linuxcnc"): "a helix from a height the file has not given",

@@ -160,27 +160,53 @@ TEST(Compensate, cutter_radius_compensation_writes_the_path_linuxcnc_cuts) {
     // is an outside corner for it (an arc about (0, 0) to (0, 3)); the three later corners are
     // inside ones, cut where the offset sides cross: (7, 3), (7, 7), (3, 7); G40 leaves the last
     // side at (3, 0), and the exit goes from there.
-    const std::string job =
-        "G21 G90 G17\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nX10 Y0\nX10 Y10\nX0 Y10\nX0 "
-        "Y0\nG40\nG0 X0 Y-10\nM2\n";
+    // The same square in incremental distances (G91) cuts the same path.
     targets::CompensateReport report;
     targets::CompensateSettings s;
     s.max_segment_mm = 1000;
     const targets::JobFrame frame{targets::Flavour::linuxcnc, {Point2{}}, {}, {}};
-    const std::string out = targets::compensate_gcode(job, {kIdentity, {}}, frame, s, report);
-    const auto at = positions_of(out);
-    const std::vector<Point2> corners{{0, -10}, {-3, 0}, {0, 3}, {7, 3},
-                                      {7, 7},   {3, 7},  {3, 0}, {0, -10}};
-    std::size_t next = 0;
-    for (const auto& p : at) {
-        if (next < corners.size() &&
-            std::hypot(p.x - corners[next].x, p.y - corners[next].y) < 1e-6)
-            ++next;
-        else  // the arc's chords, between (-3, 0) and (0, 3): on the circle about (0, 0)
-            CHECK_TEXT(next == 2 && std::abs(std::hypot(p.x, p.y) - 3) < 1e-3, out.c_str());
+    for (const std::string job :
+         {"G21 G90 G17\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nX10 Y0\nX10 Y10\nX0 Y10\nX0 "
+          "Y0\nG40\nG0 X0 Y-10\nM2\n",
+          "G21 G90 G17\nG0 X0 Y-10\nG91 G41.1 D6\nG1 X0 Y10 F100\nX10 Y0\nX0 Y10\nX-10 Y0\n"
+          "X0 Y-10\nG40\nG0 X0 Y-10\nG90\nM2\n"}) {
+        const std::string out = targets::compensate_gcode(job, {kIdentity, {}}, frame, s, report);
+        const auto at = positions_of(out);
+        const std::vector<Point2> corners{{0, -10}, {-3, 0}, {0, 3}, {7, 3},
+                                          {7, 7},   {3, 7},  {3, 0}, {0, -10}};
+        std::size_t next = 0;
+        for (const auto& p : at) {
+            if (next < corners.size() &&
+                std::hypot(p.x - corners[next].x, p.y - corners[next].y) < 1e-6)
+                ++next;
+            else  // the arc's chords, between (-3, 0) and (0, 3): on the circle about (0, 0)
+                CHECK_TEXT(next == 2 && std::abs(std::hypot(p.x, p.y) - 3) < 1e-3, out.c_str());
+        }
+        CHECK_TEXT(next == corners.size(), out.c_str());
+        CHECK(out.find("G41") == std::string::npos);
     }
-    CHECK_TEXT(next == corners.size(), out.c_str());
-    CHECK(out.find("G41") == std::string::npos);
+
+    // An arc: up from (0, -10) to (0, 0), then anticlockwise about (-10, 0) to (-10, 10), the
+    // cutter (6 mm across) on the left, inside the arc. Worked by hand: the entry ends 3 mm left
+    // of (0, 0), at (-3, 0), where the arc goes on tangent; the cutter's arc keeps 7 mm from
+    // (-10, 0) and ends 3 mm inside the programmed end, at (-10, 7); G40's exit goes from there.
+    {
+        const std::string out = targets::compensate_gcode(
+            "G21 G90 G17\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG3 X-10 Y10 I-10 J0\n"
+            "G40\nG0 X-10 Y20\nM2\n",
+            {kIdentity, {}}, frame, s, report);
+        const auto at = positions_of(out);
+        const std::vector<Point2> ends{{0, -10}, {-3, 0}, {-10, 7}, {-10, 20}};
+        std::size_t next = 0;
+        for (const auto& p : at) {
+            if (next < ends.size() && std::hypot(p.x - ends[next].x, p.y - ends[next].y) < 1e-6)
+                ++next;
+            else  // the arc's chords, on the circle of 7 mm about (-10, 0)
+                CHECK_TEXT(next == 2 && std::abs(std::hypot(p.x + 10, p.y) - 7) < 1e-3,
+                           out.c_str());
+        }
+        CHECK_TEXT(next == ends.size(), out.c_str());
+    }
 
     const auto refused = [&](const std::string& text, const std::string& words,
                              std::optional<double> radius = std::nullopt) {
@@ -202,10 +228,10 @@ TEST(Compensate, cutter_radius_compensation_writes_the_path_linuxcnc_cuts) {
     refused("G21 G90\nG0 X0 Y0\nG41.1 D6\nG1 X2 Y0 F100\nM2\n",
             "line 4: the first move under cutter radius compensation is 2 long, not longer than "
             "the cutter's radius 3");
-    refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG91 G1 X5\nM2\n",
-            "line 5: incremental distances (G91) under cutter radius compensation", 3.0);
-    refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG2 X5 Y5 I5 J0\nM2\n",
-            "line 5: an arc under cutter radius compensation");
+    refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG3 X4 Y0 I2 J0\nM2\n",
+            "line 5: an arc no larger than the cutter's radius with the cutter inside it");
+    refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG2 X10 Y0 I5 J0 P2\nM2\n",
+            "line 5: an arc of more than one turn (P) under cutter radius compensation");
     refused("G21 G90\nG28\nG41.1 D6\nG1 X0 Y0 F100\nM2\n",
             "line 4: cutter radius compensation starts where the position is not known");
     refused("G21 G90\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nT2 M6\nM2\n",

@@ -86,6 +86,10 @@ class CutterPath {
         } else
             out_.emplace_back(raw, number_);
     }
+    // Whether the line names a motion (G0 to G3): one alone moves to where the path stands.
+    static bool has_motion(const ReadLine& r) {
+        return std::any_of(r.codes.begin(), r.codes.end(), [](Code c) { return c.is_motion(); });
+    }
     static std::string xy(Point2 p) { return " X" + number(p.x, 6) + " Y" + number(p.y, 6); }
     // An outside corner's arc about the programmed corner, from where the cutter is to `start`.
     std::string corner_arc(Point2 start, Point2 corner) const {
@@ -172,10 +176,14 @@ class CutterPath {
             if (c.is(90)) absolute_ = true;
             if (c.is(91)) absolute_ = false;
             if (c.is(20) || c.is(21)) {
-                const double unit = c.is(20) ? 25.4 : 1.0;
-                if (unit != unit_mm_ && at_)
-                    at_ = Point2{at_->x * unit_mm_ / unit, at_->y * unit_mm_ / unit};
-                unit_mm_ = unit;
+                // Every position kept is in the job's units: a change of units restates them.
+                const double scale = unit_mm_ / (c.is(20) ? 25.4 : 1.0);
+                const auto restate = [scale](Point2 p) { return Point2{p.x * scale, p.y * scale}; };
+                if (at_) at_ = restate(*at_);
+                if (left_at_) left_at_ = restate(*left_at_);
+                programmed_ = restate(programmed_);
+                cutter_ = restate(cutter_);
+                unit_mm_ = c.is(20) ? 25.4 : 1.0;
             }
             if (c.is(17) || c.is(18) || c.is(19)) plane_ = c.number;
             if (c.is_motion()) motion_ = c.number;
@@ -250,9 +258,7 @@ class CutterPath {
                                  bool moves, bool axes) {
         const gcode::Line& l = r.line;
         const bool arc = motion_ == 2 || motion_ == 3;
-        // A G0 or G1 alone is a move too, to where the path stands (an entry move of length 0).
-        const bool bare_motion = !moves && std::any_of(r.codes.begin(), r.codes.end(),
-                                                       [](Code c) { return c.is_motion(); });
+        const bool bare_motion = !moves && has_motion(r);
         // A program stop (M0, M1, M60) empties LinuxCNC's queue: the held moves end where they
         // are (checked as at G40), and the next inside corner pulls nothing back.
         const bool stops = has_m(l, 0) || has_m(l, 1) || has_m(l, 60);
@@ -352,8 +358,8 @@ class CutterPath {
         }
         // LinuxCNC's angles: theta from the programmed corner to where the cutter is, alpha
         // along the new move; beta the turn, -90 degrees for a square inside corner.
-        double theta = std::atan2(cutter_.y - corner.y, cutter_.x - corner.x);
-        double alpha = std::atan2(to.y - corner.y, to.x - corner.x);
+        double theta = angle_to(corner, cutter_);
+        double alpha = angle_to(corner, to);
         double beta = 0, gamma = 0;
         if (side_ > 0) {
             if (theta < alpha) theta += 2 * pi;
@@ -606,11 +612,7 @@ class CutterPath {
     std::string after_off(const gcode::Line& l, const ReadLine& r, bool reframes,
                           const std::string& raw, bool turns_on) {
         const bool axes = l.has('X') || l.has('Y');
-        // A G0 or G1 alone moves too: to the programmed end.
-        const bool moves =
-            motion_ >= 0 && motion_ <= 3 &&
-            (axes || l.has('Z') ||
-             std::any_of(r.codes.begin(), r.codes.end(), [](Code c) { return c.is_motion(); }));
+        const bool moves = motion_ >= 0 && motion_ <= 3 && (axes || l.has('Z') || has_motion(r));
         const bool cycle = motion_ > 3 && (axes || l.has('R'));
         if (!left_at_ || (!moves && !cycle && !reframes && !r.polar))
             return turns_on ? job_words::rebuilt_line(raw, r) : raw;

@@ -262,6 +262,12 @@ CASES = [
     ("cutter_exit_half_given", "linuxcnc",
      "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D4\nG1 X0 Y0\nG1 X10 Y0\nG40\nG0 Z5\nG0 X20\n"
      "G41.1 D4\nG1 X30 Y10\nG1 X40 Y10\nG40 G0 X50\nM2\n"),
+    # Found in review: the same first move after G40 on a line that changes units: the programmed
+    # end it takes its missing X and Y from is written in the new units (calbox had written
+    # millimetres under G20).
+    ("cutter_exit_units_changed", "linuxcnc",
+     "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D4\nG1 X0 Y0\nG1 X10 Y0\nG40\nG20 G0 Z0.2\n"
+     "G0 X1 Y1\nG21\nM2\n"),
     # The same first move after G40 in G91: its steps are from the programmed end.
     ("cutter_exit_incremental", "linuxcnc",
      "G21 G90 G17 F100\nG0 X-10 Y-10\nG41.1 D4\nG1 X0 Y0\nG1 X10 Y0\nG40\nG91 G0 X5\n"

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <set>
 
 namespace calbox::sim {
@@ -63,6 +64,8 @@ void GcodeRunner::run_line(std::string_view text) {
         throw JobError("line " + std::to_string(line_number_) + ": " + e.what());
     } catch (const OutOfReach& e) {
         throw JobMachineError("line " + std::to_string(line_number_) + ": " + e.what());
+    } catch (const ProbeAlarm& e) {
+        throw JobMachineError("line " + std::to_string(line_number_) + ": " + e.what(), e.alarm);
     } catch (const MachineError& e) {
         throw JobMachineError("line " + std::to_string(line_number_) + ": " + e.what());
     }
@@ -70,6 +73,9 @@ void GcodeRunner::run_line(std::string_view text) {
 
 void GcodeRunner::execute(const gcode::Line& l) {
     if (l.is('G', 0) || l.is('G', 1)) return move(l);
+    if (l.is('G', 53)) return move_in_machine_coordinates(l);
+    if (l.command_letter == 'G' && l.command_number == 38 && l.command_subcode == 2)
+        return probe(l);
     if (l.is('G', 28)) {
         machine_.home();
         offset_ = {};
@@ -133,6 +139,40 @@ void GcodeRunner::execute(const gcode::Line& l) {
     if (is_harmless(l)) return;
     throw JobError("line " + std::to_string(line_number_) + ": unknown command " +
                    format_command(l));
+}
+
+void GcodeRunner::move_in_machine_coordinates(const gcode::Line& l) {
+    const auto motion = l.value('G');
+    if (motion != 0.0 && motion != 1.0)
+        throw JobError("line " + std::to_string(line_number_) + ": G53 with G0 or G1 only");
+    // The same move in the job's coordinates, absolute whatever the job's mode.
+    const Vec3 zero = machine_.work_zero_mm() + offset_;
+    gcode::Line in_job;
+    in_job.command_letter = 'G';
+    in_job.command_number = static_cast<int>(*motion);
+    for (const auto& [letter, field] :
+         {std::pair{'X', zero.x}, std::pair{'Y', zero.y}, std::pair{'Z', zero.z}})
+        if (const auto v = l.value(letter)) in_job.parameters.push_back({letter, *v - field, {}});
+    const bool absolute = absolute_xyz_;
+    absolute_xyz_ = true;
+    move(in_job);
+    absolute_xyz_ = absolute;
+}
+
+void GcodeRunner::probe(const gcode::Line& l) {
+    const auto z = l.value('Z');
+    if (!z || l.has('X') || l.has('Y'))
+        throw JobError("line " + std::to_string(line_number_) +
+                       ": the twin's probe goes straight down: G38.2 Z alone");
+    const double to_z = absolute_xyz_ ? *z : logical_.z + *z;
+    if (!(to_z < logical_.z))
+        throw JobError("line " + std::to_string(line_number_) + ": G38.2 upwards");
+    const Vec3 touched = machine_.probe_down(logical_ + offset_, to_z + offset_.z);
+    logical_ = touched - offset_;
+    const Vec3 reported = touched + machine_.work_zero_mm();
+    char line[96];
+    std::snprintf(line, sizeof line, "[PRB:%.3f,%.3f,%.3f:1]", reported.x, reported.y, reported.z);
+    result_.replies.emplace_back(line);
 }
 
 StrandShape first_layer_strand(double cross_section_mm2, double gap_mm, double nozzle_flat_mm) {

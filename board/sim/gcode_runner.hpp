@@ -17,7 +17,11 @@ class JobError : public std::runtime_error {
 // A line the machine could not carry out (a move beyond its reach), not one it could not read.
 class JobMachineError : public JobError {
   public:
-    using JobError::JobError;
+    explicit JobMachineError(const std::string& what, int alarm = 2)
+        : JobError(what), grbl_alarm(alarm) {}
+    // What grbl says of it: 2, a move beyond the soft limits; 4 and 5, a probing cycle's
+    // (ProbeAlarm).
+    int grbl_alarm;
 };
 
 enum class ToolKind { extruder, laser, spindle };
@@ -78,6 +82,11 @@ class GcodeRunner {
   private:
     void move(const gcode::Line& line);
     void execute(const gcode::Line& line);
+    // grbl's `G53 G0|G1 X Y Z`: a move to machine coordinates, this line only.
+    void move_in_machine_coordinates(const gcode::Line& line);
+    // grbl's `G38.2 Z F`: down until the probe touches, reported as `[PRB:x,y,z:1]` (machine
+    // coordinates).
+    void probe(const gcode::Line& line);
 
     MachineTwin& machine_;
     ToolSettings tool_;

@@ -146,6 +146,10 @@ std::vector<std::string> MachineTwin::probe_bed(const gcode::Line& /*line*/, Vec
     throw MachineError("G30: this machine has no bed probe");
 }
 
+Vec3 MachineTwin::probe_down(const Vec3& /*from*/, double /*to_z*/) {
+    throw MachineError("G38.2: this machine has no touch probe");
+}
+
 std::vector<std::string> DeltaTwin::probe_bed(const gcode::Line& line, Vec3& at) {
     if (!homed_) throw MachineError("G30 before homing (G28)");
     if (dialect_ == DeltaDialect::rrf && line.value('S') != -1.0)
@@ -329,9 +333,9 @@ std::optional<std::vector<std::string>> CartesianTwin::system_command(std::strin
     return grbl_offsets_report(0, 0);
 }
 
-std::vector<std::string> grbl_offsets_report(double g54_x_mm, double g54_y_mm) {
-    char line[96];
-    std::snprintf(line, sizeof line, "[G54:%.3f,%.3f,0.000]", g54_x_mm, g54_y_mm);
+std::vector<std::string> grbl_offsets_report(double g54_x_mm, double g54_y_mm, double g54_z_mm) {
+    char line[112];
+    std::snprintf(line, sizeof line, "[G54:%.3f,%.3f,%.3f]", g54_x_mm, g54_y_mm, g54_z_mm);
     std::vector<std::string> report{line};
     for (const char* other : {"G55", "G56", "G57", "G58", "G59", "G28", "G30"})
         report.push_back(std::string("[") + other + ":0.000,0.000,0.000]");

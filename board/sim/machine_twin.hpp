@@ -18,6 +18,14 @@ class MachineError : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+// A probing cycle grbl stops with its alarm: 4, the probe touching before the cycle began; 5, no
+// touch within the cycle's travel.
+class ProbeAlarm : public MachineError {
+  public:
+    ProbeAlarm(int grbl_alarm, const std::string& what) : MachineError(what), alarm(grbl_alarm) {}
+    int alarm;
+};
+
 class MachineTwin {
   public:
     virtual ~MachineTwin() = default;
@@ -38,6 +46,13 @@ class MachineTwin {
     // ends up after) and returns the reply lines. Throws MachineError when the machine has no
     // probe or does not take the command so.
     virtual std::vector<std::string> probe_bed(const gcode::Line& line, Vec3& at);
+    // G54's zero in machine coordinates now: G53's moves and a probe's reports are in machine
+    // coordinates, every other move in G54's.
+    virtual Vec3 work_zero_mm() const { return {}; }
+    // grbl's G38.2 straight down from `from` (commanded, in G54) towards Z `to_z`: the commanded
+    // position at which the probe touched. Throws ProbeAlarm when it touched before moving or
+    // not at all, MachineError when the machine has no such probe.
+    virtual Vec3 probe_down(const Vec3& from, double to_z);
 };
 
 // Whose settings commands the delta twin speaks. Marlin: M665 L R H X Y Z A B C (rod trims),
@@ -143,7 +158,7 @@ class CartesianTwin final : public MachineTwin {
 };
 
 std::vector<std::string> marlin_delta_report(const DeltaParams& p);  // M503's delta lines
-// grbl's reply to `$#` with G54's zero at (x, y, 0) and every other offset at zero.
-std::vector<std::string> grbl_offsets_report(double g54_x_mm, double g54_y_mm);
+// grbl's reply to `$#` with G54's zero at (x, y, z) and every other offset at zero.
+std::vector<std::string> grbl_offsets_report(double g54_x_mm, double g54_y_mm, double g54_z_mm = 0);
 
 }  // namespace calbox::sim

@@ -122,6 +122,41 @@ Vec3 RouterTwin::actual_position_mm(const Vec3& commanded_in_g54) const {
     return router_tool_position_mm(truth_, commanded, moving_positive_);
 }
 
+void RouterTwin::lay_sheet(const StockSheet& sheet, double thickness_mm) {
+    sheet_corners_ = SheetScene(sheet, 1).corners();
+    sheet_thickness_mm_ = thickness_mm;
+}
+
+Vec3 RouterTwin::probe_down(const Vec3& from, double to_z) {
+    const Vec3 in_truth{from.x + g54_x_mm_ - truth_.g54_x_mm, from.y + g54_y_mm_ - truth_.g54_y_mm,
+                        from.z};
+    // The tool's real height over what lies under it, for the tool commanded to Z `z`.
+    const auto clearance = [&](double z) {
+        const Vec3 tool =
+            router_tool_position_mm(truth_, {in_truth.x, in_truth.y, z}, moving_positive_);
+        bool on_sheet = sheet_corners_.has_value();
+        for (std::size_t i = 0; on_sheet && i < 4; ++i) {
+            const Vec2 a = (*sheet_corners_)[i], b = (*sheet_corners_)[(i + 1) % 4];
+            on_sheet = (b.x - a.x) * (tool.y - a.y) - (b.y - a.y) * (tool.x - a.x) > 0;
+        }
+        return tool.z - (on_sheet ? sheet_thickness_mm_ : 0.0);
+    };
+    if (clearance(from.z) <= 0)
+        throw ProbeAlarm(4, "the probe touches before G38.2 moves (the tool at Z" +
+                                std::to_string(from.z) + ")");
+    if (clearance(to_z) > 0)
+        throw ProbeAlarm(5, "the probe touched nothing down to Z" + std::to_string(to_z));
+    // The height changes with Z by one to within the tilts' cosines: halving to far below a
+    // probe's repeatability.
+    double above = from.z, below = to_z;
+    while (above - below > 1e-7) {
+        const double mid = (above + below) / 2;
+        (clearance(mid) > 0 ? above : below) = mid;
+    }
+    const double touched = below + std::normal_distribution<double>(0, 0.002)(probe_noise_);
+    return {from.x, from.y, touched};
+}
+
 std::optional<std::vector<std::string>> RouterTwin::settings_command(const gcode::Line& line) {
     if (line.is('G', 17) || line.is('M', 2) || line.is('M', 30)) return std::vector<std::string>{};
     // grbl's G10 L2 P1: G54's zero set to the machine coordinates given (the axes given).
@@ -135,7 +170,7 @@ std::optional<std::vector<std::string>> RouterTwin::settings_command(const gcode
 
 std::optional<std::vector<std::string>> RouterTwin::system_command(std::string_view text) {
     if (text != "$#") return std::nullopt;
-    return grbl_offsets_report(g54_x_mm_, g54_y_mm_);
+    return grbl_offsets_report(g54_x_mm_, g54_y_mm_, truth_.g54_z_mm);
 }
 
 std::vector<Vec2> drilled_hole_centres_mm(RouterTwin& twin, const std::string& job) {

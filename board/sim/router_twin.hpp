@@ -5,7 +5,9 @@
 // each axis bowed (a parabola through its ends), the gantry yawing as it travels, pitch and roll
 // of the gantry and the carriage acting over the tool's length (the Abbe errors), a lead
 // screw's cyclic error, and backlash in both drives.
+#include <array>
 #include <optional>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -35,6 +37,8 @@ struct RouterTruth {
     // back right corner they are negative): the controller reports it to `$#`. The errors above
     // are in the work frame, so it moves nothing the twin makes.
     double g54_x_mm = 0, g54_y_mm = 0;
+    // G54's Z zero in machine coordinates: the bed's (the spoilboard's) top, touched off there.
+    double g54_z_mm = 0;
 };
 
 // A seeded router with errors of the seed paper's size: around 1.5 mm mean error norm over a
@@ -59,6 +63,13 @@ class RouterTwin final : public MachineTwin {
     // grbl's `$#`: the work coordinate systems' zeros in machine coordinates.
     std::optional<std::vector<std::string>> system_command(std::string_view text) override;
     const RouterTruth& truth() const { return truth_; }
+    Vec3 work_zero_mm() const override { return {g54_x_mm_, g54_y_mm_, truth_.g54_z_mm}; }
+    // A sheet `thickness_mm` thick lies on the bed (the bed's frame: the truth's work frame).
+    void lay_sheet(const StockSheet& sheet, double thickness_mm);
+    // A touch probe at the tool point: it touches the sheet's top where the tool is over the
+    // sheet, else the bed's (work Z 0), where the tool really is (the gantry's tilts move the
+    // tool's height with X and Y); each touch off by 0.002 mm (standard deviation, a fixed seed).
+    Vec3 probe_down(const Vec3& from, double to_z) override;
 
   private:
     RouterTruth truth_;
@@ -66,6 +77,9 @@ class RouterTwin final : public MachineTwin {
     // P1 moves it; the work frame the errors are in stays where the truth put it.
     double g54_x_mm_ = truth_.g54_x_mm, g54_y_mm_ = truth_.g54_y_mm;
     bool homed_ = true;  // a router's work zero is set by hand; jobs need not home it
+    std::optional<std::array<Vec2, 4>> sheet_corners_;  // the laid sheet's, counter-clockwise
+    double sheet_thickness_mm_ = 0;
+    std::mt19937 probe_noise_{20261202};
     mutable Vec3 last_commanded_{0, 0, 0};
     mutable std::array<bool, 2> moving_positive_{true, true};
 };

@@ -613,9 +613,9 @@ std::vector<std::string> TwinPrinterLink::answer_as_grbl(const std::string& line
     std::vector<std::string> replies;
     try {
         replies = bench_->run_printer_line(line);
-    } catch (const JobMachineError&) {
+    } catch (const JobMachineError& e) {
         alarm_ = true;
-        return {"ALARM:2"};
+        return {"ALARM:" + std::to_string(e.grbl_alarm)};
     } catch (const std::exception&) {
         return {"error:20"};
     }

@@ -324,10 +324,15 @@ class RouterKind final : public TwinKind {
         reader.number("backlash_y_mm", t.backlash_y_mm, 0, 2);
         reader.number("g54_x_mm", t.g54_x_mm, -10000, 10000);
         reader.number("g54_y_mm", t.g54_y_mm, -10000, 10000);
+        reader.number("g54_z_mm", t.g54_z_mm, -10000, 10000);
         reader.finish();
     }
     std::unique_ptr<MachineTwin> make_machine(const Scenario& s) const override {
-        return std::make_unique<RouterTwin>(s.router_truth);
+        auto router = std::make_unique<RouterTwin>(s.router_truth);
+        // A sheet the box finds on the bed at start is there for the probe to touch too.
+        if (const auto& p = s.placement; p && p->on_bed_at_start && !p->card)
+            router->lay_sheet(p->sheet, p->thickness_mm);
+        return router;
     }
     std::unique_ptr<TwinJudge> make_judge(const TwinBench& bench) const override {
         return std::make_unique<PlanarJudge>(bench);

@@ -146,7 +146,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     for (const auto& [key, node] : root) {
         const std::string_view name = key.str();
         bool known = name == "machine" || name == "delta" || name == "galvo" || name == "planar" ||
-                     name == "probe" || name == "limits" || name == "link";
+                     name == "probe" || name == "touch_probe" || name == "limits" || name == "link";
         for (const auto& s : other_sections) known = known || s == name;
         if (!known)
             throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
@@ -256,6 +256,23 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         if (!(m.probe->radius_mm > 0)) p.fail("radius_mm", "is required");
         if (m.probe->radius_mm > m.bed_radius_mm)
             p.fail("radius_mm", "probes beyond the bed's radius (bed_radius_mm)");
+    }
+    if (const auto* touch = subtable(file, root, "touch_probe")) {
+        if (m.kind != "router" || m.firmware != "grbl")
+            throw MachineFileError(file + ": [touch_probe] is a router's on grbl (G38.2), not a " +
+                                   m.kind + "'s on " + m.firmware);
+        auto& t = m.touch_probe.emplace();
+        TomlReader p(file, *touch, "touch_probe");
+        std::optional<double> clear_z;
+        p.number("clear_z_mm", clear_z, -2000, 2000);
+        p.number("travel_mm", t.travel_mm, 1, 200);
+        p.number("feed_mm_min", t.feed_mm_min, 1, 1000);
+        p.number("repeatability_mm", t.repeatability_mm, 0.0005, 1);
+        p.finish();
+        if (!clear_z)
+            p.fail("clear_z_mm",
+                   "is required: the machine Z the tool is lifted to before it moves over the bed");
+        t.clear_z_mm = *clear_z;
     }
     if (const auto* limits = subtable(file, root, "limits")) {
         if (!m.is_delta()) throw MachineFileError(file + ": [limits] on a " + m.kind + " machine");

@@ -69,6 +69,18 @@ struct ProbeSettings {
     double repeatability_mm = 0.01;  // one reading's standard uncertainty
 };
 
+// [touch_probe]: a router's touch probe on grbl's probe input (a plate or a probe at the
+// spindle), which the box may use to measure the stock's top above the bed (the console's
+// `probe stock`): grbl's G38.2 straight down on the sheet and beside it, the two [PRB] heights'
+// difference. Before moving over the bed the tool is lifted to `clear_z_mm` in machine
+// coordinates (G53): a height above anything on the bed, which the box cannot see.
+struct TouchProbeSettings {
+    double clear_z_mm = 0;           // machine Z, required
+    double travel_mm = 25;           // how far down each probe may go before grbl's alarm 5
+    double feed_mm_min = 60;         // G38.2's feed
+    double repeatability_mm = 0.01;  // one touch's standard uncertainty
+};
+
 // What a delta correction may change before it is refused, never sent (the machine file's
 // [limits]: a tighter bound for a machine known to be close, a wider one for a rebuilt one).
 struct DeltaLimits {
@@ -131,8 +143,9 @@ struct MachineFile {
     std::optional<GalvoSettings> galvo;
     std::optional<PlanarSettings> planar;  // every router, cartesian and laser machine
     std::optional<ProbeSettings> probe;    // a delta printer's own probe, when the box may use it
-    DeltaLimits delta_limits;              // [limits]: a delta's
-    MachineLinkSettings link;              // [link]
+    std::optional<TouchProbeSettings> touch_probe;  // a router's, on grbl
+    DeltaLimits delta_limits;                       // [limits]: a delta's
+    MachineLinkSettings link;                       // [link]
 
     bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
     bool is_delta() const { return kind == "delta"; }

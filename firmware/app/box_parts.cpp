@@ -11,6 +11,7 @@
 #include "firmware/console/bed_photo_desk.hpp"
 #include "firmware/console/job_desk.hpp"
 #include "firmware/console/link_key.hpp"
+#include "firmware/console/stock_probe_desk.hpp"
 #include "firmware/net/box_network.hpp"
 #include "firmware/net/web_password.hpp"
 #include "firmware/service/service_watch.hpp"
@@ -122,6 +123,8 @@ class BoxConsole final : public BoxPart {
                     *running.box.data, utc_now_text, logged_notice(running.log)),
           bed_photo_desk_(running.box.loop, running.box.cycle, *running.box.data,
                           logged_notice(running.log)),
+          stock_probe_desk_(running.box.cycle, *running.box.appliance.link, *running.box.data,
+                            logged_notice(running.log)),
           commands_(firmware::ConsoleContext{
               running.box.cycle, running.config, *config_home_,
               running.config_path.filename().string(), *running.box.data, running.log_book,
@@ -157,7 +160,10 @@ class BoxConsole final : public BoxPart {
         std::vector<firmware::ConsoleCommand> more = {
             firmware::web_password_row(running.config, running.box.network().passwords(),
                                        running.config_changed),
-            job_desk_.command(), job_desk_.zero_command(), bed_photo_desk_.command(),
+            job_desk_.command(),
+            job_desk_.zero_command(),
+            bed_photo_desk_.command(),
+            stock_probe_desk_.command(),
             link_key_.command()};
         if (running.box.board.sim) {
             for (auto& row : sim_board_commands(*running.box.board.sim, running.box.loop))
@@ -171,7 +177,8 @@ class BoxConsole final : public BoxPart {
     std::optional<firmware::ConsoleLink> link_;
     firmware::LinkKeyRequest link_key_;
     firmware::JobDesk job_desk_;  // jobs compensated through the correction the box keeps
-    firmware::BedPhotoDesk bed_photo_desk_;  // the bed now, in the machine's coordinates
+    firmware::BedPhotoDesk bed_photo_desk_;      // the bed now, in the machine's coordinates
+    firmware::StockProbeDesk stock_probe_desk_;  // the stock's top by the machine's probe
     firmware::Console commands_;
     firmware::CycleSubscription listening_;
 };

@@ -10,8 +10,10 @@
 #include "core/modes/planar.hpp"
 #include "core/modes/registration.hpp"
 #include "core/modes/stock.hpp"
+#include "core/modes/stock_top.hpp"
 #include "core/number_text.hpp"
 #include "firmware/console/job_desk.hpp"
+#include "firmware/console/stock_probe_desk.hpp"
 #include "firmware/cycle/photos.hpp"
 #include "firmware/modes/planar_mode.hpp"
 
@@ -25,6 +27,7 @@ struct BedPhotoDesk::Order {
     geometry::CameraModel camera;
     geometry::BedPlane plane;
     double surface_height_mm = 0;
+    std::string surface_from;  // "given", "the machine file's", or the probe's file
     // `marks ...`: a printed drawing's registration marks looked for too (print and cut).
     std::optional<modes::RegistrationRequest> marks;
 };
@@ -35,6 +38,17 @@ BedPhotoDesk::BedPhotoDesk(EventLoop& loop, Cycle& cycle, hal::Storage& data, No
 }
 
 BedPhotoDesk::~BedPhotoDesk() = default;
+
+// The height seen above the bed: the one given, else the stock's top the machine's probe
+// measured (stock-top.json), else the machine file's.
+std::pair<double, std::string> BedPhotoDesk::surface_height(std::optional<double> given,
+                                                            const models::MachineFile& machine) {
+    if (given) return {*given, "as given"};
+    if (const auto probed = data_.read_file(kProbedStockTopFile))
+        return {modes::stock_top_from_json(*probed, kProbedStockTopFile).surface_height_mm,
+                std::string("probed, ") + kProbedStockTopFile};
+    return {machine.planar->surface_height_mm, "the machine file's"};
+}
 
 std::string BedPhotoDesk::start(std::optional<double> surface_height_mm,
                                 std::optional<modes::RegistrationRequest> marks) {
@@ -62,7 +76,13 @@ std::string BedPhotoDesk::start(std::optional<double> surface_height_mm,
     const auto& machine = cycle_.machine();
     if (!machine.planar)
         return "bed photo: a " + machine.kind + " has no flat bed to place a job on";
-    order->surface_height_mm = surface_height_mm.value_or(machine.planar->surface_height_mm);
+    try {
+        const auto [height, from] = surface_height(surface_height_mm, machine);
+        order->surface_height_mm = height;
+        order->surface_from = from;
+    } catch (const std::exception& e) {
+        return std::string("bed photo: ") + e.what();
+    }
     if (marks) {
         marks->surface_height_mm = order->surface_height_mm;
         order->marks = std::move(marks);
@@ -133,6 +153,8 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
                         modes::stock_to_json(**sheet, order->solution.machine_fingerprint));
                 else
                     data_.remove_file(kFoundStockFile);
+                // The probed top goes with the sheet it was probed on.
+                if (!*sheet) data_.remove_file(kProbedStockTopFile);
                 if (*placed)
                     data_.replace_file(
                         kFoundMarksFile,
@@ -145,7 +167,8 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
             }
             std::string line = std::string("bed photo: ") + kBedViewPng + " and " + kBedViewWorld +
                                ": the bed now, the surface " +
-                               number_text("%.2f", order->surface_height_mm) + " mm above it; ";
+                               number_text("%.3f", order->surface_height_mm) + " mm above it (" +
+                               order->surface_from + "); ";
             if (*sheet) {
                 const auto& front_left = (*sheet)->corners[0];
                 line += std::string("the sheet found (") + kFoundStockFile +
@@ -214,8 +237,9 @@ ConsoleCommand BedPhotoDesk::command() {
     return {"bed photo", "bed photo [SURFACE_MM] [marks X,Y X,Y X,Y [X,Y] [diameter MM]]",
             "a photo of the bed now, in the machine's coordinates through the correction in force "
             "(bed-view.png and its world file bed-view.pgw, shown on the page's Place screen); "
-            "SURFACE_MM: the height seen above the bed, the stock's top (default: the machine "
-            "file's); marks: a printed drawing's registration marks (filled circles, their "
+            "SURFACE_MM: the height seen above the bed, the stock's top (default: the one `probe "
+            "stock` measured, else the machine file's); marks: a printed drawing's registration "
+            "marks (filled circles, their "
             "centres in the drawing's frame) found too, the drawing's place kept as marks.json "
             "for `compensate JOB marks`",
             [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {

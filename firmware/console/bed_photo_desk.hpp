@@ -10,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "core/modes/registration.hpp"
 #include "firmware/console/console.hpp"
@@ -37,6 +38,8 @@ class BedPhotoDesk {
     std::string start(std::optional<double> surface_height_mm,
                       std::optional<modes::RegistrationRequest> marks);
     void on_frame(const hal::Frame& frame);
+    std::pair<double, std::string> surface_height(std::optional<double> given,
+                                                  const models::MachineFile& machine);
 
     Cycle& cycle_;
     hal::Storage& data_;

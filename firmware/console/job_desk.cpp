@@ -78,6 +78,13 @@ void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero
     request.stock_corner = *corner;
 }
 
+bool inside_stated_travel(const models::MachineFile& machine, geometry::Point2 at) {
+    return machine.travel_min_x_mm && machine.travel_max_x_mm && machine.travel_min_y_mm &&
+           machine.travel_max_y_mm && at.x >= *machine.travel_min_x_mm &&
+           at.x <= *machine.travel_max_x_mm && at.y >= *machine.travel_min_y_mm &&
+           at.y <= *machine.travel_max_y_mm;
+}
+
 std::string compensated_job_name(const std::string& job_name) {
     if (job_name.rfind("job-", 0) != 0 || job_name.size() > 100 ||
         job_name.find_first_not_of(
@@ -285,12 +292,7 @@ ConsoleCommand JobDesk::zero_command() {
                 throw ConsoleRefused("work zero: " + std::string(e.what()));
             }
             // Bounds first: a zero beyond the travel would send every job off the machine.
-            const bool inside =
-                machine.travel_min_x_mm && machine.travel_max_x_mm && machine.travel_min_y_mm &&
-                machine.travel_max_y_mm && zero.x >= *machine.travel_min_x_mm &&
-                zero.x <= *machine.travel_max_x_mm && zero.y >= *machine.travel_min_y_mm &&
-                zero.y <= *machine.travel_max_y_mm;
-            if (!inside)
+            if (!inside_stated_travel(machine, zero))
                 throw ConsoleRefused("work zero: machine X" + number_text("%.3f", zero.x) + " Y" +
                                      number_text("%.3f", zero.y) +
                                      " is beyond the machine file's travel (or it gives none)");

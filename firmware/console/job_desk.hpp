@@ -70,6 +70,10 @@ constexpr const char* kFoundMarksFile = "marks.json";
 // for another work zero.
 std::optional<std::string> camera_corner_of(const std::string& work_zero);
 
+// Whether machine X,Y `at` lies within the travel the machine file states (false when it states
+// none): the box sends the controller no point beyond it.
+bool inside_stated_travel(const models::MachineFile& machine, geometry::Point2 at);
+
 // The file a work zero places the job by (stock.json for "camera [CORNER]", marks.json for
 // "marks"), or nothing for one given in numbers or read from the controller.
 std::optional<std::string> found_file_for(const std::string& work_zero);

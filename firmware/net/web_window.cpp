@@ -384,6 +384,28 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
         return console_answer("work zero " + zero->get<std::string>() +
                               (confirmed ? " confirm" : "") + " --json");
     }
+    if (path == "/api/action" && body.value("action", std::string()) == "probe-stock") {
+        // The console's `probe stock`: what would be sent, or with confirm sent.
+        const auto plain_point = [&body](const char* key) {
+            const auto p = body.find(key);
+            return p != body.end() && p->is_string() && !p->empty() &&
+                   p->get<std::string>().size() <= 40 &&
+                   p->get<std::string>().find_first_not_of("0123456789.,-") == std::string::npos;
+        };
+        const auto confirm = body.find("confirm");
+        const bool points = body.contains("on") || body.contains("beside");
+        if (body.size() > 4 || (points && (!plain_point("on") || !plain_point("beside"))) ||
+            (confirm != body.end() && !confirm->is_boolean()))
+            return error_answer(400,
+                                "probe-stock: {\"action\": \"probe-stock\", \"on\": \"X,Y\", "
+                                "\"beside\": \"X,Y\", \"confirm\": true|false} (the points "
+                                "together or neither)");
+        std::string line = "probe stock";
+        if (points)
+            line += " " + body["on"].get<std::string>() + " " + body["beside"].get<std::string>();
+        if (confirm != body.end() && confirm->get<bool>()) line += " confirm";
+        return console_answer(line + " --json");
+    }
     if (path == "/api/action" && body.value("action", std::string()) == "bed-photo") {
         // The console's `bed photo`, its figures checked there: the marks as plain numbers.
         const auto surface = body.find("surface_mm");

@@ -117,7 +117,7 @@ try:
         driver.find_element(By.ID, "bed-marks").send_keys(" ".join("%g,%g" % m for m in MARKS))
         driver.find_element(By.ID, "btn-bed-photo").click()
         said = run.wait_for("the bed photo's reply on the page", lambda: re.search(
-            r"^bed photo: .*the surface 0.30 mm above it; .*the drawing's marks found \(marks.json\): "
+            r"^bed photo: .*the surface 0.300 mm above it \(as given\); .*the drawing's marks found \(marks.json\): "
             r"4 marks, its zero at machine X([-0-9.]+) Y([-0-9.]+) mm, turned ([-0-9.]+) deg",
             driver.find_element(By.ID, "bed-reply").text), 120, box)
         zero = (float(said.group(1)), float(said.group(2)))

@@ -9,6 +9,7 @@ Usage: web_place.py CALBOX SOURCE_DIR SCREENSHOT_DIR"""
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -42,11 +43,17 @@ with open(os.path.join(data, JOB), "w") as f:
             "G1 X0 Y30\nG1 X0 Y0\nG0 Z5\nM5\nM2\n")
 
 # The box started again to place a job, the scenario's sheet already lying on the bed.
+SHEET_MM = 2.35  # the twin's truth, for the judge of the probed top below
 placing = os.path.join(work, "placing.toml")
 with open(placing, "w") as f:
     f.write(open(os.path.join(top, scenario)).read()
             .replace('job = "../../examples/', 'job = "%s/examples/' % top)
-            .replace("[placement]\n", "[placement]\non_bed_at_start = true\n"))
+            .replace("[placement]\n", "[placement]\non_bed_at_start = true\n")
+            # A sheet thicker than the machine file's surface, and a touch probe to measure it
+            # (G54's Z zero, the bed's top, at machine Z -62.5).
+            .replace("thickness_mm = 1.5\n", "thickness_mm = %.2f\n" % SHEET_MM)
+            .replace("g54_y_mm = -300.0\n", "g54_y_mm = -300.0\ng54_z_mm = -62.5\n")
+            + "\n[touch_probe]\nclear_z_mm = -40.0\n")
 box, url = run.box(calbox, top, data, [], '[web]\npassword = "%s"\n' % password_hash(PASSWORD),
                    scenario=placing)
 
@@ -82,8 +89,8 @@ try:
     run.wait_for("the fresh bed view on the page", lambda: driver.find_element(
         By.ID, "bed-caption").text.startswith("bed-view.png: "), 60, box)
     said = driver.find_element(By.ID, "bed-reply").text
-    if not said.startswith("bed photo: bed-view.png and bed-view.pgw: the bed now, the surface 1.50 mm "
-                           "above it; the sheet found (stock.json): its front-left corner at machine X"):
+    if not said.startswith("bed photo: bed-view.png and bed-view.pgw: the bed now, the surface 1.500 mm "
+                           "above it (the machine file's); the sheet found (stock.json): its front-left corner at machine X"):
         run.fail("the page's bed photo reply: %r" % said)
     world = open(os.path.join(data, "bed-view.pgw")).read()
     if world != open(os.path.join(data, "cycle-0001-bed-view.pgw")).read():
@@ -228,6 +235,54 @@ subprocess.run([calbox, "compensate", "--result", os.path.join(data, "planar-res
                check=True, capture_output=True, stdin=subprocess.DEVNULL)
 if body.decode().splitlines()[1:] != open(reference).read().splitlines()[1:]:
     run.fail("the desk's job at the sheet's corner differs from the command line's")
+# The stock's top by the router's touch probe (grbl's G38.2 on the twin's router, the sheet on
+# its bed): the points at stock.json's corner shown first, nothing sent; then sent; the height
+# judged against the twin's truth, then taken by the next bed photo.
+status, _, answer = request(url + "/api/action", "POST", {"action": "probe-stock"}, password=PASSWORD)
+shown = json.loads(answer) if status == 200 else {}
+if (status != 200 or shown.get("sent") is not False or "G38.2 Z-25.000 F60.0" not in shown["commands"]
+        or "stock.json's back-right corner" not in shown["from"]):
+    run.fail("probe stock without confirm: %d %s" % (status, answer[:300]))
+status, _, answer = request(url + "/api/action", "POST", {"action": "probe-stock", "confirm": True},
+                            password=PASSWORD)
+if status != 200 or json.loads(answer)["sent"] is not True:
+    run.fail("probe stock: %d %s" % (status, answer[:300]))
+probed = run.wait_for("the probe's line", lambda: next((
+    line for line in get_json(url + "/api/status")["log"] if line.startswith("probe stock: ")), None), 30, box)
+found = re.match(r"probe stock: the sheet's top ([0-9.]+) mm above the bed \(\+/-0.014; touched at "
+                 r"machine Z(-[0-9.]+) on the sheet, Z(-[0-9.]+) beside it\), kept as stock-top.json", probed)
+if not found or abs(float(found.group(1)) - SHEET_MM) > 0.03 or abs(float(found.group(3)) + 62.5) > 0.4:
+    run.fail("the probed top against the sheet's %.2f mm: %s" % (SHEET_MM, probed))
+top_mm = float(found.group(1))
+status, _, answer = request(url + "/api/action", "POST", {"action": "bed-photo"}, password=PASSWORD)
+if status != 200:
+    run.fail("a bed photo after the probe: %d %s" % (status, answer[:200]))
+photo_line = run.wait_for("the bed photo at the probed top", lambda: next((
+    line for line in reversed(get_json(url + "/api/status")["log"])
+    if line.startswith("bed photo: ") and "(probed, stock-top.json)" in line), None), 60, box)
+if ("the surface %.3f mm above it (probed, stock-top.json)" % top_mm not in photo_line or
+        abs(json.load(open(os.path.join(data, "stock.json")))["surface_height_mm"] - top_mm) > 1e-9):
+    run.fail("the bed photo after the probe: %s" % photo_line)
+# Refused before anything moves: a point beyond the travel; the points the wrong way round (the
+# bed's first) are probed and refused by their heights, the kept height removed with them.
+status, _, refused = request(url + "/api/action", "POST", {"action": "probe-stock", "on": "10,10",
+                                                            "beside": "-290,-290", "confirm": True},
+                             password=PASSWORD)
+if status != 409 or b"probe stock: machine X10.000 Y10.000 is beyond the machine file's travel" not in refused:
+    run.fail("a probe point beyond the travel: %d %s" % (status, refused[:200]))
+on, beside = shown["commands"][3].split()[2:], shown["commands"][8].split()[2:]
+swapped = {"action": "probe-stock", "on": ",".join(w[1:] for w in beside),
+           "beside": ",".join(w[1:] for w in on), "confirm": True}
+status, _, answer = request(url + "/api/action", "POST", swapped, password=PASSWORD)
+if status != 200:
+    run.fail("probe stock at swapped points: %d %s" % (status, answer[:200]))
+wrong = run.wait_for("the refusal of a sheet below the bed", lambda: next((
+    line for line in get_json(url + "/api/status")["log"]
+    if line.startswith("probe stock: the sheet touched at machine Z")), None), 30, box)
+if "is no sheet's" not in wrong or "no height kept" not in wrong or os.path.exists(
+        os.path.join(data, "stock-top.json")):
+    run.fail("the swapped points: %s" % wrong)
 run.stop_all()
+print("the stock's top probed %.3f mm (the twin's sheet %.2f)" % (top_mm, SHEET_MM))
 print("the Place screen: bed view %dx%d at %.2f mm a pixel, zero clicked at %s, job drawn and "
       "compensated (%s)" % (size[0], size[1], a, zero_text, reply.split(": ", 2)[2][:80]))

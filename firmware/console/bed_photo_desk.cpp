@@ -219,11 +219,11 @@ modes::RegistrationRequest marks_of(const std::vector<std::string>& words) {
             r.mark_diameter_mm = *d;
             break;
         }
-        const auto zeros = modes::parse_work_zero(words[i], {});
-        if (!zeros[0])
+        const auto mark = one_xy_of(words[i]);
+        if (!mark)
             throw ConsoleRefused("bed photo: mark '" + words[i] +
                                  "' is not X,Y (its centre in the drawing's frame, mm)");
-        r.marks_drawing_mm.push_back(*zeros[0]);
+        r.marks_drawing_mm.push_back(*mark);
     }
     if (r.marks_drawing_mm.size() < 3 || r.marks_drawing_mm.size() > 4)
         throw ConsoleRefused("bed photo: marks: three or four X,Y, " +

@@ -115,6 +115,15 @@ using Words = std::vector<std::string>;
 
 }  // namespace
 
+ConfirmedWords words_and_confirm(const std::vector<std::string>& words, std::size_t skip) {
+    ConfirmedWords out;
+    for (std::size_t i = skip; i < words.size(); ++i)
+        if (words[i] != "--json") out.words.push_back(words[i]);
+    out.confirmed = !out.words.empty() && out.words.back() == "confirm";
+    if (out.confirmed) out.words.pop_back();
+    return out;
+}
+
 void need_words(const std::vector<std::string>& words, std::size_t n, const std::string& usage) {
     if (words.size() != n) throw ConsoleRefused("usage: " + usage);
 }

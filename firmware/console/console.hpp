@@ -96,6 +96,14 @@ struct ConsoleCommand {
 // What follows a line's first `skip` words, trimmed; a value in double quotes loses them (a
 // row's free text: `config set KEY VALUE`, `web password PASSWORD`).
 std::string console_words_after(std::string_view line, std::size_t skip);
+// A row's own words after its first `skip` (its name), without --json, and whether the last of
+// them is `confirm` (taken off): a row that moves the machine or sets the controller acts only
+// with it, and says without it what it would do.
+struct ConfirmedWords {
+    std::vector<std::string> words;
+    bool confirmed = false;
+};
+ConfirmedWords words_and_confirm(const std::vector<std::string>& words, std::size_t skip);
 // A row that takes exactly `n` words (its own included): anything else is refused with its
 // usage, so that "quit now" or "start later" does nothing.
 void need_words(const std::vector<std::string>& words, std::size_t n, const std::string& usage);

@@ -78,6 +78,17 @@ void set_desk_work_zero(modes::JobRequest& request, const std::string& work_zero
     request.stock_corner = *corner;
 }
 
+std::optional<geometry::Point2> one_xy_of(const std::string& word) {
+    try {
+        const auto zeros = modes::parse_work_zero(word, {});
+        if (zeros[0] && std::count_if(zeros.begin(), zeros.end(),
+                                      [](const auto& z) { return z.has_value(); }) == 1)
+            return zeros[0];
+    } catch (const std::exception&) {
+    }
+    return std::nullopt;
+}
+
 bool inside_stated_travel(const models::MachineFile& machine, geometry::Point2 at) {
     return machine.travel_min_x_mm && machine.travel_max_x_mm && machine.travel_min_y_mm &&
            machine.travel_max_y_mm && at.x >= *machine.travel_min_x_mm &&
@@ -246,11 +257,7 @@ ConsoleCommand JobDesk::zero_command() {
         "sheet the last bed photo found): shown first, sent (grbl's G10 L2 P1) only with confirm, "
         "then read back",
         [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
-            std::vector<std::string> given;
-            for (std::size_t i = 2; i < words.size(); ++i)
-                if (words[i] != "--json") given.push_back(words[i]);
-            const bool confirmed = !given.empty() && given.back() == "confirm";
-            if (confirmed) given.pop_back();
+            const auto [given, confirmed] = words_and_confirm(words, 2);
             std::string spec;
             for (const auto& w : given) spec += (spec.empty() ? "" : " ") + w;
             if (spec.empty())
@@ -276,14 +283,12 @@ ConsoleCommand JobDesk::zero_command() {
                     zero = c.machine_mm;
                     from = std::string(kFoundStockFile) + "'s " + c.name + " corner";
                 } else {
-                    const auto zeros = modes::parse_work_zero(spec, {});
-                    if (!zeros[0] || std::count_if(zeros.begin(), zeros.end(), [](const auto& z) {
-                                         return z.has_value();
-                                     }) != 1)
+                    const auto given_zero = one_xy_of(spec);
+                    if (!given_zero)
                         throw ConsoleRefused("work zero '" + spec +
                                              "': give X,Y (G54's zero in machine coordinates) "
                                              "or camera [CORNER]");
-                    zero = *zeros[0];
+                    zero = *given_zero;
                     from = "X,Y as given";
                 }
             } catch (const ConsoleRefused&) {

@@ -70,6 +70,9 @@ constexpr const char* kFoundMarksFile = "marks.json";
 // for another work zero.
 std::optional<std::string> camera_corner_of(const std::string& work_zero);
 
+// One "X,Y" word as a point (millimetres), or nothing for anything else.
+std::optional<geometry::Point2> one_xy_of(const std::string& word);
+
 // Whether machine X,Y `at` lies within the travel the machine file states (false when it states
 // none): the box sends the controller no point beyond it.
 bool inside_stated_travel(const models::MachineFile& machine, geometry::Point2 at);

@@ -1,6 +1,5 @@
 #include "firmware/console/stock_probe_desk.hpp"
 
-#include <algorithm>
 #include <exception>
 #include <memory>
 
@@ -33,12 +32,11 @@ modes::StockProbePoints points_of(const std::vector<std::string>& given, hal::St
     if (given.size() == 2) {
         modes::StockProbePoints points;
         for (std::size_t i = 0; i < 2; ++i) {
-            const auto zeros = modes::parse_work_zero(given[i], {});
-            if (!zeros[0] || std::count_if(zeros.begin(), zeros.end(),
-                                           [](const auto& z) { return z.has_value(); }) != 1)
+            const auto at = one_xy_of(given[i]);
+            if (!at)
                 throw ConsoleRefused("probe stock: '" + given[i] +
                                      "' is not X,Y (machine coordinates, mm)");
-            (i == 0 ? points.on_sheet_mm : points.beside_mm) = *zeros[0];
+            (i == 0 ? points.on_sheet_mm : points.beside_mm) = *at;
         }
         points.from = "as given";
         return points;
@@ -69,11 +67,7 @@ ConsoleCommand StockProbeDesk::command() {
         "the last bed photo found); shown first, sent only with confirm; the height kept for "
         "the next bed photo (stock-top.json)",
         [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
-            std::vector<std::string> given;
-            for (std::size_t i = 2; i < words.size(); ++i)
-                if (words[i] != "--json") given.push_back(words[i]);
-            const bool confirmed = !given.empty() && given.back() == "confirm";
-            if (confirmed) given.pop_back();
+            const auto [given, confirmed] = words_and_confirm(words, 2);
             const auto& machine = cycle_.machine();
             if (!machine.touch_probe)
                 throw ConsoleRefused(

@@ -4,7 +4,9 @@
 #include <utility>
 
 #include "drivers/durable_file.hpp"
-#include "drivers/http.hpp"
+#include "drivers/http_client.hpp"
+#include "drivers/http_server.hpp"
+#include "drivers/tls.hpp"
 #include "drivers/mqtt_client.hpp"
 #include "drivers/password.hpp"
 

@@ -12,7 +12,7 @@
 #include <thread>
 
 #include "board/sim/sim_board.hpp"
-#include "drivers/http.hpp"
+#include "drivers/http_server.hpp"
 
 namespace calbox::sim {
 namespace {

@@ -20,7 +20,7 @@
 
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/sim_board.hpp"
-#include "drivers/http.hpp"
+#include "drivers/http_server.hpp"
 
 namespace calbox::sim {
 namespace {

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "board/sim/sim_board.hpp"
-#include "drivers/http.hpp"
+#include "drivers/http_server.hpp"
 
 namespace calbox::sim {
 namespace {

@@ -20,7 +20,7 @@
 #include "board/sim/galvo_twin.hpp"
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenario.hpp"
-#include "drivers/http.hpp"
+#include "drivers/tls.hpp"
 #include "hal/background_job.hpp"
 #include "hal/camera.hpp"
 #include "hal/clock.hpp"

@@ -13,7 +13,7 @@
 #include <utility>
 #include <vector>
 
-#include "drivers/http.hpp"
+#include "drivers/http_server.hpp"
 
 namespace calbox::sim {
 

@@ -16,7 +16,9 @@
 #include <thread>
 
 #include "drivers/file_storage.hpp"
-#include "drivers/http.hpp"
+#include "drivers/http_client.hpp"
+#include "drivers/http_server.hpp"
+#include "drivers/tls.hpp"
 #include "drivers/network.hpp"
 #include "drivers/password.hpp"
 #include "firmware/cycle/overlays.hpp"

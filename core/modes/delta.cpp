@@ -384,6 +384,262 @@ std::string corner_feature_id(int marker_id, int corner) {
     return id;
 }
 
+namespace {
+
+// Per corner, what the frames that saw it gave.
+struct CornerSightings {
+    std::vector<geometry::Point3> on_bed;  // at the strand's height each frame measured
+    std::vector<geometry::Point3> at_top;  // at the target's top, for a height unmeasured
+    int heights_unmeasured = 0;            // frames that could not tell its strand's width
+    geometry::Point2 shift;                // bed mm per mm of height along the ray
+    double edge_variance_sum = 0;    // of each frame's centreline-fit uncertainty, in bed mm^2
+    double height_variance_sum = 0;  // of each frame's strand height, mm^2
+    int free_beads = 0;              // frames whose strand there was a free bead
+    int scraped = 0;                 // frames whose strand there was scraped
+};
+using Sightings = std::map<std::pair<int, int>, CornerSightings>;  // by marker id and corner
+
+// One photo's markers of this target: looked for where the target should stand; the whole photo
+// only when that misses one of them (the bed moved since set-up, a marker out of frame, a foreign
+// artifact), so the refusals below see what the whole photo shows. Refused when it shows none,
+// or mostly another artifact's.
+std::vector<vision::DetectedMarker> target_markers_in(const vision::GrayView& frame,
+                                                      const std::string& photo_name,
+                                                      const vision::MarkerOptions& options,
+                                                      std::size_t target_markers) {
+    auto found = vision::detect_markers(frame, options);
+    if (found.empty())
+        throw MeasureError(photo_name + " shows no " + options.dictionary + " markers");
+    const auto foreign_id = [&](const auto& m) { return m.id >= static_cast<int>(target_markers); };
+    if (std::count_if(found.begin(), found.end(), foreign_id) * 2 > static_cast<long>(found.size()))
+        throw MeasureError(photo_name + " shows markers that are not this machine's delta target");
+    found.erase(std::remove_if(found.begin(), found.end(), foreign_id), found.end());
+    return found;
+}
+
+// Each marker's corners on the bed at the target's top: for the layout and the scale.
+std::vector<std::vector<geometry::Point3>> corners_at_top(
+    const std::vector<vision::DetectedMarker>& found, const geometry::CameraModel& camera,
+    const geometry::BedPlane& plane, double top_height_mm) {
+    std::vector<std::vector<geometry::Point3>> on_bed;
+    for (const auto& m : found) {
+        const std::vector<geometry::Point2> corners(m.corners.begin(), m.corners.end());
+        on_bed.push_back(geometry::pixels_to_bed(camera, plane, corners, top_height_mm));
+    }
+    return on_bed;
+}
+
+// The markers must lie as this target lays them out, give or take what an uncalibrated printer
+// does to it: another ArUco artifact (a board, another machine's target) does not. The target's
+// place on the bed, from two markers up.
+std::optional<solve::RigidPlacement> layout_on_bed(
+    const std::vector<vision::DetectedMarker>& found,
+    const std::vector<std::vector<geometry::Point3>>& on_bed, const targets::DeltaTarget& target,
+    std::size_t frame) {
+    if (found.size() < 2) return std::nullopt;
+    std::vector<geometry::Point2> laid, seen_centres;
+    for (std::size_t i = 0; i < found.size(); ++i) {
+        laid.push_back(target.markers[static_cast<std::size_t>(found[i].id)].centre_mm);
+        const auto& bed = on_bed[i];
+        seen_centres.push_back({(bed[0].x + bed[1].x + bed[2].x + bed[3].x) / 4,
+                                (bed[0].y + bed[1].y + bed[2].y + bed[3].y) / 4});
+    }
+    const auto placement = solve::best_rigid_placement(laid, seen_centres);
+    double worst = 0;
+    for (std::size_t i = 0; i < laid.size(); ++i) {
+        const auto p = placement.apply(laid[i]);
+        worst = std::max(worst, std::hypot(p.x - seen_centres[i].x, p.y - seen_centres[i].y));
+    }
+    if (worst > kLayoutToleranceMm) {
+        char why[200];
+        std::snprintf(why, sizeof why,
+                      "photo %zu shows markers laid out unlike this machine's delta "
+                      "target (one is %.1f mm out of place): a photo of another target",
+                      frame + 1, worst);
+        throw MeasureError(why);
+    }
+    return placement;
+}
+
+// The fit needs the whole bed: a quarter of the target missing is not a calibration. Markers the
+// photo should show but does not are the print's fault, not the framing's; those kept as notes.
+void check_markers_enough(const std::vector<vision::DetectedMarker>& found,
+                          const MissingMarkers& missing, std::size_t target_markers,
+                          const std::string& photo_name, DeltaMeasurement& out) {
+    if (found.size() * 4 < target_markers * 3) {
+        std::string why = photo_name + " shows " + std::to_string(found.size()) +
+                          " of the target's " + std::to_string(target_markers) + " markers";
+        if (!missing.unread.empty()) {
+            why += ": " + std::to_string(missing.unread.size()) +
+                   " in the frame could not be read (" + joined(missing.unread) +
+                   "): a squashed, smeared or missing first layer there";
+        }
+        if (missing.outside_frame > 0 || missing.unread.empty()) {
+            why += missing.unread.empty() ? ": " : "; ";
+            why += "the artifact is partly out of frame";
+        }
+        throw MeasureError(why);
+    }
+    for (const auto& marker : missing.unread) {
+        std::string line = photo_name;
+        line += ": ";
+        line += marker;
+        line += " could not be read";
+        out.markers_unread.push_back(std::move(line));
+    }
+}
+
+// Each marker's scale on the bed: its sides in millimetres over its sides in pixels.
+std::vector<double> marker_scales(const std::vector<vision::DetectedMarker>& found,
+                                  const std::vector<std::vector<geometry::Point3>>& on_bed) {
+    std::vector<double> mm_per_px;
+    for (std::size_t i = 0; i < found.size(); ++i) {
+        double mm = 0, px = 0;
+        for (std::size_t k = 0; k < 4; ++k) {
+            const auto& a = on_bed[i][k];
+            const auto& b = on_bed[i][(k + 1) % 4];
+            mm += std::hypot(b.x - a.x, b.y - a.y);
+            px += std::hypot(found[i].corners[(k + 1) % 4].x - found[i].corners[k].x,
+                             found[i].corners[(k + 1) % 4].y - found[i].corners[k].y);
+        }
+        mm_per_px.push_back(mm / px);
+    }
+    return mm_per_px;
+}
+
+// One ring's four corners into their sightings: at the target's top, and at the height the
+// strand's width there says it stands (when it can be told).
+void add_ring_corners(const vision::StrandRing& ring, int marker_id, double mm_per_px,
+                      const std::string& photo_name, const geometry::CameraModel& camera,
+                      const geometry::BedPlane& plane, Sightings& seen, DeltaMeasurement& out) {
+    for (std::size_t k = 0; k < 4; ++k) {
+        auto& corner = seen[{marker_id, static_cast<int>(k)}];
+        const double top = out.target.top_height_mm;
+        const auto at_top = geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]}, top)[0];
+        corner.at_top.push_back(at_top);
+        const auto above_top =
+            geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]}, top + 1)[0];
+        corner.shift = {above_top.x - at_top.x, above_top.y - at_top.y};
+        const double sigma_mm = ring.sigma_px[k] * mm_per_px;
+        corner.edge_variance_sum += sigma_mm * sigma_mm;
+        if (!ring.width_unmeasured_because[k].empty()) {
+            out.heights_unmeasured.push_back(photo_name + ": marker " + std::to_string(marker_id) +
+                                             "'s corner " + std::to_string(k) + ": " +
+                                             ring.width_unmeasured_because[k]);
+            ++corner.heights_unmeasured;  // its points are then at_top's alone
+            continue;
+        }
+        const auto height = vision::strand_height_from_width(out.target.strand_section_mm2,
+                                                             ring.width_px[k] * mm_per_px,
+                                                             ring.width_sigma_px[k] * mm_per_px);
+        corner.on_bed.push_back(
+            geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]}, height.height_mm)[0]);
+        corner.height_variance_sum += height.sigma_mm * height.sigma_mm;
+        corner.free_beads += height.free_bead ? 1 : 0;
+        corner.scraped += height.scraped ? 1 : 0;
+    }
+}
+
+// One photo measured into the sightings: its markers checked against the target, then each
+// marker's ring strand and its corners where its sides' centrelines meet (where the nozzle went,
+// however wide the strand lies), each mapped to the bed at the height its width says.
+void measure_frame(const vision::GrayView& frame, std::size_t f,
+                   const vision::MarkerOptions& options, const geometry::CameraModel& camera,
+                   const geometry::BedPlane& plane, Sightings& seen, DeltaMeasurement& out) {
+    const auto& markers = out.target.markers;
+    const std::string photo_name = "photo " + std::to_string(f + 1);
+    if (const auto size = geometry::photo_size_mismatch(camera, frame.width_px, frame.height_px);
+        !size.empty())
+        throw MeasureError(photo_name + " is " + size);
+    check_exposure(frame, f);
+    auto found = target_markers_in(frame, photo_name, options, markers.size());
+    const auto on_bed = corners_at_top(found, camera, plane, out.target.top_height_mm);
+    const auto laid_on_bed = layout_on_bed(found, on_bed, out.target, f);
+    const auto missing = laid_on_bed
+                             ? missing_markers(out.target, found, *laid_on_bed, camera, plane)
+                             : MissingMarkers{};
+    check_markers_enough(found, missing, markers.size(), photo_name, out);
+    const auto mm_per_px = marker_scales(found, on_bed);
+    // Each ring is measured on its own (the photo and the camera only read), on all cores.
+    std::vector<vision::StrandRing> rings(found.size());
+    each_on_all_cores(found.size(), [&](std::size_t i) {
+        const auto& marker = markers[static_cast<std::size_t>(found[i].id)];
+        const vision::StrandRingLayout layout{out.target.marker_half_mm, marker.outline_half_mm,
+                                              out.target.strand_width_mm, out.target.ring_gap_mm};
+        rings[i] = vision::measure_strand_ring(frame, found[i].corners, layout, &camera);
+    });
+    for (std::size_t i = 0; i < found.size(); ++i) {
+        if (!rings[i].measured()) {
+            out.rings_unmeasured.push_back(photo_name + ": marker " + std::to_string(found[i].id) +
+                                           "'s ring: " + rings[i].unmeasured_because);
+            continue;
+        }
+        add_ring_corners(rings[i], found[i].id, mm_per_px[i], photo_name, camera, plane, seen, out);
+    }
+    out.frames.push_back(std::move(found));
+}
+
+// A corner's feature from every frame's sighting of it. Its uncertainty in one frame: what its
+// edge fits' own scatter gives (sensor noise, a ragged strand edge), on top of a floor for what
+// they cannot see (the camera's and the plane's calibration, the print's texture): on the twin's
+// 12 MP photos the corners are 0.003-0.005 mm from the material while their edge fits alone
+// claim 0.0004 mm. Several frames average, and their scatter is used when it is larger.
+solve::FeatureMeasurement corner_feature(std::pair<int, int> key, const CornerSightings& corner,
+                                         const DeltaMeasurement& out) {
+    constexpr double kFrameFloorMm = 0.005;
+    // A height one frame could not tell is the surface fit's in all: the frames' points are
+    // averaged at one height.
+    const bool height_measured = corner.heights_unmeasured == 0;
+    const auto& points = height_measured ? corner.on_bed : corner.at_top;
+    const auto& target_corner = out.target.markers[static_cast<std::size_t>(key.first)]
+                                    .outline_corners_mm[static_cast<std::size_t>(key.second)];
+    double mx = 0, my = 0, mz = 0;
+    for (const auto& p : points) mx += p.x, my += p.y, mz += p.z;
+    const double n = static_cast<double>(points.size());
+    // As printed: the bed has grown or shrunk since, about a point the placement absorbs.
+    mx /= n * out.bed_scale, my /= n * out.bed_scale;
+    double scatter = 0;
+    for (const auto& p : points) {
+        const double dx = p.x / out.bed_scale - mx, dy = p.y / out.bed_scale - my;
+        scatter += dx * dx + dy * dy;
+    }
+    mz /= n;
+    double height_scatter = 0;
+    for (const auto& p : points) height_scatter += (p.z - mz) * (p.z - mz);
+    // The strand's height, its uncertainty (the frames' own, or their disagreement) and the XY
+    // uncertainty it brings along the ray. A strand's width varies along a side as one over the
+    // gap, which the widths' straight fit only follows closely: on the twin the heights at the
+    // corners are within 0.005 mm where their fits claim a tenth of that. That floor is added in
+    // quadrature.
+    constexpr double kHeightFloorMm = 0.005;
+    // Unmeasured, the height is the fit's, which moves the point along its ray itself.
+    const double height_sigma =
+        !height_measured
+            ? 0.0
+            : std::max(std::sqrt(corner.height_variance_sum / n + kHeightFloorMm * kHeightFloorMm),
+                       n > 1 ? std::sqrt(height_scatter / (n - 1)) : 0.0) /
+                  std::sqrt(n);
+    const double along_ray = height_sigma * std::hypot(corner.shift.x, corner.shift.y);
+    const double frame_sigma =
+        std::sqrt(kFrameFloorMm * kFrameFloorMm + corner.edge_variance_sum / n);
+    const double xy_sigma =
+        std::max(frame_sigma, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) / std::sqrt(n);
+    solve::FeatureMeasurement feature;
+    feature.id = corner_feature_id(key.first, key.second);
+    feature.commanded_mm = {target_corner.x, target_corner.y, out.target.top_height_mm};
+    feature.measured_mm = {mx, my};
+    feature.sigma_mm = std::sqrt(xy_sigma * xy_sigma + along_ray * along_ray);
+    feature.seen_at_height_mm = mz;
+    feature.shift_per_height = corner.shift;
+    feature.height_measured = height_measured;
+    feature.height_sigma_mm = height_sigma;
+    feature.free_bead = corner.free_beads * 2 > static_cast<int>(points.size());
+    feature.scraped = corner.scraped * 2 > static_cast<int>(points.size());
+    return feature;
+}
+
+}  // namespace
+
 DeltaMeasurement measure_delta(const models::MachineFile& machine,
                                const geometry::CameraModel& camera, const geometry::BedPlane& plane,
                                const std::vector<vision::GrayView>& frames,
@@ -396,230 +652,13 @@ DeltaMeasurement measure_delta(const models::MachineFile& machine,
         throw MeasureError(e.what());
     }
     out.target = targets::make_delta_target(machine);  // regenerated: generation is deterministic
-    const auto& markers = out.target.markers;
     vision::MarkerOptions options;
     options.camera = &camera;
     look_where_the_target_stands(options, out.target, camera, plane);
-    // Per corner, what the frames that saw it gave.
-    struct CornerSightings {
-        std::vector<geometry::Point3> on_bed;  // at the strand's height each frame measured
-        std::vector<geometry::Point3> at_top;  // at the target's top, for a height unmeasured
-        int heights_unmeasured = 0;            // frames that could not tell its strand's width
-        geometry::Point2 shift;                // bed mm per mm of height along the ray
-        double edge_variance_sum = 0;    // of each frame's centreline-fit uncertainty, in bed mm^2
-        double height_variance_sum = 0;  // of each frame's strand height, mm^2
-        int free_beads = 0;              // frames whose strand there was a free bead
-        int scraped = 0;                 // frames whose strand there was scraped
-    };
-    std::map<std::pair<int, int>, CornerSightings> seen;
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-        const auto& frame = frames[f];
-        if (const auto size =
-                geometry::photo_size_mismatch(camera, frame.width_px, frame.height_px);
-            !size.empty())
-            throw MeasureError("photo " + std::to_string(f + 1) + " is " + size);
-        check_exposure(frame, f);
-        // The markers looked for where the target should stand; the whole photo only when that
-        // misses one of them (the bed moved since set-up, a marker out of frame, a foreign
-        // artifact), so the refusals below see what the whole photo shows.
-        auto found = vision::detect_markers(frame, options);
-        if (found.empty())
-            throw MeasureError("photo " + std::to_string(f + 1) + " shows no " +
-                               options.dictionary + " markers");
-        const auto foreign = std::count_if(found.begin(), found.end(), [&](const auto& m) {
-            return m.id >= static_cast<int>(markers.size());
-        });
-        if (foreign * 2 > static_cast<long>(found.size())) {
-            throw MeasureError("photo " + std::to_string(f + 1) +
-                               " shows markers that are not this machine's delta target");
-        }
-        found.erase(
-            std::remove_if(found.begin(), found.end(),
-                           [&](const auto& m) { return m.id >= static_cast<int>(markers.size()); }),
-            found.end());
-        // Each marker's corners on the bed at the target's top: for the layout and the scale.
-        std::vector<std::vector<geometry::Point3>> on_bed;
-        for (const auto& m : found) {
-            const std::vector<geometry::Point2> corners(m.corners.begin(), m.corners.end());
-            on_bed.push_back(
-                geometry::pixels_to_bed(camera, plane, corners, out.target.top_height_mm));
-        }
-        // The markers must lie as this target lays them out, give or take what an uncalibrated
-        // printer does to it: another ArUco artifact (a board, another machine's target) does not.
-        std::optional<solve::RigidPlacement> laid_on_bed;
-        if (found.size() >= 2) {
-            std::vector<geometry::Point2> laid, seen_centres;
-            for (std::size_t i = 0; i < found.size(); ++i) {
-                laid.push_back(markers[static_cast<std::size_t>(found[i].id)].centre_mm);
-                const auto& bed = on_bed[i];
-                seen_centres.push_back({(bed[0].x + bed[1].x + bed[2].x + bed[3].x) / 4,
-                                        (bed[0].y + bed[1].y + bed[2].y + bed[3].y) / 4});
-            }
-            const auto placement = solve::best_rigid_placement(laid, seen_centres);
-            laid_on_bed = placement;
-            double worst = 0;
-            for (std::size_t i = 0; i < laid.size(); ++i) {
-                const auto p = placement.apply(laid[i]);
-                worst =
-                    std::max(worst, std::hypot(p.x - seen_centres[i].x, p.y - seen_centres[i].y));
-            }
-            if (worst > kLayoutToleranceMm) {
-                char why[200];
-                std::snprintf(why, sizeof why,
-                              "photo %zu shows markers laid out unlike this machine's delta "
-                              "target (one is %.1f mm out of place): a photo of another target",
-                              f + 1, worst);
-                throw MeasureError(why);
-            }
-        }
-        // The fit needs the whole bed: a quarter of the target missing is not a calibration.
-        // Markers the photo should show but does not are the print's fault, not the framing's.
-        const auto missing = laid_on_bed
-                                 ? missing_markers(out.target, found, *laid_on_bed, camera, plane)
-                                 : MissingMarkers{};
-        const std::string photo_name = "photo " + std::to_string(f + 1);
-        if (found.size() * 4 < markers.size() * 3) {
-            std::string why = photo_name + " shows " + std::to_string(found.size()) +
-                              " of the target's " + std::to_string(markers.size()) + " markers";
-            if (!missing.unread.empty()) {
-                why += ": " + std::to_string(missing.unread.size()) +
-                       " in the frame could not be read (" + joined(missing.unread) +
-                       "): a squashed, smeared or missing first layer there";
-            }
-            if (missing.outside_frame > 0 || missing.unread.empty()) {
-                why += missing.unread.empty() ? ": " : "; ";
-                why += "the artifact is partly out of frame";
-            }
-            throw MeasureError(why);
-        }
-        for (const auto& marker : missing.unread) {
-            std::string line = photo_name;
-            line += ": ";
-            line += marker;
-            line += " could not be read";
-            out.markers_unread.push_back(std::move(line));
-        }
-        // Each marker's scale on the bed: its sides in millimetres over its sides in pixels.
-        std::vector<double> mm_per_px;
-        for (std::size_t i = 0; i < found.size(); ++i) {
-            double mm = 0, px = 0;
-            for (std::size_t k = 0; k < 4; ++k) {
-                const auto& a = on_bed[i][k];
-                const auto& b = on_bed[i][(k + 1) % 4];
-                mm += std::hypot(b.x - a.x, b.y - a.y);
-                px += std::hypot(found[i].corners[(k + 1) % 4].x - found[i].corners[k].x,
-                                 found[i].corners[(k + 1) % 4].y - found[i].corners[k].y);
-            }
-            mm_per_px.push_back(mm / px);
-        }
-        // The features: each marker's ring strand, its corners where its sides' centrelines
-        // meet (where the nozzle went, however wide the strand lies), each mapped to the bed at
-        // the height the strand's width there says it stands.
-        // Each ring is measured on its own (the photo and the camera only read), on all cores.
-        std::vector<vision::StrandRing> rings(found.size());
-        each_on_all_cores(found.size(), [&](std::size_t i) {
-            const auto& marker = markers[static_cast<std::size_t>(found[i].id)];
-            const vision::StrandRingLayout layout{out.target.marker_half_mm, marker.outline_half_mm,
-                                                  out.target.strand_width_mm,
-                                                  out.target.ring_gap_mm};
-            rings[i] = vision::measure_strand_ring(frame, found[i].corners, layout, &camera);
-        });
-        for (std::size_t i = 0; i < found.size(); ++i) {
-            const auto& ring = rings[i];
-            if (!ring.measured()) {
-                out.rings_unmeasured.push_back(photo_name + ": marker " +
-                                               std::to_string(found[i].id) +
-                                               "'s ring: " + ring.unmeasured_because);
-                continue;
-            }
-            for (std::size_t k = 0; k < 4; ++k) {
-                auto& corner = seen[{found[i].id, static_cast<int>(k)}];
-                const double top = out.target.top_height_mm;
-                const auto at_top =
-                    geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]}, top)[0];
-                corner.at_top.push_back(at_top);
-                const auto above_top =
-                    geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]}, top + 1)[0];
-                corner.shift = {above_top.x - at_top.x, above_top.y - at_top.y};
-                const double sigma_mm = ring.sigma_px[k] * mm_per_px[i];
-                corner.edge_variance_sum += sigma_mm * sigma_mm;
-                if (!ring.width_unmeasured_because[k].empty()) {
-                    out.heights_unmeasured.push_back(
-                        photo_name + ": marker " + std::to_string(found[i].id) + "'s corner " +
-                        std::to_string(k) + ": " + ring.width_unmeasured_because[k]);
-                    ++corner.heights_unmeasured;  // its points are then at_top's alone
-                    continue;
-                }
-                const auto height = vision::strand_height_from_width(
-                    out.target.strand_section_mm2, ring.width_px[k] * mm_per_px[i],
-                    ring.width_sigma_px[k] * mm_per_px[i]);
-                corner.on_bed.push_back(geometry::pixels_to_bed(camera, plane, {ring.corners_px[k]},
-                                                                height.height_mm)[0]);
-                corner.height_variance_sum += height.sigma_mm * height.sigma_mm;
-                corner.free_beads += height.free_bead ? 1 : 0;
-                corner.scraped += height.scraped ? 1 : 0;
-            }
-        }
-        out.frames.push_back(std::move(found));
-    }
-    // A corner's uncertainty in one frame: what its edge fits' own scatter gives (sensor noise,
-    // a ragged strand edge), on top of a floor for what they cannot see (the camera's and the
-    // plane's calibration, the print's texture): on the twin's 12 MP photos the corners are
-    // 0.003-0.005 mm from the material while their edge fits alone claim 0.0004 mm. Several
-    // frames average, and their scatter is used when it is larger.
-    constexpr double kFrameFloorMm = 0.005;
-    for (const auto& [key, corner] : seen) {
-        // A height one frame could not tell is the surface fit's in all: the frames' points
-        // are averaged at one height.
-        const bool height_measured = corner.heights_unmeasured == 0;
-        const auto& points = height_measured ? corner.on_bed : corner.at_top;
-        const auto& target_corner = markers[static_cast<std::size_t>(key.first)]
-                                        .outline_corners_mm[static_cast<std::size_t>(key.second)];
-        double mx = 0, my = 0, mz = 0;
-        for (const auto& p : points) mx += p.x, my += p.y, mz += p.z;
-        const double n = static_cast<double>(points.size());
-        // As printed: the bed has grown or shrunk since, about a point the placement absorbs.
-        mx /= n * out.bed_scale, my /= n * out.bed_scale;
-        double scatter = 0;
-        for (const auto& p : points) {
-            const double dx = p.x / out.bed_scale - mx, dy = p.y / out.bed_scale - my;
-            scatter += dx * dx + dy * dy;
-        }
-        mz /= n;
-        double height_scatter = 0;
-        for (const auto& p : points) height_scatter += (p.z - mz) * (p.z - mz);
-        // The strand's height, its uncertainty (the frames' own, or their disagreement) and the
-        // XY uncertainty it brings along the ray.
-        // A strand's width varies along a side as one over the gap, which the widths' straight
-        // fit only follows closely: on the twin the heights at the corners are within 0.005 mm
-        // where their fits claim a tenth of that. That floor is added in quadrature.
-        constexpr double kHeightFloorMm = 0.005;
-        // Unmeasured, the height is the fit's, which moves the point along its ray itself.
-        const double height_sigma =
-            !height_measured
-                ? 0.0
-                : std::max(
-                      std::sqrt(corner.height_variance_sum / n + kHeightFloorMm * kHeightFloorMm),
-                      n > 1 ? std::sqrt(height_scatter / (n - 1)) : 0.0) /
-                      std::sqrt(n);
-        const double along_ray = height_sigma * std::hypot(corner.shift.x, corner.shift.y);
-        const double frame_sigma =
-            std::sqrt(kFrameFloorMm * kFrameFloorMm + corner.edge_variance_sum / n);
-        const double xy_sigma =
-            std::max(frame_sigma, n > 1 ? std::sqrt(scatter / (2 * (n - 1))) : 0.0) / std::sqrt(n);
-        solve::FeatureMeasurement feature;
-        feature.id = corner_feature_id(key.first, key.second);
-        feature.commanded_mm = {target_corner.x, target_corner.y, out.target.top_height_mm};
-        feature.measured_mm = {mx, my};
-        feature.sigma_mm = std::sqrt(xy_sigma * xy_sigma + along_ray * along_ray);
-        feature.seen_at_height_mm = mz;
-        feature.shift_per_height = corner.shift;
-        feature.height_measured = height_measured;
-        feature.height_sigma_mm = height_sigma;
-        feature.free_bead = corner.free_beads * 2 > static_cast<int>(points.size());
-        feature.scraped = corner.scraped * 2 > static_cast<int>(points.size());
-        out.features.push_back(feature);
-    }
+    Sightings seen;
+    for (std::size_t f = 0; f < frames.size(); ++f)
+        measure_frame(frames[f], f, options, camera, plane, seen, out);
+    for (const auto& [key, corner] : seen) out.features.push_back(corner_feature(key, corner, out));
     const SurfaceModel surface = fit_surface(machine, out);
     measure_bars(machine, camera, plane, frames, surface, out);
     return out;

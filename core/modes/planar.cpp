@@ -2,8 +2,6 @@
 // by the target's two large holes, and placed on the machine's frame.
 #include "core/modes/planar.hpp"
 
-#include <Eigen/Dense>
-#include <Eigen/Sparse>
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -12,6 +10,7 @@
 #include "core/modes/mark_grid.hpp"
 #include "core/number_text.hpp"
 #include "core/solve/placement.hpp"
+#include "core/solve/view_stitching.hpp"
 
 namespace calbox::modes {
 namespace {
@@ -308,13 +307,12 @@ PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
     // view's fixed) and every hole's position, by least squares, so that a hole seen twice is
     // seen at one place. Started from the offsets the machine was sent to.
     const std::size_t n_views = views.size(), n_holes = target.holes.size();
-    std::vector<double> angle(n_views, 0);
-    std::vector<Point2> shift(n_views);
+    std::vector<Point2> start_shift(n_views);
     for (std::size_t v = 0; v < n_views; ++v) {
         const Point2 a = first.bed_of({0, 0}),
                      b = first.bed_of({views[v].offset_mm.x - views[0].offset_mm.x,
                                        views[v].offset_mm.y - views[0].offset_mm.y});
-        shift[v] = {b.x - a.x, b.y - a.y};
+        start_shift[v] = {b.x - a.x, b.y - a.y};
     }
     std::vector<int> seen_in(n_holes, 0);
     for (std::size_t v = 0; v < n_views; ++v)
@@ -328,82 +326,21 @@ PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
                               std::to_string(shared) +
                               " holes with the others; overlapping photos need at least 3");
     }
-    const auto place = [&](std::size_t v, Point2 b) {
-        const double c = std::cos(angle[v]), sn = std::sin(angle[v]);
-        return Point2{c * b.x - sn * b.y + shift[v].x, sn * b.x + c * b.y + shift[v].y};
-    };
-    std::vector<Point2> position(n_holes);
-    const auto average = [&] {
-        for (std::size_t h = 0; h < n_holes; ++h) {
-            Point2 sum;
-            int n = 0;
-            for (std::size_t v = 0; v < n_views; ++v)
-                if (const long c = index[v][h]; c >= 0) {
-                    const Point2 p = place(v, candidates[v][static_cast<std::size_t>(c)].bed_mm);
-                    sum.x += p.x, sum.y += p.y, ++n;
-                }
-            if (n > 0) position[h] = {sum.x / n, sum.y / n};
-        }
-    };
-    average();
-    if (n_views > 1) {
-        // Gauss-Newton over every view's rotation and shift (the first view's fixed: it sets
-        // the frame) and every shared hole's position: a hole seen in view v at b lies at
-        // R(angle_v) b + shift_v. Holes seen once follow from their view afterwards.
-        std::vector<long> unknown_of_hole(n_holes, -1);
-        Eigen::Index unknowns = 3 * static_cast<Eigen::Index>(n_views - 1);
+    std::vector<std::vector<std::optional<Point2>>> seen(n_views);
+    for (std::size_t v = 0; v < n_views; ++v) {
+        seen[v].resize(n_holes);
         for (std::size_t h = 0; h < n_holes; ++h)
-            if (seen_in[h] > 1) unknown_of_hole[h] = unknowns, unknowns += 2;
-        for (int iteration = 0; iteration < 6; ++iteration) {
-            std::vector<Eigen::Triplet<double>> entries;
-            std::vector<double> residual;
-            for (std::size_t v = 0; v < n_views; ++v)
-                for (std::size_t h = 0; h < n_holes; ++h) {
-                    const long c = index[v][h];
-                    if (c < 0 || unknown_of_hole[h] < 0) continue;
-                    const Point2 b = candidates[v][static_cast<std::size_t>(c)].bed_mm;
-                    const Point2 p = place(v, b);
-                    const auto row = static_cast<Eigen::Index>(residual.size());
-                    residual.push_back(position[h].x - p.x);
-                    residual.push_back(position[h].y - p.y);
-                    if (v > 0) {
-                        const auto k = 3 * static_cast<Eigen::Index>(v - 1);
-                        // d(place)/d(angle) = (-(p.y - shift.y), p.x - shift.x).
-                        entries.emplace_back(row, k, -(p.y - shift[v].y));
-                        entries.emplace_back(row + 1, k, p.x - shift[v].x);
-                        entries.emplace_back(row, k + 1, 1.0);
-                        entries.emplace_back(row + 1, k + 2, 1.0);
-                    }
-                    entries.emplace_back(row, unknown_of_hole[h], -1.0);
-                    entries.emplace_back(row + 1, unknown_of_hole[h] + 1, -1.0);
-                }
-            Eigen::SparseMatrix<double> jacobian(static_cast<Eigen::Index>(residual.size()),
-                                                 unknowns);
-            jacobian.setFromTriplets(entries.begin(), entries.end());
-            const Eigen::Map<const Eigen::VectorXd> r(residual.data(),
-                                                      static_cast<Eigen::Index>(residual.size()));
-            const Eigen::SparseMatrix<double> normal = jacobian.transpose() * jacobian;
-            Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(normal);
-            const Eigen::VectorXd step = solver.solve(jacobian.transpose() * r);
-            if (solver.info() != Eigen::Success)
-                throw PlanarError("measure: the photos' shared holes do not fix how they lie");
-            double largest = 0;
-            for (std::size_t v = 1; v < n_views; ++v) {
-                const auto k = 3 * static_cast<Eigen::Index>(v - 1);
-                angle[v] += step(k);
-                shift[v].x += step(k + 1);
-                shift[v].y += step(k + 2);
-                largest = std::max({largest, std::abs(step(k + 1)), std::abs(step(k + 2))});
-            }
-            for (std::size_t h = 0; h < n_holes; ++h)
-                if (unknown_of_hole[h] >= 0) {
-                    position[h].x += step(unknown_of_hole[h]);
-                    position[h].y += step(unknown_of_hole[h] + 1);
-                }
-            if (largest < 1e-9) break;
-        }
-        average();
+            if (const long c = index[v][h]; c >= 0)
+                seen[v][h] = candidates[v][static_cast<std::size_t>(c)].bed_mm;
     }
+    solve::ViewStitch stitch;
+    try {
+        stitch = solve::stitch_views(seen, std::move(start_shift));
+    } catch (const solve::StitchError&) {
+        throw PlanarError("measure: the photos' shared holes do not fix how they lie");
+    }
+    const auto place = [&stitch](std::size_t v, Point2 b) { return stitch.place(v, b); };
+    const auto& position = stitch.position_mm;
     std::size_t found = 0;
     for (std::size_t h = 0; h < n_holes; ++h) {
         const auto& hole = target.holes[h];

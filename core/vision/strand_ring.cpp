@@ -223,13 +223,12 @@ std::optional<BlurredBar> fit_bar(const std::vector<double>& profile, double ste
             const double inside = n1.cdf - n2.cdf;
             const double r = profile[i] - (at[0] + at[1] * (x - pivot) + at[2] * inside);
             cost += r * r;
-            const std::array<double, kParameters> all{
-                1,
-                x - pivot,
-                inside,
-                at[2] * (n2.pdf - n1.pdf) / at[5],
-                at[2] * (n1.pdf + n2.pdf) / (2 * at[5]),
-                at[2] * (n2.pdf * u2 - n1.pdf * u1) / at[5]};
+            const std::array<double, kParameters> all{1,
+                                                      x - pivot,
+                                                      inside,
+                                                      at[2] * (n2.pdf - n1.pdf) / at[5],
+                                                      at[2] * (n1.pdf + n2.pdf) / (2 * at[5]),
+                                                      at[2] * (n2.pdf * u2 - n1.pdf * u1) / at[5]};
             std::array<double, Free> j{};
             for (std::size_t k = 0; k < Free; ++k) j[k] = all[static_cast<std::size_t>(kFree[k])];
             // The lower half only: the damped solve below (LDLT) reads no other.
@@ -378,123 +377,105 @@ std::optional<BlurredBar> strand_across_side(const std::vector<StrandCrossing>& 
     return bar;
 }
 
-StrandRing measure_strand_ring(const GrayView& image,
-                               const std::array<geometry::Point2, 4>& marker_corners_px,
-                               const StrandRingLayout& layout, const geometry::CameraModel* camera,
-                               const StrandRingLimits& limits) {
-    static constexpr std::array<const char*, 4> kSideNames = {"top", "right", "bottom", "left"};
-    StrandRing ring;
-    const auto ring_corners = square_corners(layout.ring_half_mm);
-    const double half_width = layout.strand_width_mm / 2;
-    // The strand's outer edge (strand to bare bed, falling) is looked for from a little inside
-    // its expected centreline to past its commanded outer edge; its inner edge (rising) on a
-    // stretch ending just inside the outer edge found and reaching a widest strand's width
-    // further in. Neither reaches the other's competitor (the quiet zone's fill inside, a
-    // neighbour outside) however far a squashed strand spread.
-    const double outer_from_mm = -limits.centre_uncertainty_mm;
-    const double outer_to_mm = half_width + limits.reach_outside_mm;
-    std::array<SideProfiles, 4> sides;
-    std::array<geometry::Line, 4> lines;
-    // The first pass expects the ring where the marker's corners put it (a marker's own edges
-    // move with its strands' widths: tenths of a millimetre); the second where the first
-    // found it.
-    MarkerFrame frame(marker_corners_px, layout.marker_half_mm, camera);
-    for (int pass = 0; pass < 2; ++pass) {
-        if (pass == 1) {
-            std::array<Point2, 4> found{};
-            const auto met = where_sides_meet(lines);
-            if (!met) {
-                ring.unmeasured_because = "two of its sides fitted parallel";
-                return ring;
-            }
-            const auto px = frame.to_pixels(*met);
-            std::copy(px.begin(), px.end(), found.begin());
-            frame = MarkerFrame(found, layout.ring_half_mm, camera);
-        }
-        for (std::size_t k = 0; k < 4; ++k) {
-            const Point2 a = ring_corners[k], b = ring_corners[(k + 1) % 4];
-            const double length = std::hypot(b.x - a.x, b.y - a.y);
-            const Point2 along{(b.x - a.x) / length, (b.y - a.y) / length};
-            const Point2 outward{-along.y, along.x};  // the corners run clockwise as printed
-            // Every profile's two stations, in pixels, in one call through the lens.
-            std::vector<double> ts;
-            std::vector<Point2> stations;
-            const double first_mm = limits.corner_clearance_share * length;
-            const auto profiles = static_cast<int>(std::floor(
-                                      ((1 - limits.corner_clearance_share) * length - first_mm) /
-                                      limits.profile_step_mm)) +
-                                  1;
-            for (int i = 0; i < profiles; ++i) {
-                const double s = first_mm + i * limits.profile_step_mm;
-                const double t = s / length;
-                if (std::abs(t - 0.5) < limits.seam_clearance_share) continue;
-                const Point2 p{a.x + s * along.x, a.y + s * along.y};
-                ts.push_back(t);
-                for (const double d : {outer_from_mm, outer_to_mm})
-                    stations.push_back(
-                        frame.to_fit_space({p.x + d * outward.x, p.y + d * outward.y}));
-            }
-            stations = frame.to_pixels(stations);
-            auto& side = sides[k];
-            side = {};
-            std::vector<Point2> centres_px;
-            std::vector<StrandCrossing> crossings;
-            for (std::size_t i = 0; i < ts.size(); ++i) {
-                const Point2 from = stations[2 * i], to = stations[2 * i + 1];
-                const double px_per_mm =
-                    std::hypot(to.x - from.x, to.y - from.y) / (outer_to_mm - outer_from_mm);
-                auto crossing =
-                    strand_across(image, from, to, px_per_mm, layout.strand_width_mm, limits);
-                if (!crossing) continue;
-                side.t.push_back(ts[i]);
-                centres_px.push_back(crossing->centre_px);
-                if (pass == 1) crossings.push_back(std::move(*crossing));
-            }
-            if (side.t.size() < limits.min_profiles_per_side) {
-                ring.unmeasured_because = std::string("its ") + kSideNames[k] +
-                                          " side showed the strand in " +
-                                          std::to_string(side.t.size()) + " of " +
-                                          std::to_string(ts.size()) + " profiles (at least " +
-                                          std::to_string(limits.min_profiles_per_side) + " needed)";
-                return ring;
-            }
-            side.centre = frame.from_pixels(centres_px);
-            lines[k] = geometry::fit_line(side.centre);
-            if (pass == 0) continue;
-            std::string why_not;
-            const auto bar = strand_across_side(crossings, limits, why_not);
-            std::vector<double> widths;
-            widths.reserve(crossings.size());
-            for (const auto& c : crossings) widths.push_back(c.width_px);
-            const double width = widths.empty() ? 0.0 : median_of(widths);
-            if (bar && bar->blur_sigma_px > limits.widest_blur_share * width) {
-                why_not = "the lens's blur across the strand (" +
-                          number_text("%.2f", bar->blur_sigma_px) + " px) is over " +
-                          number_text("%.2f", limits.widest_blur_share) + " of its width (" +
-                          number_text("%.2f", width) + " px)";
-            }
-            if (!why_not.empty()) {
-                side.widths_unmeasured_because = why_not;
-                continue;
-            }
-            for (std::size_t i = 0; i < crossings.size(); ++i) {
-                const auto& c = crossings[i];
-                const auto held =
-                    fit_blurred_bar(c.profile, c.profile_step_px,
-                                    {c.middle_px, c.width_px, bar->blur_sigma_px, bar->contrast_dn},
-                                    BarFit::contrast_and_blur_held);
-                if (!held) continue;
-                side.width_t.push_back(side.t[i]);
-                side.width_px.push_back(held->width_px);
-            }
-        }
+namespace {
+
+constexpr std::array<const char*, 4> kSideNames = {"top", "right", "bottom", "left"};
+
+// Where one side's profiles stand: each one's share along the side (0 at its first corner, 1 at
+// its second) and its two stations in pixels, from `outer_from_mm` to `outer_to_mm` across the
+// side (outward positive), in one call through the lens. None near the corners or the seam.
+struct SideStations {
+    std::vector<double> t;
+    std::vector<Point2> px;  // two a profile
+};
+SideStations side_stations(const MarkerFrame& frame, Point2 a, Point2 b, double outer_from_mm,
+                           double outer_to_mm, const StrandRingLimits& limits) {
+    const double length = std::hypot(b.x - a.x, b.y - a.y);
+    const Point2 along{(b.x - a.x) / length, (b.y - a.y) / length};
+    const Point2 outward{-along.y, along.x};  // the corners run clockwise as printed
+    SideStations out;
+    const double first_mm = limits.corner_clearance_share * length;
+    const auto profiles =
+        static_cast<int>(std::floor(((1 - limits.corner_clearance_share) * length - first_mm) /
+                                    limits.profile_step_mm)) +
+        1;
+    for (int i = 0; i < profiles; ++i) {
+        const double s = first_mm + i * limits.profile_step_mm;
+        const double t = s / length;
+        if (std::abs(t - 0.5) < limits.seam_clearance_share) continue;
+        const Point2 p{a.x + s * along.x, a.y + s * along.y};
+        out.t.push_back(t);
+        for (const double d : {outer_from_mm, outer_to_mm})
+            out.px.push_back(frame.to_fit_space({p.x + d * outward.x, p.y + d * outward.y}));
     }
-    const auto met = where_sides_meet(lines);
-    if (!met) {
-        ring.unmeasured_because = "two of its sides fitted parallel";
-        return ring;
+    out.px = frame.to_pixels(out.px);
+    return out;
+}
+
+// A side's strand widths, on the second pass: the bar's blur and contrast over the whole side,
+// then each profile's width with them held; or, kept on the side, why they cannot be told.
+void measure_side_widths(const std::vector<StrandCrossing>& crossings,
+                         const StrandRingLimits& limits, SideProfiles& side) {
+    std::string why_not;
+    const auto bar = strand_across_side(crossings, limits, why_not);
+    std::vector<double> widths;
+    widths.reserve(crossings.size());
+    for (const auto& c : crossings) widths.push_back(c.width_px);
+    const double width = widths.empty() ? 0.0 : median_of(widths);
+    if (bar && bar->blur_sigma_px > limits.widest_blur_share * width) {
+        why_not = "the lens's blur across the strand (" + number_text("%.2f", bar->blur_sigma_px) +
+                  " px) is over " + number_text("%.2f", limits.widest_blur_share) +
+                  " of its width (" + number_text("%.2f", width) + " px)";
     }
-    const std::vector<Point2>& corners_fit = *met;
+    if (!why_not.empty()) {
+        side.widths_unmeasured_because = why_not;
+        return;
+    }
+    for (std::size_t i = 0; i < crossings.size(); ++i) {
+        const auto& c = crossings[i];
+        const auto held =
+            fit_blurred_bar(c.profile, c.profile_step_px,
+                            {c.middle_px, c.width_px, bar->blur_sigma_px, bar->contrast_dn},
+                            BarFit::contrast_and_blur_held);
+        if (!held) continue;
+        side.width_t.push_back(side.t[i]);
+        side.width_px.push_back(held->width_px);
+    }
+}
+
+// One side on one pass: the strand crossed at every station, its centreline fitted (and on the
+// second pass its widths); "" when it was, else why the ring is not measured.
+std::string measure_side(const GrayView& image, const MarkerFrame& frame,
+                         const SideStations& stations, std::size_t k, int pass,
+                         double outer_span_mm, const StrandRingLayout& layout,
+                         const StrandRingLimits& limits, SideProfiles& side, geometry::Line& line) {
+    side = {};
+    std::vector<Point2> centres_px;
+    std::vector<StrandCrossing> crossings;
+    for (std::size_t i = 0; i < stations.t.size(); ++i) {
+        const Point2 from = stations.px[2 * i], to = stations.px[2 * i + 1];
+        const double px_per_mm = std::hypot(to.x - from.x, to.y - from.y) / outer_span_mm;
+        auto crossing = strand_across(image, from, to, px_per_mm, layout.strand_width_mm, limits);
+        if (!crossing) continue;
+        side.t.push_back(stations.t[i]);
+        centres_px.push_back(crossing->centre_px);
+        if (pass == 1) crossings.push_back(std::move(*crossing));
+    }
+    if (side.t.size() < limits.min_profiles_per_side)
+        return std::string("its ") + kSideNames[k] + " side showed the strand in " +
+               std::to_string(side.t.size()) + " of " + std::to_string(stations.t.size()) +
+               " profiles (at least " + std::to_string(limits.min_profiles_per_side) + " needed)";
+    side.centre = frame.from_pixels(centres_px);
+    line = geometry::fit_line(side.centre);
+    if (pass == 1) measure_side_widths(crossings, limits, side);
+    return {};
+}
+
+// The ring's corners where its fitted sides meet (`corners_fit`, fit space), each with its
+// uncertainty and the strand's width there, from the two sides that meet at it.
+void ring_corners(const std::array<geometry::Line, 4>& lines,
+                  const std::array<SideProfiles, 4>& sides, const std::vector<Point2>& corners_fit,
+                  const MarkerFrame& frame, const StrandRingLimits& limits, StrandRing& ring) {
     const auto corners_px = frame.to_pixels(corners_fit);
     for (std::size_t k = 0; k < 4; ++k) {
         const std::size_t before = (k + 3) % 4;
@@ -525,6 +506,57 @@ StrandRing measure_strand_ring(const GrayView& image,
                                            start_of_this.sigma * start_of_this.sigma) /
                                  2;
     }
+}
+
+}  // namespace
+
+StrandRing measure_strand_ring(const GrayView& image,
+                               const std::array<geometry::Point2, 4>& marker_corners_px,
+                               const StrandRingLayout& layout, const geometry::CameraModel* camera,
+                               const StrandRingLimits& limits) {
+    StrandRing ring;
+    const auto corners_laid = square_corners(layout.ring_half_mm);
+    const double half_width = layout.strand_width_mm / 2;
+    // The strand's outer edge (strand to bare bed, falling) is looked for from a little inside
+    // its expected centreline to past its commanded outer edge; its inner edge (rising) on a
+    // stretch ending just inside the outer edge found and reaching a widest strand's width
+    // further in. Neither reaches the other's competitor (the quiet zone's fill inside, a
+    // neighbour outside) however far a squashed strand spread.
+    const double outer_from_mm = -limits.centre_uncertainty_mm;
+    const double outer_to_mm = half_width + limits.reach_outside_mm;
+    std::array<SideProfiles, 4> sides;
+    std::array<geometry::Line, 4> lines;
+    // The first pass expects the ring where the marker's corners put it (a marker's own edges
+    // move with its strands' widths: tenths of a millimetre); the second where the first
+    // found it.
+    MarkerFrame frame(marker_corners_px, layout.marker_half_mm, camera);
+    for (int pass = 0; pass < 2; ++pass) {
+        if (pass == 1) {
+            std::array<Point2, 4> found{};
+            const auto met = where_sides_meet(lines);
+            if (!met) {
+                ring.unmeasured_because = "two of its sides fitted parallel";
+                return ring;
+            }
+            const auto px = frame.to_pixels(*met);
+            std::copy(px.begin(), px.end(), found.begin());
+            frame = MarkerFrame(found, layout.ring_half_mm, camera);
+        }
+        for (std::size_t k = 0; k < 4; ++k) {
+            const auto stations = side_stations(frame, corners_laid[k], corners_laid[(k + 1) % 4],
+                                                outer_from_mm, outer_to_mm, limits);
+            ring.unmeasured_because =
+                measure_side(image, frame, stations, k, pass, outer_to_mm - outer_from_mm, layout,
+                             limits, sides[k], lines[k]);
+            if (!ring.unmeasured_because.empty()) return ring;
+        }
+    }
+    const auto met = where_sides_meet(lines);
+    if (!met) {
+        ring.unmeasured_because = "two of its sides fitted parallel";
+        return ring;
+    }
+    ring_corners(lines, sides, *met, frame, limits, ring);
     return ring;
 }
 

@@ -20,7 +20,12 @@ constexpr double kMostTopMm = 200;
 constexpr double kTouchPlaceToleranceMm = 0.01;
 
 std::string xy_text(Point2 p) {
-    return "X" + number_text("%.3f", p.x) + " Y" + number_text("%.3f", p.y);
+    // Appended piece by piece: GCC 12 at -O3 warns falsely on a literal + a temporary string.
+    std::string text = "X";
+    text += number_text("%.3f", p.x);
+    text += " Y";
+    text += number_text("%.3f", p.y);
+    return text;
 }
 
 }  // namespace

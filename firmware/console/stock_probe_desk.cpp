@@ -24,7 +24,12 @@ namespace {
 constexpr const char* kUsage = "usage: probe stock [ON_X,ON_Y BESIDE_X,BESIDE_Y] [confirm]";
 
 std::string xy_text(geometry::Point2 p) {
-    return "X" + number_text("%.3f", p.x) + " Y" + number_text("%.3f", p.y);
+    // Appended piece by piece: GCC 12 at -O3 warns falsely on a literal + a temporary string.
+    std::string text = "X";
+    text += number_text("%.3f", p.x);
+    text += " Y";
+    text += number_text("%.3f", p.y);
+    return text;
 }
 
 // The two points: as given (machine X,Y, the sheet's first), or at the found sheet's corner.

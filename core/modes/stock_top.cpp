@@ -19,15 +19,6 @@ constexpr double kMostTopMm = 200;
 // this cycle's (a report left from an earlier one, or a move that went elsewhere).
 constexpr double kTouchPlaceToleranceMm = 0.01;
 
-std::string xy_text(Point2 p) {
-    // Appended piece by piece: GCC 12 at -O3 warns falsely on a literal + a temporary string.
-    std::string text = "X";
-    text += number_text("%.3f", p.x);
-    text += " Y";
-    text += number_text("%.3f", p.y);
-    return text;
-}
-
 }  // namespace
 
 StockProbePoints probe_points_at_corner(const StockOutline& stock, const std::string& source,
@@ -58,7 +49,7 @@ std::vector<std::string> touch_probe_commands(const models::TouchProbeSettings& 
                              number_text("%.1f", probe.feed_mm_min);
     std::vector<std::string> lines{"G21", "G90", lift};
     for (const Point2 at : {points.on_sheet_mm, points.beside_mm})
-        lines.insert(lines.end(), {"G53 G0 " + xy_text(at), "G91", down, "G90", lift});
+        lines.insert(lines.end(), {"G53 G0 " + machine_xy_text(at), "G91", down, "G90", lift});
     return lines;
 }
 
@@ -90,8 +81,8 @@ StockTop stock_top_from_touches(const std::vector<Point3>& touches, const StockP
         if (std::abs(touch.x - sent.x) > kTouchPlaceToleranceMm ||
             std::abs(touch.y - sent.y) > kTouchPlaceToleranceMm)
             throw StockError(std::string("the probe touched ") + what + " at machine " +
-                             xy_text({touch.x, touch.y}) + ", not at " + xy_text(sent) +
-                             " where it was sent");
+                             machine_xy_text({touch.x, touch.y}) + ", not at " +
+                             machine_xy_text(sent) + " where it was sent");
     };
     check_place(touches[0], points.on_sheet_mm, "the sheet");
     check_place(touches[1], points.beside_mm, "the bed");
@@ -137,6 +128,15 @@ StockTop stock_top_from_json(const std::string& text, const std::string& source)
     } catch (const nlohmann::json::exception& e) {
         throw RecordError(source + ": malformed stock top: " + e.what());
     }
+}
+
+std::string machine_xy_text(Point2 p) {
+    // Appended piece by piece: GCC 12 at -O3 warns falsely on a literal + a temporary string.
+    std::string text = "X";
+    text += number_text("%.3f", p.x);
+    text += " Y";
+    text += number_text("%.3f", p.y);
+    return text;
 }
 
 }  // namespace calbox::modes

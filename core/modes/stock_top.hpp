@@ -44,6 +44,9 @@ struct StockTop {
 StockTop stock_top_from_touches(const std::vector<geometry::Point3>& touches,
                                 const StockProbePoints& points, double repeatability_mm);
 
+// "X-250.000 Y-240.000": a machine point as the probe's lines and messages write it.
+std::string machine_xy_text(geometry::Point2 p);
+
 // The probed top's file, `calbox.stock-top/1`. Reading throws RecordError naming `source`.
 std::string stock_top_to_json(const StockTop& top);
 StockTop stock_top_from_json(const std::string& text, const std::string& source);

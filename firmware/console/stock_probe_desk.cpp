@@ -23,15 +23,6 @@ namespace {
 
 constexpr const char* kUsage = "usage: probe stock [ON_X,ON_Y BESIDE_X,BESIDE_Y] [confirm]";
 
-std::string xy_text(geometry::Point2 p) {
-    // Appended piece by piece: GCC 12 at -O3 warns falsely on a literal + a temporary string.
-    std::string text = "X";
-    text += number_text("%.3f", p.x);
-    text += " Y";
-    text += number_text("%.3f", p.y);
-    return text;
-}
-
 // The two points: as given (machine X,Y, the sheet's first), or at the found sheet's corner.
 modes::StockProbePoints points_of(const std::vector<std::string>& given, hal::Storage& data) {
     if (given.size() == 2) {
@@ -81,17 +72,17 @@ ConsoleCommand StockProbeDesk::command() {
             const auto points = points_of(given, data_);
             for (const auto at : {points.on_sheet_mm, points.beside_mm})
                 if (!inside_stated_travel(machine, at))
-                    throw ConsoleRefused("probe stock: machine " + xy_text(at) +
+                    throw ConsoleRefused("probe stock: machine " + modes::machine_xy_text(at) +
                                          " is beyond the machine file's travel (or it gives "
                                          "none)");
             const auto lines = modes::touch_probe_commands(*machine.touch_probe, points);
             std::string sent;
             for (const auto& l : lines) sent += (sent.empty() ? "" : "; ") + l;
             reply.data = {{"commands", lines}, {"sent", confirmed}, {"from", points.from}};
-            const std::string what = "the sheet at machine " + xy_text(points.on_sheet_mm) +
-                                     ", the bed at " + xy_text(points.beside_mm) + " (" +
-                                     points.from + "), from machine Z" +
-                                     number_text("%.3f", machine.touch_probe->clear_z_mm);
+            const std::string what =
+                "the sheet at machine " + modes::machine_xy_text(points.on_sheet_mm) +
+                ", the bed at " + modes::machine_xy_text(points.beside_mm) + " (" + points.from +
+                "), from machine Z" + number_text("%.3f", machine.touch_probe->clear_z_mm);
             if (!confirmed) {
                 reply.text = "would probe " + what + ": '" + sent +
                              "': say it again with confirm, the probe ready";

@@ -6,9 +6,10 @@
 #include "drivers/durable_file.hpp"
 #include "drivers/http_client.hpp"
 #include "drivers/http_server.hpp"
-#include "drivers/tls.hpp"
 #include "drivers/mqtt_client.hpp"
 #include "drivers/password.hpp"
+#include "drivers/text_connection.hpp"
+#include "drivers/tls.hpp"
 
 namespace calbox::drivers {
 namespace {
@@ -64,6 +65,10 @@ class SystemNetwork final : public hal::Network {
                                             std::move(callbacks));
     }
     hal::PasswordHasher& passwords() override { return passwords_; }
+    std::unique_ptr<hal::TextConnection> connect_text(const std::string& host, int port,
+                                                      std::chrono::milliseconds timeout) override {
+        return drivers::connect_text(host, port, timeout);
+    }
 
   private:
     SystemHttp http_;

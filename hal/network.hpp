@@ -2,6 +2,7 @@
 // What the network gives the appliance, opened by a board (board::network()) as it opens ports
 // and Modbus roles: an HTTP client, listeners, MQTT sessions, and the password hasher of the web
 // page's password.
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -42,6 +43,18 @@ class Certificates {
     virtual CertificateFacts check(const ServerTls& files) = 0;
 };
 
+// A conversation in text lines over TCP (a telnet-style service: LinuxCNC's linuxcncrsh),
+// blocking, each wait bounded; for a link's request thread.
+class TextConnection {
+  public:
+    virtual ~TextConnection() = default;
+    // Writes `line` and "\r\n". Throws NetworkError when the connection is gone.
+    virtual void write_line(const std::string& line) = 0;
+    // The next line, its "\r\n" dropped; empty when none came within `timeout`. Throws
+    // NetworkError when the peer closes.
+    virtual std::optional<std::string> read_line(std::chrono::milliseconds timeout) = 0;
+};
+
 class Network {
   public:
     virtual ~Network() = default;
@@ -60,6 +73,10 @@ class Network {
                                               const MqttBroker& broker, MqttWill will,
                                               MqttCallbacks callbacks) = 0;
     virtual PasswordHasher& passwords() = 0;
+    // Connects to `port` of `host` (a name or an address) within `timeout`. Throws NetworkError
+    // naming the host, the port and why.
+    virtual std::unique_ptr<TextConnection> connect_text(const std::string& host, int port,
+                                                         std::chrono::milliseconds timeout) = 0;
 };
 
 }  // namespace calbox::hal

@@ -18,6 +18,7 @@
 
 #include "board/sim/duet_twin.hpp"
 #include "board/sim/gcode_runner.hpp"
+#include "board/sim/linuxcnc_twin.hpp"
 #include "board/sim/moonraker_twin.hpp"
 #include "board/sim/octoprint_twin.hpp"
 #include "board/sim/photo_cache.hpp"
@@ -195,6 +196,11 @@ std::vector<std::string> TwinBench::run_printer_line(std::string_view line) {
     for (std::size_t i = replies_before; i < replies.size(); ++i)
         if (replies[i] != "ok") out.push_back(replies[i]);
     return out;
+}
+
+Vec3 TwinBench::machine_work_zero_mm() const {
+    const std::lock_guard lock(mutex_);
+    return machine_->work_zero_mm();
 }
 
 DeltaParams TwinBench::delta_printer_firmware() const {
@@ -741,15 +747,25 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const Si
             throw ScenarioError(settings.scenario_path +
                                 ": the twin's Moonraker host serves a Klipper delta or cartesian "
                                 "printer");
+        if (machine.link.kind == "linuxcnc" && machine.kind != "router")
+            throw ScenarioError(settings.scenario_path +
+                                ": the twin's LinuxCNC drives a router ([machine] kind = "
+                                "\"router\")");
+        if (machine.link.kind == "linuxcnc" && board.bench->scenario().host_tls)
+            throw ScenarioError(settings.scenario_path + ": linuxcncrsh speaks no TLS");
         // The host's key, made anew each run and handed to the box in its key file (the
         // scenario's own key_file, if any, is a real box's and not read).
         std::random_device random;
         char key[33];
         std::snprintf(key, sizeof key, "%08x%08x%08x%08x", random(), random(), random(), random());
+        // linuxcncrsh's two passwords: the connect one, then the enable one.
+        const std::string key_text = machine.link.kind == "linuxcnc"
+                                         ? std::string(key, 16) + " " + std::string(key + 16, 16)
+                                         : std::string(key);
         const auto key_file = settings.data_dir / kTwinHostKeyFile;
         {
             std::ofstream out(key_file, std::ios::trunc);
-            out << key << "\n";
+            out << key_text << "\n";
             if (!out.flush()) throw ScenarioError(key_file.string() + ": cannot write");
         }
         std::filesystem::permissions(
@@ -762,6 +778,8 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const Si
             board.host = std::make_unique<MoonrakerTwin>(board.bench, host_dir, host);
         else if (machine.link.kind == "octoprint")
             board.host = std::make_unique<OctoPrintTwin>(board.bench, host_dir, host);
+        else if (machine.link.kind == "linuxcnc")
+            board.host = std::make_unique<LinuxCncTwin>(board.bench, key_text, host.faults);
         else
             board.host = std::make_unique<DuetTwin>(board.bench, host_dir, host);
         board.machine.link.url = board.host->url();

@@ -51,6 +51,8 @@ class TwinBench {
     // Throw std::logic_error on another machine.
     DeltaParams delta_printer_firmware() const;
     void restart_delta_printer(const DeltaParams& firmware, double klipper_probe_z_offset_mm = 0);
+    // Where the machine's work zero (G54) is now, in its machine coordinates.
+    Vec3 machine_work_zero_mm() const;
     // The same for a cartesian printer (Klipper's restart leaves no skew in force), and the skew
     // Klipper's SET_SKEW or SKEW_PROFILE LOAD puts in force.
     CartesianFirmware cartesian_printer_firmware() const;

@@ -209,7 +209,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     }
     if (const auto* link = subtable(file, root, "link")) {
         TomlReader l(file, *link, "link");
-        l.text("kind", m.link.kind, {"serial", "moonraker", "octoprint", "duet"});
+        l.text("kind", m.link.kind, {"serial", "moonraker", "octoprint", "duet", "linuxcnc"});
         std::optional<std::string> url, key_file, ca_file;
         std::optional<double> reply_timeout_s, restart_timeout_s;
         l.text("url", url);
@@ -220,7 +220,8 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         l.finish();
         // A serial link's timing is the box's own (its G-code host); these keys are a host's.
         if (!m.link.is_host()) {
-            const char* why = "is a host's (kind = \"moonraker\", \"octoprint\" or \"duet\")";
+            const char* why =
+                "is a host's (kind = \"moonraker\", \"octoprint\", \"duet\" or \"linuxcnc\")";
             if (url) l.fail("url", why);
             if (key_file) l.fail("key_file", why);
             if (ca_file) l.fail("ca_file", why);
@@ -351,6 +352,9 @@ std::string link_mismatch(const MachineFile& m) {
                m.firmware + "\")";
     if (m.link.kind == "duet" && m.firmware != "rrf")
         return "a Duet's web API serves RepRapFirmware ([machine] firmware = \"rrf\", not \"" +
+               m.firmware + "\")";
+    if (m.link.kind == "linuxcnc" && m.firmware != "linuxcnc")
+        return "linuxcncrsh serves LinuxCNC machines ([machine] firmware = \"linuxcnc\", not \"" +
                m.firmware + "\")";
     return {};
 }

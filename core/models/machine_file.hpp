@@ -95,10 +95,12 @@ struct DeltaLimits {
 // [link]: how the box reaches the machine. "serial": the port its board gives it, which it
 // owns. "moonraker": Klipper through its Moonraker host at `url`, which owns the printer's port;
 // "octoprint": Marlin through OctoPrint; "duet": RepRapFirmware through a Duet's web API (its
-// key_file holds the board's password).
+// key_file holds the board's password); "linuxcnc": LinuxCNC through its linuxcncrsh server at
+// `url` HOST:PORT (its key_file holds the connect and the enable password).
 struct MachineLinkSettings {
-    std::string kind = "serial";  // serial | moonraker | octoprint | duet
-    std::string url;              // a host's: "http://printer.local:7125" (the sim board's own)
+    std::string kind = "serial";  // serial | moonraker | octoprint | duet | linuxcnc
+    // A host's: "http://printer.local:7125" (the sim board's own); linuxcnc's "cnc.local:5007".
+    std::string url;
     // A file holding the host's API key: the key itself is never in the machine file, which is
     // copied into records and shown.
     std::string key_file;

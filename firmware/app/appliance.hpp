@@ -25,10 +25,10 @@ struct ApplianceDevices {
     hal::Lines& lines;
     hal::Display& display;
     hal::SerialPort* machine;  // the machine's serial port; none for a machine behind a host
-    hal::HttpClient* http;     // a printer's host's link; none without a network
+    hal::Network* network;     // a host's link (HTTP, linuxcncrsh); none without a network
     static ApplianceDevices of(board::Devices& d, hal::Camera* camera = nullptr) {
         return {camera != nullptr ? *camera : *d.camera, *d.lines, *d.display, d.machine.get(),
-                d.network ? &d.network->http() : nullptr};
+                d.network.get()};
     }
 };
 
@@ -43,7 +43,7 @@ struct Appliance {
               GcodeHostSettings serial, const models::MachineFile& machine, CycleSettings settings,
               const Cycle::Log& log)
         : data(data_dir),
-          link(make_machine_link(machine, devices.machine, devices.http, clock, serial, log)),
+          link(make_machine_link(machine, devices.machine, devices.network, clock, serial, log)),
           cycle({devices.camera, devices.lines, *link, devices.display, clock, data, worker},
                 machine, std::move(settings), log) {
         watch_cycle(loop, cycle, *link, devices.camera, devices.lines);

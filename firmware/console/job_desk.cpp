@@ -8,6 +8,8 @@
 #include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"
 #include "core/modes/stock.hpp"
+#include "core/modes/stock_top.hpp"
+#include "core/modes/work_zero_link.hpp"
 #include "core/number_text.hpp"
 #include "firmware/cycle/cycle.hpp"
 
@@ -251,91 +253,110 @@ ConsoleCommand JobDesk::command() {
 }
 
 ConsoleCommand JobDesk::zero_command() {
-    return {
-        "work zero", "work zero ZERO [confirm]",
-        "the controller's G54 zero at ZERO: machine X,Y, or camera [CORNER] (the corner of the "
-        "sheet the last bed photo found): shown first, sent (grbl's G10 L2 P1) only with confirm, "
-        "then read back",
-        [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
-            const auto [given, confirmed] = words_and_confirm(words, 2);
-            std::string spec;
-            for (const auto& w : given) spec += (spec.empty() ? "" : " ") + w;
-            if (spec.empty())
-                throw ConsoleRefused(
-                    "usage: work zero ZERO [confirm] (ZERO: X,Y or camera [CORNER])");
-            const auto& machine = cycle_.machine();
-            if (machine.firmware != "grbl")
-                throw ConsoleRefused(
-                    "work zero: the box sets G54 on grbl (G10 L2 P1, read back by "
-                    "$#); this machine's firmware is " +
-                    machine.firmware + ": set it on the controller");
-            geometry::Point2 zero;
-            std::string from;
-            try {
-                if (const auto corner = camera_corner_of(spec)) {
-                    const auto text = data_.read_file(kFoundStockFile);
-                    if (!text)
-                        throw ConsoleRefused(
-                            "work zero: no sheet found on the bed: take a bed "
-                            "photo with the sheet in view (bed photo)");
-                    const auto found = modes::stock_from_json(*text, kFoundStockFile);
-                    const auto& c = modes::stock_corner(found.stock, *corner);
-                    zero = c.machine_mm;
-                    from = std::string(kFoundStockFile) + "'s " + c.name + " corner";
-                } else {
-                    const auto given_zero = one_xy_of(spec);
-                    if (!given_zero)
-                        throw ConsoleRefused("work zero '" + spec +
-                                             "': give X,Y (G54's zero in machine coordinates) "
-                                             "or camera [CORNER]");
-                    zero = *given_zero;
-                    from = "X,Y as given";
-                }
-            } catch (const ConsoleRefused&) {
-                throw;
-            } catch (const std::exception& e) {
-                throw ConsoleRefused("work zero: " + std::string(e.what()));
-            }
-            // Bounds first: a zero beyond the travel would send every job off the machine.
-            if (!inside_stated_travel(machine, zero))
-                throw ConsoleRefused("work zero: machine X" + number_text("%.3f", zero.x) + " Y" +
-                                     number_text("%.3f", zero.y) +
-                                     " is beyond the machine file's travel (or it gives none)");
-            const std::string command =
-                "G10 L2 P1 X" + number_text("%.3f", zero.x) + " Y" + number_text("%.3f", zero.y);
-            reply.data = {{"command", command}, {"sent", confirmed}};
-            if (!confirmed) {
-                reply.text = "would send '" + command + "' (G54's zero at " + from +
-                             "): say it again with confirm";
-                return;
-            }
-            if (busy_ || cycle_.state() != CycleState::idle || link_.busy())
-                throw ConsoleRefused(
-                    "work zero: the machine link is busy: try again when the "
-                    "box is idle");
-            busy_ = true;
-            link_.send_commands({command, "$#"}, [this, command, zero](const JobOutcome& outcome) {
-                busy_ = false;
-                if (!outcome.ok) {
-                    notice_("work zero: '" + command + "' failed: " + outcome.error);
+    return {"work zero", "work zero ZERO [confirm]",
+            "the controller's G54 zero at ZERO: machine X,Y, or camera [CORNER] (the corner of the "
+            "sheet the last bed photo found): shown first, sent (G10 L2 P1: grbl's, LinuxCNC's by "
+            "MDI) only with confirm, then read back",
+            [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
+                const auto [given, confirmed] = words_and_confirm(words, 2);
+                std::string spec;
+                for (const auto& w : given) spec += (spec.empty() ? "" : " ") + w;
+                if (spec.empty())
+                    throw ConsoleRefused(
+                        "usage: work zero ZERO [confirm] (ZERO: X,Y or camera [CORNER])");
+                const auto& machine = cycle_.machine();
+                if (!modes::sets_work_zero(machine.firmware))
+                    throw ConsoleRefused(
+                        "work zero: the box sets G54 on grbl and LinuxCNC (G10 L2 P1, read back); "
+                        "this machine's firmware is " +
+                        machine.firmware + ": set it on the controller");
+                const auto placed = work_zero_of(spec);
+                const geometry::Point2 zero = placed.first;
+                const std::string& from = placed.second;
+                // Bounds first: a zero beyond the travel would send every job off the machine.
+                if (!inside_stated_travel(machine, zero))
+                    throw ConsoleRefused("work zero: machine " + modes::machine_xy_text(zero) +
+                                         " is beyond the machine file's travel (or it gives none)");
+                const std::string command = modes::work_zero_command(zero);
+                reply.data = {{"command", command}, {"sent", confirmed}};
+                if (!confirmed) {
+                    reply.text = "would send '" + command + "' (G54's zero at " + from +
+                                 "): say it again with confirm";
                     return;
                 }
-                const auto read = modes::grbl_work_zero_of(outcome.replies, "G54");
-                const geometry::Point2 reported = read.value_or(geometry::Point2{1e300, 1e300});
-                const auto at = [](geometry::Point2 p) {
-                    return "machine X" + number_text("%.3f", p.x) + " Y" + number_text("%.3f", p.y);
-                };
-                if (std::abs(reported.x - zero.x) > 0.0015 ||
-                    std::abs(reported.y - zero.y) > 0.0015)
-                    notice_("work zero: sent '" + command + "', but the controller reports G54 " +
-                            (read ? "at " + at(reported) : std::string("nowhere ($# gave none)")) +
-                            ": check it before running a job");
-                else
-                    notice_("work zero: the controller's G54 zero at " + at(zero) + " (sent '" +
-                            command + "', read back by $#)");
-            });
-            reply.text = "sending '" + command + "'";
-        }};
+                if (busy_ || cycle_.state() != CycleState::idle || link_.busy())
+                    throw ConsoleRefused(
+                        "work zero: the machine link is busy: try again when the "
+                        "box is idle");
+                busy_ = true;
+                const auto units = modes::work_zero_units_query(machine.firmware);
+                if (units.empty()) {
+                    send_work_zero(zero);
+                } else {
+                    link_.send_commands(units, [this, zero](const JobOutcome& outcome) {
+                        const std::string firmware = cycle_.machine().firmware;
+                        const std::string refused =
+                            outcome.ok ? modes::work_zero_units_refusal(firmware, outcome.replies)
+                                       : outcome.error;
+                        if (!refused.empty()) {
+                            busy_ = false;
+                            notice_("work zero: nothing sent: " + refused);
+                            return;
+                        }
+                        send_work_zero(zero);
+                    });
+                }
+                reply.text = "sending '" + command + "'";
+            }};
+}
+
+std::pair<geometry::Point2, std::string> JobDesk::work_zero_of(const std::string& spec) const {
+    try {
+        if (const auto corner = camera_corner_of(spec)) {
+            const auto text = data_.read_file(kFoundStockFile);
+            if (!text)
+                throw ConsoleRefused(
+                    "work zero: no sheet found on the bed: take a bed "
+                    "photo with the sheet in view (bed photo)");
+            const auto found = modes::stock_from_json(*text, kFoundStockFile);
+            const auto& c = modes::stock_corner(found.stock, *corner);
+            return {c.machine_mm, std::string(kFoundStockFile) + "'s " + c.name + " corner"};
+        }
+        const auto given_zero = one_xy_of(spec);
+        if (!given_zero)
+            throw ConsoleRefused("work zero '" + spec +
+                                 "': give X,Y (G54's zero in machine coordinates) "
+                                 "or camera [CORNER]");
+        return {*given_zero, "X,Y as given"};
+    } catch (const ConsoleRefused&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw ConsoleRefused("work zero: " + std::string(e.what()));
+    }
+}
+
+void JobDesk::send_work_zero(geometry::Point2 zero) {
+    const std::string firmware = cycle_.machine().firmware;
+    const std::string command = modes::work_zero_command(zero);
+    link_.send_commands(modes::work_zero_exchange(firmware, zero), [this, command, zero, firmware](
+                                                                       const JobOutcome& outcome) {
+        busy_ = false;
+        if (!outcome.ok) {
+            notice_("work zero: '" + command + "' failed: " + outcome.error);
+            return;
+        }
+        const auto read = modes::work_zero_read_back(firmware, outcome.replies);
+        const std::string report = modes::work_zero_report_name(firmware);
+        if (!read || std::abs(read->x - zero.x) > 0.0015 || std::abs(read->y - zero.y) > 0.0015)
+            notice_("work zero: sent '" + command + "', but the controller reports G54 " +
+                    (read ? "at machine " + modes::machine_xy_text(*read)
+                          : "nowhere (" + report + " gave none)") +
+                    ": check it before running a job");
+        else
+            notice_("work zero: the controller's G54 zero at machine " +
+                    modes::machine_xy_text(zero) + " (sent '" + command + "', read back by " +
+                    report + ")");
+    });
 }
 
 }  // namespace calbox::firmware

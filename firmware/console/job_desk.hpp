@@ -9,6 +9,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/modes/compensate_job.hpp"
@@ -53,6 +54,10 @@ class JobDesk {
 
   private:
     void compensate(const DeskOrder& order, std::string result_text, std::string job_text);
+    // ZERO's machine point and where it came from, for the message; throws ConsoleRefused.
+    std::pair<geometry::Point2, std::string> work_zero_of(const std::string& spec) const;
+    // Sends the zero and reads it back, the outcome a notice; busy_ until then.
+    void send_work_zero(geometry::Point2 zero);
     Cycle& cycle_;
     MachineLink& link_;
     hal::Storage& data_;

@@ -21,9 +21,21 @@ std::string http_error_line(const hal::HttpResponse& reply) {
 HostLink::HostLink(std::string name, net::Url url, hal::HttpClient& http, Log log)
     : name_(std::move(name)),
       url_(std::move(url)),
-      http_(http),
+      where_(url_.origin()),
+      http_(&http),
       log_(std::move(log)),
       job_(std::make_unique<hal::BackgroundJob<JobOutcome>>()) {}
+
+HostLink::HostLink(std::string name, std::string address, Log log)
+    : name_(std::move(name)),
+      where_(std::move(address)),
+      log_(std::move(log)),
+      job_(std::make_unique<hal::BackgroundJob<JobOutcome>>()) {}
+
+hal::HttpClient& HostLink::http_client() const {
+    if (http_ == nullptr) throw std::logic_error(describe() + " is not spoken to over HTTP");
+    return *http_;
+}
 
 void HostLink::attach(EventLoop& loop) {
     loop.watch(job_->fd(), [this] { finished(); });

@@ -1,5 +1,6 @@
 #pragma once
-// What every link to a printer's host shares (Moonraker, OctoPrint, Duet): each request runs on
+// What every link to a printer's host shares (Moonraker, OctoPrint, Duet, LinuxCNC's
+// linuxcncrsh): each request runs on
 // a thread of its own, blocking on the host's API; its `done` comes back through the event loop.
 // A cancel or the box stopping ends the request at its next wait; a print running on the host is
 // left to the host, and said so.
@@ -34,10 +35,12 @@ class HostLink : public MachineLink {
     using Log = hal::Log;
     // `name`: "moonraker", "octoprint", "duet", for the log.
     HostLink(std::string name, net::Url url, hal::HttpClient& http, Log log);
+    // A host spoken to in its own protocol (not HTTP) at `address` ("HOST:PORT").
+    HostLink(std::string name, std::string address, Log log);
 
     void attach(EventLoop& loop) final;
     void detach(EventLoop& loop) final;
-    std::string describe() const final { return name_ + " " + url_.origin(); }
+    std::string describe() const final { return name_ + " " + where_; }
     bool busy() const final { return static_cast<bool>(done_); }
     void cancel(const std::string& why) final;
     std::string closing_note() const final;
@@ -51,6 +54,7 @@ class HostLink : public MachineLink {
     void finish_requests();
     // On the request thread: throws LinkError("stopped") once cancelled or stopping.
     void check_stop() const;
+    bool stop_asked() const { return stopping_; }
     // Waits `how_long` unless cancelled meanwhile (then throws as check_stop).
     void pause(std::chrono::milliseconds how_long) const;
     // `request` given the link's session (the subclass's, used on the request thread only).
@@ -86,7 +90,7 @@ class HostLink : public MachineLink {
                             std::chrono::milliseconds start_timeout,
                             const std::function<PrintReport(bool seen_printing)>& poll);
     const net::Url& url() const { return url_; }
-    hal::HttpClient& http_client() const { return http_; }
+    hal::HttpClient& http_client() const;
     const Log& log() const { return log_; }
 
   private:
@@ -94,7 +98,8 @@ class HostLink : public MachineLink {
 
     std::string name_;
     net::Url url_;
-    hal::HttpClient& http_;
+    std::string where_;
+    hal::HttpClient* http_ = nullptr;
     Log log_;
     Done done_;
     std::string cancelled_;

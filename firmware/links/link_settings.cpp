@@ -17,10 +17,10 @@ const SettingKey<LinkSettings> kLinkKeys[] = {
       {},
       0,
       0,
-      "machine|serial|moonraker|octoprint|duet",
+      "machine|serial|moonraker|octoprint|duet|linuxcnc",
       true,
-      "how the box reaches the machine: machine (its machine file's [link]), its serial port, or "
-      "a host that owns the printer (docs/links.md)"},
+      "how the box reaches the machine: machine (its machine file's [link]), its serial port, "
+      "a host that owns the printer, or LinuxCNC's linuxcncrsh (docs/links.md)"},
      [](const LinkSettings& s) { return s.kind; },
      [](LinkSettings& s, const KeyInfo& k, std::string_view t) { s.kind = choice(k, t); }},
     {{"url",
@@ -30,11 +30,18 @@ const SettingKey<LinkSettings> kLinkKeys[] = {
       0,
       {},
       true,
-      "the host's address, http://HOST:PORT or https://... (empty: the machine file's)"},
+      "the host's address, http://HOST:PORT or https://..., or linuxcncrsh's HOST:PORT (empty: "
+      "the machine file's)"},
      [](const LinkSettings& s) { return s.url; },
      [](LinkSettings& s, const KeyInfo&, std::string_view t) {
          const std::string url = one_line(t);
-         if (!url.empty()) {
+         if (!url.empty() && url.find("://") == std::string::npos) {
+             try {
+                 (void)net::parse_host_port(url, true);
+             } catch (const std::invalid_argument& e) {
+                 throw ConfigError(std::string(e.what()) + " (a URL, or linuxcncrsh's HOST:PORT)");
+             }
+         } else if (!url.empty()) {
              try {
                  (void)net::parse_url(url);
              } catch (const std::invalid_argument& e) {
@@ -50,7 +57,8 @@ const SettingKey<LinkSettings> kLinkKeys[] = {
       0,
       {},
       true,
-      "the file holding the host's API key, alone (empty: the machine file's)"},
+      "the file holding the host's API key, alone, or linuxcncrsh's connect and enable passwords "
+      "(empty: the machine file's)"},
      [](const LinkSettings& s) { return s.key_file; },
      [](LinkSettings& s, const KeyInfo&, std::string_view t) { s.key_file = one_line(t); }},
     {{"ca_file",

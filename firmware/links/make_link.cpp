@@ -5,40 +5,74 @@
 #include <sstream>
 
 #include "firmware/links/duet_link.hpp"
+#include "firmware/links/linuxcnc_link.hpp"
 #include "firmware/links/moonraker_link.hpp"
 #include "firmware/links/octoprint_link.hpp"
 
 namespace calbox::firmware {
 namespace {
 
+std::chrono::milliseconds milliseconds_of(double seconds) {
+    return std::chrono::milliseconds(static_cast<long long>(seconds * 1000));
+}
+
+// The file's words (a key, or passwords), 1 to `most` of them; never in a message.
+std::vector<std::string> read_key_words(const std::string& path, std::size_t most) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw std::runtime_error("[link] key_file " + path + ": cannot be read");
+    std::vector<std::string> words;
+    for (std::string word; in >> word;) words.push_back(word);
+    if (words.empty()) throw std::runtime_error("[link] key_file " + path + ": empty");
+    if (words.size() > most)
+        throw std::runtime_error(
+            "[link] key_file " + path + ": holds more than " +
+            (most == 1 ? std::string("one word") : std::to_string(most) + " words"));
+    return words;
+}
+
 // The key, whitespace around it dropped; never in a message.
 std::string read_key_file(const std::string& path) {
     if (path.empty()) return {};
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error("[link] key_file " + path + ": cannot be read");
-    std::ostringstream text;
-    text << in.rdbuf();
-    std::string key = text.str();
-    const auto first = key.find_first_not_of(" \t\r\n");
-    if (first == std::string::npos) throw std::runtime_error("[link] key_file " + path + ": empty");
-    key = key.substr(first, key.find_last_not_of(" \t\r\n") - first + 1);
-    if (key.find_first_of(" \t\r\n") != std::string::npos)
-        throw std::runtime_error("[link] key_file " + path + ": holds more than one word");
-    return key;
+    return read_key_words(path, 1).front();
 }
 
-std::chrono::milliseconds milliseconds_of(double seconds) {
-    return std::chrono::milliseconds(static_cast<long long>(seconds * 1000));
+std::unique_ptr<MachineLink> linuxcnc_link(const models::MachineLinkSettings& link,
+                                           hal::Network& network, const GcodeHost::Log& log) {
+    LinuxCncSettings s;
+    try {
+        const auto at = net::parse_host_port(link.url, true);
+        s.host = at.host;
+        s.port = at.port;
+    } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(std::string("[link] url: ") + e.what() +
+                                 " (linuxcncrsh's HOST:PORT, as cnc.local:5007)");
+    }
+    if (s.port == 0) throw std::runtime_error("[link] url " + link.url + ": the port is 0");
+    if (link.key_file.empty()) {
+        log.warning(
+            "linuxcnc: no key_file: linuxcncrsh's default passwords (give your own with "
+            "its --connectpw and --enablepw, and both in a key_file)");
+    } else {
+        const auto words = read_key_words(link.key_file, 2);
+        s.connect_password = words[0];
+        if (words.size() == 2) s.enable_password = words[1];
+    }
+    s.reply_timeout = milliseconds_of(link.reply_timeout_s);
+    return std::make_unique<LinuxCncLink>(std::move(s), network, log);
 }
 
 }  // namespace
 
 std::unique_ptr<MachineLink> make_machine_link(const models::MachineFile& machine,
-                                               hal::SerialPort* port, hal::HttpClient* http,
+                                               hal::SerialPort* port, hal::Network* network,
                                                hal::Clock& clock, GcodeHostSettings serial,
                                                const GcodeHost::Log& log) {
     const models::MachineLinkSettings& link = machine.link;
     if (link.kind == "serial") {
+        if (machine.firmware == "linuxcnc")
+            throw std::runtime_error(
+                "LinuxCNC reads no G-code over a serial port: give the machine file [link] kind "
+                "= \"linuxcnc\" and url = \"HOST:5007\" (its linuxcncrsh server)");
         if (port == nullptr)
             throw std::runtime_error(
                 "the machine's link is serial but the board has no port for it");
@@ -47,9 +81,11 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineFile& machin
     }
     if (link.url.empty())
         throw std::runtime_error("[link] kind = \"" + link.kind + "\" needs the host's url");
-    if (http == nullptr)
+    if (network == nullptr)
         throw std::runtime_error("the machine's link is " + link.kind +
                                  " but the board has no network for it");
+    if (link.kind == "linuxcnc") return linuxcnc_link(link, *network, log);
+    hal::HttpClient* http = &network->http();
     net::Url url;
     try {
         url = net::parse_url(link.url);

@@ -283,6 +283,25 @@ if "is no sheet's" not in wrong or "no height kept" not in wrong or os.path.exis
         os.path.join(data, "stock-top.json")):
     run.fail("the swapped points: %s" % wrong)
 run.stop_all()
+
+# The same router on LinuxCNC, reached through its linuxcncrsh (the sim board's twin of it): the
+# clicked zero sent by MDI after confirm, read back by linuxcncrsh's POS_OFFSET.
+linuxcnc = os.path.join(work, "placing-linuxcnc.toml")
+with open(linuxcnc, "w") as f:
+    f.write(open(placing).read().replace('firmware = "grbl"', 'firmware = "linuxcnc"', 1)
+            .replace("[planar]\n", '[link]\nkind = "linuxcnc"\nurl = "cnc.local:5007"\n\n[planar]\n', 1)
+            .replace("\n[touch_probe]\nclear_z_mm = -40.0\n", "\n"))  # grbl's probe cycle only
+box, url = run.box(calbox, top, data, [], '[web]\npassword = "%s"\n' % password_hash(PASSWORD),
+                   scenario=linuxcnc)
+status, _, answer = request(url + "/api/action", "POST", {"action": "work-zero", "work_zero": zero_text,
+                                                           "confirm": True}, password=PASSWORD)
+if status != 200 or json.loads(answer)["command"] != command:
+    run.fail("work zero on LinuxCNC: %d %s" % (status, answer[:200]))
+run.wait_for("LinuxCNC's zero read back", lambda: any(
+    line == "work zero: the controller's G54 zero at machine X%.3f Y%.3f (sent '%s', read back by "
+    "linuxcncrsh's POS_OFFSET)" % (zero[0], zero[1], command)
+    for line in get_json(url + "/api/status")["log"]), 30, box)
+run.stop_all()
 print("the stock's top probed %.3f mm (the twin's sheet %.2f)" % (top_mm, SHEET_MM))
 print("the Place screen: bed view %dx%d at %.2f mm a pixel, zero clicked at %s, job drawn and "
       "compensated (%s)" % (size[0], size[1], a, zero_text, reply.split(": ", 2)[2][:80]))

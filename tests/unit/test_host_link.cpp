@@ -24,32 +24,18 @@
 #include "core/models/machine_import.hpp"
 #include "drivers/http_client.hpp"
 #include "drivers/http_server.hpp"
-#include "drivers/tls.hpp"
 #include "drivers/network.hpp"
+#include "drivers/tls.hpp"
 #include "firmware/cycle/cycle_mode.hpp"
 #include "firmware/links/duet_link.hpp"
 #include "firmware/links/moonraker_link.hpp"
 #include "firmware/links/octoprint_link.hpp"
 #include "firmware/loop/event_loop.hpp"
+#include "tests/unit/link_request.hpp"
 
 using namespace calbox;
 using namespace std::chrono_literals;
 namespace fs = std::filesystem;
-
-namespace {
-
-// Runs a link's request to its end on the loop.
-template <class Start>
-firmware::JobOutcome run_to_its_end(firmware::EventLoop& loop, Start start_request) {
-    std::optional<firmware::JobOutcome> outcome;
-    start_request([&outcome](firmware::JobOutcome o) { outcome = std::move(o); });
-    const auto deadline = std::chrono::steady_clock::now() + 60s;
-    while (!outcome && std::chrono::steady_clock::now() < deadline) loop.run_once(50ms);
-    CHECK_TEXT(outcome.has_value(), "the request never ended");
-    return *outcome;
-}
-
-}  // namespace
 
 TEST_GROUP(HttpDriver){};
 

@@ -23,6 +23,7 @@
 #include "board/sim/octoprint_twin.hpp"
 #include "board/sim/photo_cache.hpp"
 #include "board/sim/twin_kind.hpp"
+#include "core/models/link_kinds.hpp"
 #include "core/targets/gcode_line.hpp"
 #include "core/vision/image_codec.hpp"
 #include "drivers/termios_port.hpp"
@@ -734,6 +735,90 @@ void PngDisplay::show(const hal::MonoBitmap& frame) {
     if (!out) throw std::runtime_error(path.string() + ": cannot write the frame");
 }
 
+namespace {
+
+// What a twin host is made from: the bench, its disk, the key file's text and the settings.
+struct TwinHostContext {
+    const std::string& scenario_path;
+    std::shared_ptr<TwinBench> bench;
+    std::filesystem::path dir;
+    std::string key_text;
+    TwinHostSettings settings;
+    const models::MachineFile& machine() const { return bench->scenario().machine; }
+};
+
+std::unique_ptr<TwinHostServer> moonraker_twin(const TwinHostContext& c) {
+    if (c.machine().kind != "delta" && c.machine().kind != "cartesian")
+        throw ScenarioError(c.scenario_path +
+                            ": the twin's Moonraker host serves a Klipper delta or cartesian "
+                            "printer");
+    return std::make_unique<MoonrakerTwin>(c.bench, c.dir, c.settings);
+}
+std::unique_ptr<TwinHostServer> octoprint_twin(const TwinHostContext& c) {
+    return std::make_unique<OctoPrintTwin>(c.bench, c.dir, c.settings);
+}
+std::unique_ptr<TwinHostServer> duet_twin(const TwinHostContext& c) {
+    return std::make_unique<DuetTwin>(c.bench, c.dir, c.settings);
+}
+std::unique_ptr<TwinHostServer> linuxcnc_twin(const TwinHostContext& c) {
+    if (c.machine().kind != "router")
+        throw ScenarioError(c.scenario_path +
+                            ": the twin's LinuxCNC drives a router ([machine] kind = \"router\")");
+    if (c.bench->scenario().host_tls)
+        throw ScenarioError(c.scenario_path + ": linuxcncrsh speaks no TLS");
+    return std::make_unique<LinuxCncTwin>(c.bench, c.key_text, c.settings.faults);
+}
+
+// One twin per kind of core/models/link_kinds.hpp: a host on loopback, or (serial, none here)
+// the twin printer on a pty.
+struct TwinHostFactory {
+    std::string_view kind;
+    std::unique_ptr<TwinHostServer> (*make)(const TwinHostContext&);
+    int passwords = 1;  // the key file's words
+};
+constexpr std::array<TwinHostFactory, 5> kTwinHosts{{
+    {"serial", nullptr},
+    {"moonraker", moonraker_twin},
+    {"octoprint", octoprint_twin},
+    {"duet", duet_twin},
+    {"linuxcnc", linuxcnc_twin, 2},  // the connect and the enable password
+}};
+constexpr std::array<std::string_view, kTwinHosts.size()> twin_host_kinds() {
+    std::array<std::string_view, kTwinHosts.size()> names{};
+    for (std::size_t i = 0; i < kTwinHosts.size(); ++i) names[i] = kTwinHosts[i].kind;
+    return names;
+}
+static_assert(models::names_every_link_kind(twin_host_kinds()),
+              "every kind of core/models/link_kinds.hpp needs its twin here, and only those");
+
+const TwinHostFactory& twin_host_for(const std::string& kind) {
+    for (const auto& t : kTwinHosts)
+        if (t.kind == kind) return t;
+    throw ScenarioError("[link] kind '" + kind + "' has no twin on the sim board");
+}
+
+// The host's key (or passwords), made anew each run and handed to the box in its key file (the
+// scenario's own key_file, if any, is a real box's and not read).
+std::string new_key_file(const std::filesystem::path& key_file, int words) {
+    std::random_device random;
+    std::string text;
+    for (int w = 0; w < words; ++w) {
+        char key[33];
+        std::snprintf(key, sizeof key, "%08x%08x%08x%08x", random(), random(), random(), random());
+        text += (w == 0 ? "" : " ") + std::string(key, w == 0 ? 32 : 16);
+    }
+    {
+        std::ofstream out(key_file, std::ios::trunc);
+        out << text << "\n";
+        if (!out.flush()) throw ScenarioError(key_file.string() + ": cannot write");
+    }
+    std::filesystem::permissions(
+        key_file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+    return text;
+}
+
+}  // namespace
+
 SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const SimLines::Log& log) {
     SimBoard board;
     board.bench = std::make_shared<TwinBench>(load_scenario(settings.scenario_path),
@@ -741,47 +826,15 @@ SimBoard make_sim_board(const SimSettings& settings, hal::Clock& clock, const Si
     const auto& machine = board.bench->scenario().machine;
     board.machine = machine;
     std::unique_ptr<hal::SerialPort> port;
-    if (machine.link.is_host()) {
-        if (machine.link.kind == "moonraker" && machine.kind != "delta" &&
-            machine.kind != "cartesian")
-            throw ScenarioError(settings.scenario_path +
-                                ": the twin's Moonraker host serves a Klipper delta or cartesian "
-                                "printer");
-        if (machine.link.kind == "linuxcnc" && machine.kind != "router")
-            throw ScenarioError(settings.scenario_path +
-                                ": the twin's LinuxCNC drives a router ([machine] kind = "
-                                "\"router\")");
-        if (machine.link.kind == "linuxcnc" && board.bench->scenario().host_tls)
-            throw ScenarioError(settings.scenario_path + ": linuxcncrsh speaks no TLS");
-        // The host's key, made anew each run and handed to the box in its key file (the
-        // scenario's own key_file, if any, is a real box's and not read).
-        std::random_device random;
-        char key[33];
-        std::snprintf(key, sizeof key, "%08x%08x%08x%08x", random(), random(), random(), random());
-        // linuxcncrsh's two passwords: the connect one, then the enable one.
-        const std::string key_text = machine.link.kind == "linuxcnc"
-                                         ? std::string(key, 16) + " " + std::string(key + 16, 16)
-                                         : std::string(key);
+    const TwinHostFactory& twin = twin_host_for(machine.link.kind);
+    if (twin.make != nullptr) {
         const auto key_file = settings.data_dir / kTwinHostKeyFile;
-        {
-            std::ofstream out(key_file, std::ios::trunc);
-            out << key_text << "\n";
-            if (!out.flush()) throw ScenarioError(key_file.string() + ": cannot write");
-        }
-        std::filesystem::permissions(
-            key_file, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+        const std::string key_text = new_key_file(key_file, twin.passwords);
         const auto& scenario = board.bench->scenario();
-        const TwinHostSettings host{key, scenario.faults.host, machine.bed_radius_mm,
+        const TwinHostSettings host{key_text, scenario.faults.host, machine.bed_radius_mm,
                                     scenario.host_print_seconds, scenario.duet_sbc};
-        const auto host_dir = settings.data_dir / kTwinHostDirectory;
-        if (machine.link.kind == "moonraker")
-            board.host = std::make_unique<MoonrakerTwin>(board.bench, host_dir, host);
-        else if (machine.link.kind == "octoprint")
-            board.host = std::make_unique<OctoPrintTwin>(board.bench, host_dir, host);
-        else if (machine.link.kind == "linuxcnc")
-            board.host = std::make_unique<LinuxCncTwin>(board.bench, key_text, host.faults);
-        else
-            board.host = std::make_unique<DuetTwin>(board.bench, host_dir, host);
+        board.host = twin.make({settings.scenario_path, board.bench,
+                                settings.data_dir / kTwinHostDirectory, key_text, host});
         board.machine.link.url = board.host->url();
         board.machine.link.key_file = key_file.string();
         if (scenario.host_tls) {

@@ -3,6 +3,7 @@
 #include <cstdint>
 #include <cstdio>
 
+#include "core/models/link_kinds.hpp"
 #include "core/models/toml_reader.hpp"
 
 namespace calbox::models {
@@ -209,7 +210,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     }
     if (const auto* link = subtable(file, root, "link")) {
         TomlReader l(file, *link, "link");
-        l.text("kind", m.link.kind, {"serial", "moonraker", "octoprint", "duet", "linuxcnc"});
+        l.text("kind", m.link.kind, link_kind_names());
         std::optional<std::string> url, key_file, ca_file;
         std::optional<double> reply_timeout_s, restart_timeout_s;
         l.text("url", url);
@@ -220,8 +221,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         l.finish();
         // A serial link's timing is the box's own (its G-code host); these keys are a host's.
         if (!m.link.is_host()) {
-            const char* why =
-                "is a host's (kind = \"moonraker\", \"octoprint\", \"duet\" or \"linuxcnc\")";
+            const std::string why = "is a host's (kind = " + link_kind_list(" | ", true) + ")";
             if (url) l.fail("url", why);
             if (key_file) l.fail("key_file", why);
             if (ca_file) l.fail("ca_file", why);
@@ -342,21 +342,21 @@ double bed_scale_at_photo(const MachineFile& m, std::optional<double> photo_bed_
            bed_expansion_per_k(*m.bed_material) * (*photo_bed_temperature_c - *m.bed_temperature_c);
 }
 
+bool MachineLinkSettings::is_host() const {
+    const LinkKind* k = link_kind(kind);
+    return k == nullptr || k->host;
+}
+
 std::string link_mismatch(const MachineFile& m) {
-    if (m.link.kind == "moonraker" && m.firmware != "klipper")
-        return "Moonraker serves Klipper printers ([machine] firmware = \"klipper\", not \"" +
-               m.firmware + "\")";
-    if (m.link.kind == "octoprint" && m.firmware != "marlin")
-        return "the box speaks to Marlin printers through OctoPrint ([machine] firmware = "
-               "\"marlin\", not \"" +
-               m.firmware + "\")";
-    if (m.link.kind == "duet" && m.firmware != "rrf")
-        return "a Duet's web API serves RepRapFirmware ([machine] firmware = \"rrf\", not \"" +
-               m.firmware + "\")";
-    if (m.link.kind == "linuxcnc" && m.firmware != "linuxcnc")
-        return "linuxcncrsh serves LinuxCNC machines ([machine] firmware = \"linuxcnc\", not \"" +
-               m.firmware + "\")";
-    return {};
+    const LinkKind* kind = link_kind(m.link.kind);
+    if (kind == nullptr || kind->firmware.empty() || kind->firmware == m.firmware) return {};
+    std::string why(kind->serves);
+    why += " ([machine] firmware = \"";
+    why += kind->firmware;
+    why += "\", not \"";
+    why += m.firmware;
+    why += "\")";
+    return why;
 }
 
 std::array<double, 4> planar_travel_mm(const MachineFile& m) {

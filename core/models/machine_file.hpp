@@ -98,7 +98,7 @@ struct DeltaLimits {
 // key_file holds the board's password); "linuxcnc": LinuxCNC through its linuxcncrsh server at
 // `url` HOST:PORT (its key_file holds the connect and the enable password).
 struct MachineLinkSettings {
-    std::string kind = "serial";  // serial | moonraker | octoprint | duet | linuxcnc
+    std::string kind = "serial";  // one of core/models/link_kinds.hpp's
     // A host's: "http://printer.local:7125" (the sim board's own); linuxcnc's "cnc.local:5007".
     std::string url;
     // A file holding the host's API key: the key itself is never in the machine file, which is
@@ -109,7 +109,7 @@ struct MachineLinkSettings {
     std::string ca_file;
     double reply_timeout_s = 30;    // a command's reply, a file's transfer
     double restart_timeout_s = 60;  // a firmware restart until the printer is ready again
-    bool is_host() const { return kind != "serial"; }
+    bool is_host() const;           // reached over the network (link_kinds.hpp)
 };
 
 struct MachineFile {

@@ -1,6 +1,7 @@
 // The machine link's table of the configuration: [link], over the machine file's own [link].
 #include <string>
 
+#include "core/models/link_kinds.hpp"
 #include "core/net/endpoints.hpp"
 #include "firmware/links/make_link.hpp"
 
@@ -11,13 +12,16 @@ using K = ConfigKind;
 using setting_text::choice;
 using setting_text::one_line;
 
+// "machine" (the machine file's [link]) and every kind the box speaks.
+const std::string kLinkKindChoices = "machine|" + models::link_kind_list("|");
+
 const SettingKey<LinkSettings> kLinkKeys[] = {
     {{"kind",
       K::choice,
       {},
       0,
       0,
-      "machine|serial|moonraker|octoprint|duet|linuxcnc",
+      kLinkKindChoices,
       true,
       "how the box reaches the machine: machine (its machine file's [link]), its serial port, "
       "a host that owns the printer, or LinuxCNC's linuxcncrsh (docs/links.md)"},

@@ -1,9 +1,11 @@
 #include "firmware/links/make_link.hpp"
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 
+#include "core/models/link_kinds.hpp"
 #include "firmware/links/duet_link.hpp"
 #include "firmware/links/linuxcnc_link.hpp"
 #include "firmware/links/moonraker_link.hpp"
@@ -36,8 +38,85 @@ std::string read_key_file(const std::string& path) {
     return read_key_words(path, 1).front();
 }
 
-std::unique_ptr<MachineLink> linuxcnc_link(const models::MachineLinkSettings& link,
-                                           hal::Network& network, const GcodeHost::Log& log) {
+// What every factory may need: the machine, the board's devices, the serial host's settings.
+struct LinkContext {
+    const models::MachineFile& machine;
+    hal::SerialPort* port;
+    hal::Network* network;
+    hal::Clock& clock;
+    GcodeHostSettings serial;
+    const GcodeHost::Log& log;
+
+    const models::MachineLinkSettings& link() const { return machine.link; }
+    hal::Network& needs_network() const {
+        if (link().url.empty())
+            throw std::runtime_error("[link] kind = \"" + link().kind + "\" needs the host's url");
+        if (network == nullptr)
+            throw std::runtime_error("the machine's link is " + link().kind +
+                                     " but the board has no network for it");
+        return *network;
+    }
+    net::Url http_url() const {
+        needs_network();
+        try {
+            net::Url url = net::parse_url(link().url);
+            url.ca_file = link().ca_file;
+            return url;
+        } catch (const std::invalid_argument& e) {
+            throw std::runtime_error(std::string("[link] url: ") + e.what());
+        }
+    }
+};
+
+std::unique_ptr<MachineLink> serial_link(const LinkContext& c) {
+    if (c.machine.firmware == "linuxcnc")
+        throw std::runtime_error(
+            "LinuxCNC reads no G-code over a serial port: give the machine file [link] kind "
+            "= \"linuxcnc\" and url = \"HOST:5007\" (its linuxcncrsh server)");
+    if (c.port == nullptr)
+        throw std::runtime_error("the machine's link is serial but the board has no port for it");
+    GcodeHostSettings serial = c.serial;
+    serial.numbered_lines = c.machine.firmware != "grbl";
+    return std::make_unique<GcodeHost>(*c.port, c.clock, serial, c.log);
+}
+
+std::unique_ptr<MachineLink> moonraker_link(const LinkContext& c) {
+    MoonrakerSettings s;
+    s.url = c.http_url();
+    s.api_key = read_key_file(c.link().key_file);
+    s.reply_timeout = milliseconds_of(c.link().reply_timeout_s);
+    s.restart_timeout = milliseconds_of(c.link().restart_timeout_s);
+    return std::make_unique<MoonrakerLink>(std::move(s), c.network->http(), c.log);
+}
+
+std::unique_ptr<MachineLink> octoprint_link(const LinkContext& c) {
+    OctoPrintSettings s;
+    s.url = c.http_url();
+    const auto& key_file = c.link().key_file;
+    if (key_file.empty())
+        throw std::runtime_error(
+            "[link] OctoPrint needs key_file (where the console's `link key` keeps the key it "
+            "asks OctoPrint for)");
+    // Not there yet: the console's `link key` asks OctoPrint for it; until then each request
+    // says so.
+    std::error_code ec;
+    if (std::filesystem::exists(key_file, ec)) s.api_key = read_key_file(key_file);
+    s.key_file = key_file;
+    s.reply_timeout = milliseconds_of(c.link().reply_timeout_s);
+    return std::make_unique<OctoPrintLink>(std::move(s), c.network->http(), c.log);
+}
+
+std::unique_ptr<MachineLink> duet_link(const LinkContext& c) {
+    DuetSettings s;
+    s.url = c.http_url();
+    s.password = read_key_file(c.link().key_file);
+    s.reply_timeout = milliseconds_of(c.link().reply_timeout_s);
+    return std::make_unique<DuetLink>(std::move(s), c.network->http(), c.log);
+}
+
+std::unique_ptr<MachineLink> linuxcnc_link(const LinkContext& c) {
+    const auto& link = c.link();
+    hal::Network& network = c.needs_network();
     LinuxCncSettings s;
     try {
         const auto at = net::parse_host_port(link.url, true);
@@ -49,17 +128,37 @@ std::unique_ptr<MachineLink> linuxcnc_link(const models::MachineLinkSettings& li
     }
     if (s.port == 0) throw std::runtime_error("[link] url " + link.url + ": the port is 0");
     if (link.key_file.empty()) {
-        log.warning(
-            "linuxcnc: no key_file: linuxcncrsh's default passwords (give your own with "
-            "its --connectpw and --enablepw, and both in a key_file)");
+        c.log.warning(
+            "linuxcnc: no key_file: linuxcncrsh's default passwords (give your own with its "
+            "--connectpw and --enablepw, and both in a key_file)");
     } else {
         const auto words = read_key_words(link.key_file, 2);
         s.connect_password = words[0];
         if (words.size() == 2) s.enable_password = words[1];
     }
     s.reply_timeout = milliseconds_of(link.reply_timeout_s);
-    return std::make_unique<LinuxCncLink>(std::move(s), network, log);
+    return std::make_unique<LinuxCncLink>(std::move(s), network, c.log);
 }
+
+// One factory per kind of core/models/link_kinds.hpp.
+struct LinkFactory {
+    std::string_view kind;
+    std::unique_ptr<MachineLink> (*make)(const LinkContext&);
+};
+constexpr std::array<LinkFactory, 5> kFactories{{
+    {"serial", serial_link},
+    {"moonraker", moonraker_link},
+    {"octoprint", octoprint_link},
+    {"duet", duet_link},
+    {"linuxcnc", linuxcnc_link},
+}};
+constexpr std::array<std::string_view, kFactories.size()> factory_kinds() {
+    std::array<std::string_view, kFactories.size()> names{};
+    for (std::size_t i = 0; i < kFactories.size(); ++i) names[i] = kFactories[i].kind;
+    return names;
+}
+static_assert(models::names_every_link_kind(factory_kinds()),
+              "every kind of core/models/link_kinds.hpp needs one factory here, and only those");
 
 }  // namespace
 
@@ -67,63 +166,10 @@ std::unique_ptr<MachineLink> make_machine_link(const models::MachineFile& machin
                                                hal::SerialPort* port, hal::Network* network,
                                                hal::Clock& clock, GcodeHostSettings serial,
                                                const GcodeHost::Log& log) {
-    const models::MachineLinkSettings& link = machine.link;
-    if (link.kind == "serial") {
-        if (machine.firmware == "linuxcnc")
-            throw std::runtime_error(
-                "LinuxCNC reads no G-code over a serial port: give the machine file [link] kind "
-                "= \"linuxcnc\" and url = \"HOST:5007\" (its linuxcncrsh server)");
-        if (port == nullptr)
-            throw std::runtime_error(
-                "the machine's link is serial but the board has no port for it");
-        serial.numbered_lines = machine.firmware != "grbl";
-        return std::make_unique<GcodeHost>(*port, clock, serial, log);
-    }
-    if (link.url.empty())
-        throw std::runtime_error("[link] kind = \"" + link.kind + "\" needs the host's url");
-    if (network == nullptr)
-        throw std::runtime_error("the machine's link is " + link.kind +
-                                 " but the board has no network for it");
-    if (link.kind == "linuxcnc") return linuxcnc_link(link, *network, log);
-    hal::HttpClient* http = &network->http();
-    net::Url url;
-    try {
-        url = net::parse_url(link.url);
-        url.ca_file = link.ca_file;
-    } catch (const std::invalid_argument& e) {
-        throw std::runtime_error(std::string("[link] url: ") + e.what());
-    }
-    if (link.kind == "moonraker") {
-        MoonrakerSettings s;
-        s.url = url;
-        s.api_key = read_key_file(link.key_file);
-        s.reply_timeout = milliseconds_of(link.reply_timeout_s);
-        s.restart_timeout = milliseconds_of(link.restart_timeout_s);
-        return std::make_unique<MoonrakerLink>(std::move(s), *http, log);
-    }
-    if (link.kind == "octoprint") {
-        OctoPrintSettings s;
-        s.url = url;
-        if (link.key_file.empty())
-            throw std::runtime_error(
-                "[link] OctoPrint needs key_file (where the console's `link key` keeps the key "
-                "it asks OctoPrint for)");
-        // Not there yet: the console's `link key` asks OctoPrint for it; until then each request
-        // says so.
-        std::error_code ec;
-        if (std::filesystem::exists(link.key_file, ec)) s.api_key = read_key_file(link.key_file);
-        s.key_file = link.key_file;
-        s.reply_timeout = milliseconds_of(link.reply_timeout_s);
-        return std::make_unique<OctoPrintLink>(std::move(s), *http, log);
-    }
-    if (link.kind == "duet") {
-        DuetSettings s;
-        s.url = url;
-        s.password = read_key_file(link.key_file);
-        s.reply_timeout = milliseconds_of(link.reply_timeout_s);
-        return std::make_unique<DuetLink>(std::move(s), *http, log);
-    }
-    throw std::runtime_error("[link] kind '" + link.kind + "' is not one the box speaks");
+    const LinkContext context{machine, port, network, clock, serial, log};
+    for (const auto& factory : kFactories)
+        if (factory.kind == machine.link.kind) return factory.make(context);
+    throw std::runtime_error("[link] kind '" + machine.link.kind + "' is not one the box speaks");
 }
 
 }  // namespace calbox::firmware

@@ -15,10 +15,13 @@
 #include "board/sim/linuxcnc_twin.hpp"
 #include "board/sim/scenario.hpp"
 #include "board/sim/sim_board.hpp"
+#include "core/models/link_kinds.hpp"
+#include "core/models/machine_file.hpp"
 #include "core/modes/work_zero_link.hpp"
 #include "core/net/endpoints.hpp"
 #include "drivers/network.hpp"
 #include "firmware/links/linuxcnc_link.hpp"
+#include "firmware/links/make_link.hpp"
 #include "firmware/loop/event_loop.hpp"
 #include "tests/unit/link_request.hpp"
 
@@ -253,4 +256,52 @@ TEST(LinuxCncReal, a_job_runs_by_mdi_and_linuxcncs_refusals_are_named) {
     CHECK_TEXT(o.ok, o.error.c_str());
     STRCMP_CONTAINS("(PROGRAM_UNITS INCH)",
                     modes::work_zero_units_refusal("linuxcnc", o.replies).c_str());
+}
+
+// The link kinds, declared once (core/models/link_kinds.hpp): the machine file's reader and the
+// configuration take every kind from the table, and each host kind refuses another firmware in
+// the table's words. (A factory or a twin missing for a kind fails the build: make_link.cpp's and
+// sim_board.cpp's static_asserts.)
+TEST_GROUP(LinkKinds){};
+
+TEST(LinkKinds, every_kind_is_read_from_the_machine_file_and_refuses_another_firmware) {
+    const auto file = [](const std::string& firmware, const std::string& kind) {
+        return "[machine]\nkind = \"router\"\nfirmware = \"" + firmware +
+               "\"\nbed_size_x_mm = 300\nbed_size_y_mm = 300\n[link]\nkind = \"" + kind + "\"\n";
+    };
+    for (const auto& k : models::kLinkKinds) {
+        const std::string kind(k.name);
+        const std::string firmware = k.firmware.empty() ? "grbl" : std::string(k.firmware);
+        CHECK_TEXT(models::parse_machine_file(file(firmware, kind), "m.toml").link.kind == kind,
+                   kind.c_str());
+        CHECK_EQUAL(k.host,
+                    models::parse_machine_file(file(firmware, kind), "m.toml").link.is_host());
+        if (k.firmware.empty()) continue;
+        const std::string other = firmware == "grbl" ? "marlin" : "grbl";
+        try {
+            models::parse_machine_file(file(other, kind), "m.toml");
+            FAIL(("[link] kind = " + kind + " was taken for " + other).c_str());
+        } catch (const models::MachineFileError& e) {
+            STRCMP_CONTAINS((std::string(k.serves) + " ([machine] firmware = \"" + firmware +
+                             "\", not \"" + other + "\")")
+                                .c_str(),
+                            e.what());
+        }
+    }
+    STRCMP_EQUAL("serial|moonraker|octoprint|duet|linuxcnc", models::link_kind_list("|").c_str());
+    STRCMP_EQUAL("moonraker, octoprint, duet, linuxcnc",
+                 models::link_kind_list(", ", true).c_str());
+}
+
+TEST(LinkKinds, the_configurations_link_kind_offers_every_kind) {
+    const auto table = firmware::link_settings_table();
+    const auto& kind = table.keys.front();
+    STRCMP_EQUAL("kind", std::string(kind.info.name).c_str());
+    firmware::LinkSettings s;
+    for (const auto& k : models::kLinkKinds) {
+        kind.set(s, kind.info, k.name);
+        STRCMP_EQUAL(std::string(k.name).c_str(), s.kind.c_str());
+    }
+    kind.set(s, kind.info, "machine");
+    CHECK_THROWS(firmware::ConfigError, kind.set(s, kind.info, "telnet"));
 }

@@ -60,16 +60,22 @@ class Rsh:
         raise RuntimeError("linuxcncrsh: no %s to %r" % (expect, line))
 
 
-def start_and_home(work, port):
+def start(work, port):
     fifo = os.path.join(work, "rtapi")
     os.mkdir(fifo)
     os.chmod(fifo, 0o1777)
     # As root, LinuxCNC's rtapi_app runs its non-realtime threads as a fallback user.
     env = dict(os.environ, RTAPI_UID="65534", RTAPI_FIFO_PATH=os.path.join(fifo, "fifo"))
-    process = subprocess.Popen(["linuxcnc", configuration(work, port)], cwd=work, env=env,
-                               stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL, start_new_session=True)
-    deadline = time.time() + 90
+    return subprocess.Popen(["linuxcnc", configuration(work, port)], cwd=work, env=env,
+                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+
+
+def home(process, port):
+    """The owner's steps: the e-stop released, the machine on, every joint homed. Each command
+    waits until LinuxCNC has done it (set_wait done), and homing is asked again if a busy
+    machine (CI's other tests beside it) let it drop."""
+    deadline = time.time() + 180
     while True:
         try:
             rsh = Rsh(port)
@@ -81,19 +87,28 @@ def start_and_home(work, port):
     rsh.ask("hello EMC owner 1.0", "HELLO ACK")
     rsh.ask("set verbose on", "SET VERBOSE")  # echoed, as everything until echo is off
     rsh.ask("set echo off", "SET ECHO")
-    for line in ("set enable EMCTOO", "set estop off", "set machine on", "set mode manual",
-                 "set home -1"):
+    for line in ("set enable EMCTOO", "set set_wait done", "set estop off", "set machine on"):
         reply = rsh.ask(line, "SET ")
         if not reply.endswith("ACK"):
             raise RuntimeError("linuxcncrsh: %r -> %r" % (line, reply))
-    while not rsh.ask("get joint_homed", "JOINT_HOMED").startswith("JOINT_HOMED YES YES YES"):
+    while rsh.ask("get machine", "MACHINE") != "MACHINE ON":
         if time.time() > deadline:
-            raise RuntimeError("LinuxCNC's mill did not home")
+            raise RuntimeError("LinuxCNC's machine did not come on")
+        time.sleep(0.3)
+    asked = 0
+    while True:
+        if asked == 0 or time.time() - asked > 20:
+            for line in ("set mode manual", "set home -1"):
+                rsh.ask(line, "SET ")
+            asked = time.time()
+        if rsh.ask("get joint_homed", "JOINT_HOMED").startswith("JOINT_HOMED YES YES YES"):
+            break
+        if time.time() > deadline:
+            raise RuntimeError("LinuxCNC's mill did not home (%s)" % rsh.ask("get error", "ERROR"))
         time.sleep(0.3)
     # Control is the box's from here: this client lets go of it.
     rsh.ask("set enable off", "SET ENABLE")
     rsh.sock.close()
-    return process
 
 
 def stop(process, port):
@@ -105,9 +120,14 @@ def stop(process, port):
         rsh.ask("set enable EMCTOO", "SET ENABLE")
         rsh.sock.sendall(b"shutdown\r\n")
         process.wait(timeout=30)
-    except Exception:  # the controller gone or stuck: its session is ended
+    except Exception:  # the controller gone or stuck: the linuxcnc script cleans up on TERM
         os.killpg(process.pid, signal.SIGTERM)
-        process.wait(timeout=30)
+        process.wait(timeout=60)
+    # Nothing of this LinuxCNC is left for the next one (its shared memory is the machine's).
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
 
 
 def main():
@@ -122,7 +142,8 @@ def main():
     port = free_port()
     process = None
     try:
-        process = start_and_home(work, port)
+        process = start(work, port)
+        home(process, port)
         run = subprocess.run([sys.argv[1], "-g", "LinuxCncReal", "-v"],
                              env=dict(os.environ, CALBOX_LINUXCNC="127.0.0.1:%d" % port),
                              stdin=subprocess.DEVNULL, timeout=300)

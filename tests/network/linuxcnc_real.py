@@ -42,14 +42,16 @@ class Rsh:
     """A few lines to linuxcncrsh, as the owner's own client would send them."""
 
     def __init__(self, port):
-        self.sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+        # A busy machine (the suite beside it, under ASan) slows LinuxCNC's task to seconds a
+        # command.
+        self.sock = socket.create_connection(("127.0.0.1", port), timeout=60)
         self.buffer = b""
         self.sent = set()
 
     def ask(self, line, expect):
         self.sent.add(line)
         self.sock.sendall((line + "\r\n").encode())
-        deadline = time.time() + 10
+        deadline = time.time() + 60
         while time.time() < deadline:
             while b"\n" in self.buffer:
                 got, self.buffer = self.buffer.split(b"\n", 1)

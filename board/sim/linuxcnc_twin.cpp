@@ -97,8 +97,9 @@ struct LinuxCncTwin::State {
             while ((end = pending.find_first_of("\r\n")) != std::string::npos) {
                 const std::string line = pending.substr(0, end);
                 pending.erase(0, end + 1);
-                if (line.empty()) continue;
-                if (upper_of(words_of(line).front()) == "QUIT") return;
+                const auto words = words_of(line);
+                if (words.empty()) continue;
+                if (upper_of(words.front()) == "QUIT") return;
                 const std::string reply = answer(client, line);
                 if (!reply.empty()) write_all(fd, reply);
             }

@@ -783,12 +783,7 @@ constexpr std::array<TwinHostFactory, 5> kTwinHosts{{
     {"duet", duet_twin},
     {"linuxcnc", linuxcnc_twin, 2},  // the connect and the enable password
 }};
-constexpr std::array<std::string_view, kTwinHosts.size()> twin_host_kinds() {
-    std::array<std::string_view, kTwinHosts.size()> names{};
-    for (std::size_t i = 0; i < kTwinHosts.size(); ++i) names[i] = kTwinHosts[i].kind;
-    return names;
-}
-static_assert(models::names_every_link_kind(twin_host_kinds()),
+static_assert(models::names_every_link_kind(kTwinHosts),
               "every kind of core/models/link_kinds.hpp needs its twin here, and only those");
 
 const TwinHostFactory& twin_host_for(const std::string& kind) {

@@ -34,14 +34,14 @@ constexpr const LinkKind* link_kind(std::string_view name) {
     return nullptr;
 }
 
-// Whether `names` (a table's keys elsewhere) holds every kind, each once, and nothing else: the
-// compile-time check of a factory's or a twin's table.
-template <std::size_t N>
-constexpr bool names_every_link_kind(const std::array<std::string_view, N>& names) {
+// Whether `rows` (a table elsewhere, each row's `kind` a kind's name) holds every kind, each
+// once, and nothing else: the compile-time check of a factory's or a twin's table.
+template <class Row, std::size_t N>
+constexpr bool names_every_link_kind(const std::array<Row, N>& rows) {
     if (N != kLinkKinds.size()) return false;
     for (const auto& k : kLinkKinds) {
         int found = 0;
-        for (const auto& n : names) found += n == k.name ? 1 : 0;
+        for (const auto& row : rows) found += row.kind == k.name ? 1 : 0;
         if (found != 1) return false;
     }
     return true;

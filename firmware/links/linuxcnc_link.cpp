@@ -146,7 +146,9 @@ class LinuxCncLink::Talk {
     }
 
   private:
-    std::string where() const { return "LinuxCNC at " + link_.describe().substr(9); }
+    std::string where() const {
+        return "LinuxCNC at " + settings_.host + ":" + std::to_string(settings_.port);
+    }
 
     void send(const std::string& line) {
         sent_.insert(line);

@@ -152,12 +152,7 @@ constexpr std::array<LinkFactory, 5> kFactories{{
     {"duet", duet_link},
     {"linuxcnc", linuxcnc_link},
 }};
-constexpr std::array<std::string_view, kFactories.size()> factory_kinds() {
-    std::array<std::string_view, kFactories.size()> names{};
-    for (std::size_t i = 0; i < kFactories.size(); ++i) names[i] = kFactories[i].kind;
-    return names;
-}
-static_assert(models::names_every_link_kind(factory_kinds()),
+static_assert(models::names_every_link_kind(kFactories),
               "every kind of core/models/link_kinds.hpp needs one factory here, and only those");
 
 }  // namespace

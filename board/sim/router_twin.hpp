@@ -16,7 +16,7 @@
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/scenes.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/targets/compensate.hpp"
+#include "core/jobs/compensate.hpp"
 
 namespace calbox::sim {
 

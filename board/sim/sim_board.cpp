@@ -24,7 +24,7 @@
 #include "board/sim/photo_cache.hpp"
 #include "board/sim/twin_kind.hpp"
 #include "core/models/link_kinds.hpp"
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/gcode_line.hpp"
 #include "core/vision/image_codec.hpp"
 #include "drivers/termios_port.hpp"
 

@@ -9,7 +9,7 @@
 
 #include "board/sim/sim_board.hpp"
 #include "core/modes/goal.hpp"
-#include "core/targets/compensate.hpp"
+#include "core/jobs/compensate.hpp"
 
 namespace calbox::sim {
 

@@ -12,7 +12,7 @@
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/router_twin.hpp"
 #include "board/sim/scenario.hpp"
-#include "core/targets/compensate.hpp"
+#include "core/jobs/compensate.hpp"
 
 namespace calbox::sim {
 

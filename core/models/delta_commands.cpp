@@ -10,7 +10,7 @@
 #include <utility>
 
 #include "core/models/klipper_config.hpp"
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/gcode_line.hpp"
 
 namespace calbox::models {
 namespace {

@@ -9,7 +9,7 @@
 #include <sstream>
 
 #include "core/number_text.hpp"
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/gcode_line.hpp"
 #include "core/trimmed_text.hpp"
 
 namespace calbox::models {

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/targets/compensate.hpp"
+#include "core/jobs/compensate.hpp"
 
 namespace calbox::modes {
 

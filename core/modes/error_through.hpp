@@ -8,7 +8,7 @@
 
 #include "core/geometry/types.hpp"
 #include "core/modes/goal.hpp"
-#include "core/targets/compensate.hpp"
+#include "core/jobs/compensate.hpp"
 
 namespace calbox::modes {
 

@@ -9,7 +9,7 @@
 
 #include "core/geometry/types.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 
 namespace calbox::targets {
 

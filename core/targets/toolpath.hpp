@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
-#include "core/targets/svg.hpp"
+#include "core/drawings/svg.hpp"
 
 namespace calbox::targets {
 

@@ -3,8 +3,8 @@
 #include <filesystem>
 
 #include "core/models/machine_file.hpp"
-#include "core/targets/drawing.hpp"
-#include "core/targets/job.hpp"
+#include "core/drawings/drawing.hpp"
+#include "core/jobs/job.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 

@@ -11,7 +11,7 @@
 #include "core/modes/delta_probe.hpp"
 #include "core/modes/delta_records.hpp"
 #include "core/targets/delta_target.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 #include "firmware/cli/cli_images.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 #include "firmware/modes/delta_mode.hpp"

@@ -8,7 +8,7 @@
 #include "core/geometry/camera_model.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/targets/galvo_target.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 #include "firmware/cli/cli_images.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 #include "firmware/modes/galvo_mode.hpp"

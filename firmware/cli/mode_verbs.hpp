@@ -7,7 +7,7 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 #include "firmware/cli/cli_args.hpp"
 
 namespace calbox::cli {

@@ -8,7 +8,7 @@
 
 #include "core/geometry/camera_model.hpp"
 #include "core/modes/planar.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 #include "core/targets/planar_target.hpp"
 #include "firmware/cli/cli_images.hpp"
 #include "firmware/cli/mode_verbs.hpp"

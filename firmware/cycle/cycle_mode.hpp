@@ -15,7 +15,7 @@
 
 #include "core/models/machine_file.hpp"
 #include "core/modes/goal.hpp"
-#include "core/targets/compensate.hpp"
+#include "core/jobs/compensate.hpp"
 #include "firmware/cycle/screens.hpp"
 #include "firmware/links/job_text.hpp"
 #include "firmware/links/machine_link.hpp"

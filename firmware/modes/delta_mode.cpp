@@ -10,7 +10,7 @@
 #include "core/modes/delta_probe.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/delta_target.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 #include "firmware/cycle/overlays.hpp"
 #include "firmware/cycle/photos.hpp"
 #include "firmware/modes/klipper_host.hpp"

@@ -3,7 +3,7 @@
 #include "core/modes/error_through.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/galvo_target.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 #include "firmware/cycle/overlays.hpp"
 #include "firmware/cycle/photos.hpp"
 

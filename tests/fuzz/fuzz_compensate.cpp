@@ -8,8 +8,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "core/targets/compensate.hpp"
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/compensate.hpp"
+#include "core/jobs/gcode_line.hpp"
 #include "tests/fuzz/fuzz_target.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

@@ -1,5 +1,5 @@
 // Fuzz target: the SVG reader (calbox target svg).
-#include "core/targets/svg.hpp"
+#include "core/drawings/svg.hpp"
 #include "tests/fuzz/fuzz_target.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

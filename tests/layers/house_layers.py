@@ -26,7 +26,7 @@ CORE_FORBIDDEN_CALLS = re.compile(
 # The one exception, and why: a drawing's text is painted in the fonts it names, as a browser
 # paints it, and fontconfig finds them (calbox_drawing is a library of its own, linked only by
 # what reads drawings).
-CORE_EXCEPTIONS = {("core/targets/drawing.cpp", "fontconfig/fontconfig.h")}
+CORE_EXCEPTIONS = {("core/drawings/drawing.cpp", "fontconfig/fontconfig.h")}
 
 # The device libraries hal/'s interfaces hide.
 HAL_FORBIDDEN_HEADERS = re.compile(

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "core/targets/compensate.hpp"
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/compensate.hpp"
+#include "core/jobs/gcode_line.hpp"
 
 using namespace calbox;
 using geometry::Point2;

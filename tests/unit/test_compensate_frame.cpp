@@ -11,9 +11,9 @@
 
 #include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"
-#include "core/targets/compensate.hpp"
-#include "core/targets/gcode_line.hpp"
-#include "core/targets/ngc_program.hpp"
+#include "core/jobs/compensate.hpp"
+#include "core/jobs/gcode_line.hpp"
+#include "core/jobs/ngc_program.hpp"
 
 using namespace calbox;
 using geometry::Point2;

@@ -12,7 +12,7 @@
 #include "core/modes/goal.hpp"
 #include "core/modes/planar.hpp"
 #include "core/solve/placement.hpp"
-#include "core/targets/compensate.hpp"
+#include "core/jobs/compensate.hpp"
 #include "core/targets/planar_target.hpp"
 #include "tests/support/cycle_harness.hpp"
 #include "tests/support/router_fixtures.hpp"

@@ -5,9 +5,9 @@
 #include <string>
 
 #include "core/models/machine_file.hpp"
-#include "core/targets/drawing.hpp"
-#include "core/targets/job.hpp"
-#include "core/targets/svg.hpp"
+#include "core/drawings/drawing.hpp"
+#include "core/jobs/job.hpp"
+#include "core/drawings/svg.hpp"
 #include "core/targets/toolpath.hpp"
 #include "tests/support/whole_file.hpp"
 
@@ -282,7 +282,7 @@ TEST(PageCut, lines_past_the_window_are_cut_at_its_edge) {
     for (const auto& piece : pieces) CHECK(!piece.closed);
 }
 
-// Drawings as people make them, read through librsvg (core/targets/drawing): what a browser
+// Drawings as people make them, read through librsvg (core/drawings/drawing): what a browser
 // paints, worked out by hand. Issue "Figures and drawings that mean what they say".
 TEST_GROUP(Drawing){};
 

@@ -16,7 +16,7 @@
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenes.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 #include "tests/support/test_data.hpp"
 #include "tests/support/twin_fixtures.hpp"
 

@@ -1,10 +1,10 @@
-#include "core/targets/cutter_geometry.hpp"
+#include "core/jobs/cutter_geometry.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
-#include "core/targets/job_words.hpp"
+#include "core/jobs/job_words.hpp"
 
 namespace calbox::targets::cutter_geometry {
 namespace {

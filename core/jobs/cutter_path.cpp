@@ -1,12 +1,12 @@
-#include "core/targets/cutter_path.hpp"
+#include "core/jobs/cutter_path.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <string_view>
 
-#include "core/targets/compensate.hpp"
-#include "core/targets/cutter_geometry.hpp"
+#include "core/jobs/compensate.hpp"
+#include "core/jobs/cutter_geometry.hpp"
 
 namespace calbox::targets {
 namespace {

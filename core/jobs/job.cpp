@@ -1,4 +1,4 @@
-#include "core/targets/job.hpp"
+#include "core/jobs/job.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/gcode_line.hpp"
 
 namespace calbox::targets::job_words {
 

@@ -9,7 +9,7 @@
 // drawings, not by everything that uses the core.
 #include <string_view>
 
-#include "core/targets/svg.hpp"
+#include "core/drawings/svg.hpp"
 
 namespace calbox::targets {
 

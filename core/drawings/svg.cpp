@@ -1,4 +1,4 @@
-#include "core/targets/svg.hpp"
+#include "core/drawings/svg.hpp"
 
 #include <algorithm>
 #include <cctype>

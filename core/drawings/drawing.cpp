@@ -1,4 +1,4 @@
-#include "core/targets/drawing.hpp"
+#include "core/drawings/drawing.hpp"
 
 #include <cairo-svg.h>
 #include <cairo.h>

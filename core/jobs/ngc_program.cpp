@@ -1,4 +1,4 @@
-#include "core/targets/ngc_program.hpp"
+#include "core/jobs/ngc_program.hpp"
 
 #include <algorithm>
 #include <array>
@@ -10,7 +10,7 @@
 #include <numbers>
 #include <optional>
 
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/gcode_line.hpp"
 
 namespace calbox::gcode {
 namespace {

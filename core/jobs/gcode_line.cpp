@@ -1,4 +1,4 @@
-#include "core/targets/gcode_line.hpp"
+#include "core/jobs/gcode_line.hpp"
 
 #include <algorithm>
 #include <cctype>

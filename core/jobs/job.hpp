@@ -7,7 +7,7 @@
 #include <string>
 
 #include "core/models/machine_file.hpp"
-#include "core/targets/svg.hpp"
+#include "core/drawings/svg.hpp"
 #include "core/targets/toolpath.hpp"
 
 namespace calbox::targets {

@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "core/targets/job_words.hpp"
+#include "core/jobs/job_words.hpp"
 
 namespace calbox::targets {
 

@@ -1,4 +1,4 @@
-#include "core/targets/job_words.hpp"
+#include "core/jobs/job_words.hpp"
 
 #include <cmath>
 #include <cstdio>

@@ -4,7 +4,7 @@
 // and groups, <use> of an element or a <symbol>, clip paths, viewBox / width / height with units.
 // Curves are flattened to a stated tolerance. Coordinates come out in millimetres, in SVG's
 // orientation (y down). Styling is read from presentation attributes and style="" only: a
-// drawing as people make it (CSS, text, markers) is read through core/targets/drawing, which has
+// drawing as people make it (CSS, text, markers) is read through core/drawings/drawing, which has
 // librsvg paint it into this plain form first.
 #include <optional>
 #include <stdexcept>

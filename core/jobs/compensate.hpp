@@ -15,7 +15,7 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
-#include "core/targets/ngc_program.hpp"
+#include "core/jobs/ngc_program.hpp"
 
 namespace calbox::targets {
 

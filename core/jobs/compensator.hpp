@@ -113,6 +113,12 @@ struct Polar {
     bool any() const { return distance || angle_deg; }
 };
 
+// An axis other than X Y Z a move drives (rotary A B C, linear U V W), in the job's units.
+struct OtherAxis {
+    char letter;
+    double from, to;
+};
+
 // How a piece of the compensator names a refusal: with the line it stands on.
 using Failure = std::function<CompensateError(const std::string&)>;
 
@@ -227,6 +233,13 @@ class Compensator {
     // the line's axis words are not a move.
     void state_words(const gcode::Line& line, const std::vector<Code>& codes, bool& not_a_move,
                      std::vector<Code>& kept_codes);
+    // The codes that set a mode (units, distance, plane, feed, retract, work system): false for
+    // any other.
+    bool mode_word(Code c);
+    // The codes that set an offset or take the line's axis words for themselves (G10, G52, G92,
+    // G28, G53, G4, G38).
+    void offset_word(const gcode::Line& line, Code c, bool& not_a_move);
+    void g92_sets_offset(const gcode::Line& line);
 
     // The line's words as its controller reads them: on LinuxCNC and grbl blanks count for
     // nothing and only the controller's letters are words; LinuxCNC's and printers' polar words
@@ -247,6 +260,9 @@ class Compensator {
     void word_rules(const gcode::Line& line, const std::vector<Code>& codes) const;
 
     void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) const;
+    // Words no code on the line (nor `motion`, the motion that takes its axis words, -1 for
+    // none) uses, and an arc's word off its plane.
+    void unused_words(const gcode::Line& line, const std::vector<Code>& codes, int motion) const;
 
     // Words whose value cannot be below 0: LinuxCNC's "Negative f word used", "Negative spindle
     // speed used", "Negative l word used", an H or D naming no tool; grbl's error 4 ("Negative
@@ -254,11 +270,25 @@ class Compensator {
     void negative_words(const gcode::Line& line) const;
 
     void line(const std::string& raw);
+    // The M words the compensator follows (the spindle, the extruder's mode) and the subprogram
+    // calls it refuses.
+    void spindle_and_extruder_words(const gcode::Line& line);
+    // A line that moves neither X nor Y, written as it stands (or as rewritten): a Z or E move
+    // (`moves`) and the other axes it drives (`drives_other_axes`) followed.
+    void not_an_xy_move(const std::string& raw, const gcode::Line& line, bool moves,
+                        bool drives_other_axes);
 
     void machine_move(const std::string& raw, const gcode::Line& line);
 
     void move(const std::string& raw, const gcode::Line& line, const Polar& polar,
               const std::vector<Code>& kept_codes, bool is_arc_mode);
+    // A move's pieces: an arc's chords, or a line cut to the longest piece the settings allow.
+    std::vector<PathPoint> pieces_of(const gcode::Line& line, bool is_arc_mode, Point2 from,
+                                     Point2 to, std::optional<double> z_from,
+                                     std::optional<double> z_to) const;
+    // The other axes a move of `pieces` pieces drives, from where they are to where it sends
+    // them; an axis the file has not placed yet is taken as given when the move is one piece.
+    std::vector<OtherAxis> other_axes_driven(const gcode::Line& line, std::size_t pieces);
 
     std::string z_word(double z_mm);
 
@@ -272,6 +302,9 @@ class Compensator {
     // cycle kept for LinuxCNC, written out as moves for controllers without cycles.
     void cycle(const std::string& raw, const gcode::Line& line, const Polar& polar,
                const std::vector<Code>& kept_codes);
+    // A cycle block's R, Z, Q and P taken into those in force, and the block refused where its
+    // controller would stop on it (no R or Z, no dwell, the spindle stopped, drilling upwards).
+    void take_cycle_words(const gcode::Line& line);
 
     // A hole as moves, for a controller without canned cycles (grbl, printers' firmware).
     void written_out_cycle(Point2 c, Point2 offset, double r_mm, double bottom_mm,

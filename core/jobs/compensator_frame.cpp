@@ -165,100 +165,116 @@ void Compensator::state_words(const gcode::Line& line, const std::vector<Code>& 
             continue;
         }
         kept_codes.push_back(c);
-        if (c.is(20) || c.is(21)) {
-            reframe([&] { m_.unit_mm = c.is(20) ? 25.4 : 1; });
-        } else if (c.is(90)) {
-            m_.absolute = true;
-        } else if (c.is(91)) {
-            m_.absolute = false;
-        } else if (c.is(17) || c.is(18) || c.is(19)) {
-            m_.plane = c.number;
-        } else if (c.is(80)) {
-            m_.motion = -1;
-        } else if (c.is(93) || c.is(94) || c.is(95)) {
-            m_.inverse_time = c.is(93);
-            m_.feed_per_rev = c.is(95);
-        } else if (c.is(98) || c.is(99)) {
-            m_.retract_to_r = c.is(99);
-        } else if ((c.number >= 54 && c.number <= 58 && c.subcode < 0) ||
-                   (c.number == 59 && c.subcode <= 3)) {
-            const std::size_t system = c.number == 59 && c.subcode > 0
-                                           ? static_cast<std::size_t>(5 + c.subcode)
-                                           : static_cast<std::size_t>(c.number - 54);
-            if (system != 0) refuse_when_turned(c.text());
-            reframe([&] { m_.work_system = system; });
-        } else if (c.is(10)) {
-            not_a_move = true;
-            work_offsets(line);
-        } else if (c.is(11)) {
-            not_a_move = true;
-        } else if (c.is(53)) {
-            // Machine coordinates for this line: the controller's own places (parking,
-            // tool change), passed as written.
-            machine_move_ = line.has('X') || line.has('Y');
-        } else if (c.is(92)) {
-            not_a_move = true;
-            if (line.has('X') || line.has('Y')) {
-                refuse_when_turned("G92 with X or Y");
-                if (!m_.xy_known)
-                    throw fail(
-                        "G92 with X or Y before the position is known: it says the tool is "
-                        "there, wherever it stands; give where it stands when the job starts "
-                        "(calbox compensate --start-at X,Y, machine coordinates)");
-                offset_or_fail("G92");
-                const Point2 zero = *m_.work_zero_mm[m_.work_system];
-                reframe([&] {
-                    if (auto x = line.value('X'))
-                        m_.g92_offset_mm.x = m_.xy_mm.x - zero.x - *x * m_.unit_mm;
-                    if (auto y = line.value('Y'))
-                        m_.g92_offset_mm.y = m_.xy_mm.y - zero.y - *y * m_.unit_mm;
-                });
-                m_.saved_g92_mm = m_.g92_offset_mm;
-                // The controller stands at the corrected point: said to read there what the
-                // written position reads in the intended frame, its offset is the intended one.
-                rewritten_ = offset_line(line, m_.written_xy);
-            }
-            if (auto e = line.value('E')) m_.e = *e;
-            if (auto z = line.value('Z')) m_.z_mm = *z * m_.unit_mm, m_.written_z = *z;
-            for (const char a : kOtherAxes)
-                if (auto v = line.value(a)) m_.other_axes[a] = *v;
-        } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2 || c.subcode == 3)) {
-            // No axis words of its own: a move on its line runs in the frame it leaves.
-            if (frame_.flavour == Flavour::grbl && c.subcode != 1)
-                throw fail(c.text() + ": grbl has G92.1 only (its error 20)");
-            if (c.subcode == 3 && !m_.saved_g92_mm)
-                throw fail(
-                    "G92.3 restores an offset the file did not set (the controller's "
-                    "parameters hold it)");
-            const Point2 to = c.subcode == 3 ? *m_.saved_g92_mm : Point2{};
-            reframe([&] { m_.g92_offset_mm = to; });
-            if (c.subcode == 1) m_.saved_g92_mm = Point2{};
-        } else if (c.number == 92) {
-            throw fail(c.text() + " is no offset code");
-        } else if (c.is(52)) {
-            // LinuxCNC's local offset: the G92 offset set to the words given, not from where
-            // the tool is, so the controller's frame and the intended one stay the same.
-            not_a_move = true;
-            reframe([&] {
-                if (auto x = line.value('X')) m_.g92_offset_mm.x = *x * m_.unit_mm;
-                if (auto y = line.value('Y')) m_.g92_offset_mm.y = *y * m_.unit_mm;
-            });
-        } else if (c.is(28) || c.is(30)) {
-            not_a_move = true;
-            m_.xy_known = false, m_.z_mm.reset(), m_.written_z.reset();
-            m_.other_axes.clear();
-        } else if (c.is(4)) {
-            // LinuxCNC and grbl dwell, then move the line's axis words under the motion in
-            // force; a printer's G4 is the line's one command.
-            not_a_move = not_a_move || !is_cnc(frame_.flavour) ||
-                         !(line.has('X') || line.has('Y') || line.has('Z'));
-        } else if (c.number == 38) {
-            if (line.has('X') || line.has('Y'))
-                throw fail("a probing move (" + c.text() +
-                           ") with X or Y: where it stops is not known");
-            not_a_move = true;
-        }
+        if (!mode_word(c)) offset_word(line, c, not_a_move);
     }
+}
+
+bool Compensator::mode_word(Code c) {
+    if (c.is(20) || c.is(21)) {
+        reframe([&] { m_.unit_mm = c.is(20) ? 25.4 : 1; });
+    } else if (c.is(90)) {
+        m_.absolute = true;
+    } else if (c.is(91)) {
+        m_.absolute = false;
+    } else if (c.is(17) || c.is(18) || c.is(19)) {
+        m_.plane = c.number;
+    } else if (c.is(80)) {
+        m_.motion = -1;
+    } else if (c.is(93) || c.is(94) || c.is(95)) {
+        m_.inverse_time = c.is(93);
+        m_.feed_per_rev = c.is(95);
+    } else if (c.is(98) || c.is(99)) {
+        m_.retract_to_r = c.is(99);
+    } else if ((c.number >= 54 && c.number <= 58 && c.subcode < 0) ||
+               (c.number == 59 && c.subcode <= 3)) {
+        const std::size_t system = c.number == 59 && c.subcode > 0
+                                       ? static_cast<std::size_t>(5 + c.subcode)
+                                       : static_cast<std::size_t>(c.number - 54);
+        if (system != 0) refuse_when_turned(c.text());
+        reframe([&] { m_.work_system = system; });
+    } else {
+        return false;
+    }
+    return true;
+}
+
+void Compensator::offset_word(const gcode::Line& line, Code c, bool& not_a_move) {
+    if (c.is(10)) {
+        not_a_move = true;
+        work_offsets(line);
+    } else if (c.is(11)) {
+        not_a_move = true;
+    } else if (c.is(53)) {
+        // Machine coordinates for this line: the controller's own places (parking,
+        // tool change), passed as written.
+        machine_move_ = line.has('X') || line.has('Y');
+    } else if (c.is(92)) {
+        not_a_move = true;
+        g92_sets_offset(line);
+    } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2 || c.subcode == 3)) {
+        // No axis words of its own: a move on its line runs in the frame it leaves.
+        if (frame_.flavour == Flavour::grbl && c.subcode != 1)
+            throw fail(c.text() + ": grbl has G92.1 only (its error 20)");
+        if (c.subcode == 3 && !m_.saved_g92_mm)
+            throw fail(
+                "G92.3 restores an offset the file did not set (the controller's "
+                "parameters hold it)");
+        const Point2 to = c.subcode == 3 ? *m_.saved_g92_mm : Point2{};
+        reframe([&] { m_.g92_offset_mm = to; });
+        if (c.subcode == 1) m_.saved_g92_mm = Point2{};
+    } else if (c.number == 92) {
+        throw fail(c.text() + " is no offset code");
+    } else if (c.is(52)) {
+        // LinuxCNC's local offset: the G92 offset set to the words given, not from where
+        // the tool is, so the controller's frame and the intended one stay the same.
+        not_a_move = true;
+        reframe([&] {
+            if (auto x = line.value('X')) m_.g92_offset_mm.x = *x * m_.unit_mm;
+            if (auto y = line.value('Y')) m_.g92_offset_mm.y = *y * m_.unit_mm;
+        });
+    } else if (c.is(28) || c.is(30)) {
+        not_a_move = true;
+        m_.xy_known = false, m_.z_mm.reset(), m_.written_z.reset();
+        m_.other_axes.clear();
+    } else if (c.is(4)) {
+        // LinuxCNC and grbl dwell, then move the line's axis words under the motion in
+        // force; a printer's G4 is the line's one command.
+        not_a_move = not_a_move || !is_cnc(frame_.flavour) ||
+                     !(line.has('X') || line.has('Y') || line.has('Z'));
+    } else if (c.number == 38) {
+        if (line.has('X') || line.has('Y'))
+            throw fail("a probing move (" + c.text() +
+                       ") with X or Y: where it stops is not known");
+        not_a_move = true;
+    }
+}
+
+// G92 with axis words: the tool said to stand at them, wherever it stands.
+void Compensator::g92_sets_offset(const gcode::Line& line) {
+    if (line.has('X') || line.has('Y')) {
+        refuse_when_turned("G92 with X or Y");
+        if (!m_.xy_known)
+            throw fail(
+                "G92 with X or Y before the position is known: it says the tool is "
+                "there, wherever it stands; give where it stands when the job starts "
+                "(calbox compensate --start-at X,Y, machine coordinates)");
+        offset_or_fail("G92");
+        const Point2 zero = *m_.work_zero_mm[m_.work_system];
+        reframe([&] {
+            if (auto x = line.value('X'))
+                m_.g92_offset_mm.x = m_.xy_mm.x - zero.x - *x * m_.unit_mm;
+            if (auto y = line.value('Y'))
+                m_.g92_offset_mm.y = m_.xy_mm.y - zero.y - *y * m_.unit_mm;
+        });
+        m_.saved_g92_mm = m_.g92_offset_mm;
+        // The controller stands at the corrected point: said to read there what the
+        // written position reads in the intended frame, its offset is the intended one.
+        rewritten_ = offset_line(line, m_.written_xy);
+    }
+    if (auto e = line.value('E')) m_.e = *e;
+    if (auto z = line.value('Z')) m_.z_mm = *z * m_.unit_mm, m_.written_z = *z;
+    for (const char a : kOtherAxes)
+        if (auto v = line.value(a)) m_.other_axes[a] = *v;
 }
 
 std::string Compensator::offset_line(const gcode::Line& line, Point2 xy) const {

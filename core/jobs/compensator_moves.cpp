@@ -23,6 +23,45 @@ void Compensator::verbatim(std::string_view raw) {
     }
 }
 
+void Compensator::spindle_and_extruder_words(const gcode::Line& line) {
+    if (has_m(line, 98) || has_m(line, 99))
+        throw fail(
+            "a subprogram call or return (M98, M99): have the CAM write the program "
+            "flat");
+    if (has_m(line, 6)) m_.spindle_turning = false;
+    if (has_m(line, 3) || has_m(line, 4)) m_.spindle_turning = true;
+    if (const auto s = line.value('S')) m_.spindle_speed = *s;
+    if (has_m(line, 5)) m_.spindle_turning = false;
+    if (has_m(line, 82)) m_.absolute_e = true;
+    if (has_m(line, 83)) m_.absolute_e = false;
+}
+
+void Compensator::not_an_xy_move(const std::string& raw, const gcode::Line& line, bool moves,
+                                 bool drives_other_axes) {
+    if (moves && line.has('Z')) {
+        if (auto z = line.value('Z')) {
+            m_.z_mm = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
+            m_.written_z = m_.absolute ? *z : m_.written_z.value_or(0) + *z;
+        }
+    }
+    if (moves && line.has('E')) {
+        if (auto e = line.value('E')) m_.e = m_.absolute_e ? *e : m_.e + *e;
+    }
+    if (drives_other_axes)
+        for (const char a : kOtherAxes)
+            if (auto v = line.value(a)) {
+                const auto now = m_.other_axes.find(a);
+                if (m_.absolute)
+                    m_.other_axes[a] = *v;
+                else if (now != m_.other_axes.end())
+                    now->second += *v;
+            }
+    if (rewritten_)
+        emit(*rewritten_ + trailing_comment(raw));
+    else
+        verbatim(raw);
+}
+
 void Compensator::line(const std::string& raw) {
     gcode::Line line;
     std::vector<Code> codes;
@@ -48,16 +87,7 @@ void Compensator::line(const std::string& raw) {
     // The F in force, as the controller keeps it (G93's F is each move's own).
     if (auto f = line.value('F'); f && !m_.inverse_time) m_.feed = *f;
     if (is_cnc(frame_.flavour)) cnc_rules(line, codes, polar.any());
-    if (has_m(line, 98) || has_m(line, 99))
-        throw fail(
-            "a subprogram call or return (M98, M99): have the CAM write the program "
-            "flat");
-    if (has_m(line, 6)) m_.spindle_turning = false;
-    if (has_m(line, 3) || has_m(line, 4)) m_.spindle_turning = true;
-    if (const auto s = line.value('S')) m_.spindle_speed = *s;
-    if (has_m(line, 5)) m_.spindle_turning = false;
-    if (has_m(line, 82)) m_.absolute_e = true;
-    if (has_m(line, 83)) m_.absolute_e = false;
+    spindle_and_extruder_words(line);
 
     const bool axes = line.has('X') || line.has('Y') || line.has('Z') || polar.any();
     const bool commanded_motion = std::any_of(codes.begin(), codes.end(), [](Code c) {
@@ -82,29 +112,8 @@ void Compensator::line(const std::string& raw) {
     const bool moves_xy = moves && (is_arc_mode || line.has('X') || line.has('Y') || polar.any());
     if (!moves_xy) {
         if (polar.any()) throw fail("polar words ('@', '^') where no move takes them");
-        if (moves && line.has('Z')) {
-            if (auto z = line.value('Z')) {
-                m_.z_mm = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
-                m_.written_z = m_.absolute ? *z : m_.written_z.value_or(0) + *z;
-            }
-        }
-        if (moves && line.has('E')) {
-            if (auto e = line.value('E')) m_.e = m_.absolute_e ? *e : m_.e + *e;
-        }
-        if (!not_a_move && !not_a_command && m_.motion >= 0 && m_.motion <= 3)
-            for (const char a : kOtherAxes)
-                if (auto v = line.value(a)) {
-                    const auto now = m_.other_axes.find(a);
-                    if (m_.absolute)
-                        m_.other_axes[a] = *v;
-                    else if (now != m_.other_axes.end())
-                        now->second += *v;
-                }
-        if (rewritten_)
-            emit(*rewritten_ + trailing_comment(raw));
-        else
-            verbatim(raw);
-        return;
+        return not_an_xy_move(raw, line, moves,
+                              !not_a_move && !not_a_command && m_.motion >= 0 && m_.motion <= 3);
     }
     move(raw, line, polar, kept_codes, is_arc_mode);
 }
@@ -135,22 +144,9 @@ void Compensator::machine_move(const std::string& raw, const gcode::Line& line) 
     verbatim(raw);
 }
 
-void Compensator::move(const std::string& raw, const gcode::Line& line, const Polar& polar,
-                       const std::vector<Code>& kept_codes, bool is_arc_mode) {
-    if (line.block_delete)
-        throw fail("a move under block delete ('/'): whether it runs is the operator's switch");
-    if (!m_.xy_known && !(m_.absolute && line.has('X') && line.has('Y') && !polar.any()))
-        throw fail(
-            "a move that gives one axis where the other's position is unknown (after G28 or at "
-            "the start)");
-    const Point2 offset = offset_or_fail("a move");
-    const Point2 from = m_.xy_mm;
-    const Point2 to = end_of(line, polar, offset);
-    const std::optional<double> z_from = m_.z_mm;
-    std::optional<double> z_to = m_.z_mm;
-    if (auto z = line.value('Z'))
-        z_to = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
-    const std::optional<double> e_word = line.value('E');
+std::vector<PathPoint> Compensator::pieces_of(const gcode::Line& line, bool is_arc_mode,
+                                              Point2 from, Point2 to, std::optional<double> z_from,
+                                              std::optional<double> z_to) const {
     const double r_tolerance_mm = written_precision_ * m_.unit_mm;
     // A helix shares its descent along its chords; from a height the file has not given,
     // each chord would take the whole of it at once (a straight move is written whole for
@@ -167,13 +163,52 @@ void Compensator::move(const std::string& raw, const gcode::Line& line, const Po
                    " plane from a height the file has not given: its centre and path are "
                    "not known; give a Z move before it");
     const auto failing = [this](const std::string& why) { return fail(why); };
-    const std::vector<PathPoint> path =
-        is_arc_mode ? arc_path(line, m_, from, to, z_from, z_to, settings_, r_tolerance_mm, failing)
-                    // From a height the file has not given, a climb cannot be shared along pieces
-                    // (each would take the whole of it at once): the move is written whole, to its
-                    // corrected end, as one from a place not given is.
-                    : line_path(m_.xy_known && !(line.has('Z') && !z_from), from, to, z_from, z_to,
-                                settings_);
+    return is_arc_mode
+               ? arc_path(line, m_, from, to, z_from, z_to, settings_, r_tolerance_mm, failing)
+               // From a height the file has not given, a climb cannot be shared along pieces
+               // (each would take the whole of it at once): the move is written whole, to its
+               // corrected end, as one from a place not given is.
+               : line_path(m_.xy_known && !(line.has('Z') && !z_from), from, to, z_from, z_to,
+                           settings_);
+}
+
+std::vector<OtherAxis> Compensator::other_axes_driven(const gcode::Line& line, std::size_t pieces) {
+    std::vector<OtherAxis> others;
+    for (const char a : kOtherAxes) {
+        const auto v = line.value(a);
+        if (!v) continue;
+        const auto now = m_.other_axes.find(a);
+        if (now == m_.other_axes.end()) {
+            if (pieces > 1)
+                throw fail(std::string("a move that drives ") + a +
+                           " from where the file has not said: it cannot be shared along "
+                           "the move's pieces (give " +
+                           a + " on an earlier move, or G92 " + a + ")");
+            if (m_.absolute) m_.other_axes[a] = *v;
+            continue;
+        }
+        others.push_back({a, now->second, m_.absolute ? *v : now->second + *v});
+    }
+    return others;
+}
+
+void Compensator::move(const std::string& raw, const gcode::Line& line, const Polar& polar,
+                       const std::vector<Code>& kept_codes, bool is_arc_mode) {
+    if (line.block_delete)
+        throw fail("a move under block delete ('/'): whether it runs is the operator's switch");
+    if (!m_.xy_known && !(m_.absolute && line.has('X') && line.has('Y') && !polar.any()))
+        throw fail(
+            "a move that gives one axis where the other's position is unknown (after G28 or at "
+            "the start)");
+    const Point2 offset = offset_or_fail("a move");
+    const Point2 from = m_.xy_mm;
+    const Point2 to = end_of(line, polar, offset);
+    const std::optional<double> z_from = m_.z_mm;
+    std::optional<double> z_to = m_.z_mm;
+    if (auto z = line.value('Z'))
+        z_to = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
+    const std::optional<double> e_word = line.value('E');
+    const std::vector<PathPoint> path = pieces_of(line, is_arc_mode, from, to, z_from, z_to);
     // The move's end as the job writes it; then, for an arc, every chord's end (an arc
     // bulges past the rectangle its ends lie in).
     inside_travel(to, offset);
@@ -185,27 +220,7 @@ void Compensator::move(const std::string& raw, const gcode::Line& line, const Po
     const double e_from = m_.e;
     const double e_total = e_word ? (m_.absolute_e ? *e_word - m_.e : *e_word) : 0;
     const std::size_t n = path.size();
-    // The other axes this move drives, from where they are to where it sends them.
-    struct OtherAxis {
-        char letter;
-        double from, to;
-    };
-    std::vector<OtherAxis> others;
-    for (const char a : kOtherAxes) {
-        const auto v = line.value(a);
-        if (!v) continue;
-        const auto now = m_.other_axes.find(a);
-        if (now == m_.other_axes.end()) {
-            if (n > 1)
-                throw fail(std::string("a move that drives ") + a +
-                           " from where the file has not said: it cannot be shared along "
-                           "the move's pieces (give " +
-                           a + " on an earlier move, or G92 " + a + ")");
-            if (m_.absolute) m_.other_axes[a] = *v;
-            continue;
-        }
-        others.push_back({a, now->second, m_.absolute ? *v : now->second + *v});
-    }
+    const std::vector<OtherAxis> others = other_axes_driven(line, n);
     const CommandWords commands = command_words(line);
     for (std::size_t k = 0; k < n; ++k) {
         const double share = static_cast<double>(k + 1) / static_cast<double>(n);
@@ -258,8 +273,7 @@ std::string Compensator::other_words(const gcode::Line& line, std::string_view l
     return text;
 }
 
-void Compensator::cycle(const std::string& raw, const gcode::Line& line, const Polar& polar,
-                        const std::vector<Code>& kept_codes) {
+void Compensator::take_cycle_words(const gcode::Line& line) {
     if (line.block_delete)
         throw fail(
             "a drilling cycle under block delete ('/'): whether it runs is the "
@@ -298,6 +312,12 @@ void Compensator::cycle(const std::string& raw, const gcode::Line& line, const P
                    (m_.absolute ? "" : " (G91: Z from R)") +
                    ": it would drill upwards; LinuxCNC stops on it (\"R less than z in cycle "
                    "in xy plane\")");
+}
+
+void Compensator::cycle(const std::string& raw, const gcode::Line& line, const Polar& polar,
+                        const std::vector<Code>& kept_codes) {
+    take_cycle_words(line);
+    const Code code{m_.motion, -1};
     const double repeats = line.value('L').value_or(1);
     if (!(repeats >= 0 && repeats <= 10000 && repeats == std::floor(repeats)))
         throw fail("canned cycle " + code.text() + " L" + number(repeats, 3) +

@@ -80,6 +80,48 @@ void Compensator::word_rules(const gcode::Line& line, const std::vector<Code>& c
                            " and " + codes[j].text() + ")" + stops());
 }
 
+void Compensator::unused_words(const gcode::Line& line, const std::vector<Code>& codes,
+                               int motion) const {
+    const auto stops = [this] { return ": " + controller_of(frame_.flavour) + " stops on it"; };
+    const auto on_line = [&](int number) {
+        return std::any_of(codes.begin(), codes.end(),
+                           [number](Code c) { return c.number == number; });
+    };
+    const bool arc = motion == 2 || motion == 3, cycle = is_cycle(motion);
+    const bool g10 = on_line(10);
+    const auto unused = [&](char letter, std::string_view users) {
+        if (line.has(letter))
+            throw fail(std::string(1, letter) + " word with no " + std::string(users) +
+                       " to use it" + stops());
+    };
+    if (!arc && motion != 87 && !g10) {
+        unused('I', "G2 or G3");
+        unused('J', "G2 or G3");
+        unused('K', "G2 or G3");
+    }
+    if (arc) {
+        const char other = m_.plane == 17 ? 'K' : m_.plane == 18 ? 'J' : 'I';
+        if (line.has(other))
+            throw fail(std::string(1, other) + " word in an arc in the " +
+                       (m_.plane == 17   ? "XY"
+                        : m_.plane == 18 ? "XZ"
+                                         : "YZ") +
+                       " plane" + stops());
+    }
+    if (!arc && !cycle && !g10) unused('R', "G2, G3, a drilling cycle or G10");
+    if (!cycle && !g10) unused('L', "G10 or drilling cycle");
+    const bool m_with_p = has_m_in(line, 50, 53) || has_m_in(line, 62, 66) || has_m(line, 98) ||
+                          has_m_in(line, 100, 199);
+    const bool arc_turns = arc && frame_.flavour == Flavour::linuxcnc;
+    if (!on_line(4) && !g10 && !arc_turns && !on_line(64) && !m_with_p && !dwells_at_bottom(motion))
+        unused('P', "G4, G10, G64, an arc's turns, G82/G86/G88/G89 or M code");
+    if (!(motion == 73 || motion == 83) && !on_line(64) && !g10 && !has_m_in(line, 66, 68) &&
+        !has_m_in(line, 100, 199))
+        unused('Q', "G73, G83, G64, G10 or M66-M68");
+    if (!on_line(43)) unused('H', "G43");
+    unused('D', "G41 or G42");
+}
+
 void Compensator::cnc_rules(const gcode::Line& line, const std::vector<Code>& codes,
                             bool polar) const {
     // Named only in a refusal: a line read builds no message.
@@ -118,38 +160,7 @@ void Compensator::cnc_rules(const gcode::Line& line, const std::vector<Code>& co
         throw fail("a feed move under G93 (inverse time) without its F on the line" + stops());
     if (feeds && !m_.inverse_time && !(m_.feed.value_or(0) > 0))
         throw fail("a feed move with no feed rate in force (no F above 0 given yet)" + stops());
-    const bool g10 = on_line(10);
-    const auto unused = [&](char letter, std::string_view users) {
-        if (line.has(letter))
-            throw fail(std::string(1, letter) + " word with no " + std::string(users) +
-                       " to use it" + stops());
-    };
-    if (!arc && motion != 87 && !g10) {
-        unused('I', "G2 or G3");
-        unused('J', "G2 or G3");
-        unused('K', "G2 or G3");
-    }
-    if (arc) {
-        const char other = m_.plane == 17 ? 'K' : m_.plane == 18 ? 'J' : 'I';
-        if (line.has(other))
-            throw fail(std::string(1, other) + " word in an arc in the " +
-                       (m_.plane == 17   ? "XY"
-                        : m_.plane == 18 ? "XZ"
-                                         : "YZ") +
-                       " plane" + stops());
-    }
-    if (!arc && !cycle && !g10) unused('R', "G2, G3, a drilling cycle or G10");
-    if (!cycle && !g10) unused('L', "G10 or drilling cycle");
-    const bool m_with_p = has_m_in(line, 50, 53) || has_m_in(line, 62, 66) || has_m(line, 98) ||
-                          has_m_in(line, 100, 199);
-    const bool arc_turns = arc && frame_.flavour == Flavour::linuxcnc;
-    if (!on_line(4) && !g10 && !arc_turns && !on_line(64) && !m_with_p && !dwells_at_bottom(motion))
-        unused('P', "G4, G10, G64, an arc's turns, G82/G86/G88/G89 or M code");
-    if (!(motion == 73 || motion == 83) && !on_line(64) && !g10 && !has_m_in(line, 66, 68) &&
-        !has_m_in(line, 100, 199))
-        unused('Q', "G73, G83, G64, G10 or M66-M68");
-    if (!on_line(43)) unused('H', "G43");
-    unused('D', "G41 or G42");
+    unused_words(line, codes, motion);
     // The words a code cannot go without (LinuxCNC's interpreter; grbl's errors 26 and 28).
     const auto positive = [&](char letter) { return line.value(letter).value_or(0) > 0; };
     if (on_line(4) && !(line.value('P').value_or(-1) >= 0))

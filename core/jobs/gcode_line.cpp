@@ -242,6 +242,39 @@ std::vector<double> Line::values(char letter) const {
     return {};
 }
 
+namespace {
+
+// A word's number: one, or RepRapFirmware's ':'-separated list of them (`list` then holds every
+// element, `value` the first).
+void read_word_number(std::string_view number, char letter, std::optional<double>& value,
+                      std::vector<double>& list) {
+    for (std::size_t from = 0; from < number.size();) {
+        const std::size_t colon = std::min(number.find(':', from), number.size());
+        const std::string_view element = number.substr(from, colon - from);
+        double v = 0;
+        const char* first = element.data();
+        if (!element.empty() && *first == '+') ++first;
+        const auto [end, ec] = std::from_chars(first, element.data() + element.size(), v);
+        if (element.empty() || ec != std::errc() || end != element.data() + element.size()) {
+            throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
+                              letter);
+        }
+        if (!value)
+            value = v;
+        else {
+            if (list.empty()) list.push_back(*value);
+            list.push_back(v);
+        }
+        from = colon + 1;
+        if (colon + 1 == number.size()) {
+            throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
+                              letter);
+        }
+    }
+}
+
+}  // namespace
+
 Line parse_line(std::string_view raw) {
     // The checksum covers the raw text before '*', comments included.
     const std::string body = strip_comments(verify_checksum(raw));
@@ -271,30 +304,7 @@ Line parse_line(std::string_view raw) {
         const std::string_view number(body.data() + start, i - start);
         std::optional<double> value;
         std::vector<double> list;
-        // One number, or RepRapFirmware's ':'-separated list of them.
-        for (std::size_t from = 0; from < number.size();) {
-            const std::size_t colon = std::min(number.find(':', from), number.size());
-            const std::string_view element = number.substr(from, colon - from);
-            double v = 0;
-            const char* first = element.data();
-            if (!element.empty() && *first == '+') ++first;
-            const auto [end, ec] = std::from_chars(first, element.data() + element.size(), v);
-            if (element.empty() || ec != std::errc() || end != element.data() + element.size()) {
-                throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
-                                  letter);
-            }
-            if (!value)
-                value = v;
-            else {
-                if (list.empty()) list.push_back(*value);
-                list.push_back(v);
-            }
-            from = colon + 1;
-            if (colon + 1 == number.size()) {
-                throw SyntaxError(std::string("bad number '") + std::string(number) + "' after " +
-                                  letter);
-            }
-        }
+        read_word_number(number, letter, value, list);
         const bool one_value = value && list.empty();
         if (letter == 'N' && line.command_letter == 0 && !line.line_number) {
             // Hosts number lines from 0 upwards in a signed 32-bit counter.

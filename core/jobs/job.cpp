@@ -93,6 +93,50 @@ double PlacedJob::estimated_time_s(const models::MachineFile& machine) const {
            toolpath.travel_length_mm() / machine.travel_feed_mm_s;
 }
 
+namespace {
+
+// The placed drawing refused where it leaves what the machine reaches, in a line naming the
+// region and the largest --fit that makes it fit; `w` x `h` is the drawing's own extent.
+void refuse_unless_it_fits(const PlacedJob& job, const models::MachineFile& machine, double w,
+                           double h) {
+    // Where the drawing must lie, whether it does, and the largest scale at which the centred
+    // drawing would.
+    bool fits = false;
+    std::string region;
+    double largest_scale = 0;
+    if (machine.is_delta()) {
+        fits =
+            std::hypot(std::max(std::abs(job.min_x), std::abs(job.max_x)),
+                       std::max(std::abs(job.min_y), std::abs(job.max_y))) <= machine.bed_radius_mm;
+        region = "the bed (a circle of " + fixed_text(machine.bed_radius_mm, 1) + " mm radius)";
+        largest_scale = machine.bed_radius_mm / std::hypot(w / 2, h / 2);
+    } else if (machine.is_galvo()) {
+        const double half_field = machine.galvo ? machine.galvo->field_size_mm / 2 : 0;
+        fits = job.min_x >= -half_field && job.min_y >= -half_field && job.max_x <= half_field &&
+               job.max_y <= half_field;
+        region = "the scanner's field (" + fixed_text(2 * half_field, 1) + " x " +
+                 fixed_text(2 * half_field, 1) + " mm)";
+        largest_scale = std::min(2 * half_field / w, 2 * half_field / h);
+    } else {
+        fits = job.min_x >= 0 && job.min_y >= 0 && job.max_x <= machine.bed_size_x_mm &&
+               job.max_y <= machine.bed_size_y_mm;
+        region = "the bed (" + fixed_text(machine.bed_size_x_mm, 1) + " x " +
+                 fixed_text(machine.bed_size_y_mm, 1) + " mm)";
+        largest_scale = std::min(machine.bed_size_x_mm / w, machine.bed_size_y_mm / h);
+    }
+    if (!fits) {
+        // As the --fit that gives it, rounded down to 0.1 mm so that it does fit.
+        const double largest_fit_mm = std::floor(largest_scale * std::max(w, h) * 10 - 1e-9) / 10;
+        throw JobError("the drawing, " + fixed_text(job.max_x - job.min_x, 1) + " x " +
+                       fixed_text(job.max_y - job.min_y, 1) + " mm at scale " +
+                       number_text("%g", job.scale) + ", does not fit " + region + "; --fit " +
+                       fixed_text(largest_fit_mm, 1) +
+                       " (its larger side in mm) or less makes it fit");
+    }
+}
+
+}  // namespace
+
 PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& machine,
                        const SvgJobSettings& settings) {
     PlacedJob job;
@@ -135,41 +179,7 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     job.max_x = bed_centre.x + (xmax - xmin) / 2 * job.scale;
     job.min_y = bed_centre.y - (ymax - ymin) / 2 * job.scale;
     job.max_y = bed_centre.y + (ymax - ymin) / 2 * job.scale;
-    // Where the drawing must lie, whether it does, and the largest scale at which the centred
-    // drawing would (for the line that refuses it).
-    const double w = xmax - xmin, h = ymax - ymin;
-    bool fits = false;
-    std::string region;
-    double largest_scale = 0;
-    if (machine.is_delta()) {
-        fits =
-            std::hypot(std::max(std::abs(job.min_x), std::abs(job.max_x)),
-                       std::max(std::abs(job.min_y), std::abs(job.max_y))) <= machine.bed_radius_mm;
-        region = "the bed (a circle of " + fixed_text(machine.bed_radius_mm, 1) + " mm radius)";
-        largest_scale = machine.bed_radius_mm / std::hypot(w / 2, h / 2);
-    } else if (machine.is_galvo()) {
-        const double half_field = machine.galvo ? machine.galvo->field_size_mm / 2 : 0;
-        fits = job.min_x >= -half_field && job.min_y >= -half_field && job.max_x <= half_field &&
-               job.max_y <= half_field;
-        region = "the scanner's field (" + fixed_text(2 * half_field, 1) + " x " +
-                 fixed_text(2 * half_field, 1) + " mm)";
-        largest_scale = std::min(2 * half_field / w, 2 * half_field / h);
-    } else {
-        fits = job.min_x >= 0 && job.min_y >= 0 && job.max_x <= machine.bed_size_x_mm &&
-               job.max_y <= machine.bed_size_y_mm;
-        region = "the bed (" + fixed_text(machine.bed_size_x_mm, 1) + " x " +
-                 fixed_text(machine.bed_size_y_mm, 1) + " mm)";
-        largest_scale = std::min(machine.bed_size_x_mm / w, machine.bed_size_y_mm / h);
-    }
-    if (!fits) {
-        // As the --fit that gives it, rounded down to 0.1 mm so that it does fit.
-        const double largest_fit_mm = std::floor(largest_scale * std::max(w, h) * 10 - 1e-9) / 10;
-        throw JobError("the drawing, " + fixed_text(job.max_x - job.min_x, 1) + " x " +
-                       fixed_text(job.max_y - job.min_y, 1) + " mm at scale " +
-                       number_text("%g", job.scale) + ", does not fit " + region + "; --fit " +
-                       fixed_text(largest_fit_mm, 1) +
-                       " (its larger side in mm) or less makes it fit");
-    }
+    refuse_unless_it_fits(job, machine, xmax - xmin, ymax - ymin);
     FillSettings fill;
     fill.line_width_mm = job.line_width_mm;
     fill.spacing_mm = job.spacing_mm;
@@ -197,68 +207,64 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     return job;
 }
 
-std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
-                        const std::string& title) {
-    std::string out;
+namespace {
+
+// A printer's job: heated, homed, filament measured along each line, lifted over the print.
+void printer_job_lines(std::string& out, const PlacedJob& job, const models::MachineFile& m) {
     const auto line = [&](const std::string& text) { out += text + "\n"; };
     const double feed = job.feed_mm_s * 60, travel = m.travel_feed_mm_s * 60;
-    line("; " + title);
-    line("; calbox job for a " + m.kind + " (" + m.firmware + "): line " +
-         number_text("%g", job.line_width_mm) + " mm, spacing " +
-         number_text("%g", job.spacing_mm) + " mm, " +
-         fixed_text(job.toolpath.working_length_mm(), 1) + " mm of path");
-    line("G21");
-    line("G90");
-    if (m.is_printer()) {
-        line("M82");
-        if (m.start_gcode) {
-            out += *m.start_gcode;
-            if (!out.empty() && out.back() != '\n') out += "\n";
-        } else {
-            if (m.bed_temperature_c) line("M190 S" + fixed_text(*m.bed_temperature_c, 0));
-            if (m.nozzle_temperature_c) line("M109 S" + fixed_text(*m.nozzle_temperature_c, 0));
-            line("G28");
-        }
-        line("G92 E0");
-        const double e_per_mm =
-            job.line_width_mm * m.layer_height_mm /
-            (3.14159265358979323846 * m.filament_diameter_mm * m.filament_diameter_mm / 4);
-        double e = 0;
-        line("G0 Z" + fixed_text(m.safe_height_mm, 3) + " F" + fixed_text(travel, 0));
-        for (int layer = 1; layer <= job.layers; ++layer) {
-            const double z = layer * m.layer_height_mm, hop = z + 0.4;
-            if (layer > 1) line("G0 Z" + fixed_text(hop, 3));
-            bool lifted = true;
-            for (const auto& move : job.toolpath.moves) {
-                if (move.kind == MoveKind::travel) {
-                    // Lift over the print for anything longer than a hop to the next line.
-                    if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
-                        line("G0 Z" + fixed_text(hop, 3));
-                        lifted = true;
-                    }
-                    line("G0" + spaced_xy(move.to) + " F" + fixed_text(travel, 0));
-                    continue;
-                }
-                if (lifted) {
-                    line("G0 Z" + fixed_text(z, 3));
-                    lifted = false;
-                }
-                e += move.length_mm() * e_per_mm;
-                line("G1" + spaced_xy(move.to) + " E" + fixed_text(e, 5) + " F" +
-                     fixed_text(feed, 0));
-            }
-        }
-        line("G0 Z" + fixed_text(m.safe_height_mm + 10, 3) + " F" + fixed_text(travel, 0));
-        if (m.end_gcode) {
-            out += *m.end_gcode;
-            if (!out.empty() && out.back() != '\n') out += "\n";
-        } else {
-            if (m.nozzle_temperature_c) line("M104 S0");
-            if (m.bed_temperature_c) line("M140 S0");
-            line("M84");
-        }
-        return out;
+    line("M82");
+    if (m.start_gcode) {
+        out += *m.start_gcode;
+        if (!out.empty() && out.back() != '\n') out += "\n";
+    } else {
+        if (m.bed_temperature_c) line("M190 S" + fixed_text(*m.bed_temperature_c, 0));
+        if (m.nozzle_temperature_c) line("M109 S" + fixed_text(*m.nozzle_temperature_c, 0));
+        line("G28");
     }
+    line("G92 E0");
+    const double e_per_mm =
+        job.line_width_mm * m.layer_height_mm /
+        (3.14159265358979323846 * m.filament_diameter_mm * m.filament_diameter_mm / 4);
+    double e = 0;
+    line("G0 Z" + fixed_text(m.safe_height_mm, 3) + " F" + fixed_text(travel, 0));
+    for (int layer = 1; layer <= job.layers; ++layer) {
+        const double z = layer * m.layer_height_mm, hop = z + 0.4;
+        if (layer > 1) line("G0 Z" + fixed_text(hop, 3));
+        bool lifted = true;
+        for (const auto& move : job.toolpath.moves) {
+            if (move.kind == MoveKind::travel) {
+                // Lift over the print for anything longer than a hop to the next line.
+                if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
+                    line("G0 Z" + fixed_text(hop, 3));
+                    lifted = true;
+                }
+                line("G0" + spaced_xy(move.to) + " F" + fixed_text(travel, 0));
+                continue;
+            }
+            if (lifted) {
+                line("G0 Z" + fixed_text(z, 3));
+                lifted = false;
+            }
+            e += move.length_mm() * e_per_mm;
+            line("G1" + spaced_xy(move.to) + " E" + fixed_text(e, 5) + " F" + fixed_text(feed, 0));
+        }
+    }
+    line("G0 Z" + fixed_text(m.safe_height_mm + 10, 3) + " F" + fixed_text(travel, 0));
+    if (m.end_gcode) {
+        out += *m.end_gcode;
+        if (!out.empty() && out.back() != '\n') out += "\n";
+    } else {
+        if (m.nozzle_temperature_c) line("M104 S0");
+        if (m.bed_temperature_c) line("M140 S0");
+        line("M84");
+    }
+}
+
+// A router's or a laser's job: the spindle or the beam on only while working.
+void machine_job_lines(std::string& out, const PlacedJob& job, const models::MachineFile& m) {
+    const auto line = [&](const std::string& text) { out += text + "\n"; };
+    const double feed = job.feed_mm_s * 60, travel = m.travel_feed_mm_s * 60;
     const bool router = m.kind == "router";
     const double power_scale = m.firmware == "grbl" ? 1000 : 255;
     line("M5");
@@ -283,6 +289,25 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
     }
     if (router) line("G0 Z" + fixed_text(m.safe_height_mm, 3));
     line("M5");
+}
+
+}  // namespace
+
+std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
+                        const std::string& title) {
+    std::string out;
+    const auto line = [&](const std::string& text) { out += text + "\n"; };
+    line("; " + title);
+    line("; calbox job for a " + m.kind + " (" + m.firmware + "): line " +
+         number_text("%g", job.line_width_mm) + " mm, spacing " +
+         number_text("%g", job.spacing_mm) + " mm, " +
+         fixed_text(job.toolpath.working_length_mm(), 1) + " mm of path");
+    line("G21");
+    line("G90");
+    if (m.is_printer())
+        printer_job_lines(out, job, m);
+    else
+        machine_job_lines(out, job, m);
     return out;
 }
 

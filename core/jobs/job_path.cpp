@@ -27,29 +27,15 @@ std::vector<PathPoint> line_path(bool start_known, Point2 from, Point2 to,
     return path;
 }
 
-std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 from, Point2 to,
-                                std::optional<double> z_from, std::optional<double> z_to,
-                                const CompensateSettings& settings, double r_tolerance_mm,
-                                const Failure& fail) {
-    if (!m.xy_known) throw fail("an arc needs a known start");
-    if (m.plane != 17 && (!z_from || !z_to))
-        throw fail("an arc in the XZ or YZ plane needs a known Z");
-    // The arc's plane as (a, b) with the helix along h: G17 XY, G18 ZX, G19 YZ, each ordered so
-    // that a x b is the plane's normal (clockwise as seen from its positive side).
-    const auto to_abh = [&](Point2 xy, double z) -> std::array<double, 3> {
-        if (m.plane == 18) return {z, xy.x, xy.y};
-        if (m.plane == 19) return {xy.y, z, xy.x};
-        return {xy.x, xy.y, z};
-    };
-    const auto from_abh = [&](const std::array<double, 3>& p) -> PathPoint {
-        if (m.plane == 18) return {{p[1], p[2]}, p[0]};
-        if (m.plane == 19) return {{p[2], p[0]}, p[1]};
-        return {{p[0], p[1]}, p[2]};
-    };
+namespace {
+
+// The arc's centre in its plane's coordinates (a, b): from R (clockwise with R > 0 the short
+// way) or from its offsets (I J, K I or J K by the plane).
+std::array<double, 2> arc_centre(const gcode::Line& line, const Modal& m,
+                                 const std::array<double, 3>& f, const std::array<double, 3>& t,
+                                 double r_tolerance_mm, const Failure& fail) {
     const char offset_a = m.plane == 17 ? 'I' : (m.plane == 18 ? 'K' : 'J');
     const char offset_b = m.plane == 17 ? 'J' : (m.plane == 18 ? 'I' : 'K');
-    const auto f = to_abh(from, z_from.value_or(0));
-    const auto t = to_abh(to, z_to.value_or(0));
     const bool clockwise = m.motion == 2;
     double ca = 0, cb = 0;
     if (line.has('R')) {
@@ -78,6 +64,34 @@ std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 
         ca = f[0] + line.value(offset_a).value_or(0) * m.unit_mm;
         cb = f[1] + line.value(offset_b).value_or(0) * m.unit_mm;
     }
+    return {ca, cb};
+}
+
+}  // namespace
+
+std::vector<PathPoint> arc_path(const gcode::Line& line, const Modal& m, Point2 from, Point2 to,
+                                std::optional<double> z_from, std::optional<double> z_to,
+                                const CompensateSettings& settings, double r_tolerance_mm,
+                                const Failure& fail) {
+    if (!m.xy_known) throw fail("an arc needs a known start");
+    if (m.plane != 17 && (!z_from || !z_to))
+        throw fail("an arc in the XZ or YZ plane needs a known Z");
+    // The arc's plane as (a, b) with the helix along h: G17 XY, G18 ZX, G19 YZ, each ordered so
+    // that a x b is the plane's normal (clockwise as seen from its positive side).
+    const auto to_abh = [&](Point2 xy, double z) -> std::array<double, 3> {
+        if (m.plane == 18) return {z, xy.x, xy.y};
+        if (m.plane == 19) return {xy.y, z, xy.x};
+        return {xy.x, xy.y, z};
+    };
+    const auto from_abh = [&](const std::array<double, 3>& p) -> PathPoint {
+        if (m.plane == 18) return {{p[1], p[2]}, p[0]};
+        if (m.plane == 19) return {{p[2], p[0]}, p[1]};
+        return {{p[0], p[1]}, p[2]};
+    };
+    const auto f = to_abh(from, z_from.value_or(0));
+    const auto t = to_abh(to, z_to.value_or(0));
+    const bool clockwise = m.motion == 2;
+    const auto [ca, cb] = arc_centre(line, m, f, t, r_tolerance_mm, fail);
     const double radius = std::hypot(f[0] - ca, f[1] - cb);
     const double end_radius = std::hypot(t[0] - ca, t[1] - cb);
     // LinuxCNC's own bound on a centre-format arc whose end is off the start's circle: past

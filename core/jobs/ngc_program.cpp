@@ -203,21 +203,43 @@ class Machine {
         throw fail(from, "o" + label + " has no " + names + " after it");
     }
 
+    // An endsub or return: back to the line after the call, the value kept in _value.
+    std::size_t leave_subroutine(std::size_t at, const OWord& o) {
+        const std::string& k = o.keyword;
+        if (frames_.size() < 2) {
+            if (k == "return") throw fail(at, "o" + o.label + " return outside a subroutine");
+            return at + 1;
+        }
+        if (const auto value = optional_expression(at, o.rest)) globals_["_value"] = *value;
+        const std::size_t back = frames_.back().return_to;
+        frames_.pop_back();
+        // A subroutine's loops end with it.
+        while (!loops_.empty() && loop_frames_.back() > frames_.size()) pop_loop();
+        return back;
+    }
+
+    // A break (past the loop's closer) or a continue (to it).
+    std::size_t leave_loop(std::size_t at, const OWord& o) {
+        const std::string& k = o.keyword;
+        while (!loops_.empty() && loops_.back().label != o.label &&
+               loop_frames_.back() == frames_.size())
+            pop_loop();
+        if (loops_.empty() || loops_.back().label != o.label)
+            throw fail(at, "o" + o.label + " " + k + " outside its loop");
+        const auto& head = o_words_[loops_.back().start]->keyword;
+        const char* closer = head == "repeat" ? "endrepeat" : head == "do" ? "while" : "endwhile";
+        const std::size_t end = find_after(loops_.back().start, o.label, {closer});
+        if (k == "break") {
+            pop_loop();
+            return end + 1;
+        }
+        return end;  // the closer decides whether it turns again
+    }
+
     std::size_t control(std::size_t at, const OWord& o) {
         const std::string& k = o.keyword;
         if (k == "sub") return find_after(at, o.label, {"endsub"}) + 1;  // defined, not run
-        if (k == "endsub" || k == "return") {
-            if (frames_.size() < 2) {
-                if (k == "return") throw fail(at, "o" + o.label + " return outside a subroutine");
-                return at + 1;
-            }
-            if (const auto value = optional_expression(at, o.rest)) globals_["_value"] = *value;
-            const std::size_t back = frames_.back().return_to;
-            frames_.pop_back();
-            // A subroutine's loops end with it.
-            while (!loops_.empty() && loop_frames_.back() > frames_.size()) pop_loop();
-            return back;
-        }
+        if (k == "endsub" || k == "return") return leave_subroutine(at, o);
         if (k == "call") return call(at, o);
         if (k == "if") return branch(at, o);
         if (k == "elseif" || k == "else")  // reached by falling out of a taken branch
@@ -267,23 +289,7 @@ class Machine {
             pop_loop();
             return at + 1;
         }
-        if (k == "break" || k == "continue") {
-            while (!loops_.empty() && loops_.back().label != o.label &&
-                   loop_frames_.back() == frames_.size())
-                pop_loop();
-            if (loops_.empty() || loops_.back().label != o.label)
-                throw fail(at, "o" + o.label + " " + k + " outside its loop");
-            const auto& head = o_words_[loops_.back().start]->keyword;
-            const char* closer = head == "repeat" ? "endrepeat"
-                                 : head == "do"   ? "while"
-                                                  : "endwhile";
-            const std::size_t end = find_after(loops_.back().start, o.label, {closer});
-            if (k == "break") {
-                pop_loop();
-                return end + 1;
-            }
-            return end;  // the closer decides whether it turns again
-        }
+        if (k == "break" || k == "continue") return leave_loop(at, o);
         throw fail(at, "unknown O-word keyword '" + k + "'");
     }
 

@@ -110,6 +110,49 @@ std::pair<int, int> grid_dimensions_after(int symmetry, int columns, int rows) {
     return symmetry % 2 == 0 ? std::pair{columns, rows} : std::pair{rows, columns};
 }
 
+namespace {
+
+// The design nodes a target is limited to (calbox target planar --only), each inside the grid.
+std::set<std::size_t> design_nodes(const PlanarTargetOptions& options, int columns, int rows) {
+    std::set<std::size_t> only;
+    if (!options.only_nodes) return only;
+    for (std::size_t n : *options.only_nodes) {
+        if (n >= static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows))
+            throw JobError("design node " + std::to_string(n) + " is outside the " +
+                           std::to_string(columns) + " x " + std::to_string(rows) + " grid");
+        only.insert(n);
+    }
+    return only;
+}
+
+// Printers and lasers: each dot filled with the machine's line, written as its jobs are.
+std::string printed_dots_job(const PlanarTarget& t, const models::MachineFile& machine,
+                             double line_mm) {
+    FillSettings fill;
+    fill.line_width_mm = line_mm;
+    fill.spacing_mm = line_mm;
+    fill.angle_deg = 0;
+    PlacedJob job;
+    job.line_width_mm = line_mm;
+    job.spacing_mm = job.line_width_mm;
+    job.feed_mm_s = machine.feed_mm_s;
+    Point2 pen{0, 0};
+    for (const auto& hole : t.holes) {
+        Contour c;
+        c.closed = true;
+        c.points = circle_points(hole.centre_mm,
+                                 0.5 * (hole.large ? t.large_diameter_mm : t.hole_diameter_mm));
+        c.points.pop_back();
+        append(job.toolpath, plan_fill({c}, FillRule::nonzero, fill, pen));
+    }
+    job.min_x = job.min_y = 0;
+    job.max_x = machine.bed_size_x_mm;
+    job.max_y = machine.bed_size_y_mm;
+    return write_gcode(job, machine, "calbox planar target");
+}
+
+}  // namespace
+
 PlanarTarget make_planar_target(const models::MachineFile& machine,
                                 const PlanarTargetOptions& options) {
     if (!machine.is_planar() || !machine.planar)
@@ -147,16 +190,7 @@ PlanarTarget make_planar_target(const models::MachineFile& machine,
                        " mm) is too wide to fill dots of " + number_text("%g", t.hole_diameter_mm) +
                        " mm");
     t.omitted = omitted_hole(t.columns, t.rows);
-    std::set<std::size_t> only;
-    if (options.only_nodes) {
-        for (std::size_t n : *options.only_nodes) {
-            if (n >= static_cast<std::size_t>(t.columns) * static_cast<std::size_t>(t.rows))
-                throw JobError("design node " + std::to_string(n) + " is outside the " +
-                               std::to_string(t.columns) + " x " + std::to_string(t.rows) +
-                               " grid");
-            only.insert(n);
-        }
-    }
+    const std::set<std::size_t> only = design_nodes(options, t.columns, t.rows);
     std::string canonical = models::fingerprint(machine) + "|planar-grid|" +
                             std::to_string(t.columns) + "x" + std::to_string(t.rows) + "|" +
                             number_text("%.6f", t.pitch_mm) + "|" +
@@ -194,28 +228,7 @@ PlanarTarget make_planar_target(const models::MachineFile& machine,
                 number_text("%.3f", t.large_diameter_mm) + " mm), and one more for the backlash");
         return t;
     }
-    // Printers and lasers: each dot filled with the machine's line, written as its jobs are.
-    FillSettings fill;
-    fill.line_width_mm = line_mm;
-    fill.spacing_mm = line_mm;
-    fill.angle_deg = 0;
-    PlacedJob job;
-    job.line_width_mm = line_mm;
-    job.spacing_mm = job.line_width_mm;
-    job.feed_mm_s = machine.feed_mm_s;
-    Point2 pen{0, 0};
-    for (const auto& hole : t.holes) {
-        Contour c;
-        c.closed = true;
-        c.points = circle_points(hole.centre_mm,
-                                 0.5 * (hole.large ? t.large_diameter_mm : t.hole_diameter_mm));
-        c.points.pop_back();
-        append(job.toolpath, plan_fill({c}, FillRule::nonzero, fill, pen));
-    }
-    job.min_x = job.min_y = 0;
-    job.max_x = machine.bed_size_x_mm;
-    job.max_y = machine.bed_size_y_mm;
-    t.job = write_gcode(job, machine, "calbox planar target");
+    t.job = printed_dots_job(t, machine, line_mm);
     return t;
 }
 

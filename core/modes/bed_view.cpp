@@ -93,12 +93,11 @@ Point2 BedView::pixel_of_machine(Point2 machine_mm) const {
             (max_y_mm - machine_mm.y) / mm_per_px - 0.5};
 }
 
-BedView render_bed_view(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
-                        const vision::GrayView& photo, const PlanarSolution& solution,
-                        const BedViewRequest& request, const std::string& source) {
-    const BedToMachine map = photo_on_machine(camera, photo, solution, source);
-    const auto& f = *solution.frame;
-    BedView view;
+namespace {
+
+// The view's area: the request's, or the whole travel where it gives none; refused where it has no
+// size or leaves the travel. Its text names it in refusals.
+std::string view_area(BedView& view, const BedViewRequest& request, const PlanarFrame& f) {
     const bool whole_travel = request.min_x_mm == 0 && request.min_y_mm == 0 &&
                               request.max_x_mm == 0 && request.max_y_mm == 0;
     view.min_x_mm = whole_travel ? f.travel_min_x_mm : request.min_x_mm;
@@ -118,26 +117,37 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
             "the area " + area + " reaches beyond the machine's travel (X " +
             three_decimals(f.travel_min_x_mm) + ".." + three_decimals(f.travel_max_x_mm) + " Y " +
             three_decimals(f.travel_min_y_mm) + ".." + three_decimals(f.travel_max_y_mm) + " mm)");
-    if (!(request.surface_height_mm >= 0 && request.surface_height_mm < 500))
-        throw BedViewError("a surface " + three_decimals(request.surface_height_mm) +
-                           " mm above the bed: give 0 to 500 mm");
-    view.surface_height_mm = request.surface_height_mm;
+    return area;
+}
 
-    const double h = request.surface_height_mm;
-    const auto bed_point = [&](Point2 machine) {
-        const Point2 b = map.bed_of(machine);
-        return Point3{b.x, b.y, h};
-    };
-    // A ray the lens's polynomial was never fitted to can fold back into the photo: a sample
-    // counts only when it is in front of the camera, within the photo's widest ray, and lands in
-    // the photo.
+// Where the lens's polynomial holds: a ray it was never fitted to can fold back into the photo,
+// so a sample counts only when it is in front of the camera, within the photo's widest ray, and
+// lands in the photo.
+struct LensReach {
     cv::Matx33d rotation;
+    cv::Vec3d shift;
+    double widest_ray = 0;
+    double width_px = 0, height_px = 0;
+
+    bool within_lens(const Point3& p) const {
+        const cv::Vec3d c = rotation * cv::Vec3d(p.x, p.y, p.z) + shift;
+        return c[2] > 0 && std::hypot(c[0], c[1]) <= widest_ray * c[2];
+    }
+    bool in_photo(Point2 p) const {
+        return p.x >= 0 && p.y >= 0 && p.x <= width_px - 1 && p.y <= height_px - 1;
+    }
+};
+
+LensReach lens_reach(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                     const vision::GrayView& photo) {
+    LensReach reach;
+    reach.width_px = photo.width_px;
+    reach.height_px = photo.height_px;
     cv::Rodrigues(cv::Vec3d(plane.bed_to_camera.rvec[0], plane.bed_to_camera.rvec[1],
                             plane.bed_to_camera.rvec[2]),
-                  rotation);
-    const cv::Vec3d shift(plane.bed_to_camera.tvec_mm[0], plane.bed_to_camera.tvec_mm[1],
-                          plane.bed_to_camera.tvec_mm[2]);
-    double widest_ray = 0;
+                  reach.rotation);
+    reach.shift = cv::Vec3d(plane.bed_to_camera.tvec_mm[0], plane.bed_to_camera.tvec_mm[1],
+                            plane.bed_to_camera.tvec_mm[2]);
     const double w = photo.width_px - 1, hgt = photo.height_px - 1;
     for (const Point2& n : geometry::undistort_to_normalized(camera, {{0, 0},
                                                                       {w / 2, 0},
@@ -147,16 +157,25 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
                                                                       {w / 2, hgt},
                                                                       {0, hgt},
                                                                       {0, hgt / 2}}))
-        widest_ray = std::max(widest_ray, std::hypot(n.x, n.y));
-    const auto within_lens = [&](const Point3& p) {
-        const cv::Vec3d c = rotation * cv::Vec3d(p.x, p.y, p.z) + shift;
-        return c[2] > 0 && std::hypot(c[0], c[1]) <= widest_ray * c[2];
-    };
-    const auto in_photo = [&](Point2 p) {
-        return p.x >= 0 && p.y >= 0 && p.x <= photo.width_px - 1 && p.y <= photo.height_px - 1;
-    };
-    // The photo's own scale at the point of the area nearest its middle that the photo shows (a
-    // lens's polynomial says nothing of rays outside the photo): a millimetre each way there.
+        reach.widest_ray = std::max(reach.widest_ray, std::hypot(n.x, n.y));
+    return reach;
+}
+
+// A machine point on the surface the view shows, in the bed's frame.
+struct BedAt {
+    const BedToMachine& map;
+    double height_mm;
+    Point3 operator()(Point2 machine) const {
+        const Point2 b = map.bed_of(machine);
+        return Point3{b.x, b.y, height_mm};
+    }
+};
+
+// The point of the area nearest its middle that the photo shows, where the photo's own scale is
+// taken (a lens's polynomial says nothing of rays outside the photo), or none.
+std::optional<Point2> nearest_seen(const BedView& view, const geometry::CameraModel& camera,
+                                   const geometry::BedPlane& plane, const LensReach& reach,
+                                   const BedAt& bed_point) {
     constexpr int kProbes = 21;
     const Point2 middle{0.5 * (view.min_x_mm + view.max_x_mm),
                         0.5 * (view.min_y_mm + view.max_y_mm)};
@@ -172,16 +191,17 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
     const auto probed = geometry::project_points(camera, plane.bed_to_camera, probe_points);
     std::optional<Point2> nearest;
     for (std::size_t k = 0; k < probes.size(); ++k)
-        if (in_photo(probed[k]) && within_lens(probe_points[k]) &&
+        if (reach.in_photo(probed[k]) && reach.within_lens(probe_points[k]) &&
             (!nearest || std::hypot(probes[k].x - middle.x, probes[k].y - middle.y) <
                              std::hypot(nearest->x - middle.x, nearest->y - middle.y)))
             nearest = probes[k];
-    if (!nearest)
-        throw BedViewError("the camera sees none of " + area + " at " +
-                           three_decimals(request.surface_height_mm) + " mm above the bed");
-    view.camera_mm_per_px = 1 / photo_px_per_mm(camera, plane, bed_point(*nearest),
-                                                bed_point({nearest->x + 1, nearest->y}),
-                                                bed_point({nearest->x, nearest->y + 1}));
+    return nearest;
+}
+
+// The view's scale (the request's, or the photo's own rounded up to 0.01 mm) and its whole
+// pixels from the area's top-left corner, none past the area: the far edges move in by under a
+// pixel. Refused finer than a tenth of the photo's or over 40 megapixels.
+cv::Size view_pixels(BedView& view, const BedViewRequest& request, const std::string& area) {
     view.mm_per_px = request.mm_per_px > 0 ? request.mm_per_px
                                            : std::ceil(view.camera_mm_per_px * 100 - 1e-9) / 100;
     if (view.mm_per_px < 0.1 * view.camera_mm_per_px)
@@ -202,39 +222,39 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
     view.max_x_mm = view.min_x_mm + columns * view.mm_per_px;
     view.min_y_mm = view.max_y_mm - rows * view.mm_per_px;
 
-    // Each view pixel averages `k` x `k` samples where it is coarser than the photo, so that the
-    // photo's detail does not alias into it.
-    const int k =
-        request.average_samples
-            ? std::clamp(
-                  static_cast<int>(std::ceil(view.mm_per_px / (1.25 * view.camera_mm_per_px))), 1,
-                  8)
-            : 1;
-    const cv::Mat source_image(photo.height_px, photo.width_px, CV_8UC1,
-                               const_cast<std::uint8_t*>(photo.pixels),
-                               static_cast<std::size_t>(photo.stride_bytes));
-    cv::Mat out(rows, columns, CV_8UC1), seen_mask(rows, columns, CV_8UC1);
-    // A band of rows at a time: the photo's coordinates of every sample in the band, then
-    // OpenCV's bilinear remap.
-    constexpr int kBandRows = 32;
-    // The lens and the perspective change slowly across the bed: the photo's coordinates are
-    // projected at every eighth sample each way and interpolated between (bilinearly: a
-    // thousandth of a pixel off the projection there), a sample counting as seen where it lands
-    // in the photo and its four nodes all lie within the lens's widest ray.
-    constexpr int kNodeStep = 8;
-    const auto nodes_of = [](int samples) {
-        std::vector<int> nodes;
-        for (int i = 0; i < samples; i += kNodeStep) nodes.push_back(i);
-        if (nodes.back() != samples - 1) nodes.push_back(samples - 1);
-        return nodes;
-    };
-    const double step = view.mm_per_px / k;
-    const int sample_cols = columns * k;
-    const std::vector<int> node_cols = nodes_of(sample_cols);
-    for (int top = 0; top < rows; top += kBandRows) {
-        const int band = std::min(kBandRows, rows - top);
+    return {columns, rows};
+}
+
+// The lens and the perspective change slowly across the bed: the photo's coordinates are
+// projected at every eighth sample each way and interpolated between (bilinearly: a thousandth of
+// a pixel off the projection there), a sample counting as seen where it lands in the photo and
+// its four nodes all lie within the lens's widest ray.
+constexpr int kNodeStep = 8;
+
+std::vector<int> sample_nodes(int samples) {
+    std::vector<int> nodes;
+    for (int i = 0; i < samples; i += kNodeStep) nodes.push_back(i);
+    if (nodes.back() != samples - 1) nodes.push_back(samples - 1);
+    return nodes;
+}
+
+// The view drawn a band of rows at a time: the photo's coordinates of every sample in the band,
+// then OpenCV's bilinear remap; each view pixel averages `k` x `k` samples.
+struct BandSampler {
+    const geometry::CameraModel& camera;
+    const geometry::BedPlane& plane;
+    const LensReach& reach;
+    const BedAt& bed_point;
+    const cv::Mat& source;
+    const BedView& view;
+    int k = 1;
+    double step = 0;
+    int sample_cols = 0;
+    std::vector<int> node_cols;
+
+    void draw(int top, int band, cv::Mat& out, cv::Mat& seen_mask) const {
         const int sample_rows = band * k;
-        const std::vector<int> node_rows = nodes_of(sample_rows);
+        const std::vector<int> node_rows = sample_nodes(sample_rows);
         std::vector<Point3> nodes;
         nodes.reserve(node_rows.size() * node_cols.size());
         for (const int r : node_rows) {
@@ -244,7 +264,8 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
         }
         const auto node_px = geometry::project_points(camera, plane.bed_to_camera, nodes);
         std::vector<char> node_ok(nodes.size());
-        for (std::size_t n = 0; n < nodes.size(); ++n) node_ok[n] = within_lens(nodes[n]) ? 1 : 0;
+        for (std::size_t n = 0; n < nodes.size(); ++n)
+            node_ok[n] = reach.within_lens(nodes[n]) ? 1 : 0;
         const std::size_t stride = node_cols.size();
         cv::Mat map_x(sample_rows, sample_cols, CV_32FC1),
             map_y(sample_rows, sample_cols, CV_32FC1);
@@ -272,14 +293,15 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
                                    fr * ((1 - fc) * node_px[d].x + fc * node_px[e].x),
                                (1 - fr) * ((1 - fc) * node_px[a].y + fc * node_px[b].y) +
                                    fr * ((1 - fc) * node_px[d].y + fc * node_px[e].y)};
-                const bool ok = in_photo(p) && node_ok[a] && node_ok[b] && node_ok[d] && node_ok[e];
+                const bool ok =
+                    reach.in_photo(p) && node_ok[a] && node_ok[b] && node_ok[d] && node_ok[e];
                 in[c] = ok ? 255 : 0;
                 mx[c] = ok ? static_cast<float>(p.x) : -1.0F;
                 my[c] = ok ? static_cast<float>(p.y) : -1.0F;
             }
         }
         cv::Mat sampled;
-        cv::remap(source_image, sampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
+        cv::remap(source, sampled, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, 0);
         cv::Mat target = out.rowRange(top, top + band);
         cv::Mat seen_band = seen_mask.rowRange(top, top + band);
         if (k == 1) {
@@ -293,6 +315,58 @@ BedView render_bed_view(const geometry::CameraModel& camera, const geometry::Bed
             cv::threshold(covered, seen_band, 127, 255, cv::THRESH_BINARY);
         }
     }
+};
+
+}  // namespace
+
+BedView render_bed_view(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                        const vision::GrayView& photo, const PlanarSolution& solution,
+                        const BedViewRequest& request, const std::string& source) {
+    const BedToMachine map = photo_on_machine(camera, photo, solution, source);
+    BedView view;
+    const std::string area = view_area(view, request, *solution.frame);
+    if (!(request.surface_height_mm >= 0 && request.surface_height_mm < 500))
+        throw BedViewError("a surface " + three_decimals(request.surface_height_mm) +
+                           " mm above the bed: give 0 to 500 mm");
+    view.surface_height_mm = request.surface_height_mm;
+
+    const BedAt bed_point{map, request.surface_height_mm};
+    const LensReach reach = lens_reach(camera, plane, photo);
+    const std::optional<Point2> nearest = nearest_seen(view, camera, plane, reach, bed_point);
+    if (!nearest)
+        throw BedViewError("the camera sees none of " + area + " at " +
+                           three_decimals(request.surface_height_mm) + " mm above the bed");
+    view.camera_mm_per_px = 1 / photo_px_per_mm(camera, plane, bed_point(*nearest),
+                                                bed_point({nearest->x + 1, nearest->y}),
+                                                bed_point({nearest->x, nearest->y + 1}));
+    const cv::Size size = view_pixels(view, request, area);
+    const int columns = size.width, rows = size.height;
+
+    // Each view pixel averages `k` x `k` samples where it is coarser than the photo, so that the
+    // photo's detail does not alias into it.
+    const int k =
+        request.average_samples
+            ? std::clamp(
+                  static_cast<int>(std::ceil(view.mm_per_px / (1.25 * view.camera_mm_per_px))), 1,
+                  8)
+            : 1;
+    const cv::Mat source_image(photo.height_px, photo.width_px, CV_8UC1,
+                               const_cast<std::uint8_t*>(photo.pixels),
+                               static_cast<std::size_t>(photo.stride_bytes));
+    cv::Mat out(rows, columns, CV_8UC1), seen_mask(rows, columns, CV_8UC1);
+    constexpr int kBandRows = 32;
+    BandSampler sampler{camera,
+                        plane,
+                        reach,
+                        bed_point,
+                        source_image,
+                        view,
+                        k,
+                        view.mm_per_px / k,
+                        columns * k,
+                        sample_nodes(columns * k)};
+    for (int top = 0; top < rows; top += kBandRows)
+        sampler.draw(top, std::min(kBandRows, rows - top), out, seen_mask);
     const long seen = cv::countNonZero(seen_mask);
     view.seen_share = static_cast<double>(seen) / (static_cast<double>(rows) * columns);
     if (seen == 0)

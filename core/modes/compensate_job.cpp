@@ -98,145 +98,156 @@ std::array<std::optional<Point2>, targets::kWorkSystems> parse_work_zero(const s
     return zeros;
 }
 
-CompensatedJob compensate_job(const JobRequest& r) {
-    if (const auto mark = targets::compensated_mark_in(r.job_text);
-        !mark.empty() && !r.again_because)
-        throw JobError(r.job_name + ": already compensated (its line '" + mark +
-                       "'): compensating it again would correct twice; give --again REASON if "
-                       "that is meant");
-    const std::string schema = schema_of(r.result_text, r.result_name);
-    targets::MachineCorrection correction;
-    targets::JobFrame frame;
-    CompensatedJob done;
-    std::optional<PlanarSolution> planar;
-    std::optional<GalvoSolution> galvo;
-    std::string zero_from;
-    if (schema.rfind("calbox.planar-result/", 0) == 0) {
-        planar = planar_result_from_json(r.result_text, r.result_name);
-        if (!planar->frame)
-            throw JobError(r.result_name +
-                           ": a result from before calbox recorded the frame it was measured in "
-                           "(work zero, travel): solve the measurements again");
-        const auto& f = *planar->frame;
-        const Point2 zm = f.work_zero_mm;
-        correction.correct = [solution = *planar, zm](Point2 p) {
-            const Point2 c = planar_command_for(solution, {p.x - zm.x, p.y - zm.y});
-            return Point2{c.x + zm.x, c.y + zm.y};
-        };
-        correction.measured_mm = {planar->min_x_mm + zm.x, planar->min_y_mm + zm.y,
-                                  planar->max_x_mm + zm.x, planar->max_y_mm + zm.y};
-        frame.travel_mm = {f.travel_min_x_mm, f.travel_min_y_mm, f.travel_max_x_mm,
-                           f.travel_max_y_mm};
-        frame.flavour = targets::flavour_of_firmware(f.firmware);
-        if (frame.flavour == targets::Flavour::printer) {
-            if (r.work_zero || r.stock_text || r.registration_text)
-                throw JobError(r.job_name +
-                               ": a printer's job is in machine coordinates (its G92 tracked); "
-                               "--work-zero, --stock and --register are for routers and lasers");
-            frame.work_zero_mm = {Point2{}};
-            zero_from = "machine coordinates (a printer's job, G92 tracked)";
-        } else if (r.registration_text) {
-            if (r.work_zero || r.stock_text)
-                throw JobError(
-                    "--register places the job where its drawing lies: give neither "
-                    "--work-zero nor --stock with it");
-            const auto found = registration_from_json(*r.registration_text, *r.registration_name);
-            if (found.machine_fingerprint != planar->machine_fingerprint)
-                throw JobError(
-                    *r.registration_name + ": the marks were found through the result of machine " +
-                    found.machine_fingerprint + ", not " + r.result_name + "'s (" +
-                    planar->machine_fingerprint + "): find them again through the result in force");
-            const auto& g = found.registration;
-            frame.work_zero_mm = {g.origin_mm};
-            frame.turn_rad = g.rotation_deg * std::numbers::pi / 180;
-            frame.scale = g.scale;
-            zero_from = "the printed marks: " + *r.registration_name + "'s " +
-                        std::to_string(g.marks.size()) + " marks, the drawing's zero at machine X" +
-                        mm(g.origin_mm.x) + " Y" + mm(g.origin_mm.y) + " mm turned " +
-                        number_text("%.3f", g.rotation_deg) + " deg" +
-                        (g.scale_fitted ? ", scaled " + number_text("%.5f", g.scale) : "") +
-                        " (worst mark " + number_text("%.3f", g.worst_residual_mm) + " mm)";
-        } else {
-            if (!r.work_zero)
-                throw JobError(r.job_name + ": a " + f.kind +
-                               "'s job is written around its work zero, which calbox cannot see: "
-                               "give --work-zero X,Y (the machine coordinates of the job's G54 "
-                               "zero), or --work-zero measured (the frame the result was "
-                               "measured in: zero at machine X" +
-                               mm(zm.x) + " Y" + mm(zm.y) + ")");
-            if (*r.work_zero == "camera") {
-                if (!r.stock_text)
-                    throw JobError(
-                        "--work-zero camera places the job at the sheet the camera "
-                        "found: give --stock stock.json (calbox view stock)");
-                const auto found = stock_from_json(*r.stock_text, *r.stock_name);
-                if (found.machine_fingerprint != planar->machine_fingerprint)
-                    throw JobError(*r.stock_name +
-                                   ": the sheet was found through the result of "
-                                   "machine " +
-                                   found.machine_fingerprint + ", not " + r.result_name + "'s (" +
-                                   planar->machine_fingerprint +
-                                   "): find it again through the result in force");
-                const StockCorner* corner = nullptr;
-                try {
-                    corner = &modes::stock_corner(found.stock, r.stock_corner);
-                } catch (const StockError& e) {
-                    throw JobError("--corner " + std::string(e.what()));
-                }
-                frame.work_zero_mm = {corner->machine_mm};
-                frame.turn_rad = found.stock.rotation_deg * std::numbers::pi / 180;
-                zero_from = "the camera: " + *r.stock_name + "'s " + corner->name +
-                            " corner at machine X" + mm(corner->machine_mm.x) + " Y" +
-                            mm(corner->machine_mm.y) + " mm (+/-" +
-                            number_text("%.3f", corner->sigma_mm) + "), the job turned " +
-                            number_text("%.3f", found.stock.rotation_deg) +
-                            " deg with the sheet's front edge";
-            } else {
-                if (r.stock_text)
-                    throw JobError("--stock is for --work-zero camera, not --work-zero " +
-                                   *r.work_zero);
-                frame.work_zero_mm = parse_work_zero(*r.work_zero, zm);
-                zero_from =
-                    r.work_zero_from.empty() ? "--work-zero " + *r.work_zero : r.work_zero_from;
-            }
-        }
-        done.frame_line = "frame: job placed with " + zero_from;
-        // A printer's job is in machine coordinates: no work zero to name.
-        if (frame.work_zero_mm[0] && frame.flavour != targets::Flavour::printer)
-            done.frame_line += " (G54 zero at machine X" + mm(frame.work_zero_mm[0]->x) + " Y" +
-                               mm(frame.work_zero_mm[0]->y) + " mm)";
-        done.frame_line +=
-            "; the result measured with its zero at machine X" + mm(zm.x) + " Y" + mm(zm.y) +
-            " mm (from " + f.work_zero_from + "), over X " + mm(correction.measured_mm.min_x_mm) +
-            ".." + mm(correction.measured_mm.max_x_mm) + " Y " +
-            mm(correction.measured_mm.min_y_mm) + ".." + mm(correction.measured_mm.max_y_mm) +
-            " mm; travel X " + mm(f.travel_min_x_mm) + ".." + mm(f.travel_max_x_mm) + " Y " +
-            mm(f.travel_min_y_mm) + ".." + mm(f.travel_max_y_mm) + " mm";
-    } else if (schema.rfind("calbox.galvo-result/", 0) == 0) {
-        if (r.stock_text || r.registration_text || (r.work_zero && *r.work_zero == "camera"))
-            throw JobError(r.result_name +
-                           ": a scanner's job is in its field's coordinates; --work-zero camera "
-                           "places a router's or laser's job on the sheet a planar result sees");
-        galvo = galvo_result_from_json(r.result_text, r.result_name);
-        const auto table = galvo->fit.table;
-        correction.correct = [table](Point2 p) { return table.command_for(p); };
-        correction.measured_mm = {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm};
-        // A scanner's job is in its field's coordinates, the machine's own; the field is its
-        // travel.
-        frame.flavour = targets::Flavour::grbl;
-        frame.work_zero_mm = {Point2{}};
-        if (galvo->field_size_mm) {
-            const double half = *galvo->field_size_mm / 2;
-            frame.travel_mm = {-half, -half, half, half};
-        }
-        if (r.work_zero) frame.work_zero_mm = parse_work_zero(*r.work_zero, Point2{});
-        done.frame_line = "frame: the scanner's field coordinates" +
-                          (r.work_zero ? " moved by --work-zero " + *r.work_zero : std::string()) +
-                          "; the table over X " + mm(table.min_x_mm) + ".." + mm(table.max_x_mm) +
-                          " Y " + mm(table.min_y_mm) + ".." + mm(table.max_y_mm) + " mm";
-    } else {
-        throw JobError(r.result_name + ": not a planar or galvo result (schema " + schema + ")");
+namespace {
+
+// The job placed where its drawing's printed marks were found (--register).
+std::string registered_zero(const JobRequest& r, const PlanarSolution& planar,
+                            targets::JobFrame& frame) {
+    const auto found = registration_from_json(*r.registration_text, *r.registration_name);
+    if (found.machine_fingerprint != planar.machine_fingerprint)
+        throw JobError(
+            *r.registration_name + ": the marks were found through the result of machine " +
+            found.machine_fingerprint + ", not " + r.result_name + "'s (" +
+            planar.machine_fingerprint + "): find them again through the result in force");
+    const auto& g = found.registration;
+    frame.work_zero_mm = {g.origin_mm};
+    frame.turn_rad = g.rotation_deg * std::numbers::pi / 180;
+    frame.scale = g.scale;
+    return "the printed marks: " + *r.registration_name + "'s " + std::to_string(g.marks.size()) +
+           " marks, the drawing's zero at machine X" + mm(g.origin_mm.x) + " Y" +
+           mm(g.origin_mm.y) + " mm turned " + number_text("%.3f", g.rotation_deg) + " deg" +
+           (g.scale_fitted ? ", scaled " + number_text("%.5f", g.scale) : "") + " (worst mark " +
+           number_text("%.3f", g.worst_residual_mm) + " mm)";
+}
+
+// The job placed at a corner of the sheet the camera found (--work-zero camera), turned with it.
+std::string camera_zero(const JobRequest& r, const PlanarSolution& planar,
+                        targets::JobFrame& frame) {
+    const auto found = stock_from_json(*r.stock_text, *r.stock_name);
+    if (found.machine_fingerprint != planar.machine_fingerprint)
+        throw JobError(*r.stock_name +
+                       ": the sheet was found through the result of "
+                       "machine " +
+                       found.machine_fingerprint + ", not " + r.result_name + "'s (" +
+                       planar.machine_fingerprint + "): find it again through the result in force");
+    const StockCorner* corner = nullptr;
+    try {
+        corner = &modes::stock_corner(found.stock, r.stock_corner);
+    } catch (const StockError& e) {
+        throw JobError("--corner " + std::string(e.what()));
     }
+    frame.work_zero_mm = {corner->machine_mm};
+    frame.turn_rad = found.stock.rotation_deg * std::numbers::pi / 180;
+    return "the camera: " + *r.stock_name + "'s " + corner->name + " corner at machine X" +
+           mm(corner->machine_mm.x) + " Y" + mm(corner->machine_mm.y) + " mm (+/-" +
+           number_text("%.3f", corner->sigma_mm) + "), the job turned " +
+           number_text("%.3f", found.stock.rotation_deg) + " deg with the sheet's front edge";
+}
+
+// Where a router's, laser's or printer's job lies on the machine: what says so, in words.
+std::string planar_job_zero(const JobRequest& r, const PlanarSolution& planar, Point2 zm,
+                            targets::JobFrame& frame) {
+    const auto& f = *planar.frame;
+    std::string zero_from;
+    if (frame.flavour == targets::Flavour::printer) {
+        if (r.work_zero || r.stock_text || r.registration_text)
+            throw JobError(r.job_name +
+                           ": a printer's job is in machine coordinates (its G92 tracked); "
+                           "--work-zero, --stock and --register are for routers and lasers");
+        frame.work_zero_mm = {Point2{}};
+        zero_from = "machine coordinates (a printer's job, G92 tracked)";
+    } else if (r.registration_text) {
+        if (r.work_zero || r.stock_text)
+            throw JobError(
+                "--register places the job where its drawing lies: give neither "
+                "--work-zero nor --stock with it");
+        zero_from = registered_zero(r, planar, frame);
+    } else {
+        if (!r.work_zero)
+            throw JobError(r.job_name + ": a " + f.kind +
+                           "'s job is written around its work zero, which calbox cannot see: "
+                           "give --work-zero X,Y (the machine coordinates of the job's G54 "
+                           "zero), or --work-zero measured (the frame the result was "
+                           "measured in: zero at machine X" +
+                           mm(zm.x) + " Y" + mm(zm.y) + ")");
+        if (*r.work_zero == "camera") {
+            if (!r.stock_text)
+                throw JobError(
+                    "--work-zero camera places the job at the sheet the camera "
+                    "found: give --stock stock.json (calbox view stock)");
+            zero_from = camera_zero(r, planar, frame);
+        } else {
+            if (r.stock_text)
+                throw JobError("--stock is for --work-zero camera, not --work-zero " +
+                               *r.work_zero);
+            frame.work_zero_mm = parse_work_zero(*r.work_zero, zm);
+            zero_from = r.work_zero_from.empty() ? "--work-zero " + *r.work_zero : r.work_zero_from;
+        }
+    }
+    return zero_from;
+}
+
+// A planar result's correction and the job's frame from it.
+void planar_correction(const JobRequest& r, targets::MachineCorrection& correction,
+                       targets::JobFrame& frame, CompensatedJob& done) {
+    const PlanarSolution planar = planar_result_from_json(r.result_text, r.result_name);
+    if (!planar.frame)
+        throw JobError(r.result_name +
+                       ": a result from before calbox recorded the frame it was measured in "
+                       "(work zero, travel): solve the measurements again");
+    const auto& f = *planar.frame;
+    const Point2 zm = f.work_zero_mm;
+    correction.correct = [solution = planar, zm](Point2 p) {
+        const Point2 c = planar_command_for(solution, {p.x - zm.x, p.y - zm.y});
+        return Point2{c.x + zm.x, c.y + zm.y};
+    };
+    correction.measured_mm = {planar.min_x_mm + zm.x, planar.min_y_mm + zm.y,
+                              planar.max_x_mm + zm.x, planar.max_y_mm + zm.y};
+    frame.travel_mm = {f.travel_min_x_mm, f.travel_min_y_mm, f.travel_max_x_mm, f.travel_max_y_mm};
+    frame.flavour = targets::flavour_of_firmware(f.firmware);
+    const std::string zero_from = planar_job_zero(r, planar, zm, frame);
+    done.frame_line = "frame: job placed with " + zero_from;
+    // A printer's job is in machine coordinates: no work zero to name.
+    if (frame.work_zero_mm[0] && frame.flavour != targets::Flavour::printer)
+        done.frame_line += " (G54 zero at machine X" + mm(frame.work_zero_mm[0]->x) + " Y" +
+                           mm(frame.work_zero_mm[0]->y) + " mm)";
+    done.frame_line +=
+        "; the result measured with its zero at machine X" + mm(zm.x) + " Y" + mm(zm.y) +
+        " mm (from " + f.work_zero_from + "), over X " + mm(correction.measured_mm.min_x_mm) +
+        ".." + mm(correction.measured_mm.max_x_mm) + " Y " + mm(correction.measured_mm.min_y_mm) +
+        ".." + mm(correction.measured_mm.max_y_mm) + " mm; travel X " + mm(f.travel_min_x_mm) +
+        ".." + mm(f.travel_max_x_mm) + " Y " + mm(f.travel_min_y_mm) + ".." +
+        mm(f.travel_max_y_mm) + " mm";
+}
+
+// A galvo result's correction: the job in the scanner's field coordinates.
+void galvo_correction(const JobRequest& r, targets::MachineCorrection& correction,
+                      targets::JobFrame& frame, CompensatedJob& done) {
+    if (r.stock_text || r.registration_text || (r.work_zero && *r.work_zero == "camera"))
+        throw JobError(r.result_name +
+                       ": a scanner's job is in its field's coordinates; --work-zero camera "
+                       "places a router's or laser's job on the sheet a planar result sees");
+    const GalvoSolution galvo = galvo_result_from_json(r.result_text, r.result_name);
+    const auto table = galvo.fit.table;
+    correction.correct = [table](Point2 p) { return table.command_for(p); };
+    correction.measured_mm = {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm};
+    // A scanner's job is in its field's coordinates, the machine's own; the field is its
+    // travel.
+    frame.flavour = targets::Flavour::grbl;
+    frame.work_zero_mm = {Point2{}};
+    if (galvo.field_size_mm) {
+        const double half = *galvo.field_size_mm / 2;
+        frame.travel_mm = {-half, -half, half, half};
+    }
+    if (r.work_zero) frame.work_zero_mm = parse_work_zero(*r.work_zero, Point2{});
+    done.frame_line = "frame: the scanner's field coordinates" +
+                      (r.work_zero ? " moved by --work-zero " + *r.work_zero : std::string()) +
+                      "; the table over X " + mm(table.min_x_mm) + ".." + mm(table.max_x_mm) +
+                      " Y " + mm(table.min_y_mm) + ".." + mm(table.max_y_mm) + " mm";
+}
+
+// Where the tool stands when the job starts (--start-at), inside the travel.
+void start_at(const JobRequest& r, targets::JobFrame& frame, CompensatedJob& done) {
     if (r.start_at) {
         const auto start = pair_of(*r.start_at);
         if (!start)
@@ -249,6 +260,28 @@ CompensatedJob compensate_job(const JobRequest& r) {
         done.frame_line += "; the tool starts at machine X" + mm(start->x) + " Y" + mm(start->y) +
                            " mm (--start-at)";
     }
+}
+
+}  // namespace
+
+CompensatedJob compensate_job(const JobRequest& r) {
+    if (const auto mark = targets::compensated_mark_in(r.job_text);
+        !mark.empty() && !r.again_because)
+        throw JobError(r.job_name + ": already compensated (its line '" + mark +
+                       "'): compensating it again would correct twice; give --again REASON if "
+                       "that is meant");
+    const std::string schema = schema_of(r.result_text, r.result_name);
+    targets::MachineCorrection correction;
+    targets::JobFrame frame;
+    CompensatedJob done;
+    if (schema.rfind("calbox.planar-result/", 0) == 0) {
+        planar_correction(r, correction, frame, done);
+    } else if (schema.rfind("calbox.galvo-result/", 0) == 0) {
+        galvo_correction(r, correction, frame, done);
+    } else {
+        throw JobError(r.result_name + ": not a planar or galvo result (schema " + schema + ")");
+    }
+    start_at(r, frame, done);
     done.report.keep_path = r.keep_path;
     try {
         const bool scanner = r.job_text.rfind("x_mm,y_mm,power", 0) == 0;

@@ -18,6 +18,8 @@ import tempfile
 import time
 
 SAMPLE = "/usr/share/doc/linuxcnc/examples/sample-configs/sim"
+COMMAND_TIMEOUT_S = 5  # linuxcncrsh's wait for the task's receipt while the test homes
+# (its man page names the setting set_timeout; 2.9's linuxcncrsh knows it as timeout)
 
 
 def free_port():
@@ -89,22 +91,29 @@ def start(work, port):
                             stderr=subprocess.DEVNULL, start_new_session=True)
 
 
-def until(rsh, question, answer, deadline, what):
-    """Asks again until LinuxCNC answers so, or says what did not happen and LinuxCNC's error."""
+def until(rsh, command, question, answer, deadline, what):
+    """Sends the owner's command and asks for its state until LinuxCNC answers so, or says what
+    did not happen, the command's last reply and LinuxCNC's error. The command goes again every
+    10 s without the state: a task still starting, or starved by CI's other tests, may not have
+    taken it (linuxcncrsh then answers NAK after its timeout)."""
+    sent_at, reply = 0.0, ""
     while True:
+        if time.time() - sent_at > 10:
+            reply = rsh.ask(command, "SET ", wait_s=COMMAND_TIMEOUT_S + 60)
+            sent_at = time.time()
         got = rsh.ask(question, question.split()[1].upper())
         if got.upper().startswith(answer):
             return
         if time.time() > deadline:
-            raise RuntimeError("LinuxCNC: %s (%r; its error: %s)"
-                               % (what, got, rsh.ask("get error", "ERROR")))
+            raise RuntimeError("LinuxCNC: %s (%r to %r, then %r; its error: %s)"
+                               % (what, reply, command, got, rsh.ask("get error", "ERROR")))
         time.sleep(0.3)
 
 
 def home(process, port, log):
-    """The owner's steps: the e-stop released, the machine on, every joint homed. No command
-    waits on LinuxCNC's task (set_wait received): the state each asks for is polled, so a
-    machine slowed by CI's other tests only takes longer, up to the deadline."""
+    """The owner's steps: the e-stop released, the machine on, every joint homed. Each command's
+    state is polled, so a machine slowed by CI's other tests only takes longer, up to the
+    deadline."""
     started = time.time()
     deadline = started + 240
     while True:
@@ -119,21 +128,30 @@ def home(process, port, log):
     rsh.ask("hello EMC owner 1.0", "HELLO ACK")
     rsh.ask("set verbose on", "SET VERBOSE")  # echoed, as everything until echo is off
     rsh.ask("set echo off", "SET ECHO")
-    for line in ("set enable EMCTOO", "set set_wait received"):
+    reply = rsh.ask("set enable EMCTOO", "SET ")
+    if not reply.endswith("ACK"):
+        raise RuntimeError("linuxcncrsh: 'set enable EMCTOO' -> %r" % reply)
+    # linuxcncrsh waits for the task's receipt of each command, and by default for ever: a
+    # command the task missed while it was starting left 'set estop off' unanswered in CI. The
+    # wait is bounded while this client turns the machine on, and given back (0: LinuxCNC's
+    # default) before the box connects: the setting is linuxcncrsh's, for every connection.
+    for line in ("set set_wait received", "set timeout %d" % COMMAND_TIMEOUT_S):
         reply = rsh.ask(line, "SET ")
         if not reply.endswith("ACK"):
             raise RuntimeError("linuxcncrsh: %r -> %r" % (line, reply))
-    rsh.ask("set estop off", "SET ")
-    until(rsh, "get estop", "ESTOP OFF", deadline, "the e-stop was not released")
-    rsh.ask("set machine on", "SET ")
-    until(rsh, "get machine", "MACHINE ON", deadline, "the machine did not come on")
-    rsh.ask("set mode manual", "SET ")
-    until(rsh, "get mode", "MODE MANUAL", deadline, "the mode did not become manual")
+    until(rsh, "set estop off", "get estop", "ESTOP OFF", deadline, "the e-stop was not released")
+    until(rsh, "set machine on", "get machine", "MACHINE ON", deadline,
+          "the machine did not come on")
+    until(rsh, "set mode manual", "get mode", "MODE MANUAL", deadline,
+          "the mode did not become manual")
     log("the machine on, in manual, after %.1f s" % (time.time() - started))
-    rsh.ask("set home -1", "SET ")
-    until(rsh, "get joint_homed", "JOINT_HOMED YES YES YES", deadline, "the mill did not home")
+    until(rsh, "set home -1", "get joint_homed", "JOINT_HOMED YES YES YES", deadline,
+          "the mill did not home")
     log("homed after %.1f s" % (time.time() - started))
-    # Control is the box's from here: this client lets go of it.
+    # Control is the box's from here: this client gives the wait back and lets go of control.
+    reply = rsh.ask("set timeout 0", "SET TIMEOUT")
+    if not reply.endswith("ACK"):
+        raise RuntimeError("linuxcncrsh: 'set timeout 0' -> %r" % reply)
     rsh.ask("set enable off", "SET ENABLE")
     rsh.sock.close()
 

@@ -17,6 +17,52 @@ namespace {
 using geometry::Point2;
 using targets::GridIndex;
 
+// The spot finder set for the scanner's marks: their polarity and size, and the field's outline
+// in the photo (within its diagonal of the plane's board, which lay on the platform).
+vision::SpotSettings galvo_spot_settings(const models::MachineFile& machine,
+                                         const geometry::CameraModel& camera,
+                                         const geometry::BedPlane& plane, double pitch,
+                                         const GalvoMeasureSettings& settings) {
+    vision::SpotSettings spots = settings.spots;
+    spots.polarity =
+        machine.galvo->marks == "light" ? vision::MarkPolarity::light : vision::MarkPolarity::dark;
+    spots.mark_diameter_px =
+        0.8 * pitch * pixels_per_mm_at_centre(camera, plane, machine.galvo->substrate_height_mm);
+    spots.search_outline_px =
+        work_outline_px(camera, plane, machine.galvo->substrate_height_mm,
+                        std::sqrt(2.0) * machine.galvo->field_size_mm + kOutlineMarginMm);
+    return spots;
+}
+
+// Which of the square's eight symmetries carries the photo's grid onto the target's: the one
+// under which the large marks seen fall on the target's large marks; refused when the large
+// marks do not settle it.
+int grid_symmetry(const Lattice& lattice, const std::vector<MarkCandidate>& candidates, int min_a,
+                  int min_b, int n) {
+    std::array<int, 8> mismatches{};
+    for (int g = 0; g < 8; ++g)
+        for (const auto& [index, node] : lattice) {
+            if (node.candidate < 0) continue;
+            const GridIndex t =
+                targets::apply_symmetry(g, {index.first - min_a, index.second - min_b}, n);
+            if (candidates[static_cast<std::size_t>(node.candidate)].large !=
+                targets::is_large_mark(t, n))
+                ++mismatches[static_cast<std::size_t>(g)];
+        }
+    std::array<int, 8> order{0, 1, 2, 3, 4, 5, 6, 7};
+    std::sort(order.begin(), order.end(), [&](int a, int b) {
+        return mismatches[static_cast<std::size_t>(a)] < mismatches[static_cast<std::size_t>(b)];
+    });
+    const int best = mismatches[static_cast<std::size_t>(order[0])],
+              second = mismatches[static_cast<std::size_t>(order[1])];
+    if (best > 3 || second < best + 4)
+        throw GalvoError("measure: the large marks do not settle which way round the grid lies (" +
+                         std::to_string(best) + " marks disagree with the best reading, " +
+                         std::to_string(second) +
+                         " with the next): not this target, or too many marks damaged");
+    return order[0];
+}
+
 }  // namespace
 
 GalvoMeasurement measure_galvo(const models::MachineFile& machine,
@@ -29,15 +75,7 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
     if (const auto size = geometry::photo_size_mismatch(camera, photo.width_px, photo.height_px);
         !size.empty())
         throw GalvoError("measure: the photo is " + size);
-    vision::SpotSettings spots = settings.spots;
-    spots.polarity =
-        machine.galvo->marks == "light" ? vision::MarkPolarity::light : vision::MarkPolarity::dark;
-    spots.mark_diameter_px =
-        0.8 * pitch * pixels_per_mm_at_centre(camera, plane, machine.galvo->substrate_height_mm);
-    // The field lies within its diagonal of the plane's board, which lay on the platform.
-    spots.search_outline_px =
-        work_outline_px(camera, plane, machine.galvo->substrate_height_mm,
-                        std::sqrt(2.0) * machine.galvo->field_size_mm + kOutlineMarginMm);
+    const vision::SpotSettings spots = galvo_spot_settings(machine, camera, plane, pitch, settings);
     const vision::SpotImage seen = vision::find_spots(photo, spots);
     GalvoMeasurement out;
     out.machine_fingerprint = models::fingerprint(machine);
@@ -80,30 +118,7 @@ GalvoMeasurement measure_galvo(const models::MachineFile& machine,
                          (columns > n || rows > n
                               ? ": not this target"
                               : ": part of it is outside the photo, or whole rows are missing"));
-    // Which of the square's eight symmetries carries the photo's grid onto the target's: the one
-    // under which the large marks seen fall on the target's large marks.
-    std::array<int, 8> mismatches{};
-    for (int g = 0; g < 8; ++g)
-        for (const auto& [index, node] : lattice) {
-            if (node.candidate < 0) continue;
-            const GridIndex t =
-                targets::apply_symmetry(g, {index.first - min_a, index.second - min_b}, n);
-            if (candidates[static_cast<std::size_t>(node.candidate)].large !=
-                targets::is_large_mark(t, n))
-                ++mismatches[static_cast<std::size_t>(g)];
-        }
-    std::array<int, 8> order{0, 1, 2, 3, 4, 5, 6, 7};
-    std::sort(order.begin(), order.end(), [&](int a, int b) {
-        return mismatches[static_cast<std::size_t>(a)] < mismatches[static_cast<std::size_t>(b)];
-    });
-    const int best = mismatches[static_cast<std::size_t>(order[0])],
-              second = mismatches[static_cast<std::size_t>(order[1])];
-    if (best > 3 || second < best + 4)
-        throw GalvoError("measure: the large marks do not settle which way round the grid lies (" +
-                         std::to_string(best) + " marks disagree with the best reading, " +
-                         std::to_string(second) +
-                         " with the next): not this target, or too many marks damaged");
-    out.symmetry = order[0];
+    out.symmetry = grid_symmetry(lattice, candidates, min_a, min_b, n);
     std::vector<bool> seen_node(geometry::grid_nodes(n), false);
     for (const auto& [index, node] : lattice) {
         if (node.candidate < 0) continue;

@@ -252,6 +252,147 @@ PlanarMeasurement measure_planar(const models::MachineFile& machine,
     return measure_planar_views(machine, camera, plane, {{photo, {0, 0}}}, settings);
 }
 
+namespace {
+
+// The holes each view shows, by the target's holes: -1 where a view shows none.
+using ViewIndex = std::vector<std::vector<long>>;
+// The view and candidate where the backlash hole was seen.
+using SeenAt = std::optional<std::pair<std::size_t, long>>;
+
+// Each view indexed through where the camera was sent: the machine moved it by its offset
+// from the first view's, so a machine point m shows where the first view showed m - offset.
+// That is good to the machine's errors (a few millimetres), enough to say which hole is
+// which; where the holes are comes from the photos alone.
+ViewIndex index_views(const targets::PlanarTarget& target, const std::vector<PlanarView>& views,
+                      const std::vector<std::vector<MarkCandidate>>& candidates,
+                      const FrameGuess& first, double reach, SeenAt& backlash_seen) {
+    ViewIndex index;
+    for (std::size_t v = 0; v < views.size(); ++v) {
+        FrameGuess frame = first;
+        const Point2 shift{views[v].offset_mm.x - views[0].offset_mm.x,
+                           views[v].offset_mm.y - views[0].offset_mm.y};
+        const Point2 at_origin = first.bed_of({0, 0}), moved = first.bed_of(shift);
+        frame.placement.translation_mm = {
+            frame.placement.translation_mm.x - (moved.x - at_origin.x),
+            frame.placement.translation_mm.y - (moved.y - at_origin.y)};
+        index.push_back(index_holes(target, candidates[v], frame, reach));
+        if (target.backlash_hole && !backlash_seen) {
+            // Half a pitch diagonally from four grid holes: within the reach of none of theirs.
+            const long c = nearest_candidate(candidates[v],
+                                             frame.bed_of(target.backlash_hole->centre_mm), reach);
+            if (c >= 0 &&
+                std::find(index.back().begin(), index.back().end(), c) == index.back().end() &&
+                !candidates[v][static_cast<std::size_t>(c)].large)
+                backlash_seen = std::pair<std::size_t, long>{v, c};
+        }
+    }
+    return index;
+}
+
+// How many views show each of the target's holes.
+std::vector<int> times_seen(const ViewIndex& index, std::size_t n_holes) {
+    std::vector<int> seen_in(n_holes, 0);
+    for (const auto& view : index)
+        for (std::size_t h = 0; h < n_holes; ++h) seen_in[h] += view[h] >= 0 ? 1 : 0;
+    return seen_in;
+}
+
+// Stitched through the holes the views share: each view's own rotation and shift (the first
+// view's fixed) and every hole's position, by least squares, so that a hole seen twice is
+// seen at one place. Started from the offsets the machine was sent to.
+solve::ViewStitch stitch_the_views(const std::vector<PlanarView>& views, const FrameGuess& first,
+                                   const ViewIndex& index,
+                                   const std::vector<std::vector<MarkCandidate>>& candidates) {
+    const std::size_t n_views = views.size(), n_holes = index.empty() ? 0 : index[0].size();
+    std::vector<Point2> start_shift(n_views);
+    for (std::size_t v = 0; v < n_views; ++v) {
+        const Point2 a = first.bed_of({0, 0}),
+                     b = first.bed_of({views[v].offset_mm.x - views[0].offset_mm.x,
+                                       views[v].offset_mm.y - views[0].offset_mm.y});
+        start_shift[v] = {b.x - a.x, b.y - a.y};
+    }
+    const std::vector<int> seen_in = times_seen(index, n_holes);
+    for (std::size_t v = 1; v < n_views; ++v) {
+        int shared = 0;
+        for (std::size_t h = 0; h < n_holes; ++h)
+            if (index[v][h] >= 0 && seen_in[h] > 1) ++shared;
+        if (shared < 3)
+            throw PlanarError("measure: photo " + std::to_string(v + 1) + " shares " +
+                              std::to_string(shared) +
+                              " holes with the others; overlapping photos need at least 3");
+    }
+    std::vector<std::vector<std::optional<Point2>>> seen(n_views);
+    for (std::size_t v = 0; v < n_views; ++v) {
+        seen[v].resize(n_holes);
+        for (std::size_t h = 0; h < n_holes; ++h)
+            if (const long c = index[v][h]; c >= 0)
+                seen[v][h] = candidates[v][static_cast<std::size_t>(c)].bed_mm;
+    }
+    try {
+        return solve::stitch_views(seen, std::move(start_shift));
+    } catch (const solve::StitchError&) {
+        throw PlanarError("measure: the photos' shared holes do not fix how they lie");
+    }
+}
+
+// Each hole's place where the views saw it, its sigma from theirs; the holes none saw, missing.
+// Returns how many were found.
+std::size_t place_holes(PlanarMeasurement& out, const targets::PlanarTarget& target,
+                        const ViewIndex& index,
+                        const std::vector<std::vector<MarkCandidate>>& candidates,
+                        const std::vector<int>& seen_in, const solve::ViewStitch& stitch) {
+    const std::size_t n_views = index.size(), n_holes = target.holes.size();
+    const auto& position = stitch.position_mm;
+    std::size_t found = 0;
+    for (std::size_t h = 0; h < n_holes; ++h) {
+        const auto& hole = target.holes[h];
+        if (seen_in[h] == 0) {
+            out.missing.push_back(hole.index);
+            continue;
+        }
+        ++found;
+        double inverse_variance = 0;
+        for (std::size_t v = 0; v < n_views; ++v)
+            if (const long c = index[v][h]; c >= 0) {
+                const double sigma = candidates[v][static_cast<std::size_t>(c)].sigma_mm;
+                inverse_variance += 1 / std::max(sigma * sigma, 1e-18);
+            }
+        const Point2 p = position[h];
+        out.holes.push_back({hole.index, hole.centre_mm, hole.large,
+                             out.mirrored ? Point2{p.x, -p.y} : p,
+                             1 / std::sqrt(inverse_variance)});
+    }
+    return found;
+}
+
+// The backlash hole's place, and every candidate no hole took, as extras on the bed.
+void place_the_rest(PlanarMeasurement& out, const targets::PlanarTarget& target,
+                    const ViewIndex& index,
+                    const std::vector<std::vector<MarkCandidate>>& candidates,
+                    const SeenAt& backlash_seen, const solve::ViewStitch& stitch) {
+    const std::size_t n_views = index.size();
+    const auto place = [&stitch](std::size_t v, Point2 b) { return stitch.place(v, b); };
+    if (backlash_seen) {
+        const auto& [v, c] = *backlash_seen;
+        const auto& candidate = candidates[v][static_cast<std::size_t>(c)];
+        const Point2 p = place(v, candidate.bed_mm);
+        out.backlash_hole =
+            PlanarHoleMeasurement{target.backlash_hole->index, target.backlash_hole->centre_mm,
+                                  false, out.mirrored ? Point2{p.x, -p.y} : p, candidate.sigma_mm};
+    }
+    for (std::size_t v = 0; v < n_views; ++v) {
+        std::vector<bool> used(candidates[v].size(), false);
+        for (const long c : index[v])
+            if (c >= 0) used[static_cast<std::size_t>(c)] = true;
+        if (backlash_seen && backlash_seen->first == v)
+            used[static_cast<std::size_t>(backlash_seen->second)] = true;
+        for (std::size_t i = 0; i < used.size(); ++i)
+            if (!used[i]) out.extra_mm.push_back(place(v, candidates[v][i].bed_mm));
+    }
+}
+
+}  // namespace
+
 PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
                                        const geometry::CameraModel& camera,
                                        const geometry::BedPlane& plane,
@@ -278,105 +419,13 @@ PlanarMeasurement measure_planar_views(const models::MachineFile& machine,
                           ": not this target, or the photo does not show it");
     const FrameGuess first = frame_from_fiducials(target, candidates[0], reach);
     out.mirrored = first.mirrored;
-    // Each view indexed through where the camera was sent: the machine moved it by its offset
-    // from the first view's, so a machine point m shows where the first view showed m - offset.
-    // That is good to the machine's errors (a few millimetres), enough to say which hole is
-    // which; where the holes are comes from the photos alone.
-    std::vector<std::vector<long>> index;                       // per view, per target hole
-    std::optional<std::pair<std::size_t, long>> backlash_seen;  // view, candidate
-    for (std::size_t v = 0; v < views.size(); ++v) {
-        FrameGuess frame = first;
-        const Point2 shift{views[v].offset_mm.x - views[0].offset_mm.x,
-                           views[v].offset_mm.y - views[0].offset_mm.y};
-        const Point2 at_origin = first.bed_of({0, 0}), moved = first.bed_of(shift);
-        frame.placement.translation_mm = {
-            frame.placement.translation_mm.x - (moved.x - at_origin.x),
-            frame.placement.translation_mm.y - (moved.y - at_origin.y)};
-        index.push_back(index_holes(target, candidates[v], frame, reach));
-        if (target.backlash_hole && !backlash_seen) {
-            // Half a pitch diagonally from four grid holes: within the reach of none of theirs.
-            const long c = nearest_candidate(candidates[v],
-                                             frame.bed_of(target.backlash_hole->centre_mm), reach);
-            if (c >= 0 &&
-                std::find(index.back().begin(), index.back().end(), c) == index.back().end() &&
-                !candidates[v][static_cast<std::size_t>(c)].large)
-                backlash_seen = std::pair<std::size_t, long>{v, c};
-        }
-    }
-    // Stitched through the holes the views share: each view's own rotation and shift (the first
-    // view's fixed) and every hole's position, by least squares, so that a hole seen twice is
-    // seen at one place. Started from the offsets the machine was sent to.
-    const std::size_t n_views = views.size(), n_holes = target.holes.size();
-    std::vector<Point2> start_shift(n_views);
-    for (std::size_t v = 0; v < n_views; ++v) {
-        const Point2 a = first.bed_of({0, 0}),
-                     b = first.bed_of({views[v].offset_mm.x - views[0].offset_mm.x,
-                                       views[v].offset_mm.y - views[0].offset_mm.y});
-        start_shift[v] = {b.x - a.x, b.y - a.y};
-    }
-    std::vector<int> seen_in(n_holes, 0);
-    for (std::size_t v = 0; v < n_views; ++v)
-        for (std::size_t h = 0; h < n_holes; ++h) seen_in[h] += index[v][h] >= 0 ? 1 : 0;
-    for (std::size_t v = 1; v < n_views; ++v) {
-        int shared = 0;
-        for (std::size_t h = 0; h < n_holes; ++h)
-            if (index[v][h] >= 0 && seen_in[h] > 1) ++shared;
-        if (shared < 3)
-            throw PlanarError("measure: photo " + std::to_string(v + 1) + " shares " +
-                              std::to_string(shared) +
-                              " holes with the others; overlapping photos need at least 3");
-    }
-    std::vector<std::vector<std::optional<Point2>>> seen(n_views);
-    for (std::size_t v = 0; v < n_views; ++v) {
-        seen[v].resize(n_holes);
-        for (std::size_t h = 0; h < n_holes; ++h)
-            if (const long c = index[v][h]; c >= 0)
-                seen[v][h] = candidates[v][static_cast<std::size_t>(c)].bed_mm;
-    }
-    solve::ViewStitch stitch;
-    try {
-        stitch = solve::stitch_views(seen, std::move(start_shift));
-    } catch (const solve::StitchError&) {
-        throw PlanarError("measure: the photos' shared holes do not fix how they lie");
-    }
-    const auto place = [&stitch](std::size_t v, Point2 b) { return stitch.place(v, b); };
-    const auto& position = stitch.position_mm;
-    std::size_t found = 0;
-    for (std::size_t h = 0; h < n_holes; ++h) {
-        const auto& hole = target.holes[h];
-        if (seen_in[h] == 0) {
-            out.missing.push_back(hole.index);
-            continue;
-        }
-        ++found;
-        double inverse_variance = 0;
-        for (std::size_t v = 0; v < n_views; ++v)
-            if (const long c = index[v][h]; c >= 0) {
-                const double sigma = candidates[v][static_cast<std::size_t>(c)].sigma_mm;
-                inverse_variance += 1 / std::max(sigma * sigma, 1e-18);
-            }
-        const Point2 p = position[h];
-        out.holes.push_back({hole.index, hole.centre_mm, hole.large,
-                             out.mirrored ? Point2{p.x, -p.y} : p,
-                             1 / std::sqrt(inverse_variance)});
-    }
-    if (backlash_seen) {
-        const auto& [v, c] = *backlash_seen;
-        const auto& candidate = candidates[v][static_cast<std::size_t>(c)];
-        const Point2 p = place(v, candidate.bed_mm);
-        out.backlash_hole =
-            PlanarHoleMeasurement{target.backlash_hole->index, target.backlash_hole->centre_mm,
-                                  false, out.mirrored ? Point2{p.x, -p.y} : p, candidate.sigma_mm};
-    }
-    for (std::size_t v = 0; v < n_views; ++v) {
-        std::vector<bool> used(candidates[v].size(), false);
-        for (const long c : index[v])
-            if (c >= 0) used[static_cast<std::size_t>(c)] = true;
-        if (backlash_seen && backlash_seen->first == v)
-            used[static_cast<std::size_t>(backlash_seen->second)] = true;
-        for (std::size_t i = 0; i < used.size(); ++i)
-            if (!used[i]) out.extra_mm.push_back(place(v, candidates[v][i].bed_mm));
-    }
+    SeenAt backlash_seen;
+    const ViewIndex index = index_views(target, views, candidates, first, reach, backlash_seen);
+    const solve::ViewStitch stitch = stitch_the_views(views, first, index, candidates);
+    const std::size_t n_holes = target.holes.size();
+    const std::size_t found =
+        place_holes(out, target, index, candidates, times_seen(index, n_holes), stitch);
+    place_the_rest(out, target, index, candidates, backlash_seen, stitch);
     if (found < (3 * n_holes + 3) / 4)
         throw PlanarError("measure: " + std::to_string(found) + " of the " +
                           std::to_string(n_holes) +

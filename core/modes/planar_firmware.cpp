@@ -13,62 +13,14 @@ namespace calbox::modes {
 
 using geometry::Point2;
 
-FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
-                                          const PlanarSolution& s) {
-    // Scale and skew settings can carry the field's linear part over the area only: the best
-    // affine fit of e over the measured holes, its rotation left to the work's heading.
-    // e ~ (a x + b y + tx, c x + d y + ty); turned by -c it is (a x + (b + c) y, d y): x scale a,
-    // y scale d, and x moving (b + c) per mm of y.
-    Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> right = Eigen::Matrix<double, 6, 1>::Zero();
-    std::vector<Point2> field;
-    for (std::size_t i = 0; i < s.commanded_mm.size(); ++i) {
-        const Point2 c = s.commanded_mm[i];
-        const Point2 e = models::planar_error_mm(s.fit.parameters, c, s.tool_length_mm);
-        field.push_back({e.x + s.fit.residuals_mm[i].x, e.y + s.fit.residuals_mm[i].y});
-        Eigen::Matrix<double, 6, 1> rx, ry;
-        rx << c.x, c.y, 0, 0, 1, 0;
-        ry << 0, 0, c.x, c.y, 0, 1;
-        normal += rx * rx.transpose() + ry * ry.transpose();
-        right += rx * field.back().x + ry * field.back().y;
-    }
-    const Eigen::Matrix<double, 6, 1> affine = normal.ldlt().solve(right);
-    const double sx = affine(0), sy = affine(3), skew = affine(1) + affine(2);
-    FirmwareSettings f;
-    f.scale_x = sx, f.scale_y = sy, f.skew = skew;
-    // What they leave: the field less its linear part, the placement out.
-    std::vector<Point2> left, commanded_plus;
-    for (std::size_t i = 0; i < field.size(); ++i) {
-        const Point2 c = s.commanded_mm[i];
-        left.push_back({field[i].x - sx * c.x - skew * c.y, field[i].y - sy * c.y});
-        commanded_plus.push_back({c.x + left.back().x, c.y + left.back().y});
-    }
-    std::vector<Point2> placed_left;
-    const auto placement = solve::best_rigid_placement(commanded_plus, s.commanded_mm);
-    for (std::size_t i = 0; i < left.size(); ++i) {
-        const Point2 p = placement.apply(commanded_plus[i]);
-        placed_left.push_back({p.x - s.commanded_mm[i].x, p.y - s.commanded_mm[i].y});
-    }
-    f.mean_left_mm = models::norm_statistics(placed_left).mean_mm;
-    f.mean_before_mm = s.before.mean_mm;
-    // An axis that travels (1 + s) too far needs 1 / (1 + s) of its steps per mm.
+namespace {
+
+// The settings in the firmware's own words: x and y scaled by `sx`, `sy` (an axis that travels
+// (1 + s) too far needs 1 / (1 + s) of its steps per mm), x leaning `skew` mm per mm of y.
+void firmware_lines(std::vector<std::string>& out, const models::MachineFile& machine,
+                    const PlanarSolution& s, double sx, double sy, double skew) {
     const double fx = 1 / (1 + sx), fy = 1 / (1 + sy);
     const auto& planar = *machine.planar;
-    auto& out = f.lines;
-    out.emplace_back("; calbox planar, the best linear fit over the holes: x travels " +
-                     number_text("%+.4f", 100 * sx) + " %, y " + number_text("%+.4f", 100 * sy) +
-                     " %, the axes are " + number_text("%+.4f", skew * 1000) +
-                     " mrad out of square (x moves " + number_text("%+.6f", skew) +
-                     " mm per mm of y)");
-    if (s.backlash_mm)
-        out.emplace_back("; backlash " + number_text("%.3f", s.backlash_mm->x) + " mm in x, " +
-                         number_text("%.3f", s.backlash_mm->y) +
-                         " mm in y (the hole drilled from the other side): jobs that approach "
-                         "their features from one side do not see it");
-    out.emplace_back("; these settings leave " + number_text("%.3f", f.mean_left_mm) +
-                     " mm mean error norm of " + number_text("%.3f", f.mean_before_mm) +
-                     " (straightness, yaw and what the model does not hold); the compensated "
-                     "G-code corrects all of the model");
     const bool steps = planar.steps_per_mm_x && planar.steps_per_mm_y;
     const std::string factors = "multiply X steps/mm by " + number_text("%.6f", fx) + " and Y by " +
                                 number_text("%.6f", fy);
@@ -118,6 +70,64 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
     } else {
         out.emplace_back("; " + machine.firmware + ": " + factors);
     }
+}
+
+}  // namespace
+
+FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
+                                          const PlanarSolution& s) {
+    // Scale and skew settings can carry the field's linear part over the area only: the best
+    // affine fit of e over the measured holes, its rotation left to the work's heading.
+    // e ~ (a x + b y + tx, c x + d y + ty); turned by -c it is (a x + (b + c) y, d y): x scale a,
+    // y scale d, and x moving (b + c) per mm of y.
+    Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> right = Eigen::Matrix<double, 6, 1>::Zero();
+    std::vector<Point2> field;
+    for (std::size_t i = 0; i < s.commanded_mm.size(); ++i) {
+        const Point2 c = s.commanded_mm[i];
+        const Point2 e = models::planar_error_mm(s.fit.parameters, c, s.tool_length_mm);
+        field.push_back({e.x + s.fit.residuals_mm[i].x, e.y + s.fit.residuals_mm[i].y});
+        Eigen::Matrix<double, 6, 1> rx, ry;
+        rx << c.x, c.y, 0, 0, 1, 0;
+        ry << 0, 0, c.x, c.y, 0, 1;
+        normal += rx * rx.transpose() + ry * ry.transpose();
+        right += rx * field.back().x + ry * field.back().y;
+    }
+    const Eigen::Matrix<double, 6, 1> affine = normal.ldlt().solve(right);
+    const double sx = affine(0), sy = affine(3), skew = affine(1) + affine(2);
+    FirmwareSettings f;
+    f.scale_x = sx, f.scale_y = sy, f.skew = skew;
+    // What they leave: the field less its linear part, the placement out.
+    std::vector<Point2> left, commanded_plus;
+    for (std::size_t i = 0; i < field.size(); ++i) {
+        const Point2 c = s.commanded_mm[i];
+        left.push_back({field[i].x - sx * c.x - skew * c.y, field[i].y - sy * c.y});
+        commanded_plus.push_back({c.x + left.back().x, c.y + left.back().y});
+    }
+    std::vector<Point2> placed_left;
+    const auto placement = solve::best_rigid_placement(commanded_plus, s.commanded_mm);
+    for (std::size_t i = 0; i < left.size(); ++i) {
+        const Point2 p = placement.apply(commanded_plus[i]);
+        placed_left.push_back({p.x - s.commanded_mm[i].x, p.y - s.commanded_mm[i].y});
+    }
+    f.mean_left_mm = models::norm_statistics(placed_left).mean_mm;
+    f.mean_before_mm = s.before.mean_mm;
+    auto& out = f.lines;
+    out.emplace_back("; calbox planar, the best linear fit over the holes: x travels " +
+                     number_text("%+.4f", 100 * sx) + " %, y " + number_text("%+.4f", 100 * sy) +
+                     " %, the axes are " + number_text("%+.4f", skew * 1000) +
+                     " mrad out of square (x moves " + number_text("%+.6f", skew) +
+                     " mm per mm of y)");
+    if (s.backlash_mm)
+        out.emplace_back("; backlash " + number_text("%.3f", s.backlash_mm->x) + " mm in x, " +
+                         number_text("%.3f", s.backlash_mm->y) +
+                         " mm in y (the hole drilled from the other side): jobs that approach "
+                         "their features from one side do not see it");
+    out.emplace_back("; these settings leave " + number_text("%.3f", f.mean_left_mm) +
+                     " mm mean error norm of " + number_text("%.3f", f.mean_before_mm) +
+                     " (straightness, yaw and what the model does not hold); the compensated "
+                     "G-code corrects all of the model");
+    firmware_lines(out, machine, s, sx, sy, skew);
     return f;
 }
 

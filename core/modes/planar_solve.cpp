@@ -13,6 +13,52 @@ namespace calbox::modes {
 
 using geometry::Point2;
 
+namespace {
+
+// The backlash hole's slack: seen = R (c + e(c)) + t for a hole approached like the others; the
+// rest is the slack, less what the model leaves unexplained there: the mean residual of the
+// cell's four corner holes (the unexplained part changes slowly over a cell, the slack not at
+// all).
+Point2 backlash_of(const PlanarSolution& s, const PlanarMeasurement& measured) {
+    const auto& hole = *measured.backlash_hole;
+    const double c = std::cos(s.fit.rotation_rad), sn = std::sin(s.fit.rotation_rad);
+    const double dx = hole.measured_mm.x - s.fit.translation_mm.x,
+                 dy = hole.measured_mm.y - s.fit.translation_mm.y;
+    const Point2 e = models::planar_error_mm(s.fit.parameters, hole.commanded_mm, s.tool_length_mm);
+    Point2 local;
+    int corners = 0;
+    std::size_t k = 0;
+    for (const auto& h : measured.holes) {
+        if (h.large) continue;
+        const int dc = h.index.column - hole.index.column, dr = h.index.row - hole.index.row;
+        if ((dc == 0 || dc == 1) && (dr == 0 || dr == 1)) {
+            local.x += s.fit.residuals_mm[k].x, local.y += s.fit.residuals_mm[k].y;
+            ++corners;
+        }
+        ++k;
+    }
+    if (corners > 0) local = {local.x / corners, local.y / corners};
+    return Point2{c * dx + sn * dy - hole.commanded_mm.x - e.x - local.x,
+                  -sn * dx + c * dy - hole.commanded_mm.y - e.y - local.y};
+}
+
+// Bounds on what will be sent: the correction over the whole valid area, corners included.
+void refuse_past_bounds(const PlanarSolution& s, const PlanarSolveOptions& options) {
+    for (const Point2 corner : {Point2{s.min_x_mm, s.min_y_mm}, Point2{s.max_x_mm, s.min_y_mm},
+                                Point2{s.min_x_mm, s.max_y_mm}, Point2{s.max_x_mm, s.max_y_mm}}) {
+        const Point2 full = models::planar_error_mm(s.fit.parameters, corner, s.tool_length_mm);
+        const Point2 rigid = s.rigid_part.at(corner);
+        const Point2 e{full.x - rigid.x, full.y - rigid.y};
+        if (!(std::hypot(e.x, e.y) <= options.max_error_mm))
+            throw PlanarError("solve: the model's correction at X" + number_text("%.1f", corner.x) +
+                              " Y" + number_text("%.1f", corner.y) + " is " +
+                              number_text("%.2f", std::hypot(e.x, e.y)) +
+                              " mm, beyond what a machine plausibly needs; nothing written");
+    }
+}
+
+}  // namespace
+
 PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeasurement& measured,
                             const PlanarSolveOptions& options) {
     if (!machine.is_planar() || !machine.planar)
@@ -73,46 +119,10 @@ PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeas
                           number_text("%g", options.max_error_mm) +
                           " mm a machine out of calibration plausibly shows (check the pitch and "
                           "the photo); nothing written");
-    if (measured.backlash_hole) {
-        // Seen = R (c + e(c)) + t for a hole approached like the others; the rest is the slack,
-        // less what the model leaves unexplained there: the mean residual of the cell's four
-        // corner holes (the unexplained part changes slowly over a cell, the slack not at all).
-        const auto& hole = *measured.backlash_hole;
-        const double c = std::cos(s.fit.rotation_rad), sn = std::sin(s.fit.rotation_rad);
-        const double dx = hole.measured_mm.x - s.fit.translation_mm.x,
-                     dy = hole.measured_mm.y - s.fit.translation_mm.y;
-        const Point2 e =
-            models::planar_error_mm(s.fit.parameters, hole.commanded_mm, s.tool_length_mm);
-        Point2 local;
-        int corners = 0;
-        std::size_t k = 0;
-        for (const auto& h : measured.holes) {
-            if (h.large) continue;
-            const int dc = h.index.column - hole.index.column, dr = h.index.row - hole.index.row;
-            if ((dc == 0 || dc == 1) && (dr == 0 || dr == 1)) {
-                local.x += s.fit.residuals_mm[k].x, local.y += s.fit.residuals_mm[k].y;
-                ++corners;
-            }
-            ++k;
-        }
-        if (corners > 0) local = {local.x / corners, local.y / corners};
-        s.backlash_mm = Point2{c * dx + sn * dy - hole.commanded_mm.x - e.x - local.x,
-                               -sn * dx + c * dy - hole.commanded_mm.y - e.y - local.y};
-    }
+    if (measured.backlash_hole) s.backlash_mm = backlash_of(s, measured);
     s.rigid_part = models::rigid_part_of(s.fit.parameters, s.tool_length_mm, s.min_x_mm, s.min_y_mm,
                                          s.max_x_mm, s.max_y_mm);
-    // Bounds on what will be sent: the correction over the whole valid area, corners included.
-    for (const Point2 corner : {Point2{s.min_x_mm, s.min_y_mm}, Point2{s.max_x_mm, s.min_y_mm},
-                                Point2{s.min_x_mm, s.max_y_mm}, Point2{s.max_x_mm, s.max_y_mm}}) {
-        const Point2 full = models::planar_error_mm(s.fit.parameters, corner, s.tool_length_mm);
-        const Point2 rigid = s.rigid_part.at(corner);
-        const Point2 e{full.x - rigid.x, full.y - rigid.y};
-        if (!(std::hypot(e.x, e.y) <= options.max_error_mm))
-            throw PlanarError("solve: the model's correction at X" + number_text("%.1f", corner.x) +
-                              " Y" + number_text("%.1f", corner.y) + " is " +
-                              number_text("%.2f", std::hypot(e.x, e.y)) +
-                              " mm, beyond what a machine plausibly needs; nothing written");
-    }
+    refuse_past_bounds(s, options);
     return s;
 }
 

@@ -43,13 +43,11 @@ struct MarkMatching {
 
 namespace {
 
-// The circles or crosses: the photo's marks of the printed size and shape, and the one way the
-// drawing's marks lie on them. A cross's centroid is its centre as a disc's is: both are
-// symmetric about it, and the moment window around it is too.
-std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
-    const geometry::CameraModel& camera, const geometry::BedPlane& plane,
-    const vision::GrayView& photo, const BedToMachine& map, const RegistrationRequest& request,
-    double px_per_mm) {
+// The photo's marks of the printed size and shape, on the machine, enough for the drawing's.
+std::vector<Candidate> mark_candidates(const geometry::CameraModel& camera,
+                                       const geometry::BedPlane& plane,
+                                       const vision::GrayView& photo, const BedToMachine& map,
+                                       const RegistrationRequest& request, double px_per_mm) {
     const auto& marks = request.marks_drawing_mm;
     const double h = request.surface_height_mm;
     const bool crosses = request.kind == MarkKind::crosses;
@@ -99,11 +97,14 @@ std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
                                 " mm across, the drawing has " + std::to_string(marks.size()) +
                                 ": are they printed dark, whole and in view?");
 
-    // Each pair of candidates as far apart as the first two marks places the drawing one way
-    // (turned, shifted); the other marks must then each lie on a candidate. A printer's stretch
-    // of a percent or two and the photo's millimetre leave room.
-    const double base = std::hypot(marks[1].x - marks[0].x, marks[1].y - marks[0].y);
-    const double reach_mm = 0.02 * base + 1.0;
+    return candidates;
+}
+
+// Each pair of candidates as far apart as the first two marks places the drawing one way
+// (turned, shifted); the other marks must then each lie on a candidate within `reach_mm`.
+std::vector<MarkMatching> matchings_of(const std::vector<Candidate>& candidates,
+                                       const std::vector<Point2>& marks, double base,
+                                       double reach_mm) {
     std::vector<MarkMatching> matchings;
     for (std::size_t a = 0; a < candidates.size(); ++a)
         for (std::size_t b = 0; b < candidates.size(); ++b) {
@@ -136,6 +137,25 @@ std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
             }
             if (all) matchings.push_back(m);
         }
+    return matchings;
+}
+
+// The circles or crosses: the photo's marks of the printed size and shape, and the one way the
+// drawing's marks lie on them. A cross's centroid is its centre as a disc's is: both are
+// symmetric about it, and the moment window around it is too.
+std::pair<std::vector<Point2>, std::vector<double>> printed_marks(
+    const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+    const vision::GrayView& photo, const BedToMachine& map, const RegistrationRequest& request,
+    double px_per_mm) {
+    const auto& marks = request.marks_drawing_mm;
+    const std::string what = request.kind == MarkKind::crosses ? "crosses" : "round marks";
+    const std::vector<Candidate> candidates =
+        mark_candidates(camera, plane, photo, map, request, px_per_mm);
+
+    // A printer's stretch of a percent or two and the photo's millimetre leave room.
+    const double base = std::hypot(marks[1].x - marks[0].x, marks[1].y - marks[0].y);
+    const double reach_mm = 0.02 * base + 1.0;
+    std::vector<MarkMatching> matchings = matchings_of(candidates, marks, base, reach_mm);
     if (matchings.empty())
         throw RegistrationError("no " + std::to_string(candidates.size()) + " " + what +
                                 " in the photo lie as the drawing's " +

@@ -33,6 +33,66 @@ struct RoughSheet {
     bool lighter = true;
 };
 
+// A step worth a band: a tenth of the view's spread of tones, at least a few counts of noise.
+double band_step(const cv::Mat& image, const cv::Mat& seen) {
+    std::vector<double> tones;
+    for (int y = 0; y < image.rows; y += 4)
+        for (int x = 0; x < image.cols; x += 4)
+            if (seen.at<std::uint8_t>(y, x) != 0) tones.push_back(image.at<std::uint8_t>(y, x));
+    std::sort(tones.begin(), tones.end());
+    const double spread =
+        tones.empty() ? 0 : tones[tones.size() * 95 / 100] - tones[tones.size() / 20];
+    return std::max(6.0, 0.1 * spread);
+}
+
+// The view's tone at a machine point, or -1 where the camera does not see it.
+struct ToneAt {
+    const BedView& view;
+    const cv::Mat& image;
+    const cv::Mat& seen;
+    double operator()(Point2 machine) const {
+        const Point2 p = view.pixel_of_machine(machine);
+        const int x = static_cast<int>(std::lround(p.x)), y = static_cast<int>(std::lround(p.y));
+        if (x < 0 || y < 0 || x >= image.cols || y >= image.rows ||
+            seen.at<std::uint8_t>(y, x) == 0)
+            return -1.0;
+        return static_cast<double>(image.at<std::uint8_t>(y, x));
+    }
+};
+
+// The step across the sides, inside less outside, 1.5 mm either side of each.
+std::vector<double> steps_across_sides(const RoughSheet& sheet, const ToneAt& tone_at,
+                                       double mm_per_px) {
+    std::vector<double> steps;
+    for (int k = 0; k < 4; ++k) {
+        const Point2 a = sheet.corners[k], b = sheet.corners[(k + 1) % 4];
+        const double length = std::hypot(b.x - a.x, b.y - a.y);
+        const Point2 d{(b.x - a.x) / length, (b.y - a.y) / length};
+        const Point2 out{d.y, -d.x};
+        const int samples = static_cast<int>(0.7 * length / (2 * mm_per_px));
+        for (int i = 0; i <= samples; ++i) {
+            const double t = 0.15 * length + i * 2 * mm_per_px;
+            const Point2 p{a.x + t * d.x, a.y + t * d.y};
+            const double in = tone_at({p.x - 1.5 * out.x, p.y - 1.5 * out.y});
+            const double beyond = tone_at({p.x + 1.5 * out.x, p.y + 1.5 * out.y});
+            if (in >= 0 && beyond >= 0) steps.push_back(in - beyond);
+        }
+    }
+    return steps;
+}
+
+// The corners turned to start at the edge running nearest +X.
+void front_edge_first(std::array<Point2, 4>& c) {
+    int front = 0;
+    double best_cos = -2;
+    for (int k = 0; k < 4; ++k) {
+        const Point2 d{c[(k + 1) % 4].x - c[k].x, c[(k + 1) % 4].y - c[k].y};
+        const double cos_x = d.x / std::hypot(d.x, d.y);
+        if (cos_x > best_cos) best_cos = cos_x, front = k;
+    }
+    std::rotate(c.begin(), c.begin() + front, c.end());
+}
+
 // The sheet's outline on a view coarse enough to be quick and fine enough to place each edge
 // within the search. Where the view steps up or down against its own surroundings (the mean over
 // a block half again the search across) marks a band along each side of every edge, whatever
@@ -48,29 +108,14 @@ RoughSheet rough_sheet(const BedView& view, const std::string& area) {
     cv::Mat filled = image.clone();
     filled.setTo(cv::mean(image, seen), ~seen);
     cv::GaussianBlur(filled, filled, {0, 0}, 1.0);
-    // A step worth a band: a tenth of the view's spread of tones, at least a few counts of noise.
-    std::vector<double> tones;
-    for (int y = 0; y < image.rows; y += 4)
-        for (int x = 0; x < image.cols; x += 4)
-            if (seen.at<std::uint8_t>(y, x) != 0) tones.push_back(image.at<std::uint8_t>(y, x));
-    std::sort(tones.begin(), tones.end());
-    const double spread =
-        tones.empty() ? 0 : tones[tones.size() * 95 / 100] - tones[tones.size() / 20];
-    const double step = std::max(6.0, 0.1 * spread);
+    const double step = band_step(image, seen);
     const int block = 2 * static_cast<int>(std::lround(7.5 / view.mm_per_px)) + 1;
     cv::Mat unseen_or_edge = ~seen;
     cv::rectangle(unseen_or_edge, {0, 0}, {unseen_or_edge.cols - 1, unseen_or_edge.rows - 1}, 255,
                   1);
     const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, {3, 3});
     cv::dilate(unseen_or_edge, unseen_or_edge, kernel, {-1, -1}, 2);
-    const auto tone_at = [&](Point2 machine) {
-        const Point2 p = view.pixel_of_machine(machine);
-        const int x = static_cast<int>(std::lround(p.x)), y = static_cast<int>(std::lround(p.y));
-        if (x < 0 || y < 0 || x >= image.cols || y >= image.rows ||
-            seen.at<std::uint8_t>(y, x) == 0)
-            return -1.0;
-        return static_cast<double>(image.at<std::uint8_t>(y, x));
-    };
+    const ToneAt tone_at{view, image, seen};
     std::optional<RoughSheet> best;
     double best_score = 0;
     std::string why = "no outline with four straight sides";
@@ -106,22 +151,7 @@ RoughSheet rough_sheet(const BedView& view, const std::string& area) {
                 signed_area += sheet.corners[k].x * sheet.corners[(k + 1) % 4].y -
                                sheet.corners[(k + 1) % 4].x * sheet.corners[k].y;
             if (signed_area < 0) std::reverse(sheet.corners.begin(), sheet.corners.end());
-            // The step across the sides, inside less outside, 1.5 mm either side of each.
-            std::vector<double> steps;
-            for (int k = 0; k < 4; ++k) {
-                const Point2 a = sheet.corners[k], b = sheet.corners[(k + 1) % 4];
-                const double length = std::hypot(b.x - a.x, b.y - a.y);
-                const Point2 d{(b.x - a.x) / length, (b.y - a.y) / length};
-                const Point2 out{d.y, -d.x};
-                const int samples = static_cast<int>(0.7 * length / (2 * view.mm_per_px));
-                for (int i = 0; i <= samples; ++i) {
-                    const double t = 0.15 * length + i * 2 * view.mm_per_px;
-                    const Point2 p{a.x + t * d.x, a.y + t * d.y};
-                    const double in = tone_at({p.x - 1.5 * out.x, p.y - 1.5 * out.y});
-                    const double beyond = tone_at({p.x + 1.5 * out.x, p.y + 1.5 * out.y});
-                    if (in >= 0 && beyond >= 0) steps.push_back(in - beyond);
-                }
-            }
+            const std::vector<double> steps = steps_across_sides(sheet, tone_at, view.mm_per_px);
             if (steps.size() < 8) continue;
             const double score = (lighter ? 1 : -1) * median_of(steps);
             if (score > best_score) {
@@ -132,17 +162,132 @@ RoughSheet rough_sheet(const BedView& view, const std::string& area) {
         }
     }
     if (!best) throw StockError("no sheet with four straight edges in " + area + ": " + why);
-    // Starting at the edge running nearest +X.
-    auto& c = best->corners;
-    int front = 0;
-    double best_cos = -2;
-    for (int k = 0; k < 4; ++k) {
-        const Point2 d{c[(k + 1) % 4].x - c[k].x, c[(k + 1) % 4].y - c[k].y};
-        const double cos_x = d.x / std::hypot(d.x, d.y);
-        if (cos_x > best_cos) best_cos = cos_x, front = k;
-    }
-    std::rotate(c.begin(), c.begin() + front, c.end());
+    front_edge_first(best->corners);
     return *best;
+}
+
+// An edge whose profile the sensor clipped (the lamp's glare on the sheet) is moved by the
+// clipping: whether the photo reaches the clipped level near edge `e` along its search.
+bool clipped_near(const vision::GrayView& photo, Point2 e, Point2 from, Point2 to,
+                  const StockSettings& settings) {
+    const Point2 along{to.x - from.x, to.y - from.y};
+    const double px = std::hypot(along.x, along.y);
+    bool clipped = false;
+    const int reach = static_cast<int>(std::ceil(2 * settings.clip_reach_px));
+    for (int i = -reach; i <= reach; ++i) {
+        const double u = 0.5 * i;
+        const double x = e.x + u * along.x / px, y = e.y + u * along.y / px;
+        if (x >= 0 && y >= 0 && x <= photo.width_px - 2 && y <= photo.height_px - 2 &&
+            vision::sample_reference(photo, x, y) >= settings.clipped_level)
+            clipped = true;
+    }
+    return clipped;
+}
+
+// What lies off the edge's line is something else on it: set aside by the median distance's
+// spread, then against the fixed limit.
+std::vector<Point2> on_the_line(std::vector<Point2> points, const StockSettings& settings) {
+    for (int pass = 0; pass < 4 && points.size() >= 3; ++pass) {
+        const auto line = geometry::fit_line(points);
+        std::vector<double> off;
+        off.reserve(points.size());
+        for (const auto& p : points)
+            off.push_back(std::abs((p.x - line.point.x) * line.direction.y -
+                                   (p.y - line.point.y) * line.direction.x));
+        const double spread = 1.4826 * median_of(off);
+        const double limit = pass < 3 ? std::max(4 * spread, 0.02) : settings.max_off_line_mm;
+        std::vector<Point2> next;
+        for (std::size_t k = 0; k < points.size(); ++k)
+            if (off[k] <= limit) next.push_back(points[k]);
+        if (next.size() == points.size() && pass < 3) continue;
+        points = std::move(next);
+    }
+    return points;
+}
+
+// The points' span along the edge from `a` in direction `d`: the line is told by it.
+double span_along(const std::vector<Point2>& points, Point2 a, Point2 d) {
+    double span = 0;
+    if (points.size() >= 2) {
+        double lo = 1e300, hi = -1e300;
+        for (const auto& p : points) {
+            const double t = (p.x - a.x) * d.x + (p.y - a.y) * d.y;
+            lo = std::min(lo, t), hi = std::max(hi, t);
+        }
+        span = hi - lo;
+    }
+    return span;
+}
+
+// One edge of the sheet, found in the photo along the rough outline's side.
+struct EdgeFound {
+    geometry::Line line;
+    std::vector<Point2> points;  // machine mm, those on the line
+    int stations = 0, under_glare = 0;
+};
+
+EdgeFound measure_edge(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                       const vision::GrayView& photo, const BedToMachine& map,
+                       const RoughSheet& rough, int side, double surface_height_mm,
+                       const StockSettings& settings) {
+    const Point2 a = rough.corners[side], b = rough.corners[(side + 1) % 4];
+    const double length = std::hypot(b.x - a.x, b.y - a.y);
+    const Point2 d{(b.x - a.x) / length, (b.y - a.y) / length};
+    const Point2 outward{d.y, -d.x};  // counter-clockwise: the sheet lies to the left
+    // Each station's search from inside the sheet to the bed, its ends in the photo.
+    std::vector<Point3> ends;
+    const int last = static_cast<int>(
+        std::floor((length - 2 * settings.corner_clearance_mm) / settings.station_step_mm));
+    for (int i = 0; i <= last; ++i) {
+        const double t = settings.corner_clearance_mm + i * settings.station_step_mm;
+        const Point2 p{a.x + t * d.x, a.y + t * d.y};
+        for (const double s : {-settings.search_half_mm, settings.search_half_mm}) {
+            const Point2 bed = map.bed_of({p.x + s * outward.x, p.y + s * outward.y});
+            ends.push_back({bed.x, bed.y, surface_height_mm});
+        }
+    }
+    const std::size_t stations = ends.size() / 2;
+    if (stations < 4)
+        throw StockError("the sheet's " + std::string(kEdgeNames[side]) + " edge is " +
+                         number_text("%.1f", length) +
+                         " mm long: too short to measure clear of its corners");
+    const auto ends_px = geometry::project_points(camera, plane.bed_to_camera, ends);
+    std::vector<Point2> edge_px;
+    int under_glare = 0;
+    for (std::size_t k = 0; k < stations; ++k) {
+        // From the sheet to the bed the photo steps down off a light sheet, up off a dark one.
+        const auto e =
+            vision::step_edge_on_segment(photo, ends_px[2 * k], ends_px[2 * k + 1], !rough.lighter);
+        if (!e) continue;
+        if (clipped_near(photo, *e, ends_px[2 * k], ends_px[2 * k + 1], settings)) {
+            ++under_glare;
+            continue;
+        }
+        edge_px.push_back(*e);
+    }
+    std::vector<Point2> points;
+    if (!edge_px.empty())
+        for (const Point3& p : geometry::pixels_to_bed(camera, plane, edge_px, surface_height_mm))
+            points.push_back(map.machine_of({p.x, p.y}));
+    points = on_the_line(std::move(points), settings);
+    // The line is told by the points' span along it: what is left must reach over a share
+    // of the edge (the ends of an edge whose middle lies under glare tell it well).
+    const double span = span_along(points, a, d);
+    const double reach = length - 2 * settings.corner_clearance_mm;
+    if (points.size() < 8 || span < settings.min_span_share * reach)
+        throw StockError("the sheet's " + std::string(kEdgeNames[side]) + " edge (" + at_text(a) +
+                         " to " + at_text(b) + ") shows at " + std::to_string(points.size()) +
+                         " of its " + std::to_string(stations) + " places (" +
+                         std::to_string(under_glare) + " under glare), over " +
+                         number_text("%.0f", span) + " of its " + number_text("%.0f", reach) +
+                         " mm, under " + number_text("%.0f", 100 * settings.min_span_share) +
+                         " %: it cannot be told there (point at the corner instead)");
+    EdgeFound found;
+    found.line = geometry::fit_line(points);
+    found.stations = static_cast<int>(stations);
+    found.under_glare = under_glare;
+    found.points = std::move(points);
+    return found;
 }
 
 }  // namespace
@@ -172,102 +317,14 @@ StockOutline find_stock(const geometry::CameraModel& camera, const geometry::Bed
     std::array<geometry::Line, 4> lines;
     std::array<std::vector<Point2>, 4> kept;
     for (int side = 0; side < 4; ++side) {
-        const Point2 a = rough.corners[side], b = rough.corners[(side + 1) % 4];
-        const double length = std::hypot(b.x - a.x, b.y - a.y);
-        const Point2 d{(b.x - a.x) / length, (b.y - a.y) / length};
-        const Point2 outward{d.y, -d.x};  // counter-clockwise: the sheet lies to the left
-        // Each station's search from inside the sheet to the bed, its ends in the photo.
-        std::vector<Point3> ends;
-        const int last = static_cast<int>(
-            std::floor((length - 2 * settings.corner_clearance_mm) / settings.station_step_mm));
-        for (int i = 0; i <= last; ++i) {
-            const double t = settings.corner_clearance_mm + i * settings.station_step_mm;
-            const Point2 p{a.x + t * d.x, a.y + t * d.y};
-            for (const double s : {-settings.search_half_mm, settings.search_half_mm}) {
-                const Point2 bed = map.bed_of({p.x + s * outward.x, p.y + s * outward.y});
-                ends.push_back({bed.x, bed.y, surface_height_mm});
-            }
-        }
-        const std::size_t stations = ends.size() / 2;
-        if (stations < 4)
-            throw StockError("the sheet's " + std::string(kEdgeNames[side]) + " edge is " +
-                             number_text("%.1f", length) +
-                             " mm long: too short to measure clear of its corners");
-        const auto ends_px = geometry::project_points(camera, plane.bed_to_camera, ends);
-        std::vector<Point2> edge_px;
-        int under_glare = 0;
-        for (std::size_t k = 0; k < stations; ++k) {
-            // From the sheet to the bed the photo steps down off a light sheet, up off a dark one.
-            const auto e = vision::step_edge_on_segment(photo, ends_px[2 * k], ends_px[2 * k + 1],
-                                                        !rough.lighter);
-            if (!e) continue;
-            // An edge whose profile the sensor clipped (the lamp's glare on the sheet) is moved
-            // by the clipping: set aside.
-            const Point2 along{ends_px[2 * k + 1].x - ends_px[2 * k].x,
-                               ends_px[2 * k + 1].y - ends_px[2 * k].y};
-            const double px = std::hypot(along.x, along.y);
-            bool clipped = false;
-            const int reach = static_cast<int>(std::ceil(2 * settings.clip_reach_px));
-            for (int i = -reach; i <= reach; ++i) {
-                const double u = 0.5 * i;
-                const double x = e->x + u * along.x / px, y = e->y + u * along.y / px;
-                if (x >= 0 && y >= 0 && x <= photo.width_px - 2 && y <= photo.height_px - 2 &&
-                    vision::sample_reference(photo, x, y) >= settings.clipped_level)
-                    clipped = true;
-            }
-            if (clipped) {
-                ++under_glare;
-                continue;
-            }
-            edge_px.push_back(*e);
-        }
-        std::vector<Point2> points;
-        if (!edge_px.empty())
-            for (const Point3& p :
-                 geometry::pixels_to_bed(camera, plane, edge_px, surface_height_mm))
-                points.push_back(map.machine_of({p.x, p.y}));
-        // What lies off the edge's line is something else on it: set aside by the median
-        // distance's spread, then against the fixed limit.
-        for (int pass = 0; pass < 4 && points.size() >= 3; ++pass) {
-            const auto line = geometry::fit_line(points);
-            std::vector<double> off;
-            off.reserve(points.size());
-            for (const auto& p : points)
-                off.push_back(std::abs((p.x - line.point.x) * line.direction.y -
-                                       (p.y - line.point.y) * line.direction.x));
-            const double spread = 1.4826 * median_of(off);
-            const double limit = pass < 3 ? std::max(4 * spread, 0.02) : settings.max_off_line_mm;
-            std::vector<Point2> next;
-            for (std::size_t k = 0; k < points.size(); ++k)
-                if (off[k] <= limit) next.push_back(points[k]);
-            if (next.size() == points.size() && pass < 3) continue;
-            points = std::move(next);
-        }
-        // The line is told by the points' span along it: what is left must reach over a share
-        // of the edge (the ends of an edge whose middle lies under glare tell it well).
-        double span = 0;
-        if (points.size() >= 2) {
-            double lo = 1e300, hi = -1e300;
-            for (const auto& p : points) {
-                const double t = (p.x - a.x) * d.x + (p.y - a.y) * d.y;
-                lo = std::min(lo, t), hi = std::max(hi, t);
-            }
-            span = hi - lo;
-        }
-        const double reach = length - 2 * settings.corner_clearance_mm;
-        if (points.size() < 8 || span < settings.min_span_share * reach)
-            throw StockError("the sheet's " + std::string(kEdgeNames[side]) + " edge (" +
-                             at_text(a) + " to " + at_text(b) + ") shows at " +
-                             std::to_string(points.size()) + " of its " + std::to_string(stations) +
-                             " places (" + std::to_string(under_glare) + " under glare), over " +
-                             number_text("%.0f", span) + " of its " + number_text("%.0f", reach) +
-                             " mm, under " + number_text("%.0f", 100 * settings.min_span_share) +
-                             " %: it cannot be told there (point at the corner instead)");
-        lines[side] = geometry::fit_line(points);
-        out.edge_points[side] = static_cast<int>(points.size());
-        out.edge_points_under_glare += under_glare;
-        out.edge_points_set_aside += static_cast<int>(stations - points.size()) - under_glare;
-        kept[side] = std::move(points);
+        EdgeFound edge =
+            measure_edge(camera, plane, photo, map, rough, side, surface_height_mm, settings);
+        lines[side] = edge.line;
+        out.edge_points[side] = static_cast<int>(edge.points.size());
+        out.edge_points_under_glare += edge.under_glare;
+        out.edge_points_set_aside +=
+            edge.stations - static_cast<int>(edge.points.size()) - edge.under_glare;
+        kept[side] = std::move(edge.points);
     }
     // The camera's own part of each corner's uncertainty, the same everywhere (two sigma stated).
     const double camera_sigma = rough_view.accuracy_mm / 2;

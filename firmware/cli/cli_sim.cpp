@@ -118,6 +118,109 @@ nlohmann::json pixel_json(const sim::CameraIntrinsics& c, const sim::Pose& pose,
     return {px.x, px.y};
 }
 
+// A sheet of stock lying on the bed (--sheet X,Y,WIDTH,DEPTH,ANGLE), its corners in the truth.
+sim::GrayImage sheet_photo(const Args& args, const sim::Scenario& scenario,
+                           const sim::Pose& bed_to_camera, nlohmann::json& truth) {
+    const auto& camera = *scenario.camera;
+    if (args.get("--pose") || args.get("--on-bed"))
+        throw UsageError("--pose and --on-bed go with --board");
+    const auto v = parse_numbers("--sheet", *args.get("--sheet"), 5);
+    const double thickness = args.number("--thickness", 0);
+    if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
+    if (!(v[2] > 0 && v[3] > 0)) throw UsageError("--sheet needs a width and a depth above 0");
+    sim::StockSheet sheet;
+    sheet.corner_mm = {v[0], v[1]};
+    sheet.width_mm = v[2], sheet.depth_mm = v[3], sheet.angle_deg = v[4];
+    // A sheet that stands out against the scenario's bed: dark on a light bed, light on a
+    // dark one.
+    sheet.bed_albedo = scenario.bed_albedo;
+    sheet.sheet_albedo = scenario.bed_albedo > 0.5 ? 0.15 : 0.8;
+    const sim::SheetScene scene(sheet, scenario.photo.supersample);
+    sim::Pose lifted;
+    lifted.translation_mm = {0, 0, thickness};
+    const sim::GrayImage image =
+        sim::render_photo(camera.intrinsics, sim::compose(bed_to_camera, lifted), scene,
+                          sim::photo_settings_of(scenario, sim::InView::bed));
+    nlohmann::json corners = nlohmann::json::array();
+    for (const auto& c : scene.corners()) corners.push_back({c.x, c.y, thickness});
+    truth["sheet_corners_mm"] = corners;
+    return image;
+}
+
+// A print as its record laid it (--print), its strokes in the truth.
+sim::GrayImage print_photo(const Args& args, const sim::Scenario& scenario,
+                           const sim::Pose& bed_to_camera, nlohmann::json& truth) {
+    const auto& camera = *scenario.camera;
+    if (args.get("--pose") || args.get("--on-bed") || args.get("--thickness")) {
+        throw UsageError("--pose, --on-bed and --thickness go with --board");
+    }
+    const auto record = sim::print_from_json(read_input_file(*args.get("--print"), "print record"));
+    std::vector<sim::StrokeSegment> strokes;
+    nlohmann::json stroke_truth = nlohmann::json::array();
+    for (const auto& s : record.result.strokes) {
+        strokes.push_back(sim::material_of(s));
+        stroke_truth.push_back({{"a_mm", {s.a_mm.x, s.a_mm.y, s.a_mm.z}},
+                                {"b_mm", {s.b_mm.x, s.b_mm.y, s.b_mm.z}},
+                                {"a_px", pixel_json(camera.intrinsics, bed_to_camera, s.a_mm)},
+                                {"b_px", pixel_json(camera.intrinsics, bed_to_camera, s.b_mm)},
+                                {"width_mm", s.width_mm},
+                                {"top_mm", {s.top_a_mm, s.top_b_mm}}});
+    }
+    // Photographed with the bed at another temperature than it was printed at, the print
+    // has grown or shrunk with the bed; the truth keeps where the nozzle laid it.
+    const double growth = sim::bed_growth_at_photo(scenario);
+    strokes = sim::as_photographed(scenario, std::move(strokes));
+    truth["bed_growth_at_photo"] = growth;
+    const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo, scenario.material_albedo,
+                                 scenario.photo.supersample, sim::stroke_footprint_mm(scenario));
+    const sim::GrayImage image =
+        sim::render_photo(camera.intrinsics, bed_to_camera, scene,
+                          sim::photo_settings_of(scenario, sim::InView::bed));
+    truth["strokes"] = stroke_truth;
+    return image;
+}
+
+// The calibration board held at a pose or lying on the bed (--board), its features in the truth.
+sim::GrayImage board_photo(const Args& args, const sim::Scenario& scenario,
+                           const sim::Pose& bed_to_camera, nlohmann::json& truth) {
+    const auto& camera = *scenario.camera;
+    const auto spec = geometry::parse_pattern_spec(*args.get("--board"));
+    sim::Pose board_to_camera;
+    if (args.get("--pose").has_value() == args.get("--on-bed").has_value()) {
+        throw UsageError("--board needs either --pose or --on-bed");
+    }
+    if (const auto pose = args.get("--pose")) {
+        if (args.get("--thickness")) throw UsageError("--thickness goes with --on-bed");
+        const auto v = parse_numbers("--pose", *pose, 6);
+        board_to_camera.rotation =
+            sim::rotation_from_vector(sim::Vec3{v[0], v[1], v[2]} * (sim::kPi / 180));
+        board_to_camera.translation_mm = {v[3], v[4], v[5]};
+    } else {
+        const auto v = parse_numbers("--on-bed", *args.get("--on-bed"), 3);
+        const double thickness = args.number("--thickness", 0);
+        if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
+        const sim::Pose board_to_bed = sim::board_lying_on_bed({v[0], v[1], thickness}, v[2]);
+        board_to_camera = sim::compose(bed_to_camera, board_to_bed);
+        truth["board_to_bed"] = pose_json(board_to_bed);
+    }
+    const sim::BoardScene scene(spec, scenario.photo.supersample);
+    const sim::GrayImage image =
+        sim::render_photo(camera.intrinsics, board_to_camera, scene,
+                          sim::photo_settings_of(scenario, sim::InView::board));
+    nlohmann::json features = nlohmann::json::array();
+    for (const auto& f : scene.features()) {
+        nlohmann::json j{{"id", f.id},
+                         {"board_mm", {f.position_mm.x, f.position_mm.y, f.position_mm.z}},
+                         {"pixel", pixel_json(camera.intrinsics, board_to_camera, f.position_mm)}};
+        if (f.corner >= 0) j["corner"] = f.corner;
+        features.push_back(j);
+    }
+    truth["board"] = *args.get("--board");
+    truth["board_to_camera"] = pose_json(board_to_camera);
+    truth["features"] = features;
+    return image;
+}
+
 int sim_photo(const Args& args) {
     const std::string out = args.require("-o");
     const auto scenario = scenario_from(args);
@@ -135,92 +238,12 @@ int sim_photo(const Args& args) {
     const bool has_sheet = args.get("--sheet").has_value();
     if (int{has_print} + int{has_board} + int{has_sheet} != 1)
         throw UsageError("sim photo needs one of --print, --board and --sheet");
-    if (has_sheet) {
-        if (args.get("--pose") || args.get("--on-bed"))
-            throw UsageError("--pose and --on-bed go with --board");
-        const auto v = parse_numbers("--sheet", *args.get("--sheet"), 5);
-        const double thickness = args.number("--thickness", 0);
-        if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
-        if (!(v[2] > 0 && v[3] > 0)) throw UsageError("--sheet needs a width and a depth above 0");
-        sim::StockSheet sheet;
-        sheet.corner_mm = {v[0], v[1]};
-        sheet.width_mm = v[2], sheet.depth_mm = v[3], sheet.angle_deg = v[4];
-        // A sheet that stands out against the scenario's bed: dark on a light bed, light on a
-        // dark one.
-        sheet.bed_albedo = scenario.bed_albedo;
-        sheet.sheet_albedo = scenario.bed_albedo > 0.5 ? 0.15 : 0.8;
-        const sim::SheetScene scene(sheet, scenario.photo.supersample);
-        sim::Pose lifted;
-        lifted.translation_mm = {0, 0, thickness};
-        image = sim::render_photo(camera.intrinsics, sim::compose(bed_to_camera, lifted), scene,
-                                  sim::photo_settings_of(scenario, sim::InView::bed));
-        nlohmann::json corners = nlohmann::json::array();
-        for (const auto& c : scene.corners()) corners.push_back({c.x, c.y, thickness});
-        truth["sheet_corners_mm"] = corners;
-    } else if (has_print) {
-        if (args.get("--pose") || args.get("--on-bed") || args.get("--thickness")) {
-            throw UsageError("--pose, --on-bed and --thickness go with --board");
-        }
-        const auto record =
-            sim::print_from_json(read_input_file(*args.get("--print"), "print record"));
-        std::vector<sim::StrokeSegment> strokes;
-        nlohmann::json stroke_truth = nlohmann::json::array();
-        for (const auto& s : record.result.strokes) {
-            strokes.push_back(sim::material_of(s));
-            stroke_truth.push_back({{"a_mm", {s.a_mm.x, s.a_mm.y, s.a_mm.z}},
-                                    {"b_mm", {s.b_mm.x, s.b_mm.y, s.b_mm.z}},
-                                    {"a_px", pixel_json(camera.intrinsics, bed_to_camera, s.a_mm)},
-                                    {"b_px", pixel_json(camera.intrinsics, bed_to_camera, s.b_mm)},
-                                    {"width_mm", s.width_mm},
-                                    {"top_mm", {s.top_a_mm, s.top_b_mm}}});
-        }
-        // Photographed with the bed at another temperature than it was printed at, the print
-        // has grown or shrunk with the bed; the truth keeps where the nozzle laid it.
-        const double growth = sim::bed_growth_at_photo(scenario);
-        strokes = sim::as_photographed(scenario, std::move(strokes));
-        truth["bed_growth_at_photo"] = growth;
-        const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo,
-                                     scenario.material_albedo, scenario.photo.supersample,
-                                     sim::stroke_footprint_mm(scenario));
-        image = sim::render_photo(camera.intrinsics, bed_to_camera, scene,
-                                  sim::photo_settings_of(scenario, sim::InView::bed));
-        truth["strokes"] = stroke_truth;
-    } else {
-        const auto spec = geometry::parse_pattern_spec(*args.get("--board"));
-        sim::Pose board_to_camera;
-        if (args.get("--pose").has_value() == args.get("--on-bed").has_value()) {
-            throw UsageError("--board needs either --pose or --on-bed");
-        }
-        if (const auto pose = args.get("--pose")) {
-            if (args.get("--thickness")) throw UsageError("--thickness goes with --on-bed");
-            const auto v = parse_numbers("--pose", *pose, 6);
-            board_to_camera.rotation =
-                sim::rotation_from_vector(sim::Vec3{v[0], v[1], v[2]} * (sim::kPi / 180));
-            board_to_camera.translation_mm = {v[3], v[4], v[5]};
-        } else {
-            const auto v = parse_numbers("--on-bed", *args.get("--on-bed"), 3);
-            const double thickness = args.number("--thickness", 0);
-            if (thickness < 0 || thickness > 50) throw UsageError("--thickness must be 0..50 mm");
-            const sim::Pose board_to_bed = sim::board_lying_on_bed({v[0], v[1], thickness}, v[2]);
-            board_to_camera = sim::compose(bed_to_camera, board_to_bed);
-            truth["board_to_bed"] = pose_json(board_to_bed);
-        }
-        const sim::BoardScene scene(spec, scenario.photo.supersample);
-        image = sim::render_photo(camera.intrinsics, board_to_camera, scene,
-                                  sim::photo_settings_of(scenario, sim::InView::board));
-        nlohmann::json features = nlohmann::json::array();
-        for (const auto& f : scene.features()) {
-            nlohmann::json j{
-                {"id", f.id},
-                {"board_mm", {f.position_mm.x, f.position_mm.y, f.position_mm.z}},
-                {"pixel", pixel_json(camera.intrinsics, board_to_camera, f.position_mm)}};
-            if (f.corner >= 0) j["corner"] = f.corner;
-            features.push_back(j);
-        }
-        truth["board"] = *args.get("--board");
-        truth["board_to_camera"] = pose_json(board_to_camera);
-        truth["features"] = features;
-    }
+    if (has_sheet)
+        image = sheet_photo(args, scenario, bed_to_camera, truth);
+    else if (has_print)
+        image = print_photo(args, scenario, bed_to_camera, truth);
+    else
+        image = board_photo(args, scenario, bed_to_camera, truth);
     const auto png = vision::png_bytes(
         {image.pixels.data(), image.width_px, image.height_px, image.width_px, 1});
     write_output_file(out, std::string(png.begin(), png.end()));

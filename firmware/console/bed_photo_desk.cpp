@@ -92,6 +92,92 @@ std::string BedPhotoDesk::start(std::optional<double> surface_height_mm,
     return {};
 }
 
+struct BedPhotoDesk::Developed {
+    std::optional<std::pair<std::string, std::string>> files;
+    std::string refused;
+    std::optional<modes::StockOutline> sheet;
+    std::string no_sheet;
+    std::optional<modes::Registration> placed;
+    std::string no_marks;
+};
+
+void BedPhotoDesk::develop(const Order& order, const BedPhoto& photo, Developed& developed) {
+    // The printed marks, when asked for, as `calbox view marks` finds them; a photo
+    // whose marks cannot be told keeps none, so that no job is placed by older ones.
+    if (order.marks) {
+        try {
+            developed.placed = modes::register_marks(order.camera, order.plane, photo.photo.view(),
+                                                     order.solution, *order.marks, "the bed photo");
+        } catch (const modes::RegistrationError& e) {
+            developed.no_marks = e.what();
+        }
+    }
+    // A sheet on the bed is found as `calbox view stock` finds it; a bed without one (or
+    // one the camera cannot tell) is a photo still.
+    try {
+        developed.sheet =
+            modes::find_stock(order.camera, order.plane, photo.photo.view(), order.solution,
+                              order.surface_height_mm, "the bed photo");
+    } catch (const modes::StockError& e) {
+        developed.no_sheet = e.what();
+    }
+    developed.files =
+        bed_view_files(photo, order.solution, order.surface_height_mm, developed.refused,
+                       developed.sheet ? &*developed.sheet : nullptr);
+}
+
+void BedPhotoDesk::keep(const Order& order, const Developed& developed) {
+    // The world file first: a page that reads the new picture finds its place.
+    data_.replace_file(kBedViewWorld, (developed.files)->second);
+    data_.replace_file(kBedViewPng, (developed.files)->first);
+    // The sheet of this photo or none: one from an earlier photo may be gone from the
+    // bed, and a job placed by it would be cut where nothing lies.
+    if (developed.sheet)
+        data_.replace_file(
+            kFoundStockFile,
+            modes::stock_to_json(*developed.sheet, order.solution.machine_fingerprint));
+    else
+        data_.remove_file(kFoundStockFile);
+    // The probed top goes with the sheet it was probed on.
+    if (!developed.sheet) data_.remove_file(kProbedStockTopFile);
+    if (developed.placed)
+        data_.replace_file(
+            kFoundMarksFile,
+            modes::registration_to_json(*developed.placed, order.solution.machine_fingerprint));
+    else
+        data_.remove_file(kFoundMarksFile);
+}
+
+std::string BedPhotoDesk::notice_of(const Order& order, const Developed& developed) {
+    std::string line = std::string("bed photo: ") + kBedViewPng + " and " + kBedViewWorld +
+                       ": the bed now, the surface " +
+                       number_text("%.3f", order.surface_height_mm) + " mm above it (" +
+                       order.surface_from + "); ";
+    if (developed.sheet) {
+        const auto& front_left = (developed.sheet)->corners[0];
+        line += std::string("the sheet found (") + kFoundStockFile +
+                "): its front-left corner at machine X" +
+                number_text("%.3f", front_left.machine_mm.x) + " Y" +
+                number_text("%.3f", front_left.machine_mm.y) + " mm (+/-" +
+                number_text("%.3f", front_left.sigma_mm) + "), turned " +
+                number_text("%.3f", (developed.sheet)->rotation_deg) + " deg";
+    } else {
+        line += "no sheet told: " + developed.no_sheet;
+    }
+    if (developed.placed) {
+        const auto& r = *developed.placed;
+        line += std::string("; the drawing's marks found (") + kFoundMarksFile +
+                "): " + std::to_string(r.marks.size()) + " marks, its zero at machine X" +
+                number_text("%.3f", r.origin_mm.x) + " Y" + number_text("%.3f", r.origin_mm.y) +
+                " mm, turned " + number_text("%.3f", r.rotation_deg) + " deg, scale " +
+                number_text("%.5f", r.scale) + ", worst mark " +
+                number_text("%.4f", r.worst_residual_mm) + " mm";
+    } else if (order.marks) {
+        line += "; no marks placed: " + developed.no_marks;
+    }
+    return line;
+}
+
 void BedPhotoDesk::on_frame(const hal::Frame& frame) {
     if (!waiting_) return;
     std::shared_ptr<Order> order = std::move(waiting_);
@@ -103,97 +189,22 @@ void BedPhotoDesk::on_frame(const hal::Frame& frame) {
     }
     auto photo =
         std::make_shared<BedPhoto>(bed_photo_of(view_of(frame), order->camera, order->plane));
-    auto files = std::make_shared<std::optional<std::pair<std::string, std::string>>>();
-    auto refused = std::make_shared<std::string>();
-    auto sheet = std::make_shared<std::optional<modes::StockOutline>>();
-    auto no_sheet = std::make_shared<std::string>();
-    auto placed = std::make_shared<std::optional<modes::Registration>>();
-    auto no_marks = std::make_shared<std::string>();
-    worker_.start(
-        [order, photo, files, refused, sheet, no_sheet, placed, no_marks] {
-            // The printed marks, when asked for, as `calbox view marks` finds them; a photo
-            // whose marks cannot be told keeps none, so that no job is placed by older ones.
-            if (order->marks) {
-                try {
-                    *placed =
-                        modes::register_marks(order->camera, order->plane, photo->photo.view(),
-                                              order->solution, *order->marks, "the bed photo");
-                } catch (const modes::RegistrationError& e) {
-                    *no_marks = e.what();
-                }
-            }
-            // A sheet on the bed is found as `calbox view stock` finds it; a bed without one (or
-            // one the camera cannot tell) is a photo still.
-            try {
-                *sheet =
-                    modes::find_stock(order->camera, order->plane, photo->photo.view(),
-                                      order->solution, order->surface_height_mm, "the bed photo");
-            } catch (const modes::StockError& e) {
-                *no_sheet = e.what();
-            }
-            *files = bed_view_files(*photo, order->solution, order->surface_height_mm, *refused,
-                                    *sheet ? &**sheet : nullptr);
-        },
-        [this, order, files, refused, sheet, no_sheet, placed,
-         no_marks](const std::exception_ptr& error) {
-            try {
-                if (error) std::rethrow_exception(error);
-                if (!*files) {
-                    notice_("bed photo: " + *refused + "; nothing written");
-                    return;
-                }
-                // The world file first: a page that reads the new picture finds its place.
-                data_.replace_file(kBedViewWorld, (*files)->second);
-                data_.replace_file(kBedViewPng, (*files)->first);
-                // The sheet of this photo or none: one from an earlier photo may be gone from the
-                // bed, and a job placed by it would be cut where nothing lies.
-                if (*sheet)
-                    data_.replace_file(
-                        kFoundStockFile,
-                        modes::stock_to_json(**sheet, order->solution.machine_fingerprint));
-                else
-                    data_.remove_file(kFoundStockFile);
-                // The probed top goes with the sheet it was probed on.
-                if (!*sheet) data_.remove_file(kProbedStockTopFile);
-                if (*placed)
-                    data_.replace_file(
-                        kFoundMarksFile,
-                        modes::registration_to_json(**placed, order->solution.machine_fingerprint));
-                else
-                    data_.remove_file(kFoundMarksFile);
-            } catch (const std::exception& e) {
-                notice_(std::string("bed photo: ") + e.what() + "; nothing written");
-                return;
-            }
-            std::string line = std::string("bed photo: ") + kBedViewPng + " and " + kBedViewWorld +
-                               ": the bed now, the surface " +
-                               number_text("%.3f", order->surface_height_mm) + " mm above it (" +
-                               order->surface_from + "); ";
-            if (*sheet) {
-                const auto& front_left = (*sheet)->corners[0];
-                line += std::string("the sheet found (") + kFoundStockFile +
-                        "): its front-left corner at machine X" +
-                        number_text("%.3f", front_left.machine_mm.x) + " Y" +
-                        number_text("%.3f", front_left.machine_mm.y) + " mm (+/-" +
-                        number_text("%.3f", front_left.sigma_mm) + "), turned " +
-                        number_text("%.3f", (*sheet)->rotation_deg) + " deg";
-            } else {
-                line += "no sheet told: " + *no_sheet;
-            }
-            if (*placed) {
-                const auto& r = **placed;
-                line += std::string("; the drawing's marks found (") + kFoundMarksFile +
-                        "): " + std::to_string(r.marks.size()) + " marks, its zero at machine X" +
-                        number_text("%.3f", r.origin_mm.x) + " Y" +
-                        number_text("%.3f", r.origin_mm.y) + " mm, turned " +
-                        number_text("%.3f", r.rotation_deg) + " deg, scale " +
-                        number_text("%.5f", r.scale) + ", worst mark " +
-                        number_text("%.4f", r.worst_residual_mm) + " mm";
-            } else if (order->marks) {
-                line += "; no marks placed: " + *no_marks;
-            }
-            notice_(line);
-        });
+    auto developed = std::make_shared<Developed>();
+    worker_.start([order, photo, developed] { develop(*order, *photo, *developed); },
+                  [this, order, developed](const std::exception_ptr& error) {
+                      try {
+                          if (error) std::rethrow_exception(error);
+                          if (!developed->files) {
+                              notice_("bed photo: " + developed->refused + "; nothing written");
+                              return;
+                          }
+                          keep(*order, *developed);
+                      } catch (const std::exception& e) {
+                          notice_(std::string("bed photo: ") + e.what() + "; nothing written");
+                          return;
+                      }
+                      notice_(notice_of(*order, *developed));
+                  });
 }
 
 namespace {

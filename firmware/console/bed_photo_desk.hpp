@@ -38,6 +38,12 @@ class BedPhotoDesk {
     std::string start(std::optional<double> surface_height_mm,
                       std::optional<modes::RegistrationRequest> marks);
     void on_frame(const hal::Frame& frame);
+    // What the worker makes of one photo: its files, the sheet and the marks found (or why not).
+    struct Developed;
+    static void develop(const Order& order, const BedPhoto& photo, Developed& developed);
+    // The files kept: the view, its world file, and the sheet and marks of this photo or none.
+    void keep(const Order& order, const Developed& developed);
+    static std::string notice_of(const Order& order, const Developed& developed);
     std::pair<double, std::string> surface_height(std::optional<double> given,
                                                   const models::MachineFile& machine);
 

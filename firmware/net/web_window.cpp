@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cctype>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <stdexcept>
+#include <string_view>
 
 #include "core/modes/compensate_job.hpp"
 #include "core/number_text.hpp"
@@ -89,6 +91,102 @@ void secure(ServerResponse& r) {
                      [](const auto& h) { return h.first == "Cache-Control"; }))
         r.headers.emplace_back("Cache-Control", "no-store");
 }
+
+// The page's actions that carry words of their own, each the console command it stands for:
+// its line built from plain words only, or none when the body is not one (answered with its
+// usage).
+std::optional<std::string> compensate_line(const json& body) {
+    // The console's `compensate`, one line built from plain words.
+    const std::string job = body.value("job", std::string());
+    const std::string zero = body.value("work_zero", std::string());
+    const auto word_chars = [](const std::string& s) {
+        return s.find_first_not_of(
+                   "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
+                   "0123456789._-,= ") == std::string::npos;
+    };
+    if (job.empty() || job.size() > 100 || zero.size() > 120 || !word_chars(job) ||
+        job.find(' ') != std::string::npos || !word_chars(zero) ||
+        zero.find("--") != std::string::npos || body.size() > 3)
+        return std::nullopt;
+    return "compensate " + job + (zero.empty() ? "" : " " + zero);
+}
+
+std::optional<std::string> work_zero_line(const json& body) {
+    // The console's `work zero`: what would be sent, or with confirm sent.
+    const auto zero = body.find("work_zero");
+    const auto confirm = body.find("confirm");
+    if (body.size() > 3 || zero == body.end() || !zero->is_string() || zero->empty() ||
+        zero->get<std::string>().size() > 60 ||
+        zero->get<std::string>().find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789.,- ") !=
+            std::string::npos ||
+        zero->get<std::string>().find("--") != std::string::npos ||
+        (confirm != body.end() && !confirm->is_boolean()))
+        return std::nullopt;
+    const bool confirmed = confirm != body.end() && confirm->get<bool>();
+    return "work zero " + zero->get<std::string>() + (confirmed ? " confirm" : "");
+}
+
+std::optional<std::string> probe_stock_line(const json& body) {
+    // The console's `probe stock`: what would be sent, or with confirm sent.
+    const auto plain_point = [&body](const char* key) {
+        const auto p = body.find(key);
+        return p != body.end() && p->is_string() && !p->empty() &&
+               p->get<std::string>().size() <= 40 &&
+               p->get<std::string>().find_first_not_of("0123456789.,-") == std::string::npos;
+    };
+    const auto confirm = body.find("confirm");
+    const bool points = body.contains("on") || body.contains("beside");
+    if (body.size() > 4 || (points && (!plain_point("on") || !plain_point("beside"))) ||
+        (confirm != body.end() && !confirm->is_boolean()))
+        return std::nullopt;
+    std::string line = "probe stock";
+    if (points)
+        line += " " + body["on"].get<std::string>() + " " + body["beside"].get<std::string>();
+    if (confirm != body.end() && confirm->get<bool>()) line += " confirm";
+    return line;
+}
+
+std::optional<std::string> bed_photo_line(const json& body) {
+    // The console's `bed photo`, its figures checked there: the marks as plain numbers.
+    const auto surface = body.find("surface_mm");
+    const auto marks = body.find("marks");
+    const auto diameter = body.find("mark_diameter_mm");
+    const bool marks_plain =
+        marks == body.end() ||
+        (marks->is_string() && !marks->empty() && marks->get<std::string>().size() <= 120 &&
+         marks->get<std::string>().find_first_not_of("0123456789.,- ") == std::string::npos);
+    if (body.size() > 4 || (surface != body.end() && !surface->is_number()) || !marks_plain ||
+        (diameter != body.end() && (!diameter->is_number() || marks == body.end())))
+        return std::nullopt;
+    std::string line = "bed photo";
+    if (surface != body.end()) line += " " + number_text("%.3f", surface->get<double>());
+    if (marks != body.end()) line += " marks " + marks->get<std::string>();
+    if (diameter != body.end()) line += " diameter " + number_text("%.3f", diameter->get<double>());
+    return line;
+}
+
+struct PageAction {
+    std::string_view name;
+    std::optional<std::string> (*console_line)(const json& body);
+    std::string_view usage;
+};
+
+constexpr PageAction kPageActions[] = {
+    {"compensate", compensate_line,
+     "compensate: {\"action\": \"compensate\", \"job\": \"job-NAME.nc\", "
+     "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}"},
+    {"work-zero", work_zero_line,
+     "work-zero: {\"action\": \"work-zero\", \"work_zero\": "
+     "\"X,Y|camera [CORNER]\", \"confirm\": true|false}"},
+    {"probe-stock", probe_stock_line,
+     "probe-stock: {\"action\": \"probe-stock\", \"on\": \"X,Y\", "
+     "\"beside\": \"X,Y\", \"confirm\": true|false} (the points "
+     "together or neither)"},
+    {"bed-photo", bed_photo_line,
+     "bed-photo: {\"action\": \"bed-photo\", \"surface_mm\": MM, "
+     "\"marks\": \"X,Y X,Y X,Y [X,Y]\", \"mark_diameter_mm\": MM} "
+     "(each optional; a diameter with marks)"},
+};
 
 }  // namespace
 
@@ -349,84 +447,14 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
         return error_answer(400, std::string("malformed JSON: ") + e.what());
     }
     if (!body.is_object()) return error_answer(400, "the body must be a JSON object");
-    if (path == "/api/action" && body.value("action", std::string()) == "compensate") {
-        // The console's `compensate`, one line built from plain words.
-        const std::string job = body.value("job", std::string());
-        const std::string zero = body.value("work_zero", std::string());
-        const auto word_chars = [](const std::string& s) {
-            return s.find_first_not_of(
-                       "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                       "0123456789._-,= ") == std::string::npos;
-        };
-        if (job.empty() || job.size() > 100 || zero.size() > 120 || !word_chars(job) ||
-            job.find(' ') != std::string::npos || !word_chars(zero) ||
-            zero.find("--") != std::string::npos || body.size() > 3)
-            return error_answer(
-                400,
-                "compensate: {\"action\": \"compensate\", \"job\": \"job-NAME.nc\", "
-                "\"work_zero\": \"X,Y|measured|controller|G54=X,Y ...\"}");
-        return console_answer("compensate " + job + (zero.empty() ? "" : " " + zero) + " --json");
-    }
-    if (path == "/api/action" && body.value("action", std::string()) == "work-zero") {
-        // The console's `work zero`: what would be sent, or with confirm sent.
-        const auto zero = body.find("work_zero");
-        const auto confirm = body.find("confirm");
-        if (body.size() > 3 || zero == body.end() || !zero->is_string() || zero->empty() ||
-            zero->get<std::string>().size() > 60 ||
-            zero->get<std::string>().find_first_not_of(
-                "abcdefghijklmnopqrstuvwxyz0123456789.,- ") != std::string::npos ||
-            zero->get<std::string>().find("--") != std::string::npos ||
-            (confirm != body.end() && !confirm->is_boolean()))
-            return error_answer(400,
-                                "work-zero: {\"action\": \"work-zero\", \"work_zero\": "
-                                "\"X,Y|camera [CORNER]\", \"confirm\": true|false}");
-        const bool confirmed = confirm != body.end() && confirm->get<bool>();
-        return console_answer("work zero " + zero->get<std::string>() +
-                              (confirmed ? " confirm" : "") + " --json");
-    }
-    if (path == "/api/action" && body.value("action", std::string()) == "probe-stock") {
-        // The console's `probe stock`: what would be sent, or with confirm sent.
-        const auto plain_point = [&body](const char* key) {
-            const auto p = body.find(key);
-            return p != body.end() && p->is_string() && !p->empty() &&
-                   p->get<std::string>().size() <= 40 &&
-                   p->get<std::string>().find_first_not_of("0123456789.,-") == std::string::npos;
-        };
-        const auto confirm = body.find("confirm");
-        const bool points = body.contains("on") || body.contains("beside");
-        if (body.size() > 4 || (points && (!plain_point("on") || !plain_point("beside"))) ||
-            (confirm != body.end() && !confirm->is_boolean()))
-            return error_answer(400,
-                                "probe-stock: {\"action\": \"probe-stock\", \"on\": \"X,Y\", "
-                                "\"beside\": \"X,Y\", \"confirm\": true|false} (the points "
-                                "together or neither)");
-        std::string line = "probe stock";
-        if (points)
-            line += " " + body["on"].get<std::string>() + " " + body["beside"].get<std::string>();
-        if (confirm != body.end() && confirm->get<bool>()) line += " confirm";
-        return console_answer(line + " --json");
-    }
-    if (path == "/api/action" && body.value("action", std::string()) == "bed-photo") {
-        // The console's `bed photo`, its figures checked there: the marks as plain numbers.
-        const auto surface = body.find("surface_mm");
-        const auto marks = body.find("marks");
-        const auto diameter = body.find("mark_diameter_mm");
-        const bool marks_plain =
-            marks == body.end() ||
-            (marks->is_string() && !marks->empty() && marks->get<std::string>().size() <= 120 &&
-             marks->get<std::string>().find_first_not_of("0123456789.,- ") == std::string::npos);
-        if (body.size() > 4 || (surface != body.end() && !surface->is_number()) || !marks_plain ||
-            (diameter != body.end() && (!diameter->is_number() || marks == body.end())))
-            return error_answer(400,
-                                "bed-photo: {\"action\": \"bed-photo\", \"surface_mm\": MM, "
-                                "\"marks\": \"X,Y X,Y X,Y [X,Y]\", \"mark_diameter_mm\": MM} "
-                                "(each optional; a diameter with marks)");
-        std::string line = "bed photo";
-        if (surface != body.end()) line += " " + number_text("%.3f", surface->get<double>());
-        if (marks != body.end()) line += " marks " + marks->get<std::string>();
-        if (diameter != body.end())
-            line += " diameter " + number_text("%.3f", diameter->get<double>());
-        return console_answer(line + " --json");
+    if (path == "/api/action") {
+        const std::string name = body.value("action", std::string());
+        for (const auto& action : kPageActions) {
+            if (name != action.name) continue;
+            const auto line = action.console_line(body);
+            if (!line) return error_answer(400, std::string(action.usage));
+            return console_answer(*line + " --json");
+        }
     }
     if (path == "/api/action") {
         const auto action = body.find("action");

@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <limits>
-#include <opencv2/aruco/charuco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
 #include <opencv2/features2d.hpp>
@@ -45,159 +44,9 @@ cv::Matx33d rotation_of(const RigidPose& p) {
     return r;
 }
 
-// A chessboard reads the same turned half a turn, except for its colours: the first inner corner
-// is the one with a black square diagonally outside it (as OpenCV draws and the twin renders
-// boards). Without this the bed frame could come out turned by 180 degrees.
-void put_black_corner_first(const cv::Mat& gray, const PatternSpec& pattern,
-                            std::vector<cv::Point2f>& corners) {
-    const cv::Point2f first = corners[0];
-    const cv::Point2f along = corners[1] - first;
-    const cv::Point2f down = corners[static_cast<std::size_t>(pattern.columns)] - first;
-    const auto level = [&](cv::Point2f p) {
-        cv::Mat patch;
-        cv::getRectSubPix(gray, cv::Size(3, 3), p, patch);
-        return cv::mean(patch)[0];
-    };
-    const double outside = level(first - 0.5f * along - 0.5f * down);
-    const double beside = level(first + 0.5f * along - 0.5f * down);
-    if (outside > beside) std::reverse(corners.begin(), corners.end());
-}
-
 }  // namespace
 
 namespace {
-
-// The mean distance between neighbours along the board's rows, in pixels.
-double corner_spacing_px(const std::vector<cv::Point2f>& corners, int columns) {
-    double spacing = 0;
-    int pairs = 0;
-    const auto per_row = static_cast<std::size_t>(columns);
-    for (std::size_t i = 0; i + 1 < corners.size(); ++i) {
-        if ((i + 1) % per_row == 0) continue;  // a row's last corner and the next row's first
-        spacing += cv::norm(corners[i + 1] - corners[i]);
-        ++pairs;
-    }
-    return spacing / std::max(1, pairs);
-}
-
-// The share of an image's pixels at or above `clipped_from_dn`.
-double clipped_share(const cv::Mat& gray, int clipped_from_dn) {
-    return cv::countNonZero(gray >= clipped_from_dn) / static_cast<double>(gray.total());
-}
-
-int refine_half_window_px(const ChessboardSearch& search, double spacing_px) {
-    return std::clamp(static_cast<int>(std::lround(search.refine_window_share * spacing_px)),
-                      search.refine_window_min_px, search.refine_window_max_px);
-}
-
-// A corner's contrast over its refinement window: the brightest quarter's mean less the darkest
-// quarter's, as a share of the brightest's (so that light falling off across the board or a
-// vignette, which scale both, leave it as it is); 1 when nothing in the window is clipped white
-// (a corner is washed out only by a glare: a blurred or distant corner's low contrast is not).
-double glared_contrast(const cv::Mat& gray, cv::Point2f corner, int half_window,
-                       int clipped_from_dn) {
-    const cv::Rect window(static_cast<int>(std::lround(corner.x)) - half_window,
-                          static_cast<int>(std::lround(corner.y)) - half_window,
-                          2 * half_window + 1, 2 * half_window + 1);
-    const cv::Rect inside = window & cv::Rect(0, 0, gray.cols, gray.rows);
-    if (inside.area() < 4) return 0;
-    std::vector<std::uint8_t> levels;
-    levels.reserve(static_cast<std::size_t>(inside.area()));
-    for (int v = inside.y; v < inside.y + inside.height; ++v) {
-        const std::uint8_t* row = gray.ptr<std::uint8_t>(v);
-        levels.insert(levels.end(), row + inside.x, row + inside.x + inside.width);
-    }
-    std::sort(levels.begin(), levels.end());
-    if (levels.back() < clipped_from_dn) return 1;
-    const std::size_t quarter = levels.size() / 4;
-    double dark = 0, bright = 0;
-    for (std::size_t i = 0; i < quarter; ++i) {
-        dark += levels[i];
-        bright += levels[levels.size() - 1 - i];
-    }
-    return bright > 0 ? (bright - dark) / bright : 0;
-}
-
-// The corners a glare washed out, by index: those beside clipped white whose contrast is under
-// the allowed share of the board's best corners' (the tenth from the top; a corner with nothing
-// clipped counts as 1). Under the lamp's reflection the dark squares rise towards the clipped
-// white and the saddle is pulled towards the brighter side; a board merely over-exposed keeps its
-// corners (its dark squares stay dark), and a blurred or distant one, clipped nowhere, all of
-// them.
-std::vector<std::size_t> washed_out(const cv::Mat& gray, const std::vector<cv::Point2f>& corners,
-                                    int half_window, const ChessboardSearch& search) {
-    std::vector<double> contrast;
-    contrast.reserve(corners.size());
-    for (const auto& c : corners)
-        contrast.push_back(glared_contrast(gray, c, half_window, search.clipped_from_dn));
-    std::vector<double> sorted = contrast;
-    std::sort(sorted.begin(), sorted.end());
-    const double best = sorted[sorted.size() - 1 - sorted.size() / 10];
-    std::vector<std::size_t> out;
-    for (std::size_t i = 0; i < contrast.size(); ++i)
-        if (contrast[i] < search.washed_out_contrast_share * best) out.push_back(i);
-    return out;
-}
-
-// The chessboard's inner corners in OpenCV's order (rows of columns), or empty; `detector`
-// says which found them.
-std::vector<cv::Point2f> find_chessboard_corners(const cv::Mat& gray, const PatternSpec& pattern,
-                                                 const ChessboardSearch& search,
-                                                 std::string& detector) {
-    const cv::Size size(pattern.columns, pattern.rows);
-    const int long_side = std::max(gray.cols, gray.rows);
-    const int factor =
-        std::max(1, (long_side + search.max_search_side_px - 1) / search.max_search_side_px);
-    cv::Mat reduced = gray;
-    if (factor > 1)
-        cv::resize(gray, reduced, cv::Size(), 1.0 / factor, 1.0 / factor, cv::INTER_AREA);
-    // At full size SB's own accuracy pass is affordable and best; reduced, the corners are
-    // refined at full resolution below instead.
-    const int accuracy = factor == 1 ? cv::CALIB_CB_ACCURACY : 0;
-    std::vector<cv::Point2f> corners;
-    bool refine = factor > 1;
-    if (cv::findChessboardCornersSB(reduced, size, corners, accuracy)) {
-        detector = "sb";
-    } else if (cv::findChessboardCornersSB(reduced, size, corners,
-                                           accuracy | cv::CALIB_CB_NORMALIZE_IMAGE)) {
-        detector = "sb-normalized";
-    } else {
-        // The box's lamp mirrored by a laminated board washes out the squares under it: there
-        // they keep a few tens of counts of contrast, which a global normalisation cannot lift
-        // beside the rest of the board. Equalised tile by tile (each tile's own histogram, the
-        // tiles blended), they show again; the corners found there are refined on the photo.
-        // Only where there is a glare to see through (and, below, only a board under it).
-        if (!(clipped_share(reduced, search.clipped_from_dn) > search.glare_clipped_share))
-            return {};
-        // A broad reflection (a camera far above a large laminated board) leaves the squares
-        // under it a few tens of counts apart over a third of the board: tiles twice as fine,
-        // allowed twice the contrast, see them where the first equalisation does not.
-        bool found = false;
-        for (const auto& [tiles, clip] :
-             {std::pair{search.equalize_tiles, search.equalize_clip_limit},
-              std::pair{2 * search.equalize_tiles, 2 * search.equalize_clip_limit}}) {
-            cv::Mat equalized;
-            cv::createCLAHE(clip, cv::Size(tiles, tiles))->apply(reduced, equalized);
-            if (cv::findChessboardCornersSB(equalized, size, corners, cv::CALIB_CB_EXHAUSTIVE)) {
-                found = true;
-                break;
-            }
-        }
-        if (!found) return {};
-        detector = "sb-equalized";
-        refine = true;
-    }
-    if (!refine) return corners;
-    // A reduced image's corner, at full resolution: OpenCV's pixel centres are at integers, so
-    // a reduced pixel's centre k lies at factor * k + (factor - 1) / 2.
-    const float offset = static_cast<float>(factor - 1) / 2;
-    for (auto& c : corners) c = c * static_cast<float>(factor) + cv::Point2f(offset, offset);
-    const int half_window =
-        refine_half_window_px(search, corner_spacing_px(corners, pattern.columns));
-    cv::cornerSubPix(gray, corners, cv::Size(half_window, half_window), cv::Size(-1, -1),
-                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 0.001));
-    return corners;
-}
 
 void check_minimum(LensModel model, const std::vector<ObservedView>& views,
                    const std::string& found_in) {
@@ -217,105 +66,6 @@ void check_minimum(LensModel model, const std::vector<ObservedView>& views,
 
 CalibrationMinimum calibration_minimum(LensModel model) {
     return model == LensModel::fisheye ? CalibrationMinimum{4, 80} : CalibrationMinimum{3, 60};
-}
-
-std::optional<BoardObservation> find_board(const PatternSpec& pattern,
-                                           const vision::GrayView& image,
-                                           const ChessboardSearch& search) {
-    const cv::Mat gray = to_cv(image);
-    BoardObservation obs;
-    if (pattern.kind == PatternSpec::Kind::chessboard) {
-        auto corners = find_chessboard_corners(gray, pattern, search, obs.detector);
-        if (corners.empty()) return std::nullopt;
-        put_black_corner_first(gray, pattern, corners);
-        const auto set_aside = washed_out(
-            gray, corners,
-            refine_half_window_px(search, corner_spacing_px(corners, pattern.columns)), search);
-        // A board found only once equalised must lie under the glare that called for it:
-        // elsewhere the equalised image makes grids of whatever it finds (on one of BoofCV's
-        // fisheye views, bright screens beside the board, it put a 4x6 grid across the wrong
-        // squares).
-        if (obs.detector == "sb-equalized" && set_aside.empty()) return std::nullopt;
-        for (int r = 0; r < pattern.rows; ++r) {
-            for (int c = 0; c < pattern.columns; ++c) {
-                const auto index =
-                    static_cast<std::size_t>(r) * static_cast<std::size_t>(pattern.columns) +
-                    static_cast<std::size_t>(c);
-                const auto& p = corners[index];
-                if (std::binary_search(set_aside.begin(), set_aside.end(), index)) {
-                    obs.set_aside_ids.push_back(r * pattern.columns + c);
-                    continue;
-                }
-                obs.image_points.push_back({p.x, p.y});
-                obs.object_points.push_back({c * pattern.square_mm, r * pattern.square_mm, 0});
-                obs.ids.push_back(r * pattern.columns + c);
-            }
-        }
-        return obs;
-    }
-    if (pattern.is_circles()) {
-        std::vector<cv::Point2f> centres;
-        const cv::Size size(pattern.columns, pattern.rows);
-        const int flags = pattern.kind == PatternSpec::Kind::acircles ? cv::CALIB_CB_ASYMMETRIC_GRID
-                                                                      : cv::CALIB_CB_SYMMETRIC_GRID;
-        cv::SimpleBlobDetector::Params blobs;
-        blobs.minArea = 10;
-        // OpenCV's default 5000 px^2 is too small for dots seen at 0.07 mm/px; unbounded, the
-        // grey surroundings of the board become blobs too. A dot is far smaller than its share.
-        blobs.maxArea = static_cast<float>(gray.total()) /
-                        static_cast<float>(4 * pattern.columns * pattern.rows);
-        const auto detector = cv::SimpleBlobDetector::create(blobs);
-        bool found = cv::findCirclesGrid(gray, size, centres, flags, detector);
-        obs.detector = "circles";
-        if (!found) {
-            // Bright dots on a dark ground (burned or printed in white): look at the negative.
-            cv::Mat negative;
-            cv::bitwise_not(gray, negative);
-            found = cv::findCirclesGrid(negative, size, centres, flags, detector);
-            obs.detector = "circles-negative";
-        }
-        if (!found) return std::nullopt;
-        for (int r = 0; r < pattern.rows; ++r) {
-            for (int c = 0; c < pattern.columns; ++c) {
-                const auto& p = centres[static_cast<std::size_t>(r) *
-                                            static_cast<std::size_t>(pattern.columns) +
-                                        static_cast<std::size_t>(c)];
-                const double x = pattern.kind == PatternSpec::Kind::acircles
-                                     ? (2 * c + r % 2) * pattern.square_mm
-                                     : c * pattern.square_mm;
-                obs.image_points.push_back({p.x, p.y});
-                obs.object_points.push_back({x, r * pattern.square_mm, 0});
-                obs.ids.push_back(r * pattern.columns + c);
-            }
-        }
-        return obs;
-    }
-    if (pattern.kind != PatternSpec::Kind::charuco) {
-        throw CalibrationError(
-            "an ArUco grid is not a calibration board; use a chessboard, ChArUco board or dot "
-            "grid");
-    }
-    const auto dictionary =
-        cv::aruco::getPredefinedDictionary(aruco_dictionary_id(pattern.dictionary));
-    const auto board = cv::aruco::CharucoBoard::create(
-        pattern.columns, pattern.rows, static_cast<float>(pattern.square_mm),
-        static_cast<float>(pattern.marker_mm), dictionary);
-    std::vector<std::vector<cv::Point2f>> marker_corners;
-    std::vector<int> marker_ids;
-    cv::aruco::detectMarkers(gray, dictionary, marker_corners, marker_ids);
-    if (marker_ids.empty()) return std::nullopt;
-    std::vector<cv::Point2f> corners;
-    std::vector<int> ids;
-    cv::aruco::interpolateCornersCharuco(marker_corners, marker_ids, gray, board, corners, ids);
-    if (ids.size() < 6) return std::nullopt;
-    obs.detector = "charuco";
-    for (std::size_t i = 0; i < ids.size(); ++i) {
-        const auto& o = board->chessboardCorners[static_cast<std::size_t>(ids[i])];
-        obs.image_points.push_back({corners[i].x, corners[i].y});
-        obs.object_points.push_back({o.x, o.y, o.z});
-        obs.ids.push_back(ids[i]);
-    }
-    return obs;
 }
 
 CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
@@ -487,6 +237,51 @@ double calibration_max_rms_px(LensModel model) {
     return model == LensModel::fisheye ? 1.5 : 1.0;
 }
 
+namespace {
+
+// A view's pose solved through another solve's camera: its reprojection, infinite where no pose
+// converges.
+double reprojected_through(const CameraModel& camera, const BoardObservation& board) {
+    try {
+        const RigidPose pose = solve_board_pose(camera, board);
+        return rms_between(project_points(camera, pose, board.object_points), board.image_points);
+    } catch (const CalibrationError&) {
+        return std::numeric_limits<double>::infinity();
+    }
+}
+
+// Why a view far off the others is dropped: its reprojection in the first solve against the
+// typical view's, and through the other views' camera.
+std::string far_off(double view_px, double typical_px, double resolved_px) {
+    return "reprojects at " + px_text(view_px) + " against the better views' " +
+           px_text(typical_px) + ", and " +
+           (std::isfinite(resolved_px) ? px_text(resolved_px) : std::string("no pose")) +
+           " through their camera: its corners do not fit the lens the others show "
+           "(mis-ordered, another board, or past the lens model's reach)";
+}
+
+// The views the final solve used, each with its reprojection and note, and its camera; refused
+// past the lens model's limit.
+void list_views_used(LensModel model, const std::vector<ObservedView>& views,
+                     const std::vector<std::size_t>& used, const IntrinsicSolve& solve,
+                     const std::vector<std::string>& notes, CalibrationResult& result) {
+    for (std::size_t i = 0; i < used.size(); ++i) {
+        const auto& view = views[used[i]];
+        result.views.push_back({view.name, static_cast<int>(view.board.image_points.size()),
+                                solve.view_rms_px[i], view.board.detector, notes[used[i]]});
+    }
+    result.camera = solve.camera;
+    const double max_rms_px = calibration_max_rms_px(model);
+    if (!(result.camera.rms_px <= max_rms_px))
+        throw CalibrationError("the " + std::string(lens_model_name(model)) +
+                               " calibration reprojects at " + px_text(result.camera.rms_px) +
+                               " RMS over " + std::to_string(result.views.size()) +
+                               " views (at most " + px_text(max_rms_px) +
+                               "): is the lens model right, and the board flat and sharp?");
+}
+
+}  // namespace
+
 CalibrationResult calibrate_from_views(LensModel model, const std::vector<ObservedView>& views,
                                        int width_px, int height_px, const ViewJudging& judging) {
     check_minimum(model, views, std::to_string(views.size()) + " views");
@@ -533,14 +328,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
         const double rest_limit_px = limit_px_of(without);
         std::vector<std::size_t> rejoined;
         for (const auto v : outliers) {
-            double resolved_px = std::numeric_limits<double>::infinity();
-            try {
-                const RigidPose pose = solve_board_pose(without.camera, views[v].board);
-                resolved_px =
-                    rms_between(project_points(without.camera, pose, views[v].board.object_points),
-                                views[v].board.image_points);
-            } catch (const CalibrationError&) {
-            }
+            const double resolved_px = reprojected_through(without.camera, views[v].board);
             if (resolved_px <= rest_limit_px) {
                 rejoined.push_back(v);
                 notes[v] = "re-solved: its pose had not converged (" +
@@ -548,13 +336,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
                            px_text(resolved_px);
             } else {
                 result.dropped.push_back(
-                    {views[v].name,
-                     "reprojects at " + px_text(solve.view_rms_px[v]) +
-                         " against the better views' " + px_text(first_typical) + ", and " +
-                         (std::isfinite(resolved_px) ? px_text(resolved_px)
-                                                     : std::string("no pose")) +
-                         " through their camera: its corners do not fit the lens the others "
-                         "show (mis-ordered, another board, or past the lens model's reach)"});
+                    {views[v].name, far_off(solve.view_rms_px[v], first_typical, resolved_px)});
             }
         }
         solve = std::move(without);
@@ -575,19 +357,7 @@ CalibrationResult calibrate_from_views(LensModel model, const std::vector<Observ
             }
         }
     }
-    for (std::size_t i = 0; i < used.size(); ++i) {
-        const auto& view = views[used[i]];
-        result.views.push_back({view.name, static_cast<int>(view.board.image_points.size()),
-                                solve.view_rms_px[i], view.board.detector, notes[used[i]]});
-    }
-    result.camera = solve.camera;
-    const double max_rms_px = calibration_max_rms_px(model);
-    if (!(result.camera.rms_px <= max_rms_px))
-        throw CalibrationError("the " + std::string(lens_model_name(model)) +
-                               " calibration reprojects at " + px_text(result.camera.rms_px) +
-                               " RMS over " + std::to_string(result.views.size()) +
-                               " views (at most " + px_text(max_rms_px) +
-                               "): is the lens model right, and the board flat and sharp?");
+    list_views_used(model, views, used, solve, notes, result);
     return result;
 }
 
@@ -603,17 +373,7 @@ BedPlane estimate_bed_plane(const CameraModel& camera, const PatternSpec& patter
     const ChessboardSearch search;
     const auto obs = find_board(pattern, image, search);
     if (!obs) {
-        std::string why =
-            "the board " +
-            std::string(pattern.kind == PatternSpec::Kind::chessboard ? "chessboard"
-                                                                      : "ChArUco board") +
-            " was not found in the image";
-        // Over a twentieth of the photo clipped white: the likeliest cause is the lamp's glare.
-        const double clipped = clipped_share(to_cv(image), search.clipped_from_dn);
-        if (clipped > 0.05)
-            why += "; " + std::to_string(static_cast<int>(std::lround(100 * clipped))) +
-                   " % of it is clipped white: tilt the board or diffuse the lamp's light";
-        throw CalibrationError(why);
+        throw CalibrationError(board_not_found(pattern, image, search));
     }
     const std::size_t found = obs->ids.size() + obs->set_aside_ids.size();
     if (2 * obs->ids.size() < found)

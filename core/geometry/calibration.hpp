@@ -76,6 +76,10 @@ struct ChessboardSearch {
 std::optional<BoardObservation> find_board(const PatternSpec& pattern,
                                            const vision::GrayView& image,
                                            const ChessboardSearch& search = {});
+// Why find_board found no board in `image`, for the owner: the board's kind, and the lamp's glare
+// where over a twentieth of the photo is clipped white.
+std::string board_not_found(const PatternSpec& pattern, const vision::GrayView& image,
+                            const ChessboardSearch& search);
 
 struct NamedImage {
     std::string name;

@@ -150,47 +150,14 @@ ErrorStatistics error_statistics(const std::vector<Point2>& errors) {
     return s;
 }
 
-FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional<Point2>>& landed,
-                         const CorrectionTable& burned_through, int table_nodes) {
-    const int n = grid.count;
-    if (n < 4 || landed.size() != geometry::grid_nodes(n))
-        throw FieldError("the field map needs a grid of at least 4 x 4 and one entry per node");
-    if (table_nodes < 2 || table_nodes > 1025)
-        throw FieldError("a table has 2 to 1025 nodes a side");
-    const auto index = [n](int c, int r) { return geometry::grid_offset(c, r, n); };
-    std::vector<Point2> from, to;
-    for (int r = 0; r < n; ++r)
-        for (int c = 0; c < n; ++c)
-            if (landed[index(c, r)])
-                from.push_back(*landed[index(c, r)]), to.push_back(grid.node_mm(c, r));
-    if (from.size() * 4 < landed.size() * 3)
-        throw FieldError("only " + std::to_string(from.size()) + " of " +
-                         std::to_string(landed.size()) +
-                         " grid marks were measured (three quarters needed)");
-    bool column0 = false, column_n = false, row0 = false, row_n = false;
-    for (int j = 0; j < n; ++j) {
-        column0 = column0 || landed[index(0, j)], column_n = column_n || landed[index(n - 1, j)];
-        row0 = row0 || landed[index(j, 0)], row_n = row_n || landed[index(j, n - 1)];
-    }
-    if (!(column0 && column_n && row0 && row_n))
-        throw FieldError(
-            "a whole border row or column of the grid is missing: the field's edge is unknown");
-    const auto onto_grid = solve::best_rigid_placement(from, to);
+namespace {
 
-    FieldFit fit;
-    fit.landed_mm.assign(landed.size(), {});
-    fit.filled.assign(landed.size(), false);
-    std::vector<Point2> errors;
-    for (int r = 0; r < n; ++r)
-        for (int c = 0; c < n; ++c)
-            if (landed[index(c, r)]) {
-                fit.landed_mm[index(c, r)] = onto_grid.apply(*landed[index(c, r)]);
-                errors.push_back(fit.landed_mm[index(c, r)] - grid.node_mm(c, r));
-            }
-    fit.before = error_statistics(errors);
-    fit.node_scatter_mm = node_scatter(n, landed, fit.landed_mm, grid);
-    // A node without a mark: a quadratic in the grid indices fitted to the displacement of the
-    // measured nodes around it (5 x 5, wider if that holds too few).
+// A node without a mark: a quadratic in the grid indices fitted to the displacement of the
+// measured nodes around it (5 x 5, wider if that holds too few).
+void fill_unmarked_nodes(const SquareGrid& grid, const std::vector<std::optional<Point2>>& landed,
+                         FieldFit& fit) {
+    const int n = grid.count;
+    const auto index = [n](int c, int r) { return geometry::grid_offset(c, r, n); };
     for (int r = 0; r < n; ++r)
         for (int c = 0; c < n; ++c) {
             if (landed[index(c, r)]) continue;
@@ -220,9 +187,15 @@ FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional
                 break;
             }
         }
-    const GridMap lands(grid, fit.landed_mm);
+}
 
-    // The largest rectangle inside the measured field, from its border columns and rows.
+// The table over the largest rectangle inside the measured field (from its border columns and
+// rows), each node's command the one that lands on it through what was burned, and how far the
+// table's interpolation is from that between its nodes.
+void correction_table(const SquareGrid& grid, const GridMap& lands,
+                      const CorrectionTable& burned_through, int table_nodes, FieldFit& fit) {
+    const int n = grid.count;
+    const auto index = [n](int c, int r) { return geometry::grid_offset(c, r, n); };
     CorrectionTable& t = fit.table;
     t.nodes = table_nodes;
     t.min_x_mm = t.min_y_mm = -1e300;
@@ -264,6 +237,51 @@ FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional
             fit.table_interpolation_max_mm = std::max(fit.table_interpolation_max_mm, e);
         }
     fit.table_interpolation_rms_mm = std::sqrt(sum2 / std::max(1, count));
+}
+
+}  // namespace
+
+FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional<Point2>>& landed,
+                         const CorrectionTable& burned_through, int table_nodes) {
+    const int n = grid.count;
+    if (n < 4 || landed.size() != geometry::grid_nodes(n))
+        throw FieldError("the field map needs a grid of at least 4 x 4 and one entry per node");
+    if (table_nodes < 2 || table_nodes > 1025)
+        throw FieldError("a table has 2 to 1025 nodes a side");
+    const auto index = [n](int c, int r) { return geometry::grid_offset(c, r, n); };
+    std::vector<Point2> from, to;
+    for (int r = 0; r < n; ++r)
+        for (int c = 0; c < n; ++c)
+            if (landed[index(c, r)])
+                from.push_back(*landed[index(c, r)]), to.push_back(grid.node_mm(c, r));
+    if (from.size() * 4 < landed.size() * 3)
+        throw FieldError("only " + std::to_string(from.size()) + " of " +
+                         std::to_string(landed.size()) +
+                         " grid marks were measured (three quarters needed)");
+    bool column0 = false, column_n = false, row0 = false, row_n = false;
+    for (int j = 0; j < n; ++j) {
+        column0 = column0 || landed[index(0, j)], column_n = column_n || landed[index(n - 1, j)];
+        row0 = row0 || landed[index(j, 0)], row_n = row_n || landed[index(j, n - 1)];
+    }
+    if (!(column0 && column_n && row0 && row_n))
+        throw FieldError(
+            "a whole border row or column of the grid is missing: the field's edge is unknown");
+    const auto onto_grid = solve::best_rigid_placement(from, to);
+
+    FieldFit fit;
+    fit.landed_mm.assign(landed.size(), {});
+    fit.filled.assign(landed.size(), false);
+    std::vector<Point2> errors;
+    for (int r = 0; r < n; ++r)
+        for (int c = 0; c < n; ++c)
+            if (landed[index(c, r)]) {
+                fit.landed_mm[index(c, r)] = onto_grid.apply(*landed[index(c, r)]);
+                errors.push_back(fit.landed_mm[index(c, r)] - grid.node_mm(c, r));
+            }
+    fit.before = error_statistics(errors);
+    fit.node_scatter_mm = node_scatter(n, landed, fit.landed_mm, grid);
+    fill_unmarked_nodes(grid, landed, fit);
+    correction_table(grid, GridMap(grid, fit.landed_mm), burned_through, table_nodes, fit);
     return fit;
 }
 

@@ -258,6 +258,43 @@ PlanarVector planar_from_seed_form(const SeedPlanarForm& f, double z) {
     return p;
 }
 
+namespace {
+
+// The machine's frame in the camera's, from the rigid `placement`, refined with the parameters
+// (the linearised rotation is exact to second order; two refinements leave nothing of it):
+// the last solve's parameters and the residual it solved for, `placement` updated.
+std::pair<Eigen::VectorXd, Eigen::VectorXd> refine_placement(const Eigen::MatrixXd& a,
+                                                             const std::vector<Point2>& commanded,
+                                                             const std::vector<Point2>& seen,
+                                                             double span,
+                                                             solve::RigidPlacement& placement) {
+    Eigen::VectorXd q;
+    Eigen::VectorXd r(a.rows());
+    for (int iteration = 0; iteration < 4; ++iteration) {
+        const double c = std::cos(placement.angle_rad), sn = std::sin(placement.angle_rad);
+        for (std::size_t i = 0; i < seen.size(); ++i) {
+            // Seen, carried back into the machine's frame, minus commanded.
+            const double dx = seen[i].x - placement.translation_mm.x,
+                         dy = seen[i].y - placement.translation_mm.y;
+            r(2 * static_cast<Eigen::Index>(i)) = c * dx + sn * dy - commanded[i].x;
+            r(2 * static_cast<Eigen::Index>(i) + 1) = -sn * dx + c * dy - commanded[i].y;
+        }
+        q = a.colPivHouseholderQr().solve(r);
+        // Fold the fitted small placement (in the machine's frame) into the placement.
+        const double w = q(0) / span;  // the rotation's column is in units of the span
+        const Point2 t{q(1), q(2)};
+        const Point2 t_camera{c * t.x - sn * t.y, sn * t.x + c * t.y};
+        placement.translation_mm = {placement.translation_mm.x + t_camera.x,
+                                    placement.translation_mm.y + t_camera.y};
+        placement.angle_rad += w;
+        // The translation is about the machine's origin; a rotation about it moves nothing else.
+        if (std::abs(w) < 1e-12 && t.x * t.x + t.y * t.y < 1e-18) break;
+    }
+    return {q, r};
+}
+
+}  // namespace
+
 PlanarFit fit_planar_errors(const std::vector<PlanarObservation>& observations,
                             const PlanarFitSettings& settings) {
     if (observations.size() < 3)
@@ -293,31 +330,8 @@ PlanarFit fit_planar_errors(const std::vector<PlanarObservation>& observations,
                                std::to_string(fit.condition) +
                                "): spread the points over the work area");
 
-    // The machine's frame in the camera's: rigid first, then refined with the parameters (the
-    // linearised rotation is exact to second order; two refinements leave nothing of it).
     auto placement = solve::best_rigid_placement(commanded, seen);
-    Eigen::VectorXd q;
-    Eigen::VectorXd r(all.rows());
-    for (int iteration = 0; iteration < 4; ++iteration) {
-        const double c = std::cos(placement.angle_rad), sn = std::sin(placement.angle_rad);
-        for (std::size_t i = 0; i < seen.size(); ++i) {
-            // Seen, carried back into the machine's frame, minus commanded.
-            const double dx = seen[i].x - placement.translation_mm.x,
-                         dy = seen[i].y - placement.translation_mm.y;
-            r(2 * static_cast<Eigen::Index>(i)) = c * dx + sn * dy - commanded[i].x;
-            r(2 * static_cast<Eigen::Index>(i) + 1) = -sn * dx + c * dy - commanded[i].y;
-        }
-        q = a.colPivHouseholderQr().solve(r);
-        // Fold the fitted small placement (in the machine's frame) into the placement.
-        const double w = q(0) / span;  // the rotation's column is in units of the span
-        const Point2 t{q(1), q(2)};
-        const Point2 t_camera{c * t.x - sn * t.y, sn * t.x + c * t.y};
-        placement.translation_mm = {placement.translation_mm.x + t_camera.x,
-                                    placement.translation_mm.y + t_camera.y};
-        placement.angle_rad += w;
-        // The translation is about the machine's origin; a rotation about it moves nothing else.
-        if (std::abs(w) < 1e-12 && t.x * t.x + t.y * t.y < 1e-18) break;
-    }
+    const auto [q, r] = refine_placement(a, commanded, seen, span, placement);
     const Eigen::VectorXd residual = r - a * q;
     const double dof = static_cast<double>(a.rows() - unknowns);
     const double variance = residual.squaredNorm() / std::max(1.0, dof);

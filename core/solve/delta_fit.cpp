@@ -222,6 +222,126 @@ std::vector<double> parameter_steps() {
     return step;
 }
 
+// Commanded carried onto measured, rigidly: the placement's first guess.
+RigidPlacement rigid_placement_of(const std::vector<FeatureMeasurement>& features) {
+    std::vector<geometry::Point2> commanded, measured;
+    for (const auto& f : features)
+        commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
+            measured.push_back(f.measured_mm);
+    return best_rigid_placement(commanded, measured);
+}
+
+// The fit, again without the geometry parameter worst determined for as long as one is known
+// worse than is useful (`free` loses it): the solution and its covariance over `free`.
+std::pair<Solution, Eigen::MatrixXd> fit_holding_unseen(
+    const std::function<Vector(const Vector&)>& residuals, const Vector& x0, std::vector<int>& free,
+    const std::vector<double>& step) {
+    Solution solution;
+    Eigen::MatrixXd covariance;
+    while (true) {
+        solution = levenberg_marquardt(residuals, x0, free, step);
+        covariance = (solution.jacobian.transpose() * solution.jacobian)
+                         .completeOrthogonalDecomposition()
+                         .pseudoInverse();
+        int worst = -1;
+        double worst_ratio = 1;
+        for (std::size_t k = 0; k < free.size(); ++k) {
+            if (free[k] >= kGeometry) continue;  // the placement is never held
+            const auto kk = static_cast<Eigen::Index>(k);
+            const double ratio = std::sqrt(std::max(0.0, covariance(kk, kk))) /
+                                 kParameters[static_cast<std::size_t>(free[k])].useful_uncertainty;
+            if (ratio > worst_ratio) worst_ratio = ratio, worst = static_cast<int>(k);
+        }
+        if (worst < 0) break;
+        free.erase(free.begin() + worst);
+    }
+    return {solution, covariance};
+}
+
+// Observability: singular values of the Jacobian with columns scaled to comparable steps.
+void observability(const Eigen::MatrixXd& jacobian, const std::vector<int>& free,
+                   const std::vector<double>& step, DeltaEstimate& result) {
+    Eigen::MatrixXd scaled = jacobian;
+    for (std::size_t k = 0; k < free.size(); ++k)
+        scaled.col(static_cast<Eigen::Index>(k)) *= step[static_cast<std::size_t>(free[k])];
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled);
+    const Vector& sv = svd.singularValues();
+    for (Eigen::Index i = 0; i < sv.size(); ++i) result.singular_values.push_back(sv[i]);
+    result.condition_number =
+        sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
+}
+
+// Each geometry parameter's uncertainty and their covariance (widened by `widen`); a parameter
+// the fit held is marked so.
+void keep_uncertainties(const std::vector<int>& free, const Eigen::MatrixXd& covariance,
+                        double widen, DeltaEstimate& result) {
+    result.covariance.assign(kGeometry * kGeometry, 0.0);
+    for (int i = 0; i < kGeometry; ++i) {
+        const auto it = std::find(free.begin(), free.end(), i);
+        const bool held = it == free.end();
+        result.held[static_cast<std::size_t>(i)] = held;
+        if (held) continue;
+        const auto k = static_cast<Eigen::Index>(it - free.begin());
+        result.uncertainty[static_cast<std::size_t>(i)] =
+            std::sqrt(std::max(0.0, covariance(k, k)));
+        for (int j = 0; j < kGeometry; ++j) {
+            const auto other = std::find(free.begin(), free.end(), j);
+            if (other == free.end()) continue;
+            result.covariance[static_cast<std::size_t>(i * kGeometry + j)] =
+                widen * covariance(k, static_cast<Eigen::Index>(other - free.begin()));
+        }
+    }
+}
+
+// The estimate off by its own uncertainty: each judging point's XY moves by J dx for a
+// parameter error dx, whose spread is J C J^T (C the estimate's `covariance`); none without one.
+std::vector<double> xy_spread(const std::vector<geometry::Point3>& judge,
+                              const DeltaGeometry& estimate, const DeltaGeometry& after,
+                              const std::vector<double>& covariance) {
+    std::vector<double> spread(judge.size(), 0.0);
+    if (covariance.size() != static_cast<std::size_t>(kGeometry * kGeometry)) return spread;
+    const Vector base = pack(estimate);
+    const std::vector<double> steps = parameter_steps();
+    // Per parameter, how each point's XY moves per unit of it.
+    std::vector<std::vector<geometry::Point2>> moves(kGeometry);
+    for (int k = 0; k < kGeometry; ++k) {
+        const double h = 1e-3 * steps[static_cast<std::size_t>(k)];
+        Vector moved = base;
+        moved[k] += h;
+        const DeltaGeometry g = unpack(moved);
+        auto& move = moves[static_cast<std::size_t>(k)];
+        for (std::size_t i = 0; i < judge.size(); ++i) {
+            const auto p = models::actual_position_mm(g, after, judge[i]);
+            const auto q = models::actual_position_mm(estimate, after, judge[i]);
+            move.push_back({(p.x - q.x) / h, (p.y - q.y) / h});
+        }
+        // A turn or shift of the whole print is where it lies on the bed, not an error (the
+        // fit cannot see it either): each parameter's move field loses its rigid part, the
+        // best placement of the points moved a micrometre's worth along it taken out.
+        constexpr double kAlong = 1e-3;
+        std::vector<geometry::Point2> from, to;
+        for (std::size_t i = 0; i < judge.size(); ++i) {
+            from.push_back({judge[i].x, judge[i].y});
+            to.push_back({judge[i].x + kAlong * move[i].x, judge[i].y + kAlong * move[i].y});
+        }
+        const auto placed = best_rigid_placement(from, to);
+        for (std::size_t i = 0; i < judge.size(); ++i) {
+            const auto at = placed.apply(from[i]);
+            move[i] = {(to[i].x - at.x) / kAlong, (to[i].y - at.y) / kAlong};
+        }
+    }
+    for (std::size_t i = 0; i < judge.size(); ++i)
+        for (int k = 0; k < kGeometry; ++k)
+            for (int l = 0; l < kGeometry; ++l) {
+                const double c = covariance[static_cast<std::size_t>(k * kGeometry + l)];
+                if (c == 0) continue;
+                const auto& a = moves[static_cast<std::size_t>(k)][i];
+                const auto& b = moves[static_cast<std::size_t>(l)][i];
+                spread[i] += c * (a.x * b.x + a.y * b.y);
+            }
+    return spread;
+}
+
 }  // namespace
 
 DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
@@ -241,16 +361,10 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
     std::vector<double> step = parameter_steps();
     step.insert(step.end(), {0.01, 0.1, 0.1});
     // First guess of the placement: commanded carried onto measured, rigidly.
-    {
-        std::vector<geometry::Point2> commanded, measured;
-        for (const auto& f : features)
-            commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
-                measured.push_back(f.measured_mm);
-        const RigidPlacement guess = best_rigid_placement(commanded, measured);
-        x0[kGeometry] = guess.angle_rad;
-        x0[kGeometry + 1] = guess.translation_mm.x;
-        x0[kGeometry + 2] = guess.translation_mm.y;
-    }
+    const RigidPlacement guess = rigid_placement_of(features);
+    x0[kGeometry] = guess.angle_rad;
+    x0[kGeometry + 1] = guess.translation_mm.x;
+    x0[kGeometry + 2] = guess.translation_mm.y;
     // Without heights the height is not measured; it is the one that puts the nozzle on the bed
     // at the centre when commanded to z = 0, as the paper test every delta owner does left it.
     const auto geometry_of = [&](const Vector& x) {
@@ -285,34 +399,8 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
     std::vector<int> free;
     for (int i = 0; i < kGeometry + 3; ++i)
         if (i != kHeight || result.used_probe) free.push_back(i);
-    Solution solution;
-    Eigen::MatrixXd covariance;
-    while (true) {
-        solution = levenberg_marquardt(residuals, x0, free, step);
-        covariance = (solution.jacobian.transpose() * solution.jacobian)
-                         .completeOrthogonalDecomposition()
-                         .pseudoInverse();
-        int worst = -1;
-        double worst_ratio = 1;
-        for (std::size_t k = 0; k < free.size(); ++k) {
-            if (free[k] >= kGeometry) continue;  // the placement is never held
-            const auto kk = static_cast<Eigen::Index>(k);
-            const double ratio = std::sqrt(std::max(0.0, covariance(kk, kk))) /
-                                 kParameters[static_cast<std::size_t>(free[k])].useful_uncertainty;
-            if (ratio > worst_ratio) worst_ratio = ratio, worst = static_cast<int>(k);
-        }
-        if (worst < 0) break;
-        free.erase(free.begin() + worst);
-    }
-    // Observability: singular values of the Jacobian with columns scaled to comparable steps.
-    Eigen::MatrixXd scaled = solution.jacobian;
-    for (std::size_t k = 0; k < free.size(); ++k)
-        scaled.col(static_cast<Eigen::Index>(k)) *= step[static_cast<std::size_t>(free[k])];
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(scaled);
-    const Vector& sv = svd.singularValues();
-    for (Eigen::Index i = 0; i < sv.size(); ++i) result.singular_values.push_back(sv[i]);
-    result.condition_number =
-        sv[sv.size() - 1] > 0 ? sv[0] / sv[sv.size() - 1] : std::numeric_limits<double>::infinity();
+    const auto [solution, covariance] = fit_holding_unseen(residuals, x0, free, step);
+    observability(solution.jacobian, free, step, result);
     // The features' normalised residual in the first feature's units. Heights (a probe's, or the
     // strands') are left out: the fit meets them closely whatever the camera's lens model says,
     // and counted in they would hide a wrong one's XY misfit.
@@ -332,22 +420,7 @@ DeltaEstimate estimate_delta_geometry(const models::MachineFile& machine,
         result.expected_rms_mm > 0
             ? std::pow(std::max(1.0, result.fit_rms_mm / result.expected_rms_mm), 2)
             : 1.0;
-    result.covariance.assign(kGeometry * kGeometry, 0.0);
-    for (int i = 0; i < kGeometry; ++i) {
-        const auto it = std::find(free.begin(), free.end(), i);
-        const bool held = it == free.end();
-        result.held[static_cast<std::size_t>(i)] = held;
-        if (held) continue;
-        const auto k = static_cast<Eigen::Index>(it - free.begin());
-        result.uncertainty[static_cast<std::size_t>(i)] =
-            std::sqrt(std::max(0.0, covariance(k, k)));
-        for (int j = 0; j < kGeometry; ++j) {
-            const auto other = std::find(free.begin(), free.end(), j);
-            if (other == free.end()) continue;
-            result.covariance[static_cast<std::size_t>(i * kGeometry + j)] =
-                widen * covariance(k, static_cast<Eigen::Index>(other - free.begin()));
-        }
-    }
+    keep_uncertainties(free, covariance, widen, result);
     return result;
 }
 
@@ -409,50 +482,7 @@ DeltaCorrection design_delta_correction(const models::MachineFile& machine,
         result.predicted_xy_change_mm = std::max(
             result.predicted_xy_change_mm, std::hypot(xy_after[i].x - p.x, xy_after[i].y - p.y));
     }
-    // The estimate off by its own uncertainty: each judging point's XY moves by J dx for a
-    // parameter error dx, whose spread is J C J^T (C the estimate's covariance).
-    std::vector<double> spread(judge.size(), 0.0);
-    if (fitted.covariance.size() == static_cast<std::size_t>(kGeometry * kGeometry)) {
-        const Vector base = pack(estimate);
-        const std::vector<double> steps = parameter_steps();
-        // Per parameter, how each point's XY moves per unit of it.
-        std::vector<std::vector<geometry::Point2>> moves(kGeometry);
-        for (int k = 0; k < kGeometry; ++k) {
-            const double h = 1e-3 * steps[static_cast<std::size_t>(k)];
-            Vector moved = base;
-            moved[k] += h;
-            const DeltaGeometry g = unpack(moved);
-            auto& move = moves[static_cast<std::size_t>(k)];
-            for (std::size_t i = 0; i < judge.size(); ++i) {
-                const auto p = models::actual_position_mm(g, result.after, judge[i]);
-                const auto q = models::actual_position_mm(estimate, result.after, judge[i]);
-                move.push_back({(p.x - q.x) / h, (p.y - q.y) / h});
-            }
-            // A turn or shift of the whole print is where it lies on the bed, not an error (the
-            // fit cannot see it either): each parameter's move field loses its rigid part, the
-            // best placement of the points moved a micrometre's worth along it taken out.
-            constexpr double kAlong = 1e-3;
-            std::vector<geometry::Point2> from, to;
-            for (std::size_t i = 0; i < judge.size(); ++i) {
-                from.push_back({judge[i].x, judge[i].y});
-                to.push_back({judge[i].x + kAlong * move[i].x, judge[i].y + kAlong * move[i].y});
-            }
-            const auto placed = best_rigid_placement(from, to);
-            for (std::size_t i = 0; i < judge.size(); ++i) {
-                const auto at = placed.apply(from[i]);
-                move[i] = {(to[i].x - at.x) / kAlong, (to[i].y - at.y) / kAlong};
-            }
-        }
-        for (std::size_t i = 0; i < judge.size(); ++i)
-            for (int k = 0; k < kGeometry; ++k)
-                for (int l = 0; l < kGeometry; ++l) {
-                    const double c = fitted.covariance[static_cast<std::size_t>(k * kGeometry + l)];
-                    if (c == 0) continue;
-                    const auto& a = moves[static_cast<std::size_t>(k)][i];
-                    const auto& b = moves[static_cast<std::size_t>(l)][i];
-                    spread[i] += c * (a.x * b.x + a.y * b.y);
-                }
-    }
+    const std::vector<double> spread = xy_spread(judge, estimate, result.after, fitted.covariance);
     double spread_sum = 0, spread_worst = 0;
     for (std::size_t i = 0; i < judge.size(); ++i) {
         spread_sum += std::max(0.0, spread[i]);

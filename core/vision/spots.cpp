@@ -258,6 +258,144 @@ Spot measure_spot_reference(const GrayView& image, const MomentWindow& w) {
     return spot;
 }
 
+namespace {
+
+// The marks' mask on `found_filtered`: a local threshold where the marks' size is known, else
+// Otsu's level (kept in `out`). Halved, the halved photo is not read again: its buffer takes
+// the mask.
+cv::Mat mark_mask(const cv::Mat& found_filtered, const cv::Mat& found_on, bool halved,
+                  const SpotSettings& settings, SpotImage& out) {
+    cv::Mat marks;
+    if (settings.mark_diameter_px > 0) {
+        const double diameter = settings.mark_diameter_px / (halved ? 2 : 1);
+        const int block =
+            std::max(halved ? 7 : 15, 2 * static_cast<int>(std::lround(1.5 * diameter)) + 1);
+        if (halved) marks = found_on;
+        local_threshold(found_filtered, block, out.dark_marks, settings.local_contrast_dn, marks);
+        return marks;
+    }
+    // Otsu's level from a reduced copy: the histogram is the same, a tenth of the work. (The
+    // photo is halved only for marks of a known size: here it is the whole photo.)
+    cv::Mat small;
+    const double shrink =
+        std::min(1.0, std::sqrt(1.5e6 / static_cast<double>(found_filtered.total())));
+    cv::resize(found_filtered, small, cv::Size(), shrink, shrink, cv::INTER_AREA);
+    cv::Mat ignored;
+    out.threshold_dn = cv::threshold(small, ignored, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
+    return out.dark_marks ? (found_filtered <= out.threshold_dn)
+                          : (found_filtered > out.threshold_dn);
+}
+
+struct SpotCandidate {
+    geometry::Point2 rough;
+    int area_px = 0;
+};
+
+// The blobs large enough and inside the search outline, at the photo's scale.
+std::vector<SpotCandidate> spot_candidates(const std::vector<Blob>& blobs, int scale,
+                                           const SpotSettings& settings) {
+    std::vector<cv::Point2f> outline;
+    for (const auto& p : settings.search_outline_px)
+        outline.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+    std::vector<SpotCandidate> candidates;
+    candidates.reserve(blobs.size());
+    for (const Blob& blob : blobs) {
+        const int area = static_cast<int>(blob.area_px) * scale * scale;
+        if (area < settings.min_area_px) continue;
+        // A pixel of the halved photo covers two of the photo's: its centre lies half a pixel on.
+        const geometry::Point2 rough{scale * blob.centre_x_px + 0.5 * (scale - 1),
+                                     scale * blob.centre_y_px + 0.5 * (scale - 1)};
+        if (outline.size() >= 3 &&
+            cv::pointPolygonTest(
+                outline, cv::Point2f(static_cast<float>(rough.x), static_cast<float>(rough.y)),
+                false) < 0)
+            continue;
+        candidates.push_back({rough, area});
+    }
+    return candidates;
+}
+
+// The median-filtered photo a mark is measured on. Halved, each mark's own patch of the full
+// photo, median-filtered around it alone, reaching the kernel's half further than what is kept
+// so that the patch's own border lies outside it, as the whole photo's would. The patch is read
+// with the mark's coordinates moved by the patch's corner, an integer, so that every figure is
+// the one the whole photo's median gives (a 12 MP buffer touched around each mark cost a page
+// fault for each row of every patch).
+class FilteredPhoto {
+  public:
+    FilteredPhoto(const cv::Mat& raw, const cv::Mat& found_filtered, bool halved,
+                  int median_kernel_px)
+        : raw_(raw),
+          found_filtered_(found_filtered),
+          halved_(halved),
+          median_kernel_px_(median_kernel_px) {}
+
+    LocalView around(geometry::Point2 centre, double reach, cv::Mat& patch) const {
+        if (!halved_)
+            return {{found_filtered_.data, found_filtered_.cols, found_filtered_.rows,
+                     static_cast<int>(found_filtered_.step)},
+                    0,
+                    0};
+        const cv::Rect inside(0, 0, raw_.cols, raw_.rows);
+        const int median_reach = median_kernel_px_ / 2;
+        const cv::Rect wanted(static_cast<int>(std::floor(centre.x - reach)) - 1,
+                              static_cast<int>(std::floor(centre.y - reach)) - 1,
+                              static_cast<int>(2 * std::ceil(reach)) + 4,
+                              static_cast<int>(2 * std::ceil(reach)) + 4);
+        const cv::Rect area = wanted & inside;
+        if (area.empty()) return {};
+        const cv::Rect input =
+            cv::Rect(area.x - median_reach, area.y - median_reach, area.width + 2 * median_reach,
+                     area.height + 2 * median_reach) &
+            inside;
+        patch = median_filtered(raw_(input), median_kernel_px_);
+        const cv::Mat kept =
+            patch(cv::Rect(area.x - input.x, area.y - input.y, area.width, area.height));
+        return {{kept.data, kept.cols, kept.rows, static_cast<int>(kept.step)}, area.x, area.y};
+    }
+
+  private:
+    const cv::Mat& raw_;
+    const cv::Mat& found_filtered_;
+    bool halved_;
+    int median_kernel_px_;
+};
+
+// One mark measured: its substrate from the ring around it, then its moments; none where it
+// shows no real contrast, a border mark where the ring leaves the photo.
+std::optional<Spot> measure_candidate(const SpotCandidate& candidate, const FilteredPhoto& photo,
+                                      const SpotSettings& settings) {
+    const auto [rough, area] = candidate;
+    const double radius = std::sqrt(area / 3.14159265358979) + settings.window_margin_px;
+    cv::Mat patch;
+    const LocalView local = photo.around(rough, radius + 4, patch);
+    const geometry::Point2 here{rough.x - local.x0_px, rough.y - local.y0_px};
+    const Ring ring = local.view.pixels == nullptr
+                          ? Ring{.inside_image = false}
+                          : substrate_ring(local.view, here, radius + 1, radius + 4);
+    Spot spot;
+    if (!ring.inside_image) {
+        spot.centre_px = rough;
+        spot.area_px = area;
+        spot.touches_border = true;
+        return spot;
+    }
+    MomentWindow window;
+    window.centre_px = here;
+    window.radius_px = radius;
+    window.substrate_dn = ring.level_dn;
+    window.substrate_slope_x_dn_per_px = ring.slope_x_dn_per_px;
+    window.substrate_slope_y_dn_per_px = ring.slope_y_dn_per_px;
+    window.mark_dn = window_mean(local.view, here, 0.5 * (radius - settings.window_margin_px));
+    window.noise_dn = ring.noise_dn;
+    if (std::abs(window.substrate_dn - window.mark_dn) < 4) return std::nullopt;
+    spot = measure_spot_q16(local.view, window);
+    spot.centre_px = {spot.centre_px.x + local.x0_px, spot.centre_px.y + local.y0_px};
+    return spot;
+}
+
+}  // namespace
+
 SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
     view.check();
     const cv::Mat raw = geometry::to_cv(view);
@@ -278,110 +416,14 @@ SpotImage find_spots(const GrayView& view, const SpotSettings& settings) {
         found_on = raw;
     const cv::Mat found_filtered =
         median_filtered(found_on, halved ? 3 : settings.median_kernel_px);
-    cv::Mat marks;
-    if (settings.mark_diameter_px > 0) {
-        const double diameter = settings.mark_diameter_px / scale;
-        const int block =
-            std::max(halved ? 7 : 15, 2 * static_cast<int>(std::lround(1.5 * diameter)) + 1);
-        // Halved, the halved photo is not read again: its buffer takes the mask.
-        if (halved) marks = found_on;
-        local_threshold(found_filtered, block, out.dark_marks, settings.local_contrast_dn, marks);
-    } else {
-        // Otsu's level from a reduced copy: the histogram is the same, a tenth of the work.
-        cv::Mat small;
-        const double shrink = std::min(1.0, std::sqrt(1.5e6 / static_cast<double>(raw.total())));
-        cv::resize(found_filtered, small, cv::Size(), shrink, shrink, cv::INTER_AREA);
-        cv::Mat ignored;
-        out.threshold_dn =
-            cv::threshold(small, ignored, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU);
-        marks = out.dark_marks ? (found_filtered <= out.threshold_dn)
-                               : (found_filtered > out.threshold_dn);
-    }
-    const std::vector<Blob> blobs = blobs_of(marks);
-    // Halved, each mark is measured on the full photo median-filtered around it alone: a patch
-    // of its own, reaching the kernel's half further than what is kept so that the patch's own
-    // border lies outside it, as the whole photo's would. The patch is read with the mark's
-    // coordinates moved by the patch's corner, an integer, so that every figure is the one the
-    // whole photo's median gives (a 12 MP buffer touched around each mark cost a page fault for
-    // each row of every patch).
-    const int median_reach = settings.median_kernel_px / 2;
-    const cv::Rect inside(0, 0, raw.cols, raw.rows);
-    const auto filtered_around = [&](geometry::Point2 centre, double reach,
-                                     cv::Mat& patch) -> LocalView {
-        if (!halved)
-            return {{found_filtered.data, found_filtered.cols, found_filtered.rows,
-                     static_cast<int>(found_filtered.step)},
-                    0,
-                    0};
-        const cv::Rect wanted(static_cast<int>(std::floor(centre.x - reach)) - 1,
-                              static_cast<int>(std::floor(centre.y - reach)) - 1,
-                              static_cast<int>(2 * std::ceil(reach)) + 4,
-                              static_cast<int>(2 * std::ceil(reach)) + 4);
-        const cv::Rect area = wanted & inside;
-        if (area.empty()) return {};
-        const cv::Rect input =
-            cv::Rect(area.x - median_reach, area.y - median_reach, area.width + 2 * median_reach,
-                     area.height + 2 * median_reach) &
-            inside;
-        patch = median_filtered(raw(input), settings.median_kernel_px);
-        const cv::Mat kept =
-            patch(cv::Rect(area.x - input.x, area.y - input.y, area.width, area.height));
-        return {{kept.data, kept.cols, kept.rows, static_cast<int>(kept.step)}, area.x, area.y};
-    };
-    std::vector<cv::Point2f> outline;
-    for (const auto& p : settings.search_outline_px)
-        outline.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
-    struct Candidate {
-        geometry::Point2 rough;
-        int area_px = 0;
-    };
-    std::vector<Candidate> candidates;
-    candidates.reserve(blobs.size());
-    for (const Blob& blob : blobs) {
-        const int area = static_cast<int>(blob.area_px) * scale * scale;
-        if (area < settings.min_area_px) continue;
-        // A pixel of the halved photo covers two of the photo's: its centre lies half a pixel on.
-        const geometry::Point2 rough{scale * blob.centre_x_px + 0.5 * (scale - 1),
-                                     scale * blob.centre_y_px + 0.5 * (scale - 1)};
-        if (outline.size() >= 3 &&
-            cv::pointPolygonTest(
-                outline, cv::Point2f(static_cast<float>(rough.x), static_cast<float>(rough.y)),
-                false) < 0)
-            continue;
-        candidates.push_back({rough, area});
-    }
+    const cv::Mat marks = mark_mask(found_filtered, found_on, halved, settings, out);
+    const std::vector<SpotCandidate> candidates = spot_candidates(blobs_of(marks), scale, settings);
+    const FilteredPhoto photo(raw, found_filtered, halved, settings.median_kernel_px);
     // Each mark measured apart from the others, on all the cores (the marks were most of a
     // frame's time on one), into a slot of its own, then kept in the blobs' order.
     std::vector<std::optional<Spot>> measured(candidates.size());
     each_on_all_cores(candidates.size(), [&](std::size_t i) {
-        const auto [rough, area] = candidates[i];
-        const double radius = std::sqrt(area / 3.14159265358979) + settings.window_margin_px;
-        cv::Mat patch;
-        const LocalView local = filtered_around(rough, radius + 4, patch);
-        const geometry::Point2 here{rough.x - local.x0_px, rough.y - local.y0_px};
-        const Ring ring = local.view.pixels == nullptr
-                              ? Ring{.inside_image = false}
-                              : substrate_ring(local.view, here, radius + 1, radius + 4);
-        Spot spot;
-        if (!ring.inside_image) {
-            spot.centre_px = rough;
-            spot.area_px = area;
-            spot.touches_border = true;
-            measured[i] = spot;
-            return;
-        }
-        MomentWindow window;
-        window.centre_px = here;
-        window.radius_px = radius;
-        window.substrate_dn = ring.level_dn;
-        window.substrate_slope_x_dn_per_px = ring.slope_x_dn_per_px;
-        window.substrate_slope_y_dn_per_px = ring.slope_y_dn_per_px;
-        window.mark_dn = window_mean(local.view, here, 0.5 * (radius - settings.window_margin_px));
-        window.noise_dn = ring.noise_dn;
-        if (std::abs(window.substrate_dn - window.mark_dn) < 4) return;  // no real contrast
-        spot = measure_spot_q16(local.view, window);
-        spot.centre_px = {spot.centre_px.x + local.x0_px, spot.centre_px.y + local.y0_px};
-        measured[i] = spot;
+        measured[i] = measure_candidate(candidates[i], photo, settings);
     });
     for (const auto& spot : measured)
         if (spot) out.spots.push_back(*spot);

@@ -144,6 +144,32 @@ int run_end(Box& box, const RunOptions& options, int stopped_by, sim::TwinJudge*
     return judged_run_end(box, *judge, *before);
 }
 
+// --auto: one cycle, then out (once the controller has the whole result), judged by the twin's
+// judge, not the box: the twin's truth before the cycle, for the before/after lines.
+struct AutomaticRun {
+    std::unique_ptr<sim::TwinJudge> judge;
+    std::optional<sim::TwinVerdict> before;
+    firmware::CycleSubscription one_cycle;
+};
+
+AutomaticRun start_automatic_run(Box& box, RunningBox& running) {
+    AutomaticRun automatic;
+    automatic.one_cycle = box.cycle.subscribe({{},
+                                               {},
+                                               [&running](bool) {
+                                                   running.stop_when_settled = true;
+                                                   running.part_settled();
+                                               },
+                                               {},
+                                               {}});
+    automatic.judge = sim::make_twin_judge(*box.board.sim->bench);
+    automatic.before = automatic.judge->before();
+    std::printf("before: %s\n", automatic.before->line.c_str());
+    std::fflush(stdout);
+    box.board.sim->lines->press(std::chrono::milliseconds(100));
+    return automatic;
+}
+
 int run(const Args& args) {
     const RunOptions options = run_options(args);
     const Common common = common_options(args, true);
@@ -200,30 +226,14 @@ int run(const Args& args) {
     StartedParts parts;
     parts.start_all(running);
 
-    std::unique_ptr<sim::TwinJudge> judge;
-    std::optional<sim::TwinVerdict> before;
-    firmware::CycleSubscription one_cycle;
+    AutomaticRun automatic;
     if (options.automatic) {
-        // One cycle, then out (once the controller has the whole result).
-        one_cycle = box.cycle.subscribe({{},
-                                         {},
-                                         [&running](bool) {
-                                             running.stop_when_settled = true;
-                                             running.part_settled();
-                                         },
-                                         {},
-                                         {}});
-        // The judge, not the box: the twin's truth before the cycle, for the before/after lines.
-        judge = sim::make_twin_judge(*box.board.sim->bench);
-        before = judge->before();
-        std::printf("before: %s\n", before->line.c_str());
-        std::fflush(stdout);
-        box.board.sim->lines->press(std::chrono::milliseconds(100));
+        automatic = start_automatic_run(box, running);
     } else if (!running.console_wanted) {
         log("waiting for the button (no console)");
     }
     box.loop.run();
-    return run_end(box, options, stopped_by, judge.get(), before);
+    return run_end(box, options, stopped_by, automatic.judge.get(), automatic.before);
 }
 
 int revert(const Args& args) {

@@ -202,24 +202,7 @@ void GcodeHost::handle(const std::string& reply) {
         return;
     }
     if (reply.starts_with("Resend:") || reply.starts_with("rs ")) {
-        const long n = resend_number(reply);
-        if (n < 0 || next_ == 0) {
-            finish(false,
-                   "the printer asked for a resend without a line number (\"" + reply + "\")");
-            return;
-        }
-        // A line not sent yet: the printer lost the last one whole (an M110 it could not
-        // read leaves it counting from before), so that one goes again.
-        const auto line = std::min(static_cast<std::size_t>(n), next_ - 1);
-        resends_of_line_ = line == last_resend_ ? resends_of_line_ + 1 : 1;
-        last_resend_ = line;
-        if (resends_of_line_ > settings_.max_resends_of_a_line) {
-            finish(false, "line " + std::to_string(line) + " was resent " +
-                              std::to_string(settings_.max_resends_of_a_line) +
-                              " times: the serial link is too noisy");
-            return;
-        }
-        next_ = line;  // the ok that follows releases the window
+        handle_resend(reply);
         return;
     }
     if (contains(reply, "busy:")) {
@@ -243,18 +226,7 @@ void GcodeHost::handle(const std::string& reply) {
         return;
     }
     if (reply.starts_with("//action:")) {
-        const std::string action = reply.substr(9);
-        if (action.starts_with("cancel")) {
-            finish(false, "the printer cancelled the job (" + reply + ")");
-        } else if (action.starts_with("pause")) {
-            paused_ = true;
-            log_.warning("printer paused the job (" + reply + ")");
-        } else if (action.starts_with("resume")) {
-            paused_ = false;
-            pump();
-        } else {
-            log_("printer: " + reply);
-        }
+        handle_action(reply);
         return;
     }
     if (banner) {
@@ -264,6 +236,41 @@ void GcodeHost::handle(const std::string& reply) {
         return;
     }
     replies_.push_back(reply);
+}
+
+void GcodeHost::handle_resend(const std::string& reply) {
+    const long n = resend_number(reply);
+    if (n < 0 || next_ == 0) {
+        finish(false, "the printer asked for a resend without a line number (\"" + reply + "\")");
+        return;
+    }
+    // A line not sent yet: the printer lost the last one whole (an M110 it could not
+    // read leaves it counting from before), so that one goes again.
+    const auto line = std::min(static_cast<std::size_t>(n), next_ - 1);
+    resends_of_line_ = line == last_resend_ ? resends_of_line_ + 1 : 1;
+    last_resend_ = line;
+    if (resends_of_line_ > settings_.max_resends_of_a_line) {
+        finish(false, "line " + std::to_string(line) + " was resent " +
+                          std::to_string(settings_.max_resends_of_a_line) +
+                          " times: the serial link is too noisy");
+        return;
+    }
+    next_ = line;  // the ok that follows releases the window
+}
+
+void GcodeHost::handle_action(const std::string& reply) {
+    const std::string action = reply.substr(9);
+    if (action.starts_with("cancel")) {
+        finish(false, "the printer cancelled the job (" + reply + ")");
+    } else if (action.starts_with("pause")) {
+        paused_ = true;
+        log_.warning("printer paused the job (" + reply + ")");
+    } else if (action.starts_with("resume")) {
+        paused_ = false;
+        pump();
+    } else {
+        log_("printer: " + reply);
+    }
 }
 
 void GcodeHost::on_timer() {

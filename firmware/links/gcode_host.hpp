@@ -74,6 +74,8 @@ class GcodeHost final : public MachineLink {
 
   private:
     void handle(const std::string& reply);
+    void handle_resend(const std::string& reply);  // Marlin's Resend:, RepRapFirmware's rs
+    void handle_action(const std::string& reply);  // a host action: //action:cancel, pause, ...
     void pump();
     void write_line(const std::string& text);
     void flush();

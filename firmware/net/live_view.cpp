@@ -95,6 +95,34 @@ std::string what_guide_shows(const LiveGuide& guide) {
 
 }  // namespace
 
+namespace {
+
+// A photo's pixel in the view drawn `scale` times its size.
+cv::Point scaled_px(const geometry::Point2& p, double scale) {
+    return cv::Point(static_cast<int>(std::lround(p.x * scale)),
+                     static_cast<int>(std::lround(p.y * scale)));
+}
+
+// The set-up's coverage: each view's board, filled faintly, so the gaps show.
+template <class At>
+void draw_coverage(cv::Mat& view, const LiveGuide& guide, const At& at) {
+    cv::Mat covered = view.clone();
+    for (const auto& corners : guide.views) {
+        std::vector<cv::Point> pts;
+        pts.reserve(corners.size());
+        for (const auto& p : corners) pts.push_back(at(p));
+        if (pts.size() < 3) continue;
+        std::vector<cv::Point> hull;
+        cv::convexHull(pts, hull);
+        cv::fillConvexPoly(covered, hull, cv::Scalar(0, 200, 0));
+        cv::polylines(view, std::vector<std::vector<cv::Point>>{hull}, true, cv::Scalar(0, 160, 0),
+                      1, cv::LINE_AA);
+    }
+    if (!guide.views.empty()) cv::addWeighted(covered, 0.3, view, 0.7, 0, view);
+}
+
+}  // namespace
+
 LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_width_px) {
     if (frame.width_px <= 0 || frame.height_px <= 0 || frame.pixels.empty())
         throw std::invalid_argument("live view: an empty frame");
@@ -116,24 +144,8 @@ LiveImage live_view(const hal::Frame& frame, const LiveGuide& guide, int max_wid
     image.black_share = cv::countNonZero(black) / static_cast<double>(small.total());
     view.setTo(cv::Scalar(40, 40, 255), clipped);
     view.setTo(cv::Scalar(255, 120, 0), black);
-    const auto at = [scale](const geometry::Point2& p) {
-        return cv::Point(static_cast<int>(std::lround(p.x * scale)),
-                         static_cast<int>(std::lround(p.y * scale)));
-    };
-    // The set-up's coverage: each view's board, filled faintly, so the gaps show.
-    cv::Mat covered = view.clone();
-    for (const auto& corners : guide.views) {
-        std::vector<cv::Point> pts;
-        pts.reserve(corners.size());
-        for (const auto& p : corners) pts.push_back(at(p));
-        if (pts.size() < 3) continue;
-        std::vector<cv::Point> hull;
-        cv::convexHull(pts, hull);
-        cv::fillConvexPoly(covered, hull, cv::Scalar(0, 200, 0));
-        cv::polylines(view, std::vector<std::vector<cv::Point>>{hull}, true, cv::Scalar(0, 160, 0),
-                      1, cv::LINE_AA);
-    }
-    if (!guide.views.empty()) cv::addWeighted(covered, 0.3, view, 0.7, 0, view);
+    const auto at = [scale](const geometry::Point2& p) { return scaled_px(p, scale); };
+    draw_coverage(view, guide, at);
     const int font = cv::FONT_HERSHEY_SIMPLEX;
     const double text_scale = std::max(0.4, view.cols / 1200.0);
     int line = 1;

@@ -43,7 +43,7 @@ Scenario read_scenario(const std::string& path, const toml::table& root) {
     if (const auto* truth = models::subtable(path, root, "truth")) {
         for (const auto& [key, node] : *truth) {
             const std::string part(key.str());
-            if (part != "delta" && part != "cartesian" && part != "galvo" && part != "router")
+            if (!truth_table_names().contains(part))
                 throw ScenarioError(std::string(path)
                                         .append(": [truth] has unknown part '")
                                         .append(part)

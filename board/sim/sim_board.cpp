@@ -23,8 +23,8 @@
 #include "board/sim/octoprint_twin.hpp"
 #include "board/sim/photo_cache.hpp"
 #include "board/sim/twin_kind.hpp"
-#include "core/models/link_kinds.hpp"
 #include "core/jobs/gcode_line.hpp"
+#include "core/models/link_kinds.hpp"
 #include "core/vision/image_codec.hpp"
 #include "drivers/termios_port.hpp"
 
@@ -748,7 +748,7 @@ struct TwinHostContext {
 };
 
 std::unique_ptr<TwinHostServer> moonraker_twin(const TwinHostContext& c) {
-    if (c.machine().kind != "delta" && c.machine().kind != "cartesian")
+    if (!c.machine().is_printer())
         throw ScenarioError(c.scenario_path +
                             ": the twin's Moonraker host serves a Klipper delta or cartesian "
                             "printer");

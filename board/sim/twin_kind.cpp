@@ -1,7 +1,10 @@
 #include "board/sim/twin_kind.hpp"
 
+#include <array>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <string_view>
 
 #include "board/sim/delta_judge.hpp"
 #include "board/sim/galvo_twin.hpp"
@@ -392,19 +395,47 @@ class CartesianKind final : public TwinKind {
     ToolKind tool_;
 };
 
+template <class Kind>
+const TwinKind& twin_of() {
+    static const Kind kind;
+    return kind;
+}
+const TwinKind& cartesian_printer_twin() {
+    static const CartesianKind kind(ToolKind::extruder);
+    return kind;
+}
+const TwinKind& gantry_laser_twin() {
+    static const CartesianKind kind(ToolKind::laser);
+    return kind;
+}
+
+// Each machine kind's twin, checked at compile time against core/models/machine_kinds.hpp.
+struct TwinRow {
+    std::string_view kind;
+    const TwinKind& (*twin)();
+};
+constexpr std::array<TwinRow, 5> kTwins{{
+    {"delta", twin_of<DeltaKind>},
+    {"cartesian", cartesian_printer_twin},
+    {"router", twin_of<RouterKind>},
+    {"laser", gantry_laser_twin},
+    {"galvo", twin_of<GalvoKind>},
+}};
+static_assert(models::names_every_machine_kind(kTwins),
+              "every machine kind of core/models/machine_kinds.hpp has one twin here");
+
 }  // namespace
 
 const TwinKind& twin_kind_of(const models::MachineFile& machine) {
-    static const DeltaKind delta;
-    static const GalvoKind galvo;
-    static const RouterKind router;
-    static const CartesianKind cartesian(ToolKind::extruder), laser(ToolKind::laser);
-    if (machine.kind == "delta") return delta;
-    if (machine.kind == "galvo") return galvo;
-    if (machine.kind == "router") return router;
-    if (machine.kind == "cartesian") return cartesian;
-    if (machine.kind == "laser") return laser;
+    for (const auto& row : kTwins)
+        if (row.kind == machine.kind) return row.twin();
     throw ScenarioError("the twin has no " + machine.kind + " machine");
+}
+
+std::set<std::string> truth_table_names() {
+    std::set<std::string> names;
+    for (const auto& row : kTwins) names.emplace(row.twin().truth_table());
+    return names;
 }
 
 std::unique_ptr<TwinJudge> make_twin_judge(const TwinBench& bench) {

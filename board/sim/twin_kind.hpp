@@ -5,6 +5,7 @@
 // kind (its counterpart on the box's side is firmware's make_cycle_mode).
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -58,5 +59,7 @@ class TwinKind {
 
 // Throws ScenarioError for a kind the twin does not know.
 const TwinKind& twin_kind_of(const models::MachineFile& machine);
+// The [truth.*] tables the twins read (a scenario's other parts are refused).
+std::set<std::string> truth_table_names();
 
 }  // namespace calbox::sim

@@ -265,7 +265,7 @@ void printer_job_lines(std::string& out, const PlacedJob& job, const models::Mac
 void machine_job_lines(std::string& out, const PlacedJob& job, const models::MachineFile& m) {
     const auto line = [&](const std::string& text) { out += text + "\n"; };
     const double feed = job.feed_mm_s * 60, travel = m.travel_feed_mm_s * 60;
-    const bool router = m.kind == "router";
+    const bool router = m.tool() == models::MachineTool::spindle;
     const double power_scale = m.firmware == "grbl" ? 1000 : 255;
     line("M5");
     if (router) {

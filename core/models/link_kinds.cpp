@@ -3,19 +3,12 @@
 namespace calbox::models {
 
 std::string link_kind_list(std::string_view separator, bool hosts_only) {
-    std::string out;
-    for (const auto& k : kLinkKinds) {
-        if (hosts_only && !k.host) continue;
-        if (!out.empty()) out += separator;
-        out += k.name;
-    }
-    return out;
+    return kind_names_joined(kLinkKinds, separator,
+                             [&](const LinkKind& k) { return k.host || !hosts_only; });
 }
 
 std::set<std::string> link_kind_names() {
-    std::set<std::string> names;
-    for (const auto& k : kLinkKinds) names.emplace(k.name);
-    return names;
+    return kind_name_set(kLinkKinds);
 }
 
 }  // namespace calbox::models

@@ -9,6 +9,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/models/kind_table.hpp"
+
 namespace calbox::models {
 
 struct LinkKind {
@@ -36,15 +38,9 @@ constexpr const LinkKind* link_kind(std::string_view name) {
 
 // Whether `rows` (a table elsewhere, each row's `kind` a kind's name) holds every kind, each
 // once, and nothing else: the compile-time check of a factory's or a twin's table.
-template <class Row, std::size_t N>
-constexpr bool names_every_link_kind(const std::array<Row, N>& rows) {
-    if (N != kLinkKinds.size()) return false;
-    for (const auto& k : kLinkKinds) {
-        int found = 0;
-        for (const auto& row : rows) found += row.kind == k.name ? 1 : 0;
-        if (found != 1) return false;
-    }
-    return true;
+template <class Rows>
+constexpr bool names_every_link_kind(const Rows& rows) {
+    return names_each_kind_once(kLinkKinds, rows);
 }
 
 // "serial|moonraker|..." (`separator` between), the host kinds only when `hosts_only`.

@@ -142,8 +142,10 @@ void read_delta_settings(const std::string& file, const toml::table& t, const st
     if (!(p.diagonal_rod_mm > p.radius_mm)) r.fail("diagonal_rod_mm", "must exceed radius_mm");
 }
 
-MachineFile read_machine_tables(const std::string& file, const toml::table& root,
-                                std::initializer_list<std::string_view> other_sections) {
+namespace {
+
+void refuse_unknown_sections(const std::string& file, const toml::table& root,
+                             std::initializer_list<std::string_view> other_sections) {
     for (const auto& [key, node] : root) {
         const std::string_view name = key.str();
         bool known = name == "machine" || name == "delta" || name == "galvo" || name == "planar" ||
@@ -152,11 +154,12 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
         if (!known)
             throw MachineFileError(file + ": unknown section or key '" + std::string(name) + "'");
     }
-    const auto* machine = subtable(file, root, "machine");
-    if (machine == nullptr) throw MachineFileError(file + ": missing [machine]");
-    MachineFile m;
-    TomlReader r(file, *machine, "machine");
-    r.text("kind", m.kind, {"delta", "cartesian", "router", "laser", "galvo"});
+}
+
+// [machine]: the kind, the firmware, the work area, the tool's and the bed's settings.
+void read_machine_section(const std::string& file, const toml::table& machine, MachineFile& m) {
+    TomlReader r(file, machine, "machine");
+    r.text("kind", m.kind, machine_kind_names());
     r.text("firmware", m.firmware, {"marlin", "rrf", "klipper", "grbl", "linuxcnc"});
     r.number("bed_radius_mm", m.bed_radius_mm, 10, 1000);
     r.number("bed_size_x_mm", m.bed_size_x_mm, 10, 5000);
@@ -200,91 +203,96 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
                                ": [machine] photo_bed_temperature_c needs bed_material and "
                                "bed_temperature_c");
     }
-    const auto* delta = subtable(file, root, "delta");
-    if (m.is_delta()) {
-        if (delta == nullptr) throw MachineFileError(file + ": a delta machine needs [delta]");
-        m.delta.emplace();
-        read_delta_settings(file, *delta, "delta", *m.delta);
-    } else if (delta != nullptr) {
-        throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
+}
+
+// [link]: how the box reaches the machine; a host's keys only on a host's kind.
+void read_link_section(const std::string& file, const toml::table& link, MachineFile& m) {
+    TomlReader l(file, link, "link");
+    l.text("kind", m.link.kind, link_kind_names());
+    std::optional<std::string> url, key_file, ca_file;
+    std::optional<double> reply_timeout_s, restart_timeout_s;
+    l.text("url", url);
+    l.text("key_file", key_file);
+    l.text("ca_file", ca_file);
+    l.number("reply_timeout_s", reply_timeout_s, 0.1, 3600);
+    l.number("restart_timeout_s", restart_timeout_s, 1, 3600);
+    l.finish();
+    // A serial link's timing is the box's own (its G-code host); these keys are a host's.
+    if (!m.link.is_host()) {
+        const std::string why = "is a host's (kind = " + link_kind_list(" | ", true) + ")";
+        if (url) l.fail("url", why);
+        if (key_file) l.fail("key_file", why);
+        if (ca_file) l.fail("ca_file", why);
+        if (reply_timeout_s || restart_timeout_s)
+            l.fail(reply_timeout_s ? "reply_timeout_s" : "restart_timeout_s", why);
     }
-    if (const auto* link = subtable(file, root, "link")) {
-        TomlReader l(file, *link, "link");
-        l.text("kind", m.link.kind, link_kind_names());
-        std::optional<std::string> url, key_file, ca_file;
-        std::optional<double> reply_timeout_s, restart_timeout_s;
-        l.text("url", url);
-        l.text("key_file", key_file);
-        l.text("ca_file", ca_file);
-        l.number("reply_timeout_s", reply_timeout_s, 0.1, 3600);
-        l.number("restart_timeout_s", restart_timeout_s, 1, 3600);
-        l.finish();
-        // A serial link's timing is the box's own (its G-code host); these keys are a host's.
-        if (!m.link.is_host()) {
-            const std::string why = "is a host's (kind = " + link_kind_list(" | ", true) + ")";
-            if (url) l.fail("url", why);
-            if (key_file) l.fail("key_file", why);
-            if (ca_file) l.fail("ca_file", why);
-            if (reply_timeout_s || restart_timeout_s)
-                l.fail(reply_timeout_s ? "reply_timeout_s" : "restart_timeout_s", why);
-        }
-        m.link.url = url.value_or("");
-        m.link.key_file = key_file.value_or("");
-        m.link.ca_file = ca_file.value_or("");
-        m.link.reply_timeout_s = reply_timeout_s.value_or(m.link.reply_timeout_s);
-        m.link.restart_timeout_s = restart_timeout_s.value_or(m.link.restart_timeout_s);
-        if (const auto why = link_mismatch(m); !why.empty()) l.fail("kind", why);
-    }
-    if (const auto* probe = subtable(file, root, "probe")) {
-        if (!m.is_delta()) throw MachineFileError(file + ": [probe] on a " + m.kind + " machine");
-        // Klipper's PROBE report needs the probe's z_offset, in printer.cfg: read through
-        // Moonraker's settings in force.
-        if (m.firmware == "klipper" && m.link.kind != "moonraker")
-            throw MachineFileError(file +
-                                   ": [probe] on Klipper is read through Moonraker ([link] kind = "
-                                   "\"moonraker\"), which gives the probe's z_offset; else give "
-                                   "its heights to `calbox solve delta --probe`");
-        if (m.firmware != "marlin" && m.firmware != "rrf" && m.firmware != "klipper")
-            throw MachineFileError(file +
-                                   ": [probe] is read over the link from Marlin, "
-                                   "RepRapFirmware or Klipper, not " +
-                                   m.firmware);
-        m.probe.emplace();
-        TomlReader p(file, *probe, "probe");
-        p.number("radius_mm", m.probe->radius_mm, 1, 1000);
-        p.number("repeatability_mm", m.probe->repeatability_mm, 0.0005, 1);
-        p.finish();
-        if (!(m.probe->radius_mm > 0)) p.fail("radius_mm", "is required");
-        if (m.probe->radius_mm > m.bed_radius_mm)
-            p.fail("radius_mm", "probes beyond the bed's radius (bed_radius_mm)");
-    }
-    if (const auto* touch = subtable(file, root, "touch_probe")) {
-        if (m.kind != "router" || m.firmware != "grbl")
-            throw MachineFileError(file + ": [touch_probe] is a router's on grbl (G38.2), not a " +
-                                   m.kind + "'s on " + m.firmware);
-        auto& t = m.touch_probe.emplace();
-        TomlReader p(file, *touch, "touch_probe");
-        std::optional<double> clear_z;
-        p.number("clear_z_mm", clear_z, -2000, 2000);
-        p.number("travel_mm", t.travel_mm, 1, 200);
-        p.number("feed_mm_min", t.feed_mm_min, 1, 1000);
-        p.number("repeatability_mm", t.repeatability_mm, 0.0005, 1);
-        p.finish();
-        if (!clear_z)
-            p.fail("clear_z_mm",
-                   "is required: the machine Z the tool is lifted to before it moves over the bed");
-        t.clear_z_mm = *clear_z;
-    }
-    if (const auto* limits = subtable(file, root, "limits")) {
-        if (!m.is_delta()) throw MachineFileError(file + ": [limits] on a " + m.kind + " machine");
-        TomlReader l(file, *limits, "limits");
-        auto& d = m.delta_limits;
-        l.number("max_rod_change_fraction", d.max_rod_change_fraction, 0.0001, 0.2);
-        l.number("max_angle_trim_deg", d.max_angle_trim_deg, 0.01, 10);
-        l.number("max_radius_change_fraction", d.max_radius_change_fraction, 0.0001, 0.2);
-        l.number("max_residual_ratio", d.max_residual_ratio, 1, 100);
-        l.finish();
-    }
+    m.link.url = url.value_or("");
+    m.link.key_file = key_file.value_or("");
+    m.link.ca_file = ca_file.value_or("");
+    m.link.reply_timeout_s = reply_timeout_s.value_or(m.link.reply_timeout_s);
+    m.link.restart_timeout_s = restart_timeout_s.value_or(m.link.restart_timeout_s);
+    if (const auto why = link_mismatch(m); !why.empty()) l.fail("kind", why);
+}
+
+// [probe]: a delta printer's own probe, read over the link.
+void read_probe_section(const std::string& file, const toml::table& probe, MachineFile& m) {
+    if (!m.is_delta()) throw MachineFileError(file + ": [probe] on a " + m.kind + " machine");
+    // Klipper's PROBE report needs the probe's z_offset, in printer.cfg: read through
+    // Moonraker's settings in force.
+    if (m.firmware == "klipper" && m.link.kind != "moonraker")
+        throw MachineFileError(file +
+                               ": [probe] on Klipper is read through Moonraker ([link] kind = "
+                               "\"moonraker\"), which gives the probe's z_offset; else give "
+                               "its heights to `calbox solve delta --probe`");
+    if (m.firmware != "marlin" && m.firmware != "rrf" && m.firmware != "klipper")
+        throw MachineFileError(file +
+                               ": [probe] is read over the link from Marlin, "
+                               "RepRapFirmware or Klipper, not " +
+                               m.firmware);
+    m.probe.emplace();
+    TomlReader p(file, probe, "probe");
+    p.number("radius_mm", m.probe->radius_mm, 1, 1000);
+    p.number("repeatability_mm", m.probe->repeatability_mm, 0.0005, 1);
+    p.finish();
+    if (!(m.probe->radius_mm > 0)) p.fail("radius_mm", "is required");
+    if (m.probe->radius_mm > m.bed_radius_mm)
+        p.fail("radius_mm", "probes beyond the bed's radius (bed_radius_mm)");
+}
+
+// [touch_probe]: a router's on grbl (G38.2).
+void read_touch_probe_section(const std::string& file, const toml::table& touch, MachineFile& m) {
+    if (m.kind != "router" || m.firmware != "grbl")
+        throw MachineFileError(file + ": [touch_probe] is a router's on grbl (G38.2), not a " +
+                               m.kind + "'s on " + m.firmware);
+    auto& t = m.touch_probe.emplace();
+    TomlReader p(file, touch, "touch_probe");
+    std::optional<double> clear_z;
+    p.number("clear_z_mm", clear_z, -2000, 2000);
+    p.number("travel_mm", t.travel_mm, 1, 200);
+    p.number("feed_mm_min", t.feed_mm_min, 1, 1000);
+    p.number("repeatability_mm", t.repeatability_mm, 0.0005, 1);
+    p.finish();
+    if (!clear_z)
+        p.fail("clear_z_mm",
+               "is required: the machine Z the tool is lifted to before it moves over the bed");
+    t.clear_z_mm = *clear_z;
+}
+
+// [limits]: the bounds a delta's correction must pass before it is sent.
+void read_limits_section(const std::string& file, const toml::table& limits, MachineFile& m) {
+    if (!m.is_delta()) throw MachineFileError(file + ": [limits] on a " + m.kind + " machine");
+    TomlReader l(file, limits, "limits");
+    auto& d = m.delta_limits;
+    l.number("max_rod_change_fraction", d.max_rod_change_fraction, 0.0001, 0.2);
+    l.number("max_angle_trim_deg", d.max_angle_trim_deg, 0.01, 10);
+    l.number("max_radius_change_fraction", d.max_radius_change_fraction, 0.0001, 0.2);
+    l.number("max_residual_ratio", d.max_residual_ratio, 1, 100);
+    l.finish();
+}
+
+// [galvo] or [planar], the family's own (its defaults where left out); another's is refused.
+void read_galvo_or_planar_section(const std::string& file, const toml::table& root,
+                                  MachineFile& m) {
     const auto* galvo = subtable(file, root, "galvo");
     if (m.is_galvo()) {
         m.galvo.emplace();
@@ -301,7 +309,7 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     const auto* planar = subtable(file, root, "planar");
     if (m.is_planar()) {
         m.planar.emplace();
-        if (m.kind == "cartesian") m.planar->holes = "light";
+        m.planar->holes = m.kind_row().planar_holes;
         if (planar != nullptr) {
             TomlReader g(file, *planar, "planar");
             g.number("hole_pitch_mm", m.planar->hole_pitch_mm, 2, 500);
@@ -318,6 +326,31 @@ MachineFile read_machine_tables(const std::string& file, const toml::table& root
     } else if (planar != nullptr) {
         throw MachineFileError(file + ": [planar] on a " + m.kind + " machine");
     }
+}
+
+}  // namespace
+
+MachineFile read_machine_tables(const std::string& file, const toml::table& root,
+                                std::initializer_list<std::string_view> other_sections) {
+    refuse_unknown_sections(file, root, other_sections);
+    const auto* machine = subtable(file, root, "machine");
+    if (machine == nullptr) throw MachineFileError(file + ": missing [machine]");
+    MachineFile m;
+    read_machine_section(file, *machine, m);
+    const auto* delta = subtable(file, root, "delta");
+    if (m.is_delta()) {
+        if (delta == nullptr) throw MachineFileError(file + ": a delta machine needs [delta]");
+        m.delta.emplace();
+        read_delta_settings(file, *delta, "delta", *m.delta);
+    } else if (delta != nullptr) {
+        throw MachineFileError(file + ": [delta] on a " + m.kind + " machine");
+    }
+    if (const auto* link = subtable(file, root, "link")) read_link_section(file, *link, m);
+    if (const auto* probe = subtable(file, root, "probe")) read_probe_section(file, *probe, m);
+    if (const auto* touch = subtable(file, root, "touch_probe"))
+        read_touch_probe_section(file, *touch, m);
+    if (const auto* limits = subtable(file, root, "limits")) read_limits_section(file, *limits, m);
+    read_galvo_or_planar_section(file, root, m);
     return m;
 }
 
@@ -340,6 +373,12 @@ double bed_scale_at_photo(const MachineFile& m, std::optional<double> photo_bed_
     }
     return 1.0 +
            bed_expansion_per_k(*m.bed_material) * (*photo_bed_temperature_c - *m.bed_temperature_c);
+}
+
+const MachineKind& MachineFile::kind_row() const {
+    if (const MachineKind* k = machine_kind(kind)) return *k;
+    throw std::invalid_argument("a machine of kind '" + kind + "': calbox knows " +
+                                machine_kind_list(", "));
 }
 
 bool MachineLinkSettings::is_host() const {

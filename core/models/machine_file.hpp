@@ -8,6 +8,8 @@
 #include <string>
 #include <string_view>
 
+#include "core/models/machine_kinds.hpp"
+
 namespace calbox::models {
 
 class MachineFileError : public std::runtime_error {
@@ -113,7 +115,7 @@ struct MachineLinkSettings {
 };
 
 struct MachineFile {
-    std::string kind = "delta";  // delta | cartesian | router | laser | galvo
+    std::string kind = "delta";  // a name in core/models/machine_kinds.hpp
     std::string firmware = "marlin";
     double bed_radius_mm = 85;   // delta: the printable radius around the origin
     double bed_size_x_mm = 200;  // others: the work area from the origin
@@ -149,13 +151,16 @@ struct MachineFile {
     DeltaLimits delta_limits;                       // [limits]: a delta's
     MachineLinkSettings link;                       // [link]
 
-    bool is_printer() const { return kind == "delta" || kind == "cartesian"; }
-    bool is_delta() const { return kind == "delta"; }
-    bool is_galvo() const { return kind == "galvo"; }
-    bool is_planar() const { return kind == "router" || kind == "cartesian" || kind == "laser"; }
-    // A router's or a laser's job is written around a work zero the operator sets (a printer's
-    // around its bed's origin): placing it on the machine needs that zero.
-    bool jobs_at_work_zero() const { return kind == "router" || kind == "laser"; }
+    // The row of `kind` in core/models/machine_kinds.hpp, which every answer below reads; a
+    // kind the table does not hold is refused (std::invalid_argument), never taken for another.
+    const MachineKind& kind_row() const;
+    MachineFamily family() const { return kind_row().family; }
+    MachineTool tool() const { return kind_row().tool; }
+    bool is_printer() const { return kind_row().printer; }
+    bool is_delta() const { return family() == MachineFamily::delta; }
+    bool is_galvo() const { return family() == MachineFamily::galvo; }
+    bool is_planar() const { return family() == MachineFamily::planar; }
+    bool jobs_at_work_zero() const { return kind_row().jobs_at_work_zero; }
 };
 
 // A planar machine's travel in machine coordinates: [min x, min y, max x, max y].

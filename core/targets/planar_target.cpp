@@ -175,7 +175,7 @@ PlanarTarget make_planar_target(const models::MachineFile& machine,
     // The grid centred on the work area.
     t.first_mm = {0.5 * (machine.bed_size_x_mm - (t.columns - 1) * t.pitch_mm),
                   0.5 * (machine.bed_size_y_mm - (t.rows - 1) * t.pitch_mm)};
-    const bool router = machine.kind == "router";
+    const bool router = machine.tool() == models::MachineTool::spindle;
     // Routers drill with their tool; printers and lasers fill a dot a quarter pitch across.
     t.hole_diameter_mm = router ? machine.tool_width_mm : 0.24 * t.pitch_mm;
     t.large_diameter_mm = 2 * t.hole_diameter_mm;

@@ -2,9 +2,9 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "core/models/machine_file.hpp"
 #include "core/drawings/drawing.hpp"
 #include "core/jobs/job.hpp"
+#include "core/models/machine_file.hpp"
 #include "firmware/cli/cli_args.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 

@@ -7,11 +7,12 @@
 #include <optional>
 
 #include "core/geometry/camera_model.hpp"
+#include "core/jobs/job.hpp"
+#include "core/models/machine_kinds.hpp"
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_probe.hpp"
 #include "core/modes/delta_records.hpp"
 #include "core/targets/delta_target.hpp"
-#include "core/jobs/job.hpp"
 #include "firmware/cli/cli_images.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 #include "firmware/modes/delta_mode.hpp"
@@ -186,7 +187,7 @@ int solve_delta(const Args& args) {
 ModeVerbs delta_verbs() {
     ModeVerbs verbs;
     verbs.name = "delta";
-    verbs.machines = "delta 3D printers";
+    verbs.machines = models::family_machines(models::MachineFamily::delta);
     {
         const Option describe = describe_option();
         verbs.target = {

@@ -6,9 +6,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/geometry/camera_model.hpp"
+#include "core/jobs/job.hpp"
+#include "core/models/machine_kinds.hpp"
 #include "core/modes/galvo.hpp"
 #include "core/targets/galvo_target.hpp"
-#include "core/jobs/job.hpp"
 #include "firmware/cli/cli_images.hpp"
 #include "firmware/cli/mode_verbs.hpp"
 #include "firmware/modes/galvo_mode.hpp"
@@ -163,7 +164,7 @@ int solve_galvo(const Args& args) {
 ModeVerbs galvo_verbs() {
     ModeVerbs verbs;
     verbs.name = "galvo";
-    verbs.machines = "galvo laser scanners";
+    verbs.machines = models::family_machines(models::MachineFamily::galvo);
     {
         const Option describe = describe_option();
         verbs.target = {

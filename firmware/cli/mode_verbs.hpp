@@ -14,7 +14,7 @@ namespace calbox::cli {
 
 struct ModeVerbs {
     std::string name;      // "delta", as the verbs take it
-    std::string machines;  // what it calibrates, for `calbox --help`: "delta 3D printers"
+    std::string machines;  // what it calibrates, for `calbox --help` (machine_kinds.hpp)
     Command target, measure, solve;
 };
 ModeVerbs delta_verbs();

@@ -7,8 +7,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "core/geometry/camera_model.hpp"
-#include "core/modes/planar.hpp"
 #include "core/jobs/job.hpp"
+#include "core/models/machine_kinds.hpp"
+#include "core/modes/planar.hpp"
 #include "core/targets/planar_target.hpp"
 #include "firmware/cli/cli_images.hpp"
 #include "firmware/cli/mode_verbs.hpp"
@@ -202,7 +203,7 @@ int solve_planar(const Args& args) {
 ModeVerbs planar_verbs() {
     ModeVerbs verbs;
     verbs.name = "planar";
-    verbs.machines = "CNC routers, cartesian printers and gantry lasers";
+    verbs.machines = models::family_machines(models::MachineFamily::planar);
     {
         const Option describe = describe_option();
         verbs.target = {

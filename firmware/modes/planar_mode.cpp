@@ -33,8 +33,8 @@ PlanarCycleMode::PlanarCycleMode(models::MachineFile machine, CycleSteps& steps)
     : KeptCorrectionMode(
           steps, {kPlanarResultFile, kNoPlanarResult, "backup-result.json",
                   "keeping the error model: jobs now go through it",
-                  machine.kind == "cartesian" ? "printing the grid again through the error model"
-                                              : "drilling the grid again through the error model"}),
+                  machine.is_printer() ? "printing the grid again through the error model"
+                                       : "drilling the grid again through the error model"}),
       machine_(std::move(machine)) {}
 
 void PlanarCycleMode::begin() {

@@ -6,6 +6,9 @@
 
 #include "board/sim/scenario.hpp"
 #include "board/sim/sim_board.hpp"
+#include "board/sim/twin_kind.hpp"
+#include "core/models/machine_file.hpp"
+#include "core/models/machine_kinds.hpp"
 
 using namespace calbox::sim;
 
@@ -151,4 +154,53 @@ TEST(Scenario, reference_marks_under_the_board_or_out_of_view_are_refused) {
                     bench_error("[-132.0, 0.0, 0.0, 0.0]").c_str());
     STRCMP_CONTAINS("reference mark 0 is not wholly in the camera's view",
                     bench_error("[-150.0, 0.0]").c_str());
+}
+
+// The machine kinds, declared once (core/models/machine_kinds.hpp): the machine file's reader
+// takes every kind and its answers from the table, the twin has one for each, and each names a
+// page that exists. (A twin missing for a kind fails the build: twin_kind.cpp's static_assert;
+// a family without its mode, make_mode.cpp's switch.)
+TEST_GROUP(MachineKinds){};
+
+TEST(MachineKinds, every_kind_is_read_from_the_machine_file_with_its_twin_and_its_page) {
+    namespace models = calbox::models;
+    for (const auto& k : models::kMachineKinds) {
+        const std::string kind(k.name);
+        const bool delta = k.family == models::MachineFamily::delta;
+        const std::string text =
+            "[machine]\nkind = \"" + kind + "\"\n" +
+            (delta ? "[delta]\ndiagonal_rod_mm = 250.0\nradius_mm = 140.0\n" : "");
+        const auto m = models::parse_machine_file(text, "m.toml");
+        STRCMP_EQUAL(kind.c_str(), m.kind.c_str());
+        CHECK_TEXT(m.family() == k.family, kind.c_str());
+        CHECK_EQUAL(k.printer, m.is_printer());
+        CHECK_EQUAL(k.jobs_at_work_zero, m.jobs_at_work_zero());
+        CHECK_EQUAL(delta, m.delta.has_value());
+        CHECK_EQUAL(k.family == models::MachineFamily::galvo, m.galvo.has_value());
+        CHECK_EQUAL(k.family == models::MachineFamily::planar, m.planar.has_value());
+        if (m.planar) STRCMP_EQUAL(std::string(k.planar_holes).c_str(), m.planar->holes.c_str());
+        const std::string truth = twin_kind_of(m).truth_table();
+        CHECK_TEXT(truth_table_names().contains(truth), kind.c_str());
+        const std::string page = std::string(CALBOX_SOURCE_DIR) + "/" + std::string(k.docs);
+        CHECK_TEXT(::access(page.c_str(), R_OK) == 0, page.c_str());
+    }
+    STRCMP_EQUAL("delta|cartesian|router|laser|galvo", models::machine_kind_list("|").c_str());
+    STRCMP_EQUAL("cartesian 3D printers, CNC routers and gantry lasers",
+                 models::family_machines(models::MachineFamily::planar).c_str());
+    STRCMP_EQUAL("delta 3D printers",
+                 models::family_machines(models::MachineFamily::delta).c_str());
+}
+
+TEST(MachineKinds, a_kind_the_table_does_not_hold_is_refused_never_taken_for_another) {
+    namespace models = calbox::models;
+    try {
+        models::parse_machine_file("[machine]\nkind = \"corexy\"\n", "m.toml");
+        FAIL("kind = corexy was read");
+    } catch (const models::MachineFileError& e) {
+        STRCMP_CONTAINS("'corexy' is not one of cartesian, delta, galvo, laser, router", e.what());
+    }
+    models::MachineFile m;
+    m.kind = "corexy";
+    CHECK_THROWS(std::invalid_argument, m.is_planar());
+    CHECK_THROWS(std::invalid_argument, m.is_printer());
 }

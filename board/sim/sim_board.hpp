@@ -135,6 +135,8 @@ class TwinBench {
 // What the twin machine's firmware says when its board starts: Marlin's "start" and version,
 // grbl's welcome line; nothing from RepRapFirmware (native USB: no reset, no banner).
 std::vector<std::string> start_up_banner(const models::MachineFile& machine);
+// grbl's "$#" and its kin, however the host numbered it: a line with no G-code word.
+bool is_grbl_system_command(std::string_view line);
 
 // The printer end of a pseudo-terminal: a thread answering as Marlin does (line numbers and
 // checksums checked, Resend on a mismatch, ok per line, M503 reports), with the scenario's

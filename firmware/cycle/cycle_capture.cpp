@@ -3,8 +3,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <nlohmann/json.hpp>
 
+#include "core/geometry/calibration.hpp"
 #include "core/number_text.hpp"
+#include "core/vision/reference_marks.hpp"
 #include "firmware/cycle/cycle.hpp"
 #include "firmware/cycle/metering.hpp"
 

@@ -100,13 +100,14 @@ CalibrationResult calibrate_camera(const PatternSpec& pattern, LensModel model,
 double image_coverage(const std::vector<ObservedView>& views, int width_px, int height_px) {
     constexpr int kColumns = 8, kRows = 6;
     if (width_px <= 0 || height_px <= 0) return 0;
-    std::array<bool, kColumns * kRows> covered{};
+    std::array<bool, std::size_t{kColumns} * kRows> covered{};
     for (const auto& v : views) {
         for (const auto& p : v.board.image_points) {
             const int c = static_cast<int>(p.x * kColumns / width_px);
             const int r = static_cast<int>(p.y * kRows / height_px);
             if (c >= 0 && c < kColumns && r >= 0 && r < kRows)
-                covered[static_cast<std::size_t>(r * kColumns + c)] = true;
+                covered[static_cast<std::size_t>(r) * kColumns + static_cast<std::size_t>(c)] =
+                    true;
         }
     }
     return static_cast<double>(std::count(covered.begin(), covered.end(), true)) /

@@ -288,6 +288,7 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
             const auto corners = geometry::pixels_to_bed(
                 camera, plane, {found->corners.begin(), found->corners.end()}, h);
             std::vector<Point2> on_machine;
+            on_machine.reserve(corners.size());
             for (const auto& c : corners) on_machine.push_back(map.machine_of({c.x, c.y}));
             const auto centre = geometry::intersect(
                 {on_machine[0],

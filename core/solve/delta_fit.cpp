@@ -275,7 +275,7 @@ void observability(const Eigen::MatrixXd& jacobian, const std::vector<int>& free
 // the fit held is marked so.
 void keep_uncertainties(const std::vector<int>& free, const Eigen::MatrixXd& covariance,
                         double widen, DeltaEstimate& result) {
-    result.covariance.assign(kGeometry * kGeometry, 0.0);
+    result.covariance.assign(std::size_t{kGeometry} * kGeometry, 0.0);
     for (int i = 0; i < kGeometry; ++i) {
         const auto it = std::find(free.begin(), free.end(), i);
         const bool held = it == free.end();
@@ -287,7 +287,8 @@ void keep_uncertainties(const std::vector<int>& free, const Eigen::MatrixXd& cov
         for (int j = 0; j < kGeometry; ++j) {
             const auto other = std::find(free.begin(), free.end(), j);
             if (other == free.end()) continue;
-            result.covariance[static_cast<std::size_t>(i * kGeometry + j)] =
+            result
+                .covariance[static_cast<std::size_t>(i) * kGeometry + static_cast<std::size_t>(j)] =
                 widen * covariance(k, static_cast<Eigen::Index>(other - free.begin()));
         }
     }
@@ -299,7 +300,7 @@ std::vector<double> xy_spread(const std::vector<geometry::Point3>& judge,
                               const DeltaGeometry& estimate, const DeltaGeometry& after,
                               const std::vector<double>& covariance) {
     std::vector<double> spread(judge.size(), 0.0);
-    if (covariance.size() != static_cast<std::size_t>(kGeometry * kGeometry)) return spread;
+    if (covariance.size() != std::size_t{kGeometry} * kGeometry) return spread;
     const Vector base = pack(estimate);
     const std::vector<double> steps = parameter_steps();
     // Per parameter, how each point's XY moves per unit of it.
@@ -333,7 +334,8 @@ std::vector<double> xy_spread(const std::vector<geometry::Point3>& judge,
     for (std::size_t i = 0; i < judge.size(); ++i)
         for (int k = 0; k < kGeometry; ++k)
             for (int l = 0; l < kGeometry; ++l) {
-                const double c = covariance[static_cast<std::size_t>(k * kGeometry + l)];
+                const double c = covariance[static_cast<std::size_t>(k) * kGeometry +
+                                            static_cast<std::size_t>(l)];
                 if (c == 0) continue;
                 const auto& a = moves[static_cast<std::size_t>(k)][i];
                 const auto& b = moves[static_cast<std::size_t>(l)][i];

@@ -138,7 +138,7 @@ sim::GrayImage sheet_photo(const Args& args, const sim::Scenario& scenario,
     const sim::SheetScene scene(sheet, scenario.photo.supersample);
     sim::Pose lifted;
     lifted.translation_mm = {0, 0, thickness};
-    const sim::GrayImage image =
+    sim::GrayImage image =
         sim::render_photo(camera.intrinsics, sim::compose(bed_to_camera, lifted), scene,
                           sim::photo_settings_of(scenario, sim::InView::bed));
     nlohmann::json corners = nlohmann::json::array();
@@ -173,9 +173,8 @@ sim::GrayImage print_photo(const Args& args, const sim::Scenario& scenario,
     truth["bed_growth_at_photo"] = growth;
     const sim::StrokeScene scene(std::move(strokes), scenario.bed_albedo, scenario.material_albedo,
                                  scenario.photo.supersample, sim::stroke_footprint_mm(scenario));
-    const sim::GrayImage image =
-        sim::render_photo(camera.intrinsics, bed_to_camera, scene,
-                          sim::photo_settings_of(scenario, sim::InView::bed));
+    sim::GrayImage image = sim::render_photo(camera.intrinsics, bed_to_camera, scene,
+                                             sim::photo_settings_of(scenario, sim::InView::bed));
     truth["strokes"] = stroke_truth;
     return image;
 }
@@ -204,9 +203,8 @@ sim::GrayImage board_photo(const Args& args, const sim::Scenario& scenario,
         truth["board_to_bed"] = pose_json(board_to_bed);
     }
     const sim::BoardScene scene(spec, scenario.photo.supersample);
-    const sim::GrayImage image =
-        sim::render_photo(camera.intrinsics, board_to_camera, scene,
-                          sim::photo_settings_of(scenario, sim::InView::board));
+    sim::GrayImage image = sim::render_photo(camera.intrinsics, board_to_camera, scene,
+                                             sim::photo_settings_of(scenario, sim::InView::board));
     nlohmann::json features = nlohmann::json::array();
     for (const auto& f : scene.features()) {
         nlohmann::json j{{"id", f.id},

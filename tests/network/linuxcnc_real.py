@@ -86,9 +86,10 @@ def start(work, port):
     os.chmod(fifo, 0o1777)
     # As root, LinuxCNC's rtapi_app runs its non-realtime threads as a fallback user.
     env = dict(os.environ, RTAPI_UID="65534", RTAPI_FIFO_PATH=os.path.join(fifo, "fifo"))
+    log = open(os.path.join(work, "linuxcnc.log"), "w")
     return subprocess.Popen(["linuxcnc", configuration(work, port)], cwd=work, env=env,
-                            stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
+                            stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+                            start_new_session=True)
 
 
 def until(rsh, command, question, answer, deadline, what):
@@ -105,8 +106,10 @@ def until(rsh, command, question, answer, deadline, what):
         if got.upper().startswith(answer):
             return
         if time.time() > deadline:
-            raise RuntimeError("LinuxCNC: %s (%r to %r, then %r; its error: %s)"
-                               % (what, reply, command, got, rsh.ask("get error", "ERROR")))
+            task = subprocess.run(["pgrep", "-x", "milltask"], capture_output=True).returncode
+            raise RuntimeError("LinuxCNC: %s (%r to %r, then %r; its error: %s; its task, milltask, "
+                               "%s)" % (what, reply, command, got, rsh.ask("get error", "ERROR"),
+                                        "running" if task == 0 else "not running"))
         time.sleep(0.3)
 
 
@@ -195,9 +198,11 @@ def main():
         return run.returncode
     except (RuntimeError, OSError) as e:
         print("FAIL: %s" % e)
-        # Without a terminal, LinuxCNC keeps its messages in these (after an error).
-        for name in ("linuxcnc_print.txt", "linuxcnc_debug.txt"):
-            path = os.path.join(os.path.expanduser("~"), name)
+        # What the linuxcnc script and its programs said; without a terminal, LinuxCNC keeps
+        # its messages in the last two (after an error).
+        for path in (os.path.join(work, "linuxcnc.log"),
+                     os.path.join(os.path.expanduser("~"), "linuxcnc_print.txt"),
+                     os.path.join(os.path.expanduser("~"), "linuxcnc_debug.txt")):
             if os.path.exists(path):
                 print("== " + path)
                 print(open(path, errors="replace").read()[-2000:])

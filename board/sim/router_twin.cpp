@@ -239,7 +239,7 @@ RouterJudgement judge_router(const RouterTruth& truth, const std::vector<Vec2>& 
 }
 
 RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::MachineFile& machine,
-                                       const targets::Correction* correct) {
+                                       const jobs::Correction* correct) {
     const auto target = targets::make_planar_target(machine);
     const auto holes = fresh_points(target);
     std::vector<Vec2> intended;
@@ -251,12 +251,12 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
     v.holes = holes.size();
     v.before = judge_router(truth, intended, job);
     if (correct != nullptr) {
-        targets::CompensateReport report;
+        jobs::CompensateReport report;
         // The fresh holes lie inside the measured area: the correction is the model's there.
-        const targets::JobFrame frame{
-            targets::flavour_of_firmware(machine.firmware), {geometry::Point2{}}, {}, {}};
+        const jobs::JobFrame frame{
+            jobs::flavour_of_firmware(machine.firmware), {geometry::Point2{}}, {}, {}};
         const std::string compensated =
-            targets::compensate_gcode(job, {*correct, {}}, frame, {}, report);
+            jobs::compensate_gcode(job, {*correct, {}}, frame, {}, report);
         v.after = judge_router(truth, intended, compensated);
     }
     return v;
@@ -264,12 +264,12 @@ RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::M
 
 RouterVerdict judge_cartesian_fresh_points(const CartesianErrors& truth,
                                            const models::MachineFile& machine,
-                                           const targets::Correction* correct) {
+                                           const jobs::Correction* correct) {
     return judge_cartesian_fresh_points(CartesianTwin(truth), machine, correct);
 }
 
 RouterVerdict judge_cartesian_fresh_points(CartesianTwin twin, const models::MachineFile& machine,
-                                           const targets::Correction* correct) {
+                                           const jobs::Correction* correct) {
     twin.home();
     const auto points = fresh_points(targets::make_planar_target(machine));
     std::vector<Vec3> intended, before, after;

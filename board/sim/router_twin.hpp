@@ -15,8 +15,8 @@
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/scenes.hpp"
-#include "core/models/machine_file.hpp"
 #include "core/jobs/compensate.hpp"
+#include "core/models/machine_file.hpp"
 
 namespace calbox::sim {
 
@@ -112,15 +112,15 @@ struct RouterVerdict {
     std::size_t holes = 0;
 };
 RouterVerdict judge_router_fresh_holes(const RouterTruth& truth, const models::MachineFile& machine,
-                                       const targets::Correction* correct);
+                                       const jobs::Correction* correct);
 
 // The same verdict on a cartesian printer or gantry laser (its twin has no backlash): each fresh
 // point commanded (through `correct` when given) and put where the machine really puts it.
 RouterVerdict judge_cartesian_fresh_points(const CartesianErrors& truth,
                                            const models::MachineFile& machine,
-                                           const targets::Correction* correct);
+                                           const jobs::Correction* correct);
 // The same on a cartesian twin as its firmware is set (its truth and firmware copied).
 RouterVerdict judge_cartesian_fresh_points(CartesianTwin twin, const models::MachineFile& machine,
-                                           const targets::Correction* correct);
+                                           const jobs::Correction* correct);
 
 }  // namespace calbox::sim

@@ -368,7 +368,7 @@ std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s) {
     return twin_kind_of(s.machine).make_machine(s);
 }
 
-RouterVerdict judge_planar_machine(const Scenario& s, const targets::Correction* correct) {
+RouterVerdict judge_planar_machine(const Scenario& s, const jobs::Correction* correct) {
     return twin_kind_of(s.machine).judge_fresh_job(s, correct);
 }
 

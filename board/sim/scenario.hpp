@@ -178,7 +178,7 @@ std::unique_ptr<MachineTwin> make_machine_twin(const Scenario& s);
 
 // The judge of a router, cartesian printer or laser scenario, in its truth: a fresh job half a
 // pitch off the target's grid, as commanded and (with `correct`) through the correction.
-RouterVerdict judge_planar_machine(const Scenario& s, const targets::Correction* correct);
+RouterVerdict judge_planar_machine(const Scenario& s, const jobs::Correction* correct);
 ToolSettings tool_settings_of(const Scenario& s);
 
 }  // namespace calbox::sim

@@ -425,7 +425,7 @@ DeltaJudgement TwinBench::judge_delta_printer() const {
     return judge_delta(copy, {}, scenario_.machine.bed_radius_mm);
 }
 
-RouterVerdict TwinBench::judge_cartesian_printer(const targets::Correction* correct) const {
+RouterVerdict TwinBench::judge_cartesian_printer(const jobs::Correction* correct) const {
     const std::lock_guard lock(mutex_);
     const auto* cartesian = dynamic_cast<const CartesianTwin*>(machine_.get());
     if (cartesian == nullptr) throw ScenarioError("the judge judges cartesian printers here");

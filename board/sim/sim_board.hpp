@@ -103,7 +103,7 @@ class TwinBench {
     DeltaJudgement judge_delta_printer() const;
     // A cartesian printer as its firmware is set now: a fresh job half a pitch off the target's,
     // as commanded and (with `correct`) through the correction the box keeps.
-    RouterVerdict judge_cartesian_printer(const targets::Correction* correct) const;
+    RouterVerdict judge_cartesian_printer(const jobs::Correction* correct) const;
     // A galvo scanner: a fresh 30 x 30 grid of marks over `area_mm` (min x, min y, max x, max y)
     // commanded through `command_for` (the identity before a correction).
     GalvoJudgement judge_galvo_scanner(const std::function<Vec2(Vec2)>& command_for,

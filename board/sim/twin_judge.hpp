@@ -8,8 +8,8 @@
 #include <string>
 
 #include "board/sim/sim_board.hpp"
-#include "core/modes/goal.hpp"
 #include "core/jobs/compensate.hpp"
+#include "core/modes/goal.hpp"
 
 namespace calbox::sim {
 
@@ -26,7 +26,7 @@ class TwinJudge {
     // After a cycle: the machine as it is now, the fresh job sent through `kept` when the box
     // keeps a correction (a galvo's table, a router's model). Throws when a kind that needs one
     // has none.
-    virtual TwinVerdict after(const std::optional<targets::KeptCorrection>& kept) const = 0;
+    virtual TwinVerdict after(const std::optional<jobs::KeptCorrection>& kept) const = 0;
 };
 
 std::unique_ptr<TwinJudge> make_twin_judge(const TwinBench& bench);

@@ -17,7 +17,7 @@
 
 namespace calbox::sim {
 
-RouterVerdict TwinKind::judge_fresh_job(const Scenario& s, const targets::Correction*) const {
+RouterVerdict TwinKind::judge_fresh_job(const Scenario& s, const jobs::Correction*) const {
     throw ScenarioError(s.path + ": a " + s.machine.kind + " is not judged as a planar machine");
 }
 
@@ -47,7 +47,7 @@ class DeltaJudge final : public TwinJudge {
                 printed("XY rms %.4f mm, max %.4f mm (the twin's truth, over the printable area)",
                         j.xy_rms, j.xy_max)};
     }
-    TwinVerdict after(const std::optional<targets::KeptCorrection>&) const override {
+    TwinVerdict after(const std::optional<jobs::KeptCorrection>&) const override {
         const auto j = bench_.judge_delta_printer();
         return {{std::nullopt, j.xy_rms, j.xy_max},
                 printed("XY rms %.4f mm, max %.4f mm", j.xy_rms, j.xy_max)};
@@ -70,7 +70,7 @@ class GalvoJudge final : public TwinJudge {
                         "grid over the field less a pitch)",
                         j.mean_mm, j.max_mm)};
     }
-    TwinVerdict after(const std::optional<targets::KeptCorrection>& kept) const override {
+    TwinVerdict after(const std::optional<jobs::KeptCorrection>& kept) const override {
         if (!kept) throw std::runtime_error("the cycle completed but the box keeps no table");
         const auto j = bench_.judge_galvo_scanner(
             [&kept](Vec2 p) {
@@ -110,7 +110,7 @@ class PlanarJudge final : public TwinJudge {
     TwinVerdict before() const override {
         return fresh_job_before(judge_planar_machine(bench_.scenario(), nullptr));
     }
-    TwinVerdict after(const std::optional<targets::KeptCorrection>& kept) const override {
+    TwinVerdict after(const std::optional<jobs::KeptCorrection>& kept) const override {
         if (!kept) throw std::runtime_error("the cycle completed but the box keeps no error model");
         return fresh_job_through_model(judge_planar_machine(bench_.scenario(), &kept->correct));
     }
@@ -128,7 +128,7 @@ class CartesianJudge final : public TwinJudge {
     TwinVerdict before() const override {
         return fresh_job_before(bench_.judge_cartesian_printer(nullptr));
     }
-    TwinVerdict after(const std::optional<targets::KeptCorrection>& kept) const override {
+    TwinVerdict after(const std::optional<jobs::KeptCorrection>& kept) const override {
         if (kept) return fresh_job_through_model(bench_.judge_cartesian_printer(&kept->correct));
         const auto v = bench_.judge_cartesian_printer(nullptr);
         return {{v.before.mean_mm, v.before.rms_mm, v.before.max_mm},
@@ -146,7 +146,7 @@ SimVerification verify_planar(const TwinKind& kind, const Scenario& s,
                               const std::optional<ResultFile>& result) {
     std::optional<modes::PlanarSolution> solution;
     if (result) solution = modes::planar_result_from_json(result->text, result->path);
-    const targets::Correction correct = [&solution](geometry::Point2 p) {
+    const jobs::Correction correct = [&solution](geometry::Point2 p) {
         return modes::planar_command_for(*solution, p);
     };
     const auto verdict = kind.judge_fresh_job(s, solution ? &correct : nullptr);
@@ -346,7 +346,7 @@ class RouterKind final : public TwinKind {
         return verify_planar(*this, s, result);
     }
     RouterVerdict judge_fresh_job(const Scenario& s,
-                                  const targets::Correction* correct) const override {
+                                  const jobs::Correction* correct) const override {
         return judge_router_fresh_holes(s.router_truth, s.machine, correct);
     }
     // A router cuts holes: the camera sees the sheet's top with the holes in it.
@@ -383,7 +383,7 @@ class CartesianKind final : public TwinKind {
     }
     ToolKind tool() const override { return tool_; }
     RouterVerdict judge_fresh_job(const Scenario& s,
-                                  const targets::Correction* correct) const override {
+                                  const jobs::Correction* correct) const override {
         return judge_cartesian_fresh_points(s.cartesian_truth, s.machine, correct);
     }
     SimVerification verify(const Scenario& s,

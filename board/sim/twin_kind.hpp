@@ -45,8 +45,7 @@ class TwinKind {
     virtual ToolKind tool() const = 0;
     // A planar machine's judge in its truth: a fresh job half a pitch off the target's, as
     // commanded and (with `correct`) through the correction. Others throw ScenarioError.
-    virtual RouterVerdict judge_fresh_job(const Scenario& s,
-                                          const targets::Correction* correct) const;
+    virtual RouterVerdict judge_fresh_job(const Scenario& s, const jobs::Correction* correct) const;
     // `calbox sim verify`: a fresh job in the twin's truth, as commanded and through `result`.
     virtual SimVerification verify(const Scenario& s,
                                    const std::optional<ResultFile>& result) const = 0;

@@ -16,7 +16,7 @@
 
 #include "core/number_text.hpp"
 
-namespace calbox::targets {
+namespace calbox::drawings {
 namespace {
 
 constexpr const char* kSvgNamespace = "http://www.w3.org/2000/svg";
@@ -295,4 +295,4 @@ SvgDocument read_drawing(std::string_view text, const SvgOptions& options) {
     return document;
 }
 
-}  // namespace calbox::targets
+}  // namespace calbox::drawings

@@ -11,7 +11,7 @@
 
 #include "core/drawings/svg.hpp"
 
-namespace calbox::targets {
+namespace calbox::drawings {
 
 // Throws SvgError with one line naming the problem: parse_svg's (malformed XML with its line,
 // too large, a geometry value or path data that does not read), no SVG namespace, nothing
@@ -19,4 +19,4 @@ namespace calbox::targets {
 // names that the system does not have (with the one librsvg drew the text in).
 SvgDocument read_drawing(std::string_view text, const SvgOptions& options = {});
 
-}  // namespace calbox::targets
+}  // namespace calbox::drawings

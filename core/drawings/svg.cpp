@@ -13,7 +13,10 @@
 #include "core/number_text.hpp"
 #include "core/targets/toolpath.hpp"
 
-namespace calbox::targets {
+namespace calbox::drawings {
+using targets::intersect_region;
+using targets::Polygon;
+using targets::resolve_fill;
 namespace {
 
 using svg_path::arc_to;
@@ -599,4 +602,4 @@ SvgDocument check_svg_geometry(std::string_view text, const SvgOptions& options)
     return std::move(reader.document);
 }
 
-}  // namespace calbox::targets
+}  // namespace calbox::drawings

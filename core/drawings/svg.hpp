@@ -14,7 +14,7 @@
 
 #include "core/geometry/types.hpp"
 
-namespace calbox::targets {
+namespace calbox::drawings {
 
 // A CSS pixel (1/96 in), the unit of a length without one, in millimetres.
 constexpr double kMmPerCssPixel = 25.4 / 96.0;
@@ -81,4 +81,4 @@ SvgDocument check_svg_geometry(std::string_view text, const SvgOptions& options 
 std::vector<Contour> parse_path_data(std::string_view d, const Affine& to_mm, double tolerance_mm);
 Affine parse_transform(std::string_view text);
 
-}  // namespace calbox::targets
+}  // namespace calbox::drawings

@@ -6,7 +6,7 @@
 
 #include "core/number_text.hpp"
 
-namespace calbox::targets {
+namespace calbox::drawings {
 namespace svg_path {
 
 // ---------------------------------------------------------------------------------------------
@@ -248,4 +248,4 @@ std::vector<Contour> parse_path_data(std::string_view d, const Affine& m, double
     return svg_path::PathReader(d, m, tolerance).read();
 }
 
-}  // namespace calbox::targets
+}  // namespace calbox::drawings

@@ -11,7 +11,7 @@
 
 #include "core/drawings/svg.hpp"
 
-namespace calbox::targets::svg_path {
+namespace calbox::drawings::svg_path {
 
 using geometry::Point2;
 
@@ -95,4 +95,4 @@ void flatten_arc(const Affine& m, Point2 centre, double rx, double ry, double ph
 void arc_to(const Affine& m, Point2 p1, double rx, double ry, double phi_deg, bool large,
             bool sweep, Point2 p2, double tolerance, std::vector<Point2>& out);
 
-}  // namespace calbox::targets::svg_path
+}  // namespace calbox::drawings::svg_path

@@ -17,7 +17,7 @@
 #include "core/jobs/cutter_path.hpp"
 #include "core/number_text.hpp"
 
-namespace calbox::targets {
+namespace calbox::jobs {
 namespace compensating {
 
 // No slicer or CAM program writes a line near this (PrusaSlicer's longest, its settings and
@@ -249,4 +249,4 @@ std::string with_compensated_mark(std::string_view job, std::string_view mark) {
     return out;
 }
 
-}  // namespace calbox::targets
+}  // namespace calbox::jobs

@@ -17,7 +17,7 @@
 #include "core/geometry/types.hpp"
 #include "core/jobs/ngc_program.hpp"
 
-namespace calbox::targets {
+namespace calbox::jobs {
 
 class CompensateError : public std::runtime_error {
   public:
@@ -131,4 +131,4 @@ std::string compensated_mark_in(std::string_view job);
 // `job` with its mark added (a '#' comment for the scanner job, ';' for G-code).
 std::string with_compensated_mark(std::string_view job, std::string_view mark);
 
-}  // namespace calbox::targets
+}  // namespace calbox::jobs

@@ -15,7 +15,7 @@
 #include "core/jobs/gcode_line.hpp"
 #include "core/jobs/job_words.hpp"
 
-namespace calbox::targets::compensating {
+namespace calbox::jobs::compensating {
 
 using geometry::Point2;
 using job_words::Code;
@@ -326,4 +326,4 @@ class Compensator {
     double written_precision_ = 1;  // the job's units: 0.001 for a file written to 3 decimals
 };
 
-}  // namespace calbox::targets::compensating
+}  // namespace calbox::jobs::compensating

@@ -7,7 +7,7 @@
 #include "core/jobs/compensator.hpp"
 #include "core/number_text.hpp"
 
-namespace calbox::targets::compensating {
+namespace calbox::jobs::compensating {
 
 Point2 Compensator::offset_or_fail(const char* doing) const {
     const auto offset = m_.offset_mm();
@@ -297,4 +297,4 @@ std::string Compensator::offset_line(const gcode::Line& line, Point2 xy) const {
     return text;
 }
 
-}  // namespace calbox::targets::compensating
+}  // namespace calbox::jobs::compensating

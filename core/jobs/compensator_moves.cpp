@@ -7,7 +7,7 @@
 #include "core/jobs/compensator.hpp"
 #include "core/number_text.hpp"
 
-namespace calbox::targets::compensating {
+namespace calbox::jobs::compensating {
 
 void Compensator::emit(const std::string& text) {
     out_ += numbered_ ? numbering_.line(text, checksummed_) : text;
@@ -449,4 +449,4 @@ void Compensator::written_out_cycle(Point2 c, Point2 offset, double r_mm, double
     emit("G0" + z(*clear_mm));
 }
 
-}  // namespace calbox::targets::compensating
+}  // namespace calbox::jobs::compensating

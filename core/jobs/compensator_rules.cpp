@@ -8,7 +8,7 @@
 #include "core/jobs/compensator.hpp"
 #include "core/number_text.hpp"
 
-namespace calbox::targets::compensating {
+namespace calbox::jobs::compensating {
 
 void Compensator::refuse_nested_comment(std::string_view raw) {
     for (std::size_t i = 0; i < raw.size() && raw[i] != ';'; ++i) {
@@ -195,4 +195,4 @@ void Compensator::negative_words(const gcode::Line& line) const {
     }
 }
 
-}  // namespace calbox::targets::compensating
+}  // namespace calbox::jobs::compensating

@@ -8,7 +8,7 @@
 #include "core/jobs/compensator.hpp"
 #include "core/number_text.hpp"
 
-namespace calbox::targets::compensating {
+namespace calbox::jobs::compensating {
 
 std::string body_of(std::string_view raw) {
     const std::string_view body = gcode::without_checksum(raw);
@@ -194,4 +194,4 @@ std::string refused_word(const Code& c, const gcode::Line& line, Flavour flavour
     return {};
 }
 
-}  // namespace calbox::targets::compensating
+}  // namespace calbox::jobs::compensating

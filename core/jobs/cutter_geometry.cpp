@@ -6,7 +6,7 @@
 
 #include "core/jobs/job_words.hpp"
 
-namespace calbox::targets::cutter_geometry {
+namespace calbox::jobs::cutter_geometry {
 namespace {
 
 using std::numbers::pi;
@@ -128,4 +128,4 @@ std::optional<Point2> arc_meets_line(Point2 held_centre, double held_radius, int
                   (minus ? -std::acos(share) : std::acos(share)) + normal + pi);
 }
 
-}  // namespace calbox::targets::cutter_geometry
+}  // namespace calbox::jobs::cutter_geometry

@@ -8,7 +8,7 @@
 
 #include "core/geometry/types.hpp"
 
-namespace calbox::targets::cutter_geometry {
+namespace calbox::jobs::cutter_geometry {
 
 using geometry::Point2;
 
@@ -53,4 +53,4 @@ std::optional<Point2> arc_meets_line(Point2 held_centre, double held_radius, int
                                      bool held_inside, Point2 corner, Point2 to,
                                      double cutter_radius);
 
-}  // namespace calbox::targets::cutter_geometry
+}  // namespace calbox::jobs::cutter_geometry

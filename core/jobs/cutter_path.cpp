@@ -8,7 +8,7 @@
 #include "core/jobs/compensate.hpp"
 #include "core/jobs/cutter_geometry.hpp"
 
-namespace calbox::targets {
+namespace calbox::jobs {
 namespace {
 
 using geometry::distance;
@@ -696,4 +696,4 @@ JobLines cutter_path(const JobLines& lines, std::optional<double> tool_radius_mm
     return CutterPath(tool_radius_mm, read).run(lines);
 }
 
-}  // namespace calbox::targets
+}  // namespace calbox::jobs

@@ -8,7 +8,7 @@
 
 #include "core/jobs/job_words.hpp"
 
-namespace calbox::targets {
+namespace calbox::jobs {
 
 // A job's lines, each with its number in the file (for a refusal).
 using JobLines = std::vector<std::pair<std::string, long>>;
@@ -32,4 +32,4 @@ using ReadJobLine = std::function<job_words::ReadLine(const std::string&, long)>
 JobLines cutter_path(const JobLines& lines, std::optional<double> tool_radius_mm,
                      const ReadJobLine& read);
 
-}  // namespace calbox::targets
+}  // namespace calbox::jobs

@@ -8,7 +8,20 @@
 #include "core/number_text.hpp"
 #include "core/targets/toolpath.hpp"
 
-namespace calbox::targets {
+namespace calbox::jobs {
+using drawings::Contour;
+using drawings::FillRule;
+using drawings::SvgDocument;
+using drawings::SvgShape;
+using targets::append;
+using targets::FillSettings;
+using targets::intersect_lines;
+using targets::intersect_region;
+using targets::MoveKind;
+using targets::plan_fill;
+using targets::plan_trace;
+using targets::Polygon;
+using targets::resolve_fill;
 namespace {
 
 using geometry::Point2;
@@ -311,4 +324,4 @@ std::string write_gcode(const PlacedJob& job, const models::MachineFile& m,
     return out;
 }
 
-}  // namespace calbox::targets
+}  // namespace calbox::jobs

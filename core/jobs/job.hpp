@@ -6,11 +6,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "core/models/machine_file.hpp"
 #include "core/drawings/svg.hpp"
+#include "core/models/machine_file.hpp"
 #include "core/targets/toolpath.hpp"
 
-namespace calbox::targets {
+namespace calbox::jobs {
 
 class JobError : public std::runtime_error {
   public:
@@ -18,17 +18,17 @@ class JobError : public std::runtime_error {
 };
 
 struct SvgJobSettings {
-    std::optional<double> spacing_mm;   // default: the line width
-    std::optional<double> angle_deg;    // default: whichever travels least
-    std::optional<double> feed_mm_s;    // default: the machine file's
-    std::optional<double> scale;        // multiplies the drawing's millimetres
-    std::optional<double> fit_mm;       // or: the larger side becomes this long
-    std::optional<FillRule> fill_rule;  // overrides every shape's own
+    std::optional<double> spacing_mm;             // default: the line width
+    std::optional<double> angle_deg;              // default: whichever travels least
+    std::optional<double> feed_mm_s;              // default: the machine file's
+    std::optional<double> scale;                  // multiplies the drawing's millimetres
+    std::optional<double> fit_mm;                 // or: the larger side becomes this long
+    std::optional<drawings::FillRule> fill_rule;  // overrides every shape's own
     int perimeters = 1;
 };
 
 struct PlacedJob {
-    Toolpath toolpath;
+    targets::Toolpath toolpath;
     double scale = 1;  // drawing mm -> machine mm
     double line_width_mm = 0;
     double spacing_mm = 0;
@@ -50,11 +50,11 @@ struct PlacedJob {
 double checked_spacing_mm(const models::MachineFile& machine, std::optional<double> spacing_mm);
 
 // Throws JobError for bad settings or a drawing that does not fit on the bed.
-PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& machine,
+PlacedJob plan_svg_job(const drawings::SvgDocument& document, const models::MachineFile& machine,
                        const SvgJobSettings& settings);
 
 // The whole job, ready to send: start, the toolpath at the working height, end.
 std::string write_gcode(const PlacedJob& job, const models::MachineFile& machine,
                         const std::string& title);
 
-}  // namespace calbox::targets
+}  // namespace calbox::jobs

@@ -7,7 +7,7 @@
 #include "core/jobs/compensator.hpp"
 #include "core/number_text.hpp"
 
-namespace calbox::targets::compensating {
+namespace calbox::jobs::compensating {
 
 std::vector<PathPoint> line_path(bool start_known, Point2 from, Point2 to,
                                  std::optional<double> z_from, std::optional<double> z_to,
@@ -154,4 +154,4 @@ Point2 held_correction(const MachineCorrection& correction, Point2 p, Compensate
     return {p.x + c.x - q.x, p.y + c.y - q.y};
 }
 
-}  // namespace calbox::targets::compensating
+}  // namespace calbox::jobs::compensating

@@ -5,7 +5,7 @@
 
 #include "core/number_text.hpp"
 
-namespace calbox::targets::job_words {
+namespace calbox::jobs::job_words {
 
 std::string number(double v, int decimals) {
     std::string s = fixed_text(v, decimals);
@@ -129,4 +129,4 @@ std::string rebuilt_line(const std::string& raw, const ReadLine& r, const std::s
     return text;
 }
 
-}  // namespace calbox::targets::job_words
+}  // namespace calbox::jobs::job_words

@@ -10,7 +10,7 @@
 
 #include "core/jobs/gcode_line.hpp"
 
-namespace calbox::targets::job_words {
+namespace calbox::jobs::job_words {
 
 // A number as G-code writes it: no exponent, no trailing zeros.
 std::string number(double v, int decimals);
@@ -87,4 +87,4 @@ MoveWords move_words(const std::string& raw, const ReadLine& r, std::string_view
 std::string rebuilt_line(const std::string& raw, const ReadLine& r, const std::string& extra = {},
                          std::string_view drop = {});
 
-}  // namespace calbox::targets::job_words
+}  // namespace calbox::jobs::job_words

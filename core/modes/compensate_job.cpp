@@ -19,8 +19,8 @@ namespace {
 
 using geometry::Point2;
 
-constexpr const char* kSystemNames[targets::kWorkSystems] = {"G54", "G55",   "G56",   "G57",  "G58",
-                                                             "G59", "G59.1", "G59.2", "G59.3"};
+constexpr const char* kSystemNames[jobs::kWorkSystems] = {"G54", "G55",   "G56",   "G57",  "G58",
+                                                          "G59", "G59.1", "G59.2", "G59.3"};
 
 std::string mm(double v) {
     return number_text("%.3f", v);
@@ -61,9 +61,9 @@ std::string schema_of(const std::string& text, const std::string& name) {
 
 }  // namespace
 
-std::array<std::optional<Point2>, targets::kWorkSystems> parse_work_zero(const std::string& spec,
-                                                                         Point2 measured_mm) {
-    std::array<std::optional<Point2>, targets::kWorkSystems> zeros{};
+std::array<std::optional<Point2>, jobs::kWorkSystems> parse_work_zero(const std::string& spec,
+                                                                      Point2 measured_mm) {
+    std::array<std::optional<Point2>, jobs::kWorkSystems> zeros{};
     const auto bad = [&](const std::string& what) {
         return JobError("--work-zero '" + spec + "': " + what +
                         "; give X,Y (G54's zero in machine coordinates), 'measured', or "
@@ -79,10 +79,10 @@ std::array<std::optional<Point2>, targets::kWorkSystems> parse_work_zero(const s
         if (const auto eq = entry.find('='); eq != std::string::npos) {
             std::string name = entry.substr(0, eq);
             for (auto& c : name) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
-            system = targets::kWorkSystems;
-            for (std::size_t k = 0; k < targets::kWorkSystems; ++k)
+            system = jobs::kWorkSystems;
+            for (std::size_t k = 0; k < jobs::kWorkSystems; ++k)
                 if (name == kSystemNames[k]) system = k;
-            if (system == targets::kWorkSystems) throw bad("'" + name + "' is no work system");
+            if (system == jobs::kWorkSystems) throw bad("'" + name + "' is no work system");
             value = entry.substr(eq + 1);
         }
         if (zeros[system]) throw bad(std::string(kSystemNames[system]) + " given twice");
@@ -102,7 +102,7 @@ namespace {
 
 // The job placed where its drawing's printed marks were found (--register).
 std::string registered_zero(const JobRequest& r, const PlanarSolution& planar,
-                            targets::JobFrame& frame) {
+                            jobs::JobFrame& frame) {
     const auto found = registration_from_json(*r.registration_text, *r.registration_name);
     if (found.machine_fingerprint != planar.machine_fingerprint)
         throw JobError(
@@ -121,8 +121,7 @@ std::string registered_zero(const JobRequest& r, const PlanarSolution& planar,
 }
 
 // The job placed at a corner of the sheet the camera found (--work-zero camera), turned with it.
-std::string camera_zero(const JobRequest& r, const PlanarSolution& planar,
-                        targets::JobFrame& frame) {
+std::string camera_zero(const JobRequest& r, const PlanarSolution& planar, jobs::JobFrame& frame) {
     const auto found = stock_from_json(*r.stock_text, *r.stock_name);
     if (found.machine_fingerprint != planar.machine_fingerprint)
         throw JobError(*r.stock_name +
@@ -146,10 +145,10 @@ std::string camera_zero(const JobRequest& r, const PlanarSolution& planar,
 
 // Where a router's, laser's or printer's job lies on the machine: what says so, in words.
 std::string planar_job_zero(const JobRequest& r, const PlanarSolution& planar, Point2 zm,
-                            targets::JobFrame& frame) {
+                            jobs::JobFrame& frame) {
     const auto& f = *planar.frame;
     std::string zero_from;
-    if (frame.flavour == targets::Flavour::printer) {
+    if (frame.flavour == jobs::Flavour::printer) {
         if (r.work_zero || r.stock_text || r.registration_text)
             throw JobError(r.job_name +
                            ": a printer's job is in machine coordinates (its G92 tracked); "
@@ -188,8 +187,8 @@ std::string planar_job_zero(const JobRequest& r, const PlanarSolution& planar, P
 }
 
 // A planar result's correction and the job's frame from it.
-void planar_correction(const JobRequest& r, targets::MachineCorrection& correction,
-                       targets::JobFrame& frame, CompensatedJob& done) {
+void planar_correction(const JobRequest& r, jobs::MachineCorrection& correction,
+                       jobs::JobFrame& frame, CompensatedJob& done) {
     const PlanarSolution planar = planar_result_from_json(r.result_text, r.result_name);
     if (!planar.frame)
         throw JobError(r.result_name +
@@ -204,11 +203,11 @@ void planar_correction(const JobRequest& r, targets::MachineCorrection& correcti
     correction.measured_mm = {planar.min_x_mm + zm.x, planar.min_y_mm + zm.y,
                               planar.max_x_mm + zm.x, planar.max_y_mm + zm.y};
     frame.travel_mm = {f.travel_min_x_mm, f.travel_min_y_mm, f.travel_max_x_mm, f.travel_max_y_mm};
-    frame.flavour = targets::flavour_of_firmware(f.firmware);
+    frame.flavour = jobs::flavour_of_firmware(f.firmware);
     const std::string zero_from = planar_job_zero(r, planar, zm, frame);
     done.frame_line = "frame: job placed with " + zero_from;
     // A printer's job is in machine coordinates: no work zero to name.
-    if (frame.work_zero_mm[0] && frame.flavour != targets::Flavour::printer)
+    if (frame.work_zero_mm[0] && frame.flavour != jobs::Flavour::printer)
         done.frame_line += " (G54 zero at machine X" + mm(frame.work_zero_mm[0]->x) + " Y" +
                            mm(frame.work_zero_mm[0]->y) + " mm)";
     done.frame_line +=
@@ -221,8 +220,8 @@ void planar_correction(const JobRequest& r, targets::MachineCorrection& correcti
 }
 
 // A galvo result's correction: the job in the scanner's field coordinates.
-void galvo_correction(const JobRequest& r, targets::MachineCorrection& correction,
-                      targets::JobFrame& frame, CompensatedJob& done) {
+void galvo_correction(const JobRequest& r, jobs::MachineCorrection& correction,
+                      jobs::JobFrame& frame, CompensatedJob& done) {
     if (r.stock_text || r.registration_text || (r.work_zero && *r.work_zero == "camera"))
         throw JobError(r.result_name +
                        ": a scanner's job is in its field's coordinates; --work-zero camera "
@@ -233,7 +232,7 @@ void galvo_correction(const JobRequest& r, targets::MachineCorrection& correctio
     correction.measured_mm = {table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm};
     // A scanner's job is in its field's coordinates, the machine's own; the field is its
     // travel.
-    frame.flavour = targets::Flavour::grbl;
+    frame.flavour = jobs::Flavour::grbl;
     frame.work_zero_mm = {Point2{}};
     if (galvo.field_size_mm) {
         const double half = *galvo.field_size_mm / 2;
@@ -247,7 +246,7 @@ void galvo_correction(const JobRequest& r, targets::MachineCorrection& correctio
 }
 
 // Where the tool stands when the job starts (--start-at), inside the travel.
-void start_at(const JobRequest& r, targets::JobFrame& frame, CompensatedJob& done) {
+void start_at(const JobRequest& r, jobs::JobFrame& frame, CompensatedJob& done) {
     if (r.start_at) {
         const auto start = pair_of(*r.start_at);
         if (!start)
@@ -265,14 +264,13 @@ void start_at(const JobRequest& r, targets::JobFrame& frame, CompensatedJob& don
 }  // namespace
 
 CompensatedJob compensate_job(const JobRequest& r) {
-    if (const auto mark = targets::compensated_mark_in(r.job_text);
-        !mark.empty() && !r.again_because)
+    if (const auto mark = jobs::compensated_mark_in(r.job_text); !mark.empty() && !r.again_because)
         throw JobError(r.job_name + ": already compensated (its line '" + mark +
                        "'): compensating it again would correct twice; give --again REASON if "
                        "that is meant");
     const std::string schema = schema_of(r.result_text, r.result_name);
-    targets::MachineCorrection correction;
-    targets::JobFrame frame;
+    jobs::MachineCorrection correction;
+    jobs::JobFrame frame;
     CompensatedJob done;
     if (schema.rfind("calbox.planar-result/", 0) == 0) {
         planar_correction(r, correction, frame, done);
@@ -287,13 +285,13 @@ CompensatedJob compensate_job(const JobRequest& r) {
         const bool scanner = r.job_text.rfind("x_mm,y_mm,power", 0) == 0;
         const std::string compensated =
             scanner
-                ? targets::compensate_scanner_csv(r.job_text, correction, frame, r.settings,
-                                                  done.report)
-                : targets::compensate_gcode(r.job_text, correction, frame, r.settings, done.report);
-        std::string mark = targets::compensated_mark(models::digest(r.result_text), r.date);
+                ? jobs::compensate_scanner_csv(r.job_text, correction, frame, r.settings,
+                                               done.report)
+                : jobs::compensate_gcode(r.job_text, correction, frame, r.settings, done.report);
+        std::string mark = jobs::compensated_mark(models::digest(r.result_text), r.date);
         if (r.again_because) mark += " (again: " + *r.again_because + ")";
-        done.text = targets::with_compensated_mark(compensated, mark);
-    } catch (const targets::CompensateError& e) {
+        done.text = jobs::with_compensated_mark(compensated, mark);
+    } catch (const jobs::CompensateError& e) {
         throw JobError(r.job_name + ": " + e.what());
     }
     const auto& rep = done.report;

@@ -36,14 +36,14 @@ struct JobRequest {
     std::string work_zero_from;  // where the work zero came from, when not the owner's option
     std::optional<std::string> again_because;  // compensate a marked job again, for this reason
     std::string date;                          // for the mark: the caller's clock
-    targets::CompensateSettings settings;
+    jobs::CompensateSettings settings;
     // Keep where the job means the tool to go (the report's path_mm): to draw it on the bed.
     bool keep_path = false;
 };
 
 struct CompensatedJob {
     std::string text;  // the compensated job, its mark first
-    targets::CompensateReport report;
+    jobs::CompensateReport report;
     std::string frame_line;  // which frame it was placed in, in one line
     std::string summary;     // lines, moves, pieces, arcs, holes
     std::string held_line;   // "" or how many points took the measured area's edge correction
@@ -53,7 +53,7 @@ struct CompensatedJob {
 CompensatedJob compensate_job(const JobRequest& request);
 
 // "X,Y" -> G54's zero; "G55=X,Y ..." -> each; "measured" -> `measured_mm`. Throws JobError.
-std::array<std::optional<geometry::Point2>, targets::kWorkSystems> parse_work_zero(
+std::array<std::optional<geometry::Point2>, jobs::kWorkSystems> parse_work_zero(
     const std::string& spec, geometry::Point2 measured_mm);
 
 }  // namespace calbox::modes

@@ -10,12 +10,12 @@ namespace calbox::modes {
 using geometry::Point2;
 
 ErrorFigures error_through(const std::vector<Point2>& commanded_mm,
-                           const std::vector<Point2>& error_mm, const targets::KeptCorrection& kept,
-                           const targets::Correction& error_field) {
+                           const std::vector<Point2>& error_mm, const jobs::KeptCorrection& kept,
+                           const jobs::Correction& error_field) {
     if (commanded_mm.size() != error_mm.size() || commanded_mm.size() < 3)
         throw std::invalid_argument(
             "the error through a correction needs as many errors as points, at least three");
-    const targets::Area kept_area{kept.min_x_mm, kept.min_y_mm, kept.max_x_mm, kept.max_y_mm};
+    const jobs::Area kept_area{kept.min_x_mm, kept.min_y_mm, kept.max_x_mm, kept.max_y_mm};
     std::vector<Point2> meant, landed;
     meant.reserve(commanded_mm.size());
     landed.reserve(commanded_mm.size());

@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
-#include "core/modes/goal.hpp"
 #include "core/jobs/compensate.hpp"
+#include "core/modes/goal.hpp"
 
 namespace calbox::modes {
 
@@ -22,7 +22,7 @@ namespace calbox::modes {
 // lists of different lengths or under three points.
 ErrorFigures error_through(const std::vector<geometry::Point2>& commanded_mm,
                            const std::vector<geometry::Point2>& error_mm,
-                           const targets::KeptCorrection& kept,
-                           const targets::Correction& error_field = {});
+                           const jobs::KeptCorrection& kept,
+                           const jobs::Correction& error_field = {});
 
 }  // namespace calbox::modes

@@ -10,6 +10,9 @@
 #include "core/geometry/pattern_spec.hpp"
 
 namespace calbox::targets {
+using drawings::Contour;
+using drawings::FillRule;
+using jobs::JobError;
 namespace {
 
 using geometry::Point2;

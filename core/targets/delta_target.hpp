@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
-#include "core/models/machine_file.hpp"
 #include "core/jobs/job.hpp"
+#include "core/models/machine_file.hpp"
 
 namespace calbox::targets {
 
@@ -55,7 +55,7 @@ struct TargetBar {
 };
 
 struct DeltaTarget {
-    PlacedJob job;
+    jobs::PlacedJob job;
     std::vector<TargetMarker> markers;
     std::vector<TargetBar> bars;
     double top_height_mm = 0;       // the printed surface the camera sees

@@ -9,6 +9,10 @@
 #include "core/number_text.hpp"
 
 namespace calbox::targets {
+using drawings::Contour;
+using drawings::FillRule;
+using jobs::JobError;
+using jobs::PlacedJob;
 namespace {
 
 using geometry::Point2;

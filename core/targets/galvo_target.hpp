@@ -7,8 +7,8 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
-#include "core/models/machine_file.hpp"
 #include "core/jobs/job.hpp"
+#include "core/models/machine_file.hpp"
 
 namespace calbox::targets {
 
@@ -32,7 +32,7 @@ struct GalvoTarget {
     int grid_count = 0;
     double pitch_mm = 0;
     std::vector<GalvoMark> marks;  // row by row, index.row * grid_count + index.column
-    PlacedJob job;                 // every circle filled with the spot
+    jobs::PlacedJob job;           // every circle filled with the spot
     std::string fingerprint;       // of the layout and the machine it was made for
     const GalvoMark& at(GridIndex i) const {
         return marks[geometry::grid_offset(i.column, i.row, grid_count)];
@@ -58,6 +58,6 @@ GalvoTarget make_galvo_target(const models::MachineFile& machine,
 // A plain scanner job for controllers that take lists of marks (a vendor tool, a Modbus
 // controller): one line per point, "x_mm,y_mm,power", power 0 jumps there and power > 0 marks
 // the line to it, after a header line "x_mm,y_mm,power".
-std::string write_scanner_job_csv(const PlacedJob& job, const models::MachineFile& machine);
+std::string write_scanner_job_csv(const jobs::PlacedJob& job, const models::MachineFile& machine);
 
 }  // namespace calbox::targets

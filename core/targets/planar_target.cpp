@@ -8,6 +8,11 @@
 #include "core/number_text.hpp"
 
 namespace calbox::targets {
+using drawings::Contour;
+using drawings::FillRule;
+using jobs::JobError;
+using jobs::PlacedJob;
+using jobs::write_gcode;
 namespace {
 
 using geometry::Point2;

@@ -8,6 +8,8 @@
 #include <optional>
 
 namespace calbox::targets {
+using drawings::Contour;
+using drawings::FillRule;
 namespace {
 
 using geometry::Point2;

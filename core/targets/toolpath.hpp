@@ -7,8 +7,8 @@
 #include <optional>
 #include <vector>
 
-#include "core/geometry/types.hpp"
 #include "core/drawings/svg.hpp"
+#include "core/geometry/types.hpp"
 
 namespace calbox::targets {
 
@@ -45,7 +45,8 @@ struct FillSettings {
 
 // The region a set of contours encloses under a fill rule, as outer boundaries and holes that
 // do not overlap (open contours closed implicitly).
-std::vector<Polygon> resolve_fill(const std::vector<Contour>& contours, FillRule rule);
+std::vector<Polygon> resolve_fill(const std::vector<drawings::Contour>& contours,
+                                  drawings::FillRule rule);
 
 // The part of a resolved region inside `window` (a resolved region too: a page, a clip path).
 std::vector<Polygon> intersect_region(const std::vector<Polygon>& region,
@@ -53,8 +54,8 @@ std::vector<Polygon> intersect_region(const std::vector<Polygon>& region,
 
 // The pieces of lines (a closed contour with its closing side) inside `window` (a resolved
 // region), as open lines.
-std::vector<Contour> intersect_lines(const std::vector<Contour>& lines,
-                                     const std::vector<Polygon>& window);
+std::vector<drawings::Contour> intersect_lines(const std::vector<drawings::Contour>& lines,
+                                               const std::vector<Polygon>& window);
 
 // Insets (negative) or outsets a resolved region by `distance_mm`, mitred corners.
 std::vector<Polygon> offset_region(const std::vector<Polygon>& region, double distance_mm);
@@ -71,10 +72,10 @@ std::vector<ScanSegment> scanline_fill(const std::vector<Polygon>& region, doubl
                                        double angle_deg);
 
 // Perimeters then zigzag infill for a filled shape, starting from `start`.
-Toolpath plan_fill(const std::vector<Contour>& contours, FillRule rule,
+Toolpath plan_fill(const std::vector<drawings::Contour>& contours, drawings::FillRule rule,
                    const FillSettings& settings, geometry::Point2& start);
 // The contours themselves, for shapes with only a stroke.
-Toolpath plan_trace(const std::vector<Contour>& contours, geometry::Point2& start);
+Toolpath plan_trace(const std::vector<drawings::Contour>& contours, geometry::Point2& start);
 
 void append(Toolpath& to, const Toolpath& from);
 

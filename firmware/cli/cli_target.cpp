@@ -17,7 +17,7 @@ int target_svg(const Args& args) {
     const std::string svg_path = args.positional()[0];
     const std::string machine_path = args.require("--machine");
     const std::string out = args.require("-o");
-    targets::SvgJobSettings settings;
+    jobs::SvgJobSettings settings;
     if (args.get("--spacing")) settings.spacing_mm = args.number("--spacing", 0);
     if (args.get("--angle")) settings.angle_deg = args.number("--angle", 0);
     if (args.get("--feed")) settings.feed_mm_s = args.number("--feed", 0);
@@ -28,7 +28,7 @@ int target_svg(const Args& args) {
         if (*rule != "nonzero" && *rule != "evenodd")
             throw UsageError("--fill-rule must be nonzero or evenodd");
         settings.fill_rule =
-            *rule == "evenodd" ? targets::FillRule::evenodd : targets::FillRule::nonzero;
+            *rule == "evenodd" ? drawings::FillRule::evenodd : drawings::FillRule::nonzero;
     }
     const auto machine =
         models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path);
@@ -38,10 +38,10 @@ int target_svg(const Args& args) {
         throw std::runtime_error(svg_path + ": the document is " + std::to_string(size) +
                                  " bytes, over the limit of " + std::to_string(kMaxSvgBytes));
     }
-    targets::SvgDocument document;
+    drawings::SvgDocument document;
     try {
-        document = targets::read_drawing(read_input_file(svg_path, "drawing"));
-    } catch (const targets::SvgError& e) {
+        document = drawings::read_drawing(read_input_file(svg_path, "drawing"));
+    } catch (const drawings::SvgError& e) {
         throw std::runtime_error(svg_path + ": " + e.what());
     }
     for (const auto& warning : document.warnings)
@@ -49,7 +49,7 @@ int target_svg(const Args& args) {
     // Whatever the drawing cannot become is said of the drawing.
     const auto job = [&] {
         try {
-            return targets::plan_svg_job(document, machine, settings);
+            return jobs::plan_svg_job(document, machine, settings);
         } catch (const std::runtime_error& e) {
             throw std::runtime_error(svg_path + ": " + e.what());
         }
@@ -60,7 +60,7 @@ int target_svg(const Args& args) {
                      "its edge, as a browser shows them\n",
                      svg_path.c_str(), job.shapes_cut_at_page);
     write_output_file(
-        out, targets::write_gcode(
+        out, jobs::write_gcode(
                  job, machine,
                  "calbox target svg " + std::filesystem::path(svg_path).filename().string()));
     std::printf("%s: %.2f x %.2f mm, %zu moves, path %.1f mm, travel %.1f mm, about %.0f s\n",

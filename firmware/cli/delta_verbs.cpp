@@ -31,8 +31,8 @@ int target_delta(const Args& args) {
         throw UsageError("--layers must be 1 to 5");
     options.layers = static_cast<int>(layers);
     const auto target = targets::make_delta_target(machine, options);
-    write_output_file(out, targets::write_gcode(target.job, machine,
-                                                "calbox target delta " + target.fingerprint));
+    write_output_file(
+        out, jobs::write_gcode(target.job, machine, "calbox target delta " + target.fingerprint));
     if (const auto describe = args.get("--describe")) {
         const auto point = [](geometry::Point2 p) { return nlohmann::json::array({p.x, p.y}); };
         nlohmann::json markers = nlohmann::json::array(), bars = nlohmann::json::array();

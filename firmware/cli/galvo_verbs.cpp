@@ -29,8 +29,8 @@ int target_galvo(const Args& args) {
     const auto target = targets::make_galvo_target(machine, {static_cast<int>(grid)});
     write_output_file(out, format == "csv"
                                ? targets::write_scanner_job_csv(target.job, machine)
-                               : targets::write_gcode(target.job, machine,
-                                                      "calbox target galvo " + target.fingerprint));
+                               : jobs::write_gcode(target.job, machine,
+                                                   "calbox target galvo " + target.fingerprint));
     if (const auto describe = args.get("--describe")) {
         nlohmann::json marks = nlohmann::json::array();
         for (const auto& m : target.marks)

@@ -59,7 +59,7 @@ SetUp read_set_up(const Args& args) {
         models::parse_machine_file(read_input_file(machine_path, "machine file"), machine_path)};
 }
 
-void draw_preview(const std::string& path, const targets::PlacedJob& job,
+void draw_preview(const std::string& path, const jobs::PlacedJob& job,
                   const models::MachineFile& machine) {
     const double margin_mm = 2 + job.line_width_mm;
     const double width_mm = job.max_x - job.min_x + 2 * margin_mm,

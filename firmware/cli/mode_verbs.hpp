@@ -6,8 +6,8 @@
 #include <vector>
 
 #include "core/geometry/calibration.hpp"
-#include "core/models/machine_file.hpp"
 #include "core/jobs/job.hpp"
+#include "core/models/machine_file.hpp"
 #include "firmware/cli/cli_args.hpp"
 
 namespace calbox::cli {
@@ -34,7 +34,7 @@ struct SetUp {
 SetUp read_set_up(const Args& args);
 
 // A job drawn (--preview): perimeters, infill, traces and travel, with its length and time.
-void draw_preview(const std::string& path, const targets::PlacedJob& job,
+void draw_preview(const std::string& path, const jobs::PlacedJob& job,
                   const models::MachineFile& machine);
 
 // The options the verbs share.

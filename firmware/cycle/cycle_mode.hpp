@@ -13,9 +13,9 @@
 #include <utility>
 #include <vector>
 
+#include "core/jobs/compensate.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/modes/goal.hpp"
-#include "core/jobs/compensate.hpp"
 #include "firmware/cycle/screens.hpp"
 #include "firmware/links/job_text.hpp"
 #include "firmware/links/machine_link.hpp"
@@ -191,7 +191,7 @@ class CycleMode {
     virtual std::string revert(int number, std::function<void(std::string what)> then) = 0;
     // The correction the box sends jobs through, as kept in its data directory (none for a
     // machine whose own settings were corrected).
-    virtual std::optional<targets::KeptCorrection> kept_correction() const { return std::nullopt; }
+    virtual std::optional<jobs::KeptCorrection> kept_correction() const { return std::nullopt; }
     // The result file of that correction, as kept (for jobs compensated through the box).
     virtual std::optional<std::string> kept_result_text() const { return std::nullopt; }
     // The files the mode keeps in the data directory beside the cycles' records (its

@@ -4,13 +4,13 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "core/jobs/job.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/models/klipper_config.hpp"
 #include "core/models/machine_import.hpp"
 #include "core/modes/delta_probe.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/delta_target.hpp"
-#include "core/jobs/job.hpp"
 #include "firmware/cycle/overlays.hpp"
 #include "firmware/cycle/photos.hpp"
 #include "firmware/modes/klipper_host.hpp"
@@ -63,8 +63,8 @@ void DeltaCycleMode::make_target(std::function<void(std::vector<std::string>)> t
     work_out<std::vector<std::string>>(
         steps_,
         [machine = machine_] {
-            return lines_of(targets::write_gcode(targets::make_delta_target(machine).job, machine,
-                                                 "calbox target"));
+            return lines_of(jobs::write_gcode(targets::make_delta_target(machine).job, machine,
+                                              "calbox target"));
         },
         std::move(then));
 }

@@ -1,9 +1,9 @@
 #include "firmware/modes/galvo_mode.hpp"
 
+#include "core/jobs/job.hpp"
 #include "core/modes/error_through.hpp"
 #include "core/number_text.hpp"
 #include "core/targets/galvo_target.hpp"
-#include "core/jobs/job.hpp"
 #include "firmware/cycle/overlays.hpp"
 #include "firmware/cycle/photos.hpp"
 
@@ -14,7 +14,7 @@ modes::ErrorFigures figures_of(const models::ErrorStatistics& s) {
     return {s.mean_mm, s.rms_mm, s.max_mm};
 }
 
-targets::Correction through_table(const models::CorrectionTable& table) {
+jobs::Correction through_table(const models::CorrectionTable& table) {
     return [table](geometry::Point2 p) { return table.command_for(p); };
 }
 
@@ -35,8 +35,8 @@ void GalvoCycleMode::make_target(std::function<void(std::vector<std::string>)> t
     work_out<std::vector<std::string>>(
         steps_,
         [machine = machine_] {
-            return lines_of(targets::write_gcode(targets::make_galvo_target(machine).job, machine,
-                                                 "calbox target"));
+            return lines_of(jobs::write_gcode(targets::make_galvo_target(machine).job, machine,
+                                              "calbox target"));
         },
         std::move(then));
 }
@@ -171,21 +171,21 @@ std::string GalvoCycleMode::kept_text() const {
     return modes::galvo_result_to_json(*solution_);
 }
 
-targets::Correction GalvoCycleMode::correction() const {
+jobs::Correction GalvoCycleMode::correction() const {
     return through_table(solution_->fit.table);
 }
 
-targets::Area GalvoCycleMode::measured_area() const {
+jobs::Area GalvoCycleMode::measured_area() const {
     const auto& t = solution_->fit.table;
     return {t.min_x_mm, t.min_y_mm, t.max_x_mm, t.max_y_mm};
 }
 
 // A scanner's jobs are in its field's coordinates: the machine's own.
-targets::JobFrame GalvoCycleMode::target_frame() const {
-    return {targets::Flavour::grbl, {geometry::Point2{}}, {}, {}};
+jobs::JobFrame GalvoCycleMode::target_frame() const {
+    return {jobs::Flavour::grbl, {geometry::Point2{}}, {}, {}};
 }
 
-targets::KeptCorrection GalvoCycleMode::correction_of(const std::string& kept_text) const {
+jobs::KeptCorrection GalvoCycleMode::correction_of(const std::string& kept_text) const {
     const auto table = modes::galvo_result_from_json(kept_text, kGalvoTableFile).fit.table;
     return {through_table(table), table.min_x_mm, table.min_y_mm, table.max_x_mm, table.max_y_mm};
 }

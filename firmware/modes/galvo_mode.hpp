@@ -37,10 +37,10 @@ class GalvoCycleMode final : public KeptCorrectionMode {
 
   protected:
     std::string kept_text() const override;
-    targets::Correction correction() const override;
-    targets::Area measured_area() const override;
-    targets::JobFrame target_frame() const override;
-    targets::KeptCorrection correction_of(const std::string& kept_text) const override;
+    jobs::Correction correction() const override;
+    jobs::Area measured_area() const override;
+    jobs::JobFrame target_frame() const override;
+    jobs::KeptCorrection correction_of(const std::string& kept_text) const override;
 
   private:
     models::MachineFile machine_;

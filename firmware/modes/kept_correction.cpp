@@ -20,11 +20,10 @@ void KeptCorrectionMode::verification_job(const std::vector<std::string>& target
                                           std::function<void(std::vector<std::string>)> then) {
     work_out<std::vector<std::string>>(
         steps_,
-        [text = joined(target),
-         correction = targets::MachineCorrection{correction(), measured_area()},
+        [text = joined(target), correction = jobs::MachineCorrection{correction(), measured_area()},
          frame = target_frame()] {
-            targets::CompensateReport ignored;
-            return lines_of(targets::compensate_gcode(text, correction, frame, {}, ignored));
+            jobs::CompensateReport ignored;
+            return lines_of(jobs::compensate_gcode(text, correction, frame, {}, ignored));
         },
         std::move(then));
 }
@@ -48,7 +47,7 @@ std::optional<std::string> KeptCorrectionMode::kept_result_text() const {
     return kept;
 }
 
-std::optional<targets::KeptCorrection> KeptCorrectionMode::correction_in_force() const {
+std::optional<jobs::KeptCorrection> KeptCorrectionMode::correction_in_force() const {
     try {
         return kept_correction();
     } catch (const std::exception& e) {
@@ -59,7 +58,7 @@ std::optional<targets::KeptCorrection> KeptCorrectionMode::correction_in_force()
     }
 }
 
-std::optional<targets::KeptCorrection> KeptCorrectionMode::kept_correction() const {
+std::optional<jobs::KeptCorrection> KeptCorrectionMode::kept_correction() const {
     const auto kept = steps_.read(files_.kept);
     if (!kept || *kept == files_.none) return std::nullopt;
     return correction_of(*kept);

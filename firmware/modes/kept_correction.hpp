@@ -24,7 +24,7 @@ class KeptCorrectionMode : public CycleMode {
     void verification_job(const std::vector<std::string>& target,
                           std::function<void(std::vector<std::string>)> then) override;
     std::string revert(int number, std::function<void(std::string what)> then) override;
-    std::optional<targets::KeptCorrection> kept_correction() const override;
+    std::optional<jobs::KeptCorrection> kept_correction() const override;
     std::optional<std::string> kept_result_text() const override;
     std::vector<std::string> kept_files() const override { return {files_.kept}; }
 
@@ -33,16 +33,16 @@ class KeptCorrectionMode : public CycleMode {
         : steps_(steps), files_(files) {}
     // The solved correction as the box keeps it, and as jobs go through it.
     virtual std::string kept_text() const = 0;
-    virtual targets::Correction correction() const = 0;
+    virtual jobs::Correction correction() const = 0;
     // Where the correction was measured, in machine coordinates (held at its edge beyond), and
     // the frame the target ran in.
-    virtual targets::Area measured_area() const = 0;
-    virtual targets::JobFrame target_frame() const = 0;
+    virtual jobs::Area measured_area() const = 0;
+    virtual jobs::JobFrame target_frame() const = 0;
     // A kept file read back (throws when it does not parse).
-    virtual targets::KeptCorrection correction_of(const std::string& kept_text) const = 0;
+    virtual jobs::KeptCorrection correction_of(const std::string& kept_text) const = 0;
     // The correction jobs go through now, for the machine's error through it (drift); a kept
     // file that does not read is said in the log, and the error without it stands instead.
-    std::optional<targets::KeptCorrection> correction_in_force() const;
+    std::optional<jobs::KeptCorrection> correction_in_force() const;
 
     CycleSteps& steps_;
 

@@ -23,7 +23,7 @@ modes::ErrorFigures figures_of(const modes::PlanarSolution& s) {
     return {s.before.mean_mm, rms, s.before.max_mm};
 }
 
-targets::Correction through_model(const modes::PlanarSolution& solution) {
+jobs::Correction through_model(const modes::PlanarSolution& solution) {
     return [solution](geometry::Point2 p) { return modes::planar_command_for(solution, p); };
 }
 
@@ -179,22 +179,22 @@ std::string PlanarCycleMode::kept_text() const {
                                         modes::planar_firmware_settings(machine_, *solution_));
 }
 
-targets::Correction PlanarCycleMode::correction() const {
+jobs::Correction PlanarCycleMode::correction() const {
     return through_model(*solution_);
 }
 
-targets::Area PlanarCycleMode::measured_area() const {
+jobs::Area PlanarCycleMode::measured_area() const {
     const auto& s = *solution_;
     return {s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm};
 }
 
 // The verification job is the target again, in the frame the target ran in: its work frame is
 // the measured one, so the correction is taken in that frame as it is.
-targets::JobFrame PlanarCycleMode::target_frame() const {
-    return {targets::flavour_of_firmware(machine_.firmware), {geometry::Point2{}}, {}, {}};
+jobs::JobFrame PlanarCycleMode::target_frame() const {
+    return {jobs::flavour_of_firmware(machine_.firmware), {geometry::Point2{}}, {}, {}};
 }
 
-targets::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_text) const {
+jobs::KeptCorrection PlanarCycleMode::correction_of(const std::string& kept_text) const {
     const auto s = modes::planar_result_from_json(kept_text, kPlanarResultFile);
     return {through_model(s), s.min_x_mm, s.min_y_mm, s.max_x_mm, s.max_y_mm};
 }

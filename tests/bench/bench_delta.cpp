@@ -46,8 +46,7 @@ int main() {
         truth.diagonal_rod_mm = 251;
         sim::DeltaTwin twin(truth, sim::DeltaParams{});
         twin.zero_height_at_centre();
-        auto strokes =
-            test::print_on_twin(twin, targets::write_gcode(target.job, machine, "bench"));
+        auto strokes = test::print_on_twin(twin, jobs::write_gcode(target.job, machine, "bench"));
         sim::PhotoSettings photo;
         photo.blur_sigma_px = 0.7;
         photo.noise_sigma_dn = 2;

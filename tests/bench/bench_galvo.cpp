@@ -40,8 +40,8 @@ void prepare(const std::filesystem::path& dir, const models::MachineFile& machin
     bench.photo.noise_sigma_dn = 2;
     const auto target = targets::make_galvo_target(machine);
     const auto start = std::chrono::steady_clock::now();
-    const auto photo = test::photo_of_burned_grid(
-        bench, truth, targets::write_gcode(target.job, machine, "bench"));
+    const auto photo =
+        test::photo_of_burned_grid(bench, truth, jobs::write_gcode(target.job, machine, "bench"));
     std::printf("render %dx%d (twin, not the box's work): %.2f s\n", photo.width_px,
                 photo.height_px, seconds_since(start));
     cv::imwrite((dir / "grid.png").string(),

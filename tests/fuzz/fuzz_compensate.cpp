@@ -14,19 +14,19 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     using calbox::geometry::Point2;
-    namespace targets = calbox::targets;
+    namespace jobs = calbox::jobs;
     if (size == 0) return 0;
     const std::uint8_t choice = data[0];
     const std::string_view job = calbox::fuzz::as_text(data + 1, size - 1);
-    targets::JobFrame frame;
-    frame.flavour = std::array{targets::Flavour::printer, targets::Flavour::grbl,
-                               targets::Flavour::linuxcnc}[choice % 3];
+    jobs::JobFrame frame;
+    frame.flavour = std::array{jobs::Flavour::printer, jobs::Flavour::grbl,
+                               jobs::Flavour::linuxcnc}[choice % 3];
     frame.work_zero_mm = {};
     frame.work_zero_mm[0] = Point2{0, 0};      // G54
     frame.work_zero_mm[1] = Point2{-120, 35};  // G55; the others unknown: a move there is refused
     // A travel, so that a mutated number (X9e9) is refused, not split into billions of pieces.
     frame.travel_mm = {-500, -500, 500, 500};
-    targets::MachineCorrection correction;
+    jobs::MachineCorrection correction;
     if ((choice / 3) % 2 == 0) {
         correction.correct = [](Point2 p) { return p; };
     } else {
@@ -35,25 +35,25 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         };
         correction.measured_mm = {-200, -150, 200, 150};  // beyond: held at the edge
     }
-    targets::CompensateSettings settings;
+    jobs::CompensateSettings settings;
     settings.program.max_loop_turns = 10'000;
     settings.program.max_executed_lines = 100'000;
-    targets::CompensateReport report;
+    jobs::CompensateReport report;
     std::string out;
     try {
-        out = targets::compensate_gcode(job, correction, frame, settings, report);
-    } catch (const targets::CompensateError&) {
+        out = jobs::compensate_gcode(job, correction, frame, settings, report);
+    } catch (const jobs::CompensateError&) {
         return 0;
     }
     // Each line as the machine it is for reads it: a printer's by the box's line reader (its link
     // parses every line it sends), a CNC controller's by the words it takes (blanks count for
     // nothing there: "L2 0" is L20).
-    const std::string_view cnc_letters = frame.flavour == targets::Flavour::linuxcnc
+    const std::string_view cnc_letters = frame.flavour == jobs::Flavour::linuxcnc
                                              ? "ABCDFGHIJKLMNPQRSTUVWXYZ"
                                              : "ABCDFGHIJKLMNPQRSTXYZ";
     for (const auto line : calbox::gcode::lines_of_job(out)) {
         try {
-            if (frame.flavour == targets::Flavour::printer)
+            if (frame.flavour == jobs::Flavour::printer)
                 calbox::gcode::parse_line(line);
             else
                 calbox::gcode::cnc_words(line, cnc_letters);

@@ -4,8 +4,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
     try {
-        calbox::targets::parse_svg(calbox::fuzz::as_text(data, size));
-    } catch (const calbox::targets::SvgError&) {
+        calbox::drawings::parse_svg(calbox::fuzz::as_text(data, size));
+    } catch (const calbox::drawings::SvgError&) {
     }
     return 0;
 }

@@ -15,9 +15,9 @@ using geometry::Point2;
 
 namespace {
 
-const targets::Correction kIdentity = [](Point2 p) { return p; };
+const jobs::Correction kIdentity = [](Point2 p) { return p; };
 // A printer's job in machine coordinates, no travel limit, corrected everywhere.
-const targets::JobFrame kMachineFrame{targets::Flavour::printer, {Point2{}}, {}, {}};
+const jobs::JobFrame kMachineFrame{jobs::Flavour::printer, {Point2{}}, {}, {}};
 
 std::vector<std::string> lines_of(const std::string& text) {
     std::vector<std::string> out;
@@ -26,12 +26,12 @@ std::vector<std::string> lines_of(const std::string& text) {
     return out;
 }
 
-std::string compensated(const std::string& job, const targets::Correction& c = kIdentity,
+std::string compensated(const std::string& job, const jobs::Correction& c = kIdentity,
                         double segment = 1.0) {
-    targets::CompensateReport report;
-    targets::CompensateSettings s;
+    jobs::CompensateReport report;
+    jobs::CompensateSettings s;
     s.max_segment_mm = segment;
-    return targets::compensate_gcode(job, {c, {}}, kMachineFrame, s, report);
+    return jobs::compensate_gcode(job, {c, {}}, kMachineFrame, s, report);
 }
 
 }  // namespace
@@ -101,7 +101,7 @@ TEST(Compensate, what_cannot_be_carried_through_is_refused_naming_the_line) {
     const auto refused = [](const std::string& job, const std::string& words) {
         try {
             compensated(job);
-        } catch (const targets::CompensateError& e) {
+        } catch (const jobs::CompensateError& e) {
             const std::string what = e.what();
             CHECK_TEXT(what.find(words) != std::string::npos, what.c_str());
             return;
@@ -161,16 +161,16 @@ TEST(Compensate, cutter_radius_compensation_writes_the_path_linuxcnc_cuts) {
     // inside ones, cut where the offset sides cross: (7, 3), (7, 7), (3, 7); G40 leaves the last
     // side at (3, 0), and the exit goes from there.
     // The same square in incremental distances (G91) cuts the same path.
-    targets::CompensateReport report;
-    targets::CompensateSettings s;
+    jobs::CompensateReport report;
+    jobs::CompensateSettings s;
     s.max_segment_mm = 1000;
-    const targets::JobFrame frame{targets::Flavour::linuxcnc, {Point2{}}, {}, {}};
+    const jobs::JobFrame frame{jobs::Flavour::linuxcnc, {Point2{}}, {}, {}};
     for (const std::string job :
          {"G21 G90 G17\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nX10 Y0\nX10 Y10\nX0 Y10\nX0 "
           "Y0\nG40\nG0 X0 Y-10\nM2\n",
           "G21 G90 G17\nG0 X0 Y-10\nG91 G41.1 D6\nG1 X0 Y10 F100\nX10 Y0\nX0 Y10\nX-10 Y0\n"
           "X0 Y-10\nG40\nG0 X0 Y-10\nG90\nM2\n"}) {
-        const std::string out = targets::compensate_gcode(job, {kIdentity, {}}, frame, s, report);
+        const std::string out = jobs::compensate_gcode(job, {kIdentity, {}}, frame, s, report);
         const auto at = positions_of(out);
         const std::vector<Point2> corners{{0, -10}, {-3, 0}, {0, 3}, {7, 3},
                                           {7, 7},   {3, 7},  {3, 0}, {0, -10}};
@@ -191,7 +191,7 @@ TEST(Compensate, cutter_radius_compensation_writes_the_path_linuxcnc_cuts) {
     // of (0, 0), at (-3, 0), where the arc goes on tangent; the cutter's arc keeps 7 mm from
     // (-10, 0) and ends 3 mm inside the programmed end, at (-10, 7); G40's exit goes from there.
     {
-        const std::string out = targets::compensate_gcode(
+        const std::string out = jobs::compensate_gcode(
             "G21 G90 G17\nG0 X0 Y-10\nG41.1 D6\nG1 X0 Y0 F100\nG3 X-10 Y10 I-10 J0\n"
             "G40\nG0 X-10 Y20\nM2\n",
             {kIdentity, {}}, frame, s, report);
@@ -210,11 +210,11 @@ TEST(Compensate, cutter_radius_compensation_writes_the_path_linuxcnc_cuts) {
 
     const auto refused = [&](const std::string& text, const std::string& words,
                              std::optional<double> radius = std::nullopt) {
-        targets::CompensateSettings r = s;
+        jobs::CompensateSettings r = s;
         r.tool_radius_mm = radius;
         try {
-            targets::compensate_gcode(text, {kIdentity, {}}, frame, r, report);
-        } catch (const targets::CompensateError& e) {
+            jobs::compensate_gcode(text, {kIdentity, {}}, frame, r, report);
+        } catch (const jobs::CompensateError& e) {
             const std::string what = e.what();
             CHECK_TEXT(what.find(words) != std::string::npos, what.c_str());
             return;
@@ -266,7 +266,7 @@ TEST(Compensate, modal_words_comments_and_program_delimiters_are_carried) {
 
 TEST(Compensate, inches_relative_moves_and_g92_offsets_are_tracked) {
     // 1 % long in x: a point x mm out lands at 1.01 x.
-    const targets::Correction longer = [](Point2 p) { return Point2{1.01 * p.x, p.y}; };
+    const jobs::Correction longer = [](Point2 p) { return Point2{1.01 * p.x, p.y}; };
     // Inches: 1 in = 25.4 mm goes to 25.654 mm = 1.01 in, written in inches.
     const auto inches = lines_of(compensated("G20\nG90\nG0 X0 Y0\nG1 X1 Y0\n", longer));
     CHECK_EQUAL(std::string("G1 X1.01 Y0"), inches.back());
@@ -332,13 +332,13 @@ TEST(Compensate, numbered_and_checksummed_lines_are_renumbered) {
 }
 
 TEST(Compensate, scanner_jobs_are_corrected_point_by_point) {
-    targets::CompensateReport report;
-    const auto out = lines_of(targets::compensate_scanner_csv("x_mm,y_mm,power\n0,0,0\n2,0,0.8\n",
-                                                              {[](Point2 p) {
-                                                                   return Point2{p.x * 2, p.y};
-                                                               },
-                                                               {-10, -10, 1.5, 10}},
-                                                              kMachineFrame, {}, report));
+    jobs::CompensateReport report;
+    const auto out = lines_of(jobs::compensate_scanner_csv("x_mm,y_mm,power\n0,0,0\n2,0,0.8\n",
+                                                           {[](Point2 p) {
+                                                                return Point2{p.x * 2, p.y};
+                                                            },
+                                                            {-10, -10, 1.5, 10}},
+                                                           kMachineFrame, {}, report));
     CHECK_EQUAL(std::string("x_mm,y_mm,power"), out[0]);
     CHECK_EQUAL(std::string("0.0000,0.0000,0"), out[1]);
     CHECK_EQUAL(std::string("2.0000,0.0000,0.8"), out[2]);
@@ -347,12 +347,11 @@ TEST(Compensate, scanner_jobs_are_corrected_point_by_point) {
     CHECK_EQUAL(std::string("3.5000,0.0000,0.8"), out[3]);
     CHECK_EQUAL(1, report.held);
     DOUBLES_EQUAL(0.5, report.held_farthest_mm, 1e-12);
-    CHECK_THROWS(
-        targets::CompensateError,
-        targets::compensate_scanner_csv("x,y\n", {kIdentity, {}}, kMachineFrame, {}, report));
-    CHECK_THROWS(targets::CompensateError,
-                 targets::compensate_scanner_csv("x_mm,y_mm,power\n1,2,3\n", {kIdentity, {}},
-                                                 kMachineFrame, {}, report));
+    CHECK_THROWS(jobs::CompensateError,
+                 jobs::compensate_scanner_csv("x,y\n", {kIdentity, {}}, kMachineFrame, {}, report));
+    CHECK_THROWS(jobs::CompensateError,
+                 jobs::compensate_scanner_csv("x_mm,y_mm,power\n1,2,3\n", {kIdentity, {}},
+                                              kMachineFrame, {}, report));
 }
 
 // The machine's error through a kept correction, worked out from a target made without it (what
@@ -367,12 +366,12 @@ TEST(ErrorThrough, a_correction_that_holds_leaves_nothing_and_one_that_does_not_
     // The machine goes 1 % too far in x: each point lands 0.01 x off.
     std::vector<Point2> error;
     for (const auto& p : at) error.push_back({0.01 * p.x, 0});
-    const calbox::targets::Correction field = [](Point2 p) { return Point2{0.01 * p.x, 0}; };
+    const calbox::jobs::Correction field = [](Point2 p) { return Point2{0.01 * p.x, 0}; };
     // The kept correction is that error's exact inverse: commanded at x / 1.01 it lands on x.
-    const calbox::targets::KeptCorrection exact{[](Point2 p) {
-                                                    return Point2{p.x / 1.01, p.y};
-                                                },
-                                                -5, -5, 5, 5};
+    const calbox::jobs::KeptCorrection exact{[](Point2 p) {
+                                                 return Point2{p.x / 1.01, p.y};
+                                             },
+                                             -5, -5, 5, 5};
     const auto held = calbox::modes::error_through(at, error, exact, field);
     DOUBLES_EQUAL(0, held.rms_mm, 1e-12);
     // Without the field the error is taken where the point was meant, not where it is sent:
@@ -380,21 +379,21 @@ TEST(ErrorThrough, a_correction_that_holds_leaves_nothing_and_one_that_does_not_
     const auto first_order = calbox::modes::error_through(at, error, exact);
     DOUBLES_EQUAL(5 * (1 / 1.01 + 0.01 - 1), first_order.max_mm, 1e-12);
     // No correction (the identity): the raw error, less the rigid part (none here: a stretch).
-    const calbox::targets::KeptCorrection none{[](Point2 p) { return p; }, -5, -5, 5, 5};
+    const calbox::jobs::KeptCorrection none{[](Point2 p) { return p; }, -5, -5, 5, 5};
     const auto raw = calbox::modes::error_through(at, error, none);
     DOUBLES_EQUAL(0.05, raw.max_mm, 1e-12);
     DOUBLES_EQUAL(0.05, *raw.mean_mm, 1e-12);
     // A shift of the whole work is where it lies, not an error: taken out.
-    const calbox::targets::KeptCorrection shifted{[](Point2 p) {
-                                                      return Point2{p.x + 1, p.y};
-                                                  },
-                                                  -5, -5, 5, 5};
+    const calbox::jobs::KeptCorrection shifted{[](Point2 p) {
+                                                   return Point2{p.x + 1, p.y};
+                                               },
+                                               -5, -5, 5, 5};
     DOUBLES_EQUAL(0.05, calbox::modes::error_through(at, error, shifted).max_mm, 1e-9);
     // Beyond the kept rectangle a point takes its edge's correction, as jobs do.
-    const calbox::targets::KeptCorrection smaller{[](Point2 p) {
-                                                      return Point2{p.x / 1.01, p.y};
-                                                  },
-                                                  -4, -5, 4, 5};
+    const calbox::jobs::KeptCorrection smaller{[](Point2 p) {
+                                                   return Point2{p.x / 1.01, p.y};
+                                               },
+                                               -4, -5, 4, 5};
     const auto edge = calbox::modes::error_through(at, error, smaller, field);
     // x = 5 is sent where x = 4 is moved: 5 + (4 / 1.01 - 4), and lands 1 % further than that.
     const double sent = 5 + 4 / 1.01 - 4, landed = 1.01 * sent;

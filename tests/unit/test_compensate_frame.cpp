@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
-#include "core/modes/compensate_job.hpp"
-#include "core/modes/planar.hpp"
 #include "core/jobs/compensate.hpp"
 #include "core/jobs/gcode_line.hpp"
 #include "core/jobs/ngc_program.hpp"
+#include "core/modes/compensate_job.hpp"
+#include "core/modes/planar.hpp"
 
 using namespace calbox;
 using geometry::Point2;
@@ -24,12 +24,10 @@ constexpr double kPi = 3.14159265358979323846;
 
 // 1 % long in x about the machine's origin, and y shifted by a thousandth of x: a correction
 // that is not the same everywhere, so that a job placed at the wrong spot comes out wrong.
-const targets::Correction kStretched = [](Point2 p) {
-    return Point2{1.01 * p.x, p.y + 0.001 * p.x};
-};
+const jobs::Correction kStretched = [](Point2 p) { return Point2{1.01 * p.x, p.y + 0.001 * p.x}; };
 // Measured over X 10..290, Y 10..290 on a 300 x 300 machine.
-const targets::Area kMeasured{10, 10, 290, 290};
-const targets::Area kTravel{0, 0, 300, 300};
+const jobs::Area kMeasured{10, 10, 290, 290};
+const jobs::Area kTravel{0, 0, 300, 300};
 
 std::vector<std::string> lines_of(const std::string& text) {
     std::vector<std::string> out;
@@ -38,42 +36,41 @@ std::vector<std::string> lines_of(const std::string& text) {
     return out;
 }
 
-// targets::compensate_gcode for these tests' jobs: LinuxCNC stops on a job without its end (M2),
+// jobs::compensate_gcode for these tests' jobs: LinuxCNC stops on a job without its end (M2),
 // so a LinuxCNC job without one gets it, taken off the output again, and the lines these tests
 // read are the job's own.
-std::string compensate_job(const std::string& job, const targets::MachineCorrection& c,
-                           const targets::JobFrame& frame, const targets::CompensateSettings& s,
-                           targets::CompensateReport& report) {
+std::string compensate_job(const std::string& job, const jobs::MachineCorrection& c,
+                           const jobs::JobFrame& frame, const jobs::CompensateSettings& s,
+                           jobs::CompensateReport& report) {
     const bool ended = job.find("M2") != std::string::npos || job.find("M30") != std::string::npos;
-    if (frame.flavour != targets::Flavour::linuxcnc || ended)
-        return targets::compensate_gcode(job, c, frame, s, report);
-    std::string out = targets::compensate_gcode(job + "M2\n", c, frame, s, report);
+    if (frame.flavour != jobs::Flavour::linuxcnc || ended)
+        return jobs::compensate_gcode(job, c, frame, s, report);
+    std::string out = jobs::compensate_gcode(job + "M2\n", c, frame, s, report);
     CHECK_EQUAL(std::string("M2\n"), out.substr(out.size() - 3));
     out.resize(out.size() - 3);
     --report.lines;
     return out;
 }
 
-std::string compensated(const std::string& job, const targets::JobFrame& frame,
-                        targets::CompensateReport& report,
-                        const targets::Correction& c = kStretched) {
-    targets::CompensateSettings s;
+std::string compensated(const std::string& job, const jobs::JobFrame& frame,
+                        jobs::CompensateReport& report, const jobs::Correction& c = kStretched) {
+    jobs::CompensateSettings s;
     s.max_segment_mm = 1000;  // one piece a move: the end points are what these tests read
     return compensate_job(job, {c, kMeasured}, frame, s, report);
 }
-std::string compensated(const std::string& job, const targets::JobFrame& frame) {
-    targets::CompensateReport report;
+std::string compensated(const std::string& job, const jobs::JobFrame& frame) {
+    jobs::CompensateReport report;
     return compensated(job, frame, report);
 }
 
-targets::JobFrame router_at(Point2 work_zero) {
-    return {targets::Flavour::linuxcnc, {work_zero}, kTravel, {}};
+jobs::JobFrame router_at(Point2 work_zero) {
+    return {jobs::Flavour::linuxcnc, {work_zero}, kTravel, {}};
 }
 
-std::string refusal_of(const std::string& job, const targets::JobFrame& frame) {
+std::string refusal_of(const std::string& job, const jobs::JobFrame& frame) {
     try {
         compensated(job, frame);
-    } catch (const targets::CompensateError& e) {
+    } catch (const jobs::CompensateError& e) {
         return e.what();
     }
     return "not refused";
@@ -101,7 +98,7 @@ TEST(CompensateFrame, the_job_is_corrected_at_its_place_on_the_machine) {
 }
 
 TEST(CompensateFrame, inside_at_the_edge_beyond_it_and_past_the_travel) {
-    targets::CompensateReport report;
+    jobs::CompensateReport report;
     const auto out = lines_of(compensated(
         "G90\nG0 X100 Y100\nG0 X290 Y100\nG0 X295 Y100\nG0 X5 Y295\n", router_at({0, 0}), report));
     // Inside: the model's value.
@@ -155,7 +152,7 @@ TEST(CompensateFrame, work_offsets_set_in_the_job_and_given_are_tracked) {
 }
 
 TEST(CompensateFrame, printers_retract_with_g10_routers_set_offsets_with_it) {
-    const targets::JobFrame printer{targets::Flavour::printer, {Point2{}}, kTravel, {}};
+    const jobs::JobFrame printer{jobs::Flavour::printer, {Point2{}}, kTravel, {}};
     // FullControl's firmware retraction: passed as written.
     const auto out = lines_of(compensated("G90\nG1 X100 Y100\nG10 ; retract\nG11\n", printer));
     CHECK_EQUAL(std::string("G10 ; retract"), out[2]);
@@ -171,10 +168,10 @@ TEST(CompensateFrame, printers_retract_with_g10_routers_set_offsets_with_it) {
 TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circle) {
     // Fusion 360 writes 3 decimals: from (0.257, 16.041) to (0.257, 19.058) the half chord is
     // 1.5085 and R 1.508 is 0.0005 short: the half circle its rounding hid.
-    const targets::Correction none = [](Point2 p) { return p; };
-    targets::CompensateReport report;
-    targets::CompensateSettings s;
-    const targets::JobFrame frame{targets::Flavour::grbl, {Point2{}}, {}, {}};
+    const jobs::Correction none = [](Point2 p) { return p; };
+    jobs::CompensateReport report;
+    jobs::CompensateSettings s;
+    const jobs::JobFrame frame{jobs::Flavour::grbl, {Point2{}}, {}, {}};
     const auto out =
         lines_of(compensate_job("G90 F300\nG0 X0.257 Y16.041 Z3\nG3 X0.257 Y19.058 Z2.38 R1.508\n",
                                 {none, {}}, frame, s, report));
@@ -190,7 +187,7 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
     const auto refused = [&] {
         try {
             compensate_job("G90 F300\nG0 X0 Y0\nG2 X3 Y0 R1.498\n", {none, {}}, frame, s, report);
-        } catch (const targets::CompensateError& e) {
+        } catch (const jobs::CompensateError& e) {
             return std::string(e.what());
         }
         return std::string("not refused");
@@ -203,7 +200,7 @@ TEST(CompensateFrame, an_r_arc_short_within_the_written_precision_is_a_half_circ
 }
 
 TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
-    targets::CompensateReport report;
+    jobs::CompensateReport report;
     // LinuxCNC keeps the cycle: each hole's XY corrected, its other words as written.
     const auto kept =
         lines_of(compensated("G90 G0 X0 Y0 Z10\nG99 G81 X100 Y50 Z-2 R1 F300\nX200 Y50\nG80\n",
@@ -238,7 +235,7 @@ TEST(CompensateFrame, drilling_cycles_keep_each_hole_through_the_correction) {
     // grbl has no cycles (nor G98 / G99): G83 written out as pecks of 1 mm to Z-2.5, back to R
     // between them, down to 0.254 mm above the last depth, then back to where it started (G98:
     // Z 5).
-    const targets::JobFrame grbl{targets::Flavour::grbl, {Point2{}}, kTravel, {}};
+    const jobs::JobFrame grbl{jobs::Flavour::grbl, {Point2{}}, kTravel, {}};
     const auto pecks =
         lines_of(compensated("G90 G0 X0 Y0 Z5\nG98 G83 X100 Y100 Z-2.5 R0.5 Q1 F200\n", grbl));
     const std::vector<std::string> expected{
@@ -283,7 +280,7 @@ TEST(CompensateFrame, linuxcnc_programs_run_into_the_moves_linuxcnc_makes) {
         "o102 endif\n"
         "M2\n"
         "G1 X299 Y299 (after the end: never run)\n";
-    targets::CompensateReport report;
+    jobs::CompensateReport report;
     const auto out = lines_of(compensated(program, router_at({100, 100}), report));
     CHECK(report.ran_program);
     std::vector<Point2> moves;
@@ -342,8 +339,8 @@ TEST(CompensateFrame, expressions_follow_linuxcncs_precedence_and_functions) {
 TEST(CompensateFrame, inverse_time_feed_is_shared_among_a_moves_pieces) {
     // G93: F2 finishes the 4 mm move in half a minute; split in four pieces, each takes an eighth
     // (F8), so the whole still takes half a minute.
-    targets::CompensateReport report;
-    targets::CompensateSettings s;
+    jobs::CompensateReport report;
+    jobs::CompensateSettings s;
     const auto out =
         lines_of(compensate_job("G90 G0 X100 Y100\nG93 G1 X104 Y100 F2\n", {kStretched, kMeasured},
                                 router_at({0, 0}), s, report));
@@ -354,8 +351,8 @@ TEST(CompensateFrame, inverse_time_feed_is_shared_among_a_moves_pieces) {
 
 TEST(CompensateFrame, a_rotary_axis_is_shared_along_the_pieces_and_arcs_take_their_turns) {
     // A 4 mm move turning A from 0 to 40 degrees: each 1 mm piece turns it 10 more.
-    targets::CompensateReport report;
-    targets::CompensateSettings s;
+    jobs::CompensateReport report;
+    jobs::CompensateSettings s;
     const auto out =
         lines_of(compensate_job("G90 G0 X100 Y100 A0\nG1 X104 Y100 A40 F300\n",
                                 {kStretched, kMeasured}, router_at({0, 0}), s, report));
@@ -367,15 +364,15 @@ TEST(CompensateFrame, a_rotary_axis_is_shared_along_the_pieces_and_arcs_take_the
     try {
         compensate_job("G90 G0 X100 Y100 F300\nG1 X104 Y100 A40\n", {kStretched, kMeasured},
                        router_at({0, 0}), s, report);
-    } catch (const targets::CompensateError& e) {
+    } catch (const jobs::CompensateError& e) {
         unknown_a = e.what();
     }
     CHECK_TEXT(unknown_a.find("line 2: a move that drives A from where the file has not said") !=
                    std::string::npos,
                unknown_a.c_str());
     // LinuxCNC's P: three whole turns round a 1 mm circle, about three times the chords of one.
-    const targets::Correction none = [](Point2 p) { return p; };
-    targets::CompensateSettings fine;
+    const jobs::Correction none = [](Point2 p) { return p; };
+    jobs::CompensateSettings fine;
     fine.max_segment_mm = 0.1;
     const auto one = compensate_job("G90 G0 X101 Y100 F300\nG2 X101 Y100 I-1 J0\n", {none, {}},
                                     router_at({0, 0}), fine, report);
@@ -502,8 +499,8 @@ TEST(CompensateFrame, a_scanners_job_stays_in_its_field) {
 TEST(CompensateFrame, words_riding_on_modal_moves_are_corrected_with_them) {
     // grbl: M03 S1000 and M5 on modal G1 lines. (0, 0) is beyond the measured area: its corner's
     // correction (+0.1, +0.01), held.
-    const targets::JobFrame grbl{targets::Flavour::grbl, {Point2{}}, kTravel, {}};
-    targets::CompensateReport report;
+    const jobs::JobFrame grbl{jobs::Flavour::grbl, {Point2{}}, kTravel, {}};
+    jobs::CompensateReport report;
     const auto out = lines_of(compensated(
         "G21 G90\nG0 X0 Y0\nG1 X120 Y100 F500\nX130 Y100 M03 S1000\nX150 Y100 M5\n", grbl, report));
     CHECK_EQUAL(std::string("G0 X0.1 Y0.01"), out[1]);
@@ -512,7 +509,7 @@ TEST(CompensateFrame, words_riding_on_modal_moves_are_corrected_with_them) {
     CHECK_EQUAL(std::string("G1 X151.5 Y100.15 M5"), out[4]);
     CHECK_EQUAL(4, report.moves);
     // A stop rides after the move: M2 on the last piece.
-    targets::CompensateSettings s;
+    jobs::CompensateSettings s;
     const auto split =
         lines_of(compensate_job("G90 G0 X100 Y100\nG1 X102 Y100 F100 M8 M2\n",
                                 {kStretched, kMeasured}, router_at({0, 0}), s, report));
@@ -540,13 +537,13 @@ TEST(CompensateFrame,
     CHECK_EQUAL(std::string("G0 X20.7 Y10.07"), l2[2]);
     // T2Laser's opening G92 before any move says the head is where it stands: at machine
     // (100, 100) the owner says, it reads (42.2, 49.95), so X52.2 Y59.95 is machine (110, 110).
-    targets::JobFrame laser{targets::Flavour::grbl, {Point2{}}, kTravel, Point2{100, 100}};
+    jobs::JobFrame laser{jobs::Flavour::grbl, {Point2{}}, kTravel, Point2{100, 100}};
     const auto t2 = lines_of(compensated("G21\nG90\nG92X42.2Y49.95\nG0 X52.2 Y59.95\n", laser));
     CHECK_EQUAL(std::string("G92 X42.2 Y49.95"), t2[2]);
     CHECK_EQUAL(std::string("G0 X53.3 Y60.06"), t2[3]);
     // Without where it starts, refused naming the option.
     CHECK(refusal_of("G21\nG92X42.2Y49.95\nG0 X52.2 Y59.95\n",
-                     {targets::Flavour::grbl, {Point2{}}, kTravel, {}})
+                     {jobs::Flavour::grbl, {Point2{}}, kTravel, {}})
               .find("line 2: G92 with X or Y before the position is known") != std::string::npos);
     // G52 on LinuxCNC sets the offset itself, not from where the tool is: as written, and the
     // next point placed by it (X10 Y5 at machine 60, 25: sent to 60.6, 25.06).
@@ -609,10 +606,10 @@ TEST(CompensateFrame, words_are_read_as_the_controllers_read_them) {
     // This file's helper ends LinuxCNC's jobs with M2; without it, LinuxCNC stops at the end.
     std::string unended;
     try {
-        targets::CompensateReport report;
-        targets::compensate_gcode("G0 X1 Y1\n", {kStretched, kMeasured}, router_at({0, 0}), {},
-                                  report);
-    } catch (const targets::CompensateError& e) {
+        jobs::CompensateReport report;
+        jobs::compensate_gcode("G0 X1 Y1\n", {kStretched, kMeasured}, router_at({0, 0}), {},
+                               report);
+    } catch (const jobs::CompensateError& e) {
         unended = e.what();
     }
     CHECK_TEXT(

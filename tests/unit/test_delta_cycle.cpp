@@ -164,7 +164,7 @@ class DeltaCase {
         scenario_.machine.delta = sim::machine_settings(twin_.firmware());
         const models::MachineFile& machine = scenario_.machine;
         target_ = targets::make_delta_target(machine);
-        target_job_ = targets::write_gcode(target_->job, machine, "target");
+        target_job_ = jobs::write_gcode(target_->job, machine, "target");
         const auto laid = test::print_on_twin(twin_, target_job_);
         photo_.seed = seed_ + 1000 * static_cast<unsigned>(pass);
         return test::photo_of_print(camera_, bed_to_camera_,

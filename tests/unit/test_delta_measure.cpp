@@ -46,7 +46,7 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     twin.zero_height_at_centre();
     machine.delta = sim::machine_settings(twin.firmware());
     const auto target = targets::make_delta_target(*&machine);
-    auto strokes = test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target"));
+    auto strokes = test::print_on_twin(twin, jobs::write_gcode(target.job, machine, "target"));
     // The same print without tower A's outer end tick (a strand that did not stick): where the
     // nozzle really drew it, every piece of material along it is left out.
     std::vector<sim::StrokeSegment> without_tick;
@@ -305,8 +305,7 @@ TEST(DeltaMeasure, a_strand_height_is_told_only_where_the_lens_resolves_the_stra
     machine.delta = sim::machine_settings(twin.firmware());
     const auto target = targets::make_delta_target(*&machine);
     const sim::StrokeScene print_scene(
-        test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target")), 0.08, 0.85,
-        4);
+        test::print_on_twin(twin, jobs::write_gcode(target.job, machine, "target")), 0.08, 0.85, 4);
     auto camera = hq_camera();
     camera.width_px = 2028;
     camera.height_px = 1520;

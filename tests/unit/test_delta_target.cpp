@@ -24,8 +24,7 @@ TEST_GROUP(DeltaTarget){};
 TEST(DeltaTarget, is_deterministic_spread_over_the_bed_and_prints_in_under_ten_minutes) {
     const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test");
     const auto a = targets::make_delta_target(machine), b = targets::make_delta_target(machine);
-    CHECK_EQUAL(targets::write_gcode(a.job, machine, "t"),
-                targets::write_gcode(b.job, machine, "t"));
+    CHECK_EQUAL(jobs::write_gcode(a.job, machine, "t"), jobs::write_gcode(b.job, machine, "t"));
     STRCMP_EQUAL(a.fingerprint.c_str(), b.fingerprint.c_str());
     // Each marker ringed by its own strand, with room for a pressed strand's spread: nine on an
     // 85 mm bed, 36 ring corners.
@@ -44,7 +43,7 @@ TEST(DeltaTarget, the_twin_prints_it_and_every_marker_is_seen_where_it_was_comma
     const auto target = targets::make_delta_target(machine);
     sim::DeltaParams exact;
     sim::DeltaTwin twin(exact, exact);
-    auto strokes = test::print_on_twin(twin, targets::write_gcode(target.job, machine, "target"));
+    auto strokes = test::print_on_twin(twin, jobs::write_gcode(target.job, machine, "target"));
     const sim::CameraIntrinsics camera = test::hq_camera();
     const sim::Pose pose = sim::look_at_pose({0, -35, 400}, {0, 0, 0}, 0);
     sim::PhotoSettings photo;

@@ -111,7 +111,7 @@ class ScannerCase {
         box_.bench.dark_marks = dark_marks_;
         box_.bench.photo.seed = seed_;
         const auto target = targets::make_galvo_target(machine_);
-        const auto job = targets::write_gcode(target.job, machine_, "galvo grid");
+        const auto job = jobs::write_gcode(target.job, machine_, "galvo grid");
         return test::photo_of_burned_grid(box_.bench, truth_, job);
     }
     modes::GalvoMeasurement measure(const sim::GrayImage& photo, int) {
@@ -251,15 +251,15 @@ TEST(GalvoTarget, grid_circles_and_job_as_the_seed_lays_them_out) {
         }
         CHECK(nearest <= (large ? 0.4 : 0.2) * target.pitch_mm - 0.05 + 1e-6);
     }
-    const auto gcode = targets::write_gcode(target.job, machine, "grid");
+    const auto gcode = jobs::write_gcode(target.job, machine, "grid");
     CHECK(gcode.find("M3 S1000") != std::string::npos);  // grbl's laser power out of 1000
     const auto csv = targets::write_scanner_job_csv(target.job, machine);
     CHECK(csv.rfind("x_mm,y_mm,power\n", 0) == 0);
     auto router = machine;
     router.kind = "router";
     router.galvo.reset();
-    CHECK_THROWS(targets::JobError, targets::make_galvo_target(router));
-    CHECK_THROWS(targets::JobError, targets::make_galvo_target(machine, {5}));
+    CHECK_THROWS(jobs::JobError, targets::make_galvo_target(router));
+    CHECK_THROWS(jobs::JobError, targets::make_galvo_target(machine, {5}));
 }
 
 TEST_GROUP(GalvoField){};
@@ -362,8 +362,8 @@ TEST(GalvoSpots, fixed_point_moments_agree_with_the_double_reference) {
     bench.photo.noise_sigma_dn = 2;
     const auto machine = galvo_machine();
     const auto target = targets::make_galvo_target(machine);
-    const auto photo = test::photo_of_burned_grid(
-        bench, sim::GalvoTruth{}, targets::write_gcode(target.job, machine, "grid"));
+    const auto photo = test::photo_of_burned_grid(bench, sim::GalvoTruth{},
+                                                  jobs::write_gcode(target.job, machine, "grid"));
     const auto spots = vision::find_spots(test::view_of(photo));
     CHECK(spots.dark_marks);
     CHECK(spots.spots.size() >= 961u);
@@ -390,7 +390,7 @@ TEST(GalvoOrientation, all_eight_ways_round_are_read_and_damage_is_reported) {
     // is enough to index.
     const auto machine = galvo_machine();
     const auto target = targets::make_galvo_target(machine);
-    const auto job = targets::write_gcode(target.job, machine, "grid");
+    const auto job = jobs::write_gcode(target.job, machine, "grid");
     sim::BurnFaults faults;
     for (const targets::GridIndex i : {targets::GridIndex{3, 4}, {15, 16}, {27, 20}})
         faults.misfires_at_mm.push_back({target.at(i).centre_mm.x, target.at(i).centre_mm.y});
@@ -464,7 +464,7 @@ TEST(GalvoScannersSecond, scanners_6_to_10_at_the_seed_camera_are_corrected_in_t
 TEST(GalvoSpots, a_plate_amid_a_dark_grey_or_white_platform_gives_every_mark) {
     const auto machine = galvo_machine();
     const auto target = targets::make_galvo_target(machine);
-    const auto job = targets::write_gcode(target.job, machine, "grid");
+    const auto job = jobs::write_gcode(target.job, machine, "grid");
     test::GalvoBench bench = half_size_bench();
     const auto camera = test::as_core(bench.camera);
     const auto plane = test::plane_from_board(bench);

@@ -8,11 +8,11 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/pattern_spec.hpp"
+#include "core/jobs/compensate.hpp"
 #include "core/models/planar_errors.hpp"
 #include "core/modes/goal.hpp"
 #include "core/modes/planar.hpp"
 #include "core/solve/placement.hpp"
-#include "core/jobs/compensate.hpp"
 #include "core/targets/planar_target.hpp"
 #include "tests/support/cycle_harness.hpp"
 #include "tests/support/router_fixtures.hpp"
@@ -335,10 +335,10 @@ TEST(PlanarTarget, grid_fiducials_and_drilling_job) {
 TEST(PlanarTarget, too_small_an_area_or_too_large_a_tool_is_refused) {
     auto machine = router_machine();
     machine.bed_size_x_mm = 150;
-    CHECK_THROWS(targets::JobError, targets::make_planar_target(machine));
+    CHECK_THROWS(jobs::JobError, targets::make_planar_target(machine));
     machine = router_machine();
     machine.tool_width_mm = 8;
-    CHECK_THROWS(targets::JobError, targets::make_planar_target(machine));
+    CHECK_THROWS(jobs::JobError, targets::make_planar_target(machine));
 }
 
 TEST_GROUP(PlanarMeasure){};
@@ -417,7 +417,7 @@ class RouterCase {
         return false;  // one model
     }
     RouterOutcome judge() {
-        const targets::Correction correct = [this](Point2 p) {
+        const jobs::Correction correct = [this](Point2 p) {
             return modes::planar_command_for(out_.solution, p);
         };
         const auto verdict = sim::judge_router_fresh_holes(truth_, machine_, &correct);
@@ -664,7 +664,7 @@ TEST(PlanarMeasure,
     // Stitched through the camera's pose alone (where it was sent), the holes would be off by
     // the machine's errors at the camera: what the shared holes take out.
     const auto solution = modes::solve_planar(machine, m);
-    const targets::Correction correct = [&](Point2 p) {
+    const jobs::Correction correct = [&](Point2 p) {
         return modes::planar_command_for(solution, p);
     };
     const auto verdict = sim::judge_router_fresh_holes(truth, machine, &correct);
@@ -720,7 +720,7 @@ TEST(PlanarFirmware, scale_and_skew_settings_leave_what_the_result_says) {
     const auto r = calibrate_router(7);
     const auto f = modes::planar_firmware_settings(machine, r.solution);
     // The firmware's own correction: skew first (Marlin's x - y I), then steps per mm.
-    const targets::Correction firmware = [&](Point2 p) {
+    const jobs::Correction firmware = [&](Point2 p) {
         return Point2{(p.x - f.skew * p.y) / (1 + f.scale_x), p.y / (1 + f.scale_y)};
     };
     const auto truth = sim::random_router_truth(7);
@@ -809,7 +809,7 @@ surface_height_mm = 0.2
     DOUBLES_EQUAL(0.004, firmware.scale_x, 2e-4);
     DOUBLES_EQUAL(-0.003, firmware.scale_y, 2e-4);
     DOUBLES_EQUAL(std::tan(0.3 * 3.14159265358979 / 180) * (1 - 0.003), firmware.skew, 2e-4);
-    const targets::Correction correct = [&](Point2 p) {
+    const jobs::Correction correct = [&](Point2 p) {
         return modes::planar_command_for(solution, p);
     };
     const auto verdict = sim::judge_cartesian_fresh_points(truth, machine, &correct);

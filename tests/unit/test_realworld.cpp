@@ -17,16 +17,16 @@
 #include <string>
 #include <vector>
 
+#include "core/drawings/drawing.hpp"
 #include "core/geometry/calibration.hpp"
+#include "core/jobs/compensate.hpp"
+#include "core/jobs/gcode_line.hpp"
+#include "core/jobs/job.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/models/machine_import.hpp"
 #include "core/modes/delta_probe.hpp"
 #include "core/modes/record_error.hpp"
 #include "core/number_text.hpp"
-#include "core/jobs/compensate.hpp"
-#include "core/drawings/drawing.hpp"
-#include "core/jobs/gcode_line.hpp"
-#include "core/jobs/job.hpp"
 #include "core/vision/image_codec.hpp"
 #include "tests/support/gcode_reference.hpp"
 #include "tests/support/test_data.hpp"
@@ -190,20 +190,20 @@ TEST_GROUP(RealGcode){};
 
 namespace {
 
-const targets::Correction kSlightlyOff = [](geometry::Point2 p) {
+const jobs::Correction kSlightlyOff = [](geometry::Point2 p) {
     return geometry::Point2{1.001 * p.x + 0.0005 * p.y + 0.1, -0.0004 * p.x + 0.999 * p.y - 0.05};
 };
 
 // Each file in its controller's flavour, its work zero at `work_zero_mm` on the machine, no
 // travel limit, the correction everywhere.
-targets::JobFrame frame_of_file(const std::string& file, geometry::Point2 work_zero_mm = {}) {
+jobs::JobFrame frame_of_file(const std::string& file, geometry::Point2 work_zero_mm = {}) {
     const bool printer = file.rfind("printer/", 0) == 0;
     const bool ngc = file.size() > 4 && file.substr(file.size() - 4) == ".ngc";
-    return {printer ? targets::Flavour::printer
-                    : (ngc ? targets::Flavour::linuxcnc : targets::Flavour::grbl),
-            {work_zero_mm},
-            {},
-            {}};
+    return {
+        printer ? jobs::Flavour::printer : (ngc ? jobs::Flavour::linuxcnc : jobs::Flavour::grbl),
+        {work_zero_mm},
+        {},
+        {}};
 }
 
 // A line the compensator moves: one with X or Y (or an arc's words) under a motion command.
@@ -280,12 +280,11 @@ TEST(RealGcode, every_file_is_compensated_or_refused_for_a_reason_a_cam_user_rea
     int compensated = 0, refused = 0;
     for (const auto& [file, refusal] : expected) {
         const std::string job = test::read_test_data("realworld/gcode/" + file);
-        targets::CompensateReport report;
+        jobs::CompensateReport report;
         std::string out, why;
         try {
-            out =
-                targets::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file), {}, report);
-        } catch (const targets::CompensateError& e) {
+            out = jobs::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file), {}, report);
+        } catch (const jobs::CompensateError& e) {
             why = e.what();
         }
         UT_PRINT((file + ": " +
@@ -386,12 +385,12 @@ TEST(RealSvg, every_drawing_gives_a_job_on_the_drawing_as_a_browser_paints_it) {
     for (const auto& [path, refusal] : drawings) {
         const std::string file = std::filesystem::path(path).filename().string();
         const std::string text = test::read_whole_file(path);
-        targets::PlacedJob job;
+        jobs::PlacedJob job;
         std::string why;
         try {
-            targets::SvgJobSettings settings;
+            jobs::SvgJobSettings settings;
             settings.fit_mm = 100;
-            job = targets::plan_svg_job(targets::read_drawing(text), machine, settings);
+            job = jobs::plan_svg_job(drawings::read_drawing(text), machine, settings);
         } catch (const std::exception& e) {
             why = e.what();
         }
@@ -406,7 +405,7 @@ TEST(RealSvg, every_drawing_gives_a_job_on_the_drawing_as_a_browser_paints_it) {
         // drawn on that frame through the job's own placement, taken back to the document. A
         // document without a page (no width or height) is painted over its content's extent:
         // the job's lines are then drawn on the painted extent.
-        const auto document = targets::read_drawing(text);
+        const auto document = drawings::read_drawing(text);
         const bool has_page = document.width_mm > 0 && document.height_mm > 0;
         double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
         for (const auto& m : job.toolpath.moves) {
@@ -747,7 +746,7 @@ class PathIndex {
 };
 
 std::vector<std::pair<geometry::Point2, geometry::Point2>> segments_of(
-    const std::vector<test::ReferenceMove>& moves, const targets::Correction& through) {
+    const std::vector<test::ReferenceMove>& moves, const jobs::Correction& through) {
     std::vector<std::pair<geometry::Point2, geometry::Point2>> out;
     for (const auto& m : moves)
         for (std::size_t k = 1; k < m.path_mm.size(); ++k)
@@ -762,12 +761,12 @@ std::vector<std::pair<geometry::Point2, geometry::Point2>> segments_of(
 // reaches lies on the corrected input path, and every point of the input path, corrected, on the
 // output's, within the compensator's own arc tolerance of 0.002 mm (and its 0.0001 mm digits).
 TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction) {
-    const targets::Correction identity = [](geometry::Point2 p) { return p; };
+    const jobs::Correction identity = [](geometry::Point2 p) { return p; };
     // Each job placed with its work zero at machine (40, -25): the correction is the machine's,
     // so the job's point p goes to kSlightlyOff(p + W) - W (not kSlightlyOff(p), which a job
     // compensated in the wrong frame would show, up to 0.05 mm off here).
     const geometry::Point2 w{40, -25};
-    const targets::Correction through_machine = [w](geometry::Point2 p) {
+    const jobs::Correction through_machine = [w](geometry::Point2 p) {
         const auto c = kSlightlyOff({p.x + w.x, p.y + w.y});
         return geometry::Point2{c.x - w.x, c.y - w.y};
     };
@@ -780,9 +779,9 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
           "printer/gcode-preview_puzzle_all_cura231.gcode",
           "printer/gcode-preview_vase_prusaslicer274.gcode"}) {
         const std::string job = test::read_test_data(std::string("realworld/gcode/") + file);
-        targets::CompensateReport report;
+        jobs::CompensateReport report;
         const std::string out =
-            targets::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file, w), {}, report);
+            jobs::compensate_gcode(job, {kSlightlyOff, {}}, frame_of_file(file, w), {}, report);
         const auto in_moves = test::reference_motion(job);
         const auto out_moves = test::reference_motion(out);
         const PathIndex input_corrected(segments_of(in_moves, through_machine));
@@ -811,8 +810,8 @@ TEST(RealGcode, a_compensated_files_motion_is_the_inputs_through_the_correction)
 TEST(RealGcode, a_bolt_circle_in_polar_words_drills_each_hole_through_the_correction) {
     const std::string job = test::read_test_data("realworld/gcode/cnc/linuxcnc/hole-circle.ngc");
     const geometry::Point2 w{150, 150};
-    targets::CompensateReport report;
-    const std::string out = targets::compensate_gcode(
+    jobs::CompensateReport report;
+    const std::string out = jobs::compensate_gcode(
         job, {kSlightlyOff, {}}, frame_of_file("cnc/linuxcnc/hole-circle.ngc", w), {}, report);
     CHECK_EQUAL(6, report.holes);
     std::istringstream lines(out);

@@ -4,15 +4,17 @@
 #include <cmath>
 #include <string>
 
-#include "core/models/machine_file.hpp"
 #include "core/drawings/drawing.hpp"
-#include "core/jobs/job.hpp"
 #include "core/drawings/svg.hpp"
+#include "core/jobs/job.hpp"
+#include "core/models/machine_file.hpp"
 #include "core/targets/toolpath.hpp"
 #include "tests/support/whole_file.hpp"
 
 using namespace calbox;
 using namespace calbox::targets;
+using namespace calbox::drawings;
+using calbox::jobs::plan_svg_job;
 
 namespace {
 

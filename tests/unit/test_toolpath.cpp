@@ -15,8 +15,8 @@
 #include "board/sim/machine_twin.hpp"
 #include "board/sim/renderer.hpp"
 #include "board/sim/scenes.hpp"
-#include "core/models/machine_file.hpp"
 #include "core/jobs/job.hpp"
+#include "core/models/machine_file.hpp"
 #include "tests/support/test_data.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
@@ -69,10 +69,10 @@ struct FillFigures {
 
 FillFigures judge(const std::string& name, const char* machine_text, double spacing) {
     const auto machine = models::parse_machine_file(machine_text, "test machine");
-    targets::SvgJobSettings settings;
+    jobs::SvgJobSettings settings;
     settings.fit_mm = 40;
     settings.spacing_mm = spacing;
-    const auto job = targets::plan_svg_job(targets::parse_svg(drawing(name)), machine, settings);
+    const auto job = jobs::plan_svg_job(drawings::parse_svg(drawing(name)), machine, settings);
     const cv::Point2d centre = machine.is_delta() ? cv::Point2d(0, 0) : cv::Point2d(100, 100);
     const auto outline = outline_of(drawing(name), centre);
     const std::vector<cv::Point2f> outline_f(outline.begin(), outline.end());
@@ -177,9 +177,9 @@ TEST(SeedDrawings, forma2_fills_its_outline) {
 TEST(SeedDrawings, printer_spacing_below_the_line_width_is_refused_with_the_range) {
     const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test machine");
     try {
-        targets::checked_spacing_mm(machine, 0.3);
+        jobs::checked_spacing_mm(machine, 0.3);
         FAIL("accepted 0.3 mm spacing with a 0.45 mm line");
-    } catch (const targets::JobError& e) {
+    } catch (const jobs::JobError& e) {
         STRCMP_CONTAINS("valid range 0.45 to 4.5 mm", e.what());
     }
 }
@@ -188,10 +188,10 @@ TEST_GROUP(TwinPrintsDrawing){};
 
 TEST(TwinPrintsDrawing, photo_of_the_printed_house_shows_its_area_within_one_percent) {
     const auto machine = models::parse_machine_file(test::kDeltaMachineToml, "test machine");
-    targets::SvgJobSettings settings;
+    jobs::SvgJobSettings settings;
     settings.fit_mm = 40;
-    const auto job = targets::plan_svg_job(targets::parse_svg(drawing("casa")), machine, settings);
-    const std::string gcode = targets::write_gcode(job, machine, "casa");
+    const auto job = jobs::plan_svg_job(drawings::parse_svg(drawing("casa")), machine, settings);
+    const std::string gcode = jobs::write_gcode(job, machine, "casa");
     sim::DeltaParams exact;
     sim::DeltaTwin twin(exact, exact);
     auto strokes = test::print_on_twin(twin, gcode);

@@ -132,14 +132,15 @@ void BedPhotoDesk::keep(const Order& order, const Developed& developed) {
     data_.replace_file(kBedViewPng, (developed.files)->first);
     // The sheet of this photo or none: one from an earlier photo may be gone from the
     // bed, and a job placed by it would be cut where nothing lies.
-    if (developed.sheet)
+    if (developed.sheet) {
         data_.replace_file(
             kFoundStockFile,
             modes::stock_to_json(*developed.sheet, order.solution.machine_fingerprint));
-    else
+    } else {
         data_.remove_file(kFoundStockFile);
-    // The probed top goes with the sheet it was probed on.
-    if (!developed.sheet) data_.remove_file(kProbedStockTopFile);
+        // The probed top goes with the sheet it was probed on.
+        data_.remove_file(kProbedStockTopFile);
+    }
     if (developed.placed)
         data_.replace_file(
             kFoundMarksFile,

@@ -86,10 +86,11 @@ def start(work, port):
     os.chmod(fifo, 0o1777)
     # As root, LinuxCNC's rtapi_app runs its non-realtime threads as a fallback user.
     env = dict(os.environ, RTAPI_UID="65534", RTAPI_FIFO_PATH=os.path.join(fifo, "fifo"))
-    log = open(os.path.join(work, "linuxcnc.log"), "w")
-    return subprocess.Popen(["linuxcnc", configuration(work, port)], cwd=work, env=env,
-                            stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
-                            start_new_session=True)
+    # LinuxCNC writes to its own copy of the descriptor; this process's is closed at once.
+    with open(os.path.join(work, "linuxcnc.log"), "w") as log:
+        return subprocess.Popen(["linuxcnc", configuration(work, port)], cwd=work, env=env,
+                                stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+                                start_new_session=True)
 
 
 def until(rsh, command, question, answer, deadline, what):

@@ -31,7 +31,7 @@ std::string url_encoded(const std::string& text) {
     return out;
 }
 
-struct DuetLink::Session {
+struct DuetSession {
     DuetLink& link;
     const DuetSettings& settings;
     std::optional<std::string> session_key;
@@ -235,30 +235,22 @@ struct DuetLink::Session {
     }
 };
 
+template class HttpSessionLink<DuetSettings, DuetSession>;
+
 DuetLink::DuetLink(DuetSettings settings, hal::HttpClient& http, Log log)
-    : HostLink("duet", settings.url, http, std::move(log)),
-      settings_(std::move(settings)),
-      session_(std::make_unique<Session>(Session{*this, settings_, std::nullopt, 0})) {}
+    : HttpSessionLink("duet", std::move(settings), http, std::move(log)) {
+    session_ = std::make_unique<DuetSession>(DuetSession{*this, settings_, std::nullopt, 0});
+}
 
 DuetLink::~DuetLink() {
     finish_requests();
     session_->disconnect();
 }
 
-void DuetLink::send_commands(const std::vector<std::string>& lines, Done done) {
-    start_with<Session>(
-        *session_,
-        [lines](Session& s) {
-            return JobOutcome{true, {}, s.command(lines), {}};
-        },
-        std::move(done));
-}
-
 void DuetLink::run_job(const std::vector<std::string>& lines, Done done) {
     std::string text = joined(lines);
-    start_with<Session>(
-        *session_,
-        [this, text = std::move(text)](Session& s) {
+    start_in_session(
+        [this, text = std::move(text)](DuetSession& s) {
             s.ensure_ready();
             const std::string path = "0:/gcodes/" + settings_.job_file_name;
             s.upload(path, text);

@@ -19,30 +19,24 @@
 
 namespace calbox::firmware {
 
-struct DuetSettings {
-    net::Url url;
+struct DuetSettings : HttpHostSettings {
     std::string password;  // the board's (M551); empty: a board without one
-    std::chrono::milliseconds reply_timeout{30000};
-    std::chrono::milliseconds poll_interval{250};
-    std::string job_file_name = "calbox-target.gcode";
 };
 
-class DuetLink final : public HostLink {
+struct DuetSession;  // the session key and the markers' count
+
+class DuetLink final : public HttpSessionLink<DuetSettings, DuetSession> {
   public:
     DuetLink(DuetSettings settings, hal::HttpClient& http, Log log);
     ~DuetLink() override;
-    DuetLink(const DuetLink&) = delete;
-    DuetLink& operator=(const DuetLink&) = delete;
 
     void run_job(const std::vector<std::string>& lines, Done done) override;
-    void send_commands(const std::vector<std::string>& lines, Done done) override;
-
-    struct Session;  // the session key and the markers' count, on the request thread only
 
   private:
-    DuetSettings settings_;
-    std::unique_ptr<Session> session_;
+    friend DuetSession;
 };
+
+extern template class HttpSessionLink<DuetSettings, DuetSession>;
 
 // A query parameter's value, percent-encoded (RFC 3986's unreserved characters as they are).
 std::string url_encoded(const std::string& text);

@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "firmware/links/machine_link.hpp"
 #include "hal/background_job.hpp"
@@ -57,12 +58,6 @@ class HostLink : public MachineLink {
     bool stop_asked() const { return stopping_; }
     // Waits `how_long` unless cancelled meanwhile (then throws as check_stop).
     void pause(std::chrono::milliseconds how_long) const;
-    // `request` given the link's session (the subclass's, used on the request thread only).
-    template <class Session>
-    void start_with(Session& session, std::function<JobOutcome(Session&)> request, Done done) {
-        start([&session, request = std::move(request)] { return request(session); },
-              std::move(done));
-    }
     // While one lives, a print of the box's runs on the host: a stop leaves it there, and
     // closing_note says so.
     class PrintingOnHost {
@@ -108,5 +103,61 @@ class HostLink : public MachineLink {
     bool left_a_print_ = false;  // the last request was cancelled while the host printed
     std::unique_ptr<hal::BackgroundJob<JobOutcome>> job_;
 };
+
+// What every host spoken to over HTTP is given: where it is, how long it may take to reply, how
+// often a print of the box's is polled, and the job's file name on the host.
+struct HttpHostSettings {
+    net::Url url;
+    std::chrono::milliseconds reply_timeout{30000};
+    std::chrono::milliseconds poll_interval{250};
+    std::string job_file_name = "calbox-target.gcode";
+};
+
+// A link to a host over HTTP whose requests share one session (a socket, a session key, the
+// markers' count), used on the request thread only. `Session` is the link's own type, complete
+// where the link's functions are defined; its `command(lines)` sends the lines and returns what
+// the printer answered. The link makes its session in its constructor and calls
+// finish_requests() first in its destructor. A link is declared
+//   struct XSession;
+//   class XLink final : public HttpSessionLink<XSettings, XSession> { ... friend XSession; };
+//   extern template class HttpSessionLink<XSettings, XSession>;
+// and its source, once XSession is defined: template class HttpSessionLink<XSettings, XSession>;
+template <class Settings, class Session>
+class HttpSessionLink : public HostLink {
+  public:
+    HttpSessionLink(const HttpSessionLink&) = delete;
+    HttpSessionLink& operator=(const HttpSessionLink&) = delete;
+
+    void send_commands(const std::vector<std::string>& lines, Done done) override;
+
+  protected:
+    // `name`: the host's kind, for the log ("duet").
+    HttpSessionLink(std::string name, Settings settings, hal::HttpClient& http, Log log)
+        : HostLink(std::move(name), settings.url, http, std::move(log)),
+          settings_(std::move(settings)) {}
+    ~HttpSessionLink() override = default;
+
+    // `request`, given the session, on the request thread (as HostLink::start).
+    void start_in_session(std::function<JobOutcome(Session&)> request, Done done) {
+        start(
+            [session = session_.get(), request = std::move(request)] { return request(*session); },
+            std::move(done));
+    }
+
+    Settings settings_;
+    std::unique_ptr<Session> session_;
+};
+
+// Defined here, instantiated once in each link's source (where its Session is complete): each
+// link's header declares `extern template class HttpSessionLink<...>`, its source instantiates it.
+template <class Settings, class Session>
+void HttpSessionLink<Settings, Session>::send_commands(const std::vector<std::string>& lines,
+                                                       Done done) {
+    start_in_session(
+        [lines](Session& s) {
+            return JobOutcome{true, {}, s.command(lines), {}};
+        },
+        std::move(done));
+}
 
 }  // namespace calbox::firmware

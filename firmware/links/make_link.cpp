@@ -66,6 +66,11 @@ struct LinkContext {
             throw std::runtime_error(std::string("[link] url: ") + e.what());
         }
     }
+    // The machine file's url and reply timeout; the rest as HttpHostSettings has them.
+    void fill_http_host(HttpHostSettings& s) const {
+        s.url = http_url();
+        s.reply_timeout = milliseconds_of(link().reply_timeout_s);
+    }
 };
 
 std::unique_ptr<MachineLink> serial_link(const LinkContext& c) {
@@ -82,16 +87,15 @@ std::unique_ptr<MachineLink> serial_link(const LinkContext& c) {
 
 std::unique_ptr<MachineLink> moonraker_link(const LinkContext& c) {
     MoonrakerSettings s;
-    s.url = c.http_url();
+    c.fill_http_host(s);
     s.api_key = read_key_file(c.link().key_file);
-    s.reply_timeout = milliseconds_of(c.link().reply_timeout_s);
     s.restart_timeout = milliseconds_of(c.link().restart_timeout_s);
     return std::make_unique<MoonrakerLink>(std::move(s), c.network->http(), c.log);
 }
 
 std::unique_ptr<MachineLink> octoprint_link(const LinkContext& c) {
     OctoPrintSettings s;
-    s.url = c.http_url();
+    c.fill_http_host(s);
     const auto& key_file = c.link().key_file;
     if (key_file.empty())
         throw std::runtime_error(
@@ -102,15 +106,13 @@ std::unique_ptr<MachineLink> octoprint_link(const LinkContext& c) {
     std::error_code ec;
     if (std::filesystem::exists(key_file, ec)) s.api_key = read_key_file(key_file);
     s.key_file = key_file;
-    s.reply_timeout = milliseconds_of(c.link().reply_timeout_s);
     return std::make_unique<OctoPrintLink>(std::move(s), c.network->http(), c.log);
 }
 
 std::unique_ptr<MachineLink> duet_link(const LinkContext& c) {
     DuetSettings s;
-    s.url = c.http_url();
+    c.fill_http_host(s);
     s.password = read_key_file(c.link().key_file);
-    s.reply_timeout = milliseconds_of(c.link().reply_timeout_s);
     return std::make_unique<DuetLink>(std::move(s), c.network->http(), c.log);
 }
 

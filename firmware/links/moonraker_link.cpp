@@ -28,7 +28,7 @@ std::string config_value(const json& v) {
 
 }  // namespace
 
-struct MoonrakerLink::Session {
+struct MoonrakerSession {
     const MoonrakerLink& link;
     const MoonrakerSettings& settings;
     std::unique_ptr<hal::WebSocket> socket;
@@ -147,7 +147,7 @@ struct MoonrakerLink::Session {
     }
 
     // One script per line: each has its own deadline; what Klipper said, in order.
-    std::vector<std::string> commands(const std::vector<std::string>& lines) {
+    std::vector<std::string> command(const std::vector<std::string>& lines) {
         ensure_ready();
         std::vector<std::string> replies;
         for (const auto& line : lines) call("printer.gcode.script", {{"script", line}}, &replies);
@@ -195,28 +195,20 @@ struct MoonrakerLink::Session {
     }
 };
 
+template class HttpSessionLink<MoonrakerSettings, MoonrakerSession>;
+
 MoonrakerLink::MoonrakerLink(MoonrakerSettings settings, hal::HttpClient& http, Log log)
-    : HostLink("moonraker", settings.url, http, std::move(log)),
-      settings_(std::move(settings)),
-      session_(std::make_unique<Session>(Session{*this, settings_, nullptr, 1})) {}
+    : HttpSessionLink("moonraker", std::move(settings), http, std::move(log)) {
+    session_ = std::make_unique<MoonrakerSession>(MoonrakerSession{*this, settings_, nullptr, 1});
+}
 
 MoonrakerLink::~MoonrakerLink() {
     finish_requests();
 }
 
-void MoonrakerLink::send_commands(const std::vector<std::string>& lines, Done done) {
-    start_with<Session>(
-        *session_,
-        [lines](Session& s) {
-            return JobOutcome{true, {}, s.commands(lines), {}};
-        },
-        std::move(done));
-}
-
 void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
-    start_with<Session>(
-        *session_,
-        [this, text = joined(lines)](Session& s) {
+    start_in_session(
+        [this, text = joined(lines)](MoonrakerSession& s) {
             s.ensure_ready();
             s.upload("gcodes", settings_.job_file_name, text);
             s.call("printer.print.start", {{"filename", settings_.job_file_name}});
@@ -248,9 +240,8 @@ void MoonrakerLink::run_job(const std::vector<std::string>& lines, Done done) {
 }
 
 void MoonrakerLink::read_config_file(Done done) {
-    start_with<Session>(
-        *session_,
-        [](Session& s) {
+    start_in_session(
+        [](MoonrakerSession& s) {
             // The file API answers whatever Klipper's state (a printer.cfg it refused included).
             return JobOutcome{true, {}, {}, s.download("config/printer.cfg")};
         },
@@ -259,9 +250,8 @@ void MoonrakerLink::read_config_file(Done done) {
 
 void MoonrakerLink::replace_config_file(const std::string& text, const std::string& expected_now,
                                         Done done) {
-    start_with<Session>(
-        *session_,
-        [text, expected_now](Session& s) {
+    start_in_session(
+        [text, expected_now](MoonrakerSession& s) {
             if (s.download("config/printer.cfg") != expected_now)
                 throw LinkError(
                     "printer.cfg was changed on the host since the box read it; nothing was "
@@ -275,10 +265,9 @@ void MoonrakerLink::replace_config_file(const std::string& text, const std::stri
 }
 
 void MoonrakerLink::save_config_after(const std::vector<std::string>& lines, Done done) {
-    start_with<Session>(
-        *session_,
-        [lines](Session& s) {
-            JobOutcome outcome{true, {}, s.commands(lines), {}};
+    start_in_session(
+        [lines](MoonrakerSession& s) {
+            JobOutcome outcome{true, {}, s.command(lines), {}};
             // Klipper writes printer.cfg and restarts: the script's reply may be lost with the
             // connection to klippy ("Klippy Disconnected", or none). A refusal is an error.
             try {
@@ -296,9 +285,8 @@ void MoonrakerLink::save_config_after(const std::vector<std::string>& lines, Don
 }
 
 void MoonrakerLink::read_settings_in_force(Done done) {
-    start_with<Session>(
-        *session_,
-        [](Session& s) {
+    start_in_session(
+        [](MoonrakerSession& s) {
             s.ensure_ready();
             const json r =
                 s.call("printer.objects.query", {{"objects", {{"configfile", {"settings"}}}}});

@@ -17,24 +17,20 @@
 
 namespace calbox::firmware {
 
-struct MoonrakerSettings {
-    net::Url url;
+// poll_interval: print_stats, and printer.info while Klipper restarts.
+struct MoonrakerSettings : HttpHostSettings {
     std::string api_key;  // empty: a host that asks for none (trusted clients)
-    std::chrono::milliseconds reply_timeout{30000};
     std::chrono::milliseconds restart_timeout{60000};
-    std::chrono::milliseconds poll_interval{250};  // print_stats and printer.info while waiting
-    std::string job_file_name = "calbox-target.gcode";
 };
 
-class MoonrakerLink final : public HostLink {
+struct MoonrakerSession;  // the websocket and its request ids
+
+class MoonrakerLink final : public HttpSessionLink<MoonrakerSettings, MoonrakerSession> {
   public:
     MoonrakerLink(MoonrakerSettings settings, hal::HttpClient& http, Log log);
     ~MoonrakerLink() override;
-    MoonrakerLink(const MoonrakerLink&) = delete;
-    MoonrakerLink& operator=(const MoonrakerLink&) = delete;
 
     void run_job(const std::vector<std::string>& lines, Done done) override;
-    void send_commands(const std::vector<std::string>& lines, Done done) override;
 
     bool has_config_file() const override { return true; }
     void read_config_file(Done done) override;
@@ -43,11 +39,10 @@ class MoonrakerLink final : public HostLink {
     void save_config_after(const std::vector<std::string>& lines, Done done) override;
     void read_settings_in_force(Done done) override;
 
-    struct Session;  // the websocket and its request ids, on the request thread only
-
   private:
-    MoonrakerSettings settings_;
-    std::unique_ptr<Session> session_;
+    friend MoonrakerSession;
 };
+
+extern template class HttpSessionLink<MoonrakerSettings, MoonrakerSession>;
 
 }  // namespace calbox::firmware

@@ -24,7 +24,7 @@ std::optional<std::string> received(const std::string& log_line) {
 
 }  // namespace
 
-struct OctoPrintLink::Session {
+struct OctoPrintSession {
     OctoPrintLink& link;
     const OctoPrintSettings& settings;
     std::unique_ptr<hal::WebSocket> socket;
@@ -142,40 +142,32 @@ struct OctoPrintLink::Session {
     }
 };
 
+template class HttpSessionLink<OctoPrintSettings, OctoPrintSession>;
+
 OctoPrintLink::OctoPrintLink(OctoPrintSettings settings, hal::HttpClient& http, Log log)
-    : HostLink("octoprint", settings.url, http, std::move(log)),
-      settings_(std::move(settings)),
-      session_(std::make_unique<Session>(Session{*this, settings_, nullptr, {}, 0})) {}
+    : HttpSessionLink("octoprint", std::move(settings), http, std::move(log)) {
+    session_ =
+        std::make_unique<OctoPrintSession>(OctoPrintSession{*this, settings_, nullptr, {}, 0});
+}
 
 OctoPrintLink::~OctoPrintLink() {
     finish_requests();
 }
 
-void OctoPrintLink::send_commands(const std::vector<std::string>& lines, Done done) {
-    start_with<Session>(
-        *session_,
-        [lines](Session& s) {
-            JobOutcome outcome{true, {}, s.command(lines), {}};
-            return outcome;
-        },
-        std::move(done));
-}
-
 void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
     std::string text = joined(lines);
-    start_with<Session>(
-        *session_,
-        [this, text = std::move(text)](Session& s) {
+    start_in_session(
+        [this, text = std::move(text)](OctoPrintSession& s) {
             const auto form = net::multipart_form("file", settings_.job_file_name, text,
                                                   {{"select", "true"}, {"print", "true"}});
             const auto up = s.http({"POST", "/api/files/local", {}, form.content_type, form.body});
-            Session::refused_key(up);
+            OctoPrintSession::refused_key(up);
             if (up.status != 201 && up.status != 200)
                 throw LinkError("the host refused the upload of " + settings_.job_file_name + " (" +
                                 http_error_line(up) + ")");
             return follow_print(settings_.poll_interval, settings_.reply_timeout, [&](bool seen) {
                 const auto r = s.http({"GET", "/api/job", {}, {}, {}});
-                Session::refused_key(r);
+                OctoPrintSession::refused_key(r);
                 if (r.status != 200) throw LinkError("OctoPrint: /api/job: " + http_error_line(r));
                 const json job = json::parse(r.body, nullptr, false);
                 if (job.is_discarded() || !job.is_object())

@@ -18,31 +18,25 @@
 
 namespace calbox::firmware {
 
-struct OctoPrintSettings {
-    net::Url url;
+struct OctoPrintSettings : HttpHostSettings {
     std::string api_key;   // empty: none yet (every request says so)
     std::string key_file;  // where it is kept, for that message
-    std::chrono::milliseconds reply_timeout{30000};
-    std::chrono::milliseconds poll_interval{250};
-    std::string job_file_name = "calbox-target.gcode";
 };
 
-class OctoPrintLink final : public HostLink {
+struct OctoPrintSession;  // the push socket and the markers' count
+
+class OctoPrintLink final : public HttpSessionLink<OctoPrintSettings, OctoPrintSession> {
   public:
     OctoPrintLink(OctoPrintSettings settings, hal::HttpClient& http, Log log);
     ~OctoPrintLink() override;
-    OctoPrintLink(const OctoPrintLink&) = delete;
-    OctoPrintLink& operator=(const OctoPrintLink&) = delete;
 
     void run_job(const std::vector<std::string>& lines, Done done) override;
-    void send_commands(const std::vector<std::string>& lines, Done done) override;
-
-    struct Session;  // the push socket and the markers' count, on the request thread only
 
   private:
-    OctoPrintSettings settings_;
-    std::unique_ptr<Session> session_;
+    friend OctoPrintSession;
 };
+
+extern template class HttpSessionLink<OctoPrintSettings, OctoPrintSession>;
 
 // OctoPrint's application keys (its appkeys plugin): asks the host for a key for calbox, which
 // its owner allows in OctoPrint's page; `wait` polls until then. Returns the key; throws

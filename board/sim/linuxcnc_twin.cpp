@@ -16,7 +16,7 @@
 
 #include "board/sim/gcode_runner.hpp"
 #include "board/sim/sim_board.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 namespace calbox::sim {
 namespace {

@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "board/sim/delta_reference.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 namespace calbox::sim {
 

@@ -23,7 +23,7 @@
 #include "board/sim/octoprint_twin.hpp"
 #include "board/sim/photo_cache.hpp"
 #include "board/sim/twin_kind.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 #include "core/models/link_kinds.hpp"
 #include "core/vision/image_codec.hpp"
 #include "drivers/termios_port.hpp"

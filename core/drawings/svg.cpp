@@ -9,14 +9,11 @@
 #include <optional>
 #include <pugixml.hpp>
 
+#include "core/drawings/region.hpp"
 #include "core/drawings/svg_path.hpp"
 #include "core/number_text.hpp"
-#include "core/targets/toolpath.hpp"
 
 namespace calbox::drawings {
-using targets::intersect_region;
-using targets::Polygon;
-using targets::resolve_fill;
 namespace {
 
 using svg_path::arc_to;

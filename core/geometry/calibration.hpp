@@ -7,7 +7,7 @@
 
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/pattern_spec.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::geometry {
 

@@ -11,8 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "core/gcode/gcode_line.hpp"
 #include "core/jobs/compensate.hpp"
-#include "core/jobs/gcode_line.hpp"
 #include "core/jobs/job_words.hpp"
 
 namespace calbox::jobs::compensating {

@@ -6,22 +6,16 @@
 #include <limits>
 
 #include "core/number_text.hpp"
-#include "core/targets/toolpath.hpp"
 
 namespace calbox::jobs {
 using drawings::Contour;
 using drawings::FillRule;
+using drawings::intersect_lines;
+using drawings::intersect_region;
+using drawings::Polygon;
+using drawings::resolve_fill;
 using drawings::SvgDocument;
 using drawings::SvgShape;
-using targets::append;
-using targets::FillSettings;
-using targets::intersect_lines;
-using targets::intersect_region;
-using targets::MoveKind;
-using targets::plan_fill;
-using targets::plan_trace;
-using targets::Polygon;
-using targets::resolve_fill;
 namespace {
 
 using geometry::Point2;

@@ -7,8 +7,8 @@
 #include <string>
 
 #include "core/drawings/svg.hpp"
+#include "core/jobs/toolpath.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/targets/toolpath.hpp"
 
 namespace calbox::jobs {
 
@@ -28,7 +28,7 @@ struct SvgJobSettings {
 };
 
 struct PlacedJob {
-    targets::Toolpath toolpath;
+    Toolpath toolpath;
     double scale = 1;  // drawing mm -> machine mm
     double line_width_mm = 0;
     double spacing_mm = 0;

@@ -8,7 +8,7 @@
 #include <string_view>
 #include <vector>
 
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 namespace calbox::jobs::job_words {
 

@@ -10,7 +10,7 @@
 #include <numbers>
 #include <optional>
 
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 namespace calbox::gcode {
 namespace {

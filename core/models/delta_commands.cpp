@@ -9,8 +9,8 @@
 #include <string_view>
 #include <utility>
 
+#include "core/gcode/gcode_line.hpp"
 #include "core/models/klipper_config.hpp"
-#include "core/jobs/gcode_line.hpp"
 
 namespace calbox::models {
 namespace {

@@ -6,8 +6,8 @@
 #include <cstdio>
 #include <sstream>
 
+#include "core/geometry/placement.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 
 namespace calbox::models {
 namespace {
@@ -266,7 +266,7 @@ FieldFit fit_galvo_field(const SquareGrid& grid, const std::vector<std::optional
     if (!(column0 && column_n && row0 && row_n))
         throw FieldError(
             "a whole border row or column of the grid is missing: the field's edge is unknown");
-    const auto onto_grid = solve::best_rigid_placement(from, to);
+    const auto onto_grid = geometry::best_rigid_placement(from, to);
 
     FieldFit fit;
     fit.landed_mm.assign(landed.size(), {});

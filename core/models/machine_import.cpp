@@ -8,8 +8,8 @@
 #include <map>
 #include <sstream>
 
+#include "core/gcode/gcode_line.hpp"
 #include "core/number_text.hpp"
-#include "core/jobs/gcode_line.hpp"
 #include "core/trimmed_text.hpp"
 
 namespace calbox::models {

@@ -6,7 +6,7 @@
 #include <limits>
 #include <random>
 
-#include "core/solve/placement.hpp"
+#include "core/geometry/placement.hpp"
 
 namespace calbox::models {
 namespace {
@@ -267,7 +267,7 @@ std::pair<Eigen::VectorXd, Eigen::VectorXd> refine_placement(const Eigen::Matrix
                                                              const std::vector<Point2>& commanded,
                                                              const std::vector<Point2>& seen,
                                                              double span,
-                                                             solve::RigidPlacement& placement) {
+                                                             geometry::RigidPlacement& placement) {
     Eigen::VectorXd q;
     Eigen::VectorXd r(a.rows());
     for (int iteration = 0; iteration < 4; ++iteration) {
@@ -330,7 +330,7 @@ PlanarFit fit_planar_errors(const std::vector<PlanarObservation>& observations,
                                std::to_string(fit.condition) +
                                "): spread the points over the work area");
 
-    auto placement = solve::best_rigid_placement(commanded, seen);
+    auto placement = geometry::best_rigid_placement(commanded, seen);
     const auto [q, r] = refine_placement(a, commanded, seen, span, placement);
     const Eigen::VectorXd residual = r - a * q;
     const double dof = static_cast<double>(a.rows() - unknowns);

@@ -13,9 +13,9 @@
 #include "core/each_on_all_cores.hpp"
 #include "core/geometry/camera_model.hpp"
 #include "core/geometry/line_fit.hpp"
+#include "core/geometry/placement.hpp"
 #include "core/models/delta.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 #include "core/vision/edge_kernel.hpp"
 #include "core/vision/exposure.hpp"
 #include "core/vision/strand_ring.hpp"
@@ -85,7 +85,7 @@ void check_exposure(const vision::GrayView& image, std::size_t frame,
 struct SurfaceModel {
     std::optional<models::DeltaGeometry> truth;  // fitted; without it, commanded = actual
     models::DeltaGeometry firmware;
-    solve::RigidPlacement placement;  // machine frame -> bed frame
+    geometry::RigidPlacement placement;  // machine frame -> bed frame
     double bed_scale = 1;
 
     geometry::Point3 on_bed(geometry::Point3 commanded) const {
@@ -201,7 +201,7 @@ SurfaceModel fit_surface(const models::MachineFile& machine, DeltaMeasurement& o
             commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}),
                 measured.push_back(f.measured_mm);
         if (commanded.size() >= 2) {
-            surface.placement = solve::best_rigid_placement(commanded, measured);
+            surface.placement = geometry::best_rigid_placement(commanded, measured);
         }
     }
     return surface;
@@ -291,7 +291,7 @@ struct MissingMarkers {
 };
 MissingMarkers missing_markers(const targets::DeltaTarget& target,
                                const std::vector<vision::DetectedMarker>& found,
-                               const solve::RigidPlacement& placement,
+                               const geometry::RigidPlacement& placement,
                                const geometry::CameraModel& camera,
                                const geometry::BedPlane& plane) {
     MissingMarkers out;
@@ -432,7 +432,7 @@ std::vector<std::vector<geometry::Point3>> corners_at_top(
 // The markers must lie as this target lays them out, give or take what an uncalibrated printer
 // does to it: another ArUco artifact (a board, another machine's target) does not. The target's
 // place on the bed, from two markers up.
-std::optional<solve::RigidPlacement> layout_on_bed(
+std::optional<geometry::RigidPlacement> layout_on_bed(
     const std::vector<vision::DetectedMarker>& found,
     const std::vector<std::vector<geometry::Point3>>& on_bed, const targets::DeltaTarget& target,
     std::size_t frame) {
@@ -444,7 +444,7 @@ std::optional<solve::RigidPlacement> layout_on_bed(
         seen_centres.push_back({(bed[0].x + bed[1].x + bed[2].x + bed[3].x) / 4,
                                 (bed[0].y + bed[1].y + bed[2].y + bed[3].y) / 4});
     }
-    const auto placement = solve::best_rigid_placement(laid, seen_centres);
+    const auto placement = geometry::best_rigid_placement(laid, seen_centres);
     double worst = 0;
     for (std::size_t i = 0; i < laid.size(); ++i) {
         const auto p = placement.apply(laid[i]);

@@ -92,7 +92,7 @@ DeltaMeasurementsRecord record_of(const DeltaMeasurement& measured,
 // The measured corners against the commanded ones after the best rotation and translation of
 // the target on the bed: what an overlay draws, magnified.
 struct PlacementErrors {
-    solve::RigidPlacement placement;         // commanded -> bed
+    geometry::RigidPlacement placement;      // commanded -> bed
     std::vector<geometry::Point2> error_mm;  // per feature: measured - placed commanded
     double rms_mm = 0, largest_mm = 0;
 };

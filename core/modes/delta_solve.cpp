@@ -4,10 +4,10 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/geometry/placement.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 
 namespace calbox::modes {
 
@@ -34,7 +34,7 @@ PlacementErrors placement_errors(const std::vector<solve::FeatureMeasurement>& f
     std::vector<geometry::Point2> commanded, seen;
     for (const auto& f : features)
         commanded.push_back({f.commanded_mm.x, f.commanded_mm.y}), seen.push_back(f.measured_mm);
-    out.placement = solve::best_rigid_placement(commanded, seen);
+    out.placement = geometry::best_rigid_placement(commanded, seen);
     double sum = 0;
     for (std::size_t i = 0; i < features.size(); ++i) {
         const auto placed = out.placement.apply(commanded[i]);

@@ -2,8 +2,8 @@
 
 #include <stdexcept>
 
+#include "core/geometry/placement.hpp"
 #include "core/models/galvo_field.hpp"
-#include "core/solve/placement.hpp"
 
 namespace calbox::modes {
 
@@ -32,7 +32,7 @@ ErrorFigures error_through(const std::vector<Point2>& commanded_mm,
         meant.push_back(p);
         landed.push_back({command.x + error.x, command.y + error.y});
     }
-    const auto placement = solve::best_rigid_placement(landed, meant);
+    const auto placement = geometry::best_rigid_placement(landed, meant);
     std::vector<Point2> residuals;
     residuals.reserve(meant.size());
     for (std::size_t i = 0; i < meant.size(); ++i) {

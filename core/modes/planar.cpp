@@ -6,10 +6,10 @@
 #include <cmath>
 #include <map>
 
+#include "core/geometry/placement.hpp"
 #include "core/modes/json_file.hpp"
 #include "core/modes/mark_grid.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 #include "core/solve/view_stitching.hpp"
 
 namespace calbox::modes {
@@ -23,7 +23,7 @@ using geometry::distance;
 // shifted.
 struct FrameGuess {
     bool mirrored = false;
-    solve::RigidPlacement placement;
+    geometry::RigidPlacement placement;
     Point2 bed_of(Point2 machine) const {
         return placement.apply(mirrored ? Point2{machine.x, -machine.y} : machine);
     }
@@ -78,7 +78,7 @@ FrameGuess frame_from_pair(const targets::PlanarTarget& target, Point2 first_see
     if (mirrored) a.y = -a.y, b.y = -b.y;
     FrameGuess g;
     g.mirrored = mirrored;
-    g.placement = solve::best_rigid_placement({a, b}, {first_seen, second_seen});
+    g.placement = geometry::best_rigid_placement({a, b}, {first_seen, second_seen});
     return g;
 }
 
@@ -188,7 +188,7 @@ FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
             from.push_back(frame.mirrored ? Point2{p.x, -p.y} : p);
             to.push_back(candidates[static_cast<std::size_t>(c)].bed_mm);
         }
-        if (from.size() >= 3) frame.placement = solve::best_rigid_placement(from, to);
+        if (from.size() >= 3) frame.placement = geometry::best_rigid_placement(from, to);
     }
     const HoleMatching best = match_holes(target, candidates, frame, reach);
     // The right reading matches (nearly) every hole in the photo; a wrong one, those near the
@@ -222,7 +222,7 @@ std::vector<long> index_holes(const targets::PlanarTarget& target,
         from.push_back(frame.mirrored ? Point2{p.x, -p.y} : p);
         to.push_back(candidates[static_cast<std::size_t>(c)].bed_mm);
     }
-    if (from.size() >= 3) frame.placement = solve::best_rigid_placement(from, to);
+    if (from.size() >= 3) frame.placement = geometry::best_rigid_placement(from, to);
     m = match_holes(target, candidates, frame, reach);
     std::vector<bool> used(candidates.size(), false);
     for (std::size_t h = 0; h < target.holes.size(); ++h) {

@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/geometry/placement.hpp"
 #include "core/models/klipper_config.hpp"
 #include "core/modes/planar.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 
 namespace calbox::modes {
 
@@ -105,7 +105,7 @@ FirmwareSettings planar_firmware_settings(const models::MachineFile& machine,
         commanded_plus.push_back({c.x + left.back().x, c.y + left.back().y});
     }
     std::vector<Point2> placed_left;
-    const auto placement = solve::best_rigid_placement(commanded_plus, s.commanded_mm);
+    const auto placement = geometry::best_rigid_placement(commanded_plus, s.commanded_mm);
     for (std::size_t i = 0; i < left.size(); ++i) {
         const Point2 p = placement.apply(commanded_plus[i]);
         placed_left.push_back({p.x - s.commanded_mm[i].x, p.y - s.commanded_mm[i].y});

@@ -5,9 +5,9 @@
 #include <cmath>
 #include <cstdio>
 
+#include "core/geometry/placement.hpp"
 #include "core/modes/planar.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 
 namespace calbox::modes {
 
@@ -106,7 +106,7 @@ PlanarSolution solve_planar(const models::MachineFile& machine, const PlanarMeas
     s.fit = models::fit_planar_errors(observations, fit_settings);
     s.bed_mirrored = measured.mirrored;
     // Before: what the holes show once only the machine's placement in the photo is taken out.
-    const auto placement = solve::best_rigid_placement(seen, s.commanded_mm);
+    const auto placement = geometry::best_rigid_placement(seen, s.commanded_mm);
     for (std::size_t i = 0; i < seen.size(); ++i) {
         const Point2 p = placement.apply(seen[i]);
         s.error_mm.push_back({p.x - s.commanded_mm[i].x, p.y - s.commanded_mm[i].y});

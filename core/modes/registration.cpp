@@ -6,10 +6,10 @@
 #include <optional>
 
 #include "core/geometry/line_fit.hpp"
+#include "core/geometry/placement.hpp"
 #include "core/modes/bed_view.hpp"
 #include "core/modes/json_file.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 #include "core/vision/cross_mark.hpp"
 #include "core/vision/markers.hpp"
 #include "core/vision/spots.hpp"
@@ -195,11 +195,11 @@ Registration fitted_registration(const std::vector<Point2>& marks, const std::ve
     Registration r;
     r.surface_height_mm = request.surface_height_mm;
     r.scale_fitted = marks.size() == 4;
-    solve::SimilarPlacement fit;
+    geometry::SimilarPlacement fit;
     if (r.scale_fitted) {
-        fit = solve::best_similar_placement(marks, seen);
+        fit = geometry::best_similar_placement(marks, seen);
     } else {
-        const auto rigid = solve::best_rigid_placement(marks, seen);
+        const auto rigid = geometry::best_rigid_placement(marks, seen);
         fit.angle_rad = rigid.angle_rad;
         fit.translation_mm = rigid.translation_mm;
     }

@@ -10,9 +10,9 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
+#include "core/image_view.hpp"
 #include "core/modes/bed_view.hpp"
 #include "core/modes/planar.hpp"
-#include "core/vision/image_view.hpp"
 
 namespace calbox::modes {
 

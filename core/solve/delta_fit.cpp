@@ -9,10 +9,12 @@
 #include <limits>
 #include <numbers>
 
+#include "core/geometry/placement.hpp"
 #include "core/number_text.hpp"
-#include "core/solve/placement.hpp"
 
 namespace calbox::solve {
+using geometry::best_rigid_placement;
+using geometry::RigidPlacement;
 namespace {
 
 using models::DeltaGeometry;

@@ -7,10 +7,10 @@
 #include <string>
 #include <vector>
 
+#include "core/geometry/placement.hpp"
 #include "core/geometry/types.hpp"
 #include "core/models/delta.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/solve/placement.hpp"
 
 namespace calbox::solve {
 
@@ -90,9 +90,9 @@ struct DeltaEstimate {
     std::vector<double> covariance;
     std::vector<double> singular_values;  // of the weighted, scaled Jacobian
     double condition_number = 0;
-    double fit_rms_mm = 0;       // measured vs fitted, after the placement
-    double expected_rms_mm = 0;  // what the measurements' own uncertainty leads to expect
-    RigidPlacement placement;    // the artifact on the bed: machine frame -> bed frame
+    double fit_rms_mm = 0;               // measured vs fitted, after the placement
+    double expected_rms_mm = 0;          // what the measurements' own uncertainty leads to expect
+    geometry::RigidPlacement placement;  // the artifact on the bed: machine frame -> bed frame
     bool used_probe = false;
     FitConvergence convergence;  // of the final fit (after undetermined parameters are held)
 };

@@ -12,7 +12,12 @@
 namespace calbox::targets {
 using drawings::Contour;
 using drawings::FillRule;
+using jobs::append;
+using jobs::FillSettings;
 using jobs::JobError;
+using jobs::plan_fill;
+using jobs::plan_trace;
+using jobs::Toolpath;
 namespace {
 
 using geometry::Point2;

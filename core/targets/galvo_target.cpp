@@ -11,8 +11,13 @@
 namespace calbox::targets {
 using drawings::Contour;
 using drawings::FillRule;
+using jobs::FillSettings;
 using jobs::JobError;
+using jobs::Move;
+using jobs::MoveKind;
 using jobs::PlacedJob;
+using jobs::plan_fill;
+using jobs::Toolpath;
 namespace {
 
 using geometry::Point2;

@@ -10,8 +10,11 @@
 namespace calbox::targets {
 using drawings::Contour;
 using drawings::FillRule;
+using jobs::append;
+using jobs::FillSettings;
 using jobs::JobError;
 using jobs::PlacedJob;
+using jobs::plan_fill;
 using jobs::write_gcode;
 namespace {
 

@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
+#include "core/jobs/job.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/targets/galvo_target.hpp"
-#include "core/jobs/job.hpp"
 
 namespace calbox::targets {
 

@@ -7,7 +7,7 @@
 #include <optional>
 
 #include "core/geometry/types.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::vision {
 

@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::vision {
 

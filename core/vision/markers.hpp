@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/geometry/camera_model.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::vision {
 

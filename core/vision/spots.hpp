@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::vision {
 

@@ -11,7 +11,7 @@
 
 #include "core/geometry/camera_model.hpp"
 #include "core/vision/edge_kernel.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::vision {
 

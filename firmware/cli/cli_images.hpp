@@ -3,7 +3,7 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::cli {
 

@@ -79,10 +79,10 @@ void draw_preview(const std::string& path, const jobs::PlacedJob& job,
     for (const auto& move : job.toolpath.moves) {
         cv::Scalar colour(0, 0, 220);  // travel
         int thickness = 1;
-        if (move.kind == targets::MoveKind::perimeter) colour = cv::Scalar(200, 90, 0);
-        if (move.kind == targets::MoveKind::infill) colour = cv::Scalar(60, 170, 60);
-        if (move.kind == targets::MoveKind::trace) colour = cv::Scalar(160, 40, 160);
-        if (move.kind != targets::MoveKind::travel) thickness = line_px;
+        if (move.kind == jobs::MoveKind::perimeter) colour = cv::Scalar(200, 90, 0);
+        if (move.kind == jobs::MoveKind::infill) colour = cv::Scalar(60, 170, 60);
+        if (move.kind == jobs::MoveKind::trace) colour = cv::Scalar(160, 40, 160);
+        if (move.kind != jobs::MoveKind::travel) thickness = line_px;
         cv::line(picture, to_px(move.from), to_px(move.to), colour, thickness, cv::LINE_AA, kShift);
     }
     char text[256];

@@ -7,7 +7,7 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::firmware {
 

@@ -7,7 +7,7 @@
 
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 #include "firmware/cycle/cycle_mode.hpp"
 
 namespace calbox::firmware {

@@ -5,7 +5,7 @@
 #include <charconv>
 #include <stdexcept>
 
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 #include "firmware/loop/event_loop.hpp"
 
 namespace calbox::firmware {

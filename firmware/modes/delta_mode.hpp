@@ -8,7 +8,7 @@
 
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_records.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 #include "firmware/cycle/cycle_mode.hpp"
 
 namespace calbox::firmware {

@@ -4,7 +4,7 @@
 #include <optional>
 
 #include "core/modes/galvo.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 #include "firmware/modes/kept_correction.hpp"
 
 namespace calbox::firmware {

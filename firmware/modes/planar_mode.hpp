@@ -13,7 +13,7 @@
 #include "core/modes/planar.hpp"
 #include "core/modes/stock.hpp"
 #include "core/vision/image_codec.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 #include "firmware/modes/kept_correction.hpp"
 
 namespace calbox::firmware {

@@ -1,5 +1,5 @@
 // Fuzz target: the G-code line reader (what the twin and the machine link parse).
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 #include "tests/fuzz/fuzz_target.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {

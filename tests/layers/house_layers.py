@@ -5,8 +5,8 @@ reaches a device, a file, the network or the clock. hal/ is interfaces: its head
 and the network's text formats in core/net/ (the one dependency on core/, drawn in
 docs/architecture.md), no device library, and it builds one source, the completion primitive
 every layer shares. drivers/ bind hal/ with core/'s help; board/ binds drivers to hal/, each
-board folder seeing only itself and the devices type. Every library links only the layers below
-it. Usage: house_layers.py SOURCE_DIR"""
+board folder seeing only itself and the devices type. core/'s own folders stand in an order
+(CORE_ORDER), each seeing only those below it. Every library links only the layers below it. Usage: house_layers.py SOURCE_DIR"""
 import os
 import re
 import sys
@@ -42,6 +42,13 @@ ALLOWED = {
     "drivers": ("drivers/", "hal/", "core/"),
     "board": ("board/", "drivers/", "hal/", "core/"),
 }
+# core/'s folders, from the bottom: each includes only the files at core/'s root, itself and the
+# folders below it, so that no two folders lean on each other (a G-code line's words under the
+# machine models that read firmware replies; the machine models under the fits and the jobs that
+# use them; the targets, which make jobs, under the modes).
+CORE_ORDER = ["geometry", "vision", "gcode", "drawings", "net", "models", "solve", "jobs",
+              "targets", "modes"]
+
 # What each library may link of calbox's own.
 LINKS = {
     "calbox_hal": set(),
@@ -52,6 +59,30 @@ LINKS = {
     "calbox_sim": {"calbox_board", "calbox_core", "calbox_hal", "calbox_drivers"},
     "calbox_rpi": {"calbox_board", "calbox_core", "calbox_hal", "calbox_drivers"},
 }
+
+def core_folder(path):
+    """The core/ folder a path is in, "" at core/'s root."""
+    parts = path.split("/")
+    return parts[1] if len(parts) > 2 else ""
+
+
+def core_order_problems(here, targets):
+    mine = core_folder(here)
+    if mine not in CORE_ORDER and mine != "":
+        return [f"{here}: core/{mine}/ is not in house_layers.py's CORE_ORDER (where it stands "
+                "among core/'s folders)"]
+    rank = CORE_ORDER.index(mine) if mine else -1
+    found = []
+    for target in targets:
+        theirs = core_folder(target)
+        if not target.startswith("core/") or theirs in ("", mine):
+            continue
+        if theirs not in CORE_ORDER or CORE_ORDER.index(theirs) > rank:
+            found.append(f"{here} includes \"{target}\": core/{mine or '.'} sees only the "
+                         "folders below it (" + (", ".join(CORE_ORDER[:max(rank, 0)]) or "none")
+                         + ")")
+    return found
+
 
 quoted = re.compile(r'^\s*#\s*include\s+"([^"]+)"', re.M)
 angled = re.compile(r'^\s*#\s*include\s+<([^>]+)>', re.M)
@@ -88,6 +119,7 @@ for layer in ALLOWED:
                     problems.append(f"{here} includes <{header}>: hal/ is interfaces; the "
                                     "library belongs in drivers/")
             if layer == "core":
+                problems.extend(core_order_problems(here, quoted.findall(text)))
                 code = comments_and_strings.sub("", text)
                 for call in CORE_FORBIDDEN_CALLS.finditer(code):
                     problems.append(f"{here}: '{call.group(0).strip()}': core/ touches no "

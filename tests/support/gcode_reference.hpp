@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "core/geometry/types.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 namespace calbox::test {
 

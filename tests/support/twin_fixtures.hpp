@@ -13,7 +13,7 @@
 #include "board/sim/scenes.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/geometry/camera_model.hpp"
-#include "core/vision/image_view.hpp"
+#include "core/image_view.hpp"
 
 namespace calbox::test {
 

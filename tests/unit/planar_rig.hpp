@@ -13,7 +13,7 @@
 #include "core/models/planar_errors.hpp"
 #include "core/modes/goal.hpp"
 #include "core/modes/planar.hpp"
-#include "core/solve/placement.hpp"
+#include "core/geometry/placement.hpp"
 #include "core/targets/planar_target.hpp"
 #include "tests/support/cycle_harness.hpp"
 #include "tests/support/router_fixtures.hpp"

@@ -21,7 +21,7 @@
 #include "core/drawings/drawing.hpp"
 #include "core/geometry/calibration.hpp"
 #include "core/jobs/compensate.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 #include "core/jobs/job.hpp"
 #include "core/models/machine_file.hpp"
 #include "core/models/machine_import.hpp"

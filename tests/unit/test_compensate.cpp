@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/jobs/compensate.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 using namespace calbox;
 using geometry::Point2;

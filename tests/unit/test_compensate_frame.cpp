@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "core/jobs/compensate.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 #include "core/jobs/ngc_program.hpp"
 #include "core/modes/compensate_job.hpp"
 #include "core/modes/planar.hpp"

@@ -23,7 +23,7 @@
 #include "core/models/delta_commands.hpp"
 #include "core/modes/delta.hpp"
 #include "core/modes/delta_probe.hpp"
-#include "core/solve/placement.hpp"
+#include "core/geometry/placement.hpp"
 #include "tests/support/cycle_harness.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
@@ -296,7 +296,7 @@ class DeltaCase {
             seen.push_back(f.measured_mm);
             material.push_back({r.x, r.y});
         }
-        const auto placement = solve::best_rigid_placement(seen, material);
+        const auto placement = geometry::best_rigid_placement(seen, material);
         double sum = 0;
         for (std::size_t i = 0; i < seen.size(); ++i) {
             const auto p = placement.apply(seen[i]);

@@ -15,7 +15,7 @@
 #include "core/models/delta.hpp"
 #include "core/models/delta_commands.hpp"
 #include "core/solve/delta_fit.hpp"
-#include "core/solve/placement.hpp"
+#include "core/geometry/placement.hpp"
 
 using namespace calbox;
 
@@ -223,11 +223,11 @@ TEST(Placement, recovers_a_rotation_and_translation_worked_by_hand) {
     std::vector<geometry::Point2> to;
     const double c = std::cos(kPi / 6), s = std::sin(kPi / 6);
     for (const auto& p : from) to.push_back({c * p.x - s * p.y + 3, s * p.x + c * p.y - 2});
-    const auto placement = solve::best_rigid_placement(from, to);
+    const auto placement = geometry::best_rigid_placement(from, to);
     DOUBLES_EQUAL(kPi / 6, placement.angle_rad, 1e-12);
     DOUBLES_EQUAL(3, placement.translation_mm.x, 1e-12);
     DOUBLES_EQUAL(-2, placement.translation_mm.y, 1e-12);
-    CHECK_THROWS(std::invalid_argument, solve::best_rigid_placement({{0, 0}}, {{1, 1}}));
+    CHECK_THROWS(std::invalid_argument, geometry::best_rigid_placement({{0, 0}}, {{1, 1}}));
 }
 
 TEST_GROUP(DeltaFit){};

@@ -14,7 +14,7 @@
 #include "board/sim/scenes.hpp"
 #include "core/models/delta.hpp"
 #include "core/modes/delta.hpp"
-#include "core/solve/placement.hpp"
+#include "core/geometry/placement.hpp"
 #include "tests/support/twin_fixtures.hpp"
 
 using namespace calbox;
@@ -108,7 +108,7 @@ TEST(DeltaMeasure, corners_of_the_printed_target_are_measured_within_20_microns_
     const auto residual_rms = [&](const std::vector<geometry::Point2>& seen, double& worst) {
         std::vector<geometry::Point2> material;
         for (const auto& r : real) material.push_back({r.x, r.y});
-        const auto placement = solve::best_rigid_placement(seen, material);
+        const auto placement = geometry::best_rigid_placement(seen, material);
         double sum = 0;
         worst = 0;
         for (std::size_t i = 0; i < real.size(); ++i) {

@@ -242,7 +242,7 @@ TEST(GalvoTarget, grid_circles_and_job_as_the_seed_lays_them_out) {
     DOUBLES_EQUAL(15 * target.pitch_mm, target.marks.back().centre_mm.y, 1e-9);
     // Every working move stays inside its circle: 0.2 L or 0.4 L less half the spot.
     for (const auto& move : target.job.toolpath.moves) {
-        if (move.kind == targets::MoveKind::travel) continue;
+        if (move.kind == jobs::MoveKind::travel) continue;
         double nearest = 1e9;
         bool large = false;
         for (const auto& m : target.marks) {

@@ -4,7 +4,7 @@
 #include <stdexcept>
 
 #include "core/number_text.hpp"
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 using calbox::gcode::parse_line;
 using calbox::gcode::SyntaxError;

@@ -94,7 +94,7 @@ TEST(PlanarModel, the_fit_recovers_the_seeds_parameters_from_measurements_of_its
                 fitted_field.push_back({x + f.x, y + f.y});
                 true_field.push_back({x + t.x, y + t.y});
             }
-        const auto placement = solve::best_rigid_placement(fitted_field, true_field);
+        const auto placement = geometry::best_rigid_placement(fitted_field, true_field);
         double worst = 0;
         for (std::size_t i = 0; i < fitted_field.size(); ++i) {
             const Point2 placed = placement.apply(fitted_field[i]);
@@ -177,7 +177,7 @@ TEST(PlanarModel, detmax_beats_random_designs_of_the_same_size) {
                 fitted.push_back({g.x + f.x, g.y + f.y});
                 truly.push_back({g.x + t.x, g.y + t.y});
             }
-            const auto placement = solve::best_rigid_placement(fitted, truly);
+            const auto placement = geometry::best_rigid_placement(fitted, truly);
             for (std::size_t i = 0; i < fitted.size(); ++i) {
                 const Point2 p = placement.apply(fitted[i]);
                 sum += std::hypot(p.x - truly[i].x, p.y - truly[i].y);

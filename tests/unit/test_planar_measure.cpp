@@ -31,7 +31,7 @@ TEST(PlanarMeasure, every_hole_is_found_where_the_twin_drilled_it) {
                 seen.push_back(hole.measured_mm);
                 real.push_back(truly[i]);
             }
-    const auto placement = solve::best_rigid_placement(seen, real);
+    const auto placement = geometry::best_rigid_placement(seen, real);
     double worst = 0, sum = 0;
     for (std::size_t i = 0; i < seen.size(); ++i) {
         const Point2 p = placement.apply(seen[i]);
@@ -222,7 +222,7 @@ TEST(PlanarMeasure,
                 seen.push_back(hole.measured_mm);
                 real.push_back(truly[i]);
             }
-    const auto placement = solve::best_rigid_placement(seen, real);
+    const auto placement = geometry::best_rigid_placement(seen, real);
     double worst = 0, sum = 0;
     for (std::size_t i = 0; i < seen.size(); ++i) {
         const Point2 p = placement.apply(seen[i]);

@@ -101,7 +101,7 @@ TEST(RealSvg, every_drawing_gives_a_job_on_the_drawing_as_a_browser_paints_it) {
         const bool has_page = document.width_mm > 0 && document.height_mm > 0;
         double min_x = 1e300, max_x = -1e300, min_y = 1e300, max_y = -1e300;
         for (const auto& m : job.toolpath.moves) {
-            if (m.kind == targets::MoveKind::travel) continue;
+            if (m.kind == jobs::MoveKind::travel) continue;
             for (const auto& p : {m.from, m.to}) {
                 min_x = std::min(min_x, p.x), max_x = std::max(max_x, p.x);
                 min_y = std::min(min_y, p.y), max_y = std::max(max_y, p.y);
@@ -126,7 +126,7 @@ TEST(RealSvg, every_drawing_gives_a_job_on_the_drawing_as_a_browser_paints_it) {
         const int thickness =
             std::max(1, static_cast<int>(std::lround(job.line_width_mm / job.scale * px_per_mm)));
         for (const auto& m : job.toolpath.moves)
-            if (m.kind != targets::MoveKind::travel)
+            if (m.kind != jobs::MoveKind::travel)
                 cv::line(lines, at(m.from), at(m.to), 255, thickness);
         // A stroke is painted its width across, the job traces its middle: the reach takes in
         // the widest stroke whole (a group's uneven scale widens it one way).

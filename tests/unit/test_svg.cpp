@@ -7,12 +7,12 @@
 #include "core/drawings/drawing.hpp"
 #include "core/drawings/svg.hpp"
 #include "core/jobs/job.hpp"
+#include "core/jobs/toolpath.hpp"
 #include "core/models/machine_file.hpp"
-#include "core/targets/toolpath.hpp"
 #include "tests/support/whole_file.hpp"
 
 using namespace calbox;
-using namespace calbox::targets;
+using namespace calbox::jobs;
 using namespace calbox::drawings;
 using calbox::jobs::plan_svg_job;
 

@@ -94,17 +94,17 @@ FillFigures judge(const std::string& name, const char* machine_text, double spac
     cv::Point2d direction;
     double longest = 0;
     for (const auto& move : job.toolpath.moves) {
-        if (move.kind == targets::MoveKind::infill && move.length_mm() > longest) {
+        if (move.kind == jobs::MoveKind::infill && move.length_mm() > longest) {
             longest = move.length_mm();
             direction =
                 cv::Point2d(move.to.x - move.from.x, move.to.y - move.from.y) / move.length_mm();
         }
     }
     for (const auto& move : job.toolpath.moves) {
-        if (move.kind == targets::MoveKind::travel) continue;
+        if (move.kind == jobs::MoveKind::travel) continue;
         cv::line(made, to_px(move.from.x, move.from.y), to_px(move.to.x, move.to.y), 255, width_px,
                  cv::LINE_8, kShift);
-        if (move.kind != targets::MoveKind::infill) continue;
+        if (move.kind != jobs::MoveKind::infill) continue;
         for (double t = 0; t <= 1.0; t += 0.05 / std::max(0.05, move.length_mm())) {
             const cv::Point2d p(move.from.x + t * (move.to.x - move.from.x),
                                 move.from.y + t * (move.to.y - move.from.y));

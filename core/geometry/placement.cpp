@@ -1,11 +1,11 @@
-#include "core/solve/placement.hpp"
+#include "core/geometry/placement.hpp"
 
 #include <cmath>
 #include <stdexcept>
 
-namespace calbox::solve {
+namespace calbox::geometry {
 
-geometry::Point2 RigidPlacement::apply(geometry::Point2 p) const {
+Point2 RigidPlacement::apply(Point2 p) const {
     const double c = std::cos(angle_rad), s = std::sin(angle_rad);
     return {c * p.x - s * p.y + translation_mm.x, s * p.x + c * p.y + translation_mm.y};
 }
@@ -17,8 +17,8 @@ namespace {
 struct PairSums {
     double fx = 0, fy = 0, tx = 0, ty = 0, cross = 0, dot = 0, norm = 0;
 };
-PairSums pair_sums(const std::vector<geometry::Point2>& from,
-                   const std::vector<geometry::Point2>& to) {
+PairSums pair_sums(const std::vector<Point2>& from,
+                   const std::vector<Point2>& to) {
     if (from.size() != to.size() || from.size() < 2)
         throw std::invalid_argument("placement needs two matched point sets");
     PairSums p;
@@ -38,8 +38,8 @@ PairSums pair_sums(const std::vector<geometry::Point2>& from,
 
 }  // namespace
 
-RigidPlacement best_rigid_placement(const std::vector<geometry::Point2>& from,
-                                    const std::vector<geometry::Point2>& to) {
+RigidPlacement best_rigid_placement(const std::vector<Point2>& from,
+                                    const std::vector<Point2>& to) {
     const PairSums m = pair_sums(from, to);
     // About the centroids, the best angle is that of the summed cross and dot products.
     RigidPlacement p;
@@ -49,13 +49,13 @@ RigidPlacement best_rigid_placement(const std::vector<geometry::Point2>& from,
     return p;
 }
 
-geometry::Point2 SimilarPlacement::apply(geometry::Point2 p) const {
+Point2 SimilarPlacement::apply(Point2 p) const {
     const double c = scale * std::cos(angle_rad), s = scale * std::sin(angle_rad);
     return {c * p.x - s * p.y + translation_mm.x, s * p.x + c * p.y + translation_mm.y};
 }
 
-SimilarPlacement best_similar_placement(const std::vector<geometry::Point2>& from,
-                                        const std::vector<geometry::Point2>& to) {
+SimilarPlacement best_similar_placement(const std::vector<Point2>& from,
+                                        const std::vector<Point2>& to) {
     const PairSums m = pair_sums(from, to);
     if (!(m.norm > 0)) throw std::invalid_argument("placement needs points apart");
     // b = a z about the centroids: a = sum(conj(z) b) / sum(|z|^2).
@@ -67,4 +67,4 @@ SimilarPlacement best_similar_placement(const std::vector<geometry::Point2>& fro
     return p;
 }
 
-}  // namespace calbox::solve
+}  // namespace calbox::geometry

@@ -6,27 +6,27 @@
 
 #include "core/geometry/types.hpp"
 
-namespace calbox::solve {
+namespace calbox::geometry {
 
 struct RigidPlacement {
     double angle_rad = 0;
-    geometry::Point2 translation_mm;
-    geometry::Point2 apply(geometry::Point2 p) const;
+    Point2 translation_mm;
+    Point2 apply(Point2 p) const;
 };
 
 // Carries `from[i]` onto `to[i]`; both the same length, at least two points.
-RigidPlacement best_rigid_placement(const std::vector<geometry::Point2>& from,
-                                    const std::vector<geometry::Point2>& to);
+RigidPlacement best_rigid_placement(const std::vector<Point2>& from,
+                                    const std::vector<Point2>& to);
 
 // The same with a scale (a printed drawing a printer stretched a little): carries `from[i]`
 // onto `to[i]` as s R p + t, least squares.
 struct SimilarPlacement {
     double angle_rad = 0;
     double scale = 1;
-    geometry::Point2 translation_mm;
-    geometry::Point2 apply(geometry::Point2 p) const;
+    Point2 translation_mm;
+    Point2 apply(Point2 p) const;
 };
-SimilarPlacement best_similar_placement(const std::vector<geometry::Point2>& from,
-                                        const std::vector<geometry::Point2>& to);
+SimilarPlacement best_similar_placement(const std::vector<Point2>& from,
+                                        const std::vector<Point2>& to);
 
-}  // namespace calbox::solve
+}  // namespace calbox::geometry

@@ -1,4 +1,4 @@
-#include "core/jobs/gcode_line.hpp"
+#include "core/gcode/gcode_line.hpp"
 
 #include <algorithm>
 #include <cctype>

@@ -204,8 +204,10 @@ DeltaGeometry geometry_from_settings(const std::string& firmware,
     std::optional<gcode::Line> m665, m666;
     for (const auto& c : commands) {
         auto line = gcode::parse_line(c);
-        if (line.is('M', 665)) m665 = std::move(line);
-        if (line.is('M', 666)) m666 = std::move(line);
+        if (line.is('M', 665))
+            m665 = std::move(line);
+        else if (line.is('M', 666))
+            m666 = std::move(line);
     }
     if (!m665 || !m666)
         throw std::invalid_argument(std::string("the printer's settings lack ") +

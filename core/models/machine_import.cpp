@@ -114,7 +114,7 @@ ImportedMachine delta_machine(const std::string& firmware, const DeltaGeometry& 
                             number_toml(out.machine.bed_radius_mm) +
                             " (0.6 of the delta radius) assumed, give --bed-radius");
     }
-    out.notes.push_back(
+    out.notes.emplace_back(
         "not in the files, left to the defaults: the line width, layer height and filament "
         "(0.45, 0.2, 1.75 mm), the bed's material and temperatures; the camera is set up by "
         "the box");
@@ -217,12 +217,12 @@ ImportedMachine import_marlin(std::string_view log, const ImportOptions& options
         out.machine.planar->holes = "light";
         out.machine.planar->steps_per_mm_x = (*capture.steps_per_mm_xy)[0];
         out.machine.planar->steps_per_mm_y = (*capture.steps_per_mm_xy)[1];
-        out.notes.push_back("a cartesian printer: steps per mm from M92");
+        out.notes.emplace_back("a cartesian printer: steps per mm from M92");
         if (capture.dual_endstops)
-            out.notes.push_back(
+            out.notes.emplace_back(
                 "M666 without M665: its dual endstops' adjustments, not a delta's geometry (the "
                 "firmware keeps them; the box does not change them)");
-        out.notes.push_back(
+        out.notes.emplace_back(
             "not in the capture, left to the defaults: the bed's size (200 x 200 mm), the hole "
             "pitch and margin, the line width and filament");
         return out;
@@ -259,7 +259,8 @@ ImportedMachine import_rrf(const std::vector<std::string>& files, const ImportOp
             "no M665 in the files: give config.g and config-override.g of a delta printer");
     std::vector<std::string> notes;
     std::string m666 = config.m666.value_or("M666 X0 Y0 Z0");
-    if (!config.m666) notes.push_back("no M666 in the files: the endstop adjustments taken as 0");
+    if (!config.m666)
+        notes.emplace_back("no M666 in the files: the endstop adjustments taken as 0");
     DeltaGeometry g;
     try {
         g = geometry_from_settings("rrf", {*config.m665, m666});
@@ -453,7 +454,8 @@ KlipperConfig read_klipper_config(const std::string& path, const std::string& te
         std::istringstream in(positions);
         for (double& steps : point.steps_below_endstop)
             if (!(in >> steps))
-                throw ImportError(path + ": " + key + "_pos is not three stepper positions");
+                throw ImportError(std::string(path).append(": ").append(key).append(
+                    "_pos is not three stepper positions"));
         config.saved_probe.push_back(point);
     }
     return config;

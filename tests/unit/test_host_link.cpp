@@ -345,7 +345,7 @@ TEST(KlipperSkew, only_a_file_the_box_changed_is_its_own_to_restore) {
     CHECK(models::klipper_changed_only_travel_and_skew(before, travel));
     // SAVE_CONFIG's rewrite of it: the duplicate commented out, the profile added.
     std::string saved = travel;
-    saved.replace(saved.find("rotation_distance: 40"), 0, "#");
+    saved.insert(saved.find("rotation_distance: 40"), 1, '#');
     saved += "#*#\n#*# [skew_correction calbox]\n#*# xy_skew = 0.004\n";
     CHECK(models::klipper_changed_only_travel_and_skew(before, saved));
     // Someone's edits: a comment, another setting in the block, a value above it.

@@ -33,6 +33,21 @@ std::optional<std::string> read_if_there(const std::string& path) {
     }
 }
 
+// The machine the one source given describes (--marlin, --klipper or --rrf's files); throws
+// models::ImportError naming what it could not read.
+models::ImportedMachine imported_machine(const Args& args, const models::ImportOptions& options) {
+    if (const auto log = args.get("--marlin"))
+        return models::import_marlin(read_input_file(*log, "console capture"), options);
+    if (const auto cfg = args.get("--klipper"))
+        return models::import_klipper(*cfg, read_input_file(*cfg, "printer.cfg"), read_if_there,
+                                      options, matching_files);
+    if (args.positional().empty()) throw UsageError("--rrf needs config.g (and config-override.g)");
+    std::vector<std::string> files;
+    for (const auto& path : args.positional())
+        files.push_back(read_input_file(path, "RepRapFirmware configuration"));
+    return models::import_rrf(files, options);
+}
+
 int import_machine(const Args& args) {
     const std::string out = args.require("-o");
     models::ImportOptions options;
@@ -51,19 +66,7 @@ int import_machine(const Args& args) {
                                                           : args.positional().front();
     models::ImportedMachine imported;
     try {
-        if (const auto log = args.get("--marlin")) {
-            imported = models::import_marlin(read_input_file(*log, "console capture"), options);
-        } else if (const auto cfg = args.get("--klipper")) {
-            imported = models::import_klipper(*cfg, read_input_file(*cfg, "printer.cfg"),
-                                              read_if_there, options, matching_files);
-        } else {
-            if (args.positional().empty())
-                throw UsageError("--rrf needs config.g (and config-override.g)");
-            std::vector<std::string> files;
-            for (const auto& path : args.positional())
-                files.push_back(read_input_file(path, "RepRapFirmware configuration"));
-            imported = models::import_rrf(files, options);
-        }
+        imported = imported_machine(args, options);
     } catch (const models::ImportError& e) {
         const std::string why = e.what();
         throw std::runtime_error(why.rfind(input, 0) == 0 ? why : input + ": " + why);

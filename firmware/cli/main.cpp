@@ -175,12 +175,17 @@ struct CommandLine {
         if (!at->get_subcommands({}).empty()) refuse("needs a command: " + command_names(at));
         for (; k < words.size(); ++k) {
             const std::string& w = words[k];
-            const bool number = w.size() > 1 && w[0] == '-' &&
-                                (std::isdigit(static_cast<unsigned char>(w[1])) || w[1] == '.');
-            if (w.size() < 2 || w[0] != '-' || number || w == "--help" || w == "-h") continue;
+            if (!names_an_option(w)) continue;
             const std::string name = w.substr(0, w.find('='));
             if (at->get_option_no_throw(name) == nullptr) refuse("unknown option " + name);
         }
+    }
+
+    // A word after the command that CLI11 would take for an option: not "-2.5" nor "-.5" (a
+    // negative number is a value), nor the help it answers itself.
+    static bool names_an_option(const std::string& w) {
+        if (w.size() < 2 || w[0] != '-' || w == "--help" || w == "-h") return false;
+        return !(std::isdigit(static_cast<unsigned char>(w[1])) || w[1] == '.');
     }
 
     static std::string command_names(const CLI::App* group) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "core/number_text.hpp"
@@ -21,6 +22,44 @@ std::vector<std::string> words_of(std::string_view line) {
     std::string w;
     while (in >> w) words.push_back(w);
     return words;
+}
+
+// A control byte (a NUL from a line noise burst, an escape sequence) is refused by its place:
+// echoed in a reply it would cut the line short at a NUL or act on the terminal.
+std::optional<std::string> control_byte_refusal(std::string_view line) {
+    const auto at = std::find_if(line.begin(), line.end(), [](char c) {
+        const auto u = static_cast<unsigned char>(c);
+        return (u < 0x20 && c != '\t') || u == 0x7f;
+    });
+    if (at == line.end()) return std::nullopt;
+    char why[96];
+    std::snprintf(why, sizeof why,
+                  "control byte 0x%02x at column %zu refused (a command is printable text)",
+                  static_cast<unsigned>(static_cast<unsigned char>(*at)),
+                  static_cast<std::size_t>(at - line.begin()) + 1);
+    return std::string(why);
+}
+
+// The row whose name's words begin the line, the longest first ("config set"); throws Refused
+// with a group's usage ("config list|get|...") for its first word alone.
+const ConsoleCommand& row_for(const std::vector<ConsoleCommand>& table,
+                              const std::vector<std::string>& words) {
+    const ConsoleCommand* found = nullptr;
+    std::size_t found_words = 0;
+    std::string group_usage;
+    for (const auto& c : table) {
+        const auto name = words_of(c.name);
+        if (name.size() <= words.size() && name.size() > found_words &&
+            std::equal(name.begin(), name.end(), words.begin())) {
+            found = &c;
+            found_words = name.size();
+        }
+        if (name.size() > 1 && name[0] == words[0])
+            group_usage += (group_usage.empty() ? words[0] + " " : "|") + name[1];
+    }
+    if (found == nullptr && !group_usage.empty()) throw Refused("usage: " + group_usage);
+    if (found == nullptr) throw Refused("'" + words[0] + "' is not a command (help lists them)");
+    return *found;
 }
 
 }  // namespace
@@ -454,21 +493,9 @@ std::string Console::reply_to(std::string_view line) {
         as_json = true;
         return true;
     });
-    // A control byte (a NUL from a line noise burst, an escape sequence) is refused by its place:
-    // echoed in a reply it would cut the line short at a NUL or act on the terminal.
-    if (const auto at = std::find_if(line.begin(), line.end(),
-                                     [](char c) {
-                                         const auto u = static_cast<unsigned char>(c);
-                                         return (u < 0x20 && c != '\t') || u == 0x7f;
-                                     });
-        at != line.end()) {
-        char why[96];
-        std::snprintf(why, sizeof why,
-                      "control byte 0x%02x at column %zu refused (a command is printable text)",
-                      static_cast<unsigned>(static_cast<unsigned char>(*at)),
-                      static_cast<std::size_t>(at - line.begin()) + 1);
-        if (as_json) return json_line(json{{"ok", false}, {"error", why}});
-        return std::string("error: ") + why + "\n";
+    if (const auto why = control_byte_refusal(line)) {
+        if (as_json) return json_line(json{{"ok", false}, {"error", *why}});
+        return "error: " + *why + "\n";
     }
     std::string clean(line);
     if (const auto at = clean.find("--json"); at != std::string::npos) clean.erase(at, 6);
@@ -479,24 +506,7 @@ std::string Console::reply_to(std::string_view line) {
 
     ConsoleReply r;
     try {
-        // The row whose name's words begin the line, the longest first ("config set").
-        const ConsoleCommand* found = nullptr;
-        std::size_t found_words = 0;
-        std::string group_usage;  // "config list|get|..." for a group's first word alone
-        for (const auto& c : table_) {
-            const auto name = words_of(c.name);
-            if (name.size() <= words.size() && name.size() > found_words &&
-                std::equal(name.begin(), name.end(), words.begin())) {
-                found = &c;
-                found_words = name.size();
-            }
-            if (name.size() > 1 && name[0] == words[0])
-                group_usage += (group_usage.empty() ? words[0] + " " : "|") + name[1];
-        }
-        if (found == nullptr && !group_usage.empty()) throw Refused("usage: " + group_usage);
-        if (found == nullptr)
-            throw Refused("'" + words[0] + "' is not a command (help lists them)");
-        found->run(words, clean, r);
+        row_for(table_, words).run(words, clean, r);
     } catch (const std::exception& e) {
         // Whatever a row throws (a refusal, a key the configuration does not have, a file that
         // cannot be written) is this line's answer: nothing typed ends the box.

@@ -98,6 +98,31 @@ bool inside_stated_travel(const models::MachineFile& machine, geometry::Point2 a
            at.y <= *machine.travel_max_y_mm;
 }
 
+// `compensate JOB [ZERO ...] [again REASON ...]`'s order; throws ConsoleRefused.
+static DeskOrder desk_order_of(const std::vector<std::string>& words) {
+    if (words.size() < 2)
+        throw ConsoleRefused(
+            "usage: compensate JOB [WORK_ZERO] [again REASON] (WORK_ZERO: X,Y, "
+            "measured, controller, G54=X,Y G55=X,Y ..., camera [CORNER] or marks)");
+    DeskOrder order;
+    order.job_name = words[1];
+    std::string zero, because;
+    bool in_reason = false;
+    for (std::size_t i = 2; i < words.size(); ++i) {
+        if (words[i] == "--json") continue;
+        if (!in_reason && words[i] == "again") {
+            in_reason = true;
+            continue;
+        }
+        std::string& into = in_reason ? because : zero;
+        into += (into.empty() ? "" : " ") + words[i];
+    }
+    if (in_reason && because.empty()) throw ConsoleRefused("compensate: again needs the reason");
+    if (!zero.empty()) order.work_zero = zero;
+    if (in_reason) order.again_because = because;
+    return order;
+}
+
 std::string compensated_job_name(const std::string& job_name) {
     if (job_name.rfind("job-", 0) != 0 || job_name.size() > 100 ||
         job_name.find_first_not_of(
@@ -153,37 +178,37 @@ std::string JobDesk::start(DeskOrder order) {
         order.found_text = data_.read_file(*found);
         if (!order.found_text) return "compensate: " + nothing_found(*found);
     }
+    if (order.work_zero == "controller") return start_from_controller(order, *kept, *job);
     busy_ = true;
-    if (order.work_zero == "controller") {
-        if (cycle_.machine().firmware != "grbl") {
-            busy_ = false;
-            return "compensate: the controller's work offsets are read from grbl ($#); this "
-                   "machine's firmware is " +
-                   cycle_.machine().firmware + ": give X,Y or measured";
-        }
-        if (cycle_.state() != CycleState::idle || link_.busy()) {
-            busy_ = false;
-            return "compensate: the machine link is busy with the cycle: try again when it is "
-                   "idle, or give the work zero";
-        }
-        link_.send_commands({"$#"}, [this, order, kept = *kept,
-                                     job = *job](const JobOutcome& outcome) {
-            auto o = order;
-            const auto spec = outcome.ok ? work_zeros_reported(outcome.replies) : std::nullopt;
-            if (!spec) {
-                busy_ = false;
-                notice_("compensate: " + o.job_name +
-                        ": the controller did not report its work offsets ($#)" +
-                        (outcome.ok ? std::string() : ": " + outcome.error) + "; nothing written");
-                return;
-            }
-            o.work_zero = *spec;
-            o.work_zero_from = "the controller's work offsets ($#: " + *spec + ")";
-            compensate(o, kept, job);
-        });
-        return {};
-    }
     compensate(order, *kept, *job);
+    return {};
+}
+
+std::string JobDesk::start_from_controller(const DeskOrder& order, std::string kept,
+                                           std::string job) {
+    if (cycle_.machine().firmware != "grbl")
+        return "compensate: the controller's work offsets are read from grbl ($#); this "
+               "machine's firmware is " +
+               cycle_.machine().firmware + ": give X,Y or measured";
+    if (cycle_.state() != CycleState::idle || link_.busy())
+        return "compensate: the machine link is busy with the cycle: try again when it is "
+               "idle, or give the work zero";
+    busy_ = true;
+    link_.send_commands({"$#"}, [this, order, kept = std::move(kept),
+                                 job = std::move(job)](const JobOutcome& outcome) {
+        auto o = order;
+        const auto spec = outcome.ok ? work_zeros_reported(outcome.replies) : std::nullopt;
+        if (!spec) {
+            busy_ = false;
+            notice_("compensate: " + o.job_name +
+                    ": the controller did not report its work offsets ($#)" +
+                    (outcome.ok ? std::string() : ": " + outcome.error) + "; nothing written");
+            return;
+        }
+        o.work_zero = *spec;
+        o.work_zero_from = "the controller's work offsets ($#: " + *spec + ")";
+        compensate(o, kept, job);
+    });
     return {};
 }
 
@@ -222,27 +247,7 @@ ConsoleCommand JobDesk::command() {
             "sheet the last bed photo found, or marks: by the printed marks it found); written "
             "as job-NAME-compensated.EXT",
             [this](const std::vector<std::string>& words, std::string_view, ConsoleReply& reply) {
-                if (words.size() < 2)
-                    throw ConsoleRefused(
-                        "usage: compensate JOB [WORK_ZERO] [again REASON] (WORK_ZERO: X,Y, "
-                        "measured, controller, G54=X,Y G55=X,Y ..., camera [CORNER] or marks)");
-                DeskOrder order;
-                order.job_name = words[1];
-                std::string zero, because;
-                bool in_reason = false;
-                for (std::size_t i = 2; i < words.size(); ++i) {
-                    if (words[i] == "--json") continue;
-                    if (!in_reason && words[i] == "again") {
-                        in_reason = true;
-                        continue;
-                    }
-                    std::string& into = in_reason ? because : zero;
-                    into += (into.empty() ? "" : " ") + words[i];
-                }
-                if (in_reason && because.empty())
-                    throw ConsoleRefused("compensate: again needs the reason");
-                if (!zero.empty()) order.work_zero = zero;
-                if (in_reason) order.again_because = because;
+                const DeskOrder order = desk_order_of(words);
                 const std::string refused = start(order);
                 if (!refused.empty()) throw ConsoleRefused(refused);
                 reply.text = "compensating " + order.job_name + " -> " +
@@ -284,28 +289,7 @@ ConsoleCommand JobDesk::zero_command() {
                                  "): say it again with confirm";
                     return;
                 }
-                if (busy_ || cycle_.state() != CycleState::idle || link_.busy())
-                    throw ConsoleRefused(
-                        "work zero: the machine link is busy: try again when the "
-                        "box is idle");
-                busy_ = true;
-                const auto units = modes::work_zero_units_query(machine.firmware);
-                if (units.empty()) {
-                    send_work_zero(zero);
-                } else {
-                    link_.send_commands(units, [this, zero](const JobOutcome& outcome) {
-                        const std::string firmware = cycle_.machine().firmware;
-                        const std::string refused =
-                            outcome.ok ? modes::work_zero_units_refusal(firmware, outcome.replies)
-                                       : outcome.error;
-                        if (!refused.empty()) {
-                            busy_ = false;
-                            notice_("work zero: nothing sent: " + refused);
-                            return;
-                        }
-                        send_work_zero(zero);
-                    });
-                }
+                send_confirmed_work_zero(zero);
                 reply.text = "sending '" + command + "'";
             }};
 }
@@ -333,6 +317,27 @@ std::pair<geometry::Point2, std::string> JobDesk::work_zero_of(const std::string
     } catch (const std::exception& e) {
         throw ConsoleRefused("work zero: " + std::string(e.what()));
     }
+}
+
+void JobDesk::send_confirmed_work_zero(geometry::Point2 zero) {
+    if (busy_ || cycle_.state() != CycleState::idle || link_.busy())
+        throw ConsoleRefused("work zero: the machine link is busy: try again when the box is idle");
+    busy_ = true;
+    const std::string& firmware = cycle_.machine().firmware;
+    const auto units = modes::work_zero_units_query(firmware);
+    if (units.empty()) return send_work_zero(zero);
+    // The zero is in millimetres: a controller set to inches would put it 25.4 times as far.
+    link_.send_commands(units, [this, zero](const JobOutcome& outcome) {
+        const std::string refused =
+            outcome.ok ? modes::work_zero_units_refusal(cycle_.machine().firmware, outcome.replies)
+                       : outcome.error;
+        if (!refused.empty()) {
+            busy_ = false;
+            notice_("work zero: nothing sent: " + refused);
+            return;
+        }
+        send_work_zero(zero);
+    });
 }
 
 void JobDesk::send_work_zero(geometry::Point2 zero) {

@@ -54,6 +54,11 @@ class JobDesk {
 
   private:
     void compensate(const DeskOrder& order, std::string result_text, std::string job_text);
+    // The order placed at the work offsets grbl reports ($#), asked when the link is free.
+    std::string start_from_controller(const DeskOrder& order, std::string kept, std::string job);
+    // `work zero ... confirm`: refused while the link is busy; the controller's units checked
+    // first where it tells them.
+    void send_confirmed_work_zero(geometry::Point2 zero);
     // ZERO's machine point and where it came from, for the message; throws ConsoleRefused.
     std::pair<geometry::Point2, std::string> work_zero_of(const std::string& spec) const;
     // Sends the zero and reads it back, the outcome a notice; busy_ until then.

@@ -154,6 +154,32 @@ OctoPrintLink::~OctoPrintLink() {
     finish_requests();
 }
 
+OctoPrintLink::PrintReport OctoPrintLink::job_report(const std::string& api_job_body,
+                                                     const std::string& ours_name, bool seen) {
+    const json job = json::parse(api_job_body, nullptr, false);
+    if (job.is_discarded() || !job.is_object()) throw LinkError("OctoPrint: /api/job: not JSON");
+    PrintReport report;
+    report.state = job.value("state", std::string());
+    const std::string& state = report.state;
+    // Read by pointer: a const object's operator[] on a key a host left out is undefined.
+    const json name = job.value(json::json_pointer("/job/file/name"), json());
+    const bool ours = name.is_string() && name == ours_name;
+    const json completion = job.value(json::json_pointer("/progress/completion"), json());
+    const double percent = completion.is_number() ? completion.get<double>() : 0.0;
+    if (state.rfind("Error", 0) == 0 || state.rfind("Offline", 0) == 0)
+        throw LinkError("the print failed on the host: " + state);
+    // Idle again part of the way through: stopped on the host.
+    const bool stopped_part_way =
+        state == "Operational" && ours && percent < 100 && (seen || percent > 0);
+    if (state == "Cancelling" || stopped_part_way)
+        report.over = JobOutcome{false, "the print was cancelled on the host", {}, {}};
+    else if (state == "Operational" && ours && percent >= 100)
+        report.over = JobOutcome{true, {}, {}, {}};
+    report.printing = state == "Printing" || state == "Paused" || state == "Pausing" ||
+                      state == "Resuming" || state == "Starting";
+    return report;
+}
+
 void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
     std::string text = joined(lines);
     start_in_session(
@@ -169,28 +195,7 @@ void OctoPrintLink::run_job(const std::vector<std::string>& lines, Done done) {
                 const auto r = s.http({"GET", "/api/job", {}, {}, {}});
                 OctoPrintSession::refused_key(r);
                 if (r.status != 200) throw LinkError("OctoPrint: /api/job: " + http_error_line(r));
-                const json job = json::parse(r.body, nullptr, false);
-                if (job.is_discarded() || !job.is_object())
-                    throw LinkError("OctoPrint: /api/job: not JSON");
-                PrintReport report;
-                report.state = job.value("state", std::string());
-                const std::string& state = report.state;
-                const json name = job["job"]["file"]["name"];
-                const bool ours = name.is_string() && name == settings_.job_file_name;
-                const json completion = job["progress"]["completion"];
-                const double percent = completion.is_number() ? completion.get<double>() : 0.0;
-                if (state.rfind("Error", 0) == 0 || state.rfind("Offline", 0) == 0)
-                    throw LinkError("the print failed on the host: " + state);
-                // Idle again part of the way through: stopped on the host.
-                const bool stopped_part_way =
-                    state == "Operational" && ours && percent < 100 && (seen || percent > 0);
-                if (state == "Cancelling" || stopped_part_way)
-                    report.over = JobOutcome{false, "the print was cancelled on the host", {}, {}};
-                else if (state == "Operational" && ours && percent >= 100)
-                    report.over = JobOutcome{true, {}, {}, {}};
-                report.printing = state == "Printing" || state == "Paused" || state == "Pausing" ||
-                                  state == "Resuming" || state == "Starting";
-                return report;
+                return job_report(r.body, settings_.job_file_name, seen);
             });
         },
         std::move(done));

@@ -34,6 +34,10 @@ class OctoPrintLink final : public HttpSessionLink<OctoPrintSettings, OctoPrintS
 
   private:
     friend OctoPrintSession;
+    // What OctoPrint's /api/job answer says of the job uploaded as `ours` (`seen`: it was seen
+    // printing); throws LinkError for an answer that is not JSON or a failed print.
+    static PrintReport job_report(const std::string& api_job_body, const std::string& ours,
+                                  bool seen);
 };
 
 extern template class HttpSessionLink<OctoPrintSettings, OctoPrintSession>;

@@ -6,9 +6,9 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <sstream>
 #include <stdexcept>
 
+#include "core/models/toml_reader.hpp"
 #include "firmware/cycle/cycle_mode.hpp"
 
 namespace calbox::firmware {
@@ -31,6 +31,22 @@ void append_float(std::vector<std::uint16_t>& words, double value, models::WordO
     const auto w = models::pack_float(static_cast<float>(value), order);
     words.push_back(w[0]);
     words.push_back(w[1]);
+}
+
+// A value's two registers may not fall inside a table's block.
+void refuse_values_over_tables(const ResultRegisterMap& map, const std::string& source) {
+    for (const auto& [key, first] : map.table_registers) {
+        const auto* table = table_of_key(key);
+        for (const auto& [name, address] : map.registers)
+            if (address + 1 >= first && address < first + table->registers)
+                throw std::runtime_error(std::string(source)
+                                             .append(": ")
+                                             .append(name)
+                                             .append(" overlaps ")
+                                             .append(table->what)
+                                             .append(" at register ")
+                                             .append(std::to_string(first)));
+    }
 }
 
 }  // namespace
@@ -171,14 +187,7 @@ ResultRegisterMap ResultRegisterMap::whole_block(int first_register) {
 }
 
 ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const std::string& source) {
-    toml::table table;
-    try {
-        table = toml::parse(text, source);
-    } catch (const toml::parse_error& e) {
-        std::ostringstream where;
-        where << source << ":" << e.source().begin.line << ": " << e.description();
-        throw std::runtime_error(where.str());
-    }
+    const toml::table table = models::parse_toml(text, source);
     std::map<std::string, bool> known;
     for (const auto& name : result_value_names()) known[name] = true;
     ResultRegisterMap map;
@@ -215,18 +224,7 @@ ResultRegisterMap ResultRegisterMap::from_toml(const std::string& text, const st
         map.registers.emplace_back(name, static_cast<int>(*address));
     }
     if (map.registers.empty()) throw std::runtime_error(source + ": maps no result value");
-    for (const auto& [key, first] : map.table_registers) {
-        const auto* table = table_of_key(key);
-        for (const auto& [name, address] : map.registers)
-            if (address + 1 >= first && address < first + table->registers)
-                throw std::runtime_error(std::string(source)
-                                             .append(": ")
-                                             .append(name)
-                                             .append(" overlaps ")
-                                             .append(table->what)
-                                             .append(" at register ")
-                                             .append(std::to_string(first)));
-    }
+    refuse_values_over_tables(map, source);
     return map;
 }
 

@@ -259,6 +259,9 @@ class Cycle final : private CycleSteps {
                                const std::optional<geometry::BoardObservation>& found);
     void take_next_settings();
     void setup_plane();
+    // The plane's photo measured: its files kept, then the set-up ends or the cycle goes on.
+    void keep_plane(const std::string& yaml, const std::string& reference_yaml,
+                    const std::string& summary);
     // The camera's view of the reference marks against the one stored with the plane: a cycle
     // goes on only if they have not moved.
     void check_camera();

@@ -11,6 +11,25 @@
 #include "firmware/cycle/photos.hpp"
 
 namespace calbox::firmware {
+namespace {
+
+// The fixed reference marks in the plane's photo, as their YAML, their count added to `summary`.
+// The marks' view is taken with the plane, in the same photo: the two hold together until the
+// camera moves. Throws geometry::CalibrationError with fewer in view than the check needs.
+std::string reference_marks_yaml(const vision::GrayView& photo, const std::string& marks,
+                                 const geometry::CameraModel& camera, std::string& summary) {
+    const auto reference = vision::find_reference_marks(photo, marks, camera);
+    if (static_cast<int>(reference.marks.size()) < kMinimumReferenceMarks)
+        throw geometry::CalibrationError(
+            std::to_string(reference.marks.size()) + " of the at least " +
+            std::to_string(kMinimumReferenceMarks) + " fixed reference marks (" + marks +
+            ") in view: stick them on the frame or the bed outside the work area and clear of "
+            "the board, or set setup.reference_marks = none to run without the camera check");
+    summary += ", " + std::to_string(reference.marks.size()) + " reference marks";
+    return vision::reference_to_yaml(reference);
+}
+
+}  // namespace
 
 std::string Cycle::calibrate_camera() {
     if (state_ != CycleState::idle) return std::string("busy: ") + state_name(state_);
@@ -125,42 +144,34 @@ void Cycle::setup_plane() {
                                number_text("%.3f", plane.rms_px) + " px" +
                                geometry::set_aside_text(plane);
                     if (marks == kNoReferenceMarks) return;
-                    // The marks' view is taken with the plane, in the same photo: the two hold
-                    // together until the camera moves.
-                    const auto reference =
-                        vision::find_reference_marks(view_of(*frame), marks, camera);
-                    if (static_cast<int>(reference.marks.size()) < kMinimumReferenceMarks) {
-                        throw geometry::CalibrationError(
-                            std::to_string(reference.marks.size()) + " of the at least " +
-                            std::to_string(kMinimumReferenceMarks) + " fixed reference marks (" +
-                            marks +
-                            ") in view: stick them on the frame or the bed outside the work area "
-                            "and clear of the board, or set setup.reference_marks = none to run "
-                            "without the camera check");
-                    }
-                    *reference_yaml = vision::reference_to_yaml(reference);
-                    *summary += ", " + std::to_string(reference.marks.size()) + " reference marks";
+                    *reference_yaml =
+                        reference_marks_yaml(view_of(*frame), marks, camera, *summary);
                 },
                 [this, yaml, reference_yaml, summary] {
-                    // The plane last: a plane on file always has its marks' view beside it.
-                    try {
-                        if (reference_yaml->empty()) d_.data.remove_file(kReferenceFile);
-                    } catch (const std::runtime_error& e) {
-                        fail(std::string("records: ") + e.what());
-                        return;
-                    }
-                    if (!reference_yaml->empty() && !keep(kReferenceFile, *reference_yaml)) return;
-                    if (!keep("plane.yaml", *yaml)) return;
-                    notice(*summary);
-                    if (setup_only_) {
-                        setup_only_ = false;
-                        enter(CycleState::idle, "set-up done: " + *summary);
-                        return;
-                    }
-                    ask_clear_bed_then_target();
+                    keep_plane(*yaml, *reference_yaml, *summary);
                 });
         });
     });
+}
+
+void Cycle::keep_plane(const std::string& yaml, const std::string& reference_yaml,
+                       const std::string& summary) {
+    // The plane last: a plane on file always has its marks' view beside it.
+    try {
+        if (reference_yaml.empty()) d_.data.remove_file(kReferenceFile);
+    } catch (const std::runtime_error& e) {
+        fail(std::string("records: ") + e.what());
+        return;
+    }
+    if (!reference_yaml.empty() && !keep(kReferenceFile, reference_yaml)) return;
+    if (!keep("plane.yaml", yaml)) return;
+    notice(summary);
+    if (setup_only_) {
+        setup_only_ = false;
+        enter(CycleState::idle, "set-up done: " + summary);
+        return;
+    }
+    ask_clear_bed_then_target();
 }
 
 void Cycle::check_camera() {

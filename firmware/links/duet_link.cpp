@@ -53,32 +53,37 @@ struct DuetSession {
 
     void connect() {
         if (session_key) return;
-        if (!sbc) {
-            const auto r = raw({"GET",
-                                "/rr_connect?password=" + url_encoded(settings.password) +
-                                    "&time=2026-01-01T00%3A00%3A00",
-                                {},
-                                {},
-                                {}});
-            if (r.status == 404) {
-                sbc = true;
-            } else {
-                const json j = json::parse(r.body, nullptr, false);
-                if (r.status != 200 || j.is_discarded() || !j.contains("err"))
-                    throw LinkError("Duet: rr_connect: HTTP " + std::to_string(r.status));
-                const int err = j["err"].get<int>();
-                if (err == 1) throw wrong_password();
-                if (err == 2) throw LinkError("Duet: the board has no free session");
-                if (err != 0) throw LinkError("Duet: rr_connect: err " + std::to_string(err));
-                session_key = j.contains("sessionKey") ? j["sessionKey"].dump() : std::string("0");
-                return;
-            }
-        }
+        if (!sbc && connect_standalone()) return;
+        sbc = true;
+        connect_sbc();
+    }
+
+    // rr_connect; false when the board answers 404 (it has an SBC: the /machine API).
+    bool connect_standalone() {
+        const auto r = raw({"GET",
+                            "/rr_connect?password=" + url_encoded(settings.password) +
+                                "&time=2026-01-01T00%3A00%3A00",
+                            {},
+                            {},
+                            {}});
+        if (r.status == 404) return false;
+        const json j = json::parse(r.body, nullptr, false);
+        if (r.status != 200 || !j.is_object() || !j.contains("err") || !j["err"].is_number())
+            throw LinkError("Duet: rr_connect: HTTP " + std::to_string(r.status));
+        const int err = j["err"].get<int>();
+        if (err == 1) throw wrong_password();
+        if (err == 2) throw LinkError("Duet: the board has no free session");
+        if (err != 0) throw LinkError("Duet: rr_connect: err " + std::to_string(err));
+        session_key = j.contains("sessionKey") ? j["sessionKey"].dump() : std::string("0");
+        return true;
+    }
+
+    void connect_sbc() {
         const auto r =
             raw({"GET", "/machine/connect?password=" + url_encoded(settings.password), {}, {}, {}});
         if (r.status == 403) throw wrong_password();
         const json j = json::parse(r.body, nullptr, false);
-        if (r.status != 200 || j.is_discarded() || !j.contains("sessionKey"))
+        if (r.status != 200 || !j.is_object() || !j.contains("sessionKey"))
             throw LinkError("Duet: /machine/connect: HTTP " + std::to_string(r.status) +
                             (r.status == 502 || r.status == 503
                                  ? " (DuetControlServer is not running on the SBC)"
@@ -163,10 +168,11 @@ struct DuetSession {
                               "application/octet-stream",
                               text});
         const json stored = json::parse(up.body, nullptr, false);
-        if (stored.is_discarded() || stored.value("err", 1) != 0)
-            throw LinkError(
-                "the host refused the upload of " + settings.job_file_name + " (rr_upload: err " +
-                (stored.is_discarded() ? std::string("?") : stored["err"].dump()) + ")");
+        const bool told_err = stored.is_object() && stored.contains("err");
+        if (!told_err || stored["err"] != 0)
+            throw LinkError("the host refused the upload of " + settings.job_file_name +
+                            " (rr_upload: err " +
+                            (told_err ? stored["err"].dump() : std::string("?")) + ")");
     }
 
     std::string status() { return model("state").value("status", std::string()); }
@@ -198,34 +204,44 @@ struct DuetSession {
     // The lines, then a marker the firmware echoes: the replies up to the marker.
     std::vector<std::string> command(const std::vector<std::string>& lines) {
         ensure_ready();
-        if (sbc) {
-            std::vector<std::string> replies;
-            for (const auto& line : lines) {
-                std::istringstream text(sbc_code(line));
-                for (std::string reply; std::getline(text, reply);) {
-                    if (!reply.empty() && reply.back() == '\r') reply.pop_back();
-                    if (reply.empty()) continue;
-                    if (reply.rfind("Error:", 0) == 0) throw LinkError("the printer: " + reply);
-                    replies.push_back(reply);
-                }
-            }
-            return replies;
+        return sbc ? sbc_command(lines) : standalone_command(lines);
+    }
+
+    // A reply's lines, without their CR and the empty ones.
+    static std::vector<std::string> reply_lines(const std::string& body) {
+        std::vector<std::string> lines;
+        std::istringstream text(body);
+        for (std::string line; std::getline(text, line);) {
+            if (!line.empty() && line.back() == '\r') line.pop_back();
+            if (!line.empty()) lines.push_back(line);
         }
+        return lines;
+    }
+
+    // DuetSoftwareFramework answers each code with its reply.
+    std::vector<std::string> sbc_command(const std::vector<std::string>& lines) {
+        std::vector<std::string> replies;
+        for (const auto& line : lines)
+            for (auto& reply : reply_lines(sbc_code(line))) {
+                if (reply.rfind("Error:", 0) == 0) throw LinkError("the printer: " + reply);
+                replies.push_back(std::move(reply));
+            }
+        return replies;
+    }
+
+    // A standalone board's replies come from rr_reply, polled until the marker's echo.
+    std::vector<std::string> standalone_command(const std::vector<std::string>& lines) {
         const std::string end = "calbox-" + std::to_string(++markers) + "-end";
         for (const auto& line : lines) gcode(line);
         gcode("M118 S\"" + end + "\"");
         std::vector<std::string> replies;
         auto deadline = Clock::now() + settings.reply_timeout;
         for (;;) {
-            const auto r = call({"GET", "/rr_reply", {}, {}, {}});
-            std::istringstream text(r.body);
-            for (std::string line; std::getline(text, line);) {
-                if (!line.empty() && line.back() == '\r') line.pop_back();
-                if (line.empty()) continue;
+            for (auto& line : reply_lines(call({"GET", "/rr_reply", {}, {}, {}}).body)) {
                 deadline = Clock::now() + settings.reply_timeout;
                 if (line == end) return replies;
                 if (line.rfind("Error:", 0) == 0) throw LinkError("the printer: " + line);
-                replies.push_back(line);
+                replies.push_back(std::move(line));
             }
             if (Clock::now() > deadline)
                 throw LinkError("Duet: no reply from the printer within " +

@@ -65,6 +65,31 @@ struct MoonrakerSession {
 
     // A JSON-RPC request and its result; the G-code responses that arrive meanwhile are added
     // to `responses`.
+    // The result when `message` answers request `id` (nothing for another message: a
+    // notification, whose G-code responses are kept in `responses`, or another's answer);
+    // throws LinkError for the request's error.
+    static std::optional<json> answer_to(const std::string& message, long id,
+                                         const std::string& method,
+                                         std::vector<std::string>* responses) {
+        const json j = json::parse(message, nullptr, false);
+        if (j.is_discarded() || !j.is_object()) return std::nullopt;
+        if (j.contains("method")) {
+            if (responses != nullptr && j["method"] == "notify_gcode_response" &&
+                j.contains("params") && j["params"].is_array())
+                for (const auto& p : j["params"])
+                    if (p.is_string()) responses->push_back(p.get<std::string>());
+            return std::nullopt;
+        }
+        if (!j.contains("id") || j["id"] != id) return std::nullopt;
+        if (j.contains("error")) {
+            const auto& e = j["error"];
+            throw LinkError(method + ": " +
+                            (e.contains("message") && e["message"].is_string()
+                                 ? e["message"].get<std::string>()
+                                 : e.dump()));
+        }
+        return j.contains("result") ? j["result"] : json();
+    }
     json call(const std::string& method, const json& params,
               std::vector<std::string>* responses = nullptr) {
         check_stop();
@@ -87,24 +112,7 @@ struct MoonrakerSession {
                 const auto message =
                     socket->receive(std::min(left, std::chrono::milliseconds(100)));
                 if (!message) continue;
-                const json j = json::parse(*message, nullptr, false);
-                if (j.is_discarded() || !j.is_object()) continue;
-                if (j.contains("method")) {
-                    if (responses != nullptr && j["method"] == "notify_gcode_response" &&
-                        j.contains("params") && j["params"].is_array())
-                        for (const auto& p : j["params"])
-                            if (p.is_string()) responses->push_back(p.get<std::string>());
-                    continue;
-                }
-                if (!j.contains("id") || j["id"] != id) continue;
-                if (j.contains("error")) {
-                    const auto& e = j["error"];
-                    throw LinkError(method + ": " +
-                                    (e.contains("message") && e["message"].is_string()
-                                         ? e["message"].get<std::string>()
-                                         : e.dump()));
-                }
-                return j.contains("result") ? j["result"] : json();
+                if (auto answer = answer_to(*message, id, method, responses)) return *answer;
             }
         } catch (const hal::NetworkError& e) {
             socket.reset();  // the next request connects again

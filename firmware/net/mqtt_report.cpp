@@ -53,22 +53,7 @@ MqttReport::MqttReport(Context context, const MqttSettings& settings)
     callbacks.message = [this, alive, &inbox](const std::string& topic,
                                               const std::string& payload) {
         inbox.post([this, alive, topic, payload] {
-            if (!alive.lock()) return;
-            if (topic == settings_.discovery_prefix + "/status") {
-                if (payload == "online") on_connected(false);
-            } else if (topic == this->topic("command") && settings_.remote_start) {
-                if (payload != "start") {
-                    c_.log.warning("mqtt: command '" + payload.substr(0, 40) +
-                                   "' is not one the box takes");
-                    return;
-                }
-                const json reply = json::parse(c_.console("start --json"));
-                const bool started = reply.value("ok", false);
-                c_.log.write(
-                    started ? hal::LogLevel::info : hal::LogLevel::warning,
-                    "mqtt: start: " + (started ? std::string("started")
-                                               : reply.value("error", std::string("refused"))));
-            }
+            if (alive.lock()) on_message(topic, payload);
         });
     };
     client_ = c_.network.mqtt("calbox-" + settings_.node_id, broker,
@@ -79,6 +64,23 @@ MqttReport::MqttReport(Context context, const MqttSettings& settings)
            (settings_.tls ? ", over TLS" : "") +
            (settings_.remote_start ? "; " + topic("command") + " starts a cycle"
                                    : "; remote start off"));
+}
+
+void MqttReport::on_message(const std::string& topic, const std::string& payload) {
+    if (topic == settings_.discovery_prefix + "/status") {
+        if (payload == "online") on_connected(false);
+        return;
+    }
+    if (topic != this->topic("command") || !settings_.remote_start) return;
+    if (payload != "start") {
+        c_.log.warning("mqtt: command '" + payload.substr(0, 40) + "' is not one the box takes");
+        return;
+    }
+    const json reply = json::parse(c_.console("start --json"));
+    const bool started = reply.value("ok", false);
+    c_.log.write(started ? hal::LogLevel::info : hal::LogLevel::warning,
+                 "mqtt: start: " + (started ? std::string("started")
+                                            : reply.value("error", std::string("refused"))));
 }
 
 MqttReport::~MqttReport() {

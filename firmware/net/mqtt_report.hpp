@@ -69,6 +69,8 @@ class MqttReport {
   private:
     // On the loop's thread: a fresh session, or Home Assistant back online (discovery again).
     void on_connected(bool fresh);
+    // On the loop: Home Assistant's birth message, or a remote start where it is on.
+    void on_message(const std::string& topic, const std::string& payload);
     Context c_;
     MqttSettings settings_;
     std::shared_ptr<bool> alive_ = std::make_shared<bool>(true);  // posted jobs check it

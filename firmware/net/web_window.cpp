@@ -447,25 +447,26 @@ ServerResponse WebWindow::post(const ServerRequest& request, const std::string& 
         return error_answer(400, std::string("malformed JSON: ") + e.what());
     }
     if (!body.is_object()) return error_answer(400, "the body must be a JSON object");
-    if (path == "/api/action") {
-        const std::string name = body.value("action", std::string());
-        for (const auto& action : kPageActions) {
-            if (name != action.name) continue;
-            const auto line = action.console_line(body);
-            if (!line) return error_answer(400, std::string(action.usage));
-            return console_answer(*line + " --json");
-        }
+    return path == "/api/action" ? post_action(body) : post_config(body);
+}
+
+ServerResponse WebWindow::post_action(const json& body) {
+    const auto given = body.find("action");
+    const std::string name =
+        given != body.end() && given->is_string() ? given->get<std::string>() : std::string();
+    for (const auto& action : kPageActions) {
+        if (name != action.name) continue;
+        const auto line = action.console_line(body);
+        if (!line) return error_answer(400, std::string(action.usage));
+        return console_answer(*line + " --json");
     }
-    if (path == "/api/action") {
-        const auto action = body.find("action");
-        static const char* const actions[] = {"start", "confirm", "cancel", "acknowledge",
-                                              "revert"};
-        if (action == body.end() || !action->is_string() ||
-            std::find(std::begin(actions), std::end(actions), action->get<std::string>()) ==
-                std::end(actions))
-            return error_answer(400, "action: one of start, confirm, cancel, acknowledge, revert");
-        return console_answer(action->get<std::string>() + " --json");
-    }
+    static const char* const actions[] = {"start", "confirm", "cancel", "acknowledge", "revert"};
+    if (std::find(std::begin(actions), std::end(actions), name) == std::end(actions))
+        return error_answer(400, "action: one of start, confirm, cancel, acknowledge, revert");
+    return console_answer(name + " --json");
+}
+
+ServerResponse WebWindow::post_config(const json& body) {
     if (body.contains("save")) {
         if (body.size() != 1 || body["save"] != true) return error_answer(400, "save: true, alone");
         return console_answer("config save --json");

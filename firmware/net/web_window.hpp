@@ -100,6 +100,9 @@ class WebWindow {
     hal::ServerResponse route(const hal::ServerRequest& request, const std::string& path,
                               const std::string& query);
     hal::ServerResponse post(const hal::ServerRequest& request, const std::string& path);
+    // POST /api/action and /api/config's JSON object, as the console line it asks for.
+    hal::ServerResponse post_action(const nlohmann::json& body);
+    hal::ServerResponse post_config(const nlohmann::json& body);
     hal::ServerResponse live(const std::string& query);
     // GET /api/place?job=job-NAME.EXT&work_zero=X,Y: the job's outline on the bed.
     hal::ServerResponse place(const std::string& query);

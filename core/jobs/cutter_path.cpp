@@ -109,25 +109,48 @@ class CutterPath {
         return absolute_ ? xy(p) : xy({p.x - cutter_.x, p.y - cutter_.y});
     }
 
+    // An offset, a machine-coordinate move or a return home: the position after it is another
+    // frame's.
+    static bool reframes_position(const ReadLine& r) {
+        return std::any_of(r.codes.begin(), r.codes.end(), [](Code c) {
+            return c.is(10) || c.is(28) || c.is(30) || c.is(52) || c.is(53) || c.number == 92 ||
+                   (c.number >= 54 && c.number <= 59);
+        });
+    }
+
+    // A line with compensation off: written without its compensation words, the place it ends
+    // at followed.
+    void write_uncompensated(const std::string& raw, const ReadLine& r, bool reframes,
+                             bool turning_on, bool axes) {
+        const std::string text = after_off(r.line, r, reframes, raw, turning_on);
+        follow(r.line, r, reframes, axes);
+        out_.emplace_back(text, number_);
+    }
+
+    // G41 or G41.1 on the line: 1 (left); else G42 or G42.1: -1 (right); else 0.
+    static int compensation_turned_on(const ReadLine& r) {
+        const auto has = [&r](int n) {
+            return std::any_of(r.codes.begin(), r.codes.end(), [n](Code c) {
+                return c.number == n && (c.subcode == -1 || c.subcode == 1);
+            });
+        };
+        return has(41) ? 1 : has(42) ? -1 : 0;
+    }
+
     void line(const std::string& raw, const ReadLine& r) {
         const gcode::Line& l = r.line;
         const auto has_code = [&](int n, int sub) {
             return std::any_of(r.codes.begin(), r.codes.end(),
                                [&](Code c) { return c.number == n && c.subcode == sub; });
         };
-        const int turn_on = has_code(41, -1) || has_code(41, 1)   ? 1
-                            : has_code(42, -1) || has_code(42, 1) ? -1
-                                                                  : 0;
+        const int turn_on = compensation_turned_on(r);
         const bool turn_off = has_code(40, -1);
         if (turn_on != 0 && side_ != 0)
             throw fail(
                 "cutter radius compensation turned on where it is on already: LinuxCNC refuses "
                 "it too");
         read_modes(r);
-        const bool reframes = std::any_of(r.codes.begin(), r.codes.end(), [](Code c) {
-            return c.is(10) || c.is(28) || c.is(30) || c.is(52) || c.is(53) || c.number == 92 ||
-                   (c.number >= 54 && c.number <= 59);
-        });
+        const bool reframes = reframes_position(r);
         if (turn_on != 0) compensation_on(l, turn_on, has_code(41, 1) || has_code(42, 1));
         const bool axes = l.has('X') || l.has('Y');
         const bool moves = motion_ >= 0 && motion_ <= 3 && (axes || l.has('Z'));
@@ -139,9 +162,7 @@ class CutterPath {
                 if (was_on) flush();
                 side_ = 0;
             }
-            const std::string text = after_off(l, r, reframes, raw, turn_on != 0);
-            follow(l, r, reframes, axes);
-            out_.emplace_back(text, number_);
+            write_uncompensated(raw, r, reframes, turn_on != 0, axes);
             return;
         }
         if (turn_off) {
@@ -151,9 +172,7 @@ class CutterPath {
             side_ = 0;
             at_ = programmed_;
             left_at_ = cutter_;
-            const std::string text = after_off(l, r, reframes, raw, false);
-            follow(l, r, reframes, axes);
-            out_.emplace_back(text, number_);
+            write_uncompensated(raw, r, reframes, false, axes);
             return;
         }
         // LinuxCNC ends the held moves at a program's end as at G40, and reads nothing after it.
@@ -258,23 +277,11 @@ class CutterPath {
                                  bool moves, bool axes) {
         const gcode::Line& l = r.line;
         const bool arc = motion_ == 2 || motion_ == 3;
-        const bool bare_motion = !moves && has_motion(r);
         // A program stop (M0, M1, M60) empties LinuxCNC's queue: the held moves end where they
         // are (checked as at G40), and the next inside corner pulls nothing back.
         const bool stops = has_m(l, 0) || has_m(l, 1) || has_m(l, 60);
         if (!moves || (!axes && !arc)) {
-            if (stops && started_) {
-                refuse_gouge(cutter_, kRunsBackwards);
-                flush();
-                out_.emplace_back(raw, number_);
-                return;
-            }
-            if ((moves || bare_motion) && !started_)
-                throw fail(
-                    "the first move under cutter radius compensation has no X or Y: LinuxCNC "
-                    "refuses it too (\"Length of cutter compensation entry move is not greater "
-                    "than the tool radius\")");
-            pass(turns_on ? job_words::rebuilt_line(raw, r) : raw);
+            between_moves(raw, r, turns_on, moves || has_motion(r), stops);
             return;
         }
         if (!at_)
@@ -301,6 +308,24 @@ class CutterPath {
             refuse_gouge(cutter_, kRunsBackwards);
             flush();
         }
+    }
+
+    // A line under compensation that moves no axis of the XY plane (`motion`: it moves, or
+    // gives a motion mode alone): passed on, the held moves ended first at a program stop.
+    void between_moves(const std::string& raw, const ReadLine& r, bool turns_on, bool motion,
+                       bool stops) {
+        if (stops && started_) {
+            refuse_gouge(cutter_, kRunsBackwards);
+            flush();
+            out_.emplace_back(raw, number_);
+            return;
+        }
+        if (motion && !started_)
+            throw fail(
+                "the first move under cutter radius compensation has no X or Y: LinuxCNC "
+                "refuses it too (\"Length of cutter compensation entry move is not greater "
+                "than the tool radius\")");
+        pass(turns_on ? job_words::rebuilt_line(raw, r) : raw);
     }
 
     static std::string refusal(const std::string& what) {

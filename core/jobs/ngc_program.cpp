@@ -87,6 +87,24 @@ std::string normal_name(std::string_view name) {
     return out;
 }
 
+// The O-word's label at code[i] ("<name>" or a number), `i` past it; nothing for neither.
+std::optional<std::string> o_label_at(const std::string& code, std::size_t& i) {
+    if (i < code.size() && code[i] == '<') {
+        const auto close = code.find('>', i);
+        if (close == std::string::npos) return std::nullopt;
+        std::string label = "<" + normal_name(code.substr(i + 1, close - i - 1)) + ">";
+        i = close + 1;
+        return label;
+    }
+    std::size_t j = i;
+    while (j < code.size() && (std::isdigit(static_cast<unsigned char>(code[j])) != 0)) ++j;
+    if (j == i) return std::nullopt;
+    long value = 0;
+    std::from_chars(code.data() + i, code.data() + j, value);
+    i = j;
+    return std::to_string(value);  // o0100 is o100
+}
+
 std::optional<OWord> o_word_of(const std::string& code) {
     std::size_t i = 0;
     const auto skip = [&] {
@@ -103,20 +121,9 @@ std::optional<OWord> o_word_of(const std::string& code) {
     ++i;
     skip();
     OWord o;
-    if (i < code.size() && code[i] == '<') {
-        const auto close = code.find('>', i);
-        if (close == std::string::npos) return std::nullopt;
-        o.label = "<" + normal_name(code.substr(i + 1, close - i - 1)) + ">";
-        i = close + 1;
-    } else {
-        std::size_t j = i;
-        while (j < code.size() && (std::isdigit(static_cast<unsigned char>(code[j])) != 0)) ++j;
-        if (j == i) return std::nullopt;
-        long value = 0;
-        std::from_chars(code.data() + i, code.data() + j, value);
-        o.label = std::to_string(value);  // o0100 is o100
-        i = j;
-    }
+    auto label = o_label_at(code, i);
+    if (!label) return std::nullopt;
+    o.label = std::move(*label);
     skip();
     std::size_t j = i;
     while (j < code.size() && (std::isalpha(static_cast<unsigned char>(code[j])) != 0)) ++j;

@@ -172,30 +172,37 @@ std::string rrf_m666_from_report(std::string_view text) {
     return command;
 }
 
+// Marlin's M503 prints M665 and M666 as they are typed, behind "echo:".
+std::vector<std::string> marlin_settings_reported(const std::vector<std::string>& replies) {
+    std::vector<std::string> out;
+    for (const auto& reply : replies) {
+        std::string_view text = reply;
+        if (text.starts_with("echo:")) text.remove_prefix(5);
+        while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
+        if (text.starts_with("M665 ") || text.starts_with("M666 ")) out.emplace_back(text);
+    }
+    return out;
+}
+
+// RepRapFirmware's M665 and M666 answer in words: written back as the commands.
+std::vector<std::string> rrf_settings_reported(const std::vector<std::string>& replies) {
+    std::string m665, m666;
+    for (const auto& reply : replies) {
+        if (reply.starts_with("Diagonal")) m665 = rrf_m665_from_report(reply);
+        if (reply.starts_with("Endstop adjustments")) m666 = rrf_m666_from_report(reply);
+    }
+    std::vector<std::string> out;
+    if (!m665.empty()) out.push_back(m665);
+    if (!m666.empty()) out.push_back(m666);
+    return out;
+}
+
 }  // namespace
 
 std::vector<std::string> settings_from_report(const std::string& firmware,
                                               const std::vector<std::string>& replies) {
-    std::vector<std::string> out;
-    if (firmware == "marlin") {
-        for (const auto& reply : replies) {
-            std::string_view text = reply;
-            if (text.starts_with("echo:")) text.remove_prefix(5);
-            while (!text.empty() && text.front() == ' ') text.remove_prefix(1);
-            if (text.starts_with("M665 ") || text.starts_with("M666 ")) out.emplace_back(text);
-        }
-        return out;
-    }
-    if (firmware == "rrf") {
-        std::string m665, m666;
-        for (const auto& reply : replies) {
-            if (reply.starts_with("Diagonal")) m665 = rrf_m665_from_report(reply);
-            if (reply.starts_with("Endstop adjustments")) m666 = rrf_m666_from_report(reply);
-        }
-        if (!m665.empty()) out.push_back(m665);
-        if (!m666.empty()) out.push_back(m666);
-        return out;
-    }
+    if (firmware == "marlin") return marlin_settings_reported(replies);
+    if (firmware == "rrf") return rrf_settings_reported(replies);
     throw std::invalid_argument("no settings report for firmware '" + firmware + "'");
 }
 

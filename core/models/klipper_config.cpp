@@ -45,12 +45,8 @@ std::string fixed(const char* format, double v) {
     return b;
 }
 
-}  // namespace
-
-std::string klipper_saved_values(const std::string& printer_cfg,
-                                 const std::vector<KlipperSavedValue>& values) {
-    // Above the block: kept byte for byte. The block: parsed, then written again.
-    std::string above;
+// The SAVE_CONFIG block's sections, parsed; what is above it kept byte for byte in `above`.
+std::vector<SavedSection> saved_block_of(const std::string& printer_cfg, std::string& above) {
     std::vector<SavedSection> sections;
     bool in_block = false;
     std::size_t at = 0;
@@ -59,12 +55,13 @@ std::string klipper_saved_values(const std::string& printer_cfg,
         end = end == std::string::npos ? printer_cfg.size() : end + 1;
         const std::string_view raw(printer_cfg.data() + at, end - at);
         at = end;
-        if (!in_block && raw.substr(0, kSaveConfigMark.size()) != kSaveConfigMark) {
+        const bool marked = raw.substr(0, kSaveConfigMark.size()) == kSaveConfigMark;
+        if (!in_block && !marked) {
             above.append(raw);
             continue;
         }
         in_block = true;
-        if (raw.substr(0, kSaveConfigMark.size()) != kSaveConfigMark)
+        if (!marked)
             throw std::invalid_argument(
                 "printer.cfg: a line below the SAVE_CONFIG block's start does not begin with #*#");
         const std::string line = trimmed(raw.substr(kSaveConfigMark.size()));
@@ -82,6 +79,15 @@ std::string klipper_saved_values(const std::string& printer_cfg,
         sections.back().values.emplace_back(trimmed(std::string_view(line).substr(0, sep)),
                                             trimmed(std::string_view(line).substr(sep + 1)));
     }
+    return sections;
+}
+
+}  // namespace
+
+std::string klipper_saved_values(const std::string& printer_cfg,
+                                 const std::vector<KlipperSavedValue>& values) {
+    std::string above;
+    std::vector<SavedSection> sections = saved_block_of(printer_cfg, above);
     for (const auto& v : values) set_value(sections, v);
     // SAVE_CONFIG leaves one blank line between the file's body and its block.
     while (!above.empty() && (above.back() == '\n' || above.back() == ' ')) above.pop_back();

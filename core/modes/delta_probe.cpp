@@ -5,6 +5,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdlib>
+#include <initializer_list>
 #include <numbers>
 #include <optional>
 #include <sstream>
@@ -191,6 +192,21 @@ std::vector<solve::ProbePoint> rrf_height_map(std::string_view text, const std::
 
 namespace {
 
+struct G33Key {
+    const char* key;   // as the line prints it
+    const char* name;  // as a refusal names it
+};
+// The numbers after `keys` on one of G33's lines, into `into` on; throws RecordError naming the
+// first one missing.
+void take_g33_numbers(const std::string& line, std::initializer_list<G33Key> keys,
+                      const std::string& source, double* into) {
+    for (const auto& k : keys) {
+        const auto v = number_after(line, k.key);
+        if (!v) throw RecordError(source + ": a G33 line without its " + k.name);
+        *into++ = *v;
+    }
+}
+
 std::vector<solve::ProbePoint> g33_report(std::string_view text, const std::string& source,
                                           std::optional<double> radius_mm, double sigma_mm) {
     if (!radius_mm || !(*radius_mm > 0))
@@ -216,18 +232,10 @@ std::vector<solve::ProbePoint> g33_report(std::string_view text, const std::stri
         } else if (auto c = number_after(line, " c:")) {
             open = Block{geometry, {}};
             open->z[0] = *c;
-            for (std::size_t i = 0; i < 3; ++i) {
-                const auto v = number_after(line, std::string(" ") + "xyz"[i] + ":");
-                if (!v) throw RecordError(source + ": a G33 line without its " + "xyz"[i]);
-                open->z[1 + i] = *v;
-            }
+            take_g33_numbers(line, {{" x:", "x"}, {" y:", "y"}, {" z:", "z"}}, source, &open->z[1]);
         } else if (open && line.find("yz:") != std::string::npos) {
-            const char* keys[3] = {"yz:", "zx:", "xy:"};
-            for (std::size_t i = 0; i < 3; ++i) {
-                const auto v = number_after(line, keys[i]);
-                if (!v) throw RecordError(source + ": a G33 line without its " + keys[i]);
-                open->z[4 + i] = *v;
-            }
+            take_g33_numbers(line, {{"yz:", "yz:"}, {"zx:", "zx:"}, {"xy:", "xy:"}}, source,
+                             &open->z[4]);
             blocks.push_back(*open);
             open.reset();
         }

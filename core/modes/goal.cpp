@@ -16,28 +16,32 @@ std::string ModeGoal::shortfall(const ErrorFigures& before, const ErrorFigures& 
         return "RMS " + mm(after.rms_mm) + " (goal <= " + mm(*rms_at_most_mm) + ")";
     if (max_at_most_mm && !(after.max_mm <= *max_at_most_mm))
         return "worst " + mm(after.max_mm) + " (goal <= " + mm(*max_at_most_mm) + ")";
-    if (mean_at_most_mm || mean_under_mm || reduction_at_least) {
-        if (!after.mean_mm) return "no mean error to judge";
-        const double mean = *after.mean_mm;
-        if (mean_at_most_mm && !(mean <= *mean_at_most_mm))
-            return "mean " + mm(mean) + " (goal <= " + mm(*mean_at_most_mm) + ")";
-        if (mean_under_mm && !(mean < *mean_under_mm))
-            return "mean " + mm(mean) + " (goal under " + mm(*mean_under_mm) + ")";
-        // A machine already within the bar before the cycle (one whose own settings carry an
-        // earlier correction) is judged by the bar alone: a share of what is left is noise.
-        const auto within_bar = [this](double m) {
-            return (!mean_at_most_mm || m <= *mean_at_most_mm) &&
-                   (!mean_under_mm || m < *mean_under_mm) && (mean_at_most_mm || mean_under_mm);
-        };
-        if (reduction_at_least && !(before.mean_mm && within_bar(*before.mean_mm))) {
-            if (!before.mean_mm || !(*before.mean_mm > 0)) return "no mean error before to judge";
-            const double reduction = 1 - mean / *before.mean_mm;
-            if (!(reduction >= *reduction_at_least))
-                return number_text("%.1f", 100 * reduction) + " % less (goal " +
-                       number_text("%.0f", 100 * *reduction_at_least) + " %)";
-        }
-    }
+    if (mean_at_most_mm || mean_under_mm || reduction_at_least)
+        return mean_shortfall(before, after);
     return {};
+}
+
+std::string ModeGoal::mean_shortfall(const ErrorFigures& before, const ErrorFigures& after) const {
+    if (!after.mean_mm) return "no mean error to judge";
+    const double mean = *after.mean_mm;
+    if (mean_at_most_mm && !(mean <= *mean_at_most_mm))
+        return "mean " + mm(mean) + " (goal <= " + mm(*mean_at_most_mm) + ")";
+    if (mean_under_mm && !(mean < *mean_under_mm))
+        return "mean " + mm(mean) + " (goal under " + mm(*mean_under_mm) + ")";
+    // A machine already within the bar before the cycle (one whose own settings carry an
+    // earlier correction) is judged by the bar alone: a share of what is left is noise.
+    if (!reduction_at_least || (before.mean_mm && mean_within_bar(*before.mean_mm))) return {};
+    if (!before.mean_mm || !(*before.mean_mm > 0)) return "no mean error before to judge";
+    const double reduction = 1 - mean / *before.mean_mm;
+    if (!(reduction >= *reduction_at_least))
+        return number_text("%.1f", 100 * reduction) + " % less (goal " +
+               number_text("%.0f", 100 * *reduction_at_least) + " %)";
+    return {};
+}
+
+bool ModeGoal::mean_within_bar(double mean_mm) const {
+    return (!mean_at_most_mm || mean_mm <= *mean_at_most_mm) &&
+           (!mean_under_mm || mean_mm < *mean_under_mm) && (mean_at_most_mm || mean_under_mm);
 }
 
 std::string ModeGoal::describe() const {

@@ -30,6 +30,11 @@ struct ModeGoal {
         return shortfall(before, after).empty();
     }
     std::string describe() const;  // "XY RMS <= 0.01 mm, worst <= 0.03 mm"
+
+  private:
+    // The mean's goals: its bar and its reduction from `before`.
+    std::string mean_shortfall(const ErrorFigures& before, const ErrorFigures& after) const;
+    bool mean_within_bar(double mean_mm) const;
 };
 
 // Issue 5's for a delta printer: on the re-printed target, over the printable area.

@@ -144,8 +144,10 @@ std::vector<MarkCandidate> holes_in_photo(const models::MachineFile& machine,
 }
 
 // The machine's frame in the first photo's bed frame, from its two large holes.
-FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
-                                const std::vector<MarkCandidate>& candidates, double reach) {
+// The two large holes a pitch apart (the grid's fiducials), as indices into `candidates`;
+// throws PlanarError where there is no such pair or more than one.
+std::pair<std::size_t, std::size_t> fiducial_pair(const targets::PlanarTarget& target,
+                                                  const std::vector<MarkCandidate>& candidates) {
     const double pitch = target.pitch_mm;
     std::vector<std::pair<std::size_t, std::size_t>> pairs;
     for (std::size_t i = 0; i < candidates.size(); ++i)
@@ -160,6 +162,30 @@ FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
                   "the first photo: not this target, or they are damaged"
                 : "measure: " + std::to_string(pairs.size()) +
                       " pairs of large holes a pitch apart: not this target (an ambiguous grid)");
+    return pairs.front();
+}
+
+// `guess` refined over the holes `matching` matched to it (two holes a pitch apart leave the far
+// side of the sheet a few tenths of a degree out); as it was with fewer than three.
+FrameGuess refined_frame(const targets::PlanarTarget& target,
+                         const std::vector<MarkCandidate>& candidates, FrameGuess guess,
+                         const HoleMatching& matching) {
+    std::vector<Point2> from, to;
+    for (std::size_t h = 0; h < target.holes.size(); ++h) {
+        const long c = matching.candidate_of_hole[h];
+        if (c < 0) continue;
+        const Point2 p = target.holes[h].centre_mm;
+        from.push_back(guess.mirrored ? Point2{p.x, -p.y} : p);
+        to.push_back(candidates[static_cast<std::size_t>(c)].bed_mm);
+    }
+    if (from.size() >= 3) guess.placement = geometry::best_rigid_placement(from, to);
+    return guess;
+}
+
+FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
+                                const std::vector<MarkCandidate>& candidates, double reach) {
+    const double pitch = target.pitch_mm;
+    const auto [i, j] = fiducial_pair(target, candidates);
     struct Reading {
         FrameGuess frame;
         HoleMatching matching;
@@ -167,7 +193,6 @@ FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
     std::vector<Reading> readings;
     for (const bool mirrored : {false, true})
         for (const bool swapped : {false, true}) {
-            const auto& [i, j] = pairs.front();
             const Point2 p = candidates[swapped ? j : i].bed_mm,
                          q = candidates[swapped ? i : j].bed_mm;
             const FrameGuess guess = frame_from_pair(target, p, q, mirrored);
@@ -178,18 +203,8 @@ FrameGuess frame_from_fiducials(const targets::PlanarTarget& target,
     });
     // The best reading refined over the holes it matched (two holes a pitch apart leave the far
     // side of the sheet a few tenths of a degree out), then matched again.
-    FrameGuess frame = readings[0].frame;
-    {
-        std::vector<Point2> from, to;
-        for (std::size_t h = 0; h < target.holes.size(); ++h) {
-            const long c = readings[0].matching.candidate_of_hole[h];
-            if (c < 0) continue;
-            const Point2 p = target.holes[h].centre_mm;
-            from.push_back(frame.mirrored ? Point2{p.x, -p.y} : p);
-            to.push_back(candidates[static_cast<std::size_t>(c)].bed_mm);
-        }
-        if (from.size() >= 3) frame.placement = geometry::best_rigid_placement(from, to);
-    }
+    const FrameGuess frame =
+        refined_frame(target, candidates, readings[0].frame, readings[0].matching);
     const HoleMatching best = match_holes(target, candidates, frame, reach);
     // The right reading matches (nearly) every hole in the photo; a wrong one, those near the
     // fiducials at most.

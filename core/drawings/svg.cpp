@@ -362,12 +362,44 @@ struct Reader {
                                         " mask=\"" + property_of(node, "mask") + "\">");
     }
 
+    static Contour mapped_contour(const Affine& m, std::vector<Point2> points, bool closed) {
+        for (auto& p : points) p = m.apply(p);
+        return Contour{std::move(points), closed};
+    }
+
+    // <rect>, its corners rounded by rx and ry.
+    std::vector<Contour> rect_geometry(const pugi::xml_node& node, const Affine& m) const {
+        const double tol = options.tolerance_mm;
+        const double x = number_attribute(node, "x", 0), y = number_attribute(node, "y", 0);
+        const double w = number_attribute(node, "width", 0),
+                     h = number_attribute(node, "height", 0);
+        if (w <= 0 || h <= 0) return {};
+        double rx = number_attribute(node, "rx", -1), ry = number_attribute(node, "ry", -1);
+        if (rx < 0) rx = ry;
+        if (ry < 0) ry = rx;
+        rx = std::clamp(rx, 0.0, w / 2);
+        ry = std::clamp(ry, 0.0, h / 2);
+        if (rx <= 0 || ry <= 0)
+            return {mapped_contour(m, {{x, y}, {x + w, y}, {x + w, y + h}, {x, y + h}}, true)};
+        std::vector<Point2> out{{x + rx, y}};
+        const auto corner = [&](Point2 from, Point2 to) {
+            out.push_back(from);
+            arc_to(m, from, rx, ry, 0, false, true, to, tol, out);
+        };
+        // Arc points are produced in user units and mapped below with the rest.
+        corner({x + w - rx, y}, {x + w, y + ry});
+        corner({x + w, y + h - ry}, {x + w - rx, y + h});
+        corner({x + rx, y + h}, {x, y + h - ry});
+        corner({x, y + ry}, {x + rx, y});
+        out.pop_back();
+        return {mapped_contour(m, std::move(out), true)};
+    }
+
     std::vector<Contour> geometry_of(const pugi::xml_node& node, const std::string& name,
                                      const Affine& m) {
         const double tol = options.tolerance_mm;
-        const auto mapped = [&](std::vector<Point2> points, bool closed) {
-            for (auto& p : points) p = m.apply(p);
-            return Contour{std::move(points), closed};
+        const auto mapped = [&m](std::vector<Point2> points, bool closed) {
+            return mapped_contour(m, std::move(points), closed);
         };
         if (name == "path") return parse_path_data(node.attribute("d").value(), m, tol);
         if (name == "polygon" || name == "polyline") {
@@ -380,31 +412,7 @@ struct Reader {
                             {number_attribute(node, "x2", 0), number_attribute(node, "y2", 0)}},
                            false)};
         }
-        if (name == "rect") {
-            const double x = number_attribute(node, "x", 0), y = number_attribute(node, "y", 0);
-            const double w = number_attribute(node, "width", 0),
-                         h = number_attribute(node, "height", 0);
-            if (w <= 0 || h <= 0) return {};
-            double rx = number_attribute(node, "rx", -1), ry = number_attribute(node, "ry", -1);
-            if (rx < 0) rx = ry;
-            if (ry < 0) ry = rx;
-            rx = std::clamp(rx, 0.0, w / 2);
-            ry = std::clamp(ry, 0.0, h / 2);
-            if (rx <= 0 || ry <= 0)
-                return {mapped({{x, y}, {x + w, y}, {x + w, y + h}, {x, y + h}}, true)};
-            std::vector<Point2> out{{x + rx, y}};
-            const auto corner = [&](Point2 from, Point2 to) {
-                out.push_back(from);
-                arc_to(m, from, rx, ry, 0, false, true, to, tol, out);
-            };
-            // Arc points are produced in user units and mapped below with the rest.
-            corner({x + w - rx, y}, {x + w, y + ry});
-            corner({x + w, y + h - ry}, {x + w - rx, y + h});
-            corner({x + rx, y + h}, {x, y + h - ry});
-            corner({x, y + ry}, {x + rx, y});
-            out.pop_back();
-            return {mapped(std::move(out), true)};
-        }
+        if (name == "rect") return rect_geometry(node, m);
         if (name == "circle" || name == "ellipse") {
             const double cx = number_attribute(node, "cx", 0), cy = number_attribute(node, "cy", 0);
             const double rx =

@@ -37,7 +37,7 @@ Compensator::Compensator(const MachineCorrection& correction, const JobFrame& fr
     }
 }
 
-std::string Compensator::run(std::string_view job) {
+std::vector<std::pair<std::string, long>> Compensator::job_lines(std::string_view job) {
     std::vector<std::pair<std::string, long>> lines;
     if (gcode::uses_ngc_language(job)) {
         report_.ran_program = true;
@@ -47,18 +47,23 @@ std::string Compensator::run(std::string_view job) {
         } catch (const gcode::ProgramError& e) {
             throw CompensateError(e.what());
         }
-    } else {
-        long number = 0;
-        for (const std::string_view raw : gcode::lines_of_job(job)) {
-            ++number;
-            if (raw.size() > kLongestLine)
-                throw CompensateError("line " + std::to_string(number) + " is " +
-                                      std::to_string(raw.size()) +
-                                      " characters long: not G-code (a line holds at most " +
-                                      std::to_string(kLongestLine) + ")");
-            lines.emplace_back(std::string(raw), number);
-        }
+        return lines;
     }
+    long number = 0;
+    for (const std::string_view raw : gcode::lines_of_job(job)) {
+        ++number;
+        if (raw.size() > kLongestLine)
+            throw CompensateError("line " + std::to_string(number) + " is " +
+                                  std::to_string(raw.size()) +
+                                  " characters long: not G-code (a line holds at most " +
+                                  std::to_string(kLongestLine) + ")");
+        lines.emplace_back(std::string(raw), number);
+    }
+    return lines;
+}
+
+std::string Compensator::run(std::string_view job) {
+    auto lines = job_lines(job);
     // A lathe job is refused as one, wherever its first lathe word stands; and the file's
     // written precision is the most decimals its coordinates carry.
     int decimals = 0;

@@ -184,6 +184,9 @@ class Compensator {
     std::string run(std::string_view job);
 
   private:
+    // The job's lines with their numbers in the file: as the program runs them where it uses
+    // LinuxCNC's language (O-words, parameters), else as they stand.
+    std::vector<std::pair<std::string, long>> job_lines(std::string_view job);
     CompensateError fail(const std::string& why) const {
         return CompensateError("line " + std::to_string(line_number_) + ": " + why);
     }
@@ -277,6 +280,10 @@ class Compensator {
     // (`moves`) and the other axes it drives (`drives_other_axes`) followed.
     void not_an_xy_move(const std::string& raw, const gcode::Line& line, bool moves,
                         bool drives_other_axes);
+    // The Z and the extruder's E a move gives, and the other axes (A, B, C, U, V, W) it drives,
+    // kept in the modes as the controller keeps them.
+    void follow_z_and_extruder(const gcode::Line& line);
+    void follow_other_axes(const gcode::Line& line);
 
     void machine_move(const std::string& raw, const gcode::Line& line);
 

@@ -36,26 +36,29 @@ void Compensator::spindle_and_extruder_words(const gcode::Line& line) {
     if (has_m(line, 83)) m_.absolute_e = false;
 }
 
+void Compensator::follow_z_and_extruder(const gcode::Line& line) {
+    if (auto z = line.value('Z')) {
+        m_.z_mm = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
+        m_.written_z = m_.absolute ? *z : m_.written_z.value_or(0) + *z;
+    }
+    if (auto e = line.value('E')) m_.e = m_.absolute_e ? *e : m_.e + *e;
+}
+
+void Compensator::follow_other_axes(const gcode::Line& line) {
+    for (const char a : kOtherAxes)
+        if (auto v = line.value(a)) {
+            const auto now = m_.other_axes.find(a);
+            if (m_.absolute)
+                m_.other_axes[a] = *v;
+            else if (now != m_.other_axes.end())
+                now->second += *v;
+        }
+}
+
 void Compensator::not_an_xy_move(const std::string& raw, const gcode::Line& line, bool moves,
                                  bool drives_other_axes) {
-    if (moves && line.has('Z')) {
-        if (auto z = line.value('Z')) {
-            m_.z_mm = m_.absolute ? *z * m_.unit_mm : m_.z_mm.value_or(0) + *z * m_.unit_mm;
-            m_.written_z = m_.absolute ? *z : m_.written_z.value_or(0) + *z;
-        }
-    }
-    if (moves && line.has('E')) {
-        if (auto e = line.value('E')) m_.e = m_.absolute_e ? *e : m_.e + *e;
-    }
-    if (drives_other_axes)
-        for (const char a : kOtherAxes)
-            if (auto v = line.value(a)) {
-                const auto now = m_.other_axes.find(a);
-                if (m_.absolute)
-                    m_.other_axes[a] = *v;
-                else if (now != m_.other_axes.end())
-                    now->second += *v;
-            }
+    if (moves) follow_z_and_extruder(line);
+    if (drives_other_axes) follow_other_axes(line);
     if (rewritten_)
         emit(*rewritten_ + trailing_comment(raw));
     else

@@ -53,6 +53,19 @@ void visit_loops(Toolpath& path, Point2& pen, std::vector<Polygon> loops, MoveKi
 
 // Runs of segments on consecutive scanlines that continue one another (each overlaps only the
 // other across the gap): one lobe of the region, filled as one zigzag.
+// The one segment of scan line `line` that segment `i` overlaps along the scan; nothing where
+// it overlaps none or more than one.
+std::optional<std::size_t> only_overlap_on(const std::vector<ScanSegment>& segments, std::size_t i,
+                                           const std::vector<std::size_t>& line) {
+    std::optional<std::size_t> found;
+    for (const std::size_t j : line) {
+        if (!(segments[i].from < segments[j].to && segments[j].from < segments[i].to)) continue;
+        if (found) return std::nullopt;
+        found = j;
+    }
+    return found;
+}
+
 std::vector<std::vector<std::size_t>> zigzag_chains(const std::vector<ScanSegment>& segments) {
     std::vector<std::vector<std::size_t>> by_line;
     for (std::size_t i = 0; i < segments.size(); ++i) {
@@ -60,18 +73,8 @@ std::vector<std::vector<std::size_t>> zigzag_chains(const std::vector<ScanSegmen
         if (by_line.size() <= line) by_line.resize(line + 1);
         by_line[line].push_back(i);
     }
-    const auto overlaps = [&](std::size_t i, std::size_t j) {
-        return segments[i].from < segments[j].to && segments[j].from < segments[i].to;
-    };
-    const auto only_overlap =
-        [&](std::size_t i, const std::vector<std::size_t>& line) -> std::optional<std::size_t> {
-        std::optional<std::size_t> found;
-        for (const std::size_t j : line) {
-            if (!overlaps(i, j)) continue;
-            if (found) return std::nullopt;
-            found = j;
-        }
-        return found;
+    const auto only_overlap = [&segments](std::size_t i, const std::vector<std::size_t>& line) {
+        return only_overlap_on(segments, i, line);
     };
     std::vector<bool> placed(segments.size(), false);
     std::vector<std::vector<std::size_t>> chains;

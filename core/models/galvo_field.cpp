@@ -36,24 +36,32 @@ std::array<double, 4> catmull_rom(double t) {
 // scatter: each such difference of independent errors of variance s^2 per axis has variance
 // 70 s^2 per axis. Its squared length then follows 70 s^2 times a chi-square of two degrees of
 // freedom, whose median is 2 ln 2: the median keeps a spattered or chipped mark from swaying it.
+// The fourth difference of the landing errors over five nodes from (c, r) along a row (or down
+// column r from row c); nothing where one of them was not measured.
+std::optional<Point2> fourth_difference(int n, const std::vector<std::optional<Point2>>& measured,
+                                        const std::vector<Point2>& landed_mm,
+                                        const SquareGrid& grid, bool along_rows, int r, int c) {
+    constexpr std::array<double, 5> kFourthDifference{1, -4, 6, -4, 1};
+    Point2 d;
+    for (int k = 0; k < 5; ++k) {
+        const int column = along_rows ? c + k : r, row = along_rows ? r : c + k;
+        const std::size_t i = geometry::grid_offset(column, row, n);
+        if (!measured[i]) return std::nullopt;
+        d = d + kFourthDifference[static_cast<std::size_t>(k)] *
+                    (landed_mm[i] - grid.node_mm(column, row));
+    }
+    return d;
+}
+
 double node_scatter(int n, const std::vector<std::optional<Point2>>& measured,
                     const std::vector<Point2>& landed_mm, const SquareGrid& grid) {
-    constexpr std::array<double, 5> kFourthDifference{1, -4, 6, -4, 1};
     std::vector<double> squared;
     for (const bool along_rows : {true, false})
         for (int r = 0; r < n; ++r)
-            for (int c = 0; c + 4 < n; ++c) {
-                Point2 d;
-                bool whole = true;
-                for (int k = 0; k < 5 && whole; ++k) {
-                    const int column = along_rows ? c + k : r, row = along_rows ? r : c + k;
-                    const std::size_t i = geometry::grid_offset(column, row, n);
-                    whole = measured[i].has_value();
-                    d = d + kFourthDifference[static_cast<std::size_t>(k)] *
-                                (landed_mm[i] - grid.node_mm(column, row));
-                }
-                if (whole) squared.push_back(d.x * d.x + d.y * d.y);
-            }
+            for (int c = 0; c + 4 < n; ++c)
+                if (const auto d =
+                        fourth_difference(n, measured, landed_mm, grid, along_rows, r, c))
+                    squared.push_back(d->x * d->x + d->y * d->y);
     if (squared.size() < 20) return 0;
     const auto middle = squared.begin() + static_cast<std::ptrdiff_t>(squared.size() / 2);
     std::nth_element(squared.begin(), middle, squared.end());

@@ -102,6 +102,23 @@ std::vector<Candidate> mark_candidates(const geometry::CameraModel& camera,
 
 // Each pair of candidates as far apart as the first two marks places the drawing one way
 // (turned, shifted); the other marks must then each lie on a candidate within `reach_mm`.
+struct NearestCandidate {
+    std::size_t index;
+    double distance_mm;
+};
+// The candidate nearest `at` within `reach_mm` (the first of equals), or nothing.
+std::optional<NearestCandidate> nearest_candidate(const std::vector<Candidate>& candidates,
+                                                  Point2 at, double reach_mm) {
+    std::optional<NearestCandidate> nearest;
+    double best = reach_mm;
+    for (std::size_t k = 0; k < candidates.size(); ++k) {
+        const double e =
+            std::hypot(candidates[k].machine_mm.x - at.x, candidates[k].machine_mm.y - at.y);
+        if (e < best) best = e, nearest = NearestCandidate{k, e};
+    }
+    return nearest;
+}
+
 std::vector<MarkMatching> matchings_of(const std::vector<Candidate>& candidates,
                                        const std::vector<Point2>& marks, double base,
                                        double reach_mm) {
@@ -118,22 +135,14 @@ std::vector<MarkMatching> matchings_of(const std::vector<Candidate>& candidates,
             m.rotation_rad = turn;
             m.candidate_of_mark = {a, b};
             bool all = true;
-            for (std::size_t i = 2; i < marks.size() && all; ++i) {
+            for (std::size_t i = 2; i < marks.size(); ++i) {
                 const Point2 d{marks[i].x - marks[0].x, marks[i].y - marks[0].y};
                 const Point2 predicted{ca.x + c * d.x - s * d.y, ca.y + s * d.x + c * d.y};
-                std::optional<std::size_t> nearest;
-                double best = reach_mm;
-                for (std::size_t k = 0; k < candidates.size(); ++k) {
-                    const double e = std::hypot(candidates[k].machine_mm.x - predicted.x,
-                                                candidates[k].machine_mm.y - predicted.y);
-                    if (e < best) best = e, nearest = k;
-                }
-                if (!nearest)
-                    all = false;
-                else {
-                    m.candidate_of_mark.push_back(*nearest);
-                    m.misfit_mm += best;
-                }
+                const auto nearest = nearest_candidate(candidates, predicted, reach_mm);
+                all = nearest.has_value();
+                if (!nearest) break;
+                m.candidate_of_mark.push_back(nearest->index);
+                m.misfit_mm += nearest->distance_mm;
             }
             if (all) matchings.push_back(m);
         }

@@ -119,17 +119,17 @@ class YamlShape {
         if (block.kind == Kind::unknown) block.kind = item ? Kind::sequence : Kind::mapping;
         if ((block.kind == Kind::sequence) != item)
             fail("list items and keys mixed at one indentation");
-        if (item) {
-            const std::string_view after = rest.substr(1);
-            if (after.empty() || trailing_comment(after)) {
-                opened_at_line_ = number_;  // an item that is itself a block, below it
-            } else {
-                value(after.substr(1));
-            }
-            return;
-        }
+        if (item) return sequence_item(rest.substr(1));
         seen_key_ = true;
         if (key_and_value(rest)) opened_at_line_ = number_;
+    }
+
+    // What follows a sequence item's "-": its value, or nothing (the item is a block below it).
+    void sequence_item(std::string_view after) {
+        if (after.empty() || trailing_comment(after))
+            opened_at_line_ = number_;
+        else
+            value(after.substr(1));
     }
 
     void end() const {

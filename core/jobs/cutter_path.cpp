@@ -189,21 +189,23 @@ class CutterPath {
         move_under_compensation(raw, r, turn_on != 0, moves, axes);
     }
 
+    // Every position kept is in the job's units: a change of units (G20, G21) restates them.
+    void change_units(double unit_mm) {
+        const double scale = unit_mm_ / unit_mm;
+        const auto restate = [scale](Point2 p) { return Point2{p.x * scale, p.y * scale}; };
+        if (at_) at_ = restate(*at_);
+        if (left_at_) left_at_ = restate(*left_at_);
+        programmed_ = restate(programmed_);
+        cutter_ = restate(cutter_);
+        unit_mm_ = unit_mm;
+    }
+
     // The frame and modes, read before the line's move as the controller reads them.
     void read_modes(const ReadLine& r) {
         for (const Code c : r.codes) {
             if (c.is(90)) absolute_ = true;
             if (c.is(91)) absolute_ = false;
-            if (c.is(20) || c.is(21)) {
-                // Every position kept is in the job's units: a change of units restates them.
-                const double scale = unit_mm_ / (c.is(20) ? 25.4 : 1.0);
-                const auto restate = [scale](Point2 p) { return Point2{p.x * scale, p.y * scale}; };
-                if (at_) at_ = restate(*at_);
-                if (left_at_) left_at_ = restate(*left_at_);
-                programmed_ = restate(programmed_);
-                cutter_ = restate(cutter_);
-                unit_mm_ = c.is(20) ? 25.4 : 1.0;
-            }
+            if (c.is(20) || c.is(21)) change_units(c.is(20) ? 25.4 : 1.0);
             if (c.is(17) || c.is(18) || c.is(19)) plane_ = c.number;
             if (c.is_motion()) motion_ = c.number;
             if (c.is(80)) motion_ = -1;

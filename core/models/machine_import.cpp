@@ -326,9 +326,8 @@ void read_klipper_include(const std::string& path, const std::string& spec,
     }
 }
 
-void read_klipper_file(const std::string& path, const std::string& text, const Includes& includes,
-                       std::vector<std::string>& chain, Sections& sections, Sections& saved,
-                       std::vector<std::string>& notes) {
+// The file's place in the chain of includes; refused where it loops or nests too deep.
+void enter_include_chain(std::vector<std::string>& chain, const std::string& path) {
     if (std::find(chain.begin(), chain.end(), path) != chain.end()) {
         std::string loop;
         for (const auto& p : chain) loop += p + " -> ";
@@ -338,6 +337,21 @@ void read_klipper_file(const std::string& path, const std::string& text, const I
         throw ImportError("printer.cfg's includes nest deeper than " +
                           std::to_string(kDeepestInclude) + " files");
     chain.push_back(path);
+}
+
+// A line of SAVE_CONFIG's block (#*# ...): a section, or a value saved in it.
+void read_saved_line(const std::string& raw, std::string& section, Sections& saved) {
+    const std::string line = trimmed(std::string_view(raw).substr(3));
+    if (line.size() > 2 && line.front() == '[' && line.back() == ']')
+        section = trimmed(line.substr(1, line.size() - 2));
+    else if (const auto eq = line.find_first_of("=:"); eq != std::string::npos)
+        saved[section][trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
+}
+
+void read_klipper_file(const std::string& path, const std::string& text, const Includes& includes,
+                       std::vector<std::string>& chain, Sections& sections, Sections& saved,
+                       std::vector<std::string>& notes) {
+    enter_include_chain(chain, path);
     std::string section;
     bool in_saved = false;
     for (const auto& raw : lines_of(text)) {
@@ -346,13 +360,7 @@ void read_klipper_file(const std::string& path, const std::string& text, const I
                 in_saved = true;
                 continue;
             }
-            if (!in_saved) continue;
-            const std::string line = trimmed(std::string_view(raw).substr(3));
-            if (line.size() > 2 && line.front() == '[' && line.back() == ']') {
-                section = trimmed(line.substr(1, line.size() - 2));
-            } else if (const auto eq = line.find_first_of("=:"); eq != std::string::npos) {
-                saved[section][trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
-            }
+            if (in_saved) read_saved_line(raw, section, saved);
             continue;
         }
         if (!raw.empty() && std::isspace(static_cast<unsigned char>(raw[0]))) continue;

@@ -261,11 +261,17 @@ class Compensator {
     // The rules a line's words keep whatever the controller holds: codes it has, one word per
     // letter, one code per modal group.
     void word_rules(const gcode::Line& line, const std::vector<Code>& codes) const;
+    // An M word's number: whole, and one the controller has.
+    void check_m_word(double value) const;
+    // One word per letter (but G and M), one G code per modal group.
+    void refuse_repeated_words(const gcode::Line& line, const std::vector<Code>& codes) const;
 
     void cnc_rules(const gcode::Line& line, const std::vector<Code>& codes, bool polar) const;
     // Words no code on the line (nor `motion`, the motion that takes its axis words, -1 for
     // none) uses, and an arc's word off its plane.
     void unused_words(const gcode::Line& line, const std::vector<Code>& codes, int motion) const;
+    // The centre word across the arc's plane (K in G17's, J in G18's, I in G19's).
+    void refuse_off_plane_arc_word(const gcode::Line& line) const;
 
     // Words whose value cannot be below 0: LinuxCNC's "Negative f word used", "Negative spindle
     // speed used", "Negative l word used", an H or D naming no tool; grbl's error 4 ("Negative

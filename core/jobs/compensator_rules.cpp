@@ -46,38 +46,51 @@ std::string Compensator::words_of(const std::string& raw, Polar* polar,
     return words;
 }
 
-void Compensator::word_rules(const gcode::Line& line, const std::vector<Code>& codes) const {
-    const auto who = [this] { return controller_of(frame_.flavour); };
-    const auto stops = [&who] { return ": " + who() + " stops on it"; };
-    for (const Code c : codes)
-        if (!is_known_code(c))
-            throw fail(c.text() + ": no such G code (" + who() +
-                       " stops on it: \"Unknown g code used\")");
-    const auto check_m = [&](double value) {
-        if (value != std::floor(value))
-            throw fail("M" + number(value, 4) + ": an M code is a whole number (" + who() +
-                       " stops on it" +
-                       (frame_.flavour == Flavour::grbl ? ": its error 20)"
-                                                        : ": \"Non integer value for integer\")"));
-        if (!is_known_m(frame_.flavour, value))
-            throw fail("M" + number(value, 0) + ": no such M code on " + who() +
-                       " (it stops on it" +
-                       (frame_.flavour == Flavour::grbl ? ": its error 20)"
-                                                        : ": \"Unknown m code used\")"));
-    };
-    if (line.command_letter == 'M') check_m(line.command_number);
-    for (const auto& w : line.parameters)
-        if (w.letter == 'M' && w.value) check_m(*w.value);
+void Compensator::check_m_word(double value) const {
+    const std::string who = controller_of(frame_.flavour);
+    if (value != std::floor(value))
+        throw fail("M" + number(value, 4) + ": an M code is a whole number (" + who +
+                   " stops on it" +
+                   (frame_.flavour == Flavour::grbl ? ": its error 20)"
+                                                    : ": \"Non integer value for integer\")"));
+    if (!is_known_m(frame_.flavour, value))
+        throw fail(
+            "M" + number(value, 0) + ": no such M code on " + who + " (it stops on it" +
+            (frame_.flavour == Flavour::grbl ? ": its error 20)" : ": \"Unknown m code used\")"));
+}
+
+void Compensator::refuse_repeated_words(const gcode::Line& line,
+                                        const std::vector<Code>& codes) const {
+    const std::string stops = ": " + controller_of(frame_.flavour) + " stops on it";
     std::array<int, 256> seen{};
     if (line.command_letter == 'T') ++seen['T'];
     for (const auto& w : line.parameters)
         if (w.letter != 'G' && w.letter != 'M' && ++seen[static_cast<unsigned char>(w.letter)] == 2)
-            throw fail(std::string("two ") + w.letter + " words on one line" + stops());
+            throw fail(std::string("two ") + w.letter + " words on one line" + stops);
     for (std::size_t i = 0; i < codes.size(); ++i)
         for (std::size_t j = i + 1; j < codes.size(); ++j)
             if (modal_group(codes[i]) >= 0 && modal_group(codes[i]) == modal_group(codes[j]))
                 throw fail("two G codes of one modal group on one line (" + codes[i].text() +
-                           " and " + codes[j].text() + ")" + stops());
+                           " and " + codes[j].text() + ")" + stops);
+}
+
+void Compensator::word_rules(const gcode::Line& line, const std::vector<Code>& codes) const {
+    for (const Code c : codes)
+        if (!is_known_code(c))
+            throw fail(c.text() + ": no such G code (" + controller_of(frame_.flavour) +
+                       " stops on it: \"Unknown g code used\")");
+    if (line.command_letter == 'M') check_m_word(line.command_number);
+    for (const auto& w : line.parameters)
+        if (w.letter == 'M' && w.value) check_m_word(*w.value);
+    refuse_repeated_words(line, codes);
+}
+
+void Compensator::refuse_off_plane_arc_word(const gcode::Line& line) const {
+    const char other = m_.plane == 17 ? 'K' : m_.plane == 18 ? 'J' : 'I';
+    const char* plane = m_.plane == 17 ? "XY" : m_.plane == 18 ? "XZ" : "YZ";
+    if (line.has(other))
+        throw fail(std::string(1, other) + " word in an arc in the " + plane +
+                   " plane: " + controller_of(frame_.flavour) + " stops on it");
 }
 
 void Compensator::unused_words(const gcode::Line& line, const std::vector<Code>& codes,
@@ -99,15 +112,7 @@ void Compensator::unused_words(const gcode::Line& line, const std::vector<Code>&
         unused('J', "G2 or G3");
         unused('K', "G2 or G3");
     }
-    if (arc) {
-        const char other = m_.plane == 17 ? 'K' : m_.plane == 18 ? 'J' : 'I';
-        if (line.has(other))
-            throw fail(std::string(1, other) + " word in an arc in the " +
-                       (m_.plane == 17   ? "XY"
-                        : m_.plane == 18 ? "XZ"
-                                         : "YZ") +
-                       " plane" + stops());
-    }
+    if (arc) refuse_off_plane_arc_word(line);
     if (!arc && !cycle && !g10) unused('R', "G2, G3, a drilling cycle or G10");
     if (!cycle && !g10) unused('L', "G10 or drilling cycle");
     const bool m_with_p = has_m_in(line, 50, 53) || has_m_in(line, 62, 66) || has_m(line, 98) ||

@@ -149,21 +149,52 @@ std::string compensate_gcode(std::string_view job, const MachineCorrection& corr
     return Compensator(correction, frame, settings, report).run(job);
 }
 
-std::string compensate_scanner_csv(std::string_view job, const MachineCorrection& correction,
-                                   const JobFrame& frame, const CompensateSettings& settings,
-                                   CompensateReport& report) {
+namespace {
+
+struct ScannerPoint {
+    double x_mm, y_mm, power;
+};
+// A scanner job's "x_mm,y_mm,power" line; throws CompensateError naming the line.
+ScannerPoint scanner_point_of(const std::string& raw, long number_of_line) {
+    ScannerPoint p{0, 0, 0};
+    char tail = 0;
+    if (std::sscanf(raw.c_str(), "%lf,%lf,%lf%c", &p.x_mm, &p.y_mm, &p.power, &tail) != 3 ||
+        !std::isfinite(p.x_mm) || !std::isfinite(p.y_mm) || !(p.power >= 0 && p.power <= 1))
+        throw CompensateError("line " + std::to_string(number_of_line) +
+                              ": expected x_mm,y_mm,power with power from 0 to 1");
+    return p;
+}
+
+// A corrected point's line of the scanner job, in the job's coordinates from `zero`.
+std::string scanner_line(Point2 corrected_mm, Point2 zero, double power) {
+    char line[128];
+    std::snprintf(line, sizeof line, "%.4f,%.4f,%s\n", corrected_mm.x - zero.x,
+                  corrected_mm.y - zero.y, number(power, 3).c_str());
+    return line;
+}
+
+// Where the scanner job's zero lies in the field; throws CompensateError where the job cannot be
+// placed so (no zero, a turned or scaled frame) or the segment length is not positive.
+Point2 scanner_zero_of(const JobFrame& frame, const CompensateSettings& settings) {
     if (!(settings.max_segment_mm > 0))
         throw CompensateError("the segment length must be positive");
     if (!frame.work_zero_mm[0])
         throw CompensateError("the scanner job's zero on the machine is not known");
     if (frame.turn_rad != 0 || frame.scale != 1)
         throw CompensateError("a scanner job is not placed turned: its field is the machine's");
-    const Point2 zero = *frame.work_zero_mm[0];
+    return *frame.work_zero_mm[0];
+}
+
+}  // namespace
+
+std::string compensate_scanner_csv(std::string_view job, const MachineCorrection& correction,
+                                   const JobFrame& frame, const CompensateSettings& settings,
+                                   CompensateReport& report) {
+    const Point2 zero = scanner_zero_of(frame, settings);
     std::istringstream in{std::string(job)};
     std::string raw, out;
     long number_of_line = 0;
     std::optional<Point2> at;
-    char line[128];
     while (std::getline(in, raw)) {
         ++number_of_line;
         ++report.lines;
@@ -179,31 +210,25 @@ std::string compensate_scanner_csv(std::string_view job, const MachineCorrection
             out += raw + '\n';
             continue;
         }
-        double x = 0, y = 0, power = 0;
-        char tail = 0;
-        if (std::sscanf(raw.c_str(), "%lf,%lf,%lf%c", &x, &y, &power, &tail) != 3 ||
-            !std::isfinite(x) || !std::isfinite(y) || !(power >= 0 && power <= 1))
-            throw CompensateError("line " + std::to_string(number_of_line) +
-                                  ": expected x_mm,y_mm,power with power from 0 to 1");
+        const auto [x, y, power] = scanner_point_of(raw, number_of_line);
         const Point2 to{x + zero.x, y + zero.y};
         if (!frame.travel_mm.contains(to))
             throw CompensateError("line " + std::to_string(number_of_line) + ": the point " +
                                   number(x, 4) + "," + number(y, 4) +
                                   " is beyond the field the machine reaches");
-        int pieces = 1;
-        if (power > 0 && at) {
-            pieces = std::max(1, static_cast<int>(std::ceil(std::hypot(to.x - at->x, to.y - at->y) /
-                                                            settings.max_segment_mm)));
-        }
         ++report.moves;
+        // Burning, the move is cut so that the correction follows the field along it; a jump
+        // goes straight to its end.
+        const int pieces =
+            power > 0 && at
+                ? std::max(1, static_cast<int>(std::ceil(std::hypot(to.x - at->x, to.y - at->y) /
+                                                         settings.max_segment_mm)))
+                : 1;
         for (int k = 1; k <= pieces; ++k) {
             const Point2 p = k == pieces ? to
                                          : Point2{at->x + (to.x - at->x) * k / pieces,
                                                   at->y + (to.y - at->y) * k / pieces};
-            const Point2 c = held_correction(correction, p, report);
-            std::snprintf(line, sizeof line, "%.4f,%.4f,%s\n", c.x - zero.x, c.y - zero.y,
-                          number(power, 3).c_str());
-            out += line;
+            out += scanner_line(held_correction(correction, p, report), zero, power);
             ++report.pieces;
         }
         at = to;

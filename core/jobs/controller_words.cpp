@@ -30,6 +30,28 @@ bool dwells_at_bottom(int motion) {
     return motion == 82 || motion == 86 || motion == 88 || motion == 89;
 }
 
+namespace {
+
+// The number after the polar word's letter at raw[i] (spaces between them allowed), and where it
+// ends; throws gcode::SyntaxError for a bad one.
+std::pair<double, std::size_t> polar_number_after(const std::string& raw, std::size_t i) {
+    std::size_t j = i + 1;
+    while (j < raw.size() && (raw[j] == ' ' || raw[j] == '\t')) ++j;
+    std::size_t k = j;
+    if (k < raw.size() && (raw[k] == '-' || raw[k] == '+')) ++k;
+    while (k < raw.size() &&
+           (std::isdigit(static_cast<unsigned char>(raw[k])) != 0 || raw[k] == '.'))
+        ++k;
+    double v = 0;
+    const char* first = raw.data() + j + (j < raw.size() && raw[j] == '+' ? 1 : 0);
+    const auto [end, ec] = std::from_chars(first, raw.data() + k, v);
+    if (ec != std::errc() || end != raw.data() + k)
+        throw gcode::SyntaxError(std::string("bad number after '") + raw[i] + "'");
+    return {v, k};
+}
+
+}  // namespace
+
 Polar take_polar_words(std::string& raw) {
     Polar polar;
     bool in_paren = false;
@@ -45,18 +67,7 @@ Polar take_polar_words(std::string& raw) {
         }
         if (c == ';' || c == '*') break;
         if (c != '@' && c != '^') continue;
-        std::size_t j = i + 1;
-        while (j < raw.size() && (raw[j] == ' ' || raw[j] == '\t')) ++j;
-        std::size_t k = j;
-        if (k < raw.size() && (raw[k] == '-' || raw[k] == '+')) ++k;
-        while (k < raw.size() &&
-               (std::isdigit(static_cast<unsigned char>(raw[k])) != 0 || raw[k] == '.'))
-            ++k;
-        double v = 0;
-        const char* first = raw.data() + j + (j < raw.size() && raw[j] == '+' ? 1 : 0);
-        const auto [end, ec] = std::from_chars(first, raw.data() + k, v);
-        if (ec != std::errc() || end != raw.data() + k)
-            throw gcode::SyntaxError(std::string("bad number after '") + c + "'");
+        const auto [v, k] = polar_number_after(raw, i);
         (c == '@' ? polar.distance : polar.angle_deg) = v;
         raw.erase(i, k - i);
         --i;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <limits>
 
 #include "core/number_text.hpp"
@@ -31,6 +32,43 @@ std::string spaced_xy(Point2 p) {
 // The drawing as a browser shows it: a shape shows only inside its clip path, and what lies past
 // the page (the viewport the document's width, height and viewBox make) is not shown, so each
 // shape reaching past either is cut at its edge, its fill as a region and its stroke as lines.
+// Whether every point of the shape lies on a w x h page. A point within a micrometre of the page
+// is on it: librsvg's painting (through cairo's fixed point) gives a corner on the page's edge
+// back a fraction of that off it.
+bool lies_on_page(const SvgShape& shape, double w, double h) {
+    constexpr double kOnEdgeMm = 0.001;
+    for (const auto& c : shape.contours)
+        for (const auto& p : c.points)
+            if (!(p.x >= -kOnEdgeMm && p.x <= w + kOnEdgeMm && p.y >= -kOnEdgeMm &&
+                  p.y <= h + kOnEdgeMm))
+                return false;
+    return true;
+}
+
+// What of the shape shows through `window`: its fill (its rule resolved) and its stroke, each a
+// shape of its own.
+void add_shown_parts(const SvgShape& shape, const std::vector<Polygon>& window,
+                     std::optional<FillRule> fill_rule, SvgDocument& shown) {
+    if (shape.filled) {
+        SvgShape fill = shape;
+        fill.stroked = false;
+        fill.clip_region.reset();
+        fill.fill_rule = FillRule::nonzero;  // resolved below
+        fill.contours.clear();
+        for (auto& p : intersect_region(
+                 resolve_fill(shape.contours, fill_rule.value_or(shape.fill_rule)), window))
+            fill.contours.push_back({std::move(p), true});
+        if (!fill.contours.empty()) shown.shapes.push_back(std::move(fill));
+    }
+    if (shape.stroked) {
+        SvgShape stroke = shape;
+        stroke.filled = false;
+        stroke.clip_region.reset();
+        stroke.contours = intersect_lines(shape.contours, window);
+        if (!stroke.contours.empty()) shown.shapes.push_back(std::move(stroke));
+    }
+}
+
 SvgDocument cut_to_shown(const SvgDocument& document, std::optional<FillRule> fill_rule,
                          int& shapes_cut_at_page) {
     const double w = document.width_mm, h = document.height_mm;
@@ -38,16 +76,8 @@ SvgDocument cut_to_shown(const SvgDocument& document, std::optional<FillRule> fi
     SvgDocument shown = document;
     shown.shapes.clear();
     const std::vector<Polygon> page{{{0, 0}, {w, 0}, {w, h}, {0, h}}};
-    // A point within a micrometre of the page is on it: librsvg's painting (through cairo's
-    // fixed point) gives a corner on the page's edge back a fraction of that off it.
-    constexpr double kOnEdgeMm = 0.001;
     for (const auto& shape : document.shapes) {
-        bool within = true;
-        if (has_page)
-            for (const auto& c : shape.contours)
-                for (const auto& p : c.points)
-                    within = within && p.x >= -kOnEdgeMm && p.x <= w + kOnEdgeMm &&
-                             p.y >= -kOnEdgeMm && p.y <= h + kOnEdgeMm;
+        const bool within = !has_page || lies_on_page(shape, w, h);
         if (within && !shape.clip_region) {
             shown.shapes.push_back(shape);
             continue;
@@ -56,24 +86,7 @@ SvgDocument cut_to_shown(const SvgDocument& document, std::optional<FillRule> fi
         std::vector<Polygon> window = has_page ? page : std::vector<Polygon>{};
         if (shape.clip_region)
             window = has_page ? intersect_region(*shape.clip_region, page) : *shape.clip_region;
-        if (shape.filled) {
-            SvgShape fill = shape;
-            fill.stroked = false;
-            fill.clip_region.reset();
-            fill.fill_rule = FillRule::nonzero;  // resolved below
-            fill.contours.clear();
-            for (auto& p : intersect_region(
-                     resolve_fill(shape.contours, fill_rule.value_or(shape.fill_rule)), window))
-                fill.contours.push_back({std::move(p), true});
-            if (!fill.contours.empty()) shown.shapes.push_back(std::move(fill));
-        }
-        if (shape.stroked) {
-            SvgShape stroke = shape;
-            stroke.filled = false;
-            stroke.clip_region.reset();
-            stroke.contours = intersect_lines(shape.contours, window);
-            if (!stroke.contours.empty()) shown.shapes.push_back(std::move(stroke));
-        }
+        add_shown_parts(shape, window, fill_rule, shown);
     }
     return shown;
 }
@@ -144,6 +157,37 @@ void refuse_unless_it_fits(const PlacedJob& job, const models::MachineFile& mach
 
 }  // namespace
 
+namespace {
+
+struct DrawingExtent {
+    double xmin, ymin, xmax, ymax;
+};
+// The box around every point of the shapes, in the drawing's millimetres.
+DrawingExtent extent_of(const SvgDocument& shown) {
+    double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
+    for (const auto& shape : shown.shapes)
+        for (const auto& c : shape.contours)
+            for (const auto& p : c.points)
+                xmin = std::min(xmin, p.x), xmax = std::max(xmax, p.x), ymin = std::min(ymin, p.y),
+                ymax = std::max(ymax, p.y);
+    return {xmin, ymin, xmax, ymax};
+}
+
+// The scale --fit (the larger side's length) or --scale asks for; nothing when neither is given.
+std::optional<double> scale_asked(const SvgJobSettings& settings, double larger_side_mm) {
+    if (settings.fit_mm) {
+        if (!(*settings.fit_mm > 0)) throw JobError("--fit must be a positive length");
+        return *settings.fit_mm / larger_side_mm;
+    }
+    if (settings.scale) {
+        if (!(*settings.scale > 0)) throw JobError("--scale must be positive");
+        return *settings.scale;
+    }
+    return std::nullopt;
+}
+
+}  // namespace
+
 PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& machine,
                        const SvgJobSettings& settings) {
     PlacedJob job;
@@ -157,21 +201,10 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     if (settings.scale && settings.fit_mm) throw JobError("give --scale or --fit, not both");
     const SvgDocument shown = cut_to_shown(document, settings.fill_rule, job.shapes_cut_at_page);
     if (shown.shapes.empty()) throw JobError("nothing of the drawing lies on its page");
-    double xmin = std::numeric_limits<double>::infinity(), ymin = xmin, xmax = -xmin, ymax = -xmin;
-    for (const auto& shape : shown.shapes)
-        for (const auto& c : shape.contours)
-            for (const auto& p : c.points)
-                xmin = std::min(xmin, p.x), xmax = std::max(xmax, p.x), ymin = std::min(ymin, p.y),
-                ymax = std::max(ymax, p.y);
+    const auto [xmin, ymin, xmax, ymax] = extent_of(shown);
     const double larger = std::max(xmax - xmin, ymax - ymin);
     if (!(larger > 0)) throw JobError("the drawing has no extent");
-    if (settings.fit_mm) {
-        if (!(*settings.fit_mm > 0)) throw JobError("--fit must be a positive length");
-        job.scale = *settings.fit_mm / larger;
-    } else if (settings.scale) {
-        if (!(*settings.scale > 0)) throw JobError("--scale must be positive");
-        job.scale = *settings.scale;
-    }
+    if (const auto scale = scale_asked(settings, larger)) job.scale = *scale;
     // Centred on the bed (a delta's and a galvo's origin is the middle of their area); SVG's y
     // runs down the page, the machine's up the bed.
     const Point2 bed_centre = machine.is_delta() || machine.is_galvo()
@@ -196,9 +229,8 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
     for (const auto& shape : shown.shapes) {
         std::vector<Contour> placed;
         for (const auto& c : shape.contours) {
-            Contour p;
-            p.closed = c.closed;
-            for (const auto& q : c.points) p.points.push_back(place(q));
+            Contour p{{}, c.closed};
+            std::transform(c.points.begin(), c.points.end(), std::back_inserter(p.points), place);
             placed.push_back(std::move(p));
         }
         // As a browser paints it: the fill (nothing where it has no area), then the stroke
@@ -217,55 +249,70 @@ PlacedJob plan_svg_job(const SvgDocument& document, const models::MachineFile& m
 namespace {
 
 // A printer's job: heated, homed, filament measured along each line, lifted over the print.
-void printer_job_lines(std::string& out, const PlacedJob& job, const models::MachineFile& m) {
-    const auto line = [&](const std::string& text) { out += text + "\n"; };
-    const double feed = job.feed_mm_s * 60, travel = m.travel_feed_mm_s * 60;
-    line("M82");
+// The printer's own start or end G-code, or calbox's: heat and home; cool and release.
+void printer_start_lines(std::string& out, const models::MachineFile& m) {
     if (m.start_gcode) {
         out += *m.start_gcode;
         if (!out.empty() && out.back() != '\n') out += "\n";
-    } else {
-        if (m.bed_temperature_c) line("M190 S" + fixed_text(*m.bed_temperature_c, 0));
-        if (m.nozzle_temperature_c) line("M109 S" + fixed_text(*m.nozzle_temperature_c, 0));
-        line("G28");
+        return;
     }
-    line("G92 E0");
+    if (m.bed_temperature_c) out += "M190 S" + fixed_text(*m.bed_temperature_c, 0) + "\n";
+    if (m.nozzle_temperature_c) out += "M109 S" + fixed_text(*m.nozzle_temperature_c, 0) + "\n";
+    out += "G28\n";
+}
+
+void printer_end_lines(std::string& out, const models::MachineFile& m) {
+    if (m.end_gcode) {
+        out += *m.end_gcode;
+        if (!out.empty() && out.back() != '\n') out += "\n";
+        return;
+    }
+    if (m.nozzle_temperature_c) out += "M104 S0\n";
+    if (m.bed_temperature_c) out += "M140 S0\n";
+    out += "M84\n";
+}
+
+// One layer of the toolpath at height z, the extruder's E running on from `e`.
+void printer_layer_lines(std::string& out, const PlacedJob& job, const models::MachineFile& m,
+                         int layer, double e_per_mm, double& e) {
+    const auto line = [&](const std::string& text) { out += text + "\n"; };
+    const double feed = job.feed_mm_s * 60, travel = m.travel_feed_mm_s * 60;
+    const double z = layer * m.layer_height_mm, hop = z + 0.4;
+    if (layer > 1) line("G0 Z" + fixed_text(hop, 3));
+    bool lifted = true;
+    for (const auto& move : job.toolpath.moves) {
+        if (move.kind == MoveKind::travel) {
+            // Lift over the print for anything longer than a hop to the next line.
+            if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
+                line("G0 Z" + fixed_text(hop, 3));
+                lifted = true;
+            }
+            line("G0" + spaced_xy(move.to) + " F" + fixed_text(travel, 0));
+            continue;
+        }
+        if (lifted) {
+            line("G0 Z" + fixed_text(z, 3));
+            lifted = false;
+        }
+        e += move.length_mm() * e_per_mm;
+        line("G1" + spaced_xy(move.to) + " E" + fixed_text(e, 5) + " F" + fixed_text(feed, 0));
+    }
+}
+
+void printer_job_lines(std::string& out, const PlacedJob& job, const models::MachineFile& m) {
+    const double travel = m.travel_feed_mm_s * 60;
+    out += "M82\n";
+    printer_start_lines(out, m);
+    out += "G92 E0\n";
     const double e_per_mm =
         job.line_width_mm * m.layer_height_mm /
         (3.14159265358979323846 * m.filament_diameter_mm * m.filament_diameter_mm / 4);
     double e = 0;
-    line("G0 Z" + fixed_text(m.safe_height_mm, 3) + " F" + fixed_text(travel, 0));
-    for (int layer = 1; layer <= job.layers; ++layer) {
-        const double z = layer * m.layer_height_mm, hop = z + 0.4;
-        if (layer > 1) line("G0 Z" + fixed_text(hop, 3));
-        bool lifted = true;
-        for (const auto& move : job.toolpath.moves) {
-            if (move.kind == MoveKind::travel) {
-                // Lift over the print for anything longer than a hop to the next line.
-                if (move.length_mm() > 2 * job.spacing_mm && !lifted) {
-                    line("G0 Z" + fixed_text(hop, 3));
-                    lifted = true;
-                }
-                line("G0" + spaced_xy(move.to) + " F" + fixed_text(travel, 0));
-                continue;
-            }
-            if (lifted) {
-                line("G0 Z" + fixed_text(z, 3));
-                lifted = false;
-            }
-            e += move.length_mm() * e_per_mm;
-            line("G1" + spaced_xy(move.to) + " E" + fixed_text(e, 5) + " F" + fixed_text(feed, 0));
-        }
-    }
-    line("G0 Z" + fixed_text(m.safe_height_mm + 10, 3) + " F" + fixed_text(travel, 0));
-    if (m.end_gcode) {
-        out += *m.end_gcode;
-        if (!out.empty() && out.back() != '\n') out += "\n";
-    } else {
-        if (m.nozzle_temperature_c) line("M104 S0");
-        if (m.bed_temperature_c) line("M140 S0");
-        line("M84");
-    }
+    out += "G0 Z" + fixed_text(m.safe_height_mm, 3) + " F" + fixed_text(travel, 0) + "\n";
+    for (int layer = 1; layer <= job.layers; ++layer)
+        printer_layer_lines(out, job, m, layer, e_per_mm, e);
+    out += "G0 Z" + fixed_text(m.safe_height_mm + 10, 3) + " F" + fixed_text(travel, 0) + "\n";
+    printer_end_lines(out, m);
 }
 
 // A router's or a laser's job: the spindle or the beam on only while working.

@@ -279,6 +279,11 @@ class Compensator {
     void negative_words(const gcode::Line& line) const;
 
     void line(const std::string& raw);
+    // The line's words (its polar words taken into `polar`) and its G codes; throws the
+    // compensator's refusal for a line that does not read.
+    gcode::Line read_line(const std::string& raw, Polar& polar, std::vector<Code>& codes) const;
+    // A move at a feed (`feeds`: a cycle, or a move but G0) under G95 with the spindle at rest.
+    void refuse_feed_per_rev_at_rest(bool feeds) const;
     // The M words the compensator follows (the spindle, the extruder's mode) and the subprogram
     // calls it refuses.
     void spindle_and_extruder_words(const gcode::Line& line);
@@ -323,6 +328,8 @@ class Compensator {
     void written_out_cycle(Point2 c, Point2 offset, double r_mm, double bottom_mm,
                            std::optional<double> clear_mm, const gcode::Line& line,
                            const std::vector<Code>& kept_codes, bool first);
+    // G73's and G83's pecks from R down to the bottom, Q at a time (G83 back to R between them).
+    void written_out_pecks(double r_mm, double bottom_mm);
 
     const MachineCorrection& correction_;
     const JobFrame& frame_;

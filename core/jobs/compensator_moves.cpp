@@ -65,19 +65,42 @@ void Compensator::not_an_xy_move(const std::string& raw, const gcode::Line& line
         verbatim(raw);
 }
 
-void Compensator::line(const std::string& raw) {
-    gcode::Line line;
-    std::vector<Code> codes;
-    Polar polar;
+namespace {
+
+// A motion code (G0 to G3, G38, ...) or a canned cycle's among the line's codes.
+bool commands_motion(const std::vector<Code>& codes) {
+    return std::any_of(codes.begin(), codes.end(), [](Code c) {
+        return c.is_motion() || (c.subcode < 0 && is_cycle(c.number));
+    });
+}
+
+}  // namespace
+
+gcode::Line Compensator::read_line(const std::string& raw, Polar& polar,
+                                   std::vector<Code>& codes) const {
     try {
-        line = gcode::parse_line(words_of(raw, &polar));
+        gcode::Line line = gcode::parse_line(words_of(raw, &polar));
         codes = g_codes_of(line);
+        return line;
     } catch (const gcode::SyntaxError& e) {
         throw fail(std::string(e.what()) +
                    (is_cnc(frame_.flavour)
                         ? ": " + controller_of(frame_.flavour) + " stops on it too"
                         : std::string()));
     }
+}
+
+void Compensator::refuse_feed_per_rev_at_rest(bool feeds) const {
+    if (feeds && m_.feed_per_rev && m_.spindle_speed == 0)
+        throw fail(
+            "a feed per revolution (G95) with the spindle speed 0 (no S above 0): LinuxCNC "
+            "stops on it (\"Cannot feed with zero spindle speed in feed per rev mode\")");
+}
+
+void Compensator::line(const std::string& raw) {
+    std::vector<Code> codes;
+    Polar polar;
+    const gcode::Line line = read_line(raw, polar, codes);
     numbered_ = line.line_number.has_value();
     checksummed_ = gcode::without_checksum(raw).size() != raw.size();
     if (numbered_) numbering_.saw(*line.line_number);
@@ -93,9 +116,7 @@ void Compensator::line(const std::string& raw) {
     spindle_and_extruder_words(line);
 
     const bool axes = line.has('X') || line.has('Y') || line.has('Z') || polar.any();
-    const bool commanded_motion = std::any_of(codes.begin(), codes.end(), [](Code c) {
-        return c.is_motion() || (c.subcode < 0 && is_cycle(c.number));
-    });
+    const bool commanded_motion = commands_motion(codes);
     // A printer's M or T command is the line's one command; on LinuxCNC and grbl M, S, F and
     // T words ride on a move like any other word.
     const bool not_a_command =
@@ -107,10 +128,7 @@ void Compensator::line(const std::string& raw) {
     const bool is_arc_mode = m_.motion == 2 || m_.motion == 3;
     const bool moves = !not_a_move && m_.motion >= 0 && m_.motion <= 3 && !not_a_command &&
                        (axes || (is_arc_mode && (arc_words || commanded_motion)));
-    if (m_.feed_per_rev && m_.spindle_speed == 0 && (cycles || (moves && m_.motion != 0)))
-        throw fail(
-            "a feed per revolution (G95) with the spindle speed 0 (no S above 0): LinuxCNC "
-            "stops on it (\"Cannot feed with zero spindle speed in feed per rev mode\")");
+    refuse_feed_per_rev_at_rest(cycles || (moves && m_.motion != 0));
     if (cycles) return cycle(raw, line, polar, kept_codes);
     const bool moves_xy = moves && (is_arc_mode || line.has('X') || line.has('Y') || polar.any());
     if (!moves_xy) {
@@ -391,6 +409,24 @@ void Compensator::cycle(const std::string& raw, const gcode::Line& line, const P
     if (repeats == 0) verbatim(raw);
 }
 
+void Compensator::written_out_pecks(double r_mm, double bottom_mm) {
+    const Code code{m_.motion, -1};
+    const int d = decimals();
+    const auto z = [&](double mm) { return " Z" + number(mm / m_.unit_mm, d); };
+    const double peck_clearance_mm = 0.254;  // LinuxCNC's: 0.010 inch
+    const double q_mm = m_.cycle_q.value_or(0) * m_.unit_mm;
+    if (!(q_mm > 0)) throw fail("canned cycle " + code.text() + " needs a peck depth Q above 0");
+    double depth = r_mm;
+    while (depth > bottom_mm + 1e-9) {
+        const double next = std::max(depth - q_mm, bottom_mm);
+        if (depth < r_mm && m_.motion == 83) emit("G0" + z(depth + peck_clearance_mm));
+        emit("G1" + z(next));
+        depth = next;
+        if (depth > bottom_mm + 1e-9)
+            emit("G0" + z(m_.motion == 83 ? r_mm : depth + peck_clearance_mm));
+    }
+}
+
 void Compensator::written_out_cycle(Point2 c, Point2 offset, double r_mm, double bottom_mm,
                                     std::optional<double> clear_mm, const gcode::Line& line,
                                     const std::vector<Code>& kept_codes, bool first) {
@@ -413,7 +449,6 @@ void Compensator::written_out_cycle(Point2 c, Point2 offset, double r_mm, double
     emit(head + "G0" + xy_words(c, offset, d) + feed);
     if (!m_.z_mm || *m_.z_mm != r_mm) emit("G0" + z(r_mm));
     const auto down = [&](double to_mm) { emit("G1" + z(to_mm)); };
-    const double peck_clearance_mm = 0.254;  // LinuxCNC's: 0.010 inch
     switch (m_.motion) {
         case 81:
             down(bottom_mm);
@@ -429,21 +464,9 @@ void Compensator::written_out_cycle(Point2 c, Point2 offset, double r_mm, double
             emit("G1" + z(r_mm));
             break;
         case 73:
-        case 83: {
-            const double q_mm = m_.cycle_q.value_or(0) * m_.unit_mm;
-            if (!(q_mm > 0))
-                throw fail("canned cycle " + code.text() + " needs a peck depth Q above 0");
-            double depth = r_mm;
-            while (depth > bottom_mm + 1e-9) {
-                const double next = std::max(depth - q_mm, bottom_mm);
-                if (depth < r_mm && m_.motion == 83) emit("G0" + z(depth + peck_clearance_mm));
-                down(next);
-                depth = next;
-                if (depth > bottom_mm + 1e-9)
-                    emit("G0" + z(m_.motion == 83 ? r_mm : depth + peck_clearance_mm));
-            }
+        case 83:
+            written_out_pecks(r_mm, bottom_mm);
             break;
-        }
         default:
             throw fail("canned cycle " + code.text() +
                        " (tapping, boring with a spindle stop, back boring or a manual "

@@ -239,9 +239,9 @@ class CutterPath {
         if (radius_ != 0) left_at_.reset();  // the entry move is written whole
     }
 
-    // What LinuxCNC refuses under compensation, and what calbox does not carry through.
-    void refuse_under_compensation(const ReadLine& r, bool reframes, bool moves, bool axes) const {
-        const gcode::Line& l = r.line;
+    // A change of units, of the tool length offset or of the path control mode: LinuxCNC
+    // refuses each under compensation.
+    void refuse_mode_changes(const ReadLine& r) const {
         for (const Code c : r.codes) {
             const char* change = c.is(20) || c.is(21)         ? "units"
                                  : c.number == 43 || c.is(49) ? "the tool length offset (G43, G49)"
@@ -251,19 +251,27 @@ class CutterPath {
                 throw fail(std::string("a change of ") + change +
                            " under cutter radius compensation: LinuxCNC refuses it too");
         }
+    }
+
+    // An arc's words under compensation (`moves`: it moves an axis).
+    void refuse_arc_words(const gcode::Line& l, bool moves) const {
+        if (!moves && (l.has('I') || l.has('J') || l.has('R')))
+            throw fail(refusal("an arc without X, Y or Z"));
+        if (!moves) return;
+        if (const auto turns = l.value('P'); turns && *turns != 1)
+            throw fail(refusal("an arc of more than one turn (P)"));
+        if (!l.has('I') && !l.has('J') && !l.has('R'))
+            throw fail("an arc without its centre (I, J) or radius (R): LinuxCNC refuses it too");
+    }
+
+    // What LinuxCNC refuses under compensation, and what calbox does not carry through.
+    void refuse_under_compensation(const ReadLine& r, bool reframes, bool moves, bool axes) const {
+        const gcode::Line& l = r.line;
+        refuse_mode_changes(r);
         if (r.polar) throw fail(refusal("polar words"));
         if (reframes) throw fail(refusal("an offset, a machine-coordinate move or a return home"));
         if (plane_ != 17) throw fail(refusal("another plane than XY (G18, G19)"));
-        const bool arc = motion_ == 2 || motion_ == 3;
-        if (arc && !moves && (l.has('I') || l.has('J') || l.has('R')))
-            throw fail(refusal("an arc without X, Y or Z"));
-        if (arc && moves) {
-            if (const auto turns = l.value('P'); turns && *turns != 1)
-                throw fail(refusal("an arc of more than one turn (P)"));
-            if (!l.has('I') && !l.has('J') && !l.has('R'))
-                throw fail(
-                    "an arc without its centre (I, J) or radius (R): LinuxCNC refuses it too");
-        }
+        if (motion_ == 2 || motion_ == 3) refuse_arc_words(l, moves);
         if (motion_ > 3 && (axes || l.has('R'))) throw fail(refusal("a canned cycle"));
         if (has_m(l, 6))
             throw fail(

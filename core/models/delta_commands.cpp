@@ -254,13 +254,45 @@ DeltaGeometry geometry_from_settings(const std::string& firmware,
     throw std::invalid_argument("no settings commands for firmware '" + firmware + "'");
 }
 
+namespace {
+
+// The first of the reported lines that is command M`number`.
+std::optional<gcode::Line> reported_command(const std::vector<std::string>& reported, int number) {
+    for (const auto& r : reported) {
+        auto parsed = gcode::parse_line(r);
+        if (parsed.is('M', number)) return parsed;
+    }
+    return std::nullopt;
+}
+
+// The first word whose value `got` does not report within `tolerance`, in one line; "" for none.
+std::string word_mismatch(const gcode::Line& want, const gcode::Line& got, const std::string& name,
+                          double tolerance) {
+    for (const auto& w : want.parameters) {
+        const auto sent = want.values(w.letter);
+        if (sent.empty()) continue;
+        const auto have = got.values(w.letter);
+        for (std::size_t i = 0; i < std::max(sent.size(), have.size()); ++i) {
+            // One value stands for all: RepRapFirmware's "L250" is every tower's rod.
+            const double sent_value = sent[std::min(i, sent.size() - 1)];
+            if (!have.empty() &&
+                std::abs(have[std::min(i, have.size() - 1)] - sent_value) <= tolerance)
+                continue;
+            char why[160];
+            std::snprintf(
+                why, sizeof why, "%s %c sent %.3f, the printer reports %s", name.c_str(), w.letter,
+                sent_value,
+                have.empty() ? "nothing" : f3(have[std::min(i, have.size() - 1)]).c_str());
+            return why;
+        }
+    }
+    return "";
+}
+
+}  // namespace
+
 std::string settings_mismatch(const std::string& firmware, const std::vector<std::string>& sent,
                               const std::vector<std::string>& reported) {
-    // A unit and a half of the last digit printed: rounding on both sides, and the firmware's
-    // float.
-    const auto tolerance = [&](int command) {
-        return firmware == "rrf" && command == 666 ? 0.015 : 0.0015;
-    };
     for (const auto& command : sent) {
         gcode::Line want;
         try {
@@ -270,33 +302,12 @@ std::string settings_mismatch(const std::string& firmware, const std::vector<std
         }
         if (!want.is('M', 665) && !want.is('M', 666)) continue;
         const std::string name = want.is('M', 665) ? "M665" : "M666";
-        std::optional<gcode::Line> got;
-        for (const auto& r : reported) {
-            auto parsed = gcode::parse_line(r);
-            if (parsed.is('M', want.command_number)) {
-                got = std::move(parsed);
-                break;
-            }
-        }
+        const auto got = reported_command(reported, want.command_number);
         if (!got) return "the printer does not report " + name;
-        for (const auto& w : want.parameters) {
-            const auto sent = want.values(w.letter);
-            if (sent.empty()) continue;
-            const auto have = got->values(w.letter);
-            for (std::size_t i = 0; i < std::max(sent.size(), have.size()); ++i) {
-                // One value stands for all: RepRapFirmware's "L250" is every tower's rod.
-                const double sent_value = sent[std::min(i, sent.size() - 1)];
-                if (have.empty() || std::abs(have[std::min(i, have.size() - 1)] - sent_value) >
-                                        tolerance(want.command_number)) {
-                    char why[160];
-                    std::snprintf(
-                        why, sizeof why, "%s %c sent %.3f, the printer reports %s", name.c_str(),
-                        w.letter, sent_value,
-                        have.empty() ? "nothing" : f3(have[std::min(i, have.size() - 1)]).c_str());
-                    return why;
-                }
-            }
-        }
+        // A unit and a half of the last digit printed: rounding on both sides, and the
+        // firmware's float.
+        const double tolerance = firmware == "rrf" && want.command_number == 666 ? 0.015 : 0.0015;
+        if (auto why = word_mismatch(want, *got, name, tolerance); !why.empty()) return why;
     }
     return "";
 }

@@ -219,36 +219,39 @@ std::vector<ConsoleCommand> Console::status_rows() {
 }
 
 // The configuration: list, get, set, save, reset.
+void Console::list_config(ConsoleReply& r) const {
+    std::ostringstream out;
+    json keys = json::object();
+    for (const auto& e : c_.config.entries()) {
+        const KeyInfo& k = e.info;
+        const std::string value = c_.config.get(e.name);
+        out << e.name << " = " << (k.kind == ConfigKind::text ? "\"" + value + "\"" : value);
+        if (!k.unit.empty()) out << " " << k.unit;
+        const std::string fallback = c_.config.default_value(e.name);
+        if (value != fallback) out << "  (default " << fallback << ")";
+        if (k.needs_restart) out << "  [at start]";
+        out << "\n";
+        keys[e.name] = {{"value", value},
+                        {"default", fallback},
+                        {"unit", std::string(k.unit)},
+                        {"kind", kind_name(k.kind)},
+                        {"min", k.min},
+                        {"max", k.max},
+                        {"choices", std::string(k.choices)},
+                        {"at_start", k.needs_restart},
+                        {"doc", std::string(k.doc)}};
+    }
+    r.text = out.str();
+    r.text.pop_back();
+    r.data["config"] = keys;
+}
+
 std::vector<ConsoleCommand> Console::config_rows() {
     return {
         {"config list", "config list", "every key with its value, unit, range and default",
          [this](const Words& words, std::string_view, ConsoleReply& r) {
              need_words(words, 2, "config list");
-             std::ostringstream out;
-             json keys = json::object();
-             for (const auto& e : c_.config.entries()) {
-                 const KeyInfo& k = e.info;
-                 const std::string value = c_.config.get(e.name);
-                 out << e.name << " = "
-                     << (k.kind == ConfigKind::text ? "\"" + value + "\"" : value);
-                 if (!k.unit.empty()) out << " " << k.unit;
-                 const std::string fallback = c_.config.default_value(e.name);
-                 if (value != fallback) out << "  (default " << fallback << ")";
-                 if (k.needs_restart) out << "  [at start]";
-                 out << "\n";
-                 keys[e.name] = {{"value", value},
-                                 {"default", fallback},
-                                 {"unit", std::string(k.unit)},
-                                 {"kind", kind_name(k.kind)},
-                                 {"min", k.min},
-                                 {"max", k.max},
-                                 {"choices", std::string(k.choices)},
-                                 {"at_start", k.needs_restart},
-                                 {"doc", std::string(k.doc)}};
-             }
-             r.text = out.str();
-             r.text.pop_back();
-             r.data["config"] = keys;
+             list_config(r);
          }},
         {"config get", "config get KEY", "one key's value",
          [this](const Words& words, std::string_view, ConsoleReply& r) {

@@ -141,6 +141,8 @@ class Console {
     std::vector<ConsoleCommand> commands();
     std::vector<ConsoleCommand> status_rows();
     std::vector<ConsoleCommand> config_rows();
+    // `config list`: every key with its value, unit, range and default.
+    void list_config(ConsoleReply& r) const;
     std::vector<ConsoleCommand> cycle_rows();
     std::vector<ConsoleCommand> record_rows();
     std::vector<ConsoleCommand> setup_rows();

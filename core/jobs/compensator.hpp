@@ -242,6 +242,10 @@ class Compensator {
     // The codes that set an offset or take the line's axis words for themselves (G10, G52, G92,
     // G28, G53, G4, G38).
     void offset_word(const gcode::Line& line, Code c, bool& not_a_move);
+    // G92.1 and G92.2 (the offset cleared), G92.3 (the one saved restored); another G92.x is
+    // refused.
+    void g92_cleared_or_restored(Code c);
+    void g52_local_offset(const gcode::Line& line);
     void g92_sets_offset(const gcode::Line& line);
 
     // The line's words as its controller reads them: on LinuxCNC and grbl blanks count for

@@ -198,6 +198,30 @@ bool Compensator::mode_word(Code c) {
     return true;
 }
 
+void Compensator::g92_cleared_or_restored(Code c) {
+    if (c.subcode != 1 && c.subcode != 2 && c.subcode != 3)
+        throw fail(c.text() + " is no offset code");
+    // No axis words of its own: a move on its line runs in the frame it leaves.
+    if (frame_.flavour == Flavour::grbl && c.subcode != 1)
+        throw fail(c.text() + ": grbl has G92.1 only (its error 20)");
+    if (c.subcode == 3 && !m_.saved_g92_mm)
+        throw fail(
+            "G92.3 restores an offset the file did not set (the controller's "
+            "parameters hold it)");
+    const Point2 to = c.subcode == 3 ? *m_.saved_g92_mm : Point2{};
+    reframe([&] { m_.g92_offset_mm = to; });
+    if (c.subcode == 1) m_.saved_g92_mm = Point2{};
+}
+
+void Compensator::g52_local_offset(const gcode::Line& line) {
+    // LinuxCNC's local offset: the G92 offset set to the words given, not from where the tool
+    // is, so the controller's frame and the intended one stay the same.
+    reframe([&] {
+        if (auto x = line.value('X')) m_.g92_offset_mm.x = *x * m_.unit_mm;
+        if (auto y = line.value('Y')) m_.g92_offset_mm.y = *y * m_.unit_mm;
+    });
+}
+
 void Compensator::offset_word(const gcode::Line& line, Code c, bool& not_a_move) {
     if (c.is(10)) {
         not_a_move = true;
@@ -211,27 +235,11 @@ void Compensator::offset_word(const gcode::Line& line, Code c, bool& not_a_move)
     } else if (c.is(92)) {
         not_a_move = true;
         g92_sets_offset(line);
-    } else if (c.number == 92 && (c.subcode == 1 || c.subcode == 2 || c.subcode == 3)) {
-        // No axis words of its own: a move on its line runs in the frame it leaves.
-        if (frame_.flavour == Flavour::grbl && c.subcode != 1)
-            throw fail(c.text() + ": grbl has G92.1 only (its error 20)");
-        if (c.subcode == 3 && !m_.saved_g92_mm)
-            throw fail(
-                "G92.3 restores an offset the file did not set (the controller's "
-                "parameters hold it)");
-        const Point2 to = c.subcode == 3 ? *m_.saved_g92_mm : Point2{};
-        reframe([&] { m_.g92_offset_mm = to; });
-        if (c.subcode == 1) m_.saved_g92_mm = Point2{};
     } else if (c.number == 92) {
-        throw fail(c.text() + " is no offset code");
+        g92_cleared_or_restored(c);
     } else if (c.is(52)) {
-        // LinuxCNC's local offset: the G92 offset set to the words given, not from where
-        // the tool is, so the controller's frame and the intended one stay the same.
         not_a_move = true;
-        reframe([&] {
-            if (auto x = line.value('X')) m_.g92_offset_mm.x = *x * m_.unit_mm;
-            if (auto y = line.value('Y')) m_.g92_offset_mm.y = *y * m_.unit_mm;
-        });
+        g52_local_offset(line);
     } else if (c.is(28) || c.is(30)) {
         not_a_move = true;
         m_.xy_known = false, m_.z_mm.reset(), m_.written_z.reset();

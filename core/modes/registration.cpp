@@ -243,9 +243,11 @@ Registration fitted_registration(const std::vector<Point2>& marks, const std::ve
 
 }  // namespace
 
-Registration register_marks(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
-                            const vision::GrayView& photo, const PlanarSolution& solution,
-                            const RegistrationRequest& request, const std::string& source) {
+namespace {
+
+// The request's marks and their size: three or four, 0.5 to 50 mm across, crosses' bars a tenth
+// of a millimetre to a quarter of their span, the marks three diameters apart at the least.
+void check_registration_request(const RegistrationRequest& request) {
     const auto& marks = request.marks_drawing_mm;
     if (marks.size() != 3 && marks.size() != 4)
         throw RegistrationError(std::to_string(marks.size()) +
@@ -265,6 +267,62 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
                 throw RegistrationError("marks " + std::to_string(i + 1) + " and " +
                                         std::to_string(j + 1) +
                                         " lie under three diameters apart: they blur together");
+}
+
+// Each marker mark's centre on the machine, found by its id, and its uncertainty (mm).
+std::pair<std::vector<Point2>, std::vector<double>> marker_marks(
+    const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+    const vision::GrayView& photo, const BedToMachine& map, const RegistrationRequest& request,
+    double px_per_mm) {
+    const auto& marks = request.marks_drawing_mm;
+    const double h = request.surface_height_mm;
+    std::vector<Point2> seen;
+    std::vector<double> seen_sigma;
+    if (request.marker_ids.size() != marks.size())
+        throw RegistrationError(
+            "each marker mark needs its id: " + std::to_string(request.marker_ids.size()) +
+            " ids for " + std::to_string(marks.size()) + " marks");
+    vision::MarkerOptions options;
+    options.dictionary = request.dictionary;
+    options.camera = &camera;
+    const auto detected = vision::detect_markers(photo, options);
+    for (std::size_t i = 0; i < marks.size(); ++i) {
+        const auto found = std::find_if(detected.begin(), detected.end(), [&](const auto& d) {
+            return d.id == request.marker_ids[i];
+        });
+        if (found == detected.end())
+            throw RegistrationError("marker " + std::to_string(request.marker_ids[i]) + " (" +
+                                    request.dictionary + ", drawing " + drawing_text(marks[i]) +
+                                    ") is not in the photo");
+        // The marker's centre on the sheet: its diagonals' crossing there (the photo's
+        // perspective moves the centre of its outline in pixels).
+        const auto corners = geometry::pixels_to_bed(
+            camera, plane, {found->corners.begin(), found->corners.end()}, h);
+        std::vector<Point2> on_machine;
+        on_machine.reserve(corners.size());
+        for (const auto& c : corners) on_machine.push_back(map.machine_of({c.x, c.y}));
+        const auto centre = geometry::intersect(
+            {on_machine[0], {on_machine[2].x - on_machine[0].x, on_machine[2].y - on_machine[0].y}},
+            {on_machine[1],
+             {on_machine[3].x - on_machine[1].x, on_machine[3].y - on_machine[1].y}});
+        if (!centre)
+            throw RegistrationError("marker " + std::to_string(request.marker_ids[i]) +
+                                    " has no centre: its corners lie on a line");
+        seen.push_back(*centre);
+        double sigma_px = 0;
+        for (const double sp : found->sigma_px) sigma_px += sp / 4;
+        seen_sigma.push_back(sigma_px / px_per_mm / std::sqrt(2.0));
+    }
+    return {seen, seen_sigma};
+}
+
+}  // namespace
+
+Registration register_marks(const geometry::CameraModel& camera, const geometry::BedPlane& plane,
+                            const vision::GrayView& photo, const PlanarSolution& solution,
+                            const RegistrationRequest& request, const std::string& source) {
+    const auto& marks = request.marks_drawing_mm;
+    check_registration_request(request);
     const BedToMachine map = photo_on_machine(camera, photo, solution, source);
     const double h = request.surface_height_mm;
 
@@ -273,48 +331,10 @@ Registration register_marks(const geometry::CameraModel& camera, const geometry:
         camera, plane, {{0.5 * (photo.width_px - 1), 0.5 * (photo.height_px - 1)}}, h)[0];
     const double px_per_mm = photo_px_per_mm(camera, plane, middle, {middle.x + 1, middle.y, h},
                                              {middle.x, middle.y + 1, h});
-    std::vector<Point2> seen;
-    std::vector<double> seen_sigma;
-    if (request.kind == MarkKind::markers) {
-        if (request.marker_ids.size() != marks.size())
-            throw RegistrationError(
-                "each marker mark needs its id: " + std::to_string(request.marker_ids.size()) +
-                " ids for " + std::to_string(marks.size()) + " marks");
-        vision::MarkerOptions options;
-        options.dictionary = request.dictionary;
-        options.camera = &camera;
-        const auto detected = vision::detect_markers(photo, options);
-        for (std::size_t i = 0; i < marks.size(); ++i) {
-            const auto found = std::find_if(detected.begin(), detected.end(), [&](const auto& d) {
-                return d.id == request.marker_ids[i];
-            });
-            if (found == detected.end())
-                throw RegistrationError("marker " + std::to_string(request.marker_ids[i]) + " (" +
-                                        request.dictionary + ", drawing " + drawing_text(marks[i]) +
-                                        ") is not in the photo");
-            // The marker's centre on the sheet: its diagonals' crossing there (the photo's
-            // perspective moves the centre of its outline in pixels).
-            const auto corners = geometry::pixels_to_bed(
-                camera, plane, {found->corners.begin(), found->corners.end()}, h);
-            std::vector<Point2> on_machine;
-            on_machine.reserve(corners.size());
-            for (const auto& c : corners) on_machine.push_back(map.machine_of({c.x, c.y}));
-            const auto centre = geometry::intersect(
-                {on_machine[0],
-                 {on_machine[2].x - on_machine[0].x, on_machine[2].y - on_machine[0].y}},
-                {on_machine[1],
-                 {on_machine[3].x - on_machine[1].x, on_machine[3].y - on_machine[1].y}});
-            if (!centre)
-                throw RegistrationError("marker " + std::to_string(request.marker_ids[i]) +
-                                        " has no centre: its corners lie on a line");
-            seen.push_back(*centre);
-            double sigma_px = 0;
-            for (const double sp : found->sigma_px) sigma_px += sp / 4;
-            seen_sigma.push_back(sigma_px / px_per_mm / std::sqrt(2.0));
-        }
-    } else {
-        std::tie(seen, seen_sigma) = printed_marks(camera, plane, photo, map, request, px_per_mm);
-    }
+    const auto [seen, seen_sigma] =
+        request.kind == MarkKind::markers
+            ? marker_marks(camera, plane, photo, map, request, px_per_mm)
+            : printed_marks(camera, plane, photo, map, request, px_per_mm);
     return fitted_registration(marks, seen, seen_sigma, request);
 }
 

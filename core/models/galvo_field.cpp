@@ -162,38 +162,50 @@ namespace {
 
 // A node without a mark: a quadratic in the grid indices fitted to the displacement of the
 // measured nodes around it (5 x 5, wider if that holds too few).
+// The landing error at node (c, r) from a quadratic fitted to the marked nodes within `reach`
+// of it; nothing with fewer than 12 of them.
+std::optional<Point2> local_quadratic_error(const SquareGrid& grid,
+                                            const std::vector<std::optional<Point2>>& landed,
+                                            const std::vector<Point2>& landed_mm, int c, int r,
+                                            int reach) {
+    const int n = grid.count;
+    const auto index = [n](int col, int row) { return geometry::grid_offset(col, row, n); };
+    std::vector<std::array<double, 6>> rows;
+    std::vector<Point2> values;
+    for (int rr = std::max(0, r - reach); rr <= std::min(n - 1, r + reach); ++rr)
+        for (int cc = std::max(0, c - reach); cc <= std::min(n - 1, c + reach); ++cc) {
+            if (!landed[index(cc, rr)]) continue;
+            const double u = cc - c, v = rr - r;
+            rows.push_back({1, u, v, u * u, u * v, v * v});
+            values.push_back(landed_mm[index(cc, rr)] - grid.node_mm(cc, rr));
+        }
+    if (rows.size() < 12) return std::nullopt;
+    Eigen::MatrixXd a(static_cast<long>(rows.size()), 6);
+    Eigen::MatrixXd b(static_cast<long>(rows.size()), 2);
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+        for (int j = 0; j < 6; ++j)
+            a(static_cast<long>(i), j) = rows[i][static_cast<std::size_t>(j)];
+        b(static_cast<long>(i), 0) = values[i].x;
+        b(static_cast<long>(i), 1) = values[i].y;
+    }
+    const Eigen::MatrixXd coefficients = a.colPivHouseholderQr().solve(b);
+    return Point2{coefficients(0, 0), coefficients(0, 1)};
+}
+
 void fill_unmarked_nodes(const SquareGrid& grid, const std::vector<std::optional<Point2>>& landed,
                          FieldFit& fit) {
     const int n = grid.count;
-    const auto index = [n](int c, int r) { return geometry::grid_offset(c, r, n); };
     for (int r = 0; r < n; ++r)
         for (int c = 0; c < n; ++c) {
-            if (landed[index(c, r)]) continue;
-            for (int reach = 2; reach <= n; ++reach) {
-                std::vector<std::array<double, 6>> rows;
-                std::vector<Point2> values;
-                for (int rr = std::max(0, r - reach); rr <= std::min(n - 1, r + reach); ++rr)
-                    for (int cc = std::max(0, c - reach); cc <= std::min(n - 1, c + reach); ++cc) {
-                        if (!landed[index(cc, rr)]) continue;
-                        const double u = cc - c, v = rr - r;
-                        rows.push_back({1, u, v, u * u, u * v, v * v});
-                        values.push_back(fit.landed_mm[index(cc, rr)] - grid.node_mm(cc, rr));
-                    }
-                if (rows.size() < 12) continue;
-                Eigen::MatrixXd a(static_cast<long>(rows.size()), 6);
-                Eigen::MatrixXd b(static_cast<long>(rows.size()), 2);
-                for (std::size_t i = 0; i < rows.size(); ++i) {
-                    for (int j = 0; j < 6; ++j)
-                        a(static_cast<long>(i), j) = rows[i][static_cast<std::size_t>(j)];
-                    b(static_cast<long>(i), 0) = values[i].x;
-                    b(static_cast<long>(i), 1) = values[i].y;
+            const std::size_t at = geometry::grid_offset(c, r, n);
+            if (landed[at]) continue;
+            for (int reach = 2; reach <= n; ++reach)
+                if (const auto error =
+                        local_quadratic_error(grid, landed, fit.landed_mm, c, r, reach)) {
+                    fit.landed_mm[at] = grid.node_mm(c, r) + *error;
+                    fit.filled[at] = true;
+                    break;
                 }
-                const Eigen::MatrixXd coefficients = a.colPivHouseholderQr().solve(b);
-                fit.landed_mm[index(c, r)] =
-                    grid.node_mm(c, r) + Point2{coefficients(0, 0), coefficients(0, 1)};
-                fit.filled[index(c, r)] = true;
-                break;
-            }
         }
 }
 

@@ -229,15 +229,7 @@ std::vector<long> index_holes(const targets::PlanarTarget& target,
     // Refined over every hole matched: a frame from two holes, or from where the camera was
     // sent, leaves the far side of the photo a few tenths of a degree out.
     HoleMatching m = match_holes(target, candidates, frame, reach);
-    std::vector<Point2> from, to;
-    for (std::size_t h = 0; h < target.holes.size(); ++h) {
-        const long c = m.candidate_of_hole[h];
-        if (c < 0) continue;
-        const Point2 p = target.holes[h].centre_mm;
-        from.push_back(frame.mirrored ? Point2{p.x, -p.y} : p);
-        to.push_back(candidates[static_cast<std::size_t>(c)].bed_mm);
-    }
-    if (from.size() >= 3) frame.placement = geometry::best_rigid_placement(from, to);
+    frame = refined_frame(target, candidates, frame, m);
     m = match_holes(target, candidates, frame, reach);
     std::vector<bool> used(candidates.size(), false);
     for (std::size_t h = 0; h < target.holes.size(); ++h) {

@@ -148,6 +148,9 @@ expect("JSON not an object", request(url + "/api/action", "POST", b'["start"]', 
        400, "object")
 expect("an action not served", request(url + "/api/action", "POST", {"action": "format"},
                                        password=PASSWORD), 400, "one of start")
+# JSON's value() throws on a key of another type: the action is read only where it is a string.
+expect("an action that is not a string", request(url + "/api/action", "POST", {"action": 5},
+                                                 password=PASSWORD), 400, "one of start")
 expect("a job name that climbs", request(url + "/api/action", "POST",
                                         {"action": "compensate", "job": "../calbox.toml"},
                                         password=PASSWORD), 400, "compensate")

@@ -7,6 +7,7 @@
 
 #include "core/jobs/compensate.hpp"
 #include "core/jobs/cutter_geometry.hpp"
+#include "core/jobs/cutter_rules.hpp"
 
 namespace calbox::jobs {
 namespace {
@@ -23,6 +24,11 @@ using job_words::ReadLine;
 using cutter_geometry::angle_to;
 using cutter_geometry::sweep_of;
 using cutter_geometry::toward;
+using cutter_rules::arc_words_refusal;
+using cutter_rules::compensation_turned_on;
+using cutter_rules::mode_change_refusal;
+using cutter_rules::reframes_position;
+using cutter_rules::refusal;
 using std::numbers::pi;
 
 class CutterPath {
@@ -109,15 +115,6 @@ class CutterPath {
         return absolute_ ? xy(p) : xy({p.x - cutter_.x, p.y - cutter_.y});
     }
 
-    // An offset, a machine-coordinate move or a return home: the position after it is another
-    // frame's.
-    static bool reframes_position(const ReadLine& r) {
-        return std::any_of(r.codes.begin(), r.codes.end(), [](Code c) {
-            return c.is(10) || c.is(28) || c.is(30) || c.is(52) || c.is(53) || c.number == 92 ||
-                   (c.number >= 54 && c.number <= 59);
-        });
-    }
-
     // A line with compensation off: written without its compensation words, the place it ends
     // at followed.
     void write_uncompensated(const std::string& raw, const ReadLine& r, bool reframes,
@@ -125,16 +122,6 @@ class CutterPath {
         const std::string text = after_off(r.line, r, reframes, raw, turning_on);
         follow(r.line, r, reframes, axes);
         out_.emplace_back(text, number_);
-    }
-
-    // G41 or G41.1 on the line: 1 (left); else G42 or G42.1: -1 (right); else 0.
-    static int compensation_turned_on(const ReadLine& r) {
-        const auto has = [&r](int n) {
-            return std::any_of(r.codes.begin(), r.codes.end(), [n](Code c) {
-                return c.number == n && (c.subcode == -1 || c.subcode == 1);
-            });
-        };
-        return has(41) ? 1 : has(42) ? -1 : 0;
     }
 
     void line(const std::string& raw, const ReadLine& r) {
@@ -239,39 +226,16 @@ class CutterPath {
         if (radius_ != 0) left_at_.reset();  // the entry move is written whole
     }
 
-    // A change of units, of the tool length offset or of the path control mode: LinuxCNC
-    // refuses each under compensation.
-    void refuse_mode_changes(const ReadLine& r) const {
-        for (const Code c : r.codes) {
-            const char* change = c.is(20) || c.is(21)         ? "units"
-                                 : c.number == 43 || c.is(49) ? "the tool length offset (G43, G49)"
-                                 : c.number == 61 || c.is(64) ? "the path control mode (G61, G64)"
-                                                              : nullptr;
-            if (change != nullptr)
-                throw fail(std::string("a change of ") + change +
-                           " under cutter radius compensation: LinuxCNC refuses it too");
-        }
-    }
-
-    // An arc's words under compensation (`moves`: it moves an axis).
-    void refuse_arc_words(const gcode::Line& l, bool moves) const {
-        if (!moves && (l.has('I') || l.has('J') || l.has('R')))
-            throw fail(refusal("an arc without X, Y or Z"));
-        if (!moves) return;
-        if (const auto turns = l.value('P'); turns && *turns != 1)
-            throw fail(refusal("an arc of more than one turn (P)"));
-        if (!l.has('I') && !l.has('J') && !l.has('R'))
-            throw fail("an arc without its centre (I, J) or radius (R): LinuxCNC refuses it too");
-    }
-
     // What LinuxCNC refuses under compensation, and what calbox does not carry through.
     void refuse_under_compensation(const ReadLine& r, bool reframes, bool moves, bool axes) const {
         const gcode::Line& l = r.line;
-        refuse_mode_changes(r);
+        if (const auto why = mode_change_refusal(r); !why.empty()) throw fail(why);
         if (r.polar) throw fail(refusal("polar words"));
         if (reframes) throw fail(refusal("an offset, a machine-coordinate move or a return home"));
         if (plane_ != 17) throw fail(refusal("another plane than XY (G18, G19)"));
-        if (motion_ == 2 || motion_ == 3) refuse_arc_words(l, moves);
+        if (const auto why = motion_ == 2 || motion_ == 3 ? arc_words_refusal(l, moves) : "";
+            !why.empty())
+            throw fail(why);
         if (motion_ > 3 && (axes || l.has('R'))) throw fail(refusal("a canned cycle"));
         if (has_m(l, 6))
             throw fail(
@@ -336,12 +300,6 @@ class CutterPath {
                 "refuses it too (\"Length of cutter compensation entry move is not greater "
                 "than the tool radius\")");
         pass(turns_on ? job_words::rebuilt_line(raw, r) : raw);
-    }
-
-    static std::string refusal(const std::string& what) {
-        return what +
-               " under cutter radius compensation: calbox carries it through straight moves and "
-               "arcs in the XY plane (G17); have the CAM write the compensated path";
     }
 
     // The line split for a move under compensation: what acts before its motion, its motion,

@@ -70,7 +70,10 @@ std::optional<std::string> o_label_at(const std::string& code, std::size_t& i) {
     if (i < code.size() && code[i] == '<') {
         const auto close = code.find('>', i);
         if (close == std::string::npos) return std::nullopt;
-        std::string label = "<" + normal_name(code.substr(i + 1, close - i - 1)) + ">";
+        // Appended, not "<" + name: GCC 12 at -O3 reads the prepend as an overlapping copy.
+        std::string label(1, '<');
+        label += normal_name(code.substr(i + 1, close - i - 1));
+        label += '>';
         i = close + 1;
         return label;
     }
